@@ -1,0 +1,63 @@
+# MimuCap: two set-up commands.
+#   make run    create .venv, install MimuCap (editable) and start the app on the simulated suit
+#   make test   install what the tests need (venv, Debian X packages when root) and run the suite
+# Extra targets: make screenshots, make bench.
+
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.mimucap-installed
+TEST_STAMP := $(VENV)/.mimucap-test-installed
+BENCH_STAMP := $(VENV)/.mimucap-bench-installed
+# Debian packages for a virtual X server and the Qt xcb platform plugin.
+XVFB_DEBS := xvfb xauth libxcb-icccm4 libxcb-keysyms1 libxcb-xinerama0 libxcb-randr0 \
+	libxcb-render-util0 libxcb-image0 libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0 \
+	libxcb-cursor0 libegl1 libgl1 libglx-mesa0 libegl-mesa0
+XVFB_RUN := xvfb-run -a -s "-screen 0 1920x1200x24"
+
+.PHONY: run test install screenshots bench clean debs
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+
+$(STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install --quiet -e .
+	touch $@
+
+$(TEST_STAMP): pyproject.toml $(STAMP)
+	$(PY) -m pip install --quiet -e ".[test]"
+	touch $@
+
+$(BENCH_STAMP): pyproject.toml $(STAMP)
+	$(PY) -m pip install --quiet -e ".[test,bench]"
+	touch $@
+
+install: $(STAMP)
+
+run: $(STAMP)
+	@$(PY) packaging/check_display.py && $(VENV)/bin/mimucap gui --source simulated
+
+debs:
+	@missing=""; for p in $(XVFB_DEBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "Installing Debian packages:$$missing"; \
+	    apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing >/dev/null; \
+	  else \
+	    echo "Missing Debian packages (run as root or install them):$$missing"; exit 1; \
+	  fi; \
+	fi
+
+test: debs $(TEST_STAMP)
+	QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider
+
+screenshots: debs $(STAMP)
+	QT_API=pyqt5 $(XVFB_RUN) $(PY) packaging/make_screenshots.py docs/screenshots
+
+bench: debs $(BENCH_STAMP)
+	$(PY) -m pip install --quiet -e ".[bench]"
+	@echo "Benchmarks live in bench/: run e.g. '$(PY) bench/<name>.py'"
+
+clean:
+	rm -rf $(VENV) build *.egg-info app/*.egg-info

@@ -1,0 +1,5 @@
+"""``python -m mimucap`` is the same as the ``mimucap`` command."""
+
+from mimucap.cli import main
+
+raise SystemExit(main())

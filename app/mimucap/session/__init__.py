@@ -1,0 +1,1 @@
+"""Orchestration without Qt: live pipeline, ring buffers, calibration procedures, recording."""

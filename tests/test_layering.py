@@ -1,0 +1,102 @@
+"""The layering rule of ``shared/docs/architecture.md``, made executable.
+
+``gui → session → (acquisition | io) → core``: arrows point down only; acquisition and io do
+not import each other; core imports no Qt, VTK, pyqtgraph, serial, socket, multiprocessing or
+file-format libraries. Imports are read from the source with ``ast`` (including those inside
+functions), so a lazy import cannot slip through.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE_DIR = Path(__file__).resolve().parents[1] / "app" / "mimucap"
+
+#: Which MimuCap layers each layer may import.
+ALLOWED_LAYERS = {
+    "core": {"core"},
+    "io": {"io", "core"},
+    "acquisition": {"acquisition", "core"},
+    "session": {"session", "acquisition", "io", "core"},
+    "gui": {"gui", "session", "acquisition", "io", "core"},
+}
+
+#: Third-party and standard modules a layer must never import.
+FORBIDDEN_MODULES = {
+    "core": {
+        "PyQt5", "PySide2", "PySide6", "qtpy", "vtk", "vtkmodules", "pyqtgraph", "serial",
+        "socket", "multiprocessing", "h5py", "subprocess", "threading",
+    },
+    "io": {"PyQt5", "PySide2", "PySide6", "qtpy", "vtk", "vtkmodules", "pyqtgraph"},
+    "acquisition": {"PyQt5", "PySide2", "PySide6", "qtpy", "vtk", "vtkmodules", "pyqtgraph", "h5py"},
+    "session": {"PyQt5", "PySide2", "PySide6", "qtpy", "vtk", "vtkmodules", "pyqtgraph"},
+}
+
+
+def imported_modules(path: Path) -> set[str]:
+    """Absolute dotted names of every module imported by the file at ``path``."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    package_parts = path.relative_to(PACKAGE_DIR.parent).with_suffix("").parts
+    if package_parts[-1] == "__init__":
+        package_parts = package_parts[:-1]
+    else:
+        package_parts = package_parts[:-1]
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package_parts[: len(package_parts) - node.level + 1]
+                module = ".".join(base + ((node.module,) if node.module else ()))
+            else:
+                module = node.module or ""
+            names.add(module)
+            names.update(f"{module}.{alias.name}" for alias in node.names)
+    return names
+
+
+def layer_files(layer: str) -> list[Path]:
+    return sorted((PACKAGE_DIR / layer).rglob("*.py"))
+
+
+@pytest.mark.parametrize("layer", sorted(ALLOWED_LAYERS))
+def test_layer_imports_only_lower_layers(layer: str) -> None:
+    violations = []
+    for path in layer_files(layer):
+        for name in imported_modules(path):
+            parts = name.split(".")
+            if parts[0] != "mimucap" or len(parts) < 2:
+                continue
+            target = parts[1]
+            if target in ALLOWED_LAYERS and target not in ALLOWED_LAYERS[layer]:
+                violations.append(f"{path.relative_to(PACKAGE_DIR)} imports {name}")
+            if target in {"cli", "__main__"}:
+                violations.append(f"{path.relative_to(PACKAGE_DIR)} imports {name}")
+    assert not violations, "layering rule broken:\n" + "\n".join(violations)
+
+
+@pytest.mark.parametrize("layer", sorted(FORBIDDEN_MODULES))
+def test_layer_avoids_forbidden_modules(layer: str) -> None:
+    violations = []
+    for path in layer_files(layer):
+        for name in imported_modules(path):
+            if name.split(".")[0] in FORBIDDEN_MODULES[layer]:
+                violations.append(f"{path.relative_to(PACKAGE_DIR)} imports {name}")
+    assert not violations, "forbidden imports:\n" + "\n".join(violations)
+
+
+def test_the_checker_sees_a_violation(tmp_path: Path) -> None:
+    """The scanner must catch a core module importing Qt inside a function."""
+    fake = PACKAGE_DIR / "core" / "_layering_probe.py"
+    source = "def f():\n    from PyQt5 import QtWidgets\n    from ..gui import x\n"
+    fake.write_text(source, encoding="utf-8")
+    try:
+        names = imported_modules(fake)
+    finally:
+        fake.unlink()
+    assert "PyQt5" in names
+    assert "mimucap.gui" in names
