@@ -1,0 +1,622 @@
+"""MimuCap session files: HDF5, versioned, read back by this module only.
+
+A session holds what was recorded (per-sensor raw streams), what is known about it (metadata,
+markers, optional ground truth of a simulation) and what was computed from it (calibrations
+and results). The layout is documented in ``docs/session-format.md``; this module is its
+only reader and writer.
+
+Frames and units follow ``shared/docs/conventions.md``: ``acc`` in m/s² (specific force,
+sensor frame), ``gyr`` in rad/s (sensor frame), ``mag_uT`` in µT (sensor frame),
+``q_world_from_sensor`` scalar-first Hamilton quaternions (world = ENU), times ``t_s`` in
+seconds on the host clock since session start. Every dataset carries its unit as the HDF5
+attribute ``unit``.
+
+A file that is not a MimuCap session, is truncated or damaged, or was written by a newer
+format version raises :class:`SessionFormatError` naming the file and what is wrong.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from mimucap import __version__
+
+#: Value of the root attribute ``format``.
+SESSION_FORMAT = "mimucap-session"
+#: The version this module writes; files with a higher ``format_version`` are refused.
+SESSION_FORMAT_VERSION = 1
+
+#: Optional per-sensor channels: name → (trailing shape, unit). ``t_s`` and ``seq`` are required.
+SENSOR_CHANNELS: dict[str, tuple[tuple[int, ...], str]] = {
+    "acc": ((3,), "m/s^2"),
+    "gyr": ((3,), "rad/s"),
+    "mag_uT": ((3,), "uT"),
+    "q_world_from_sensor": ((4,), "1 (quaternion w,x,y,z)"),
+    "battery": ((), "1 (fraction 0..1)"),
+    "device_time_s": ((), "s (device clock)"),
+}
+
+_COMPRESS_MIN_ELEMENTS = 4096
+
+
+class SessionFormatError(ValueError):
+    """A file is not a readable MimuCap session (foreign, damaged, truncated or too new)."""
+
+
+@dataclass
+class SensorStream:
+    """The samples one sensor delivered, in arrival order.
+
+    ``t_s`` (N,) float64 host time (s); ``seq`` (N,) int64 device sequence numbers (gaps are
+    dropped packets). Channels are ``None`` when the device does not send them (never
+    zero-filled): ``acc`` (N,3) m/s², ``gyr`` (N,3) rad/s, ``mag_uT`` (N,3) µT, all in the
+    sensor frame; ``q_world_from_sensor`` (N,4) on-board orientation; ``battery`` (N,)
+    fraction; ``device_time_s`` (N,) the device's own clock in seconds. ``segment`` names the
+    body segment the sensor is worn on (``None`` if unassigned). ``extra`` holds further
+    per-sample channels (name → array with N rows; the name should carry its unit).
+    """
+
+    sensor_id: str
+    t_s: np.ndarray
+    seq: np.ndarray
+    acc: np.ndarray | None = None
+    gyr: np.ndarray | None = None
+    mag_uT: np.ndarray | None = None
+    q_world_from_sensor: np.ndarray | None = None
+    segment: str | None = None
+    battery: np.ndarray | None = None
+    device_time_s: np.ndarray | None = None
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        _check_name(self.sensor_id, "sensor id")
+        self.t_s = np.asarray(self.t_s, dtype=np.float64)
+        if self.t_s.ndim != 1:
+            raise ValueError(f"sensor {self.sensor_id}: t_s must have shape (N,), got {self.t_s.shape}")
+        n = self.t_s.shape[0]
+        self.seq = np.asarray(self.seq)
+        if self.seq.shape != (n,) or not np.issubdtype(self.seq.dtype, np.integer):
+            raise ValueError(
+                f"sensor {self.sensor_id}: seq must be an integer array of shape ({n},), "
+                f"got {self.seq.dtype} {self.seq.shape}"
+            )
+        self.seq = self.seq.astype(np.int64)
+        for name, (trailing, _unit) in SENSOR_CHANNELS.items():
+            value = getattr(self, name)
+            if value is None:
+                continue
+            array = np.asarray(value, dtype=np.float64)
+            if array.shape != (n,) + trailing:
+                raise ValueError(
+                    f"sensor {self.sensor_id}: {name} must have shape {(n,) + trailing}, got {array.shape}"
+                )
+            setattr(self, name, array)
+        for name, value in self.extra.items():
+            _check_name(name, f"sensor {self.sensor_id} extra channel")
+            array = np.asarray(value)
+            if array.ndim == 0 or array.shape[0] != n:
+                raise ValueError(
+                    f"sensor {self.sensor_id}: extra channel {name} must have {n} rows, got {array.shape}"
+                )
+            self.extra[name] = array
+
+    def __len__(self) -> int:
+        return int(self.t_s.shape[0])
+
+
+@dataclass(frozen=True)
+class Marker:
+    """A labelled instant (``t_s`` on the session's host clock, seconds)."""
+
+    t_s: float
+    label: str
+
+
+@dataclass
+class SensorTruth:
+    """Ground truth of one simulated sensor, sampled on :attr:`SessionTruth.t_s` (T samples).
+
+    ``q_world_from_sensor`` (T,4); ``q_segment_from_sensor`` (4,) mounting rotation;
+    ``position_in_segment_m`` (3,) sensor origin in the segment frame relative to the
+    segment's proximal point; ``mag_A`` (3,3) soft-iron matrix and ``mag_b_uT`` (3,) hard-iron
+    offset of ``mag_raw = A·mag_true + b + noise``; ``gyr_bias_rad_s`` (T,3) gyroscope bias;
+    ``field_world_uT`` (T,3) magnetic field at the sensor in the world frame (earth field plus
+    disturbances); ``clock_offset_s``/``clock_drift`` of ``device_time = (1+drift)·t + offset``;
+    ``parameters`` further scalar or array truths (e.g. ``gyr_scale``, ``acc_bias_mps2``).
+    """
+
+    sensor_id: str
+    q_world_from_sensor: np.ndarray
+    segment: str | None = None
+    q_segment_from_sensor: np.ndarray | None = None
+    position_in_segment_m: np.ndarray | None = None
+    mag_A: np.ndarray | None = None
+    mag_b_uT: np.ndarray | None = None
+    gyr_bias_rad_s: np.ndarray | None = None
+    field_world_uT: np.ndarray | None = None
+    clock_offset_s: float | None = None
+    clock_drift: float | None = None
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class SessionTruth:
+    """Ground truth of a simulated session on its own time grid ``t_s`` (T,) seconds.
+
+    ``q_world_from_segment`` segment name → (T,4); ``joint_angles_deg`` column name (as in
+    ``skeleton.joint_angle_columns``) → (T,) degrees; ``sensors`` sensor id → :class:`SensorTruth`;
+    ``field_world_uT`` (3,) undisturbed earth field (ENU, µT); ``extra`` name → array with T rows
+    (e.g. ``mag_axis_turned``) or any array; ``attributes`` JSON-serialisable notes.
+    """
+
+    t_s: np.ndarray
+    q_world_from_segment: dict[str, np.ndarray] = field(default_factory=dict)
+    joint_angles_deg: dict[str, np.ndarray] = field(default_factory=dict)
+    sensors: dict[str, SensorTruth] = field(default_factory=dict)
+    field_world_uT: np.ndarray | None = None
+    extra: dict[str, np.ndarray] = field(default_factory=dict)
+    attributes: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class Session:
+    """One recording: ``metadata`` (JSON-serialisable dict, see ``docs/session-format.md``:
+    ``source``, ``created_utc``, ``mimucap_version``, ``subject`` with ``id``, ``height_m``,
+    ``dominance``, ``notes``), ``sensors`` (id → :class:`SensorStream`), ``markers``,
+    ``truth`` (simulations only), ``calibrations`` (name → JSON-serialisable value, e.g.
+    ``"magnetometer"`` → {sensor id → calibration dict}, ``"body"`` → dict) and ``results``
+    (nested dict of name → array, number, string or dict).
+    """
+
+    metadata: dict[str, Any] = field(default_factory=dict)
+    sensors: dict[str, SensorStream] = field(default_factory=dict)
+    markers: list[Marker] = field(default_factory=list)
+    truth: SessionTruth | None = None
+    calibrations: dict[str, Any] = field(default_factory=dict)
+    results: dict[str, Any] = field(default_factory=dict)
+
+    def sensor_segments(self) -> dict[str, str | None]:
+        """Sensor id → segment name (``None`` when unassigned)."""
+        return {sensor_id: stream.segment for sensor_id, stream in self.sensors.items()}
+
+
+def make_subject(
+    subject_id: str = "", height_m: float = 1.75, dominance: str = "right", notes: str = ""
+) -> dict[str, Any]:
+    """A subject record for ``metadata["subject"]``; ``dominance`` is ``"right"``, ``"left"``
+    or ``"unknown"``; ``height_m`` must lie in (0.5, 2.5) m."""
+    if not 0.5 < float(height_m) < 2.5:
+        raise ValueError(f"subject height {height_m} m is outside 0.5..2.5 m")
+    if dominance not in ("right", "left", "unknown"):
+        raise ValueError(f"subject dominance must be right, left or unknown, got {dominance!r}")
+    return {"id": str(subject_id), "height_m": float(height_m), "dominance": dominance, "notes": str(notes)}
+
+
+# --------------------------------------------------------------------------------------------
+# Writing
+# --------------------------------------------------------------------------------------------
+
+def _check_name(name: str, what: str) -> None:
+    if not isinstance(name, str) or not name or "/" in name or name in (".", ".."):
+        raise ValueError(f"{what} {name!r} is not usable as a name (non-empty, no '/')")
+
+
+def _dataset(group: h5py.Group, name: str, data: Any, unit: str | None = None) -> h5py.Dataset:
+    array = np.asarray(data)
+    if array.dtype.kind in ("U", "O"):
+        strings = np.asarray(array, dtype=object)
+        dataset = group.create_dataset(
+            name, data=strings, dtype=h5py.string_dtype("utf-8"), track_times=False
+        )
+    elif array.size >= _COMPRESS_MIN_ELEMENTS and array.ndim >= 1:
+        dataset = group.create_dataset(
+            name, data=array, compression="gzip", compression_opts=4, shuffle=True,
+            track_times=False,
+        )
+    else:
+        dataset = group.create_dataset(name, data=array, track_times=False)
+    if unit is not None:
+        dataset.attrs["unit"] = unit
+    return dataset
+
+
+def _group(parent: h5py.Group, name: str) -> h5py.Group:
+    return parent.create_group(name, track_order=True)
+
+
+def _json(value: Any, what: str) -> str:
+    try:
+        return json.dumps(value, sort_keys=True, allow_nan=False, default=_json_default)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{what} is not JSON-serialisable: {error}") from error
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.integer, np.floating, np.bool_)):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not JSON-serialisable")
+
+
+def _write_nested(group: h5py.Group, values: Mapping[str, Any], what: str) -> None:
+    for name, value in values.items():
+        _check_name(name, what)
+        if isinstance(value, Mapping):
+            _write_nested(_group(group, name), value, f"{what}/{name}")
+        elif isinstance(value, str):
+            _dataset(group, name, np.array(value, dtype=object))
+        else:
+            array = np.asarray(value)
+            if array.dtype.kind not in "biuf" and array.dtype.kind not in "UO":
+                raise ValueError(f"{what}/{name}: cannot store values of type {array.dtype}")
+            _dataset(group, name, array)
+
+
+def _write_sensor(group: h5py.Group, stream: SensorStream) -> None:
+    g = _group(group, stream.sensor_id)
+    g.attrs["sensor_id"] = stream.sensor_id
+    if stream.segment is not None:
+        g.attrs["segment"] = stream.segment
+    _dataset(g, "t_s", stream.t_s, "s")
+    _dataset(g, "seq", stream.seq, "1")
+    for name, (_trailing, unit) in SENSOR_CHANNELS.items():
+        value = getattr(stream, name)
+        if value is not None:
+            _dataset(g, name, value, unit)
+    if stream.extra:
+        extra = _group(g, "extra")
+        for name, value in stream.extra.items():
+            _dataset(extra, name, value)
+
+
+_SENSOR_TRUTH_FIELDS: dict[str, str] = {
+    "q_world_from_sensor": "1 (quaternion w,x,y,z)",
+    "q_segment_from_sensor": "1 (quaternion w,x,y,z)",
+    "position_in_segment_m": "m",
+    "mag_A": "1",
+    "mag_b_uT": "uT",
+    "gyr_bias_rad_s": "rad/s",
+    "field_world_uT": "uT",
+}
+
+
+def _write_truth(group: h5py.Group, truth: SessionTruth) -> None:
+    g = _group(group, "truth")
+    g.attrs["attributes_json"] = _json(truth.attributes, "truth attributes")
+    _dataset(g, "t_s", np.asarray(truth.t_s, dtype=np.float64), "s")
+    if truth.field_world_uT is not None:
+        _dataset(g, "field_world_uT", np.asarray(truth.field_world_uT, dtype=np.float64), "uT")
+    segments = _group(g, "q_world_from_segment")
+    for name, q in truth.q_world_from_segment.items():
+        _check_name(name, "truth segment")
+        _dataset(segments, name, np.asarray(q, dtype=np.float64), "1 (quaternion w,x,y,z)")
+    angles = _group(g, "joint_angles_deg")
+    for name, values in truth.joint_angles_deg.items():
+        _check_name(name, "truth joint angle column")
+        _dataset(angles, name, np.asarray(values, dtype=np.float64), "deg")
+    sensors = _group(g, "sensors")
+    for sensor_id, sensor in truth.sensors.items():
+        _check_name(sensor_id, "truth sensor id")
+        s = _group(sensors, sensor_id)
+        if sensor.segment is not None:
+            s.attrs["segment"] = sensor.segment
+        for name, unit in _SENSOR_TRUTH_FIELDS.items():
+            value = getattr(sensor, name)
+            if value is not None:
+                _dataset(s, name, np.asarray(value, dtype=np.float64), unit)
+        if sensor.clock_offset_s is not None:
+            s.attrs["clock_offset_s"] = float(sensor.clock_offset_s)
+        if sensor.clock_drift is not None:
+            s.attrs["clock_drift"] = float(sensor.clock_drift)
+        if sensor.parameters:
+            _write_nested(_group(s, "parameters"), sensor.parameters, f"truth/sensors/{sensor_id}/parameters")
+    if truth.extra:
+        _write_nested(_group(g, "extra"), truth.extra, "truth/extra")
+
+
+def write_session(path: str | os.PathLike[str], session: Session) -> Path:
+    """Write ``session`` to the HDF5 file ``path`` (replaced atomically) and return the path.
+
+    ``metadata`` gains ``created_utc`` (ISO 8601) and ``mimucap_version`` when missing. The
+    file is first written beside the target and then renamed, so a crash never leaves a
+    half-written session under the final name. Datasets carry no timestamps: the same session
+    gives the same dataset bytes.
+    """
+    target = Path(path)
+    metadata = dict(session.metadata)
+    metadata.setdefault("created_utc", datetime.now(timezone.utc).isoformat(timespec="seconds"))
+    metadata.setdefault("mimucap_version", __version__)
+    metadata_json = _json(metadata, "session metadata")
+    calibrations_json = {name: _json(value, f"calibration {name!r}") for name, value in session.calibrations.items()}
+    for sensor_id, stream in session.sensors.items():
+        if sensor_id != stream.sensor_id:
+            raise ValueError(f"session sensors: key {sensor_id!r} holds the stream of {stream.sensor_id!r}")
+    directory = target.parent if str(target.parent) else Path(".")
+    if not directory.is_dir():
+        raise OSError(f"cannot write session {target}: folder {directory} does not exist")
+    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=directory)
+    os.close(handle)
+    try:
+        with h5py.File(temporary, "w", track_order=True) as h5:
+            h5.attrs["format"] = SESSION_FORMAT
+            h5.attrs["format_version"] = SESSION_FORMAT_VERSION
+            h5.attrs["created_utc"] = str(metadata["created_utc"])
+            h5.attrs["mimucap_version"] = str(metadata["mimucap_version"])
+            h5.attrs["metadata_json"] = metadata_json
+            sensors = _group(h5, "sensors")
+            for stream in session.sensors.values():
+                _write_sensor(sensors, stream)
+            markers = _group(h5, "markers")
+            _dataset(markers, "t_s", np.array([m.t_s for m in session.markers], dtype=np.float64), "s")
+            _dataset(markers, "label", np.array([m.label for m in session.markers], dtype=object))
+            calibrations = _group(h5, "calibrations")
+            for name, text in calibrations_json.items():
+                _check_name(name, "calibration name")
+                _dataset(calibrations, name, np.array(text, dtype=object), "json")
+            _write_nested(_group(h5, "results"), session.results, "results")
+            if session.truth is not None:
+                _write_truth(h5, session.truth)
+        os.replace(temporary, target)
+    except BaseException:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+        raise
+    return target
+
+
+# --------------------------------------------------------------------------------------------
+# Reading
+# --------------------------------------------------------------------------------------------
+
+class _Reader:
+    """Reads one open file and turns every surprise into a :class:`SessionFormatError`."""
+
+    def __init__(self, path: Path, h5: h5py.File) -> None:
+        self.path = path
+        self.h5 = h5
+
+    def error(self, message: str) -> SessionFormatError:
+        return SessionFormatError(f"{self.path}: {message}")
+
+    def group(self, parent: h5py.Group, name: str, required: bool = True) -> h5py.Group | None:
+        if name not in parent:
+            if required:
+                raise self.error(f"missing group {parent.name.rstrip('/')}/{name}")
+            return None
+        item = parent[name]
+        if not isinstance(item, h5py.Group):
+            raise self.error(f"{item.name} should be a group")
+        return item
+
+    def array(self, parent: h5py.Group, name: str, shape_tail: tuple[int, ...] | None = None,
+              rows: int | None = None, required: bool = True, dtype: Any = np.float64) -> np.ndarray | None:
+        if name not in parent:
+            if required:
+                raise self.error(f"missing dataset {parent.name.rstrip('/')}/{name}")
+            return None
+        item = parent[name]
+        if not isinstance(item, h5py.Dataset):
+            raise self.error(f"{item.name} should be a dataset")
+        try:
+            value = np.asarray(item[()], dtype=dtype)
+        except (OSError, ValueError, TypeError) as error:
+            raise self.error(f"cannot read {item.name} ({error})") from error
+        if shape_tail is not None and value.shape[1:] != shape_tail:
+            raise self.error(f"{item.name} has shape {value.shape}, expected (N,{','.join(map(str, shape_tail))})"
+                             .replace(",)", ")"))
+        if rows is not None and (value.ndim == 0 or value.shape[0] != rows):
+            raise self.error(f"{item.name} has {value.shape[0] if value.ndim else 0} rows, expected {rows}")
+        return value
+
+    def text(self, dataset: h5py.Dataset) -> str:
+        try:
+            value = dataset[()]
+        except (OSError, ValueError) as error:
+            raise self.error(f"cannot read {dataset.name} ({error})") from error
+        return value.decode("utf-8") if isinstance(value, bytes) else str(value)
+
+    def json(self, text: str, where: str) -> Any:
+        try:
+            return json.loads(text)
+        except json.JSONDecodeError as error:
+            raise self.error(f"{where} is not valid JSON ({error})") from error
+
+    def check_header(self) -> dict[str, Any]:
+        attrs = self.h5.attrs
+        if "format" not in attrs:
+            raise self.error("not a MimuCap session (no 'format' attribute; foreign HDF5 file?)")
+        fmt = attrs["format"]
+        fmt = fmt.decode() if isinstance(fmt, bytes) else str(fmt)
+        if fmt != SESSION_FORMAT:
+            raise self.error(f"not a MimuCap session (format is {fmt!r}, expected {SESSION_FORMAT!r})")
+        try:
+            version = int(attrs["format_version"])
+        except (KeyError, TypeError, ValueError) as error:
+            raise self.error("missing or invalid 'format_version' attribute") from error
+        if version > SESSION_FORMAT_VERSION:
+            raise self.error(
+                f"session format version {version} is newer than this MimuCap ({__version__}) "
+                f"can read (up to {SESSION_FORMAT_VERSION}); update MimuCap"
+            )
+        if version < 1:
+            raise self.error(f"invalid session format version {version}")
+        if "metadata_json" not in attrs:
+            raise self.error("missing 'metadata_json' attribute")
+        metadata = self.json(str(attrs["metadata_json"]), "metadata_json")
+        if not isinstance(metadata, dict):
+            raise self.error("metadata_json must hold a JSON object")
+        return metadata
+
+    def sensor(self, g: h5py.Group) -> SensorStream:
+        sensor_id = g.name.rsplit("/", 1)[-1]
+        t_s = self.array(g, "t_s")
+        if t_s.ndim != 1:
+            raise self.error(f"{g.name}/t_s must be one-dimensional, has shape {t_s.shape}")
+        n = t_s.shape[0]
+        seq = self.array(g, "seq", rows=n, dtype=np.int64)
+        channels = {}
+        for name, (trailing, _unit) in SENSOR_CHANNELS.items():
+            value = self.array(g, name, rows=n, required=False)
+            if value is not None and value.shape[1:] != trailing:
+                raise self.error(f"{g.name}/{name} has shape {value.shape}, expected {(n,) + trailing}")
+            channels[name] = value
+        extra = {}
+        extra_group = self.group(g, "extra", required=False)
+        if extra_group is not None:
+            for name in extra_group:
+                extra[name] = self.array(extra_group, name, rows=n, dtype=None)
+        segment = g.attrs.get("segment")
+        return SensorStream(
+            sensor_id=sensor_id, t_s=t_s, seq=seq, segment=None if segment is None else str(segment),
+            extra=extra, **channels,
+        )
+
+    def nested(self, g: h5py.Group) -> dict[str, Any]:
+        values: dict[str, Any] = {}
+        for name, item in g.items():
+            if isinstance(item, h5py.Group):
+                values[name] = self.nested(item)
+            elif item.dtype.kind == "O" or h5py.check_string_dtype(item.dtype) is not None:
+                if item.shape == ():
+                    values[name] = self.text(item)
+                else:
+                    values[name] = np.array([v.decode("utf-8") if isinstance(v, bytes) else v
+                                             for v in item[()]], dtype=object)
+            else:
+                values[name] = self.array(g, name, dtype=None)
+        return values
+
+    def truth(self, g: h5py.Group) -> SessionTruth:
+        t_s = self.array(g, "t_s")
+        n = t_s.shape[0]
+        field_world = self.array(g, "field_world_uT", required=False)
+        segments = {name: self.array(self.group(g, "q_world_from_segment"), name, (4,), n)
+                    for name in self.group(g, "q_world_from_segment")}
+        angles_group = self.group(g, "joint_angles_deg")
+        angles = {name: self.array(angles_group, name, rows=n) for name in angles_group}
+        sensors = {}
+        sensors_group = self.group(g, "sensors")
+        for sensor_id, s in sensors_group.items():
+            if not isinstance(s, h5py.Group):
+                raise self.error(f"{s.name} should be a group")
+            values = {name: self.array(s, name, required=(name == "q_world_from_sensor"))
+                      for name in _SENSOR_TRUTH_FIELDS}
+            if values["q_world_from_sensor"].shape != (n, 4):
+                raise self.error(f"{s.name}/q_world_from_sensor has shape "
+                                 f"{values['q_world_from_sensor'].shape}, expected ({n}, 4)")
+            parameters_group = self.group(s, "parameters", required=False)
+            segment = s.attrs.get("segment")
+            sensors[sensor_id] = SensorTruth(
+                sensor_id=sensor_id,
+                segment=None if segment is None else str(segment),
+                clock_offset_s=_optional_float(s.attrs.get("clock_offset_s")),
+                clock_drift=_optional_float(s.attrs.get("clock_drift")),
+                parameters={} if parameters_group is None else self.nested(parameters_group),
+                **values,
+            )
+        extra_group = self.group(g, "extra", required=False)
+        attributes = self.json(str(g.attrs.get("attributes_json", "{}")), "truth attributes_json")
+        return SessionTruth(
+            t_s=t_s, q_world_from_segment=segments, joint_angles_deg=angles, sensors=sensors,
+            field_world_uT=field_world, extra={} if extra_group is None else self.nested(extra_group),
+            attributes=attributes,
+        )
+
+    def session(self, include_truth: bool) -> Session:
+        metadata = self.check_header()
+        sensors_group = self.group(self.h5, "sensors")
+        sensors = {}
+        for sensor_id, g in sensors_group.items():
+            if not isinstance(g, h5py.Group):
+                raise self.error(f"{g.name} should be a group")
+            sensors[sensor_id] = self.sensor(g)
+        markers_group = self.group(self.h5, "markers")
+        marker_t = self.array(markers_group, "t_s")
+        labels = self.nested(markers_group).get("label")
+        if labels is None or np.shape(labels) != marker_t.shape:
+            raise self.error("/markers/label is missing or does not match /markers/t_s")
+        markers = [Marker(float(t), str(label)) for t, label in zip(marker_t, labels)]
+        calibrations = {}
+        for name, item in self.group(self.h5, "calibrations").items():
+            if not isinstance(item, h5py.Dataset):
+                raise self.error(f"{item.name} should be a JSON string dataset")
+            calibrations[name] = self.json(self.text(item), item.name)
+        results = self.nested(self.group(self.h5, "results"))
+        truth = None
+        if include_truth and "truth" in self.h5:
+            truth = self.truth(self.group(self.h5, "truth"))
+        return Session(metadata=metadata, sensors=sensors, markers=markers, truth=truth,
+                       calibrations=calibrations, results=results)
+
+
+def _optional_float(value: Any) -> float | None:
+    return None if value is None else float(value)
+
+
+def _open(path: Path) -> h5py.File:
+    if not path.exists():
+        raise FileNotFoundError(f"session file not found: {path}")
+    if not h5py.is_hdf5(path):
+        raise SessionFormatError(f"{path}: not an HDF5 file (a MimuCap session is HDF5)")
+    try:
+        return h5py.File(path, "r")
+    except OSError as error:
+        raise SessionFormatError(f"{path}: damaged or truncated HDF5 file ({error})") from error
+
+
+def read_session(path: str | os.PathLike[str], include_truth: bool = True) -> Session:
+    """Read the session file ``path`` written by :func:`write_session`.
+
+    ``include_truth=False`` skips the (possibly large) ground-truth group. Raises
+    ``FileNotFoundError`` for a missing file and :class:`SessionFormatError` (naming the file
+    and the problem) for a foreign, damaged, truncated or newer-version file.
+    """
+    source = Path(path)
+    h5 = _open(source)
+    try:
+        return _Reader(source, h5).session(include_truth)
+    except SessionFormatError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError) as error:
+        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
+    finally:
+        h5.close()
+
+
+def read_metadata(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Only the metadata of the session file ``path`` (fast; same errors as :func:`read_session`)."""
+    source = Path(path)
+    h5 = _open(source)
+    try:
+        return _Reader(source, h5).check_header()
+    except SessionFormatError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError) as error:
+        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
+    finally:
+        h5.close()
+
+
+def session_duration_s(session: Session) -> float:
+    """Time span (s) covered by the sensor streams (0 when there are no samples)."""
+    starts = [s.t_s[0] for s in session.sensors.values() if len(s)]
+    ends = [s.t_s[-1] for s in session.sensors.values() if len(s)]
+    return float(max(ends) - min(starts)) if starts else 0.0
+
+
+__all__ = [
+    "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
+    "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "make_subject",
+    "write_session", "read_session", "read_metadata", "session_duration_s",
+]

@@ -1,0 +1,184 @@
+"""Session files: round trip, determinism and clear errors for broken or foreign files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from mimucap.io.session import (
+    SESSION_FORMAT_VERSION,
+    Marker,
+    SensorStream,
+    SensorTruth,
+    Session,
+    SessionFormatError,
+    SessionTruth,
+    make_subject,
+    read_metadata,
+    read_session,
+    write_session,
+)
+
+
+def _session(rng: np.random.Generator, n: int = 500) -> Session:
+    t = np.arange(n) / 100.0
+    s01 = SensorStream(
+        "S01", t, np.arange(n), acc=rng.normal(size=(n, 3)), gyr=rng.normal(size=(n, 3)),
+        mag_uT=rng.normal(size=(n, 3)) * 40, segment="pelvis", device_time_s=t * 1.0001 + 3.0,
+        extra={"temperature_degC": rng.normal(size=n)},
+    )
+    q = rng.normal(size=(n - 2, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    s02 = SensorStream("S02", t[:-2], np.delete(np.arange(n), [10, 11]), q_world_from_sensor=q,
+                       battery=np.linspace(1, 0.9, n - 2))
+    truth = SessionTruth(
+        t_s=t,
+        q_world_from_segment={"pelvis": np.tile([1.0, 0, 0, 0], (n, 1))},
+        joint_angles_deg={"hip_r_flexion_deg": rng.normal(size=n)},
+        sensors={"S01": SensorTruth(
+            "S01", q_world_from_sensor=np.tile([0.0, 1, 0, 0], (n, 1)), segment="pelvis",
+            q_segment_from_sensor=np.array([0.0, 0, 1, 0]), position_in_segment_m=np.array([0.1, 0, 0]),
+            mag_A=np.eye(3) * 1.1, mag_b_uT=np.array([1.0, 2, 3]), gyr_bias_rad_s=rng.normal(size=(n, 3)),
+            field_world_uT=np.tile([0, 24.65, -42.7], (n, 1)), clock_offset_s=3.0, clock_drift=1e-4,
+            parameters={"gyr_scale": np.eye(3)},
+        )},
+        field_world_uT=np.array([0, 24.65, -42.7]),
+        extra={"mag_axis_turned": np.full(n, -1)},
+        attributes={"scenario": "demo"},
+    )
+    return Session(
+        metadata={"source": {"kind": "test"}, "subject": make_subject("P1", 1.8, "left", "ok"),
+                  "created_utc": "2026-01-01T00:00:00+00:00"},
+        sensors={"S01": s01, "S02": s02},
+        markers=[Marker(1.0, "npose"), Marker(2.5, "tpose: both")],
+        truth=truth,
+        calibrations={"magnetometer": {"S01": {"b_uT": [1, 2, 3], "protocol": "single_axis"}},
+                      "body": {"q_segment_from_sensor": {"S01": [1, 0, 0, 0]}}},
+        results={"fusion": {"S01": {"q_world_from_sensor": np.tile([1.0, 0, 0, 0], (n, 1))}},
+                 "note": "filter v1", "rmse_deg": 1.5},
+    )
+
+
+def test_round_trip_keeps_everything(tmp_path: Path) -> None:
+    session = _session(np.random.default_rng(1))
+    path = write_session(tmp_path / "a.h5", session)
+    back = read_session(path)
+    assert back.metadata["subject"] == {"id": "P1", "height_m": 1.8, "dominance": "left", "notes": "ok"}
+    assert back.metadata["source"] == {"kind": "test"}
+    assert back.metadata["mimucap_version"]
+    assert set(back.sensors) == {"S01", "S02"}
+    for sensor_id, stream in session.sensors.items():
+        other = back.sensors[sensor_id]
+        for name in ("t_s", "seq", "acc", "gyr", "mag_uT", "q_world_from_sensor", "battery", "device_time_s"):
+            a, b = getattr(stream, name), getattr(other, name)
+            assert (a is None) == (b is None), name
+            if a is not None:
+                np.testing.assert_array_equal(a, b)
+        assert other.segment == stream.segment
+    np.testing.assert_array_equal(back.sensors["S01"].extra["temperature_degC"], session.sensors["S01"].extra["temperature_degC"])
+    assert back.sensors["S02"].acc is None and back.sensors["S02"].segment is None
+    assert back.sensor_segments() == {"S01": "pelvis", "S02": None}
+    assert back.markers == session.markers
+    assert back.calibrations == session.calibrations
+    np.testing.assert_array_equal(back.results["fusion"]["S01"]["q_world_from_sensor"],
+                                  session.results["fusion"]["S01"]["q_world_from_sensor"])
+    assert back.results["note"] == "filter v1" and float(back.results["rmse_deg"]) == 1.5
+    truth, expected = back.truth, session.truth
+    np.testing.assert_array_equal(truth.t_s, expected.t_s)
+    np.testing.assert_array_equal(truth.joint_angles_deg["hip_r_flexion_deg"], expected.joint_angles_deg["hip_r_flexion_deg"])
+    st, se = truth.sensors["S01"], expected.sensors["S01"]
+    for name in ("q_world_from_sensor", "q_segment_from_sensor", "position_in_segment_m", "mag_A", "mag_b_uT",
+                 "gyr_bias_rad_s", "field_world_uT"):
+        np.testing.assert_array_equal(getattr(st, name), getattr(se, name))
+    assert (st.segment, st.clock_offset_s, st.clock_drift) == ("pelvis", 3.0, 1e-4)
+    np.testing.assert_array_equal(st.parameters["gyr_scale"], np.eye(3))
+    np.testing.assert_array_equal(truth.extra["mag_axis_turned"], expected.extra["mag_axis_turned"])
+    assert truth.attributes == {"scenario": "demo"}
+    assert read_session(path, include_truth=False).truth is None
+    assert read_metadata(path)["subject"]["id"] == "P1"
+
+
+def test_units_are_attributes(tmp_path: Path) -> None:
+    path = write_session(tmp_path / "u.h5", _session(np.random.default_rng(2), 50))
+    with h5py.File(path, "r") as h5:
+        assert h5.attrs["format"] == "mimucap-session"
+        assert h5.attrs["format_version"] == SESSION_FORMAT_VERSION
+        assert h5["sensors/S01/acc"].attrs["unit"] == "m/s^2"
+        assert h5["sensors/S01/gyr"].attrs["unit"] == "rad/s"
+        assert h5["sensors/S01/mag_uT"].attrs["unit"] == "uT"
+        assert h5["truth/joint_angles_deg/hip_r_flexion_deg"].attrs["unit"] == "deg"
+
+
+def test_same_session_gives_identical_bytes(tmp_path: Path) -> None:
+    first = write_session(tmp_path / "1.h5", _session(np.random.default_rng(3)))
+    second = write_session(tmp_path / "2.h5", _session(np.random.default_rng(3)))
+    assert first.read_bytes() == second.read_bytes()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["1.h5", "2.h5"]  # no temporary files left
+
+
+def test_foreign_hdf5_file_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "foreign.h5"
+    with h5py.File(path, "w") as h5:
+        h5["imu_acc"] = np.zeros((3, 3))
+    with pytest.raises(SessionFormatError, match=r"foreign\.h5.*not a MimuCap session"):
+        read_session(path)
+    with h5py.File(path, "a") as h5:
+        h5.attrs["format"] = "broad-trial"
+    with pytest.raises(SessionFormatError, match="broad-trial"):
+        read_session(path)
+
+
+def test_text_and_truncated_files_are_refused(tmp_path: Path) -> None:
+    text = tmp_path / "notes.h5"
+    text.write_text("hello\n")
+    with pytest.raises(SessionFormatError, match=r"notes\.h5.*not an HDF5 file"):
+        read_session(text)
+    good = write_session(tmp_path / "good.h5", _session(np.random.default_rng(4), 5000))
+    data = good.read_bytes()
+    truncated = tmp_path / "truncated.h5"
+    truncated.write_bytes(data[: len(data) // 2])
+    with pytest.raises(SessionFormatError, match=r"truncated\.h5"):
+        read_session(truncated)
+    with pytest.raises(FileNotFoundError, match="missing.h5"):
+        read_session(tmp_path / "missing.h5")
+
+
+def test_newer_version_and_missing_parts_are_named(tmp_path: Path) -> None:
+    path = write_session(tmp_path / "v.h5", _session(np.random.default_rng(5), 20))
+    with h5py.File(path, "a") as h5:
+        h5.attrs["format_version"] = SESSION_FORMAT_VERSION + 1
+    with pytest.raises(SessionFormatError, match=r"v\.h5.*version 2 is newer"):
+        read_session(path)
+    path = write_session(tmp_path / "m.h5", _session(np.random.default_rng(5), 20))
+    with h5py.File(path, "a") as h5:
+        del h5["sensors/S02/seq"]
+    with pytest.raises(SessionFormatError, match=r"m\.h5: missing dataset /sensors/S02/seq"):
+        read_session(path)
+    path = write_session(tmp_path / "r.h5", _session(np.random.default_rng(5), 20))
+    with h5py.File(path, "a") as h5:
+        del h5["sensors/S01/gyr"]
+        h5["sensors/S01/gyr"] = np.zeros((7, 3))
+    with pytest.raises(SessionFormatError, match=r"/sensors/S01/gyr has 7 rows, expected 20"):
+        read_session(path)
+    path = write_session(tmp_path / "j.h5", _session(np.random.default_rng(5), 20))
+    with h5py.File(path, "a") as h5:
+        del h5["calibrations/body"]
+        h5["calibrations/body"] = "{not json"
+    with pytest.raises(SessionFormatError, match=r"/calibrations/body is not valid JSON"):
+        read_session(path)
+
+
+def test_bad_streams_and_subjects_are_rejected(tmp_path: Path) -> None:
+    with pytest.raises(ValueError, match="sensor S03: acc must have shape"):
+        SensorStream("S03", np.zeros(4), np.arange(4), acc=np.zeros((4, 2)))
+    with pytest.raises(ValueError, match="seq must be an integer array"):
+        SensorStream("S03", np.zeros(4), np.zeros(4))
+    with pytest.raises(ValueError, match="height"):
+        make_subject("x", 3.2)
+    with pytest.raises(ValueError, match="not JSON-serialisable"):
+        write_session(tmp_path / "x.h5", Session(metadata={"bad": object()}))
+    with pytest.raises(OSError, match="does not exist"):
+        write_session(tmp_path / "no" / "x.h5", Session())
