@@ -1,0 +1,91 @@
+"""UDP device emulator: N sensor nodes that speak the UDP protocol from one socket.
+
+Sends one datagram per sample and node to ``target`` (loopback in tests), answers
+time-sync requests with the emulated clock (see :mod:`mimucap.acquisition.emulate_common`)
+and misbehaves on demand: ``loss`` drops samples (their sequence numbers are skipped),
+``jitter_ms`` delays them, ``drift_ppm``/``offset_ms`` skew the node clock. The loop stops
+by itself after ``duration_s`` or when ``stop`` is set.
+"""
+
+from __future__ import annotations
+
+import select
+import socket
+import time
+from threading import Event
+
+from mimucap.acquisition import protocol_udp as proto
+from mimucap.acquisition.emulate_common import EmulatorSettings, MotionSource, NodeSchedule
+
+
+class UdpEmulator:
+    """N emulated nodes; :meth:`run` sends until the duration is over or ``stop`` is set."""
+
+    def __init__(self, settings: EmulatorSettings, target: tuple[str, int], motion: MotionSource,
+                 bind_address: str = "127.0.0.1") -> None:
+        self.settings = settings
+        self.target = target
+        self.motion = motion
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind((bind_address, 0))
+        self.sock.setblocking(False)
+        self.schedule: NodeSchedule | None = None
+        self.sync_answered = 0
+        self.send_errors = 0
+        self._ids = frozenset(settings.sensor_ids())
+
+    @property
+    def address(self) -> tuple[str, int]:
+        return self.sock.getsockname()
+
+    def run(self, stop: Event | None = None) -> NodeSchedule:
+        start = time.monotonic()
+        schedule = self.schedule = NodeSchedule(self.settings, self.motion, start)
+        try:
+            while not (stop is not None and stop.is_set()):
+                now = time.monotonic()
+                schedule.generate_until(now)
+                for sample in schedule.pop_ready(now):
+                    try:
+                        self.sock.sendto(proto.encode_sample(sample), self.target)
+                    except OSError:  # receiver not there yet (ICMP refused) or buffer full
+                        self.send_errors += 1
+                if schedule.finished(now):
+                    break
+                wake = schedule.next_tick_s()
+                next_send = schedule.next_send_s()
+                if next_send is not None:
+                    wake = min(wake, next_send)
+                readable, _, _ = select.select([self.sock], [], [], max(0.0, min(wake - time.monotonic(), 0.05)))
+                if readable:
+                    self._answer_requests()
+        finally:
+            self.sock.close()
+        return schedule
+
+    def _answer_requests(self) -> None:
+        assert self.schedule is not None
+        clock = self.schedule.clock
+        for _ in range(256):
+            try:
+                data, address = self.sock.recvfrom(proto.MAX_PACKET_BYTES + 1)
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError:
+                continue
+            received = clock.device_from_host(time.monotonic())
+            request = proto.decode_packet(data)
+            if not isinstance(request, proto.SyncRequest):
+                continue
+            targets = self._ids if request.target_id == proto.BROADCAST_ID else (
+                {request.target_id} & self._ids)
+            for sensor_id in sorted(targets):
+                response = proto.SyncResponse(
+                    sensor_id, request.request_id, request.host_send_us,
+                    int(round(received * 1e6)),
+                    int(round(clock.device_from_host(time.monotonic()) * 1e6)))
+                try:
+                    self.sock.sendto(proto.encode_sync_response(response), address)
+                    self.sync_answered += 1
+                except OSError:
+                    self.send_errors += 1

@@ -1,0 +1,154 @@
+"""Per-sample processing shared by the packet drivers (UDP, serial) inside a worker.
+
+For every decoded sample: check that the sensor belongs to the session, unwrap its sequence
+number (a stale one is refused), feed the node clock estimator and map the device time to
+the host's monotonic clock, and collect accepted samples into blocks. Blocks are flushed
+when the oldest pending sample is ``flush_interval_s`` old or ``max_block_samples`` are
+pending, so memory stays bounded and latency stays low.
+
+Mapped host times are kept strictly increasing per sensor (a refit of the clock that would
+move a sample before its predecessor places it 1 µs after it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from mimucap.acquisition.messages import BlocksMessage, WorkerReport
+from mimucap.acquisition.rejections import Rejection, RejectionCounter
+from mimucap.acquisition.samples import BlockBuilder, Sample, SequenceUnwrapper
+from mimucap.acquisition.timesync import ClockSync, ClockSyncSettings
+
+#: Distinct unknown ids/addresses tracked individually; beyond this they are lumped together.
+MAX_TRACKED_UNKNOWN = 256
+
+
+def default_sensor_name(sensor_id: int) -> str:
+    """Session name of wire id ``sensor_id`` when the session gives none (``"3"`` for 3)."""
+    return str(int(sensor_id))
+
+
+@dataclass(frozen=True)
+class IntakeSettings:
+    """Which sensors belong to the session and how samples are batched."""
+
+    sensor_ids: tuple[int, ...] | None = None  #: expected wire ids; ``None`` accepts any id
+    sensor_names: tuple[tuple[int, str], ...] = ()  #: wire id → session name (default str(id))
+    flush_interval_s: float = 0.002   #: s, the oldest pending sample waits at most this long
+    max_block_samples: int = 4096     #: pending samples that force a flush
+    clock: ClockSyncSettings = field(default_factory=ClockSyncSettings)
+
+    def __post_init__(self) -> None:
+        if self.flush_interval_s <= 0 or self.max_block_samples < 1:
+            raise ValueError("IntakeSettings: flush_interval_s must be > 0 and max_block_samples >= 1")
+
+
+class _SensorState:
+    __slots__ = ("name", "unwrapper", "clock", "last_host_s", "rejections")
+
+    def __init__(self, name: str, clock_settings: ClockSyncSettings) -> None:
+        self.name = name
+        self.unwrapper = SequenceUnwrapper()
+        self.clock = ClockSync(clock_settings)
+        self.last_host_s = float("-inf")
+        self.rejections = RejectionCounter()
+
+
+class SampleIntake:
+    """Turns decoded samples into blocks; ``send`` receives each :class:`BlocksMessage`."""
+
+    def __init__(self, source: str, settings: IntakeSettings,
+                 send: Callable[[BlocksMessage], None]) -> None:
+        self.source = source
+        self.settings = settings
+        self._send = send
+        self._expected = None if settings.sensor_ids is None else frozenset(settings.sensor_ids)
+        self._names = dict(settings.sensor_names)
+        self._sensors: dict[int, _SensorState] = {}
+        self._builder = BlockBuilder(source)
+        self.rejections = RejectionCounter()
+        self.unknown: dict[str, int] = {}
+
+    # ----------------------------------------------------------------- bookkeeping
+    def reject(self, reason: Rejection, sensor_id: int | None = None) -> None:
+        """Count a refused input (attributed to ``sensor_id`` when known)."""
+        self.rejections.add(reason)
+        if sensor_id is not None and sensor_id in self._sensors:
+            self._sensors[sensor_id].rejections.add(reason)
+
+    def count_unknown(self, key: str, reason: Rejection) -> None:
+        """Count an input from an id/address that is not part of the session."""
+        self.rejections.add(reason)
+        if key not in self.unknown and len(self.unknown) >= MAX_TRACKED_UNKNOWN:
+            key = "other"
+        self.unknown[key] = self.unknown.get(key, 0) + 1
+
+    def sensor(self, sensor_id: int) -> _SensorState | None:
+        """State of an accepted sensor, creating it on first sight; ``None`` if unknown."""
+        state = self._sensors.get(sensor_id)
+        if state is None:
+            if self._expected is not None and sensor_id not in self._expected:
+                return None
+            name = self._names.get(sensor_id, default_sensor_name(sensor_id))
+            state = self._sensors[sensor_id] = _SensorState(name, self.settings.clock)
+        return state
+
+    def known_sensor_ids(self) -> list[int]:
+        return list(self._sensors)
+
+    def clock(self, sensor_id: int) -> ClockSync | None:
+        state = self._sensors.get(sensor_id)
+        return None if state is None else state.clock
+
+    # ----------------------------------------------------------------- samples
+    def accept(self, sample: Sample, receive_time_s: float) -> bool:
+        """Process one decoded, validated sample received at host time ``receive_time_s``."""
+        state = self.sensor(sample.sensor_id)
+        if state is None:
+            self.count_unknown(f"id {sample.sensor_id}", Rejection.UNKNOWN_SENSOR)
+            return False
+        seq = state.unwrapper.unwrap(sample.seq)
+        if seq is None:
+            self.reject(Rejection.STALE_SEQUENCE, sample.sensor_id)
+            return False
+        state.clock.add_one_way(sample.device_time_s, receive_time_s)
+        estimate = state.clock.estimate
+        host_s = estimate.host_from_device_scalar(sample.device_time_s)
+        if host_s <= state.last_host_s:
+            host_s = state.last_host_s + 1e-6
+        state.last_host_s = host_s
+        self._builder.add(state.name, seq, sample, host_s, receive_time_s)
+        if len(self._builder) >= self.settings.max_block_samples:
+            self.flush()
+        return True
+
+    def flush_due_in(self, now_s: float) -> float | None:
+        """Seconds until the pending samples must be flushed (``None`` if nothing pends)."""
+        if self._builder.oldest_receive_time_s is None:
+            return None
+        return self._builder.oldest_receive_time_s + self.settings.flush_interval_s - now_s
+
+    def flush_if_due(self, now_s: float) -> None:
+        due = self.flush_due_in(now_s)
+        if due is not None and due <= 0:
+            self.flush()
+
+    def flush(self) -> None:
+        """Send every pending sample now."""
+        if len(self._builder):
+            self._send(BlocksMessage(self.source, tuple(self._builder.take())))
+
+    def report(self, state: str, message: str = "", overflow_samples: int = 0,
+               reconnects: int = 0) -> WorkerReport:
+        """A cumulative :class:`WorkerReport` of this intake."""
+        clocks = {}
+        by_sensor = {}
+        for sensor in self._sensors.values():
+            estimate = sensor.clock.estimate
+            if estimate is not None:
+                clocks[sensor.name] = estimate
+            if sensor.rejections.total():
+                by_sensor[sensor.name] = sensor.rejections.as_dict()
+        return WorkerReport(self.source, state, message, self.rejections.as_dict(),
+                            dict(self.unknown), by_sensor, clocks, overflow_samples, reconnects)

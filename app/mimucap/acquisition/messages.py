@@ -1,0 +1,42 @@
+"""Messages from worker processes to the supervisor (picklable, sent through one queue).
+
+A worker sends :class:`BlocksMessage` s with samples and, at least every
+``report_interval_s`` and on every state change, a :class:`WorkerReport` whose counters are
+*cumulative* since the worker started (so a report lost to a full queue costs nothing).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from mimucap.acquisition.samples import SampleBlock
+from mimucap.acquisition.timesync import ClockEstimate
+
+#: Worker states as reported to the supervisor.
+STATE_STARTING = "starting"
+STATE_RUNNING = "running"          #: receiving (or ready to receive) data
+STATE_DISCONNECTED = "disconnected"  #: the device is gone; the worker retries
+STATE_FINISHED = "finished"        #: the source ended by itself (replay, limited simulation)
+STATE_FAILED = "failed"            #: an error stopped the worker; the supervisor may restart it
+STATE_STOPPED = "stopped"          #: the worker ended because it was asked to
+
+
+@dataclass(frozen=True, eq=False)
+class BlocksMessage:
+    source: str
+    blocks: tuple[SampleBlock, ...]
+
+
+@dataclass(frozen=True)
+class WorkerReport:
+    """Cumulative state of one worker (counts since that worker process started)."""
+
+    source: str
+    state: str
+    message: str = ""
+    rejections: dict[str, int] = field(default_factory=dict)
+    unknown_sensors: dict[str, int] = field(default_factory=dict)   #: id or address → count
+    rejections_by_sensor: dict[str, dict[str, int]] = field(default_factory=dict)
+    clocks: dict[str, ClockEstimate] = field(default_factory=dict)  #: sensor → clock mapping
+    overflow_samples: int = 0        #: samples discarded because the queue was full
+    reconnects: int = 0

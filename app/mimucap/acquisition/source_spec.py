@@ -1,0 +1,113 @@
+"""Source spec strings: the one way to name a data source in the CLI, GUI and session files.
+
+Valid forms (see :data:`VALID_FORMS`)::
+
+    simulated[:SCENARIO]      the simulated suit in real time (default scenario "demo")
+    udp:BIND_ADDRESS:PORT     wireless nodes speaking the UDP protocol, e.g. udp:0.0.0.0:5555
+    serial:DEVICE[@BAUD]      a serial board or radio receiver, e.g. serial:/dev/ttyUSB0@115200
+    replay:FILE[@SPEED]       a session file or Xsens export, SPEED × real time (default 1)
+
+:func:`parse_source_spec` returns a frozen spec; :func:`format_source_spec` is its inverse.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import re
+from dataclasses import dataclass
+
+VALID_FORMS = ("simulated[:SCENARIO]", "udp:BIND_ADDRESS:PORT", "serial:DEVICE[@BAUD]",
+               "replay:FILE[@SPEED]")
+DEFAULT_SCENARIO = "demo"
+DEFAULT_BAUD = 115200
+_SCENARIO_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*$")
+
+
+@dataclass(frozen=True)
+class SimulatedSpec:
+    scenario: str = DEFAULT_SCENARIO
+
+
+@dataclass(frozen=True)
+class UdpSpec:
+    bind_address: str
+    port: int
+
+
+@dataclass(frozen=True)
+class SerialSpec:
+    device: str
+    baud: int = DEFAULT_BAUD
+
+
+@dataclass(frozen=True)
+class ReplaySpec:
+    path: str
+    speed: float = 1.0
+
+
+SourceSpec = SimulatedSpec | UdpSpec | SerialSpec | ReplaySpec
+
+
+def _error(spec: str, why: str) -> ValueError:
+    return ValueError(f"invalid source {spec!r}: {why}; valid forms: {', '.join(VALID_FORMS)}")
+
+
+def parse_source_spec(spec: str) -> SourceSpec:
+    """Parse ``spec``; a malformed one raises a one-line ``ValueError`` listing the valid forms."""
+    if not isinstance(spec, str) or not spec.strip():
+        raise _error(str(spec), "empty")
+    kind, _, rest = spec.strip().partition(":")
+    if kind == "simulated":
+        scenario = rest or DEFAULT_SCENARIO
+        if not _SCENARIO_RE.match(scenario):
+            raise _error(spec, f"bad scenario name {scenario!r}")
+        return SimulatedSpec(scenario)
+    if kind == "udp":
+        address, sep, port_text = rest.rpartition(":")
+        if not sep or not address:
+            raise _error(spec, "expected udp:BIND_ADDRESS:PORT")
+        address = address.strip("[]")
+        try:
+            ipaddress.ip_address(address)
+        except ValueError:
+            if address != "localhost":
+                raise _error(spec, f"bad bind address {address!r}") from None
+        if not port_text.isdigit() or not 0 < int(port_text) < 65536:
+            raise _error(spec, f"bad port {port_text!r} (1..65535)")
+        return UdpSpec(address, int(port_text))
+    if kind == "serial":
+        device, sep, baud_text = rest.rpartition("@") if "@" in rest else (rest, "", "")
+        if not device:
+            raise _error(spec, "missing device")
+        if sep and (not baud_text.isdigit() or not 0 < int(baud_text) <= 10_000_000):
+            raise _error(spec, f"bad baud rate {baud_text!r}")
+        return SerialSpec(device, int(baud_text) if sep else DEFAULT_BAUD)
+    if kind == "replay":
+        path, sep, speed_text = rest.rpartition("@") if "@" in rest else (rest, "", "")
+        if not path:
+            raise _error(spec, "missing file")
+        speed = 1.0
+        if sep:
+            try:
+                speed = float(speed_text)
+            except ValueError:
+                raise _error(spec, f"bad speed {speed_text!r}") from None
+            if not 0.0 < speed < 1e6:
+                raise _error(spec, f"bad speed {speed_text!r} (must be > 0)")
+        return ReplaySpec(path, speed)
+    raise _error(spec, f"unknown kind {kind!r}")
+
+
+def format_source_spec(spec: SourceSpec) -> str:
+    """The spec string of ``spec`` (``parse_source_spec(format_source_spec(s)) == s``)."""
+    if isinstance(spec, SimulatedSpec):
+        return f"simulated:{spec.scenario}"
+    if isinstance(spec, UdpSpec):
+        address = f"[{spec.bind_address}]" if ":" in spec.bind_address else spec.bind_address
+        return f"udp:{address}:{spec.port}"
+    if isinstance(spec, SerialSpec):
+        return f"serial:{spec.device}@{spec.baud}"
+    if isinstance(spec, ReplaySpec):
+        return f"replay:{spec.path}@{spec.speed:g}"
+    raise TypeError(f"not a source spec: {spec!r}")

@@ -1,0 +1,60 @@
+"""Worker processes: one per source, started with the ``spawn`` method.
+
+:func:`run_worker` is the top-level entry point: it receives a frozen, picklable source config,
+the supervisor's queue and a stop event, builds the driver for that config and runs it until
+the event is set or the source ends. Messages out are
+:class:`~mimucap.acquisition.messages.BlocksMessage` and
+:class:`~mimucap.acquisition.messages.WorkerReport` only. An exception ends the worker with a
+``failed`` report naming the error and exit code 1 (the supervisor may restart it).
+"""
+
+from __future__ import annotations
+
+import signal
+import sys
+import traceback
+from typing import Any
+
+from mimucap.acquisition.messages import STATE_FAILED, STATE_FINISHED, STATE_STOPPED, WorkerReport
+from mimucap.acquisition.outbox import Outbox
+from mimucap.acquisition.replay import ReplayDriver, ReplaySourceConfig
+from mimucap.acquisition.serial_port import SerialDriver, SerialSourceConfig
+from mimucap.acquisition.udp import UdpDriver, UdpSourceConfig
+
+SourceConfig = UdpSourceConfig | SerialSourceConfig | ReplaySourceConfig
+
+
+def make_driver(config: SourceConfig, outbox: Outbox):
+    """The driver object for ``config``."""
+    if isinstance(config, UdpSourceConfig):
+        return UdpDriver(config, outbox)
+    if isinstance(config, SerialSourceConfig):
+        return SerialDriver(config, outbox)
+    if isinstance(config, ReplaySourceConfig):
+        return ReplayDriver(config, outbox)
+    raise TypeError(f"unknown source config {type(config).__name__}")
+
+
+def run_worker(config: SourceConfig, queue: Any, stop: Any) -> None:
+    """Worker process entry point (top-level so that ``spawn`` can import it)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C is the supervisor's business
+    outbox = Outbox(queue, config.name, getattr(config, "report_interval_s", 0.5))
+    driver = None
+    try:
+        driver = make_driver(config, outbox)
+        driver.run(stop)
+    except Exception as error:  # noqa: BLE001 - reported to the supervisor, then exit 1
+        message = f"{type(error).__name__}: {error}"
+        traceback.print_exc(file=sys.stderr)
+        if driver is not None:
+            report = driver.final_report(STATE_FAILED, message)
+        else:
+            report = WorkerReport(config.name, STATE_FAILED, message)
+        outbox.send_report(report, final=True)
+        queue.close()
+        queue.join_thread()
+        sys.exit(1)
+    final_state = STATE_STOPPED if stop.is_set() else STATE_FINISHED
+    outbox.send_report(driver.final_report(final_state), final=True)
+    queue.close()
+    queue.join_thread()

@@ -1,0 +1,118 @@
+"""Real loopback UDP: emulated nodes → worker process → supervisor.
+
+Checks sample counts, drops from injected loss, the recovered clock offset and drift, and
+that packets from outside the session are counted and ignored.
+"""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from mimucap.acquisition import protocol_udp
+from mimucap.acquisition.emulate_common import EmulatorSettings
+from mimucap.acquisition.emulate_udp import UdpEmulator
+from mimucap.acquisition.intake import IntakeSettings
+from mimucap.acquisition.samples import Sample
+from mimucap.acquisition.supervisor import Supervisor
+from mimucap.acquisition.udp import UdpSourceConfig
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def wait_for(condition, supervisor, timeout_s=15.0):
+    deadline = time.monotonic() + timeout_s
+    blocks = []
+    while time.monotonic() < deadline:
+        blocks.extend(supervisor.poll(0.05))
+        if condition():
+            return blocks
+    raise AssertionError("condition not reached in time")
+
+
+def run_emulator(settings, port, motion):
+    emulator = UdpEmulator(settings, ("127.0.0.1", port), motion)
+    thread = threading.Thread(target=emulator.run, daemon=True)
+    thread.start()
+    return emulator, thread
+
+
+def test_nodes_recorded_with_counts_drops_and_clock_recovered(synthetic_motion):
+    n, rate, duration = 4, 100.0, 4.0
+    settings = EmulatorSettings(n_sensors=n, rate_hz=rate, loss=0.1, drift_ppm=300.0,
+                                offset_ms=-1234.5, duration_s=duration, seed=3)
+    port = free_udp_port()
+    config = UdpSourceConfig(name="udp", port=port, sync_interval_s=0.1,
+                             intake=IntakeSettings(sensor_ids=tuple(settings.sensor_ids())))
+    with Supervisor([config]) as supervisor:
+        wait_for(lambda: supervisor.sources()["udp"].state == "running", supervisor)
+        emulator, thread = run_emulator(settings, port, synthetic_motion(n, rate))
+        blocks = wait_for(lambda: not thread.is_alive(), supervisor)
+        blocks += wait_for(lambda: True, supervisor, 0.3)
+        time.sleep(0.3)
+        blocks += supervisor.poll(0.1)
+        stats = supervisor.stats()
+        status = supervisor.sources()["udp"]
+    schedule = emulator.schedule
+    assert schedule.ticks == int(duration * rate)
+    assert sorted(stats) == ["1", "2", "3", "4"]
+    received = sum(s.received for s in stats.values())
+    assert received == schedule.sent == n * schedule.ticks - schedule.lost
+    drops = sum(s.drops for s in stats.values())
+    assert schedule.lost - 2 * n <= drops <= schedule.lost   # losses at the very ends are invisible
+    assert 0.05 < drops / (received + drops) < 0.15
+    # clock: mapped sample times equal the nominal sample instants on the host clock
+    for sensor_id, estimate in status.clocks.items():
+        now = time.monotonic()
+        true_device = now * (1 + 300e-6) - 1.2345
+        assert abs(float(estimate.device_from_host(now)) - true_device) < 1e-3, sensor_id
+        assert estimate.drift_ppm == pytest.approx(300.0, abs=150.0)
+    late = [b for b in blocks if b.seq[0] >= schedule.ticks // 2]
+    assert late
+    for block in late:
+        nominal = schedule.start_host_s + block.seq / rate
+        assert np.max(np.abs(block.host_time_s - nominal)) < 1e-3
+        assert block.channels() == ("acc", "gyr", "mag_uT", "q_world_from_sensor", "calibration", "battery_pct")
+        assert np.all(np.isfinite(block.acc))
+        np.testing.assert_allclose(block.acc[:, 2], 9.81, atol=1e-5)
+    assert not status.rejections.get("bad_checksum")
+
+
+def test_foreign_sensors_addresses_and_garbage_are_counted_and_ignored():
+    port = free_udp_port()
+    config = UdpSourceConfig(name="udp", port=port, allowed_addresses=("127.0.0.1",),
+                             intake=IntakeSettings(sensor_ids=(1,)))
+    with Supervisor([config]) as supervisor:
+        wait_for(lambda: supervisor.sources()["udp"].state == "running", supervisor)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+            for seq in range(50):
+                t = time.monotonic()
+                for sensor_id in (1, 9):
+                    sample = Sample(sensor_id=sensor_id, seq=seq, device_time_s=t, gyr=(0.0, 0.0, 1.0))
+                    sender.sendto(protocol_udp.encode_sample(sample), ("127.0.0.1", port))
+                sender.sendto(b"\x00" * 40, ("127.0.0.1", port))
+                sender.sendto(b"\xff" * 2000, ("127.0.0.1", port))
+                time.sleep(0.002)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as stranger:
+            stranger.bind(("127.0.0.2", 0))   # loopback, but not an allowed address
+            sample = Sample(sensor_id=1, seq=1000, device_time_s=time.monotonic(), gyr=(0.0, 0.0, 1.0))
+            for _ in range(5):
+                stranger.sendto(protocol_udp.encode_sample(sample), ("127.0.0.1", port))
+        wait_for(lambda: supervisor.sources()["udp"].rejections.get("oversized", 0) == 50
+                 and supervisor.sources()["udp"].rejections.get("unknown_address", 0) == 5
+                 and supervisor.stats().get("1") is not None
+                 and supervisor.stats()["1"].received == 50, supervisor)
+        status = supervisor.sources()["udp"]
+        assert sorted(supervisor.stats()) == ["1"]
+        assert status.rejections["unknown_sensor"] == 50
+        assert status.rejections["bad_magic"] == 50
+        assert status.unknown_sensors == {"id 9": 50, "address 127.0.0.2": 5}
+        assert status.rejections["unknown_address"] == 5
