@@ -1,0 +1,725 @@
+"""Body calibration: sensor-to-segment rotations from an N-pose (and a T-pose), live mapping.
+
+Frames (``shared/docs/conventions.md``): ``world`` is the frame the sensors' orientations are
+expressed in (ENU for MimuCap; any frame works if its **up** unit vector ``up_world`` is
+given); ``body`` has x forward, y up, z right (``z = x × y``); every ``segment`` frame is
+parallel to ``body`` in the N-pose. Quaternions are scalar-first Hamilton ``(..., 4)``;
+``q_A_from_B`` maps coordinates in B to coordinates in A.
+
+Two ways to find the body's forward axis (seed equations 3.1–3.7):
+
+* **N-pose / T-pose.** The arm sensor's orientation change from the N-pose,
+  ``q_delta(t) = q_world_from_arm(t) ⊗ q_world_from_arm(N)⁻¹``, is a rotation expressed in the
+  world frame. Raising an arm sideways turns its long axis from down (−y_body) to the side
+  (right arm: +z_body; left arm: −z_body). A rotation about +x_body takes +y to +z, hence −y
+  to −z: the **left** arm turns by +90° about forward and the **right** arm by −90°. So the
+  forward axis is ``+axis`` of the left arm's rotation and ``−axis`` of the right arm's.
+  The axis is fitted to the whole N→T movement (principal axis of the rotation vectors
+  ``log(q_delta(t))``, least squares through the origin), its vertical component is removed
+  (people never raise the arm in a perfectly vertical plane), the two arms' horizontal axes
+  are averaged when both were raised. ``y_body`` = up, ``z_body = x × y``.
+* **Heading from a named sensor axis** (as OpenSense's ``base_heading_axis``): one sensor
+  axis (e.g. the pelvis sensor's +z) points forward in the calibration pose; its horizontal
+  projection is ``x_body``.
+
+Then, per segment (seed 3.8–3.10), with the N-pose averaged over its window:
+``q_segment_from_sensor = q_segment_from_body(N) ⊗ q_body_from_world ⊗ q_world_from_sensor(N)``,
+where ``q_segment_from_body(N)`` is the identity for a true N-pose. Live (3.11):
+``q_world_from_segment(t) = q_world_from_sensor(t) ⊗ q_sensor_from_segment``.
+
+Display (seed section 4.3, equations 4.2–4.3), both returning orientations in a display
+world (ENU, the default camera looks north) in which the calibrated N-pose faces the camera
+(south): *world mode* removes the calibrated heading once (the figure turns when the person
+turns), *body mode* removes the reference segment's current heading at every instant (the
+figure always faces the camera).
+
+Checks: each pose window must be still (every sample within ``stillness_limit_deg`` of the
+window's mean orientation), or the calibration is refused naming the sensor that moved; the
+quality figures (arm rotation angle, tilt of the raw axis from horizontal, left/right
+disagreement, stillness, axis fit residual) give a verdict ``good``, ``acceptable`` or
+``poor`` with the reasons. One arm raised *forward* instead of sideways cannot be told from
+a sideways raise by a subject turned 90° (the arm's motion is the same); with both arms
+raised it shows as a left/right disagreement near 180° and is refused.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mimucap.core import rotation as rot
+
+FloatArray = NDArray[np.float64]
+
+VERDICTS = ("good", "acceptable", "poor")
+
+#: Sensors tried, in order, as the moving arm sensor of each side.
+ARM_SEGMENTS = {
+    "right": ("upper_arm_r", "forearm_r", "hand_r"),
+    "left": ("upper_arm_l", "forearm_l", "hand_l"),
+}
+
+#: ``R_display_from_body`` of the calibrated N-pose in the display world: facing the default
+#: camera (body x forward → world −y, y up → world +z, z right → world −x).
+Q_DISPLAY_FROM_BODY = rot.from_matrix(
+    np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+)
+
+
+class CalibrationRefused(ValueError):
+    """The poses cannot give a calibration; ``reason`` says why, ``figures`` what was measured."""
+
+    def __init__(self, reason: str, figures: Mapping[str, object] | None = None) -> None:
+        super().__init__(reason)
+        self.reason = reason
+        self.figures = dict(figures or {})
+
+
+@dataclass(frozen=True)
+class BodyCalSettings:
+    """Limits of the body calibration (angles in degrees).
+
+    ``stillness_limit_deg`` (3.0): a pose window is refused when any sample of a used sensor
+    deviates more than this from the window's mean orientation; ``stillness_good_deg`` (1.5):
+    above it the verdict is at most acceptable. ``min_arm_angle_deg`` (30): an arm turned less
+    than this from N to T was not raised (its axis is undefined). Arm rotation angle: good
+    within ``arm_angle_good_deg`` (20) of ``arm_angle_expected_deg`` (90), acceptable within
+    ``arm_angle_acceptable_deg`` (35). Raw axis tilt from horizontal: good ≤ 15, acceptable
+    ≤ 30. Left/right disagreement of the horizontal axes: good ≤ 10, acceptable ≤ 20, refused
+    above ``lr_refuse_deg`` (90: they cannot be averaged). Axis fit residual (RMS distance of
+    the rotation vectors from the fitted axis): good ≤ 5, acceptable ≤ 10.
+    ``movement_min_deg`` (5): movement samples turned less than this are left out of the
+    axis fit (their direction is noise). Heading mode: the named axis' tilt from horizontal is
+    good ≤ 30, acceptable ≤ 60, refused above ``heading_tilt_refuse_deg`` (80).
+    """
+
+    stillness_limit_deg: float = 3.0
+    stillness_good_deg: float = 1.5
+    min_arm_angle_deg: float = 30.0
+    arm_angle_expected_deg: float = 90.0
+    arm_angle_good_deg: float = 20.0
+    arm_angle_acceptable_deg: float = 35.0
+    axis_tilt_good_deg: float = 15.0
+    axis_tilt_acceptable_deg: float = 30.0
+    lr_good_deg: float = 10.0
+    lr_acceptable_deg: float = 20.0
+    lr_refuse_deg: float = 90.0
+    axis_residual_good_deg: float = 5.0
+    axis_residual_acceptable_deg: float = 10.0
+    movement_min_deg: float = 5.0
+    heading_tilt_good_deg: float = 30.0
+    heading_tilt_acceptable_deg: float = 60.0
+    heading_tilt_refuse_deg: float = 80.0
+
+    def __post_init__(self) -> None:
+        for name, value in self.__dict__.items():
+            if not np.isfinite(value) or value < 0.0:
+                raise ValueError(f"BodyCalSettings.{name} must be a finite non-negative angle, got {value}")
+
+
+DEFAULT_SETTINGS = BodyCalSettings()
+
+
+@dataclass(frozen=True)
+class PoseStillness:
+    """How still one sensor was in one pose window (deg from the window's mean orientation)."""
+
+    pose: str
+    sensor: str
+    max_deviation_deg: float
+    rms_deviation_deg: float
+    n_samples: int
+
+
+@dataclass(frozen=True)
+class ArmAxisFit:
+    """The forward axis from one arm's N→T movement.
+
+    ``raw_forward_world`` (3,) unit: the signed fitted axis (before removing its vertical
+    part); ``forward_world`` (3,) its horizontal unit projection; ``rotation_angle_deg`` the
+    angle between the mean N-pose and mean T-pose orientations of the arm sensor;
+    ``axis_tilt_deg`` the raw axis' angle from horizontal; ``residual_deg`` the RMS distance
+    of the movement's rotation vectors from the fitted axis; ``n_samples`` samples used.
+    """
+
+    side: str
+    sensor: str
+    raw_forward_world: FloatArray
+    forward_world: FloatArray
+    rotation_angle_deg: float
+    axis_tilt_deg: float
+    residual_deg: float
+    n_samples: int
+
+
+@dataclass(frozen=True)
+class CalibrationQuality:
+    """Quality figures and the verdict (``good``, ``acceptable`` or ``poor``) with reasons."""
+
+    method: str
+    stillness: tuple[PoseStillness, ...]
+    arms: tuple[ArmAxisFit, ...] = ()
+    left_right_disagreement_deg: float | None = None
+    heading_axis_tilt_deg: float | None = None
+    verdict: str = "good"
+    problems: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        """JSON-ready figures (degrees, plain lists)."""
+        return {
+            "method": self.method,
+            "verdict": self.verdict,
+            "problems": list(self.problems),
+            "stillness": [
+                {"pose": s.pose, "sensor": s.sensor, "max_deviation_deg": s.max_deviation_deg,
+                 "rms_deviation_deg": s.rms_deviation_deg, "n_samples": s.n_samples}
+                for s in self.stillness
+            ],
+            "arms": [
+                {"side": a.side, "sensor": a.sensor, "rotation_angle_deg": a.rotation_angle_deg,
+                 "axis_tilt_deg": a.axis_tilt_deg, "residual_deg": a.residual_deg,
+                 "n_samples": a.n_samples, "raw_forward_world": a.raw_forward_world.tolist(),
+                 "forward_world": a.forward_world.tolist()}
+                for a in self.arms
+            ],
+            "left_right_disagreement_deg": self.left_right_disagreement_deg,
+            "heading_axis_tilt_deg": self.heading_axis_tilt_deg,
+        }
+
+
+@dataclass(frozen=True)
+class BodyCalibration:
+    """A body calibration.
+
+    ``q_world_from_body`` (4,); ``up_world`` (3,) the world's up unit vector;
+    ``sensors`` segment → sensor id; ``q_segment_from_sensor`` segment → (4,).
+    """
+
+    q_world_from_body: FloatArray
+    up_world: FloatArray
+    sensors: Mapping[str, str]
+    q_segment_from_sensor: Mapping[str, FloatArray]
+    quality: CalibrationQuality
+    details: Mapping[str, object] = field(default_factory=dict)
+
+    @property
+    def segments(self) -> tuple[str, ...]:
+        return tuple(self.sensors)
+
+    def to_dict(self) -> dict:
+        """The calibration as JSON-ready data (quaternions as ``[w, x, y, z]`` lists)."""
+        return {
+            "format": "mimucap-body-calibration",
+            "format_version": 1,
+            "method": self.quality.method,
+            "q_world_from_body": self.q_world_from_body.tolist(),
+            "up_world": self.up_world.tolist(),
+            "segments": {
+                seg: {"sensor": self.sensors[seg],
+                      "q_segment_from_sensor": self.q_segment_from_sensor[seg].tolist()}
+                for seg in self.sensors
+            },
+            "quality": self.quality.to_dict(),
+            "verdict": self.quality.verdict,
+            **{k: v for k, v in self.details.items()},
+        }
+
+    @classmethod
+    def from_dict(cls, data: Mapping, origin: str = "calibration") -> "BodyCalibration":
+        """Inverse of :meth:`to_dict` (quality figures are kept as the verdict and problems)."""
+        if not isinstance(data, Mapping) or data.get("format") != "mimucap-body-calibration":
+            raise ValueError(f"{origin}: not a MimuCap body calibration (format 'mimucap-body-calibration')")
+        if data.get("format_version") != 1:
+            raise ValueError(f"{origin}: unsupported body calibration version {data.get('format_version')!r}")
+        try:
+            q_body = _unit_quaternion(data["q_world_from_body"], f"{origin}: q_world_from_body")
+            up = np.asarray(data["up_world"], dtype=np.float64)
+            if up.shape != (3,) or not np.isclose(np.linalg.norm(up), 1.0, atol=1e-6):
+                raise ValueError(f"{origin}: up_world must be a unit 3-vector")
+            sensors, q_seg = {}, {}
+            for seg, entry in data["segments"].items():
+                sensors[seg] = str(entry["sensor"])
+                q_seg[seg] = _unit_quaternion(entry["q_segment_from_sensor"], f"{origin}: segment {seg}")
+            quality_data = data.get("quality", {})
+            quality = CalibrationQuality(
+                method=str(data.get("method", quality_data.get("method", ""))),
+                stillness=(),
+                verdict=str(data.get("verdict", quality_data.get("verdict", "good"))),
+                problems=tuple(quality_data.get("problems", ())),
+            )
+        except (KeyError, TypeError, AttributeError) as error:
+            raise ValueError(f"{origin}: malformed body calibration ({error!r})") from None
+        if not sensors:
+            raise ValueError(f"{origin}: the calibration has no segments")
+        return cls(q_body, up, sensors, q_seg, quality)
+
+
+def _unit_quaternion(value: object, what: str) -> FloatArray:
+    q = np.asarray(value, dtype=np.float64)
+    if q.shape != (4,) or not np.all(np.isfinite(q)) or abs(np.linalg.norm(q) - 1.0) > 1e-3:
+        raise ValueError(f"{what}: expected a unit quaternion [w, x, y, z], got {value!r}")
+    return q / np.linalg.norm(q)
+
+
+# --------------------------------------------------------------------------------------------
+# Building blocks
+# --------------------------------------------------------------------------------------------
+
+def _unit(v: ArrayLike, what: str) -> FloatArray:
+    v = np.asarray(v, dtype=np.float64)
+    n = np.linalg.norm(v)
+    if v.shape != (3,) or not np.isfinite(n) or n < 1e-12:
+        raise ValueError(f"{what} must be a non-zero 3-vector, got {v}")
+    return v / n
+
+
+def horizontal(v_world: ArrayLike, up_world: ArrayLike) -> FloatArray:
+    """``v`` without its component along ``up`` (``(..., 3)``), not normalised."""
+    v = np.asarray(v_world, dtype=np.float64)
+    up = np.asarray(up_world, dtype=np.float64)
+    return v - np.sum(v * up, axis=-1, keepdims=True) * up
+
+
+def tilt_from_horizontal_deg(v_world: ArrayLike, up_world: ArrayLike) -> FloatArray:
+    """Angle (deg, 0..90) between the direction ``v`` and the horizontal plane."""
+    v = np.asarray(v_world, dtype=np.float64)
+    v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.degrees(np.arcsin(np.clip(np.abs(np.sum(v * up_world, axis=-1)), 0.0, 1.0)))
+
+
+def q_world_from_body_from_forward(forward_world: ArrayLike, up_world: ArrayLike) -> FloatArray:
+    """``q_world_from_body`` (4,) with x = horizontal part of ``forward``, y = up, z = x × y."""
+    up = _unit(up_world, "up_world")
+    x = horizontal(_unit(forward_world, "forward axis"), up)
+    norm = np.linalg.norm(x)
+    if norm < 1e-6:
+        raise ValueError("the forward axis is vertical: no heading can be taken from it")
+    x = x / norm
+    z = np.cross(x, up)
+    return rot.from_matrix(np.column_stack((x, up, z)))
+
+
+def pose_window(t_s: ArrayLike, window_s: tuple[float, float], what: str) -> slice:
+    """Index slice of the samples with ``t0 <= t <= t1`` (s); the window must lie in the recording."""
+    t = np.asarray(t_s, dtype=np.float64)
+    t0, t1 = float(window_s[0]), float(window_s[1])
+    if not (np.isfinite(t0) and np.isfinite(t1)) or t1 < t0:
+        raise ValueError(f"{what} window {t0:g}:{t1:g} s is not an interval (start must not exceed end)")
+    tolerance = 1e-9 * max(1.0, abs(t[-1]))
+    if t0 < t[0] - tolerance or t1 > t[-1] + tolerance:
+        raise ValueError(
+            f"{what} window {t0:g}:{t1:g} s lies outside the recording ({t[0]:g}:{t[-1]:g} s)"
+        )
+    start = int(np.searchsorted(t, t0 - tolerance, side="left"))
+    stop = int(np.searchsorted(t, t1 + tolerance, side="right"))
+    if stop <= start:
+        raise ValueError(f"{what} window {t0:g}:{t1:g} s holds no sample")
+    return slice(start, stop)
+
+
+def pose_stillness(q_window: ArrayLike, pose: str, sensor: str) -> tuple[FloatArray, PoseStillness]:
+    """Mean orientation (4,) of a window ``(K, 4)`` (Markley average) and its stillness figures."""
+    q = np.asarray(q_window, dtype=np.float64)
+    if q.ndim != 2 or q.shape[0] == 0 or q.shape[1] != 4:
+        raise ValueError(f"{pose}: sensor {sensor}: expected a (K, 4) window of quaternions, got {q.shape}")
+    if not np.all(np.isfinite(q)):
+        raise ValueError(f"{pose}: sensor {sensor}: NaN quaternion in the pose window")
+    mean = rot.average(q)
+    deviation = np.degrees(rot.angle_between(mean, q))
+    figures = PoseStillness(pose, sensor, float(deviation.max()), float(np.sqrt(np.mean(deviation**2))), int(q.shape[0]))
+    return mean, figures
+
+
+def fit_rotation_axis(rotvecs_world: ArrayLike, reference_world: ArrayLike) -> tuple[FloatArray, float]:
+    """Principal axis (3,) of rotation vectors ``(M, 3)`` and their RMS distance from it (rad).
+
+    Least squares through the origin: the eigenvector of ``Σ r rᵀ`` with the largest
+    eigenvalue, signed so that it points along ``reference`` (3,).
+    """
+    r = np.asarray(rotvecs_world, dtype=np.float64)
+    if r.ndim != 2 or r.shape[0] == 0:
+        raise ValueError("fit_rotation_axis needs at least one rotation vector")
+    _, vectors = np.linalg.eigh(r.T @ r)
+    axis = vectors[:, -1]
+    if np.dot(axis, reference_world) < 0.0:
+        axis = -axis
+    off_axis = r - np.outer(r @ axis, axis)
+    return axis, float(np.sqrt(np.mean(np.sum(off_axis**2, axis=1))))
+
+
+def fit_arm_axis(
+    side: str,
+    sensor: str,
+    q_world_from_arm_npose: ArrayLike,
+    q_world_from_arm_tpose: ArrayLike,
+    q_world_from_arm_movement: ArrayLike,
+    up_world: ArrayLike,
+    settings: BodyCalSettings = DEFAULT_SETTINGS,
+) -> ArmAxisFit:
+    """The forward axis from one arm's movement (see the module docstring for the sign).
+
+    ``q_world_from_arm_npose`` and ``_tpose`` (4,) are the mean pose orientations;
+    ``q_world_from_arm_movement`` (M, 4) every sample from the end of the N-pose to the end of
+    the T-pose. Raises :class:`CalibrationRefused` when the arm turned less than
+    ``settings.min_arm_angle_deg``.
+    """
+    if side not in ARM_SEGMENTS:
+        raise ValueError(f"arm side must be 'left' or 'right', got {side!r}")
+    up = _unit(up_world, "up_world")
+    q_n = np.asarray(q_world_from_arm_npose, dtype=np.float64)
+    q_inv_n = rot.conjugate(q_n)
+    r_t = rot.to_rotvec(rot.multiply(np.asarray(q_world_from_arm_tpose, dtype=np.float64), q_inv_n))
+    angle_deg = float(np.degrees(np.linalg.norm(r_t)))
+    if angle_deg < settings.min_arm_angle_deg:
+        raise CalibrationRefused(
+            f"the {side} arm (sensor {sensor}) was not raised: it turned {angle_deg:.1f}° between "
+            f"N-pose and T-pose (at least {settings.min_arm_angle_deg:g}° needed, about "
+            f"{settings.arm_angle_expected_deg:g}° expected)",
+            {"side": side, "sensor": sensor, "rotation_angle_deg": angle_deg},
+        )
+    movement = np.asarray(q_world_from_arm_movement, dtype=np.float64).reshape(-1, 4)
+    rotvecs = rot.to_rotvec(rot.multiply(movement, q_inv_n))
+    moved = np.linalg.norm(rotvecs, axis=1) >= np.radians(settings.movement_min_deg)
+    rotvecs = np.vstack((rotvecs[moved], r_t[None, :]))
+    axis, residual = fit_rotation_axis(rotvecs, r_t)
+    raw_forward = axis if side == "left" else -axis
+    flat = horizontal(raw_forward, up)
+    if np.linalg.norm(flat) < 1e-6:
+        raise CalibrationRefused(
+            f"the {side} arm (sensor {sensor}) turned about the vertical: no forward axis",
+            {"side": side, "sensor": sensor, "rotation_angle_deg": angle_deg},
+        )
+    return ArmAxisFit(
+        side=side,
+        sensor=sensor,
+        raw_forward_world=raw_forward,
+        forward_world=flat / np.linalg.norm(flat),
+        rotation_angle_deg=angle_deg,
+        axis_tilt_deg=float(tilt_from_horizontal_deg(raw_forward, up)),
+        residual_deg=float(np.degrees(residual)),
+        n_samples=int(rotvecs.shape[0]),
+    )
+
+
+def _grade(value: float, good: float, acceptable: float) -> int:
+    return 0 if value <= good else (1 if value <= acceptable else 2)
+
+
+def _verdict(checks: Sequence[tuple[int, str]]) -> tuple[str, tuple[str, ...]]:
+    worst = max((grade for grade, _ in checks), default=0)
+    return VERDICTS[worst], tuple(text for grade, text in checks if grade > 0)
+
+
+def _stillness_checks(stillness: Sequence[PoseStillness], settings: BodyCalSettings) -> list[tuple[int, str]]:
+    checks = []
+    for s in stillness:
+        if s.max_deviation_deg > settings.stillness_limit_deg:
+            raise CalibrationRefused(
+                f"sensor {s.sensor} moved during the {s.pose}: {s.max_deviation_deg:.1f}° from its "
+                f"mean orientation (limit {settings.stillness_limit_deg:g}°); repeat the pose standing still",
+                {"pose": s.pose, "sensor": s.sensor, "max_deviation_deg": s.max_deviation_deg},
+            )
+        if s.max_deviation_deg > settings.stillness_good_deg:
+            checks.append((1, f"sensor {s.sensor} was not quite still in the {s.pose} "
+                              f"({s.max_deviation_deg:.1f}°)"))
+    return checks
+
+
+def _npose_means(
+    q_world_from_sensor: Mapping[str, ArrayLike], sensors: Sequence[str], window: slice
+) -> tuple[dict[str, FloatArray], list[PoseStillness]]:
+    means, figures = {}, []
+    for sensor in sensors:
+        mean, still = pose_stillness(np.asarray(q_world_from_sensor[sensor])[window], "N-pose", sensor)
+        means[sensor] = mean
+        figures.append(still)
+    return means, figures
+
+
+def check_mapping(
+    mapping: Mapping[str, str],
+    available_sensors: Sequence[str],
+    model_segments: Sequence[str] | None = None,
+) -> dict[str, str]:
+    """Validate ``mapping`` (segment → sensor id) against the recording and the model."""
+    if not mapping:
+        raise ValueError("the sensor-to-segment mapping is empty")
+    result: dict[str, str] = {}
+    used: dict[str, str] = {}
+    for segment, sensor in mapping.items():
+        segment, sensor = str(segment).strip(), str(sensor).strip()
+        if not segment:
+            raise ValueError(f"sensor {sensor!r} is mapped to no segment")
+        if not sensor:
+            raise ValueError(f"segment {segment!r} has no sensor")
+        if model_segments is not None and segment not in model_segments:
+            raise ValueError(
+                f"unknown segment {segment!r} in the mapping; the model has: {', '.join(model_segments)}"
+            )
+        if sensor not in available_sensors:
+            raise ValueError(
+                f"unknown sensor {sensor!r} in the mapping (for segment {segment}); the recording "
+                f"has: {', '.join(available_sensors)}"
+            )
+        if sensor in used:
+            raise ValueError(f"sensor {sensor} is mapped to two segments: {used[sensor]} and {segment}")
+        used[sensor] = segment
+        result[segment] = sensor
+    return result
+
+
+def _segment_rotations(
+    q_world_from_body: FloatArray,
+    means: Mapping[str, FloatArray],
+    mapping: Mapping[str, str],
+    q_segment_from_body_npose: Mapping[str, ArrayLike] | None,
+) -> dict[str, FloatArray]:
+    q_body_from_world = rot.conjugate(q_world_from_body)
+    result = {}
+    for segment, sensor in mapping.items():
+        q_body_from_sensor = rot.multiply(q_body_from_world, means[sensor])
+        q_seg_from_body = rot.identity() if not q_segment_from_body_npose or segment not in q_segment_from_body_npose \
+            else rot.normalize(q_segment_from_body_npose[segment])
+        result[segment] = rot.canonical(rot.multiply(q_seg_from_body, q_body_from_sensor))
+    return result
+
+
+# --------------------------------------------------------------------------------------------
+# The two calibrations
+# --------------------------------------------------------------------------------------------
+
+def calibrate_npose_tpose(
+    t_s: ArrayLike,
+    q_world_from_sensor: Mapping[str, ArrayLike],
+    mapping: Mapping[str, str],
+    npose_s: tuple[float, float],
+    tpose_s: tuple[float, float],
+    up_world: ArrayLike = (0.0, 0.0, 1.0),
+    arms: str = "auto",
+    settings: BodyCalSettings = DEFAULT_SETTINGS,
+    q_segment_from_body_npose: Mapping[str, ArrayLike] | None = None,
+) -> BodyCalibration:
+    """N-pose / T-pose calibration of a recording.
+
+    ``t_s`` (N,) s; ``q_world_from_sensor`` sensor id → (N, 4); ``mapping`` segment → sensor
+    id; ``npose_s`` and ``tpose_s`` the pose windows ``(start, end)`` in seconds, the T-pose
+    after the N-pose; ``up_world`` the world's up direction; ``arms`` ``"auto"`` (every arm
+    with a sensor that was raised), ``"left"``, ``"right"`` or ``"both"``.
+    ``q_segment_from_body_npose`` (optional, segment → (4,)) for a calibration pose in which
+    some segment is not parallel to the body. Raises :class:`CalibrationRefused` (a
+    ``ValueError``) when a pose was not still, no arm was raised or the arms disagree.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    up = _unit(up_world, "up_world")
+    mapping = check_mapping(mapping, list(q_world_from_sensor))
+    n_window = pose_window(t, npose_s, "N-pose")
+    t_window = pose_window(t, tpose_s, "T-pose")
+    if t_window.start < n_window.stop:
+        raise ValueError(
+            f"the T-pose window {tpose_s[0]:g}:{tpose_s[1]:g} s must start after the N-pose window "
+            f"{npose_s[0]:g}:{npose_s[1]:g} s ends"
+        )
+    if arms not in ("auto", "left", "right", "both"):
+        raise ValueError(f"arms must be auto, left, right or both, got {arms!r}")
+    means, stillness = _npose_means(q_world_from_sensor, list(dict.fromkeys(mapping.values())), n_window)
+    candidates = {}
+    for side, segments in ARM_SEGMENTS.items():
+        segment = next((s for s in segments if s in mapping), None)
+        if segment is not None:
+            candidates[side] = mapping[segment]
+    wanted = ["left", "right"] if arms in ("auto", "both") else [arms]
+    if arms != "auto":
+        missing = [side for side in wanted if side not in candidates]
+        if missing:
+            raise ValueError(f"no sensor on the {' or '.join(missing)} arm (map upper_arm_l/r)")
+    sides = [side for side in wanted if side in candidates]
+    if not sides:
+        raise ValueError("an N/T-pose calibration needs a sensor on an arm (map upper_arm_l or upper_arm_r)")
+    fits: list[ArmAxisFit] = []
+    refusals: list[CalibrationRefused] = []
+    for side in sides:
+        sensor = candidates[side]
+        q = np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
+        q_t, still_t = pose_stillness(q[t_window], "T-pose", sensor)
+        stillness.append(still_t)
+        try:
+            fits.append(fit_arm_axis(side, sensor, means[sensor], q_t, q[n_window.stop:t_window.stop], up, settings))
+        except CalibrationRefused as refusal:
+            refusals.append(refusal)
+    checks = _stillness_checks(stillness, settings)
+    if refusals and (arms != "auto" or not fits):
+        raise refusals[0]
+    disagreement = None
+    if len(fits) == 2:
+        cos = float(np.clip(np.dot(fits[0].forward_world, fits[1].forward_world), -1.0, 1.0))
+        disagreement = float(np.degrees(np.arccos(cos)))
+        if disagreement > settings.lr_refuse_deg:
+            raise CalibrationRefused(
+                f"the left and right arm axes disagree by {disagreement:.0f}°: raise both arms "
+                "sideways (was one raised forward?)",
+                {"left_right_disagreement_deg": disagreement},
+            )
+        checks.append((_grade(disagreement, settings.lr_good_deg, settings.lr_acceptable_deg),
+                       f"left and right arm axes disagree by {disagreement:.1f}°"))
+    for fit in fits:
+        error = abs(fit.rotation_angle_deg - settings.arm_angle_expected_deg)
+        checks.append((_grade(error, settings.arm_angle_good_deg, settings.arm_angle_acceptable_deg),
+                       f"the {fit.side} arm turned {fit.rotation_angle_deg:.0f}° "
+                       f"(about {settings.arm_angle_expected_deg:g}° expected)"))
+        checks.append((_grade(fit.axis_tilt_deg, settings.axis_tilt_good_deg, settings.axis_tilt_acceptable_deg),
+                       f"the {fit.side} arm's axis is tilted {fit.axis_tilt_deg:.0f}° from horizontal "
+                       "(raise the arm in the frontal plane)"))
+        checks.append((_grade(fit.residual_deg, settings.axis_residual_good_deg, settings.axis_residual_acceptable_deg),
+                       f"the {fit.side} arm did not turn about one axis (residual {fit.residual_deg:.1f}°)"))
+    forward = np.sum([fit.forward_world for fit in fits], axis=0)
+    q_world_from_body = q_world_from_body_from_forward(forward, up)
+    verdict, problems = _verdict(checks)
+    quality = CalibrationQuality("npose_tpose", tuple(stillness), tuple(fits), disagreement, None, verdict, problems)
+    segments = _segment_rotations(q_world_from_body, means, mapping, q_segment_from_body_npose)
+    details = {"npose_s": [float(npose_s[0]), float(npose_s[1])], "tpose_s": [float(tpose_s[0]), float(tpose_s[1])]}
+    return BodyCalibration(q_world_from_body, up, dict(mapping), segments, quality, details)
+
+
+def calibrate_heading(
+    t_s: ArrayLike,
+    q_world_from_sensor: Mapping[str, ArrayLike],
+    mapping: Mapping[str, str],
+    heading_sensor: str,
+    heading_axis_sensor: ArrayLike,
+    npose_s: tuple[float, float] | None = None,
+    up_world: ArrayLike = (0.0, 0.0, 1.0),
+    settings: BodyCalSettings = DEFAULT_SETTINGS,
+    q_segment_from_body_npose: Mapping[str, ArrayLike] | None = None,
+) -> BodyCalibration:
+    """Calibration from one standing pose and a sensor axis that points forward.
+
+    ``heading_sensor`` is a sensor id (it need not be in ``mapping``); ``heading_axis_sensor``
+    (3,) the axis, in that sensor's frame, that points forward in the pose (e.g. ``(0, 0, 1)``
+    for OpenSense's ``base_heading_axis = z``); ``npose_s`` the pose window (default: the first
+    sample, as OpenSense does). Other arguments as :func:`calibrate_npose_tpose`.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    up = _unit(up_world, "up_world")
+    axis = _unit(heading_axis_sensor, "heading axis")
+    mapping = check_mapping(mapping, list(q_world_from_sensor))
+    if heading_sensor not in q_world_from_sensor:
+        raise ValueError(
+            f"unknown heading sensor {heading_sensor!r}; the recording has: {', '.join(q_world_from_sensor)}"
+        )
+    window = pose_window(t, npose_s if npose_s is not None else (t[0], t[0]), "N-pose")
+    sensors = list(dict.fromkeys(list(mapping.values()) + [heading_sensor]))
+    means, stillness = _npose_means(q_world_from_sensor, sensors, window)
+    checks = _stillness_checks(stillness, settings)
+    forward_raw = rot.rotate(means[heading_sensor], axis)
+    tilt = float(tilt_from_horizontal_deg(forward_raw, up))
+    if tilt > settings.heading_tilt_refuse_deg:
+        raise CalibrationRefused(
+            f"the heading axis of sensor {heading_sensor} is {tilt:.0f}° from horizontal: it cannot "
+            "give the forward direction (choose an axis that points forward)",
+            {"heading_axis_tilt_deg": tilt},
+        )
+    checks.append((_grade(tilt, settings.heading_tilt_good_deg, settings.heading_tilt_acceptable_deg),
+                   f"the heading axis of sensor {heading_sensor} is tilted {tilt:.0f}° from horizontal"))
+    q_world_from_body = q_world_from_body_from_forward(forward_raw, up)
+    verdict, problems = _verdict(checks)
+    quality = CalibrationQuality("heading", tuple(stillness), (), None, tilt, verdict, problems)
+    segments = _segment_rotations(q_world_from_body, means, mapping, q_segment_from_body_npose)
+    details = {
+        "npose_s": [float(t[window.start]), float(t[window.stop - 1])],
+        "heading_sensor": heading_sensor,
+        "heading_axis_sensor": axis.tolist(),
+    }
+    return BodyCalibration(q_world_from_body, up, dict(mapping), segments, quality, details)
+
+
+# --------------------------------------------------------------------------------------------
+# Live mapping and display
+# --------------------------------------------------------------------------------------------
+
+def segment_orientations(
+    calibration: BodyCalibration, q_world_from_sensor: Mapping[str, ArrayLike]
+) -> dict[str, FloatArray]:
+    """``q_world_from_segment = q_world_from_sensor ⊗ q_sensor_from_segment`` for every calibrated
+    segment (``(..., 4)``, following the sensors' shapes)."""
+    result = {}
+    for segment, sensor in calibration.sensors.items():
+        if sensor not in q_world_from_sensor:
+            raise ValueError(
+                f"sensor {sensor} (segment {segment}) is missing from the data; it has: "
+                f"{', '.join(q_world_from_sensor)}"
+            )
+        q = np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
+        if not np.all(np.isfinite(q)):
+            raise ValueError(f"sensor {sensor} (segment {segment}): NaN quaternion")
+        result[segment] = rot.multiply(q, rot.conjugate(calibration.q_segment_from_sensor[segment]))
+    return result
+
+
+def fill_missing_segments(
+    q_world_from_segment: Mapping[str, ArrayLike], segments_parent_first: Sequence[tuple[str, str | None]]
+) -> dict[str, FloatArray]:
+    """Give every segment without a sensor its parent's orientation (a rigid continuation).
+
+    ``segments_parent_first`` lists ``(segment, parent)`` pairs, parents first (a skeleton
+    model's order). A root without a sensor raises ``ValueError``.
+    """
+    result = {k: np.asarray(v, dtype=np.float64) for k, v in q_world_from_segment.items()}
+    for segment, parent in segments_parent_first:
+        if segment in result:
+            continue
+        if parent is None or parent not in result:
+            raise ValueError(f"segment {segment} has no sensor and no parent orientation to follow")
+        result[segment] = result[parent]
+    return result
+
+
+def world_mode(q_world_from_segment: Mapping[str, ArrayLike], calibration: BodyCalibration) -> dict[str, FloatArray]:
+    """Display orientations normalised to the calibrated N-pose (seed 4.2–4.3).
+
+    ``q_display_from_segment = Q_DISPLAY_FROM_BODY ⊗ q_body_from_world ⊗ q_world_from_segment``:
+    the N-pose faces the camera and the figure turns on screen when the person turns.
+    """
+    q_display_from_world = rot.multiply(Q_DISPLAY_FROM_BODY, rot.conjugate(calibration.q_world_from_body))
+    return {s: rot.multiply(q_display_from_world, np.asarray(q, dtype=np.float64))
+            for s, q in q_world_from_segment.items()}
+
+
+def heading_frame(q_world_from_segment: ArrayLike, up_world: ArrayLike = (0.0, 0.0, 1.0)) -> FloatArray:
+    """``q_world_from_heading`` (..., 4): x = the segment's horizontal forward direction, y = up.
+
+    The forward direction blends the horizontal parts of the segment's x axis and of
+    ``up × z`` (its right axis turned forward), so that it stays defined when the segment
+    bends forward or sideways.
+    """
+    q = np.asarray(q_world_from_segment, dtype=np.float64)
+    up = _unit(up_world, "up_world")
+    x = rot.rotate(q, np.array([1.0, 0.0, 0.0]))
+    z = rot.rotate(q, np.array([0.0, 0.0, 1.0]))
+    forward = horizontal(x, up) + horizontal(np.cross(up, z), up)
+    norm = np.linalg.norm(forward, axis=-1, keepdims=True)
+    forward = forward / np.where(norm < 1e-12, 1.0, norm)
+    right = np.cross(forward, up)
+    matrix = np.stack((forward, np.broadcast_to(up, forward.shape), right), axis=-1)
+    return rot.from_matrix(matrix)
+
+
+def body_mode(
+    q_world_from_segment: Mapping[str, ArrayLike],
+    up_world: ArrayLike = (0.0, 0.0, 1.0),
+    reference: str = "pelvis",
+) -> dict[str, FloatArray]:
+    """Display orientations relative to the reference segment's current heading.
+
+    ``q_display_from_segment(t) = Q_DISPLAY_FROM_BODY ⊗ q_heading_from_world(t) ⊗ q_world_from_segment(t)``
+    with the heading frame of ``reference`` (:func:`heading_frame`): the figure always faces
+    the camera, leaning and bending as the person does.
+    """
+    if reference not in q_world_from_segment:
+        raise ValueError(f"body mode needs the {reference} orientation (segments: {', '.join(q_world_from_segment)})")
+    q_heading = heading_frame(q_world_from_segment[reference], up_world)
+    q_display_from_world = rot.multiply(Q_DISPLAY_FROM_BODY, rot.conjugate(q_heading))
+    return {s: rot.multiply(q_display_from_world, np.asarray(q, dtype=np.float64))
+            for s, q in q_world_from_segment.items()}
