@@ -1,0 +1,212 @@
+"""``mimucap magcal``: fit a magnetometer calibration from files, or run the protocol study.
+
+``mimucap magcal fit FILE... [--format auto|csv|xsens|session] [--sensor ID]
+[--unit uT|gauss|counts] [--scale-to-uT F] [--field-uT F] [--method ellipsoid|quadric]
+[--json] [--save]`` fits the samples of all files together. Units: ``--unit`` overrides
+what a file states (sunsided headers say gauss, sessions µT, Xsens exports are arbitrary
+units, i.e. counts); a plain 3-column CSV without a stated unit is taken as µT. Counts need
+``--scale-to-uT`` (µT per count) and all results are then in µT. With ``--json`` one JSON
+object is printed with exactly the keys ``offset_uT``, ``soft_iron``, ``field_uT``,
+``rms_residual_uT``, ``rms_residual_pct``, ``condition``, ``samples_used``,
+``samples_rejected``, ``verdict``, ``reasons``. ``--save`` stores the calibration for the
+sensor (see :mod:`mimucap.io.calibration_store`). A refused fit exits with status 1 and its
+reason.
+
+``mimucap magcal study [--trials N] [--seed K] [--folder DIR]`` prints the seed's Tables 1–2
+(centre and radii RMSE against a reference fit, protocol durations). Without ``--folder`` the
+trials are simulated (MPU-9250-like noise, 49.3 µT field). With ``--folder`` the trials are
+real recordings: ``DIR/reference/`` holds the dense reference recording (all files fitted
+together), and ``DIR/figure8-1/`` … ``DIR/single_axis-3/`` (any folder named
+``<protocol>-<turns>``) hold one trial per file, or per sub-folder whose files are fitted
+together. The plotting of fitted ellipsoids is not offered (it would need a plotting
+dependency MimuCap does not have).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+from datetime import datetime, timezone
+from pathlib import Path
+
+import numpy as np
+
+from mimucap.core.magcal import FitSettings, calibrate
+from mimucap.core.magcal_study import (
+    StudySettings,
+    Trial,
+    evaluate_protocols,
+    format_tables,
+    simulate_study,
+)
+from mimucap.io.calibration_store import CalibrationStore
+from mimucap.io.magdata import FORMATS, MAG_UNITS, MagRecording, read_mag_files, to_microtesla
+
+JSON_KEYS = (
+    "offset_uT", "soft_iron", "field_uT", "rms_residual_uT", "rms_residual_pct", "condition",
+    "samples_used", "samples_rejected", "verdict", "reasons",
+)
+_PROTOCOL_FOLDER = re.compile(r"^[a-z0-9_]+-[0-9]+$")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add ``magcal`` with its ``fit`` and ``study`` sub-commands."""
+    parser = subparsers.add_parser(
+        "magcal", help="magnetometer calibration: fit files, run the protocol study",
+        description="Magnetometer calibration (hard and soft iron).",
+    )
+    parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
+    actions = parser.add_subparsers(dest="magcal_command", metavar="ACTION")
+
+    fit = actions.add_parser("fit", help="fit a calibration to the samples of one or more files")
+    fit.add_argument("files", nargs="+", metavar="FILE", help="CSV, Xsens export or session file")
+    _add_input_options(fit)
+    fit.add_argument("--field-uT", type=float, default=None, help="known local field magnitude, µT")
+    fit.add_argument("--method", choices=("ellipsoid", "quadric"), default="ellipsoid",
+                     help="ellipsoid-specific fit (default) or the general quadric least squares")
+    fit.add_argument("--json", action="store_true", help="print one JSON object")
+    fit.add_argument("--save", action="store_true", help="store the calibration for the sensor")
+    fit.set_defaults(func=run_fit)
+
+    study = actions.add_parser("study", help="compare rotation protocols (seed Tables 1-2)")
+    study.add_argument("--trials", type=int, default=10, help="trials per protocol (simulated; default 10)")
+    study.add_argument("--seed", type=int, default=0, help="random seed of the simulated sensor and trials")
+    study.add_argument("--folder", type=Path, default=None, help="folder of real recordings (see help)")
+    _add_input_options(study)
+    study.set_defaults(func=run_study)
+
+
+def _add_input_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--format", choices=FORMATS, default="auto", help="input format (default: auto)")
+    parser.add_argument("--sensor", default=None, metavar="ID", help="sensor id (selects a session's sensor)")
+    parser.add_argument("--unit", choices=MAG_UNITS, default=None, help="unit of the samples (default: as the file states, else uT)")
+    parser.add_argument("--scale-to-uT", type=float, default=None, metavar="F", help="µT per count for --unit counts")
+
+
+def _samples_uT(recordings: list[MagRecording], args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray | None]:
+    mags, accs = [], []
+    for recording in recordings:
+        unit = args.unit or recording.unit or "uT"
+        mags.append(to_microtesla(recording.mag, unit, args.scale_to_uT, recording.source))
+        acc = recording.acc_at_mag_times()
+        accs.append(acc if acc is not None else np.full((len(recording.mag), 3), np.nan))
+    mag = np.vstack(mags)
+    acc = np.vstack(accs)
+    return mag, (acc if np.isfinite(acc).any() else None)
+
+
+def _sensor_id(recordings: list[MagRecording], requested: str | None) -> str:
+    if requested is not None:
+        return requested
+    ids = sorted({r.sensor_id for r in recordings if r.sensor_id is not None})
+    if len(ids) > 1:
+        raise ValueError(f"the files hold several sensors ({', '.join(ids)}): choose one with --sensor")
+    return ids[0] if ids else "unknown"
+
+
+def _finite_or_none(value: float) -> float | None:
+    return float(value) if math.isfinite(value) else None
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    """Fit, print (text or JSON) and optionally save; returns the exit code."""
+    recordings = read_mag_files(args.files, args.format, args.sensor)
+    sensor_id = _sensor_id(recordings, args.sensor)
+    mag, acc = _samples_uT(recordings, args)
+    created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    result = calibrate(
+        mag, sensor_id, acc=acc, settings=FitSettings(method=args.method, field_uT=args.field_uT),
+        protocol="file", created_utc=created,
+    )
+    fit, quality = result.fit, result.quality
+    summary = {
+        "offset_uT": [float(v) for v in fit.offset_uT],
+        "soft_iron": [[float(v) for v in row] for row in fit.soft_iron],
+        "field_uT": float(fit.field_uT),
+        "rms_residual_uT": quality.rms_residual_uT,
+        "rms_residual_pct": quality.rms_residual_pct,
+        "condition": _finite_or_none(quality.condition),
+        "samples_used": fit.samples_used,
+        "samples_rejected": fit.samples_rejected,
+        "verdict": quality.verdict,
+        "reasons": list(quality.reasons),
+    }
+    saved = CalibrationStore().save(result.calibration) if args.save else None
+    if args.json:
+        print(json.dumps(summary))
+        return 0
+    print(f"sensor {sensor_id}: {len(recordings)} file(s), {fit.samples_input} samples, method {fit.method}")
+    print(f"offset_uT      {_vector(fit.offset_uT)}")
+    for index, row in enumerate(fit.soft_iron):
+        print(f"{'soft_iron' if index == 0 else '':<14} {_vector(row, 4)}")
+    print(f"field_uT       {fit.field_uT:.2f} ({'given' if fit.field_given else 'fitted mean radius'})")
+    print(f"radii_uT       {_vector(fit.ellipsoid.radii)} (ratio {quality.radii_ratio:.3f})")
+    print(f"rms residual   {quality.rms_residual_uT:.3f} µT ({quality.rms_residual_pct:.2f} %)")
+    coverage = ", ".join(f"{a} {c:.0%}" for a, c in zip("xyz", quality.axis_coverage))
+    print(f"coverage       condition {quality.condition:.1f}; azimuth {coverage}")
+    if quality.dip_std_deg is not None:
+        print(f"dip            {quality.dip_mean_deg:.1f}° ± {quality.dip_std_deg:.1f}°")
+    print(
+        f"samples        used {fit.samples_used}, rejected {fit.samples_rejected} "
+        f"(NaN/inf {fit.samples_nonfinite}, outliers {fit.samples_outliers}), thinned {fit.samples_thinned}"
+    )
+    print(f"verdict        {quality.verdict}")
+    for reason in quality.reasons:
+        print(f"  - {reason}")
+    if saved is not None:
+        print(f"saved          {saved}")
+    return 0
+
+
+def _vector(values, digits: int = 3) -> str:
+    return "[" + ", ".join(f"{v:.{digits}f}" for v in values) + "]"
+
+
+def _folder_trial(paths: list[Path], args: argparse.Namespace) -> Trial:
+    recordings = read_mag_files(paths, args.format, args.sensor)
+    mag, _ = _samples_uT(recordings, args)
+    durations = [float(r.t_s[-1] - r.t_s[0]) for r in recordings if r.t_s is not None and len(r.t_s) > 1]
+    duration = float(sum(durations)) if len(durations) == len(recordings) else None
+    return Trial(mag_uT=mag, duration_s=duration)
+
+
+def _trial_paths(folder: Path) -> list[list[Path]]:
+    entries = sorted(p for p in folder.iterdir() if not p.name.startswith("."))
+    trials = []
+    for entry in entries:
+        if entry.is_dir() and not (entry / "mag_hmc5883l.csv.gz").is_file():
+            files = sorted(p for p in entry.iterdir() if not p.name.startswith("."))
+            if files:
+                trials.append(files)
+        else:
+            trials.append([entry])
+    return trials
+
+
+def run_study(args: argparse.Namespace) -> int:
+    """Run the protocol study (simulated or on a folder) and print the tables."""
+    if args.folder is None:
+        result = simulate_study(StudySettings(trials=args.trials, seed=args.seed))
+        print(format_tables(result))
+        return 0
+    folder = args.folder
+    if not folder.is_dir():
+        raise FileNotFoundError(f"{folder}: no such folder")
+    reference_dir = folder / "reference"
+    if not reference_dir.is_dir():
+        raise ValueError(f"{folder}: the study folder needs a 'reference' sub-folder with the dense recording")
+    reference = _folder_trial([p for group in _trial_paths(reference_dir) for p in group], args)
+    trials: dict[str, list[Trial]] = {}
+    for protocol_dir in sorted(p for p in folder.iterdir() if p.is_dir() and p.name != "reference"):
+        if not _PROTOCOL_FOLDER.match(protocol_dir.name):
+            raise ValueError(f"{protocol_dir}: protocol folders are named <protocol>-<turns>, e.g. figure8-3")
+        trials[protocol_dir.name] = [_folder_trial(group, args) for group in _trial_paths(protocol_dir)]
+    if not trials:
+        raise ValueError(f"{folder}: no protocol folders (named like figure8-1 or single_axis-1)")
+    result = evaluate_protocols(
+        trials, reference.mag_uT, description=f"recordings in {folder} (reference: {reference_dir})"
+    )
+    print(format_tables(result))
+    return 0

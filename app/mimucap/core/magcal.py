@@ -1,0 +1,128 @@
+"""The magnetometer calibration of one sensor: model, application and the one-call calibration.
+
+Model (``shared/docs/conventions.md``): ``mag_raw = A · mag_true + b + noise``. A
+:class:`MagCalibration` holds the hard-iron offset ``b`` (``offset_uT``, (3,), µT, sensor
+frame) and the soft-iron correction ``A⁻¹`` (``soft_iron``, (3, 3), the symmetric square root),
+and is applied as ``mag_cal = soft_iron @ (mag_raw − offset_uT)``. It carries the sensor id
+it belongs to and refuses to be applied to another one, the creation date (ISO 8601 UTC,
+supplied by the caller: the core reads no clock), the protocol used, the sample count and
+its quality figures.
+
+:func:`calibrate` runs the fit (:mod:`mimucap.core.magcal_fit`) and the quality assessment
+(:mod:`mimucap.core.magcal_quality`) and returns both with the calibration record.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from mimucap.core.magcal_fit import (
+    EllipsoidFit,
+    FitRefused,
+    FitSettings,
+    apply_correction,
+    fit_ellipsoid,
+)
+from mimucap.core.magcal_quality import Quality, QualityThresholds, assess_quality
+
+__all__ = [
+    "CalibrationResult",
+    "FitRefused",
+    "FitSettings",
+    "MagCalibration",
+    "QualityThresholds",
+    "calibrate",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class MagCalibration:
+    """Hard- and soft-iron calibration of one sensor's magnetometer.
+
+    sensor_id: the sensor it belongs to. offset_uT: ``b`` (3,), µT. soft_iron: ``A⁻¹`` (3, 3),
+    symmetric. field_uT: field magnitude the calibrated samples have. created_utc: ISO 8601
+    date. protocol: how the samples were recorded (e.g. "single_axis", "figure8", "file").
+    samples_used: samples in the final fit. quality: :meth:`Quality.as_dict` figures.
+    """
+
+    sensor_id: str
+    offset_uT: FloatArray
+    soft_iron: FloatArray
+    field_uT: float
+    created_utc: str = ""
+    protocol: str = ""
+    samples_used: int = 0
+    quality: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        offset = np.asarray(self.offset_uT, dtype=np.float64)
+        soft_iron = np.asarray(self.soft_iron, dtype=np.float64)
+        if offset.shape != (3,) or not np.all(np.isfinite(offset)):
+            raise ValueError(f"sensor {self.sensor_id}: offset_uT must be 3 finite numbers")
+        if soft_iron.shape != (3, 3) or not np.all(np.isfinite(soft_iron)):
+            raise ValueError(f"sensor {self.sensor_id}: soft_iron must be a finite 3×3 matrix")
+        if not np.allclose(soft_iron, soft_iron.T, rtol=0, atol=1e-9 * np.abs(soft_iron).max()):
+            raise ValueError(f"sensor {self.sensor_id}: soft_iron must be symmetric")
+        if np.linalg.eigvalsh(soft_iron)[0] <= 0:
+            raise ValueError(f"sensor {self.sensor_id}: soft_iron must be positive definite")
+        if not (np.isfinite(self.field_uT) and self.field_uT > 0):
+            raise ValueError(f"sensor {self.sensor_id}: field_uT must be a positive number")
+        if not self.sensor_id:
+            raise ValueError("a magnetometer calibration needs a sensor id")
+        object.__setattr__(self, "offset_uT", offset)
+        object.__setattr__(self, "soft_iron", soft_iron)
+
+    def apply(self, mag_raw: ArrayLike, sensor_id: str) -> FloatArray:
+        """Calibrated samples ``soft_iron @ (mag_raw − offset_uT)`` (..., 3) of ``sensor_id``;
+        raises ``ValueError`` if this calibration belongs to another sensor."""
+        if sensor_id != self.sensor_id:
+            raise ValueError(
+                f"the magnetometer calibration of sensor {self.sensor_id!r} cannot be applied "
+                f"to sensor {sensor_id!r}: calibrate that sensor"
+            )
+        return apply_correction(mag_raw, self.offset_uT, self.soft_iron)
+
+
+@dataclass(frozen=True)
+class CalibrationResult:
+    """What :func:`calibrate` returns: the fit, its quality and the calibration record."""
+
+    fit: EllipsoidFit
+    quality: Quality
+    calibration: MagCalibration
+
+
+def calibrate(
+    mag_raw: ArrayLike,
+    sensor_id: str,
+    acc: ArrayLike | None = None,
+    settings: FitSettings = FitSettings(),
+    thresholds: QualityThresholds = QualityThresholds(),
+    protocol: str = "",
+    created_utc: str = "",
+) -> CalibrationResult:
+    """Fit and assess a magnetometer calibration for ``sensor_id``.
+
+    mag_raw: (N, 3) raw samples, µT, sensor frame. acc: optional (N, 3) specific force, m/s²,
+    sampled at the same instants (enables the dip-scatter figure). Raises
+    :class:`~mimucap.core.magcal_fit.FitRefused` (a ``ValueError``) when no trustworthy
+    ellipsoid can be fitted; otherwise the verdict of the result may still be "fail".
+    """
+    fit = fit_ellipsoid(mag_raw, settings)
+    quality = assess_quality(fit, mag_raw, acc, thresholds)
+    calibration = MagCalibration(
+        sensor_id=sensor_id,
+        offset_uT=fit.offset_uT,
+        soft_iron=fit.soft_iron,
+        field_uT=fit.field_uT,
+        created_utc=created_utc,
+        protocol=protocol,
+        samples_used=fit.samples_used,
+        quality=quality.as_dict(),
+    )
+    return CalibrationResult(fit=fit, quality=quality, calibration=calibration)
