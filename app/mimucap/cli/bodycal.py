@@ -1,0 +1,160 @@
+"""``mimucap bodycal``: body calibration of a recording, written as CAL.json.
+
+``mimucap bodycal INPUT --mapping SENSOR=SEGMENT[,...] [--npose T0:T1] [--tpose T2:T3]
+[--heading-from SENSOR:AXIS] --out CAL.json [--json]``
+
+INPUT is any orientation table :func:`mimucap.io.quaternion_tables.read_quaternion_table`
+reads (quaternion CSV, OpenSim ``.sto``, Xsens export file or folder, APDM CSV, MimuCap
+session). With ``--tpose`` the N/T-pose calibration runs (``--npose`` required); with
+``--heading-from pelvis_imu:z`` the forward direction is that sensor axis (OpenSense's
+``base_heading_axis``) in the N-pose window (default: the first sample).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from mimucap.core import bodycal
+from mimucap.core.skeleton import MODEL_NAMES, load_model
+from mimucap.io.body_calibration_file import write_body_calibration
+from mimucap.io.quaternion_tables import axis_vector, read_quaternion_table
+
+
+def parse_window(text: str, option: str) -> tuple[float, float]:
+    """``"T0:T1"`` (seconds) → ``(T0, T1)``; a single ``"T"`` is the window ``T:T``."""
+    parts = text.split(":")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        raise ValueError(f"{option} {text!r}: expected START:END in seconds") from None
+    if len(values) == 1:
+        values = values * 2
+    if len(values) != 2:
+        raise ValueError(f"{option} {text!r}: expected START:END in seconds")
+    return values[0], values[1]
+
+
+def parse_mapping(items: list[str] | None) -> dict[str, str]:
+    """``["S1=pelvis,S2=thorax", ...]`` → ``{segment: sensor}`` with named errors."""
+    mapping: dict[str, str] = {}
+    for item in items or []:
+        for pair in item.split(","):
+            pair = pair.strip()
+            if not pair:
+                continue
+            if "=" not in pair:
+                raise ValueError(f"--mapping entry {pair!r}: expected SENSOR=SEGMENT")
+            sensor, segment = (p.strip() for p in pair.split("=", 1))
+            if not sensor:
+                raise ValueError(f"--mapping entry {pair!r}: segment {segment!r} has no sensor")
+            if not segment:
+                raise ValueError(f"--mapping entry {pair!r}: sensor {sensor!r} has no segment")
+            if segment in mapping:
+                raise ValueError(f"--mapping: segment {segment} is given two sensors ({mapping[segment]} and {sensor})")
+            mapping[segment] = sensor
+    return mapping
+
+
+def choose_model(name: str, segments) -> object:
+    """The skeleton model named (or, for ``auto``, the smallest one holding every segment)."""
+    if name != "auto":
+        return load_model(name)
+    for candidate in MODEL_NAMES:
+        model = load_model(candidate)
+        if all(s in model.segment_names for s in segments):
+            return model
+    return load_model(MODEL_NAMES[-1])
+
+
+def add_reader_options(parser: argparse.ArgumentParser) -> None:
+    """Options of the orientation readers, shared with ``mimucap angles``."""
+    parser.add_argument("--up", metavar="AXIS", default=None,
+                        help="world up axis of a CSV or .sto table (x, y, z, -x...; default: z)")
+    parser.add_argument("--sensor-names", metavar="XML", default=None,
+                        help="OpenSense mapping (myIMUMappings.xml) naming Xsens sensors")
+    parser.add_argument("--trial", metavar="PREFIX", default=None,
+                        help="trial prefix when an Xsens folder holds several trials")
+    parser.add_argument("--rate", metavar="HZ", type=float, default=None,
+                        help="Xsens update rate when the export header gives none (default 100)")
+
+
+def read_input(args: argparse.Namespace):
+    return read_quaternion_table(args.input, up_axis=args.up, sensor_names=args.sensor_names,
+                                 trial_prefix=args.trial, rate_hz=args.rate)
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "bodycal",
+        help="body calibration (N/T-pose or heading axis) of an orientation recording",
+        description=__doc__.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("input", help="orientation table: .csv, .sto, Xsens .txt or folder, session .h5")
+    parser.add_argument("--mapping", action="append", metavar="SENSOR=SEGMENT[,...]",
+                        help="sensor of each segment (repeatable; default: the session's assignment)")
+    parser.add_argument("--npose", metavar="T0:T1", help="N-pose window in seconds")
+    parser.add_argument("--tpose", metavar="T2:T3", help="T-pose window in seconds (N/T-pose calibration)")
+    parser.add_argument("--heading-from", metavar="SENSOR:AXIS",
+                        help="sensor axis pointing forward in the N-pose, e.g. pelvis_imu:z or S1:-x")
+    parser.add_argument("--arms", choices=("auto", "left", "right", "both"), default="auto",
+                        help="arms raised in the T-pose (default: every arm sensor that turned)")
+    parser.add_argument("--model", default="auto", help=f"skeleton model: auto, {', '.join(MODEL_NAMES)} or a JSON file")
+    add_reader_options(parser)
+    parser.add_argument("--out", required=True, metavar="CAL.json", help="calibration file to write")
+    parser.add_argument("--json", action="store_true", help="print the calibration as JSON")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    table = read_input(args)
+    mapping = parse_mapping(args.mapping)
+    if not mapping:
+        if not table.segment_hints:
+            raise ValueError("--mapping SENSOR=SEGMENT[,...] is required (the input names no segments)")
+        mapping = {segment: sensor for sensor, segment in table.segment_hints.items()}
+    model = choose_model(args.model, mapping)
+    mapping = bodycal.check_mapping(mapping, table.sensor_ids, model.segment_names)
+    npose = parse_window(args.npose, "--npose") if args.npose else None
+    if args.tpose and args.heading_from:
+        raise ValueError("give either --tpose (N/T-pose calibration) or --heading-from, not both")
+    if args.tpose:
+        if npose is None:
+            raise ValueError("--tpose needs --npose T0:T1 as well")
+        calibration = bodycal.calibrate_npose_tpose(
+            table.t_s, table.q_world_from_sensor, mapping, npose, parse_window(args.tpose, "--tpose"),
+            up_world=table.up_world, arms=args.arms,
+        )
+    elif args.heading_from:
+        sensor, sep, axis = args.heading_from.rpartition(":")
+        if not sep or not sensor:
+            raise ValueError(f"--heading-from {args.heading_from!r}: expected SENSOR:AXIS (e.g. pelvis_imu:z)")
+        if sensor not in table.q_world_from_sensor and sensor in mapping:
+            sensor = mapping[sensor]
+        calibration = bodycal.calibrate_heading(
+            table.t_s, table.q_world_from_sensor, mapping, sensor, axis_vector(axis),
+            npose_s=npose, up_world=table.up_world,
+        )
+    else:
+        raise ValueError("give --tpose T2:T3 (N/T-pose calibration) or --heading-from SENSOR:AXIS")
+    extra = {"model": model.name, "input": str(args.input), "world_frame": table.world_frame}
+    document = write_body_calibration(args.out, calibration, extra)
+    if args.json:
+        print(json.dumps(document, indent=2))
+    else:
+        quality = calibration.quality
+        print(f"body calibration ({quality.method}) of {args.input}: verdict {quality.verdict}")
+        for problem in quality.problems:
+            print(f"  - {problem}")
+        for arm in quality.arms:
+            print(f"  {arm.side} arm {arm.sensor}: turned {arm.rotation_angle_deg:.1f}°, "
+                  f"axis tilt {arm.axis_tilt_deg:.1f}°, fit residual {arm.residual_deg:.1f}°")
+        if quality.left_right_disagreement_deg is not None:
+            print(f"  left/right axis disagreement {quality.left_right_disagreement_deg:.1f}°")
+        if quality.heading_axis_tilt_deg is not None:
+            print(f"  heading axis tilt {quality.heading_axis_tilt_deg:.1f}°")
+        worst = max(quality.stillness, key=lambda s: s.max_deviation_deg)
+        print(f"  stillness: worst {worst.sensor} in the {worst.pose}, {worst.max_deviation_deg:.2f}°")
+        print(f"  {len(calibration.sensors)} segments calibrated, written to {args.out}")
+    return 0

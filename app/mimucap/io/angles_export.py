@@ -1,0 +1,177 @@
+"""Joint-angle files: MimuCap CSV and OpenSim motion (``.mot``), written and read back.
+
+Both hold ``t_s`` (N,) seconds and one column per joint and axis, named
+``<joint>_<flexion|adduction|rotation>_deg`` (shoulder X-Z'-Y'' and Y-X'-Y'' columns are named
+for their meaning, see :func:`mimucap.core.skeleton.joint_angle_columns`), in degrees.
+
+* CSV: ``#`` comment lines state the Euler sequence of every joint, the sign convention
+  (:data:`mimucap.core.skeleton.JOINT_ANGLE_SIGNS_DOC`), units and provenance; then the header
+  ``t_s,<columns>`` and one row per sample.
+* ``.mot``: OpenSim's storage format: a name line, ``version=1``, ``nRows``, ``nColumns``
+  (counting ``time``), ``inDegrees=yes``, free description lines, ``endheader``, then a
+  tab-separated table whose first column is ``time``. Description lines carry no ``=``
+  (OpenSim reads ``key=value`` header lines as metadata).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mimucap.core.skeleton import JOINT_ANGLE_SIGNS_DOC
+
+
+@dataclass(frozen=True)
+class AnglesTable:
+    """Joint angles read back from a file: ``t_s`` (N,), ``angles_deg`` column → (N,), header notes."""
+
+    t_s: np.ndarray
+    angles_deg: Mapping[str, np.ndarray]
+    header: Sequence[str] = field(default_factory=tuple)
+
+
+def sequence_description(shoulder_sequence: str) -> str:
+    """One line naming the Euler sequence of every joint."""
+    shoulder = {"zxy": "Z-X'-Y''", "xzy": "X-Z'-Y''", "yxy": "Y-X'-Y'' (ISB)"}.get(shoulder_sequence.lower())
+    if shoulder is None:
+        raise ValueError(f"unknown shoulder sequence {shoulder_sequence!r}; use zxy, xzy or yxy")
+    return f"Euler sequences (intrinsic): shoulders {shoulder}; every other joint Z-X'-Y''"
+
+
+def _check(t_s: np.ndarray, angles: Mapping[str, np.ndarray]) -> tuple[np.ndarray, list[str], np.ndarray]:
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.ndim != 1 or t.size == 0:
+        raise ValueError("joint angles need a non-empty 1-D time axis t_s")
+    if not angles:
+        raise ValueError("no joint angle columns to write")
+    columns = list(angles)
+    for name in columns:
+        if not name.endswith("_deg") or any(c in name for c in " \t,"):
+            raise ValueError(f"joint angle column {name!r} must end in '_deg' and hold no blank or comma")
+    data = np.column_stack([np.asarray(angles[c], dtype=np.float64) for c in columns]) if columns else None
+    if data.shape[0] != t.size:
+        raise ValueError(f"joint angle columns have {data.shape[0]} rows, t_s has {t.size}")
+    return t, columns, data + 0.0  # no "-0.000000" in the files
+
+
+def _notes(shoulder_sequence: str, notes: Sequence[str]) -> list[str]:
+    lines = ["MimuCap joint angles", sequence_description(shoulder_sequence)]
+    lines += JOINT_ANGLE_SIGNS_DOC.splitlines()
+    lines += ["Units: t_s in seconds; every <joint>_<axis>_deg column in degrees"]
+    lines += list(notes)
+    return lines
+
+
+def write_angles_csv(
+    path: str | Path,
+    t_s: np.ndarray,
+    angles_deg: Mapping[str, np.ndarray],
+    shoulder_sequence: str = "zxy",
+    notes: Sequence[str] = (),
+) -> None:
+    """Write joint angles (deg) as CSV with a commented header; ``notes`` are extra comment lines."""
+    t, columns, data = _check(t_s, angles_deg)
+    with Path(path).open("w", encoding="utf-8", newline="") as handle:
+        for line in _notes(shoulder_sequence, notes):
+            handle.write(f"# {line}\n")
+        handle.write(",".join(["t_s"] + columns) + "\n")
+        for time, row in zip(t, data):
+            handle.write(f"{time:.6f}," + ",".join(f"{v:.6f}" for v in row) + "\n")
+
+
+def write_angles_mot(
+    path: str | Path,
+    t_s: np.ndarray,
+    angles_deg: Mapping[str, np.ndarray],
+    shoulder_sequence: str = "zxy",
+    notes: Sequence[str] = (),
+    name: str = "mimucap_joint_angles",
+) -> None:
+    """Write joint angles (deg) as an OpenSim ``.mot`` motion with ``inDegrees=yes``."""
+    t, columns, data = _check(t_s, angles_deg)
+    with Path(path).open("w", encoding="utf-8", newline="") as handle:
+        handle.write(f"{name}\nversion=1\nnRows={t.size}\nnColumns={len(columns) + 1}\ninDegrees=yes\n\n")
+        handle.write("Units are S.I. units (second, meters, Newtons, ...)\n")
+        handle.write("If the header above contains a line with 'inDegrees', this indicates whether "
+                     "rotational values are in degrees (yes) or radians (no).\n")
+        for line in _notes(shoulder_sequence, notes):
+            handle.write(line.replace("=", ":") + "\n")
+        handle.write("\nendheader\n")
+        handle.write("\t".join(["time"] + columns) + "\n")
+        for time, row in zip(t, data):
+            handle.write(f"{time:.6f}\t" + "\t".join(f"{v:.6f}" for v in row) + "\n")
+
+
+def write_angles(path: str | Path, t_s, angles_deg, shoulder_sequence: str = "zxy", notes: Sequence[str] = ()) -> None:
+    """Write ``.csv`` or ``.mot`` by the file's suffix."""
+    suffix = Path(path).suffix.lower()
+    if suffix == ".csv":
+        write_angles_csv(path, t_s, angles_deg, shoulder_sequence, notes)
+    elif suffix == ".mot":
+        write_angles_mot(path, t_s, angles_deg, shoulder_sequence, notes)
+    else:
+        raise ValueError(f"{path}: joint angles are written as .csv or .mot, not {suffix or 'no suffix'!r}")
+
+
+def read_angles_csv(path: str | Path) -> AnglesTable:
+    """Read a joint-angle CSV written by :func:`write_angles_csv`."""
+    path = Path(path)
+    header: list[str] = []
+    columns = None
+    rows = []
+    for number, raw in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if raw.startswith("#"):
+            header.append(raw[1:].strip())
+            continue
+        if not raw.strip():
+            continue
+        cells = raw.split(",")
+        if columns is None:
+            columns = cells
+            if columns[0] != "t_s":
+                raise ValueError(f"{path}: line {number}: the first column must be t_s")
+            continue
+        if len(cells) != len(columns):
+            raise ValueError(f"{path}: line {number}: {len(cells)} fields, the header has {len(columns)}")
+        try:
+            rows.append([float(c) for c in cells])
+        except ValueError:
+            raise ValueError(f"{path}: line {number}: not a number") from None
+    if columns is None:
+        raise ValueError(f"{path}: no header line")
+    data = np.array(rows).reshape(len(rows), len(columns))
+    return AnglesTable(data[:, 0], {c: data[:, i] for i, c in enumerate(columns) if i > 0}, tuple(header))
+
+
+def read_angles_mot(path: str | Path) -> AnglesTable:
+    """Read an OpenSim ``.mot``; angles in radians (``inDegrees=no``) are converted to degrees."""
+    path = Path(path)
+    lines = path.read_text(encoding="utf-8").splitlines()
+    try:
+        end = next(i for i, line in enumerate(lines) if line.strip().lower() == "endheader")
+    except StopIteration:
+        raise ValueError(f"{path}: no 'endheader' line: not an OpenSim motion file") from None
+    header = [line.strip() for line in lines[:end]]
+    meta = dict(h.split("=", 1) for h in header if "=" in h)
+    in_degrees = meta.get("inDegrees", "yes").strip().lower() == "yes"
+    columns = lines[end + 1].split("\t")
+    if columns[0].strip().lower() != "time":
+        raise ValueError(f"{path}: line {end + 2}: the first column must be time")
+    rows = []
+    for number, line in enumerate(lines[end + 2:], start=end + 3):
+        if not line.strip():
+            continue
+        cells = line.split("\t")
+        if len(cells) != len(columns):
+            raise ValueError(f"{path}: line {number}: {len(cells)} fields, the header has {len(columns)}")
+        rows.append([float(c) for c in cells])
+    data = np.array(rows).reshape(len(rows), len(columns))
+    if "nRows" in meta and int(meta["nRows"]) != data.shape[0]:
+        raise ValueError(f"{path}: nRows={meta['nRows']} but {data.shape[0]} rows follow")
+    if "nColumns" in meta and int(meta["nColumns"]) != len(columns):
+        raise ValueError(f"{path}: nColumns={meta['nColumns']} but {len(columns)} columns follow")
+    scale = 1.0 if in_degrees else 180.0 / np.pi
+    return AnglesTable(data[:, 0], {c: data[:, i] * scale for i, c in enumerate(columns) if i > 0}, tuple(header))
