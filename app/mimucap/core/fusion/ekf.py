@@ -1,0 +1,158 @@
+"""Error-state EKF for orientation: an online object and a batch function, S sensors at once.
+
+Inputs per sensor (sensor frame): ``gyr_rad_s`` (rad/s), ``acc_m_s2`` (specific force, m/s²;
+about +9.81 along world up at rest), ``mag_uT`` (calibrated field, µT), time stamps ``t_s``
+(s, variable intervals and gaps allowed). Output: ``q_world_from_sensor`` (scalar-first, world =
+ENU with magnetic north along +y), the gyro bias estimate (rad/s, sensor frame) and per-sample
+flags (:mod:`mimucap.core.fusion.state`).
+
+Shapes: one sensor ``gyr (N, 3)``, ``t_s (N,)``; S sensors ``gyr (S, N, 3)`` with ``t_s (N,)``
+shared or ``(S, N)``. ``acc`` and ``mag`` have the shape of ``gyr`` or are ``None`` (channel
+absent). NaN or out-of-range samples are skipped and counted, never fed to the state.
+
+:class:`OrientationEKF` keeps the state between calls: ``update`` takes one sample,
+``update_batch`` a block, and feeding a recording in blocks gives exactly the result of one
+call (:func:`fuse`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mimucap.core.fusion.kernels import ekf_block
+from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams, pack_params
+from mimucap.core.fusion.state import FusionState, decode_flags
+
+#: Algorithm names of the command line and the bench: name -> (propagation, corrections on).
+ALGORITHMS: dict[str, tuple[str, bool]] = {
+    "ekf-taylor3": ("taylor3", True),
+    "ekf-rk4": ("rk4", True),
+    "taylor3": ("taylor3", False),
+    "rk4": ("rk4", False),
+}
+
+
+@dataclass(frozen=True)
+class FusionResult:
+    """Output of a block or batch: arrays with the sensor axis first when S sensors were given.
+
+    ``q_world_from_sensor`` (N, 4) or (S, N, 4) (NaN rows before the first valid
+    accelerometer sample), ``bias_rad_s`` (N, 3) / (S, N, 3), ``flags`` (N,) / (S, N) uint8 and
+    ``counters`` (one dict per sensor, cumulated over everything the filter has seen).
+    """
+
+    q_world_from_sensor: np.ndarray
+    bias_rad_s: np.ndarray
+    flags: np.ndarray
+    counters: tuple[dict[str, int], ...]
+
+    def flag_masks(self) -> dict[str, np.ndarray]:
+        """Boolean arrays ``rest``, ``mag_rejected``, ``acc_rejected``, ``skipped``, ..."""
+        return decode_flags(self.flags)
+
+
+def _channel(name: str, values, n_sensors: int, n: int, single: bool) -> np.ndarray:
+    array = np.asarray(values, dtype=np.float64)
+    if single:
+        array = array[None]
+    if array.shape != (n_sensors, n, 3):
+        expected = (n, 3) if single else (n_sensors, n, 3)
+        raise ValueError(f"{name}: expected shape {expected}, got {np.asarray(values).shape}")
+    return np.ascontiguousarray(array)
+
+
+class OrientationEKF:
+    """Online error-state EKF of ``n_sensors`` sensors.
+
+    ``params`` holds the noise model and disturbance settings; ``algorithm`` is one of
+    :data:`ALGORITHMS` (it overrides ``params.propagation``; the gyro-only algorithms align
+    from the first samples and then integrate); ``use_mag=False`` ignores the magnetometer
+    (heading then only from the gyroscope, starting at an arbitrary value).
+    """
+
+    def __init__(self, params: FusionParams = DEFAULT_FUSION_PARAMS, *, n_sensors: int = 1,
+                 algorithm: str = "ekf-taylor3", use_mag: bool = True,
+                 state: FusionState | None = None) -> None:
+        if algorithm not in ALGORITHMS:
+            raise ValueError(f"unknown algorithm {algorithm!r}; choose one of {sorted(ALGORITHMS)}")
+        if not isinstance(params, FusionParams):
+            raise ValueError("params must be a FusionParams")
+        propagation, correct = ALGORITHMS[algorithm]
+        self.params = params
+        self.algorithm = algorithm
+        self.use_mag = use_mag
+        self._packed = pack_params(
+            FusionParams(**{**params.__dict__, "propagation": propagation}),
+            use_mag=use_mag, correct=correct)
+        self.state = state.copy() if state is not None else FusionState.new(n_sensors)
+        self._empty = np.zeros((0, 3))
+
+    @property
+    def n_sensors(self) -> int:
+        return self.state.n_sensors
+
+    def counters(self, sensor: int = 0) -> dict[str, int]:
+        return self.state.counters(sensor)
+
+    def update_batch(self, t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
+                     _store: tuple | None = None) -> FusionResult:
+        """Feed a block of samples (shapes in the module docstring); returns its outputs."""
+        gyr_in = np.asarray(gyr_rad_s, dtype=np.float64)
+        single = gyr_in.ndim == 2
+        if single and self.n_sensors != 1:
+            raise ValueError(f"this filter has {self.n_sensors} sensors: gyr must be (S, N, 3)")
+        if gyr_in.ndim not in (2, 3):
+            raise ValueError(f"gyr: expected shape (N, 3) or (S, N, 3), got {gyr_in.shape}")
+        n = gyr_in.shape[-2]
+        s_count = self.n_sensors
+        gyr = _channel("gyr", gyr_in, s_count, n, single)
+        acc = None if acc_m_s2 is None else _channel("acc", acc_m_s2, s_count, n, single)
+        mag = None if mag_uT is None else _channel("mag", mag_uT, s_count, n, single)
+        t = np.asarray(t_s, dtype=np.float64)
+        if t.shape == (n,):
+            t = np.broadcast_to(t, (s_count, n))
+        elif t.shape != (s_count, n):
+            raise ValueError(f"t_s: expected shape ({n},) or ({s_count}, {n}), got {t.shape}")
+        out_q = np.empty((s_count, n, 4))
+        out_b = np.empty((s_count, n, 3))
+        out_f = np.zeros((s_count, n), dtype=np.uint8)
+        st = self.state
+        dummy4 = np.zeros((0, 4))
+        dummy66 = np.zeros((0, 6, 6))
+        dummy33 = np.zeros((0, 3, 3))
+        for s in range(s_count):
+            if _store is not None:
+                store = True
+                st_q, st_b, st_pp, st_pu, st_a = (arr[s] for arr in _store)
+            else:
+                store = False
+                st_q, st_b, st_pp, st_pu, st_a = dummy4, self._empty, dummy66, dummy66, dummy33
+            ekf_block(self._packed, np.ascontiguousarray(t[s]), gyr[s],
+                      self._empty if acc is None else acc[s],
+                      self._empty if mag is None else mag[s],
+                      st.q_world_from_sensor[s], st.bias_rad_s[s], st.cov[s], st.aux[s],
+                      out_q[s], out_b[s], out_f[s], store, st_q, st_b, st_pp, st_pu, st_a)
+        counters = tuple(st.counters(s) for s in range(s_count))
+        if single:
+            return FusionResult(out_q[0], out_b[0], out_f[0], counters)
+        return FusionResult(out_q, out_b, out_f, counters)
+
+    def update(self, t_s: float, gyr_rad_s, acc_m_s2=None, mag_uT=None) -> np.ndarray:
+        """Feed one sample (``gyr (3,)`` or ``(S, 3)``); returns ``q_world_from_sensor``."""
+        gyr = np.asarray(gyr_rad_s, dtype=np.float64)
+        expand = (lambda v: None if v is None else np.asarray(v, dtype=np.float64)[..., None, :])
+        result = self.update_batch(np.array([t_s], dtype=np.float64), gyr[..., None, :],
+                                   expand(acc_m_s2), expand(mag_uT))
+        return result.q_world_from_sensor[..., 0, :]
+
+
+def fuse(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
+         params: FusionParams = DEFAULT_FUSION_PARAMS, algorithm: str = "ekf-taylor3",
+         use_mag: bool = True) -> FusionResult:
+    """Batch orientation estimate of a recording with a fresh :class:`OrientationEKF`."""
+    gyr = np.asarray(gyr_rad_s)
+    n_sensors = 1 if gyr.ndim == 2 else gyr.shape[0]
+    ekf = OrientationEKF(params, n_sensors=n_sensors, algorithm=algorithm, use_mag=use_mag)
+    return ekf.update_batch(t_s, gyr, acc_m_s2, mag_uT)

@@ -1,0 +1,443 @@
+"""Numba kernel of the error-state EKF: one sensor, a block of samples, state updated in place.
+
+Error state ``x = [δθ (rad, world frame), δb (rad/s, sensor frame)]`` with the true
+orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
+
+* Propagation: ``q ← q ⊗ Δq(ω − b)`` (:mod:`propagation`), and for the error state
+  ``Φ = [[I, −R·dt], [0, I]]`` with ``R = R_world_from_sensor``. This is the seed's
+  ``Fc = [[−[ω×], −I], [0, 0]]`` written for the world-frame error ``δθ_w = R·δθ_sensor``
+  (the ``−[ω×]`` term vanishes in that frame); process noise ``Q = diag(σ_g²·dt·I,
+  σ_bw²·dt·I)``.
+* Gravity: the accelerometer direction rotated to the world, ``a_w = R·a/‖a‖ ≈ e_z + e_z × δθ``,
+  gives ``a_w,x = −δθ_y`` and ``a_w,y = δθ_x`` (two scalar updates, adaptive noise).
+* Heading: the tilt-compensated magnetometer ``m_w = R·m`` has the heading residual
+  ``atan2(m_w,x, m_w,y) = δθ_z`` (magnetic north along +y). Its Kalman gain rows of the tilt
+  states are set to zero (Joseph-form covariance update), so the magnetometer corrects the
+  heading and the bias, never the tilt.
+* Rest: zero-rate update of the bias, measurement ``ω_raw = b``.
+
+The kernel optionally stores what the RTS smoother needs (:mod:`offline`): the predicted
+state and covariance, the posterior covariance and the ``−R·dt`` block of ``Φ`` per sample.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from mimucap.core.fusion.disturbance import acc_noise_var, mag_accept, rest_update
+from mimucap.core.fusion.params import (
+    PI_ACC_LP_TAU, PI_ACC_RANGE, PI_BIAS_MAX, PI_BIAS_WALK, PI_GAP_RATE, PI_GYR_NOISE, PI_GYR_RANGE,
+    PI_HEADING_NOISE, PI_INIT_BIAS, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
+    PI_METHOD, PI_REST_BIAS_NOISE, PI_USE_ACC, PI_USE_MAG, PI_CORRECT,
+)
+from mimucap.core.fusion.propagation import (
+    exp_quat, quat_multiply, quat_normalise, step_exact, step_rk4, step_taylor3,
+)
+from mimucap.core.fusion.state import (
+    AX_AWLP_INIT, AX_AWLP_X, AX_GYR_PREV_X, AX_HAVE_PREV, AX_INIT, AX_LP_INIT, AX_MAG_REF_OK, AX_N_ACC_MISSING,
+    AX_N_ACC_REJECTED, AX_N_MAG_MISSING, AX_N_MAG_REJECTED, AX_N_REST, AX_N_SAMPLES,
+    AX_N_SKIPPED, AX_REST_T, AX_T_LAST, FLAG_ACC_MISSING, FLAG_ACC_REJECTED, FLAG_MAG_MISSING,
+    FLAG_MAG_REJECTED, FLAG_REST, FLAG_SKIPPED, FLAG_UNINITIALISED,
+)
+
+
+@njit(cache=True)
+def _rotmat(qw, qx, qy, qz, r):
+    """Fill ``r`` (3, 3) with ``R_world_from_sensor`` of a unit quaternion."""
+    xx, yy, zz = qx * qx, qy * qy, qz * qz
+    xy, xz, yz = qx * qy, qx * qz, qy * qz
+    wx, wy, wz = qw * qx, qw * qy, qw * qz
+    r[0, 0] = 1.0 - 2.0 * (yy + zz)
+    r[0, 1] = 2.0 * (xy - wz)
+    r[0, 2] = 2.0 * (xz + wy)
+    r[1, 0] = 2.0 * (xy + wz)
+    r[1, 1] = 1.0 - 2.0 * (xx + zz)
+    r[1, 2] = 2.0 * (yz - wx)
+    r[2, 0] = 2.0 * (xz - wy)
+    r[2, 1] = 2.0 * (yz + wx)
+    r[2, 2] = 1.0 - 2.0 * (xx + yy)
+
+
+@njit(cache=True)
+def _quat_from_rows(ex, ey, ez, nx, ny, nz, ux, uy, uz):
+    """Quaternion of ``R_world_from_sensor`` whose rows are east, north, up (sensor coords)."""
+    m00, m01, m02 = ex, ey, ez
+    m10, m11, m12 = nx, ny, nz
+    m20, m21, m22 = ux, uy, uz
+    tr = m00 + m11 + m22
+    if tr > 0.0:
+        s = 2.0 * math.sqrt(1.0 + tr)
+        w, x, y, z = 0.25 * s, (m21 - m12) / s, (m02 - m20) / s, (m10 - m01) / s
+    elif m00 > m11 and m00 > m22:
+        s = 2.0 * math.sqrt(1.0 + m00 - m11 - m22)
+        w, x, y, z = (m21 - m12) / s, 0.25 * s, (m01 + m10) / s, (m02 + m20) / s
+    elif m11 > m22:
+        s = 2.0 * math.sqrt(1.0 + m11 - m00 - m22)
+        w, x, y, z = (m02 - m20) / s, (m01 + m10) / s, 0.25 * s, (m12 + m21) / s
+    else:
+        s = 2.0 * math.sqrt(1.0 + m22 - m00 - m11)
+        w, x, y, z = (m10 - m01) / s, (m02 + m20) / s, (m12 + m21) / s, 0.25 * s
+    return quat_normalise(w, x, y, z)
+
+
+@njit(cache=True)
+def align(ax, ay, az, mx, my, mz, use_mag):
+    """Initial ``q_world_from_sensor`` from one accelerometer (and magnetometer) sample.
+
+    Up is the accelerometer direction; east is ``m × up`` (magnetic east). Without a usable
+    magnetometer the heading is arbitrary: the sensor x axis is put in the world x-z plane.
+    """
+    na = math.sqrt(ax * ax + ay * ay + az * az)
+    ux, uy, uz = ax / na, ay / na, az / na
+    ex = ey = ez = 0.0
+    ne = 0.0
+    if use_mag:
+        ex, ey, ez = my * uz - mz * uy, mz * ux - mx * uz, mx * uy - my * ux
+        ne = math.sqrt(ex * ex + ey * ey + ez * ez)
+    if ne < 1e-6:
+        # project the sensor x (or y) axis onto the horizontal plane
+        d = ux
+        ex, ey, ez = 1.0 - d * ux, -d * uy, -d * uz
+        ne = math.sqrt(ex * ex + ey * ey + ez * ez)
+        if ne < 1e-3:
+            d = uy
+            ex, ey, ez = -d * ux, 1.0 - d * uy, -d * uz
+            ne = math.sqrt(ex * ex + ey * ey + ez * ez)
+    ex, ey, ez = ex / ne, ey / ne, ez / ne
+    nx, ny, nz = uy * ez - uz * ey, uz * ex - ux * ez, ux * ey - uy * ex
+    return _quat_from_rows(ex, ey, ez, nx, ny, nz, ux, uy, uz)
+
+
+@njit(cache=True)
+def _scalar_update(P, dx, i, resid, var):
+    """Kalman update of error-state component ``i`` measured with residual and variance."""
+    r = resid - dx[i]
+    s = P[i, i] + var
+    if s <= 0.0:
+        return
+    c = np.empty(6)
+    for a in range(6):
+        c[a] = P[a, i]
+    inv = 1.0 / s
+    for a in range(6):
+        dx[a] += c[a] * inv * r
+    for a in range(6):
+        ca = c[a] * inv
+        for b in range(6):
+            P[a, b] -= ca * c[b]
+
+
+@njit(cache=True)
+def _heading_update(P, dx, resid, var):
+    """Heading (δθ_z) update whose gain on the tilt states is zero (Joseph form)."""
+    r = resid - dx[2]
+    s = P[2, 2] + var
+    c = np.empty(6)
+    for a in range(6):
+        c[a] = P[a, 2]
+    inv = 1.0 / s
+    for a in range(2, 6):
+        dx[a] += c[a] * inv * r
+    for a in range(6):
+        ca = c[a] * inv
+        for b in range(6):
+            if a < 2 and b < 2:
+                continue
+            P[a, b] -= ca * c[b]
+
+
+@njit(cache=True)
+def _rotate_lowpass(aux, dx):
+    """Rotate the low-passed world-frame specific force with an attitude correction δθ."""
+    x, y, z = aux[AX_AWLP_X], aux[AX_AWLP_X + 1], aux[AX_AWLP_X + 2]
+    aux[AX_AWLP_X] = x + dx[1] * z - dx[2] * y
+    aux[AX_AWLP_X + 1] = y + dx[2] * x - dx[0] * z
+    aux[AX_AWLP_X + 2] = z + dx[0] * y - dx[1] * x
+
+
+@njit(cache=True)
+def _inject(q, b, dx, bias_max):
+    """Apply the error state to the nominal state and reset it to zero."""
+    ew, ex, ey, ez = exp_quat(dx[0], dx[1], dx[2])
+    w, x, y, z = quat_multiply(ew, ex, ey, ez, q[0], q[1], q[2], q[3])
+    w, x, y, z = quat_normalise(w, x, y, z)
+    q[0], q[1], q[2], q[3] = w, x, y, z
+    for i in range(3):
+        v = b[i] + dx[3 + i]
+        if v > bias_max:
+            v = bias_max
+        elif v < -bias_max:
+            v = -bias_max
+        b[i] = v
+    for i in range(6):
+        dx[i] = 0.0
+
+
+@njit(cache=True)
+def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
+              store, st_q, st_b, st_pp, st_pu, st_a):
+    """Run the filter over ``N`` samples of one sensor; ``q, b, P, aux`` are updated in place.
+
+    ``t`` (N,) s; ``gyr`` (N, 3) rad/s; ``acc`` (N, 3) m/s² or (0, 3) when absent; ``mag``
+    (N, 3) µT or (0, 3). Outputs per sample: ``out_q`` (N, 4) ``q_world_from_sensor`` (NaN
+    before initialisation), ``out_bias`` (N, 3), ``out_flags`` (N,) uint8. When ``store``,
+    ``st_q`` (N, 4) / ``st_b`` (N, 3) receive the predicted state, ``st_pp`` / ``st_pu``
+    (N, 6, 6) the predicted and updated covariance and ``st_a`` (N, 3, 3) the ``−R·dt``
+    block of the transition from the previous sample.
+    """
+    n = t.shape[0]
+    has_acc = acc.shape[0] == n and p[PI_USE_ACC] > 0.0
+    has_mag = mag.shape[0] == n and p[PI_USE_MAG] > 0.0
+    correct = p[PI_CORRECT] > 0.0
+    method = int(p[PI_METHOD])
+    gyr_range2 = p[PI_GYR_RANGE] ** 2
+    acc_range2 = p[PI_ACC_RANGE] ** 2
+    mag_range2 = p[PI_MAG_RANGE] ** 2
+    q_gyr = p[PI_GYR_NOISE] ** 2
+    q_bias = p[PI_BIAS_WALK] ** 2
+    bias_max = p[PI_BIAS_MAX]
+    var_heading = p[PI_HEADING_NOISE] ** 2
+    var_rest = p[PI_REST_BIAS_NOISE] ** 2
+    R = np.empty((3, 3))
+    A = np.zeros((3, 3))
+    M = np.empty((3, 3))
+    T = np.empty((3, 3))
+    dx = np.zeros(6)
+    for k in range(n):
+        flags = 0
+        aux[AX_N_SAMPLES] += 1.0
+        gx, gy, gz = gyr[k, 0], gyr[k, 1], gyr[k, 2]
+        g2 = gx * gx + gy * gy + gz * gz
+        gyr_ok = g2 <= gyr_range2 and math.isfinite(t[k])  # False for NaN
+        acc_ok = False
+        ax = ay = az = 0.0
+        if has_acc:
+            ax, ay, az = acc[k, 0], acc[k, 1], acc[k, 2]
+            a2 = ax * ax + ay * ay + az * az
+            acc_ok = a2 > 1e-6 and a2 <= acc_range2
+            if not acc_ok:
+                flags |= FLAG_ACC_MISSING
+                aux[AX_N_ACC_MISSING] += 1.0
+        mag_ok = False
+        mx = my = mz = 0.0
+        if has_mag:
+            mx, my, mz = mag[k, 0], mag[k, 1], mag[k, 2]
+            m2 = mx * mx + my * my + mz * mz
+            mag_ok = m2 > 1e-6 and m2 <= mag_range2
+            if not mag_ok:
+                flags |= FLAG_MAG_MISSING
+                aux[AX_N_MAG_MISSING] += 1.0
+        for i in range(3):
+            for j in range(3):
+                A[i, j] = 0.0
+
+        if aux[AX_INIT] == 0.0:
+            if gyr_ok and (acc_ok or not has_acc):
+                if acc_ok:
+                    w, x, y, z = align(ax, ay, az, mx, my, mz, mag_ok)
+                else:
+                    w, x, y, z = 1.0, 0.0, 0.0, 0.0
+                q[0], q[1], q[2], q[3] = w, x, y, z
+                for i in range(6):
+                    for j in range(6):
+                        P[i, j] = 0.0
+                P[0, 0] = P[1, 1] = p[PI_INIT_TILT] ** 2
+                P[2, 2] = p[PI_INIT_HEADING] ** 2
+                P[3, 3] = P[4, 4] = P[5, 5] = p[PI_INIT_BIAS] ** 2
+                aux[AX_INIT] = 1.0
+                aux[AX_T_LAST] = t[k]
+                aux[AX_HAVE_PREV] = 0.0
+                aux[AX_LP_INIT] = 0.0
+                aux[AX_REST_T] = 0.0
+                aux[AX_MAG_REF_OK] = 0.0
+                aux[AX_AWLP_INIT] = 0.0
+                rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_ok, 0.0)
+                if mag_ok:
+                    _rotmat(q[0], q[1], q[2], q[3], R)
+                    mwx = R[0, 0] * mx + R[0, 1] * my + R[0, 2] * mz
+                    mwy = R[1, 0] * mx + R[1, 1] * my + R[1, 2] * mz
+                    mwz = R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz
+                    mag_accept(p, aux, math.sqrt(m2), math.atan2(-mwz, math.hypot(mwx, mwy)), 0.0)
+                if store:
+                    for i in range(4):
+                        st_q[k, i] = q[i]
+                    for i in range(3):
+                        st_b[k, i] = b[i]
+                    for i in range(6):
+                        for j in range(6):
+                            st_pp[k, i, j] = P[i, j]
+            else:
+                flags |= FLAG_UNINITIALISED
+                if not gyr_ok:
+                    flags |= FLAG_SKIPPED
+                    aux[AX_N_SKIPPED] += 1.0
+                for i in range(4):
+                    out_q[k, i] = np.nan
+                for i in range(3):
+                    out_bias[k, i] = b[i]
+                out_flags[k] = flags
+                if store:
+                    for i in range(4):
+                        st_q[k, i] = np.nan
+                    for i in range(3):
+                        st_b[k, i] = np.nan
+                    for i in range(6):
+                        for j in range(6):
+                            st_pp[k, i, j] = np.nan
+                            st_pu[k, i, j] = np.nan
+                    for i in range(3):
+                        for j in range(3):
+                            st_a[k, i, j] = 0.0
+                continue
+        else:
+            dt = t[k] - aux[AX_T_LAST]
+            if not gyr_ok or not dt > 0.0:
+                # skipped: no propagation and no correction, the state is held
+                flags |= FLAG_SKIPPED
+                aux[AX_N_SKIPPED] += 1.0
+                for i in range(4):
+                    out_q[k, i] = q[i]
+                for i in range(3):
+                    out_bias[k, i] = b[i]
+                out_flags[k] = flags
+                if store:
+                    for i in range(4):
+                        st_q[k, i] = q[i]
+                    for i in range(3):
+                        st_b[k, i] = b[i]
+                    for i in range(6):
+                        for j in range(6):
+                            st_pp[k, i, j] = P[i, j]
+                            st_pu[k, i, j] = P[i, j]
+                    for i in range(3):
+                        for j in range(3):
+                            st_a[k, i, j] = 0.0
+                continue
+            aux[AX_T_LAST] = t[k]
+            wx, wy, wz = gx - b[0], gy - b[1], gz - b[2]
+            if dt > p[PI_MAX_GAP]:
+                # gap: nothing is known about the rotation in between
+                v = (p[PI_GAP_RATE] * dt) ** 2
+                P[0, 0] += v
+                P[1, 1] += v
+                P[2, 2] += v
+                for i in range(3, 6):
+                    P[i, i] += q_bias * dt
+                aux[AX_HAVE_PREV] = 0.0
+                aux[AX_AWLP_INIT] = 0.0
+            else:
+                if aux[AX_HAVE_PREV] == 0.0:
+                    aux[AX_GYR_PREV_X], aux[AX_GYR_PREV_X + 1], aux[AX_GYR_PREV_X + 2] = wx, wy, wz
+                px, py, pz = aux[AX_GYR_PREV_X], aux[AX_GYR_PREV_X + 1], aux[AX_GYR_PREV_X + 2]
+                if method == 0:
+                    w, x, y, z = step_taylor3(q[0], q[1], q[2], q[3], px * dt, py * dt, pz * dt,
+                                              wx * dt, wy * dt, wz * dt)
+                elif method == 1:
+                    w, x, y, z = step_rk4(q[0], q[1], q[2], q[3], px, py, pz, wx, wy, wz, dt)
+                else:
+                    w, x, y, z = step_exact(q[0], q[1], q[2], q[3], wx * dt, wy * dt, wz * dt)
+                q[0], q[1], q[2], q[3] = w, x, y, z
+                aux[AX_GYR_PREV_X], aux[AX_GYR_PREV_X + 1], aux[AX_GYR_PREV_X + 2] = wx, wy, wz
+                aux[AX_HAVE_PREV] = 1.0
+                # covariance: P <- Phi P Phi^T + Q with Phi = [[I, A], [0, I]], A = -R dt
+                _rotmat(w, x, y, z, R)
+                for i in range(3):
+                    for j in range(3):
+                        A[i, j] = -R[i, j] * dt
+                for i in range(3):
+                    for j in range(3):
+                        M[i, j] = (P[i, 3 + j] + A[i, 0] * P[3, 3 + j] + A[i, 1] * P[4, 3 + j]
+                                   + A[i, 2] * P[5, 3 + j])
+                for i in range(3):
+                    for j in range(3):
+                        T[i, j] = (P[i, j]
+                                   + A[i, 0] * P[j, 3] + A[i, 1] * P[j, 4] + A[i, 2] * P[j, 5]
+                                   + M[i, 0] * A[j, 0] + M[i, 1] * A[j, 1] + M[i, 2] * A[j, 2])
+                for i in range(3):
+                    for j in range(3):
+                        P[i, j] = 0.5 * (T[i, j] + T[j, i])
+                        P[i, 3 + j] = M[i, j]
+                        P[3 + j, i] = M[i, j]
+                v = q_gyr * dt
+                vb = q_bias * dt
+                for i in range(3):
+                    P[i, i] += v
+                    P[3 + i, 3 + i] += vb
+            if store:
+                for i in range(4):
+                    st_q[k, i] = q[i]
+                for i in range(3):
+                    st_b[k, i] = b[i]
+                for i in range(6):
+                    for j in range(6):
+                        st_pp[k, i, j] = P[i, j]
+                for i in range(3):
+                    for j in range(3):
+                        st_a[k, i, j] = A[i, j]
+
+            if not correct:
+                acc_ok = mag_ok = False
+            at_rest = correct and rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_ok, dt)
+            _rotmat(q[0], q[1], q[2], q[3], R)
+            # gravity
+            if acc_ok:
+                na = math.sqrt(ax * ax + ay * ay + az * az)
+                awx = R[0, 0] * ax + R[0, 1] * ay + R[0, 2] * az
+                awy = R[1, 0] * ax + R[1, 1] * ay + R[1, 2] * az
+                awz = R[2, 0] * ax + R[2, 1] * ay + R[2, 2] * az
+                if aux[AX_AWLP_INIT] == 0.0:
+                    aux[AX_AWLP_X], aux[AX_AWLP_X + 1], aux[AX_AWLP_X + 2] = awx, awy, awz
+                    aux[AX_AWLP_INIT] = 1.0
+                else:
+                    alpha = 1.0 - math.exp(-dt / p[PI_ACC_LP_TAU])
+                    aux[AX_AWLP_X] += alpha * (awx - aux[AX_AWLP_X])
+                    aux[AX_AWLP_X + 1] += alpha * (awy - aux[AX_AWLP_X + 1])
+                    aux[AX_AWLP_X + 2] += alpha * (awz - aux[AX_AWLP_X + 2])
+                var = acc_noise_var(p, na, math.sqrt(wx * wx + wy * wy + wz * wz))
+                lx, ly, lz = aux[AX_AWLP_X], aux[AX_AWLP_X + 1], aux[AX_AWLP_X + 2]
+                nl = math.sqrt(lx * lx + ly * ly + lz * lz)
+                if var < 0.0 or nl < 1e-3:
+                    flags |= FLAG_ACC_REJECTED
+                    aux[AX_N_ACC_REJECTED] += 1.0
+                else:
+                    _scalar_update(P, dx, 1, -lx / nl, var)
+                    _scalar_update(P, dx, 0, ly / nl, var)
+                    _rotate_lowpass(aux, dx)
+                    _inject(q, b, dx, bias_max)
+                    _rotmat(q[0], q[1], q[2], q[3], R)
+            # heading
+            if mag_ok:
+                mwx = R[0, 0] * mx + R[0, 1] * my + R[0, 2] * mz
+                mwy = R[1, 0] * mx + R[1, 1] * my + R[1, 2] * mz
+                mwz = R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz
+                hnorm = math.hypot(mwx, mwy)
+                nm = math.sqrt(mwx * mwx + mwy * mwy + mwz * mwz)
+                if hnorm > 0.05 * nm and mag_accept(p, aux, nm, math.atan2(-mwz, hnorm), dt):
+                    _heading_update(P, dx, math.atan2(mwx, mwy), var_heading)
+                    _rotate_lowpass(aux, dx)
+                    _inject(q, b, dx, bias_max)
+                else:
+                    flags |= FLAG_MAG_REJECTED
+                    aux[AX_N_MAG_REJECTED] += 1.0
+            # gyro bias at rest
+            if at_rest:
+                flags |= FLAG_REST
+                aux[AX_N_REST] += 1.0
+                _scalar_update(P, dx, 3, gx - b[0], var_rest)
+                _scalar_update(P, dx, 4, gy - b[1], var_rest)
+                _scalar_update(P, dx, 5, gz - b[2], var_rest)
+                _rotate_lowpass(aux, dx)
+                _inject(q, b, dx, bias_max)
+
+        for i in range(4):
+            out_q[k, i] = q[i]
+        for i in range(3):
+            out_bias[k, i] = b[i]
+        out_flags[k] = flags
+        if store:
+            for i in range(6):
+                for j in range(6):
+                    st_pu[k, i, j] = P[i, j]

@@ -1,0 +1,175 @@
+"""Settings of the orientation fusion filter: one frozen dataclass, units beside every field.
+
+The defaults (:data:`DEFAULT_FUSION_PARAMS`) are one parameter set for every sensor and
+every recording; they were chosen once on the public BROAD trials (``shared/data/broad``)
+and are not tuned per trial. A numba kernel cannot read a dataclass, so :func:`pack_params`
+flattens the settings into a float64 vector whose layout is given by the ``PI_*`` indices.
+
+Noise figures are standard deviations. "Per sample" figures are measurement noises applied
+at every sample (the filter's gain therefore depends on the sampling rate, as in any
+discrete Kalman filter); "density" figures scale with the square root of the time step.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+#: Gyroscope propagation methods: name -> code used by the kernels.
+PROPAGATION_METHODS: dict[str, int] = {"taylor3": 0, "rk4": 1, "exact": 2}
+
+DEG = math.pi / 180.0
+
+
+@dataclass(frozen=True)
+class FusionParams:
+    """Noise model, disturbance handling and validity limits of the error-state EKF.
+
+    Every field name carries its unit. Angles are radians, rates rad/s, accelerations m/s²,
+    magnetic fields µT, times seconds.
+    """
+
+    #: Gyroscope propagation: ``"taylor3"`` (coning-corrected two-sample increments and a
+    #: third-order exponential), ``"rk4"`` or ``"exact"`` (exponential map of one increment).
+    propagation: str = "taylor3"
+    #: Gyroscope white-noise density (rad/s/√Hz): attitude process noise ``σ²·dt``.
+    gyr_noise_rad_s_sqrt_hz: float = 0.3 * DEG
+    #: Gyroscope bias random walk (rad/s/√s): bias process noise ``σ²·dt``.
+    bias_walk_rad_s_sqrt_s: float = 0.0005 * DEG
+    #: Initial standard deviations of tilt, heading (rad) and gyro bias (rad/s).
+    init_tilt_std_rad: float = 5.0 * DEG
+    init_heading_std_rad: float = 20.0 * DEG
+    init_bias_std_rad_s: float = 0.5 * DEG
+    #: Largest bias magnitude the filter accepts (rad/s); the estimate is clipped to it.
+    bias_max_rad_s: float = 5.0 * DEG
+
+    #: Local gravity (m/s²) used to judge the accelerometer norm.
+    gravity_m_s2: float = 9.81
+    #: Time constant (s) of the low-pass filter applied to the specific force rotated into the
+    #: world frame before it is used as the gravity direction: linear accelerations of a
+    #: body that stays in place average out (their integral, the velocity, stays bounded).
+    acc_lowpass_tau_s: float = 1.0
+    #: Accelerometer noise per sample (m/s²) of that low-passed gravity measurement.
+    acc_noise_m_s2: float = 1.0
+    #: Extra accelerometer noise per m/s² of ``|‖a‖ − g|`` (dimensionless): strong motion
+    #: down-weights the gravity correction.
+    acc_deviation_gain: float = 0.0
+    #: Extra accelerometer noise per rad/s of angular rate (m/s² per rad/s): centripetal
+    #: acceleration of a sensor away from the rotation centre.
+    acc_rate_gain_m_s2_per_rad_s: float = 0.0
+    #: Samples with ``|‖a‖ − g|`` above this (m/s²) give no gravity correction.
+    acc_reject_m_s2: float = 50.0
+
+    #: Heading measurement noise per sample (rad) of the tilt-compensated magnetometer.
+    heading_noise_rad: float = 30.0 * DEG
+    #: The magnetometer is rejected when its norm differs from the reference by more than
+    #: this fraction, or its dip angle by more than ``mag_dip_tol_rad``.
+    mag_norm_tol: float = 0.1
+    mag_dip_tol_rad: float = 8.0 * DEG
+    #: After a rejection the field must agree with the reference for this long (s) before
+    #: the magnetometer corrects the heading again (a disturbance rarely ends at once).
+    mag_settle_s: float = 1.0
+    #: Time constant (s) with which accepted samples update the reference norm and dip.
+    mag_ref_tau_s: float = 30.0
+    #: A new field that stays consistent (within the tolerances) for this long (s) while the
+    #: old reference is rejected becomes the new reference.
+    mag_new_field_s: float = 20.0
+
+    #: Rest detection: deviations of gyro (rad/s) and accelerometer (m/s²) from their
+    #: low-pass values, the low-pass time constant (s), the largest mean rate (rad/s) and the
+    #: time (s) these must hold before the sensor counts as resting.
+    rest_gyr_dev_rad_s: float = 2.0 * DEG
+    rest_acc_dev_m_s2: float = 0.5
+    rest_tau_s: float = 0.5
+    rest_max_rate_rad_s: float = 5.0 * DEG
+    rest_time_s: float = 1.5
+    #: Noise per sample (rad/s) of the zero-rate bias measurement applied at rest.
+    rest_bias_noise_rad_s: float = 0.5 * DEG
+
+    #: Sample intervals above this (s) are gaps: no rotation is integrated across them and
+    #: the attitude uncertainty grows by ``gap_attitude_rate_rad_s · gap``.
+    max_gap_s: float = 0.5
+    gap_attitude_rate_rad_s: float = 0.5
+    #: Validity ranges: a sample channel outside them is skipped and counted.
+    gyr_range_rad_s: float = 40.0
+    acc_range_m_s2: float = 16.0 * 9.81 * 1.5
+    mag_range_uT: float = 2000.0
+
+    def __post_init__(self) -> None:
+        if self.propagation not in PROPAGATION_METHODS:
+            raise ValueError(
+                f"unknown propagation {self.propagation!r}; choose one of "
+                f"{sorted(PROPAGATION_METHODS)}"
+            )
+        for field in fields(self):
+            if field.name == "propagation":
+                continue
+            value = getattr(self, field.name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"fusion setting {field.name} must be a finite number >= 0, got {value!r}")
+        for name in ("gravity_m_s2", "heading_noise_rad", "acc_noise_m_s2", "rest_tau_s",
+                     "max_gap_s", "gyr_range_rad_s", "acc_range_m_s2", "mag_range_uT",
+                     "rest_bias_noise_rad_s", "mag_ref_tau_s"):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(f"fusion setting {name} must be > 0")
+
+
+#: The one parameter set used for every sensor and trial.
+DEFAULT_FUSION_PARAMS = FusionParams()
+
+# Layout of the packed parameter vector read by the numba kernels.
+(
+    PI_METHOD, PI_GYR_NOISE, PI_BIAS_WALK, PI_INIT_TILT, PI_INIT_HEADING, PI_INIT_BIAS,
+    PI_BIAS_MAX, PI_GRAVITY, PI_ACC_LP_TAU, PI_ACC_NOISE, PI_ACC_DEV_GAIN, PI_ACC_RATE_GAIN, PI_ACC_REJECT,
+    PI_HEADING_NOISE, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD,
+    PI_REST_GYR_DEV, PI_REST_ACC_DEV, PI_REST_TAU, PI_REST_MAX_RATE, PI_REST_TIME,
+    PI_REST_BIAS_NOISE, PI_MAX_GAP, PI_GAP_RATE, PI_GYR_RANGE, PI_ACC_RANGE, PI_MAG_RANGE,
+    PI_USE_ACC, PI_USE_MAG, PI_CORRECT, PI_COUNT,
+) = range(34)
+
+
+def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = True,
+                correct: bool = True) -> np.ndarray:
+    """The settings as a float64 vector ``(PI_COUNT,)`` for the kernels.
+
+    ``use_acc`` / ``use_mag`` switch the gravity / heading information off entirely;
+    ``correct=False`` keeps them for the initial alignment only and then integrates the
+    gyroscope alone (no corrections, no bias estimation).
+    """
+    p = np.zeros(PI_COUNT)
+    p[PI_METHOD] = PROPAGATION_METHODS[params.propagation]
+    p[PI_GYR_NOISE] = params.gyr_noise_rad_s_sqrt_hz
+    p[PI_BIAS_WALK] = params.bias_walk_rad_s_sqrt_s
+    p[PI_INIT_TILT] = params.init_tilt_std_rad
+    p[PI_INIT_HEADING] = params.init_heading_std_rad
+    p[PI_INIT_BIAS] = params.init_bias_std_rad_s
+    p[PI_BIAS_MAX] = params.bias_max_rad_s
+    p[PI_GRAVITY] = params.gravity_m_s2
+    p[PI_ACC_LP_TAU] = params.acc_lowpass_tau_s
+    p[PI_ACC_NOISE] = params.acc_noise_m_s2
+    p[PI_ACC_DEV_GAIN] = params.acc_deviation_gain
+    p[PI_ACC_RATE_GAIN] = params.acc_rate_gain_m_s2_per_rad_s
+    p[PI_ACC_REJECT] = params.acc_reject_m_s2
+    p[PI_HEADING_NOISE] = params.heading_noise_rad
+    p[PI_MAG_NORM_TOL] = params.mag_norm_tol
+    p[PI_MAG_DIP_TOL] = params.mag_dip_tol_rad
+    p[PI_MAG_SETTLE] = params.mag_settle_s
+    p[PI_MAG_REF_TAU] = params.mag_ref_tau_s
+    p[PI_MAG_NEW_FIELD] = params.mag_new_field_s
+    p[PI_REST_GYR_DEV] = params.rest_gyr_dev_rad_s
+    p[PI_REST_ACC_DEV] = params.rest_acc_dev_m_s2
+    p[PI_REST_TAU] = params.rest_tau_s
+    p[PI_REST_MAX_RATE] = params.rest_max_rate_rad_s
+    p[PI_REST_TIME] = params.rest_time_s
+    p[PI_REST_BIAS_NOISE] = params.rest_bias_noise_rad_s
+    p[PI_MAX_GAP] = params.max_gap_s
+    p[PI_GAP_RATE] = params.gap_attitude_rate_rad_s
+    p[PI_GYR_RANGE] = params.gyr_range_rad_s
+    p[PI_ACC_RANGE] = params.acc_range_m_s2
+    p[PI_MAG_RANGE] = params.mag_range_uT
+    p[PI_USE_ACC] = 1.0 if use_acc else 0.0
+    p[PI_USE_MAG] = 1.0 if use_mag else 0.0
+    p[PI_CORRECT] = 1.0 if correct else 0.0
+    return p

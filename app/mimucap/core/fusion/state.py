@@ -1,0 +1,114 @@
+"""Filter state of the orientation EKF for S sensors, and its per-sample diagnostic flags.
+
+The state of sensor ``s`` is
+
+* ``q_world_from_sensor[s]`` (4,): orientation, scalar-first Hamilton quaternion, world = ENU;
+* ``bias_rad_s[s]`` (3,): gyroscope bias in the sensor frame (rad/s);
+* ``cov[s]`` (6, 6): covariance of the error state ``[δθ_world (rad), δb (rad/s)]`` where the
+  true orientation is ``exp(δθ) ⊗ q`` (error expressed in the world frame);
+* ``aux[s]`` (:data:`AUX_COUNT`,): bookkeeping (last time stamp, previous gyro sample,
+  low-pass values for rest detection, the low-passed world-frame specific force, magnetic
+  reference and candidate, counters), laid out
+  by the ``AX_*`` indices.
+
+Arrays, not objects, because the numba kernels update them in place.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# Per-sample flag bits (uint8) reported by the filter.
+FLAG_REST = 1  #: the sensor was detected at rest (gyro bias updated)
+FLAG_MAG_REJECTED = 2  #: magnetometer present but rejected as disturbed
+FLAG_ACC_REJECTED = 4  #: accelerometer present but rejected (strong motion)
+FLAG_SKIPPED = 8  #: gyroscope sample missing, out of range or time stamp not increasing
+FLAG_MAG_MISSING = 16  #: magnetometer sample NaN / out of range / absent
+FLAG_ACC_MISSING = 32  #: accelerometer sample NaN / out of range / absent
+FLAG_UNINITIALISED = 64  #: no orientation yet (waiting for a valid accelerometer sample)
+
+FLAG_NAMES = {
+    "rest": FLAG_REST,
+    "mag_rejected": FLAG_MAG_REJECTED,
+    "acc_rejected": FLAG_ACC_REJECTED,
+    "skipped": FLAG_SKIPPED,
+    "mag_missing": FLAG_MAG_MISSING,
+    "acc_missing": FLAG_ACC_MISSING,
+    "uninitialised": FLAG_UNINITIALISED,
+}
+
+# Layout of the auxiliary state vector.
+(
+    AX_INIT, AX_T_LAST, AX_HAVE_PREV, AX_GYR_PREV_X, AX_GYR_PREV_Y, AX_GYR_PREV_Z,
+    AX_GLP_X, AX_GLP_Y, AX_GLP_Z, AX_ALP_X, AX_ALP_Y, AX_ALP_Z, AX_REST_T, AX_LP_INIT,
+    AX_MAG_REF_OK, AX_MAG_NORM_REF, AX_MAG_DIP_REF, AX_MAG_CAND_NORM, AX_MAG_CAND_DIP,
+    AX_MAG_CAND_T, AX_MAG_GOOD_T, AX_AWLP_INIT, AX_AWLP_X, AX_AWLP_Y, AX_AWLP_Z,
+    AX_N_SAMPLES, AX_N_SKIPPED, AX_N_REST, AX_N_MAG_REJECTED, AX_N_ACC_REJECTED,
+    AX_N_MAG_MISSING, AX_N_ACC_MISSING, AX_N_MAG_NEW_REF,
+    AUX_COUNT,
+) = range(34)
+
+#: Counter name -> aux index (counts over every sample fed so far).
+COUNTER_INDEX = {
+    "samples": AX_N_SAMPLES,
+    "skipped": AX_N_SKIPPED,
+    "rest": AX_N_REST,
+    "mag_rejected": AX_N_MAG_REJECTED,
+    "acc_rejected": AX_N_ACC_REJECTED,
+    "mag_missing": AX_N_MAG_MISSING,
+    "acc_missing": AX_N_ACC_MISSING,
+    "mag_new_reference": AX_N_MAG_NEW_REF,
+}
+
+
+@dataclass
+class FusionState:
+    """Mutable filter state of ``S`` sensors (arrays with the sensor index first)."""
+
+    q_world_from_sensor: np.ndarray  # (S, 4)
+    bias_rad_s: np.ndarray  # (S, 3)
+    cov: np.ndarray  # (S, 6, 6)
+    aux: np.ndarray  # (S, AUX_COUNT)
+
+    @classmethod
+    def new(cls, n_sensors: int) -> "FusionState":
+        """An uninitialised state: the first valid accelerometer sample sets the orientation."""
+        if n_sensors < 1:
+            raise ValueError(f"need at least one sensor, got {n_sensors}")
+        q = np.zeros((n_sensors, 4))
+        q[:, 0] = 1.0
+        return cls(q, np.zeros((n_sensors, 3)), np.zeros((n_sensors, 6, 6)),
+                   np.zeros((n_sensors, AUX_COUNT)))
+
+    @property
+    def n_sensors(self) -> int:
+        return self.q_world_from_sensor.shape[0]
+
+    def copy(self) -> "FusionState":
+        return FusionState(self.q_world_from_sensor.copy(), self.bias_rad_s.copy(),
+                           self.cov.copy(), self.aux.copy())
+
+    def counters(self, sensor: int = 0) -> dict[str, int]:
+        """Counts of samples, skipped samples, rest samples and rejections of one sensor."""
+        return {name: int(self.aux[sensor, index]) for name, index in COUNTER_INDEX.items()}
+
+    def initialised(self, sensor: int = 0) -> bool:
+        return bool(self.aux[sensor, AX_INIT] > 0.0)
+
+    def magnetic_reference(self, sensor: int = 0) -> tuple[float, float] | None:
+        """Learned reference ``(norm_uT, dip_rad)`` (dip positive downwards) or ``None``."""
+        if self.aux[sensor, AX_MAG_REF_OK] <= 0.0:
+            return None
+        return float(self.aux[sensor, AX_MAG_NORM_REF]), float(self.aux[sensor, AX_MAG_DIP_REF])
+
+    def attitude_std_rad(self, sensor: int = 0) -> np.ndarray:
+        """Standard deviations (3,) of the world-frame attitude error (rad): x, y tilt, z heading."""
+        return np.sqrt(np.clip(np.diag(self.cov[sensor])[:3], 0.0, None))
+
+
+def decode_flags(flags: np.ndarray) -> dict[str, np.ndarray]:
+    """Boolean arrays (same shape as ``flags``) for every flag name of :data:`FLAG_NAMES`."""
+    flags = np.asarray(flags)
+    return {name: (flags & bit) != 0 for name, bit in FLAG_NAMES.items()}
