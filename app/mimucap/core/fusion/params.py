@@ -35,7 +35,7 @@ class FusionParams:
     #: third-order exponential), ``"rk4"`` or ``"exact"`` (exponential map of one increment).
     propagation: str = "taylor3"
     #: Gyroscope white-noise density (rad/s/√Hz): attitude process noise ``σ²·dt``.
-    gyr_noise_rad_s_sqrt_hz: float = 0.3 * DEG
+    gyr_noise_rad_s_sqrt_hz: float = 0.15 * DEG
     #: Gyroscope bias random walk (rad/s/√s): bias process noise ``σ²·dt``.
     bias_walk_rad_s_sqrt_s: float = 0.0005 * DEG
     #: Initial standard deviations of tilt, heading (rad) and gyro bias (rad/s).
@@ -66,8 +66,8 @@ class FusionParams:
     heading_noise_rad: float = 30.0 * DEG
     #: The magnetometer is rejected when its norm differs from the reference by more than
     #: this fraction, or its dip angle by more than ``mag_dip_tol_rad``.
-    mag_norm_tol: float = 0.1
-    mag_dip_tol_rad: float = 8.0 * DEG
+    mag_norm_tol: float = 0.15
+    mag_dip_tol_rad: float = 12.0 * DEG
     #: After a rejection the field must agree with the reference for this long (s) before
     #: the magnetometer corrects the heading again (a disturbance rarely ends at once).
     mag_settle_s: float = 1.0
