@@ -89,7 +89,7 @@ class BodyCalSettings:
     within ``arm_angle_good_deg`` (20) of ``arm_angle_expected_deg`` (90), acceptable within
     ``arm_angle_acceptable_deg`` (35). Raw axis tilt from horizontal: good ≤ 15, acceptable
     ≤ 30. Left/right disagreement of the horizontal axes: good ≤ 10, acceptable ≤ 20, refused
-    above ``lr_refuse_deg`` (90: they cannot be averaged). Axis fit residual (RMS distance of
+    above ``lr_refuse_deg`` (45: such axes cannot be averaged). Axis fit residual (RMS distance of
     the rotation vectors from the fitted axis): good ≤ 5, acceptable ≤ 10.
     ``movement_min_deg`` (5): movement samples turned less than this are left out of the
     axis fit (their direction is noise). Heading mode: the named axis' tilt from horizontal is
@@ -106,7 +106,7 @@ class BodyCalSettings:
     axis_tilt_acceptable_deg: float = 30.0
     lr_good_deg: float = 10.0
     lr_acceptable_deg: float = 20.0
-    lr_refuse_deg: float = 90.0
+    lr_refuse_deg: float = 45.0
     axis_residual_good_deg: float = 5.0
     axis_residual_acceptable_deg: float = 10.0
     movement_min_deg: float = 5.0
@@ -640,13 +640,19 @@ def calibrate_heading(
 # --------------------------------------------------------------------------------------------
 
 def segment_orientations(
-    calibration: BodyCalibration, q_world_from_sensor: Mapping[str, ArrayLike]
+    calibration: BodyCalibration, q_world_from_sensor: Mapping[str, ArrayLike], require_all: bool = True
 ) -> dict[str, FloatArray]:
     """``q_world_from_segment = q_world_from_sensor ⊗ q_sensor_from_segment`` for every calibrated
-    segment (``(..., 4)``, following the sensors' shapes)."""
+    segment (``(..., 4)``, following the sensors' shapes).
+
+    A calibrated sensor missing from ``q_world_from_sensor`` raises ``ValueError``, or, with
+    ``require_all=False`` (live display while a sensor is silent), leaves its segment out.
+    """
     result = {}
     for segment, sensor in calibration.sensors.items():
         if sensor not in q_world_from_sensor:
+            if not require_all:
+                continue
             raise ValueError(
                 f"sensor {sensor} (segment {segment}) is missing from the data; it has: "
                 f"{', '.join(q_world_from_sensor)}"
