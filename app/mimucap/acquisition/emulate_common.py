@@ -84,6 +84,9 @@ class NodeSchedule:
     (possibly jittered) samples whose send time has come, in send-time order.
     """
 
+    #: Samples are generated this far ahead of their send time (one motion call per chunk).
+    LOOKAHEAD_S = 0.05
+
     def __init__(self, settings: EmulatorSettings, motion: MotionSource, start_host_s: float) -> None:
         self.settings = settings
         self.motion = motion
@@ -106,8 +109,11 @@ class NodeSchedule:
         return end is not None and now_s >= self.start_host_s + end and not self._queue
 
     def generate_until(self, now_s: float) -> None:
-        """Create the samples of every tick due at or before ``now_s``."""
-        due = int(np.floor((now_s - self.start_host_s) / self.period_s)) + 1
+        """Create the samples of every tick due before ``now_s`` + :attr:`LOOKAHEAD_S`, once
+        the next tick is due (they are sent at their own times, see :meth:`pop_ready`)."""
+        if now_s < self.next_tick_s():
+            return
+        due = int(np.floor((now_s + self.LOOKAHEAD_S - self.start_host_s) / self.period_s)) + 1
         if self.settings.duration_s is not None:
             due = min(due, int(round(self.settings.duration_s * self.settings.rate_hz)))
         count = due - self.ticks

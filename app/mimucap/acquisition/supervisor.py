@@ -10,6 +10,7 @@ status (state, message, rejections, unknown senders, clock estimates).
 
 from __future__ import annotations
 
+import dataclasses
 import multiprocessing
 import queue as queue_module
 import time
@@ -223,8 +224,8 @@ class Supervisor:
         return self._trackers[sensor_id].latencies_s()
 
     def sources(self) -> dict[str, SourceStatus]:
-        """Per-source status (name → :class:`SourceStatus`)."""
-        return {name: worker.status for name, worker in self._workers.items()}
+        """Per-source status now (name → a copy of its :class:`SourceStatus`)."""
+        return {name: dataclasses.replace(worker.status) for name, worker in self._workers.items()}
 
     def all_finished(self) -> bool:
         """True when no worker runs any more and none will be restarted."""

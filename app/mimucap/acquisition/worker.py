@@ -10,8 +10,11 @@ the event is set or the source ends. Messages out are
 
 from __future__ import annotations
 
+import multiprocessing
+import multiprocessing.connection
 import signal
 import sys
+import threading
 import traceback
 from typing import Any
 
@@ -19,9 +22,10 @@ from mimucap.acquisition.messages import STATE_FAILED, STATE_FINISHED, STATE_STO
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.replay import ReplayDriver, ReplaySourceConfig
 from mimucap.acquisition.serial_port import SerialDriver, SerialSourceConfig
+from mimucap.acquisition.simulated import SimulatedDriver, SimulatedSourceConfig
 from mimucap.acquisition.udp import UdpDriver, UdpSourceConfig
 
-SourceConfig = UdpSourceConfig | SerialSourceConfig | ReplaySourceConfig
+SourceConfig = UdpSourceConfig | SerialSourceConfig | SimulatedSourceConfig | ReplaySourceConfig
 
 
 def make_driver(config: SourceConfig, outbox: Outbox):
@@ -30,14 +34,36 @@ def make_driver(config: SourceConfig, outbox: Outbox):
         return UdpDriver(config, outbox)
     if isinstance(config, SerialSourceConfig):
         return SerialDriver(config, outbox)
+    if isinstance(config, SimulatedSourceConfig):
+        return SimulatedDriver(config, outbox)
     if isinstance(config, ReplaySourceConfig):
         return ReplayDriver(config, outbox)
     raise TypeError(f"unknown source config {type(config).__name__}")
 
 
+def _stop_when_parent_dies(parent: Any, stop: Any) -> None:
+    multiprocessing.connection.wait([parent.sentinel])
+    stop.set()
+
+
+def _finish(queue: Any) -> None:
+    parent = multiprocessing.parent_process()
+    if parent is not None and not parent.is_alive():
+        queue.cancel_join_thread()  # nobody will read: do not wait for the pipe to drain
+    queue.close()
+    queue.join_thread()
+
+
 def run_worker(config: SourceConfig, queue: Any, stop: Any) -> None:
-    """Worker process entry point (top-level so that ``spawn`` can import it)."""
+    """Worker process entry point (top-level so that ``spawn`` can import it).
+
+    The worker also stops when its parent process dies (e.g. ``kill -9`` of the recorder),
+    so no orphan keeps a port or a device open.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C is the supervisor's business
+    parent = multiprocessing.parent_process()
+    if parent is not None:
+        threading.Thread(target=_stop_when_parent_dies, args=(parent, stop), daemon=True).start()
     outbox = Outbox(queue, config.name, getattr(config, "report_interval_s", 0.5))
     driver = None
     try:
@@ -51,10 +77,8 @@ def run_worker(config: SourceConfig, queue: Any, stop: Any) -> None:
         else:
             report = WorkerReport(config.name, STATE_FAILED, message)
         outbox.send_report(report, final=True)
-        queue.close()
-        queue.join_thread()
+        _finish(queue)
         sys.exit(1)
     final_state = STATE_STOPPED if stop.is_set() else STATE_FINISHED
     outbox.send_report(driver.final_report(final_state), final=True)
-    queue.close()
-    queue.join_thread()
+    _finish(queue)

@@ -1,0 +1,102 @@
+"""``mimucap emulate``: emulated sensor devices driven by the simulated suit.
+
+    mimucap emulate udp --sensors N --rate HZ --target HOST:PORT [--loss P] [--jitter MS]
+                        [--drift PPM] [--offset-ms MS] [--duration S]
+    mimucap emulate serial --sensors N --rate HZ [--link PATH] [--loss P] [--jitter MS]
+                        [--drift PPM] [--offset-ms MS] [--duration S]
+                        [--unplug-after S --unplug-for S]
+
+``udp`` runs N nodes speaking the UDP protocol (answering time-sync requests); ``serial``
+writes the serial line protocol on a pseudo-terminal and prints the device path to open
+(first line of the output). The emulated clock reads ``host_monotonic·(1+drift) + offset``.
+Both stop after ``--duration`` seconds, or on Ctrl+C.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import threading
+
+from mimucap.acquisition.emulate_common import EmulatorSettings
+from mimucap.acquisition.emulate_motion import SimulatorMotion
+from mimucap.acquisition.emulate_serial import SerialEmulator
+from mimucap.acquisition.emulate_udp import UdpEmulator
+
+
+def _target(text: str) -> tuple[str, int]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise argparse.ArgumentTypeError(f"expected HOST:PORT, got {text!r}")
+    return host, int(port)
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--sensors", type=int, default=10, metavar="N", help="number of nodes (default 10)")
+    parser.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="sample rate (default 100)")
+    parser.add_argument("--loss", type=float, default=0.0, metavar="P", help="probability a sample is lost")
+    parser.add_argument("--jitter", type=float, default=0.0, metavar="MS", help="send delay up to MS ms")
+    parser.add_argument("--drift", type=float, default=0.0, metavar="PPM", help="node clock drift (ppm)")
+    parser.add_argument("--offset-ms", type=float, default=0.0, metavar="MS", help="node clock offset (ms)")
+    parser.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S seconds")
+    parser.add_argument("--scenario", default="demo", help="what the simulated subject does (default demo)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--first-id", type=int, default=1, metavar="ID", help="wire id of the first node")
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser("emulate", help="emulated sensor devices (UDP nodes, serial receiver)",
+                                   description=__doc__.split("\n\n")[0])
+    kinds = parser.add_subparsers(dest="kind", metavar="KIND", required=True)
+    udp = kinds.add_parser("udp", help="N nodes speaking the UDP protocol")
+    _common(udp)
+    udp.add_argument("--target", required=True, type=_target, metavar="HOST:PORT", help="where the host listens")
+    serial = kinds.add_parser("serial", help="a serial receiver on a pseudo-terminal (prints its path)")
+    _common(serial)
+    serial.add_argument("--link", metavar="PATH", help="also make PATH a symlink to the device")
+    serial.add_argument("--unplug-after", type=float, metavar="S", help="unplug the device after S seconds")
+    serial.add_argument("--unplug-for", type=float, default=1.0, metavar="S", help="stay unplugged S seconds (default 1)")
+    parser.set_defaults(func=run)
+
+
+def _settings(args: argparse.Namespace) -> EmulatorSettings:
+    return EmulatorSettings(n_sensors=args.sensors, rate_hz=args.rate, loss=args.loss, jitter_ms=args.jitter,
+                            drift_ppm=args.drift, offset_ms=args.offset_ms, duration_s=args.duration,
+                            seed=args.seed, first_sensor_id=args.first_id)
+
+
+def run(args: argparse.Namespace) -> int:
+    settings = _settings(args)
+    motion = SimulatorMotion(settings.n_sensors, settings.rate_hz, args.scenario, args.seed)
+    stop = threading.Event()
+    previous = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        if args.kind == "udp":
+            emulator = UdpEmulator(settings, args.target, motion)
+            print(f"emulating {settings.n_sensors} UDP nodes at {settings.rate_hz:g} Hz from "
+                  f"{emulator.address[0]}:{emulator.address[1]} to {args.target[0]}:{args.target[1]}", flush=True)
+            schedule = emulator.run(stop)
+            print(f"sent {schedule.sent} samples, lost {schedule.lost} on purpose, "
+                  f"answered {emulator.sync_answered} time-sync requests, {emulator.send_errors} send errors")
+            return 0
+        emulator = SerialEmulator(settings, motion, link=args.link)
+        print(emulator.device_path, flush=True)
+        timers = []
+        if args.unplug_after is not None:
+            timers = [threading.Timer(args.unplug_after, emulator.unplug),
+                      threading.Timer(args.unplug_after + args.unplug_for, emulator.replug)]
+            for timer in timers:
+                timer.daemon = True
+                timer.start()
+        try:
+            schedule = emulator.run(stop)
+        finally:
+            for timer in timers:
+                timer.cancel()
+            emulator.close()
+        print(f"wrote {schedule.sent - emulator.unplugged_samples} samples, lost {schedule.lost} on purpose, "
+              f"{emulator.unplugged_samples} while unplugged, {emulator.overflow} overflowed")
+        return 0
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

@@ -1,0 +1,124 @@
+"""``mimucap record``: record a session without the GUI (crash-safe, see ``mimucap recover``).
+
+    mimucap record --source SPEC --duration S --out SESSION.h5 [--sensors 1-10] [--allow IP ...]
+
+SPEC is one of ``simulated[:SCENARIO]``, ``udp:BIND_ADDRESS:PORT``, ``serial:DEVICE[@BAUD]``,
+``replay:FILE[@SPEED]``. Samples are journaled to ``SESSION.h5.journal`` as they arrive
+(flushed at least every second) and turned into the session file at the end. Ctrl+C or
+SIGTERM end the recording early and still write the file. The exit code is 1 when the
+recording ended by an error (the message says how to recover the journal).
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+from pathlib import Path
+
+from mimucap.acquisition.source_spec import VALID_FORMS, format_source_spec, parse_source_spec
+from mimucap.acquisition.supervisor import Supervisor
+from mimucap.session.recording import Recorder, RecorderSettings
+from mimucap.session.sources import SourceOptions, parse_sensor_ids, sensor_segments, source_configs
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "record", help="record a session without the GUI",
+        description=__doc__.split("\n\n")[0] + " Valid sources: " + ", ".join(VALID_FORMS))
+    parser.add_argument("--source", required=True, metavar="SPEC", help="data source: " + ", ".join(VALID_FORMS))
+    parser.add_argument("--duration", required=True, type=float, metavar="S", help="seconds to record")
+    parser.add_argument("--out", required=True, type=Path, metavar="SESSION.h5", help="session file to write")
+    parser.add_argument("--sensors", metavar="IDS", help="expected sensor ids, e.g. 1-10 (others are counted and ignored)")
+    parser.add_argument("--allow", nargs="+", metavar="IP", help="UDP sender addresses allowed (default: any)")
+    parser.add_argument("--sensor-count", type=int, metavar="N", help="simulated suit: number of sensors")
+    parser.add_argument("--rate", type=float, metavar="HZ", help="simulated suit: sample rate")
+    parser.add_argument("--flush-interval", type=float, default=0.5, metavar="S",
+                        help="journal flush interval in seconds (at most 1, default 0.5)")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines")
+    parser.set_defaults(func=run)
+
+
+class _StopRequest:
+    def __init__(self) -> None:
+        self.requested = False
+
+    def __call__(self, signum, frame) -> None:
+        self.requested = True
+
+
+def _status(supervisor: Supervisor) -> dict:
+    stats = {name: {"received": s.received, "drops": s.drops, "rate_hz": round(s.rate_hz, 2),
+                    "latency_p50_ms": round(s.latency_p50_s * 1e3, 3),
+                    "latency_p95_ms": round(s.latency_p95_s * 1e3, 3), "rejections": s.rejections}
+             for name, s in supervisor.stats().items()}
+    sources = {name: {"state": s.state, "message": s.message, "restarts": s.restarts,
+                      "reconnects": s.reconnects, "rejections": s.rejections,
+                      "unknown_senders": s.unknown_sensors, "overflow_samples": s.overflow_samples,
+                      "clocks": {k: {"drift_ppm": c.drift_ppm, "uncertainty_s": c.uncertainty_s}
+                                 for k, c in s.clocks.items()}}
+               for name, s in supervisor.sources().items()}
+    return {"sensors": stats, "sources": sources}
+
+
+def run(args: argparse.Namespace) -> int:
+    if not args.duration > 0:
+        raise ValueError(f"--duration must be > 0 s, got {args.duration}")
+    spec = parse_source_spec(args.source)
+    options = SourceOptions(sensor_ids=parse_sensor_ids(args.sensors),
+                            allowed_addresses=tuple(args.allow) if args.allow else None,
+                            sensor_count=args.sensor_count, rate_hz=args.rate)
+    configs = source_configs(spec, options)
+    metadata = {"source": format_source_spec(spec), "sensor_segments": sensor_segments(configs)}
+    recorder = Recorder(args.out, metadata,
+                        RecorderSettings(flush_interval_s=args.flush_interval))
+    stop = _StopRequest()
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    supervisor = Supervisor(configs)
+    recorder.start()
+    reason = "duration"
+    try:
+        supervisor.start()
+        end = time.monotonic() + args.duration
+        next_line = time.monotonic() + 1.0
+        while True:
+            now = time.monotonic()
+            if now >= end:
+                break
+            if stop.requested:
+                reason = "interrupted"
+                break
+            if supervisor.all_finished():
+                reason = "source finished"
+                break
+            if not recorder.add_blocks(supervisor.poll(min(0.05, end - now))):
+                reason = "write error"
+                break
+            if not args.quiet and now >= next_line:
+                next_line = now + 1.0
+                total = sum(recorder.samples.values())
+                print(f"recording {now - recorder.start_host_s:6.1f} s: {total} samples from "
+                      f"{len(recorder.samples)} sensors", file=sys.stderr, flush=True)
+    finally:
+        recorder.add_blocks(supervisor.stop())
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+    status = _status(supervisor)
+    result = recorder.stop(status, reason)
+    print(f"{'sensor':>10} {'samples':>8} {'drops':>6} {'rate Hz':>8} {'p95 ms':>7}  rejections")
+    for name, s in status["sensors"].items():
+        rejected = ", ".join(f"{k}: {v}" for k, v in s["rejections"].items()) or "-"
+        print(f"{name:>10} {s['received']:>8} {s['drops']:>6} {s['rate_hz']:>8.1f} "
+              f"{s['latency_p95_ms']:>7.2f}  {rejected}")
+    for name, source in status["sources"].items():
+        if source["rejections"] or source["state"] == "failed":
+            print(f"source {name}: {source['state']} {source['message']} rejections {source['rejections']}")
+    if result.session_path is None or recorder.failure is not None:
+        print(f"mimucap record: error: {result.message}", file=sys.stderr)
+        return 1
+    print(f"wrote {result.session_path} ({sum(result.samples.values())} samples, "
+          f"{len(result.samples)} sensors, ended: {reason})")
+    if result.message:
+        print(result.message)
+    return 0

@@ -1,0 +1,291 @@
+"""The recorder: sample blocks → crash-safe journal → session file.
+
+Used by ``mimucap record`` and by the GUI's record button. While recording, every block is
+appended to a journal beside the output (``SESSION.h5.journal``, see
+:mod:`mimucap.io.journal`), flushed and fsynced at least every ``flush_interval_s``; at
+:meth:`Recorder.stop` the journal is converted into the session file
+(:func:`mimucap.io.session.write_session`) and removed. After a crash the journal is still
+there: :func:`recover` (``mimucap recover FILE``) or :func:`open_session` rebuilds the
+session from every intact record, so a ``kill -9`` loses at most the last flush interval.
+
+A write error (disk full, storage removed) stops the recording with a message naming the
+file and what to do; whatever reached the disk stays readable through :func:`recover`.
+
+Times: blocks carry host monotonic times (``time.monotonic()``, s); the session stores
+``t_s = host_time_s − start_host_s`` (s since the recording started). ``battery`` is stored
+as a fraction (wire percent / 100) and the calibration status as the extra channel
+``calibration_status`` (N, 4) int8 (system, gyr, acc, mag; 0..3).
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import time
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mimucap.acquisition.block_codec import decode_block, encode_block
+from mimucap.acquisition.samples import SampleBlock
+from mimucap.io.journal import JournalContents, JournalWriter, iter_journal
+from mimucap.io.session import Marker, SensorStream, Session, read_session, write_session
+
+JOURNAL_SUFFIX = ".journal"
+KIND_START = 1     #: JSON: metadata and start time
+KIND_BLOCK = 2     #: a sample block (mimucap.acquisition.block_codec)
+KIND_MARKER = 3    #: JSON: {"t_s": host time, "label": ...}
+KIND_STATUS = 4    #: JSON: acquisition statistics at the end
+KIND_END = 5       #: JSON: why the recording ended
+
+
+@dataclass(frozen=True)
+class RecorderSettings:
+    """Settings of :class:`Recorder`."""
+
+    flush_interval_s: float = 0.5   #: s between journal flush+fsync (must be ≤ 1 s)
+    fsync: bool = True              #: force data to the disk at each flush
+
+
+@dataclass
+class RecordingResult:
+    """What a recording (or a recovery) produced."""
+
+    session_path: Path | None          #: the session file, ``None`` if it could not be written
+    journal_path: Path
+    samples: dict[str, int] = field(default_factory=dict)   #: sensor → samples stored
+    complete: bool = True              #: False if the recording ended by an error or a crash
+    message: str = ""
+
+
+def journal_path_for(session_path: str | os.PathLike[str]) -> Path:
+    """``SESSION.h5`` → ``SESSION.h5.journal``."""
+    path = Path(session_path)
+    return path.with_name(path.name + JOURNAL_SUFFIX)
+
+
+def _describe_os_error(error: OSError) -> str:
+    if error.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+        return f"the disk is full ({error.strerror or error})"
+    if error.errno in (errno.EIO, errno.ENODEV, errno.ENXIO, errno.ENOENT, errno.EROFS):
+        return f"the storage device is gone or read-only ({error.strerror or error})"
+    return str(error.strerror or error)
+
+
+class Recorder:
+    """Records sample blocks into ``out_path`` (see the module docstring)."""
+
+    def __init__(self, out_path: str | os.PathLike[str], metadata: Mapping[str, Any] | None = None,
+                 settings: RecorderSettings = RecorderSettings()) -> None:
+        self.out_path = Path(out_path)
+        self.journal_path = journal_path_for(self.out_path)
+        self.metadata = dict(metadata or {})
+        self.settings = settings
+        self.start_host_s: float | None = None
+        self.samples: dict[str, int] = {}
+        self.failure: str | None = None
+        self._journal: JournalWriter | None = None
+
+    @property
+    def recording(self) -> bool:
+        return self._journal is not None and self.failure is None
+
+    def start(self, start_host_s: float | None = None) -> None:
+        """Create the journal; ``start_host_s`` (host monotonic s) is ``t_s = 0``."""
+        if self.journal_path.exists():
+            raise ValueError(f"{self.journal_path} exists (an interrupted recording?): "
+                             f"run `mimucap recover {self.out_path}` or remove it first")
+        if not self.out_path.parent.is_dir():
+            raise OSError(f"cannot record to {self.out_path}: folder {self.out_path.parent} does not exist")
+        self.start_host_s = time.monotonic() if start_host_s is None else float(start_host_s)
+        self._journal = JournalWriter(self.journal_path, self.settings.flush_interval_s, self.settings.fsync)
+        start = {"metadata": self.metadata, "start_host_s": self.start_host_s,
+                 "started_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                 "flush_interval_s": self.settings.flush_interval_s}
+        self._append(KIND_START, json.dumps(start).encode("utf-8"))
+
+    def _append(self, kind: int, payload: bytes) -> bool:
+        if self._journal is None or self.failure is not None:
+            return False
+        try:
+            self._journal.append(kind, payload)
+            return True
+        except OSError as error:
+            self._fail(error)
+            return False
+
+    def _fail(self, error: OSError) -> None:
+        kept = sum(self.samples.values())
+        self.failure = (f"recording stopped: {_describe_os_error(error)} while writing "
+                        f"{self.journal_path}; {kept} samples received so far, everything flushed "
+                        f"before the error is kept in the journal: free space or reconnect the "
+                        f"storage, then run `mimucap recover {self.out_path}`")
+
+    def add_blocks(self, blocks: Iterable[SampleBlock]) -> bool:
+        """Append blocks to the journal; ``False`` once the recording has failed."""
+        for block in blocks:
+            if len(block) == 0:
+                continue
+            if not self._append(KIND_BLOCK, encode_block(block)):
+                return False
+            self.samples[block.sensor_id] = self.samples.get(block.sensor_id, 0) + len(block)
+        return self.tick()
+
+    def add_marker(self, label: str, host_s: float | None = None) -> bool:
+        """Mark an instant (host monotonic s, default now) with ``label``."""
+        host_s = time.monotonic() if host_s is None else float(host_s)
+        return self._append(KIND_MARKER, json.dumps({"host_s": host_s, "label": str(label)}).encode("utf-8"))
+
+    def tick(self) -> bool:
+        """Flush the journal if due (call it regularly, also when no data arrives)."""
+        if self._journal is None or self.failure is not None:
+            return self.failure is None
+        try:
+            self._journal.flush_if_due()
+        except OSError as error:
+            self._fail(error)
+        return self.failure is None
+
+    def stop(self, status: Mapping[str, Any] | None = None, reason: str = "stopped") -> RecordingResult:
+        """End the recording and write the session file (the journal is then removed).
+
+        ``status`` (JSON-serialisable, e.g. per-sensor statistics) lands in the session
+        metadata under ``"acquisition"``. On a write error the journal is kept and the
+        result's ``message`` says how to recover it.
+        """
+        if self._journal is None:
+            raise ValueError("the recorder was not started")
+        if status is not None:
+            self._append(KIND_STATUS, json.dumps(status, default=str).encode("utf-8"))
+        self._append(KIND_END, json.dumps({"reason": reason if self.failure is None else "write error",
+                                           "stopped_host_s": time.monotonic()}).encode("utf-8"))
+        try:
+            self._journal.close()
+        except OSError as error:
+            if self.failure is None:
+                self._fail(error)
+        self._journal = None
+        try:
+            result = _convert(self.journal_path, self.out_path)
+        except OSError as error:
+            message = self.failure or (f"recording kept in {self.journal_path}: the session file "
+                                       f"could not be written ({_describe_os_error(error)})")
+            return RecordingResult(None, self.journal_path, dict(self.samples), False,
+                                   f"{message}; the session file could not be written "
+                                   f"({_describe_os_error(error)}), run `mimucap recover {self.out_path}` later")
+        if self.failure is not None:
+            result.complete = False
+            result.message = (self.failure.split(";")[0] + f"; the samples flushed before the error are in "
+                              f"{result.session_path}")
+        return result
+
+
+# ------------------------------------------------------------------ journal → session
+
+def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session, JournalContents]:
+    """Rebuild the session from every intact record of a recorder journal."""
+    journal_path = Path(journal_path)
+    contents = JournalContents(journal_path)
+    start: dict[str, Any] | None = None
+    status: Any = None
+    end: dict[str, Any] | None = None
+    markers: list[dict[str, Any]] = []
+    per_sensor: dict[str, list[SampleBlock]] = {}
+    for index, (kind, payload) in enumerate(iter_journal(journal_path, contents)):
+        try:
+            if kind == KIND_START:
+                start = json.loads(payload)
+            elif kind == KIND_BLOCK:
+                block = decode_block(payload)
+                per_sensor.setdefault(block.sensor_id, []).append(block)
+            elif kind == KIND_MARKER:
+                markers.append(json.loads(payload))
+            elif kind == KIND_STATUS:
+                status = json.loads(payload)
+            elif kind == KIND_END:
+                end = json.loads(payload)
+        except ValueError as error:
+            raise ValueError(f"{journal_path}: record {index + 1} is damaged: {error}") from None
+    if start is None:
+        raise ValueError(f"{journal_path}: the journal holds no recording start (nothing to recover)")
+    t0 = float(start["start_host_s"])
+    metadata = dict(start.get("metadata") or {})
+    segments = metadata.pop("sensor_segments", {}) or {}
+    recording = {"started_utc": start.get("started_utc"), "start_host_monotonic_s": t0,
+                 "journal_flush_interval_s": start.get("flush_interval_s"),
+                 "ended": (end or {}).get("reason", "crash (recovered from the journal)"),
+                 "journal_discarded_bytes": contents.discarded_bytes}
+    metadata["recording"] = recording
+    if status is not None:
+        metadata["acquisition"] = status
+    sensors = {sensor_id: _stream(sensor_id, blocks, t0, segments.get(sensor_id))
+               for sensor_id, blocks in sorted(per_sensor.items())}
+    session = Session(metadata=metadata, sensors=sensors,
+                      markers=[Marker(float(m["host_s"]) - t0, str(m["label"])) for m in markers])
+    return session, contents
+
+
+def _stream(sensor_id: str, blocks: list[SampleBlock], t0: float, segment: str | None) -> SensorStream:
+    def joined(name: str, width: tuple[int, ...], dtype=np.float64):
+        present = [getattr(b, name) is not None for b in blocks]
+        if not any(present):
+            return None
+        parts = [np.asarray(getattr(b, name), dtype=dtype) if getattr(b, name) is not None
+                 else np.full((len(b),) + width, np.nan if dtype == np.float64 else -1, dtype=dtype)
+                 for b in blocks]
+        return np.concatenate(parts)[order]
+
+    host = np.concatenate([b.host_time_s for b in blocks])
+    order = np.argsort(host, kind="stable")
+    battery = joined("battery_pct", ())
+    calibration = joined("calibration", (4,), np.int8)
+    extra = {} if calibration is None else {"calibration_status": calibration}
+    return SensorStream(
+        sensor_id=sensor_id, t_s=host[order] - t0,
+        seq=np.concatenate([b.seq for b in blocks])[order],
+        acc=joined("acc", (3,)), gyr=joined("gyr", (3,)), mag_uT=joined("mag_uT", (3,)),
+        q_world_from_sensor=joined("q_world_from_sensor", (4,)), segment=segment,
+        battery=None if battery is None else battery / 100.0,
+        device_time_s=joined("device_time_s", ()), extra=extra)
+
+
+def _convert(journal_path: Path, session_path: Path) -> RecordingResult:
+    session, contents = session_from_journal(journal_path)
+    write_session(session_path, session)
+    os.unlink(journal_path)
+    ended = session.metadata["recording"]["ended"]
+    complete = not contents.torn and not ended.startswith("crash") and ended != "write error"
+    return RecordingResult(session_path, journal_path,
+                           {k: len(v) for k, v in session.sensors.items()}, complete,
+                           "" if not contents.torn else
+                           f"the last {contents.discarded_bytes} bytes of {journal_path} were torn and dropped")
+
+
+def recover(path: str | os.PathLike[str]) -> RecordingResult:
+    """Rebuild ``SESSION.h5`` from ``SESSION.h5.journal`` (``path`` may name either).
+
+    Raises ``ValueError`` when there is nothing to recover (no journal beside the file).
+    """
+    path = Path(path)
+    if path.name.endswith(JOURNAL_SUFFIX):
+        journal, session_path = path, path.with_name(path.name[: -len(JOURNAL_SUFFIX)])
+    else:
+        journal, session_path = journal_path_for(path), path
+    if not journal.exists():
+        if session_path.exists():
+            read_session(session_path)  # raises SessionFormatError (a ValueError) if damaged
+            raise ValueError(f"{session_path} is complete: there is no journal to recover")
+        raise ValueError(f"nothing to recover: neither {session_path} nor {journal} exists")
+    return _convert(journal, session_path)
+
+
+def open_session(path: str | os.PathLike[str]) -> Session:
+    """Read a session file, first recovering it from its journal after a crash."""
+    if journal_path_for(path).exists():
+        recover(path)
+    return read_session(path)

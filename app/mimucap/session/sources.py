@@ -1,0 +1,142 @@
+"""From a source spec string to the worker configs that acquire it (composition with ``io``).
+
+The acquisition layer may not read files, so the parts of a source that need ``io`` live
+here: ``replay:FILE[@SPEED]`` loads a MimuCap session file (HDF5) or Xsens MT Manager text
+exports (one ``.txt`` or a folder of them) and hands the arrays to the replay worker.
+Everything else is mapped directly onto acquisition configs.
+
+Replayed Xsens exports carry ``acc`` (m/s²), ``gyr`` (rad/s) and ``q_world_from_sensor``
+(ENU); their magnetometer is in arbitrary units (normalised to the local field), not µT, so
+it is not replayed. Rows with a missing (NaN) value are skipped and counted in
+:attr:`LoadedReplay.skipped_rows`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from mimucap.acquisition.intake import IntakeSettings
+from mimucap.acquisition.replay import ReplaySourceConfig, ReplayStream
+from mimucap.acquisition.serial_port import SerialSourceConfig
+from mimucap.acquisition.source_spec import (
+    ReplaySpec, SerialSpec, SimulatedSpec, SourceSpec, UdpSpec, parse_source_spec,
+)
+from mimucap.acquisition.simulated import SimulatedSourceConfig
+from mimucap.acquisition.udp import UdpSourceConfig
+from mimucap.acquisition.worker import SourceConfig
+from mimucap.io.quaternion_tables import read_xsens_file
+from mimucap.io.session import read_session
+
+
+@dataclass(frozen=True)
+class SourceOptions:
+    """Session-level choices that apply to a source."""
+
+    sensor_ids: tuple[int, ...] | None = None        #: expected wire ids (UDP/serial)
+    allowed_addresses: tuple[str, ...] | None = None  #: UDP senders allowed
+    sensor_count: int | None = None                  #: simulated suit size (default: the model's)
+    rate_hz: float | None = None                     #: simulated rate (default: simulator's)
+    seed: int = 0                                    #: simulated suit seed
+
+
+@dataclass
+class LoadedReplay:
+    streams: tuple[ReplayStream, ...]
+    skipped_rows: dict[str, int] = field(default_factory=dict)
+
+
+def load_replay(path: str | Path) -> LoadedReplay:
+    """Sensor streams of a session file or Xsens export(s) at ``path`` (``ValueError`` if unusable)."""
+    path = Path(path)
+    if not path.exists():
+        raise ValueError(f"replay file {path} does not exist")
+    if path.is_file() and h5py.is_hdf5(path):
+        return _session_streams(path)
+    files = sorted(path.glob("*.txt")) if path.is_dir() else [path]
+    if not files:
+        raise ValueError(f"replay folder {path} holds no Xsens .txt exports")
+    streams, skipped = [], {}
+    for file in files:
+        recording = read_xsens_file(file)
+        channels = {"acc": recording.acc, "gyr": recording.gyr,
+                    "q_world_from_sensor": recording.q_world_from_sensor}
+        channels = {k: v for k, v in channels.items() if v is not None}
+        if not channels:
+            raise ValueError(f"{file}: no accelerometer, gyroscope or orientation columns to replay")
+        good = np.ones(len(recording.packet_counter), dtype=bool)
+        for value in channels.values():
+            good &= np.all(np.isfinite(value), axis=1)
+        skipped[recording.device_id] = int(np.sum(~good))
+        streams.append(ReplayStream(sensor_id=recording.device_id, t_s=recording.t_s[good],
+                                    seq=recording.packet_counter[good].astype(np.int64),
+                                    **{k: v[good] for k, v in channels.items()}))
+    return LoadedReplay(tuple(streams), skipped)
+
+
+def _session_streams(path: Path) -> LoadedReplay:
+    session = read_session(path, include_truth=False)
+    streams = []
+    for stream in session.sensors.values():
+        calibration = stream.extra.get("calibration_status")
+        streams.append(ReplayStream(
+            sensor_id=stream.sensor_id, t_s=stream.t_s, seq=stream.seq, acc=stream.acc,
+            gyr=stream.gyr, mag_uT=stream.mag_uT, q_world_from_sensor=stream.q_world_from_sensor,
+            calibration=None if calibration is None else np.asarray(calibration, dtype=np.int8),
+            battery_pct=None if stream.battery is None else stream.battery * 100.0))
+    if not streams:
+        raise ValueError(f"replay file {path} holds no sensor streams")
+    return LoadedReplay(tuple(streams))
+
+
+def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOptions(),
+                   name: str | None = None) -> list[SourceConfig]:
+    """The worker config(s) for ``spec`` (a spec string is parsed first)."""
+    if isinstance(spec, str):
+        spec = parse_source_spec(spec)
+    intake = IntakeSettings(sensor_ids=options.sensor_ids)
+    if isinstance(spec, UdpSpec):
+        return [UdpSourceConfig(name=name or "udp", bind_address=spec.bind_address, port=spec.port,
+                                allowed_addresses=options.allowed_addresses, intake=intake)]
+    if isinstance(spec, SerialSpec):
+        return [SerialSourceConfig(name=name or "serial", device=spec.device, baud=spec.baud,
+                                   intake=intake)]
+    if isinstance(spec, ReplaySpec):
+        loaded = load_replay(spec.path)
+        return [ReplaySourceConfig(name=name or "replay", streams=loaded.streams, speed=spec.speed)]
+    if isinstance(spec, SimulatedSpec):
+        return [SimulatedSourceConfig(name=name or "simulated", scenario=spec.scenario,
+                                      n_sensors=options.sensor_count, rate_hz=options.rate_hz,
+                                      seed=options.seed)]
+    raise TypeError(f"not a source spec: {spec!r}")
+
+
+def sensor_segments(configs: list[SourceConfig]) -> dict[str, str]:
+    """Sensor id → segment, where the source knows it (the simulated suit)."""
+    segments: dict[str, str] = {}
+    for config in configs:
+        if isinstance(config, SimulatedSourceConfig):
+            segments.update(config.sensor_segments())
+    return segments
+
+
+def parse_sensor_ids(text: str | None) -> tuple[int, ...] | None:
+    """``"1-4,7"`` → ``(1, 2, 3, 4, 7)``; ``None``/empty → ``None`` (accept any id)."""
+    if not text:
+        return None
+    ids: list[int] = []
+    for part in text.split(","):
+        part = part.strip()
+        low, sep, high = part.partition("-")
+        try:
+            values = range(int(low), int(high) + 1) if sep else [int(low)]
+        except ValueError:
+            raise ValueError(f"bad sensor id list {text!r}: use e.g. 1-4,7") from None
+        for value in values:
+            if not 0 <= value < 0xFFFF:
+                raise ValueError(f"sensor id {value} is outside 0..65534")
+            ids.append(value)
+    return tuple(sorted(set(ids)))

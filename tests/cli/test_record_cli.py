@@ -1,0 +1,119 @@
+"""``mimucap record`` / ``recover`` / ``emulate`` as a user runs them (real subprocesses)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mimucap.io.session import read_session
+from mimucap.session.recording import journal_path_for
+
+MIMUCAP = [sys.executable, "-m", "mimucap"]
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def children_of(pid: int) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid:
+                found.append(int(entry.name))
+    return found
+
+
+def alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def test_kill_9_during_record_loses_at_most_the_last_second(tmp_path):
+    out = tmp_path / "crash.h5"
+    journal = journal_path_for(out)
+    process = subprocess.Popen(MIMUCAP + ["record", "--source", "simulated:walk", "--duration", "60",
+                                          "--out", str(out), "--quiet"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and (not journal.exists() or journal.stat().st_size < 100_000):
+            time.sleep(0.05)
+        assert journal.exists(), process.stderr.read1().decode() if process.poll() is not None else ""
+        time.sleep(1.0)
+        workers = children_of(process.pid)
+        killed_at = time.monotonic()
+        os.kill(process.pid, signal.SIGKILL)
+    finally:
+        process.wait(10)
+    assert workers, "the recorder should have a worker process"
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline and any(alive(w) for w in workers):
+        time.sleep(0.05)
+    assert not any(alive(w) for w in workers), "orphaned workers must stop when the recorder dies"
+    assert not out.exists()
+
+    recovered = subprocess.run(MIMUCAP + ["recover", str(out)], capture_output=True, text=True, timeout=60)
+    assert recovered.returncode == 0, recovered.stderr
+    session = read_session(out)
+    t0 = session.metadata["recording"]["start_host_monotonic_s"]
+    assert len(session.sensors) == 10
+    for sensor_id, stream in session.sensors.items():
+        # every sample older than one second before the kill is there, without gaps
+        assert t0 + stream.t_s[-1] >= killed_at - 1.0, sensor_id
+        np.testing.assert_array_equal(stream.seq, np.arange(stream.seq[0], stream.seq[0] + len(stream)))
+        np.testing.assert_allclose(np.diff(stream.t_s), 0.01, atol=1e-9)
+    assert not journal.exists()
+
+
+def test_emulated_udp_nodes_recorded_with_loss_reported_as_drops(tmp_path):
+    port = free_udp_port()
+    out = tmp_path / "udp.h5"
+    record = subprocess.Popen(MIMUCAP + ["record", "--source", f"udp:127.0.0.1:{port}", "--duration", "5",
+                                         "--out", str(out), "--sensors", "1-3", "--quiet"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    time.sleep(1.0)   # let the worker bind the port
+    emulate = subprocess.run(MIMUCAP + ["emulate", "udp", "--sensors", "4", "--rate", "100", "--target",
+                                        f"127.0.0.1:{port}", "--loss", "0.1", "--duration", "2.5",
+                                        "--drift", "100", "--offset-ms", "40"],
+                             capture_output=True, text=True, timeout=60)
+    assert emulate.returncode == 0, emulate.stderr
+    stdout, stderr = record.communicate(timeout=60)
+    assert record.returncode == 0, stderr
+    session = read_session(out)
+    assert sorted(session.sensors) == ["1", "2", "3"]            # node 4 is not part of the session
+    sources = session.metadata["acquisition"]["sources"]["udp"]
+    assert sources["rejections"]["unknown_sensor"] > 200
+    sensors = session.metadata["acquisition"]["sensors"]
+    for sensor_id, stream in session.sensors.items():
+        expected = stream.seq[-1] - stream.seq[0] + 1
+        assert len(stream) + sensors[sensor_id]["drops"] == expected
+        assert 0.03 < sensors[sensor_id]["drops"] / expected < 0.2        # --loss 0.1
+        assert 200 <= expected <= 250
+        assert np.all(np.diff(stream.t_s) > 0)
+        assert stream.acc is not None and np.all(np.isfinite(stream.acc))
+    assert "wrote" in stdout
+
+
+def test_a_malformed_source_is_one_line_naming_the_valid_forms(tmp_path):
+    completed = subprocess.run(MIMUCAP + ["record", "--source", "tcp:1.2.3.4", "--duration", "1",
+                                          "--out", str(tmp_path / "x.h5")], capture_output=True, text=True)
+    assert completed.returncode == 1
+    lines = completed.stderr.strip().splitlines()
+    assert len(lines) == 1 and "serial:DEVICE[@BAUD]" in lines[0] and "replay:FILE[@SPEED]" in lines[0]

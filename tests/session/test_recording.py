@@ -1,0 +1,127 @@
+"""The recorder: journal → session file, crash recovery, and a full disk."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from mimucap.acquisition.samples import SampleBlock
+from mimucap.io.journal import read_journal
+from mimucap.io.session import read_session
+from mimucap.session.recording import Recorder, RecorderSettings, journal_path_for, open_session, recover
+
+T0 = 1000.0
+
+
+def block(sensor: str, first: int, n: int, rate: float = 100.0, full: bool = True) -> SampleBlock:
+    seq = np.arange(first, first + n, dtype=np.int64)
+    host = T0 + seq / rate
+    channels = {"gyr": np.column_stack([seq * 0.001, -seq * 0.001, np.ones(n)])}
+    if full:
+        channels.update(acc=np.tile([0.0, 0.0, 9.81], (n, 1)), mag_uT=np.tile([20.0, 0.0, -40.0], (n, 1)),
+                        q_world_from_sensor=np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)),
+                        calibration=np.tile(np.array([3, 3, 2, 1], dtype=np.int8), (n, 1)),
+                        battery_pct=np.full(n, 80.0))
+    return SampleBlock("test", sensor, seq, host + 5.0, host, host + 0.002, **channels)
+
+
+def test_blocks_become_a_session_and_the_journal_goes_away(tmp_path):
+    out = tmp_path / "s.h5"
+    recorder = Recorder(out, {"source": "udp:127.0.0.1:5555", "sensor_segments": {"1": "pelvis"}})
+    recorder.start(start_host_s=T0)
+    recorder.add_blocks([block("1", 0, 50), block("2", 0, 30, full=False)])
+    recorder.add_blocks([block("1", 50, 50), block("2", 31, 20, full=False)])   # seq 30 lost
+    recorder.add_marker("jump", host_s=T0 + 0.25)
+    result = recorder.stop({"sensors": {"1": {"drops": 0}}}, "duration")
+    assert result.complete and result.session_path == out
+    assert not journal_path_for(out).exists()
+    session = read_session(out)
+    assert session.metadata["source"] == "udp:127.0.0.1:5555"
+    assert session.metadata["acquisition"] == {"sensors": {"1": {"drops": 0}}}
+    assert session.metadata["recording"]["ended"] == "duration"
+    one, two = session.sensors["1"], session.sensors["2"]
+    assert one.segment == "pelvis" and two.segment is None
+    np.testing.assert_array_equal(one.seq, np.arange(100))
+    np.testing.assert_allclose(one.t_s, np.arange(100) / 100.0, atol=1e-12)
+    np.testing.assert_allclose(one.device_time_s, T0 + 5.0 + np.arange(100) / 100.0)
+    np.testing.assert_allclose(one.battery, 0.8)
+    np.testing.assert_array_equal(one.extra["calibration_status"][0], [3, 3, 2, 1])
+    assert two.acc is None and two.mag_uT is None and two.battery is None  # absent, not zero-filled
+    np.testing.assert_array_equal(two.seq, np.r_[np.arange(30), np.arange(31, 51)])
+    assert session.markers[0].label == "jump" and session.markers[0].t_s == pytest.approx(0.25)
+
+
+def test_a_crash_is_recovered_up_to_the_last_flush(tmp_path):
+    out = tmp_path / "crash.h5"
+    recorder = Recorder(out, {"source": "simulated:demo"}, RecorderSettings(flush_interval_s=0.1))
+    recorder.start(start_host_s=T0)
+    for k in range(5):
+        recorder.add_blocks([block("7", 20 * k, 20)])
+    time.sleep(0.12)
+    recorder.tick()                                # flushed: 100 samples are safe
+    journal = journal_path_for(out)
+    with open(journal, "ab") as handle:             # the crash tore the next record
+        handle.write(b"\x40\x00\x00\x00garbage")
+    result = recover(out)
+    assert not result.complete and "torn" in result.message
+    session = read_session(out)
+    np.testing.assert_array_equal(session.sensors["7"].seq, np.arange(100))
+    assert session.metadata["recording"]["ended"].startswith("crash")
+    assert not journal.exists()
+    with pytest.raises(ValueError, match="no journal"):
+        recover(out)
+
+
+def test_open_session_recovers_first_and_a_stale_journal_blocks_a_new_recording(tmp_path):
+    out = tmp_path / "o.h5"
+    recorder = Recorder(out, {}, RecorderSettings(flush_interval_s=0.1))
+    recorder.start(start_host_s=T0)
+    recorder.add_blocks([block("1", 0, 10)])
+    recorder._journal.flush()   # what a crash leaves: a flushed journal, no session file
+    with pytest.raises(ValueError, match="mimucap recover"):
+        Recorder(out).start()
+    session = open_session(out)
+    assert len(session.sensors["1"]) == 10
+
+
+DISK_FULL_SCRIPT = r"""
+import json, resource, signal, sys, time
+import numpy as np
+sys.path.insert(0, {test_dir!r})
+from test_recording import block
+from mimucap.session.recording import Recorder, RecorderSettings
+out = {out!r}
+recorder = Recorder(out, {{}}, RecorderSettings(flush_interval_s=0.05))
+recorder.start(start_host_s=1000.0)
+signal.signal(signal.SIGXFSZ, signal.SIG_IGN)         # writes beyond the limit fail with EFBIG
+resource.setrlimit(resource.RLIMIT_FSIZE, (300_000, 300_000))
+sent = 0
+while recorder.add_blocks([block("1", sent, 100)]):
+    sent += 100
+    time.sleep(0.001)
+result = recorder.stop(None, "duration")
+print(json.dumps({{"sent": sent, "failure": recorder.failure, "message": result.message,
+                  "session": None if result.session_path is None else str(result.session_path)}}))
+"""
+
+
+def test_a_full_disk_ends_with_a_clear_message_and_a_readable_file(tmp_path):
+    out = tmp_path / "full.h5"
+    script = DISK_FULL_SCRIPT.format(test_dir=str(__import__("pathlib").Path(__file__).parent), out=str(out))
+    completed = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    assert completed.returncode == 0, completed.stderr
+    report = json.loads(completed.stdout.strip().splitlines()[-1])
+    assert "disk is full" in report["failure"] and "mimucap recover" in report["failure"]
+    if report["session"] is None:                   # the session did not fit either: recover later
+        assert "disk is full" in report["message"]
+        assert read_journal(journal_path_for(out)).records
+        recover(out)
+    session = read_session(out)
+    seq = session.sensors["1"].seq
+    assert 0 < len(seq) <= report["sent"] + 100
+    np.testing.assert_array_equal(seq, np.arange(len(seq)))   # a clean prefix, nothing invented
