@@ -660,7 +660,7 @@ def read_session_table(path: str | Path) -> QuaternionTable:
     """Orientations of a MimuCap session on the time axis of its best-sampled sensor.
 
     Uses each stream's recorded ``q_world_from_sensor``; a stream without one is fused from
-    its acc/gyr/mag with :mod:`mimucap.core.fusion` when that is available. Streams are
+    its acc/gyr/mag with :func:`mimucap.core.fusion.offline.fuse_offline`. Streams are
     resampled (slerp) onto the time axis of the stream with most samples, over the interval
     every stream covers. World: ENU, up +z.
     """
@@ -673,10 +673,10 @@ def read_session_table(path: str | Path) -> QuaternionTable:
     series: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     hints: dict[str, str] = {}
     for sensor_id, stream in session.sensors.items():
-        q = stream.q_world_from_sensor
-        if q is None:
-            q = _fuse_stream(stream, source, sensor_id)
-        t = np.asarray(stream.t_s, dtype=np.float64)
+        if stream.q_world_from_sensor is None:
+            t, q = _fuse_stream(stream, source, sensor_id)
+        else:
+            t, q = np.asarray(stream.t_s, dtype=np.float64), stream.q_world_from_sensor
         q = _checked_unit(np.asarray(q, dtype=np.float64), source, sensor_id)
         if t.size < 1:
             raise ValueError(f"{source}: sensor {sensor_id} has no samples")
@@ -694,20 +694,24 @@ def read_session_table(path: str | Path) -> QuaternionTable:
     return QuaternionTable(t_common, quats, np.array([0.0, 0.0, 1.0]), "ENU", source, hints)
 
 
-def _fuse_stream(stream, source: str, sensor_id: str) -> np.ndarray:
+def _fuse_stream(stream, source: str, sensor_id: str) -> tuple[np.ndarray, np.ndarray]:
+    """Offline-fused orientation of a stream without one: (t_s, q) without the NaN rows the
+    filter gives before its first valid accelerometer sample."""
     try:
-        from mimucap.core import fusion  # noqa: F401
+        from mimucap.core.fusion.offline import fuse_offline
     except ImportError:
-        fusion = None
-    offline = getattr(fusion, "fuse_offline", None) if fusion is not None else None
-    if offline is None:
         raise ValueError(
             f"{source}: sensor {sensor_id} has no recorded q_world_from_sensor and no offline "
-            "fusion is available to compute it"
-        )
+            "fusion (mimucap.core.fusion) is available to compute it"
+        ) from None
     if stream.acc is None or stream.gyr is None:
-        raise ValueError(f"{source}: sensor {sensor_id} has neither orientations nor acc/gyr to fuse")
-    return np.asarray(offline(stream.t_s, stream.acc, stream.gyr, stream.mag_uT))
+        raise ValueError(f"{source}: sensor {sensor_id} has neither orientations nor acc and gyr to fuse")
+    result = fuse_offline(stream.t_s, stream.gyr, stream.acc, stream.mag_uT)
+    q = np.asarray(result.q_world_from_sensor, dtype=np.float64)
+    valid = np.all(np.isfinite(q), axis=1)
+    if not np.any(valid):
+        raise ValueError(f"{source}: sensor {sensor_id}: fusion gave no orientation (no valid accelerometer sample)")
+    return np.asarray(stream.t_s, dtype=np.float64)[valid], q[valid]
 
 
 def resample_slerp(t_src: np.ndarray, q_src: np.ndarray, t_dst: np.ndarray) -> np.ndarray:
