@@ -12,8 +12,9 @@ Model (``shared/docs/conventions.md``): ``mag_raw = A · mag_true + b + noise`` 
 
 Calibrated samples are ``mag_cal = soft_iron @ (mag_raw − offset_uT)``, of norm ``field_uT``.
 
-Two estimators, both run on normalised data (centred on the sample mean and divided by the
-RMS distance to it), with the design matrix rows ``[x², y², z², 2yz, 2xz, 2xy, 2x, 2y, 2z, 1]``:
+Two estimators, both run on normalised data (centred on the middle of the samples' 0.5–99.5 %
+range per axis and divided by half its largest extent, so that a few wild samples do not
+matter), with the design matrix rows ``[x², y², z², 2yz, 2xz, 2xy, 2x, 2y, 2z, 1]``:
 
 * ``"ellipsoid"`` (default): Li & Griffiths (2004), "Least squares ellipsoid specific
   fitting", minimising the algebraic residual under ``k·J − I² = 1`` with ``k = 4``, solved
@@ -24,8 +25,9 @@ RMS distance to it), with the design matrix rows ``[x², y², z², 2yz, 2xz, 2xy
 
 Robustness (:class:`FitSettings`): rows with NaN or ±inf are dropped and counted; exact
 repeats of the previous row (a sensor polled faster than it updates) and samples crowding
-one small cell of space (a sensor held still) are thinned; the remaining, well-spread samples
-must number at least ``min_samples``; outliers of the radial residual are rejected with a
+one small cell of space (a sensor held still) are thinned; samples far outside the range of
+the others are dropped as corrupted; the remaining, well-spread samples must number at least
+``min_samples``; outliers of the radial residual are rejected with a
 robust scale (1.4826 · MAD), iterated until nothing changes. A fit that is not an ellipsoid,
 or is degenerate, raises :class:`FitRefused` whose message tells the user what to do.
 """
@@ -45,6 +47,9 @@ FIT_METHODS = ("ellipsoid", "quadric")
 #: radius is at least half the longest.
 LI_GRIFFITHS_K = 4.0
 
+#: Normalisation uses the samples' range between these quantiles (robust to a few wild samples).
+NORMALISATION_QUANTILE = 0.005
+
 #: MAD → standard deviation for normally distributed residuals.
 MAD_TO_SIGMA = 1.4826
 
@@ -62,9 +67,11 @@ class FitSettings:
     field_uT: known magnitude of the local field in the samples' unit; ``None`` takes the
         geometric mean of the fitted radii [None].
     thin_cell_fraction: edge of the cubic cells used to thin crowded samples, as a fraction
-        of the samples' RMS distance from their mean [0.01].
+        of the normalisation scale (about the field's radius) [0.01].
     max_per_cell: samples kept per cell; the rest are thinned [2].
     min_samples: minimum number of well-spread (kept) samples [30].
+    gross_outlier_factor: a sample further than this many normalisation scales from the
+        normalisation centre is rejected before any fit (a corrupted reading) [4.0].
     outlier_sigmas: a sample whose radial residual is further than this many robust sigmas
         from the median residual is rejected [4.0].
     outlier_scale_floor: the robust sigma is never taken below this fraction of the field,
@@ -81,6 +88,7 @@ class FitSettings:
     thin_cell_fraction: float = 0.01
     max_per_cell: int = 2
     min_samples: int = 30
+    gross_outlier_factor: float = 4.0
     outlier_sigmas: float = 4.0
     outlier_scale_floor: float = 1e-3
     max_outlier_iterations: int = 6
@@ -96,8 +104,8 @@ class FitSettings:
             raise ValueError("thin_cell_fraction must be ≥ 0 and max_per_cell ≥ 1")
         if self.min_samples < 10:
             raise ValueError("min_samples must be at least 10 (an ellipsoid has 9 parameters)")
-        if self.outlier_sigmas <= 0 or self.max_outlier_iterations < 0:
-            raise ValueError("outlier_sigmas must be > 0 and max_outlier_iterations ≥ 0")
+        if self.gross_outlier_factor <= 1 or self.outlier_sigmas <= 0 or self.max_outlier_iterations < 0:
+            raise ValueError("gross_outlier_factor must be > 1, outlier_sigmas > 0, max_outlier_iterations ≥ 0")
         if not 0 <= self.max_rejected_fraction < 1:
             raise ValueError("max_rejected_fraction must be in [0, 1)")
         if self.max_radii_ratio <= 1:
@@ -211,12 +219,13 @@ def quadric_coefficients(points: FloatArray, method: str) -> FloatArray:
     if the normal equations are singular (the samples lie on a plane, line or point).
     """
     d = design_matrix(points)
-    if method == "quadric":
-        solution, _, rank, _ = np.linalg.lstsq(d[:, :9], np.ones(len(points)), rcond=None)
-        if rank < 9:
-            raise FitRefused(_DEGENERATE_MESSAGE)
-        return np.append(solution, -1.0)
     s = d.T @ d
+    if method == "quadric":
+        # Normal equations of ``D[:, :9] w = 1`` (well conditioned on normalised data).
+        gram = s[:9, :9]
+        if np.linalg.cond(gram) > 1e12:
+            raise FitRefused(_DEGENERATE_MESSAGE)
+        return np.append(np.linalg.solve(gram, d[:, :9].sum(axis=0)), -1.0)
     s11, s12, s22 = s[:6, :6], s[:6, 6:], s[6:, 6:]
     if np.linalg.cond(s22) > 1e12:
         raise FitRefused(_DEGENERATE_MESSAGE)
@@ -272,11 +281,15 @@ def thin_samples(points: FloatArray, cell: float, max_per_cell: int) -> NDArray[
         keep[1:] = np.any(points[1:] != points[:-1], axis=1)
     if cell > 0:
         index = np.flatnonzero(keep)
-        keys = np.floor(points[index] / cell).astype(np.int64)
-        _, inverse = np.unique(keys, axis=0, return_inverse=True)
-        inverse = inverse.reshape(-1)
-        order = np.argsort(inverse, kind="stable")
-        sorted_keys = inverse[order]
+        cells = np.floor(points[index] / cell).astype(np.int64)
+        cells -= cells.min(axis=0)
+        span = cells.max(axis=0) + 1
+        if float(np.prod(span.astype(np.float64))) < 2.0**62:
+            key = (cells[:, 0] * span[1] + cells[:, 1]) * span[2] + cells[:, 2]
+        else:  # far outliers: too many cells to number, label the occupied ones instead
+            key = np.unique(cells, axis=0, return_inverse=True)[1].reshape(-1)
+        order = np.argsort(key, kind="stable")
+        sorted_keys = key[order]
         starts = np.r_[0, np.flatnonzero(np.diff(sorted_keys)) + 1]
         rank = np.arange(len(order)) - np.repeat(starts, np.diff(np.r_[starts, len(order)]))
         crowded = order[rank >= max_per_cell]
@@ -314,13 +327,17 @@ def fit_ellipsoid(mag_raw: ArrayLike, settings: FitSettings = FitSettings()) -> 
             f"at least {settings.min_samples} are needed: record a longer rotation"
         )
     points = mag[finite_index]
-    mean = points.mean(axis=0)
-    scale = float(np.sqrt(np.mean(np.sum((points - mean) ** 2, axis=1))))
+    low, high = np.quantile(points, [NORMALISATION_QUANTILE, 1.0 - NORMALISATION_QUANTILE], axis=0)
+    centre0 = 0.5 * (low + high)
+    scale = 0.5 * float(np.max(high - low))
     if not scale > 0:
-        raise FitRefused("all samples are identical: the sensor did not move or is not responding")
-    normalised = (points - mean) / scale
-    kept = thin_samples(normalised, settings.thin_cell_fraction, settings.max_per_cell)
-    n_thinned = int((~kept).sum())
+        raise FitRefused("the samples do not change: the sensor did not move or is not responding")
+    normalised = (points - centre0) / scale
+    gross = np.linalg.norm(normalised, axis=1) > settings.gross_outlier_factor
+    n_gross = int(gross.sum())
+    kept = np.zeros(len(points), dtype=bool)
+    kept[~gross] = thin_samples(normalised[~gross], settings.thin_cell_fraction, settings.max_per_cell)
+    n_thinned = int(len(points) - n_gross - kept.sum())
     n_kept = int(kept.sum())
     if n_kept < settings.min_samples:
         raise FitRefused(
@@ -339,10 +356,10 @@ def fit_ellipsoid(mag_raw: ArrayLike, settings: FitSettings = FitSettings()) -> 
         if np.array_equal(new_inliers, inliers):
             break
         inliers = new_inliers
-        n_outliers = int(n_kept - inliers.sum())
-        if n_outliers > settings.max_rejected_fraction * n_kept:
+        n_outliers = int(n_kept - inliers.sum()) + n_gross
+        if n_outliers > settings.max_rejected_fraction * (n_kept + n_gross):
             raise FitRefused(
-                f"{n_outliers} of {n_kept} samples are outliers: the field was disturbed during "
+                f"{n_outliers} of {n_kept + n_gross} samples are outliers: the field was disturbed during "
                 "the recording; move away from iron, magnets and electronics and record again"
             )
         if inliers.sum() < settings.min_samples:
@@ -351,14 +368,14 @@ def fit_ellipsoid(mag_raw: ArrayLike, settings: FitSettings = FitSettings()) -> 
                 f"at least {settings.min_samples} are needed: record again"
             )
         ellipsoid = _fit_normalised(normalised[inliers], settings.method)
-    n_outliers = int(n_kept - inliers.sum())
+    n_outliers = int(n_kept - inliers.sum()) + n_gross
     if ellipsoid.radii_ratio > settings.max_radii_ratio:
         raise FitRefused(
             f"the fitted ellipsoid is degenerate (radii ratio {ellipsoid.radii_ratio:.1f} > "
             f"{settings.max_radii_ratio:g}): the samples cover too few orientations; "
             "turn the sensor about all three of its axes"
         )
-    centre = mean + scale * ellipsoid.centre
+    centre = centre0 + scale * ellipsoid.centre
     shape_matrix = ellipsoid.shape_matrix / scale**2
     world = Ellipsoid(
         centre=centre, shape_matrix=shape_matrix, radii=ellipsoid.radii * scale, axes=ellipsoid.axes

@@ -142,10 +142,10 @@ def coverage_condition(unit_samples: ArrayLike) -> float:
     x, y, z = u[:, 0], u[:, 1], u[:, 2]
     d = np.column_stack((x * x, y * y, z * z, 2 * y * z, 2 * x * z, 2 * x * y, 2 * x, 2 * y, 2 * z))
     d = d / _UNIFORM_COLUMN_RMS / np.sqrt(len(u))
-    singular = np.linalg.svd(d, compute_uv=False)
-    if singular[-1] <= singular[0] * 1e-15:
+    eigenvalues = np.linalg.eigvalsh(d.T @ d)  # squared singular values of d, ascending
+    if eigenvalues[0] <= eigenvalues[-1] * 1e-24:
         return float("inf")
-    return float(singular[0] / singular[-1])
+    return float(np.sqrt(eigenvalues[-1] / eigenvalues[0]))
 
 
 def axis_coverage(unit_samples: ArrayLike) -> tuple[float, float, float]:

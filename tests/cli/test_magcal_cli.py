@@ -1,0 +1,114 @@
+"""``mimucap magcal fit`` and ``mimucap magcal study`` as a user runs them."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mimucap.cli import main
+from mimucap.io.calibration_store import CalibrationStore
+
+JSON_KEYS = {
+    "offset_uT", "soft_iron", "field_uT", "rms_residual_uT", "rms_residual_pct", "condition",
+    "samples_used", "samples_rejected", "verdict", "reasons",
+}
+SET2 = ("mag", "sunsided_hmc5883l", "set-2")
+
+
+def synthetic_counts(n: int = 600, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    a = np.array([[1.1, 0.05, -0.02], [0.05, 0.95, 0.03], [-0.02, 0.03, 1.0]])
+    b_counts = np.array([120.0, -80.0, 35.0])
+    counts = (49.3 * u @ a.T) / 0.15 + b_counts
+    return counts, a, b_counts
+
+
+def run_json(capsys, *args: str) -> dict:
+    assert main(["magcal", "fit", "--json", *args]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+@pytest.mark.parametrize("separator", [",", " ", "\t"])
+def test_fit_counts_csv_json(tmp_path: Path, capsys, separator: str) -> None:
+    counts, a, b_counts = synthetic_counts()
+    path = tmp_path / "mag.txt"
+    path.write_text("\n".join(separator.join(f"{v:.9f}" for v in row) for row in counts) + "\n")
+    result = run_json(capsys, str(path), "--unit", "counts", "--scale-to-uT", "0.15", "--field-uT", "49.3")
+    assert set(result) == JSON_KEYS
+    np.testing.assert_allclose(result["offset_uT"], 0.15 * b_counts, atol=1e-5)
+    np.testing.assert_allclose(result["soft_iron"], np.linalg.inv(a), atol=1e-7)
+    assert result["field_uT"] == 49.3 and result["verdict"] == "good" and result["reasons"] == []
+    assert result["samples_used"] == 600 and result["samples_rejected"] == 0
+    assert result["rms_residual_uT"] < 1e-5 and result["condition"] < 15
+
+
+def test_counts_without_scale_is_an_error(tmp_path: Path, capsys) -> None:
+    counts, _, _ = synthetic_counts()
+    path = tmp_path / "mag.csv"
+    np.savetxt(path, counts, delimiter=",", header="mx_counts,my_counts,mz_counts", comments="")
+    assert main(["magcal", "fit", str(path)]) == 1
+    assert "--scale-to-uT" in capsys.readouterr().err
+
+
+def test_fit_real_recordings_and_save(shared_data: Path, capsys) -> None:
+    folder = shared_data.joinpath(*SET2)
+    full = run_json(capsys, str(folder / "full-sphere" / "mag_hmc5883l.csv.gz"))
+    assert full["rms_residual_pct"] < 1.0 and full["verdict"] == "good"
+    turns = [str(folder / f"rotate-ccw-around-{name}" / "mag_hmc5883l.csv.gz")
+             for name in ("x-pointing-forward", "y-pointing-left", "z-pointing-up")]
+    union = run_json(capsys, *turns, "--format", "csv")
+    assert np.linalg.norm(np.subtract(union["offset_uT"], full["offset_uT"])) < 0.5
+    single = run_json(capsys, turns[1])
+    assert single["verdict"] == "fail" and any("coverage" in r for r in single["reasons"])
+    assert main(["magcal", "fit", *turns, "--sensor", "HMC-1", "--save"]) == 0
+    text = capsys.readouterr().out
+    assert "verdict        good" in text and "saved" in text
+    stored = CalibrationStore().load("HMC-1")
+    np.testing.assert_allclose(stored.offset_uT, union["offset_uT"])
+    assert stored.protocol == "file" and stored.samples_used == union["samples_used"]
+
+
+def test_refused_fit_exits_with_the_reason(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "few.csv"
+    np.savetxt(path, np.random.default_rng(1).normal(size=(12, 3)) * 40)
+    assert main(["magcal", "fit", str(path)]) == 1
+    assert "at least 30" in capsys.readouterr().err
+
+
+def test_study_prints_both_tables(capsys) -> None:
+    assert main(["magcal", "study", "--trials", "2", "--seed", "3"]) == 0
+    text = capsys.readouterr().out
+    assert "Table 1: figure-8" in text and "Table 2: single-axis" in text
+    rows = [line.split() for line in text.splitlines() if line.strip() and line.split()[0].isdigit()]
+    assert len(rows) == 8  # figure-8 ×1..5, single-axis ×1..3
+    figure8_five, single_once = rows[4], rows[5]
+    assert float(single_once[2]) < float(figure8_five[2])  # centre RMSE
+    assert float(single_once[3]) < float(figure8_five[3])  # radii RMSE
+
+
+def test_study_on_a_folder_of_real_recordings(shared_data: Path, tmp_path: Path, capsys) -> None:
+    folder = shared_data.joinpath(*SET2)
+    study = tmp_path / "study"
+    (study / "reference").mkdir(parents=True)
+    (study / "reference" / "full.csv.gz").symlink_to(folder / "full-sphere" / "mag_hmc5883l.csv.gz")
+    trial = study / "single_axis-1" / "trial1"
+    trial.mkdir(parents=True)
+    for name in ("x-pointing-forward", "y-pointing-left", "z-pointing-up"):
+        (trial / f"{name}.csv.gz").symlink_to(folder / f"rotate-ccw-around-{name}" / "mag_hmc5883l.csv.gz")
+    single = study / "single_axis_alone-1"
+    single.mkdir()
+    (single / "y.csv.gz").symlink_to(folder / "rotate-ccw-around-y-pointing-left" / "mag_hmc5883l.csv.gz")
+    assert main(["magcal", "study", "--folder", str(study)]) == 0
+    lines = [line.split() for line in capsys.readouterr().out.splitlines() if line.strip()]
+    rows = [line for line in lines if line[0] == "1"]
+    assert len(rows) == 2
+    union_row = next(r for r in rows if r[-1] == "1/0/0")  # the three turns: judged good
+    assert float(union_row[2]) < 0.5 and float(union_row[1]) > 60  # about 77 s of recording
+    bad = study / "not a protocol"
+    bad.mkdir()
+    assert main(["magcal", "study", "--folder", str(study)]) == 1
