@@ -44,6 +44,17 @@ MAG_CANDIDATE_TAU_S = 1.0
 
 
 @njit(cache=True)
+def lowpass_gain(dt, tau):
+    """Gain ``1 − exp(−dt/τ)`` of a first-order low-pass filter (series for small ``dt/τ``)."""
+    if not dt > 0.0:
+        return 0.0
+    x = dt / tau
+    if x < 0.01:
+        return x * (1.0 - 0.5 * x * (1.0 - x / 3.0))
+    return 1.0 - math.exp(-x)
+
+
+@njit(cache=True)
 def rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_valid, dt):
     """Update the rest detector with one sample; return ``True`` while at rest.
 
@@ -57,7 +68,7 @@ def rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_valid, dt):
             aux[AX_LP_INIT] = 1.0
         aux[AX_REST_T] = 0.0
         return False
-    alpha = 1.0 - math.exp(-dt / p[PI_REST_TAU]) if dt > 0.0 else 0.0
+    alpha = lowpass_gain(dt, p[PI_REST_TAU])
     aux[AX_GLP_X] += alpha * (gx - aux[AX_GLP_X])
     aux[AX_GLP_X + 1] += alpha * (gy - aux[AX_GLP_X + 1])
     aux[AX_GLP_X + 2] += alpha * (gz - aux[AX_GLP_X + 2])
@@ -117,7 +128,7 @@ def mag_accept(p, aux, norm_uT, dip_rad, dt):
     ref_n = aux[AX_MAG_NORM_REF]
     ref_d = aux[AX_MAG_DIP_REF]
     if abs(norm_uT - ref_n) <= tol * ref_n and abs(dip_rad - ref_d) <= dip_tol:
-        alpha = 1.0 - math.exp(-dt / p[PI_MAG_REF_TAU]) if dt > 0.0 else 0.0
+        alpha = lowpass_gain(dt, p[PI_MAG_REF_TAU])
         aux[AX_MAG_NORM_REF] = ref_n + alpha * (norm_uT - ref_n)
         aux[AX_MAG_DIP_REF] = ref_d + alpha * (dip_rad - ref_d)
         aux[AX_MAG_CAND_T] = 0.0
@@ -128,7 +139,7 @@ def mag_accept(p, aux, norm_uT, dip_rad, dt):
     cand_d = aux[AX_MAG_CAND_DIP]
     if (aux[AX_MAG_CAND_T] > 0.0 and abs(norm_uT - cand_n) <= tol * cand_n
             and abs(dip_rad - cand_d) <= dip_tol):
-        alpha = 1.0 - math.exp(-dt / MAG_CANDIDATE_TAU_S) if dt > 0.0 else 0.0
+        alpha = lowpass_gain(dt, MAG_CANDIDATE_TAU_S)
         aux[AX_MAG_CAND_NORM] = cand_n + alpha * (norm_uT - cand_n)
         aux[AX_MAG_CAND_DIP] = cand_d + alpha * (dip_rad - cand_d)
         aux[AX_MAG_CAND_T] += dt

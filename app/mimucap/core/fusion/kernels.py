@@ -27,7 +27,7 @@ import math
 import numpy as np
 from numba import njit
 
-from mimucap.core.fusion.disturbance import acc_noise_var, mag_accept, rest_update
+from mimucap.core.fusion.disturbance import acc_noise_var, lowpass_gain, mag_accept, rest_update
 from mimucap.core.fusion.params import (
     PI_ACC_LP_TAU, PI_ACC_RANGE, PI_BIAS_MAX, PI_BIAS_WALK, PI_GAP_RATE, PI_GYR_NOISE, PI_GYR_RANGE,
     PI_HEADING_NOISE, PI_INIT_BIAS, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
@@ -112,13 +112,16 @@ def align(ax, ay, az, mx, my, mz, use_mag):
 
 
 @njit(cache=True)
-def _scalar_update(P, dx, i, resid, var):
-    """Kalman update of error-state component ``i`` measured with residual and variance."""
+def _scalar_update(P, dx, c, i, resid, var):
+    """Kalman update of error-state component ``i`` measured with residual and variance.
+
+    ``dx`` accumulates the error-state estimate (sequential updates share one linearisation
+    point); ``c`` (6,) is scratch space.
+    """
     r = resid - dx[i]
     s = P[i, i] + var
     if s <= 0.0:
         return
-    c = np.empty(6)
     for a in range(6):
         c[a] = P[a, i]
     inv = 1.0 / s
@@ -126,16 +129,17 @@ def _scalar_update(P, dx, i, resid, var):
         dx[a] += c[a] * inv * r
     for a in range(6):
         ca = c[a] * inv
-        for b in range(6):
-            P[a, b] -= ca * c[b]
+        for b in range(a, 6):
+            v = P[a, b] - ca * c[b]
+            P[a, b] = v
+            P[b, a] = v
 
 
 @njit(cache=True)
-def _heading_update(P, dx, resid, var):
+def _heading_update(P, dx, c, resid, var):
     """Heading (δθ_z) update whose gain on the tilt states is zero (Joseph form)."""
     r = resid - dx[2]
     s = P[2, 2] + var
-    c = np.empty(6)
     for a in range(6):
         c[a] = P[a, 2]
     inv = 1.0 / s
@@ -143,10 +147,10 @@ def _heading_update(P, dx, resid, var):
         dx[a] += c[a] * inv * r
     for a in range(6):
         ca = c[a] * inv
-        for b in range(6):
-            if a < 2 and b < 2:
-                continue
-            P[a, b] -= ca * c[b]
+        for b in range(max(a, 2), 6):
+            v = P[a, b] - ca * c[b]
+            P[a, b] = v
+            P[b, a] = v
 
 
 @njit(cache=True)
@@ -161,7 +165,13 @@ def _rotate_lowpass(aux, dx):
 @njit(cache=True)
 def _inject(q, b, dx, bias_max):
     """Apply the error state to the nominal state and reset it to zero."""
-    ew, ex, ey, ez = exp_quat(dx[0], dx[1], dx[2])
+    n2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]
+    if n2 < 1e-6:
+        # exp by its series: error below |δθ|⁶/46080 ≈ 2e-23
+        s = 0.5 - n2 / 48.0 + n2 * n2 / 3840.0
+        ew, ex, ey, ez = 1.0 - n2 / 8.0 + n2 * n2 / 384.0, s * dx[0], s * dx[1], s * dx[2]
+    else:
+        ew, ex, ey, ez = exp_quat(dx[0], dx[1], dx[2])
     w, x, y, z = quat_multiply(ew, ex, ey, ez, q[0], q[1], q[2], q[3])
     w, x, y, z = quat_normalise(w, x, y, z)
     q[0], q[1], q[2], q[3] = w, x, y, z
@@ -176,7 +186,7 @@ def _inject(q, b, dx, bias_max):
         dx[i] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
               store, st_q, st_b, st_pp, st_pu, st_a):
     """Run the filter over ``N`` samples of one sensor; ``q, b, P, aux`` are updated in place.
@@ -206,6 +216,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
     M = np.empty((3, 3))
     T = np.empty((3, 3))
     dx = np.zeros(6)
+    c = np.empty(6)
     for k in range(n):
         flags = 0
         aux[AX_N_SAMPLES] += 1.0
@@ -328,7 +339,9 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     P[i, i] += q_bias * dt
                 aux[AX_HAVE_PREV] = 0.0
                 aux[AX_AWLP_INIT] = 0.0
+                propagated = False
             else:
+                propagated = True
                 if aux[AX_HAVE_PREV] == 0.0:
                     aux[AX_GYR_PREV_X], aux[AX_GYR_PREV_X + 1], aux[AX_GYR_PREV_X + 2] = wx, wy, wz
                 px, py, pz = aux[AX_GYR_PREV_X], aux[AX_GYR_PREV_X + 1], aux[AX_GYR_PREV_X + 2]
@@ -381,8 +394,10 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
             if not correct:
                 acc_ok = mag_ok = False
             at_rest = correct and rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_ok, dt)
-            _rotmat(q[0], q[1], q[2], q[3], R)
-            # gravity
+            if not propagated:
+                _rotmat(q[0], q[1], q[2], q[3], R)
+            updated = False
+            # gravity (all updates of this sample share one linearisation point)
             if acc_ok:
                 na = math.sqrt(ax * ax + ay * ay + az * az)
                 awx = R[0, 0] * ax + R[0, 1] * ay + R[0, 2] * az
@@ -392,7 +407,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     aux[AX_AWLP_X], aux[AX_AWLP_X + 1], aux[AX_AWLP_X + 2] = awx, awy, awz
                     aux[AX_AWLP_INIT] = 1.0
                 else:
-                    alpha = 1.0 - math.exp(-dt / p[PI_ACC_LP_TAU])
+                    alpha = lowpass_gain(dt, p[PI_ACC_LP_TAU])
                     aux[AX_AWLP_X] += alpha * (awx - aux[AX_AWLP_X])
                     aux[AX_AWLP_X + 1] += alpha * (awy - aux[AX_AWLP_X + 1])
                     aux[AX_AWLP_X + 2] += alpha * (awz - aux[AX_AWLP_X + 2])
@@ -403,11 +418,9 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     flags |= FLAG_ACC_REJECTED
                     aux[AX_N_ACC_REJECTED] += 1.0
                 else:
-                    _scalar_update(P, dx, 1, -lx / nl, var)
-                    _scalar_update(P, dx, 0, ly / nl, var)
-                    _rotate_lowpass(aux, dx)
-                    _inject(q, b, dx, bias_max)
-                    _rotmat(q[0], q[1], q[2], q[3], R)
+                    _scalar_update(P, dx, c, 1, -lx / nl, var)
+                    _scalar_update(P, dx, c, 0, ly / nl, var)
+                    updated = True
             # heading
             if mag_ok:
                 mwx = R[0, 0] * mx + R[0, 1] * my + R[0, 2] * mz
@@ -416,9 +429,8 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                 hnorm = math.hypot(mwx, mwy)
                 nm = math.sqrt(mwx * mwx + mwy * mwy + mwz * mwz)
                 if hnorm > 0.05 * nm and mag_accept(p, aux, nm, math.atan2(-mwz, hnorm), dt):
-                    _heading_update(P, dx, math.atan2(mwx, mwy), var_heading)
-                    _rotate_lowpass(aux, dx)
-                    _inject(q, b, dx, bias_max)
+                    _heading_update(P, dx, c, math.atan2(mwx, mwy), var_heading)
+                    updated = True
                 else:
                     flags |= FLAG_MAG_REJECTED
                     aux[AX_N_MAG_REJECTED] += 1.0
@@ -426,9 +438,11 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
             if at_rest:
                 flags |= FLAG_REST
                 aux[AX_N_REST] += 1.0
-                _scalar_update(P, dx, 3, gx - b[0], var_rest)
-                _scalar_update(P, dx, 4, gy - b[1], var_rest)
-                _scalar_update(P, dx, 5, gz - b[2], var_rest)
+                _scalar_update(P, dx, c, 3, gx - b[0], var_rest)
+                _scalar_update(P, dx, c, 4, gy - b[1], var_rest)
+                _scalar_update(P, dx, c, 5, gz - b[2], var_rest)
+                updated = True
+            if updated:
                 _rotate_lowpass(aux, dx)
                 _inject(q, b, dx, bias_max)
 

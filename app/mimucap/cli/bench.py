@@ -1,0 +1,146 @@
+"""``mimucap bench orientation DIR [--algorithm A ...] [--json]``: the seed's Table 2 on BROAD.
+
+Runs the orientation algorithms on every BROAD trial in DIR and prints, per trial, per
+category (undisturbed, tapping, vibration, magnets) and as the mean over trials, the total /
+heading / inclination RMSE in degrees with BROAD's metric
+(:mod:`mimucap.core.fusion.evaluation`) and the time taken. Algorithms: ``ekf-taylor3``,
+``ekf-rk4``, ``taylor3``, ``rk4`` (gyro-only after the initial alignment) and the smoothed
+``ekf-taylor3-offline`` / ``ekf-rk4-offline``. If the ``vqf`` package is installed, VQF 9D
+with default parameters (online ``vqf`` and ``vqf-offline``) is added as a reference row.
+Every algorithm uses the same default parameters on every trial.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from mimucap.core.fusion.ekf import ALGORITHMS, fuse
+from mimucap.core.fusion.evaluation import orientation_errors
+from mimucap.core.fusion.offline import fuse_offline
+from mimucap.io.broad import BroadTrial, list_broad_trials, read_broad
+
+OUR_ALGORITHMS = ("ekf-taylor3", "ekf-taylor3-offline", "ekf-rk4", "ekf-rk4-offline",
+                  "taylor3", "rk4")
+DEFAULT_ALGORITHMS = ("ekf-taylor3", "ekf-taylor3-offline", "ekf-rk4", "taylor3", "rk4")
+VQF_ALGORITHMS = ("vqf", "vqf-offline")
+CATEGORIES = ("undisturbed", "tapping", "vibration", "magnets")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser("bench", help="accuracy benchmarks on public data sets",
+                                   description="Accuracy benchmarks on public data sets.")
+    parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
+    sub = parser.add_subparsers(dest="bench_command", metavar="BENCH")
+    orientation = sub.add_parser(
+        "orientation", help="orientation RMSE on BROAD trials (seed Table 2)",
+        description="Total/heading/inclination RMSE (deg) of the orientation algorithms on "
+                    "every BROAD trial in DIR, with VQF as reference if installed.")
+    orientation.add_argument("directory", type=Path, help="folder with BROAD *.hdf5 trials")
+    orientation.add_argument("--algorithm", action="append",
+                             choices=OUR_ALGORITHMS + VQF_ALGORITHMS,
+                             help=f"repeatable; default: {', '.join(DEFAULT_ALGORITHMS)} "
+                                  "(+ vqf, vqf-offline when installed)")
+    orientation.add_argument("--json", action="store_true", help="print one JSON object")
+    orientation.set_defaults(func=run_orientation)
+
+
+def _vqf_available() -> bool:
+    try:
+        import vqf  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def estimate(trial: BroadTrial, algorithm: str) -> np.ndarray:
+    """``q_world_from_sensor`` (N, 4) of one algorithm on one trial."""
+    if algorithm in VQF_ALGORITHMS:
+        import vqf
+
+        gyr = np.ascontiguousarray(trial.gyr_rad_s)
+        acc = np.ascontiguousarray(trial.acc_m_s2)
+        mag = np.ascontiguousarray(trial.mag_uT)
+        ts = 1.0 / trial.sampling_rate_hz
+        if algorithm == "vqf":
+            return vqf.VQF(ts).updateBatch(gyr, acc, mag)["quat9D"]
+        return vqf.offlineVQF(gyr, acc, mag, ts, {})["quat9D"]
+    offline = algorithm.endswith("-offline")
+    name = algorithm.removesuffix("-offline")
+    if name not in ALGORITHMS:
+        raise ValueError(f"unknown algorithm {algorithm!r}")
+    estimator = fuse_offline if offline else fuse
+    return estimator(trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT,
+                     algorithm=name).q_world_from_sensor
+
+
+def evaluate(directory: Path, algorithms: list[str]) -> dict:
+    """Per-trial, per-category and mean errors; the structure printed by ``--json``."""
+    trials = []
+    for path in list_broad_trials(directory):
+        trial = read_broad(path)
+        if trial.q_ref_world_from_sensor is None or trial.movement is None:
+            raise ValueError(f"{path}: needs the reference datasets opt_quat and movement")
+        rows = {}
+        for algorithm in algorithms:
+            start = time.perf_counter()
+            q = estimate(trial, algorithm)
+            elapsed = time.perf_counter() - start
+            errors = orientation_errors(q, trial.q_ref_world_from_sensor, trial.movement)
+            rows[algorithm] = {"total_deg": errors.total_deg, "heading_deg": errors.heading_deg,
+                               "inclination_deg": errors.inclination_deg, "time_s": elapsed}
+        trials.append({"trial": trial.name, "category": trial.category,
+                       "samples": trial.n_samples, "results": rows})
+
+    def mean_of(selected: list[dict]) -> dict:
+        return {algorithm: {key: float(np.mean([t["results"][algorithm][key] for t in selected]))
+                            for key in ("total_deg", "heading_deg", "inclination_deg", "time_s")}
+                for algorithm in algorithms}
+
+    categories = {c: mean_of([t for t in trials if t["category"] == c])
+                  for c in CATEGORIES if any(t["category"] == c for t in trials)}
+    return {"algorithms": algorithms, "trials": trials, "categories": categories,
+            "mean": mean_of(trials),
+            "metric": "RMSE (deg) over movement samples of q_est ⊗ q_ref⁻¹; mean over trials"}
+
+
+def format_table(report: dict) -> str:
+    algorithms = report["algorithms"]
+    width = max(len(a) for a in algorithms) + 2
+    head = f"{'trial':38s}" + "".join(f"{a:>{width + 14}s}" for a in algorithms)
+    sub = f"{'':38s}" + "".join(f"{'tot/head/incl deg':>{width + 14}s}" for _ in algorithms)
+    lines = ["Orientation RMSE on BROAD (total / heading / inclination, degrees)", head, sub]
+
+    def cells(results: dict) -> str:
+        return "".join(
+            f"{results[a]['total_deg']:>{width}.2f}/{results[a]['heading_deg']:5.2f}/"
+            f"{results[a]['inclination_deg']:5.2f}" + " " * 2 for a in algorithms)
+
+    for trial in report["trials"]:
+        lines.append(f"{trial['trial'][:38]:38s}" + cells(trial["results"]))
+    lines.append("")
+    for category, results in report["categories"].items():
+        lines.append(f"{'mean ' + category:38s}" + cells(results))
+    lines.append(f"{'MEAN over ' + str(len(report['trials'])) + ' trials':38s}" + cells(report["mean"]))
+    lines.append(f"{'time per trial (s)':38s}" + "".join(
+        f"{report['mean'][a]['time_s']:>{width + 14}.3f}" for a in algorithms))
+    return "\n".join(lines)
+
+
+def run_orientation(args: argparse.Namespace) -> int:
+    algorithms = list(args.algorithm or DEFAULT_ALGORITHMS)
+    if not args.algorithm and _vqf_available():
+        algorithms += list(VQF_ALGORITHMS)
+    for algorithm in algorithms:
+        if algorithm in VQF_ALGORITHMS and not _vqf_available():
+            raise ValueError(f"{algorithm}: the vqf package is not installed (pip install vqf)")
+    report = evaluate(args.directory, algorithms)
+    if args.json:
+        print(json.dumps(report, indent=1))
+    else:
+        print(format_table(report))
+    return 0

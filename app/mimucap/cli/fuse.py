@@ -1,0 +1,123 @@
+"""``mimucap fuse``: orientation of every sample of a recording from its raw IMU channels.
+
+``mimucap fuse INPUT [--algorithm ekf-taylor3|ekf-rk4|taylor3|rk4] [--offline] [--no-mag]
+[--sensor ID] --out OUT.{csv,h5,npy}``
+
+INPUT is a BROAD-style HDF5 trial (``imu_gyr``, ``imu_acc``, ``imu_mag``, attribute
+``sampling_rate``) or a MimuCap session (:func:`mimucap.io.session.read_session`). A session
+gives one output per sensor with a gyroscope, named ``OUT_<sensor id>.<ext>``, or only the
+sensor chosen with ``--sensor`` (written to OUT itself).
+
+Output: one row per input sample, ``q_world_from_sensor`` (world ENU, scalar first; NaN rows
+before the first valid accelerometer sample). CSV: header ``t_s,qw,qx,qy,qz``; HDF5: dataset
+``q_world_from_sensor`` (N, 4) plus ``t_s`` (N,) and ``flags`` (N,) uint8 (bits of
+:mod:`mimucap.core.fusion.state`); ``.npy``: the (N, 4) array.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from mimucap.core.fusion.ekf import ALGORITHMS, FusionResult, fuse
+from mimucap.core.fusion.offline import fuse_offline
+from mimucap.core.fusion.state import FLAG_NAMES
+from mimucap.io.broad import is_broad_file, read_broad
+from mimucap.io.session import read_session
+
+OUTPUT_SUFFIXES = (".csv", ".h5", ".hdf5", ".npy")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "fuse", help="orientation (q_world_from_sensor) from gyro, accelerometer, magnetometer",
+        description="Estimate q_world_from_sensor (ENU, scalar first) for every sample of a "
+                    "BROAD HDF5 trial or a MimuCap session.",
+    )
+    parser.add_argument("input", type=Path, help="BROAD trial (.hdf5) or MimuCap session (.h5)")
+    parser.add_argument("--algorithm", choices=sorted(ALGORITHMS), default="ekf-taylor3",
+                        help="EKF with taylor3/rk4 propagation, or gyro-only integration")
+    parser.add_argument("--offline", action="store_true",
+                        help="forward EKF plus RTS smoother over the whole recording")
+    parser.add_argument("--no-mag", action="store_true", help="ignore the magnetometer")
+    parser.add_argument("--sensor", help="session input: fuse only this sensor id")
+    parser.add_argument("--out", type=Path, required=True, help="output .csv, .h5 or .npy")
+    parser.set_defaults(func=run)
+
+
+def _inputs(path: Path, sensor: str | None) -> list[tuple[str | None, np.ndarray, np.ndarray,
+                                                          np.ndarray | None, np.ndarray | None]]:
+    """``(sensor id or None, t_s, gyr, acc, mag)`` for each stream to fuse."""
+    if not path.is_file():
+        raise OSError(f"{path}: no such file")
+    if is_broad_file(path):
+        if sensor is not None:
+            raise ValueError(f"{path}: a BROAD trial has one sensor; --sensor does not apply")
+        trial = read_broad(path)
+        return [(None, trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT)]
+    session = read_session(path)
+    streams = session.sensors
+    if sensor is not None:
+        if sensor not in streams:
+            raise ValueError(f"{path}: no sensor {sensor!r} (sensors: {', '.join(sorted(streams)) or 'none'})")
+        streams = {sensor: streams[sensor]}
+    chosen = []
+    for sensor_id, stream in streams.items():
+        if stream.gyr is None:
+            if sensor is not None:
+                raise ValueError(f"{path}: sensor {sensor_id} has no gyroscope channel")
+            continue
+        chosen.append((sensor_id, stream.t_s, stream.gyr, stream.acc, stream.mag_uT))
+    if not chosen:
+        raise ValueError(f"{path}: no sensor with a gyroscope channel to fuse")
+    return chosen
+
+
+def _output_path(out: Path, sensor_id: str | None, several: bool) -> Path:
+    if sensor_id is None or not several:
+        return out
+    return out.with_name(f"{out.stem}_{sensor_id}{out.suffix}")
+
+
+def write_orientation(path: Path, t_s: np.ndarray, result: FusionResult) -> None:
+    """Write ``q_world_from_sensor`` as CSV, HDF5 or .npy (chosen by the suffix of ``path``)."""
+    q = result.q_world_from_sensor
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        table = np.column_stack((t_s, q))
+        np.savetxt(path, table, delimiter=",", header="t_s,qw,qx,qy,qz", comments="",
+                   fmt=["%.6f", "%.9f", "%.9f", "%.9f", "%.9f"])
+    elif suffix in (".h5", ".hdf5"):
+        with h5py.File(path, "w") as handle:
+            dataset = handle.create_dataset("q_world_from_sensor", data=q)
+            dataset.attrs["description"] = "q_world_from_sensor, world ENU, scalar first [w, x, y, z]"
+            handle.create_dataset("t_s", data=t_s).attrs["unit"] = "s"
+            flags = handle.create_dataset("flags", data=result.flags)
+            flags.attrs["bits"] = ", ".join(f"{name}={bit}" for name, bit in FLAG_NAMES.items())
+    elif suffix == ".npy":
+        np.save(path, q)
+    else:
+        raise ValueError(f"{path}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.out.suffix.lower() not in OUTPUT_SUFFIXES:
+        raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
+    inputs = _inputs(args.input, args.sensor)
+    estimator = fuse_offline if args.offline else fuse
+    several = len(inputs) > 1
+    for sensor_id, t_s, gyr, acc, mag in inputs:
+        result = estimator(t_s, gyr, acc, None if args.no_mag else mag,
+                           algorithm=args.algorithm, use_mag=not args.no_mag)
+        path = _output_path(args.out, sensor_id, several)
+        write_orientation(path, np.asarray(t_s, dtype=np.float64), result)
+        counts = result.counters[0]
+        label = f"sensor {sensor_id}: " if sensor_id is not None else ""
+        print(f"{label}{counts['samples']} samples -> {path} (skipped {counts['skipped']}, "
+              f"rest {counts['rest']}, magnetometer rejected {counts['mag_rejected']}, "
+              f"accelerometer rejected {counts['acc_rejected']})", file=sys.stdout)
+    return 0
