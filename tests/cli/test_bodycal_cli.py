@@ -1,0 +1,219 @@
+"""``mimucap bodycal`` and ``mimucap angles`` as a user runs them: files in, files out."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mimucap.cli import main
+from mimucap.core import rotation as rot
+from mimucap.core import skeleton as sk
+from mimucap.io.angles_export import read_angles_csv, read_angles_mot
+from mimucap.io.quaternion_tables import QuaternionTable, write_quaternion_csv
+
+TEN = sk.load_model("ten_segment")
+EX, EY, EZ = np.eye(3)
+
+
+@pytest.fixture(scope="module")
+def suit():
+    """A subject facing 130°, random mountings: N-pose 0–1 s, both arms raised sideways
+    1–2 s, T-pose 2–3 s, then hips, knees and elbows moving (3–5 s)."""
+    rng = np.random.default_rng(7)
+    t = np.arange(0.0, 5.0, 0.01)
+    q_body = sk.q_world_from_body_facing(np.radians(130.0))
+    angles = {j: np.zeros((t.size, 3)) for j in TEN.joint_names}
+    moving = t >= 3.0
+    wave = np.sin(np.pi * (t[moving] - 3.0) / 2.0)
+    for side in ("l", "r"):
+        angles[f"hip_{side}"][moving] = np.column_stack((40 * wave, 5 * wave, 10 * wave))
+        angles[f"knee_{side}"][moving, 0] = 70 * wave
+        angles[f"elbow_{side}"][moving, 0] = 100 * wave
+        angles[f"shoulder_{side}"][moving] = np.column_stack((30 * wave, -20 * wave, 15 * wave))
+    segments = sk.segment_orientations_from_joint_angles(TEN, np.broadcast_to(q_body, (t.size, 4)), angles)
+    level = np.clip(t - 1.0, 0.0, 1.0) * (t < 3.0)
+    for side, sign in (("l", 1.0), ("r", -1.0)):
+        raised = rot.multiply(q_body, rot.from_axis_angle(EX, sign * np.radians(90.0) * level))
+        for seg in (f"upper_arm_{side}", f"forearm_{side}"):
+            segments[seg] = np.where((t < 3.0)[:, None], raised, segments[seg])
+    mountings = {s: rot.normalize(rng.normal(size=4)) for s in TEN.segment_names}
+    sensors = {f"imu{i}": rot.multiply(segments[s], mountings[s]) for i, s in enumerate(TEN.segment_names)}
+    mapping = ",".join(f"imu{i}={s}" for i, s in enumerate(TEN.segment_names))
+    return t, sensors, mapping, mountings, segments
+
+
+@pytest.fixture
+def suit_csv(suit, tmp_path):
+    t, sensors, *_ = suit
+    path = tmp_path / "suit.csv"
+    write_quaternion_csv(path, QuaternionTable(t, sensors, source="suit"))
+    return path
+
+
+def test_npose_tpose_calibration_file_and_joint_angles(suit, suit_csv, tmp_path, capsys):
+    t, _, mapping, mountings, segments = suit
+    cal = tmp_path / "CAL.json"
+    code = main(["bodycal", str(suit_csv), "--mapping", mapping, "--npose", "0:0.99", "--tpose", "2:2.99",
+                 "--out", str(cal)])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "verdict good" in out and "10 segments calibrated" in out
+    document = json.loads(cal.read_text())
+    assert document["format"] == "mimucap-body-calibration" and document["method"] == "npose_tpose"
+    assert document["verdict"] == "good" and document["model"] == "ten_segment"
+    facing = sk.q_world_from_body_facing(np.radians(130.0))
+    assert np.degrees(rot.angle_between(document["q_world_from_body"], facing)) < 0.5
+    for i, segment in enumerate(TEN.segment_names):
+        entry = document["segments"][segment]
+        assert entry["sensor"] == f"imu{i}"
+        assert np.degrees(rot.angle_between(entry["q_segment_from_sensor"], mountings[segment])) < 0.5
+    arms = document["quality"]["arms"]
+    assert {a["side"] for a in arms} == {"left", "right"}
+    assert all(abs(a["rotation_angle_deg"] - 90.0) < 0.5 for a in arms)
+    assert document["quality"]["left_right_disagreement_deg"] < 0.5
+
+    for suffix, reader in ((".csv", read_angles_csv), (".mot", read_angles_mot)):
+        out_path = tmp_path / f"angles{suffix}"
+        assert main(["angles", str(suit_csv), "--calibration", str(cal), "--out", str(out_path)]) == 0
+        table = reader(out_path)
+        truth = sk.joint_angles_deg(TEN, segments)
+        assert list(table.angles_deg) == sk.joint_angle_columns(TEN)
+        moving = t >= 3.0
+        for column, values in truth.items():
+            np.testing.assert_allclose(table.angles_deg[column][moving], values[moving], atol=1.0, err_msg=column)
+        assert table.angles_deg["knee_r_flexion_deg"].max() == pytest.approx(70.0, abs=1.0)
+        assert table.angles_deg["elbow_l_flexion_deg"].max() == pytest.approx(100.0, abs=1.0)
+
+
+def test_json_output_and_the_isb_shoulder_columns(suit, suit_csv, tmp_path, capsys):
+    _, _, mapping, *_ = suit
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(suit_csv), "--mapping", mapping, "--npose", "0:0.99", "--tpose", "2:2.99",
+                 "--out", str(cal), "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed == json.loads(cal.read_text())
+    out = tmp_path / "a.csv"
+    assert main(["angles", str(suit_csv), "--calibration", str(cal), "--shoulder", "yxy", "--out", str(out)]) == 0
+    table = read_angles_csv(out)
+    assert "shoulder_r_plane_of_elevation_deg" in table.angles_deg and "shoulder_r_elevation_deg" in table.angles_deg
+    assert any("Y-X'-Y''" in line for line in table.header)
+    # In the T-pose the arm is elevated 90° in the abduction plane (plane of elevation 0).
+    t_pose = (table.t_s > 2.0) & (table.t_s < 3.0)
+    assert np.median(table.angles_deg["shoulder_r_elevation_deg"][t_pose]) == pytest.approx(90.0, abs=0.5)
+    assert np.median(table.angles_deg["shoulder_l_elevation_deg"][t_pose]) == pytest.approx(90.0, abs=0.5)
+
+
+def test_heading_mode_on_the_opensense_walk(shared_data, tmp_path, capsys):
+    folder = shared_data / "body" / "opensense_example"
+    mapping = ("pelvis_imu=pelvis,torso_imu=thorax,femur_r_imu=thigh_r,femur_l_imu=thigh_l,tibia_r_imu=shank_r,"
+               "tibia_l_imu=shank_l,calcn_r_imu=foot_r,calcn_l_imu=foot_l")
+    cal = tmp_path / "CAL.json"
+    names = ["--sensor-names", str(folder / "myIMUMappings.xml")]
+    assert main(["bodycal", str(folder / "IMUData"), *names, "--mapping", mapping,
+                 "--heading-from", "pelvis_imu:z", "--out", str(cal)]) == 0
+    document = json.loads(cal.read_text())
+    assert document["method"] == "heading" and document["model"] == "fifteen_segment"
+    assert document["heading_sensor"] == "pelvis_imu" and document["npose_s"] == [0.0, 0.0]
+    out = tmp_path / "walk.mot"
+    assert main(["angles", str(folder / "IMUData"), *names, "--calibration", str(cal), "--out", str(out)]) == 0
+    assert "knee_r" in capsys.readouterr().out
+    table = read_angles_mot(out)
+    assert set(table.angles_deg) == {f"{j}_{a}_deg" for j in ("lumbar", "hip_l", "hip_r", "knee_l", "knee_r",
+                                                                "ankle_l", "ankle_r")
+                                     for a in ("flexion", "adduction", "rotation")}
+    assert 50.0 < table.angles_deg["knee_l_flexion_deg"].max() < 80.0
+
+
+def test_mapping_defaults_to_the_session_segments(tmp_path, suit):
+    from mimucap.io.session import SensorStream, Session, write_session
+
+    t, sensors, mapping, mountings, _ = suit
+    pairs = dict(item.split("=") for item in mapping.split(","))
+    session = Session(sensors={s: SensorStream(s, t, np.arange(t.size), q_world_from_sensor=q, segment=pairs[s])
+                               for s, q in sensors.items()})
+    path = tmp_path / "suit.h5"
+    write_session(path, session)
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(path), "--npose", "0:0.99", "--tpose", "2:2.99", "--out", str(cal)]) == 0
+    document = json.loads(cal.read_text())
+    assert np.degrees(rot.angle_between(document["segments"]["shank_l"]["q_segment_from_sensor"],
+                                        mountings["shank_l"])) < 0.5
+
+
+def run_error(argv, capsys):
+    code = main(argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 1
+    assert len(err.splitlines()) == 1
+    return err
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--mapping", "imu0=pelvis,nosuch=thorax"], "unknown sensor 'nosuch' in the mapping"),
+    (["--mapping", "imu0=pelvis,=thorax"], "segment 'thorax' has no sensor"),
+    (["--mapping", "imu0=pelvis,imu1="], "sensor 'imu1' has no segment"),
+    (["--mapping", "imu0=pelvis,imu1=tail"], "unknown segment 'tail'"),
+    (["--mapping", "imu0"], "expected SENSOR=SEGMENT"),
+])
+def test_mapping_errors_name_the_entry(suit_csv, tmp_path, capsys, extra, message):
+    err = run_error(["bodycal", str(suit_csv), *extra, "--npose", "0:0.99", "--tpose", "2:2.99",
+                     "--out", str(tmp_path / "c.json")], capsys)
+    assert message in err
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--npose", "0:0.99", "--tpose", "4.5:9"], "T-pose window 4.5:9 s lies outside the recording (0:4.99 s)"),
+    (["--npose", "0:0.99"], "give --tpose T2:T3 (N/T-pose calibration) or --heading-from SENSOR:AXIS"),
+    (["--tpose", "2:2.99"], "--tpose needs --npose"),
+    (["--npose", "a:b", "--tpose", "2:3"], "--npose 'a:b': expected START:END"),
+    (["--heading-from", "imu0:w"], "unknown axis 'w'"),
+    (["--heading-from", "imu0"], "expected SENSOR:AXIS"),
+    (["--heading-from", "imu0:x", "--tpose", "2:3", "--npose", "0:1"], "not both"),
+])
+def test_window_and_mode_errors(suit, suit_csv, tmp_path, capsys, extra, message):
+    err = run_error(["bodycal", str(suit_csv), "--mapping", suit[2], *extra, "--out", str(tmp_path / "c.json")], capsys)
+    assert message in err
+
+
+def test_nan_and_malformed_inputs_are_named(tmp_path, capsys):
+    nan = tmp_path / "nan.csv"
+    nan.write_text("t_s,a_qw,a_qx,a_qy,a_qz\n0,1,0,0,0\n0.01,nan,nan,nan,nan\n")
+    err = run_error(["bodycal", str(nan), "--mapping", "a=pelvis", "--heading-from", "a:x", "--out", str(tmp_path / "c.json")], capsys)
+    assert "nan.csv: line 3: sensor a: NaN quaternion" in err
+    broken = tmp_path / "broken.sto"
+    broken.write_text("version=3\ntime\ta\n")
+    err = run_error(["bodycal", str(broken), "--mapping", "a=pelvis", "--heading-from", "a:x", "--out", str(tmp_path / "c.json")], capsys)
+    assert "broken.sto: no 'endheader'" in err
+    cal = tmp_path / "bad.json"
+    cal.write_text("{not json")
+    err = run_error(["angles", str(nan), "--calibration", str(cal), "--out", str(tmp_path / "a.csv")], capsys)
+    assert "bad.json: invalid JSON at line 1" in err
+
+
+def test_refusal_is_one_clear_line(suit, suit_csv, tmp_path, capsys):
+    """Both 'poses' taken while the arms hang: the arms were not raised."""
+    err = run_error(["bodycal", str(suit_csv), "--mapping", suit[2], "--npose", "0:0.4", "--tpose", "0.5:0.9",
+                     "--out", str(tmp_path / "c.json")], capsys)
+    assert "was not raised" in err
+    assert not (tmp_path / "c.json").exists()
+
+
+def test_angles_errors(suit, suit_csv, tmp_path, capsys):
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(suit_csv), "--mapping", "imu0=pelvis,imu4=upper_arm_r", "--npose", "0:0.99",
+                 "--tpose", "2:2.99", "--out", str(cal)]) == 0
+    capsys.readouterr()
+    err = run_error(["angles", str(suit_csv), "--calibration", str(cal), "--out", str(tmp_path / "a.txt")], capsys)
+    assert "written as .csv or .mot" in err
+    other = tmp_path / "other.csv"
+    write_quaternion_csv(other, QuaternionTable(np.arange(3) * 0.01, {"zz": rot.identity((3,))}, source="x"))
+    err = run_error(["angles", str(other), "--calibration", str(cal), "--out", str(tmp_path / "a.csv")], capsys)
+    assert "sensor imu0 (segment pelvis) is missing from the data" in err
+    lone = tmp_path / "lone.json"
+    document = json.loads(cal.read_text())
+    document["segments"] = {"pelvis": document["segments"]["pelvis"]}
+    lone.write_text(json.dumps(document))
+    err = run_error(["angles", str(suit_csv), "--calibration", str(lone), "--out", str(tmp_path / "a.csv")], capsys)
+    assert "no joint has calibrated segments on both sides" in err
