@@ -9,7 +9,7 @@ from mimucap.core import rotation as rot
 from mimucap.core.magcal import MagCalibration, calibrate
 from mimucap.core.magcal_fit import FitSettings
 from mimucap.core.magcal_quality import QualityThresholds, axis_coverage, coverage_condition
-from mimucap.core.simulate_calibration import calibration_motion
+from mimucap.core.simulate import calibration_motion
 
 FIELD_WORLD_UT = np.array([0.0, 49.3 * np.cos(np.radians(60)), -49.3 * np.sin(np.radians(60))])
 
@@ -118,3 +118,13 @@ def test_calibration_record_refuses_another_sensor() -> None:
         calibration.apply([[1.0, 2.0, 3.0]], "S08")
     with pytest.raises(ValueError, match="symmetric"):
         MagCalibration("S07", np.zeros(3), np.array([[1.0, 0.1, 0], [0, 1, 0], [0, 0, 1]]), 49.3)
+
+
+def test_wrong_unit_fails_even_with_the_field_given() -> None:
+    rng = np.random.default_rng(7)
+    u = rng.normal(size=(800, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    counts = 49.3 / 0.15 * u  # raw counts passed as µT
+    quality = calibrate(counts, "S1", settings=FitSettings(field_uT=49.3)).quality
+    assert quality.field_uT == 49.3 and quality.fitted_field_uT == pytest.approx(49.3 / 0.15)
+    assert quality.verdict == "fail" and "unit and scale" in " ".join(quality.reasons)

@@ -18,8 +18,9 @@ in the samples' unit (µT for calibrated-unit inputs), sensor frame:
   that axis holding at least two samples (samples within 0.3 of the axis are ignored). A turn
   about an axis fills its bins; the lowest fraction names the turn to repeat.
 * **Radii ratio**: longest / shortest fitted radius (soft-iron distortion or a bad fit).
-* **Field range**: the Earth's field at the surface is 22–67 µT; a fitted field outside it
-  means a wrong unit or scale, or a disturbed place.
+* **Field range**: the Earth's field at the surface is 22–67 µT; a fitted field (the mean
+  radius of the raw ellipsoid, checked even when the field is given) outside it means a
+  wrong unit or scale, or a disturbed place.
 * **Dip scatter** (when accelerometer samples are given): the standard deviation of the angle
   between the calibrated field and the horizontal plane, over quasi-static samples (the
   accelerometer norm within 5 % of its median). In a clean place the dip is constant.
@@ -101,7 +102,8 @@ class Quality:
 
     rms_residual_uT, rms_residual_pct: RMS of ``|A⁻¹(h − b)| − field`` (µT, % of field).
     condition: coverage condition (dimensionless). axis_coverage: (3,) fractions in [0, 1].
-    radii_ratio: longest / shortest radius. field_uT: the field the calibration maps onto.
+    radii_ratio: longest / shortest radius. field_uT: the field the calibration maps onto
+    (given, or the fitted mean radius). fitted_field_uT: the raw ellipsoid's mean radius.
     dip_mean_deg, dip_std_deg: dip angle (positive below the horizon) and its scatter, or
     ``None`` without accelerometer samples. verdict: "good" / "warn" / "fail".
     reasons: what is not good, each with what to do about it.
@@ -113,6 +115,7 @@ class Quality:
     axis_coverage: tuple[float, float, float]
     radii_ratio: float
     field_uT: float
+    fitted_field_uT: float
     dip_mean_deg: float | None
     dip_std_deg: float | None
     verdict: str
@@ -127,6 +130,7 @@ class Quality:
             "axis_coverage": list(self.axis_coverage),
             "radii_ratio": self.radii_ratio,
             "field_uT": self.field_uT,
+            "fitted_field_uT": self.fitted_field_uT,
             "dip_mean_deg": self.dip_mean_deg,
             "dip_std_deg": self.dip_std_deg,
             "verdict": self.verdict,
@@ -214,8 +218,7 @@ def assess_quality(
                 dips = dip_angles_deg(calibrated[static], acc_used[static])
                 dip_mean, dip_std = float(dips.mean()), float(dips.std())
     verdict, reasons = _verdict(
-        thresholds, rms, condition, coverage, fit.ellipsoid.radii_ratio, fit.field_uT,
-        fit.field_given, dip_std,
+        thresholds, rms, condition, coverage, fit.ellipsoid.radii_ratio, fit.ellipsoid.mean_radius, dip_std,
     )
     return Quality(
         rms_residual_uT=rms,
@@ -224,6 +227,7 @@ def assess_quality(
         axis_coverage=coverage,
         radii_ratio=fit.ellipsoid.radii_ratio,
         field_uT=fit.field_uT,
+        fitted_field_uT=fit.ellipsoid.mean_radius,
         dip_mean_deg=dip_mean,
         dip_std_deg=dip_std,
         verdict=verdict,
@@ -237,8 +241,7 @@ def _verdict(
     condition: float,
     coverage: tuple[float, float, float],
     radii_ratio: float,
-    field: float,
-    field_given: bool,
+    radius: float,
     dip_std: float | None,
 ) -> tuple[str, list[str]]:
     level = 0
@@ -274,10 +277,10 @@ def _verdict(
             f"radii ratio {radii_ratio:.2f} > {limit:g}: strong soft-iron distortion or poor "
             "coverage; check the sensor's mounting and turn about all three axes",
         )
-    if not field_given and not t.field_min_uT <= field <= t.field_max_uT:
+    if not t.field_min_uT <= radius <= t.field_max_uT:
         flag(
             2,
-            f"fitted field {field:.1f} µT outside the Earth's {t.field_min_uT:g}–"
+            f"fitted field {radius:.1f} µT outside the Earth's {t.field_min_uT:g}–"
             f"{t.field_max_uT:g} µT: check the unit and scale of the input, or move away from iron",
         )
     if dip_std is not None and dip_std > t.dip_std_good_deg:

@@ -9,7 +9,7 @@ protocol, together with the time the protocol takes. Protocols: figure-8 with 1�
 (seed Table 2).
 
 * :func:`evaluate_protocols` does the comparison for any trials (simulated or real).
-* :func:`simulate_study` builds the trials with :func:`mimucap.core.simulate_calibration.calibration_motion`:
+* :func:`simulate_study` builds the trials with :func:`mimucap.core.simulate.calibration_motion`:
   MPU-9250-like errors (AK8963: 0.6 µT noise, 0.15 µT/LSB) in a 49.3 µT field (the seed's),
   the reference being a 50-s tumbling recording of the same sensor.
 * :func:`format_tables` prints the two tables.
@@ -27,8 +27,7 @@ from numpy.typing import NDArray
 
 from mimucap.core.magcal_fit import FitRefused, FitSettings, fit_ellipsoid
 from mimucap.core.magcal_quality import assess_quality
-from mimucap.core.simulate_calibration import calibration_motion
-from mimucap.core.simulate_sensors import EarthField, draw_sensor_parameters, error_model
+from mimucap.core.simulate import EarthField, calibration_motion, error_model
 
 FloatArray = NDArray[np.float64]
 
@@ -170,7 +169,7 @@ class StudySettings:
 
     trials: trials per protocol [10]. seed: draws the sensor and every trial [0].
     field_uT: field magnitude [49.3, the seed's]. dip_deg: field inclination [60].
-    errors: sensor error preset of :mod:`mimucap.core.simulate_sensors` ["mpu9250"].
+    errors: sensor error preset of :mod:`mimucap.core.simulate` (``ERROR_PRESETS``) ["mpu9250"].
     rate_hz: sample rate [100]. reference_periods: 10-s tumbling periods of the reference
     recording [5]. protocols: the protocols compared [:data:`STUDY_PROTOCOLS`].
     """
@@ -195,15 +194,19 @@ def simulate_study(settings: StudySettings = StudySettings()) -> StudyResult:
     """Run the study on simulated trials of one MPU-9250-like sensor (see module docstring)."""
     model = error_model(settings.errors)
     field = EarthField(magnitude_uT=settings.field_uT, dip_deg=settings.dip_deg)
-    sensor = draw_sensor_parameters(settings.seed, 0, "study", model)
+    # The reference recording draws the sensor (its true hard and soft iron); every trial
+    # re-uses that sensor with its own hand motion and noise.
+    reference = calibration_motion(
+        "tumble", settings.reference_periods, rate_hz=settings.rate_hz, seed=settings.seed,
+        errors=model, earth_field=field, sensor_id="study",
+    )
 
     def motion(protocol: str, turns: int, seed: int):
         return calibration_motion(
             protocol, turns, rate_hz=settings.rate_hz, seed=seed, errors=model, earth_field=field,
-            sensor_id="study", mag_A=sensor.mag_A, mag_b_uT=sensor.mag_b_uT,
+            sensor_id="study", mag_A=reference.mag_A, mag_b_uT=reference.mag_b_uT,
         )
 
-    reference = motion("tumble", settings.reference_periods, settings.seed)
     trials: dict[str, list[Trial]] = {}
     for index, item in enumerate(settings.protocols):
         trials[item.key] = []
