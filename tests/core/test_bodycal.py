@@ -549,3 +549,32 @@ def test_opensense_walking_knee_flexion_has_the_shape_of_normal_gait(opensense):
         assert mean.max() == pytest.approx(np.median(knee[peaks]), abs=5.0)
         # Hip flexion is positive when the knee is most bent (swing): the signs agree.
         assert np.median(angles[f"hip_{side}_flexion_deg"][peaks]) > 10.0
+
+
+def test_a_calibration_pose_with_bent_elbows_is_declared_per_segment():
+    """Heading mode on a pose with the forearms forward (elbows at 90°): declaring
+    q_segment_from_body for the forearms recovers their mountings; not declaring it is off by 90°."""
+    mountings = random_mountings(TEN, seed=67)
+    mountings["pelvis"] = rot.from_matrix(np.column_stack((EY, -EZ, -EX)))  # sensor -z forward
+    t, sensors, mapping, _ = suit_recording(0.6, mountings)
+    q_body = sk.q_world_from_body_facing(0.6)
+    bent = rot.multiply(q_body, FORWARD_90)
+    for side in ("l", "r"):
+        sensors[mapping[f"forearm_{side}"]] = np.broadcast_to(
+            rot.multiply(bent, mountings[f"forearm_{side}"]), sensors[mapping["pelvis"]].shape).copy()
+    declared = {"forearm_l": rot.conjugate(FORWARD_90), "forearm_r": rot.conjugate(FORWARD_90)}
+    cal = bc.calibrate_heading(t, sensors, mapping, mapping["pelvis"], -EZ, npose_s=N_POSE,
+                               q_segment_from_body_npose=declared)
+    assert max(mounting_errors(cal, mountings).values()) < 0.5
+    plain = bc.calibrate_heading(t, sensors, mapping, mapping["pelvis"], -EZ, npose_s=N_POSE)
+    assert mounting_errors(plain, mountings)["forearm_r"] == pytest.approx(90.0, abs=0.5)
+
+
+def test_heading_mode_defaults_to_the_first_sample():
+    mountings = random_mountings(TEN, seed=71)
+    mountings["pelvis"] = rot.from_matrix(np.column_stack((EY, -EZ, -EX)))
+    t, sensors, mapping, _ = suit_recording(-1.0, mountings)
+    cal = bc.calibrate_heading(t, sensors, mapping, mapping["pelvis"], -EZ)
+    assert cal.details["npose_s"] == [0.0, 0.0]
+    assert all(s.n_samples == 1 for s in cal.quality.stillness)
+    assert max(mounting_errors(cal, mountings).values()) < 0.5

@@ -224,7 +224,7 @@ class BodyCalibration:
             },
             "quality": self.quality.to_dict(),
             "verdict": self.quality.verdict,
-            **{k: v for k, v in self.details.items()},
+            **self.details,
         }
 
     @classmethod
@@ -481,8 +481,9 @@ def _segment_rotations(
     result = {}
     for segment, sensor in mapping.items():
         q_body_from_sensor = rot.multiply(q_body_from_world, means[sensor])
-        q_seg_from_body = rot.identity() if not q_segment_from_body_npose or segment not in q_segment_from_body_npose \
-            else rot.normalize(q_segment_from_body_npose[segment])
+        q_seg_from_body = rot.identity()
+        if q_segment_from_body_npose and segment in q_segment_from_body_npose:
+            q_seg_from_body = rot.normalize(q_segment_from_body_npose[segment])
         result[segment] = rot.canonical(rot.multiply(q_seg_from_body, q_body_from_sensor))
     return result
 
