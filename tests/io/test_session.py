@@ -182,3 +182,24 @@ def test_bad_streams_and_subjects_are_rejected(tmp_path: Path) -> None:
         write_session(tmp_path / "x.h5", Session(metadata={"bad": object()}))
     with pytest.raises(OSError, match="does not exist"):
         write_session(tmp_path / "no" / "x.h5", Session())
+
+
+def test_simulated_session_round_trip(tmp_path: Path) -> None:
+    from mimucap.core.simulate import SimulationConfig, simulate_session
+    from mimucap.io.session import session_from_simulation
+
+    result = simulate_session(SimulationConfig(scenario="bodycal", duration_s=3.0, n_sensors=10, seed=2, drop_probability=0.05))
+    back = read_session(write_session(tmp_path / "sim.h5", session_from_simulation(result)))
+    assert back.metadata["source"]["scenario"] == "bodycal" and back.metadata["subject"]["height_m"] == 1.75
+    for sensor_id, samples in result.samples.items():
+        stream = back.sensors[sensor_id]
+        np.testing.assert_array_equal(stream.mag_uT, samples.mag_uT)
+        np.testing.assert_array_equal(stream.seq, samples.seq)
+        assert stream.segment == result.mounting[sensor_id].segment
+        truth = back.truth.sensors[sensor_id]
+        np.testing.assert_array_equal(truth.mag_A, result.parameters[sensor_id].mag_A)
+        np.testing.assert_array_equal(truth.q_segment_from_sensor, result.mounting[sensor_id].q_segment_from_sensor)
+        np.testing.assert_array_equal(truth.gyr_bias_rad_s, result.truth.gyr_bias_rad_s[sensor_id])
+    for column, values in result.truth.joint_angles_deg.items():
+        np.testing.assert_array_equal(back.truth.joint_angles_deg[column], values)
+    assert [(m.t_s, m.label) for m in back.markers] == result.markers

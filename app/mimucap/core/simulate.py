@@ -1,24 +1,542 @@
-"""Simulated sensor suit with ground truth: the public entry point of the simulator.
+"""Simulated sensor suit with ground truth: a skeleton moved through scripted activities,
+measured by sensors with a realistic error model.
 
-The sensor error model lives in :mod:`mimucap.core.simulate_sensors`, the single-sensor
-magnetometer-calibration motions in :mod:`mimucap.core.simulate_calibration`; this module
-gathers the public names.
+* :class:`SimulationConfig` (frozen): scenario, duration, number of sensors, rate, seed,
+  error model, earth field, disturbances, subject height.
+* :func:`simulate_session` runs a whole scenario at once and returns a
+  :class:`SimulationResult` (measurements, truth, true parameters).
+* :class:`SuitSimulator` streams the same simulation block by block (``advance``); blocks
+  concatenate to exactly the batch result, and ``set_activity`` makes the subject do what a
+  wizard asks (blended in over 0.5 s).
+* :func:`calibration_motion` (from :mod:`mimucap.core.simulate_calibration`) simulates one
+  hand-held sensor doing a magnetometer-calibration motion.
+
+Sensors: ``S01``..``S10`` on the ten segments of ``ten_segment`` (pelvis, thorax,
+upper_arm_l/r, forearm_l/r, thigh_l/r, shank_l/r); ``S11``..``S15`` add head, hand_l/r and
+foot_l/r (``fifteen_segment``); ``S16`` is a second unit on the thorax (upper back) and
+``S17`` a second unit on the pelvis (right side), for redundancy checks. ``n_sensors`` ≤ 10
+uses the ten-segment model, more the fifteen-segment one (17: the full suit). Each unit sits
+on the skin of its segment (see :data:`SENSOR_PLACEMENTS`) with a uniformly random but known
+mounting rotation ``q_segment_from_sensor``.
+
+Frames: world ENU (z up), segment frames ISB (x anterior, y superior, z right), sensor
+frames the device axes; quaternions scalar-first Hamilton, ``q_A_from_B``. Units: s, m,
+m/s² (specific force), rad/s, µT; joint angles in degrees (Z-X'-Y'', clinical signs of
+``skeleton.JOINT_ANGLE_SIGNS_DOC``). Host time ``t_s`` is the true time ``k / rate_hz``;
+the device clock runs as ``(1 + drift)·t + offset``.
 """
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mimucap.core import rotation as rot
+from mimucap.core import skeleton
 from mimucap.core.simulate_calibration import PROTOCOLS, CalibrationMotion, calibration_motion
+from mimucap.core.simulate_motion import (
+    ACTIVITY_NAMES,
+    BLEND_S,
+    SCENARIOS,
+    Schedule,
+    scenario_activities,
+)
 from mimucap.core.simulate_sensors import (
+    ACC_DIFF_STEP_S,
     ERROR_PRESETS,
     GRAVITY_MPS2,
     IDEAL_SENSOR,
     EarthField,
     MagneticDisturbance,
     SensorErrorModel,
+    SensorNoise,
+    SensorParameters,
+    disturbed_field,
+    draw_sensor_parameters,
     error_model,
+    measure,
+    stack_noise,
+    stack_parameters,
 )
 
+#: Where each unit is worn: (sensor id, segment, position along the segment as a fraction of
+#: its length from the proximal joint, outward surface normal in the segment frame).
+SENSOR_PLACEMENTS: tuple[tuple[str, str, float, tuple[float, float, float]], ...] = (
+    ("S01", "pelvis", 0.5, (-1.0, 0.0, 0.0)),       # sacrum
+    ("S02", "thorax", 0.6, (1.0, 0.0, 0.0)),        # sternum
+    ("S03", "upper_arm_l", 0.5, (0.0, 0.0, -1.0)),  # lateral upper arm
+    ("S04", "upper_arm_r", 0.5, (0.0, 0.0, 1.0)),
+    ("S05", "forearm_l", 0.7, (0.0, 0.0, -1.0)),    # lateral forearm near the wrist
+    ("S06", "forearm_r", 0.7, (0.0, 0.0, 1.0)),
+    ("S07", "thigh_l", 0.5, (0.0, 0.0, -1.0)),      # lateral thigh
+    ("S08", "thigh_r", 0.5, (0.0, 0.0, 1.0)),
+    ("S09", "shank_l", 0.4, (0.0, 0.0, -1.0)),      # lateral shank
+    ("S10", "shank_r", 0.4, (0.0, 0.0, 1.0)),
+    ("S11", "head", 0.6, (-1.0, 0.0, 0.0)),         # back of the head
+    ("S12", "hand_l", 0.3, (0.0, 0.0, -1.0)),       # back of the hand (palms face in at N-pose)
+    ("S13", "hand_r", 0.3, (0.0, 0.0, 1.0)),
+    ("S14", "foot_l", 0.5, (0.0, 1.0, 0.0)),        # top of the foot
+    ("S15", "foot_r", 0.5, (0.0, 1.0, 0.0)),
+    ("S16", "thorax", 0.7, (-1.0, 0.0, 0.0)),       # upper back (second thorax unit)
+    ("S17", "pelvis", 0.5, (0.0, 0.0, 1.0)),        # right side of the pelvis (second pelvis unit)
+)
+MAX_SENSORS = len(SENSOR_PLACEMENTS)
+#: Scale (m) of the smooth minimum that keeps the lower ankle on the ground.
+GROUND_SOFTNESS_M = 0.02
+_STREAM_MOUNTING = 505
+
+
+@dataclass(frozen=True)
+class SimulationConfig:
+    """Settings of one simulation (defaults give the ten-sensor demo at 100 Hz).
+
+    ``scenario``: one of :data:`SCENARIOS` (``demo`` loops N-pose, T-pose, walking, turning,
+    squats and arm raises; ``bodycal`` N-pose 3 s, T-pose 3 s, N-pose; an activity name runs
+    that activity); ``scenario_params`` keyword parameters of that activity (e.g.
+    ``{"arms": "right"}`` for ``tpose``, ``{"sensor_ids": ["S01", "S02"]}`` for
+    ``mag_single_axis``); ``duration_s`` for :func:`simulate_session`; ``n_sensors`` 1..17;
+    ``rate_hz`` 10..1000; ``seed`` makes everything reproducible; ``errors`` a
+    :class:`SensorErrorModel` or preset name (``default``, ``ideal``, ``mpu9250``, ``bno055``);
+    ``drop_probability`` overrides the error model's when not None; ``earth_field``;
+    ``disturbances`` local field episodes; ``height_m`` subject height; ``model`` skeleton
+    model name (default by ``n_sensors``); ``random_mounting`` False mounts every unit aligned
+    with its segment.
+    """
+
+    scenario: str = "demo"
+    duration_s: float = 30.0
+    n_sensors: int = 10
+    rate_hz: float = 100.0
+    seed: int = 0
+    errors: SensorErrorModel | str = "default"
+    drop_probability: float | None = None
+    earth_field: EarthField = EarthField()
+    disturbances: tuple[MagneticDisturbance, ...] = ()
+    height_m: float = 1.75
+    model: str | None = None
+    scenario_params: Mapping[str, Any] = field(default_factory=dict)
+    random_mounting: bool = True
+
+    def __post_init__(self) -> None:
+        if self.scenario not in SCENARIOS:
+            raise ValueError(f"unknown scenario {self.scenario!r}; use one of {', '.join(SCENARIOS)}")
+        if int(self.n_sensors) != self.n_sensors or not 1 <= self.n_sensors <= MAX_SENSORS:
+            raise ValueError(
+                f"number of sensors must be 1..{MAX_SENSORS} (10: ten-segment suit, 15: fifteen-segment suit, "
+                f"16/17: plus second units on thorax and pelvis), got {self.n_sensors}"
+            )
+        if not 10.0 <= self.rate_hz <= 1000.0:
+            raise ValueError(f"sample rate must be 10..1000 Hz, got {self.rate_hz}")
+        if not math.isfinite(self.duration_s) or self.duration_s < 0:
+            raise ValueError(f"duration must be >= 0 s, got {self.duration_s}")
+        if not 0.5 <= self.height_m <= 2.5:
+            raise ValueError(f"subject height must be 0.5..2.5 m, got {self.height_m}")
+        if self.model is not None and self.model not in skeleton.MODEL_NAMES:
+            raise ValueError(f"unknown skeleton model {self.model!r}; use one of {', '.join(skeleton.MODEL_NAMES)}")
+        error_model(self.errors)
+        if self.drop_probability is not None and not 0.0 <= self.drop_probability < 0.9:
+            raise ValueError(f"drop probability must be in [0, 0.9), got {self.drop_probability}")
+
+    @property
+    def model_name(self) -> str:
+        if self.model is not None:
+            return self.model
+        return "ten_segment" if self.n_sensors <= 10 else "fifteen_segment"
+
+    @property
+    def sensor_ids(self) -> tuple[str, ...]:
+        return tuple(p[0] for p in SENSOR_PLACEMENTS[: self.n_sensors])
+
+    def error_settings(self) -> SensorErrorModel:
+        """The resolved error model (with ``drop_probability`` applied)."""
+        model = error_model(self.errors)
+        if self.drop_probability is not None:
+            from dataclasses import replace
+
+            model = replace(model, drop_probability=float(self.drop_probability))
+        return model
+
+
+@dataclass(frozen=True)
+class SensorMounting:
+    """How a unit is worn: ``segment``, ``q_segment_from_sensor`` (4,), ``position_in_segment_m``
+    (3,) from the segment's proximal joint in the segment frame."""
+
+    sensor_id: str
+    segment: str
+    q_segment_from_sensor: np.ndarray
+    position_in_segment_m: np.ndarray
+
+
+@dataclass
+class SensorSamples:
+    """Samples a unit delivered (dropped ones removed): ``t_s`` (N,) host time, ``seq`` (N,)
+    sample numbers, ``acc`` (N,3) m/s², ``gyr`` (N,3) rad/s, ``mag_uT`` (N,3) µT,
+    ``q_world_from_sensor`` (N,4) on-board orientation or None, ``device_time_s`` (N,)."""
+
+    sensor_id: str
+    segment: str
+    t_s: np.ndarray
+    seq: np.ndarray
+    acc: np.ndarray
+    gyr: np.ndarray
+    mag_uT: np.ndarray
+    q_world_from_sensor: np.ndarray | None
+    device_time_s: np.ndarray
+
+    @staticmethod
+    def concatenate(parts: list[SensorSamples]) -> SensorSamples:
+        first = parts[0]
+        cat = lambda name: np.concatenate([getattr(p, name) for p in parts])  # noqa: E731
+        return SensorSamples(
+            sensor_id=first.sensor_id, segment=first.segment, t_s=cat("t_s"), seq=cat("seq"), acc=cat("acc"),
+            gyr=cat("gyr"), mag_uT=cat("mag_uT"),
+            q_world_from_sensor=None if first.q_world_from_sensor is None else cat("q_world_from_sensor"),
+            device_time_s=cat("device_time_s"),
+        )
+
+
+@dataclass
+class SuitTruth:
+    """Ground truth at every simulated sample (dropped or not), ``t_s`` (T,).
+
+    ``q_world_from_segment`` segment → (T,4); ``joint_angles_deg`` column
+    (``<joint>_<flexion|adduction|rotation>_deg``) → (T,); ``root_position_m`` (T,3) pelvis
+    root; per sensor id: ``q_world_from_sensor`` (T,4), ``position_m`` (T,3) world,
+    ``gyr_bias_rad_s`` (T,3), ``field_world_uT`` (T,3); ``mag_axis_turned`` (T,) bundle axis
+    0/1/2 turned during a hand-held magnetometer calibration, −1 otherwise; ``held`` sensor id →
+    (T,) weight of being held in the hands (1) rather than worn (0).
+    """
+
+    t_s: np.ndarray
+    q_world_from_segment: dict[str, np.ndarray]
+    joint_angles_deg: dict[str, np.ndarray]
+    root_position_m: np.ndarray
+    q_world_from_sensor: dict[str, np.ndarray]
+    position_m: dict[str, np.ndarray]
+    gyr_bias_rad_s: dict[str, np.ndarray]
+    field_world_uT: dict[str, np.ndarray]
+    mag_axis_turned: np.ndarray
+    held: dict[str, np.ndarray]
+
+    @staticmethod
+    def concatenate(parts: list[SuitTruth]) -> SuitTruth:
+        def cat_dict(name: str) -> dict[str, np.ndarray]:
+            return {k: np.concatenate([getattr(p, name)[k] for p in parts]) for k in getattr(parts[0], name)}
+
+        return SuitTruth(
+            t_s=np.concatenate([p.t_s for p in parts]),
+            q_world_from_segment=cat_dict("q_world_from_segment"), joint_angles_deg=cat_dict("joint_angles_deg"),
+            root_position_m=np.concatenate([p.root_position_m for p in parts]),
+            q_world_from_sensor=cat_dict("q_world_from_sensor"), position_m=cat_dict("position_m"),
+            gyr_bias_rad_s=cat_dict("gyr_bias_rad_s"), field_world_uT=cat_dict("field_world_uT"),
+            mag_axis_turned=np.concatenate([p.mag_axis_turned for p in parts]), held=cat_dict("held"),
+        )
+
+
+@dataclass
+class SuitBlock:
+    """One interval of simulation: ``samples`` per sensor id, ``truth``, and ``markers``
+    ``(t_s, label)`` for activities starting in the interval (``activity:<name>``)."""
+
+    samples: dict[str, SensorSamples]
+    truth: SuitTruth
+    markers: list[tuple[float, str]]
+
+    @staticmethod
+    def concatenate(blocks: list[SuitBlock]) -> SuitBlock:
+        """Join consecutive blocks into one."""
+        if not blocks:
+            raise ValueError("nothing to concatenate")
+        return SuitBlock(
+            samples={k: SensorSamples.concatenate([b.samples[k] for b in blocks]) for k in blocks[0].samples},
+            truth=SuitTruth.concatenate([b.truth for b in blocks]),
+            markers=[m for b in blocks for m in b.markers],
+        )
+
+
+@dataclass
+class SimulationResult:
+    """A whole simulation: ``config``, ``samples``/``truth``/``markers`` as in :class:`SuitBlock`,
+    true unit ``parameters`` (gyro bias, scale, magnetometer ``mag_A``/``mag_b_uT``, clock) and
+    ``mounting`` per sensor id, the undisturbed ``field_world_uT`` (3,), the skeleton
+    ``model_name`` and ``height_m``."""
+
+    config: SimulationConfig
+    samples: dict[str, SensorSamples]
+    truth: SuitTruth
+    markers: list[tuple[float, str]]
+    parameters: dict[str, SensorParameters]
+    mounting: dict[str, SensorMounting]
+    field_world_uT: np.ndarray
+    model_name: str
+    height_m: float
+
+
+def _softmin(a: np.ndarray, b: np.ndarray, scale: float) -> np.ndarray:
+    """Smooth minimum, equal to ``a`` when ``a == b`` and within ``scale·ln 2`` of min(a, b)."""
+    low = np.minimum(a, b)
+    return low - scale * np.log(0.5 * (np.exp(-(a - low) / scale) + np.exp(-(b - low) / scale)))
+
+
+class SuitSimulator:
+    """Streaming simulation of the suit: :meth:`advance` returns the next block of samples.
+
+    State: the next sample index, the activity schedule, and each unit's noise generator. The
+    sample at index ``k`` is at ``t = k / rate_hz``; any sequence of blocks gives the same
+    samples as one long block, as long as the activity is not changed in between.
+    """
+
+    def __init__(self, config: SimulationConfig = SimulationConfig(), lookahead_s: float = 0.5) -> None:
+        if not 0.0 <= lookahead_s <= 10.0:
+            raise ValueError(f"lookahead must be 0..10 s, got {lookahead_s}")
+        self.config = config
+        self.rate_hz = float(config.rate_hz)
+        self.dt = 1.0 / self.rate_hz
+        self.model = skeleton.load_model(config.model_name)
+        self.errors = config.error_settings()
+        self.sensor_ids = config.sensor_ids
+        placements = SENSOR_PLACEMENTS[: config.n_sensors]
+        missing = [p[1] for p in placements if p[1] not in self.model.segment_names]
+        if missing:
+            raise ValueError(f"model {self.model.name!r} has no segment(s) {', '.join(missing)} for {config.n_sensors} sensors")
+        self.field_world_uT = config.earth_field.field_world_uT()
+        seed = int(config.seed) & 0xFFFFFFFF
+        self.parameters = {
+            sid: draw_sensor_parameters(seed, index, sid, self.errors) for index, sid in enumerate(self.sensor_ids)
+        }
+        self._stack = stack_parameters([self.parameters[s] for s in self.sensor_ids])
+        self._noise = [SensorNoise(seed, self.parameters[s], self.errors, self.rate_hz) for s in self.sensor_ids]
+        self.mounting: dict[str, SensorMounting] = {}
+        misalign, offsets = [], []
+        for index, (sid, segment_name, along, normal) in enumerate(placements):
+            rng = np.random.default_rng([seed, index, _STREAM_MOUNTING])
+            q = rot.normalize(rng.normal(size=4)) if config.random_mounting else rot.identity()
+            segment = self.model.segment(segment_name)
+            position = (np.array(segment.direction) * along * segment.length_ratio * config.height_m
+                        + np.array(normal) * segment.radius_ratio * config.height_m)
+            self.mounting[sid] = SensorMounting(sid, segment_name, rot.canonical(q), position)
+            misalign.append(rot.from_rotvec(rng.normal(size=3) * math.radians(1.5)))
+            offsets.append(np.array([0.0, 0.0, 0.015 * index]))
+        self._segments_of_sensors = [self.mounting[s].segment for s in self.sensor_ids]
+        self._q_segment_from_sensor = np.stack([self.mounting[s].q_segment_from_sensor for s in self.sensor_ids])
+        self._position_in_segment = np.stack([self.mounting[s].position_in_segment_m for s in self.sensor_ids])
+        self._q_bundle_from_sensor = np.stack(misalign)
+        self._bundle_offset = np.stack(offsets)
+        self._seed = seed
+        self._switches = 0
+        self.schedule = Schedule(self._activities(config.scenario, dict(config.scenario_params)))
+        neutral = skeleton.forward_kinematics(
+            self.model, {name: skeleton.q_world_from_body_facing(0.0) for name in self.model.segment_names},
+            config.height_m,
+        )
+        self._ankle_height_m = float(0.5 * (neutral["shank_l"].distal_m[2] + neutral["shank_r"].distal_m[2]))
+        self._root_height_m = float(self.model.root_height_ratio * config.height_m)
+        self._next_sample = 0
+        self._target_time_s = 0.0
+        self.lookahead_s = float(lookahead_s)
+        self._cache: SuitBlock | None = None
+        self._cache_start = self._cache_end = 0
+
+    # ---------------------------------------------------------------------------------------
+    def _activities(self, name: str, params: dict):
+        return scenario_activities(name, params, sensor_ids=self.sensor_ids, seed=self._seed + 7919 * self._switches)
+
+    @property
+    def time_s(self) -> float:
+        """Time (s) of the next sample to be simulated."""
+        return self._next_sample * self.dt
+
+    def set_activity(self, name: str, **params: Any) -> None:
+        """From the next sample on, do activity (or scenario) ``name`` with keyword ``params``.
+
+        Names: ``npose``, ``tpose`` (``arms="right|left|both"``), ``walk``, ``turn``,
+        ``arm_raise``, ``squat``, ``demo``, ``bodycal``, and ``mag_single_axis``/``mag_figure8``/
+        ``mag_tumble`` (``sensor_ids=[...]`` held together and turned; default all). The new
+        activity is blended in over 0.5 s.
+        """
+        if name not in SCENARIOS:
+            raise ValueError(f"unknown activity {name!r}; use one of {', '.join(SCENARIOS)}")
+        if "sensor_ids" in params:
+            unknown = [s for s in params["sensor_ids"] if s not in self.sensor_ids]
+            if unknown:
+                raise ValueError(f"unknown sensor id(s) {', '.join(unknown)}; the suit has {', '.join(self.sensor_ids)}")
+        self._switches += 1
+        activities = self._activities(name, params)
+        if name not in ("demo", "bodycal"):
+            # Skip the scenario's lead-in N-pose: switching is blended already.
+            activities = (a for a in activities if not (a.name == "npose" and a.duration_s is not None and name != "npose"))
+        self.schedule.switch(self.time_s, activities)
+        self._cache = None
+
+    def current_activity(self) -> str:
+        """Label of the activity at the next sample's time."""
+        return self.schedule.label_at(self.time_s)
+
+    # ---------------------------------------------------------------------------------------
+    def kinematics(self, t_s: np.ndarray) -> dict[str, Any]:
+        """True state at times ``t_s`` (m,): segment orientations and joint angles, sensor
+        orientations (m,S,4) and positions (m,S,3), root position, bundle axis and held weights."""
+        t = np.asarray(t_s, dtype=np.float64)
+        pose = self.schedule.pose(t)
+        q_world_from_pelvis = rot.multiply(skeleton.q_world_from_body_facing(pose.heading_rad), pose.q_body_from_pelvis)
+        joints = self.model.joint_names
+        angles = {j: pose.joint_angles_deg[j] for j in joints if j in pose.joint_angles_deg}
+        segments = skeleton.segment_orientations_from_joint_angles(self.model, q_world_from_pelvis, angles)
+        m = t.shape[0]
+        root = np.zeros((m, 3))
+        root[:, :2] = pose.root_xy_m
+        fk = skeleton.forward_kinematics(self.model, segments, self.config.height_m, root)
+        ankle_l, ankle_r = fk["shank_l"].distal_m, fk["shank_r"].distal_m
+        shift = np.zeros((m, 3))
+        contact_z = self._ankle_height_m - _softmin(ankle_l[:, 2], ankle_r[:, 2], GROUND_SOFTNESS_M)
+        shift[:, 2] = pose.ground * contact_z + (1.0 - pose.ground) * (self._root_height_m + pose.root_dz_m)
+        shift[:, :2] = pose.plant[:, None] * (pose.root_xy_m - 0.5 * (ankle_l[:, :2] + ankle_r[:, :2]))
+        q_seg = np.stack([segments[s] for s in self._segments_of_sensors], axis=1)
+        proximal = np.stack([fk[s].proximal_m for s in self._segments_of_sensors], axis=1)
+        q_sensor = rot.multiply(q_seg, self._q_segment_from_sensor)
+        p_sensor = proximal + shift[:, None, :] + rot.rotate(q_seg, self._position_in_segment)
+        held = np.zeros((m, len(self.sensor_ids)))
+        for index, sid in enumerate(self.sensor_ids):
+            if sid in pose.held:
+                held[:, index] = pose.held[sid]
+        axis_turned = np.full(m, -1, dtype=np.int64) if pose.axis_turned is None else pose.axis_turned.astype(np.int64)
+        if pose.bundle_q is not None and np.any(held > 0.0):
+            bundle_q = pose.bundle_q[:, None, :]
+            q_held = rot.multiply(bundle_q, self._q_bundle_from_sensor)
+            p_held = pose.bundle_p_m[:, None, :] + rot.rotate(bundle_q, self._bundle_offset)
+            q_sensor = np.where(held[..., None] > 0.0, rot.slerp(q_sensor, q_held, held), q_sensor)
+            p_sensor = p_sensor + held[..., None] * (p_held - p_sensor)
+        return {
+            "segments": segments, "angles": angles, "q_sensor": q_sensor, "p_sensor": p_sensor,
+            "root": root + shift, "axis_turned": axis_turned, "held": held,
+        }
+
+    def advance(self, duration_s: float) -> SuitBlock:
+        """Simulate the next ``duration_s`` seconds (the samples whose times fall into it)."""
+        if not math.isfinite(duration_s) or duration_s < 0:
+            raise ValueError(f"advance needs a duration >= 0 s, got {duration_s}")
+        self._target_time_s += float(duration_s)
+        end = int(math.floor(self._target_time_s * self.rate_hz + 1e-9))
+        return self.advance_samples(max(end - self._next_sample, 0))
+
+    def advance_samples(self, n: int) -> SuitBlock:
+        """Simulate the next ``n`` samples.
+
+        Samples are computed ahead in chunks of at least ``lookahead_s`` and served from that
+        cache (every sample is a pure function of its index and the activity schedule, so the
+        values do not depend on the chunking); :meth:`set_activity` drops the cache.
+        """
+        n = int(n)
+        if n < 0:
+            raise ValueError(f"cannot advance by {n} samples")
+        k0 = self._next_sample
+        needed_end = k0 + n
+        if self._cache is None or self._cache_start > k0 or self._cache_end < needed_end:
+            chunk = max(n, int(math.ceil(self.lookahead_s * self.rate_hz)))
+            if self._cache is not None and self._cache_start <= k0 < self._cache_end:
+                # Keep the part not yet delivered and compute the rest.
+                head = _slice_block(self._cache, self._cache_start, k0, self._cache_end, self.dt)
+                tail = self._simulate(self._cache_end, k0 + chunk - self._cache_end)
+                self._cache = SuitBlock.concatenate([head, tail])
+            else:
+                self._cache = self._simulate(k0, chunk)
+            self._cache_start, self._cache_end = k0, k0 + chunk
+        block = _slice_block(self._cache, self._cache_start, k0, needed_end, self.dt)
+        self._next_sample = needed_end
+        self._target_time_s = max(self._target_time_s, self._next_sample * self.dt)
+        return block
+
+    def _simulate(self, k0: int, n: int) -> SuitBlock:
+        """Compute samples ``k0 .. k0+n-1`` (no caching, no state change besides noise caches)."""
+        t = (k0 + np.arange(n)) * self.dt
+        h = ACC_DIFF_STEP_S
+        state = self.kinematics(np.concatenate((t, t - self.dt, t - h, t + h)))
+        q_all, p_all = state["q_sensor"], state["p_sensor"]
+        q_now, q_prev = q_all[:n], q_all[n:2 * n]
+        p_now = p_all[:n]
+        acc_world = (p_all[3 * n:] - 2.0 * p_now + p_all[2 * n:3 * n]) / (h * h)
+        fields = np.stack([
+            disturbed_field(self.field_world_uT, self.config.disturbances, sid, t, p_now[:, i])
+            for i, sid in enumerate(self.sensor_ids)
+        ], axis=1)
+        noise = stack_noise([source.block(k0, n) for source in self._noise])
+        meas = measure(self._stack, self.errors, noise, t, q_now, q_prev, acc_world, fields, self.dt)
+        samples = {}
+        seq = k0 + np.arange(n, dtype=np.int64)
+        for i, sid in enumerate(self.sensor_ids):
+            keep = meas.keep[:, i]
+            samples[sid] = SensorSamples(
+                sensor_id=sid, segment=self.mounting[sid].segment, t_s=t[keep], seq=seq[keep],
+                acc=meas.acc[keep, i], gyr=meas.gyr[keep, i], mag_uT=meas.mag_uT[keep, i],
+                q_world_from_sensor=None if meas.q_world_from_sensor is None else meas.q_world_from_sensor[keep, i],
+                device_time_s=meas.device_time_s[keep, i],
+            )
+        angles = {}
+        for joint in self.model.joint_names:
+            values = state["angles"].get(joint)
+            for axis_index, axis in enumerate(("flexion", "adduction", "rotation")):
+                angles[f"{joint}_{axis}_deg"] = np.zeros(n) if values is None else values[:n, axis_index].copy()
+        truth = SuitTruth(
+            t_s=t,
+            q_world_from_segment={name: q[:n].copy() for name, q in state["segments"].items()},
+            joint_angles_deg=angles,
+            root_position_m=state["root"][:n],
+            q_world_from_sensor={sid: q_now[:, i] for i, sid in enumerate(self.sensor_ids)},
+            position_m={sid: p_now[:, i] for i, sid in enumerate(self.sensor_ids)},
+            gyr_bias_rad_s={sid: meas.gyr_bias[:, i] for i, sid in enumerate(self.sensor_ids)},
+            field_world_uT={sid: fields[:, i] for i, sid in enumerate(self.sensor_ids)},
+            mag_axis_turned=state["axis_turned"][:n],
+            held={sid: state["held"][:n, i] for i, sid in enumerate(self.sensor_ids)},
+        )
+        t_start, t_end = k0 * self.dt, (k0 + n) * self.dt
+        markers = [(start, f"activity:{label}") for start, label in self.schedule.entries
+                   if t_start <= start < t_end]
+        return SuitBlock(samples=samples, truth=truth, markers=markers)
+
+
+def _slice_block(block: SuitBlock, block_start: int, k0: int, k1: int, dt: float) -> SuitBlock:
+    """Samples ``k0 .. k1-1`` of ``block``, whose first truth row is sample ``block_start``."""
+    a, b = k0 - block_start, k1 - block_start
+    samples = {}
+    for sid, s in block.samples.items():
+        i0, i1 = np.searchsorted(s.seq, [k0, k1])
+        samples[sid] = SensorSamples(
+            sensor_id=sid, segment=s.segment, t_s=s.t_s[i0:i1], seq=s.seq[i0:i1], acc=s.acc[i0:i1],
+            gyr=s.gyr[i0:i1], mag_uT=s.mag_uT[i0:i1],
+            q_world_from_sensor=None if s.q_world_from_sensor is None else s.q_world_from_sensor[i0:i1],
+            device_time_s=s.device_time_s[i0:i1],
+        )
+    tr = block.truth
+    cut = lambda d: {k: v[a:b] for k, v in d.items()}  # noqa: E731
+    truth = SuitTruth(
+        t_s=tr.t_s[a:b], q_world_from_segment=cut(tr.q_world_from_segment), joint_angles_deg=cut(tr.joint_angles_deg),
+        root_position_m=tr.root_position_m[a:b], q_world_from_sensor=cut(tr.q_world_from_sensor),
+        position_m=cut(tr.position_m), gyr_bias_rad_s=cut(tr.gyr_bias_rad_s), field_world_uT=cut(tr.field_world_uT),
+        mag_axis_turned=tr.mag_axis_turned[a:b], held=cut(tr.held),
+    )
+    markers = [(t, label) for t, label in block.markers if k0 * dt <= t < k1 * dt]
+    return SuitBlock(samples=samples, truth=truth, markers=markers)
+
+
+def simulate_session(config: SimulationConfig = SimulationConfig()) -> SimulationResult:
+    """Run ``config.scenario`` for ``config.duration_s`` seconds and return everything."""
+    simulator = SuitSimulator(config)
+    block = simulator.advance(config.duration_s)
+    return SimulationResult(
+        config=config, samples=block.samples, truth=block.truth, markers=block.markers,
+        parameters=dict(simulator.parameters), mounting=dict(simulator.mounting),
+        field_world_uT=simulator.field_world_uT, model_name=simulator.model.name, height_m=config.height_m,
+    )
+
+
 __all__ = [
-    "PROTOCOLS", "CalibrationMotion", "calibration_motion", "ERROR_PRESETS", "GRAVITY_MPS2",
-    "IDEAL_SENSOR", "EarthField", "MagneticDisturbance", "SensorErrorModel", "error_model",
+    "ACTIVITY_NAMES", "BLEND_S", "SCENARIOS", "SENSOR_PLACEMENTS", "MAX_SENSORS", "SimulationConfig",
+    "SimulationResult", "SuitSimulator", "SuitBlock", "SuitTruth", "SensorSamples", "SensorMounting",
+    "simulate_session", "PROTOCOLS", "CalibrationMotion", "calibration_motion", "ERROR_PRESETS",
+    "GRAVITY_MPS2", "IDEAL_SENSOR", "EarthField", "MagneticDisturbance", "SensorErrorModel", "error_model",
 ]

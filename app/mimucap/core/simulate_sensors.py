@@ -360,6 +360,33 @@ def true_angular_rate(q_prev: np.ndarray, q_now: np.ndarray, dt: float) -> np.nd
     return rot.to_rotvec(rot.multiply(rot.conjugate(q_prev), q_now)) / dt
 
 
+def stack_parameters(parameters: list[SensorParameters]) -> SensorParameters:
+    """Parameters of several units stacked along a leading sensor axis (S,...), for
+    :func:`measure` on arrays shaped (n, S, ...); ``sensor_id`` joins the ids with commas."""
+    if not parameters:
+        raise ValueError("stack_parameters needs at least one sensor")
+    stacked = {
+        name: np.stack([np.asarray(getattr(p, name), dtype=np.float64) for p in parameters])
+        for name in ("gyr_bias0_rad_s", "gyr_scale", "acc_bias_mps2", "acc_scale", "mag_A", "mag_b_uT",
+                     "clock_offset_s", "clock_drift", "onboard_frequency_hz", "onboard_phase_rad",
+                     "onboard_amplitude_rad")
+    }
+    return SensorParameters(sensor_id=",".join(p.sensor_id for p in parameters), index=-1, **stacked)
+
+
+def stack_noise(blocks: list[NoiseBlock]) -> NoiseBlock:
+    """Noise blocks of several units stacked along axis 1: fields (n, S, ...)."""
+    return NoiseBlock(**{name: np.stack([getattr(b, name) for b in blocks], axis=1)
+                         for name in ("gyr_noise", "gyr_bias", "acc_noise", "mag_noise", "keep")})
+
+
+def _apply(matrix: np.ndarray, vectors: np.ndarray) -> np.ndarray:
+    """``matrix @ vector`` over leading axes, summed in a fixed order (no BLAS: results do not
+    depend on the array length, which block-wise simulation relies on)."""
+    m = np.asarray(matrix)
+    return (m[..., 0] * vectors[..., 0:1] + m[..., 1] * vectors[..., 1:2]) + m[..., 2] * vectors[..., 2:3]
+
+
 def measure(
     params: SensorParameters,
     errors: SensorErrorModel,
@@ -376,31 +403,37 @@ def measure(
     ``t_s`` (n,) true times; ``q_world_from_sensor`` (n,4) at ``t_s`` and ``..._prev`` (n,4)
     one sample earlier; ``acc_world_mps2`` (n,3) linear acceleration of the sensor point
     (without gravity); ``field_world_uT`` (n,3) or (3,) field at the sensor; ``dt`` sample
-    interval (s).
+    interval (s). With parameters from :func:`stack_parameters` and noise from
+    :func:`stack_noise` every per-sample array has shape (n, S, ...) instead.
     """
     q_sensor_from_world = rot.conjugate(q_world_from_sensor)
     omega = true_angular_rate(q_world_from_sensor_prev, q_world_from_sensor, dt)
-    gyr = omega @ params.gyr_scale.T + noise.gyr_bias + noise.gyr_noise
+    gyr = _apply(params.gyr_scale, omega) + noise.gyr_bias + noise.gyr_noise
     specific_force = np.asarray(acc_world_mps2, dtype=np.float64) + np.array([0.0, 0.0, GRAVITY_MPS2])
-    acc = rot.rotate(q_sensor_from_world, specific_force) @ params.acc_scale.T + params.acc_bias_mps2 + noise.acc_noise
+    acc = _apply(params.acc_scale, rot.rotate(q_sensor_from_world, specific_force)) + params.acc_bias_mps2 + noise.acc_noise
     mag_true = rot.rotate(q_sensor_from_world, np.broadcast_to(field_world_uT, specific_force.shape))
-    mag = mag_true @ params.mag_A.T + params.mag_b_uT + noise.mag_noise
+    mag = _apply(params.mag_A, mag_true) + params.mag_b_uT + noise.mag_noise
     if errors.mag_lsb_uT > 0.0:
         mag = np.round(mag / errors.mag_lsb_uT) * errors.mag_lsb_uT
     onboard = None
     if errors.onboard_orientation:
         onboard = onboard_orientation(params, t_s, q_world_from_sensor)
-    device_time = (1.0 + params.clock_drift) * np.asarray(t_s) + params.clock_offset_s
+    t = np.asarray(t_s, dtype=np.float64)
+    t = t.reshape(t.shape + (1,) * np.ndim(params.clock_drift))
+    device_time = (1.0 + params.clock_drift) * t + params.clock_offset_s
     return Measurements(acc=acc, gyr=gyr, mag_uT=mag, q_world_from_sensor=onboard,
                         device_time_s=device_time, keep=noise.keep, gyr_bias=noise.gyr_bias)
 
 
 def onboard_orientation(params: SensorParameters, t_s: np.ndarray, q_world_from_sensor: np.ndarray) -> np.ndarray:
-    """On-board fusion output (n,4): ``q_err(t) ⊗ q_world_from_sensor`` with a slowly varying
-    world-frame error rotation, quantised to 2⁻¹⁴ like the BNO055 and renormalised."""
-    t = np.asarray(t_s, dtype=np.float64)[:, None, None]
-    waves = np.sin(2.0 * np.pi * params.onboard_frequency_hz * t + params.onboard_phase_rad)
-    error_rotvec = params.onboard_amplitude_rad * waves.sum(axis=-1)
+    """On-board fusion output (n,4) (or (n,S,4) for stacked parameters):
+    ``q_err(t) ⊗ q_world_from_sensor`` with a slowly varying world-frame error rotation,
+    quantised to 2⁻¹⁴ like the BNO055 and renormalised."""
+    frequency = np.asarray(params.onboard_frequency_hz)
+    t = np.asarray(t_s, dtype=np.float64)
+    t = t.reshape(t.shape + (1,) * frequency.ndim)
+    waves = np.sin(2.0 * np.pi * frequency * t + params.onboard_phase_rad)
+    error_rotvec = np.asarray(params.onboard_amplitude_rad)[..., None] * waves.sum(axis=-1)
     q = rot.multiply(rot.from_rotvec(error_rotvec), q_world_from_sensor)
     q = np.round(rot.canonical(q) * 16384.0) / 16384.0
     return rot.normalize(q)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
+import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -345,8 +345,7 @@ def write_session(path: str | os.PathLike[str], session: Session) -> Path:
     directory = target.parent if str(target.parent) else Path(".")
     if not directory.is_dir():
         raise OSError(f"cannot write session {target}: folder {directory} does not exist")
-    handle, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".part", dir=directory)
-    os.close(handle)
+    temporary = str(directory / f".{target.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.part")
     try:
         with h5py.File(temporary, "w", track_order=True) as h5:
             h5.attrs["format"] = SESSION_FORMAT
@@ -615,8 +614,67 @@ def session_duration_s(session: Session) -> float:
     return float(max(ends) - min(starts)) if starts else 0.0
 
 
+def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, include_truth: bool = True) -> Session:
+    """A :class:`Session` holding a :class:`mimucap.core.simulate.SimulationResult`.
+
+    Sensor streams keep the simulated samples (dropped packets absent); ``metadata["source"]``
+    records the scenario, seed, rate, sensor count, model, error model and earth field so the
+    file says how to reproduce it; markers are the activity changes; ``truth`` (unless
+    ``include_truth`` is False) holds segment and sensor orientations, mounting, magnetometer
+    distortion, gyroscope bias, field, joint angles and the hand-held calibration axis.
+    """
+    from dataclasses import asdict
+
+    config = result.config
+    errors = config.error_settings()
+    sensors = {
+        sid: SensorStream(
+            sensor_id=sid, t_s=s.t_s, seq=s.seq, acc=s.acc, gyr=s.gyr, mag_uT=s.mag_uT,
+            q_world_from_sensor=s.q_world_from_sensor, segment=s.segment, device_time_s=s.device_time_s,
+        )
+        for sid, s in result.samples.items()
+    }
+    source = {
+        "kind": "simulated", "scenario": config.scenario, "scenario_params": dict(config.scenario_params),
+        "duration_s": config.duration_s, "n_sensors": config.n_sensors, "rate_hz": config.rate_hz,
+        "seed": config.seed, "model": result.model_name, "height_m": result.height_m,
+        "errors": asdict(errors), "earth_field": asdict(config.earth_field),
+        "disturbances": [asdict(d) for d in config.disturbances], "random_mounting": config.random_mounting,
+    }
+    metadata = {
+        "source": source,
+        "subject": subject if subject is not None else make_subject("simulated", result.height_m, "right", "simulated subject"),
+        "sensor_segments": {sid: s.segment for sid, s in result.samples.items()},
+    }
+    truth = None
+    if include_truth:
+        tr = result.truth
+        sensor_truth = {}
+        for sid, mounting in result.mounting.items():
+            params = result.parameters[sid]
+            sensor_truth[sid] = SensorTruth(
+                sensor_id=sid, q_world_from_sensor=tr.q_world_from_sensor[sid], segment=mounting.segment,
+                q_segment_from_sensor=mounting.q_segment_from_sensor,
+                position_in_segment_m=mounting.position_in_segment_m, mag_A=params.mag_A, mag_b_uT=params.mag_b_uT,
+                gyr_bias_rad_s=tr.gyr_bias_rad_s[sid], field_world_uT=tr.field_world_uT[sid],
+                clock_offset_s=params.clock_offset_s, clock_drift=params.clock_drift,
+                parameters={"gyr_scale": params.gyr_scale, "acc_bias_mps2": params.acc_bias_mps2,
+                            "acc_scale": params.acc_scale, "position_m": tr.position_m[sid], "held": tr.held[sid]},
+            )
+        truth = SessionTruth(
+            t_s=tr.t_s, q_world_from_segment=dict(tr.q_world_from_segment), joint_angles_deg=dict(tr.joint_angles_deg),
+            sensors=sensor_truth, field_world_uT=np.asarray(result.field_world_uT),
+            extra={"root_position_m": tr.root_position_m, "mag_axis_turned": tr.mag_axis_turned},
+            attributes={"joint_angle_sequence": "ZXY", "model": result.model_name, "height_m": result.height_m},
+        )
+    return Session(
+        metadata=metadata, sensors=sensors, markers=[Marker(float(t), label) for t, label in result.markers],
+        truth=truth,
+    )
+
+
 __all__ = [
     "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
     "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "make_subject",
-    "write_session", "read_session", "read_metadata", "session_duration_s",
+    "write_session", "read_session", "read_metadata", "session_duration_s", "session_from_simulation",
 ]

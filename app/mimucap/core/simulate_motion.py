@@ -1,0 +1,681 @@
+"""Scripted human motion for the simulated suit: activities, their joint-angle curves, blending.
+
+An *activity* (standing N-pose, T-pose, walking, turning, arm raises, squats, holding sensors
+for a magnetometer calibration) maps local time ``tau`` (s since it started) and its start
+state (heading and horizontal position) to a :class:`BodyPose`: the subject's heading, the
+pelvis orientation relative to the heading, joint angles, and optionally the pose of a bundle
+of sensors held in the hands. A :class:`Schedule` strings activities together and blends each
+new one in over :data:`BLEND_S` seconds (1 s when walking starts or stops; minimum-jerk
+weights), so poses, velocities and
+accelerations stay continuous.
+
+Frames: ``world`` ENU; ``body`` x forward, y up, z right (``skeleton.q_world_from_body_facing``);
+the pelvis orientation is ``q_world_from_body_facing(heading) ⊗ q_body_from_pelvis``.
+Joint angles are degrees (flexion, adduction, rotation) in the clinical signs of
+``skeleton.JOINT_ANGLE_SIGNS_DOC`` (Z-X'-Y''), the input of
+``skeleton.segment_orientations_from_joint_angles``. Heading: rad, 0 = facing north,
+positive counter-clockwise seen from above. Positions: m.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mimucap.core import rotation as rot
+from mimucap.core.simulate_calibration import _Figure8Path, _SingleAxisPath, _TumblePath
+from mimucap.core.simulate_sensors import minimum_jerk
+
+#: Seconds over which a new activity is blended in.
+BLEND_S = 0.5
+#: Height (m) and distance in front of the pelvis (m) at which hand-held sensors are turned.
+HELD_HEIGHT_M = 1.05
+HELD_FORWARD_M = 0.35
+
+_X, _Y, _Z = np.eye(3)
+_TWO_PI = 2.0 * np.pi
+
+
+@dataclass(frozen=True)
+class BaseState:
+    """Where an activity starts: heading (rad) and horizontal root position (m, world x/y)."""
+
+    heading_rad: float = 0.0
+    xy_m: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclass
+class BodyPose:
+    """The subject at ``n`` instants.
+
+    ``heading_rad`` (n,); ``root_xy_m`` (n,2) horizontal position of the pelvis root (world);
+    ``q_body_from_pelvis`` (n,4) pelvis tilt/obliquity/rotation relative to the heading;
+    ``joint_angles_deg`` joint → (n,3) (flexion, adduction, rotation); ``plant`` (n,) in [0,1]:
+    1 keeps the ankles' midpoint under the root (feet planted), 0 lets the root move freely;
+    ``held`` sensor id → (n,) weight in [0,1] of being held in the hands rather than worn;
+    ``bundle_q`` (n,4) ``q_world_from_bundle`` and ``bundle_p_m`` (n,3) of the held bundle;
+    ``axis_turned`` (n,) int: bundle axis 0/1/2 being turned, −1 otherwise; ``ground`` (n,) in
+    [0,1]: 1 sets the root height so that the lower ankle touches the ground, 0 uses the
+    standing height plus ``root_dz_m`` (n,) (m) given by the activity.
+    """
+
+    heading_rad: np.ndarray
+    root_xy_m: np.ndarray
+    q_body_from_pelvis: np.ndarray
+    joint_angles_deg: dict[str, np.ndarray]
+    plant: np.ndarray
+    held: dict[str, np.ndarray] = field(default_factory=dict)
+    bundle_q: np.ndarray | None = None
+    bundle_p_m: np.ndarray | None = None
+    axis_turned: np.ndarray | None = None
+    ground: np.ndarray | None = None
+    root_dz_m: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = self.plant.shape[0]
+        if self.ground is None:
+            self.ground = np.ones(n)
+        if self.root_dz_m is None:
+            self.root_dz_m = np.zeros(n)
+
+    def take(self, index: np.ndarray) -> BodyPose:
+        """The poses at ``index`` (boolean mask or integer indices)."""
+        return BodyPose(
+            heading_rad=self.heading_rad[index], root_xy_m=self.root_xy_m[index],
+            q_body_from_pelvis=self.q_body_from_pelvis[index],
+            joint_angles_deg={k: v[index] for k, v in self.joint_angles_deg.items()},
+            plant=self.plant[index], held={k: v[index] for k, v in self.held.items()},
+            bundle_q=None if self.bundle_q is None else self.bundle_q[index],
+            bundle_p_m=None if self.bundle_p_m is None else self.bundle_p_m[index],
+            axis_turned=None if self.axis_turned is None else self.axis_turned[index],
+            ground=self.ground[index], root_dz_m=self.root_dz_m[index],
+        )
+
+    def put(self, index: np.ndarray, other: BodyPose) -> None:
+        """Overwrite the poses at ``index`` with ``other`` (same joints and held sensors)."""
+        self.heading_rad[index] = other.heading_rad
+        self.root_xy_m[index] = other.root_xy_m
+        self.q_body_from_pelvis[index] = other.q_body_from_pelvis
+        for k in self.joint_angles_deg:
+            self.joint_angles_deg[k][index] = other.joint_angles_deg[k]
+        self.plant[index] = other.plant
+        self.ground[index] = other.ground
+        self.root_dz_m[index] = other.root_dz_m
+        for k in self.held:
+            self.held[k][index] = other.held[k]
+        if self.bundle_q is not None:
+            self.bundle_q[index] = other.bundle_q
+            self.bundle_p_m[index] = other.bundle_p_m
+            self.axis_turned[index] = other.axis_turned
+
+
+def _zeros_angles(n: int, joints: tuple[str, ...]) -> dict[str, np.ndarray]:
+    return {joint: np.zeros((n, 3)) for joint in joints}
+
+
+def blend(previous: BodyPose, new: BodyPose, weight: np.ndarray) -> BodyPose:
+    """Crossfade two poses of the same instants with ``weight`` (n,) (0: previous, 1: new)."""
+    w = np.asarray(weight, dtype=np.float64)
+    n = w.shape[0]
+    mix = lambda a, b: a + (b - a) * w.reshape((n,) + (1,) * (np.ndim(a) - 1))  # noqa: E731
+    joints = sorted(set(previous.joint_angles_deg) | set(new.joint_angles_deg))
+    zero = np.zeros((n, 3))
+    angles = {j: mix(previous.joint_angles_deg.get(j, zero), new.joint_angles_deg.get(j, zero)) for j in joints}
+    held_ids = sorted(set(previous.held) | set(new.held))
+    none = np.zeros(n)
+    held = {s: mix(previous.held.get(s, none), new.held.get(s, none)) for s in held_ids}
+    bundle_q = bundle_p = axis = None
+    if previous.bundle_q is not None and new.bundle_q is not None:
+        bundle_q = rot.slerp(previous.bundle_q, new.bundle_q, w)
+        bundle_p = mix(previous.bundle_p_m, new.bundle_p_m)
+        axis = np.where(w < 0.5, previous.axis_turned, new.axis_turned)
+    elif previous.bundle_q is not None or new.bundle_q is not None:
+        source = previous if previous.bundle_q is not None else new
+        bundle_q, bundle_p = source.bundle_q, source.bundle_p_m
+        axis = np.where(w < 0.5, previous.axis_turned if previous.axis_turned is not None else -1,
+                        new.axis_turned if new.axis_turned is not None else -1)
+    return BodyPose(
+        heading_rad=mix(previous.heading_rad, new.heading_rad),
+        root_xy_m=mix(previous.root_xy_m, new.root_xy_m),
+        q_body_from_pelvis=rot.slerp(previous.q_body_from_pelvis, new.q_body_from_pelvis, w),
+        joint_angles_deg=angles, plant=mix(previous.plant, new.plant), held=held,
+        bundle_q=bundle_q, bundle_p_m=bundle_p, axis_turned=axis,
+        ground=mix(previous.ground, new.ground), root_dz_m=mix(previous.root_dz_m, new.root_dz_m),
+    )
+
+
+def _periodic_bump(phase: np.ndarray, centre: float, width: float) -> np.ndarray:
+    """Gaussian bump on the unit circle of gait phase (centre and width in cycles)."""
+    d = (phase - centre + 0.5) % 1.0 - 0.5
+    return np.exp(-(d / width) ** 2)
+
+
+def _pelvis(yaw_deg, obliquity_deg, lean_deg) -> np.ndarray:
+    """``q_body_from_pelvis``: rotation about body y (yaw, positive turns left), then x
+    (obliquity, positive drops the right side), then z (forward lean positive)."""
+    q = rot.from_axis_angle(_Y, np.radians(yaw_deg))
+    q = rot.multiply(q, rot.from_axis_angle(_X, np.radians(obliquity_deg)))
+    return rot.multiply(q, rot.from_axis_angle(_Z, -np.radians(lean_deg)))
+
+
+def _sway(tau: np.ndarray, amplitude_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Quiet-standing sway: small pelvis lean and obliquity (deg) at 0.2-0.35 Hz."""
+    lean = amplitude_deg * np.sin(_TWO_PI * 0.23 * tau + 0.4)
+    obliquity = 0.6 * amplitude_deg * np.sin(_TWO_PI * 0.31 * tau + 1.3)
+    return lean, obliquity
+
+
+class Activity:
+    """Base of all activities: ``duration_s`` (None: indefinite) and :meth:`pose`."""
+
+    name = "activity"
+    duration_s: float | None = None
+    #: Seconds over which this activity is blended in, and over which the next one replaces it
+    #: (the longer of the two applies).
+    blend_in_s = BLEND_S
+    blend_out_s = BLEND_S
+
+    def pose(self, tau: np.ndarray, start: BaseState) -> BodyPose:  # pragma: no cover - interface
+        raise NotImplementedError
+
+    def _standing(self, tau: np.ndarray, start: BaseState, sway_deg: float) -> BodyPose:
+        n = tau.shape[0]
+        lean, obliquity = _sway(tau, sway_deg)
+        return BodyPose(
+            heading_rad=np.full(n, start.heading_rad), root_xy_m=np.tile(start.xy_m, (n, 1)),
+            q_body_from_pelvis=_pelvis(np.zeros(n), obliquity, lean), joint_angles_deg={},
+            plant=np.ones(n),
+        )
+
+    def describe(self) -> str:
+        return self.name
+
+
+def _check_arms(arms: str) -> tuple[str, ...]:
+    options = {"right": ("r",), "left": ("l",), "both": ("l", "r")}
+    if arms not in options:
+        raise ValueError(f"arms must be right, left or both, got {arms!r}")
+    return options[arms]
+
+
+class NPose(Activity):
+    """Standing upright, arms hanging, palms in: every segment frame parallel to the body frame,
+    with quiet-standing sway of ``sway_deg`` (0 for a perfectly still subject)."""
+
+    name = "npose"
+
+    def __init__(self, duration_s: float | None = None, sway_deg: float = 0.3) -> None:
+        self.duration_s = duration_s
+        self.sway_deg = float(sway_deg)
+
+    def pose(self, tau, start):
+        return self._standing(tau, start, self.sway_deg)
+
+
+class TPose(Activity):
+    """Arms raised sideways to ``angle_deg`` (default 88°: Z-X'-Y'' is singular at exactly 90°)
+    in ``raise_s`` seconds (minimum jerk), then held; ``arms`` right, left or both."""
+
+    name = "tpose"
+
+    def __init__(self, duration_s: float | None = None, arms: str = "both", angle_deg: float = 88.0,
+                 raise_s: float = 1.5, sway_deg: float = 0.3) -> None:
+        self.sides = _check_arms(arms)
+        if not 0.0 < angle_deg < 90.0:
+            raise ValueError(f"T-pose abduction must be between 0 and 90° (exclusive), got {angle_deg}")
+        self.arms, self.duration_s, self.angle_deg = arms, duration_s, float(angle_deg)
+        self.raise_s, self.sway_deg = float(raise_s), float(sway_deg)
+
+    def pose(self, tau, start):
+        pose = self._standing(tau, start, self.sway_deg)
+        abduction = self.angle_deg * minimum_jerk(tau / self.raise_s)
+        for side in self.sides:
+            angles = np.zeros((tau.shape[0], 3))
+            angles[:, 1] = -abduction
+            pose.joint_angles_deg[f"shoulder_{side}"] = angles
+        return pose
+
+    def describe(self) -> str:
+        return f"tpose({self.arms})"
+
+
+class Walk(Activity):
+    """Level walking at ``speed_mps`` with a stride (gait cycle) of ``stride_s`` seconds.
+
+    Joint-angle curves (right leg; phase 0 = right heel strike, the left leg half a cycle
+    later), after the typical sagittal gait curves (Perry & Burnfield; Winter): hip flexion
+    about +30° at heel strike to −10° at 50 %; knee flexion 5° at heel strike, a loading-
+    response peak of ~20° at 15 %, ~5° at mid-stance and 60° in swing at 72 %; ankle
+    plantar-flexion of −20° at toe-off; arm swing ±20° opposite to the legs with the elbow
+    flexed 10-30°; pelvis rotation ±5°, obliquity ±4°, thorax counter-rotation. The root moves
+    forward at ``speed_mps`` and oscillates vertically by ±2 cm around 3.5 cm below its standing
+height, lowest in double support (vertical acceleration about ±3 m/s²).
+    ``turn_rate_dps`` walks along a circle (0: straight).
+    """
+
+    name = "walk"
+    blend_in_s = 1.0  # gait initiation and termination take about one step
+    blend_out_s = 1.0
+
+    def __init__(self, duration_s: float | None = None, speed_mps: float = 1.2, stride_s: float = 1.05,
+                 turn_rate_dps: float = 0.0) -> None:
+        if not 0.0 < speed_mps <= 3.0:
+            raise ValueError(f"walking speed must be in (0, 3] m/s, got {speed_mps}")
+        if not 0.6 <= stride_s <= 2.0:
+            raise ValueError(f"stride duration must be 0.6..2 s, got {stride_s}")
+        self.duration_s, self.speed, self.stride_s = duration_s, float(speed_mps), float(stride_s)
+        self.turn_rate = math.radians(turn_rate_dps)
+
+    @staticmethod
+    def leg(phase: np.ndarray) -> dict[str, np.ndarray]:
+        hip = np.stack((10.0 + 20.0 * np.cos(_TWO_PI * (phase - 0.04)),
+                        5.0 * np.sin(_TWO_PI * (phase + 0.1)),
+                        4.0 * np.cos(_TWO_PI * phase)), axis=-1)
+        knee_flexion = (5.0 + 15.0 * _periodic_bump(phase, 0.15, 0.07) + 55.0 * _periodic_bump(phase, 0.72, 0.11))
+        knee = np.stack((knee_flexion, np.zeros_like(phase), 3.0 * np.cos(_TWO_PI * phase)), axis=-1)
+        ankle_flexion = (2.0 - 7.0 * _periodic_bump(phase, 0.05, 0.05) + 10.0 * _periodic_bump(phase, 0.42, 0.12)
+                         - 22.0 * _periodic_bump(phase, 0.63, 0.06))
+        ankle = np.stack((ankle_flexion, np.zeros_like(phase), np.zeros_like(phase)), axis=-1)
+        return {"hip": hip, "knee": knee, "ankle": ankle}
+
+    @staticmethod
+    def arm(phase: np.ndarray) -> dict[str, np.ndarray]:
+        """One arm, given the gait phase of the *opposite* leg: the arm swings forward with it."""
+        swing = np.cos(_TWO_PI * phase)
+        shoulder = np.stack((3.0 + 20.0 * swing, np.full_like(phase, -6.0), np.zeros_like(phase)), axis=-1)
+        elbow = np.stack((20.0 + 10.0 * swing, np.zeros_like(phase), np.zeros_like(phase)), axis=-1)
+        wrist = np.stack((5.0 + 3.0 * swing, np.zeros_like(phase), np.zeros_like(phase)), axis=-1)
+        return {"shoulder": shoulder, "elbow": elbow, "wrist": wrist}
+
+    def pose(self, tau, start):
+        n = tau.shape[0]
+        phase = (tau / self.stride_s) % 1.0
+        heading = start.heading_rad + self.turn_rate * tau
+        if self.turn_rate == 0.0:
+            forward = np.array([-math.sin(start.heading_rad), math.cos(start.heading_rad)])
+            xy = np.asarray(start.xy_m) + self.speed * tau[:, None] * forward
+        else:
+            radius = self.speed / self.turn_rate
+            # d/dtau (x, y) = speed * (-sin heading, cos heading)
+            xy = np.asarray(start.xy_m) + radius * np.stack(
+                (np.cos(heading) - math.cos(start.heading_rad), np.sin(heading) - math.sin(start.heading_rad)), axis=-1
+            )
+        angles: dict[str, np.ndarray] = {}
+        for side, shift in (("r", 0.0), ("l", 0.5)):
+            for kind, value in self.leg((phase + shift) % 1.0).items():
+                angles[f"{kind}_{side}"] = value
+            for kind, value in self.arm((phase + shift + 0.5) % 1.0).items():
+                angles[f"{kind}_{side}"] = value
+        yaw = 5.0 * np.cos(_TWO_PI * phase)
+        obliquity = 4.0 * np.sin(_TWO_PI * (phase + 0.1))
+        lean = 4.0 + 1.5 * np.cos(2.0 * _TWO_PI * (phase - 0.1))
+        angles["lumbar"] = np.stack((2.0 + 0.0 * phase, -0.7 * obliquity, -0.8 * yaw), axis=-1)
+        angles["neck"] = np.stack((-4.0 + 0.0 * phase, 0.0 * phase, -0.2 * yaw), axis=-1)
+        root_dz = -0.035 + 0.02 * np.cos(2.0 * _TWO_PI * (phase - 0.3))
+        return BodyPose(heading_rad=heading, root_xy_m=xy, q_body_from_pelvis=_pelvis(yaw, obliquity, lean),
+                        joint_angles_deg=angles, plant=np.zeros(n), ground=np.zeros(n), root_dz_m=root_dz)
+
+
+class Turn(Activity):
+    """Turning on the spot by ``angle_deg`` (positive: to the left, counter-clockwise from above)
+    in ``turn_s`` seconds with small stepping, then standing ``pause_s``; repeated ``turns``
+    times (None: forever)."""
+
+    name = "turn"
+
+    def __init__(self, duration_s: float | None = None, angle_deg: float = 180.0, turn_s: float = 2.5,
+                 pause_s: float = 1.0, turns: int | None = None) -> None:
+        if turn_s <= 0.5 or pause_s < 0:
+            raise ValueError("turn_s must exceed 0.5 s and pause_s be >= 0")
+        self.angle = math.radians(angle_deg)
+        self.turn_s, self.pause_s = float(turn_s), float(pause_s)
+        period = self.turn_s + self.pause_s
+        self.duration_s = duration_s if duration_s is not None else (None if turns is None else turns * period)
+
+    def pose(self, tau, start):
+        pose = self._standing(tau, start, 0.2)
+        period = self.turn_s + self.pause_s
+        cycle, within = np.divmod(tau, period)
+        progress = minimum_jerk(within / self.turn_s)
+        pose.heading_rad = start.heading_rad + self.angle * (cycle + progress)
+        # Stepping: alternate legs lift (hip and knee flex) while turning, four steps per turn.
+        stepping = np.where(within < self.turn_s, np.sin(np.pi * within / self.turn_s) ** 2, 0.0)
+        step_phase = 2.0 * within / self.turn_s
+        for side, shift in (("r", 0.0), ("l", 0.5)):
+            lift = stepping * np.maximum(0.0, np.sin(_TWO_PI * (step_phase + shift))) ** 2
+            zeros = np.zeros_like(tau)
+            pose.joint_angles_deg[f"hip_{side}"] = np.stack((20.0 * lift, zeros, zeros), axis=-1)
+            pose.joint_angles_deg[f"knee_{side}"] = np.stack((40.0 * lift, zeros, zeros), axis=-1)
+            pose.joint_angles_deg[f"ankle_{side}"] = np.stack((-10.0 * lift, zeros, zeros), axis=-1)
+        return pose
+
+
+class _Cyclic(Activity):
+    """Raise over ``move_s``, hold ``hold_s``, lower over ``move_s``, rest ``rest_s``; ``cycles`` times."""
+
+    def _setup(self, duration_s, cycles, move_s, hold_s, rest_s):
+        if move_s <= 0 or hold_s < 0 or rest_s < 0:
+            raise ValueError("move_s must be > 0 and hold_s, rest_s >= 0")
+        self.move_s, self.hold_s, self.rest_s = float(move_s), float(hold_s), float(rest_s)
+        self.period = 2 * self.move_s + self.hold_s + self.rest_s
+        self.duration_s = duration_s if duration_s is not None else (None if cycles is None else cycles * self.period)
+
+    def level(self, tau: np.ndarray) -> np.ndarray:
+        """Movement level in [0, 1] over the cycle."""
+        within = tau % self.period
+        up = minimum_jerk(within / self.move_s)
+        down = minimum_jerk((within - self.move_s - self.hold_s) / self.move_s)
+        return up - down
+
+
+class ArmRaise(_Cyclic):
+    """Raising the arms to ``angle_deg`` and back: ``plane`` "flexion" (forward, up to 170°) or
+    "abduction" (sideways, below 90°: Z-X'-Y'' is singular at 90°); ``arms`` right/left/both."""
+
+    name = "arm_raise"
+
+    def __init__(self, duration_s: float | None = None, arms: str = "both", plane: str = "flexion",
+                 angle_deg: float = 150.0, cycles: int | None = None, move_s: float = 1.5,
+                 hold_s: float = 0.5, rest_s: float = 0.5) -> None:
+        self.sides = _check_arms(arms)
+        if plane not in ("flexion", "abduction"):
+            raise ValueError(f"arm raise plane must be flexion or abduction, got {plane!r}")
+        limit = 170.0 if plane == "flexion" else 89.0
+        if not 0.0 < angle_deg <= limit:
+            raise ValueError(f"arm raise in the {plane} plane must be between 0 and {limit}°, got {angle_deg}")
+        self.arms, self.plane, self.angle_deg = arms, plane, float(angle_deg)
+        self._setup(duration_s, cycles, move_s, hold_s, rest_s)
+
+    def pose(self, tau, start):
+        pose = self._standing(tau, start, 0.3)
+        level = self.level(tau)
+        for side in self.sides:
+            angles = np.zeros((tau.shape[0], 3))
+            if self.plane == "flexion":
+                angles[:, 0] = self.angle_deg * level
+            else:
+                angles[:, 1] = -self.angle_deg * level
+            pose.joint_angles_deg[f"shoulder_{side}"] = angles
+            pose.joint_angles_deg[f"elbow_{side}"] = np.stack((10.0 * level, 0 * level, 0 * level), axis=-1)
+        return pose
+
+    def describe(self) -> str:
+        return f"arm_raise({self.arms},{self.plane})"
+
+
+class Squat(_Cyclic):
+    """Squats with the feet planted: at full ``depth`` (0..1, default 0.8) the trunk leans 30°
+    forward, hips flex 65° relative to the pelvis, knees flex 125°, ankles dorsiflex 30° and
+    the arms reach forward 80°."""
+
+    name = "squat"
+
+    def __init__(self, duration_s: float | None = None, depth: float = 0.8, cycles: int | None = None,
+                 move_s: float = 1.4, hold_s: float = 0.3, rest_s: float = 0.4) -> None:
+        if not 0.0 < depth <= 1.0:
+            raise ValueError(f"squat depth must be in (0, 1], got {depth}")
+        self.depth = float(depth)
+        self._setup(duration_s, cycles, move_s, hold_s, rest_s)
+
+    def pose(self, tau, start):
+        pose = self._standing(tau, start, 0.0)
+        s = self.depth * self.level(tau)
+        zeros = np.zeros_like(tau)
+        pose.q_body_from_pelvis = _pelvis(zeros, zeros, 30.0 * s)
+        for side in ("l", "r"):
+            pose.joint_angles_deg[f"hip_{side}"] = np.stack((65.0 * s, -4.0 * s, zeros), axis=-1)
+            pose.joint_angles_deg[f"knee_{side}"] = np.stack((125.0 * s, zeros, zeros), axis=-1)
+            pose.joint_angles_deg[f"ankle_{side}"] = np.stack((30.0 * s, zeros, zeros), axis=-1)
+            pose.joint_angles_deg[f"shoulder_{side}"] = np.stack((80.0 * s, zeros, zeros), axis=-1)
+            pose.joint_angles_deg[f"elbow_{side}"] = np.stack((10.0 * s, zeros, zeros), axis=-1)
+        pose.joint_angles_deg["lumbar"] = np.stack((10.0 * s, zeros, zeros), axis=-1)
+        pose.joint_angles_deg["neck"] = np.stack((-25.0 * s, zeros, zeros), axis=-1)
+        return pose
+
+
+class HoldSensors(Activity):
+    """Standing while turning a bundle of sensors held in the hands (magnetometer calibration).
+
+    ``protocol`` "single_axis" (``turns`` turns about bundle x, then y, then z, each roughly
+    horizontal), "figure8" or "tumble" (see :mod:`mimucap.core.simulate_calibration`);
+    ``sensor_ids`` the units held (all, if empty). The bundle is held 0.35 m in front of the
+    pelvis at 1.05 m; after the protocol it is held still.
+    """
+
+    def __init__(self, protocol: str, duration_s: float | None = None, sensor_ids: tuple[str, ...] = (),
+                 turns: int = 1, seed: int = 0) -> None:
+        paths = {"single_axis": _SingleAxisPath, "figure8": _Figure8Path, "tumble": _TumblePath}
+        if protocol not in paths:
+            raise ValueError(f"unknown hand-held protocol {protocol!r}")
+        if int(turns) != turns or not 1 <= turns <= 5:
+            raise ValueError(f"turns must be an integer from 1 to 5, got {turns}")
+        self.name = f"mag_{protocol}"
+        self.protocol = protocol
+        self.sensor_ids = tuple(sensor_ids)
+        self.path = paths[protocol](np.random.default_rng([int(seed) & 0xFFFFFFFF, 404]), int(turns))
+        self.duration_s = duration_s
+
+    def pose(self, tau, start):
+        pose = self._standing(tau, start, 0.2)
+        clamped = np.minimum(tau, self.path.duration_s)
+        q, p = self.path(clamped)
+        forward = np.array([-math.sin(start.heading_rad), math.cos(start.heading_rad), 0.0])
+        centre = np.array([start.xy_m[0], start.xy_m[1], HELD_HEIGHT_M]) + HELD_FORWARD_M * forward
+        pose.bundle_q = q
+        pose.bundle_p_m = centre + (p - np.array([0.0, 0.0, 1.0]))
+        if self.protocol == "single_axis":
+            _, axis = self.path.base(clamped)
+            pose.axis_turned = np.where(tau <= self.path.duration_s, axis, -1)
+        else:
+            pose.axis_turned = np.full(tau.shape, -1, dtype=np.int64)
+        for sensor_id in self.sensor_ids:
+            pose.held[sensor_id] = np.ones(tau.shape[0])
+        return pose
+
+    def describe(self) -> str:
+        return f"{self.name}({','.join(self.sensor_ids)})"
+
+
+ACTIVITY_NAMES = ("npose", "tpose", "walk", "turn", "arm_raise", "squat", "mag_single_axis", "mag_figure8", "mag_tumble")
+
+
+def make_activity(name: str, params: dict | None = None, *, sensor_ids: tuple[str, ...] = (), seed: int = 0) -> Activity:
+    """Build an activity by name with keyword ``params``; unknown names or parameters raise
+    ``ValueError``. Hand-held activities default to holding ``sensor_ids``."""
+    params = dict(params or {})
+    factories: dict[str, Callable[..., Activity]] = {
+        "npose": NPose, "tpose": TPose, "walk": Walk, "turn": Turn, "arm_raise": ArmRaise, "squat": Squat,
+    }
+    try:
+        if name in factories:
+            return factories[name](**params)
+        if name.startswith("mag_") and name[4:] in ("single_axis", "figure8", "tumble"):
+            params.setdefault("sensor_ids", sensor_ids)
+            params["sensor_ids"] = tuple(params["sensor_ids"])
+            return HoldSensors(name[4:], seed=seed, **params)
+    except TypeError as error:
+        raise ValueError(f"activity {name!r}: {error}") from None
+    raise ValueError(f"unknown activity {name!r}; use one of {', '.join(ACTIVITY_NAMES + ('demo',))}")
+
+
+def demo_cycle() -> list[Activity]:
+    """One loop of the demo: N-pose 3 s, T-pose 3 s, N-pose 2 s, walk 8 s, turn 180°, walk
+    back 8 s, turn 180°, two squats, two forward arm raises (about 50 s)."""
+    return [
+        NPose(3.0), TPose(3.0, arms="both"), NPose(2.0), Walk(8.0), Turn(turns=1, angle_deg=180.0, pause_s=0.5),
+        Walk(8.0), Turn(turns=1, angle_deg=-180.0, pause_s=0.5), Squat(cycles=2), ArmRaise(cycles=2),
+    ]
+
+
+SCENARIOS = ACTIVITY_NAMES + ("demo", "bodycal")
+
+
+def _demo_loop() -> Iterator[Activity]:
+    while True:
+        yield from demo_cycle()
+
+
+def scenario_activities(name: str, params: dict | None = None, *, sensor_ids: tuple[str, ...] = (),
+                        seed: int = 0) -> Iterator[Activity]:
+    """The activities of a scenario in order (an endless iterator for ``demo``).
+
+    ``demo`` loops :func:`demo_cycle`; ``bodycal`` is N-pose 3 s, T-pose 3 s (``params`` go to
+    the T-pose), then N-pose; any activity name is that activity alone, preceded by 1 s of
+    N-pose unless it is ``npose``. Parameters are checked here, before anything runs.
+    """
+    if name == "demo":
+        if params:
+            raise ValueError("the demo scenario takes no parameters")
+        return _demo_loop()
+    if name == "bodycal":
+        try:
+            tpose = TPose(3.0, **(params or {}))
+        except TypeError as error:
+            raise ValueError(f"scenario 'bodycal': {error}") from None
+        return iter([NPose(3.0), tpose, NPose()])
+    activity = make_activity(name, params, sensor_ids=sensor_ids, seed=seed)
+    activity.duration_s = None
+    if name == "npose":
+        return iter([activity])
+    return iter([NPose(1.0, sway_deg=0.0 if name.startswith("mag_") else 0.3), activity])
+
+
+@dataclass
+class _Entry:
+    start_s: float
+    activity: Activity
+    state: BaseState
+    label: str
+    blend_s: float
+
+
+class Schedule:
+    """Activities on a timeline, extended lazily from an iterator; poses at any times.
+
+    ``pose(t)`` is a pure function of ``t`` for the entries already placed: evaluating the same
+    time twice gives identical results, whatever else was evaluated in between.
+    """
+
+    def __init__(self, activities: Iterator[Activity], start_s: float = 0.0, state: BaseState = BaseState()) -> None:
+        self._entries: list[_Entry] = []
+        self._starts: list[float] = []
+        self._source: Iterator[Activity] | None = iter(activities)
+        self._pending_start = start_s
+        self._pending_state = state
+        self._append_next()
+
+    @property
+    def entries(self) -> list[tuple[float, str]]:
+        """(start time, label) of every activity placed so far."""
+        return [(e.start_s, e.label) for e in self._entries]
+
+    def _append_next(self) -> bool:
+        if self._source is None:
+            return False
+        try:
+            activity = next(self._source)
+        except StopIteration:
+            self._source = None
+            return False
+        self._add(self._pending_start, activity)
+        return True
+
+    def _add(self, start_s: float, activity: Activity) -> None:
+        blend_s = activity.blend_in_s
+        if self._entries:
+            pose = self._pose_of_entry(len(self._entries) - 1, np.array([start_s]))
+            state = BaseState(float(pose.heading_rad[0]), (float(pose.root_xy_m[0, 0]), float(pose.root_xy_m[0, 1])))
+            blend_s = max(blend_s, self._entries[-1].activity.blend_out_s)
+        else:
+            state = self._pending_state
+        self._entries.append(_Entry(start_s, activity, state, activity.describe(), blend_s))
+        self._starts.append(start_s)
+        if activity.duration_s is not None:
+            self._pending_start = start_s + activity.duration_s
+
+    def extend_to(self, t_s: float) -> None:
+        """Place scripted activities until the timeline covers ``t_s``."""
+        while self._source is not None and self._entries[-1].activity.duration_s is not None \
+                and self._pending_start <= t_s:
+            if not self._append_next():
+                break
+
+    def switch(self, t_s: float, activities: Iterator[Activity]) -> None:
+        """From ``t_s`` on, follow ``activities`` instead (blended in; later scripted entries dropped)."""
+        keep = bisect.bisect_right(self._starts, t_s)
+        if keep == 0:
+            raise ValueError("cannot switch activity before the schedule starts")
+        del self._entries[keep:]
+        del self._starts[keep:]
+        self._source = iter(activities)
+        self._pending_start = t_s
+        self._append_next()
+
+    def _pose_of_entry(self, index: int, t: np.ndarray) -> BodyPose:
+        entry = self._entries[index]
+        tau = t - entry.start_s
+        pose = entry.activity.pose(tau, entry.state)
+        if index == 0:
+            return pose
+        weight = minimum_jerk(tau / entry.blend_s)
+        partial = weight < 1.0
+        if not np.any(partial):
+            return pose
+        previous = self._pose_of_entry(index - 1, t[partial])
+        blended = blend(previous, pose.take(partial), weight[partial])
+        if np.all(partial):
+            return blended
+        # Make both sides carry the same joints and held sensors before writing back.
+        full = blend(pose, pose, np.zeros(t.shape[0]))
+        _align_keys(full, blended)
+        full.put(partial, blended)
+        return full
+
+    def pose(self, t_s: np.ndarray) -> BodyPose:
+        """The subject at times ``t_s`` (m,) (any order, at or after the schedule start)."""
+        t = np.asarray(t_s, dtype=np.float64)
+        self.extend_to(float(t.max()))
+        index = np.searchsorted(np.asarray(self._starts), t, side="right") - 1
+        if np.any(index < 0):
+            index = np.maximum(index, 0)
+        pieces = [(i, index == i) for i in np.unique(index)]
+        if len(pieces) == 1:
+            return self._pose_of_entry(int(pieces[0][0]), t)
+        poses = [(mask, self._pose_of_entry(int(i), t[mask])) for i, mask in pieces]
+        result = _empty_like(poses, t.shape[0])
+        for mask, pose in poses:
+            _align_keys(result, pose)
+            result.put(mask, pose)
+        return result
+
+    def label_at(self, t_s: float) -> str:
+        """Label of the activity running at ``t_s``."""
+        self.extend_to(t_s)
+        index = max(bisect.bisect_right(self._starts, t_s) - 1, 0)
+        return self._entries[index].label
+
+
+def _align_keys(target: BodyPose, source: BodyPose) -> None:
+    """Give ``target`` and ``source`` the same joint and held-sensor keys (missing ones zero)."""
+    for pose, other in ((target, source), (source, target)):
+        n = pose.plant.shape[0]
+        for joint in other.joint_angles_deg:
+            pose.joint_angles_deg.setdefault(joint, np.zeros((n, 3)))
+        for sensor_id in other.held:
+            pose.held.setdefault(sensor_id, np.zeros(n))
+        if other.bundle_q is not None and pose.bundle_q is None:
+            pose.bundle_q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+            pose.bundle_p_m = np.zeros((n, 3))
+            pose.axis_turned = np.full(n, -1, dtype=np.int64)
+
+
+def _empty_like(poses: list[tuple[np.ndarray, BodyPose]], n: int) -> BodyPose:
+    result = BodyPose(heading_rad=np.zeros(n), root_xy_m=np.zeros((n, 2)), q_body_from_pelvis=np.tile([1.0, 0, 0, 0], (n, 1)),
+                      joint_angles_deg={}, plant=np.zeros(n))
+    for _, pose in poses:
+        _align_keys(result, pose)
+    return result

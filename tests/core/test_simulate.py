@@ -1,0 +1,214 @@
+"""The simulated suit: physics of its measurements, consistency of its truth, streaming == batch."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from mimucap.core import rotation as rot
+from mimucap.core import skeleton
+from mimucap.core.simulate import (
+    IDEAL_SENSOR,
+    MagneticDisturbance,
+    SensorErrorModel,
+    SimulationConfig,
+    SuitBlock,
+    SuitSimulator,
+    simulate_session,
+)
+
+NO_GYRO_ERRORS = dataclasses.replace(
+    SensorErrorModel(), gyr_bias_dps=(0.0, 0.0), gyr_bias_walk_dps_per_sqrt_s=0.0, gyr_noise_dps=0.0, gyr_scale_error=0.0
+)
+
+
+@pytest.fixture(scope="module")
+def demo17():
+    return simulate_session(SimulationConfig(scenario="demo", duration_s=50.0, n_sensors=17, seed=3, errors=NO_GYRO_ERRORS))
+
+
+def test_gyroscope_integrates_to_the_true_orientation(demo17) -> None:
+    dt = 1.0 / demo17.config.rate_hz
+    for sensor_id in ("S01", "S06", "S10", "S14"):
+        truth = demo17.truth.q_world_from_sensor[sensor_id]
+        gyr = demo17.samples[sensor_id].gyr
+        increments = rot.from_rotvec(gyr[1:] * dt)
+        q = truth[0]
+        worst = 0.0
+        for k in range(1, len(gyr)):
+            q = rot.multiply(q, increments[k - 1])
+            if k % 50 == 0 or k == len(gyr) - 1:
+                worst = max(worst, float(rot.angle_between(q, truth[k])))
+        assert np.degrees(worst) < 1e-6, sensor_id
+
+
+def test_joint_angle_truth_is_what_the_skeleton_measures(demo17) -> None:
+    model = skeleton.load_model(demo17.model_name)
+    measured = skeleton.joint_angles_deg(model, demo17.truth.q_world_from_segment)
+    assert set(measured) == set(demo17.truth.joint_angles_deg) == set(skeleton.joint_angle_columns(model))
+    for column, values in measured.items():
+        np.testing.assert_allclose(values, demo17.truth.joint_angles_deg[column], atol=1e-8, err_msg=column)
+
+
+def test_sensor_truth_follows_segment_and_mounting(demo17) -> None:
+    for sensor_id, mounting in demo17.mounting.items():
+        q_segment = demo17.truth.q_world_from_segment[mounting.segment]
+        expected = rot.multiply(q_segment, mounting.q_segment_from_sensor)
+        assert np.degrees(rot.angle_between(expected, demo17.truth.q_world_from_sensor[sensor_id]).max()) < 1e-9
+    assert [demo17.mounting[s].segment for s in ("S11", "S12", "S13", "S14", "S15", "S16", "S17")] == [
+        "head", "hand_l", "hand_r", "foot_l", "foot_r", "thorax", "pelvis"]
+
+
+def test_demo_runs_through_its_activities(demo17) -> None:
+    labels = [label for _, label in demo17.markers]
+    assert labels[:9] == ["activity:npose", "activity:tpose(both)", "activity:npose", "activity:walk", "activity:turn",
+                          "activity:walk", "activity:turn", "activity:squat", "activity:arm_raise(both,flexion)"]
+    assert labels[9] == "activity:npose"  # the demo loops
+    t = demo17.truth.t_s
+    angles = demo17.truth.joint_angles_deg
+    in_tpose = (t > 4.8) & (t < 6.0)
+    np.testing.assert_allclose(angles["shoulder_r_adduction_deg"][in_tpose], -88.0, atol=1e-6)
+    np.testing.assert_allclose(angles["shoulder_l_adduction_deg"][in_tpose], -88.0, atol=1e-6)
+
+
+def test_walking_has_realistic_curves_and_pace(demo17) -> None:
+    t = demo17.truth.t_s
+    walking = (t > 10.0) & (t < 15.25)  # five strides of steady walking
+    angles = demo17.truth.joint_angles_deg
+    hip = angles["hip_r_flexion_deg"][walking]
+    knee = angles["knee_r_flexion_deg"][walking]
+    shoulder = angles["shoulder_r_flexion_deg"][walking]
+    assert 27 < hip.max() < 33 and -13 < hip.min() < -7
+    assert 55 < knee.max() < 65 and 0 <= knee.min() < 8
+    assert 15 < shoulder.max() - 3 < 25 and -25 < shoulder.min() - 3 < -15
+    assert np.corrcoef(hip, shoulder)[0, 1] < -0.9  # the arm swings against its own leg
+    # Loading response: a local knee-flexion peak early in stance.
+    phase = ((t[walking] - 8.0) / 1.05) % 1.0
+    early = (phase > 0.1) & (phase < 0.2)
+    mid = (phase > 0.35) & (phase < 0.45)
+    assert knee[early].max() > knee[mid].max() + 10.0
+    root = demo17.truth.root_position_m[walking]
+    speed = np.linalg.norm(root[-1, :2] - root[0, :2]) / (t[walking][-1] - t[walking][0])
+    assert speed == pytest.approx(1.2, abs=0.02)
+    assert 0.02 < np.ptp(root[:, 2]) < 0.06
+
+
+def test_accelerometer_averages_to_gravity_over_whole_strides() -> None:
+    result = simulate_session(SimulationConfig(scenario="walk", duration_s=13.0, n_sensors=10, seed=1, errors=IDEAL_SENSOR))
+    t = result.truth.t_s
+    stride = 1.05
+    window = (t >= 4.0) & (t < 4.0 + 8 * stride)  # velocity is periodic: mean acceleration zero
+    for sensor_id in ("S01", "S08", "S10", "S06"):
+        q = result.truth.q_world_from_sensor[sensor_id][window]
+        acc_world = rot.rotate(q, result.samples[sensor_id].acc[window])
+        np.testing.assert_allclose(acc_world.mean(axis=0), [0.0, 0.0, 9.81], atol=0.02, err_msg=sensor_id)
+        assert np.abs(acc_world[:, 2] - 9.81).max() > 1.0  # but the segment does accelerate
+
+
+def test_a_sensor_at_rest_reads_gravity_and_the_configured_field() -> None:
+    errors = dataclasses.replace(IDEAL_SENSOR, mag_hard_iron_uT=40.0, mag_soft_iron_scale=0.1, mag_soft_iron_cross=0.05)
+    config = SimulationConfig(scenario="npose", duration_s=2.0, n_sensors=10, seed=2, errors=errors,
+                              scenario_params={"sway_deg": 0.0})
+    result = simulate_session(config)
+    for sensor_id, samples in result.samples.items():
+        q = result.truth.q_world_from_sensor[sensor_id]
+        np.testing.assert_allclose(rot.rotate(q, samples.acc), np.tile([0, 0, 9.81], (len(q), 1)), atol=1e-6)
+        params = result.parameters[sensor_id]
+        mag = np.linalg.solve(params.mag_A, (samples.mag_uT - params.mag_b_uT).T).T
+        world = rot.rotate(q, mag)
+        np.testing.assert_allclose(np.linalg.norm(world, axis=1), 49.3, atol=1e-9)
+        dip = np.degrees(np.arctan2(-world[:, 2], np.hypot(world[:, 0], world[:, 1])))
+        np.testing.assert_allclose(dip, 60.0, atol=1e-9)
+        assert np.abs(samples.gyr).max() < 1e-9
+
+
+def test_blocks_concatenate_to_exactly_the_batch() -> None:
+    config = SimulationConfig(scenario="demo", duration_s=14.0, n_sensors=17, seed=5, drop_probability=0.05,
+                              errors=dataclasses.replace(SensorErrorModel(), onboard_orientation=True, mag_lsb_uT=0.15),
+                              disturbances=(MagneticDisturbance((30.0, 0.0, -10.0), 5.0, 7.0, center_m=(0.0, 0.4, 1.0)),))
+    batch = simulate_session(config)
+    simulator = SuitSimulator(config, lookahead_s=0.3)
+    rng = np.random.default_rng(0)
+    blocks = []
+    while simulator.time_s < config.duration_s - 1e-9:
+        blocks.append(simulator.advance(min(float(rng.uniform(0.0, 0.9)), config.duration_s - simulator.time_s)))
+    joined = SuitBlock.concatenate(blocks)
+    assert joined.markers == batch.markers
+    for sensor_id, expected in batch.samples.items():
+        got = joined.samples[sensor_id]
+        for name in ("t_s", "seq", "acc", "gyr", "mag_uT", "q_world_from_sensor", "device_time_s"):
+            np.testing.assert_array_equal(getattr(got, name), getattr(expected, name), err_msg=f"{sensor_id} {name}")
+        assert len(expected.t_s) < len(batch.truth.t_s)  # packets were dropped
+        assert np.all(np.diff(expected.seq) >= 1)
+    for name in ("q_world_from_segment", "joint_angles_deg", "q_world_from_sensor", "position_m", "gyr_bias_rad_s",
+                 "field_world_uT"):
+        for key, value in getattr(batch.truth, name).items():
+            np.testing.assert_array_equal(getattr(joined.truth, name)[key], value, err_msg=f"{name} {key}")
+    np.testing.assert_array_equal(joined.truth.root_position_m, batch.truth.root_position_m)
+    disturbed = batch.truth.field_world_uT["S02"] - batch.field_world_uT
+    t = batch.truth.t_s
+    assert np.abs(disturbed[(t > 8.0)]).max() < 1e-12 and np.abs(disturbed[(t > 5.6) & (t < 6.4)]).max() > 1.0
+
+
+def test_same_seed_same_data_other_seed_differs() -> None:
+    config = SimulationConfig(scenario="walk", duration_s=2.0, seed=11)
+    a, b = simulate_session(config), simulate_session(config)
+    c = simulate_session(dataclasses.replace(config, seed=12))
+    np.testing.assert_array_equal(a.samples["S03"].mag_uT, b.samples["S03"].mag_uT)
+    assert not np.array_equal(a.samples["S03"].mag_uT, c.samples["S03"].mag_uT)
+    params = a.parameters["S03"]
+    samples = a.samples["S03"]
+    np.testing.assert_allclose(samples.device_time_s, (1 + params.clock_drift) * samples.t_s + params.clock_offset_s)
+
+
+def test_set_activity_blends_smoothly_into_a_right_t_pose() -> None:
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=1, errors=IDEAL_SENSOR))
+    before = simulator.advance(1.0)
+    simulator.set_activity("tpose", arms="right")
+    assert simulator.current_activity() == "tpose(right)"
+    after = simulator.advance(3.0)
+    joined = SuitBlock.concatenate([before, after])
+    angles = joined.truth.joint_angles_deg
+    t = joined.truth.t_s
+    np.testing.assert_allclose(angles["shoulder_r_adduction_deg"][t > 3.0], -88.0, atol=1e-6)
+    np.testing.assert_allclose(angles["shoulder_l_adduction_deg"], 0.0, atol=1e-12)
+    step = rot.angle_between(joined.truth.q_world_from_sensor["S06"][1:], joined.truth.q_world_from_sensor["S06"][:-1])
+    assert np.degrees(step).max() < 2.0  # no jump: at most 200 °/s at 100 Hz
+    assert after.markers == [(1.0, "activity:tpose(right)")]
+    with pytest.raises(ValueError, match="arms must be right, left or both"):
+        simulator.set_activity("tpose", arms="up")
+    with pytest.raises(ValueError, match="unknown activity 'dance'"):
+        simulator.set_activity("dance")
+    assert simulator.current_activity() == "tpose(right)"  # a refused request changes nothing
+
+
+def test_held_sensors_turn_together_about_the_reported_axis() -> None:
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=4, errors=IDEAL_SENSOR))
+    simulator.advance(0.5)
+    simulator.set_activity("mag_single_axis", sensor_ids=["S03", "S09", "S10"])
+    block = simulator.advance(26.0)
+    truth = block.truth
+    settled = truth.t_s > 1.5
+    assert np.all(truth.held["S03"][settled] == 1.0) and np.all(truth.held["S01"] == 0.0)
+    relative = rot.angle_between(truth.q_world_from_sensor["S03"][settled], truth.q_world_from_sensor["S10"][settled])
+    assert 0.2 < np.degrees(relative).max() < 8.0  # held together, with a small misalignment
+    axes = [int(a) for a in truth.mag_axis_turned if a >= 0]
+    assert [a for i, a in enumerate(axes) if i == 0 or axes[i - 1] != a] == [0, 1, 2]
+    gyr = block.samples["S09"].gyr
+    for axis in range(3):
+        turning = truth.mag_axis_turned == axis
+        about = np.abs(gyr[turning, axis]).mean()
+        assert about > 3.0 * np.abs(np.delete(gyr[turning], axis, axis=1)).mean()
+
+
+def test_configuration_errors_are_clear() -> None:
+    with pytest.raises(ValueError, match="unknown scenario 'jog'"):
+        SimulationConfig(scenario="jog")
+    with pytest.raises(ValueError, match="number of sensors must be 1..17"):
+        SimulationConfig(n_sensors=18)
+    with pytest.raises(ValueError, match="sample rate"):
+        SimulationConfig(rate_hz=5.0)
+    with pytest.raises(ValueError, match="unknown sensor id"):
+        SuitSimulator(SimulationConfig(n_sensors=2)).set_activity("mag_tumble", sensor_ids=["S09"])
