@@ -145,6 +145,18 @@ def test_counter_wraps_and_ned_is_turned_into_enu(tmp_path):
     np.testing.assert_allclose(z_world, [0.0, 0.0, -1.0], atol=1e-6)
 
 
+def test_packets_without_any_orientation_are_skipped_and_counted(tmp_path):
+    rows = [[1, 1.0, 0.0, 0.0, 0.0], [2, "NaN", "NaN", "NaN", "NaN"], [3, "", "", "", ""], [4, 1.0, 0.0, 0.0, 0.0]]
+    path = tmp_path / "gaps_00B40003.txt"
+    path.write_text(xsens_text(rows))
+    rec = qt.read_xsens_file(path)
+    assert rec.rows_without_orientation == 2
+    assert rec.t_s == pytest.approx([0.0, 0.03])
+    path.write_text(xsens_text([[1, "NaN", "NaN", "NaN", "NaN"]]))
+    with pytest.raises(ValueError, match="every row lacks its orientation"):
+        qt.read_xsens_file(path)
+
+
 @pytest.mark.parametrize(("rows", "message"), [
     ([[1, 1.0, 0.0, 0.0, 0.0], [2, 1.0, 0.0]], "line 4: 3 fields, the header has 5"),
     ([[1, 1.0, 0.0, 0.0, 0.0], [2, "NaN", 0.0, 0.0, 0.0]], "line 4: sensor 00B40001: NaN quaternion"),

@@ -24,7 +24,8 @@ Supported inputs (:func:`read_quaternion_table` picks the reader):
   ``Quat_q0..q3`` (q_world_from_sensor, w first), else ``Mat[i][j]`` (R_world_from_sensor,
   written column by column), else ``Roll, Pitch, Yaw`` in degrees
   (``R = Rz(yaw)·Ry(pitch)·Rx(roll)``). ``// Coordinate system: NED`` or ``NWU`` exports are
-  turned into ENU. Time is ``PacketCounter`` (16-bit, unwrapped) divided by the update rate;
+  turned into ENU. A packet exported without any orientation value is skipped (and
+  counted). Time is ``PacketCounter`` (16-bit, unwrapped) divided by the update rate;
   sensors of one trial are aligned on their common packet counters (a packet lost by any
   sensor drops that instant). An OpenSense mapping file (``myIMUMappings.xml``) selects the
   trial and renames device ids to ``name_in_model``.
@@ -303,7 +304,8 @@ class XsensRecording:
     ``None`` for an export without orientation columns (e.g. accelerations only);
     ``acc`` m/s², ``gyr`` rad/s and ``mag_au`` (Xsens arbitrary units, normalised to the
     local field) are (N, 3) in the sensor frame or ``None`` when not exported; NaN where a
-    row had no value; ``rate_hz`` the update rate (from the header, else the default).
+    row had no value; ``rate_hz`` the update rate (from the header, else the default);
+    ``rows_without_orientation`` the number of packets skipped because they had no orientation.
     """
 
     device_id: str
@@ -317,6 +319,7 @@ class XsensRecording:
     acc: np.ndarray | None
     gyr: np.ndarray | None
     mag_au: np.ndarray | None
+    rows_without_orientation: int = 0
 
     @property
     def t_s(self) -> np.ndarray:
@@ -418,6 +421,19 @@ def read_xsens_file(path: str | Path, rate_hz: float | None = None) -> XsensReco
     quat = block([f"Quat_q{i}" for i in range(4)])
     mat = block([f"Mat[{i}][{j}]" for j in (1, 2, 3) for i in (1, 2, 3)])
     euler = block(["Roll", "Pitch", "Yaw"])
+    orientation = next((b for b in (quat, mat, euler) if b is not None), None)
+    skipped = 0
+    if orientation is not None:
+        # A packet exported without any orientation value (lost by the filter) is skipped and
+        # counted; the packet counter keeps the time axis right. Partly missing values are an error.
+        empty = np.all(np.isnan(orientation), axis=1)
+        skipped = int(empty.sum())
+        if skipped == len(rows):
+            raise ValueError(f"{source}: sensor {device_id}: every row lacks its orientation")
+        if skipped:
+            keep = ~empty
+            data, line_array = data[keep], line_array[keep]
+            quat, mat, euler = (None if b is None else b[keep] for b in (quat, mat, euler))
     if quat is not None:
         q, orientation_source = quat, "Quat_q0..q3"
     elif mat is not None:
@@ -468,7 +484,7 @@ def read_xsens_file(path: str | Path, rate_hz: float | None = None) -> XsensReco
         device_id=device_id, path=path, packet_counter=counter, q_world_from_sensor=q,
         rate_hz=float(rate), rate_from_header=header_rate is not None,
         coordinate_system=coordinate_system, orientation_source=orientation_source,
-        acc=acc, gyr=gyr, mag_au=mag,
+        acc=acc, gyr=gyr, mag_au=mag, rows_without_orientation=skipped,
     )
 
 
