@@ -112,3 +112,25 @@ def test_study_on_a_folder_of_real_recordings(shared_data: Path, tmp_path: Path,
     bad = study / "not a protocol"
     bad.mkdir()
     assert main(["magcal", "study", "--folder", str(study)]) == 1
+
+
+def test_study_plot_writes_a_png_with_every_panel(tmp_path: Path, capsys) -> None:
+    from vtkmodules.vtkIOImage import vtkPNGReader
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
+    out = tmp_path / "study.png"
+    assert main(["magcal", "study", "--trials", "1", "--plot", str(out)]) == 0
+    assert f"figure: {out}" in capsys.readouterr().out
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    reader = vtkPNGReader()
+    reader.SetFileName(str(out))
+    reader.Update()
+    width, height, _ = reader.GetOutput().GetDimensions()
+    assert (width, height) == (4 * 360, 2 * 360)  # eight protocols, four per row
+    pixels = vtk_to_numpy(reader.GetOutput().GetPointData().GetScalars()).reshape(height, width, -1)[..., :3]
+    for row in range(2):
+        for column in range(4):
+            panel = pixels[row * 360:(row + 1) * 360, column * 360:(column + 1) * 360].astype(int)
+            red = (panel[..., 0] > 180) & (panel[..., 1] < 110) & (panel[..., 2] < 90)
+            assert red.sum() > 50  # the trial's samples are drawn in every panel
+    assert main(["magcal", "study", "--trials", "1", "--plot", str(tmp_path / "missing" / "x.png")]) == 1

@@ -12,14 +12,14 @@ object is printed with exactly the keys ``offset_uT``, ``soft_iron``, ``field_uT
 sensor (see :mod:`mimucap.io.calibration_store`). A refused fit exits with status 1 and its
 reason.
 
-``mimucap magcal study [--trials N] [--seed K] [--folder DIR]`` prints the seed's Tables 1–2
+``mimucap magcal study [--trials N] [--seed K] [--folder DIR] [--plot OUT.png]`` prints the seed's Tables 1–2
 (centre and radii RMSE against a reference fit, protocol durations). Without ``--folder`` the
 trials are simulated (MPU-9250-like noise, 49.3 µT field). With ``--folder`` the trials are
 real recordings: ``DIR/reference/`` holds the dense reference recording (all files fitted
 together), and ``DIR/figure8-1/`` … ``DIR/single_axis-3/`` (any folder named
 ``<protocol>-<turns>``) hold one trial per file, or per sub-folder whose files are fitted
-together. The plotting of fitted ellipsoids is not offered (it would need a plotting
-dependency MimuCap does not have).
+together. ``--plot`` also writes a PNG with the fitted ellipsoids per protocol
+(:mod:`mimucap.cli.magcal_plot`, VTK off screen).
 """
 
 from __future__ import annotations
@@ -35,6 +35,7 @@ import numpy as np
 
 from mimucap.core.magcal import FitSettings, calibrate
 from mimucap.core.magcal_study import (
+    StudyResult,
     StudySettings,
     Trial,
     evaluate_protocols,
@@ -74,6 +75,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     study.add_argument("--trials", type=int, default=10, help="trials per protocol (simulated; default 10)")
     study.add_argument("--seed", type=int, default=0, help="random seed of the simulated sensor and trials")
     study.add_argument("--folder", type=Path, default=None, help="folder of real recordings (see help)")
+    study.add_argument("--plot", type=Path, default=None, metavar="PNG", help="also draw the fitted ellipsoids per protocol")
     _add_input_options(study)
     study.set_defaults(func=run_study)
 
@@ -189,8 +191,17 @@ def run_study(args: argparse.Namespace) -> int:
     """Run the protocol study (simulated or on a folder) and print the tables."""
     if args.folder is None:
         result = simulate_study(StudySettings(trials=args.trials, seed=args.seed))
-        print(format_tables(result))
-        return 0
+    else:
+        result = _folder_study(args)
+    print(format_tables(result))
+    if args.plot is not None:
+        from mimucap.cli.magcal_plot import render_study_png
+
+        print(f"figure: {render_study_png(result, args.plot)}")
+    return 0
+
+
+def _folder_study(args: argparse.Namespace) -> StudyResult:
     folder = args.folder
     if not folder.is_dir():
         raise FileNotFoundError(f"{folder}: no such folder")
@@ -205,8 +216,6 @@ def run_study(args: argparse.Namespace) -> int:
         trials[protocol_dir.name] = [_folder_trial(group, args) for group in _trial_paths(protocol_dir)]
     if not trials:
         raise ValueError(f"{folder}: no protocol folders (named like figure8-1 or single_axis-1)")
-    result = evaluate_protocols(
+    return evaluate_protocols(
         trials, reference.mag_uT, description=f"recordings in {folder} (reference: {reference_dir})"
     )
-    print(format_tables(result))
-    return 0

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from mimucap.core.magcal_fit import FitRefused, FitSettings, fit_ellipsoid
+from mimucap.core.magcal_fit import Ellipsoid, FitRefused, FitSettings, fit_ellipsoid
 from mimucap.core.magcal_quality import assess_quality
 from mimucap.core.simulate import EarthField, calibration_motion, error_model
 
@@ -70,7 +70,9 @@ class ProtocolResult:
     (k, 3) fitted centres and ascending radii of the k accepted fits (µT). centre_rmse_uT,
     radii_rmse_uT: RMS over accepted trials and components of the difference with the
     reference (NaN if every fit was refused). duration_s: mean duration (NaN if unknown).
-    verdicts: (good, warn, fail) counts of the accepted fits.
+    verdicts: (good, warn, fail) counts of the accepted fits. example_mag_uT, example_fit:
+    the samples (N, 3) and fitted :class:`Ellipsoid` of the first accepted trial (``None`` if
+    none), for figures.
     """
 
     key: str
@@ -82,17 +84,21 @@ class ProtocolResult:
     radii_rmse_uT: float
     duration_s: float
     verdicts: tuple[int, int, int]
+    example_mag_uT: FloatArray | None = None
+    example_fit: Ellipsoid | None = None
 
 
 @dataclass(frozen=True)
 class StudyResult:
-    """The study: reference centre and radii (µT), field, noise description, per-protocol results."""
+    """The study: reference centre and radii (µT), field, noise description, per-protocol
+    results, and the reference :class:`Ellipsoid`."""
 
     reference_centre_uT: FloatArray
     reference_radii_uT: FloatArray
     field_uT: float
     description: str
     protocols: tuple[ProtocolResult, ...]
+    reference: Ellipsoid | None = None
 
     def result(self, key: str) -> ProtocolResult:
         """The :class:`ProtocolResult` of protocol ``key`` (e.g. ``"single_axis-1"``)."""
@@ -127,6 +133,7 @@ def evaluate_protocols(
         centres, radii, durations = [], [], []
         verdicts = [0, 0, 0]
         refused = 0
+        example: tuple[FloatArray, Ellipsoid] | None = None
         for trial in items:
             if trial.duration_s is not None:
                 durations.append(trial.duration_s)
@@ -139,6 +146,8 @@ def evaluate_protocols(
             verdicts[("good", "warn", "fail").index(quality.verdict)] += 1
             centres.append(fit.ellipsoid.centre)
             radii.append(fit.ellipsoid.radii)
+            if example is None:
+                example = (np.asarray(trial.mag_uT, dtype=np.float64), fit.ellipsoid)
         centres_array = np.array(centres).reshape(-1, 3)
         radii_array = np.array(radii).reshape(-1, 3)
         results.append(
@@ -152,6 +161,8 @@ def evaluate_protocols(
                 radii_rmse_uT=_rmse(radii_array, ref_radii),
                 duration_s=float(np.mean(durations)) if durations else float("nan"),
                 verdicts=(verdicts[0], verdicts[1], verdicts[2]),
+                example_mag_uT=None if example is None else example[0],
+                example_fit=None if example is None else example[1],
             )
         )
     return StudyResult(
@@ -160,6 +171,7 @@ def evaluate_protocols(
         field_uT=reference.field_uT,
         description=description,
         protocols=tuple(results),
+        reference=reference.ellipsoid,
     )
 
 
