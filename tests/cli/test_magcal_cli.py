@@ -134,3 +134,23 @@ def test_study_plot_writes_a_png_with_every_panel(tmp_path: Path, capsys) -> Non
             red = (panel[..., 0] > 180) & (panel[..., 1] < 110) & (panel[..., 2] < 90)
             assert red.sum() > 50  # the trial's samples are drawn in every panel
     assert main(["magcal", "study", "--trials", "1", "--plot", str(tmp_path / "missing" / "x.png")]) == 1
+
+
+def test_fit_one_sensor_of_a_session(tmp_path: Path, capsys) -> None:
+    from mimucap.core.simulate import calibration_motion
+    from mimucap.io.session import Session, SensorStream, write_session
+
+    motions = {sid: calibration_motion("single_axis", 1, seed=seed, errors="mpu9250", sensor_id=sid)
+               for sid, seed in (("S01", 1), ("S02", 2))}
+    session = Session(metadata={"source": "test"}, sensors={
+        sid: SensorStream(sid, m.t_s, np.arange(len(m.t_s)), acc=m.acc, gyr=m.gyr, mag_uT=m.mag_uT)
+        for sid, m in motions.items()
+    })
+    path = write_session(tmp_path / "calibration.h5", session)
+    result = run_json(capsys, str(path), "--sensor", "S02")
+    np.testing.assert_allclose(result["offset_uT"], motions["S02"].mag_b_uT, atol=0.3)
+    assert result["verdict"] == "good"
+    assert main(["magcal", "fit", str(path)]) == 1
+    assert "several sensors (S01, S02)" in capsys.readouterr().err
+    assert main(["magcal", "fit", str(path), "--format", "session", "--sensor", "S02"]) == 0
+    assert "dip" in capsys.readouterr().out  # the session's accelerometer gives the dip figure
