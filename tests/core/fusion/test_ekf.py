@@ -1,0 +1,163 @@
+"""The online error-state EKF: accuracy on synthetic truth, bias at rest, block = batch,
+bad samples skipped, gaps and variable intervals, several sensors at once."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from mimucap.core import rotation as rot
+from mimucap.core.fusion.ekf import OrientationEKF, fuse
+from mimucap.core.fusion.evaluation import error_angles_rad
+from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
+from mimucap.core.fusion.state import FLAG_SKIPPED, FLAG_UNINITIALISED
+
+
+def rms_deg(x: np.ndarray) -> float:
+    return float(np.degrees(np.sqrt(np.nanmean(x ** 2))))
+
+
+def test_tracks_synthetic_motion(recording):
+    result = fuse(recording.t_s, recording.gyr, recording.acc, recording.mag)
+    total, heading, incl = error_angles_rad(result.q_world_from_sensor, recording.q_true)
+    settled = slice(500, None)  # after 5 s
+    assert rms_deg(incl[settled]) < 0.5
+    assert rms_deg(heading[settled]) < 1.0
+    assert np.all(np.isfinite(result.q_world_from_sensor))
+    assert np.allclose(np.linalg.norm(result.q_world_from_sensor, axis=1), 1.0)
+
+
+def test_initial_alignment_from_first_sample(recording):
+    result = fuse(recording.t_s[:1], recording.gyr[:1], recording.acc[:1], recording.mag[:1])
+    assert np.degrees(rot.angle_between(result.q_world_from_sensor[0], recording.q_true[0])) < 1.5
+
+
+def test_gyro_bias_converges_at_rest(recording_factory):
+    rec = recording_factory(duration_s=12.0, still_s=12.5, bias_dps=(0.8, -0.5, 0.3), seed=4)
+    result = fuse(rec.t_s, rec.gyr, rec.acc, rec.mag)
+    masks = result.flag_masks()
+    # rest is declared after rest_time_s (1.5 s) of stillness and then held
+    assert not masks["rest"][:100].any()
+    assert masks["rest"][300:].all()
+    error_dps = np.degrees(np.abs(result.bias_rad_s[-1] - rec.bias))
+    assert np.all(error_dps < 0.03), error_dps
+
+
+def test_block_updates_equal_one_batch(recording):
+    batch = fuse(recording.t_s, recording.gyr, recording.acc, recording.mag)
+    ekf = OrientationEKF()
+    cuts = [0, 1, 2, 17, 250, 251, 900, len(recording.t_s)]
+    parts = [ekf.update_batch(recording.t_s[a:b], recording.gyr[a:b], recording.acc[a:b],
+                              recording.mag[a:b]) for a, b in zip(cuts[:-1], cuts[1:])]
+    q_blocks = np.concatenate([p.q_world_from_sensor for p in parts])
+    assert np.array_equal(q_blocks, batch.q_world_from_sensor)
+    assert np.array_equal(np.concatenate([p.flags for p in parts]), batch.flags)
+    assert ekf.counters() == batch.counters[0]
+
+
+def test_per_sample_update_equals_batch(recording):
+    n = 300
+    batch = fuse(recording.t_s[:n], recording.gyr[:n], recording.acc[:n], recording.mag[:n])
+    ekf = OrientationEKF()
+    q = np.array([ekf.update(recording.t_s[k], recording.gyr[k], recording.acc[k], recording.mag[k])
+                  for k in range(n)])
+    assert np.array_equal(q, batch.q_world_from_sensor)
+
+
+def test_several_sensors_at_once_equal_separate_runs(recording_factory):
+    recs = [recording_factory(duration_s=5.0, seed=s) for s in range(3)]
+    together = fuse(recs[0].t_s, np.stack([r.gyr for r in recs]), np.stack([r.acc for r in recs]),
+                    np.stack([r.mag for r in recs]))
+    assert together.q_world_from_sensor.shape == (3, recs[0].t_s.size, 4)
+    for s, rec in enumerate(recs):
+        alone = fuse(rec.t_s, rec.gyr, rec.acc, rec.mag)
+        assert np.array_equal(together.q_world_from_sensor[s], alone.q_world_from_sensor)
+
+
+def test_bad_samples_are_skipped_and_counted(recording):
+    gyr, acc, mag, t = (recording.gyr.copy(), recording.acc.copy(), recording.mag.copy(),
+                        recording.t_s.copy())
+    gyr[100] = np.nan
+    gyr[200] = [100.0, 0.0, 0.0]  # beyond the gyro range (rad/s)
+    t[300] = t[299]  # repeated time stamp
+    acc[400] = [np.inf, 0.0, 0.0]
+    acc[401] = 0.0
+    mag[500] = np.nan
+    mag[501] = [1e5, 0.0, 0.0]  # beyond the magnetometer range
+    result = fuse(t, gyr, acc, mag)
+    masks = result.flag_masks()
+    assert np.flatnonzero(masks["skipped"]).tolist() == [100, 200, 300]
+    assert np.flatnonzero(masks["acc_missing"]).tolist() == [400, 401]
+    assert np.flatnonzero(masks["mag_missing"]).tolist() == [500, 501]
+    counters = result.counters[0]
+    assert (counters["skipped"], counters["acc_missing"], counters["mag_missing"]) == (3, 2, 2)
+    assert np.all(np.isfinite(result.q_world_from_sensor))
+    assert np.all(np.isfinite(result.bias_rad_s))
+    clean = fuse(recording.t_s, recording.gyr, recording.acc, recording.mag)
+    diff = rot.angle_between(result.q_world_from_sensor[-1], clean.q_world_from_sensor[-1])
+    assert np.degrees(diff) < 0.2
+
+
+def test_waits_for_a_valid_accelerometer_sample(recording):
+    acc = recording.acc.copy()
+    acc[:5] = np.nan
+    result = fuse(recording.t_s, recording.gyr, acc, recording.mag)
+    assert np.isnan(result.q_world_from_sensor[:5]).all()
+    assert (result.flags[:5] & FLAG_UNINITIALISED).all()
+    assert np.isfinite(result.q_world_from_sensor[5:]).all()
+
+
+def test_variable_intervals_and_gaps(recording_factory):
+    rec = recording_factory(duration_s=30.0, rate_hz=200.0, seed=2)
+    rng = np.random.default_rng(7)
+    keep = rng.random(rec.t_s.size) > 0.3  # 30 % of the samples lost: irregular intervals
+    keep[2000:2400] = False  # a 2 s gap during motion
+    keep[0] = True
+    idx = np.flatnonzero(keep)
+    # gyro samples after a loss are the mean rate over their own interval only: rebuild them
+    # as the mean of the lost samples' rates (what a device integrating between sends would give)
+    cum = np.concatenate([[0.0], np.cumsum(np.diff(rec.t_s))])
+    gyr = np.empty((idx.size, 3))
+    gyr[0] = rec.gyr[0]
+    for j in range(1, idx.size):
+        gyr[j] = rec.gyr[idx[j - 1] + 1: idx[j] + 1].mean(axis=0)
+    result = fuse(cum[idx], gyr, rec.acc[idx], rec.mag[idx])
+    total, heading, incl = error_angles_rad(result.q_world_from_sensor, rec.q_true[idx])
+    t = cum[idx]
+    before = (t > 5) & (t < 10)
+    after = t > 22  # 10 s after the gap
+    assert result.counters[0]["skipped"] == 0
+    assert rms_deg(incl[before]) < 0.6 and rms_deg(heading[before]) < 1.2
+    assert rms_deg(incl[after]) < 1.0 and rms_deg(heading[after]) < 2.0
+
+
+def test_without_magnetometer_tilt_is_still_right(recording):
+    result = fuse(recording.t_s, recording.gyr, recording.acc, None)
+    _, _, incl = error_angles_rad(result.q_world_from_sensor, recording.q_true)
+    assert rms_deg(incl[500:]) < 0.6
+    assert result.counters[0]["mag_missing"] == 0
+    no_mag = fuse(recording.t_s, recording.gyr, recording.acc, recording.mag, use_mag=False)
+    assert np.array_equal(no_mag.q_world_from_sensor, result.q_world_from_sensor)
+
+
+def test_gyro_only_algorithm_integrates_from_the_alignment(recording_factory):
+    rec = recording_factory(duration_s=5.0, bias_dps=(0, 0, 0), gyr_noise_dps=0.0, seed=3)
+    result = fuse(rec.t_s, rec.gyr, rec.acc, rec.mag, algorithm="taylor3")
+    total, _, _ = error_angles_rad(result.q_world_from_sensor, rec.q_true)
+    assert np.degrees(np.max(total)) < 1.0
+    assert (result.flags & 0b0111).sum() == 0  # no rest, no rejection flags: nothing corrects
+
+
+def test_settings_are_validated():
+    with pytest.raises(ValueError, match="unknown propagation"):
+        FusionParams(propagation="euler")
+    with pytest.raises(ValueError, match="acc_noise_m_s2"):
+        replace(DEFAULT_FUSION_PARAMS, acc_noise_m_s2=-1.0)
+    with pytest.raises(ValueError, match="unknown algorithm"):
+        OrientationEKF(algorithm="kalman")
+    with pytest.raises(ValueError, match="acc: expected shape"):
+        fuse(np.arange(3.0), np.zeros((3, 3)), np.zeros((4, 3)))
+    with pytest.raises(TypeError):
+        FusionParams(acc_nosie_m_s2=1.0)  # a typo fails loudly
