@@ -64,17 +64,29 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     fit = actions.add_parser("fit", help="fit a calibration to the samples of one or more files")
     fit.add_argument("files", nargs="+", metavar="FILE", help="CSV, Xsens export or session file")
     _add_input_options(fit)
-    fit.add_argument("--field-uT", type=float, default=None, help="known local field magnitude, µT")
+    fit.add_argument("--field-uT", type=float, default=None, metavar="F", help="known local field magnitude, µT")
     fit.add_argument("--method", choices=("ellipsoid", "quadric"), default="ellipsoid",
                      help="ellipsoid-specific fit (default) or the general quadric least squares")
     fit.add_argument("--json", action="store_true", help="print one JSON object")
     fit.add_argument("--save", action="store_true", help="store the calibration for the sensor")
     fit.set_defaults(func=run_fit)
 
-    study = actions.add_parser("study", help="compare rotation protocols (seed Tables 1-2)")
+    study = actions.add_parser(
+        "study", help="compare rotation protocols (seed Tables 1-2)",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        description=(
+            "Fit repeated trials of each rotation protocol and print the RMSE of the fitted centre\n"
+            "and radii against a reference fit, and each protocol's duration.\n\n"
+            "Without --folder the trials are simulated (MPU-9250-like noise, 49.3 uT field).\n"
+            "With --folder DIR they are real recordings:\n"
+            "  DIR/reference/           the dense reference recording (all files fitted together)\n"
+            "  DIR/<protocol>-<turns>/  e.g. figure8-3, single_axis-1: one trial per file, or per\n"
+            "                           sub-folder whose files are fitted together"
+        ),
+    )
     study.add_argument("--trials", type=int, default=10, help="trials per protocol (simulated; default 10)")
     study.add_argument("--seed", type=int, default=0, help="random seed of the simulated sensor and trials")
-    study.add_argument("--folder", type=Path, default=None, help="folder of real recordings (see help)")
+    study.add_argument("--folder", type=Path, default=None, help="folder of real recordings (layout above)")
     study.add_argument("--plot", type=Path, default=None, metavar="PNG", help="also draw the fitted ellipsoids per protocol")
     _add_input_options(study)
     study.set_defaults(func=run_study)
