@@ -217,3 +217,31 @@ def test_angles_errors(suit, suit_csv, tmp_path, capsys):
     lone.write_text(json.dumps(document))
     err = run_error(["angles", str(suit_csv), "--calibration", str(lone), "--out", str(tmp_path / "a.csv")], capsys)
     assert "no joint has calibrated segments on both sides" in err
+
+
+def test_simulated_session_from_mimucap_simulate(tmp_path, capsys):
+    """``mimucap simulate`` (demo: N-pose 0–3 s, T-pose 3–6 s, N-pose, walking from 8 s) with
+    on-board orientations, then bodycal and angles on the session file; the session's ground
+    truth is the reference."""
+    from mimucap.io.session import read_session
+
+    session_path = tmp_path / "demo.h5"
+    assert main(["simulate", "--scenario", "demo", "--duration", "14", "--sensors", "10", "--seed", "5",
+                 "--errors", "ideal", "--onboard", "--out", str(session_path)]) == 0
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(session_path), "--npose", "1:2.9", "--tpose", "5:5.9", "--out", str(cal)]) == 0
+    out = tmp_path / "angles.csv"
+    assert main(["angles", str(session_path), "--calibration", str(cal), "--out", str(out)]) == 0
+    capsys.readouterr()
+    session = read_session(session_path)
+    document = json.loads(cal.read_text())
+    for segment, entry in document["segments"].items():
+        true_mounting = session.truth.sensors[entry["sensor"]].q_segment_from_sensor
+        assert session.sensors[entry["sensor"]].segment == segment
+        assert np.degrees(rot.angle_between(entry["q_segment_from_sensor"], true_mounting)) < 0.5
+    table = read_angles_csv(out)
+    walking = table.t_s >= 9.0
+    truth_t = session.truth.t_s
+    for column, values in table.angles_deg.items():
+        expected = np.interp(table.t_s[walking], truth_t, session.truth.joint_angles_deg[column])
+        np.testing.assert_allclose(values[walking], expected, atol=1.0, err_msg=column)

@@ -203,6 +203,42 @@ def test_heading_mode_refuses_a_vertical_axis():
         bc.calibrate_heading(t, sensors, mapping, mapping["pelvis"], EY)
 
 
+@pytest.mark.parametrize("turn_deg", [0.0, 135.0, -100.0])
+def test_the_suit_simulator_subject_calibrated_at_any_heading(turn_deg):
+    """mimucap.core.simulate: 15 units with random mountings; the subject turns on the spot,
+    stands in N-pose (with quiet-standing sway), raises both arms to 88°, then walks.
+    Noise-free orientations (the simulator's truth)."""
+    from mimucap.core import simulate as sim
+
+    simulator = sim.SuitSimulator(sim.SimulationConfig(scenario="npose", n_sensors=15, seed=9, errors="ideal"))
+    blocks = []
+    if turn_deg:
+        simulator.set_activity("turn", angle_deg=turn_deg, turns=1, turn_s=2.0, pause_s=0.5)
+    blocks.append(simulator.advance(3.0))
+    simulator.set_activity("npose")
+    blocks.append(simulator.advance(3.0))
+    simulator.set_activity("tpose", arms="both")
+    blocks.append(simulator.advance(4.0))
+    simulator.set_activity("walk")
+    blocks.append(simulator.advance(5.0))
+    truth = sim.SuitBlock.concatenate(blocks).truth
+    t, sensors = truth.t_s, truth.q_world_from_sensor
+    mapping = {simulator.mounting[sid].segment: sid for sid in sensors}
+    cal = bc.calibrate_npose_tpose(t, sensors, mapping, (4.0, 5.9), (8.5, 9.9))
+    assert cal.quality.verdict == "good"
+    for segment, sid in mapping.items():
+        assert deg_between(cal.q_segment_from_sensor[segment], simulator.mounting[sid].q_segment_from_sensor) < 0.5
+    in_npose = (t >= 4.0) & (t <= 5.9)
+    pelvis = rot.average(truth.q_world_from_segment["pelvis"][in_npose])
+    assert deg_between(cal.q_world_from_body, pelvis) < 0.5
+    walking = t >= 10.5
+    estimated = sk.joint_angles_deg(FIFTEEN, bc.segment_orientations(cal, {s: q[walking] for s, q in sensors.items()}))
+    assert len(estimated) == 3 * len(FIFTEEN.joint_names)
+    for column, values in estimated.items():
+        np.testing.assert_allclose(values, truth.joint_angles_deg[column][walking], atol=1.0, err_msg=column)
+    assert truth.joint_angles_deg["knee_r_flexion_deg"][walking].max() > 40.0
+
+
 # --------------------------------------------------------------------------------------------
 # Signs and mirror symmetry on physically built poses
 # --------------------------------------------------------------------------------------------

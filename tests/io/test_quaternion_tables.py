@@ -225,7 +225,7 @@ def test_sto_tables_are_the_xsens_enu_world(opensense):
     sto = qt.read_quaternion_table(
         opensense / "test_resources" / "MT_012005D6_009-quaternions_calibration_trial_Facing_negX.sto")
     assert sto.up_world.tolist() == [0.0, 0.0, 1.0]
-    assert sto.t_s[0] == 0.0 and sto.t_s[1] == pytest.approx(0.01)
+    assert sto.t_s[0] == 678.0 and sto.t_s[1] == pytest.approx(678.01)  # times as in the file
     xsens = qt.read_quaternion_table(opensense / "IMUData", sensor_names=opensense / "myIMUMappings.xml")
     for sensor in sto.sensor_ids:
         # Within 0.2° (the subject stands still; the sensors differ from each other by tens of degrees).

@@ -1,7 +1,8 @@
 """Orientation tables from files: one time axis, one ``q_world_from_sensor`` series per sensor.
 
-Every reader returns a :class:`QuaternionTable`: ``t_s`` (N,) seconds from the first row,
-and for each sensor ``q_world_from_sensor`` (N, 4), scalar-first Hamilton unit quaternions
+Every reader returns a :class:`QuaternionTable`: ``t_s`` (N,) seconds as the file gives them
+(CSV ``t_s``, ``.sto`` ``time``, session host time; Xsens and APDM files, which count packets
+or Unix microseconds, start at 0), and for each sensor ``q_world_from_sensor`` (N, 4), scalar-first Hamilton unit quaternions
 mapping sensor coordinates into the table's world frame. The world frame is whatever the file
 uses; its **up** direction is declared in ``up_world`` (unit vector in world coordinates),
 because body calibration needs to know which way is up and nothing else about the world.
@@ -289,7 +290,7 @@ def read_opensim_sto(path: str | Path, up_axis: str | None = None) -> Quaternion
     table = {s: _checked_unit(q[:, i], source, s, line_array) for i, s in enumerate(sensors)}
     up = axis_vector(up_axis or "z")
     frame = "IMU vendor world (as written by OpenSense readers)" if up_axis is None else "declared"
-    return QuaternionTable(t - t[0], table, up, frame, source)
+    return QuaternionTable(t, table, up, frame, source)
 
 
 # --------------------------------------------------------------------------------------------
