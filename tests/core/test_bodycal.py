@@ -614,3 +614,38 @@ def test_heading_mode_defaults_to_the_first_sample():
     assert cal.details["npose_s"] == [0.0, 0.0]
     assert all(s.n_samples == 1 for s in cal.quality.stillness)
     assert max(mounting_errors(cal, mountings).values()) < 0.5
+
+
+# --------------------------------------------------------------------------------------------
+# Building blocks
+# --------------------------------------------------------------------------------------------
+
+def test_fit_rotation_axis_is_the_least_squares_axis_through_the_origin():
+    rng = np.random.default_rng(73)
+    axis = rot.normalize(np.array([0.2, -0.3, 0.9, 0.0]))[:3]
+    angles = np.linspace(0.1, 1.5, 40)
+    rotvecs = angles[:, None] * axis + rng.normal(scale=0.01, size=(40, 3))
+    fitted, residual = bc.fit_rotation_axis(rotvecs, -axis)
+    assert np.degrees(np.arccos(abs(fitted @ axis))) < 1.0
+    assert fitted @ axis < 0.0  # signed along the reference
+    assert residual == pytest.approx(0.01 * np.sqrt(2.0), rel=0.3)
+
+
+def test_pose_stillness_and_window():
+    q = rot.from_axis_angle(EZ, np.radians([0.0, 1.0, 2.0, 3.0, 4.0]))
+    mean, still = bc.pose_stillness(q, "N-pose", "S1")
+    assert deg_between(mean, rot.from_axis_angle(EZ, np.radians(2.0))) < 1e-6
+    assert still.max_deviation_deg == pytest.approx(2.0, abs=1e-6)
+    assert still.rms_deviation_deg == pytest.approx(np.sqrt(2.0), abs=1e-6)
+    t = np.arange(10) * 0.1
+    assert bc.pose_window(t, (0.2, 0.5), "N-pose") == slice(2, 6)
+    assert bc.pose_window(t, (0.0, 0.0), "N-pose") == slice(0, 1)
+
+
+def test_body_frame_from_a_tilted_forward_axis():
+    q = bc.q_world_from_body_from_forward([1.0, 1.0, 0.5], [0.0, 0.0, 1.0])
+    np.testing.assert_allclose(rot.rotate(q, EX), [np.sqrt(0.5), np.sqrt(0.5), 0.0], atol=1e-12)
+    np.testing.assert_allclose(rot.rotate(q, EY), EZ, atol=1e-12)
+    np.testing.assert_allclose(rot.rotate(q, EZ), [np.sqrt(0.5), -np.sqrt(0.5), 0.0], atol=1e-12)  # right
+    with pytest.raises(ValueError, match="vertical"):
+        bc.q_world_from_body_from_forward([0.0, 0.0, 1.0], [0.0, 0.0, 1.0])
