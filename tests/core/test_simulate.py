@@ -136,6 +136,7 @@ def test_blocks_concatenate_to_exactly_the_batch() -> None:
         blocks.append(simulator.advance(min(float(rng.uniform(0.0, 0.9)), config.duration_s - simulator.time_s)))
     joined = SuitBlock.concatenate(blocks)
     assert joined.markers == batch.markers
+    assert len(simulator.schedule.entries) < len(batch.markers)  # finished activities are forgotten
     for sensor_id, expected in batch.samples.items():
         got = joined.samples[sensor_id]
         for name in ("t_s", "seq", "acc", "gyr", "mag_uT", "q_world_from_sensor", "device_time_s"):
@@ -210,5 +211,9 @@ def test_configuration_errors_are_clear() -> None:
         SimulationConfig(n_sensors=18)
     with pytest.raises(ValueError, match="sample rate"):
         SimulationConfig(rate_hz=5.0)
+    with pytest.raises(ValueError, match="walking speed"):
+        SimulationConfig(scenario="walk", scenario_params={"speed_mps": 9.0})
+    with pytest.raises(ValueError, match="activity 'walk'.*sped"):
+        SimulationConfig(scenario="walk", scenario_params={"sped": 1.0})
     with pytest.raises(ValueError, match="unknown sensor id"):
         SuitSimulator(SimulationConfig(n_sensors=2)).set_activity("mag_tumble", sensor_ids=["S09"])

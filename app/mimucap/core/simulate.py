@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -88,6 +88,8 @@ MAX_SENSORS = len(SENSOR_PLACEMENTS)
 #: Scale (m) of the smooth minimum that keeps the lower ankle on the ground.
 GROUND_SOFTNESS_M = 0.02
 _STREAM_MOUNTING = 505
+#: Seconds simulated per internal step of :func:`simulate_session` (bounds its memory use).
+BATCH_CHUNK_S = 10.0
 
 
 @dataclass(frozen=True)
@@ -138,6 +140,8 @@ class SimulationConfig:
         if self.model is not None and self.model not in skeleton.MODEL_NAMES:
             raise ValueError(f"unknown skeleton model {self.model!r}; use one of {', '.join(skeleton.MODEL_NAMES)}")
         error_model(self.errors)
+        # Build the scenario's activities once: unknown or bad parameters fail here.
+        scenario_activities(self.scenario, dict(self.scenario_params), sensor_ids=self.sensor_ids)
         if self.drop_probability is not None and not 0.0 <= self.drop_probability < 0.9:
             raise ValueError(f"drop probability must be in [0, 0.9), got {self.drop_probability}")
 
@@ -155,8 +159,6 @@ class SimulationConfig:
         """The resolved error model (with ``drop_probability`` applied)."""
         model = error_model(self.errors)
         if self.drop_probability is not None:
-            from dataclasses import replace
-
             model = replace(model, drop_probability=float(self.drop_probability))
         return model
 
@@ -291,7 +293,7 @@ class SuitSimulator:
     samples as one long block, as long as the activity is not changed in between.
     """
 
-    def __init__(self, config: SimulationConfig = SimulationConfig(), lookahead_s: float = 0.5) -> None:
+    def __init__(self, config: SimulationConfig = SimulationConfig(), lookahead_s: float = 1.0) -> None:
         if not 0.0 <= lookahead_s <= 10.0:
             raise ValueError(f"lookahead must be 0..10 s, got {lookahead_s}")
         self.config = config
@@ -447,6 +449,7 @@ class SuitSimulator:
                 self._cache = self._simulate(k0, chunk)
             self._cache_start, self._cache_end = k0, k0 + chunk
         block = _slice_block(self._cache, self._cache_start, k0, needed_end, self.dt)
+        self.schedule.forget_before(k0 * self.dt - 1.0)
         self._next_sample = needed_end
         self._target_time_s = max(self._target_time_s, self._next_sample * self.dt)
         return block
@@ -525,8 +528,16 @@ def _slice_block(block: SuitBlock, block_start: int, k0: int, k1: int, dt: float
 
 def simulate_session(config: SimulationConfig = SimulationConfig()) -> SimulationResult:
     """Run ``config.scenario`` for ``config.duration_s`` seconds and return everything."""
-    simulator = SuitSimulator(config)
-    block = simulator.advance(config.duration_s)
+    simulator = SuitSimulator(config, lookahead_s=0.0)
+    blocks = []
+    remaining = int(math.floor(config.duration_s * config.rate_hz + 1e-9))
+    step = int(BATCH_CHUNK_S * config.rate_hz)
+    while True:  # in chunks, to bound memory; identical to one block
+        blocks.append(simulator.advance_samples(min(step, remaining)))
+        remaining -= len(blocks[-1].truth.t_s)
+        if remaining <= 0:
+            break
+    block = SuitBlock.concatenate(blocks)
     return SimulationResult(
         config=config, samples=block.samples, truth=block.truth, markers=block.markers,
         parameters=dict(simulator.parameters), mounting=dict(simulator.mounting),

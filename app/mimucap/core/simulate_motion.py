@@ -249,8 +249,8 @@ class Walk(Activity):
     Joint-angle curves (right leg; phase 0 = right heel strike, the left leg half a cycle
     later), after the typical sagittal gait curves (Perry & Burnfield; Winter): hip flexion
     about +30° at heel strike to −10° at 50 %; knee flexion 5° at heel strike, a loading-
-    response peak of ~20° at 15 %, ~5° at mid-stance and 60° in swing at 72 %; ankle
-    plantar-flexion of −20° at toe-off; arm swing ±20° opposite to the legs with the elbow
+    response peak of ~20° at 15 %, ~5° at mid-stance and 38° at toe-off and 60° in swing at 70 %; ankle
+    plantar-flexion of about −15° at toe-off; arm swing ±20° opposite to the legs with the elbow
     flexed 10-30°; pelvis rotation ±5°, obliquity ±4°, thorax counter-rotation. The root moves
     forward at ``speed_mps`` and oscillates vertically by ±2 cm around 3.5 cm below its standing
 height, lowest in double support (vertical acceleration about ±3 m/s²).
@@ -275,10 +275,10 @@ height, lowest in double support (vertical acceleration about ±3 m/s²).
         hip = np.stack((10.0 + 20.0 * np.cos(_TWO_PI * (phase - 0.04)),
                         5.0 * np.sin(_TWO_PI * (phase + 0.1)),
                         4.0 * np.cos(_TWO_PI * phase)), axis=-1)
-        knee_flexion = (5.0 + 15.0 * _periodic_bump(phase, 0.15, 0.07) + 55.0 * _periodic_bump(phase, 0.72, 0.11))
+        knee_flexion = (5.0 + 15.0 * _periodic_bump(phase, 0.15, 0.07) + 55.0 * _periodic_bump(phase, 0.70, 0.14))
         knee = np.stack((knee_flexion, np.zeros_like(phase), 3.0 * np.cos(_TWO_PI * phase)), axis=-1)
         ankle_flexion = (2.0 - 7.0 * _periodic_bump(phase, 0.05, 0.05) + 10.0 * _periodic_bump(phase, 0.42, 0.12)
-                         - 22.0 * _periodic_bump(phase, 0.63, 0.06))
+                         - 17.0 * _periodic_bump(phase, 0.63, 0.06))
         ankle = np.stack((ankle_flexion, np.zeros_like(phase), np.zeros_like(phase)), axis=-1)
         return {"hip": hip, "knee": knee, "ankle": ankle}
 
@@ -350,7 +350,7 @@ class Turn(Activity):
             zeros = np.zeros_like(tau)
             pose.joint_angles_deg[f"hip_{side}"] = np.stack((20.0 * lift, zeros, zeros), axis=-1)
             pose.joint_angles_deg[f"knee_{side}"] = np.stack((40.0 * lift, zeros, zeros), axis=-1)
-            pose.joint_angles_deg[f"ankle_{side}"] = np.stack((-10.0 * lift, zeros, zeros), axis=-1)
+            pose.joint_angles_deg[f"ankle_{side}"] = np.stack((20.0 * lift, zeros, zeros), axis=-1)  # foot level
         return pose
 
 
@@ -408,9 +408,9 @@ class ArmRaise(_Cyclic):
 
 
 class Squat(_Cyclic):
-    """Squats with the feet planted: at full ``depth`` (0..1, default 0.8) the trunk leans 30°
-    forward, hips flex 65° relative to the pelvis, knees flex 125°, ankles dorsiflex 30° and
-    the arms reach forward 80°."""
+    """Squats with the feet planted and flat: at full ``depth`` (0..1, default 0.8) the pelvis
+    and trunk lean 30° forward, the hips flex 110° (thighs 80° from vertical), the knees 110°
+    (shanks 30° forward), the ankles dorsiflex 30° and the arms reach forward 80°."""
 
     name = "squat"
 
@@ -427,8 +427,8 @@ class Squat(_Cyclic):
         zeros = np.zeros_like(tau)
         pose.q_body_from_pelvis = _pelvis(zeros, zeros, 30.0 * s)
         for side in ("l", "r"):
-            pose.joint_angles_deg[f"hip_{side}"] = np.stack((65.0 * s, -4.0 * s, zeros), axis=-1)
-            pose.joint_angles_deg[f"knee_{side}"] = np.stack((125.0 * s, zeros, zeros), axis=-1)
+            pose.joint_angles_deg[f"hip_{side}"] = np.stack((110.0 * s, -4.0 * s, zeros), axis=-1)
+            pose.joint_angles_deg[f"knee_{side}"] = np.stack((110.0 * s, zeros, zeros), axis=-1)
             pose.joint_angles_deg[f"ankle_{side}"] = np.stack((30.0 * s, zeros, zeros), axis=-1)
             pose.joint_angles_deg[f"shoulder_{side}"] = np.stack((80.0 * s, zeros, zeros), axis=-1)
             pose.joint_angles_deg[f"elbow_{side}"] = np.stack((10.0 * s, zeros, zeros), axis=-1)
@@ -614,6 +614,19 @@ class Schedule:
         self._source = iter(activities)
         self._pending_start = t_s
         self._append_next()
+
+    def forget_before(self, t_s: float) -> None:
+        """Drop activities no longer needed for times at or after ``t_s`` (bounded memory when
+        streaming for hours); later poses are unchanged."""
+        drop = 0
+        while drop + 1 < len(self._entries):
+            successor = self._entries[drop + 1]
+            if successor.start_s + successor.blend_s >= t_s:
+                break
+            drop += 1
+        if drop:
+            del self._entries[:drop]
+            del self._starts[:drop]
 
     def _pose_of_entry(self, index: int, t: np.ndarray) -> BodyPose:
         entry = self._entries[index]
