@@ -102,6 +102,8 @@ def test_sunsided_set1_accelerometer_convention(shared_data: Path) -> None:
     np.testing.assert_allclose(np.median(level.imu.acc_mps2, axis=0), [0, 0, 9.81], atol=0.8)
     x_up = read_mag_files([base / "unmoved-x-pointing-up"])[0]
     np.testing.assert_allclose(np.median(x_up.imu.acc_mps2, axis=0), [9.81, 0, 0], atol=0.8)
+    # Set 1 mounts the magnetometer differently: its accelerometer is not in the mag frame.
+    assert not level.imu_in_mag_frame and level.acc_at_mag_times() is None
 
 
 def test_xsens_export_with_magnetometer(shared_data: Path) -> None:

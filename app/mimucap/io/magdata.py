@@ -13,7 +13,11 @@ Formats (``read_mag_files(..., fmt=...)``; ``"auto"`` picks by content):
     attached as :class:`ImuStream`, converted to this project's conventions following the
     upstream READMEs: set 2 (the default) records the accelerometer as the *gravity*
     direction (−1 g on z when z points up), so specific force = −a; set 1 records the up
-    direction with the x axis flipped; in both sets the gyroscope x axis is flipped.
+    direction with the x axis flipped; in both sets the gyroscope x axis is flipped. In set 2
+    the magnetometer axes agree with the accelerometer's (the dip angle stays constant over
+    the full-sphere recording); in set 1 the HMC5883L is mounted differently (undocumented),
+    so set-1 inertial samples are attached for the gyroscope but not matched to the
+    magnetometer frame (``imu_in_mag_frame`` false: no dip figure).
 * ``"xsens"``: Xsens MT Manager text exports (``//`` header lines; tab, comma, semicolon or
   space delimited; old and new headers) with ``Mag_X``, ``Mag_Y``, ``Mag_Z`` columns, and
   ``Acc_*`` (m/s²), ``Gyr_*`` (rad/s) when present. Xsens writes the magnetometer in
@@ -71,6 +75,7 @@ class MagRecording:
     source: file (and sensor) they came from. sensor_id: ``None`` if the file does not say.
     mag: (N, 3) samples in ``unit`` ("uT", "gauss", "counts", or ``None`` if the file does not
     state it), sensor frame. t_s: (N,) s or ``None``. imu: companion inertial samples or ``None``.
+    imu_in_mag_frame: whether the inertial samples share the magnetometer's axes.
     """
 
     source: str
@@ -79,11 +84,13 @@ class MagRecording:
     unit: str | None
     t_s: FloatArray | None = None
     imu: ImuStream | None = None
+    imu_in_mag_frame: bool = True
 
     def acc_at_mag_times(self) -> FloatArray | None:
         """Accelerometer samples (N, 3, m/s²) linearly interpolated at the magnetometer times
-        (NaN outside the accelerometer's time span), or ``None`` if not available."""
-        if self.imu is None or self.imu.acc_mps2 is None or self.t_s is None:
+        (NaN outside the accelerometer's time span), or ``None`` if not available or not in
+        the magnetometer's frame."""
+        if self.imu is None or self.imu.acc_mps2 is None or self.t_s is None or not self.imu_in_mag_frame:
             return None
         if len(self.imu.t_s) == len(self.t_s) and np.array_equal(self.imu.t_s, self.t_s):
             return self.imu.acc_mps2
@@ -225,7 +232,10 @@ def read_csv(path: str | Path) -> MagRecording:
     companion = path.parent / SUNSIDED_IMU_FILE
     if times is not None and companion.is_file() and companion != path:
         imu = read_sunsided_imu(companion)
-    return MagRecording(source=str(path), sensor_id=None, mag=values, unit=unit, t_s=times, imu=imu)
+    return MagRecording(
+        source=str(path), sensor_id=None, mag=values, unit=unit, t_s=times, imu=imu,
+        imu_in_mag_frame=imu is None or _sunsided_set(path) == "set-2",
+    )
 
 
 def _sunsided_set(path: Path) -> str:
@@ -419,7 +429,7 @@ def read_mag_files(
                 )
             recording = MagRecording(
                 source=recording.source, sensor_id=sensor_id, mag=recording.mag, unit=recording.unit,
-                t_s=recording.t_s, imu=recording.imu,
+                t_s=recording.t_s, imu=recording.imu, imu_in_mag_frame=recording.imu_in_mag_frame,
             )
         recordings.append(recording)
     return recordings
