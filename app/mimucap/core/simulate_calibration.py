@@ -98,8 +98,10 @@ class _Wobble:
         return rot.from_rotvec(self.angle * sums[:, 0]), self.offset * sums[:, 1]
 
 
-class _SingleAxisPath:
-    """Orientation and position of the single-axis protocol as functions of time."""
+class SingleAxisPath:
+    """The single-axis protocol as a function of time: ``path(t)`` gives ``q_world_from_sensor``
+    (n,4) and position (n,3) m at times ``t`` (n,) s; :meth:`base` gives the orientation without
+    the hand's wobble and the sensor axis being turned (n,) (−1: none); ``duration_s``."""
 
     def __init__(self, rng: np.random.Generator, turns: int) -> None:
         self.turns = turns
@@ -156,7 +158,9 @@ class _SingleAxisPath:
         return q, position
 
 
-class _Figure8Path:
+class Figure8Path:
+    """The figure-8 protocol as a function of time (same interface as :class:`SingleAxisPath`)."""
+
     def __init__(self, rng: np.random.Generator, turns: int) -> None:
         self.turns = turns
         self.wobble = _Wobble(rng, angle_deg=1.5)
@@ -183,7 +187,9 @@ class _Figure8Path:
         return q, np.array([0.0, 0.0, HAND_HEIGHT_M]) + path + p_wobble
 
 
-class _TumblePath:
+class TumblePath:
+    """Random smooth tumbling as a function of time (same interface as :class:`SingleAxisPath`)."""
+
     def __init__(self, rng: np.random.Generator, turns: int) -> None:
         self.turns = turns
         self.frequencies = rng.uniform(0.05, 0.25, size=(3, 4))
@@ -208,6 +214,10 @@ class _TumblePath:
         q = rot.multiply(q_motion, self.q_base)
         offsets = 0.05 * np.sin(2.0 * np.pi * self.position_frequencies[:, 0] * moving[:, None]) * envelope[:, None]
         return q, np.array([0.0, 0.0, HAND_HEIGHT_M]) + offsets
+
+
+#: Protocol name → path class, each built as ``Path(rng, turns)``.
+HAND_PATHS = {"single_axis": SingleAxisPath, "figure8": Figure8Path, "tumble": TumblePath}
 
 
 def calibration_motion(
@@ -239,7 +249,7 @@ def calibration_motion(
     turns = int(turns)
     model = error_model(errors)
     rng = np.random.default_rng([int(seed) & 0xFFFFFFFF, 303, PROTOCOLS.index(protocol)])
-    path = {"single_axis": _SingleAxisPath, "figure8": _Figure8Path, "tumble": _TumblePath}[protocol](rng, turns)
+    path = HAND_PATHS[protocol](rng, turns)
     params = draw_sensor_parameters(seed, 0, sensor_id, model)
     if mag_A is not None or mag_b_uT is not None:
         params = params.with_magnetometer(

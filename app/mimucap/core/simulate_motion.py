@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mimucap.core import rotation as rot
-from mimucap.core.simulate_calibration import _Figure8Path, _SingleAxisPath, _TumblePath
+from mimucap.core.simulate_calibration import HAND_PATHS
 from mimucap.core.simulate_sensors import minimum_jerk
 
 #: Seconds over which a new activity is blended in.
@@ -448,15 +448,14 @@ class HoldSensors(Activity):
 
     def __init__(self, protocol: str, duration_s: float | None = None, sensor_ids: tuple[str, ...] = (),
                  turns: int = 1, seed: int = 0) -> None:
-        paths = {"single_axis": _SingleAxisPath, "figure8": _Figure8Path, "tumble": _TumblePath}
-        if protocol not in paths:
+        if protocol not in HAND_PATHS:
             raise ValueError(f"unknown hand-held protocol {protocol!r}")
         if int(turns) != turns or not 1 <= turns <= 5:
             raise ValueError(f"turns must be an integer from 1 to 5, got {turns}")
         self.name = f"mag_{protocol}"
         self.protocol = protocol
         self.sensor_ids = tuple(sensor_ids)
-        self.path = paths[protocol](np.random.default_rng([int(seed) & 0xFFFFFFFF, 404]), int(turns))
+        self.path = HAND_PATHS[protocol](np.random.default_rng([int(seed) & 0xFFFFFFFF, 404]), int(turns))
         self.duration_s = duration_s
 
     def pose(self, tau, start):
