@@ -12,6 +12,7 @@ from __future__ import annotations
 import select
 import socket
 import time
+from dataclasses import replace
 from threading import Event
 
 from mimucap.acquisition import protocol_udp as proto
@@ -22,8 +23,11 @@ class UdpEmulator:
     """N emulated nodes; :meth:`run` sends until the duration is over or ``stop`` is set."""
 
     def __init__(self, settings: EmulatorSettings, target: tuple[str, int], motion: MotionSource,
-                 bind_address: str = "127.0.0.1") -> None:
+                 bind_address: str = "127.0.0.1", stamp_on_send: bool = False) -> None:
+        """``stamp_on_send``: stamp each sample with the node clock at the moment it is sent
+        (instead of its nominal sampling instant), so send→arrival latency can be measured."""
         self.settings = settings
+        self.stamp_on_send = stamp_on_send
         self.target = target
         self.motion = motion
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -46,6 +50,8 @@ class UdpEmulator:
                 now = time.monotonic()
                 schedule.generate_until(now)
                 for sample in schedule.pop_ready(now):
+                    if self.stamp_on_send:
+                        sample = replace(sample, device_time_s=schedule.clock.device_from_host(time.monotonic()))
                     try:
                         self.sock.sendto(proto.encode_sample(sample), self.target)
                     except OSError:  # receiver not there yet (ICMP refused) or buffer full

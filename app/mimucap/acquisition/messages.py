@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from mimucap.acquisition.samples import SampleBlock
+from mimucap.acquisition.samples import PackedBlock, SampleBlock
 from mimucap.acquisition.timesync import ClockEstimate
 
 #: Worker states as reported to the supervisor.
@@ -23,8 +23,20 @@ STATE_STOPPED = "stopped"          #: the worker ended because it was asked to
 
 @dataclass(frozen=True, eq=False)
 class BlocksMessage:
+    """Samples of one source: per-sensor blocks or packed multi-sensor blocks."""
+
     source: str
-    blocks: tuple[SampleBlock, ...]
+    blocks: tuple[SampleBlock | PackedBlock, ...]
+
+    def sample_count(self) -> int:
+        return sum(len(block) for block in self.blocks)
+
+    def unpacked(self) -> list[SampleBlock]:
+        """One :class:`SampleBlock` per sensor and run."""
+        out: list[SampleBlock] = []
+        for block in self.blocks:
+            out.extend(block.unpack() if isinstance(block, PackedBlock) else (block,))
+        return out
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ class Outbox:
         try:
             self._queue.put_nowait(message)
         except queue_module.Full:
-            self.overflow_samples += sum(len(block) for block in message.blocks)
+            self.overflow_samples += message.sample_count()
 
     def report_due(self, now_s: float) -> bool:
         return now_s - self._last_report_s >= self.report_interval_s

@@ -77,13 +77,8 @@ class SyncResponse:
 
 
 def payload_size(flags: int) -> int:
-    """Payload bytes implied by ``flags``."""
-    size = 0
-    for bit, width in ((FLAG_ACC, 12), (FLAG_GYR, 12), (FLAG_MAG, 12), (FLAG_QUAT, 16),
-                       (FLAG_CALIBRATION, 1), (FLAG_BATTERY, 1)):
-        if flags & bit:
-            size += width
-    return size
+    """Payload bytes implied by ``flags`` (known bits only)."""
+    return _payload_struct(flags & KNOWN_FLAGS).size
 
 
 def _frame(msg_type: int, sensor_id: int, flags: int, seq: int, time_us: int,
@@ -172,29 +167,44 @@ def _decode(data: bytes, limits: ValueLimits) -> Sample | SyncRequest | SyncResp
     return Rejection.UNKNOWN_TYPE
 
 
+_PAYLOAD_STRUCTS: dict[int, struct.Struct] = {}
+
+
+def _payload_struct(flags: int) -> struct.Struct:
+    """One struct for the whole payload of ``flags`` (cached)."""
+    layout = _PAYLOAD_STRUCTS.get(flags)
+    if layout is None:
+        fmt = "<"
+        for bit, code in ((FLAG_ACC, "3f"), (FLAG_GYR, "3f"), (FLAG_MAG, "3f"), (FLAG_QUAT, "4f"),
+                          (FLAG_CALIBRATION, "B"), (FLAG_BATTERY, "B")):
+            if flags & bit:
+                fmt += code
+        layout = _PAYLOAD_STRUCTS[flags] = struct.Struct(fmt)
+    return layout
+
+
 def _decode_sample(sensor_id: int, flags: int, seq: int, time_us: int, payload: bytes,
                    limits: ValueLimits) -> Sample | Rejection:
     if sensor_id == BROADCAST_ID:
         return Rejection.UNKNOWN_SENSOR
     if flags & ~KNOWN_FLAGS:
         return Rejection.UNKNOWN_FLAGS
-    if len(payload) != payload_size(flags):
+    layout = _payload_struct(flags)
+    if len(payload) != layout.size:
         return Rejection.LENGTH_MISMATCH
-    offset = 0
+    fields = layout.unpack(payload)
     values: dict[str, object] = {}
-    for bit, name in ((FLAG_ACC, "acc"), (FLAG_GYR, "gyr"), (FLAG_MAG, "mag_uT")):
+    offset = 0
+    for bit, name, width in ((FLAG_ACC, "acc", 3), (FLAG_GYR, "gyr", 3), (FLAG_MAG, "mag_uT", 3),
+                             (FLAG_QUAT, "q_world_from_sensor", 4)):
         if flags & bit:
-            values[name] = _VEC3.unpack_from(payload, offset)
-            offset += _VEC3.size
-    if flags & FLAG_QUAT:
-        values["q_world_from_sensor"] = _QUAT.unpack_from(payload, offset)
-        offset += _QUAT.size
+            values[name] = fields[offset: offset + width]
+            offset += width
     if flags & FLAG_CALIBRATION:
-        (packed,) = _U8.unpack_from(payload, offset)
+        packed = fields[offset]
         values["calibration"] = (packed >> 6 & 3, packed >> 4 & 3, packed >> 2 & 3, packed & 3)
         offset += 1
     if flags & FLAG_BATTERY:
-        (battery,) = _U8.unpack_from(payload, offset)
-        values["battery_pct"] = float(battery)
+        values["battery_pct"] = float(fields[offset])
     sample = Sample(sensor_id=sensor_id, seq=seq, device_time_s=time_us * 1e-6, **values)
     return validate_sample(sample, limits)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -66,39 +66,40 @@ class Sample:
         return tuple(name for name in CHANNELS if getattr(self, name) is not None)
 
 
-def _finite(values: Sequence[float]) -> bool:
-    return all(math.isfinite(v) for v in values)
-
-
 def validate_sample(sample: Sample, limits: ValueLimits = DEFAULT_LIMITS) -> Sample | Rejection:
     """``sample`` (with its quaternion normalised) or the reason it must be refused.
 
     Refuses NaN/infinity (``non_finite``) and values beyond ``limits`` (``out_of_range``).
     """
-    vectors = [sample.acc, sample.gyr, sample.mag_uT, sample.q_world_from_sensor]
-    scalars = [sample.device_time_s] + ([sample.battery_pct] if sample.battery_pct is not None else [])
-    for values in vectors:
-        if values is not None and not _finite(values):
-            return Rejection.NON_FINITE
-    if not _finite(scalars):
+    isfinite = math.isfinite
+    for values, bound in ((sample.acc, limits.acc_max), (sample.gyr, limits.gyr_max),
+                          (sample.mag_uT, limits.mag_max_uT)):
+        if values is not None:
+            if not all(map(isfinite, values)):
+                return Rejection.NON_FINITE
+            if max(map(abs, values)) > bound:
+                return Rejection.OUT_OF_RANGE
+    q = sample.q_world_from_sensor
+    if q is not None and not all(map(isfinite, q)):
+        return Rejection.NON_FINITE
+    if not isfinite(sample.device_time_s):
         return Rejection.NON_FINITE
     if not 0.0 <= sample.device_time_s <= limits.device_time_max_s:
         return Rejection.OUT_OF_RANGE
-    for values, bound in ((sample.acc, limits.acc_max), (sample.gyr, limits.gyr_max),
-                          (sample.mag_uT, limits.mag_max_uT)):
-        if values is not None and max(abs(v) for v in values) > bound:
+    if sample.battery_pct is not None:
+        if not isfinite(sample.battery_pct):
+            return Rejection.NON_FINITE
+        if not 0.0 <= sample.battery_pct <= 100.0:
             return Rejection.OUT_OF_RANGE
-    if sample.battery_pct is not None and not 0.0 <= sample.battery_pct <= 100.0:
-        return Rejection.OUT_OF_RANGE
     if sample.calibration is not None and any(not 0 <= c <= 3 for c in sample.calibration):
         return Rejection.OUT_OF_RANGE
-    if sample.q_world_from_sensor is not None:
-        norm = math.sqrt(sum(v * v for v in sample.q_world_from_sensor))
+    if q is not None:
+        norm = math.sqrt(sum(v * v for v in q))
         if abs(norm - 1.0) > limits.quat_norm_tolerance:
             return Rejection.OUT_OF_RANGE
-        q = tuple(v / norm for v in sample.q_world_from_sensor)
         sample = Sample(sample.sensor_id, sample.seq, sample.device_time_s, sample.acc,
-                        sample.gyr, sample.mag_uT, q, sample.calibration, sample.battery_pct)
+                        sample.gyr, sample.mag_uT, tuple(v / norm for v in q),
+                        sample.calibration, sample.battery_pct)
     return sample
 
 
@@ -139,25 +140,68 @@ _CHANNEL_DTYPES = {
 }
 
 
-@dataclass
-class _Pending:
-    channels: tuple[str, ...]
-    seq: list[int] = field(default_factory=list)
-    device_time_s: list[float] = field(default_factory=list)
-    host_time_s: list[float] = field(default_factory=list)
-    receive_time_s: list[float] = field(default_factory=list)
-    values: dict[str, list] = field(default_factory=dict)
+@dataclass(frozen=True, eq=False)
+class PackedBlock:
+    """Samples of several sensors in one set of columns (the worker → supervisor transport).
+
+    Packing many sensors into a few arrays keeps the per-message cost independent of the
+    number of sensors; :meth:`unpack` splits it into one :class:`SampleBlock` per sensor.
+    ``sensor_index`` (N,) indexes ``sensor_ids``; every row has the same ``channels``.
+    """
+
+    source: str
+    sensor_ids: tuple[str, ...]
+    sensor_index: np.ndarray
+    seq: np.ndarray
+    device_time_s: np.ndarray
+    host_time_s: np.ndarray
+    receive_time_s: np.ndarray
+    channels: dict[str, np.ndarray]
+
+    def __len__(self) -> int:
+        return int(self.seq.shape[0])
+
+    def unpack(self) -> list[SampleBlock]:
+        """One block per sensor, in order of first appearance; rows keep their order."""
+        order = np.argsort(self.sensor_index, kind="stable")
+        index = self.sensor_index[order]
+        starts = np.flatnonzero(np.r_[True, index[1:] != index[:-1]])
+        ends = np.r_[starts[1:], len(index)]
+        columns = {"seq": self.seq[order], "device_time_s": self.device_time_s[order],
+                   "host_time_s": self.host_time_s[order], "receive_time_s": self.receive_time_s[order]}
+        channels = {name: values[order] for name, values in self.channels.items()}
+        blocks = []
+        for start, end in zip(starts.tolist(), ends.tolist()):
+            part = slice(start, end)
+            blocks.append(SampleBlock(
+                source=self.source, sensor_id=self.sensor_ids[int(index[start])],
+                **{name: values[part] for name, values in columns.items()},
+                **{name: values[part] for name, values in channels.items()}))
+        return blocks
+
+
+class _Group:
+    __slots__ = ("channels", "index", "seq", "device", "host", "receive", "values")
+
+    def __init__(self, channels: tuple[str, ...]) -> None:
+        self.channels = channels
+        self.index: list[int] = []
+        self.seq: list[int] = []
+        self.device: list[float] = []
+        self.host: list[float] = []
+        self.receive: list[float] = []
+        self.values: list[list] = [[] for _ in channels]
 
 
 class BlockBuilder:
-    """Collects accepted samples per sensor and turns them into :class:`SampleBlock` s.
-
-    A sensor whose channel set changes starts a new block, so every block is rectangular.
-    """
+    """Collects accepted samples of any sensors and packs them into :class:`PackedBlock` s
+    (one per set of channels present)."""
 
     def __init__(self, source: str) -> None:
         self.source = source
-        self._pending: dict[str, list[_Pending]] = {}
+        self._names: list[str] = []
+        self._name_index: dict[str, int] = {}
+        self._groups: dict[tuple[str, ...], _Group] = {}
         self._count = 0
         self.oldest_receive_time_s: float | None = None
 
@@ -167,39 +211,42 @@ class BlockBuilder:
     def add(self, sensor_name: str, seq: int, sample: Sample, host_time_s: float,
             receive_time_s: float) -> None:
         """Append one validated sample (``seq`` already unwrapped)."""
+        index = self._name_index.get(sensor_name)
+        if index is None:
+            index = self._name_index[sensor_name] = len(self._names)
+            self._names.append(sensor_name)
         channels = sample.channels()
-        runs = self._pending.setdefault(sensor_name, [])
-        if not runs or runs[-1].channels != channels:
-            runs.append(_Pending(channels, values={name: [] for name in channels}))
-        run = runs[-1]
-        run.seq.append(seq)
-        run.device_time_s.append(sample.device_time_s)
-        run.host_time_s.append(host_time_s)
-        run.receive_time_s.append(receive_time_s)
-        for name in channels:
-            run.values[name].append(getattr(sample, name))
+        group = self._groups.get(channels)
+        if group is None:
+            group = self._groups[channels] = _Group(channels)
+        group.index.append(index)
+        group.seq.append(seq)
+        group.device.append(sample.device_time_s)
+        group.host.append(host_time_s)
+        group.receive.append(receive_time_s)
+        for values, name in zip(group.values, channels):
+            values.append(getattr(sample, name))
         self._count += 1
         if self.oldest_receive_time_s is None:
             self.oldest_receive_time_s = receive_time_s
 
-    def take(self) -> list[SampleBlock]:
-        """All pending samples as blocks; the builder is empty afterwards."""
-        blocks = []
-        for sensor_name, runs in self._pending.items():
-            for run in runs:
-                arrays = {name: np.asarray(run.values[name], dtype=_CHANNEL_DTYPES[name])
-                          for name in run.channels}
-                blocks.append(SampleBlock(
-                    source=self.source, sensor_id=sensor_name,
-                    seq=np.asarray(run.seq, dtype=np.int64),
-                    device_time_s=np.asarray(run.device_time_s, dtype=np.float64),
-                    host_time_s=np.asarray(run.host_time_s, dtype=np.float64),
-                    receive_time_s=np.asarray(run.receive_time_s, dtype=np.float64),
-                    **arrays))
-        self._pending.clear()
+    def take(self) -> list[PackedBlock]:
+        """All pending samples, packed; the builder is empty afterwards."""
+        names = tuple(self._names)
+        packed = [PackedBlock(
+            source=self.source, sensor_ids=names,
+            sensor_index=np.asarray(group.index, dtype=np.int32),
+            seq=np.asarray(group.seq, dtype=np.int64),
+            device_time_s=np.asarray(group.device, dtype=np.float64),
+            host_time_s=np.asarray(group.host, dtype=np.float64),
+            receive_time_s=np.asarray(group.receive, dtype=np.float64),
+            channels={name: np.asarray(values, dtype=_CHANNEL_DTYPES[name])
+                      for name, values in zip(group.channels, group.values)})
+            for group in self._groups.values()]
+        self._groups.clear()
         self._count = 0
         self.oldest_receive_time_s = None
-        return blocks
+        return packed
 
 
 class SequenceUnwrapper:

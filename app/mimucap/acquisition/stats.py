@@ -55,12 +55,13 @@ class SensorStatsTracker:
         n = len(block)
         if n == 0:
             return
-        seq = block.seq
-        gaps = np.diff(seq)
-        self.drops += int(np.sum(gaps[gaps > 1] - 1))
-        if self.last_seq is not None and seq[0] > self.last_seq + 1:
-            self.drops += int(seq[0] - self.last_seq - 1)
-        self.last_seq = int(seq[-1]) if self.last_seq is None else max(self.last_seq, int(seq[-1]))
+        # sequence numbers of a sensor are strictly increasing (workers refuse stale ones),
+        # so the gaps inside a block are its span minus its length
+        first, last = int(block.seq[0]), int(block.seq[-1])
+        self.drops += max(last - first + 1 - n, 0)
+        if self.last_seq is not None and first > self.last_seq + 1:
+            self.drops += first - self.last_seq - 1
+        self.last_seq = last if self.last_seq is None else max(self.last_seq, last)
         self.received += n
         self.last_seen_s = arrival_s
         self._arrivals.append((arrival_s, n))

@@ -152,9 +152,10 @@ class Supervisor:
                 break
             arrival = time.monotonic()
             if isinstance(message, BlocksMessage):
-                for block in message.blocks:
+                unpacked = message.unpacked()
+                for block in unpacked:
                     self._tracker(block).add_block(block, arrival)
-                blocks.extend(message.blocks)
+                blocks.extend(unpacked)
             elif isinstance(message, WorkerReport):
                 self._apply_report(message)
         return blocks
@@ -226,6 +227,11 @@ class Supervisor:
     def sources(self) -> dict[str, SourceStatus]:
         """Per-source status now (name → a copy of its :class:`SourceStatus`)."""
         return {name: dataclasses.replace(worker.status) for name, worker in self._workers.items()}
+
+    def worker_pid(self, source: str) -> int | None:
+        """Process id of the worker of ``source`` (``None`` if not running)."""
+        process = self._workers[source].process
+        return None if process is None or not process.is_alive() else process.pid
 
     def all_finished(self) -> bool:
         """True when no worker runs any more and none will be restarted."""

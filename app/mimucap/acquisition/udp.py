@@ -10,6 +10,7 @@ buffer (``receive_buffer_bytes``), the block size and the supervisor queue.
 
 from __future__ import annotations
 
+import select
 import socket
 import time
 from dataclasses import dataclass, field
@@ -24,6 +25,8 @@ from mimucap.acquisition.samples import DEFAULT_LIMITS, Sample, ValueLimits
 
 #: Outstanding sync requests remembered per node (older ones are forgotten).
 MAX_PENDING_SYNC = 16
+#: Datagrams read per wake-up before timers and flushing get their turn.
+MAX_DRAIN = 512
 
 
 @dataclass(frozen=True)
@@ -35,6 +38,7 @@ class UdpSourceConfig:
     port: int = 5555
     allowed_addresses: tuple[str, ...] | None = None  #: sender IPs; ``None`` accepts any
     sync_interval_s: float = 0.2       #: s between time-sync requests to each node
+    min_flush_spacing_s: float = 0.0005  #: s, at most one block message per this interval
     receive_buffer_bytes: int = 4 * 1024 * 1024
     report_interval_s: float = 0.5
     intake: IntakeSettings = field(default_factory=IntakeSettings)
@@ -68,37 +72,49 @@ class UdpDriver:
             self.sock = None
 
     def run(self, stop: Event) -> None:
+        """Receive until ``stop`` is set.
+
+        Each wake-up drains the socket (up to ``MAX_DRAIN`` datagrams, each stamped with its
+        own receive time); pending samples are flushed as soon as the socket is empty (at
+        most every ``min_flush_spacing_s``) or when the oldest is ``flush_interval_s`` old.
+        """
         if self.sock is None:
             self.open()
         sock = self.sock
         assert sock is not None
-        self.outbox.send_report(self.intake.report(STATE_RUNNING))
+        sock.setblocking(False)
+        intake = self.intake
+        self.outbox.send_report(intake.report(STATE_RUNNING))
+        last_flush = 0.0
         try:
             while not stop.is_set():
                 now = time.monotonic()
-                timeout = 0.05
-                due = self.intake.flush_due_in(now)
+                timeout = min(0.05, max(self._next_sync_s - now, 0.0))
+                due = intake.flush_due_in(now)
                 if due is not None:
                     timeout = min(timeout, max(due, 0.0))
-                sock.settimeout(max(timeout, 1e-4))
-                try:
-                    data, address = sock.recvfrom(proto.MAX_PACKET_BYTES + 1)
-                except (socket.timeout, BlockingIOError):
-                    data = None
-                except OSError:
-                    # e.g. ICMP "port unreachable" echoed on Linux after a send; keep going
-                    data = None
+                readable, _, _ = select.select([sock], [], [], timeout)
+                if readable:
+                    for _ in range(MAX_DRAIN):
+                        try:
+                            data, address = sock.recvfrom(proto.MAX_PACKET_BYTES + 1)
+                        except (BlockingIOError, InterruptedError):
+                            break
+                        except OSError:   # e.g. ICMP "port unreachable" after a sync request
+                            continue
+                        self.handle_datagram(data, address, time.monotonic())
                 now = time.monotonic()
-                if data is not None:
-                    self.handle_datagram(data, address, now)
-                self.intake.flush_if_due(now)
+                due = intake.flush_due_in(now)
+                if due is not None and (due <= 0 or now - last_flush >= self.config.min_flush_spacing_s):
+                    intake.flush()
+                    last_flush = now
                 if now >= self._next_sync_s:
                     self._send_sync_requests(now)
                     self._next_sync_s = now + self.config.sync_interval_s
                 if self.outbox.report_due(now):
                     self.outbox.send_report(self._report(STATE_RUNNING))
         finally:
-            self.intake.flush()
+            intake.flush()
             self.close()
 
     def _report(self, state: str, message: str = ""):
