@@ -107,6 +107,24 @@ def test_accelerometer_averages_to_gravity_over_whole_strides() -> None:
         assert np.abs(acc_world[:, 2] - 9.81).max() > 1.0  # but the segment does accelerate
 
 
+def test_accelerometer_integrates_to_the_velocity_of_the_true_positions() -> None:
+    """Δv from integrating the measured specific force (minus gravity) over 0.5 s windows equals
+    the change of the velocity of the true sensor positions (central differences)."""
+    result = simulate_session(SimulationConfig(scenario="demo", duration_s=40.0, n_sensors=10, seed=6, errors=IDEAL_SENSOR))
+    dt = 1.0 / result.config.rate_hz
+    for sensor_id in ("S01", "S06", "S10"):
+        q = result.truth.q_world_from_sensor[sensor_id]
+        acc = rot.rotate(q, result.samples[sensor_id].acc) - np.array([0.0, 0.0, 9.81])
+        position = result.truth.position_m[sensor_id]
+        velocity = (position[2:] - position[:-2]) / (2 * dt)  # at samples 1..N-2
+        worst = 0.0
+        for start in range(1, len(acc) - 60, 50):
+            end = start + 50
+            delta_v = np.trapezoid(acc[start:end + 1], dx=dt, axis=0)
+            worst = max(worst, float(np.abs(delta_v - (velocity[end - 1] - velocity[start - 1])).max()))
+        assert worst < 0.02, sensor_id
+
+
 def test_a_sensor_at_rest_reads_gravity_and_the_configured_field() -> None:
     errors = dataclasses.replace(IDEAL_SENSOR, mag_hard_iron_uT=40.0, mag_soft_iron_scale=0.1, mag_soft_iron_cross=0.05)
     config = SimulationConfig(scenario="npose", duration_s=2.0, n_sensors=10, seed=2, errors=errors,

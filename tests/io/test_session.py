@@ -203,3 +203,10 @@ def test_simulated_session_round_trip(tmp_path: Path) -> None:
     for column, values in result.truth.joint_angles_deg.items():
         np.testing.assert_array_equal(back.truth.joint_angles_deg[column], values)
     assert [(m.t_s, m.label) for m in back.markers] == result.markers
+
+
+def test_empty_session_round_trip(tmp_path: Path) -> None:
+    back = read_session(write_session(tmp_path / "empty.h5", Session()))
+    assert back.sensors == {} and back.markers == [] and back.truth is None
+    assert back.calibrations == {} and back.results == {}
+    assert set(back.metadata) == {"created_utc", "mimucap_version"}
