@@ -23,7 +23,10 @@ Frames: world ENU (z up), segment frames ISB (x anterior, y superior, z right), 
 frames the device axes; quaternions scalar-first Hamilton, ``q_A_from_B``. Units: s, m,
 m/s² (specific force), rad/s, µT; joint angles in degrees (Z-X'-Y'', clinical signs of
 ``skeleton.JOINT_ANGLE_SIGNS_DOC``). Host time ``t_s`` is the true time ``k / rate_hz``;
-the device clock runs as ``(1 + drift)·t + offset``.
+the device clock runs as ``(1 + drift)·t + offset``. Gyroscope sample ``k`` is the mean rate
+over the preceding interval: without errors ``q_k = q_{k-1} ⊗ exp(gyr_k · dt)`` exactly.
+Accelerometer sample ``k`` is the specific force at ``t_k`` (linear acceleration of the sensor
+point by a central second difference of its true position, plus gravity 9.81 m/s² up).
 """
 
 from __future__ import annotations

@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import bisect
 import math
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from mimucap.core import rotation as rot
-from mimucap.core.simulate_calibration import HAND_PATHS
+from mimucap.core.simulate_calibration import HAND_HEIGHT_M, HAND_PATHS
 from mimucap.core.simulate_sensors import minimum_jerk
 
 #: Seconds over which a new activity is blended in.
@@ -169,7 +170,7 @@ def _sway(tau: np.ndarray, amplitude_deg: float) -> tuple[np.ndarray, np.ndarray
     return lean, obliquity
 
 
-class Activity:
+class Activity(ABC):
     """Base of all activities: ``duration_s`` (None: indefinite) and :meth:`pose`."""
 
     name = "activity"
@@ -179,8 +180,9 @@ class Activity:
     blend_in_s = BLEND_S
     blend_out_s = BLEND_S
 
-    def pose(self, tau: np.ndarray, start: BaseState) -> BodyPose:  # pragma: no cover - interface
-        raise NotImplementedError
+    @abstractmethod
+    def pose(self, tau: np.ndarray, start: BaseState) -> BodyPose:
+        """The subject at local times ``tau`` (n,) s for an activity that started in ``start``."""
 
     def _standing(self, tau: np.ndarray, start: BaseState, sway_deg: float) -> BodyPose:
         n = tau.shape[0]
@@ -313,8 +315,8 @@ height, lowest in double support (vertical acceleration about ±3 m/s²).
         yaw = 5.0 * np.cos(_TWO_PI * phase)
         obliquity = 4.0 * np.sin(_TWO_PI * (phase + 0.1))
         lean = 4.0 + 1.5 * np.cos(2.0 * _TWO_PI * (phase - 0.1))
-        angles["lumbar"] = np.stack((2.0 + 0.0 * phase, -0.7 * obliquity, -0.8 * yaw), axis=-1)
-        angles["neck"] = np.stack((-4.0 + 0.0 * phase, 0.0 * phase, -0.2 * yaw), axis=-1)
+        angles["lumbar"] = np.stack((np.full(n, 2.0), -0.7 * obliquity, -0.8 * yaw), axis=-1)
+        angles["neck"] = np.stack((np.full(n, -4.0), np.zeros(n), -0.2 * yaw), axis=-1)
         root_dz = -0.035 + 0.02 * np.cos(2.0 * _TWO_PI * (phase - 0.3))
         return BodyPose(heading_rad=heading, root_xy_m=xy, q_body_from_pelvis=_pelvis(yaw, obliquity, lean),
                         joint_angles_deg=angles, plant=np.zeros(n), ground=np.zeros(n), root_dz_m=root_dz)
@@ -465,7 +467,7 @@ class HoldSensors(Activity):
         forward = np.array([-math.sin(start.heading_rad), math.cos(start.heading_rad), 0.0])
         centre = np.array([start.xy_m[0], start.xy_m[1], HELD_HEIGHT_M]) + HELD_FORWARD_M * forward
         pose.bundle_q = q
-        pose.bundle_p_m = centre + (p - np.array([0.0, 0.0, 1.0]))
+        pose.bundle_p_m = centre + (p - np.array([0.0, 0.0, HAND_HEIGHT_M]))
         if self.protocol == "single_axis":
             _, axis = self.path.base(clamped)
             pose.axis_turned = np.where(tau <= self.path.duration_s, axis, -1)
@@ -493,8 +495,7 @@ def make_activity(name: str, params: dict | None = None, *, sensor_ids: tuple[st
         if name in factories:
             return factories[name](**params)
         if name.startswith("mag_") and name[4:] in ("single_axis", "figure8", "tumble"):
-            params.setdefault("sensor_ids", sensor_ids)
-            params["sensor_ids"] = tuple(params["sensor_ids"])
+            params["sensor_ids"] = tuple(params.get("sensor_ids") or sensor_ids)
             return HoldSensors(name[4:], seed=seed, **params)
     except TypeError as error:
         raise ValueError(f"activity {name!r}: {error}") from None
