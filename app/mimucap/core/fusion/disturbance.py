@@ -29,6 +29,7 @@ import math
 
 from numba import njit
 
+from mimucap.core.fusion.propagation import JIT_OPTIONS
 from mimucap.core.fusion.params import (
     PI_ACC_DEV_GAIN, PI_ACC_NOISE, PI_ACC_RATE_GAIN, PI_ACC_REJECT, PI_GRAVITY,
     PI_MAG_DIP_TOL, PI_MAG_NEW_FIELD, PI_MAG_SETTLE, PI_MAG_NORM_TOL, PI_MAG_REF_TAU, PI_REST_ACC_DEV,
@@ -43,7 +44,7 @@ from mimucap.core.fusion.state import (
 MAG_CANDIDATE_TAU_S = 1.0
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def lowpass_gain(dt, tau):
     """Gain ``1 − exp(−dt/τ)`` of a first-order low-pass filter (series for small ``dt/τ``)."""
     if not dt > 0.0:
@@ -54,7 +55,7 @@ def lowpass_gain(dt, tau):
     return 1.0 - math.exp(-x)
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_valid, dt):
     """Update the rest detector with one sample; return ``True`` while at rest.
 
@@ -93,7 +94,7 @@ def rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_valid, dt):
     return aux[AX_REST_T] >= p[PI_REST_TIME]
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def acc_noise_var(p, acc_norm, rate):
     """Variance (unit-vector units) of the gravity direction measurement, or -1 to reject.
 
@@ -109,7 +110,7 @@ def acc_noise_var(p, acc_norm, rate):
     return var / (g * g)
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def mag_accept(p, aux, norm_uT, dip_rad, dt):
     """Judge one magnetometer sample against the learned reference; ``True`` = use it.
 

@@ -34,6 +34,7 @@ from mimucap.core.fusion.params import (
     PI_METHOD, PI_REST_BIAS_NOISE, PI_USE_ACC, PI_USE_MAG, PI_CORRECT,
 )
 from mimucap.core.fusion.propagation import (
+    JIT_OPTIONS,
     exp_quat, quat_multiply, quat_normalise, step_exact, step_rk4, step_taylor3,
 )
 from mimucap.core.fusion.state import (
@@ -44,7 +45,7 @@ from mimucap.core.fusion.state import (
 )
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _rotmat(qw, qx, qy, qz, r):
     """Fill ``r`` (3, 3) with ``R_world_from_sensor`` of a unit quaternion."""
     xx, yy, zz = qx * qx, qy * qy, qz * qz
@@ -61,7 +62,7 @@ def _rotmat(qw, qx, qy, qz, r):
     r[2, 2] = 1.0 - 2.0 * (xx + yy)
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _quat_from_rows(ex, ey, ez, nx, ny, nz, ux, uy, uz):
     """Quaternion of ``R_world_from_sensor`` whose rows are east, north, up (sensor coords)."""
     m00, m01, m02 = ex, ey, ez
@@ -83,7 +84,7 @@ def _quat_from_rows(ex, ey, ez, nx, ny, nz, ux, uy, uz):
     return quat_normalise(w, x, y, z)
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def align(ax, ay, az, mx, my, mz, use_mag):
     """Initial ``q_world_from_sensor`` from one accelerometer (and magnetometer) sample.
 
@@ -111,7 +112,7 @@ def align(ax, ay, az, mx, my, mz, use_mag):
     return _quat_from_rows(ex, ey, ez, nx, ny, nz, ux, uy, uz)
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _scalar_update(P, dx, c, i, resid, var):
     """Kalman update of error-state component ``i`` measured with residual and variance.
 
@@ -135,7 +136,7 @@ def _scalar_update(P, dx, c, i, resid, var):
             P[b, a] = v
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _heading_update(P, dx, c, resid, var):
     """Heading (δθ_z) update whose gain on the tilt states is zero (Joseph form)."""
     r = resid - dx[2]
@@ -153,7 +154,7 @@ def _heading_update(P, dx, c, resid, var):
             P[b, a] = v
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _rotate_lowpass(aux, dx):
     """Rotate the low-passed world-frame specific force with an attitude correction δθ."""
     x, y, z = aux[AX_AWLP_X], aux[AX_AWLP_X + 1], aux[AX_AWLP_X + 2]
@@ -162,7 +163,7 @@ def _rotate_lowpass(aux, dx):
     aux[AX_AWLP_X + 2] = z + dx[0] * y - dx[1] * x
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _inject(q, b, dx, bias_max):
     """Apply the error state to the nominal state and reset it to zero."""
     n2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]
@@ -186,7 +187,7 @@ def _inject(q, b, dx, bias_max):
         dx[i] = 0.0
 
 
-@njit(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
+@njit(**JIT_OPTIONS)
 def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
               store, st_q, st_b, st_pp, st_pu, st_a):
     """Run the filter over ``N`` samples of one sensor; ``q, b, P, aux`` are updated in place.

@@ -23,10 +23,10 @@ from numba import njit
 
 from mimucap.core.fusion.ekf import FusionResult, OrientationEKF
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
-from mimucap.core.fusion.propagation import exp_quat, quat_multiply, quat_normalise
+from mimucap.core.fusion.propagation import JIT_OPTIONS, exp_quat, quat_multiply, quat_normalise
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _solve6(P, e, out):
     """``out = P⁻¹ e`` for a symmetric positive definite 6×6 ``P`` (Cholesky); False if not PD."""
     L = np.zeros((6, 6))
@@ -55,7 +55,7 @@ def _solve6(P, e, out):
     return True
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def rts_smooth(q_post, b_post, q_prior, b_prior, p_prior, p_post, a_blk, out_q, out_b):
     """Backward RTS pass over one sensor's stored forward run (shapes in the module docstring)."""
     n = q_post.shape[0]

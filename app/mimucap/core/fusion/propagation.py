@@ -30,8 +30,12 @@ from numba import njit
 
 from mimucap.core.fusion.params import PROPAGATION_METHODS
 
+#: numba options of every fusion kernel: compiled once and cached on disk; IEEE NaN/inf
+#: semantics are kept (no "nnan"/"ninf" fast-math), division follows numpy (no exceptions).
+JIT_OPTIONS = dict(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 
-@njit(cache=True)
+
+@njit(**JIT_OPTIONS)
 def quat_multiply(aw, ax, ay, az, bw, bx, by, bz):
     """Hamilton product ``a ⊗ b`` of two quaternions given component-wise."""
     return (
@@ -42,13 +46,13 @@ def quat_multiply(aw, ax, ay, az, bw, bx, by, bz):
     )
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def quat_normalise(w, x, y, z):
     n = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
     return w * n, x * n, y * n, z * n
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def exp_quat(px, py, pz):
     """Exact exponential map of the rotation vector ``p`` (rad)."""
     n = math.sqrt(px * px + py * py + pz * pz)
@@ -59,7 +63,7 @@ def exp_quat(px, py, pz):
     return math.cos(0.5 * n), s * px, s * py, s * pz
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def step_exact(qw, qx, qy, qz, dx, dy, dz):
     """``q ⊗ exp(Δθ)`` for the angle increment ``Δθ`` (rad, sensor frame)."""
     ew, ex, ey, ez = exp_quat(dx, dy, dz)
@@ -67,7 +71,7 @@ def step_exact(qw, qx, qy, qz, dx, dy, dz):
     return quat_normalise(w, x, y, z)
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def step_taylor3(qw, qx, qy, qz, px_, py_, pz_, dx, dy, dz):
     """Coning-corrected third-order Taylor step from the previous increment ``p`` and ``Δθ``."""
     fx = dx + (py_ * dz - pz_ * dy) / 12.0
@@ -79,7 +83,7 @@ def step_taylor3(qw, qx, qy, qz, px_, py_, pz_, dx, dy, dz):
     return quat_normalise(w, x, y, z)
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _qdot(qw, qx, qy, qz, wx, wy, wz):
     # ½ q ⊗ [0, ω]
     return (
@@ -90,7 +94,7 @@ def _qdot(qw, qx, qy, qz, wx, wy, wz):
     )
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def step_rk4(qw, qx, qy, qz, ax, ay, az, bx, by, bz, dt):
     """RK4 step with rate ``a`` at the start, ``b`` at the end and their mean at mid-step."""
     mx = 0.5 * (ax + bx)
@@ -110,7 +114,7 @@ def step_rk4(qw, qx, qy, qz, ax, ay, az, bx, by, bz, dt):
     )
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _integrate_rates(q0, gyr, t, method, out):
     qw, qx, qy, qz = q0[0], q0[1], q0[2], q0[3]
     out[0, 0], out[0, 1], out[0, 2], out[0, 3] = qw, qx, qy, qz
@@ -131,7 +135,7 @@ def _integrate_rates(q0, gyr, t, method, out):
         out[k, 0], out[k, 1], out[k, 2], out[k, 3] = qw, qx, qy, qz
 
 
-@njit(cache=True)
+@njit(**JIT_OPTIONS)
 def _integrate_increments(q0, dtheta, method, out):
     qw, qx, qy, qz = q0[0], q0[1], q0[2], q0[3]
     px = py = pz = 0.0
