@@ -46,11 +46,12 @@ def motion_angles(model, t, seed):
 
 
 def suit_recording(heading_rad, mountings, model=TEN, arms="both", arm_plane_deg=(0.0, 0.0),
-                   arm_angle_deg=90.0, motion_seed=3, arm_tilt_deg=0.0):
+                   arm_angle_deg=90.0, motion_seed=3, arm_tilt_deg=0.0, arm_twist_deg=0.0):
     """N-pose (0–1 s), arm raise (1–2 s), T-pose (2–3 s), back down and random motion (3–6 s).
 
     ``arm_plane_deg`` (left, right): the raise plane turned forward from the frontal plane by
     that angle (0 = sideways, 90 = forward). ``arm_tilt_deg`` tilts the raise plane (leaning).
+    ``arm_twist_deg``: internal rotation of each arm about its own long axis during the raise.
     Returns ``t``, sensor orientations, mapping (segment → sensor), truth segment orientations.
     """
     t = np.arange(0.0, 6.0, 1.0 / RATE_HZ)
@@ -76,7 +77,8 @@ def suit_recording(heading_rad, mountings, model=TEN, arms="both", arm_plane_deg
         axis_body = np.cos(plane) * EX + sign * np.sin(plane) * EZ
         tilt = np.radians(arm_tilt_deg)
         axis_body = np.cos(tilt) * axis_body + np.sin(tilt) * EY
-        q_arm_body = rot.from_axis_angle(axis_body, sign * np.radians(arm_angle_deg) * raise_level)
+        q_arm_body = rot.multiply(rot.from_axis_angle(axis_body, sign * np.radians(arm_angle_deg) * raise_level),
+                                  rot.from_axis_angle(EY, -sign * np.radians(arm_twist_deg) * raise_level))
         for s in segs:
             seg[s] = np.where((t < 3.0)[:, None], rot.multiply(q_body, q_arm_body), seg[s])
     sensors = {f"S{i:02d}": rot.multiply(seg[s], mountings[s]) for i, s in enumerate(model.segment_names)}
@@ -104,7 +106,9 @@ def test_npose_tpose_recovers_random_mountings_for_any_heading(heading_deg, arms
     assert len(cal.quality.arms) == (2 if arms == "both" else 1)
     for arm in cal.quality.arms:
         assert arm.rotation_angle_deg == pytest.approx(90.0, abs=0.1)
-        assert arm.axis_tilt_deg < 0.1
+        assert arm.raise_angle_deg == pytest.approx(90.0, abs=0.1)
+        assert arm.axis_tilt_deg < 0.1 and arm.axis_vs_swing_deg < 0.1
+        assert arm.swing_residual_deg < 0.1 and arm.axis_residual_deg < 0.1
 
 
 def test_auto_arms_uses_the_raised_arm_only():
@@ -364,16 +368,57 @@ def test_arms_raised_forward_instead_of_sideways_are_refused():
         bc.calibrate_npose_tpose(t, sensors, mapping, N_POSE, T_POSE)
 
 
+ROTATION_AXIS = bc.BodyCalSettings(forward_from="rotation_axis")
+
+
+@pytest.mark.parametrize("twist_deg", [40.0, -90.0])
+def test_turning_the_arms_about_their_own_axis_does_not_bias_the_swing(twist_deg):
+    """Humeral rotation during the raise (40° internal; −90°: palms forward in the T-pose).
+    The arm's long axis still ends straight out to the side: the swing estimate is exact with
+    one arm or both; the seed's rotation axis tilts and turns (by the reported
+    ``axis_vs_swing_deg``, over 15°), so one arm alone misleads it; both arms' errors are
+    mirror images and cancel."""
+    mountings = random_mountings(TEN, seed=79)
+    t, sensors, mapping, _ = suit_recording(2.0, mountings, arm_twist_deg=twist_deg)
+    for arms in ("both", "right", "left"):
+        cal = bc.calibrate_npose_tpose(t, sensors, mapping, N_POSE, T_POSE, arms=arms)
+        assert max(mounting_errors(cal, mountings).values()) < 0.5
+        for arm in cal.quality.arms:
+            assert arm.raise_angle_deg == pytest.approx(90.0, abs=0.1)
+            assert arm.rotation_angle_deg > 95.0
+            assert arm.axis_tilt_deg > 15.0 and arm.axis_vs_swing_deg > 15.0
+        assert cal.quality.verdict == "acceptable"
+        assert any("turned about its own long axis" in p for p in cal.quality.problems)
+    one = bc.calibrate_npose_tpose(t, sensors, mapping, N_POSE, T_POSE, arms="right", settings=ROTATION_AXIS)
+    assert mounting_errors(one, mountings)["pelvis"] == pytest.approx(one.quality.arms[0].axis_vs_swing_deg, abs=0.1)
+    if twist_deg == 40.0:
+        both = bc.calibrate_npose_tpose(t, sensors, mapping, N_POSE, T_POSE, settings=ROTATION_AXIS)
+        assert max(mounting_errors(both, mountings).values()) < 0.5
+        assert both.quality.verdict == "poor"  # the two rotation axes disagree
+
+
 @pytest.mark.parametrize(("tilt", "verdict"), [(8.0, "good"), (22.0, "acceptable"), (40.0, "poor")])
-def test_tilted_raise_plane_is_graded_by_the_axis_tilt(tilt, verdict):
+def test_rotation_axis_estimator_grades_the_axis_tilt(tilt, verdict):
+    """Arms turned about an axis tilted from horizontal (a cone, not a vertical plane): the
+    seed's estimator removes the vertical part and keeps the heading."""
     mountings = random_mountings(TEN, seed=53)
     t, sensors, mapping, _ = suit_recording(0.0, mountings, arm_tilt_deg=tilt)
-    cal = bc.calibrate_npose_tpose(t, sensors, mapping, N_POSE, T_POSE)
+    cal = bc.calibrate_npose_tpose(t, sensors, mapping, N_POSE, T_POSE, settings=ROTATION_AXIS)
     for arm in cal.quality.arms:
         assert arm.axis_tilt_deg == pytest.approx(tilt, abs=0.1)
     assert cal.quality.verdict == verdict
-    # Removing the vertical part keeps the heading right whatever the tilt.
     assert max(mounting_errors(cal, mountings).values()) < 0.5
+
+
+def test_swing_estimator_on_a_cone_sees_arms_off_the_frontal_plane():
+    """The same cone ends each arm out of the frontal plane (mirror images): the swing
+    estimates of the two arms disagree, their mean is right."""
+    mountings = random_mountings(TEN, seed=53)
+    t, sensors, mapping, _ = suit_recording(0.0, mountings, arm_tilt_deg=22.0)
+    cal = bc.calibrate_npose_tpose(t, sensors, mapping, N_POSE, T_POSE)
+    assert max(mounting_errors(cal, mountings).values()) < 0.5
+    assert cal.quality.left_right_disagreement_deg > 20.0
+    assert cal.quality.verdict == "poor"
 
 
 # --------------------------------------------------------------------------------------------

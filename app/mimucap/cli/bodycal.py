@@ -148,8 +148,10 @@ def run(args: argparse.Namespace) -> int:
         for problem in quality.problems:
             print(f"  - {problem}")
         for arm in quality.arms:
-            print(f"  {arm.side} arm {arm.sensor}: turned {arm.rotation_angle_deg:.1f}°, "
-                  f"axis tilt {arm.axis_tilt_deg:.1f}°, fit residual {arm.residual_deg:.1f}°")
+            print(f"  {arm.side} arm {arm.sensor}: rose {arm.raise_angle_deg:.1f}° (turned "
+                  f"{arm.rotation_angle_deg:.1f}°), rotation axis tilt {arm.axis_tilt_deg:.1f}°, "
+                  f"raise plane residual {arm.swing_residual_deg:.1f}°, rotation-axis vs swing "
+                  f"heading {arm.axis_vs_swing_deg:.1f}°")
         if quality.left_right_disagreement_deg is not None:
             print(f"  left/right axis disagreement {quality.left_right_disagreement_deg:.1f}°")
         if quality.heading_axis_tilt_deg is not None:

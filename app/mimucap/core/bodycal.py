@@ -12,12 +12,19 @@ Two ways to find the body's forward axis (seed equations 3.1–3.7):
   ``q_delta(t) = q_world_from_arm(t) ⊗ q_world_from_arm(N)⁻¹``, is a rotation expressed in the
   world frame. Raising an arm sideways turns its long axis from down (−y_body) to the side
   (right arm: +z_body; left arm: −z_body). A rotation about +x_body takes +y to +z, hence −y
-  to −z: the **left** arm turns by +90° about forward and the **right** arm by −90°. So the
-  forward axis is ``+axis`` of the left arm's rotation and ``−axis`` of the right arm's.
-  The axis is fitted to the whole N→T movement (principal axis of the rotation vectors
-  ``log(q_delta(t))``, least squares through the origin), its vertical component is removed
-  (people never raise the arm in a perfectly vertical plane), the two arms' horizontal axes
-  are averaged when both were raised. ``y_body`` = up, ``z_body = x × y``.
+  to −z: the **left** arm turns by +90° about forward and the **right** arm by −90°.
+  Two estimators use the whole N→T movement (see :class:`ArmAxisFit`):
+  the seed's *rotation axis* (principal axis of the rotation vectors ``log(q_delta(t))``,
+  least squares through the origin; forward is ``+axis`` for the left arm and ``−axis`` for
+  the right; its vertical component removed) and, by default, the *swing* of the arm's long
+  axis ``d(t) = q_delta(t) · (−up)``, whose principal horizontal direction is the arm's side
+  (right: ``z_body``, left: ``−z_body``; forward = ``up × right``). The arm hangs vertically in
+  the N-pose, so any rotation taking it to the T-pose is a swing about a horizontal axis
+  composed with a turn about the arm's own axis; the tilt of the rotation axis from horizontal
+  measures only that turn, and removing the vertical component does not remove its effect on
+  the heading (30° of humeral rotation during the raise turn the projected axis by about
+  14°), while the swing ignores it. Both arms' horizontal estimates are averaged when both
+  were raised (a raise plane turned forward cancels). ``y_body`` = up, ``z_body = x × y``.
 * **Heading from a named sensor axis** (as OpenSense's ``base_heading_axis``): one sensor
   axis (e.g. the pelvis sensor's +z) points forward in the calibration pose; its horizontal
   projection is ``x_body``.
@@ -35,8 +42,8 @@ figure always faces the camera).
 
 Checks: each pose window must be still (every sample within ``stillness_limit_deg`` of the
 window's mean orientation), or the calibration is refused naming the sensor that moved; the
-quality figures (arm rotation angle, tilt of the raw axis from horizontal, left/right
-disagreement, stillness, axis fit residual) give a verdict ``good``, ``acceptable`` or
+quality figures (arm rotation angle, tilt of the raw rotation axis from horizontal, left/right
+disagreement, stillness, fit residual) give a verdict ``good``, ``acceptable`` or
 ``poor`` with the reasons. One arm raised *forward* instead of sideways cannot be told from
 a sideways raise by a subject turned 90° (the arm's motion is the same); with both arms
 raised it shows as a left/right disagreement near 180° and is refused.
@@ -84,16 +91,23 @@ class BodyCalSettings:
 
     ``stillness_limit_deg`` (3.0): a pose window is refused when any sample of a used sensor
     deviates more than this from the window's mean orientation; ``stillness_good_deg`` (1.5):
-    above it the verdict is at most acceptable. ``min_arm_angle_deg`` (30): an arm turned less
-    than this from N to T was not raised (its axis is undefined). Arm rotation angle: good
+    above it the verdict is at most acceptable. ``min_arm_angle_deg`` (30): an arm that rose
+    less than this from N to T was not raised (its axis is undefined). Arm rotation angle: good
     within ``arm_angle_good_deg`` (20) of ``arm_angle_expected_deg`` (90), acceptable within
-    ``arm_angle_acceptable_deg`` (35). Raw axis tilt from horizontal: good ≤ 15, acceptable
-    ≤ 30. Left/right disagreement of the horizontal axes: good ≤ 10, acceptable ≤ 20, refused
-    above ``lr_refuse_deg`` (45: such axes cannot be averaged). Axis fit residual (RMS distance of
-    the rotation vectors from the fitted axis): good ≤ 5, acceptable ≤ 10.
-    ``movement_min_deg`` (5): movement samples turned less than this are left out of the
-    axis fit (their direction is noise). Heading mode: the named axis' tilt from horizontal is
-    good ≤ 30, acceptable ≤ 60, refused above ``heading_tilt_refuse_deg`` (80).
+    ``arm_angle_acceptable_deg`` (35) (the raise angle with the swing estimator, the rotation
+    angle with the rotation-axis one). Left/right disagreement of the horizontal forward
+    estimates: good ≤ 10, acceptable ≤ 20, refused above ``lr_refuse_deg`` (45: such axes
+    cannot be averaged). ``forward_from`` (``"swing"``): which estimator of
+    :class:`ArmAxisFit` gives the forward axis, ``"swing"`` (the arm's long axis; default) or
+    ``"rotation_axis"`` (the seed's). Residual of the estimator in use (swing: the arm's RMS
+    angle from its raise plane; rotation axis: RMS distance of the rotation vectors from the
+    axis): good ≤ 5, acceptable ≤ 10. Raw rotation-axis tilt from horizontal (the arm turned
+    about its own long axis while raised): good ≤ 15; above, acceptable with the swing
+    estimator (which that rotation does not affect) and, with the rotation-axis estimator,
+    acceptable ≤ 30 and poor above. ``movement_min_deg`` (5): movement samples turned less than
+    this are left out of the rotation-axis fit (their direction is noise). Heading mode: the
+    named axis' tilt from horizontal is good ≤ 30, acceptable ≤ 60, refused above
+    ``heading_tilt_refuse_deg`` (80).
     """
 
     stillness_limit_deg: float = 3.0
@@ -113,9 +127,14 @@ class BodyCalSettings:
     heading_tilt_good_deg: float = 30.0
     heading_tilt_acceptable_deg: float = 60.0
     heading_tilt_refuse_deg: float = 80.0
+    forward_from: str = "swing"
 
     def __post_init__(self) -> None:
+        if self.forward_from not in ("swing", "rotation_axis"):
+            raise ValueError(f"BodyCalSettings.forward_from must be 'swing' or 'rotation_axis', got {self.forward_from!r}")
         for name, value in self.__dict__.items():
+            if name == "forward_from":
+                continue
             if not np.isfinite(value) or value < 0.0:
                 raise ValueError(f"BodyCalSettings.{name} must be a finite non-negative angle, got {value}")
 
@@ -136,22 +155,39 @@ class PoseStillness:
 
 @dataclass(frozen=True)
 class ArmAxisFit:
-    """The forward axis from one arm's N→T movement.
+    """The forward axis from one arm's N→T movement, by two estimators.
 
-    ``raw_forward_world`` (3,) unit: the signed fitted axis (before removing its vertical
-    part); ``forward_world`` (3,) its horizontal unit projection; ``rotation_angle_deg`` the
-    angle between the mean N-pose and mean T-pose orientations of the arm sensor;
-    ``axis_tilt_deg`` the raw axis' angle from horizontal; ``residual_deg`` the RMS distance
-    of the movement's rotation vectors from the fitted axis; ``n_samples`` samples used.
+    *Swing*: the direction of the arm's long axis (hanging, −up, in the N-pose) carried along
+    the movement, ``d(t) = q_delta(t) · (−up)``; its horizontal part swings out to the side of
+    the body; the principal horizontal direction of these vectors is the lateral axis, and
+    forward is perpendicular to it. Turning the arm about its own long axis does not move
+    ``d``, so this estimate ignores humeral rotation (palms turned forward or down).
+    *Rotation axis* (the seed's): principal axis of the rotation vectors ``log(q_delta(t))``,
+    vertical part removed. An arm turned about its own axis while raised tilts this axis and
+    turns its horizontal part (30° of such rotation: about 14°).
+
+    ``forward_world`` (3,) the horizontal unit forward estimate in use (``settings.forward_from``);
+    ``swing_forward_world`` and ``axis_forward_world`` both estimates; ``raw_forward_world`` the
+    signed rotation axis before its vertical part is removed; ``rotation_angle_deg`` the angle
+    between the mean N-pose and T-pose orientations (raise and turn about the arm's own axis);
+    ``raise_angle_deg`` the angle the long axis rose from hanging down; ``axis_tilt_deg`` the raw axis' angle from
+    horizontal; ``axis_residual_deg`` RMS distance of the rotation vectors from the fitted axis;
+    ``swing_residual_deg`` RMS angle of the arm's direction from its fitted vertical raise plane;
+    ``axis_vs_swing_deg`` the angle between the two horizontal estimates; ``n_samples`` samples.
     """
 
     side: str
     sensor: str
-    raw_forward_world: FloatArray
     forward_world: FloatArray
+    swing_forward_world: FloatArray
+    axis_forward_world: FloatArray
+    raw_forward_world: FloatArray
     rotation_angle_deg: float
+    raise_angle_deg: float
     axis_tilt_deg: float
-    residual_deg: float
+    axis_residual_deg: float
+    swing_residual_deg: float
+    axis_vs_swing_deg: float
     n_samples: int
 
 
@@ -180,9 +216,13 @@ class CalibrationQuality:
             ],
             "arms": [
                 {"side": a.side, "sensor": a.sensor, "rotation_angle_deg": a.rotation_angle_deg,
-                 "axis_tilt_deg": a.axis_tilt_deg, "residual_deg": a.residual_deg,
-                 "n_samples": a.n_samples, "raw_forward_world": a.raw_forward_world.tolist(),
-                 "forward_world": a.forward_world.tolist()}
+                 "raise_angle_deg": a.raise_angle_deg,
+                 "axis_tilt_deg": a.axis_tilt_deg, "axis_residual_deg": a.axis_residual_deg,
+                 "swing_residual_deg": a.swing_residual_deg, "axis_vs_swing_deg": a.axis_vs_swing_deg,
+                 "n_samples": a.n_samples, "forward_world": a.forward_world.tolist(),
+                 "swing_forward_world": a.swing_forward_world.tolist(),
+                 "axis_forward_world": a.axis_forward_world.tolist(),
+                 "raw_forward_world": a.raw_forward_world.tolist()}
                 for a in self.arms
             ],
             "left_right_disagreement_deg": self.left_right_disagreement_deg,
@@ -350,6 +390,29 @@ def fit_rotation_axis(rotvecs_world: ArrayLike, reference_world: ArrayLike) -> t
     return axis, float(np.sqrt(np.mean(np.sum(off_axis**2, axis=1))))
 
 
+def fit_swing_direction(
+    d_world: ArrayLike, up_world: ArrayLike, reference_world: ArrayLike
+) -> tuple[FloatArray, float]:
+    """Principal horizontal direction (3,) of arm directions ``d`` (M, 3) and their RMS angle
+    (rad) from the vertical plane through it; signed along ``reference`` (3,).
+
+    Least squares through the origin on the horizontal parts (``Σ h hᵀ``, largest
+    eigenvalue), so directions close to vertical weigh little.
+    """
+    up = _unit(up_world, "up_world")
+    d = np.asarray(d_world, dtype=np.float64).reshape(-1, 3)
+    h = horizontal(d, up)
+    _, vectors = np.linalg.eigh(h.T @ h)
+    lateral = horizontal(vectors[:, -1], up)
+    lateral = lateral / np.linalg.norm(lateral)
+    if np.dot(lateral, reference_world) < 0.0:
+        lateral = -lateral
+    normal = np.cross(up, lateral)
+    units = d / np.linalg.norm(d, axis=1, keepdims=True)
+    off_plane = np.arcsin(np.clip(units @ normal, -1.0, 1.0))
+    return lateral, float(np.sqrt(np.mean(off_plane**2)))
+
+
 def fit_arm_axis(
     side: str,
     sensor: str,
@@ -359,48 +422,62 @@ def fit_arm_axis(
     up_world: ArrayLike,
     settings: BodyCalSettings = DEFAULT_SETTINGS,
 ) -> ArmAxisFit:
-    """The forward axis from one arm's movement (see the module docstring for the sign).
+    """The forward axis from one arm's movement (both estimators of :class:`ArmAxisFit`).
 
     ``q_world_from_arm_npose`` and ``_tpose`` (4,) are the mean pose orientations;
     ``q_world_from_arm_movement`` (M, 4) every sample from the end of the N-pose to the end of
-    the T-pose. Raises :class:`CalibrationRefused` when the arm turned less than
+    the T-pose. Signs (module docstring): the right arm turns by −90° about forward (its long
+    axis swings to the right), the left arm by +90° (its long axis swings to the left); forward
+    is ``up × right``. Raises :class:`CalibrationRefused` when the arm rose less than
     ``settings.min_arm_angle_deg``.
     """
     if side not in ARM_SEGMENTS:
         raise ValueError(f"arm side must be 'left' or 'right', got {side!r}")
     up = _unit(up_world, "up_world")
-    q_n = np.asarray(q_world_from_arm_npose, dtype=np.float64)
-    q_inv_n = rot.conjugate(q_n)
-    r_t = rot.to_rotvec(rot.multiply(np.asarray(q_world_from_arm_tpose, dtype=np.float64), q_inv_n))
+    q_inv_n = rot.conjugate(np.asarray(q_world_from_arm_npose, dtype=np.float64))
+    q_delta_t = rot.multiply(np.asarray(q_world_from_arm_tpose, dtype=np.float64), q_inv_n)
+    r_t = rot.to_rotvec(q_delta_t)
     angle_deg = float(np.degrees(np.linalg.norm(r_t)))
-    if angle_deg < settings.min_arm_angle_deg:
-        raise CalibrationRefused(
-            f"the {side} arm (sensor {sensor}) was not raised: it turned {angle_deg:.1f}° between "
-            f"N-pose and T-pose (at least {settings.min_arm_angle_deg:g}° needed, about "
-            f"{settings.arm_angle_expected_deg:g}° expected)",
-            {"side": side, "sensor": sensor, "rotation_angle_deg": angle_deg},
-        )
     movement = np.asarray(q_world_from_arm_movement, dtype=np.float64).reshape(-1, 4)
-    rotvecs = rot.to_rotvec(rot.multiply(movement, q_inv_n))
+    q_delta = np.vstack((rot.multiply(movement, q_inv_n), q_delta_t[None, :]))
+    # Swing of the long axis (hanging in the N-pose).
+    d = rot.rotate(q_delta, -up)
+    d_t = d[-1]
+    raise_deg = float(np.degrees(np.arccos(np.clip(-np.dot(d_t, up), -1.0, 1.0))))
+    if raise_deg < settings.min_arm_angle_deg:
+        raise CalibrationRefused(
+            f"the {side} arm (sensor {sensor}) was not raised: it rose {raise_deg:.1f}° between "
+            f"N-pose and T-pose (at least {settings.min_arm_angle_deg:g}° needed, about "
+            f"{settings.arm_angle_expected_deg:g}° expected; it turned {angle_deg:.1f}° in all)",
+            {"side": side, "sensor": sensor, "raise_angle_deg": raise_deg, "rotation_angle_deg": angle_deg},
+        )
+    lateral, swing_residual = fit_swing_direction(d, up, d_t)
+    right = lateral if side == "right" else -lateral
+    swing_forward = np.cross(up, right)
+    # Rotation axis (seed).
+    rotvecs = rot.to_rotvec(q_delta)
     moved = np.linalg.norm(rotvecs, axis=1) >= np.radians(settings.movement_min_deg)
     rotvecs = np.vstack((rotvecs[moved], r_t[None, :]))
-    axis, residual = fit_rotation_axis(rotvecs, r_t)
+    axis, axis_residual = fit_rotation_axis(rotvecs, r_t)
     raw_forward = axis if side == "left" else -axis
     flat = horizontal(raw_forward, up)
-    if np.linalg.norm(flat) < 1e-6:
-        raise CalibrationRefused(
-            f"the {side} arm (sensor {sensor}) turned about the vertical: no forward axis",
-            {"side": side, "sensor": sensor, "rotation_angle_deg": angle_deg},
-        )
+    norm = np.linalg.norm(flat)
+    axis_forward = flat / norm if norm > 1e-6 else swing_forward
+    cos = float(np.clip(np.dot(axis_forward, swing_forward), -1.0, 1.0))
     return ArmAxisFit(
         side=side,
         sensor=sensor,
+        forward_world=swing_forward if settings.forward_from == "swing" else axis_forward,
+        swing_forward_world=swing_forward,
+        axis_forward_world=axis_forward,
         raw_forward_world=raw_forward,
-        forward_world=flat / np.linalg.norm(flat),
         rotation_angle_deg=angle_deg,
+        raise_angle_deg=raise_deg,
         axis_tilt_deg=float(tilt_from_horizontal_deg(raw_forward, up)),
-        residual_deg=float(np.degrees(residual)),
-        n_samples=int(rotvecs.shape[0]),
+        axis_residual_deg=float(np.degrees(axis_residual)),
+        swing_residual_deg=float(np.degrees(swing_residual)),
+        axis_vs_swing_deg=float(np.degrees(np.arccos(cos))),
+        n_samples=int(q_delta.shape[0]),
     )
 
 
@@ -566,15 +643,20 @@ def calibrate_npose_tpose(
         checks.append((_grade(disagreement, settings.lr_good_deg, settings.lr_acceptable_deg),
                        f"left and right arm axes disagree by {disagreement:.1f}°"))
     for fit in fits:
-        error = abs(fit.rotation_angle_deg - settings.arm_angle_expected_deg)
-        checks.append((_grade(error, settings.arm_angle_good_deg, settings.arm_angle_acceptable_deg),
-                       f"the {fit.side} arm turned {fit.rotation_angle_deg:.0f}° "
+        swing = settings.forward_from == "swing"
+        angle = fit.raise_angle_deg if swing else fit.rotation_angle_deg
+        checks.append((_grade(abs(angle - settings.arm_angle_expected_deg), settings.arm_angle_good_deg,
+                              settings.arm_angle_acceptable_deg),
+                       f"the {fit.side} arm {'rose' if swing else 'turned'} {angle:.0f}° "
                        f"(about {settings.arm_angle_expected_deg:g}° expected)"))
-        checks.append((_grade(fit.axis_tilt_deg, settings.axis_tilt_good_deg, settings.axis_tilt_acceptable_deg),
-                       f"the {fit.side} arm's axis is tilted {fit.axis_tilt_deg:.0f}° from horizontal "
-                       "(raise the arm in the frontal plane)"))
-        checks.append((_grade(fit.residual_deg, settings.axis_residual_good_deg, settings.axis_residual_acceptable_deg),
-                       f"the {fit.side} arm did not turn about one axis (residual {fit.residual_deg:.1f}°)"))
+        tilt_acceptable = np.inf if swing else settings.axis_tilt_acceptable_deg
+        checks.append((_grade(fit.axis_tilt_deg, settings.axis_tilt_good_deg, tilt_acceptable),
+                       f"the {fit.side} arm turned about its own long axis while raised (rotation axis "
+                       f"tilted {fit.axis_tilt_deg:.0f}° from horizontal; keep the palm facing down)"))
+        residual = fit.swing_residual_deg if swing else fit.axis_residual_deg
+        checks.append((_grade(residual, settings.axis_residual_good_deg, settings.axis_residual_acceptable_deg),
+                       f"the {fit.side} arm left its raise plane (residual {residual:.1f}°)" if swing else
+                       f"the {fit.side} arm did not turn about one axis (residual {residual:.1f}°)"))
     forward = np.sum([fit.forward_world for fit in fits], axis=0)
     q_world_from_body = q_world_from_body_from_forward(forward, up)
     verdict, problems = _verdict(checks)
