@@ -117,3 +117,27 @@ def test_a_malformed_source_is_one_line_naming_the_valid_forms(tmp_path):
     assert completed.returncode == 1
     lines = completed.stderr.strip().splitlines()
     assert len(lines) == 1 and "serial:DEVICE[@BAUD]" in lines[0] and "replay:FILE[@SPEED]" in lines[0]
+
+
+def test_record_from_the_serial_emulator_survives_its_unplug(tmp_path):
+    link = tmp_path / "ttyMIMU"
+    out = tmp_path / "serial.h5"
+    emulate = subprocess.Popen(MIMUCAP + ["emulate", "serial", "--sensors", "2", "--rate", "50", "--link", str(link),
+                                          "--duration", "4", "--unplug-after", "1.5", "--unplug-for", "0.6"],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert emulate.stdout.readline().strip() == str(link)      # the device path comes first
+        record = subprocess.run(MIMUCAP + ["record", "--source", f"serial:{link}@115200", "--duration", "3.5",
+                                           "--out", str(out), "--sensors", "1-2", "--quiet"],
+                                capture_output=True, text=True, timeout=60)
+    finally:
+        emulate.wait(30)
+    assert record.returncode == 0, record.stderr
+    session = read_session(out)
+    assert sorted(session.sensors) == ["1", "2"]
+    assert session.metadata["acquisition"]["sources"]["serial"]["reconnects"] == 1
+    for stream in session.sensors.values():
+        gaps = np.diff(stream.t_s)
+        assert 0.4 < gaps.max() < 1.2                      # the unplugged time is a visible gap
+        assert abs(np.median(gaps) - 0.02) < 1e-3          # 50 Hz
+        assert len(stream) > 80                            # data before and after the unplug

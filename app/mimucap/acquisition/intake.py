@@ -150,5 +150,8 @@ class SampleIntake:
                 clocks[sensor.name] = estimate
             if sensor.rejections.total():
                 by_sensor[sensor.name] = sensor.rejections.as_dict()
-        return WorkerReport(self.source, state, message, self.rejections.as_dict(),
+        rejections = self.rejections.as_dict()
+        if overflow_samples:
+            rejections[Rejection.QUEUE_OVERFLOW.value] = overflow_samples
+        return WorkerReport(self.source, state, message, rejections,
                             dict(self.unknown), by_sensor, clocks, overflow_samples, reconnects)

@@ -49,6 +49,7 @@ class SerialDriver:
         self.intake = SampleIntake(config.name, config.intake, outbox.send_blocks)
         self.port: serial.Serial | None = None
         self._buffer = bytearray()
+        self._discarding = False   # inside an oversized line: skip up to its end
         self.reconnects = 0
         self.state = STATE_DISCONNECTED
         self.message = ""
@@ -71,9 +72,10 @@ class SerialDriver:
             except (serial.SerialException, OSError):
                 pass
             self.port = None
-        if self._buffer:
+        if self._buffer and not self._discarding:
             self.intake.reject(Rejection.MALFORMED_LINE)  # the torn line of the unplug
-            self._buffer.clear()
+        self._buffer.clear()
+        self._discarding = False
 
     def _set_state(self, state: str, message: str = "") -> None:
         changed = state != self.state
@@ -124,9 +126,14 @@ class SerialDriver:
                 break
             line = bytes(self._buffer[: end + 1])
             del self._buffer[: end + 1]
+            if self._discarding:          # the tail of an oversized line, already counted
+                self._discarding = False
+                continue
             self.handle_line(line, now)
         if len(self._buffer) > proto.MAX_LINE_BYTES:
-            self.intake.reject(Rejection.OVERSIZED)
+            if not self._discarding:
+                self.intake.reject(Rejection.OVERSIZED)
+            self._discarding = True
             self._buffer.clear()
 
     def handle_line(self, line: bytes, now: float) -> None:

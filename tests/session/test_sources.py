@@ -1,0 +1,80 @@
+"""Source composition: spec strings to worker configs, and replay of files through a worker."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from mimucap.acquisition.replay import ReplaySourceConfig
+from mimucap.acquisition.simulated import SimulatedSourceConfig
+from mimucap.acquisition.supervisor import Supervisor
+from mimucap.acquisition.udp import UdpSourceConfig
+from mimucap.io.session import SensorStream, Session, write_session
+from mimucap.session.sources import SourceOptions, load_replay, parse_sensor_ids, source_configs
+
+
+def collect(configs, timeout_s=30.0):
+    blocks = []
+    with Supervisor(configs) as supervisor:
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline and not supervisor.all_finished():
+            blocks.extend(supervisor.poll(0.05))
+        blocks.extend(supervisor.poll(0.05))
+        status = supervisor.sources()
+    return blocks, status
+
+
+def test_specs_map_to_configs_with_session_options():
+    options = SourceOptions(sensor_ids=(1, 2), allowed_addresses=("127.0.0.1",))
+    (udp,) = source_configs("udp:0.0.0.0:5600", options)
+    assert isinstance(udp, UdpSourceConfig) and udp.port == 5600 and udp.intake.sensor_ids == (1, 2)
+    assert udp.allowed_addresses == ("127.0.0.1",)
+    (sim,) = source_configs("simulated:walk", SourceOptions(sensor_count=15))
+    assert isinstance(sim, SimulatedSourceConfig) and sim.sensor_segments()["S11"] == "head"
+    with pytest.raises(ValueError, match="scenario"):
+        source_configs("simulated:moonwalk")
+    with pytest.raises(ValueError, match="does not exist"):
+        source_configs("replay:/nonexistent/file.h5")
+    assert parse_sensor_ids("1-3, 7") == (1, 2, 3, 7)
+    with pytest.raises(ValueError, match="1-4,7"):
+        parse_sensor_ids("one")
+
+
+def test_a_session_file_replays_sample_for_sample(tmp_path):
+    t = np.arange(300) / 100.0
+    rng = np.random.default_rng(0)
+    streams = {sid: SensorStream(sensor_id=sid, t_s=t, seq=np.arange(300), acc=rng.normal(size=(300, 3)),
+                                 gyr=rng.normal(size=(300, 3)), battery=np.full(300, 0.5))
+               for sid in ("A", "B")}
+    path = write_session(tmp_path / "in.h5", Session(metadata={"source": "test"}, sensors=streams))
+    (config,) = source_configs(f"replay:{path}@10")
+    assert isinstance(config, ReplaySourceConfig) and config.speed == 10.0
+    blocks, status = collect([config])
+    assert status["replay"].state == "finished"
+    for sid, stream in streams.items():
+        mine = [b for b in blocks if b.sensor_id == sid]
+        np.testing.assert_array_equal(np.concatenate([b.seq for b in mine]), stream.seq)
+        np.testing.assert_array_equal(np.concatenate([b.acc for b in mine]), stream.acc)
+        np.testing.assert_array_equal(np.concatenate([b.battery_pct for b in mine]), 50.0)
+        host = np.concatenate([b.host_time_s for b in mine])
+        np.testing.assert_allclose(np.diff(host), 0.01 / 10.0, atol=1e-9)   # 10 × real time
+
+
+def test_an_xsens_export_folder_replays_every_data_row(shared_data):
+    folder = shared_data / "body" / "opensense_example" / "IMUData"
+    loaded = load_replay(folder)
+    # independent count: data rows are the lines after the header that start with a digit
+    for stream in loaded.streams:
+        (path,) = folder.glob(f"*_{stream.sensor_id}.txt")
+        rows = [line for line in path.read_text().splitlines() if line[:1].isdigit()]
+        assert len(stream.t_s) + loaded.skipped_rows[stream.sensor_id] == len(rows)
+        assert stream.acc is not None and np.all(np.isfinite(stream.acc))
+        # a standing subject's accelerometers read about 1 g at the start
+        assert np.linalg.norm(stream.acc[0]) == pytest.approx(9.81, abs=0.6)
+    assert len(loaded.streams) == 8
+    short = tuple(type(s)(sensor_id=s.sensor_id, t_s=s.t_s[:200], seq=s.seq[:200], acc=s.acc[:200],
+                          q_world_from_sensor=s.q_world_from_sensor[:200]) for s in loaded.streams)
+    blocks, status = collect([ReplaySourceConfig(streams=short, speed=8.0)])
+    assert sum(len(b) for b in blocks) == 8 * 200
