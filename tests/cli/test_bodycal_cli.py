@@ -88,12 +88,14 @@ def test_npose_tpose_calibration_file_and_joint_angles(suit, suit_csv, tmp_path,
 
 
 def test_json_output_and_the_isb_shoulder_columns(suit, suit_csv, tmp_path, capsys):
-    _, _, mapping, *_ = suit
+    _, _, mapping, mountings, _ = suit
     cal = tmp_path / "CAL.json"
     assert main(["bodycal", str(suit_csv), "--mapping", mapping, "--npose", "0:0.99", "--tpose", "2:2.99",
-                 "--out", str(cal), "--json"]) == 0
+                 "--forward-from", "rotation_axis", "--out", str(cal), "--json"]) == 0
     printed = json.loads(capsys.readouterr().out)
     assert printed == json.loads(cal.read_text())
+    shank = printed["segments"]["shank_r"]["q_segment_from_sensor"]
+    assert np.degrees(rot.angle_between(shank, mountings["shank_r"])) < 0.5
     out = tmp_path / "a.csv"
     assert main(["angles", str(suit_csv), "--calibration", str(cal), "--shoulder", "yxy", "--out", str(out)]) == 0
     table = read_angles_csv(out)

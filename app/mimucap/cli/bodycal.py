@@ -100,6 +100,8 @@ def register(subparsers) -> None:
                         help="sensor axis pointing forward in the N-pose, e.g. pelvis_imu:z or S1:-x")
     parser.add_argument("--arms", choices=("auto", "left", "right", "both"), default="auto",
                         help="arms raised in the T-pose (default: every arm sensor that turned)")
+    parser.add_argument("--forward-from", choices=("swing", "rotation_axis"), default="swing",
+                        help="forward estimate of the N/T-pose: the arm's swing (default) or its rotation axis (seed)")
     parser.add_argument("--model", default="auto", help=f"skeleton model: auto, {', '.join(MODEL_NAMES)} or a JSON file")
     add_reader_options(parser)
     parser.add_argument("--out", required=True, metavar="CAL.json", help="calibration file to write")
@@ -125,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
         calibration = bodycal.calibrate_npose_tpose(
             table.t_s, table.q_world_from_sensor, mapping, npose, parse_window(args.tpose, "--tpose"),
             up_world=table.up_world, arms=args.arms,
+            settings=bodycal.BodyCalSettings(forward_from=args.forward_from),
         )
     elif args.heading_from:
         sensor, sep, axis = args.heading_from.rpartition(":")
