@@ -8,9 +8,10 @@ All functions are numba-compiled and work on one sensor's auxiliary state vector
 * **Rest** (gyro bias at rest): the gyro and accelerometer samples stay within
   ``rest_gyr_dev_rad_s`` / ``rest_acc_dev_m_s2`` of their low-pass values (time constant
   ``rest_tau_s``), the low-passed rate is below ``rest_max_rate_rad_s``, for ``rest_time_s``.
-* **Accelerometer** (strong motion): the gravity direction measurement has the noise
-  ``σ² = σ_acc² + (k_dev·|‖a‖ − g|)² + (k_rate·‖ω‖)²`` (m/s²)², and is rejected when
-  ``|‖a‖ − g|`` exceeds ``acc_reject_m_s2``.
+* **Accelerometer** (strong motion): the gravity measurement is the specific force rotated
+  into the world frame and low-passed (linear accelerations average out); its noise is
+  ``σ² = σ_acc² + (k_dev·|‖a_lp‖ − g|)² + (k_rate·‖ω‖)²`` (m/s²)², and a raw sample with
+  ``|‖a‖ − g|`` above ``acc_reject_m_s2`` is rejected.
 * **Magnetometer**: the field norm (µT) and the dip angle (rad, positive downwards, computed
   in the world frame from the current orientation estimate) are compared with a reference
   learned from accepted samples (time constant ``mag_ref_tau_s``; the first sample after
@@ -95,16 +96,18 @@ def rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_valid, dt):
 
 
 @njit(**JIT_OPTIONS)
-def acc_noise_var(p, acc_norm, rate):
+def acc_noise_var(p, acc_norm, lowpass_norm, rate):
     """Variance (unit-vector units) of the gravity direction measurement, or -1 to reject.
 
-    ``acc_norm`` is ``‖a‖`` (m/s²), ``rate`` the bias-corrected ``‖ω‖`` (rad/s).
+    ``acc_norm`` is the raw ``‖a‖`` (m/s²): a sample further than ``acc_reject_m_s2`` from
+    ``g`` (a knock, a jump) is rejected. ``lowpass_norm`` is the norm of the low-passed
+    world-frame specific force: its distance from ``g`` shows acceleration the low-pass has
+    not averaged out yet and raises the noise; ``rate`` is the bias-corrected ``‖ω‖`` (rad/s).
     """
     g = p[PI_GRAVITY]
-    dev = abs(acc_norm - g)
-    if dev > p[PI_ACC_REJECT]:
+    if abs(acc_norm - g) > p[PI_ACC_REJECT]:
         return -1.0
-    s_dev = p[PI_ACC_DEV_GAIN] * dev
+    s_dev = p[PI_ACC_DEV_GAIN] * abs(lowpass_norm - g)
     s_rate = p[PI_ACC_RATE_GAIN] * rate
     var = p[PI_ACC_NOISE] ** 2 + s_dev * s_dev + s_rate * s_rate
     return var / (g * g)

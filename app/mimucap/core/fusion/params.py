@@ -53,8 +53,9 @@ class FusionParams:
     acc_lowpass_tau_s: float = 1.0
     #: Accelerometer noise per sample (m/s²) of that low-passed gravity measurement.
     acc_noise_m_s2: float = 1.0
-    #: Extra accelerometer noise per m/s² of ``|‖a‖ − g|`` (dimensionless): strong motion
-    #: down-weights the gravity correction.
+    #: Extra accelerometer noise per m/s² of ``|‖a_lp‖ − g|`` (dimensionless), ``a_lp`` the
+    #: low-passed world-frame specific force: acceleration not yet averaged out down-weights
+    #: the gravity correction.
     acc_deviation_gain: float = 0.0
     #: Extra accelerometer noise per rad/s of angular rate (m/s² per rad/s): centripetal
     #: acceleration of a sensor away from the rotation centre.
