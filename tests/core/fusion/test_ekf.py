@@ -161,3 +161,23 @@ def test_settings_are_validated():
         fuse(np.arange(3.0), np.zeros((3, 3)), np.zeros((4, 3)))
     with pytest.raises(TypeError):
         FusionParams(acc_nosie_m_s2=1.0)  # a typo fails loudly
+
+
+def test_declination_turns_the_heading_to_true_north(recording_factory):
+    """Magnetic north 10° east of true north: with the declination set, the estimate is in the
+    true-north ENU frame; without it, in the magnetic frame (10° of heading off)."""
+    rec = recording_factory(duration_s=10.0, seed=8)
+    declination = np.radians(10.0)
+    # field of the synthetic recordings, turned so that its horizontal part points 10° east
+    q_true_from_magnetic = rot.from_axis_angle([0, 0, 1], -declination)
+    field_true = rot.rotate(q_true_from_magnetic, [0.0, 20.0, -40.0])
+    mag = rot.rotate(rot.conjugate(rec.q_true), field_true)
+    with_decl = fuse(rec.t_s, rec.gyr, rec.acc, mag,
+                     params=replace(DEFAULT_FUSION_PARAMS, declination_rad=declination))
+    without = fuse(rec.t_s, rec.gyr, rec.acc, mag)
+    _, heading, _ = error_angles_rad(with_decl.q_world_from_sensor, rec.q_true)
+    _, heading_mag, _ = error_angles_rad(without.q_world_from_sensor, rec.q_true)
+    assert rms_deg(heading) < 1.0
+    assert abs(rms_deg(heading_mag) - 10.0) < 1.0
+    with pytest.raises(ValueError, match="declination"):
+        replace(DEFAULT_FUSION_PARAMS, declination_rad=4.0)

@@ -30,7 +30,7 @@ from numba import njit
 from mimucap.core.fusion.disturbance import acc_noise_var, lowpass_gain, mag_accept, rest_update
 from mimucap.core.fusion.params import (
     PI_ACC_LP_TAU, PI_ACC_RANGE, PI_BIAS_MAX, PI_BIAS_WALK, PI_GAP_RATE, PI_GYR_NOISE, PI_GYR_RANGE,
-    PI_HEADING_NOISE, PI_INIT_BIAS, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
+    PI_DECLINATION, PI_HEADING_NOISE, PI_INIT_BIAS, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
     PI_METHOD, PI_REST_BIAS_NOISE, PI_USE_ACC, PI_USE_MAG, PI_CORRECT,
 )
 from mimucap.core.fusion.propagation import (
@@ -85,11 +85,12 @@ def _quat_from_rows(ex, ey, ez, nx, ny, nz, ux, uy, uz):
 
 
 @njit(**JIT_OPTIONS)
-def align(ax, ay, az, mx, my, mz, use_mag):
+def align(ax, ay, az, mx, my, mz, use_mag, declination):
     """Initial ``q_world_from_sensor`` from one accelerometer (and magnetometer) sample.
 
-    Up is the accelerometer direction; east is ``m × up`` (magnetic east). Without a usable
-    magnetometer the heading is arbitrary: the sensor x axis is put in the world x-z plane.
+    Up is the accelerometer direction; east is ``m × up`` (magnetic east), turned by the
+    declination (rad) into true east. Without a usable magnetometer the heading is arbitrary:
+    the sensor x axis is put in the world x-z plane.
     """
     na = math.sqrt(ax * ax + ay * ay + az * az)
     ux, uy, uz = ax / na, ay / na, az / na
@@ -109,7 +110,12 @@ def align(ax, ay, az, mx, my, mz, use_mag):
             ne = math.sqrt(ex * ex + ey * ey + ez * ez)
     ex, ey, ez = ex / ne, ey / ne, ez / ne
     nx, ny, nz = uy * ez - uz * ey, uz * ex - ux * ez, ux * ey - uy * ex
-    return _quat_from_rows(ex, ey, ez, nx, ny, nz, ux, uy, uz)
+    w, x, y, z = _quat_from_rows(ex, ey, ez, nx, ny, nz, ux, uy, uz)
+    if use_mag and declination != 0.0:
+        # q_true_from_magnetic = Rz(−declination)
+        h = -0.5 * declination
+        w, x, y, z = quat_multiply(math.cos(h), 0.0, 0.0, math.sin(h), w, x, y, z)
+    return w, x, y, z
 
 
 @njit(**JIT_OPTIONS)
@@ -211,6 +217,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
     q_bias = p[PI_BIAS_WALK] ** 2
     bias_max = p[PI_BIAS_MAX]
     var_heading = p[PI_HEADING_NOISE] ** 2
+    declination = p[PI_DECLINATION]
     var_rest = p[PI_REST_BIAS_NOISE] ** 2
     R = np.empty((3, 3))
     A = np.zeros((3, 3))
@@ -249,7 +256,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
         if aux[AX_INIT] == 0.0:
             if gyr_ok and (acc_ok or not has_acc):
                 if acc_ok:
-                    w, x, y, z = align(ax, ay, az, mx, my, mz, mag_ok)
+                    w, x, y, z = align(ax, ay, az, mx, my, mz, mag_ok, p[PI_DECLINATION])
                 else:
                     w, x, y, z = 1.0, 0.0, 0.0, 0.0
                 q[0], q[1], q[2], q[3] = w, x, y, z
@@ -430,7 +437,12 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                 hnorm = math.hypot(mwx, mwy)
                 nm = math.sqrt(mwx * mwx + mwy * mwy + mwz * mwz)
                 if hnorm > 0.05 * nm and mag_accept(p, aux, nm, math.atan2(-mwz, hnorm), dt):
-                    _heading_update(P, dx, c, math.atan2(mwx, mwy), var_heading)
+                    psi = math.atan2(mwx, mwy) - declination
+                    if psi > math.pi:
+                        psi -= 2.0 * math.pi
+                    elif psi < -math.pi:
+                        psi += 2.0 * math.pi
+                    _heading_update(P, dx, c, psi, var_heading)
                     updated = True
                 else:
                     flags |= FLAG_MAG_REJECTED

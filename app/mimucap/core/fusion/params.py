@@ -65,6 +65,9 @@ class FusionParams:
 
     #: Heading measurement noise per sample (rad) of the tilt-compensated magnetometer.
     heading_noise_rad: float = 30.0 * DEG
+    #: Magnetic declination (rad, positive when magnetic north lies east of true north): the
+    #: world y axis is true north with it, magnetic north with the default 0.
+    declination_rad: float = 0.0
     #: The magnetometer is rejected when its norm differs from the reference by more than
     #: this fraction, or its dip angle by more than ``mag_dip_tol_rad``.
     mag_norm_tol: float = 0.15
@@ -104,8 +107,10 @@ class FusionParams:
                 f"unknown propagation {self.propagation!r}; choose one of "
                 f"{sorted(PROPAGATION_METHODS)}"
             )
+        if not (isinstance(self.declination_rad, (int, float)) and abs(self.declination_rad) <= math.pi):
+            raise ValueError(f"fusion setting declination_rad must be within ±π, got {self.declination_rad!r}")
         for field in fields(self):
-            if field.name == "propagation":
+            if field.name in ("propagation", "declination_rad"):
                 continue
             value = getattr(self, field.name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
@@ -124,11 +129,11 @@ DEFAULT_FUSION_PARAMS = FusionParams()
 (
     PI_METHOD, PI_GYR_NOISE, PI_BIAS_WALK, PI_INIT_TILT, PI_INIT_HEADING, PI_INIT_BIAS,
     PI_BIAS_MAX, PI_GRAVITY, PI_ACC_LP_TAU, PI_ACC_NOISE, PI_ACC_DEV_GAIN, PI_ACC_RATE_GAIN, PI_ACC_REJECT,
-    PI_HEADING_NOISE, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD,
+    PI_HEADING_NOISE, PI_DECLINATION, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD,
     PI_REST_GYR_DEV, PI_REST_ACC_DEV, PI_REST_TAU, PI_REST_MAX_RATE, PI_REST_TIME,
     PI_REST_BIAS_NOISE, PI_MAX_GAP, PI_GAP_RATE, PI_GYR_RANGE, PI_ACC_RANGE, PI_MAG_RANGE,
     PI_USE_ACC, PI_USE_MAG, PI_CORRECT, PI_COUNT,
-) = range(34)
+) = range(35)
 
 
 def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = True,
@@ -154,6 +159,7 @@ def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = T
     p[PI_ACC_RATE_GAIN] = params.acc_rate_gain_m_s2_per_rad_s
     p[PI_ACC_REJECT] = params.acc_reject_m_s2
     p[PI_HEADING_NOISE] = params.heading_noise_rad
+    p[PI_DECLINATION] = params.declination_rad
     p[PI_MAG_NORM_TOL] = params.mag_norm_tol
     p[PI_MAG_DIP_TOL] = params.mag_dip_tol_rad
     p[PI_MAG_SETTLE] = params.mag_settle_s
