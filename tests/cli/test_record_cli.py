@@ -141,3 +141,15 @@ def test_record_from_the_serial_emulator_survives_its_unplug(tmp_path):
         assert 0.4 < gaps.max() < 1.2                      # the unplugged time is a visible gap
         assert abs(np.median(gaps) - 0.02) < 1e-3          # 50 Hz
         assert len(stream) > 80                            # data before and after the unplug
+
+
+def test_a_source_that_cannot_start_ends_with_its_reason(tmp_path):
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as blocker:
+        blocker.bind(("127.0.0.1", 0))
+        port = blocker.getsockname()[1]
+        completed = subprocess.run(MIMUCAP + ["record", "--source", f"udp:127.0.0.1:{port}", "--duration", "2",
+                                              "--out", str(tmp_path / "busy.h5"), "--quiet"],
+                                   capture_output=True, text=True, timeout=60)
+    assert completed.returncode == 1
+    assert "source udp failed" in completed.stderr and "Address already in use" in completed.stderr
+    assert read_session(tmp_path / "busy.h5").sensors == {}      # still a readable (empty) session

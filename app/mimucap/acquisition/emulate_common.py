@@ -45,8 +45,8 @@ class EmulatorSettings:
             raise ValueError(f"--loss must be in [0, 1), got {self.loss}")
         if not 0.0 <= self.jitter_ms <= 10_000:
             raise ValueError(f"--jitter must be in [0, 10000] ms, got {self.jitter_ms}")
-        if abs(self.drift_ppm) > 10_000:
-            raise ValueError(f"--drift must be within ±10000 ppm, got {self.drift_ppm}")
+        if abs(self.drift_ppm) > 2000:   # the host's clock estimator accepts up to ±2000 ppm
+            raise ValueError(f"--drift must be within ±2000 ppm, got {self.drift_ppm}")
         if self.duration_s is not None and not self.duration_s > 0:
             raise ValueError(f"--duration must be > 0 s, got {self.duration_s}")
         if self.first_sensor_id < 0 or self.first_sensor_id + self.n_sensors > 0xFFFF:

@@ -134,6 +134,20 @@ class SampleBlock:
         return tuple(name for name in CHANNELS if getattr(self, name) is not None)
 
 
+def concatenate_blocks(blocks: Sequence[SampleBlock]) -> SampleBlock:
+    """One block from consecutive blocks of the same sensor with the same channels."""
+    first = blocks[0]
+    if len(blocks) == 1:
+        return first
+    channels = first.channels()
+    if any(b.sensor_id != first.sensor_id or b.channels() != channels for b in blocks):
+        raise ValueError("concatenate_blocks needs blocks of one sensor with the same channels")
+    join = lambda name: np.concatenate([getattr(b, name) for b in blocks])  # noqa: E731
+    return SampleBlock(first.source, first.sensor_id, join("seq"), join("device_time_s"),
+                       join("host_time_s"), join("receive_time_s"),
+                       **{name: join(name) for name in channels})
+
+
 _CHANNEL_DTYPES = {
     "acc": np.float64, "gyr": np.float64, "mag_uT": np.float64,
     "q_world_from_sensor": np.float64, "calibration": np.int8, "battery_pct": np.float64,

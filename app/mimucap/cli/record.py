@@ -90,7 +90,8 @@ def run(args: argparse.Namespace) -> int:
                 reason = "interrupted"
                 break
             if supervisor.all_finished():
-                reason = "source finished"
+                failed = any(s.state == "failed" for s in supervisor.sources().values())
+                reason = "source failed" if failed else "source finished"
                 break
             if not recorder.add_blocks(supervisor.poll(min(0.05, end - now))):
                 reason = "write error"
@@ -98,8 +99,11 @@ def run(args: argparse.Namespace) -> int:
             if not args.quiet and now >= next_line:
                 next_line = now + 1.0
                 total = sum(recorder.samples.values())
+                troubles = "; ".join(f"{name} {s.state}: {s.message}" for name, s in supervisor.sources().items()
+                                     if s.state not in ("running", "starting"))
                 print(f"recording {now - recorder.start_host_s:6.1f} s: {total} samples from "
-                      f"{len(recorder.samples)} sensors", file=sys.stderr, flush=True)
+                      f"{len(recorder.samples)} sensors" + (f" ({troubles})" if troubles else ""),
+                      file=sys.stderr, flush=True)
     finally:
         recorder.add_blocks(supervisor.stop())
         for sig, handler in previous.items():
@@ -116,6 +120,12 @@ def run(args: argparse.Namespace) -> int:
             print(f"source {name}: {source['state']} {source['message']} rejections {source['rejections']}")
     if result.session_path is None or recorder.failure is not None:
         print(f"mimucap record: error: {result.message}", file=sys.stderr)
+        return 1
+    failed = {name: s for name, s in status["sources"].items() if s["state"] == "failed"}
+    if failed:
+        reasons = "; ".join(f"source {name} failed: {s['message']}" for name, s in failed.items())
+        print(f"mimucap record: error: {reasons} (wrote {result.session_path} with "
+              f"{sum(result.samples.values())} samples)", file=sys.stderr)
         return 1
     print(f"wrote {result.session_path} ({sum(result.samples.values())} samples, "
           f"{len(result.samples)} sensors, ended: {reason})")

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from mimucap.acquisition.block_codec import decode_block, encode_block
-from mimucap.acquisition.samples import SampleBlock
+from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
 from mimucap.io.journal import JournalContents, JournalWriter, iter_journal
 from mimucap.io.session import Marker, SensorStream, Session, read_session, write_session
 
@@ -127,13 +127,19 @@ class Recorder:
                         f"storage, then run `mimucap recover {self.out_path}`")
 
     def add_blocks(self, blocks: Iterable[SampleBlock]) -> bool:
-        """Append blocks to the journal; ``False`` once the recording has failed."""
+        """Append blocks to the journal; ``False`` once the recording has failed.
+
+        Blocks of the same sensor and channels within one call are merged into one record.
+        """
+        groups: dict[tuple, list[SampleBlock]] = {}
         for block in blocks:
-            if len(block) == 0:
-                continue
-            if not self._append(KIND_BLOCK, encode_block(block)):
+            if len(block):
+                groups.setdefault((block.sensor_id, block.channels()), []).append(block)
+        for (sensor_id, _channels), parts in groups.items():
+            merged = concatenate_blocks(parts)
+            if not self._append(KIND_BLOCK, encode_block(merged)):
                 return False
-            self.samples[block.sensor_id] = self.samples.get(block.sensor_id, 0) + len(block)
+            self.samples[sensor_id] = self.samples.get(sensor_id, 0) + len(merged)
         return self.tick()
 
     def add_marker(self, label: str, host_s: float | None = None) -> bool:
