@@ -39,6 +39,13 @@ def encode_block(block: SampleBlock) -> bytes:
 
 def decode_block(data: bytes) -> SampleBlock:
     """The block encoded in ``data``; ``ValueError`` if the bytes are inconsistent."""
+    try:
+        return _decode(data)
+    except (TypeError, KeyError, AttributeError, OverflowError) as error:
+        raise ValueError(f"sample block record is malformed: {error}") from None
+
+
+def _decode(data: bytes) -> SampleBlock:
     if len(data) < _LENGTH.size:
         raise ValueError("sample block record too short")
     (length,) = _LENGTH.unpack_from(data)
@@ -50,10 +57,14 @@ def decode_block(data: bytes) -> SampleBlock:
         raise ValueError(f"sample block record has a bad header: {error}") from None
     position = _LENGTH.size + length
     values: dict[str, np.ndarray] = {}
+    if n < 0 or not isinstance(entries, list):
+        raise ValueError("sample block record has a bad header")
     for name, dtype, tail in entries:
         if name not in _TIME_ARRAYS + CHANNELS or dtype not in _DTYPES:
             raise ValueError(f"sample block record has an unknown array {name!r} ({dtype})")
         shape = (n, *[int(v) for v in tail])
+        if any(v < 0 for v in shape):
+            raise ValueError(f"sample block record has a negative shape for {name!r}")
         count = int(np.prod(shape))
         size = count * np.dtype(_DTYPES[dtype]).itemsize
         if position + size > len(data):

@@ -200,7 +200,7 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
     start: dict[str, Any] | None = None
     status: Any = None
     end: dict[str, Any] | None = None
-    markers: list[dict[str, Any]] = []
+    markers: list[Any] = []
     per_sensor: dict[str, list[SampleBlock]] = {}
     for index, (kind, payload) in enumerate(iter_journal(journal_path, contents)):
         try:
@@ -219,8 +219,12 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
             raise ValueError(f"{journal_path}: record {index + 1} is damaged: {error}") from None
     if start is None:
         raise ValueError(f"{journal_path}: the journal holds no recording start (nothing to recover)")
-    t0 = float(start["start_host_s"])
-    metadata = dict(start.get("metadata") or {})
+    try:
+        t0 = float(start["start_host_s"])
+        metadata = dict(start.get("metadata") or {})
+        markers = [(float(m["host_s"]) - t0, str(m["label"])) for m in markers]
+    except (KeyError, TypeError, ValueError, AttributeError) as error:
+        raise ValueError(f"{journal_path}: the start or a marker record is damaged: {error!r}") from None
     segments = metadata.pop("sensor_segments", {}) or {}
     recording = {"started_utc": start.get("started_utc"), "start_host_monotonic_s": t0,
                  "journal_flush_interval_s": start.get("flush_interval_s"),
@@ -232,7 +236,7 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
     sensors = {sensor_id: _stream(sensor_id, blocks, t0, segments.get(sensor_id))
                for sensor_id, blocks in sorted(per_sensor.items())}
     session = Session(metadata=metadata, sensors=sensors,
-                      markers=[Marker(float(m["host_s"]) - t0, str(m["label"])) for m in markers])
+                      markers=[Marker(t, label) for t, label in markers])
     return session, contents
 
 
