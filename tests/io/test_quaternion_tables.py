@@ -307,6 +307,7 @@ def test_csv_round_trip(tmp_path):
 
 @pytest.mark.parametrize(("text", "message"), [
     ("t_s,A_qw,A_qx,A_qy,A_qz\n0,1,0,0,0\n0.1,nan,0,0,0\n", "line 3: sensor A: NaN quaternion"),
+    ("t_s,A_qw,A_qx,A_qy,A_qz\n0,1,0,0,0\n0.1,,0,0,0\n", "line 3: sensor A: NaN quaternion"),
     ("t_s,A_qw,A_qx,A_qy,A_qz\n0,1,0,0,0\n0.1,1,0,0\n", "line 3: 4 fields, the header has 5"),
     ("t_s,A_qw,A_qx,A_qz\n0,1,0,0\n", "sensor A: missing column.s. A_qy"),
     ("t_s,A_qx,A_qy,A_qz\n0,1,0,0\n", "quaternion column.s. without '_qw'"),

@@ -155,13 +155,34 @@ def _float(text: str, source: str, line: int, column: str) -> float:
 _CSV_COMPONENTS = ("qw", "qx", "qy", "qz")
 
 
+def _parse_numeric_rows(lines: list[str], numbers: list[int], header: list[str], source: str) -> np.ndarray:
+    """Comma-separated numeric rows (N, len(header)); empty cells are NaN. Fast path with
+    numpy; on failure the rows are parsed one by one to name the first bad line and column."""
+    width = len(header)
+    if not lines:
+        return np.empty((0, width))
+    try:
+        data = np.loadtxt(lines, delimiter=",", dtype=np.float64, ndmin=2)
+        if data.shape[1] == width:
+            return data
+    except ValueError:
+        pass
+    rows = []
+    for number, text in zip(numbers, lines):
+        cells = [c.strip() for c in next(csv.reader([text]))]
+        if len(cells) != width:
+            raise ValueError(f"{source}: line {number}: {len(cells)} fields, the header has {width}")
+        rows.append([_float(c, source, number, header[i]) if c else math.nan for i, c in enumerate(cells)])
+    return np.array(rows, dtype=np.float64)
+
+
 def read_quaternion_csv(path: str | Path, up_axis: str | None = None) -> QuaternionTable:
     """Read a MimuCap quaternion CSV (``t_s`` and ``<sensor>_qw.._qz`` columns)."""
     path = Path(path)
     source = str(path)
     declared_up = None
     header: list[str] | None = None
-    rows: list[list[float]] = []
+    data_lines: list[str] = []
     line_numbers: list[int] = []
     with path.open(newline="", encoding="utf-8") as handle:
         for number, raw in enumerate(handle, start=1):
@@ -173,23 +194,16 @@ def read_quaternion_csv(path: str | Path, up_axis: str | None = None) -> Quatern
                 if match:
                     declared_up = match.group(1)
                 continue
-            cells = next(csv.reader([text]))
-            cells = [c.strip() for c in cells]
             if header is None:
-                header = cells
+                header = [c.strip() for c in next(csv.reader([text]))]
                 continue
-            if len(cells) != len(header):
-                raise ValueError(
-                    f"{source}: line {number}: {len(cells)} fields, the header has {len(header)}"
-                )
-            rows.append([_float(c, source, number, header[i]) if c else math.nan
-                         for i, c in enumerate(cells)])
+            data_lines.append(text)
             line_numbers.append(number)
     if header is None:
         raise ValueError(f"{source}: empty file (no header line)")
     if "t_s" not in header:
         raise ValueError(f"{source}: no 't_s' column in the header")
-    data = np.array(rows, dtype=np.float64).reshape(len(rows), len(header))
+    data = _parse_numeric_rows(data_lines, line_numbers, header, source)
     lines = np.array(line_numbers)
     sensors: dict[str, np.ndarray] = {}
     for column in header:
@@ -221,8 +235,7 @@ def write_quaternion_csv(path: str | Path, table: QuaternionTable) -> None:
         handle.write("# MimuCap quaternion table: q_world_from_sensor (w, x, y, z) per sensor\n")
         handle.write(f"# world frame: {table.world_frame}\n# up_axis: {up_name}\n")
         handle.write(",".join(columns) + "\n")
-        for row in data:
-            handle.write(",".join(f"{v:.10g}" for v in row) + "\n")
+        np.savetxt(handle, data, fmt="%.10g", delimiter=",")
 
 
 def _check_time(t: np.ndarray, source: str, lines: np.ndarray) -> None:
