@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from mimucap.core import bodycal as bc
 from mimucap.core import rotation as rot
@@ -109,6 +111,18 @@ def test_npose_tpose_recovers_random_mountings_for_any_heading(heading_deg, arms
         assert arm.raise_angle_deg == pytest.approx(90.0, abs=0.1)
         assert arm.axis_tilt_deg < 0.1 and arm.axis_vs_swing_deg < 0.1
         assert arm.swing_residual_deg < 0.1 and arm.axis_residual_deg < 0.1
+
+
+@settings(max_examples=25, deadline=None)
+@given(heading=st.floats(-np.pi, np.pi), seed=st.integers(0, 10_000),
+       arms=st.sampled_from(["both", "left", "right"]), estimator=st.sampled_from(["swing", "rotation_axis"]))
+def test_any_heading_and_any_mounting_are_recovered(heading, seed, arms, estimator):
+    mountings = random_mountings(TEN, seed=seed)
+    t, sensors, mapping, _ = suit_recording(heading, mountings, arms=arms, motion_seed=seed)
+    cal = bc.calibrate_npose_tpose(t, sensors, mapping, N_POSE, T_POSE, arms=arms,
+                                   settings=bc.BodyCalSettings(forward_from=estimator))
+    assert max(mounting_errors(cal, mountings).values()) < 0.5
+    assert cal.quality.verdict == "good"
 
 
 def test_auto_arms_uses_the_raised_arm_only():
