@@ -42,7 +42,7 @@ figure always faces the camera).
 
 Checks: each pose window must be still (every sample within ``stillness_limit_deg`` of the
 window's mean orientation), or the calibration is refused naming the sensor that moved; the
-quality figures (arm rotation angle, tilt of the raw rotation axis from horizontal, left/right
+quality figures (arm raise and rotation angles, tilt of the raw rotation axis from horizontal, left/right
 disagreement, stillness, fit residual) give a verdict ``good``, ``acceptable`` or
 ``poor`` with the reasons. One arm raised *forward* instead of sideways cannot be told from
 a sideways raise by a subject turned 90° (the arm's motion is the same); with both arms
