@@ -181,3 +181,14 @@ def test_declination_turns_the_heading_to_true_north(recording_factory):
     assert abs(rms_deg(heading_mag) - 10.0) < 1.0
     with pytest.raises(ValueError, match="declination"):
         replace(DEFAULT_FUSION_PARAMS, declination_rad=4.0)
+
+
+def test_per_sensor_time_stamps(recording_factory):
+    recs = [recording_factory(duration_s=3.0, seed=s) for s in range(2)]
+    t = np.stack([recs[0].t_s, recs[1].t_s + 0.004])  # the second unit samples 4 ms later
+    result = fuse(t, np.stack([r.gyr for r in recs]), np.stack([r.acc for r in recs]),
+                  np.stack([r.mag for r in recs]))
+    alone = fuse(t[1], recs[1].gyr, recs[1].acc, recs[1].mag)
+    assert np.array_equal(result.q_world_from_sensor[1], alone.q_world_from_sensor)
+    with pytest.raises(ValueError, match="t_s: expected shape"):
+        fuse(t[:, :-1], np.stack([r.gyr for r in recs]))

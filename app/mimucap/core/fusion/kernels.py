@@ -288,6 +288,9 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     for i in range(6):
                         for j in range(6):
                             st_pp[k, i, j] = P[i, j]
+                    for i in range(3):
+                        for j in range(3):
+                            st_a[k, i, j] = 0.0
             else:
                 flags |= FLAG_UNINITIALISED
                 if not gyr_ok:
