@@ -222,6 +222,25 @@ def test_held_sensors_turn_together_about_the_reported_axis() -> None:
         assert about > 3.0 * np.abs(np.delete(gyr[turning], axis, axis=1)).mean()
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_picking_sensors_up_and_putting_them_back_is_smooth(seed: int) -> None:
+    """Worn → hand-held → worn never jumps, even when the two orientations are nearly opposite."""
+    simulator = SuitSimulator(SimulationConfig(scenario="walk", n_sensors=17, seed=seed, errors=IDEAL_SENSOR))
+    blocks = [simulator.advance(2.0)]
+    simulator.set_activity("mag_figure8")
+    blocks.append(simulator.advance(4.3))
+    simulator.set_activity("walk")
+    blocks.append(simulator.advance(2.5))
+    joined = SuitBlock.concatenate(blocks)
+    for sensor_id, samples in joined.samples.items():
+        q = joined.truth.q_world_from_sensor[sensor_id]
+        # At most ~12 rad/s (a swinging foot); a flip between nearly opposite orientations
+        # would show as a step of well over 90°.
+        assert np.degrees(rot.angle_between(q[1:], q[:-1])).max() < 8.0, sensor_id
+        assert np.abs(samples.gyr).max() < 14.0, sensor_id
+        assert np.linalg.norm(np.diff(joined.truth.position_m[sensor_id], axis=0), axis=1).max() < 0.08  # < 8 m/s
+
+
 def test_configuration_errors_are_clear() -> None:
     with pytest.raises(ValueError, match="unknown scenario 'jog'"):
         SimulationConfig(scenario="jog")

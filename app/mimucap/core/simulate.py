@@ -362,7 +362,9 @@ class SuitSimulator:
         Names: ``npose``, ``tpose`` (``arms="right|left|both"``), ``walk``, ``turn``,
         ``arm_raise``, ``squat``, ``demo``, ``bodycal``, and ``mag_single_axis``/``mag_figure8``/
         ``mag_tumble`` (``sensor_ids=[...]`` held together and turned; default all). The new
-        activity is blended in over 0.5 s.
+        activity is blended in over 0.5 s (1 s when walking starts or stops and when sensors
+        are picked up or put back). Switching again while units are being picked up or put
+        back can make them turn abruptly.
         """
         if name not in SCENARIOS:
             raise ValueError(f"unknown activity {name!r}; use one of {', '.join(SCENARIOS)}")
@@ -383,15 +385,45 @@ class SuitSimulator:
         return self.schedule.label_at(self.time_s)
 
     # ---------------------------------------------------------------------------------------
+    def _orientations(self, t: np.ndarray):
+        """Pose, segment orientations, and each sensor's worn and hand-held orientation (m,S,4)."""
+        pose = self.schedule.pose(t)
+        q_world_from_pelvis = rot.multiply(skeleton.q_world_from_body_facing(pose.heading_rad), pose.q_body_from_pelvis)
+        angles = {j: pose.joint_angles_deg[j] for j in self.model.joint_names if j in pose.joint_angles_deg}
+        segments = skeleton.segment_orientations_from_joint_angles(self.model, q_world_from_pelvis, angles)
+        q_seg = np.stack([segments[s] for s in self._segments_of_sensors], axis=1)
+        q_worn = rot.multiply(q_seg, self._q_segment_from_sensor)
+        q_hand = rot.multiply(pose.bundle_q[:, None, :], self._q_bundle_from_sensor)
+        return pose, angles, segments, q_seg, q_worn, q_hand
+
+    def _pick_up(self, t: np.ndarray, held: np.ndarray, q_worn: np.ndarray, q_hand: np.ndarray) -> np.ndarray:
+        """Orientations (m,S,4) of sensors between body and hand (``held`` (m,S) in [0, 1]).
+
+        The turn from worn to hand-held follows the rotation between the two at the start of
+        the current activity (a fixed path, so it cannot flip when the two orientations are
+        nearly opposite), plus the small change of that rotation since then.
+        """
+        q = np.where(held[..., None] >= 1.0, q_hand, q_worn)
+        moving = (held > 0.0) & (held < 1.0)
+        rows = np.any(moving, axis=1)
+        if not np.any(rows):
+            return q
+        t_ref = self.schedule.entry_start(t[rows])
+        unique, inverse = np.unique(t_ref, return_inverse=True)
+        _, _, _, _, worn_ref, hand_ref = self._orientations(unique)
+        r0 = rot.to_rotvec(rot.multiply(rot.conjugate(worn_ref), hand_ref))[inverse.ravel()]
+        h = held[rows][..., None]
+        worn, hand = q_worn[rows], q_hand[rows]
+        residual = rot.to_rotvec(rot.multiply(rot.conjugate(rot.multiply(worn, rot.from_rotvec(r0))), hand))
+        blended = rot.multiply(rot.multiply(worn, rot.from_rotvec(h * r0)), rot.from_rotvec(h * residual))
+        q[rows] = np.where(moving[rows][..., None], blended, q[rows])
+        return q
+
     def kinematics(self, t_s: np.ndarray) -> dict[str, Any]:
         """True state at times ``t_s`` (m,): segment orientations and joint angles, sensor
         orientations (m,S,4) and positions (m,S,3), root position, bundle axis and held weights."""
         t = np.asarray(t_s, dtype=np.float64)
-        pose = self.schedule.pose(t)
-        q_world_from_pelvis = rot.multiply(skeleton.q_world_from_body_facing(pose.heading_rad), pose.q_body_from_pelvis)
-        joints = self.model.joint_names
-        angles = {j: pose.joint_angles_deg[j] for j in joints if j in pose.joint_angles_deg}
-        segments = skeleton.segment_orientations_from_joint_angles(self.model, q_world_from_pelvis, angles)
+        pose, angles, segments, q_seg, q_sensor, q_hand = self._orientations(t)
         m = t.shape[0]
         root = np.zeros((m, 3))
         root[:, :2] = pose.root_xy_m
@@ -401,24 +433,19 @@ class SuitSimulator:
         contact_z = self._ankle_height_m - _softmin(ankle_l[:, 2], ankle_r[:, 2], GROUND_SOFTNESS_M)
         shift[:, 2] = pose.ground * contact_z + (1.0 - pose.ground) * (self._root_height_m + pose.root_dz_m)
         shift[:, :2] = pose.plant[:, None] * (pose.root_xy_m - 0.5 * (ankle_l[:, :2] + ankle_r[:, :2]))
-        q_seg = np.stack([segments[s] for s in self._segments_of_sensors], axis=1)
         proximal = np.stack([fk[s].proximal_m for s in self._segments_of_sensors], axis=1)
-        q_sensor = rot.multiply(q_seg, self._q_segment_from_sensor)
         p_sensor = proximal + shift[:, None, :] + rot.rotate(q_seg, self._position_in_segment)
         held = np.zeros((m, len(self.sensor_ids)))
         for index, sid in enumerate(self.sensor_ids):
             if sid in pose.held:
                 held[:, index] = pose.held[sid]
-        axis_turned = np.full(m, -1, dtype=np.int64) if pose.axis_turned is None else pose.axis_turned.astype(np.int64)
-        if pose.bundle_q is not None and np.any(held > 0.0):
-            bundle_q = pose.bundle_q[:, None, :]
-            q_held = rot.multiply(bundle_q, self._q_bundle_from_sensor)
-            p_held = pose.bundle_p_m[:, None, :] + rot.rotate(bundle_q, self._bundle_offset)
-            q_sensor = np.where(held[..., None] > 0.0, rot.slerp(q_sensor, q_held, held), q_sensor)
-            p_sensor = p_sensor + held[..., None] * (p_held - p_sensor)
+        if np.any(held > 0.0):
+            q_sensor = self._pick_up(t, held, q_sensor, q_hand)
+            p_hand = pose.bundle_p_m[:, None, :] + rot.rotate(pose.bundle_q[:, None, :], self._bundle_offset)
+            p_sensor = p_sensor + held[..., None] * (p_hand - p_sensor)
         return {
             "segments": segments, "angles": angles, "q_sensor": q_sensor, "p_sensor": p_sensor,
-            "root": root + shift, "axis_turned": axis_turned, "held": held,
+            "root": root + shift, "axis_turned": pose.axis_turned.astype(np.int64), "held": held,
         }
 
     def advance(self, duration_s: float) -> SuitBlock:

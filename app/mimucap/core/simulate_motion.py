@@ -58,7 +58,8 @@ class BodyPose:
     ``joint_angles_deg`` joint → (n,3) (flexion, adduction, rotation); ``plant`` (n,) in [0,1]:
     1 keeps the ankles' midpoint under the root (feet planted), 0 lets the root move freely;
     ``held`` sensor id → (n,) weight in [0,1] of being held in the hands rather than worn;
-    ``bundle_q`` (n,4) ``q_world_from_bundle`` and ``bundle_p_m`` (n,3) of the held bundle;
+    ``bundle_q`` (n,4) ``q_world_from_bundle`` and ``bundle_p_m`` (n,3) of the held bundle,
+    valid with weight ``bundle_weight`` (n,) (0: no bundle; identity and origin then);
     ``axis_turned`` (n,) int: bundle axis 0/1/2 being turned, −1 otherwise; ``ground`` (n,) in
     [0,1]: 1 sets the root height so that the lower ankle touches the ground, 0 uses the
     standing height plus ``root_dz_m`` (n,) (m) given by the activity.
@@ -72,12 +73,21 @@ class BodyPose:
     held: dict[str, np.ndarray] = field(default_factory=dict)
     bundle_q: np.ndarray | None = None
     bundle_p_m: np.ndarray | None = None
+    bundle_weight: np.ndarray | None = None
     axis_turned: np.ndarray | None = None
     ground: np.ndarray | None = None
     root_dz_m: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = self.plant.shape[0]
+        if self.bundle_q is None:
+            self.bundle_q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+            self.bundle_p_m = np.zeros((n, 3))
+            self.bundle_weight = np.zeros(n)
+        elif self.bundle_weight is None:
+            self.bundle_weight = np.ones(n)
+        if self.axis_turned is None:
+            self.axis_turned = np.full(n, -1, dtype=np.int64)
         if self.ground is None:
             self.ground = np.ones(n)
         if self.root_dz_m is None:
@@ -90,9 +100,8 @@ class BodyPose:
             q_body_from_pelvis=self.q_body_from_pelvis[index],
             joint_angles_deg={k: v[index] for k, v in self.joint_angles_deg.items()},
             plant=self.plant[index], held={k: v[index] for k, v in self.held.items()},
-            bundle_q=None if self.bundle_q is None else self.bundle_q[index],
-            bundle_p_m=None if self.bundle_p_m is None else self.bundle_p_m[index],
-            axis_turned=None if self.axis_turned is None else self.axis_turned[index],
+            bundle_q=self.bundle_q[index], bundle_p_m=self.bundle_p_m[index],
+            bundle_weight=self.bundle_weight[index], axis_turned=self.axis_turned[index],
             ground=self.ground[index], root_dz_m=self.root_dz_m[index],
         )
 
@@ -108,10 +117,10 @@ class BodyPose:
         self.root_dz_m[index] = other.root_dz_m
         for k in self.held:
             self.held[k][index] = other.held[k]
-        if self.bundle_q is not None:
-            self.bundle_q[index] = other.bundle_q
-            self.bundle_p_m[index] = other.bundle_p_m
-            self.axis_turned[index] = other.axis_turned
+        self.bundle_q[index] = other.bundle_q
+        self.bundle_p_m[index] = other.bundle_p_m
+        self.bundle_weight[index] = other.bundle_weight
+        self.axis_turned[index] = other.axis_turned
 
 
 def _zeros_angles(n: int, joints: tuple[str, ...]) -> dict[str, np.ndarray]:
@@ -129,23 +138,21 @@ def blend(previous: BodyPose, new: BodyPose, weight: np.ndarray) -> BodyPose:
     held_ids = sorted(set(previous.held) | set(new.held))
     none = np.zeros(n)
     held = {s: mix(previous.held.get(s, none), new.held.get(s, none)) for s in held_ids}
-    bundle_q = bundle_p = axis = None
-    if previous.bundle_q is not None and new.bundle_q is not None:
-        bundle_q = rot.slerp(previous.bundle_q, new.bundle_q, w)
-        bundle_p = mix(previous.bundle_p_m, new.bundle_p_m)
-        axis = np.where(w < 0.5, previous.axis_turned, new.axis_turned)
-    elif previous.bundle_q is not None or new.bundle_q is not None:
-        source = previous if previous.bundle_q is not None else new
-        bundle_q, bundle_p = source.bundle_q, source.bundle_p_m
-        axis = np.where(w < 0.5, previous.axis_turned if previous.axis_turned is not None else -1,
-                        new.axis_turned if new.axis_turned is not None else -1)
+    # The bundle pose moves towards the new one only as far as both are valid (row by row).
+    towards_new = w * new.bundle_weight
+    total = towards_new + (1.0 - w) * previous.bundle_weight
+    share = np.divide(towards_new, total, out=np.zeros(n), where=total > 0.0)
+    share = np.where(previous.bundle_weight > 0.0, share, 1.0)
+    bundle_q = rot.slerp(previous.bundle_q, new.bundle_q, share)
+    bundle_p = previous.bundle_p_m + (new.bundle_p_m - previous.bundle_p_m) * share[:, None]
+    axis = np.where(w < 0.5, previous.axis_turned, new.axis_turned)
     return BodyPose(
         heading_rad=mix(previous.heading_rad, new.heading_rad),
         root_xy_m=mix(previous.root_xy_m, new.root_xy_m),
         q_body_from_pelvis=rot.slerp(previous.q_body_from_pelvis, new.q_body_from_pelvis, w),
         joint_angles_deg=angles, plant=mix(previous.plant, new.plant), held=held,
-        bundle_q=bundle_q, bundle_p_m=bundle_p, axis_turned=axis,
-        ground=mix(previous.ground, new.ground), root_dz_m=mix(previous.root_dz_m, new.root_dz_m),
+        bundle_q=bundle_q, bundle_p_m=bundle_p, bundle_weight=mix(previous.bundle_weight, new.bundle_weight),
+        axis_turned=axis, ground=mix(previous.ground, new.ground), root_dz_m=mix(previous.root_dz_m, new.root_dz_m),
     )
 
 
@@ -445,8 +452,12 @@ class HoldSensors(Activity):
     ``protocol`` "single_axis" (``turns`` turns about bundle x, then y, then z, each roughly
     horizontal), "figure8" or "tumble" (see :mod:`mimucap.core.simulate_calibration`);
     ``sensor_ids`` the units held (all, if empty). The bundle is held 0.35 m in front of the
-    pelvis at 1.05 m; after the protocol it is held still.
+    pelvis at 1.05 m; after the protocol it is held still. Picking the units up from the body
+    and putting them back is blended over 1 s.
     """
+
+    blend_in_s = 1.0  # picking the sensors up and putting them back takes a moment
+    blend_out_s = 1.0
 
     def __init__(self, protocol: str, duration_s: float | None = None, sensor_ids: tuple[str, ...] = (),
                  turns: int = 1, seed: int = 0) -> None:
@@ -468,6 +479,7 @@ class HoldSensors(Activity):
         centre = np.array([start.xy_m[0], start.xy_m[1], HELD_HEIGHT_M]) + HELD_FORWARD_M * forward
         pose.bundle_q = q
         pose.bundle_p_m = centre + (p - np.array([0.0, 0.0, HAND_HEIGHT_M]))
+        pose.bundle_weight = np.ones(tau.shape[0])
         if self.protocol == "single_axis":
             _, axis = self.path.base(clamped)
             pose.axis_turned = np.where(tau <= self.path.duration_s, axis, -1)
@@ -551,6 +563,8 @@ class _Entry:
     state: BaseState
     label: str
     blend_s: float
+    #: Whether this entry's poses may include a hand-held bundle (it or a predecessor holds one).
+    carries_bundle: bool
 
 
 class Schedule:
@@ -592,7 +606,8 @@ class Schedule:
             blend_s = max(blend_s, self._entries[-1].activity.blend_out_s)
         else:
             state = self._pending_state
-        self._entries.append(_Entry(start_s, activity, state, activity.describe(), blend_s))
+        carries = isinstance(activity, HoldSensors) or bool(self._entries and self._entries[-1].carries_bundle)
+        self._entries.append(_Entry(start_s, activity, state, activity.describe(), blend_s, carries))
         self._starts.append(start_s)
         if activity.duration_s is not None:
             self._pending_start = start_s + activity.duration_s
@@ -638,7 +653,19 @@ class Schedule:
         partial = weight < 1.0
         if not np.any(partial):
             return pose
-        previous = self._pose_of_entry(index - 1, t[partial])
+        if self._entries[index - 1].carries_bundle:
+            # A bundle being put down (or handed to the next activity) slows to a stop during
+            # the blend: its previous motion is followed on the warped clock start + B·(x − x²/2),
+            # x = tau / B, which starts at full speed and ends at rest.
+            x = np.clip(tau[partial] / entry.blend_s, 0.0, 1.0)
+            warped = entry.start_s + entry.blend_s * (x - 0.5 * x * x)
+            k = x.shape[0]
+            both = self._pose_of_entry(index - 1, np.concatenate((t[partial], warped)))
+            previous, slowed = both.take(np.arange(k)), both.take(np.arange(k, 2 * k))
+            previous.bundle_q, previous.bundle_p_m = slowed.bundle_q, slowed.bundle_p_m
+            previous.bundle_weight, previous.axis_turned = slowed.bundle_weight, np.full(k, -1, dtype=np.int64)
+        else:
+            previous = self._pose_of_entry(index - 1, t[partial])
         blended = blend(previous, pose.take(partial), weight[partial])
         if np.all(partial):
             return blended
@@ -665,6 +692,12 @@ class Schedule:
             result.put(mask, pose)
         return result
 
+    def entry_start(self, t_s: np.ndarray) -> np.ndarray:
+        """Start time (s) of the activity running at each of ``t_s`` (m,)."""
+        starts = np.asarray(self._starts)
+        index = np.maximum(np.searchsorted(starts, np.asarray(t_s, dtype=np.float64), side="right") - 1, 0)
+        return starts[index]
+
     def label_at(self, t_s: float) -> str:
         """Label of the activity running at ``t_s``."""
         self.extend_to(t_s)
@@ -680,10 +713,6 @@ def _align_keys(target: BodyPose, source: BodyPose) -> None:
             pose.joint_angles_deg.setdefault(joint, np.zeros((n, 3)))
         for sensor_id in other.held:
             pose.held.setdefault(sensor_id, np.zeros(n))
-        if other.bundle_q is not None and pose.bundle_q is None:
-            pose.bundle_q = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
-            pose.bundle_p_m = np.zeros((n, 3))
-            pose.axis_turned = np.full(n, -1, dtype=np.int64)
 
 
 def _empty_like(poses: list[tuple[np.ndarray, BodyPose]], n: int) -> BodyPose:
