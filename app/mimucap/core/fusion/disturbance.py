@@ -96,20 +96,20 @@ def rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_valid, dt):
 
 
 @njit(**JIT_OPTIONS)
-def acc_noise_var(p, acc_norm, lowpass_norm, rate):
+def acc_noise_var(p, acc_norm, lowpass_norm, rate2):
     """Variance (unit-vector units) of the gravity direction measurement, or -1 to reject.
 
     ``acc_norm`` is the raw ``‖a‖`` (m/s²): a sample further than ``acc_reject_m_s2`` from
     ``g`` (a knock, a jump) is rejected. ``lowpass_norm`` is the norm of the low-passed
     world-frame specific force: its distance from ``g`` shows acceleration the low-pass has
-    not averaged out yet and raises the noise; ``rate`` is the bias-corrected ``‖ω‖`` (rad/s).
+    not averaged out yet and raises the noise; ``rate2`` is the squared bias-corrected ``‖ω‖``
+    ((rad/s)²).
     """
     g = p[PI_GRAVITY]
     if abs(acc_norm - g) > p[PI_ACC_REJECT]:
         return -1.0
     s_dev = p[PI_ACC_DEV_GAIN] * abs(lowpass_norm - g)
-    s_rate = p[PI_ACC_RATE_GAIN] * rate
-    var = p[PI_ACC_NOISE] ** 2 + s_dev * s_dev + s_rate * s_rate
+    var = p[PI_ACC_NOISE] ** 2 + s_dev * s_dev + p[PI_ACC_RATE_GAIN] ** 2 * rate2
     return var / (g * g)
 
 

@@ -424,7 +424,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     aux[AX_AWLP_X + 2] += alpha * (awz - aux[AX_AWLP_X + 2])
                 lx, ly, lz = aux[AX_AWLP_X], aux[AX_AWLP_X + 1], aux[AX_AWLP_X + 2]
                 nl = math.sqrt(lx * lx + ly * ly + lz * lz)
-                var = acc_noise_var(p, na, nl, math.sqrt(wx * wx + wy * wy + wz * wz))
+                var = acc_noise_var(p, na, nl, wx * wx + wy * wy + wz * wz)
                 if var < 0.0 or nl < 1e-3:
                     flags |= FLAG_ACC_REJECTED
                     aux[AX_N_ACC_REJECTED] += 1.0
