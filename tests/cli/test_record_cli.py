@@ -122,17 +122,29 @@ def test_a_malformed_source_is_one_line_naming_the_valid_forms(tmp_path):
 def test_record_from_the_serial_emulator_survives_its_unplug(tmp_path):
     link = tmp_path / "ttyMIMU"
     out = tmp_path / "serial.h5"
-    emulate = subprocess.Popen(MIMUCAP + ["emulate", "serial", "--sensors", "2", "--rate", "50", "--link", str(link),
-                                          "--duration", "4", "--unplug-after", "1.5", "--unplug-for", "0.6"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # the recorder starts first and waits for the device to appear (plugged in late)
+    record = subprocess.Popen(MIMUCAP + ["record", "--source", f"serial:{link}@115200", "--duration", "6",
+                                         "--out", str(out), "--sensors", "1-2"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    emulate = None
     try:
+        for _ in range(10):                    # progress lines, one a second, until the worker waits
+            progress = record.stderr.readline()
+            if "disconnected" in progress:
+                break
+        assert "cannot open" in progress, progress
+        emulate = subprocess.Popen(MIMUCAP + ["emulate", "serial", "--sensors", "2", "--rate", "50", "--link",
+                                              str(link), "--duration", "3", "--unplug-after", "1.2",
+                                              "--unplug-for", "0.6"],
+                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         assert emulate.stdout.readline().strip() == str(link)      # the device path comes first
-        record = subprocess.run(MIMUCAP + ["record", "--source", f"serial:{link}@115200", "--duration", "3.5",
-                                           "--out", str(out), "--sensors", "1-2", "--quiet"],
-                                capture_output=True, text=True, timeout=60)
+        _stdout, stderr = record.communicate(timeout=60)
     finally:
-        emulate.wait(30)
-    assert record.returncode == 0, record.stderr
+        if emulate is not None:
+            emulate.wait(30)
+        if record.poll() is None:
+            record.kill()
+    assert record.returncode == 0, stderr
     session = read_session(out)
     assert sorted(session.sensors) == ["1", "2"]
     assert session.metadata["acquisition"]["sources"]["serial"]["reconnects"] == 1
@@ -140,7 +152,7 @@ def test_record_from_the_serial_emulator_survives_its_unplug(tmp_path):
         gaps = np.diff(stream.t_s)
         assert 0.4 < gaps.max() < 1.2                      # the unplugged time is a visible gap
         assert abs(np.median(gaps) - 0.02) < 1e-3          # 50 Hz
-        assert len(stream) > 80                            # data before and after the unplug
+        assert len(stream) > 60                            # data before and after the unplug
 
 
 def test_a_source_that_cannot_start_ends_with_its_reason(tmp_path):

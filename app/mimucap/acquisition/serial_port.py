@@ -18,7 +18,7 @@ import serial
 
 from mimucap.acquisition import protocol_serial as proto
 from mimucap.acquisition.intake import IntakeSettings, SampleIntake
-from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_RUNNING
+from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_RUNNING, STATE_STARTING
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import Rejection
 from mimucap.acquisition.samples import DEFAULT_LIMITS, Sample, ValueLimits
@@ -51,7 +51,7 @@ class SerialDriver:
         self._buffer = bytearray()
         self._discarding = False   # inside an oversized line: skip up to its end
         self.reconnects = 0
-        self.state = STATE_DISCONNECTED
+        self.state = STATE_STARTING
         self.message = ""
 
     def _open(self) -> bool:
