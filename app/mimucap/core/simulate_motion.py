@@ -632,16 +632,22 @@ class Schedule:
 
     def forget_before(self, t_s: float) -> None:
         """Drop activities no longer needed for times at or after ``t_s`` (bounded memory when
-        streaming for hours); later poses are unchanged."""
-        drop = 0
-        while drop + 1 < len(self._entries):
-            successor = self._entries[drop + 1]
-            if successor.start_s + successor.blend_s >= t_s:
-                break
-            drop += 1
-        if drop:
-            del self._entries[:drop]
-            del self._starts[:drop]
+        streaming for hours); later poses are unchanged.
+
+        Entry ``j`` consults entry ``j-1`` only for times in ``[start_j, start_j + blend_j)``
+        (including the warped times of a bundle being put down, which are ≥ ``start_j``), so
+        walking back from the entry running at ``t_s`` finds the oldest entry still needed.
+        """
+        if not self._entries:
+            return
+        keep = max(bisect.bisect_right(self._starts, t_s) - 1, 0)
+        lowest = t_s
+        while keep > 0 and lowest < self._entries[keep].start_s + self._entries[keep].blend_s:
+            lowest = min(lowest, self._entries[keep].start_s)
+            keep -= 1
+        if keep:
+            del self._entries[:keep]
+            del self._starts[:keep]
 
     def _pose_of_entry(self, index: int, t: np.ndarray) -> BodyPose:
         entry = self._entries[index]
