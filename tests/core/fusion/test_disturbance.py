@@ -118,3 +118,17 @@ def test_strong_linear_acceleration_does_not_tilt(recording_factory):
                  params=replace(DEFAULT_FUSION_PARAMS, acc_lowpass_tau_s=0.005))
     _, _, incl_naive = error_angles_rad(naive.q_world_from_sensor, rec.q_true)
     assert rms_deg(incl_naive[active]) > 2.0 * rms_deg(incl[active])
+
+
+def test_resting_next_to_a_magnet_does_not_adopt_its_field(recording_factory):
+    """A still sensor beside a magnet sees a steady but local field: without rotation it is
+    never taken as the new reference, however long it lasts."""
+    rec = recording_factory(duration_s=60.0, still_s=61.0, seed=9)
+    mag = rec.mag.copy()
+    near = (rec.t_s > 5.0) & (rec.t_s < 55.0)
+    mag[near] += rot.rotate(rot.conjugate(rec.q_true[near]), [15.0, 0.0, 10.0])
+    result = fuse(rec.t_s, rec.gyr, rec.acc, mag)
+    rejected = result.flag_masks()["mag_rejected"]
+    assert rejected[(rec.t_s > 5.5) & (rec.t_s < 55.0)].all()
+    assert result.counters[0]["mag_new_reference"] == 0
+    assert not rejected[rec.t_s > 57.0].any()

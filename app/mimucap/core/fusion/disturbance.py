@@ -18,8 +18,9 @@ All functions are numba-compiled and work on one sensor's auxiliary state vector
   initialisation seeds it). A sample outside ``mag_norm_tol`` (fraction) or
   ``mag_dip_tol_rad`` is rejected, and so are the samples until the field has agreed with the
   reference again for ``mag_settle_s``. While rejected, a candidate field is followed; if the
-  field stays consistent with the candidate for ``mag_new_field_s`` it becomes the new
-  reference (the sensor moved to a place with a different but steady field), so a permanent
+  field stays consistent with the candidate for ``mag_new_field_s`` while the sensor turns
+  (mean rate at least ``mag_new_min_rate_rad_s``: the field is homogeneous) it becomes the
+  new reference (the sensor moved to a place with a different but steady field), so a permanent
   change cannot lock the magnetometer out forever, while a field that keeps changing (a
   magnet moving with the sensor, a steel object passing by) stays rejected.
 """
@@ -33,11 +34,11 @@ from numba import njit
 from mimucap.core.fusion.propagation import JIT_OPTIONS
 from mimucap.core.fusion.params import (
     PI_ACC_DEV_GAIN, PI_ACC_NOISE, PI_ACC_RATE_GAIN, PI_ACC_REJECT, PI_GRAVITY,
-    PI_MAG_DIP_TOL, PI_MAG_NEW_FIELD, PI_MAG_SETTLE, PI_MAG_NORM_TOL, PI_MAG_REF_TAU, PI_REST_ACC_DEV,
+    PI_MAG_DIP_TOL, PI_MAG_NEW_FIELD, PI_MAG_NEW_MIN_RATE, PI_MAG_SETTLE, PI_MAG_NORM_TOL, PI_MAG_REF_TAU, PI_REST_ACC_DEV,
     PI_REST_GYR_DEV, PI_REST_MAX_RATE, PI_REST_TAU, PI_REST_TIME,
 )
 from mimucap.core.fusion.state import (
-    AX_ALP_X, AX_GLP_X, AX_LP_INIT, AX_MAG_CAND_DIP, AX_MAG_CAND_NORM, AX_MAG_CAND_T,
+    AX_ALP_X, AX_GLP_X, AX_LP_INIT, AX_MAG_CAND_DIP, AX_MAG_CAND_NORM, AX_MAG_CAND_ROT, AX_MAG_CAND_T,
     AX_MAG_DIP_REF, AX_MAG_GOOD_T, AX_MAG_NORM_REF, AX_MAG_REF_OK, AX_N_MAG_NEW_REF, AX_REST_T,
 )
 
@@ -114,11 +115,12 @@ def acc_noise_var(p, acc_norm, lowpass_norm, rate2):
 
 
 @njit(**JIT_OPTIONS)
-def mag_accept(p, aux, norm_uT, dip_rad, dt):
+def mag_accept(p, aux, norm_uT, dip_rad, dt, rate):
     """Judge one magnetometer sample against the learned reference; ``True`` = use it.
 
     ``norm_uT`` is the field norm, ``dip_rad`` its dip angle in the world frame (positive
-    downwards). Updates the reference (accepted samples) or the candidate (rejected ones).
+    downwards), ``rate`` the sensor's angular rate (rad/s). Updates the reference (accepted
+    samples) or the candidate (rejected ones).
     """
     if aux[AX_MAG_REF_OK] == 0.0:
         aux[AX_MAG_NORM_REF] = norm_uT
@@ -147,11 +149,14 @@ def mag_accept(p, aux, norm_uT, dip_rad, dt):
         aux[AX_MAG_CAND_NORM] = cand_n + alpha * (norm_uT - cand_n)
         aux[AX_MAG_CAND_DIP] = cand_d + alpha * (dip_rad - cand_d)
         aux[AX_MAG_CAND_T] += dt
+        aux[AX_MAG_CAND_ROT] += rate * dt
     else:
         aux[AX_MAG_CAND_NORM] = norm_uT
         aux[AX_MAG_CAND_DIP] = dip_rad
         aux[AX_MAG_CAND_T] = 1e-9
-    if aux[AX_MAG_CAND_T] >= p[PI_MAG_NEW_FIELD]:
+        aux[AX_MAG_CAND_ROT] = 0.0
+    if (aux[AX_MAG_CAND_T] >= p[PI_MAG_NEW_FIELD]
+            and aux[AX_MAG_CAND_ROT] >= p[PI_MAG_NEW_MIN_RATE] * aux[AX_MAG_CAND_T]):
         aux[AX_MAG_NORM_REF] = aux[AX_MAG_CAND_NORM]
         aux[AX_MAG_DIP_REF] = aux[AX_MAG_CAND_DIP]
         aux[AX_MAG_CAND_T] = 0.0

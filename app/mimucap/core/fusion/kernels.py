@@ -279,7 +279,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     mwx = R[0, 0] * mx + R[0, 1] * my + R[0, 2] * mz
                     mwy = R[1, 0] * mx + R[1, 1] * my + R[1, 2] * mz
                     mwz = R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz
-                    mag_accept(p, aux, math.sqrt(m2), math.atan2(-mwz, math.hypot(mwx, mwy)), 0.0)
+                    mag_accept(p, aux, math.sqrt(m2), math.atan2(-mwz, math.hypot(mwx, mwy)), 0.0, 0.0)
                 if store:
                     for i in range(4):
                         st_q[k, i] = q[i]
@@ -439,7 +439,8 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                 mwz = R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz
                 hnorm = math.hypot(mwx, mwy)
                 nm = math.sqrt(mwx * mwx + mwy * mwy + mwz * mwz)
-                if hnorm > 0.05 * nm and mag_accept(p, aux, nm, math.atan2(-mwz, hnorm), dt):
+                if hnorm > 0.05 * nm and mag_accept(p, aux, nm, math.atan2(-mwz, hnorm), dt,
+                                                     math.sqrt(wx * wx + wy * wy + wz * wz)):
                     psi = math.atan2(mwx, mwy) - declination
                     if psi > math.pi:
                         psi -= 2.0 * math.pi

@@ -80,6 +80,10 @@ class FusionParams:
     #: A new field that stays consistent (within the tolerances) for this long (s) while the
     #: old reference is rejected becomes the new reference.
     mag_new_field_s: float = 20.0
+    #: ... provided the sensor turned meanwhile at this mean rate (rad/s) at least: a field
+    #: that stays the same while the sensor turns is homogeneous (a new place), whereas a
+    #: sensor resting next to a magnet must not adopt the magnet's field.
+    mag_new_min_rate_rad_s: float = 20.0 * DEG
 
     #: Rest detection: deviations of gyro (rad/s) and accelerometer (m/s²) from their
     #: low-pass values, the low-pass time constant (s), the largest mean rate (rad/s) and the
@@ -129,11 +133,11 @@ DEFAULT_FUSION_PARAMS = FusionParams()
 (
     PI_METHOD, PI_GYR_NOISE, PI_BIAS_WALK, PI_INIT_TILT, PI_INIT_HEADING, PI_INIT_BIAS,
     PI_BIAS_MAX, PI_GRAVITY, PI_ACC_LP_TAU, PI_ACC_NOISE, PI_ACC_DEV_GAIN, PI_ACC_RATE_GAIN, PI_ACC_REJECT,
-    PI_HEADING_NOISE, PI_DECLINATION, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD,
+    PI_HEADING_NOISE, PI_DECLINATION, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD, PI_MAG_NEW_MIN_RATE,
     PI_REST_GYR_DEV, PI_REST_ACC_DEV, PI_REST_TAU, PI_REST_MAX_RATE, PI_REST_TIME,
     PI_REST_BIAS_NOISE, PI_MAX_GAP, PI_GAP_RATE, PI_GYR_RANGE, PI_ACC_RANGE, PI_MAG_RANGE,
     PI_USE_ACC, PI_USE_MAG, PI_CORRECT, PI_COUNT,
-) = range(35)
+) = range(36)
 
 
 def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = True,
@@ -165,6 +169,7 @@ def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = T
     p[PI_MAG_SETTLE] = params.mag_settle_s
     p[PI_MAG_REF_TAU] = params.mag_ref_tau_s
     p[PI_MAG_NEW_FIELD] = params.mag_new_field_s
+    p[PI_MAG_NEW_MIN_RATE] = params.mag_new_min_rate_rad_s
     p[PI_REST_GYR_DEV] = params.rest_gyr_dev_rad_s
     p[PI_REST_ACC_DEV] = params.rest_acc_dev_m_s2
     p[PI_REST_TAU] = params.rest_tau_s
