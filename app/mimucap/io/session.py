@@ -412,8 +412,8 @@ class _Reader:
         except (OSError, ValueError, TypeError) as error:
             raise self.error(f"cannot read {item.name} ({error})") from error
         if shape_tail is not None and value.shape[1:] != shape_tail:
-            raise self.error(f"{item.name} has shape {value.shape}, expected (N,{','.join(map(str, shape_tail))})"
-                             .replace(",)", ")"))
+            expected = ", ".join(["N", *map(str, shape_tail)])
+            raise self.error(f"{item.name} has shape {value.shape}, expected ({expected})")
         if rows is not None and (value.ndim == 0 or value.shape[0] != rows):
             raise self.error(f"{item.name} has {value.shape[0] if value.ndim else 0} rows, expected {rows}")
         return value
