@@ -76,3 +76,24 @@ def test_theil_sen_ignores_a_minority_of_outliers():
     y[[3, 11, 17]] += [50.0, -40.0, 100.0]
     slope, intercept = theil_sen(x, y)
     assert slope == pytest.approx(2.0) and intercept == pytest.approx(1.0)
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+any_float = st.floats(allow_nan=True, allow_infinity=True) | st.floats(-1e9, 1e9)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(any_float, any_float, any_float, any_float), max_size=40),
+       st.lists(st.tuples(any_float, any_float), max_size=40))
+def test_any_observations_give_a_finite_estimate_or_none(round_trips, one_ways):
+    sync = ClockSync()
+    for device, host in one_ways:
+        sync.add_one_way(device, host)
+    for exchange in round_trips:
+        sync.add_round_trip(*exchange)
+    estimate = sync.refresh()
+    if estimate is not None:
+        values = (estimate.host_ref_s, estimate.device_ref_s, estimate.rate, estimate.uncertainty_s)
+        assert all(np.isfinite(values)) and estimate.rate > 0
