@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mimucap.core.fusion.kernels import ekf_block
+from mimucap.core.fusion.kernels import ekf_sensors
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams, pack_params
 from mimucap.core.fusion.state import FusionState, decode_flags
 
@@ -87,7 +87,6 @@ class OrientationEKF:
             FusionParams(**{**params.__dict__, "propagation": propagation}),
             use_mag=use_mag, correct=correct)
         self.state = state.copy() if state is not None else FusionState.new(n_sensors)
-        self._empty = np.zeros((0, 3))
 
     @property
     def n_sensors(self) -> int:
@@ -119,21 +118,19 @@ class OrientationEKF:
         out_b = np.empty((s_count, n, 3))
         out_f = np.zeros((s_count, n), dtype=np.uint8)
         st = self.state
-        dummy4 = np.zeros((0, 4))
-        dummy66 = np.zeros((0, 6, 6))
-        dummy33 = np.zeros((0, 3, 3))
-        for s in range(s_count):
-            if _store is not None:
-                store = True
-                st_q, st_b, st_pp, st_pu, st_a = (arr[s] for arr in _store)
-            else:
-                store = False
-                st_q, st_b, st_pp, st_pu, st_a = dummy4, self._empty, dummy66, dummy66, dummy33
-            ekf_block(self._packed, np.ascontiguousarray(t[s]), gyr[s],
-                      self._empty if acc is None else acc[s],
-                      self._empty if mag is None else mag[s],
-                      st.q_world_from_sensor[s], st.bias_rad_s[s], st.cov[s], st.aux[s],
-                      out_q[s], out_b[s], out_f[s], store, st_q, st_b, st_pp, st_pu, st_a)
+        if _store is not None:
+            store = True
+            st_q, st_b, st_pp, st_pu, st_a = _store
+        else:
+            store = False
+            st_q, st_b = np.zeros((s_count, 0, 4)), np.zeros((s_count, 0, 3))
+            st_pp = st_pu = np.zeros((s_count, 0, 6, 6))
+            st_a = np.zeros((s_count, 0, 3, 3))
+        absent = np.zeros((s_count, 0, 3))
+        ekf_sensors(self._packed, np.ascontiguousarray(t), gyr,
+                    absent if acc is None else acc, absent if mag is None else mag,
+                    st.q_world_from_sensor, st.bias_rad_s, st.cov, st.aux,
+                    out_q, out_b, out_f, store, st_q, st_b, st_pp, st_pu, st_a)
         counters = tuple(st.counters(s) for s in range(s_count))
         if single:
             return FusionResult(out_q[0], out_b[0], out_f[0], counters)

@@ -472,3 +472,14 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
             for i in range(6):
                 for j in range(6):
                     st_pu[k, i, j] = P[i, j]
+
+
+@njit(**JIT_OPTIONS)
+def ekf_sensors(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
+                store, st_q, st_b, st_pp, st_pu, st_a):
+    """:func:`ekf_block` for ``S`` sensors in one call: every array gains a leading sensor axis
+    (``t`` (S, N); ``acc``/``mag`` (S, 0, 3) when absent; the ``st_*`` arrays (S, 0, ...) when
+    not storing)."""
+    for s in range(gyr.shape[0]):
+        ekf_block(p, t[s], gyr[s], acc[s], mag[s], q[s], b[s], P[s], aux[s], out_q[s],
+                  out_bias[s], out_flags[s], store, st_q[s], st_b[s], st_pp[s], st_pu[s], st_a[s])
