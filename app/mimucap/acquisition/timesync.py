@@ -35,9 +35,9 @@ import numpy as np
 class ClockSyncSettings:
     """Settings of :class:`ClockSync` (defaults suit a 1–10 Hz sync exchange rate)."""
 
-    bin_s: float = 0.5            #: s, each bin keeps its best observation
+    bin_s: float = 1.0            #: s, each bin keeps its best observation
     window_s: float = 60.0        #: s, bins older than this (host time) are forgotten
-    refit_interval_s: float = 0.25  #: s of host time between refits
+    refit_interval_s: float = 1.0   #: s of host time between refits (the first fit is immediate)
     max_drift_ppm: float = 2000.0   #: a fitted drift beyond this is clamped (crystal clocks: <100)
     max_round_trip_s: float = 0.5   #: round trips longer than this are ignored
 
