@@ -82,9 +82,12 @@ def run_load(n: int, rate: float, duration: float) -> dict:
             arrival = time.monotonic()
             if now_blocks:
                 last_data = arrival
-            latencies.extend(arrival - b.device_time_s for b in now_blocks)
-            network.extend(b.receive_time_s - b.device_time_s for b in now_blocks)
-            pipeline.extend(arrival - b.receive_time_s for b in now_blocks)
+            if now_blocks:
+                sent_at = np.concatenate([b.device_time_s for b in now_blocks])
+                received_at = np.concatenate([b.receive_time_s for b in now_blocks])
+                latencies.append(arrival - sent_at)
+                network.append(received_at - sent_at)
+                pipeline.append(arrival - received_at)
             if time.monotonic() > wall0 + duration + 30:
                 break
         wall = time.monotonic() - wall0

@@ -103,9 +103,12 @@ def validate_sample(sample: Sample, limits: ValueLimits = DEFAULT_LIMITS) -> Sam
     return sample
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(eq=False, slots=True)
 class SampleBlock:
     """Consecutive samples of one sensor, columnar (``N`` samples, time-ordered).
+
+    Treat it as read-only (it is not frozen only because frozen construction is too slow
+    for thousands of blocks per second).
 
     ``sensor_id`` is the session-wide sensor name (a string). Channel arrays are ``None``
     when the sensor does not send that channel; shapes: ``acc``/``gyr``/``mag_uT`` ``(N, 3)``,
@@ -181,16 +184,16 @@ class PackedBlock:
         index = self.sensor_index[order]
         starts = np.flatnonzero(np.r_[True, index[1:] != index[:-1]])
         ends = np.r_[starts[1:], len(index)]
-        columns = {"seq": self.seq[order], "device_time_s": self.device_time_s[order],
-                   "host_time_s": self.host_time_s[order], "receive_time_s": self.receive_time_s[order]}
-        channels = {name: values[order] for name, values in self.channels.items()}
+        seq, device = self.seq[order], self.device_time_s[order]
+        host, receive = self.host_time_s[order], self.receive_time_s[order]
+        present = [self.channels.get(name) for name in CHANNELS]
+        present = [None if values is None else values[order] for values in present]
+        names, source = self.sensor_ids, self.source
         blocks = []
-        for start, end in zip(starts.tolist(), ends.tolist()):
-            part = slice(start, end)
+        for start, end, sensor in zip(starts.tolist(), ends.tolist(), index[starts].tolist()):
             blocks.append(SampleBlock(
-                source=self.source, sensor_id=self.sensor_ids[int(index[start])],
-                **{name: values[part] for name, values in columns.items()},
-                **{name: values[part] for name, values in channels.items()}))
+                source, names[sensor], seq[start:end], device[start:end], host[start:end],
+                receive[start:end], *[None if v is None else v[start:end] for v in present]))
         return blocks
 
 
