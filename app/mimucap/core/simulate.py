@@ -46,6 +46,7 @@ from mimucap.core.simulate_motion import (
     BLEND_S,
     SCENARIOS,
     Schedule,
+    Walk,
     scenario_activities,
 )
 from mimucap.core.simulate_sensors import (
@@ -334,6 +335,7 @@ class SuitSimulator:
         self._bundle_offset = np.stack(offsets)
         self._seed = seed
         self._switches = 0
+        self._lengths = skeleton.segment_lengths(self.model, config.height_m)
         self.schedule = Schedule(self._activities(config.scenario, dict(config.scenario_params)))
         neutral = skeleton.forward_kinematics(
             self.model, {name: skeleton.q_world_from_body_facing(0.0) for name in self.model.segment_names},
@@ -349,7 +351,10 @@ class SuitSimulator:
 
     # ---------------------------------------------------------------------------------------
     def _activities(self, name: str, params: dict):
-        return scenario_activities(name, params, sensor_ids=self.sensor_ids, seed=self._seed + 7919 * self._switches)
+        activities = scenario_activities(name, params, sensor_ids=self.sensor_ids,
+                                         seed=self._seed + 7919 * self._switches)
+        legs = (self._lengths["thigh_r"], self._lengths["shank_r"])
+        return (a.fit_legs(legs) if isinstance(a, Walk) else a for a in activities)
 
     @property
     def time_s(self) -> float:
