@@ -27,6 +27,7 @@ class BlocksMessage:
 
     source: str
     blocks: tuple[SampleBlock | PackedBlock, ...]
+    markers: tuple[tuple[float, str], ...] = ()   #: (host monotonic s, label), e.g. activity changes
 
     def sample_count(self) -> int:
         return sum(len(block) for block in self.blocks)

@@ -81,9 +81,10 @@ class SimulatedDriver:
                     device_time_s=samples.device_time_s, host_time_s=start + samples.t_s,
                     receive_time_s=np.full(len(samples.t_s), now), acc=samples.acc, gyr=samples.gyr,
                     mag_uT=samples.mag_uT, q_world_from_sensor=samples.q_world_from_sensor))
-            if blocks:
+            markers = tuple((start + t, label) for t, label in block.markers)
+            if blocks or markers:
                 self.sent += sum(len(b) for b in blocks)
-                self.outbox.send_blocks(BlocksMessage(self.config.name, tuple(blocks)))
+                self.outbox.send_blocks(BlocksMessage(self.config.name, tuple(blocks), markers))
             if end is not None and now >= end:
                 return
             if self.outbox.report_due(now):

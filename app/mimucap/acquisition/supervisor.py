@@ -80,6 +80,7 @@ class Supervisor:
         self._queue = self._context.Queue(maxsize=settings.queue_max_messages)
         self._workers = {c.name: _Worker(c) for c in configs}
         self._trackers: dict[str, SensorStatsTracker] = {}
+        self._markers: list[tuple[float, str]] = []
         self._stopping = False
         self.started = False
 
@@ -152,6 +153,7 @@ class Supervisor:
                 break
             arrival = time.monotonic()
             if isinstance(message, BlocksMessage):
+                self._markers.extend(message.markers)
                 unpacked = message.unpacked()
                 for block in unpacked:
                     self._tracker(block).add_block(block, arrival)
@@ -213,6 +215,11 @@ class Supervisor:
                 worker.restart_at = None
                 worker.status.restarts += 1
                 self._spawn(worker)
+
+    def take_markers(self) -> list[tuple[float, str]]:
+        """Markers sources sent since the last call: ``(host monotonic s, label)``."""
+        markers, self._markers = self._markers, []
+        return markers
 
     # -------------------------------------------------------------- state
     def stats(self) -> dict[str, SensorStats]:

@@ -93,7 +93,10 @@ def run(args: argparse.Namespace) -> int:
                 failed = any(s.state == "failed" for s in supervisor.sources().values())
                 reason = "source failed" if failed else "source finished"
                 break
-            if not recorder.add_blocks(supervisor.poll(min(0.05, end - now))):
+            blocks = supervisor.poll(min(0.05, end - now))
+            for host_s, label in supervisor.take_markers():
+                recorder.add_marker(label, host_s)
+            if not recorder.add_blocks(blocks):
                 reason = "write error"
                 break
             if not args.quiet and now >= next_line:
