@@ -31,7 +31,7 @@ import math
 
 from numba import njit
 
-from mimucap.core.fusion.propagation import JIT_OPTIONS
+from mimucap.core.fusion.jit import JIT_OPTIONS, LAYOUT_FINGERPRINT, refresh_if_stale
 from mimucap.core.fusion.params import (
     PI_ACC_DEV_GAIN, PI_ACC_NOISE, PI_ACC_RATE_GAIN, PI_ACC_REJECT, PI_GRAVITY,
     PI_MAG_DIP_TOL, PI_MAG_NEW_FIELD, PI_MAG_NEW_MIN_RATE, PI_MAG_SETTLE, PI_MAG_NORM_TOL, PI_MAG_REF_TAU, PI_REST_ACC_DEV,
@@ -164,3 +164,12 @@ def mag_accept(p, aux, norm_uT, dip_rad, dt, rate):
         aux[AX_MAG_GOOD_T] = p[PI_MAG_SETTLE]
         return True
     return False
+
+
+@njit(**JIT_OPTIONS)
+def _compiled_layout():
+    return LAYOUT_FINGERPRINT
+
+
+# last statement of the module: every kernel above exists when a stale cache is emptied
+refresh_if_stale(globals(), _compiled_layout())

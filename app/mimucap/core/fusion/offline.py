@@ -23,7 +23,8 @@ from numba import njit
 
 from mimucap.core.fusion.ekf import FusionResult, OrientationEKF
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
-from mimucap.core.fusion.propagation import JIT_OPTIONS, exp_quat, quat_multiply, quat_normalise
+from mimucap.core.fusion.jit import JIT_OPTIONS
+from mimucap.core.fusion.propagation import exp_quat, quat_multiply, quat_normalise
 
 
 @njit(**JIT_OPTIONS)

@@ -28,11 +28,8 @@ import math
 import numpy as np
 from numba import njit
 
+from mimucap.core.fusion.jit import JIT_OPTIONS
 from mimucap.core.fusion.params import PROPAGATION_METHODS
-
-#: numba options of every fusion kernel: compiled once and cached on disk; IEEE NaN/inf
-#: semantics are kept (no "nnan"/"ninf" fast-math), division follows numpy (no exceptions).
-JIT_OPTIONS = dict(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
 
 
 @njit(**JIT_OPTIONS)
