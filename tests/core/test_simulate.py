@@ -304,5 +304,7 @@ def test_configuration_errors_are_clear() -> None:
         SimulationConfig(scenario="walk", scenario_params={"speed_mps": 9.0})
     with pytest.raises(ValueError, match="activity 'walk'.*sped"):
         SimulationConfig(scenario="walk", scenario_params={"sped": 1.0})
+    with pytest.raises(ValueError, match="unknown sensor id.*S12"):
+        SimulationConfig(scenario="mag_figure8", scenario_params={"sensor_ids": ["S01", "S12"]})
     with pytest.raises(ValueError, match="unknown sensor id"):
         SuitSimulator(SimulationConfig(n_sensors=2)).set_activity("mag_tumble", sensor_ids=["S09"])

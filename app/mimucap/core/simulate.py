@@ -146,6 +146,9 @@ class SimulationConfig:
         error_model(self.errors)
         # Build the scenario's activities once: unknown or bad parameters fail here.
         scenario_activities(self.scenario, dict(self.scenario_params), sensor_ids=self.sensor_ids)
+        unknown = [s for s in self.scenario_params.get("sensor_ids", ()) if s not in self.sensor_ids]
+        if unknown:
+            raise ValueError(f"unknown sensor id(s) {', '.join(unknown)}; the suit has {', '.join(self.sensor_ids)}")
         if self.drop_probability is not None and not 0.0 <= self.drop_probability < 0.9:
             raise ValueError(f"drop probability must be in [0, 0.9), got {self.drop_probability}")
 
