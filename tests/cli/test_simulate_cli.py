@@ -71,6 +71,19 @@ def test_same_seed_gives_identical_datasets_other_seed_differs(tmp_path: Path, c
     assert read_session(tmp_path / "n.h5").truth is None
 
 
+def test_disturbance_reaches_the_file(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "d.h5"
+    assert main(["simulate", "--scenario", "npose", "--duration", "4", "--sensors", "2", "--seed", "1",
+                 "--disturbance", "30,0,-10,1.5,3", "--out", str(out)]) == 0
+    session = read_session(out)
+    t = session.truth.t_s
+    extra = session.truth.sensors["S01"].field_world_uT - session.truth.field_world_uT
+    inside = (t > 2.0) & (t < 2.5)
+    np.testing.assert_allclose(extra[inside], np.tile([30.0, 0.0, -10.0], (int(inside.sum()), 1)), atol=1e-9)
+    np.testing.assert_allclose(extra[(t < 1.0) | (t > 3.5)], 0.0, atol=1e-12)
+    assert session.metadata["source"]["disturbances"][0]["field_uT"] == [30.0, 0.0, -10.0]
+
+
 def test_bad_arguments_give_one_line(tmp_path: Path, capsys) -> None:
     assert main(["simulate", "--scenario", "jog", "--out", str(tmp_path / "x.h5")]) == 1
     err = capsys.readouterr().err.strip()
@@ -79,6 +92,10 @@ def test_bad_arguments_give_one_line(tmp_path: Path, capsys) -> None:
     assert "number of sensors must be 1..17" in capsys.readouterr().err
     assert main(["simulate", "--duration", "1", "--out", str(tmp_path / "missing" / "x.h5")]) == 1
     assert "does not exist" in capsys.readouterr().err
+    assert main(["simulate", "--disturbance", "30,0,x,1,2", "--out", str(tmp_path / "x.h5")]) == 1
+    assert "--disturbance '30,0,x,1,2': expected five numbers" in capsys.readouterr().err
+    assert main(["simulate", "--disturbance", "30,0,0,2,1", "--out", str(tmp_path / "x.h5")]) == 1
+    assert "must end after it starts" in capsys.readouterr().err
     assert not (tmp_path / "x.h5").exists()
 
 

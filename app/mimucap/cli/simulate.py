@@ -1,13 +1,15 @@
 """``mimucap simulate``: write a session file from the simulated sensor suit.
 
 ``mimucap simulate --scenario NAME --duration S --sensors N --seed K --out FILE.h5
-[--rate HZ] [--drops P] [--no-truth] [--errors PRESET] [--height M] [--onboard]``
+[--rate HZ] [--drops P] [--no-truth] [--errors PRESET] [--height M] [--onboard]
+[--disturbance BX,BY,BZ,START,END ...]``
 
 Scenarios: ``demo`` (N-pose, T-pose, walking, turning, squats, arm raises, looping),
 ``bodycal`` (N-pose 3 s, T-pose 3 s, N-pose), or one activity (``npose``, ``tpose``,
 ``walk``, ``turn``, ``arm_raise``, ``squat``, ``mag_single_axis``, ``mag_figure8``,
 ``mag_tumble``). Sensors: 1..17 (10: the ten-segment suit; 17: the fifteen-segment suit
-with second units on thorax and pelvis). The file (format in ``docs/session-format.md``)
+with second units on thorax and pelvis). ``--disturbance`` adds a magnetic field (world ENU,
+µT) to every sensor from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. The file (format in ``docs/session-format.md``)
 holds the raw streams, the activity markers and, unless ``--no-truth``, the ground truth.
 Prints one summary line.
 """
@@ -16,8 +18,16 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 
-from mimucap.core.simulate import ERROR_PRESETS, SCENARIOS, SimulationConfig, error_model, simulate_session
+from mimucap.core.simulate import (
+    ERROR_PRESETS,
+    SCENARIOS,
+    MagneticDisturbance,
+    SimulationConfig,
+    error_model,
+    simulate_session,
+)
 from mimucap.io.session import session_from_simulation, write_session
 
 
@@ -39,7 +49,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help=f"sensor error model: {', '.join(ERROR_PRESETS)} (default default)")
     parser.add_argument("--onboard", action="store_true", help="sensors also send on-board orientation (like a BNO055)")
     parser.add_argument("--height", type=float, default=1.75, metavar="M", help="subject height in metres (default 1.75)")
+    parser.add_argument("--disturbance", action="append", default=[], metavar="BX,BY,BZ,START,END",
+                        help="add a field (world ENU, µT) to all sensors from START to END s; repeatable")
     parser.set_defaults(func=run)
+
+
+def parse_disturbance(text: str) -> MagneticDisturbance:
+    """``"BX,BY,BZ,START,END"`` (µT, µT, µT, s, s) → a :class:`MagneticDisturbance` for all sensors."""
+    parts = text.split(",")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) != 5 or not all(map(math.isfinite, values)):
+        raise ValueError(f"--disturbance {text!r}: expected five numbers BX,BY,BZ,START,END (µT and s)")
+    return MagneticDisturbance(field_uT=tuple(values[:3]), start_s=values[3], end_s=values[4])
 
 
 def run(args: argparse.Namespace) -> int:
@@ -50,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
     config = SimulationConfig(
         scenario=args.scenario, duration_s=args.duration, n_sensors=args.sensors, rate_hz=args.rate,
         seed=args.seed, errors=errors, drop_probability=args.drops, height_m=args.height,
+        disturbances=tuple(parse_disturbance(text) for text in args.disturbance),
     )
     result = simulate_session(config)
     path = write_session(args.out, session_from_simulation(result, include_truth=not args.no_truth))
