@@ -39,8 +39,10 @@ class FusionResult:
     """Output of a block or batch: arrays with the sensor axis first when S sensors were given.
 
     ``q_world_from_sensor`` (N, 4) or (S, N, 4) (NaN rows before the first valid
-    accelerometer sample), ``bias_rad_s`` (N, 3) / (S, N, 3), ``flags`` (N,) / (S, N) uint8 and
-    ``counters`` (one dict per sensor, cumulated over everything the filter has seen).
+    accelerometer sample; without an accelerometer channel the filter starts at the identity),
+    ``bias_rad_s`` (N, 3) / (S, N, 3), ``flags`` (N,) / (S, N) uint8 (bits in
+    :mod:`mimucap.core.fusion.state`; :meth:`flag_masks` decodes them) and ``counters`` (one
+    dict per sensor, cumulated over everything the filter has seen).
     """
 
     q_world_from_sensor: np.ndarray
