@@ -72,17 +72,14 @@ def multiply(q1: ArrayLike, q2: ArrayLike) -> FloatArray:
     """Hamilton product ``q1 ⊗ q2`` (``q_A_from_C = multiply(q_A_from_B, q_B_from_C)``)."""
     q1 = _as_quat(q1)
     q2 = _as_quat(q2)
-    w1, x1, y1, z1 = np.moveaxis(q1, -1, 0)
-    w2, x2, y2, z2 = np.moveaxis(q2, -1, 0)
-    return np.stack(
-        (
-            w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-            w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-            w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-            w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2,
-        ),
-        axis=-1,
-    )
+    w1, x1, y1, z1 = q1[..., 0], q1[..., 1], q1[..., 2], q1[..., 3]
+    w2, x2, y2, z2 = q2[..., 0], q2[..., 1], q2[..., 2], q2[..., 3]
+    out = np.empty(np.broadcast_shapes(q1.shape, q2.shape))
+    out[..., 0] = w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2
+    out[..., 1] = w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2
+    out[..., 2] = w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2
+    out[..., 3] = w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2
+    return out
 
 
 def conjugate(q: ArrayLike) -> FloatArray:
@@ -104,10 +101,18 @@ def rotate(q_a_from_b: ArrayLike, v_b: ArrayLike) -> FloatArray:
     """
     q = _as_quat(q_a_from_b)
     v = _as_vec3(v_b)
-    w = q[..., :1]
-    u = q[..., 1:]
-    t = 2.0 * np.cross(u, v)
-    return v + w * t + np.cross(u, t)
+    w, ux, uy, uz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    vx, vy, vz = v[..., 0], v[..., 1], v[..., 2]
+    # v' = v + w·t + u × t with t = 2 u × v (components written out: np.cross is slow on
+    # the small arrays of live processing).
+    tx = 2.0 * (uy * vz - uz * vy)
+    ty = 2.0 * (uz * vx - ux * vz)
+    tz = 2.0 * (ux * vy - uy * vx)
+    out = np.empty(np.broadcast_shapes(q.shape[:-1] + (3,), v.shape))
+    out[..., 0] = vx + w * tx + (uy * tz - uz * ty)
+    out[..., 1] = vy + w * ty + (uz * tx - ux * tz)
+    out[..., 2] = vz + w * tz + (ux * ty - uy * tx)
+    return out
 
 
 def to_matrix(q: ArrayLike) -> FloatArray:
