@@ -17,9 +17,10 @@ Observations:
 
 Robustness: observations fall into time bins of ``bin_s``; each bin keeps only its best
 observation (minimum round trip / minimum delay), which removes queueing outliers. The line
-is a Theil–Sen fit (median of pairwise slopes, median intercept) over the bins of the last
-``window_s`` seconds, so the estimate follows a drifting clock and is refreshed during the
-session. With a single bin the drift is taken as zero.
+is a Theil–Sen fit (median of pairwise slopes over at most ``max_fit_bins`` bins spread over
+the window, median intercept over all of them) over the bins of the last ``window_s`` seconds,
+so the estimate follows a drifting clock and is refreshed during the session. With a single
+bin the drift is taken as zero.
 """
 
 from __future__ import annotations
@@ -35,9 +36,10 @@ import numpy as np
 class ClockSyncSettings:
     """Settings of :class:`ClockSync` (defaults suit a 1–10 Hz sync exchange rate)."""
 
-    bin_s: float = 1.0            #: s, each bin keeps its best observation
+    bin_s: float = 0.5            #: s, each bin keeps its best observation
     window_s: float = 60.0        #: s, bins older than this (host time) are forgotten
-    refit_interval_s: float = 1.0   #: s of host time between refits (the first fit is immediate)
+    refit_interval_s: float = 0.25  #: s of host time between refits (the first fit is immediate)
+    max_fit_bins: int = 40        #: the slope uses at most this many bins, evenly spread
     max_drift_ppm: float = 2000.0   #: a fitted drift beyond this is clamped (crystal clocks: <100)
     max_round_trip_s: float = 0.5   #: round trips longer than this are ignored
 
@@ -77,6 +79,14 @@ class ClockEstimate:
         return float(self.device_from_host(host_s)) - host_s
 
 
+#: Clock readings beyond this many seconds (≈ 30 000 years) are corrupt and ignored.
+MAX_CLOCK_S = 1e12
+
+
+def _plausible(*values: float) -> bool:
+    return all(math.isfinite(v) and abs(v) < MAX_CLOCK_S for v in values)
+
+
 def theil_sen(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """Slope and intercept of the Theil–Sen line through ``(x, y)`` (≥ 2 distinct x)."""
     i, j = np.triu_indices(len(x), k=1)
@@ -103,8 +113,7 @@ class ClockSync:
     def add_round_trip(self, t1_host_s: float, t2_device_s: float, t3_device_s: float,
                        t4_host_s: float) -> bool:
         """Add one exchange; returns ``False`` if it was ignored as implausible."""
-        values = (t1_host_s, t2_device_s, t3_device_s, t4_host_s)
-        if not all(math.isfinite(v) for v in values):
+        if not _plausible(t1_host_s, t2_device_s, t3_device_s, t4_host_s):
             return False
         round_trip = (t4_host_s - t1_host_s) - (t3_device_s - t2_device_s)
         if not (0.0 <= round_trip <= self.settings.max_round_trip_s) or t3_device_s < t2_device_s:
@@ -118,7 +127,7 @@ class ClockSync:
 
     def add_one_way(self, device_s: float, host_receive_s: float) -> bool:
         """Add a node timestamp received at ``host_receive_s``; ignored once round trips exist."""
-        if not self._one_way or not (math.isfinite(device_s) and math.isfinite(host_receive_s)):
+        if not self._one_way or not _plausible(device_s, host_receive_s):
             return False
         self._observe(host_receive_s, device_s, host_receive_s - device_s)
         return True
@@ -151,7 +160,8 @@ class ClockSync:
         host, device, quality = data[:, 1], data[:, 2], data[:, 3]
         host_ref = float(host[-1])
         if len(data) >= 2:
-            slope, _ = theil_sen(host - host_ref, device - device[-1])
+            pick = np.unique(np.linspace(0, len(data) - 1, min(len(data), self.settings.max_fit_bins)).round().astype(int))
+            slope, _ = theil_sen(host[pick] - host_ref, device[pick] - device[-1])
             limit = self.settings.max_drift_ppm * 1e-6
             rate = min(max(slope, 1.0 - limit), 1.0 + limit)
             device_ref = float(device[-1]) + float(np.median(
