@@ -47,6 +47,8 @@ class SourceStatus:
     state: str = STATE_STARTING
     message: str = ""
     restarts: int = 0
+    failures: int = 0                #: runs of the worker that ended in an error
+    last_error: str = ""             #: the message of the last failure
     reconnects: int = 0
     overflow_samples: int = 0
     rejections: dict[str, int] = field(default_factory=dict)
@@ -121,8 +123,12 @@ class Supervisor:
                 worker.status.exit_code = process.exitcode
         blocks.extend(self._drain(0.0))
         for worker in self._workers.values():
-            if worker.status.state not in (STATE_FAILED, STATE_FINISHED):
-                worker.status.state = STATE_STOPPED
+            status = worker.status
+            if status.state == STATE_STARTING and status.failures:
+                # stopped while restarting after a failure: it never ran again
+                status.state, status.message = STATE_FAILED, status.last_error
+            elif status.state not in (STATE_FAILED, STATE_FINISHED):
+                status.state = STATE_STOPPED
         self.started = False
         return blocks
 
@@ -175,6 +181,9 @@ class Supervisor:
             return
         worker.last_report = report
         status = worker.status
+        if report.state == STATE_FAILED and status.state != STATE_FAILED:
+            status.failures += 1
+            status.last_error = report.message
         status.state, status.message = report.state, report.message
         status.reconnects = report.reconnects
         total = RejectionCounter(worker.previous_runs.as_dict())
@@ -203,9 +212,11 @@ class Supervisor:
                 worker.status.state = STATE_FAILED
                 continue
             if worker.restart_at is None:
+                if worker.status.state != STATE_FAILED:   # died without a report (e.g. killed)
+                    worker.status.failures += 1
+                    worker.status.last_error = f"worker exited with code {process.exitcode}"
+                    worker.status.message = worker.status.last_error
                 worker.status.state = STATE_FAILED
-                if not worker.status.message:
-                    worker.status.message = f"worker exited with code {process.exitcode}"
                 worker.restart_at = now + self.settings.restart_backoff_s
             elif now >= worker.restart_at:
                 if worker.last_report is not None:
