@@ -37,12 +37,12 @@ def test_blocks_become_a_session_and_the_journal_goes_away(tmp_path):
     recorder.add_blocks([block("1", 0, 50), block("2", 0, 30, full=False)])
     recorder.add_blocks([block("1", 50, 50), block("2", 31, 20, full=False)])   # seq 30 lost
     recorder.add_marker("jump", host_s=T0 + 0.25)
-    result = recorder.stop({"sensors": {"1": {"drops": 0}}}, "duration")
+    result = recorder.stop({"sensors": {"1": {"drops": 0, "latency_p95_ms": float("nan")}}}, "duration")
     assert result.complete and result.session_path == out
     assert not journal_path_for(out).exists()
     session = read_session(out)
     assert session.metadata["source"] == "udp:127.0.0.1:5555"
-    assert session.metadata["acquisition"] == {"sensors": {"1": {"drops": 0}}}
+    assert session.metadata["acquisition"] == {"sensors": {"1": {"drops": 0, "latency_p95_ms": None}}}
     assert session.metadata["recording"]["ended"] == "duration"
     one, two = session.sensors["1"], session.sensors["2"]
     assert one.segment == "pelvis" and two.segment is None

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import errno
 import json
+import math
 import os
 import time
 from collections.abc import Iterable, Mapping
@@ -61,6 +62,17 @@ class RecordingResult:
     samples: dict[str, int] = field(default_factory=dict)   #: sensor → samples stored
     complete: bool = True              #: False if the recording ended by an error or a crash
     message: str = ""
+
+
+def _json_safe(value: Any) -> Any:
+    """``value`` with NaN/infinite floats replaced by ``None`` (session metadata is strict JSON)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, Mapping):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    return value
 
 
 def journal_path_for(session_path: str | os.PathLike[str]) -> Path:
@@ -167,7 +179,7 @@ class Recorder:
         if self._journal is None:
             raise ValueError("the recorder was not started")
         if status is not None:
-            self._append(KIND_STATUS, json.dumps(status, default=str).encode("utf-8"))
+            self._append(KIND_STATUS, json.dumps(_json_safe(status), default=str).encode("utf-8"))
         self._append(KIND_END, json.dumps({"reason": reason if self.failure is None else "write error",
                                            "stopped_host_s": time.monotonic()}).encode("utf-8"))
         try:
