@@ -46,7 +46,7 @@ from mimucap.core.fusion.state import (
 MAG_CANDIDATE_TAU_S = 1.0
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def lowpass_gain(dt, tau):
     """Gain ``1 − exp(−dt/τ)`` of a first-order low-pass filter (series for small ``dt/τ``)."""
     if not dt > 0.0:
@@ -57,7 +57,7 @@ def lowpass_gain(dt, tau):
     return 1.0 - math.exp(-x)
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_valid, dt):
     """Update the rest detector with one sample; return ``True`` while at rest.
 
@@ -96,7 +96,7 @@ def rest_update(p, aux, gx, gy, gz, ax, ay, az, acc_valid, dt):
     return aux[AX_REST_T] >= p[PI_REST_TIME]
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def acc_noise_var(p, acc_norm, lowpass_norm, rate2):
     """Variance (unit-vector units) of the gravity direction measurement, or -1 to reject.
 
@@ -114,7 +114,7 @@ def acc_noise_var(p, acc_norm, lowpass_norm, rate2):
     return var / (g * g)
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def mag_accept(p, aux, norm_uT, dip_rad, dt, rate):
     """Judge one magnetometer sample against the learned reference; ``True`` = use it.
 

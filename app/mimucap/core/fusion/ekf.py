@@ -62,7 +62,13 @@ def _channel(name: str, values, n_sensors: int, n: int, single: bool) -> np.ndar
     if array.shape != (n_sensors, n, 3):
         expected = (n, 3) if single else (n_sensors, n, 3)
         raise ValueError(f"{name}: expected shape {expected}, got {np.asarray(values).shape}")
-    return np.ascontiguousarray(array)
+    return _kernel_array(array)
+
+
+def _kernel_array(array: np.ndarray) -> np.ndarray:
+    """C-contiguous, writeable float64 (one compiled kernel type, whatever the caller passed:
+    read-only, broadcast or strided arrays would each need their own compilation)."""
+    return np.require(array, dtype=np.float64, requirements=("C", "W", "A"))
 
 
 class OrientationEKF:
@@ -129,7 +135,7 @@ class OrientationEKF:
             st_pp = st_pu = np.zeros((s_count, 0, 6, 6))
             st_a = np.zeros((s_count, 0, 3, 3))
         absent = np.zeros((s_count, 0, 3))
-        ekf_sensors(self._packed, np.ascontiguousarray(t), gyr,
+        ekf_sensors(self._packed, _kernel_array(t), gyr,
                     absent if acc is None else acc, absent if mag is None else mag,
                     st.q_world_from_sensor, st.bias_rad_s, st.cov, st.aux,
                     out_q, out_b, out_f, store, st_q, st_b, st_pp, st_pu, st_a)

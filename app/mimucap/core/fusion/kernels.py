@@ -45,7 +45,7 @@ from mimucap.core.fusion.state import (
 )
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _rotmat(qw, qx, qy, qz, r):
     """Fill ``r`` (3, 3) with ``R_world_from_sensor`` of a unit quaternion."""
     xx, yy, zz = qx * qx, qy * qy, qz * qz
@@ -118,7 +118,7 @@ def align(ax, ay, az, mx, my, mz, use_mag, declination):
     return w, x, y, z
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _scalar_update(P, dx, c, i, resid, var):
     """Kalman update of error-state component ``i`` measured with residual and variance.
 
@@ -142,7 +142,7 @@ def _scalar_update(P, dx, c, i, resid, var):
             P[b, a] = v
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _heading_update(P, dx, c, resid, var):
     """Heading (δθ_z) update whose gain on the tilt states is zero (Joseph form)."""
     r = resid - dx[2]
@@ -160,7 +160,7 @@ def _heading_update(P, dx, c, resid, var):
             P[b, a] = v
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _rotate_lowpass(aux, dx):
     """Rotate the low-passed world-frame specific force with an attitude correction δθ."""
     x, y, z = aux[AX_AWLP_X], aux[AX_AWLP_X + 1], aux[AX_AWLP_X + 2]
@@ -169,7 +169,7 @@ def _rotate_lowpass(aux, dx):
     aux[AX_AWLP_X + 2] = z + dx[0] * y - dx[1] * x
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _inject(q, b, dx, bias_max):
     """Apply the error state to the nominal state and reset it to zero."""
     n2 = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]

@@ -32,7 +32,7 @@ from mimucap.core.fusion.jit import JIT_OPTIONS
 from mimucap.core.fusion.params import PROPAGATION_METHODS
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def quat_multiply(aw, ax, ay, az, bw, bx, by, bz):
     """Hamilton product ``a ⊗ b`` of two quaternions given component-wise."""
     return (
@@ -43,13 +43,13 @@ def quat_multiply(aw, ax, ay, az, bw, bx, by, bz):
     )
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def quat_normalise(w, x, y, z):
     n = 1.0 / math.sqrt(w * w + x * x + y * y + z * z)
     return w * n, x * n, y * n, z * n
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def exp_quat(px, py, pz):
     """Exact exponential map of the rotation vector ``p`` (rad)."""
     n = math.sqrt(px * px + py * py + pz * pz)
@@ -60,7 +60,7 @@ def exp_quat(px, py, pz):
     return math.cos(0.5 * n), s * px, s * py, s * pz
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def step_exact(qw, qx, qy, qz, dx, dy, dz):
     """``q ⊗ exp(Δθ)`` for the angle increment ``Δθ`` (rad, sensor frame)."""
     ew, ex, ey, ez = exp_quat(dx, dy, dz)
@@ -68,7 +68,7 @@ def step_exact(qw, qx, qy, qz, dx, dy, dz):
     return quat_normalise(w, x, y, z)
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def step_taylor3(qw, qx, qy, qz, px_, py_, pz_, dx, dy, dz):
     """Coning-corrected third-order Taylor step from the previous increment ``p`` and ``Δθ``."""
     fx = dx + (py_ * dz - pz_ * dy) / 12.0
@@ -80,7 +80,7 @@ def step_taylor3(qw, qx, qy, qz, px_, py_, pz_, dx, dy, dz):
     return quat_normalise(w, x, y, z)
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _qdot(qw, qx, qy, qz, wx, wy, wz):
     # ½ q ⊗ [0, ω]
     return (
@@ -91,7 +91,7 @@ def _qdot(qw, qx, qy, qz, wx, wy, wz):
     )
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def step_rk4(qw, qx, qy, qz, ax, ay, az, bx, by, bz, dt):
     """RK4 step with rate ``a`` at the start, ``b`` at the end and their mean at mid-step."""
     mx = 0.5 * (ax + bx)
