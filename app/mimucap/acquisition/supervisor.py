@@ -236,7 +236,8 @@ class Supervisor:
     def stats(self) -> dict[str, SensorStats]:
         """Per-sensor statistics now (sensor id → snapshot)."""
         now = time.monotonic()
-        return {name: tracker.snapshot(now) for name, tracker in sorted(self._trackers.items())}
+        order = sorted(self._trackers, key=lambda n: (not n.isdigit(), int(n) if n.isdigit() else 0, n))
+        return {name: self._trackers[name].snapshot(now) for name in order}
 
     def latencies_s(self, sensor_id: str):
         """Recent latencies (s) of one sensor (see :mod:`mimucap.acquisition.stats`)."""
