@@ -48,7 +48,13 @@ def test_a_session_file_replays_sample_for_sample(tmp_path):
     streams = {sid: SensorStream(sensor_id=sid, t_s=t, seq=np.arange(300), acc=rng.normal(size=(300, 3)),
                                  gyr=rng.normal(size=(300, 3)), battery=np.full(300, 0.5))
                for sid in ("A", "B")}
-    path = write_session(tmp_path / "in.h5", Session(metadata={"source": "test"}, sensors=streams))
+    holey = SensorStream(sensor_id="C", t_s=t[:10], seq=np.arange(10), gyr=np.ones((10, 3)))
+    holey.gyr[3] = np.nan                                      # e.g. a channel missing for a while
+    path = write_session(tmp_path / "in.h5", Session(metadata={"source": "test"},
+                                                     sensors={**streams, "C": holey}))
+    loaded = load_replay(path)
+    assert loaded.skipped_rows == {"A": 0, "B": 0, "C": 1}
+    assert 3 not in next(s for s in loaded.streams if s.sensor_id == "C").seq
     (config,) = source_configs(f"replay:{path}@10")
     assert isinstance(config, ReplaySourceConfig) and config.speed == 10.0
     blocks, status = collect([config])

@@ -7,8 +7,8 @@ Everything else is mapped directly onto acquisition configs.
 
 Replayed Xsens exports carry ``acc`` (m/s²), ``gyr`` (rad/s) and ``q_world_from_sensor``
 (ENU); their magnetometer is in arbitrary units (normalised to the local field), not µT, so
-it is not replayed. Rows with a missing (NaN) value are skipped and counted in
-:attr:`LoadedReplay.skipped_rows`.
+it is not replayed. Rows with a missing (NaN) value — in either kind of file — are skipped
+and counted in :attr:`LoadedReplay.skipped_rows`, so no NaN reaches the pipeline.
 """
 
 from __future__ import annotations
@@ -79,17 +79,26 @@ def load_replay(path: str | Path) -> LoadedReplay:
 
 def _session_streams(path: Path) -> LoadedReplay:
     session = read_session(path, include_truth=False)
-    streams = []
+    streams, skipped = [], {}
     for stream in session.sensors.values():
         calibration = stream.extra.get("calibration_status")
-        streams.append(ReplayStream(
-            sensor_id=stream.sensor_id, t_s=stream.t_s, seq=stream.seq, acc=stream.acc,
-            gyr=stream.gyr, mag_uT=stream.mag_uT, q_world_from_sensor=stream.q_world_from_sensor,
-            calibration=None if calibration is None else np.asarray(calibration, dtype=np.int8),
-            battery_pct=None if stream.battery is None else stream.battery * 100.0))
+        channels = {"acc": stream.acc, "gyr": stream.gyr, "mag_uT": stream.mag_uT,
+                    "q_world_from_sensor": stream.q_world_from_sensor,
+                    "calibration": None if calibration is None else np.asarray(calibration, dtype=np.int8),
+                    "battery_pct": None if stream.battery is None else stream.battery * 100.0}
+        channels = {k: v for k, v in channels.items() if v is not None}
+        good = np.isfinite(stream.t_s)
+        for name, values in channels.items():   # a NaN row (e.g. a channel missing for a while)
+            if name != "calibration":           # is skipped: no NaN reaches the pipeline
+                good &= np.all(np.isfinite(values.reshape(len(values), -1)), axis=1)
+        if "calibration" in channels:
+            good &= np.all(channels["calibration"] >= 0, axis=1)
+        skipped[stream.sensor_id] = int(np.sum(~good))
+        streams.append(ReplayStream(sensor_id=stream.sensor_id, t_s=stream.t_s[good], seq=stream.seq[good],
+                                    **{k: v[good] for k, v in channels.items()}))
     if not streams:
         raise ValueError(f"replay file {path} holds no sensor streams")
-    return LoadedReplay(tuple(streams))
+    return LoadedReplay(tuple(streams), skipped)
 
 
 def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOptions(),
