@@ -5,7 +5,7 @@ Plain script: ``.venv/bin/python bench/bench_fusion.py [--repeat N] [--no-accura
 All filters run on the same 9D data: the BROAD trials of ``../shared/data/broad``
 concatenated (gyro rad/s, accelerometer m/s², magnetometer µT at 285.7 Hz). Fast filters get
 the whole set, the per-sample Python filters (imufusion's Python loop, ahrs EKF/Madgwick, our
-own kernel run as plain Python) a slice of it, so the run stays short; samples per second are
+own filter run as plain Python with numba switched off) a slice of it, so the run stays short; samples per second are
 comparable either way. Each measurement is the best of ``--repeat`` runs after one warm-up
 (numba compiles once, cached on disk). Printed: samples/s and the ratio of our 9D batch EKF to
 each row (> 1: ours is faster).
@@ -19,16 +19,18 @@ increments (the error order of each method when the step halves).
 from __future__ import annotations
 
 import argparse
+import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from mimucap.core import rotation as rot
-from mimucap.core.fusion import kernels
 from mimucap.core.fusion.evaluation import error_angles_rad
 from mimucap.core.fusion.propagation import integrate_gyro, integrate_increments
-from mimucap.core.fusion.ekf import OrientationEKF, fuse
+from mimucap.core.fusion.ekf import fuse
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.io.broad import list_broad_trials, read_broad
 
@@ -89,18 +91,10 @@ def throughput(args: argparse.Namespace) -> None:
     g17, a17, m17 = (x[: n17 * s17].reshape(s17, n17, 3).copy() for x in (gyr, acc, mag))
     add("mimucap EKF 9D, 17 sensors in one call", n17 * s17, lambda: fuse(t[:n17], g17, a17, m17))
 
-    npy = ns // 10  # the pure-Python kernel is slow: a tenth of the slow slice
-
-    def pure_python_kernel():
-        ekf = OrientationEKF()
-        out_q, out_b, out_f = np.empty((npy, 4)), np.empty((npy, 3)), np.zeros(npy, np.uint8)
-        st = ekf.state
-        e4, e3, e66, e33 = np.zeros((0, 4)), np.zeros((0, 3)), np.zeros((0, 6, 6)), np.zeros((0, 3, 3))
-        kernels.ekf_block.py_func(ekf._packed, t[:npy], gyr[:npy], acc[:npy], mag[:npy],
-                                  st.q_world_from_sensor[0], st.bias_rad_s[0], st.cov[0], st.aux[0],
-                                  out_q, out_b, out_f, False, e4, e3, e66, e66, e33)
-
-    add("mimucap EKF kernel without numba (pure Python)", npy, pure_python_kernel)
+    npy = 2000
+    seconds = pure_python_seconds(npy, args.repeat)
+    rows.append(("mimucap EKF 9D without numba (NUMBA_DISABLE_JIT)", npy, seconds))
+    print(f"  measured {rows[-1][0]:46s} {npy / seconds / 1e6:8.3f} M samples/s", flush=True)
 
     try:
         import vqf
@@ -141,6 +135,34 @@ def throughput(args: argparse.Namespace) -> None:
         speed = samples / seconds
         print(f"{name:50s} {samples:9d} {seconds:9.4f} {speed / 1e6:12.3f} {ours / speed:10.2f}")
     print("\nours/this = throughput of 'mimucap EKF 9D batch (taylor3)' divided by the row's.")
+    speeds = {name: samples / seconds for name, samples, seconds in rows}
+    pairs = (("mimucap EKF 9D batch (taylor3)", "vqf VQF.updateBatch (C++)"),
+             ("mimucap offline (EKF + RTS smoother)", "vqf offlineVQF (C++)"))
+    for ours_name, peer in pairs:
+        if peer in speeds:
+            print(f"{ours_name} / {peer}: {speeds[ours_name] / speeds[peer]:.2f}")
+
+
+def pure_python_seconds(n: int, repeat: int) -> float:
+    """Best time of the same EKF on ``n`` samples run as plain Python (numba switched off in a
+    child process): what the compiled kernels earn."""
+    code = (
+        "import time, numpy as np\n"
+        "from mimucap.core.fusion.ekf import fuse\n"
+        f"n = {n}\n"
+        "rng = np.random.default_rng(0)\n"
+        "t = np.arange(n) / 100.0\n"
+        "g = rng.normal(0, 0.5, (n, 3)); a = rng.normal(0, 1, (n, 3)) + [0, 0, 9.81]\n"
+        "m = rng.normal(0, 1, (n, 3)) + [0, 20, -40]\n"
+        "best = 1e9\n"
+        f"for _ in range({max(1, repeat)}):\n"
+        "    s = time.perf_counter(); fuse(t, g, a, m); best = min(best, time.perf_counter() - s)\n"
+        "print(best)\n"
+    )
+    env = dict(os.environ, NUMBA_DISABLE_JIT="1")
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                         check=True)
+    return float(out.stdout.strip().splitlines()[-1])
 
 
 def simulated_accuracy() -> None:
