@@ -120,27 +120,47 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
                  use_mag: bool = True) -> FusionResult:
     """Smoothed orientation of a whole recording (same inputs and outputs as :func:`ekf.fuse`).
 
-    The flags and counters are those of the forward pass.
+    Sensors are smoothed one after the other, so the forward-pass storage (about 0.7 kB per
+    sample) is held for one sensor at a time. The flags and counters are those of the forward
+    pass.
     """
     gyr = np.asarray(gyr_rad_s, dtype=np.float64)
-    single = gyr.ndim == 2
-    n_sensors = 1 if single else gyr.shape[0]
     if gyr.ndim not in (2, 3):
         raise ValueError(f"gyr: expected shape (N, 3) or (S, N, 3), got {gyr.shape}")
-    n = gyr.shape[-2]
-    store = (np.empty((n_sensors, n, 4)), np.empty((n_sensors, n, 3)),
-             np.empty((n_sensors, n, 6, 6)), np.empty((n_sensors, n, 6, 6)),
-             np.empty((n_sensors, n, 3, 3)))
-    ekf = OrientationEKF(params, n_sensors=n_sensors, algorithm=algorithm, use_mag=use_mag)
-    forward = ekf.update_batch(t_s, gyr, acc_m_s2, mag_uT, _store=store)
-    q_fwd = forward.q_world_from_sensor[None] if single else forward.q_world_from_sensor
-    b_fwd = forward.bias_rad_s[None] if single else forward.bias_rad_s
-    out_q = np.empty_like(q_fwd)
-    out_b = np.empty_like(b_fwd)
+    single = gyr.ndim == 2
+    gyr3 = gyr[None] if single else gyr
+    n_sensors, n = gyr3.shape[0], gyr3.shape[1]
+
+    def channel(values, name):
+        if values is None:
+            return None
+        array = np.asarray(values, dtype=np.float64)
+        array = array[None] if single else array
+        if array.shape != gyr3.shape:
+            raise ValueError(f"{name}: expected shape {gyr.shape}, got {np.asarray(values).shape}")
+        return array
+
+    acc3, mag3 = channel(acc_m_s2, "acc"), channel(mag_uT, "mag")
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.shape == (n,):
+        t = np.broadcast_to(t, (n_sensors, n))
+    elif t.shape != (n_sensors, n):
+        raise ValueError(f"t_s: expected shape ({n},) or ({n_sensors}, {n}), got {t.shape}")
+    out_q = np.empty((n_sensors, n, 4))
+    out_b = np.empty((n_sensors, n, 3))
+    flags = np.zeros((n_sensors, n), dtype=np.uint8)
+    counters = []
     for s in range(n_sensors):
+        store = (np.empty((1, n, 4)), np.empty((1, n, 3)), np.empty((1, n, 6, 6)),
+                 np.empty((1, n, 6, 6)), np.empty((1, n, 3, 3)))
+        ekf = OrientationEKF(params, algorithm=algorithm, use_mag=use_mag)
+        forward = ekf.update_batch(t[s], gyr3[s], None if acc3 is None else acc3[s],
+                                   None if mag3 is None else mag3[s], _store=store)
         if n:
-            rts_smooth(q_fwd[s], b_fwd[s], store[0][s], store[1][s], store[2][s], store[3][s],
-                       store[4][s], out_q[s], out_b[s])
+            rts_smooth(forward.q_world_from_sensor, forward.bias_rad_s, store[0][0], store[1][0],
+                       store[2][0], store[3][0], store[4][0], out_q[s], out_b[s])
+        flags[s] = forward.flags
+        counters.append(forward.counters[0])
     if single:
-        return FusionResult(out_q[0], out_b[0], forward.flags, forward.counters)
-    return FusionResult(out_q, out_b, forward.flags, forward.counters)
+        return FusionResult(out_q[0], out_b[0], flags[0], tuple(counters))
+    return FusionResult(out_q, out_b, flags, tuple(counters))
