@@ -132,3 +132,20 @@ def test_resting_next_to_a_magnet_does_not_adopt_its_field(recording_factory):
     assert rejected[(rec.t_s > 5.5) & (rec.t_s < 55.0)].all()
     assert result.counters[0]["mag_new_reference"] == 0
     assert not rejected[rec.t_s > 57.0].any()
+
+
+def test_accelerometer_noise_model():
+    from mimucap.core.fusion.disturbance import acc_noise_var
+    from mimucap.core.fusion.params import pack_params
+
+    g = DEFAULT_FUSION_PARAMS.gravity_m_s2
+    plain = pack_params(DEFAULT_FUSION_PARAMS)
+    weighted = pack_params(replace(DEFAULT_FUSION_PARAMS, acc_deviation_gain=2.0,
+                                   acc_rate_gain_m_s2_per_rad_s=1.0))
+    base = acc_noise_var(plain, g, g, 0.0)
+    assert base == pytest.approx((DEFAULT_FUSION_PARAMS.acc_noise_m_s2 / g) ** 2)
+    # acceleration the low-pass has not averaged out (|‖a_lp‖ − g| = 2 m/s²) and fast turning
+    assert acc_noise_var(weighted, g, g + 2.0, 0.0) == pytest.approx(base + (4.0 / g) ** 2)
+    assert acc_noise_var(weighted, g, g, 3.0 ** 2) == pytest.approx(base + (3.0 / g) ** 2)
+    # a knock far beyond the rejection threshold is not used at all
+    assert acc_noise_var(plain, g + DEFAULT_FUSION_PARAMS.acc_reject_m_s2 + 1.0, g, 0.0) < 0.0

@@ -55,10 +55,11 @@ class FusionParams:
     acc_noise_m_s2: float = 1.0
     #: Extra accelerometer noise per m/s² of ``|‖a_lp‖ − g|`` (dimensionless), ``a_lp`` the
     #: low-passed world-frame specific force: acceleration not yet averaged out down-weights
-    #: the gravity correction.
+    #: the gravity correction. Off (0) by default: on the BROAD trials the world-frame
+    #: low-pass alone did better (any gain tried raised the error).
     acc_deviation_gain: float = 0.0
     #: Extra accelerometer noise per rad/s of angular rate (m/s² per rad/s): centripetal
-    #: acceleration of a sensor away from the rotation centre.
+    #: acceleration of a sensor away from the rotation centre. Off (0) by default, as above.
     acc_rate_gain_m_s2_per_rad_s: float = 0.0
     #: Samples with ``|‖a‖ − g|`` above this (m/s²) give no gravity correction.
     acc_reject_m_s2: float = 50.0
