@@ -8,13 +8,17 @@ orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
   ``Fc = [[−[ω×], −I], [0, 0]]`` written for the world-frame error ``δθ_w = R·δθ_sensor``
   (the ``−[ω×]`` term vanishes in that frame); process noise ``Q = diag(σ_g²·dt·I,
   σ_bw²·dt·I)``.
-* Gravity: the accelerometer direction rotated to the world, ``a_w = R·a/‖a‖ ≈ e_z + e_z × δθ``,
-  gives ``a_w,x = −δθ_y`` and ``a_w,y = δθ_x`` (two scalar updates, adaptive noise).
+* Gravity: the specific force rotated into the world, ``R·a``, is low-passed (time constant
+  ``acc_lowpass_tau_s``; the low-pass state turns with every attitude correction) so that
+  linear accelerations average out; its direction ``u ≈ e_z + e_z × δθ`` gives
+  ``u_x = −δθ_y`` and ``u_y = δθ_x`` (two scalar updates, noise model in :mod:`disturbance`).
 * Heading: the tilt-compensated magnetometer ``m_w = R·m`` has the heading residual
-  ``atan2(m_w,x, m_w,y) = δθ_z`` (magnetic north along +y). Its Kalman gain rows of the tilt
+  ``atan2(m_w,x, m_w,y) − declination = δθ_z`` (north along +y). Its Kalman gain rows of the tilt
   states are set to zero (Joseph-form covariance update), so the magnetometer corrects the
   heading and the bias, never the tilt.
 * Rest: zero-rate update of the bias, measurement ``ω_raw = b``.
+* All updates of one sample share one linearisation point (sequential scalar updates of the
+  error state), which is then injected once: ``q ← exp(δθ) ⊗ q``, ``b ← b + δb``.
 
 The kernel optionally stores what the RTS smoother needs (:mod:`offline`): the predicted
 state and covariance, the posterior covariance and the ``−R·dt`` block of ``Φ`` per sample.
