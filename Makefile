@@ -56,8 +56,9 @@ screenshots: debs $(STAMP)
 	QT_API=pyqt5 $(XVFB_RUN) $(PY) packaging/make_screenshots.py docs/screenshots
 
 bench: debs $(BENCH_STAMP)
-	$(PY) -m pip install --quiet -e ".[bench]"
-	@echo "Benchmarks live in bench/: run e.g. '$(PY) bench/<name>.py'"
+	@for script in bench/bench_*.py; do \
+	  echo "== $$script"; QT_API=pyqt5 $(XVFB_RUN) $(PY) $$script || exit 1; \
+	done
 
 clean:
 	rm -rf $(VENV) build *.egg-info app/*.egg-info
