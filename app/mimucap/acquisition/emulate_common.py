@@ -29,6 +29,7 @@ class EmulatorSettings:
     rate_hz: float = 100.0
     loss: float = 0.0            #: probability that a sample is never sent (0..1)
     jitter_ms: float = 0.0       #: each sample leaves up to this many ms late (uniform)
+    corrupt: float = 0.0         #: probability that a sent packet/line has one byte damaged (0..1)
     drift_ppm: float = 0.0       #: node clock rate error, ppm
     offset_ms: float = 0.0       #: node clock offset, ms (see the module docstring)
     duration_s: float | None = None  #: stop after this long (``None``: until stopped)
@@ -43,6 +44,8 @@ class EmulatorSettings:
             raise ValueError(f"--rate must be in (0, 2000] Hz, got {self.rate_hz}")
         if not 0.0 <= self.loss < 1.0:
             raise ValueError(f"--loss must be in [0, 1), got {self.loss}")
+        if not 0.0 <= self.corrupt < 1.0:
+            raise ValueError(f"--corrupt must be in [0, 1), got {self.corrupt}")
         if not 0.0 <= self.jitter_ms <= 10_000:
             raise ValueError(f"--jitter must be in [0, 10000] ms, got {self.jitter_ms}")
         if abs(self.drift_ppm) > 2000:   # the host's clock estimator accepts up to ±2000 ppm
@@ -65,6 +68,26 @@ class DeviceClock:
 
     def device_from_host(self, host_s):
         return host_s * self.rate + self.offset_s
+
+
+class Corrupter:
+    """Damages one byte (never the line terminator) of a fraction of the messages."""
+
+    def __init__(self, probability: float, seed: int) -> None:
+        self.probability = probability
+        self._rng = np.random.default_rng(seed + 7919)
+        self.corrupted = 0
+
+    def __call__(self, data: bytes, keep_tail: int = 0) -> bytes:
+        if self.probability <= 0 or self._rng.random() >= self.probability:
+            return data
+        damaged = bytearray(data)
+        position = int(self._rng.integers(0, len(damaged) - keep_tail))
+        damaged[position] ^= int(self._rng.integers(1, 256))
+        if keep_tail and damaged[position] in (0x0A, 0x0D):   # a new line break would split the line
+            damaged[position] = ord("#")
+        self.corrupted += 1
+        return bytes(damaged)
 
 
 class MotionSource(Protocol):

@@ -6,7 +6,8 @@ pyserial. With ``link`` set, a symbolic link at that path points to the current 
 :meth:`unplug` / :meth:`replug` emulate pulling the cable: the link disappears and the master
 is closed (the host's reads fail), then a new pty appears behind the same link path.
 Lines the host does not read fast enough are discarded when the pty buffer is full (counted
-in ``overflow``), as a real UART would. Clock, loss and jitter as in
+in ``overflow``), as a real UART would. ``corrupt`` damages one byte of some lines. Clock,
+loss and jitter as in
 :mod:`mimucap.acquisition.emulate_common`.
 """
 
@@ -19,7 +20,7 @@ from pathlib import Path
 from threading import Event, Lock
 
 from mimucap.acquisition import protocol_serial as proto
-from mimucap.acquisition.emulate_common import EmulatorSettings, MotionSource, NodeSchedule
+from mimucap.acquisition.emulate_common import Corrupter, EmulatorSettings, MotionSource, NodeSchedule
 
 
 class SerialEmulator:
@@ -37,6 +38,7 @@ class SerialEmulator:
         self.plugged = False
         self.overflow = 0
         self.unplugged_samples = 0
+        self.corrupt = Corrupter(settings.corrupt, settings.seed)
         self.schedule: NodeSchedule | None = None
         self.replug()
 
@@ -99,7 +101,7 @@ class SerialEmulator:
             now = time.monotonic()
             schedule.generate_until(now)
             for sample in schedule.pop_ready(now):
-                self._write(proto.encode_line(sample))
+                self._write(self.corrupt(proto.encode_line(sample), keep_tail=2))
             if schedule.finished(now):
                 break
             wake = schedule.next_tick_s()

@@ -3,6 +3,7 @@
 Sends one datagram per sample and node to ``target`` (loopback in tests), answers
 time-sync requests with the emulated clock (see :mod:`mimucap.acquisition.emulate_common`)
 and misbehaves on demand: ``loss`` drops samples (their sequence numbers are skipped),
+``corrupt`` damages one byte of some datagrams (the host refuses them: ``bad_checksum``),
 ``jitter_ms`` delays them, ``drift_ppm``/``offset_ms`` skew the node clock. The loop stops
 by itself after ``duration_s`` or when ``stop`` is set.
 """
@@ -16,7 +17,7 @@ from dataclasses import replace
 from threading import Event
 
 from mimucap.acquisition import protocol_udp as proto
-from mimucap.acquisition.emulate_common import EmulatorSettings, MotionSource, NodeSchedule
+from mimucap.acquisition.emulate_common import Corrupter, EmulatorSettings, MotionSource, NodeSchedule
 
 
 class UdpEmulator:
@@ -34,6 +35,7 @@ class UdpEmulator:
         self.sock.bind((bind_address, 0))
         self.sock.setblocking(False)
         self.schedule: NodeSchedule | None = None
+        self.corrupt = Corrupter(settings.corrupt, settings.seed)
         self.sync_answered = 0
         self.send_errors = 0
         self._ids = frozenset(settings.sensor_ids())
@@ -53,7 +55,7 @@ class UdpEmulator:
                     if self.stamp_on_send:
                         sample = replace(sample, device_time_s=schedule.clock.device_from_host(time.monotonic()))
                     try:
-                        self.sock.sendto(proto.encode_sample(sample), self.target)
+                        self.sock.sendto(self.corrupt(proto.encode_sample(sample)), self.target)
                     except OSError:  # receiver not there yet (ICMP refused) or buffer full
                         self.send_errors += 1
                 if schedule.finished(now):

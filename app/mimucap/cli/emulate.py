@@ -1,7 +1,7 @@
 """``mimucap emulate``: emulated sensor devices driven by the simulated suit.
 
     mimucap emulate udp --sensors N --rate HZ --target HOST:PORT [--loss P] [--jitter MS]
-                        [--drift PPM] [--offset-ms MS] [--duration S]
+                        [--drift PPM] [--offset-ms MS] [--duration S] [--corrupt P]
     mimucap emulate serial --sensors N --rate HZ [--link PATH] [--loss P] [--jitter MS]
                         [--drift PPM] [--offset-ms MS] [--duration S]
                         [--unplug-after S --unplug-for S]
@@ -36,6 +36,7 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate", type=float, default=100.0, metavar="HZ", help="sample rate (default 100)")
     parser.add_argument("--loss", type=float, default=0.0, metavar="P", help="probability a sample is lost")
     parser.add_argument("--jitter", type=float, default=0.0, metavar="MS", help="send delay up to MS ms")
+    parser.add_argument("--corrupt", type=float, default=0.0, metavar="P", help="probability a message is damaged")
     parser.add_argument("--drift", type=float, default=0.0, metavar="PPM", help="node clock drift (ppm)")
     parser.add_argument("--offset-ms", type=float, default=0.0, metavar="MS", help="node clock offset (ms)")
     parser.add_argument("--duration", type=float, default=None, metavar="S", help="stop after S seconds")
@@ -61,6 +62,7 @@ def register(subparsers) -> None:
 
 def _settings(args: argparse.Namespace) -> EmulatorSettings:
     return EmulatorSettings(n_sensors=args.sensors, rate_hz=args.rate, loss=args.loss, jitter_ms=args.jitter,
+                            corrupt=args.corrupt,
                             drift_ppm=args.drift, offset_ms=args.offset_ms, duration_s=args.duration,
                             seed=args.seed, first_sensor_id=args.first_id)
 
@@ -76,7 +78,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"emulating {settings.n_sensors} UDP nodes at {settings.rate_hz:g} Hz from "
                   f"{emulator.address[0]}:{emulator.address[1]} to {args.target[0]}:{args.target[1]}", flush=True)
             schedule = emulator.run(stop)
-            print(f"sent {schedule.sent} samples, lost {schedule.lost} on purpose, "
+            print(f"sent {schedule.sent} samples ({emulator.corrupt.corrupted} damaged), lost {schedule.lost} on purpose, "
                   f"answered {emulator.sync_answered} time-sync requests, {emulator.send_errors} send errors")
             return 0
         emulator = SerialEmulator(settings, motion, link=args.link)
