@@ -31,3 +31,21 @@ def test_sequence_numbers_unwrap_across_the_32_bit_boundary():
     intake.flush()
     (block,) = messages[0].unpacked()
     assert block.seq.tolist() == [2**32 - 2, 2**32 - 1, 2**32, 2**32 + 1]
+
+
+def test_a_rebooted_node_continues_without_stale_refusals_or_false_drops():
+    messages = []
+    intake = SampleIntake("udp", IntakeSettings(), messages.append)
+    for k in range(100):                                    # running for a while: clock at 100 s
+        assert intake.accept(Sample(sensor_id=3, seq=5000 + k, device_time_s=100.0 + k * 0.01), 50.0 + k * 0.01)
+    for k in range(50):                                     # reboot: counter and clock start over
+        assert intake.accept(Sample(sensor_id=3, seq=k, device_time_s=0.2 + k * 0.01), 51.5 + k * 0.01)
+    intake.flush()
+    blocks = [b for m in messages for b in m.unpacked()]
+    seq = [int(v) for b in blocks for v in b.seq]
+    host = [float(v) for b in blocks for v in b.host_time_s]
+    assert seq == list(range(5000, 5150))                   # continuous: no false drops
+    assert all(b > a for a, b in zip(host, host[1:]))
+    assert abs(host[100] - 51.5) < 1e-6                     # the new clock maps onto the host again
+    assert intake.report("running").node_restarts == {"3": 1}
+    assert not intake.rejections.as_dict()

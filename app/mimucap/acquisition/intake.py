@@ -2,7 +2,10 @@
 
 For every decoded sample: check that the sensor belongs to the session, unwrap its sequence
 number (a stale one is refused), feed the node clock estimator and map the device time to
-the host's monotonic clock, and collect accepted samples into blocks. Blocks are flushed
+the host's monotonic clock, and collect accepted samples into blocks. A node whose clock
+jumps back by more than ``RESTART_CLOCK_JUMP_S`` has rebooted: its clock estimate starts over
+and, if its counter restarted too, the new numbers continue after the last one (counted in
+the report's ``restarts``). Blocks are flushed
 when the oldest pending sample is ``flush_interval_s`` old or ``max_block_samples`` are
 pending, so memory stays bounded and latency stays low.
 
@@ -22,6 +25,8 @@ from mimucap.acquisition.timesync import ClockSync, ClockSyncSettings
 
 #: Distinct unknown ids/addresses tracked individually; beyond this they are lumped together.
 MAX_TRACKED_UNKNOWN = 256
+#: A node clock that jumps back by more than this (s) has restarted (reboot, brown-out).
+RESTART_CLOCK_JUMP_S = 1.0
 
 
 def default_sensor_name(sensor_id: int) -> str:
@@ -45,14 +50,23 @@ class IntakeSettings:
 
 
 class _SensorState:
-    __slots__ = ("name", "unwrapper", "clock", "last_host_s", "rejections")
+    __slots__ = ("name", "unwrapper", "clock", "last_host_s", "last_device_s", "rejections",
+                 "restarts", "clock_settings")
 
     def __init__(self, name: str, clock_settings: ClockSyncSettings) -> None:
         self.name = name
+        self.clock_settings = clock_settings
         self.unwrapper = SequenceUnwrapper()
         self.clock = ClockSync(clock_settings)
         self.last_host_s = float("-inf")
+        self.last_device_s = float("-inf")
         self.rejections = RejectionCounter()
+        self.restarts = 0
+
+    def restart(self) -> None:
+        """The node rebooted: its clock starts over (sequence numbers continue, see intake)."""
+        self.clock = ClockSync(self.clock_settings)
+        self.restarts += 1
 
 
 class SampleIntake:
@@ -108,10 +122,16 @@ class SampleIntake:
         if state is None:
             self.count_unknown(f"id {sample.sensor_id}", Rejection.UNKNOWN_SENSOR)
             return False
+        restarted = state.last_device_s - sample.device_time_s > RESTART_CLOCK_JUMP_S
+        if restarted:           # the node rebooted: new clock, and maybe a new counter
+            state.restart()
         seq = state.unwrapper.unwrap(sample.seq)
         if seq is None:
-            self.reject(Rejection.STALE_SEQUENCE, sample.sensor_id)
-            return False
+            if not restarted:
+                self.reject(Rejection.STALE_SEQUENCE, sample.sensor_id)
+                return False
+            seq = state.unwrapper.restart(sample.seq)
+        state.last_device_s = sample.device_time_s
         state.clock.add_one_way(sample.device_time_s, receive_time_s)
         estimate = state.clock.estimate
         host_s = estimate.host_from_device_scalar(sample.device_time_s)
@@ -144,6 +164,7 @@ class SampleIntake:
         """A cumulative :class:`WorkerReport` of this intake."""
         clocks = {}
         by_sensor = {}
+        restarts = {s.name: s.restarts for s in self._sensors.values() if s.restarts}
         for sensor in self._sensors.values():
             estimate = sensor.clock.estimate
             if estimate is not None:
@@ -154,4 +175,5 @@ class SampleIntake:
         if overflow_samples:
             rejections[Rejection.QUEUE_OVERFLOW.value] = overflow_samples
         return WorkerReport(self.source, state, message, rejections,
-                            dict(self.unknown), by_sensor, clocks, overflow_samples, reconnects)
+                            dict(self.unknown), by_sensor, clocks, overflow_samples, reconnects,
+                            restarts)

@@ -53,3 +53,4 @@ class WorkerReport:
     clocks: dict[str, ClockEstimate] = field(default_factory=dict)  #: sensor → clock mapping
     overflow_samples: int = 0        #: samples discarded because the queue was full
     reconnects: int = 0
+    node_restarts: dict[str, int] = field(default_factory=dict)   #: sensor → reboots seen

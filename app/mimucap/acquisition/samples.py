@@ -270,26 +270,35 @@ class SequenceUnwrapper:
     """Unwraps a per-sensor 32-bit wire sequence number into a monotonic int64.
 
     A number more than ``2**31`` ahead is read as a wrap-around; a number at or before the
-    last one is stale (duplicate or reordered) and refused.
+    last one is stale (duplicate or reordered) and refused. After a node restart
+    (:meth:`restart`) the new counter continues right after the last number.
     """
 
     MODULUS = 2**32
 
     def __init__(self) -> None:
-        self._last: int | None = None
+        self._last_wire: int | None = None   # last accepted number, unwrapped in the wire's own count
+        self._offset = 0                     # added after a restart of the node's counter
 
     @property
     def last(self) -> int | None:
         """The last accepted unwrapped sequence number (``None`` before the first)."""
-        return self._last
+        return None if self._last_wire is None else self._last_wire + self._offset
 
     def unwrap(self, wire_seq: int) -> int | None:
         """Unwrapped number for ``wire_seq`` or ``None`` if it is stale."""
-        if self._last is None:
-            self._last = int(wire_seq)
-            return self._last
-        delta = (int(wire_seq) - self._last) % self.MODULUS
+        if self._last_wire is None:
+            self._last_wire = int(wire_seq)
+            return self._last_wire + self._offset
+        delta = (int(wire_seq) - self._last_wire) % self.MODULUS
         if delta == 0 or delta >= self.MODULUS // 2:
             return None
-        self._last += delta
-        return self._last
+        self._last_wire += delta
+        return self._last_wire + self._offset
+
+    def restart(self, wire_seq: int) -> int:
+        """The node restarted its counter at ``wire_seq``: number it right after the last one."""
+        last = self.last
+        self._last_wire = int(wire_seq)
+        self._offset = 0 if last is None else last + 1 - int(wire_seq)
+        return self._last_wire + self._offset

@@ -54,6 +54,7 @@ class SourceStatus:
     rejections: dict[str, int] = field(default_factory=dict)
     unknown_sensors: dict[str, int] = field(default_factory=dict)
     clocks: dict[str, ClockEstimate] = field(default_factory=dict)
+    node_restarts: dict[str, int] = field(default_factory=dict)   #: sensor → reboots seen
     exit_code: int | None = None
 
 
@@ -192,6 +193,7 @@ class Supervisor:
         status.unknown_sensors = dict(report.unknown_sensors)
         status.overflow_samples = worker.previous_overflow + report.overflow_samples
         status.clocks = dict(report.clocks)
+        status.node_restarts = dict(report.node_restarts)
         for sensor, counts in report.rejections_by_sensor.items():
             if sensor in self._trackers:
                 self._trackers[sensor].rejections = dict(counts)

@@ -55,7 +55,7 @@ def _status(supervisor: Supervisor) -> dict:
              for name, s in supervisor.stats().items()}
     sources = {name: {"state": s.state, "message": s.message, "restarts": s.restarts,
                       "failures": s.failures, "last_error": s.last_error,
-                      "reconnects": s.reconnects, "rejections": s.rejections,
+                      "reconnects": s.reconnects, "node_restarts": s.node_restarts, "rejections": s.rejections,
                       "unknown_senders": s.unknown_sensors, "overflow_samples": s.overflow_samples,
                       "clocks": {k: {"drift_ppm": c.drift_ppm, "uncertainty_s": c.uncertainty_s}
                                  for k, c in s.clocks.items()}}
