@@ -134,6 +134,8 @@ class UdpDriver:
             self.intake.reject(message)
         elif isinstance(message, Sample):
             if self.intake.accept(message, now):
+                if message.sensor_id not in self._addresses:
+                    self._next_sync_s = 0.0      # a new node: ask for its time right away
                 self._addresses[message.sensor_id] = address
         elif isinstance(message, proto.SyncResponse):
             self._handle_sync_response(message, now)
