@@ -108,9 +108,6 @@ class SampleIntake:
             state = self._sensors[sensor_id] = _SensorState(name, self.settings.clock)
         return state
 
-    def known_sensor_ids(self) -> list[int]:
-        return list(self._sensors)
-
     def clock(self, sensor_id: int) -> ClockSync | None:
         state = self._sensors.get(sensor_id)
         return None if state is None else state.clock

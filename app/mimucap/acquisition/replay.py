@@ -66,18 +66,18 @@ class ReplayDriver:
         self.outbox = outbox
         self.released = 0
 
-    def final_report(self, state: str, message: str = ""):
+    def report(self, state: str, message: str = ""):
         return WorkerReport(self.config.name, state, message, overflow_samples=self.outbox.overflow_samples)
 
     def run(self, stop: Event) -> None:
         streams = [s for s in self.config.streams if len(s.t_s)]
         if not streams:
-            self.outbox.send_report(self.final_report(STATE_FINISHED, "nothing to replay"))
+            self.outbox.send_report(self.report(STATE_FINISHED, "nothing to replay"))
             return
         t0 = min(float(s.t_s[0]) for s in streams)
         start = time.monotonic()
         positions = [0] * len(streams)
-        self.outbox.send_report(self.final_report(STATE_RUNNING))
+        self.outbox.send_report(self.report(STATE_RUNNING))
         while not stop.is_set():
             now = time.monotonic()
             horizon = t0 + (now - start) * self.config.speed
@@ -92,10 +92,10 @@ class ReplayDriver:
                 self.released += sum(len(b) for b in blocks)
                 self.outbox.send_blocks(BlocksMessage(self.config.name, tuple(blocks)))
             if all(positions[i] >= len(s.t_s) for i, s in enumerate(streams)):
-                self.outbox.send_report(self.final_report(STATE_FINISHED, f"replayed {self.released} samples"))
+                self.outbox.send_report(self.report(STATE_FINISHED, f"replayed {self.released} samples"))
                 return
             if self.outbox.report_due(now):
-                self.outbox.send_report(self.final_report(STATE_RUNNING))
+                self.outbox.send_report(self.report(STATE_RUNNING))
             stop.wait(self.config.block_interval_s)
 
     def _block(self, stream: ReplayStream, begin: int, end: int, start: float, t0: float,

@@ -81,9 +81,9 @@ class SerialDriver:
         changed = state != self.state
         self.state, self.message = state, message
         if changed:
-            self.outbox.send_report(self.final_report(state, message))
+            self.outbox.send_report(self.report(state, message))
 
-    def final_report(self, state: str, message: str = ""):
+    def report(self, state: str, message: str = ""):
         return self.intake.report(state, message, self.outbox.overflow_samples, self.reconnects)
 
     def run(self, stop: Event) -> None:
@@ -112,7 +112,7 @@ class SerialDriver:
                     self.handle_bytes(data, now)
                 self.intake.flush_if_due(now)
                 if self.outbox.report_due(now):
-                    self.outbox.send_report(self.final_report(self.state, self.message))
+                    self.outbox.send_report(self.report(self.state, self.message))
         finally:
             self.intake.flush()
             self._close()

@@ -60,12 +60,12 @@ class SimulatedDriver:
         self.simulator = SuitSimulator(config.simulation_config())
         self.sent = 0
 
-    def final_report(self, state: str, message: str = "") -> WorkerReport:
+    def report(self, state: str, message: str = "") -> WorkerReport:
         return WorkerReport(self.config.name, state, message, overflow_samples=self.outbox.overflow_samples)
 
     def run(self, stop: Event) -> None:
         start = time.monotonic()
-        self.outbox.send_report(self.final_report(STATE_RUNNING, f"scenario {self.config.scenario}"))
+        self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}"))
         end = None if self.config.duration_s is None else start + self.config.duration_s
         while not stop.is_set():
             now = time.monotonic()
@@ -88,5 +88,5 @@ class SimulatedDriver:
             if end is not None and now >= end:
                 return
             if self.outbox.report_due(now):
-                self.outbox.send_report(self.final_report(STATE_RUNNING, f"scenario {self.config.scenario}"))
+                self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}"))
             stop.wait(self.config.block_interval_s)

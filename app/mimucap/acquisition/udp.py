@@ -112,16 +112,14 @@ class UdpDriver:
                     self._send_sync_requests(now)
                     self._next_sync_s = now + self.config.sync_interval_s
                 if self.outbox.report_due(now):
-                    self.outbox.send_report(self._report(STATE_RUNNING))
+                    self.outbox.send_report(self.report(STATE_RUNNING))
         finally:
             intake.flush()
             self.close()
 
-    def _report(self, state: str, message: str = ""):
+    def report(self, state: str, message: str = ""):
+        """A cumulative report of this source (see :class:`~mimucap.acquisition.messages.WorkerReport`)."""
         return self.intake.report(state, message, self.outbox.overflow_samples)
-
-    def final_report(self, state: str, message: str = ""):
-        return self._report(state, message)
 
     def handle_datagram(self, data: bytes, address: tuple, now: float) -> None:
         """Process one datagram received from ``address`` at host time ``now``."""

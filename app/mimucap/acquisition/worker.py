@@ -2,7 +2,8 @@
 
 :func:`run_worker` is the top-level entry point: it receives a frozen, picklable source config,
 the supervisor's queue and a stop event, builds the driver for that config and runs it until
-the event is set or the source ends. Messages out are
+the event is set or the source ends. A driver has ``run(stop)`` and ``report(state, message)``
+(a cumulative :class:`~mimucap.acquisition.messages.WorkerReport`). Messages out are
 :class:`~mimucap.acquisition.messages.BlocksMessage` and
 :class:`~mimucap.acquisition.messages.WorkerReport` only. An exception ends the worker with a
 ``failed`` report naming the error and exit code 1 (the supervisor may restart it).
@@ -73,12 +74,12 @@ def run_worker(config: SourceConfig, queue: Any, stop: Any) -> None:
         message = f"{type(error).__name__}: {error}"
         traceback.print_exc(file=sys.stderr)
         if driver is not None:
-            report = driver.final_report(STATE_FAILED, message)
+            report = driver.report(STATE_FAILED, message)
         else:
             report = WorkerReport(config.name, STATE_FAILED, message)
         outbox.send_report(report, final=True)
         _finish(queue)
         sys.exit(1)
     final_state = STATE_STOPPED if stop.is_set() else STATE_FINISHED
-    outbox.send_report(driver.final_report(final_state), final=True)
+    outbox.send_report(driver.report(final_state), final=True)
     _finish(queue)
