@@ -35,6 +35,7 @@ class SupervisorSettings:
     max_restarts: int = 5            #: restarts of a failed worker before giving up
     restart_backoff_s: float = 0.5   #: s to wait before restarting a failed worker
     stats_window_s: float = 2.0      #: s over which rates are computed
+    latency_samples: int = 4096      #: recent latencies kept per sensor for the percentiles
     max_messages_per_poll: int = 512  #: a poll returns after this many messages at most
     stop_timeout_s: float = 3.0      #: s a worker gets to stop before it is terminated
 
@@ -173,7 +174,7 @@ class Supervisor:
         tracker = self._trackers.get(block.sensor_id)
         if tracker is None:
             tracker = self._trackers[block.sensor_id] = SensorStatsTracker(
-                block.sensor_id, block.source, self.settings.stats_window_s)
+                block.sensor_id, block.source, self.settings.stats_window_s, self.settings.latency_samples)
         return tracker
 
     def _apply_report(self, report: WorkerReport) -> None:

@@ -26,6 +26,9 @@ from mimucap.acquisition.serial_port import SerialDriver, SerialSourceConfig
 from mimucap.acquisition.simulated import SimulatedDriver, SimulatedSourceConfig
 from mimucap.acquisition.udp import UdpDriver, UdpSourceConfig
 
+#: GIL switch interval in worker processes (s).
+WORKER_SWITCH_INTERVAL_S = 0.0005
+
 SourceConfig = UdpSourceConfig | SerialSourceConfig | SimulatedSourceConfig | ReplaySourceConfig
 
 
@@ -62,6 +65,9 @@ def run_worker(config: SourceConfig, queue: Any, stop: Any) -> None:
     so no orphan keeps a port or a device open.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl+C is the supervisor's business
+    # the queue's feeder thread must not wait a whole default GIL slice (5 ms) behind a busy
+    # receive loop before it can ship a block
+    sys.setswitchinterval(WORKER_SWITCH_INTERVAL_S)
     parent = multiprocessing.parent_process()
     if parent is not None:
         threading.Thread(target=_stop_when_parent_dies, args=(parent, stop), daemon=True).start()
