@@ -106,8 +106,8 @@ def run_load(n: int, rate: float, duration: float) -> dict:
     return {"n": n, "rate": rate, "sent": sent, "received": received, "drops": drops,
             "overflow": status.overflow_samples, "rejections": sum(status.rejections.values()),
             "p50_ms": float(np.percentile(lat, 50)), "p95_ms": float(np.percentile(lat, 95)),
-            "max_ms": float(np.max(lat)), "emulator_cpu": emulator_cpu / duration, "net_p95_ms": float(np.percentile(net, 95)),
- "worker_cpu": worker_cpu / wall, "main_cpu": main_cpu / wall,
+            "max_ms": float(np.max(lat)), "net_p95_ms": float(np.percentile(net, 95)),
+            "emulator_cpu": emulator_cpu / duration, "worker_cpu": worker_cpu / wall, "main_cpu": main_cpu / wall,
             "sustained": sustained}
 
 
