@@ -40,7 +40,7 @@ class IntakeSettings:
 
     sensor_ids: tuple[int, ...] | None = None  #: expected wire ids; ``None`` accepts any id
     sensor_names: tuple[tuple[int, str], ...] = ()  #: wire id → session name (default str(id))
-    flush_interval_s: float = 0.002   #: s, the oldest pending sample waits at most this long
+    flush_interval_s: float = 0.001   #: s, the oldest pending sample waits at most this long
     max_block_samples: int = 4096     #: pending samples that force a flush
     clock: ClockSyncSettings = field(default_factory=ClockSyncSettings)
 

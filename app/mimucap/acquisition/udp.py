@@ -76,7 +76,8 @@ class UdpDriver:
 
         Each wake-up drains the socket (up to ``MAX_DRAIN`` datagrams, each stamped with its
         own receive time); pending samples are flushed as soon as the socket is empty (at
-        most every ``min_flush_spacing_s``) or when the oldest is ``flush_interval_s`` old.
+        most every ``min_flush_spacing_s``) or, even in the middle of a long burst, when the
+        oldest is ``flush_interval_s`` old.
         """
         if self.sock is None:
             self.open()
@@ -102,7 +103,12 @@ class UdpDriver:
                             break
                         except OSError:   # e.g. ICMP "port unreachable" after a sync request
                             continue
-                        self.handle_datagram(data, address, time.monotonic())
+                        received = time.monotonic()
+                        self.handle_datagram(data, address, received)
+                        due = intake.flush_due_in(received)
+                        if due is not None and due <= 0:    # a long burst: ship what waited
+                            intake.flush()
+                            last_flush = received
                 now = time.monotonic()
                 due = intake.flush_due_in(now)
                 if due is not None and (due <= 0 or now - last_flush >= self.config.min_flush_spacing_s):
