@@ -47,7 +47,7 @@ def _common(parser: argparse.ArgumentParser) -> None:
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser("emulate", help="emulated sensor devices (UDP nodes, serial receiver)",
-                                   description=__doc__.split("\n\n")[0])
+                                   description=__doc__.split("\n\n")[0].replace("``", ""))
     kinds = parser.add_subparsers(dest="kind", metavar="KIND", required=True)
     udp = kinds.add_parser("udp", help="N nodes speaking the UDP protocol")
     _common(udp)

@@ -26,7 +26,7 @@ from mimucap.session.sources import SourceOptions, parse_sensor_ids, sensor_segm
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "record", help="record a session without the GUI",
-        description=__doc__.split("\n\n")[0] + " Valid sources: " + ", ".join(VALID_FORMS))
+        description=__doc__.split("\n\n")[0].replace("``", "") + " Valid sources: " + ", ".join(VALID_FORMS))
     parser.add_argument("--source", required=True, metavar="SPEC", help="data source: " + ", ".join(VALID_FORMS))
     parser.add_argument("--duration", required=True, type=float, metavar="S", help="seconds to record")
     parser.add_argument("--out", required=True, type=Path, metavar="SESSION.h5", help="session file to write")

@@ -14,7 +14,7 @@ from mimucap.session.recording import recover
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser("recover", help="rebuild a session after a crash",
-                                   description=__doc__.split("\n\n")[0])
+                                   description=__doc__.split("\n\n")[0].replace("``", ""))
     parser.add_argument("file", type=Path, metavar="FILE", help="SESSION.h5 or SESSION.h5.journal")
     parser.set_defaults(func=run)
 
