@@ -1,0 +1,369 @@
+"""The guided N-pose / T-pose body calibration (no Qt).
+
+:class:`BodycalProcedure` is a state machine driven by :meth:`BodycalProcedure.step` (one
+call per timer tick, or a loop in tests). It pulls sensor orientations
+(``q_world_from_sensor``, world ENU, scalar-first) from a feed
+(:mod:`mimucap.session.calibration_feed`) and walks through two pose pages:
+
+1. **N-pose**: standing upright, arms hanging. The page waits until every mapped sensor is
+   still (the *stillness meter*: the largest angle any sensor turned within the last
+   ``meter_window_s``), then counts down ``hold_s`` while the averaged window fills. If any
+   sensor turns more than ``still_limit_deg`` from its window mean, the capture restarts with a
+   message naming the sensor.
+2. **T-pose**: the chosen arm(s) raised sideways to the horizontal. The page waits until each
+   raised arm's sensor turned at least ``raise_min_deg`` from its N-pose orientation, then
+   captures a still window the same way.
+
+Then :func:`mimucap.core.bodycal.calibrate_npose_tpose` computes the sensor-to-segment
+rotations from the two windows and the arm movement in between (phase ``"result"``), or
+refuses (phase ``"refused"`` with the reason). A pose that is not held still within
+``pose_timeout_s`` is refused as well ("the subject kept moving in the N-pose"). With a
+simulated feed the simulated subject does what each page asks (``npose``, ``tpose``).
+
+Samples of the sensors are put on a common time base (that of the sensor with the most
+samples, each other sensor's nearest sample: within half a sample period at the common rate).
+Units: s, degrees for the figures shown.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from mimucap.core import rotation as rot
+from mimucap.core.bodycal import (
+    ARM_SEGMENTS,
+    DEFAULT_SETTINGS,
+    BodyCalibration,
+    BodyCalSettings,
+    CalibrationRefused,
+    calibrate_npose_tpose,
+    check_mapping,
+)
+from mimucap.session.calibration_feed import CalibrationFeed
+
+PHASES = ("ready", "npose", "tpose", "result", "refused")
+ARMS = ("both", "right", "left")
+
+
+@dataclass(frozen=True)
+class BodycalProcedureSettings:
+    """Settings of :class:`BodycalProcedure` (defaults in brackets).
+
+    hold_s: length of each averaged pose window [2 s]. still_limit_deg: a sensor turning
+    more than this from its window mean restarts the capture [2°; the engine refuses above
+    3°]. meter_window_s: span of the stillness meter [0.5 s]. raise_min_deg: an arm sensor
+    turned this far from the N-pose counts as raised [60°]. pose_timeout_s: a pose not
+    captured within this time is refused [30 s]. engine: the body-calibration limits.
+    """
+
+    hold_s: float = 2.0
+    still_limit_deg: float = 2.0
+    meter_window_s: float = 0.5
+    raise_min_deg: float = 60.0
+    pose_timeout_s: float = 30.0
+    engine: BodyCalSettings = DEFAULT_SETTINGS
+
+    def __post_init__(self) -> None:
+        for name in ("hold_s", "still_limit_deg", "meter_window_s", "raise_min_deg", "pose_timeout_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"body calibration setting {name} must be a positive number")
+
+
+@dataclass(frozen=True)
+class BodycalStatus:
+    """What the page shows after a step.
+
+    phase: see :data:`PHASES`. pose: "npose"/"tpose" while capturing, else None.
+    meter_deg: the stillness meter (largest recent turn of any sensor, deg; NaN before data).
+    still: meter below the limit. capturing: the averaged window is filling.
+    countdown_s: seconds of the window still to fill (None when not capturing).
+    message: the instruction. restarts: captures restarted by movement on this page.
+    """
+
+    phase: str
+    pose: str | None
+    meter_deg: float
+    still: bool
+    capturing: bool
+    countdown_s: float | None
+    message: str
+    restarts: int
+
+
+class _Track:
+    """Growing orientation samples of one sensor: t (N,), q (N, 4)."""
+
+    def __init__(self) -> None:
+        self.t_parts: list[np.ndarray] = []
+        self.q_parts: list[np.ndarray] = []
+
+    def add(self, t: np.ndarray, q: np.ndarray) -> None:
+        good = np.isfinite(t) & np.all(np.isfinite(q), axis=1)
+        if np.any(good):
+            self.t_parts.append(t[good])
+            self.q_parts.append(q[good])
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        if not self.t_parts:
+            return np.zeros(0), np.zeros((0, 4))
+        if len(self.t_parts) > 1:
+            self.t_parts, self.q_parts = [np.concatenate(self.t_parts)], [np.concatenate(self.q_parts)]
+        return self.t_parts[0], self.q_parts[0]
+
+    def since(self, t0: float) -> np.ndarray:
+        t, q = self.arrays()
+        return q[np.searchsorted(t, t0):]
+
+
+def _spread_deg(q: np.ndarray) -> float:
+    """Largest angle (deg) of the rows of ``q`` (K, 4) from their mean (0 for < 2 rows)."""
+    if q.shape[0] < 2:
+        return 0.0
+    mean = rot.average(q)
+    return float(np.degrees(np.max(rot.angle_between(mean, q))))
+
+
+class BodycalProcedure:
+    """Guided N-pose/T-pose calibration.
+
+    ``feed``: the sample source. ``mapping``: segment → sensor id (checked). ``arms``:
+    ``"both"``, ``"right"`` or ``"left"`` (which arm(s) do the T-pose). ``height_m``: the
+    subject's height (m), used for the skeleton shown with the result.
+    """
+
+    def __init__(
+        self,
+        feed: CalibrationFeed,
+        mapping: Mapping[str, str],
+        arms: str = "both",
+        height_m: float = 1.75,
+        settings: BodycalProcedureSettings = BodycalProcedureSettings(),
+    ) -> None:
+        if arms not in ARMS:
+            raise ValueError(f"arms must be one of {', '.join(ARMS)}, got {arms!r}")
+        if not (math.isfinite(height_m) and 0.5 <= height_m <= 2.5):
+            raise ValueError(f"subject height must be 0.5..2.5 m, got {height_m}")
+        self.mapping = check_mapping(mapping, list(feed.sensor_ids))
+        sides = ("left", "right") if arms == "both" else (arms,)
+        self.arm_sensors: dict[str, str] = {}
+        for side in sides:
+            segment = next((s for s in ARM_SEGMENTS[side] if s in self.mapping), None)
+            if segment is None:
+                raise ValueError(f"the {side} arm has no sensor in the mapping (map upper_arm_{side[0]})")
+            self.arm_sensors[side] = self.mapping[segment]
+        self.feed = feed
+        self.arms = arms
+        self.height_m = float(height_m)
+        self.settings = settings
+        self.phase = "ready"
+        self.calibration: BodyCalibration | None = None
+        self.refusal: str | None = None
+        self._sensors = tuple(dict.fromkeys(self.mapping.values()))
+        self._reset()
+
+    def _reset(self) -> None:
+        self._tracks = {s: _Track() for s in self._sensors}
+        self._now: float | None = None
+        self._page_start: float | None = None
+        self._window_start: float | None = None
+        self._restarts = 0
+        self._message = ""
+        self._worst_motion: tuple[str, float] = ("", 0.0)
+        self.windows: dict[str, tuple[float, float]] = {}
+        self.npose_mean: dict[str, np.ndarray] = {}
+        self.calibration = None
+        self.refusal = None
+
+    # -- driving -----------------------------------------------------------------------------
+    def start(self) -> None:
+        """Start (or restart) with the N-pose page."""
+        self._reset()
+        self.feed.read()  # older samples do not belong to this calibration
+        self._enter("npose")
+
+    redo = start
+
+    def _enter(self, pose: str) -> None:
+        self.phase = pose
+        self._page_start = None
+        self._window_start = None
+        self._restarts = 0
+        self._worst_motion = ("", 0.0)
+        if self.feed.simulated:
+            if pose == "npose":
+                self.feed.request_activity("npose")
+            else:
+                self.feed.request_activity("tpose", arms=self.arms)
+        self._message = self._instruction(pose)
+
+    def _instruction(self, pose: str) -> str:
+        if pose == "npose":
+            return "Stand upright, arms hanging at the sides, palms in, and hold still"
+        arms = {"both": "both arms", "right": "the right arm", "left": "the left arm"}[self.arms]
+        return f"Raise {arms} sideways to shoulder height, palms down, and hold still"
+
+    def step(self) -> BodycalStatus:
+        """Pull new samples and advance the capture."""
+        if self.phase in ("npose", "tpose"):
+            for sensor_id, block in self.feed.read().items():
+                if sensor_id in self._tracks and block.q_world_from_sensor is not None and block.t_s.shape[0]:
+                    self._tracks[sensor_id].add(block.t_s, block.q_world_from_sensor)
+                    self._now = max(self._now if self._now is not None else -math.inf, float(block.t_s[-1]))
+            if self._now is not None:
+                if self._page_start is None:
+                    self._page_start = self._now
+                self._advance_capture()
+        return self.status()
+
+    def _meter(self) -> tuple[float, str]:
+        """Largest recent turn (deg) of any sensor over the meter window, and that sensor."""
+        t0 = self._now - self.settings.meter_window_s
+        worst = (0.0, "")
+        for sensor_id, track in self._tracks.items():
+            q = track.since(t0)
+            if q.shape[0] == 0:
+                return math.nan, sensor_id
+            worst = max(worst, (_spread_deg(q), sensor_id))
+        return worst
+
+    def _arms_raised(self) -> bool:
+        for sensor_id in self.arm_sensors.values():
+            t, q = self._tracks[sensor_id].arrays()
+            if q.shape[0] == 0:
+                return False
+            angle = math.degrees(float(rot.angle_between(self.npose_mean[sensor_id], q[-1])))
+            if angle < self.settings.raise_min_deg:
+                return False
+        return True
+
+    def _advance_capture(self) -> None:
+        s = self.settings
+        pose = self.phase
+        if self._window_start is None:
+            meter, sensor = self._meter()
+            ready = math.isfinite(meter) and meter <= s.still_limit_deg
+            if pose == "tpose" and not self._arms_raised():
+                ready = False
+            elif not ready and math.isfinite(meter):
+                self._worst_motion = max(self._worst_motion, (sensor, meter), key=lambda x: x[1])
+            if ready:
+                self._window_start = self._now
+        else:
+            worst_sensor, worst = "", 0.0
+            for sensor_id, track in self._tracks.items():
+                spread = _spread_deg(track.since(self._window_start))
+                if spread > worst:
+                    worst_sensor, worst = sensor_id, spread
+            if worst > s.still_limit_deg:
+                self._restarts += 1
+                self._worst_motion = max(self._worst_motion, (worst_sensor, worst), key=lambda x: x[1])
+                self._message = (f"Movement detected: sensor {worst_sensor} turned {worst:.1f}°. "
+                                 f"Hold still — the capture restarts")
+                self._window_start = None
+            elif self._now - self._window_start >= s.hold_s:
+                self._captured(pose, (self._window_start, self._now))
+                return
+        if self._window_start is None and self._now - self._page_start > s.pose_timeout_s:
+            name = "N-pose" if pose == "npose" else "T-pose"
+            sensor, angle = self._worst_motion
+            if pose == "tpose" and not self._arms_raised():
+                reason = (f"the arm(s) were not raised sideways within {s.pose_timeout_s:.0f} s: raise "
+                          f"{'both arms' if self.arms == 'both' else 'the ' + self.arms + ' arm'} to shoulder height")
+            else:
+                moved = f" (sensor {sensor} turned up to {angle:.1f}°)" if sensor else ""
+                reason = (f"the subject kept moving during the {name}{moved}: no {s.hold_s:g} s still "
+                          f"window in {s.pose_timeout_s:.0f} s; stand still and redo the calibration")
+            self._refuse(reason)
+
+    def _captured(self, pose: str, window: tuple[float, float]) -> None:
+        self.windows[pose] = window
+        if pose == "npose":
+            for sensor_id, track in self._tracks.items():
+                t, q = track.arrays()
+                part = q[(t >= window[0]) & (t <= window[1])]
+                self.npose_mean[sensor_id] = rot.average(part)
+            self._enter("tpose")
+        else:
+            self._compute()
+
+    def _refuse(self, reason: str) -> None:
+        self.refusal = reason
+        self.phase = "refused"
+        self._message = f"Calibration refused: {reason}"
+        if self.feed.simulated:
+            self.feed.request_activity("npose")
+
+    def _common_time_base(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        reference = max(self._sensors, key=lambda s: self._tracks[s].arrays()[0].shape[0])
+        t_ref = self._tracks[reference].arrays()[0]
+        start = self.windows["npose"][0]
+        t_ref = t_ref[t_ref >= start]
+        q = {}
+        for sensor_id in self._sensors:
+            t, qs = self._tracks[sensor_id].arrays()
+            index = np.clip(np.searchsorted(t, t_ref), 1, t.shape[0] - 1)
+            nearer_left = (t_ref - t[index - 1]) <= (t[index] - t_ref)
+            q[sensor_id] = qs[np.where(nearer_left, index - 1, index)]
+        return t_ref, q
+
+    def _compute(self) -> None:
+        t, q = self._common_time_base()
+        try:
+            self.calibration = calibrate_npose_tpose(
+                t, q, self.mapping, self.windows["npose"], self.windows["tpose"],
+                arms=self.arms, settings=self.settings.engine,
+            )
+        except CalibrationRefused as refusal:
+            self._refuse(refusal.reason)
+            return
+        self.phase = "result"
+        self._message = f"Calibration {self.calibration.quality.verdict}: check the figure and accept"
+        if self.feed.simulated:
+            self.feed.request_activity("npose")
+
+    # -- views -------------------------------------------------------------------------------
+    def status(self) -> BodycalStatus:
+        """The current :class:`BodycalStatus`."""
+        meter, still, capturing, countdown = math.nan, False, False, None
+        pose = self.phase if self.phase in ("npose", "tpose") else None
+        if pose is not None and self._now is not None:
+            meter, _ = self._meter()
+            still = math.isfinite(meter) and meter <= self.settings.still_limit_deg
+            if self._window_start is not None:
+                capturing = True
+                countdown = max(self.settings.hold_s - (self._now - self._window_start), 0.0)
+                if not self._message.startswith("Movement"):
+                    self._message = self._instruction(pose)
+        return BodycalStatus(self.phase, pose, meter, still, capturing, countdown, self._message, self._restarts)
+
+    def npose_segment_orientations(self) -> dict[str, np.ndarray]:
+        """The calibrated N-pose: segment → ``q_world_from_segment`` (4,) from the N-pose means
+        and the result (only in phase ``"result"``)."""
+        if self.calibration is None:
+            raise ValueError("no body calibration result yet")
+        cal = self.calibration
+        return {seg: rot.multiply(self.npose_mean[sid], rot.conjugate(cal.q_segment_from_sensor[seg]))
+                for seg, sid in cal.sensors.items()}
+
+    def quality_figures(self) -> list[tuple[str, str]]:
+        """(label, value) pairs for the result page: arm raise/rotation angles, axis tilt,
+        left/right agreement, stillness."""
+        if self.calibration is None:
+            return []
+        quality = self.calibration.quality
+        rows = []
+        for arm in quality.arms:
+            rows.append((f"{arm.side} arm raised", f"{arm.raise_angle_deg:.0f}° (about 90° expected)"))
+            rows.append((f"{arm.side} arm rotation", f"{arm.rotation_angle_deg:.0f}°"))
+            rows.append((f"{arm.side} arm axis tilt", f"{arm.axis_tilt_deg:.1f}° from horizontal"))
+        if quality.left_right_disagreement_deg is not None:
+            rows.append(("left/right agreement", f"{quality.left_right_disagreement_deg:.1f}° apart"))
+        if quality.stillness:
+            worst = max(quality.stillness, key=lambda s: s.max_deviation_deg)
+            rows.append(("stillness", f"largest sway {worst.max_deviation_deg:.1f}° ({worst.sensor}, {worst.pose})"))
+        return rows

@@ -1,0 +1,130 @@
+"""Guided N-pose/T-pose calibration on the simulated suit: the result against the simulator's
+true mounting rotations, movement restarting a capture, and the refusals."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from mimucap.core import rotation as rot
+from mimucap.core.simulate import SimulationConfig, SuitSimulator
+from mimucap.core.simulate_sensors import error_model
+from mimucap.session.bodycal_procedure import BodycalProcedure, BodycalProcedureSettings
+from mimucap.session.calibration_feed import SimulatorFeed
+
+#: Units with an on-board orientation as good as 0.3° rms (the procedure's own error is then
+#: what is measured); everything else of the default error model.
+ONBOARD = replace(error_model("default"), onboard_orientation=True, onboard_error_deg=0.3)
+
+
+def make(seed: int = 1, **kwargs):
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=seed, errors=ONBOARD))
+    feed = SimulatorFeed(simulator, step_s=0.1)
+    mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
+    return simulator, feed, BodycalProcedure(feed, mapping, **kwargs)
+
+
+def mounting_errors_deg(procedure, simulator) -> dict[str, float]:
+    cal = procedure.calibration
+    return {seg: float(np.degrees(rot.angle_between(cal.q_segment_from_sensor[seg],
+                                                    simulator.mounting[sid].q_segment_from_sensor)))
+            for seg, sid in cal.sensors.items()}
+
+
+def run(procedure, limit_s: float = 60.0) -> list:
+    statuses = []
+    while procedure.phase in ("npose", "tpose"):
+        statuses.append(procedure.step())
+        assert procedure.feed.time_s < limit_s
+    return statuses
+
+
+@pytest.mark.parametrize("arms, seed", [("both", 1), ("right", 2)])
+def test_result_matches_the_true_mountings_within_one_degree(arms, seed) -> None:
+    simulator, feed, procedure = make(seed, arms=arms, height_m=1.75)
+    procedure.start()
+    statuses = run(procedure)
+    assert procedure.phase == "result", procedure.refusal
+    # Both pages counted down a still, averaged window.
+    for pose in ("npose", "tpose"):
+        counting = [s.countdown_s for s in statuses if s.pose == pose and s.capturing]
+        assert counting and counting[0] > counting[-1]
+        assert all(s.still for s in statuses if s.pose == pose and s.capturing)
+    t0, t1 = procedure.windows["npose"]
+    assert t1 - t0 >= procedure.settings.hold_s
+    errors = mounting_errors_deg(procedure, simulator)
+    assert len(errors) == 10 and max(errors.values()) < 1.0, errors
+    assert procedure.calibration.quality.verdict == "good"
+    labels = [label for label, _ in procedure.quality_figures()]
+    assert f"{arms if arms != 'both' else 'left'} arm raised" in labels
+    assert ("left/right agreement" in labels) == (arms == "both")
+    # The calibrated N-pose: every segment parallel to the body frame (within the sway).
+    npose = procedure.npose_segment_orientations()
+    q_body = procedure.calibration.q_world_from_body
+    assert max(float(np.degrees(rot.angle_between(q, q_body))) for q in npose.values()) < 3.0
+
+
+def test_movement_restarts_the_capture_and_a_restless_subject_is_refused() -> None:
+    settings = BodycalProcedureSettings(pose_timeout_s=10.0)
+    _, feed, procedure = make(3, settings=settings)
+    procedure.start()
+    while not procedure.status().capturing:
+        procedure.step()
+    feed.request_activity("arm_raise")  # the subject moves during the N-pose capture
+    statuses = run(procedure)
+    assert any(s.message.startswith("Movement detected: sensor S0") for s in statuses)
+    assert max(s.restarts for s in statuses) >= 1
+    assert any(not s.still for s in statuses)
+    assert procedure.phase == "refused"
+    assert procedure.calibration is None
+    assert "kept moving during the N-pose" in procedure.refusal
+    # Redo with the subject standing still succeeds.
+    procedure.redo()
+    run(procedure)
+    assert procedure.phase == "result"
+
+
+class _StubbornSubject:
+    """A feed whose subject ignores the T-pose request (keeps standing in N-pose)."""
+
+    def __init__(self, feed):
+        self._feed = feed
+        self.sensor_ids, self.simulated = feed.sensor_ids, True
+
+    @property
+    def time_s(self):
+        return self._feed.time_s
+
+    def read(self):
+        return self._feed.read()
+
+    def request_activity(self, name, **params):
+        if name != "tpose":
+            self._feed.request_activity(name, **params)
+
+
+def test_arms_not_raised_are_refused() -> None:
+    simulator, feed, _ = make(4)
+    mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
+    procedure = BodycalProcedure(_StubbornSubject(feed), mapping, arms="left",
+                                 settings=BodycalProcedureSettings(pose_timeout_s=5.0))
+    procedure.start()
+    run(procedure)
+    assert procedure.phase == "refused"
+    assert "not raised" in procedure.refusal and "left arm" in procedure.refusal
+
+
+def test_bad_arguments_are_refused() -> None:
+    simulator, feed, _ = make()
+    mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
+    with pytest.raises(ValueError, match="arms"):
+        BodycalProcedure(feed, mapping, arms="up")
+    with pytest.raises(ValueError, match="height"):
+        BodycalProcedure(feed, mapping, height_m=4.0)
+    without_right = {k: v for k, v in mapping.items() if not k.endswith("_r")}
+    with pytest.raises(ValueError, match="right arm has no sensor"):
+        BodycalProcedure(feed, without_right, arms="both")
+    with pytest.raises(ValueError, match="S99"):
+        BodycalProcedure(feed, {**mapping, "pelvis": "S99"})

@@ -1,0 +1,133 @@
+"""Guided magnetometer calibration on the simulated suit: several sensors held together, the
+single-axis protocol's guidance, truth bounds against the simulator's true distortion, the
+refusal of a one-axis capture, storage and the previous calibration's age."""
+
+from __future__ import annotations
+
+import datetime as dt
+
+import numpy as np
+import pytest
+
+from mimucap.core.simulate import SimulationConfig, SuitSimulator
+from mimucap.io.calibration_store import CalibrationStore
+from mimucap.session.calibration_feed import SimulatorFeed
+from mimucap.session.magcal_procedure import MagcalProcedure, MagcalProcedureSettings, describe_age
+
+NOW = dt.datetime(2026, 11, 21, 7, 0, tzinfo=dt.timezone.utc)
+#: Truth bounds: hard-iron offset within 0.5 µT (1 % of the Earth's field) and the shape of the
+#: soft-iron correction within 1 % (largest singular value of soft_iron·A/s − I).
+OFFSET_BOUND_UT = 0.5
+SHAPE_BOUND = 0.01
+
+
+def shape_and_offset_error(calibration, parameters) -> tuple[float, float]:
+    """Error of a calibration against the true model ``mag = A·field + b`` (independent of it)."""
+    product = calibration.soft_iron @ parameters.mag_A
+    scale = float(np.mean(np.linalg.svd(product, compute_uv=False)))
+    shape = float(np.linalg.norm(product / scale - np.eye(3), 2))
+    return float(np.linalg.norm(calibration.offset_uT - parameters.mag_b_uT)), shape
+
+
+def make_feed(seed: int = 3) -> tuple[SuitSimulator, SimulatorFeed]:
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=seed))
+    return simulator, SimulatorFeed(simulator, step_s=0.2, fuse=False)
+
+
+def run(procedure: MagcalProcedure, limit_s: float = 200.0) -> list:
+    statuses = []
+    while procedure.phase == "recording":
+        statuses.append(procedure.step())
+        assert procedure.feed.time_s < limit_s, "the recording never finished"
+    return statuses
+
+
+def test_single_axis_several_sensors_at_once_within_truth_bounds(tmp_path) -> None:
+    simulator, feed = make_feed()
+    ids = ["S02", "S04", "S06", "S08"]
+    store = CalibrationStore(tmp_path)
+    procedure = MagcalProcedure(feed, ids, store=store, now=lambda: NOW)
+    procedure.start()
+    statuses = run(procedure)
+    # The page asked for x, then y, then z, and advanced by itself.
+    asked = [s.axis_to_turn for s in statuses if s.axis_to_turn is not None]
+    assert asked[0] == "x" and asked[-1] == "z"
+    assert [a for i, a in enumerate(asked) if i == 0 or asked[i - 1] != a] == ["x", "y", "z"]
+    assert procedure.phase == "result"
+    # Picking up, three turns and re-grasps: well under a minute of user time.
+    assert procedure.elapsed_s < 40.0
+    for sensor_id in ids:
+        outcome = procedure.outcomes[sensor_id]
+        assert outcome.verdict == "good", outcome.advice
+        assert outcome.previous is None
+        offset_error, shape_error = shape_and_offset_error(outcome.result.calibration, simulator.parameters[sensor_id])
+        assert offset_error < OFFSET_BOUND_UT
+        assert shape_error < SHAPE_BOUND
+    assert procedure.accept() == ids
+    assert store.sensor_ids() == sorted(ids)
+    # A second run shows the stored calibration and its age.
+    later = MagcalProcedure(feed, ["S04"], store=store, now=lambda: NOW + dt.timedelta(days=3))
+    later.start()
+    run(later)
+    previous = later.outcomes["S04"].previous
+    assert previous is not None and previous.age_days == pytest.approx(3.0)
+    assert describe_age(previous.age_days) == "3 days ago"
+    np.testing.assert_allclose(previous.offset_uT, procedure.outcomes["S04"].result.calibration.offset_uT)
+
+
+def test_one_axis_only_is_refused_with_advice_for_the_missing_axes(tmp_path) -> None:
+    _, feed = make_feed(seed=5)
+    procedure = MagcalProcedure(feed, ["S01", "S03"], store=CalibrationStore(tmp_path), now=lambda: NOW)
+    procedure.start()
+    while procedure.status().axis_progress["x"] < 1.0:
+        procedure.step()
+        assert feed.time_s < 30.0
+    feed.request_activity("npose")  # the user stops after one axis
+    for _ in range(15):
+        status = procedure.step()
+    assert status.phase == "recording" and status.axis_to_turn == "y"
+    procedure.finish_now()
+    for sensor_id in ("S01", "S03"):
+        outcome = procedure.outcomes[sensor_id]
+        assert outcome.verdict == "fail"
+        assert not outcome.acceptable
+        assert any(a.startswith("turn about y again") for a in outcome.advice)
+        assert any(a.startswith("turn about z again") for a in outcome.advice)
+        assert not any(a.startswith("turn about x again") for a in outcome.advice)
+    with pytest.raises(ValueError, match="S01.*cannot be stored"):
+        procedure.accept(["S01"])
+    assert procedure.accept() == []
+    procedure.redo()
+    assert procedure.phase == "ready" and procedure.status().samples == {"S01": 0, "S03": 0}
+
+
+def test_figure8_protocol_finishes_by_itself_when_coverage_stops_improving(tmp_path) -> None:
+    """Three simulated figure-8 gestures cover less than the single-axis turns (the seed's
+    finding): the recording stops once the coverage no longer improves, with a warning."""
+    simulator, feed = make_feed(seed=7)
+    settings = MagcalProcedureSettings(protocol="figure8")
+    procedure = MagcalProcedure(feed, ["S05", "S09"], settings, store=CalibrationStore(tmp_path), now=lambda: NOW)
+    procedure.start()
+    statuses = run(procedure, limit_s=130.0)
+    assert all(s.axis_to_turn is None for s in statuses)
+    assert settings.min_duration_s + settings.stall_s <= procedure.elapsed_s < 40.0
+    for sensor_id in ("S05", "S09"):
+        outcome = procedure.outcomes[sensor_id]
+        assert outcome.verdict in ("good", "warn") and outcome.acceptable
+        if outcome.verdict == "warn":
+            assert any("coverage" in a for a in outcome.advice)
+        offset_error, shape_error = shape_and_offset_error(outcome.result.calibration, simulator.parameters[sensor_id])
+        assert offset_error < 2 * OFFSET_BOUND_UT and shape_error < 2 * SHAPE_BOUND
+
+
+def test_bad_arguments_are_refused(tmp_path) -> None:
+    _, feed = make_feed()
+    with pytest.raises(ValueError, match="unknown calibration protocol"):
+        MagcalProcedureSettings(protocol="wave")
+    with pytest.raises(ValueError, match="unknown sensor.*S42"):
+        MagcalProcedure(feed, ["S01", "S42"], store=CalibrationStore(tmp_path))
+    with pytest.raises(ValueError, match="at least one sensor"):
+        MagcalProcedure(feed, [], store=CalibrationStore(tmp_path))
+    procedure = MagcalProcedure(feed, ["S01"], store=CalibrationStore(tmp_path))
+    with pytest.raises(ValueError, match="no magnetometer calibration result"):
+        procedure.accept()
