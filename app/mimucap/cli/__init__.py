@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from mimucap import __version__
 
 #: Sub-command modules, in the order ``--help`` lists them.
-COMMAND_MODULES: tuple[str, ...] = ("magcal", "bodycal", "angles", "emulate", "record", "recover", "fuse", "bench", "simulate")
+COMMAND_MODULES: tuple[str, ...] = ("gui", "magcal", "bodycal", "angles", "emulate", "record", "recover", "fuse", "bench", "simulate")
 
 EXIT_USAGE = 2
 

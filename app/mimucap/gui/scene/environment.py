@@ -1,0 +1,118 @@
+"""The stage of the 3D view: floor grid, world axes, soft lighting and background.
+
+The floor (10 m × 10 m, a line every 0.5 m) and the world axes (E, N, Up; 0.5 m, standing at
+:data:`AXES_ORIGIN_WORLD_M`) are built in
+**world** coordinates (ENU, metres) and placed in the scene by the frame's
+``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from vtkmodules.vtkCommonMath import vtkMatrix4x4
+from vtkmodules.vtkFiltersSources import vtkPlaneSource
+from vtkmodules.vtkRenderingAnnotation import vtkAxesActor
+from vtkmodules.vtkRenderingCore import vtkActor, vtkLightKit, vtkPolyDataMapper, vtkRenderer
+
+FLOOR_SIZE_M = 10.0
+FLOOR_SPACING_M = 0.5
+AXES_LENGTH_M = 0.5
+#: Where the world axes stand on the floor (world ENU, metres): beside the figure, not inside it.
+AXES_ORIGIN_WORLD_M = (-1.0, 0.0, 0.0)
+AXES_FONT_SIZE = 13
+BACKGROUND_TOP = (0.16, 0.19, 0.25)
+BACKGROUND_BOTTOM = (0.43, 0.47, 0.54)
+
+
+def _plane(resolution: int) -> vtkPlaneSource:
+    half = FLOOR_SIZE_M / 2.0
+    plane = vtkPlaneSource()
+    plane.SetOrigin(-half, -half, 0.0)
+    plane.SetPoint1(half, -half, 0.0)
+    plane.SetPoint2(-half, half, 0.0)
+    plane.SetResolution(resolution, resolution)
+    return plane
+
+
+class Stage:
+    """Floor, axes, lights and background of ``renderer``."""
+
+    def __init__(self, renderer: vtkRenderer) -> None:
+        self.renderer = renderer
+        renderer.GradientBackgroundOn()
+        renderer.SetBackground(*BACKGROUND_BOTTOM)
+        renderer.SetBackground2(*BACKGROUND_TOP)
+        self.light_kit = vtkLightKit()
+        self.light_kit.SetKeyLightIntensity(0.85)
+        self.light_kit.AddLightsToRenderer(renderer)
+
+        self.world_matrix = vtkMatrix4x4()
+        self.axes_matrix = vtkMatrix4x4()
+        cells = int(round(FLOOR_SIZE_M / FLOOR_SPACING_M))
+        # Keep the sources referenced: an output port does not keep its producer alive.
+        self._floor_source = _plane(1)
+        self._grid_source = _plane(cells)
+        solid_mapper = vtkPolyDataMapper()
+        solid_mapper.SetInputConnection(self._floor_source.GetOutputPort())
+        self.floor = vtkActor()
+        self.floor.SetMapper(solid_mapper)
+        self.floor.GetProperty().SetColor(0.80, 0.82, 0.84)
+        self.floor.GetProperty().SetOpacity(0.35)
+        self.floor.GetProperty().SetAmbient(0.4)
+        self.floor.SetUserMatrix(self.world_matrix)
+
+        grid_mapper = vtkPolyDataMapper()
+        grid_mapper.SetInputConnection(self._grid_source.GetOutputPort())
+        grid_mapper.SetResolveCoincidentTopologyToPolygonOffset()
+        self.grid = vtkActor()
+        self.grid.SetMapper(grid_mapper)
+        grid_prop = self.grid.GetProperty()
+        grid_prop.SetRepresentationToWireframe()
+        grid_prop.SetColor(0.93, 0.94, 0.96)
+        grid_prop.SetOpacity(0.55)
+        grid_prop.LightingOff()
+        self.grid.SetUserMatrix(self.world_matrix)
+
+        self.axes = vtkAxesActor()
+        self.axes.SetTotalLength(AXES_LENGTH_M, AXES_LENGTH_M, AXES_LENGTH_M)
+        self.axes.SetXAxisLabelText("E")
+        self.axes.SetYAxisLabelText("N")
+        self.axes.SetZAxisLabelText("Up")
+        self.axes.SetShaftTypeToCylinder()
+        self.axes.SetCylinderRadius(0.02)
+        self.axes.SetConeRadius(0.3)
+        for caption in (
+            self.axes.GetXAxisCaptionActor2D(),
+            self.axes.GetYAxisCaptionActor2D(),
+            self.axes.GetZAxisCaptionActor2D(),
+        ):
+            caption.GetTextActor().SetTextScaleModeToNone()
+            caption.GetCaptionTextProperty().SetFontSize(AXES_FONT_SIZE)
+            caption.GetCaptionTextProperty().ShadowOff()
+            caption.GetCaptionTextProperty().ItalicOff()
+            caption.GetCaptionTextProperty().BoldOn()
+        self.axes.SetUserMatrix(self.axes_matrix)
+        self.set_world_matrix(np.eye(4))
+
+        for actor in (self.floor, self.grid, self.axes):
+            renderer.AddActor(actor)
+
+    def set_world_matrix(self, matrix) -> None:
+        """Place floor and axes with a ``(4, 4)`` world→scene matrix (``FigureGeometry.world_matrix``)."""
+        matrix = np.asarray(matrix, dtype=float)
+        shifted = matrix.copy()
+        shifted[:3, 3] = matrix[:3, :3] @ np.asarray(AXES_ORIGIN_WORLD_M) + matrix[:3, 3]
+        for row in range(4):
+            for col in range(4):
+                self.world_matrix.SetElement(row, col, float(matrix[row, col]))
+                self.axes_matrix.SetElement(row, col, float(shifted[row, col]))
+        self.world_matrix.Modified()
+        self.axes_matrix.Modified()
+        for actor in (self.floor, self.grid, self.axes):
+            actor.Modified()
+
+    def set_visible(self, floor: bool, axes: bool) -> None:
+        """Show or hide the floor (grid included) and the world axes."""
+        self.floor.SetVisibility(floor)
+        self.grid.SetVisibility(floor)
+        self.axes.SetVisibility(axes)

@@ -1,0 +1,225 @@
+"""The 3D view widget: owns one VTK render window inside Qt and a throttled render loop.
+
+Like pyvistaqt/MNE, the widget *has* a ``QVTKRenderWindowInteractor`` (no double
+inheritance). A ``QTimer`` ticks at :attr:`SceneView.target_fps`; each tick asks the frame
+provider for the newest :class:`~mimucap.session.figure.FigureGeometry` and renders once,
+only when something changed (new frame, tint, camera). Mouse orbit/zoom is VTK's trackball
+camera style. After :meth:`SceneView.shutdown` (called on close) nothing renders again.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+
+import numpy as np
+import vtkmodules.vtkInteractionStyle  # noqa: F401  (registers the interactor styles)
+import vtkmodules.vtkRenderingFreeType  # noqa: F401  (text for the axes labels)
+import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (the OpenGL back end)
+from PyQt5 import QtCore, QtGui, QtWidgets
+from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
+from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.vtkInteractionStyle import vtkInteractorStyleTrackballCamera
+from vtkmodules.vtkRenderingCore import vtkRenderer, vtkWindowToImageFilter
+
+from mimucap.gui.scene.environment import Stage
+from mimucap.gui.scene.skeleton_actor import SkeletonActor
+from mimucap.session.camera import CAMERA_PRESETS, camera_preset
+from mimucap.session.figure import FigureBuilder, FigureGeometry
+
+#: Called every tick; returns ``(frame_id, geometry)`` for the newest frame or ``None``.
+FrameProvider = Callable[[], "tuple[object, FigureGeometry] | None"]
+
+
+class SceneView(QtWidgets.QWidget):
+    """The skeleton's 3D view.
+
+    Signals:
+        frame_rendered(float): emitted after each ``Render()`` with ``time.perf_counter()``.
+    """
+
+    frame_rendered = QtCore.pyqtSignal(float)
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None, target_fps: float = 60.0) -> None:
+        super().__init__(parent)
+        self.setObjectName("sceneView")
+        self.target_fps = float(target_fps)
+        self.vtk_widget = QVTKRenderWindowInteractor(self)
+        self.vtk_widget.setObjectName("vtkWidget")
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.vtk_widget)
+        self.render_window = self.vtk_widget.GetRenderWindow()
+        self.render_window.SetMultiSamples(0)  # MSAA costs 4x on software GL; keep the frame rate
+        self.renderer = vtkRenderer()
+        self.renderer.SetUseFXAA(False)
+        self.render_window.AddRenderer(self.renderer)
+        self.stage = Stage(self.renderer)
+        self.interactor = self.render_window.GetInteractor()
+        self.interactor.SetInteractorStyle(vtkInteractorStyleTrackballCamera())
+
+        self._provider: FrameProvider | None = None
+        self._tint_provider: Callable[[], Mapping[str, str]] | None = None
+        self._builder: FigureBuilder | None = None
+        self.skeleton: SkeletonActor | None = None
+        self._last_frame_id: object = None
+        self._last_geometry: FigureGeometry | None = None
+        self._camera_preset = "front"
+        self._camera_pending = True
+        self._dirty = True
+        self._alive = True
+        self._initialized = False
+        self.frames_rendered = 0
+        self.render_times: list[float] = []  # perf_counter() of recent renders (bounded)
+
+        self._timer = QtCore.QTimer(self)
+        self._timer.setTimerType(QtCore.Qt.PreciseTimer)
+        self._timer.setInterval(max(1, int(round(1000.0 / self.target_fps))))
+        self._timer.timeout.connect(self._tick)
+
+    # -- configuration -------------------------------------------------------------------
+    def set_figure(self, builder: FigureBuilder) -> None:
+        """Show the figure of ``builder``'s model (replaces any previous figure)."""
+        if self.skeleton is not None:
+            self.skeleton.remove()
+        self._builder = builder
+        self.skeleton = SkeletonActor(self.renderer, builder)
+        self._last_frame_id = None
+        self._camera_pending = True
+        self._dirty = True
+
+    def set_frame_provider(self, provider: FrameProvider | None) -> None:
+        """Where each tick gets the newest frame (``None`` freezes the view)."""
+        self._provider = provider
+        self._last_frame_id = None
+        self._dirty = True
+
+    def set_tint_provider(self, provider: Callable[[], Mapping[str, str]] | None) -> None:
+        """Where each tick gets segment → sensor state names for tinting."""
+        self._tint_provider = provider
+        self._dirty = True
+
+    @property
+    def camera_preset(self) -> str:
+        return self._camera_preset
+
+    def set_camera_preset(self, name: str) -> None:
+        """Move the camera to preset ``name`` (one of ``CAMERA_PRESETS``)."""
+        if name not in CAMERA_PRESETS:
+            raise ValueError(f"camera preset must be one of {CAMERA_PRESETS}, got {name!r}")
+        self._camera_preset = name
+        self._camera_pending = True
+        self._dirty = True
+
+    def set_stage_visible(self, floor: bool, axes: bool) -> None:
+        self.stage.set_visible(floor, axes)
+        self._dirty = True
+
+    @property
+    def alive(self) -> bool:
+        """False once :meth:`shutdown` ran (nothing renders any more)."""
+        return self._alive
+
+    @property
+    def last_geometry(self) -> FigureGeometry | None:
+        """The geometry currently shown (``None`` before the first frame)."""
+        return self._last_geometry
+
+    # -- render loop -----------------------------------------------------------------------
+    def start(self) -> None:
+        """Start the render loop (idempotent)."""
+        if not self._alive:
+            return
+        if not self._initialized:
+            self.vtk_widget.Initialize()
+            self._initialized = True
+        if not self._timer.isActive():
+            self._timer.start()
+
+    def stop(self) -> None:
+        self._timer.stop()
+
+    @property
+    def running(self) -> bool:
+        return self._timer.isActive()
+
+    def _apply_camera(self, root_scene) -> None:
+        if self._builder is None:
+            return
+        pose = camera_preset(self._camera_preset, root_scene, self._builder.height_m)
+        camera = self.renderer.GetActiveCamera()
+        camera.SetFocalPoint(*pose.focal_point)
+        camera.SetPosition(*pose.position)
+        camera.SetViewUp(*pose.view_up)
+        camera.SetViewAngle(30.0)
+        self.renderer.ResetCameraClippingRange()
+
+    def _tick(self) -> None:
+        if not self._alive or self.skeleton is None:
+            return
+        if self._provider is not None:
+            frame = self._provider()
+            if frame is not None:
+                frame_id, geometry = frame
+                if frame_id != self._last_frame_id:
+                    self._last_frame_id = frame_id
+                    self._last_geometry = geometry
+                    self.skeleton.update(geometry)
+                    self.stage.set_world_matrix(geometry.world_matrix)
+                    self._dirty = True
+        if self._tint_provider is not None:
+            before = dict(self.skeleton._tints)
+            self.skeleton.set_tints(self._tint_provider())
+            if self.skeleton._tints != before:
+                self._dirty = True
+        if self._last_geometry is not None and (self._camera_pending or self._camera_preset == "follow"):
+            self._apply_camera(self._last_geometry.root_scene_m)
+            self._camera_pending = False
+        if self._dirty:
+            self.render()
+
+    def render(self) -> None:
+        """Render one frame now (does nothing after :meth:`shutdown` or before show)."""
+        if not self._alive or not self.isVisible():
+            return
+        self.renderer.ResetCameraClippingRange()
+        self.render_window.Render()
+        self._dirty = False
+        self.frames_rendered += 1
+        now = time.perf_counter()
+        self.render_times.append(now)
+        if len(self.render_times) > 600:
+            del self.render_times[:300]
+        self.frame_rendered.emit(now)
+
+    def shutdown(self) -> None:
+        """Stop rendering for good and release the OpenGL context."""
+        if not self._alive:
+            return
+        self._timer.stop()
+        self._alive = False
+        self._provider = None
+        self._tint_provider = None
+        self.vtk_widget.Finalize()
+
+    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+        self.shutdown()
+        super().closeEvent(event)
+
+    # -- capture ---------------------------------------------------------------------------
+    def grab_image(self) -> QtGui.QImage:
+        """The current 3D view as a ``QImage`` (read back from the render window)."""
+        if not self._alive:
+            raise RuntimeError("the 3D view is closed")
+        self.render_window.Render()
+        capture = vtkWindowToImageFilter()
+        capture.SetInput(self.render_window)
+        capture.SetInputBufferTypeToRGB()
+        capture.ReadFrontBufferOff()
+        capture.Update()
+        image = capture.GetOutput()
+        width, height, _ = image.GetDimensions()
+        pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(height, width, 3)
+        pixels = np.ascontiguousarray(pixels[::-1])  # VTK rows run bottom-up
+        qimage = QtGui.QImage(pixels.data, width, height, 3 * width, QtGui.QImage.Format_RGB888)
+        return qimage.copy()

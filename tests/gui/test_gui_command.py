@@ -1,0 +1,46 @@
+"""``mimucap gui``: the screenshot command shows the skeleton; no display gives one clear line."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+from PyQt5 import QtGui
+
+MESSAGE = "mimucap gui: no display found; run it under a virtual screen: xvfb-run -a mimucap gui"
+
+
+def _pixels(path) -> np.ndarray:
+    image = QtGui.QImage(str(path)).convertToFormat(QtGui.QImage.Format_RGB888)
+    ptr = image.constBits()
+    ptr.setsize(image.byteCount())
+    rows = np.frombuffer(ptr, np.uint8).reshape(image.height(), image.bytesPerLine())
+    return rows[:, : 3 * image.width()].reshape(image.height(), image.width(), 3).astype(int)
+
+
+def test_screenshot_command_shows_the_skeleton(tmp_path):
+    out = tmp_path / "main.png"
+    done = subprocess.run(
+        [sys.executable, "-m", "mimucap", "gui", "--source", "simulated", "--screenshot", str(out), "--after", "1.5"],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    pixels = _pixels(out)
+    height, width, _ = pixels.shape
+    assert (width, height) == (1280, 800)
+    # The figure is tinted blue (sensor "ok"): far bluer than the grey floor and the slate
+    # background. Its pixels sit in the middle of the 3D view, below the menu bar.
+    blue = (pixels[..., 2] - pixels[..., 0]) > 60
+    rows, cols = np.nonzero(blue)
+    assert rows.size > 2000
+    assert 0.3 * width < np.median(cols) < 0.7 * width
+    assert rows.min() > 20 and rows.max() < height - 20
+
+
+def test_no_display_prints_one_line_and_exits_1():
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM")}
+    done = subprocess.run([sys.executable, "-m", "mimucap", "gui"], capture_output=True, text=True, env=env, timeout=60)
+    assert done.returncode == 1
+    assert (done.stdout + done.stderr).strip() == MESSAGE
