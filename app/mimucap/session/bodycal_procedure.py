@@ -199,9 +199,10 @@ class BodycalProcedure:
                 self.feed.request_activity("npose")
             else:
                 self.feed.request_activity("tpose", arms=self.arms)
-        self._message = self._instruction(pose)
+        self._message = self.instruction(pose)
 
-    def _instruction(self, pose: str) -> str:
+    def instruction(self, pose: str) -> str:
+        """The instruction of the ``"npose"`` or ``"tpose"`` page."""
         if pose == "npose":
             return "Stand upright, arms hanging at the sides, palms in, and hold still"
         arms = {"both": "both arms", "right": "the right arm", "left": "the left arm"}[self.arms]
@@ -338,7 +339,7 @@ class BodycalProcedure:
                 capturing = True
                 countdown = max(self.settings.hold_s - (self._now - self._window_start), 0.0)
                 if not self._message.startswith("Movement"):
-                    self._message = self._instruction(pose)
+                    self._message = self.instruction(pose)
         return BodycalStatus(self.phase, pose, meter, still, capturing, countdown, self._message, self._restarts)
 
     def npose_segment_orientations(self) -> dict[str, np.ndarray]:

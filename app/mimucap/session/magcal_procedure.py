@@ -162,11 +162,11 @@ class _Recording:
         return self.t[0], self.mag[0], self.acc[0]
 
 
-def _utc_now() -> _dt.datetime:
+def utc_now() -> _dt.datetime:
     return _dt.datetime.now(_dt.timezone.utc)
 
 
-def _age_days(created_utc: str, now: _dt.datetime) -> float | None:
+def age_days_since(created_utc: str, now: _dt.datetime) -> float | None:
     try:
         created = _dt.datetime.fromisoformat(created_utc.replace("Z", "+00:00"))
     except ValueError:
@@ -234,7 +234,7 @@ class MagcalProcedure:
         sensor_ids: Sequence[str],
         settings: MagcalProcedureSettings = MagcalProcedureSettings(),
         store: CalibrationStore | None = None,
-        now: Callable[[], _dt.datetime] = _utc_now,
+        now: Callable[[], _dt.datetime] = utc_now,
     ) -> None:
         sensor_ids = tuple(dict.fromkeys(sensor_ids))
         if not sensor_ids:
@@ -369,7 +369,7 @@ class MagcalProcedure:
         except (FileNotFoundError, CalibrationFileError):
             return None
         return PreviousCalibration(
-            old.offset_uT, old.soft_iron, old.field_uT, old.created_utc, _age_days(old.created_utc, now),
+            old.offset_uT, old.soft_iron, old.field_uT, old.created_utc, age_days_since(old.created_utc, now),
             str(old.quality.get("verdict", "unknown")),
         )
 

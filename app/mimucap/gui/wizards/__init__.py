@@ -1,0 +1,9 @@
+"""Calibration wizards: magnetometer (:class:`MagnetometerWizard`) and body
+(:class:`BodyCalibrationWizard`). Both are dialogs over the Qt-free procedures of
+:mod:`mimucap.session.magcal_procedure` and :mod:`mimucap.session.bodycal_procedure`; the
+main window opens them with ``(parent, live_session)``."""
+
+from mimucap.gui.wizards.body import BodyCalibrationWizard
+from mimucap.gui.wizards.magnetometer import MagnetometerWizard
+
+__all__ = ["BodyCalibrationWizard", "MagnetometerWizard"]

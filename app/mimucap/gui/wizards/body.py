@@ -1,0 +1,420 @@
+"""The body-calibration wizard: subject and mapping, N-pose, T-pose, result.
+
+Pages (:attr:`BodyCalibrationWizard.page_name`):
+
+* ``"setup"``: subject height (prefilled from the session), which arm(s) will do the T-pose,
+  and the sensor mapping (segment → sensor id, one combo box per segment).
+* ``"pose"``: N-pose, then T-pose: the picture of the pose, the instruction, a countdown
+  while the averaged window fills, and the stillness meter (a bar that turns green when the
+  subject holds still); movement restarts the capture with a message.
+* ``"result"``: the skeleton in the calibrated N-pose (VTK, the main window's figure
+  actors) next to the quality figures (arm raise and rotation angles, axis tilt, left/right
+  agreement, stillness) and the verdict with its reasons. Accept applies the calibration to
+  the live pipeline (``live_session.apply_body_calibration`` when the pipeline has it) and
+  emits :attr:`BodyCalibrationWizard.calibration_accepted`.
+* ``"refused"``: why the capture was refused and Redo.
+
+The logic is :class:`mimucap.session.bodycal_procedure.BodycalProcedure`, stepped by a
+``QTimer``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+from PyQt5 import QtCore, QtGui, QtWidgets
+
+from mimucap.core import skeleton
+from mimucap.core.bodycal import fill_missing_segments
+from mimucap.core.simulate import SuitSimulator
+from mimucap.gui.scene.view import SceneView
+from mimucap.gui.wizards.pictures import PictureWidget
+from mimucap.session.bodycal_procedure import ARMS, BodycalProcedure, BodycalProcedureSettings
+from mimucap.session.calibration_feed import CalibrationFeed, SimulatorFeed, feed_for_live_session
+from mimucap.session.figure import FigureBuilder
+
+VERDICT_COLOURS = {"good": "#2ca02c", "acceptable": "#e08a00", "poor": "#d62728"}
+ARM_LABELS = {"both": "Both arms", "right": "Right arm only", "left": "Left arm only"}
+#: Full scale of the stillness meter (degrees turned within the meter window).
+METER_FULL_SCALE_DEG = 10.0
+NO_SENSOR = "(none)"
+
+
+class BodyCalibrationWizard(QtWidgets.QDialog):
+    """Guided N-pose/T-pose body calibration.
+
+    ``live_session``: the main window's live pipeline (source, model, height, and where an
+    accepted calibration goes); or give ``feed``, ``model`` and ``mapping`` directly.
+    ``mapping``: segment → sensor id prefilled on the setup page. ``settings``: the
+    procedure's settings. ``tick_ms``: step interval.
+    """
+
+    calibration_accepted = QtCore.pyqtSignal(object)
+
+    def __init__(
+        self,
+        parent: QtWidgets.QWidget | None,
+        live_session: object | None = None,
+        *,
+        feed: CalibrationFeed | None = None,
+        model: skeleton.SkeletonModel | None = None,
+        mapping: Mapping[str, str] | None = None,
+        height_m: float | None = None,
+        settings: BodycalProcedureSettings = BodycalProcedureSettings(),
+        tick_ms: int = 40,
+    ) -> None:
+        super().__init__(parent)
+        self.live_session = live_session
+        if feed is None:
+            if live_session is None:
+                raise ValueError("the body calibration wizard needs a live session or a feed")
+            feed = feed_for_live_session(live_session)
+        self.feed = feed
+        simulator = getattr(feed, "simulator", None)
+        if model is None:
+            model = getattr(live_session, "model", None) or (simulator.model if simulator is not None else None)
+        if model is None:
+            raise ValueError("the body calibration wizard needs the skeleton model")
+        self.model = model
+        if mapping is None and simulator is not None:
+            mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
+        self.initial_mapping = dict(mapping or {})
+        if height_m is None:
+            height_m = float(getattr(live_session, "height_m", 0.0) or
+                             (simulator.config.height_m if simulator is not None else 1.75))
+        self.settings = settings
+        self.procedure: BodycalProcedure | None = None
+        self.accepted_calibration = None
+        self.setWindowTitle("Body calibration")
+        self.resize(1180, 760)
+
+        self.pages = QtWidgets.QStackedWidget()
+        self.setup_page = self._build_setup(height_m)
+        self.pose_page = self._build_pose()
+        self.result_page = self._build_result()
+        self.refused_page = self._build_refused()
+        for page in (self.setup_page, self.pose_page, self.result_page, self.refused_page):
+            self.pages.addWidget(page)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addWidget(self.pages)
+        self.timer = QtCore.QTimer(self)
+        self.timer.setInterval(int(tick_ms))
+        self.timer.timeout.connect(self._tick)
+
+    @classmethod
+    def for_simulator(
+        cls, simulator: SuitSimulator, parent: QtWidgets.QWidget | None = None, step_s: float = 0.1,
+        feed: SimulatorFeed | None = None, **kwargs,
+    ) -> BodyCalibrationWizard:
+        """A wizard on a simulated suit (its true mapping prefilled), ``step_s`` simulated
+        seconds per tick; pass ``feed`` to reuse one (e.g. with magnetometer calibrations)."""
+        feed = feed if feed is not None else SimulatorFeed(simulator, step_s=step_s)
+        return cls(parent, None, feed=feed, model=simulator.model, **kwargs)
+
+    # -- pages -------------------------------------------------------------------------------
+    def _build_setup(self, height_m: float) -> QtWidgets.QWidget:
+        page = QtWidgets.QWidget()
+        layout = QtWidgets.QVBoxLayout(page)
+        intro = QtWidgets.QLabel(
+            "<h2>Body calibration</h2><p>The subject stands upright with the arms hanging (N-pose), "
+            "then raises the chosen arm(s) sideways to shoulder height (T-pose). Each pose is held "
+            f"still for {self.settings.hold_s:g} s; the wizard captures it by itself.</p>")
+        intro.setWordWrap(True)
+        layout.addWidget(intro)
+        form = QtWidgets.QFormLayout()
+        self.height_spin = QtWidgets.QDoubleSpinBox()
+        self.height_spin.setRange(0.5, 2.5)
+        self.height_spin.setDecimals(2)
+        self.height_spin.setSingleStep(0.01)
+        self.height_spin.setSuffix(" m")
+        self.height_spin.setValue(height_m)
+        form.addRow("Subject height", self.height_spin)
+        self.arms_combo = QtWidgets.QComboBox()
+        for arms in ARMS:
+            self.arms_combo.addItem(ARM_LABELS[arms], arms)
+        form.addRow("T-pose with", self.arms_combo)
+        layout.addLayout(form)
+        layout.addWidget(QtWidgets.QLabel("<b>Sensor on each segment</b>"))
+        self.mapping_table = QtWidgets.QTableWidget(len(self.model.segment_names), 2)
+        self.mapping_table.setHorizontalHeaderLabels(["Segment", "Sensor"])
+        self.mapping_table.verticalHeader().setVisible(False)
+        self.mapping_table.horizontalHeader().setStretchLastSection(True)
+        self.mapping_combos: dict[str, QtWidgets.QComboBox] = {}
+        for row, segment in enumerate(self.model.segment_names):
+            self.mapping_table.setItem(row, 0, QtWidgets.QTableWidgetItem(segment.replace("_", " ")))
+            combo = QtWidgets.QComboBox()
+            combo.addItems([NO_SENSOR, *self.feed.sensor_ids])
+            combo.setCurrentText(self.initial_mapping.get(segment, NO_SENSOR))
+            self.mapping_table.setCellWidget(row, 1, combo)
+            self.mapping_combos[segment] = combo
+        layout.addWidget(self.mapping_table, 1)
+        self.setup_error = QtWidgets.QLabel("")
+        self.setup_error.setWordWrap(True)
+        self.setup_error.setStyleSheet("color: #d62728")
+        layout.addWidget(self.setup_error)
+        buttons = QtWidgets.QHBoxLayout()
+        close = QtWidgets.QPushButton("Close")
+        close.clicked.connect(self.reject)
+        self.start_button = QtWidgets.QPushButton("Start")
+        self.start_button.setDefault(True)
+        self.start_button.clicked.connect(self.start)
+        buttons.addStretch(1)
+        buttons.addWidget(close)
+        buttons.addWidget(self.start_button)
+        layout.addLayout(buttons)
+        return page
+
+    def _build_pose(self) -> QtWidgets.QWidget:
+        page = QtWidgets.QWidget()
+        outer = QtWidgets.QHBoxLayout(page)
+        self.pose_picture = PictureWidget()
+        self.pose_picture.setMinimumSize(420, 420)
+        outer.addWidget(self.pose_picture, 3)
+        side = QtWidgets.QVBoxLayout()
+        self.pose_title = QtWidgets.QLabel("<h2>Step 1 of 2: N-pose</h2>")
+        side.addWidget(self.pose_title)
+        self.pose_instruction = QtWidgets.QLabel("")
+        self.pose_instruction.setWordWrap(True)
+        font = self.pose_instruction.font()
+        font.setPointSizeF(font.pointSizeF() * 1.3)
+        self.pose_instruction.setFont(font)
+        side.addWidget(self.pose_instruction)
+        self.countdown = QtWidgets.QLabel("")
+        self.countdown.setAlignment(QtCore.Qt.AlignCenter)
+        big = self.countdown.font()
+        big.setPointSizeF(big.pointSizeF() * 4.0)
+        big.setBold(True)
+        self.countdown.setFont(big)
+        side.addWidget(self.countdown)
+        side.addWidget(QtWidgets.QLabel("<b>Stillness</b>"))
+        self.meter = QtWidgets.QProgressBar()
+        self.meter.setRange(0, 100)
+        self.meter.setTextVisible(True)
+        side.addWidget(self.meter)
+        self.meter_label = QtWidgets.QLabel("")
+        side.addWidget(self.meter_label)
+        self.movement_message = QtWidgets.QLabel("")
+        self.movement_message.setWordWrap(True)
+        self.movement_message.setStyleSheet("color: #d62728; font-weight: bold")
+        side.addWidget(self.movement_message)
+        side.addStretch(1)
+        buttons = QtWidgets.QHBoxLayout()
+        cancel = QtWidgets.QPushButton("Cancel")
+        cancel.clicked.connect(self.back_to_setup)
+        buttons.addWidget(cancel)
+        buttons.addStretch(1)
+        side.addLayout(buttons)
+        outer.addLayout(side, 2)
+        return page
+
+    def _build_result(self) -> QtWidgets.QWidget:
+        page = QtWidgets.QWidget()
+        outer = QtWidgets.QHBoxLayout(page)
+        self.scene = SceneView(target_fps=20.0)
+        self.scene.setMinimumSize(420, 520)
+        outer.addWidget(self.scene, 3)
+        side = QtWidgets.QVBoxLayout()
+        self.verdict_label = QtWidgets.QLabel("")
+        self.verdict_label.setWordWrap(True)
+        side.addWidget(self.verdict_label)
+        self.figures_table = QtWidgets.QTableWidget(0, 2)
+        self.figures_table.setHorizontalHeaderLabels(["Quality figure", "Value"])
+        self.figures_table.verticalHeader().setVisible(False)
+        self.figures_table.horizontalHeader().setStretchLastSection(True)
+        self.figures_table.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
+        side.addWidget(self.figures_table, 1)
+        self.problems_label = QtWidgets.QLabel("")
+        self.problems_label.setWordWrap(True)
+        side.addWidget(self.problems_label)
+        buttons = QtWidgets.QHBoxLayout()
+        redo = QtWidgets.QPushButton("Redo")
+        redo.clicked.connect(self.redo)
+        close = QtWidgets.QPushButton("Close")
+        close.clicked.connect(self.reject)
+        self.accept_button = QtWidgets.QPushButton("Accept")
+        self.accept_button.clicked.connect(self.accept_result)
+        buttons.addWidget(redo)
+        buttons.addStretch(1)
+        buttons.addWidget(close)
+        buttons.addWidget(self.accept_button)
+        side.addLayout(buttons)
+        outer.addLayout(side, 2)
+        return page
+
+    def _build_refused(self) -> QtWidgets.QWidget:
+        page = QtWidgets.QWidget()
+        layout = QtWidgets.QVBoxLayout(page)
+        layout.addWidget(QtWidgets.QLabel("<h2 style='color:#d62728'>Calibration refused</h2>"))
+        self.refusal_label = QtWidgets.QLabel("")
+        self.refusal_label.setWordWrap(True)
+        font = self.refusal_label.font()
+        font.setPointSizeF(font.pointSizeF() * 1.3)
+        self.refusal_label.setFont(font)
+        layout.addWidget(self.refusal_label)
+        layout.addStretch(1)
+        buttons = QtWidgets.QHBoxLayout()
+        setup = QtWidgets.QPushButton("Change settings")
+        setup.clicked.connect(self.back_to_setup)
+        redo = QtWidgets.QPushButton("Redo")
+        redo.clicked.connect(self.redo)
+        buttons.addWidget(setup)
+        buttons.addStretch(1)
+        buttons.addWidget(redo)
+        layout.addLayout(buttons)
+        return page
+
+    # -- state -------------------------------------------------------------------------------
+    @property
+    def page_name(self) -> str:
+        return ("setup", "pose", "result", "refused")[self.pages.currentIndex()]
+
+    def mapping(self) -> dict[str, str]:
+        """Segment → sensor id as set on the setup page."""
+        return {seg: combo.currentText() for seg, combo in self.mapping_combos.items()
+                if combo.currentText() != NO_SENSOR}
+
+    def set_arms(self, arms: str) -> None:
+        self.arms_combo.setCurrentIndex(ARMS.index(arms))
+
+    # -- actions -----------------------------------------------------------------------------
+    def start(self) -> None:
+        """Check the setup and begin with the N-pose page."""
+        try:
+            self.procedure = BodycalProcedure(self.feed, self.mapping(), arms=self.arms_combo.currentData(),
+                                              height_m=self.height_spin.value(), settings=self.settings)
+        except ValueError as error:
+            self.setup_error.setText(str(error))
+            return
+        self.setup_error.setText("")
+        self.procedure.start()
+        self.pages.setCurrentWidget(self.pose_page)
+        self._show_status()
+        self.timer.start()
+
+    def redo(self) -> None:
+        """Start the poses again with the same settings."""
+        if self.procedure is None:
+            return self.start()
+        self.procedure.redo()
+        self.pages.setCurrentWidget(self.pose_page)
+        self._show_status()
+        self.timer.start()
+
+    def back_to_setup(self) -> None:
+        self.timer.stop()
+        if self.feed.simulated:
+            self.feed.request_activity("npose")
+        self.pages.setCurrentWidget(self.setup_page)
+
+    def accept_result(self) -> None:
+        """Apply the calibration to the live pipeline and close."""
+        if self.procedure is None or self.procedure.calibration is None:
+            return
+        calibration = self.procedure.calibration
+        apply = getattr(self.live_session, "apply_body_calibration", None)
+        if callable(apply):
+            apply(calibration)
+        self.accepted_calibration = calibration
+        self.calibration_accepted.emit(calibration)
+        self.accept()
+
+    def _tick(self) -> None:
+        if self.procedure is None:
+            self.timer.stop()
+            return
+        self.procedure.step()
+        self._show_status()
+
+    # -- showing -----------------------------------------------------------------------------
+    def _show_status(self) -> None:
+        procedure = self.procedure
+        status = procedure.status()
+        if status.phase == "result":
+            self.timer.stop()
+            self._show_result()
+            return
+        if status.phase == "refused":
+            self.timer.stop()
+            reason = procedure.refusal or ""
+            self.refusal_label.setText(reason[:1].upper() + reason[1:])
+            self.pages.setCurrentWidget(self.refused_page)
+            return
+        if status.pose is None:
+            return
+        step = "Step 1 of 2: N-pose" if status.pose == "npose" else "Step 2 of 2: T-pose"
+        self.pose_title.setText(f"<h2>{step}</h2>")
+        self.pose_picture.show_pose(status.pose, procedure.arms)
+        movement = status.message.startswith("Movement")
+        self.pose_instruction.setText(procedure.instruction(status.pose))
+        self.movement_message.setText(status.message if movement else "")
+        if status.capturing:
+            self.countdown.setText(f"{status.countdown_s:.1f} s")
+        elif status.pose == "tpose" and not status.still:
+            self.countdown.setText("raise")
+        else:
+            self.countdown.setText("hold still")
+        if np.isfinite(status.meter_deg):
+            motion = min(status.meter_deg / METER_FULL_SCALE_DEG, 1.0)
+            self.meter.setValue(int(round(100 * (1.0 - motion))))
+            colour = "#2ca02c" if status.still else ("#e08a00" if status.meter_deg < 3 * procedure.settings.still_limit_deg
+                                                      else "#d62728")
+            self.meter.setFormat("still" if status.still else "moving")
+            self.meter_label.setText(f"largest turn in the last {procedure.settings.meter_window_s:g} s: "
+                                     f"{status.meter_deg:.1f}° (still means below {procedure.settings.still_limit_deg:g}°)")
+        else:
+            self.meter.setValue(0)
+            colour = "#888888"
+            self.meter.setFormat("waiting for sensors")
+        self.meter.setStyleSheet(f"QProgressBar::chunk {{ background: {colour}; }}")
+        self.meter.setProperty("still", bool(status.still))
+
+    def _show_result(self) -> None:
+        procedure = self.procedure
+        calibration = procedure.calibration
+        quality = calibration.quality
+        colour = VERDICT_COLOURS.get(quality.verdict, "#000000")
+        self.verdict_label.setText(
+            f"<h2>Result: <span style='color:{colour}'>{quality.verdict}</span></h2>"
+            "<p>The figure shows the subject in the calibrated N-pose: it should stand upright with "
+            "the arms hanging and face you.</p>")
+        rows = procedure.quality_figures()
+        self.figures_table.setRowCount(len(rows))
+        for row, (label, value) in enumerate(rows):
+            self.figures_table.setItem(row, 0, QtWidgets.QTableWidgetItem(label))
+            self.figures_table.setItem(row, 1, QtWidgets.QTableWidgetItem(value))
+        self.figures_table.resizeColumnsToContents()
+        problems = quality.problems
+        self.problems_label.setText(
+            "<p><b>Remarks:</b></p><ul>" + "".join(f"<li>{p}</li>" for p in problems) + "</ul>"
+            if problems else "<p>No remarks: every figure is within the good range.</p>")
+        self.pages.setCurrentWidget(self.result_page)
+        self._show_skeleton()
+
+    def _show_skeleton(self) -> None:
+        """The calibrated N-pose as the main window's figure (body display mode: facing the
+        camera); segments without a sensor follow their parent."""
+        segments = fill_missing_segments(
+            self.procedure.npose_segment_orientations(), [(s.name, s.parent) for s in self.model.segments])
+        height = self.procedure.height_m
+        poses = skeleton.forward_kinematics(self.model, segments, height)
+        builder = FigureBuilder(self.model, height)
+        geometry = builder.build(poses, mode="body")
+        self.scene.set_figure(builder)
+        self.scene.set_frame_provider(lambda: ("calibrated", geometry))
+        self.scene.set_tint_provider(lambda: {s: "ok" for s in self.procedure.mapping})
+        self.scene.start()
+        self.scene._tick()
+
+    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+        self.shutdown()
+        super().closeEvent(event)
+
+    def done(self, result: int) -> None:  # noqa: D401 (Qt API)
+        self.shutdown()
+        super().done(result)
+
+    def shutdown(self) -> None:
+        """Stop the timer and release the 3D view."""
+        self.timer.stop()
+        self.scene.shutdown()

@@ -1,0 +1,312 @@
+"""Live views of a magnetometer calibration: a VTK 3D view and a pyqtgraph |field| plot.
+
+:class:`EllipsoidView` (VTK, two side-by-side viewports, both in the sensor frame, µT):
+
+* left, *raw*: the raw samples as a point cloud coloured by time (early blue → late red) and
+  the fitted ellipsoid, translucent, with its centre (the hard-iron offset);
+* right, *corrected*: the corrected samples ``soft_iron · (raw − offset)`` with a translucent
+  sphere of the field radius around the origin: a good calibration puts them on it.
+
+:class:`FieldMagnitudePlot` plots ``|raw|`` and ``|corrected|`` against time with the field
+radius as a dashed line: the corrected curve should be flat.
+
+Neither refits anything: the fit comes from :mod:`mimucap.session.magcal_procedure`; the
+callers throttle how often they call ``set_data`` (points are thinned to ``max_points``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyqtgraph as pg
+import vtkmodules.vtkInteractionStyle  # noqa: F401  (registers the interactor styles)
+import vtkmodules.vtkRenderingFreeType  # noqa: F401  (text actors)
+import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (the OpenGL back end)
+from PyQt5 import QtGui, QtWidgets
+from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
+from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
+from vtkmodules.vtkCommonCore import vtkLookupTable, vtkPoints
+from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+from vtkmodules.vtkCommonMath import vtkMatrix4x4
+from vtkmodules.vtkFiltersSources import vtkSphereSource
+from vtkmodules.vtkInteractionStyle import vtkInteractorStyleTrackballCamera
+from vtkmodules.vtkRenderingAnnotation import vtkAxesActor
+from vtkmodules.vtkRenderingCore import (
+    vtkActor,
+    vtkPolyDataMapper,
+    vtkRenderer,
+    vtkTextActor,
+    vtkWindowToImageFilter,
+)
+
+from mimucap.core.magcal_fit import EllipsoidFit
+
+ELLIPSOID_COLOUR = (0.95, 0.62, 0.18)
+SPHERE_COLOUR = (0.35, 0.75, 0.45)
+BACKGROUND = (0.11, 0.12, 0.15)
+
+
+class _Cloud:
+    """A point cloud actor whose points and per-point scalars are replaced at once."""
+
+    def __init__(self, renderer: vtkRenderer, lookup: vtkLookupTable | None, colour=(1.0, 1.0, 1.0)) -> None:
+        self.polydata = vtkPolyData()
+        self.mapper = vtkPolyDataMapper()
+        self.mapper.SetInputData(self.polydata)
+        if lookup is not None:
+            self.mapper.SetLookupTable(lookup)
+            self.mapper.SetScalarRange(0.0, 1.0)
+            self.mapper.ScalarVisibilityOn()
+        else:
+            self.mapper.ScalarVisibilityOff()
+        self.actor = vtkActor()
+        self.actor.SetMapper(self.mapper)
+        self.actor.GetProperty().SetPointSize(4.0)
+        self.actor.GetProperty().SetColor(*colour)
+        renderer.AddActor(self.actor)
+        self.count = 0
+
+    def set(self, points: np.ndarray, scalars: np.ndarray | None = None) -> None:
+        points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+        n = points.shape[0]
+        vtk_points = vtkPoints()
+        vtk_points.SetData(numpy_to_vtk(points, deep=True))
+        cells = vtkCellArray()
+        connectivity = np.column_stack((np.ones(n, dtype=np.int64), np.arange(n, dtype=np.int64))).ravel()
+        cells.SetCells(n, numpy_to_vtkIdTypeArray(connectivity, deep=True))
+        self.polydata.SetPoints(vtk_points)
+        self.polydata.SetVerts(cells)
+        if scalars is not None:
+            self.polydata.GetPointData().SetScalars(numpy_to_vtk(np.ascontiguousarray(scalars, dtype=np.float64), deep=True))
+        self.polydata.Modified()
+        self.count = n
+
+
+def _surface(renderer: vtkRenderer, colour, opacity: float) -> tuple[vtkActor, vtkSphereSource]:
+    sphere = vtkSphereSource()
+    sphere.SetRadius(1.0)
+    sphere.SetThetaResolution(36)
+    sphere.SetPhiResolution(24)
+    sphere.Update()
+    mapper = vtkPolyDataMapper()
+    mapper.SetInputConnection(sphere.GetOutputPort())
+    actor = vtkActor()
+    actor.SetMapper(mapper)
+    prop = actor.GetProperty()
+    prop.SetColor(*colour)
+    prop.SetOpacity(opacity)
+    prop.SetEdgeVisibility(True)
+    prop.SetEdgeColor(*[0.6 * c for c in colour])
+    actor.SetUserMatrix(vtkMatrix4x4())
+    actor.VisibilityOff()
+    renderer.AddActor(actor)
+    return actor, sphere
+
+
+def _set_matrix(actor: vtkActor, matrix: np.ndarray) -> None:
+    target = actor.GetUserMatrix()
+    for row in range(4):
+        for col in range(4):
+            target.SetElement(row, col, float(matrix[row, col]))
+    target.Modified()
+    actor.Modified()
+
+
+def _label(renderer: vtkRenderer, text: str) -> vtkTextActor:
+    actor = vtkTextActor()
+    actor.SetInput(text)
+    actor.GetTextProperty().SetFontSize(15)
+    actor.GetTextProperty().SetColor(0.9, 0.9, 0.92)
+    actor.GetPositionCoordinate().SetCoordinateSystemToNormalizedViewport()
+    actor.GetPositionCoordinate().SetValue(0.02, 0.02)
+    renderer.AddViewProp(actor)
+    return actor
+
+
+class EllipsoidView(QtWidgets.QWidget):
+    """Raw samples with the fitted ellipsoid (left) and corrected samples on the field sphere
+    (right), in the sensor frame (µT). ``max_points``: at most this many points are drawn."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None, max_points: int = 4000) -> None:
+        super().__init__(parent)
+        self.max_points = int(max_points)
+        self.vtk_widget = QVTKRenderWindowInteractor(self)
+        self.vtk_widget.setObjectName("ellipsoidVtk")
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.vtk_widget)
+        self.setMinimumSize(420, 260)
+        self.render_window = self.vtk_widget.GetRenderWindow()
+        self.render_window.SetMultiSamples(0)
+        lookup = vtkLookupTable()
+        lookup.SetHueRange(0.66, 0.0)  # blue (early) → red (late)
+        lookup.SetSaturationRange(0.85, 0.85)
+        lookup.SetValueRange(1.0, 1.0)
+        lookup.Build()
+        self.raw_renderer, self.corrected_renderer = vtkRenderer(), vtkRenderer()
+        self.raw_renderer.SetViewport(0.0, 0.0, 0.5, 1.0)
+        self.corrected_renderer.SetViewport(0.5, 0.0, 1.0, 1.0)
+        for renderer in (self.raw_renderer, self.corrected_renderer):
+            renderer.SetBackground(*BACKGROUND)
+            self.render_window.AddRenderer(renderer)
+        self.raw_cloud = _Cloud(self.raw_renderer, lookup)
+        self.corrected_cloud = _Cloud(self.corrected_renderer, lookup)
+        self.ellipsoid_actor, _ = _surface(self.raw_renderer, ELLIPSOID_COLOUR, 0.22)
+        self.sphere_actor, _ = _surface(self.corrected_renderer, SPHERE_COLOUR, 0.18)
+        self.raw_label = _label(self.raw_renderer, "raw samples (colour: time)")
+        self.corrected_label = _label(self.corrected_renderer, "corrected samples")
+        axes = vtkAxesActor()
+        axes.SetTotalLength(10.0, 10.0, 10.0)
+        axes.SetShaftTypeToCylinder()
+        axes.AxisLabelsOff()
+        self.corrected_renderer.AddActor(axes)
+        self._axes = axes
+        self.interactor = self.render_window.GetInteractor()
+        self.interactor.SetInteractorStyle(vtkInteractorStyleTrackballCamera())
+        self._initialized = False
+        self._alive = True
+        self._framed_size: float | None = None
+        self.fit_shown: EllipsoidFit | None = None
+        self.updates = 0
+
+    def start(self) -> None:
+        """Initialise the interactor (once the widget exists on screen)."""
+        if not self._initialized and self._alive:
+            self.vtk_widget.Initialize()
+            self._initialized = True
+
+    def set_data(self, mag_raw_uT: np.ndarray, t_s: np.ndarray, fit: EllipsoidFit | None) -> None:
+        """Show the samples (N, 3) µT with times (N,) s and the fit (None: none yet)."""
+        mag = np.asarray(mag_raw_uT, dtype=np.float64).reshape(-1, 3)
+        t = np.asarray(t_s, dtype=np.float64).reshape(-1)
+        if mag.shape[0] > self.max_points:
+            pick = np.linspace(0, mag.shape[0] - 1, self.max_points).astype(int)
+            mag, t = mag[pick], t[pick]
+        span = float(t[-1] - t[0]) if t.shape[0] > 1 else 1.0
+        colour = (t - t[0]) / span if t.shape[0] and span > 0 else np.zeros(t.shape[0])
+        self.raw_cloud.set(mag, colour)
+        self.fit_shown = fit
+        if fit is None:
+            self.ellipsoid_actor.VisibilityOff()
+            self.sphere_actor.VisibilityOff()
+            self.corrected_cloud.set(np.zeros((0, 3)), np.zeros(0))
+            self.raw_label.SetInput(f"raw samples (colour: time): {mag.shape[0]} shown, no fit yet")
+        else:
+            e = fit.ellipsoid
+            matrix = np.eye(4)
+            matrix[:3, :3] = e.axes @ np.diag(e.radii)
+            matrix[:3, 3] = e.centre
+            _set_matrix(self.ellipsoid_actor, matrix)
+            self.ellipsoid_actor.VisibilityOn()
+            sphere = np.eye(4)
+            sphere[:3, :3] *= fit.field_uT
+            _set_matrix(self.sphere_actor, sphere)
+            self.sphere_actor.VisibilityOn()
+            self.corrected_cloud.set(fit.apply(mag), colour)
+            self.raw_label.SetInput(
+                "raw samples (colour: time) and fitted ellipsoid\n"
+                f"offset {e.centre[0]:.1f}, {e.centre[1]:.1f}, {e.centre[2]:.1f} µT"
+            )
+            self.corrected_label.SetInput(f"corrected samples on the {fit.field_uT:.1f} µT sphere")
+        if mag.shape[0] > 10:
+            self._frame_camera(mag, fit)
+        self.updates += 1
+        self.render()
+
+    def _frame_camera(self, mag: np.ndarray, fit: EllipsoidFit | None) -> None:
+        """Look at the raw cloud (left) and the corrected one (right, around the origin) from
+        the same oblique direction, far enough back for the whole cloud to fit the half-width
+        viewport. Reframed only when the cloud's size changed by more than 15 %, so that a
+        view the user turned stays put while samples arrive."""
+        centre = fit.ellipsoid.centre if fit is not None else mag.mean(axis=0)
+        size = float(np.max(fit.ellipsoid.radii)) if fit is not None else float(
+            np.max(np.linalg.norm(mag - centre, axis=1)))
+        if self._framed_size is not None and abs(size - self._framed_size) <= 0.15 * self._framed_size:
+            return
+        self._framed_size = size
+        direction = np.array([0.55, -0.65, 0.52])
+        direction /= np.linalg.norm(direction)
+        for renderer, focal, extent in ((self.raw_renderer, centre, size),
+                                        (self.corrected_renderer, np.zeros(3), fit.field_uT if fit else size)):
+            camera = renderer.GetActiveCamera()
+            camera.SetFocalPoint(*focal)
+            camera.SetPosition(*(focal + 7.5 * extent * direction))
+            camera.SetViewUp(0.0, 0.0, 1.0)
+            camera.SetViewAngle(30.0)
+
+    def render(self) -> None:
+        """Render now (only when shown)."""
+        if not self._alive or not self.isVisible():
+            return
+        self.start()
+        self.raw_renderer.ResetCameraClippingRange()
+        self.corrected_renderer.ResetCameraClippingRange()
+        self.render_window.Render()
+
+    def reset(self) -> None:
+        """Forget the data and the camera framing (a new recording)."""
+        self.raw_cloud.set(np.zeros((0, 3)), np.zeros(0))
+        self.corrected_cloud.set(np.zeros((0, 3)), np.zeros(0))
+        self.ellipsoid_actor.VisibilityOff()
+        self.sphere_actor.VisibilityOff()
+        self._framed_size = None
+        self.fit_shown = None
+
+    def shutdown(self) -> None:
+        """Release the OpenGL context; nothing renders afterwards."""
+        if self._alive:
+            self._alive = False
+            self.vtk_widget.Finalize()
+
+    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+        self.shutdown()
+        super().closeEvent(event)
+
+    def grab_image(self) -> QtGui.QImage:
+        """The VTK view as a ``QImage`` (read back from the render window)."""
+        self.start()
+        self.render_window.Render()
+        capture = vtkWindowToImageFilter()
+        capture.SetInput(self.render_window)
+        capture.SetInputBufferTypeToRGB()
+        capture.ReadFrontBufferOff()
+        capture.Update()
+        image = capture.GetOutput()
+        width, height, _ = image.GetDimensions()
+        pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(height, width, 3)[::-1].copy()
+        return QtGui.QImage(pixels.data, width, height, 3 * width, QtGui.QImage.Format_RGB888).copy()
+
+
+class FieldMagnitudePlot(pg.PlotWidget):
+    """``|raw|`` (grey) and ``|corrected|`` (green) field magnitude in µT against time (s),
+    with the fitted field radius dashed."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None, max_points: int = 3000) -> None:
+        super().__init__(parent)
+        self.max_points = int(max_points)
+        self.setBackground("w")
+        self.setLabel("left", "|field|", units="µT")
+        self.setLabel("bottom", "time", units="s")
+        self.addLegend(offset=(10, 10))
+        self.showGrid(x=True, y=True, alpha=0.25)
+        self.raw_curve = self.plot(pen=pg.mkPen((120, 120, 128), width=1.5), name="before correction")
+        self.corrected_curve = self.plot(pen=pg.mkPen((44, 160, 44), width=2), name="after correction")
+        self.field_line = pg.InfiniteLine(angle=0, pen=pg.mkPen((44, 160, 44), style=pg.QtCore.Qt.DashLine))
+        self.field_line.setVisible(False)
+        self.addItem(self.field_line)
+        self.setMinimumHeight(150)
+
+    def set_data(self, mag_raw_uT: np.ndarray, t_s: np.ndarray, fit: EllipsoidFit | None) -> None:
+        mag = np.asarray(mag_raw_uT, dtype=np.float64).reshape(-1, 3)
+        t = np.asarray(t_s, dtype=np.float64).reshape(-1)
+        if mag.shape[0] > self.max_points:
+            pick = np.linspace(0, mag.shape[0] - 1, self.max_points).astype(int)
+            mag, t = mag[pick], t[pick]
+        t = t - t[0] if t.shape[0] else t
+        self.raw_curve.setData(t, np.linalg.norm(mag, axis=1))
+        if fit is None:
+            self.corrected_curve.setData([], [])
+            self.field_line.setVisible(False)
+        else:
+            self.corrected_curve.setData(t, np.linalg.norm(fit.apply(mag), axis=1))
+            self.field_line.setValue(fit.field_uT)
+            self.field_line.setVisible(True)

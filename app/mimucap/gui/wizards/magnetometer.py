@@ -1,0 +1,478 @@
+"""The magnetometer-calibration wizard: choose sensors and protocol, turn, check, accept.
+
+Pages (a ``QStackedWidget``; :attr:`MagnetometerWizard.page_name` says which is shown):
+
+* ``"setup"``: the sensors to calibrate together (checked in a list, with each one's previous
+  calibration and its age) and the protocol: one turn about each axis (default), figure-8
+  or free.
+* ``"recording"``: the picture of the axis to turn about now (or of the protocol), the
+  instruction, a progress bar per axis, and on the right the live views
+  (:mod:`mimucap.gui.wizards.ellipsoid_view`) of one chosen sensor: raw point cloud with the
+  fitted ellipsoid, corrected samples on the field sphere, |field| before/after. The page
+  advances to the next axis by itself and to the result when all are done.
+* ``"result"``: per sensor the verdict, offset, soft-iron matrix, residual, coverage, the
+  previous calibration and its age, and the advice in plain words; Accept stores the
+  acceptable calibrations per sensor id, Redo starts again.
+
+All logic lives in :class:`mimucap.session.magcal_procedure.MagcalProcedure`; a ``QTimer``
+calls its ``step`` and the page shows its status. The live views are refreshed at most every
+``view_interval_ms`` (a refit of the preview is the expensive part).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+from PyQt5 import QtCore, QtGui, QtWidgets
+
+from mimucap.core.magcal_guidance import AXIS_NAMES
+from mimucap.core.simulate import SuitSimulator
+from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
+from mimucap.session.calibration_feed import CalibrationFeed, SimulatorFeed, feed_for_live_session
+from mimucap.session.magcal_procedure import (
+    PROTOCOLS,
+    MagcalProcedure,
+    MagcalProcedureSettings,
+    SensorOutcome,
+    age_days_since,
+    utc_now,
+    describe_age,
+)
+from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
+from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget
+
+PROTOCOL_LABELS = {
+    "single_axis": "One turn about each sensor axis (recommended)",
+    "figure8": "Figure-8 in the air",
+    "free": "Free turning in every direction",
+}
+VERDICT_COLOURS = {"good": "#2ca02c", "warn": "#e08a00", "fail": "#d62728"}
+VERDICT_WORDS = {"good": "Good", "warn": "Usable, with a warning", "fail": "Failed — redo"}
+
+
+def _matrix_text(m: np.ndarray) -> str:
+    return "\n".join("  ".join(f"{v:+.3f}" for v in row) for row in np.asarray(m))
+
+
+class MagnetometerWizard(QtWidgets.QDialog):
+    """Guided magnetometer calibration.
+
+    ``live_session``: the main window's live pipeline (its source is read through
+    :func:`feed_for_live_session`); or give ``feed`` directly. ``store``: where calibrations are
+    kept (default: the user's). ``tick_ms``: procedure step interval. ``preselected``: sensor
+    ids checked at the start (default: all).
+    """
+
+    calibrations_accepted = QtCore.pyqtSignal(list)
+
+    def __init__(
+        self,
+        parent: QtWidgets.QWidget | None,
+        live_session: object | None = None,
+        *,
+        feed: CalibrationFeed | None = None,
+        store: CalibrationStore | None = None,
+        tick_ms: int = 40,
+        view_interval_ms: int = 300,
+        preselected: Sequence[str] | None = None,
+        now: Callable = utc_now,
+    ) -> None:
+        super().__init__(parent)
+        if feed is None:
+            if live_session is None:
+                raise ValueError("the magnetometer wizard needs a live session or a feed")
+            feed = feed_for_live_session(live_session)
+        self.feed = feed
+        self.store = store if store is not None else CalibrationStore()
+        self._now = now
+        self.procedure: MagcalProcedure | None = None
+        self.view_interval_ms = int(view_interval_ms)
+        self._last_view = -1e9
+        self.setWindowTitle("Magnetometer calibration")
+        self.resize(1280, 760)
+
+        self.pages = QtWidgets.QStackedWidget()
+        self.setup_page = self._build_setup(preselected)
+        self.recording_page = self._build_recording()
+        self.result_page = self._build_result()
+        for page in (self.setup_page, self.recording_page, self.result_page):
+            self.pages.addWidget(page)
+
+        self.view = EllipsoidView()
+        self.plot = FieldMagnitudePlot()
+        self.view_sensor = QtWidgets.QComboBox()
+        self.view_sensor.currentTextChanged.connect(lambda _: self._refresh_views(force=True))
+        right = QtWidgets.QWidget()
+        right_layout = QtWidgets.QVBoxLayout(right)
+        row = QtWidgets.QHBoxLayout()
+        row.addWidget(QtWidgets.QLabel("Sensor shown:"))
+        row.addWidget(self.view_sensor, 1)
+        right_layout.addLayout(row)
+        right_layout.addWidget(self.view, 3)
+        right_layout.addWidget(self.plot, 1)
+        self.views_panel = right
+        self.views_panel.setVisible(False)
+
+        layout = QtWidgets.QHBoxLayout(self)
+        layout.addWidget(self.pages, 2)
+        layout.addWidget(self.views_panel, 3)
+
+        self.timer = QtCore.QTimer(self)
+        self.timer.setInterval(int(tick_ms))
+        self.timer.timeout.connect(self._tick)
+        self._update_previous()
+
+    @classmethod
+    def for_simulator(
+        cls, simulator: SuitSimulator, parent: QtWidgets.QWidget | None = None, step_s: float = 0.2, **kwargs
+    ) -> MagnetometerWizard:
+        """A wizard on a simulated suit advancing ``step_s`` simulated seconds per tick."""
+        return cls(parent, None, feed=SimulatorFeed(simulator, step_s=step_s, fuse=False), **kwargs)
+
+    # -- pages -------------------------------------------------------------------------------
+    def _build_setup(self, preselected: Sequence[str] | None) -> QtWidgets.QWidget:
+        page = QtWidgets.QWidget()
+        layout = QtWidgets.QVBoxLayout(page)
+        title = QtWidgets.QLabel("<h2>Magnetometer calibration</h2>"
+                                 "<p>Take the sensors off, hold the ones you tick together firmly in "
+                                 "one bundle, away from metal, and turn them as the next page shows. "
+                                 "Each sensor gets its own calibration.</p>")
+        title.setWordWrap(True)
+        layout.addWidget(title)
+        layout.addWidget(QtWidgets.QLabel("<b>Sensors to calibrate together</b>"))
+        self.sensor_list = QtWidgets.QListWidget()
+        chosen = set(self.feed.sensor_ids if preselected is None else preselected)
+        for sensor_id in self.feed.sensor_ids:
+            item = QtWidgets.QListWidgetItem(sensor_id)
+            item.setFlags(item.flags() | QtCore.Qt.ItemIsUserCheckable)
+            item.setCheckState(QtCore.Qt.Checked if sensor_id in chosen else QtCore.Qt.Unchecked)
+            item.setData(QtCore.Qt.UserRole, sensor_id)
+            self.sensor_list.addItem(item)
+        self.sensor_list.itemChanged.connect(lambda _: self._update_previous())
+        layout.addWidget(self.sensor_list, 1)
+        layout.addWidget(QtWidgets.QLabel("<b>Protocol</b>"))
+        self.protocol_buttons: dict[str, QtWidgets.QRadioButton] = {}
+        for protocol in PROTOCOLS:
+            button = QtWidgets.QRadioButton(PROTOCOL_LABELS[protocol])
+            button.setChecked(protocol == "single_axis")
+            self.protocol_buttons[protocol] = button
+            layout.addWidget(button)
+        self.setup_error = QtWidgets.QLabel("")
+        self.setup_error.setStyleSheet("color: #d62728")
+        layout.addWidget(self.setup_error)
+        buttons = QtWidgets.QHBoxLayout()
+        self.start_button = QtWidgets.QPushButton("Start")
+        self.start_button.setDefault(True)
+        self.start_button.clicked.connect(self.start)
+        close = QtWidgets.QPushButton("Close")
+        close.clicked.connect(self.reject)
+        buttons.addStretch(1)
+        buttons.addWidget(close)
+        buttons.addWidget(self.start_button)
+        layout.addLayout(buttons)
+        return page
+
+    def _build_recording(self) -> QtWidgets.QWidget:
+        page = QtWidgets.QWidget()
+        layout = QtWidgets.QVBoxLayout(page)
+        self.recording_title = QtWidgets.QLabel("<h2>Turn the sensors</h2>")
+        layout.addWidget(self.recording_title)
+        self.picture = PictureWidget()
+        layout.addWidget(self.picture, 3)
+        self.instruction = QtWidgets.QLabel("")
+        self.instruction.setWordWrap(True)
+        font = self.instruction.font()
+        font.setPointSizeF(font.pointSizeF() * 1.3)
+        font.setBold(True)
+        self.instruction.setFont(font)
+        layout.addWidget(self.instruction)
+        self.axis_bars: dict[str, QtWidgets.QProgressBar] = {}
+        grid = QtWidgets.QGridLayout()
+        for row, axis in enumerate(AXIS_NAMES):
+            label = QtWidgets.QLabel(f"about {axis}")
+            bar = QtWidgets.QProgressBar()
+            bar.setRange(0, 100)
+            bar.setFormat(f"{axis}: %p%")
+            colour = AXIS_COLOURS[axis].name()
+            bar.setStyleSheet(f"QProgressBar::chunk {{ background: {colour}; }}")
+            grid.addWidget(label, row, 0)
+            grid.addWidget(bar, row, 1)
+            self.axis_bars[axis] = bar
+        self.axis_widget = QtWidgets.QWidget()
+        self.axis_widget.setLayout(grid)
+        layout.addWidget(self.axis_widget)
+        self.recording_info = QtWidgets.QLabel("")
+        layout.addWidget(self.recording_info)
+        buttons = QtWidgets.QHBoxLayout()
+        cancel = QtWidgets.QPushButton("Cancel")
+        cancel.clicked.connect(self.redo)
+        self.finish_button = QtWidgets.QPushButton("Compute now")
+        self.finish_button.setToolTip("Stop recording and compute with what was recorded")
+        self.finish_button.clicked.connect(self.finish_now)
+        buttons.addWidget(cancel)
+        buttons.addStretch(1)
+        buttons.addWidget(self.finish_button)
+        layout.addLayout(buttons)
+        return page
+
+    def _build_result(self) -> QtWidgets.QWidget:
+        page = QtWidgets.QWidget()
+        layout = QtWidgets.QVBoxLayout(page)
+        self.result_title = QtWidgets.QLabel("<h2>Result</h2>")
+        self.result_title.setWordWrap(True)
+        layout.addWidget(self.result_title)
+        self.result_table = QtWidgets.QTableWidget(0, 6)
+        self.result_table.setHorizontalHeaderLabels(
+            ["Sensor", "Verdict", "Offset (µT)", "Residual", "Coverage x/y/z", "Previous"])
+        self.result_table.verticalHeader().setVisible(False)
+        self.result_table.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
+        self.result_table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectRows)
+        self.result_table.itemSelectionChanged.connect(self._show_selected_result)
+        self.result_table.horizontalHeader().setStretchLastSection(True)
+        layout.addWidget(self.result_table, 2)
+        self.result_details = QtWidgets.QTextBrowser()
+        layout.addWidget(self.result_details, 2)
+        buttons = QtWidgets.QHBoxLayout()
+        self.redo_button = QtWidgets.QPushButton("Redo")
+        self.redo_button.clicked.connect(self.redo)
+        self.accept_button = QtWidgets.QPushButton("Accept")
+        self.accept_button.clicked.connect(self.accept_results)
+        close = QtWidgets.QPushButton("Close")
+        close.clicked.connect(self.reject)
+        buttons.addWidget(self.redo_button)
+        buttons.addStretch(1)
+        buttons.addWidget(close)
+        buttons.addWidget(self.accept_button)
+        layout.addLayout(buttons)
+        return page
+
+    # -- state -------------------------------------------------------------------------------
+    @property
+    def page_name(self) -> str:
+        return ("setup", "recording", "result")[self.pages.currentIndex()]
+
+    def selected_sensors(self) -> list[str]:
+        items = (self.sensor_list.item(i) for i in range(self.sensor_list.count()))
+        return [item.data(QtCore.Qt.UserRole) for item in items if item.checkState() == QtCore.Qt.Checked]
+
+    def set_selected_sensors(self, sensor_ids: Sequence[str]) -> None:
+        wanted = set(sensor_ids)
+        for i in range(self.sensor_list.count()):
+            item = self.sensor_list.item(i)
+            item.setCheckState(QtCore.Qt.Checked if item.data(QtCore.Qt.UserRole) in wanted else QtCore.Qt.Unchecked)
+
+    def protocol(self) -> str:
+        return next(p for p, b in self.protocol_buttons.items() if b.isChecked())
+
+    def set_protocol(self, protocol: str) -> None:
+        self.protocol_buttons[protocol].setChecked(True)
+
+    def _update_previous(self) -> None:
+        now = self._now()
+        for i in range(self.sensor_list.count()):
+            item = self.sensor_list.item(i)
+            sensor_id = item.data(QtCore.Qt.UserRole)
+            try:
+                old = self.store.load(sensor_id)
+                text = (f"{sensor_id} — calibrated {describe_age(age_days_since(old.created_utc, now))} "
+                        f"({old.quality.get('verdict', 'unknown')})")
+            except FileNotFoundError:
+                text = f"{sensor_id} — never calibrated"
+            except CalibrationFileError:
+                text = f"{sensor_id} — stored calibration unreadable: calibrate again"
+            self.sensor_list.blockSignals(True)
+            item.setText(text)
+            self.sensor_list.blockSignals(False)
+
+    # -- actions -----------------------------------------------------------------------------
+    def start(self) -> None:
+        """Start recording the checked sensors with the chosen protocol."""
+        try:
+            procedure = MagcalProcedure(self.feed, self.selected_sensors(),
+                                        MagcalProcedureSettings(protocol=self.protocol()),
+                                        store=self.store, now=self._now)
+        except ValueError as error:
+            self.setup_error.setText(str(error))
+            return
+        self.setup_error.setText("")
+        self.procedure = procedure
+        self.view_sensor.blockSignals(True)
+        self.view_sensor.clear()
+        self.view_sensor.addItems(list(procedure.sensor_ids))
+        self.view_sensor.blockSignals(False)
+        self.view.reset()
+        self.axis_widget.setVisible(procedure.protocol == "single_axis")
+        if procedure.protocol != "single_axis":
+            self.picture.show_protocol("figure8" if procedure.protocol == "figure8" else "free")
+            title = "Figure-8 in the air" if procedure.protocol == "figure8" else "Turn in every direction"
+            self.recording_title.setText(f"<h2>{title}</h2>")
+        procedure.start()
+        self.pages.setCurrentWidget(self.recording_page)
+        self.views_panel.setVisible(True)
+        self.view.start()
+        self._show_status()
+        self.timer.start()
+
+    def _tick(self) -> None:
+        if self.procedure is None or self.procedure.phase != "recording":
+            self.timer.stop()
+            return
+        self.procedure.step()
+        self._show_status()
+        if self.procedure.phase == "result":
+            self._show_result()
+        else:
+            self._refresh_views()
+
+    def finish_now(self) -> None:
+        """Stop and compute with what was recorded."""
+        if self.procedure is not None and self.procedure.phase == "recording":
+            self.procedure.finish_now()
+            self._show_result()
+
+    def redo(self) -> None:
+        """Back to the setup page; the recording is discarded."""
+        self.timer.stop()
+        if self.procedure is not None:
+            if self.procedure.phase == "recording" and self.feed.simulated:
+                self.feed.request_activity("npose")
+            self.procedure.redo()
+        self.views_panel.setVisible(False)
+        self._update_previous()
+        self.pages.setCurrentWidget(self.setup_page)
+
+    def accept_results(self) -> list[str]:
+        """Store every acceptable calibration; returns the sensor ids stored."""
+        if self.procedure is None or self.procedure.phase != "result":
+            return []
+        stored = self.procedure.accept()
+        self.calibrations_accepted.emit([self.procedure.outcomes[s].result.calibration for s in stored])
+        failed = [s for s in self.procedure.sensor_ids if s not in stored]
+        text = f"Stored: {', '.join(stored) or 'none'}."
+        if failed:
+            text += f" Not stored (failed): {', '.join(failed)} — redo them."
+        self.result_title.setText(f"<h2>Result</h2><p>{text}</p>")
+        self.accept_button.setEnabled(False)
+        self._update_previous()
+        return stored
+
+    # -- showing -----------------------------------------------------------------------------
+    def _show_status(self) -> None:
+        status = self.procedure.status()
+        self.instruction.setText(status.message)
+        if self.procedure.protocol == "single_axis":
+            guides = [self.procedure.guidance(s) for s in self.procedure.sensor_ids]
+            swept = {a: min(g.axis(a).swept_deg for g in guides) for a in AXIS_NAMES}
+            self.picture.show_axis(status.axis_to_turn, swept, self.procedure.settings.guidance.full_turn_deg)
+            for axis, bar in self.axis_bars.items():
+                bar.setValue(int(round(100 * status.axis_progress.get(axis, 0.0))))
+            title = f"Turn about {status.axis_to_turn}" if status.axis_to_turn else "All axes done"
+            self.recording_title.setText(f"<h2>{title}</h2>")
+        n = ", ".join(f"{s}: {c}" for s, c in status.samples.items())
+        self.recording_info.setText(f"{status.elapsed_s:.0f} s recorded — samples {n}")
+
+    def _refresh_views(self, force: bool = False) -> None:
+        if self.procedure is None:
+            return
+        now = time.monotonic() * 1000.0
+        if not force and now - self._last_view < self.view_interval_ms:
+            return
+        self._last_view = now
+        sensor_id = self.view_sensor.currentText()
+        if sensor_id not in self.procedure.sensor_ids:
+            return
+        t, mag, _ = self.procedure.samples(sensor_id)
+        if t.shape[0] == 0:
+            return
+        fit = self.procedure.preview_fit(sensor_id)
+        self.view.set_data(mag, t, fit)
+        self.plot.set_data(mag, t, fit)
+
+    def _show_result(self) -> None:
+        self.timer.stop()
+        procedure = self.procedure
+        outcomes = [procedure.outcomes[s] for s in procedure.sensor_ids]
+        failed = [o.sensor_id for o in outcomes if o.verdict == "fail"]
+        if failed:
+            head = f"Calibration failed for {', '.join(failed)}: see the advice below and redo"
+        else:
+            head = "All sensors calibrated: check the views and accept"
+        self.result_title.setText(f"<h2>Result</h2><p>{head}</p>")
+        self.result_table.setRowCount(len(outcomes))
+        for row, outcome in enumerate(outcomes):
+            self._fill_row(row, outcome)
+        self.result_table.resizeColumnsToContents()
+        self.accept_button.setEnabled(any(o.acceptable for o in outcomes))
+        self.pages.setCurrentWidget(self.result_page)
+        self.result_table.selectRow(0)
+        self._show_selected_result()
+
+    def _fill_row(self, row: int, outcome: SensorOutcome) -> None:
+        cells = [outcome.sensor_id, VERDICT_WORDS[outcome.verdict]]
+        if outcome.result is not None:
+            q = outcome.result.quality
+            offset = outcome.result.calibration.offset_uT
+            cells += [", ".join(f"{v:.1f}" for v in offset), f"{q.rms_residual_uT:.2f} µT",
+                      " / ".join(f"{c * 100:.0f}%" for c in q.axis_coverage)]
+        else:
+            cells += ["—", "—", "—"]
+        previous = outcome.previous
+        cells.append("none" if previous is None else
+                     f"{describe_age(previous.age_days)}: offset {', '.join(f'{v:.1f}' for v in previous.offset_uT)}")
+        for col, text in enumerate(cells):
+            item = QtWidgets.QTableWidgetItem(text)
+            if col == 1:
+                item.setForeground(QtGui.QColor(VERDICT_COLOURS[outcome.verdict]))
+                font = item.font()
+                font.setBold(True)
+                item.setFont(font)
+            self.result_table.setItem(row, col, item)
+
+    def _show_selected_result(self) -> None:
+        if self.procedure is None or self.procedure.phase != "result":
+            return
+        rows = self.result_table.selectionModel().selectedRows()
+        row = rows[0].row() if rows else 0
+        sensor_id = self.procedure.sensor_ids[row]
+        outcome = self.procedure.outcomes[sensor_id]
+        html = [f"<h3>{sensor_id}: <span style='color:{VERDICT_COLOURS[outcome.verdict]}'>"
+                f"{VERDICT_WORDS[outcome.verdict]}</span></h3>"]
+        if outcome.advice:
+            html.append("<p><b>What to do:</b></p><ul>" + "".join(f"<li>{a}</li>" for a in outcome.advice) + "</ul>")
+        if outcome.result is not None:
+            q = outcome.result.quality
+            cal = outcome.result.calibration
+            html.append(
+                f"<p>Offset (hard iron): {', '.join(f'{v:.2f}' for v in cal.offset_uT)} µT<br>"
+                f"Field after correction: {cal.field_uT:.1f} µT; residual {q.rms_residual_uT:.2f} µT "
+                f"({q.rms_residual_pct:.1f} %)<br>Coverage x/y/z: "
+                f"{' / '.join(f'{c * 100:.0f}%' for c in q.axis_coverage)} (condition {q.condition:.1f})</p>"
+                f"<p>Soft-iron correction:</p><pre>{_matrix_text(cal.soft_iron)}</pre>")
+        if outcome.previous is not None:
+            p = outcome.previous
+            html.append(f"<p><b>Previous calibration</b> ({p.created_utc}, {describe_age(p.age_days)}, {p.verdict}): "
+                        f"offset {', '.join(f'{v:.2f}' for v in p.offset_uT)} µT, field {p.field_uT:.1f} µT</p>")
+        else:
+            html.append("<p>No previous calibration of this sensor.</p>")
+        self.result_details.setHtml("".join(html))
+        if self.view_sensor.currentText() != sensor_id:
+            self.view_sensor.setCurrentText(sensor_id)  # refreshes the views
+        else:
+            self._refresh_views(force=True)
+
+    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+        self.shutdown()
+        super().closeEvent(event)
+
+    def done(self, result: int) -> None:  # noqa: D401 (Qt API)
+        self.shutdown()
+        super().done(result)
+
+    def shutdown(self) -> None:
+        """Stop the timer and release the 3D view."""
+        self.timer.stop()
+        if self.procedure is not None and self.procedure.phase == "recording" and self.feed.simulated:
+            self.feed.request_activity("npose")
+        self.view.shutdown()
