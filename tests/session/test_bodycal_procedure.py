@@ -12,7 +12,7 @@ from mimucap.core import rotation as rot
 from mimucap.core.simulate import SimulationConfig, SuitSimulator
 from mimucap.core.simulate_sensors import error_model
 from mimucap.session.bodycal_procedure import BodycalProcedure, BodycalProcedureSettings
-from mimucap.session.calibration_feed import SimulatorFeed
+from mimucap.session.calibration_feed import SimulatedSuitFeed
 
 #: Units with an on-board orientation as good as 0.3° rms (the procedure's own error is then
 #: what is measured); everything else of the default error model.
@@ -21,7 +21,7 @@ ONBOARD = replace(error_model("default"), onboard_orientation=True, onboard_erro
 
 def make(seed: int = 1, **kwargs):
     simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=seed, errors=ONBOARD))
-    feed = SimulatorFeed(simulator, step_s=0.1)
+    feed = SimulatedSuitFeed(simulator, step_s=0.1)
     mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
     return simulator, feed, BodycalProcedure(feed, mapping, **kwargs)
 

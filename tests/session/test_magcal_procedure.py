@@ -11,7 +11,7 @@ import pytest
 
 from mimucap.core.simulate import SimulationConfig, SuitSimulator
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.calibration_feed import SimulatorFeed
+from mimucap.session.calibration_feed import SimulatedSuitFeed
 from mimucap.session.magcal_procedure import MagcalProcedure, MagcalProcedureSettings, describe_age
 
 NOW = dt.datetime(2026, 11, 21, 7, 0, tzinfo=dt.timezone.utc)
@@ -29,9 +29,9 @@ def shape_and_offset_error(calibration, parameters) -> tuple[float, float]:
     return float(np.linalg.norm(calibration.offset_uT - parameters.mag_b_uT)), shape
 
 
-def make_feed(seed: int = 3) -> tuple[SuitSimulator, SimulatorFeed]:
+def make_feed(seed: int = 3) -> tuple[SuitSimulator, SimulatedSuitFeed]:
     simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=seed))
-    return simulator, SimulatorFeed(simulator, step_s=0.2, fuse=False)
+    return simulator, SimulatedSuitFeed(simulator, step_s=0.2, fuse=False)
 
 
 def run(procedure: MagcalProcedure, limit_s: float = 200.0) -> list:

@@ -10,11 +10,14 @@ simulated, tells the simulated subject what the current wizard page asks for. A 
   activities of :meth:`mimucap.core.simulate.SuitSimulator.set_activity`); a feed of real
   sensors ignores it (the wizard page tells the person instead).
 
-:class:`SimulatorFeed` drives a :class:`~mimucap.core.simulate.SuitSimulator` by a fixed
-step of simulated time per ``read()`` (tests run faster than real time) or by a clock. When
-the simulated units send no on-board orientation, it runs the online orientation filter
+:class:`SimulatedSuitFeed` drives a :class:`~mimucap.core.simulate.SuitSimulator` directly by a
+fixed step of simulated time per ``read()`` (tests and time measurements run faster than real
+time; ``time_s`` is then simulated user time). When the simulated units send no on-board
+orientation, it runs the online orientation filter
 (:class:`mimucap.core.fusion.OrientationEKF`) per sensor, with the magnetometer calibrations
-given by :meth:`SimulatorFeed.set_magnetometer_calibration` applied first.
+given by :meth:`SimulatedSuitFeed.set_magnetometer_calibration` applied first.
+:class:`LiveSessionFeed` reads the main window's live session instead (what the wizards use
+when the main window opens them).
 
 Frames and units: samples are in each sensor's frame; ``acc`` m/s² (specific force), ``gyr``
 rad/s, ``mag_uT`` µT, ``q_world_from_sensor`` (N, 4) scalar-first, world ENU.
@@ -23,8 +26,6 @@ rad/s, ``mag_uT`` µT, ``q_world_from_sensor`` (N, 4) scalar-first, world ENU.
 from __future__ import annotations
 
 import math
-import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -61,13 +62,11 @@ class CalibrationFeed(Protocol):
     def request_activity(self, name: str, **params: Any) -> None: ...
 
 
-class SimulatorFeed:
+class SimulatedSuitFeed:
     """A :class:`SuitSimulator` as a calibration feed.
 
-    ``step_s``: simulated seconds per :meth:`read` (default 0.1 s). ``clock``: if given (a
-    monotonic clock in s), each read advances by the clock's elapsed time times
-    ``time_scale`` instead (at most ``max_step_s``). ``fuse``: run the online orientation
-    filter when the units send no orientation (default True).
+    ``step_s``: simulated seconds per :meth:`read` (default 0.1 s). ``fuse``: run the online
+    orientation filter when the units send no orientation (default True).
     """
 
     simulated = True
@@ -76,23 +75,14 @@ class SimulatorFeed:
         self,
         simulator: SuitSimulator,
         step_s: float = 0.1,
-        clock: Callable[[], float] | None = None,
-        time_scale: float = 1.0,
-        max_step_s: float = 0.25,
         fuse: bool = True,
     ) -> None:
         if not (math.isfinite(step_s) and step_s > 0):
             raise ValueError(f"feed step must be a positive number of seconds, got {step_s}")
-        if not (math.isfinite(time_scale) and time_scale > 0):
-            raise ValueError(f"time scale must be positive, got {time_scale}")
         self.simulator = simulator
         self.sensor_ids = tuple(simulator.sensor_ids)
         self.step_s = float(step_s)
-        self.clock = clock
-        self.time_scale = float(time_scale)
-        self.max_step_s = float(max_step_s)
         self.fuse = bool(fuse)
-        self._last_wall: float | None = None
         self._filters: dict[str, OrientationEKF] = {}
         self._time_s = simulator.time_s
         self.mag_calibrations: dict[str, MagCalibration] = {}
@@ -113,20 +103,9 @@ class SimulatorFeed:
         """Make the simulated subject do ``name`` from now on (see ``SuitSimulator.set_activity``)."""
         self.simulator.set_activity(name, **params)
 
-    def _duration(self) -> float:
-        if self.clock is None:
-            return self.step_s
-        now = self.clock()
-        if self._last_wall is None:
-            self._last_wall = now
-            return 0.0
-        elapsed = min(max(now - self._last_wall, 0.0), self.max_step_s)
-        self._last_wall = now
-        return elapsed * self.time_scale
-
     def read(self) -> dict[str, FeedSamples]:
         """Advance the simulation and return each sensor's new samples."""
-        block = self.simulator.advance(self._duration())
+        block = self.simulator.advance(self.step_s)
         self._time_s = self.simulator.time_s
         result = {}
         for sensor_id, samples in block.samples.items():
@@ -144,15 +123,84 @@ class SimulatorFeed:
         return result
 
 
-def feed_for_live_session(live_session: Any, time_scale: float = 1.0) -> SimulatorFeed:
-    """The calibration feed of the main window's live pipeline.
+class LiveSessionFeed:
+    """The main window's live session (:class:`mimucap.session.live.LiveSession`) as a feed.
 
-    The pipeline of this version runs an in-process simulator (``live_session.simulator``):
-    the feed advances that simulator by the wall clock, so the wizard's simulated subject
-    performs what the pages ask. Raises ``ValueError`` for a pipeline without a source the
-    wizards can read.
+    Subscribes to ``live_session.events.blocks`` (raw blocks, as the session's timer steps
+    it) and hands them out per sensor on :meth:`read`. Times are session seconds
+    (``host_time_s − live_session.t0_host_s``). Orientations: the device's own when it sends
+    them, otherwise an online :class:`~mimucap.core.fusion.OrientationEKF` per sensor on the
+    magnetometer samples corrected by ``live_session.mag_calibrations``. Activity requests go
+    to ``live_session.simulator`` when the source is the simulated suit. Call :meth:`close`
+    when the wizard closes.
     """
-    simulator = getattr(live_session, "simulator", None)
-    if not isinstance(simulator, SuitSimulator):
-        raise ValueError("the live session has no sensor source the calibration wizards can read")
-    return SimulatorFeed(simulator, clock=time.monotonic, time_scale=time_scale)
+
+    def __init__(self, live_session: Any) -> None:
+        self.live_session = live_session
+        self.sensor_ids = tuple(live_session.sensor_ids)
+        self.simulated = getattr(live_session, "simulator", None) is not None
+        self._pending: list[Any] = []
+        self._filters: dict[str, OrientationEKF] = {}
+        self._calibration_used: dict[str, object] = {}
+        self._time_s = math.nan
+        live_session.events.blocks.connect(self._on_blocks)
+
+    def _on_blocks(self, blocks: list) -> None:
+        self._pending.extend(blocks)
+
+    @property
+    def time_s(self) -> float:
+        return self._time_s
+
+    def request_activity(self, name: str, **params: Any) -> None:
+        simulator = getattr(self.live_session, "simulator", None)
+        if simulator is not None:
+            simulator.set_activity(name, **params)
+
+    def _orientation(self, sensor_id: str, t: np.ndarray, block: Any) -> np.ndarray | None:
+        if block.q_world_from_sensor is not None:
+            return block.q_world_from_sensor
+        if block.gyr is None or block.acc is None:
+            return None
+        calibration = self.live_session.mag_calibrations.get(sensor_id)
+        if self._calibration_used.get(sensor_id) is not calibration:
+            self._filters.pop(sensor_id, None)  # a new magnetometer calibration: restart
+            self._calibration_used[sensor_id] = calibration
+        mag = block.mag_uT
+        if mag is not None and calibration is not None:
+            mag = calibration.apply(mag, sensor_id)
+        ekf = self._filters.get(sensor_id)
+        if ekf is None:
+            ekf = self._filters[sensor_id] = OrientationEKF()
+        return ekf.update_batch(t, block.gyr, block.acc, mag).q_world_from_sensor
+
+    def read(self) -> dict[str, FeedSamples]:
+        """The blocks that arrived since the last call, per sensor (channels a sensor does not
+        send are NaN-free ``None`` in the block and skipped here)."""
+        blocks, self._pending = self._pending, []
+        t0 = self.live_session.t0_host_s or 0.0
+        parts: dict[str, list[FeedSamples]] = {}
+        for block in blocks:
+            if len(block) == 0 or block.acc is None or block.gyr is None or block.mag_uT is None:
+                continue
+            t = np.asarray(block.host_time_s, dtype=np.float64) - t0
+            q = self._orientation(block.sensor_id, t, block)
+            parts.setdefault(block.sensor_id, []).append(FeedSamples(t, block.acc, block.gyr, block.mag_uT, q))
+            self._time_s = max(float(t[-1]), self._time_s) if math.isfinite(self._time_s) else float(t[-1])
+        result = {}
+        for sensor_id, items in parts.items():
+            qs = [item.q_world_from_sensor for item in items]
+            result[sensor_id] = FeedSamples(
+                np.concatenate([i.t_s for i in items]), np.concatenate([i.acc for i in items]),
+                np.concatenate([i.gyr for i in items]), np.concatenate([i.mag_uT for i in items]),
+                None if any(q is None for q in qs) else np.concatenate(qs))
+        return result
+
+    def close(self) -> None:
+        """Stop listening to the live session."""
+        self.live_session.events.blocks.disconnect(self._on_blocks)
+
+
+def feed_for_live_session(live_session: Any) -> LiveSessionFeed:
+    """The calibration feed of the main window's live session (see :class:`LiveSessionFeed`)."""
+    return LiveSessionFeed(live_session)

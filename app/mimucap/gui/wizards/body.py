@@ -31,7 +31,7 @@ from mimucap.core.simulate import SuitSimulator
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.wizards.pictures import PictureWidget
 from mimucap.session.bodycal_procedure import ARMS, BodycalProcedure, BodycalProcedureSettings
-from mimucap.session.calibration_feed import CalibrationFeed, SimulatorFeed, feed_for_live_session
+from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
 from mimucap.session.figure import FigureBuilder
 
 VERDICT_COLOURS = {"good": "#2ca02c", "acceptable": "#e08a00", "poor": "#d62728"}
@@ -77,6 +77,9 @@ class BodyCalibrationWizard(QtWidgets.QDialog):
         if model is None:
             raise ValueError("the body calibration wizard needs the skeleton model")
         self.model = model
+        if mapping is None and live_session is not None:
+            mapping = {segment: sid for sid, segment in getattr(live_session, "sensor_segments", {}).items()
+                       if segment}
         if mapping is None and simulator is not None:
             mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
         self.initial_mapping = dict(mapping or {})
@@ -105,11 +108,11 @@ class BodyCalibrationWizard(QtWidgets.QDialog):
     @classmethod
     def for_simulator(
         cls, simulator: SuitSimulator, parent: QtWidgets.QWidget | None = None, step_s: float = 0.1,
-        feed: SimulatorFeed | None = None, **kwargs,
+        feed: SimulatedSuitFeed | None = None, **kwargs,
     ) -> BodyCalibrationWizard:
         """A wizard on a simulated suit (its true mapping prefilled), ``step_s`` simulated
         seconds per tick; pass ``feed`` to reuse one (e.g. with magnetometer calibrations)."""
-        feed = feed if feed is not None else SimulatorFeed(simulator, step_s=step_s)
+        feed = feed if feed is not None else SimulatedSuitFeed(simulator, step_s=step_s)
         return cls(parent, None, feed=feed, model=simulator.model, **kwargs)
 
     # -- pages -------------------------------------------------------------------------------
@@ -417,4 +420,7 @@ class BodyCalibrationWizard(QtWidgets.QDialog):
     def shutdown(self) -> None:
         """Stop the timer and release the 3D view."""
         self.timer.stop()
+        close = getattr(self.feed, "close", None)
+        if callable(close):
+            close()
         self.scene.shutdown()

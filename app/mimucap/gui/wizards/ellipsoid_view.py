@@ -71,8 +71,8 @@ class _Cloud:
         vtk_points = vtkPoints()
         vtk_points.SetData(numpy_to_vtk(points, deep=True))
         cells = vtkCellArray()
-        connectivity = np.column_stack((np.ones(n, dtype=np.int64), np.arange(n, dtype=np.int64))).ravel()
-        cells.SetCells(n, numpy_to_vtkIdTypeArray(connectivity, deep=True))
+        ids = np.arange(n + 1, dtype=np.int64)  # one vertex cell per point
+        cells.SetData(numpy_to_vtkIdTypeArray(ids, deep=True), numpy_to_vtkIdTypeArray(ids[:n].copy(), deep=True))
         self.polydata.SetPoints(vtk_points)
         self.polydata.SetVerts(cells)
         if scalars is not None:

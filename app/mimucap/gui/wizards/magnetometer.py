@@ -30,7 +30,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.core.magcal_guidance import AXIS_NAMES
 from mimucap.core.simulate import SuitSimulator
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
-from mimucap.session.calibration_feed import CalibrationFeed, SimulatorFeed, feed_for_live_session
+from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
 from mimucap.session.magcal_procedure import (
     PROTOCOLS,
     MagcalProcedure,
@@ -59,8 +59,9 @@ def _matrix_text(m: np.ndarray) -> str:
 class MagnetometerWizard(QtWidgets.QDialog):
     """Guided magnetometer calibration.
 
-    ``live_session``: the main window's live pipeline (its source is read through
-    :func:`feed_for_live_session`); or give ``feed`` directly. ``store``: where calibrations are
+    ``live_session``: the main window's live session (read through
+    :func:`feed_for_live_session`; accepted calibrations are also applied to it with
+    ``apply_mag_calibration``); or give ``feed`` directly. ``store``: where calibrations are
     kept (default: the user's). ``tick_ms``: procedure step interval. ``preselected``: sensor
     ids checked at the start (default: all).
     """
@@ -84,6 +85,7 @@ class MagnetometerWizard(QtWidgets.QDialog):
             if live_session is None:
                 raise ValueError("the magnetometer wizard needs a live session or a feed")
             feed = feed_for_live_session(live_session)
+        self.live_session = live_session
         self.feed = feed
         self.store = store if store is not None else CalibrationStore()
         self._now = now
@@ -129,7 +131,7 @@ class MagnetometerWizard(QtWidgets.QDialog):
         cls, simulator: SuitSimulator, parent: QtWidgets.QWidget | None = None, step_s: float = 0.2, **kwargs
     ) -> MagnetometerWizard:
         """A wizard on a simulated suit advancing ``step_s`` simulated seconds per tick."""
-        return cls(parent, None, feed=SimulatorFeed(simulator, step_s=step_s, fuse=False), **kwargs)
+        return cls(parent, None, feed=SimulatedSuitFeed(simulator, step_s=step_s, fuse=False), **kwargs)
 
     # -- pages -------------------------------------------------------------------------------
     def _build_setup(self, preselected: Sequence[str] | None) -> QtWidgets.QWidget:
@@ -348,7 +350,12 @@ class MagnetometerWizard(QtWidgets.QDialog):
         if self.procedure is None or self.procedure.phase != "result":
             return []
         stored = self.procedure.accept()
-        self.calibrations_accepted.emit([self.procedure.outcomes[s].result.calibration for s in stored])
+        calibrations = [self.procedure.outcomes[s].result.calibration for s in stored]
+        apply = getattr(self.live_session, "apply_mag_calibration", None)
+        if callable(apply):
+            for calibration in calibrations:
+                apply(calibration)
+        self.calibrations_accepted.emit(calibrations)
         failed = [s for s in self.procedure.sensor_ids if s not in stored]
         text = f"Stored: {', '.join(stored) or 'none'}."
         if failed:
@@ -475,4 +482,7 @@ class MagnetometerWizard(QtWidgets.QDialog):
         self.timer.stop()
         if self.procedure is not None and self.procedure.phase == "recording" and self.feed.simulated:
             self.feed.request_activity("npose")
+        close = getattr(self.feed, "close", None)
+        if callable(close):
+            close()
         self.view.shutdown()

@@ -1,0 +1,203 @@
+"""The calibration wizards driven end to end on the simulated suit (pytest-qt, under Xvfb).
+
+The simulated subject performs what each page asks; simulated time runs faster than real
+time (each timer tick advances the simulation by a fixed step). Results are checked against
+the simulator's truth: the true magnetometer distortion ``A``, ``b`` and the true mounting
+rotations ``q_segment_from_sensor``.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from PyQt5 import QtCore
+
+from mimucap.core import rotation as rot
+from mimucap.core.simulate import SimulationConfig, SuitSimulator
+from mimucap.core.simulate_sensors import error_model
+from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
+from mimucap.gui.wizards.screenshot import grab_page
+from mimucap.io.calibration_store import CalibrationStore
+from mimucap.session.bodycal_procedure import BodycalProcedureSettings
+from mimucap.session.calibration_feed import SimulatedSuitFeed
+from mimucap.session.feeds import SimulatorFeed as LiveSimulatorFeed
+from mimucap.session.live import LiveSession
+
+NOW = dt.datetime(2026, 11, 21, 7, 0, tzinfo=dt.timezone.utc)
+ONBOARD = replace(error_model("default"), onboard_orientation=True, onboard_error_deg=0.3)
+
+
+def truth_errors(calibration, parameters) -> tuple[float, float]:
+    """Offset error (µT) and soft-iron shape error of a calibration against ``A``, ``b``."""
+    product = calibration.soft_iron @ parameters.mag_A
+    scale = float(np.mean(np.linalg.svd(product, compute_uv=False)))
+    return (float(np.linalg.norm(calibration.offset_uT - parameters.mag_b_uT)),
+            float(np.linalg.norm(product / scale - np.eye(3), 2)))
+
+
+@pytest.fixture
+def magnetometer_wizard(qtbot, tmp_path):
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=3))
+    wizard = MagnetometerWizard.for_simulator(simulator, step_s=0.25, store=CalibrationStore(tmp_path),
+                                              tick_ms=1, view_interval_ms=100, now=lambda: NOW)
+    qtbot.addWidget(wizard)
+    wizard.show()
+    qtbot.waitExposed(wizard)
+    return simulator, wizard
+
+
+def test_magnetometer_wizard_calibrates_several_sensors_at_once(qtbot, magnetometer_wizard) -> None:
+    simulator, wizard = magnetometer_wizard
+    ids = ["S01", "S04", "S07", "S10"]
+    wizard.set_selected_sensors(ids)
+    assert wizard.protocol() == "single_axis"
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    assert wizard.page_name == "recording"
+    # The page asks for x first, shows y once x is done, and the live views fill.
+    assert wizard.picture.description == "turn about x"
+    qtbot.waitUntil(lambda: wizard.procedure.status().axis_to_turn == "y", timeout=20000)
+    assert wizard.axis_bars["x"].value() == 100 and wizard.picture.description == "turn about y"
+    qtbot.waitUntil(lambda: wizard.view.fit_shown is not None and wizard.view.raw_cloud.count > 200, timeout=20000)
+    page = grab_page(wizard)
+    vtk = wizard.view.vtk_widget
+    corner = vtk.mapTo(wizard, QtCore.QPoint(0, 0))
+    pixels = {page.pixel(corner.x() + x, corner.y() + y)
+              for x in range(0, vtk.width(), 7) for y in range(0, vtk.height(), 7)}
+    assert len(pixels) > 50  # the 3D view was painted into the page (cloud, ellipsoid, sphere)
+    qtbot.waitUntil(lambda: wizard.page_name == "result", timeout=30000)
+    for sensor_id in ids:
+        outcome = wizard.procedure.outcomes[sensor_id]
+        assert outcome.verdict == "good"
+        offset_error, shape_error = truth_errors(outcome.result.calibration, simulator.parameters[sensor_id])
+        assert offset_error < 0.5 and shape_error < 0.01
+    assert wizard.result_table.rowCount() == len(ids)
+    assert wizard.accept_button.isEnabled()
+    with qtbot.waitSignal(wizard.calibrations_accepted) as accepted:
+        qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
+    assert [c.sensor_id for c in accepted.args[0]] == ids
+    assert wizard.store.sensor_ids() == sorted(ids)
+    assert "calibrated just now (good)" in wizard.sensor_list.item(0).text()
+
+
+def test_magnetometer_wizard_refuses_a_one_axis_capture(qtbot, magnetometer_wizard) -> None:
+    _, wizard = magnetometer_wizard
+    wizard.set_selected_sensors(["S02", "S03"])
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    qtbot.waitUntil(lambda: wizard.axis_bars["x"].value() == 100, timeout=20000)
+    wizard.feed.request_activity("npose")  # the user stops after one axis and presses "Compute now"
+    qtbot.mouseClick(wizard.finish_button, QtCore.Qt.LeftButton)
+    assert wizard.page_name == "result"
+    assert not wizard.accept_button.isEnabled()
+    assert "failed for S02, S03" in wizard.result_title.text()
+    details = wizard.result_details.toPlainText()
+    assert "turn about y again" in details and "turn about z again" in details
+    assert wizard.result_table.item(0, 1).text().startswith("Failed")
+    qtbot.mouseClick(wizard.redo_button, QtCore.Qt.LeftButton)
+    assert wizard.page_name == "setup" and wizard.store.sensor_ids() == []
+
+
+class FakeLiveSession:
+    """Stands in for the main window's pipeline: receives the accepted body calibration."""
+
+    def __init__(self) -> None:
+        self.applied = []
+
+    def apply_body_calibration(self, calibration) -> None:
+        self.applied.append(calibration)
+
+
+def body_wizard(qtbot, seed: int, settings=BodycalProcedureSettings(), live=None):
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=seed, errors=ONBOARD))
+    feed = SimulatedSuitFeed(simulator, step_s=0.1)
+    wizard = BodyCalibrationWizard(None, live, feed=feed, model=simulator.model, settings=settings, tick_ms=1,
+                                   mapping={m.segment: sid for sid, m in simulator.mounting.items()})
+    qtbot.addWidget(wizard)
+    wizard.show()
+    qtbot.waitExposed(wizard)
+    return simulator, wizard
+
+
+def test_body_wizard_matches_the_true_mountings_and_applies_the_result(qtbot) -> None:
+    live = FakeLiveSession()
+    simulator, wizard = body_wizard(qtbot, seed=6, live=live)
+    assert wizard.height_spin.value() == pytest.approx(1.75)
+    wizard.set_arms("right")
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    assert wizard.page_name == "pose" and wizard.pose_picture.description == "N-pose"
+    qtbot.waitUntil(lambda: wizard.countdown.text().endswith(" s") and wizard.meter.property("still"), timeout=10000)
+    qtbot.waitUntil(lambda: wizard.pose_picture.description == "T-pose (right arm)", timeout=10000)
+    qtbot.waitUntil(lambda: wizard.page_name == "result", timeout=20000)
+    calibration = wizard.procedure.calibration
+    errors = [float(np.degrees(rot.angle_between(calibration.q_segment_from_sensor[seg],
+                                                 simulator.mounting[sid].q_segment_from_sensor)))
+              for seg, sid in calibration.sensors.items()]
+    assert len(errors) == 10 and max(errors) < 1.0
+    assert "good" in wizard.verdict_label.text()
+    assert wizard.figures_table.rowCount() >= 4
+    assert wizard.scene.last_geometry is not None  # the skeleton in the calibrated N-pose
+    with qtbot.waitSignal(wizard.calibration_accepted):
+        qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
+    assert live.applied == [calibration]
+
+
+def test_body_wizard_refuses_a_subject_moving_during_the_npose(qtbot) -> None:
+    _, wizard = body_wizard(qtbot, seed=7, settings=BodycalProcedureSettings(pose_timeout_s=8.0))
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    qtbot.waitUntil(lambda: wizard.procedure.status().capturing, timeout=10000)
+    wizard.feed.request_activity("arm_raise")
+    qtbot.waitUntil(lambda: wizard.movement_message.text().startswith("Movement detected"), timeout=10000)
+    assert not wizard.meter.property("still")
+    qtbot.waitUntil(lambda: wizard.page_name == "refused", timeout=20000)
+    assert "kept moving during the N-pose" in wizard.refusal_label.text()
+    assert wizard.procedure.calibration is None
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_body_wizard_on_the_main_windows_live_session(qtbot, tmp_path) -> None:
+    """Opened as the main window does, ``(parent, live_session)``: the wizard reads the
+    session's blocks while the session is stepped (here by a timer on a fake clock, 0.1 s of
+    simulated time per tick), and Accept applies the result to the session."""
+    clock = FakeClock()
+    config = SimulationConfig(scenario="npose", n_sensors=10, seed=8, errors=ONBOARD)
+    live = LiveSession(LiveSimulatorFeed(config, clock=clock), clock=clock)
+    live.start()
+    magnetometer = MagnetometerWizard(None, live, store=CalibrationStore(tmp_path))
+    qtbot.addWidget(magnetometer)
+    assert magnetometer.feed.simulated and magnetometer.feed.sensor_ids == live.sensor_ids
+    magnetometer.close()
+
+    wizard = BodyCalibrationWizard(None, live, tick_ms=1)
+    qtbot.addWidget(wizard)
+    assert wizard.height_spin.value() == pytest.approx(live.height_m)
+    assert wizard.mapping()["upper_arm_r"] == "S04"
+    wizard.show()
+    stepper = QtCore.QTimer()
+
+    def step() -> None:
+        clock.now += 0.1
+        live.step()
+
+    stepper.timeout.connect(step)
+    stepper.start(1)
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    qtbot.waitUntil(lambda: wizard.page_name in ("result", "refused"), timeout=30000)
+    stepper.stop()
+    assert wizard.page_name == "result", wizard.refusal_label.text()
+    simulator = live.simulator
+    calibration = wizard.procedure.calibration
+    errors = [float(np.degrees(rot.angle_between(calibration.q_segment_from_sensor[seg],
+                                                 simulator.mounting[sid].q_segment_from_sensor)))
+              for seg, sid in calibration.sensors.items()]
+    assert max(errors) < 1.0
+    qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
+    assert live.body_calibration is calibration
