@@ -89,10 +89,13 @@ class SimulatedSuitFeed:
 
     def set_magnetometer_calibration(self, calibration: MagCalibration) -> None:
         """Correct this sensor's magnetometer before fusing its orientation (the delivered
-        ``mag_uT`` stays raw: a new magnetometer calibration needs raw samples)."""
+        ``mag_uT`` stays raw: a new magnetometer calibration needs raw samples). The sensor's
+        filter restarts, as in the live session, so its heading does not converge slowly from
+        the one the uncorrected field gave."""
         if calibration.sensor_id not in self.sensor_ids:
             raise ValueError(f"sensor {calibration.sensor_id} is not in this suit")
         self.mag_calibrations[calibration.sensor_id] = calibration
+        self._filters.pop(calibration.sensor_id, None)
 
     @property
     def time_s(self) -> float:
