@@ -5,6 +5,7 @@ refusal of a one-axis capture, storage and the previous calibration's age."""
 from __future__ import annotations
 
 import datetime as dt
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -131,3 +132,32 @@ def test_bad_arguments_are_refused(tmp_path) -> None:
     procedure = MagcalProcedure(feed, ["S01"], store=CalibrationStore(tmp_path))
     with pytest.raises(ValueError, match="no magnetometer calibration result"):
         procedure.accept()
+
+
+class _NoAccelerometer:
+    """A feed of units that send no accelerometer channel."""
+
+    def __init__(self, feed):
+        self._feed, self.sensor_ids, self.simulated = feed, feed.sensor_ids, True
+
+    @property
+    def time_s(self):
+        return self._feed.time_s
+
+    def read(self):
+        return {s: replace(b, acc=None) for s, b in self._feed.read().items()}
+
+    def request_activity(self, name, **params):
+        self._feed.request_activity(name, **params)
+
+
+def test_units_without_accelerometer_are_calibrated_without_the_dip_figure(tmp_path) -> None:
+    simulator, feed = make_feed(seed=9)
+    procedure = MagcalProcedure(_NoAccelerometer(feed), ["S05"], store=CalibrationStore(tmp_path), now=lambda: NOW)
+    procedure.start()
+    run(procedure)
+    outcome = procedure.outcomes["S05"]
+    assert outcome.verdict == "good" and outcome.result.quality.dip_std_deg is None
+    assert procedure.samples("S05")[2] is None
+    offset_error, shape_error = shape_and_offset_error(outcome.result.calibration, simulator.parameters["S05"])
+    assert offset_error < OFFSET_BOUND_UT and shape_error < SHAPE_BOUND

@@ -39,12 +39,13 @@ from mimucap.core.simulate import SuitSimulator
 @dataclass(frozen=True)
 class FeedSamples:
     """One sensor's new samples: ``t_s`` (N,) s, ``acc`` (N, 3) m/s², ``gyr`` (N, 3) rad/s,
-    ``mag_uT`` (N, 3) µT, ``q_world_from_sensor`` (N, 4) or None (no orientation yet)."""
+    ``mag_uT`` (N, 3) µT, ``q_world_from_sensor`` (N, 4); a channel the sensor does not send
+    (or an orientation not available) is None, never zero-filled."""
 
     t_s: np.ndarray
-    acc: np.ndarray
-    gyr: np.ndarray
-    mag_uT: np.ndarray
+    acc: np.ndarray | None
+    gyr: np.ndarray | None
+    mag_uT: np.ndarray | None
     q_world_from_sensor: np.ndarray | None
 
 
@@ -178,26 +179,26 @@ class LiveSessionFeed:
         return ekf.update_batch(t, block.gyr, block.acc, mag).q_world_from_sensor
 
     def read(self) -> dict[str, FeedSamples]:
-        """The blocks that arrived since the last call, per sensor (channels a sensor does not
-        send are NaN-free ``None`` in the block and skipped here)."""
+        """The blocks that arrived since the last call, per sensor (a channel is None when
+        any of the sensor's blocks lacks it)."""
         blocks, self._pending = self._pending, []
         t0 = self.live_session.t0_host_s or 0.0
         parts: dict[str, list[FeedSamples]] = {}
         for block in blocks:
-            if len(block) == 0 or block.acc is None or block.gyr is None or block.mag_uT is None:
+            if len(block) == 0:
                 continue
             t = np.asarray(block.host_time_s, dtype=np.float64) - t0
             q = self._orientation(block.sensor_id, t, block)
             parts.setdefault(block.sensor_id, []).append(FeedSamples(t, block.acc, block.gyr, block.mag_uT, q))
             self._time_s = max(float(t[-1]), self._time_s) if math.isfinite(self._time_s) else float(t[-1])
-        result = {}
-        for sensor_id, items in parts.items():
-            qs = [item.q_world_from_sensor for item in items]
-            result[sensor_id] = FeedSamples(
-                np.concatenate([i.t_s for i in items]), np.concatenate([i.acc for i in items]),
-                np.concatenate([i.gyr for i in items]), np.concatenate([i.mag_uT for i in items]),
-                None if any(q is None for q in qs) else np.concatenate(qs))
-        return result
+
+        def joined(items: list[FeedSamples], name: str) -> np.ndarray | None:
+            arrays = [getattr(item, name) for item in items]
+            return None if any(a is None for a in arrays) else np.concatenate(arrays)
+
+        return {sensor_id: FeedSamples(joined(items, "t_s"), joined(items, "acc"), joined(items, "gyr"),
+                                       joined(items, "mag_uT"), joined(items, "q_world_from_sensor"))
+                for sensor_id, items in parts.items()}
 
     def close(self) -> None:
         """Stop listening to the live session."""

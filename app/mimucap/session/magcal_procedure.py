@@ -147,7 +147,7 @@ class _Recording:
         self.count = 0
 
     def add(self, t: np.ndarray, mag: np.ndarray, acc: np.ndarray) -> None:
-        good = np.all(np.isfinite(mag), axis=1) & np.all(np.isfinite(acc), axis=1) & np.isfinite(t)
+        good = np.all(np.isfinite(mag), axis=1) & np.isfinite(t)
         if np.any(good):
             self.t.append(t[good])
             self.mag.append(mag[good])
@@ -273,9 +273,11 @@ class MagcalProcedure:
             return 0.0
         return self._last_t - self._start_t
 
-    def samples(self, sensor_id: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Recorded ``t_s`` (N,), ``mag_uT`` (N, 3), ``acc`` (N, 3) of ``sensor_id``."""
-        return self._recordings[sensor_id].arrays()
+    def samples(self, sensor_id: str) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Recorded ``t_s`` (N,), ``mag_uT`` (N, 3) and ``acc`` (N, 3) of ``sensor_id``
+        (``acc`` None unless every sample has a finite one)."""
+        t, mag, acc = self._recordings[sensor_id].arrays()
+        return t, mag, (acc if acc.shape[0] and np.all(np.isfinite(acc)) else None)
 
     def guidance(self, sensor_id: str) -> GuidanceState:
         """The single-axis guidance state of one sensor."""
@@ -302,7 +304,10 @@ class MagcalProcedure:
             for sensor_id, block in self.feed.read().items():
                 if sensor_id not in self._recordings or block.t_s.shape[0] == 0:
                     continue
-                self._recordings[sensor_id].add(block.t_s, block.mag_uT, block.acc)
+                if block.mag_uT is None or block.gyr is None:
+                    continue  # a unit without magnetometer or gyroscope cannot be calibrated here
+                acc = block.acc if block.acc is not None else np.full_like(block.mag_uT, np.nan)
+                self._recordings[sensor_id].add(block.t_s, block.mag_uT, acc)
                 self._guides[sensor_id].update(block.t_s, block.gyr, block.acc)
                 if self._start_t is None:
                     self._start_t = float(block.t_s[0])
