@@ -7,13 +7,11 @@ import pytest
 from PyQt5 import QtGui, QtWidgets
 
 from mimucap.gui.main_window import MainWindow
-from mimucap.session.live import pipeline_for_source
 
 
 @pytest.fixture
 def window(qtbot):
-    pipeline, label = pipeline_for_source("simulated:demo")
-    win = MainWindow(pipeline, source_label=label)
+    win = MainWindow("simulated:demo")
     qtbot.addWidget(win)
     win.show()
     win.start()
@@ -38,7 +36,8 @@ def _menu_actions(win):
 
 def test_window_starts_and_renders_the_skeleton(window, qtbot):
     assert window.windowTitle() == "MimuCap"
-    assert [a.text() for a in window.menuBar().actions()] == ["&File", "&View", "&Help"]
+    assert [a.text() for a in window.menuBar().actions()][:3] == ["&File", "&Session", "&View"]
+    assert window.menuBar().actions()[-1].text() == "&Help"
     qtbot.waitUntil(lambda: window.scene_view.frames_rendered >= 3, timeout=15000)
     geometry = window.scene_view.last_geometry
     assert geometry is not None
@@ -51,11 +50,15 @@ def test_window_starts_and_renders_the_skeleton(window, qtbot):
 
 def test_menu_lists_only_working_items(window):
     texts = {a.text() for a in _menu_actions(window)}
-    # Each of these is exercised by a test of this module.
-    assert texts == {
-        "Save &Screenshot…", "&Quit", "Front", "Side", "Top", "Follow", "World Mode", "Body Mode",
-        "&Toggle Body/World", "Show &Floor", "Show World &Axes", "&About MimuCap",
+    # Each of these is exercised by a test of tests/gui.
+    expected = {
+        "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "Recording &Folder…",
+        "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
+        "Front", "Side", "Top", "Follow", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
+        "Show World &Axes", "&Pause Plots", "&About MimuCap",
     }
+    assert expected <= texts
+    assert texts - expected <= {"&Magnetometers…", "&Body…"}  # the wizards, when installed
 
 
 def test_screenshot_and_quit_from_the_file_menu(window, qtbot, tmp_path, monkeypatch):
@@ -75,11 +78,11 @@ def test_camera_and_display_actions_change_the_view(window, qtbot):
     assert window.scene_view.camera_preset == "top"
     qtbot.waitUntil(lambda: np.allclose(window.scene_view.renderer.GetActiveCamera().GetViewUp(), (0, 0, -1), atol=1e-6))
     window.display_actions["body"].trigger()
-    assert window.pipeline.display_mode == "body"
+    assert window.live.display_mode == "body"
     qtbot.waitUntil(lambda: window.scene_view.last_geometry is not None and
                     window.scene_view.last_geometry.heading_alpha_rad != 0.0, timeout=5000)
     window.action_toggle_display.trigger()
-    assert window.pipeline.display_mode == "world" and window.display_actions["world"].isChecked()
+    assert window.live.display_mode == "world" and window.display_actions["world"].isChecked()
     window.action_floor.setChecked(False)
     assert not window.scene_view.stage.grid.GetVisibility()
     window.action_axes.setChecked(False)

@@ -7,7 +7,13 @@ import pytest
 
 from mimucap.core.simulate import SimulationConfig
 from mimucap.session.camera import camera_preset
-from mimucap.session.live import LivePipeline, pipeline_for_source
+from mimucap.session.feeds import SimulatorFeed
+from mimucap.session.live import LiveSession, open_live_session
+
+
+def _session(scenario: str, now: list[float]) -> LiveSession:
+    clock = lambda: now[0]  # noqa: E731
+    return LiveSession(SimulatorFeed(SimulationConfig(scenario=scenario), clock=clock), clock=clock)
 
 
 def _segment_centre(geometry, name):
@@ -17,9 +23,12 @@ def _segment_centre(geometry, name):
 @pytest.fixture
 def npose():
     """A subject standing in N-pose, facing north (simulator heading 0)."""
-    pipeline = LivePipeline(SimulationConfig(scenario="npose"))
-    assert pipeline.advance(0.5)
-    return pipeline
+    now = [10.0]
+    session = _session("npose", now)
+    session.start()
+    now[0] += 0.5
+    assert session.step() > 0
+    return session
 
 
 def test_world_mode_shows_east_right_north_away_up_up(npose):
@@ -51,20 +60,22 @@ def test_bad_display_mode_and_source_are_refused(npose):
     with pytest.raises(ValueError, match="display mode"):
         npose.set_display_mode("sideways")
     with pytest.raises(ValueError):
-        pipeline_for_source("carrier-pigeon:1")
+        open_live_session("carrier-pigeon:1")
 
 
 def test_frames_advance_with_the_wall_clock():
     now = [100.0]
-    pipeline = LivePipeline(SimulationConfig(scenario="walk"), clock=lambda: now[0])
-    assert pipeline.frame() is None
-    pipeline.step()
-    first_id, first = pipeline.frame()
+    session = _session("walk", now)
+    session.start()
+    assert session.frame() is None
+    now[0] += 0.05
+    session.step()
+    first_id, first = session.frame()
     now[0] += 0.2
-    assert pipeline.step()
-    second_id, second = pipeline.frame()
+    assert session.step() == 10 * 20  # ten sensors at 100 Hz
+    second_id, second = session.frame()
     assert second_id != first_id
-    assert pipeline.time_s == pytest.approx(0.2, abs=0.011)
+    assert session.time_s == pytest.approx(0.25, abs=0.011)
     assert not np.allclose(first.segment_matrices, second.segment_matrices)
 
 

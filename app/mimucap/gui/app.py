@@ -15,8 +15,9 @@ def has_display(environ=None) -> bool:
     return any(env.get(name) for name in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM"))
 
 
-def run_gui(source: str = "simulated", screenshot: str | Path | None = None, after_s: float = 3.0) -> int:
-    """Open the main window on ``source`` and run the event loop; return the exit code.
+def run_gui(source: str | None = None, screenshot: str | Path | None = None, after_s: float = 3.0) -> int:
+    """Open the main window on ``source`` (default: the last one chosen) and run the event
+    loop; return the exit code.
 
     With ``screenshot``, the window (3D view included) is written to that PNG ``after_s``
     seconds after it appeared and the application quits with 0.
@@ -28,14 +29,18 @@ def run_gui(source: str = "simulated", screenshot: str | Path | None = None, aft
         raise ValueError(f"--after must be a number of seconds >= 0, got {after_s}")
     from PyQt5 import QtCore, QtWidgets
 
+    from mimucap.acquisition.source_spec import parse_source_spec
     from mimucap.gui.main_window import MainWindow
-    from mimucap.session.live import pipeline_for_source
 
-    pipeline, label = pipeline_for_source(source)
+    if source is not None:
+        parse_source_spec(source)  # a bad spec is a one-line error before any window opens
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([sys.argv[0]])
     app.setApplicationName("MimuCap")
     app.setOrganizationName("MimuCap")
-    window = MainWindow(pipeline, source_label=label)
+    window = MainWindow(source)
+    if window.live is None:
+        window.close()
+        raise ValueError(f"cannot open source {source}: see the message above")
     window.show()
     window.start()
     outcome = {"code": 0}

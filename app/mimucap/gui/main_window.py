@@ -1,60 +1,116 @@
-"""The main window: the 3D skeleton view, menus and status bar around a live pipeline.
+"""The main window: 3D skeleton view, live plots, sensor panel and session panel around a
+:class:`~mimucap.session.live.LiveSession`.
 
-The window holds no data: it shows what its :class:`~mimucap.session.live.LivePipeline`
-has, and forwards what the user asks. One ``QTimer`` pumps the pipeline
-(:data:`PUMP_INTERVAL_MS`); the 3D view renders from its own timer, once per frame.
+The window holds no data: it shows what the live session has and forwards what the user
+asks. Timers: the pump (:data:`PUMP_INTERVAL_MS`) runs the session's pipeline; the 3D view
+renders from its own timer, once per frame; the plots refresh at 30 Hz; the panels at
+:data:`PANEL_INTERVAL_MS` (a stale sensor shows within a second).
 """
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from pathlib import Path
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap import __version__
+from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.capture import save_window_png
+from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.scene.view import SceneView
+from mimucap.gui.sensor_panel import SensorPanel
+from mimucap.gui.session_panel import SessionPanel
+from mimucap.gui.settings import gui_settings
+from mimucap.gui.source_dialog import SourceDialog, last_source_spec
+from mimucap.io.calibration_store import user_data_dir
 from mimucap.session.camera import CAMERA_PRESETS
+from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
-from mimucap.session.live import LivePipeline
+from mimucap.session.live import LiveSession, open_live_session
+from mimucap.session.subject import default_recording_path
 
 log = logging.getLogger(__name__)
 
 #: How often the live pipeline is pumped (ms): 100 Hz, so a sample waits at most 10 ms.
 PUMP_INTERVAL_MS = 10
-#: How often the status bar is refreshed (ms).
-STATUS_INTERVAL_MS = 500
+#: How often the sensor panel, tints and status bar are refreshed (ms).
+PANEL_INTERVAL_MS = 250
 
 ABOUT_TEXT = (
     "<h3>MimuCap {version}</h3>"
     "<p>Human motion capture with magnetic-inertial sensors: live skeleton, joint angles, "
     "recording, review and export.</p>"
-    "<p>Built with PyQt5, VTK, pyqtgraph, NumPy and SciPy.</p>"
+    "<p>Built with PyQt5, VTK, pyqtgraph, NumPy, SciPy and h5py.</p>"
 )
+
+
+def _wizard_classes() -> dict[str, type]:
+    """The calibration wizards that are installed (module name → class)."""
+    found = {}
+    try:
+        from mimucap.gui.wizards.magnetometer import MagnetometerWizard
+        found["magnetometer"] = MagnetometerWizard
+    except ImportError:
+        log.info("magnetometer wizard not available")
+    try:
+        from mimucap.gui.wizards.body import BodyCalibrationWizard
+        found["body"] = BodyCalibrationWizard
+    except ImportError:
+        log.info("body calibration wizard not available")
+    return found
 
 
 class MainWindow(QtWidgets.QMainWindow):
     """MimuCap's main window.
 
     Args:
-        pipeline: the live pipeline to show.
-        source_label: how the status bar names the source (e.g. ``"simulated:demo"``).
+        source: the source spec to start with (default: the one chosen last time).
+        session_factory: builds a :class:`LiveSession` from a spec (tests pass one with a
+            fast clock).
     """
 
-    def __init__(self, pipeline: LivePipeline, source_label: str = "simulated") -> None:
+    def __init__(self, source: str | None = None,
+                 session_factory: Callable[[str], LiveSession] = open_live_session) -> None:
         super().__init__()
         self.setObjectName("mainWindow")
         self.setWindowTitle("MimuCap")
         self.resize(1280, 800)
-        self.pipeline = pipeline
-        self.source_label = source_label
+        self.session_factory = session_factory
+        self.live: LiveSession | None = None
+        self.review_windows: list[QtWidgets.QWidget] = []
+        self._wizards = _wizard_classes()
+        self._cpu = CpuMeter()
+        self._last_record_message = ""
 
         self.scene_view = SceneView(self)
-        self.scene_view.set_figure(pipeline.builder)
-        self.scene_view.set_frame_provider(pipeline.frame)
-        self.scene_view.set_tint_provider(pipeline.segment_states)
-        self.setCentralWidget(self.scene_view)
+        self.plots = LivePlots(self)
+        splitter = QtWidgets.QSplitter(QtCore.Qt.Horizontal, self)
+        splitter.addWidget(self.scene_view)
+        splitter.addWidget(self.plots)
+        splitter.setStretchFactor(0, 3)
+        splitter.setStretchFactor(1, 2)
+        splitter.setSizes([760, 520])
+        self.setCentralWidget(splitter)
+
+        self.session_panel = SessionPanel(self)
+        self.session_dock = QtWidgets.QDockWidget("Session", self)
+        self.session_dock.setObjectName("sessionDock")
+        self.session_dock.setWidget(self.session_panel)
+        self.session_dock.setFeatures(QtWidgets.QDockWidget.DockWidgetMovable)
+        self.addDockWidget(QtCore.Qt.LeftDockWidgetArea, self.session_dock)
+        self.sensor_panel = SensorPanel(self)
+        self.sensor_dock = QtWidgets.QDockWidget("Sensors", self)
+        self.sensor_dock.setObjectName("sensorDock")
+        self.sensor_dock.setWidget(self.sensor_panel)
+        self.sensor_dock.setFeatures(QtWidgets.QDockWidget.DockWidgetMovable)
+        self.addDockWidget(QtCore.Qt.BottomDockWidgetArea, self.sensor_dock)
+        self.resizeDocks([self.sensor_dock], [190], QtCore.Qt.Vertical)
+
+        self.session_panel.record_toggled.connect(self._record_toggled)
+        self.session_panel.marker_requested.connect(self.add_marker)
+        self.session_panel.height.valueChanged.connect(self._height_changed)
 
         self._build_menus()
         self._build_status_bar()
@@ -63,20 +119,38 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pump.setTimerType(QtCore.Qt.PreciseTimer)
         self._pump.setInterval(PUMP_INTERVAL_MS)
         self._pump.timeout.connect(self._pump_pipeline)
-        self._status_timer = QtCore.QTimer(self)
-        self._status_timer.setInterval(STATUS_INTERVAL_MS)
-        self._status_timer.timeout.connect(self.refresh_status)
-        self._closed = False
+        self._panel_timer = QtCore.QTimer(self)
+        self._panel_timer.setInterval(PANEL_INTERVAL_MS)
+        self._panel_timer.timeout.connect(self.refresh_panels)
+        self._tints: dict[str, str] = {}
+        self.scene_view.set_tint_provider(lambda: self._tints)
+        self.open_source(source or last_source_spec())
 
     # -- construction ------------------------------------------------------------------------
     def _build_menus(self) -> None:
         bar = self.menuBar()
         file_menu = bar.addMenu("&File")
-        self.action_save_screenshot = file_menu.addAction("Save &Screenshot…", self._ask_screenshot)
+        self.action_source = file_menu.addAction("Choose &Source…", self.choose_source)
+        self.action_source.setShortcut(QtGui.QKeySequence("Ctrl+Shift+O"))
+        self.action_open = file_menu.addAction("&Open Session for Review…", self.ask_open_session)
+        self.action_open.setShortcut(QtGui.QKeySequence.Open)
+        self.action_export = file_menu.addAction("&Export Last Recording…", self.export_last_recording)
+        self.action_export.setShortcut(QtGui.QKeySequence("Ctrl+E"))
+        self.action_export.setEnabled(False)
+        self.action_folder = file_menu.addAction("Recording &Folder…", self.choose_recording_folder)
+        file_menu.addSeparator()
+        self.action_save_screenshot = file_menu.addAction("Save Screens&hot…", self._ask_screenshot)
         self.action_save_screenshot.setShortcut(QtGui.QKeySequence("Ctrl+Shift+S"))
         file_menu.addSeparator()
         self.action_quit = file_menu.addAction("&Quit", self.close)
         self.action_quit.setShortcut(QtGui.QKeySequence.Quit)
+
+        session_menu = bar.addMenu("&Session")
+        self.action_assign = session_menu.addAction("&Assign Sensors…", self.assign_sensors)
+        self.action_record = session_menu.addAction("Start &Recording", self.toggle_recording)
+        self.action_record.setShortcut(QtGui.QKeySequence("Ctrl+R"))
+        self.action_marker = session_menu.addAction("Add &Marker", lambda: self.add_marker(self.session_panel.marker_label.text().strip()))
+        self.action_marker.setShortcut(QtGui.QKeySequence("M"))
 
         view_menu = bar.addMenu("&View")
         camera_menu = view_menu.addMenu("&Camera")
@@ -90,7 +164,6 @@ class MainWindow(QtWidgets.QMainWindow):
             self.camera_group.addAction(action)
             self.camera_actions[name] = action
         self.camera_actions[self.scene_view.camera_preset].setChecked(True)
-
         display_menu = view_menu.addMenu("&Display Mode")
         self.display_group = QtWidgets.QActionGroup(self)
         self.display_actions: dict[str, QtWidgets.QAction] = {}
@@ -100,10 +173,9 @@ class MainWindow(QtWidgets.QMainWindow):
             action.triggered.connect(lambda _checked, n=name: self.set_display_mode(n))
             self.display_group.addAction(action)
             self.display_actions[name] = action
-        self.display_actions[self.pipeline.display_mode].setChecked(True)
+        self.display_actions["world"].setChecked(True)
         self.action_toggle_display = view_menu.addAction("&Toggle Body/World", self.toggle_display_mode)
         self.action_toggle_display.setShortcut(QtGui.QKeySequence("B"))
-
         view_menu.addSeparator()
         self.action_floor = view_menu.addAction("Show &Floor")
         self.action_floor.setCheckable(True)
@@ -113,6 +185,18 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_axes.setCheckable(True)
         self.action_axes.setChecked(True)
         self.action_axes.toggled.connect(self._update_stage)
+        self.action_pause_plots = view_menu.addAction("&Pause Plots")
+        self.action_pause_plots.setCheckable(True)
+        self.action_pause_plots.toggled.connect(self.plots.pause_button.setChecked)
+        self.plots.pause_button.toggled.connect(self.action_pause_plots.setChecked)
+
+        self.calibrate_menu = None
+        if self._wizards:
+            self.calibrate_menu = bar.addMenu("&Calibrate")
+            if "magnetometer" in self._wizards:
+                self.action_magcal = self.calibrate_menu.addAction("&Magnetometers…", lambda: self.open_wizard("magnetometer"))
+            if "body" in self._wizards:
+                self.action_bodycal = self.calibrate_menu.addAction("&Body…", lambda: self.open_wizard("body"))
 
         help_menu = bar.addMenu("&Help")
         self.action_about = help_menu.addAction("&About MimuCap", self.show_about)
@@ -121,54 +205,234 @@ class MainWindow(QtWidgets.QMainWindow):
         status = self.statusBar()
         self.source_status = QtWidgets.QLabel(self)
         self.pose_status = QtWidgets.QLabel(self)
-        self.time_status = QtWidgets.QLabel(self)
+        self.rate_status = QtWidgets.QLabel(self)
+        self.cpu_status = QtWidgets.QLabel(self)
         self.fps_status = QtWidgets.QLabel(self)
-        for label in (self.source_status, self.pose_status, self.time_status, self.fps_status):
+        for label in (self.source_status, self.pose_status, self.rate_status, self.cpu_status, self.fps_status):
             status.addPermanentWidget(label)
-        self.refresh_status()
 
-    # -- running -----------------------------------------------------------------------------
+    # -- the live session ----------------------------------------------------------------------
+    def open_source(self, spec: str) -> bool:
+        """Stop the current source and start ``spec``; False (and a message) if it fails."""
+        if self.live is not None and self.live.recording:
+            QtWidgets.QMessageBox.warning(self, "Recording", "Stop the recording before changing the source.")
+            return False
+        try:
+            session = self.session_factory(spec)
+        except (ValueError, OSError) as error:
+            log.warning("cannot open source %s: %s", spec, error)
+            self.statusBar().showMessage(f"Cannot open source {spec}: {error}")
+            QtWidgets.QMessageBox.warning(self, "Source", f"Cannot open source {spec}:\n{error}\n\nChoose another source (File → Choose Source).")
+            return False
+        self._stop_live()
+        self.live = session
+        remembered = remembered_assignment()
+        for sensor_id, segment in remembered.items():
+            if sensor_id in session.sensor_ids and segment in session.model.segment_names:
+                session.assign_sensor(sensor_id, segment)
+        session.set_height(self.session_panel.height.value())
+        session.set_display_mode(next(k for k, a in self.display_actions.items() if a.isChecked()))
+        session.events.marker.connect(self._on_marker)
+        self.scene_view.set_figure(session.builder)
+        self.scene_view.set_frame_provider(session.frame)
+        self.plots.set_source(session)
+        if self.isVisible():
+            self.start()
+        self.refresh_panels()
+        return True
+
+    def _stop_live(self) -> None:
+        if self.live is None:
+            return
+        self.live.events.marker.disconnect(self._on_marker)
+        try:
+            self.live.stop()
+        except Exception:  # a source failing to stop must not keep the window from closing
+            log.exception("stopping the source failed")
+        self.live = None
+
     def start(self) -> None:
-        """Start pumping the pipeline and rendering (call after ``show()``)."""
+        """Start the source, pumping, rendering and refreshing (call after ``show()``)."""
+        if self.live is not None and not self.live.started:
+            self.live.start()
         self._pump.start()
-        self._status_timer.start()
+        self._panel_timer.start()
+        self.plots.start()
         self.scene_view.start()
 
     def _pump_pipeline(self) -> None:
+        if self.live is None:
+            return
         try:
-            self.pipeline.step()
-        except Exception as error:  # shown, logged, and the pump stops: no endless error loop
+            self.live.step()
+        except Exception as error:  # shown, logged; the pump stops instead of looping on an error
             log.exception("live pipeline failed")
             self._pump.stop()
-            self.statusBar().showMessage(f"Live data stopped: {error}. Restart the source to continue.")
+            self.statusBar().showMessage(f"Live data stopped: {error}. Choose the source again (File → Choose Source).")
+        failure = self.live.recording_failure if self.live is not None else None
+        if failure:
+            self._finish_recording()
+            QtWidgets.QMessageBox.critical(self, "Recording stopped", failure)
 
-    def refresh_status(self) -> None:
-        """Update the permanent status-bar fields from the pipeline and the view."""
-        self.source_status.setText(f"Source: {self.source_label}")
-        self.pose_status.setText(f"Pose: {self.pipeline.pose_source}")
-        t = self.pipeline.time_s
-        self.time_status.setText("t = –" if t != t else f"t = {t:7.2f} s")
+    def refresh_panels(self) -> None:
+        """Sensor panel, tints, recording status and status bar from the live session."""
+        live = self.live
+        if live is None:
+            return
+        rows = live.sensor_rows()
+        self.sensor_panel.show_rows(rows)
+        self._tints = {r.segment: r.state for r in rows if r.segment is not None}
+        self.plots.update_choices()
+        if live.recording:
+            self.session_panel.show_info(live.recording_info())
+        self.source_status.setText(f"Source: {live.label}")
+        self.pose_status.setText(f"Pose: {live.pose_source}")
+        rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
+        drops = sum(r.drops for r in rows)
+        self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")
+        self.cpu_status.setText(f"CPU {self._cpu.sample():.0f} %")
         times = self.scene_view.render_times[-61:]
         if len(times) >= 2 and times[-1] > times[0]:
-            self.fps_status.setText(f"{(len(times) - 1) / (times[-1] - times[0]):4.0f} fps")
+            self.fps_status.setText(f"{(len(times) - 1) / (times[-1] - times[0]):.0f} fps")
         else:
             self.fps_status.setText("– fps")
 
-    # -- user actions --------------------------------------------------------------------------
+    # -- user actions: source, sensors, recording ------------------------------------------------
+    def choose_source(self) -> None:
+        dialog = SourceDialog(self, self.live.label if self.live is not None else None)
+        if dialog.exec_() == QtWidgets.QDialog.Accepted:
+            self.open_source(dialog.spec)
+
+    def assign_sensors(self) -> None:
+        if self.live is None:
+            return
+        dialog = AssignmentDialog(self, self.live.sensor_ids, self.live.model.segment_names, self.live.sensor_segments)
+        self._dialog = dialog
+        if dialog.exec_() == QtWidgets.QDialog.Accepted:
+            self.apply_assignment(dialog.assignment())
+
+    def apply_assignment(self, assignment: dict[str, str]) -> None:
+        for sensor_id in list(self.live.sensor_segments):
+            if sensor_id not in assignment:
+                self.live.assign_sensor(sensor_id, None)
+        for sensor_id, segment in assignment.items():
+            self.live.assign_sensor(sensor_id, segment)
+        self.refresh_panels()
+
+    def recording_folder(self) -> Path:
+        default = user_data_dir() / "sessions"
+        folder = Path(str(gui_settings().value("recording/folder", str(default))))
+        folder.mkdir(parents=True, exist_ok=True)
+        return folder
+
+    def choose_recording_folder(self) -> None:
+        folder = QtWidgets.QFileDialog.getExistingDirectory(self, "Recording Folder", str(self.recording_folder()))
+        if folder:
+            settings = gui_settings()
+            settings.setValue("recording/folder", folder)
+            settings.sync()
+            self.statusBar().showMessage(f"Recordings go to {folder}", 5000)
+
+    def toggle_recording(self) -> None:
+        self._record_toggled(not (self.live is not None and self.live.recording))
+
+    def _record_toggled(self, on: bool) -> None:
+        if self.live is None:
+            self.session_panel.set_recording(False)
+            return
+        if on and not self.live.recording:
+            try:
+                subject = self.session_panel.subject()
+                path = default_recording_path(self.recording_folder(), subject)
+                self.live.start_recording(path, subject.to_dict())
+            except (ValueError, OSError) as error:
+                self.session_panel.set_recording(False)
+                QtWidgets.QMessageBox.warning(self, "Cannot record", str(error))
+                return
+            self.session_panel.markers_list.clear()
+            self.session_panel.set_recording(True)
+            self.action_record.setText("Stop &Recording")
+            self.session_panel.show_info(self.live.recording_info())
+            self.statusBar().showMessage(f"Recording to {path}")
+        elif not on and self.live.recording:
+            self._finish_recording()
+
+    def _finish_recording(self) -> None:
+        result = self.live.stop_recording()
+        self.session_panel.set_recording(False)
+        self.action_record.setText("Start &Recording")
+        samples = sum(result.samples.values())
+        if result.session_path is not None:
+            message = f"Saved {samples} samples to {result.session_path}"
+            if result.message:
+                message += f" ({result.message})"
+            self.action_export.setEnabled(True)
+        else:
+            message = result.message
+        self.session_panel.show_info(None, message)
+        self.statusBar().showMessage(message)
+
+    def add_marker(self, label: str = "") -> None:
+        if self.live is None:
+            return
+        try:
+            self.live.add_marker(label or "marker")
+        except OSError as error:
+            QtWidgets.QMessageBox.critical(self, "Marker", str(error))
+
+    def _on_marker(self, t_s: float, label: str) -> None:
+        self.session_panel.add_marker_line(t_s, label)
+
+    def _height_changed(self, value: float) -> None:
+        if self.live is not None and not self.live.recording:
+            self.live.set_height(value)
+            self.scene_view.set_figure(self.live.builder)
+
+    # -- user actions: view ------------------------------------------------------------------
     def set_camera_preset(self, name: str) -> None:
         self.scene_view.set_camera_preset(name)
         self.camera_actions[name].setChecked(True)
 
     def set_display_mode(self, mode: str) -> None:
-        self.pipeline.set_display_mode(mode)
+        if self.live is not None:
+            self.live.set_display_mode(mode)
         self.display_actions[mode].setChecked(True)
         self.scene_view.set_camera_preset(self.scene_view.camera_preset)
 
     def toggle_display_mode(self) -> None:
-        self.set_display_mode("body" if self.pipeline.display_mode == "world" else "world")
+        current = next(k for k, a in self.display_actions.items() if a.isChecked())
+        self.set_display_mode("body" if current == "world" else "world")
 
     def _update_stage(self) -> None:
         self.scene_view.set_stage_visible(self.action_floor.isChecked(), self.action_axes.isChecked())
+
+    # -- review, export, wizards, about ----------------------------------------------------------
+    def ask_open_session(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Open Session", str(self.recording_folder()), "MimuCap sessions (*.h5)")
+        if path:
+            self.open_review(path)
+
+    def open_review(self, path: str | Path):
+        """Open the review window on session file ``path`` (loaded off the GUI thread)."""
+        from mimucap.gui.review_window import ReviewWindow
+
+        window = ReviewWindow(path, parent=None)
+        window.setAttribute(QtCore.Qt.WA_DeleteOnClose, False)
+        self.review_windows.append(window)
+        window.show()
+        window.load()
+        return window
+
+    def export_last_recording(self) -> None:
+        if self.live is None or self.live.last_recording is None or self.live.last_recording.session_path is None:
+            return
+        window = self.open_review(self.live.last_recording.session_path)
+        window.export_when_loaded = True
+
+    def open_wizard(self, name: str) -> None:
+        wizard = self._wizards[name](self, self.live)
+        self._wizard = wizard
+        wizard.show()
 
     def show_about(self) -> None:
         QtWidgets.QMessageBox.about(self, "About MimuCap", ABOUT_TEXT.format(version=__version__))
@@ -185,8 +449,20 @@ class MainWindow(QtWidgets.QMainWindow):
         return written
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+        if self.live is not None and self.live.recording:
+            answer = QtWidgets.QMessageBox.question(
+                self, "Recording in progress",
+                "A recording is in progress. Stop it, save the file and quit?",
+                QtWidgets.QMessageBox.Yes | QtWidgets.QMessageBox.No, QtWidgets.QMessageBox.No)
+            if answer != QtWidgets.QMessageBox.Yes:
+                event.ignore()
+                return
+            self._finish_recording()
         self._pump.stop()
-        self._status_timer.stop()
+        self._panel_timer.stop()
+        self.plots.stop()
         self.scene_view.shutdown()
-        self._closed = True
+        self._stop_live()
+        for window in self.review_windows:
+            window.close()
         super().closeEvent(event)

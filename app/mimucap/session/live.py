@@ -1,79 +1,221 @@
-"""The live pipeline the main window shows: sensor data in, skeleton frames out (no Qt).
+"""The live session the main window shows: sensor blocks in, skeleton, plots and files out (no Qt).
 
-:class:`LivePipeline` is driven by the GUI's timers (one thread): :meth:`LivePipeline.step`
-pulls whatever arrived since the last call, and :meth:`LivePipeline.frame` gives the newest
-figure to draw as ``(frame_id, FigureGeometry)`` (scene frame, metres; see
-:mod:`mimucap.session.figure`).
+:class:`LiveSession` is driven by the GUI's timers, in one thread: :meth:`LiveSession.step`
+takes whatever the feed (:mod:`mimucap.session.feeds`) delivered since the last call and
+runs it through the pipeline:
 
-This module's first source is the in-process :class:`~mimucap.core.simulate.SuitSimulator`
-advanced by the wall clock; the skeleton follows the simulator's *true* segment orientations
-(``q_world_from_segment``, world ENU, scalar-first), labelled ``"simulator truth"`` by
-:attr:`LivePipeline.pose_source`.
+1. magnetometer calibration of each sensor that has one (``mag_cal = A⁻¹ (mag_raw − b)``, µT);
+2. orientation ``q_world_from_sensor`` (world ENU, scalar first): the device's own when it
+   sends one, otherwise an online :class:`~mimucap.core.fusion.OrientationEKF` per sensor;
+3. segment orientations ``q_world_from_segment``: through the applied body calibration
+   (:func:`mimucap.core.bodycal.segment_orientations`); until one is applied, the simulated
+   suit shows the simulator's truth (:attr:`LiveSession.pose_source` says
+   ``"simulator truth"``) and other sources show each assigned sensor's axes as its
+   segment's (``"sensor axes (no body calibration)"``);
+4. joint angles (deg, :func:`mimucap.core.skeleton.joint_angles_deg`) of the newest pose;
+5. the recorder (:class:`~mimucap.session.recording.Recorder`) when recording.
+
+Times: ``t_s`` is seconds on the host monotonic clock since the live session started.
+
+API for calibration wizards (``MagnetometerWizard(parent, live_session)``,
+``BodyCalibrationWizard(parent, live_session)``):
+
+* ``live_session.simulator``: the :class:`~mimucap.core.simulate.SuitSimulator` when the source
+  is the simulated suit in process (``None`` otherwise); ``simulator.set_activity("tpose",
+  arms="both")`` makes the subject do what the wizard asks.
+* ``live_session.events.blocks.connect(callback)``: ``callback(blocks)`` gets every list of
+  :class:`~mimucap.acquisition.samples.SampleBlock` (raw, before calibration) as it arrives;
+  disconnect with ``live_session.events.blocks.disconnect(callback)`` when the wizard closes.
+* ``live_session.sensor_ids``, ``live_session.sensor_segments`` (sensor id → segment),
+  ``live_session.latest_orientations()`` (sensor id → ``q_world_from_sensor`` (4,)),
+  ``live_session.series(sensor_id, window_s)`` (recent raw ``t_s``, ``acc``, ``gyr``, ``mag_uT``).
+* ``live_session.apply_mag_calibration(cal)`` (a :class:`~mimucap.core.magcal.MagCalibration`;
+  the sensor's fusion restarts with calibrated samples), ``live_session.mag_calibrations``.
+* ``live_session.apply_body_calibration(cal)`` (a :class:`~mimucap.core.bodycal.BodyCalibration`:
+  the figure then follows the sensors through it, world mode is normalised to its N-pose) and
+  ``live_session.clear_body_calibration()``.
+* ``live_session.events.calibration`` is emitted after either is applied.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from mimucap.acquisition.samples import SampleBlock
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
-from mimucap.core import skeleton
-from mimucap.core.simulate import SimulationConfig, SuitSimulator
+from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core.fusion import OrientationEKF, decode_flags
+from mimucap.core.magcal import MagCalibration
+from mimucap.core.simulate import SimulationConfig, SuitTruth
+from mimucap.io.session import SessionTruth, read_session, write_session
 from mimucap.session.events import EmitterGroup
-from mimucap.session.figure import FigureBuilder, FigureGeometry
+from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
+from mimucap.session.figure import FigureBuilder, FigureGeometry, heading_rad
+from mimucap.session.recording import Recorder, RecordingResult
+from mimucap.session.ring_buffer import RingBuffer
+from mimucap.session.sources import SourceOptions
 
-#: Longest wall-clock gap (s) simulated at once: after a stall the simulation skips ahead
-#: instead of computing a long backlog on the GUI thread.
-MAX_STEP_S = 0.25
+#: A sensor whose last sample arrived longer ago than this (s) is flagged stale.
+STALE_AFTER_S = 1.0
+#: Longest scrolling window the live plots can show (s).
+MAX_WINDOW_S = 30.0
+#: Samples per second the ring buffers are sized for (larger rates keep a shorter history).
+BUFFER_RATE_HZ = 200.0
+#: Joint-angle history rate bound: one pose per pipeline step (the GUI pumps at 100 Hz).
+ANGLE_BUFFER_RATE_HZ = 120.0
+
+POSE_BODY_CALIBRATION = "body calibration"
+POSE_SIMULATOR_TRUTH = "simulator truth"
+POSE_SENSOR_AXES = "sensor axes (no body calibration)"
+POSE_NONE = "no data"
 
 
 @dataclass(frozen=True)
-class LiveSettings:
-    """Settings of the live pipeline.
+class SensorRow:
+    """One line of the sensor panel.
 
-    Attributes:
-        display_mode: ``"world"`` (heading shown) or ``"body"`` (figure faces the camera).
-        time_scale: simulated seconds per wall-clock second (1 = real time).
+    ``rate_hz`` samples/s over the last 2 s; ``drops`` sequence gaps; ``latency_ms`` p95 from
+    the sample's host time to its arrival in this process; ``battery_pct`` (NaN if unknown);
+    ``mag_cal`` ``"calibrated"``, ``"on-board"`` (device fuses itself) or ``"not calibrated"``;
+    ``mag_cal_age_s`` since the calibration was made (NaN if none); ``flags`` fusion flags
+    now (``"rest"``, ``"mag disturbed"``, ...); ``stale`` no sample for :data:`STALE_AFTER_S`;
+    ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``).
     """
 
-    display_mode: str = "world"
-    time_scale: float = 1.0
+    sensor_id: str
+    segment: str | None
+    rate_hz: float
+    drops: int
+    latency_ms: float
+    battery_pct: float
+    mag_cal: str
+    mag_cal_age_s: float
+    flags: tuple[str, ...]
+    stale: bool
+    state: str
 
 
-class LivePipeline:
-    """Newest skeleton pose from a live source, as figure geometry for the 3D view.
+@dataclass(frozen=True)
+class RecordingInfo:
+    """What is being recorded where: ``path``, ``elapsed_s`` (s), ``size_bytes`` (journal so far),
+    ``markers`` placed, ``samples`` per sensor."""
+
+    path: Path
+    elapsed_s: float
+    size_bytes: int
+    markers: int
+    samples: dict[str, int] = field(default_factory=dict)
+
+
+class _SensorState:
+    """Per-sensor live state: recent raw samples for the plots, fusion, latest orientation."""
+
+    def __init__(self, sensor_id: str, capacity: int) -> None:
+        self.sensor_id = sensor_id
+        self.t = RingBuffer(capacity)
+        self.acc = RingBuffer(capacity, (3,))
+        self.gyr = RingBuffer(capacity, (3,))
+        self.mag = RingBuffer(capacity, (3,))
+        self.ekf: OrientationEKF | None = None
+        self.q_world_from_sensor: np.ndarray | None = None
+        self.onboard = False
+        self.flags = 0
+        self.battery_pct = float("nan")
+
+
+class LiveSession:
+    """The live pipeline of one source (see the module doc).
 
     Args:
-        config: the simulated suit's configuration (scenario, sensors, rate, height, seed).
-        clock: a monotonic clock in seconds (tests pass a fake one).
+        feed: a :class:`SimulatorFeed` or :class:`SupervisorFeed` (not started yet).
+        label: how the status bar names the source.
+        model_name: skeleton model (``"ten_segment"`` or ``"fifteen_segment"``).
+        height_m: the subject's height (m).
+        clock: monotonic clock (s), the same the feed uses.
 
-    Events (``self.events``): ``frame(frame_id)`` after :meth:`step` produced a new pose.
+    Events (``self.events``): ``blocks(list[SampleBlock])`` raw data as it arrives;
+    ``frame(frame_id)`` a new pose; ``calibration()`` a calibration was applied;
+    ``recording(info_or_None)`` recording started/stopped; ``marker(t_s, label)``.
     """
 
-    def __init__(self, config: SimulationConfig = SimulationConfig(), clock: Callable[[], float] = time.monotonic) -> None:
-        self.config = config
-        self.simulator = SuitSimulator(config)
-        self.model = self.simulator.model
-        self.height_m = float(config.height_m)
+    def __init__(self, feed, label: str = "", model_name: str = "ten_segment", height_m: float = 1.75,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.feed = feed
+        self.label = label or getattr(feed, "name", "source")
+        self.model = skeleton.load_model(model_name)
+        self.height_m = float(height_m)
         self.builder = FigureBuilder(self.model, self.height_m)
-        self.events = EmitterGroup("frame")
+        self.events = EmitterGroup("blocks", "frame", "calibration", "recording", "marker")
         self._clock = clock
-        self._last_wall: float | None = None
+        self.t0_host_s: float | None = None
         self.display_mode = "world"
+        self.sensor_segments: dict[str, str] = dict(feed.sensor_segments())
+        self.mag_calibrations: dict[str, MagCalibration] = {}
+        self.body_calibration: bodycal.BodyCalibration | None = None
+        self._capacity = int(MAX_WINDOW_S * BUFFER_RATE_HZ)
+        self._sensors: dict[str, _SensorState] = {}
+        self._joint_columns = self._group_columns()
+        self._angles = {j: RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
+        self._angle_t = RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ))
         self._q_world_from_segment: dict[str, np.ndarray] | None = None
         self._root_m: np.ndarray | None = None
+        self._pose_source = POSE_NONE
         self._t_s = float("nan")
         self._frame_id = 0
         self._geometry: tuple[object, FigureGeometry] | None = None
+        self._recorder: Recorder | None = None
+        self._truth_blocks: list = []   # simulator truth while recording (SuitTruth blocks)
+        self._recording_markers = 0
+        self.last_recording: RecordingResult | None = None
+        self.samples_received = 0
+        self.last_arrival_s = float("nan")   #: host time the newest block arrived (latency bench)
+        self.started = False
+
+    def _group_columns(self) -> dict[str, tuple[str, str, str]]:
+        columns = skeleton.joint_angle_columns(self.model)
+        grouped: dict[str, list[str]] = {}
+        for joint in self.model.joint_names:
+            grouped[joint] = [c for c in columns if c.startswith(joint + "_")][:3]
+        return {j: tuple(c) for j, c in grouped.items() if len(c) == 3}
+
+    # -- source ----------------------------------------------------------------------------
+    @property
+    def simulator(self):
+        """The in-process :class:`~mimucap.core.simulate.SuitSimulator`, or ``None``."""
+        return getattr(self.feed, "simulator", None)
+
+    @property
+    def sensor_ids(self) -> tuple[str, ...]:
+        ids = list(self.feed.sensor_ids)
+        ids += [s for s in self._sensors if s not in ids]
+        return tuple(ids)
+
+    def start(self) -> None:
+        """Start the feed; ``t_s = 0`` is now."""
+        self.t0_host_s = self._clock()
+        self.feed.start()
+        self.started = True
+
+    def stop(self) -> RecordingResult | None:
+        """Stop recording (the file is written) and the feed."""
+        result = self.stop_recording() if self.recording else None
+        if self.started:
+            self.feed.stop()
+            self.started = False
+        return result
 
     # -- state -------------------------------------------------------------------------------
     @property
     def pose_source(self) -> str:
-        """What drives the figure: ``"simulator truth"`` here."""
-        return "simulator truth"
+        """What drives the figure (see the module doc)."""
+        return self._pose_source
 
     @property
     def time_s(self) -> float:
@@ -81,49 +223,176 @@ class LivePipeline:
         return self._t_s
 
     @property
+    def cursor_s(self) -> float:
+        """The time the 3D view shows (s): the newest pose, live."""
+        return self._t_s
+
+    @property
     def q_world_from_segment(self) -> dict[str, np.ndarray] | None:
         """Newest segment orientations, segment → ``(4,)`` (world ENU, scalar first)."""
         return self._q_world_from_segment
 
-    def segment_states(self) -> dict[str, str]:
-        """Segment → state of its sensor, for tinting: ``"ok"``, ``"mag_uncalibrated"``,
-        ``"stale"``; segments without a sensor are absent (shown as ``"no_sensor"``).
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(self._joint_columns)
 
-        The simulator's truth is exact, so every worn sensor's segment is ``"ok"``.
-        """
-        return {self.simulator.mounting[s].segment: "ok" for s in self.simulator.sensor_ids}
+    def joint_columns(self, joint: str) -> tuple[str, str, str]:
+        """The three angle column names of ``joint`` (meaning and ``_deg`` unit in the name)."""
+        return self._joint_columns[joint]
+
+    def latest_orientations(self) -> dict[str, np.ndarray]:
+        """Sensor id → newest ``q_world_from_sensor`` (4,) (sensors with an estimate only)."""
+        return {sid: s.q_world_from_sensor for sid, s in self._sensors.items() if s.q_world_from_sensor is not None}
 
     def set_display_mode(self, mode: str) -> None:
         """``"world"`` or ``"body"`` (see :mod:`mimucap.session.figure`)."""
-        self.builder.display_alpha(mode, np.array([1.0, 0, 0, 0]), 0.0)  # validates
+        self.builder.display_alpha(mode, rotation.identity(), 0.0)  # validates
         self.display_mode = mode
         self._geometry = None
 
-    # -- driving -----------------------------------------------------------------------------
-    def step(self) -> bool:
-        """Advance the simulation to the wall clock; True when a new pose arrived."""
-        now = self._clock()
-        if self._last_wall is None:
-            self._last_wall = now
-            elapsed = 1.0 / self.config.rate_hz
-        else:
-            elapsed = min(max(now - self._last_wall, 0.0), MAX_STEP_S)
-            self._last_wall = now
-        return self.advance(elapsed)
+    def set_height(self, height_m: float) -> None:
+        """The subject's height (m): rescales the figure."""
+        builder = FigureBuilder(self.model, float(height_m))  # validates
+        self.height_m = float(height_m)
+        self.builder = builder
+        self._geometry = None
 
-    def advance(self, duration_s: float) -> bool:
-        """Simulate ``duration_s`` more seconds; True when a new pose arrived."""
-        block = self.simulator.advance(duration_s)
-        truth = block.truth
-        if truth.t_s.shape[0] == 0:
-            return False
-        self._q_world_from_segment = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
-        self._root_m = truth.root_position_m[-1]
-        self._t_s = float(truth.t_s[-1])
+    def assign_sensor(self, sensor_id: str, segment: str | None) -> None:
+        """Wear ``sensor_id`` on ``segment`` (``None`` unassigns); a segment holds one sensor."""
+        if segment is not None and segment not in self.model.segment_names:
+            raise ValueError(f"sensor {sensor_id}: unknown segment {segment!r}; use one of {', '.join(self.model.segment_names)}")
+        for other, seg in list(self.sensor_segments.items()):
+            if seg == segment and other != sensor_id:
+                del self.sensor_segments[other]
+        if segment is None:
+            self.sensor_segments.pop(sensor_id, None)
+        else:
+            self.sensor_segments[sensor_id] = segment
+
+    # -- calibrations ------------------------------------------------------------------------
+    def apply_mag_calibration(self, calibration: MagCalibration) -> None:
+        """Use ``calibration`` for its sensor from now on (its fusion restarts)."""
+        self.mag_calibrations[calibration.sensor_id] = calibration
+        state = self._sensors.get(calibration.sensor_id)
+        if state is not None:
+            state.ekf = None
+        self.events.calibration.emit()
+
+    def apply_body_calibration(self, calibration: bodycal.BodyCalibration) -> None:
+        """Drive the figure through ``calibration`` (sensor → segment rotations) from now on."""
+        unknown = [s for s in calibration.segments if s not in self.model.segment_names]
+        if unknown:
+            raise ValueError(f"the body calibration has segments the {self.model.name} model lacks: {', '.join(unknown)}")
+        self.body_calibration = calibration
+        for segment, sensor in calibration.sensors.items():
+            self.assign_sensor(sensor, segment)
+        self._geometry = None
+        self.events.calibration.emit()
+
+    def clear_body_calibration(self) -> None:
+        self.body_calibration = None
+        self._geometry = None
+        self.events.calibration.emit()
+
+    # -- driving -----------------------------------------------------------------------------
+    def step(self) -> int:
+        """Run everything that arrived since the last call through the pipeline; returns the
+        number of samples taken in."""
+        if not self.started:
+            return 0
+        blocks = self.feed.poll()
+        for host_s, label in self.feed.take_markers():
+            self.events.marker.emit(host_s - self.t0_host_s, label)
+        if self._recorder is not None:
+            self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
+        if not blocks:
+            return 0
+        self.last_arrival_s = float(max(b.receive_time_s[-1] for b in blocks if len(b)))
+        self.events.blocks.emit(blocks)
+        count = 0
+        for block in blocks:
+            count += self._take_block(block)
+        self.samples_received += count
+        self._update_pose()
+        return count
+
+    def _take_block(self, block: SampleBlock) -> int:
+        n = len(block)
+        if n == 0:
+            return 0
+        state = self._sensors.get(block.sensor_id)
+        if state is None:
+            state = self._sensors[block.sensor_id] = _SensorState(block.sensor_id, self._capacity)
+        t = block.host_time_s - self.t0_host_s
+        mag = block.mag_uT
+        calibration = self.mag_calibrations.get(block.sensor_id)
+        if mag is not None and calibration is not None:
+            mag = calibration.apply(mag, block.sensor_id)
+        state.t.append(t, t)
+        state.acc.append(t, np.full((n, 3), np.nan) if block.acc is None else block.acc)
+        state.gyr.append(t, np.full((n, 3), np.nan) if block.gyr is None else block.gyr)
+        state.mag.append(t, np.full((n, 3), np.nan) if mag is None else mag)
+        if block.battery_pct is not None:
+            state.battery_pct = float(block.battery_pct[-1])
+        if block.q_world_from_sensor is not None:
+            state.onboard = True
+            state.q_world_from_sensor = np.asarray(block.q_world_from_sensor[-1], dtype=float)
+        elif block.gyr is not None:
+            if state.ekf is None:
+                state.ekf = OrientationEKF(use_mag=mag is not None)
+            result = state.ekf.update_batch(t, block.gyr, block.acc, mag)
+            q = result.q_world_from_sensor[-1]
+            if np.all(np.isfinite(q)):
+                state.q_world_from_sensor = q
+            state.flags = int(result.flags[-1])
+        return n
+
+    def _update_pose(self) -> None:
+        truth = getattr(self.feed, "last_truth", None)
+        q_segments: dict[str, np.ndarray] | None = None
+        root = None
+        t_pose = self._newest_time()
+        if self.body_calibration is not None:
+            found = bodycal.segment_orientations(self.body_calibration, self.latest_orientations(), require_all=False)
+            if self.model.root in found:
+                q_segments = self._filled(found)
+                self._pose_source = POSE_BODY_CALIBRATION
+        elif truth is not None:
+            q_segments = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
+            root = truth.root_position_m[-1] * (self.height_m / self.feed.config.height_m)
+            if self._recorder is not None and (not self._truth_blocks or self._truth_blocks[-1] is not truth):
+                self._truth_blocks.append(truth)
+            t_pose = float(truth.t_s[-1]) / getattr(self.feed, "time_scale", 1.0) + \
+                self.feed.host_time_of(0.0) - self.t0_host_s
+            self._pose_source = POSE_SIMULATOR_TRUTH
+        else:
+            latest = self.latest_orientations()
+            found = {seg: latest[sid] for sid, seg in self.sensor_segments.items() if sid in latest}
+            if found:
+                if self.model.root not in found:
+                    found[self.model.root] = skeleton.q_world_from_body_facing(0.0)
+                q_segments = self._filled(found)
+                self._pose_source = POSE_SENSOR_AXES
+        if q_segments is None:
+            return
+        self._q_world_from_segment = q_segments
+        self._root_m = root
+        self._t_s = t_pose
         self._frame_id += 1
         self._geometry = None
+        angles = skeleton.joint_angles_deg(self.model, q_segments)
+        self._angle_t.append([t_pose], [t_pose])
+        for joint, columns in self._joint_columns.items():
+            self._angles[joint].append([t_pose], [[float(angles[c]) for c in columns]])
         self.events.frame.emit(self._frame_id)
-        return True
+
+    def _filled(self, found: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        order = [(s.name, s.parent) for s in self.model.segments]
+        return bodycal.fill_missing_segments(found, order)
+
+    def _newest_time(self) -> float:
+        times = [s.t.latest()[0] for s in self._sensors.values() if len(s.t)]
+        return max(times) if times else float("nan")
 
     def frame(self) -> tuple[object, FigureGeometry] | None:
         """``(frame_id, geometry)`` of the newest pose, or None before the first one.
@@ -134,18 +403,194 @@ class LivePipeline:
             return None
         frame_id = (self._frame_id, self.display_mode)
         if self._geometry is None or self._geometry[0] != frame_id:
-            poses = skeleton.forward_kinematics(self.model, self._q_world_from_segment, self.height_m, self._root_m)
-            geometry = self.builder.build(poses, mode=self.display_mode, heading_ref_rad=None)
+            q = self._q_world_from_segment
+            heading_ref = None
+            if self.body_calibration is not None:
+                heading_ref = bodycal_heading(self.body_calibration)
+            poses = skeleton.forward_kinematics(self.model, q, self.height_m, self._root_m)
+            geometry = self.builder.build(poses, mode=self.display_mode, heading_ref_rad=heading_ref)
             self._geometry = (frame_id, geometry)
         return self._geometry
 
+    # -- views for the panel and the plots -----------------------------------------------------
+    def segment_states(self) -> dict[str, str]:
+        """Segment → tint state of its sensor (``ok``, ``mag_uncalibrated``, ``stale``)."""
+        return {row.segment: row.state for row in self.sensor_rows() if row.segment is not None}
 
-def pipeline_for_source(spec: str) -> tuple[LivePipeline, str]:
-    """A live pipeline for source ``spec`` and the label the status bar shows for it.
+    def sensor_rows(self) -> list[SensorRow]:
+        """One :class:`SensorRow` per known sensor, in the source's order."""
+        now = self._clock()
+        stats = self.feed.stats()
+        rows = []
+        for sid in self.sensor_ids:
+            st = stats.get(sid)
+            state = self._sensors.get(sid)
+            last_seen = float("nan") if st is None else st.last_seen_s
+            stale = not (now - last_seen <= STALE_AFTER_S)
+            calibration = self.mag_calibrations.get(sid)
+            onboard = state is not None and state.onboard
+            truth_shown = self._pose_source == POSE_SIMULATOR_TRUTH
+            if calibration is not None:
+                mag_cal, age = "calibrated", _age_s(calibration.created_utc)
+            elif onboard:
+                mag_cal, age = "on-board", float("nan")
+            else:
+                mag_cal, age = "not calibrated", float("nan")
+            flags = ()
+            if state is not None and state.ekf is not None:
+                masks = decode_flags(np.array(state.flags))
+                names = {"rest": "rest", "mag_rejected": "mag disturbed", "acc_rejected": "acc disturbed",
+                         "uninitialised": "starting"}
+                flags = tuple(label for key, label in names.items() if bool(masks[key]))
+            if stale:
+                tint = "stale"
+            elif mag_cal == "not calibrated" and not truth_shown:
+                tint = "mag_uncalibrated"
+            else:
+                tint = "ok"
+            rows.append(SensorRow(
+                sensor_id=sid, segment=self.sensor_segments.get(sid),
+                rate_hz=float("nan") if st is None else st.rate_hz, drops=0 if st is None else st.drops,
+                latency_ms=float("nan") if st is None else 1000.0 * st.latency_p95_s,
+                battery_pct=float("nan") if state is None else state.battery_pct,
+                mag_cal=mag_cal, mag_cal_age_s=age, flags=flags, stale=stale, state=tint))
+        return rows
 
-    ``simulated[:SCENARIO]`` runs the simulated ten-sensor suit (scenario ``demo`` by default).
+    def series(self, sensor_id: str, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Last ``window_s`` seconds of one sensor: ``t_s`` (N,), ``acc`` (N,3) m/s², ``gyr``
+        (N,3) rad/s, ``mag_uT`` (N,3) (calibrated when a calibration is applied)."""
+        state = self._sensors.get(sensor_id)
+        if state is None or not len(state.t):
+            empty = np.zeros((0, 3))
+            return np.zeros(0), empty, empty, empty
+        t_from = state.t.latest()[0] - window_s
+        t, _ = state.t.since(t_from)
+        return t, state.acc.since(t_from)[1], state.gyr.since(t_from)[1], state.mag.since(t_from)[1]
+
+    def joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Last ``window_s`` seconds of ``joint``'s angles: ``t_s`` (N,), ``angles_deg`` (N,3)
+        in the order of :meth:`joint_columns`."""
+        buffer = self._angles[joint]
+        if not len(buffer):
+            return np.zeros(0), np.zeros((0, 3))
+        return buffer.since(buffer.latest()[0] - window_s)
+
+    # -- recording ---------------------------------------------------------------------------
+    @property
+    def recording(self) -> bool:
+        return self._recorder is not None
+
+    def start_recording(self, path: str | Path, subject: Mapping[str, Any] | None = None) -> None:
+        """Record everything from now on into session file ``path`` (journal beside it)."""
+        if self._recorder is not None:
+            raise ValueError(f"already recording to {self._recorder.out_path}")
+        if not self.started:
+            raise ValueError("start the source before recording")
+        metadata = {
+            "source": self.label, "sensor_segments": dict(self.sensor_segments),
+            "skeleton_model": self.model.name, "height_m": self.height_m,
+            "subject": dict(subject or {}), "created_by": "mimucap gui",
+        }
+        if self.body_calibration is not None:
+            metadata["body_calibration"] = self.body_calibration.to_dict()
+        if self.mag_calibrations:
+            metadata["mag_calibrated_sensors"] = sorted(self.mag_calibrations)
+        recorder = Recorder(path, metadata)
+        recorder.start(self._clock())
+        self._recorder = recorder
+        self._truth_blocks = []
+        self._recording_markers = 0
+        self.events.recording.emit(self.recording_info())
+
+    def add_marker(self, label: str) -> float:
+        """Mark now with ``label`` (in the recording when recording); returns its ``t_s``."""
+        now = self._clock()
+        label = str(label).strip() or "marker"
+        if self._recorder is not None:
+            if not self._recorder.add_marker(label, now):
+                raise OSError(self._recorder.failure or f"could not write the marker to {self._recorder.out_path}")
+            self._recording_markers += 1
+        t_s = now - (self.t0_host_s or now)
+        self.events.marker.emit(t_s, label)
+        return t_s
+
+    def recording_info(self) -> RecordingInfo | None:
+        recorder = self._recorder
+        if recorder is None:
+            return None
+        try:
+            size = recorder.journal_path.stat().st_size
+        except OSError:
+            size = 0
+        return RecordingInfo(path=recorder.out_path, elapsed_s=self._clock() - recorder.start_host_s,
+                             size_bytes=size, markers=self._recording_markers, samples=dict(recorder.samples))
+
+    @property
+    def recording_failure(self) -> str | None:
+        return None if self._recorder is None else self._recorder.failure
+
+    def stop_recording(self) -> RecordingResult:
+        """Stop and write the session file; returns what was written."""
+        if self._recorder is None:
+            raise ValueError("not recording")
+        recorder, self._recorder = self._recorder, None
+        status = {sid: {"received": s.received, "drops": s.drops, "rate_hz": s.rate_hz}
+                  for sid, s in self.feed.stats().items()}
+        result = recorder.stop(status)
+        truth_blocks, self._truth_blocks = self._truth_blocks, []
+        if truth_blocks and result.session_path is not None:
+            add_simulator_truth(result.session_path, SuitTruth.concatenate(truth_blocks),
+                                self.feed.host_time_of(0.0) - recorder.start_host_s, self.feed.time_scale)
+        self.last_recording = result
+        self.events.recording.emit(None)
+        return result
+
+
+def add_simulator_truth(path: Path, truth: SuitTruth, offset_s: float, time_scale: float = 1.0) -> None:
+    """Store the simulator's true segment orientations and joint angles in session ``path``.
+
+    ``truth.t_s`` is simulated time; the session's time is ``truth.t_s / time_scale +
+    offset_s`` (seconds since the recording started). Only samples at ``t_s >= 0`` are kept.
+    """
+    t = truth.t_s / time_scale + offset_s
+    keep = t >= 0.0
+    session = read_session(path)
+    session.truth = SessionTruth(
+        t_s=t[keep],
+        q_world_from_segment={k: v[keep] for k, v in truth.q_world_from_segment.items()},
+        joint_angles_deg={k: v[keep] for k, v in truth.joint_angles_deg.items()},
+        extra={"root_position_m": truth.root_position_m[keep]},
+        attributes={"origin": "simulated suit shown live in mimucap gui"},
+    )
+    write_session(path, session)
+
+
+def bodycal_heading(calibration: bodycal.BodyCalibration) -> float:
+    """Heading (rad, CCW from north) the subject faced in the calibration's N-pose."""
+    return heading_rad(np.asarray(calibration.q_world_from_body, dtype=float))
+
+
+def _age_s(created_utc: str) -> float:
+    try:
+        created = datetime.fromisoformat(created_utc.replace("Z", "+00:00"))
+    except (ValueError, AttributeError):
+        return float("nan")
+    if created.tzinfo is None:
+        created = created.replace(tzinfo=timezone.utc)
+    return (datetime.now(timezone.utc) - created).total_seconds()
+
+
+def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time.monotonic,
+                      time_scale: float = 1.0, in_process_simulator: bool = True) -> LiveSession:
+    """A live session (not started) for source ``spec``.
+
+    ``simulated[:SCENARIO]`` runs the simulated suit in process (wizards can direct it)
+    unless ``in_process_simulator`` is False; everything else (``udp:``, ``serial:``,
+    ``replay:``) runs in acquisition workers.
     """
     parsed = parse_source_spec(spec)
-    if not isinstance(parsed, SimulatedSpec):
-        raise ValueError(f"source {spec!r}: this build shows live data from the simulated suit only (simulated[:SCENARIO])")
-    return LivePipeline(SimulationConfig(scenario=parsed.scenario)), f"simulated:{parsed.scenario}"
+    if isinstance(parsed, SimulatedSpec) and in_process_simulator:
+        feed = SimulatorFeed(SimulationConfig(scenario=parsed.scenario), clock=clock, time_scale=time_scale)
+        return LiveSession(feed, f"simulated:{parsed.scenario}", height_m=feed.config.height_m, clock=clock)
+    feed = SupervisorFeed(spec, SourceOptions())
+    return LiveSession(feed, spec, clock=clock)

@@ -1,0 +1,73 @@
+"""Sensor → segment assignment: one combo box per sensor; the choice is remembered."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+from PyQt5 import QtWidgets
+
+from mimucap.gui.settings import load_json, save_json
+
+NOT_WORN = "(not worn)"
+SETTINGS_KEY = "assignment/sensor_segments"
+
+
+def remembered_assignment() -> dict[str, str]:
+    """Sensor id → segment as saved last time (empty the first time)."""
+    value = load_json(SETTINGS_KEY, {})
+    return {str(k): str(v) for k, v in value.items()} if isinstance(value, dict) else {}
+
+
+def remember_assignment(assignment: Mapping[str, str]) -> None:
+    save_json(SETTINGS_KEY, dict(assignment))
+
+
+class AssignmentDialog(QtWidgets.QDialog):
+    """Edit which segment each sensor is worn on; :meth:`assignment` gives the result."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None, sensor_ids: Sequence[str], segments: Sequence[str],
+                 current: Mapping[str, str]) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Assign Sensors to Segments")
+        self.setObjectName("assignmentDialog")
+        self.table = QtWidgets.QTableWidget(len(sensor_ids), 2, self)
+        self.table.setHorizontalHeaderLabels(["Sensor", "Segment"])
+        self.table.verticalHeader().setVisible(False)
+        self.table.horizontalHeader().setStretchLastSection(True)
+        self.combos: dict[str, QtWidgets.QComboBox] = {}
+        for row, sid in enumerate(sensor_ids):
+            item = QtWidgets.QTableWidgetItem(sid)
+            self.table.setItem(row, 0, item)
+            combo = QtWidgets.QComboBox(self.table)
+            combo.addItems([NOT_WORN, *segments])
+            combo.setCurrentText(current.get(sid, NOT_WORN))
+            self.table.setCellWidget(row, 1, combo)
+            self.combos[sid] = combo
+        self.error_label = QtWidgets.QLabel(self)
+        self.error_label.setStyleSheet("color: #b00020")
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.Ok | QtWidgets.QDialogButtonBox.Cancel, self)
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addWidget(QtWidgets.QLabel("Each segment carries at most one sensor.", self))
+        layout.addWidget(self.table)
+        layout.addWidget(self.error_label)
+        layout.addWidget(buttons)
+        self.resize(420, 460)
+
+    def set_segment(self, sensor_id: str, segment: str | None) -> None:
+        self.combos[sensor_id].setCurrentText(segment or NOT_WORN)
+
+    def assignment(self) -> dict[str, str]:
+        return {sid: c.currentText() for sid, c in self.combos.items() if c.currentText() != NOT_WORN}
+
+    def accept(self) -> None:
+        chosen = self.assignment()
+        taken: dict[str, str] = {}
+        for sid, segment in chosen.items():
+            if segment in taken:
+                self.error_label.setText(f"{segment} is given to both {taken[segment]} and {sid}")
+                return
+            taken[segment] = sid
+        remember_assignment(chosen)
+        super().accept()

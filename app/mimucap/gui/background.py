@@ -1,0 +1,39 @@
+"""Long work off the GUI thread: a function runs in a ``QThread`` and reports progress.
+
+``BackgroundTask(fn)`` calls ``fn(progress)`` in a worker thread, where ``progress(fraction)``
+emits :attr:`BackgroundTask.progress`; the result arrives through :attr:`finished`, a
+failure (its message, also logged) through :attr:`failed`. Signals are delivered in the GUI
+thread, so slots can touch widgets.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import Any
+
+from PyQt5 import QtCore
+
+log = logging.getLogger(__name__)
+
+
+class BackgroundTask(QtCore.QThread):
+    progress = QtCore.pyqtSignal(float)
+    succeeded = QtCore.pyqtSignal(object)
+    failed = QtCore.pyqtSignal(str)
+
+    def __init__(self, work: Callable[[Callable[[float], None]], Any], parent: QtCore.QObject | None = None) -> None:
+        super().__init__(parent)
+        self._work = work
+        self.result: Any = None
+        self.error: str | None = None
+
+    def run(self) -> None:  # runs in the worker thread
+        try:
+            self.result = self._work(self.progress.emit)
+        except Exception as error:  # reported to the user in the window, and logged
+            log.exception("background task failed")
+            self.error = f"{error}"
+            self.failed.emit(self.error)
+            return
+        self.succeeded.emit(self.result)

@@ -1,0 +1,260 @@
+"""The export dialog: joint angles (CSV, OpenSim .mot), sensor data, and the summary table per
+joint (min, max, range of motion) saved as CSV and as a PNG chart for a report.
+
+The files are written off the GUI thread (:class:`~mimucap.gui.background.BackgroundTask`)
+with a progress bar; the work itself is :func:`mimucap.session.export.run_export`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pyqtgraph as pg
+import pyqtgraph.exporters  # noqa: F401  (registers ImageExporter)
+from PyQt5 import QtCore, QtWidgets
+
+from mimucap.gui.background import BackgroundTask
+from mimucap.session.export import (
+    ExportRequest, ExportResult, angles_in_range, marker_range, run_export, summary_table, write_summary_csv,
+)
+from mimucap.session.review import ReviewData
+
+
+class ExportDialog(QtWidgets.QDialog):
+    """Export a reviewed session (``data``); ``cursor_s`` preselects nothing but is shown."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None, data: ReviewData) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Export")
+        self.setObjectName("exportDialog")
+        self.data = data
+        self.result: ExportResult | None = None
+        self._task: BackgroundTask | None = None
+
+        range_box = QtWidgets.QGroupBox("Range", self)
+        self.range_all = QtWidgets.QRadioButton(f"Whole recording ({data.start_s:.2f}–{data.end_s:.2f} s)", range_box)
+        self.range_time = QtWidgets.QRadioButton("From", range_box)
+        self.range_markers = QtWidgets.QRadioButton("Between markers", range_box)
+        self.range_all.setChecked(True)
+        self.t_from = QtWidgets.QDoubleSpinBox(range_box)
+        self.t_to = QtWidgets.QDoubleSpinBox(range_box)
+        for spin, value in ((self.t_from, data.start_s), (self.t_to, data.end_s)):
+            spin.setRange(data.start_s, data.end_s)
+            spin.setDecimals(2)
+            spin.setSuffix(" s")
+            spin.setValue(value)
+        self.marker_a = QtWidgets.QComboBox(range_box)
+        self.marker_b = QtWidgets.QComboBox(range_box)
+        for combo in (self.marker_a, self.marker_b):
+            for marker in data.markers:
+                combo.addItem(f"{marker.label} ({marker.t_s:.2f} s)")
+        if len(data.markers) >= 2:
+            self.marker_b.setCurrentIndex(1)
+        else:
+            self.range_markers.setEnabled(False)
+        grid = QtWidgets.QGridLayout(range_box)
+        grid.addWidget(self.range_all, 0, 0, 1, 4)
+        grid.addWidget(self.range_time, 1, 0)
+        grid.addWidget(self.t_from, 1, 1)
+        grid.addWidget(QtWidgets.QLabel("to"), 1, 2)
+        grid.addWidget(self.t_to, 1, 3)
+        grid.addWidget(self.range_markers, 2, 0)
+        grid.addWidget(self.marker_a, 2, 1)
+        grid.addWidget(QtWidgets.QLabel("and"), 2, 2)
+        grid.addWidget(self.marker_b, 2, 3)
+
+        files_box = QtWidgets.QGroupBox("Files", self)
+        self.want_csv = QtWidgets.QCheckBox("Joint angles, CSV", files_box)
+        self.want_mot = QtWidgets.QCheckBox("Joint angles, OpenSim .mot", files_box)
+        self.want_summary = QtWidgets.QCheckBox("Summary per joint, CSV", files_box)
+        self.want_sensors = QtWidgets.QCheckBox("Sensor data and orientations, one CSV per sensor", files_box)
+        for box in (self.want_csv, self.want_mot, self.want_summary):
+            box.setChecked(True)
+        self.base_path = QtWidgets.QLineEdit(str(data.path.with_suffix("")) + "_angles", files_box)
+        self.base_path.setObjectName("exportBasePath")
+        browse = QtWidgets.QPushButton("Browse…", files_box)
+        browse.clicked.connect(self._browse)
+        layout = QtWidgets.QVBoxLayout(files_box)
+        for box in (self.want_csv, self.want_mot, self.want_summary, self.want_sensors):
+            layout.addWidget(box)
+        row = QtWidgets.QHBoxLayout()
+        row.addWidget(QtWidgets.QLabel("Save as"))
+        row.addWidget(self.base_path, 1)
+        row.addWidget(browse)
+        layout.addLayout(row)
+
+        self.progress = QtWidgets.QProgressBar(self)
+        self.progress.setRange(0, 100)
+        self.progress.setValue(0)
+        self.message = QtWidgets.QLabel(self)
+        self.message.setWordWrap(True)
+        self.summary = QtWidgets.QTableWidget(0, 4, self)
+        self.summary.setObjectName("summaryTable")
+        self.summary.setHorizontalHeaderLabels(["Joint angle", "Min (deg)", "Max (deg)", "Range of motion (deg)"])
+        self.summary.verticalHeader().setVisible(False)
+        self.summary.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
+        self.summary.horizontalHeader().setSectionResizeMode(0, QtWidgets.QHeaderView.Stretch)
+
+        self.export_button = QtWidgets.QPushButton("Export", self)
+        self.export_button.setObjectName("exportButton")
+        self.export_button.setDefault(True)
+        self.export_button.clicked.connect(self.start_export)
+        self.summary_csv_button = QtWidgets.QPushButton("Save Summary CSV…", self)
+        self.summary_csv_button.clicked.connect(self._ask_summary_csv)
+        self.summary_png_button = QtWidgets.QPushButton("Save Summary PNG…", self)
+        self.summary_png_button.clicked.connect(self._ask_summary_png)
+        close = QtWidgets.QPushButton("Close", self)
+        close.clicked.connect(self.accept)
+        buttons = QtWidgets.QHBoxLayout()
+        buttons.addWidget(self.summary_csv_button)
+        buttons.addWidget(self.summary_png_button)
+        buttons.addStretch(1)
+        buttons.addWidget(self.export_button)
+        buttons.addWidget(close)
+
+        main = QtWidgets.QVBoxLayout(self)
+        main.addWidget(range_box)
+        main.addWidget(files_box)
+        main.addWidget(self.progress)
+        main.addWidget(self.message)
+        main.addWidget(self.summary, 1)
+        main.addLayout(buttons)
+        self.resize(620, 720)
+        for widget in (self.range_all, self.range_time, self.range_markers):
+            widget.toggled.connect(self.update_summary)
+        for widget in (self.t_from, self.t_to):
+            widget.valueChanged.connect(self.update_summary)
+        for widget in (self.marker_a, self.marker_b):
+            widget.currentIndexChanged.connect(self.update_summary)
+        self.update_summary()
+
+    # -- range and summary -------------------------------------------------------------------
+    def time_range(self) -> tuple[float, float]:
+        """The chosen range (s); ``ValueError`` when it is empty."""
+        if self.range_markers.isChecked():
+            return marker_range(self.data.markers, self.marker_a.currentIndex(), self.marker_b.currentIndex())
+        if self.range_time.isChecked():
+            a, b = self.t_from.value(), self.t_to.value()
+            if b <= a:
+                raise ValueError(f"the range ends ({b:.2f} s) before it starts ({a:.2f} s)")
+            return a, b
+        return self.data.start_s, self.data.end_s
+
+    def summary_rows(self):
+        a, b = self.time_range()
+        _t, angles = angles_in_range(self.data, a, b)
+        return summary_table(angles)
+
+    def update_summary(self) -> None:
+        try:
+            rows = self.summary_rows()
+        except ValueError as error:
+            self.message.setText(str(error))
+            self.summary.setRowCount(0)
+            return
+        self.message.setText("")
+        self.summary.setRowCount(len(rows))
+        for r, row in enumerate(rows):
+            values = (row.column, f"{row.minimum_deg:.1f}", f"{row.maximum_deg:.1f}", f"{row.rom_deg:.1f}")
+            for c, text in enumerate(values):
+                item = QtWidgets.QTableWidgetItem(text)
+                if c:
+                    item.setTextAlignment(QtCore.Qt.AlignRight | QtCore.Qt.AlignVCenter)
+                self.summary.setItem(r, c, item)
+
+    # -- export ------------------------------------------------------------------------------
+    def _browse(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Export As", self.base_path.text(), "All files (*)")
+        if path:
+            self.base_path.setText(str(Path(path).with_suffix("")))
+
+    def request(self) -> ExportRequest:
+        a, b = self.time_range()
+        return ExportRequest(
+            base_path=Path(self.base_path.text().strip()), t_from_s=a, t_to_s=b,
+            angles_csv=self.want_csv.isChecked(), angles_mot=self.want_mot.isChecked(),
+            sensors_csv=self.want_sensors.isChecked(), summary_csv=self.want_summary.isChecked())
+
+    def start_export(self) -> None:
+        """Write the files in the background; :attr:`result` holds what was written."""
+        try:
+            request = self.request()
+        except ValueError as error:
+            self.message.setText(str(error))
+            return
+        self.export_button.setEnabled(False)
+        self.progress.setValue(0)
+        self.message.setText("Exporting…")
+        self._task = BackgroundTask(lambda progress: run_export(self.data, request, progress), self)
+        self._task.progress.connect(lambda fraction: self.progress.setValue(int(round(100 * fraction))))
+        self._task.succeeded.connect(self._exported)
+        self._task.failed.connect(self._export_failed)
+        self._task.start()
+
+    def _exported(self, result: ExportResult) -> None:
+        self.result = result
+        self.export_button.setEnabled(True)
+        self.progress.setValue(100)
+        names = ", ".join(p.name for p in result.files)
+        self.message.setText(f"Exported {result.rows} rows to {result.files[0].parent}: {names}")
+
+    def _export_failed(self, message: str) -> None:
+        self.export_button.setEnabled(True)
+        self.message.setText(f"Export failed: {message}. Check the folder exists and is writable, then export again.")
+
+    @property
+    def busy(self) -> bool:
+        return self._task is not None and self._task.isRunning()
+
+    # -- summary files -----------------------------------------------------------------------
+    def _ask_summary_csv(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Summary", self.base_path.text() + "_summary.csv", "CSV (*.csv)")
+        if path:
+            self.save_summary_csv(path)
+
+    def save_summary_csv(self, path: str | Path) -> Path:
+        a, b = self.time_range()
+        written = write_summary_csv(path, self.summary_rows(), a, b)
+        self.message.setText(f"Summary saved to {written}")
+        return written
+
+    def _ask_summary_png(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Summary Chart", self.base_path.text() + "_summary.png", "PNG (*.png)")
+        if path:
+            self.save_summary_png(path)
+
+    def save_summary_png(self, path: str | Path, width: int = 1200) -> Path:
+        """A bar chart of each column's range (min to max, degrees), written with pyqtgraph."""
+        rows = self.summary_rows()
+        height = 90 + 24 * len(rows)
+        plot = pg.PlotWidget(background="w")
+        plot.setAttribute(QtCore.Qt.WA_DontShowOnScreen, True)
+        plot.resize(width, height)
+        y = np.arange(len(rows))
+        lows = np.array([r.minimum_deg for r in rows])
+        highs = np.array([r.maximum_deg for r in rows])
+        plot.addItem(pg.BarGraphItem(x0=lows, x1=highs, y=y, height=0.6, brush="#4f81bd", pen=None))
+        ends = pg.ScatterPlotItem(np.concatenate([lows, highs]), np.concatenate([y, y]), symbol="s", size=6,
+                                  brush="#1f3f66", pen=None)
+        plot.addItem(ends)  # a joint that did not move still shows as a mark
+        left = plot.getAxis("left")
+        left.setTicks([[(i, r.column.replace("_deg", "")) for i, r in zip(y, rows)]])
+        left.setWidth(190)
+        plot.setLabel("bottom", "joint angle, min to max (deg)")
+        a, b = self.time_range()
+        plot.setTitle(f"{self.data.path.name}: {a:.2f}–{b:.2f} s")
+        plot.showGrid(x=True, alpha=0.3)
+        plot.invertY(True)
+        plot.setYRange(-0.8, len(rows) - 0.2, padding=0)
+        plot.show()
+        QtWidgets.QApplication.processEvents()
+        exporter = pg.exporters.ImageExporter(plot.plotItem)
+        exporter.parameters()["width"] = width
+        exporter.export(str(path))
+        plot.close()
+        plot.deleteLater()
+        if not Path(path).exists():
+            raise OSError(f"could not write {path}")
+        self.message.setText(f"Summary chart saved to {path}")
+        return Path(path)

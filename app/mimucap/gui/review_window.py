@@ -1,0 +1,241 @@
+"""The review window: a recorded session's skeleton and plots following a play head, a
+timeline with the markers, play/pause, speed, and the export dialog.
+
+The session is loaded and its poses computed off the GUI thread
+(:func:`mimucap.session.review.load_review` in a :class:`BackgroundTask`), with progress.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pyqtgraph as pg
+from PyQt5 import QtCore, QtGui, QtWidgets
+
+from mimucap.gui.background import BackgroundTask
+from mimucap.gui.capture import save_window_png
+from mimucap.gui.export_dialog import ExportDialog
+from mimucap.gui.live_plots import LivePlots
+from mimucap.gui.scene.view import SceneView
+from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
+
+#: Play timer interval (ms).
+PLAY_INTERVAL_MS = 33
+#: Slider steps per second of recording.
+SLIDER_STEPS_PER_S = 100
+
+
+class ReviewWindow(QtWidgets.QMainWindow):
+    """Review of session file ``path``; call :meth:`load` after ``show()``."""
+
+    loaded = QtCore.pyqtSignal()
+
+    def __init__(self, path: str | Path, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.path = Path(path)
+        self.setObjectName("reviewWindow")
+        self.setWindowTitle(f"MimuCap Review: {self.path.name}")
+        self.resize(1280, 800)
+        self.player: ReviewPlayer | None = None
+        self.export_dialog: ExportDialog | None = None
+        self.export_when_loaded = False
+        self.load_error: str | None = None
+        self._task: BackgroundTask | None = None
+        self._last_tick = time.perf_counter()
+
+        self.scene_view = SceneView(self)
+        self.plots = LivePlots(self)
+        splitter = QtWidgets.QSplitter(QtCore.Qt.Horizontal, self)
+        splitter.addWidget(self.scene_view)
+        splitter.addWidget(self.plots)
+        splitter.setSizes([760, 520])
+
+        self.play_button = QtWidgets.QPushButton("▶ Play", self)
+        self.play_button.setObjectName("playButton")
+        self.play_button.setCheckable(True)
+        self.play_button.toggled.connect(self._play_toggled)
+        self.slider = QtWidgets.QSlider(QtCore.Qt.Horizontal, self)
+        self.slider.setObjectName("timelineSlider")
+        self.slider.valueChanged.connect(self._slider_moved)
+        self.time_label = QtWidgets.QLabel("–", self)
+        self.time_label.setMinimumWidth(150)
+        self.speed_combo = QtWidgets.QComboBox(self)
+        for speed in SPEEDS:
+            self.speed_combo.addItem(f"{speed:g}×", speed)
+        self.speed_combo.setCurrentIndex(SPEEDS.index(1.0))
+        self.speed_combo.currentIndexChanged.connect(self._speed_changed)
+        self.markers_list = QtWidgets.QListWidget(self)
+        self.markers_list.setObjectName("reviewMarkers")
+        self.markers_list.setMaximumWidth(260)
+        self.markers_list.itemActivated.connect(lambda item: self.seek_marker(self.markers_list.row(item)))
+        self.markers_list.itemClicked.connect(lambda item: self.seek_marker(self.markers_list.row(item)))
+        self.timeline = pg.PlotWidget(self)
+        self.timeline.setObjectName("timelinePlot")
+        self.timeline.setMaximumHeight(80)
+        self.timeline.hideAxis("left")
+        self.timeline.setMouseEnabled(x=False, y=False)
+        self.timeline.setMenuEnabled(False)
+        self.timeline.setLabel("bottom", "time (s)")
+        self.timeline_cursor = pg.InfiniteLine(angle=90, movable=True, pen=pg.mkPen("#c0392b", width=2))
+        self.timeline_cursor.sigPositionChanged.connect(lambda line: self.seek(line.value()))
+        self.timeline.addItem(self.timeline_cursor)
+
+        controls = QtWidgets.QHBoxLayout()
+        controls.addWidget(self.play_button)
+        controls.addWidget(self.slider, 1)
+        controls.addWidget(self.time_label)
+        controls.addWidget(QtWidgets.QLabel("Speed"))
+        controls.addWidget(self.speed_combo)
+        timeline_box = QtWidgets.QVBoxLayout()
+        timeline_box.addWidget(self.timeline)
+        timeline_box.addLayout(controls)
+        bottom = QtWidgets.QHBoxLayout()
+        bottom.addLayout(timeline_box, 1)
+        bottom.addWidget(self.markers_list)
+        central = QtWidgets.QWidget(self)
+        layout = QtWidgets.QVBoxLayout(central)
+        layout.addWidget(splitter, 1)
+        layout.addLayout(bottom)
+        self.setCentralWidget(central)
+
+        menu = self.menuBar().addMenu("&File")
+        self.action_export = menu.addAction("&Export…", self.open_export)
+        self.action_export.setShortcut(QtGui.QKeySequence("Ctrl+E"))
+        self.action_export.setEnabled(False)
+        self.action_screenshot = menu.addAction("Save Screens&hot…", self._ask_screenshot)
+        menu.addSeparator()
+        menu.addAction("&Close", self.close).setShortcut(QtGui.QKeySequence.Close)
+        view = self.menuBar().addMenu("&View")
+        self.action_body_mode = view.addAction("&Body Mode")
+        self.action_body_mode.setCheckable(True)
+        self.action_body_mode.toggled.connect(self._body_mode_toggled)
+        self.action_play = view.addAction("&Play/Pause", self.play_button.toggle)
+        self.action_play.setShortcut(QtGui.QKeySequence("Ctrl+Space"))
+
+        self.progress = QtWidgets.QProgressBar(self)
+        self.progress.setRange(0, 100)
+        self.progress.setMaximumWidth(200)
+        self.statusBar().addPermanentWidget(self.progress)
+        self.pose_status = QtWidgets.QLabel(self)
+        self.statusBar().addPermanentWidget(self.pose_status)
+        self._timer = QtCore.QTimer(self)
+        self._timer.setInterval(PLAY_INTERVAL_MS)
+        self._timer.timeout.connect(self._tick)
+
+    # -- loading -----------------------------------------------------------------------------
+    def load(self) -> None:
+        """Load the session in the background; :attr:`loaded` is emitted when it is shown."""
+        self.statusBar().showMessage(f"Opening {self.path}…")
+        self._task = BackgroundTask(lambda progress: load_review(self.path, progress), self)
+        self._task.progress.connect(lambda f: self.progress.setValue(int(round(100 * f))))
+        self._task.succeeded.connect(self._loaded)
+        self._task.failed.connect(self._load_failed)
+        self._task.start()
+
+    def _loaded(self, data: ReviewData) -> None:
+        self.player = ReviewPlayer(data)
+        self.progress.hide()
+        self.scene_view.set_figure(self.player.builder)
+        self.scene_view.set_frame_provider(self.player.frame)
+        self.scene_view.set_tint_provider(lambda: {s: "ok" for s in data.model.segment_names})
+        self.plots.set_source(self.player)
+        self.slider.setRange(int(round(data.start_s * SLIDER_STEPS_PER_S)), int(round(data.end_s * SLIDER_STEPS_PER_S)))
+        self.timeline.setXRange(data.start_s, data.end_s, padding=0.01)
+        self.timeline.setYRange(0, 1)
+        for index, marker in enumerate(data.markers):
+            line = pg.InfiniteLine(marker.t_s, angle=90, movable=False, pen=pg.mkPen("#2c3e50", width=1),
+                                   label=marker.label, labelOpts={"position": 0.75, "color": "#2c3e50"})
+            self.timeline.addItem(line)
+            self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker.label}")
+        self.pose_status.setText(f"Pose: {data.pose_source}")
+        self.statusBar().showMessage(f"{self.path}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
+                                     f"{len(data.markers)} markers", 8000)
+        self.action_export.setEnabled(True)
+        self.seek(data.start_s)
+        self.scene_view.start()
+        self.plots.start()
+        self._timer.start()
+        self.loaded.emit()
+        if self.export_when_loaded:
+            self.open_export()
+
+    def _load_failed(self, message: str) -> None:
+        self.load_error = message
+        self.progress.hide()
+        self.statusBar().showMessage(f"Cannot open {self.path}: {message}")
+        QtWidgets.QMessageBox.warning(self, "Cannot open the session",
+                                      f"{message}\n\nCheck that the file is a MimuCap session (.h5).")
+
+    # -- play head ---------------------------------------------------------------------------
+    def seek(self, t_s: float) -> None:
+        if self.player is None:
+            return
+        t = self.player.seek(t_s)
+        self._show_cursor(t)
+
+    def seek_marker(self, index: int) -> None:
+        if self.player is None:
+            return
+        self._show_cursor(self.player.seek_marker(index))
+
+    def _show_cursor(self, t: float) -> None:
+        for widget, value in ((self.slider, int(round(t * SLIDER_STEPS_PER_S))), (self.timeline_cursor, t)):
+            widget.blockSignals(True)
+            widget.setValue(value)
+            widget.blockSignals(False)
+        self.time_label.setText(f"{t:7.2f} / {self.player.data.end_s:.2f} s")
+        self.plots.refresh()
+
+    def _slider_moved(self, value: int) -> None:
+        self.seek(value / SLIDER_STEPS_PER_S)
+
+    def _play_toggled(self, on: bool) -> None:
+        if self.player is None:
+            return
+        if on:
+            self.player.play()
+            self._last_tick = time.perf_counter()
+        else:
+            self.player.pause()
+        self.play_button.setText("❚❚ Pause" if on else "▶ Play")
+
+    def _speed_changed(self) -> None:
+        if self.player is not None:
+            self.player.set_speed(float(self.speed_combo.currentData()))
+
+    def _tick(self) -> None:
+        now = time.perf_counter()
+        elapsed, self._last_tick = now - self._last_tick, now
+        if self.player is None or not self.player.playing:
+            if self.play_button.isChecked() and self.player is not None:
+                self.play_button.setChecked(False)
+            return
+        self._show_cursor(self.player.advance(elapsed))
+
+    def _body_mode_toggled(self, on: bool) -> None:
+        if self.player is not None:
+            self.player.set_display_mode("body" if on else "world")
+
+    # -- export, screenshot, close ------------------------------------------------------------
+    def open_export(self) -> ExportDialog | None:
+        if self.player is None:
+            return None
+        self.export_dialog = ExportDialog(self, self.player.data)
+        self.export_dialog.show()
+        return self.export_dialog
+
+    def _ask_screenshot(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Screenshot", "review.png", "PNG images (*.png)")
+        if path:
+            save_window_png(self, path)
+
+    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+        if self._task is not None and self._task.isRunning():
+            self._task.wait(10000)
+        if self.export_dialog is not None and self.export_dialog.busy:
+            self.export_dialog._task.wait(30000)
+        self._timer.stop()
+        self.plots.stop()
+        self.scene_view.shutdown()
+        super().closeEvent(event)

@@ -1,0 +1,120 @@
+"""The session panel: subject record, record start/stop with what is recorded where, markers.
+
+It holds widgets only; the main window connects them to the live session.
+"""
+
+from __future__ import annotations
+
+from PyQt5 import QtCore, QtWidgets
+
+from mimucap.session.live import RecordingInfo
+from mimucap.session.subject import DOMINANCE, Subject
+
+
+def _size(n_bytes: int) -> str:
+    for unit in ("bytes", "kB", "MB", "GB"):
+        if n_bytes < 1024 or unit == "GB":
+            return f"{n_bytes:.0f} {unit}" if unit == "bytes" else f"{n_bytes:.1f} {unit}"
+        n_bytes /= 1024.0
+    return ""
+
+
+class SessionPanel(QtWidgets.QWidget):
+    """Subject fields, the record button, recording status, and the marker controls."""
+
+    record_toggled = QtCore.pyqtSignal(bool)
+    marker_requested = QtCore.pyqtSignal(str)
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setObjectName("sessionPanel")
+        subject_box = QtWidgets.QGroupBox("Subject", self)
+        self.subject_id = QtWidgets.QLineEdit("S001", subject_box)
+        self.subject_id.setObjectName("subjectId")
+        self.height = QtWidgets.QDoubleSpinBox(subject_box)
+        self.height.setObjectName("subjectHeight")
+        self.height.setRange(0.5, 2.5)
+        self.height.setDecimals(2)
+        self.height.setSingleStep(0.01)
+        self.height.setSuffix(" m")
+        self.height.setValue(1.75)
+        self.dominance = QtWidgets.QComboBox(subject_box)
+        self.dominance.addItems(DOMINANCE)
+        self.notes = QtWidgets.QPlainTextEdit(subject_box)
+        self.notes.setPlaceholderText("Notes (no personal data)")
+        self.notes.setMaximumHeight(60)
+        form = QtWidgets.QFormLayout(subject_box)
+        form.addRow("Id", self.subject_id)
+        form.addRow("Height", self.height)
+        form.addRow("Dominant side", self.dominance)
+        form.addRow(self.notes)
+
+        record_box = QtWidgets.QGroupBox("Recording", self)
+        self.record_button = QtWidgets.QPushButton("● Record", record_box)
+        self.record_button.setObjectName("recordButton")
+        self.record_button.setCheckable(True)
+        self.record_button.toggled.connect(self._record_toggled)
+        self.record_status = QtWidgets.QLabel("Not recording", record_box)
+        self.record_status.setObjectName("recordStatus")
+        self.record_status.setWordWrap(True)
+        self.record_status.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
+        self.marker_label = QtWidgets.QLineEdit(record_box)
+        self.marker_label.setObjectName("markerLabel")
+        self.marker_label.setPlaceholderText("marker label")
+        self.marker_button = QtWidgets.QPushButton("Add Marker (M)", record_box)
+        self.marker_button.setObjectName("markerButton")
+        self.marker_button.clicked.connect(self.request_marker)
+        self.marker_label.returnPressed.connect(self.request_marker)
+        self.markers_list = QtWidgets.QListWidget(record_box)
+        self.markers_list.setObjectName("markersList")
+        self.markers_list.setMaximumHeight(110)
+        layout = QtWidgets.QVBoxLayout(record_box)
+        layout.addWidget(self.record_button)
+        layout.addWidget(self.record_status)
+        row = QtWidgets.QHBoxLayout()
+        row.addWidget(self.marker_label, 1)
+        row.addWidget(self.marker_button)
+        layout.addLayout(row)
+        layout.addWidget(self.markers_list)
+
+        main = QtWidgets.QVBoxLayout(self)
+        main.addWidget(subject_box)
+        main.addWidget(record_box)
+        main.addStretch(1)
+
+    def subject(self) -> Subject:
+        """The subject the fields describe (``ValueError`` naming the bad field)."""
+        return Subject(subject_id=self.subject_id.text().strip(), height_m=round(self.height.value(), 3),
+                       dominance=self.dominance.currentText(), notes=self.notes.toPlainText().strip())
+
+    def set_subject_editable(self, editable: bool) -> None:
+        for widget in (self.subject_id, self.height, self.dominance, self.notes):
+            widget.setEnabled(editable)
+
+    def _record_toggled(self, on: bool) -> None:
+        self.record_button.setText("■ Stop" if on else "● Record")
+        self.record_toggled.emit(on)
+
+    def set_recording(self, on: bool) -> None:
+        """Show the button as recording/not without emitting ``record_toggled``."""
+        self.record_button.blockSignals(True)
+        self.record_button.setChecked(on)
+        self.record_button.setText("■ Stop" if on else "● Record")
+        self.record_button.blockSignals(False)
+        self.set_subject_editable(not on)
+
+    def request_marker(self) -> None:
+        self.marker_requested.emit(self.marker_label.text().strip())
+
+    def show_info(self, info: RecordingInfo | None, last_message: str = "") -> None:
+        if info is None:
+            self.record_status.setText(last_message or "Not recording")
+            return
+        minutes, seconds = divmod(info.elapsed_s, 60.0)
+        self.record_status.setText(
+            f"Recording {int(minutes):02d}:{seconds:04.1f}, {_size(info.size_bytes)}, "
+            f"{info.markers} marker(s)\n→ {info.path}")
+
+    def add_marker_line(self, t_s: float, label: str) -> None:
+        self.markers_list.addItem(f"{t_s:8.2f} s  {label}")
+        self.markers_list.scrollToBottom()

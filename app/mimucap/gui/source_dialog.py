@@ -1,0 +1,148 @@
+"""The source dialog: simulated suit (default), UDP, serial port or replay file.
+
+It builds a source spec string (``simulated:demo``, ``udp:0.0.0.0:5555``,
+``serial:/dev/ttyUSB0@115200``, ``replay:FILE@SPEED``), checks it with the acquisition
+layer's parser, and remembers the last choice in the GUI settings.
+"""
+
+from __future__ import annotations
+
+from PyQt5 import QtWidgets
+
+from mimucap.acquisition.source_spec import parse_source_spec
+from mimucap.core.simulate import SCENARIOS
+from mimucap.gui.settings import gui_settings
+
+KINDS = ("simulated", "udp", "serial", "replay")
+KIND_LABELS = {"simulated": "Simulated suit", "udp": "UDP (wireless nodes)", "serial": "Serial port",
+               "replay": "Replay a file"}
+DEFAULT_SPEC = "simulated:demo"
+
+
+def last_source_spec() -> str:
+    """The spec chosen last time (``simulated:demo`` the first time)."""
+    return str(gui_settings().value("source/spec", DEFAULT_SPEC)) or DEFAULT_SPEC
+
+
+class SourceDialog(QtWidgets.QDialog):
+    """Pick a source; :attr:`spec` is the result after ``accept()``."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None, spec: str | None = None) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Choose the Source")
+        self.setObjectName("sourceDialog")
+        self.kind_buttons: dict[str, QtWidgets.QRadioButton] = {}
+        self.stack = QtWidgets.QStackedWidget(self)
+        kinds_box = QtWidgets.QVBoxLayout()
+        for kind in KINDS:
+            button = QtWidgets.QRadioButton(KIND_LABELS[kind], self)
+            button.toggled.connect(lambda on, k=kind: on and self.stack.setCurrentIndex(KINDS.index(k)))
+            self.kind_buttons[kind] = button
+            kinds_box.addWidget(button)
+
+        sim = QtWidgets.QWidget()
+        self.scenario = QtWidgets.QComboBox(sim)
+        self.scenario.addItems([s for s in SCENARIOS if not s.startswith("mag_")])
+        form = QtWidgets.QFormLayout(sim)
+        form.addRow("Scenario", self.scenario)
+        udp = QtWidgets.QWidget()
+        self.udp_address = QtWidgets.QLineEdit("0.0.0.0", udp)
+        self.udp_port = QtWidgets.QSpinBox(udp)
+        self.udp_port.setRange(1, 65535)
+        self.udp_port.setValue(5555)
+        form = QtWidgets.QFormLayout(udp)
+        form.addRow("Listen on address", self.udp_address)
+        form.addRow("Port", self.udp_port)
+        serial = QtWidgets.QWidget()
+        self.serial_device = QtWidgets.QLineEdit("/dev/ttyUSB0", serial)
+        self.serial_baud = QtWidgets.QComboBox(serial)
+        self.serial_baud.setEditable(True)
+        self.serial_baud.addItems(["115200", "230400", "460800", "921600", "57600"])
+        form = QtWidgets.QFormLayout(serial)
+        form.addRow("Device", self.serial_device)
+        form.addRow("Baud rate", self.serial_baud)
+        replay = QtWidgets.QWidget()
+        self.replay_path = QtWidgets.QLineEdit(replay)
+        browse = QtWidgets.QPushButton("Browse…", replay)
+        browse.clicked.connect(self._browse)
+        row = QtWidgets.QHBoxLayout()
+        row.addWidget(self.replay_path, 1)
+        row.addWidget(browse)
+        self.replay_speed = QtWidgets.QDoubleSpinBox(replay)
+        self.replay_speed.setRange(0.1, 20.0)
+        self.replay_speed.setValue(1.0)
+        self.replay_speed.setSuffix(" ×")
+        form = QtWidgets.QFormLayout(replay)
+        form.addRow("File", row)
+        form.addRow("Speed", self.replay_speed)
+        for page in (sim, udp, serial, replay):
+            self.stack.addWidget(page)
+
+        self.error_label = QtWidgets.QLabel(self)
+        self.error_label.setStyleSheet("color: #b00020")
+        self.error_label.setWordWrap(True)
+        buttons = QtWidgets.QDialogButtonBox(QtWidgets.QDialogButtonBox.Ok | QtWidgets.QDialogButtonBox.Cancel, self)
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        top = QtWidgets.QHBoxLayout()
+        top.addLayout(kinds_box)
+        top.addWidget(self.stack, 1)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addLayout(top)
+        layout.addWidget(self.error_label)
+        layout.addWidget(buttons)
+        self.spec = ""
+        self.set_spec(spec or last_source_spec())
+
+    def _browse(self) -> None:
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Replay File", "", "Sessions (*.h5);;Xsens exports (*.txt);;All files (*)")
+        if path:
+            self.replay_path.setText(path)
+
+    def set_spec(self, spec: str) -> None:
+        """Show ``spec`` in the controls (an unparsable one shows the default)."""
+        try:
+            parsed = parse_source_spec(spec)
+        except ValueError:
+            spec, parsed = DEFAULT_SPEC, parse_source_spec(DEFAULT_SPEC)
+        kind = spec.split(":", 1)[0]
+        self.kind_buttons[kind].setChecked(True)
+        self.stack.setCurrentIndex(KINDS.index(kind))
+        if kind == "simulated":
+            self.scenario.setCurrentText(parsed.scenario)
+        elif kind == "udp":
+            self.udp_address.setText(parsed.bind_address)
+            self.udp_port.setValue(parsed.port)
+        elif kind == "serial":
+            self.serial_device.setText(parsed.device)
+            self.serial_baud.setCurrentText(str(parsed.baud))
+        else:
+            self.replay_path.setText(str(parsed.path))
+            self.replay_speed.setValue(float(parsed.speed))
+
+    def current_kind(self) -> str:
+        return next(k for k, b in self.kind_buttons.items() if b.isChecked())
+
+    def current_spec(self) -> str:
+        """The spec the controls describe (not yet validated)."""
+        kind = self.current_kind()
+        if kind == "simulated":
+            return f"simulated:{self.scenario.currentText()}"
+        if kind == "udp":
+            return f"udp:{self.udp_address.text().strip()}:{self.udp_port.value()}"
+        if kind == "serial":
+            return f"serial:{self.serial_device.text().strip()}@{self.serial_baud.currentText().strip()}"
+        return f"replay:{self.replay_path.text().strip()}@{self.replay_speed.value():g}"
+
+    def accept(self) -> None:
+        spec = self.current_spec()
+        try:
+            parse_source_spec(spec)
+        except ValueError as error:
+            self.error_label.setText(str(error))
+            return
+        self.spec = spec
+        settings = gui_settings()
+        settings.setValue("source/spec", spec)
+        settings.sync()
+        super().accept()

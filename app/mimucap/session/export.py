@@ -1,0 +1,158 @@
+"""Exports of a reviewed session: joint angles (CSV, OpenSim ``.mot``), per-sensor raw data and
+orientations (CSV), and a per-joint summary (min, max, range of motion) as CSV.
+
+The time range is ``[t_from_s, t_to_s]`` in session seconds, or the span between two markers
+(:func:`marker_range`). Joint angle files use :mod:`mimucap.io.angles_export` (their header
+names the sequence, every column's meaning, unit and sign). :func:`run_export` reports its
+progress as a fraction in [0, 1] and can run off the GUI thread.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mimucap.io.angles_export import write_angles_csv, write_angles_mot
+from mimucap.io.session import Marker
+from mimucap.session.review import ReviewData
+
+
+@dataclass(frozen=True)
+class ExportRequest:
+    """What to export.
+
+    ``base_path``: files are ``<base>.csv``, ``<base>.mot``, ``<base>_summary.csv``,
+    ``<base>_<sensor>.csv``; ``t_from_s``/``t_to_s`` the range (s); ``angles_csv``,
+    ``angles_mot``, ``sensors_csv`` (raw acc m/s², gyr rad/s, mag µT and ``q_world_from_sensor``
+    per sensor), ``summary_csv`` choose the files.
+    """
+
+    base_path: Path
+    t_from_s: float
+    t_to_s: float
+    angles_csv: bool = True
+    angles_mot: bool = True
+    sensors_csv: bool = False
+    summary_csv: bool = True
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.t_from_s) and np.isfinite(self.t_to_s)) or self.t_to_s <= self.t_from_s:
+            raise ValueError(f"export range must have its end after its start, got {self.t_from_s:.3f}..{self.t_to_s:.3f} s")
+        if not (self.angles_csv or self.angles_mot or self.sensors_csv or self.summary_csv):
+            raise ValueError("choose at least one file to export")
+
+
+@dataclass(frozen=True)
+class SummaryRow:
+    """One joint-angle column over the exported range: ``minimum_deg``, ``maximum_deg``,
+    ``rom_deg`` (range of motion = max − min), all degrees."""
+
+    column: str
+    minimum_deg: float
+    maximum_deg: float
+    rom_deg: float
+
+
+@dataclass
+class ExportResult:
+    files: list[Path] = field(default_factory=list)
+    summary: list[SummaryRow] = field(default_factory=list)
+    rows: int = 0
+
+
+def marker_range(markers: Sequence[Marker], first: int, second: int) -> tuple[float, float]:
+    """The time span (s) between markers ``first`` and ``second`` (indices, either order)."""
+    for index in (first, second):
+        if not 0 <= index < len(markers):
+            raise ValueError(f"marker {index} does not exist (the session has {len(markers)})")
+    a, b = sorted((markers[first].t_s, markers[second].t_s))
+    if b <= a:
+        raise ValueError(f"markers {first} and {second} are at the same time ({a:.3f} s)")
+    return float(a), float(b)
+
+
+def angles_in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """Pose times (s) and joint angle columns (deg) with ``t_from_s <= t <= t_to_s``."""
+    keep = (data.t_s >= t_from_s) & (data.t_s <= t_to_s)
+    if not np.any(keep):
+        raise ValueError(f"no poses between {t_from_s:.3f} and {t_to_s:.3f} s (the recording spans "
+                         f"{data.start_s:.3f}..{data.end_s:.3f} s)")
+    return data.t_s[keep], {c: v[keep] for c, v in data.angles_deg.items()}
+
+
+def summary_table(angles_deg: dict[str, np.ndarray]) -> list[SummaryRow]:
+    """Min, max and range of motion of each column (deg), in column order."""
+    rows = []
+    for column, values in angles_deg.items():
+        low, high = float(np.min(values)), float(np.max(values))
+        rows.append(SummaryRow(column, low, high, high - low))
+    return rows
+
+
+def write_summary_csv(path: str | Path, rows: Sequence[SummaryRow], t_from_s: float, t_to_s: float) -> Path:
+    path = Path(path)
+    with path.open("w", encoding="utf-8", newline="") as handle:
+        handle.write(f"# MimuCap joint angle summary from {t_from_s:.3f} s to {t_to_s:.3f} s; degrees\n")
+        writer = csv.writer(handle)
+        writer.writerow(["column", "min_deg", "max_deg", "rom_deg"])
+        for row in rows:
+            writer.writerow([row.column, f"{row.minimum_deg:.3f}", f"{row.maximum_deg:.3f}", f"{row.rom_deg:.3f}"])
+    return path
+
+
+def write_sensor_csv(path: str | Path, data: ReviewData, sensor_id: str, t_from_s: float, t_to_s: float) -> Path:
+    """One sensor's raw channels and orientation in the range (absent channels are left out)."""
+    stream = data.session.sensors[sensor_id]
+    keep = (stream.t_s >= t_from_s) & (stream.t_s <= t_to_s)
+    columns: list[tuple[str, np.ndarray]] = [("t_s", stream.t_s[keep])]
+    for name, unit, values in (("acc", "m_s2", stream.acc), ("gyr", "rad_s", stream.gyr), ("mag", "uT", stream.mag_uT)):
+        if values is not None:
+            columns += [(f"{name}_{axis}_{unit}", values[keep, i]) for i, axis in enumerate("xyz")]
+    q = data.q_world_from_sensor.get(sensor_id)
+    if q is not None:
+        columns += [(f"q_world_from_sensor_{c}", q[keep, i]) for i, c in enumerate("wxyz")]
+    path = Path(path)
+    with path.open("w", encoding="utf-8", newline="") as handle:
+        handle.write(f"# MimuCap sensor {sensor_id} (segment {stream.segment or 'none'}); sensor frame; "
+                     "q_world_from_sensor scalar first, world ENU\n")
+        handle.write(",".join(name for name, _ in columns) + "\n")
+        table = np.column_stack([v for _, v in columns])
+        np.savetxt(handle, table, delimiter=",", fmt="%.6f")
+    return path
+
+
+def run_export(data: ReviewData, request: ExportRequest,
+               progress: Callable[[float], None] | None = None) -> ExportResult:
+    """Write the files of ``request``; ``progress(fraction)`` after each file."""
+    report = progress or (lambda fraction: None)
+    t, angles = angles_in_range(data, request.t_from_s, request.t_to_s)
+    result = ExportResult(rows=len(t), summary=summary_table(angles))
+    base = Path(request.base_path)
+    base.parent.mkdir(parents=True, exist_ok=True)
+    notes = [f"Session {data.path.name}; pose from {data.pose_source}; {request.t_from_s:.3f}..{request.t_to_s:.3f} s"]
+    jobs: list[tuple[str, Callable[[], Path]]] = []
+    if request.angles_csv:
+        jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(p, t, angles, notes=notes))))
+    if request.angles_mot:
+        jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(p, t, angles, notes=notes))))
+    if request.summary_csv:
+        jobs.append(("summary", lambda: write_summary_csv(base.with_name(base.name + "_summary.csv"), result.summary,
+                                                          request.t_from_s, request.t_to_s)))
+    if request.sensors_csv:
+        for sensor_id in data.session.sensors:
+            jobs.append((sensor_id, lambda s=sensor_id: write_sensor_csv(base.with_name(f"{base.name}_{s}.csv"), data, s,
+                                                                        request.t_from_s, request.t_to_s)))
+    report(0.0)
+    for done, (_name, job) in enumerate(jobs, start=1):
+        result.files.append(job())
+        report(done / len(jobs))
+    return result
+
+
+def _written(path: Path, write: Callable[[Path], None]) -> Path:
+    write(path)
+    return path

@@ -1,0 +1,180 @@
+"""Where live sample blocks come from: the simulated suit in process, or acquisition workers.
+
+A feed hands out :class:`~mimucap.acquisition.samples.SampleBlock` lists on the host's
+monotonic clock (``time.monotonic()``, s) and per-sensor statistics. Both feeds give the
+same blocks, so the rest of the live pipeline (fusion, calibration, recording) does not care
+which one runs:
+
+* :class:`SimulatorFeed` runs :class:`~mimucap.core.simulate.SuitSimulator` in this process,
+  advanced by the wall clock each :meth:`poll` (like the simulated acquisition driver), so
+  that a calibration wizard can direct the simulated subject with
+  ``feed.simulator.set_activity(...)`` and read the true state (``feed.last_truth``);
+* :class:`SupervisorFeed` runs any source spec (``udp:``, ``serial:``, ``replay:``,
+  ``simulated:``) in acquisition worker processes through
+  :class:`~mimucap.acquisition.supervisor.Supervisor`, polled without blocking.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from mimucap.acquisition.samples import SampleBlock
+from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
+from mimucap.acquisition.supervisor import Supervisor
+from mimucap.core.simulate import SENSOR_PLACEMENTS, SimulationConfig, SuitSimulator, SuitTruth
+from mimucap.session.sources import SourceOptions, sensor_segments, source_configs
+
+#: Longest wall-clock gap (s) the simulator catches up in one poll: after a stall it skips
+#: ahead instead of computing a long backlog on the GUI thread.
+MAX_CATCH_UP_S = 0.25
+#: Window (s) over which sensor rates are computed.
+STATS_WINDOW_S = 2.0
+
+
+class SimulatorFeed:
+    """The simulated suit, in this process, in real time (or ``time_scale`` times faster).
+
+    Args:
+        config: the simulation (scenario, sensors, rate, error model, seed, height).
+        clock: monotonic clock (s); tests pass a fake one.
+        time_scale: simulated seconds per clock second.
+        name: the source name carried by the blocks.
+    """
+
+    kind = "simulated"
+
+    def __init__(self, config: SimulationConfig = SimulationConfig(), clock: Callable[[], float] = time.monotonic,
+                 time_scale: float = 1.0, name: str = "simulated") -> None:
+        if not time_scale > 0:
+            raise ValueError(f"time scale must be positive, got {time_scale}")
+        self.config = config
+        self.simulator = SuitSimulator(config)
+        self.name = name
+        self.time_scale = float(time_scale)
+        self._clock = clock
+        self._start_host_s: float | None = None
+        self._last_poll: float | None = None
+        self._skipped_s = 0.0
+        self._trackers = {sid: SensorStatsTracker(sid, name, STATS_WINDOW_S) for sid in self.simulator.sensor_ids}
+        self._markers: list[tuple[float, str]] = []
+        #: truth of the newest simulated sample (segment orientations, root), or None
+        self.last_truth: SuitTruth | None = None
+
+    @property
+    def sensor_ids(self) -> tuple[str, ...]:
+        return tuple(self.simulator.sensor_ids)
+
+    def sensor_segments(self) -> dict[str, str]:
+        """Sensor id → the segment it is worn on (the suit knows it)."""
+        return {sid: segment for sid, segment, _r, _n in SENSOR_PLACEMENTS if sid in self.simulator.sensor_ids}
+
+    def start(self) -> None:
+        now = self._clock()
+        self._start_host_s = now
+        self._last_poll = now
+
+    def host_time_of(self, t_sim_s: float) -> float:
+        """Host monotonic time (s) of simulated time ``t_sim_s``."""
+        return self._start_host_s + self._skipped_s + t_sim_s / self.time_scale
+
+    def poll(self) -> list[SampleBlock]:
+        """Blocks of every sample simulated since the last poll (one block per sensor)."""
+        if self._start_host_s is None:
+            raise ValueError("the simulated source is not started")
+        now = self._clock()
+        gap = now - self._last_poll
+        if gap > MAX_CATCH_UP_S:
+            self._skipped_s += gap - MAX_CATCH_UP_S
+        self._last_poll = now
+        target_sim_s = (now - self._start_host_s - self._skipped_s) * self.time_scale
+        return self.advance_to(target_sim_s, now)
+
+    def advance_to(self, target_sim_s: float, arrival_s: float | None = None) -> list[SampleBlock]:
+        """Simulate up to simulated time ``target_sim_s`` (s) and return the new blocks."""
+        rate = self.simulator.rate_hz
+        due = int(np.floor(target_sim_s * rate + 1e-9)) + 1
+        done = int(round(self.simulator.time_s * rate))
+        if due <= done:
+            return []
+        block = self.simulator.advance_samples(due - done)
+        arrival = self._clock() if arrival_s is None else arrival_s
+        blocks = []
+        for sensor_id, samples in block.samples.items():
+            if len(samples.t_s) == 0:
+                continue
+            host = self.host_time_of(0.0) + samples.t_s / self.time_scale
+            out = SampleBlock(
+                source=self.name, sensor_id=sensor_id, seq=samples.seq.astype(np.int64),
+                device_time_s=samples.device_time_s, host_time_s=host,
+                receive_time_s=np.full(len(samples.t_s), arrival), acc=samples.acc, gyr=samples.gyr,
+                mag_uT=samples.mag_uT, q_world_from_sensor=samples.q_world_from_sensor)
+            self._trackers[sensor_id].add_block(out, arrival)
+            blocks.append(out)
+        if block.truth.t_s.shape[0]:
+            self.last_truth = block.truth
+        self._markers.extend((self.host_time_of(t), label) for t, label in block.markers)
+        return blocks
+
+    def take_markers(self) -> list[tuple[float, str]]:
+        """Activity changes since the last call: ``(host monotonic s, label)``."""
+        markers, self._markers = self._markers, []
+        return markers
+
+    def stats(self) -> dict[str, SensorStats]:
+        now = self._clock()
+        return {sid: tracker.snapshot(now) for sid, tracker in self._trackers.items()}
+
+    def status_text(self) -> str:
+        return f"scenario {self.config.scenario}, activity {self.simulator.current_activity()}"
+
+    def stop(self) -> list[SampleBlock]:
+        self._start_host_s = None
+        return []
+
+
+class SupervisorFeed:
+    """Any source spec through acquisition worker processes (see the module doc)."""
+
+    kind = "workers"
+
+    def __init__(self, spec: str, options: SourceOptions = SourceOptions()) -> None:
+        self.spec = spec
+        self.configs = source_configs(spec, options)
+        self.supervisor = Supervisor(self.configs)
+        self.simulator = None
+        self.last_truth = None
+        self._segments = sensor_segments(self.configs)
+
+    @property
+    def sensor_ids(self) -> tuple[str, ...]:
+        return tuple(self.supervisor.stats())
+
+    def sensor_segments(self) -> dict[str, str]:
+        return dict(self._segments)
+
+    def start(self) -> None:
+        self.supervisor.start()
+
+    def poll(self) -> list[SampleBlock]:
+        return self.supervisor.poll(0.0)
+
+    def take_markers(self) -> list[tuple[float, str]]:
+        return self.supervisor.take_markers()
+
+    def stats(self) -> dict[str, SensorStats]:
+        return self.supervisor.stats()
+
+    def status_text(self) -> str:
+        parts = []
+        for name, status in self.supervisor.sources().items():
+            text = f"{name} {status.state}"
+            if status.last_error:
+                text += f" ({status.last_error})"
+            parts.append(text)
+        return ", ".join(parts)
+
+    def stop(self) -> list[SampleBlock]:
+        return self.supervisor.stop()
