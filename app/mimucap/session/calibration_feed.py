@@ -132,7 +132,8 @@ class LiveSessionFeed:
 
     Subscribes to ``live_session.events.blocks`` (raw blocks, as the session's timer steps
     it) and hands them out per sensor on :meth:`read`. Times are session seconds
-    (``host_time_s − live_session.t0_host_s``). Orientations: the device's own when it sends
+    (``host_time_s − live_session.t0_host_s``) times the source's ``time_scale`` (a simulated
+    suit may run faster than real time; the gyroscope is integrated over sensor time). Orientations: the device's own when it sends
     them, otherwise an online :class:`~mimucap.core.fusion.OrientationEKF` per sensor on the
     magnetometer samples corrected by ``live_session.mag_calibrations``. Activity requests go
     to ``live_session.simulator`` when the source is the simulated suit. Call :meth:`close`
@@ -183,11 +184,12 @@ class LiveSessionFeed:
         any of the sensor's blocks lacks it)."""
         blocks, self._pending = self._pending, []
         t0 = self.live_session.t0_host_s or 0.0
+        scale = float(getattr(getattr(self.live_session, "feed", None), "time_scale", 1.0))
         parts: dict[str, list[FeedSamples]] = {}
         for block in blocks:
             if len(block) == 0:
                 continue
-            t = np.asarray(block.host_time_s, dtype=np.float64) - t0
+            t = (np.asarray(block.host_time_s, dtype=np.float64) - t0) * scale
             q = self._orientation(block.sensor_id, t, block)
             parts.setdefault(block.sensor_id, []).append(FeedSamples(t, block.acc, block.gyr, block.mag_uT, q))
             self._time_s = max(float(t[-1]), self._time_s) if math.isfinite(self._time_s) else float(t[-1])
