@@ -29,7 +29,7 @@ from mimucap.session.sources import SourceOptions, sensor_segments, source_confi
 
 #: Longest wall-clock gap (s) the simulator catches up in one poll: after a stall it skips
 #: ahead instead of computing a long backlog on the GUI thread.
-MAX_CATCH_UP_S = 0.25
+MAX_CATCH_UP_S = 1.0
 #: Window (s) over which sensor rates are computed.
 STATS_WINDOW_S = 2.0
 
