@@ -1,6 +1,6 @@
 """The stage of the 3D view: floor grid, world axes, soft lighting and background.
 
-The floor (10 m × 10 m, a line every 0.5 m) and the world axes (E, N, Up; 0.5 m, standing at
+The floor (30 m × 30 m, a line every 0.5 m) and the world axes (E, N, Up; 0.5 m, standing at
 :data:`AXES_ORIGIN_WORLD_M`) are built in
 **world** coordinates (ENU, metres) and placed in the scene by the frame's
 ``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
@@ -14,7 +14,7 @@ from vtkmodules.vtkFiltersSources import vtkPlaneSource
 from vtkmodules.vtkRenderingAnnotation import vtkAxesActor
 from vtkmodules.vtkRenderingCore import vtkActor, vtkLightKit, vtkPolyDataMapper, vtkRenderer
 
-FLOOR_SIZE_M = 10.0
+FLOOR_SIZE_M = 30.0
 FLOOR_SPACING_M = 0.5
 AXES_LENGTH_M = 0.5
 #: Where the world axes stand on the floor (world ENU, metres): beside the figure, not inside it.
