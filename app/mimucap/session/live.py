@@ -581,16 +581,20 @@ def _age_s(created_utc: str) -> float:
 
 
 def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time.monotonic,
-                      time_scale: float = 1.0, in_process_simulator: bool = True) -> LiveSession:
+                      time_scale: float = 1.0, in_process_simulator: bool = True,
+                      n_sensors: int = 10, rate_hz: float = 100.0) -> LiveSession:
     """A live session (not started) for source ``spec``.
 
-    ``simulated[:SCENARIO]`` runs the simulated suit in process (wizards can direct it)
-    unless ``in_process_simulator`` is False; everything else (``udp:``, ``serial:``,
-    ``replay:``) runs in acquisition workers.
+    ``simulated[:SCENARIO]`` runs the simulated suit (``n_sensors`` at ``rate_hz``; 17
+    sensors wear the fifteen-segment model) in process (wizards can direct it) unless
+    ``in_process_simulator`` is False; everything else (``udp:``, ``serial:``, ``replay:``)
+    runs in acquisition workers.
     """
     parsed = parse_source_spec(spec)
     if isinstance(parsed, SimulatedSpec) and in_process_simulator:
-        feed = SimulatorFeed(SimulationConfig(scenario=parsed.scenario), clock=clock, time_scale=time_scale)
-        return LiveSession(feed, f"simulated:{parsed.scenario}", height_m=feed.config.height_m, clock=clock)
+        config = SimulationConfig(scenario=parsed.scenario, n_sensors=n_sensors, rate_hz=rate_hz)
+        feed = SimulatorFeed(config, clock=clock, time_scale=time_scale)
+        return LiveSession(feed, f"simulated:{parsed.scenario}", model_name=config.model_name,
+                           height_m=config.height_m, clock=clock)
     feed = SupervisorFeed(spec, SourceOptions())
     return LiveSession(feed, spec, clock=clock)
