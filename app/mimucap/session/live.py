@@ -75,6 +75,7 @@ POSE_BODY_CALIBRATION = "body calibration"
 POSE_SIMULATOR_TRUTH = "simulator truth"
 POSE_SENSOR_AXES = "sensor axes (no body calibration)"
 POSE_NONE = "no data"
+POSE_UNASSIGNED = "no sensor assigned (Session → Assign Sensors)"
 
 
 @dataclass(frozen=True)
@@ -374,6 +375,7 @@ class LiveSession:
                 q_segments = self._filled(found)
                 self._pose_source = POSE_SENSOR_AXES
         if q_segments is None:
+            self._pose_source = POSE_UNASSIGNED if self._sensors else POSE_NONE
             return
         self._q_world_from_segment = q_segments
         self._root_m = root

@@ -1,0 +1,67 @@
+"""Source dialog, assignment dialog and sensor panel behave as a user expects."""
+
+from __future__ import annotations
+
+import math
+
+from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
+from mimucap.gui.sensor_panel import SensorPanel
+from mimucap.gui.source_dialog import SourceDialog, last_source_spec
+from mimucap.session.live import SensorRow
+
+
+def test_source_dialog_builds_checks_and_remembers_specs(qtbot):
+    assert last_source_spec() == "simulated:demo"  # first start: the simulated suit
+    dialog = SourceDialog(None)
+    qtbot.addWidget(dialog)
+    assert dialog.current_kind() == "simulated"
+    dialog.kind_buttons["udp"].setChecked(True)
+    dialog.udp_address.setText("0.0.0.0")
+    dialog.udp_port.setValue(6001)
+    assert dialog.current_spec() == "udp:0.0.0.0:6001"
+    dialog.kind_buttons["serial"].setChecked(True)
+    dialog.serial_baud.setCurrentText("fast")
+    dialog.accept()
+    assert "baud" in dialog.error_label.text() and dialog.result() == 0  # refused, stays open
+    dialog.serial_baud.setCurrentText("230400")
+    dialog.serial_device.setText("/dev/serial/by-id/usb-node")
+    dialog.accept()
+    assert dialog.spec == "serial:/dev/serial/by-id/usb-node@230400"
+    assert last_source_spec() == dialog.spec
+    again = SourceDialog(None)
+    qtbot.addWidget(again)
+    assert again.current_kind() == "serial" and again.serial_baud.currentText() == "230400"
+    again.set_spec("replay:/data/s.h5@2")
+    assert again.current_spec() == "replay:/data/s.h5@2"
+
+
+def test_assignment_dialog_refuses_two_sensors_on_one_segment(qtbot):
+    dialog = AssignmentDialog(None, ["1", "2", "3"], ["pelvis", "thorax"], {"1": "pelvis"})
+    qtbot.addWidget(dialog)
+    assert dialog.assignment() == {"1": "pelvis"}
+    dialog.set_segment("2", "pelvis")
+    dialog.accept()
+    assert "pelvis" in dialog.error_label.text() and remembered_assignment() == {}
+    dialog.set_segment("2", "thorax")
+    dialog.accept()
+    assert remembered_assignment() == {"1": "pelvis", "2": "thorax"}
+
+
+def _row(sensor_id, stale=False, state="ok"):
+    return SensorRow(sensor_id, "pelvis", 99.5, 3, 4.25, math.nan, "calibrated", 7200.0, ("rest",), stale, state)
+
+
+def test_sensor_panel_shows_rows_and_flags_stale_ones(qtbot):
+    panel = SensorPanel()
+    qtbot.addWidget(panel)
+    panel.show_rows([_row("S01"), _row("S02", stale=True, state="stale")])
+    assert panel.cell_text("S01", "Rate (Hz)") == "99.5"
+    assert panel.cell_text("S01", "Latency p95 (ms)") == "4.2" or panel.cell_text("S01", "Latency p95 (ms)") == "4.3"
+    assert panel.cell_text("S01", "Battery (%)") == "–"
+    assert panel.cell_text("S01", "Mag. calibration") == "calibrated (2 h ago)"
+    assert panel.cell_text("S01", "Fusion flags") == "rest"
+    assert panel.cell_text("S02", "State") == "STALE: no data"
+    stale_colour = panel.item(panel.row_of("S02"), 0).background().color()
+    assert stale_colour.red() > 200 and stale_colour.green() < 220
+    panel.show_rows([_row("S01")])
+    assert panel.rowCount() == 1

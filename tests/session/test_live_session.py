@@ -1,0 +1,156 @@
+"""The live session: stale sensors, calibrations, markers and recording, the worker path."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+
+from mimucap.core.magcal import MagCalibration
+from mimucap.core.simulate import SimulationConfig, simulate_session
+from mimucap.io.session import read_session, session_from_simulation, write_session
+from mimucap.session.export import ExportRequest, marker_range, run_export, summary_table
+from mimucap.session.feeds import SimulatorFeed
+from mimucap.session.live import POSE_SENSOR_AXES, POSE_UNASSIGNED, STALE_AFTER_S, LiveSession, open_live_session
+from mimucap.session.review import ReviewPlayer, load_review
+
+
+def _session(scenario: str = "walk", **config) -> tuple[LiveSession, list[float]]:
+    now = [50.0]
+    clock = lambda: now[0]  # noqa: E731
+    session = LiveSession(SimulatorFeed(SimulationConfig(scenario=scenario, **config), clock=clock), clock=clock)
+    session.start()
+    return session, now
+
+
+def _run(session: LiveSession, now: list[float], seconds: float, step_s: float = 0.02) -> None:
+    for _ in range(int(round(seconds / step_s))):
+        now[0] += step_s
+        session.step()
+
+
+def test_a_silent_sensor_is_flagged_stale_within_a_second():
+    session, now = _session()
+    _run(session, now, 1.0)
+    assert not any(row.stale for row in session.sensor_rows())
+    now[0] += 0.9 * STALE_AFTER_S  # no new data, not yet a second
+    assert not any(row.stale for row in session.sensor_rows())
+    now[0] += 0.2 * STALE_AFTER_S
+    rows = session.sensor_rows()
+    assert all(row.stale and row.state == "stale" for row in rows)
+    assert set(session.segment_states().values()) == {"stale"}
+
+
+def test_rows_report_rate_and_drops_of_the_suit():
+    session, now = _session(drop_probability=0.05, seed=3)
+    _run(session, now, 3.0)
+    rows = {row.sensor_id: row for row in session.sensor_rows()}
+    assert set(rows) == set(session.feed.sensor_ids)
+    total_drops = sum(r.drops for r in rows.values())
+    assert total_drops > 0  # 5 % of 3000 samples are lost
+    for row in rows.values():
+        assert 90.0 * 0.9 < row.rate_hz < 101.0 * 1.05
+        assert row.mag_cal == "not calibrated"
+
+
+def test_magnetometer_calibration_is_applied_to_its_sensor_only():
+    session, now = _session()
+    _run(session, now, 0.5)
+    raw = session.series("S02", 0.1)[3][-1]
+    calibration = MagCalibration("S02", offset_uT=raw, soft_iron=np.eye(3), field_uT=49.3,
+                                 created_utc="2026-01-01T00:00:00+00:00")
+    session.apply_mag_calibration(calibration)
+    _run(session, now, 0.2)
+    t, _acc, _gyr, mag = session.series("S02", 0.05)
+    assert np.all(np.abs(mag) < 10.0)  # raw offset removed (the field barely changes in 0.2 s)
+    row = {r.sensor_id: r for r in session.sensor_rows()}["S02"]
+    assert row.mag_cal == "calibrated" and row.mag_cal_age_s > 3600
+    with pytest.raises(ValueError, match="S03"):
+        calibration.apply(raw, "S03")
+
+
+def test_sensor_assignment_is_validated():
+    session, _now = _session()
+    with pytest.raises(ValueError, match="unknown segment"):
+        session.assign_sensor("S01", "tail")
+    session.assign_sensor("S09", "pelvis")  # a segment carries one sensor
+    assert session.sensor_segments["S09"] == "pelvis" and "S01" not in session.sensor_segments
+
+
+def test_recording_markers_review_and_export(tmp_path):
+    session, now = _session("walk")
+    _run(session, now, 0.5)
+    session.start_recording(tmp_path / "walk.h5", {"id": "P1", "height_m": 1.75, "dominance": "left", "notes": ""})
+    with pytest.raises(ValueError, match="already recording"):
+        session.start_recording(tmp_path / "other.h5")
+    _run(session, now, 2.0)
+    session.add_marker("one")
+    _run(session, now, 3.0)
+    session.add_marker("two")
+    _run(session, now, 1.0)
+    info = session.recording_info()
+    assert info.markers == 2 and info.size_bytes > 1000 and info.elapsed_s == pytest.approx(6.0, abs=0.03)
+    result = session.stop_recording()
+    assert result.complete and not session.recording
+    stored = read_session(result.session_path)
+    assert [m.label for m in stored.markers] == ["one", "two"]
+    assert stored.markers[0].t_s == pytest.approx(2.0, abs=0.03)
+    assert stored.metadata["subject"]["dominance"] == "left"
+    for stream in stored.sensors.values():
+        assert len(stream.t_s) == pytest.approx(600, abs=3)  # 6 s at 100 Hz
+    # The simulator's truth rides along: its knee angle is that of the suit at the same instants.
+    truth = stored.truth
+    assert truth.t_s[0] >= 0 and truth.t_s[-1] == pytest.approx(6.0, abs=0.03)
+
+    data = load_review(result.session_path)
+    player = ReviewPlayer(data)
+    assert player.seek_marker(1) == pytest.approx(stored.markers[1].t_s)
+    player.set_speed(2.0)
+    player.play()
+    player.advance(0.5)
+    assert player.cursor_s == pytest.approx(stored.markers[1].t_s + 1.0)
+    player.advance(10.0)
+    assert not player.playing and player.cursor_s == pytest.approx(data.end_s)
+    with pytest.raises(ValueError, match="marker 5"):
+        player.seek_marker(5)
+
+    a, b = marker_range(data.markers, 1, 0)
+    assert (a, b) == (pytest.approx(2.0, abs=0.03), pytest.approx(5.0, abs=0.03))
+    exported = run_export(data, ExportRequest(tmp_path / "out", a, b, sensors_csv=True))
+    names = sorted(p.name for p in exported.files)
+    assert "out.csv" in names and "out.mot" in names and "out_summary.csv" in names and "out_S01.csv" in names
+    rows = summary_table({"x_deg": np.array([-5.0, 10.0, 2.0])})
+    assert rows[0].minimum_deg == -5.0 and rows[0].maximum_deg == 10.0 and rows[0].rom_deg == 15.0
+    with pytest.raises(ValueError, match="end after its start"):
+        ExportRequest(tmp_path / "bad", 3.0, 2.0)
+
+
+def test_replay_through_acquisition_workers_is_fused_and_shown(tmp_path):
+    """A raw-only replay (no on-board orientation) goes through the supervisor's worker, is fused
+    per sensor, and the figure follows the assigned sensors' axes, labelled as such."""
+    result = simulate_session(SimulationConfig(scenario="walk", duration_s=3.0, n_sensors=10, seed=1))
+    path = tmp_path / "sim.h5"
+    write_session(path, session_from_simulation(result, include_truth=False))
+    session = open_live_session(f"replay:{path}@4")
+    session.start()
+    try:
+        deadline = time.monotonic() + 30.0
+        while session.samples_received < 500 and time.monotonic() < deadline:
+            session.step()
+            time.sleep(0.01)
+        assert session.samples_received >= 500
+        assert session.pose_source == POSE_UNASSIGNED
+        for sensor_id, mounting in result.mounting.items():
+            session.assign_sensor(sensor_id, mounting.segment)
+        while session.samples_received < 1500 and time.monotonic() < deadline:
+            session.step()
+            time.sleep(0.01)
+        assert session.pose_source == POSE_SENSOR_AXES
+        orientations = session.latest_orientations()
+        assert set(orientations) == set(result.samples)
+        for q in orientations.values():
+            assert np.isclose(np.linalg.norm(q), 1.0)
+        assert session.frame() is not None
+    finally:
+        session.stop()
