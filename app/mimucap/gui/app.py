@@ -56,4 +56,7 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
 
         QtCore.QTimer.singleShot(int(round(after_s * 1000)), shoot)
     app.exec_()
+    window.close()
+    window.deleteLater()
+    app.processEvents()  # the VTK context is released while Qt is still alive
     return outcome["code"]
