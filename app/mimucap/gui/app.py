@@ -15,6 +15,18 @@ def has_display(environ=None) -> bool:
     return any(env.get(name) for name in ("DISPLAY", "WAYLAND_DISPLAY", "QT_QPA_PLATFORM"))
 
 
+def _log_to_file(path: Path) -> None:
+    """Warnings and errors of the application also go to ``path`` (the user's config folder)."""
+    import logging
+
+    handler = logging.FileHandler(path, encoding="utf-8")
+    handler.setLevel(logging.INFO)
+    handler.setFormatter(logging.Formatter("%(asctime)s %(levelname)s %(name)s: %(message)s"))
+    root = logging.getLogger("mimucap")
+    root.setLevel(logging.INFO)
+    root.addHandler(handler)
+
+
 def run_gui(source: str | None = None, screenshot: str | Path | None = None, after_s: float = 3.0) -> int:
     """Open the main window on ``source`` (default: the last one chosen) and run the event
     loop; return the exit code.
@@ -31,6 +43,9 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
 
     from mimucap.acquisition.source_spec import parse_source_spec
     from mimucap.gui.main_window import MainWindow
+    from mimucap.gui.settings import config_dir
+
+    _log_to_file(config_dir() / "mimucap.log")
 
     if source is not None:
         parse_source_spec(source)  # a bad spec is a one-line error before any window opens
