@@ -44,3 +44,30 @@ def test_no_display_prints_one_line_and_exits_1():
     done = subprocess.run([sys.executable, "-m", "mimucap", "gui"], capture_output=True, text=True, env=env, timeout=60)
     assert done.returncode == 1
     assert (done.stdout + done.stderr).strip() == MESSAGE
+
+
+def test_a_missing_replay_file_is_one_clear_line(tmp_path):
+    missing = tmp_path / "gone.h5"
+    done = subprocess.run(
+        [sys.executable, "-m", "mimucap", "gui", "--source", f"replay:{missing}", "--screenshot", str(tmp_path / "x.png")],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert done.returncode == 1
+    lines = [line for line in done.stderr.splitlines() if line.startswith("mimucap")]
+    assert lines == [f"mimucap gui: error: cannot open source replay:{missing}: replay file {missing} does not exist"]
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_a_remembered_source_that_went_away_falls_back_to_the_simulated_suit(qtbot, tmp_path):
+    from mimucap.gui.main_window import MainWindow
+    from mimucap.gui.settings import gui_settings
+
+    settings = gui_settings()
+    settings.setValue("source/spec", f"replay:{tmp_path / 'gone.h5'}")
+    settings.sync()
+    window = MainWindow()
+    try:
+        assert window.live.label == "simulated:demo"
+        assert "gone.h5" in window.source_error
+    finally:
+        window.close()

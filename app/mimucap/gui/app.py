@@ -54,8 +54,9 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
     app.setOrganizationName("MimuCap")
     window = MainWindow(source)
     if window.live is None:
+        message = window.source_error or f"cannot open source {source}"
         window.close()
-        raise ValueError(f"cannot open source {source}: see the message above")
+        raise ValueError(message)
     window.show()
     window.start()
     outcome = {"code": 0}

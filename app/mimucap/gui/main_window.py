@@ -23,7 +23,7 @@ from mimucap.gui.scene.view import SceneView
 from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.session_panel import SessionPanel
 from mimucap.gui.settings import gui_settings
-from mimucap.gui.source_dialog import SourceDialog, last_source_spec
+from mimucap.gui.source_dialog import DEFAULT_SPEC, SourceDialog, last_source_spec
 from mimucap.io.calibration_store import user_data_dir
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
@@ -124,7 +124,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self._panel_timer.timeout.connect(self.refresh_panels)
         self._tints: dict[str, str] = {}
         self.scene_view.set_tint_provider(lambda: self._tints)
-        self.open_source(source or last_source_spec())
+        self.source_error: str | None = None
+        if not self.open_source(source or last_source_spec(), interactive=False) and source is None:
+            self.open_source(DEFAULT_SPEC, interactive=False)  # a remembered source that went away
 
     # -- construction ------------------------------------------------------------------------
     def _build_menus(self) -> None:
@@ -212,8 +214,9 @@ class MainWindow(QtWidgets.QMainWindow):
             status.addPermanentWidget(label)
 
     # -- the live session ----------------------------------------------------------------------
-    def open_source(self, spec: str) -> bool:
-        """Stop the current source and start ``spec``; False (and a message) if it fails."""
+    def open_source(self, spec: str, interactive: bool = True) -> bool:
+        """Stop the current source and start ``spec``; False (and a message, in a dialog when
+        ``interactive``, else in the status bar and :attr:`source_error`) if it fails."""
         if self.live is not None and self.live.recording:
             QtWidgets.QMessageBox.warning(self, "Recording", "Stop the recording before changing the source.")
             return False
@@ -221,8 +224,10 @@ class MainWindow(QtWidgets.QMainWindow):
             session = self.session_factory(spec)
         except (ValueError, OSError) as error:
             log.warning("cannot open source %s: %s", spec, error)
+            self.source_error = f"cannot open source {spec}: {error}"
             self.statusBar().showMessage(f"Cannot open source {spec}: {error}")
-            QtWidgets.QMessageBox.warning(self, "Source", f"Cannot open source {spec}:\n{error}\n\nChoose another source (File → Choose Source).")
+            if interactive:
+                QtWidgets.QMessageBox.warning(self, "Source", f"Cannot open source {spec}:\n{error}\n\nChoose another source (File → Choose Source).")
             return False
         self._stop_live()
         self.live = session
