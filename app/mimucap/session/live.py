@@ -165,6 +165,7 @@ class LiveSession:
         self._joint_columns = self._group_columns()
         self._angles = {j: RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
         self._angle_t = RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ))
+        self._pending_angles: list[tuple[float, dict[str, np.ndarray]]] = []
         self._q_world_from_segment: dict[str, np.ndarray] | None = None
         self._root_m: np.ndarray | None = None
         self._pose_source = POSE_NONE
@@ -382,11 +383,23 @@ class LiveSession:
         self._t_s = t_pose
         self._frame_id += 1
         self._geometry = None
-        angles = skeleton.joint_angles_deg(self.model, q_segments)
-        self._angle_t.append([t_pose], [t_pose])
-        for joint, columns in self._joint_columns.items():
-            self._angles[joint].append([t_pose], [[float(angles[c]) for c in columns]])
+        self._pending_angles.append((t_pose, q_segments))
+        if len(self._pending_angles) > self._angle_t.capacity:
+            del self._pending_angles[: len(self._pending_angles) - self._angle_t.capacity]
         self.events.frame.emit(self._frame_id)
+
+    def _flush_angles(self) -> None:
+        """Joint angles of the poses since the last call, computed in one vectorised batch
+        (the plots ask at 30 Hz; poses arrive at up to 100 Hz)."""
+        if not self._pending_angles:
+            return
+        pending, self._pending_angles = self._pending_angles, []
+        t = np.array([p[0] for p in pending])
+        q = {name: np.stack([p[1][name] for p in pending]) for name in self.model.segment_names}
+        angles = skeleton.joint_angles_deg(self.model, q)
+        self._angle_t.append(t, t)
+        for joint, columns in self._joint_columns.items():
+            self._angles[joint].append(t, np.stack([angles[c] for c in columns], axis=-1))
 
     def _filled(self, found: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         order = [(s.name, s.parent) for s in self.model.segments]
@@ -472,6 +485,7 @@ class LiveSession:
     def joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Last ``window_s`` seconds of ``joint``'s angles: ``t_s`` (N,), ``angles_deg`` (N,3)
         in the order of :meth:`joint_columns`."""
+        self._flush_angles()
         buffer = self._angles[joint]
         if not len(buffer):
             return np.zeros(0), np.zeros((0, 3))
