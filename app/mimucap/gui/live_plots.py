@@ -82,7 +82,12 @@ class LivePlots(QtWidgets.QWidget):
             left.setLabel(unit)
             left.setWidth(48)
             plot.getAxis("bottom").enableAutoSIPrefix(False)
-            plot.setLabel("bottom", "time (s)")
+            if row == len(PLOT_SPECS) - 1:
+                plot.setLabel("bottom", "time (s)")
+            else:
+                # The plots share one x range: one time axis (the last) is enough, and a
+                # scrolling axis is the costliest item to repaint (bench/bench_gui.py).
+                plot.hideAxis("bottom")
             plot.getViewBox().setLimits(minYRange=min_range)
             plot.showGrid(x=True, y=True, alpha=0.25)
             plot.setClipToView(True)
