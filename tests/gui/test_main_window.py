@@ -44,8 +44,10 @@ def test_window_starts_and_renders_the_skeleton(window, qtbot):
     assert window.scene_view.skeleton.segment_actors["pelvis"].GetVisibility()
     assert "simulator truth" in window.pose_status.text()
     assert "simulated:demo" in window.source_status.text()
-    # Every segment of the ten-sensor suit has a sensor: tinted "ok".
-    assert {window.scene_view.skeleton.tint_of(s) for s in geometry.segment_names} == {"ok"}
+    # Every segment of the ten-sensor suit has a sensor: tinted "ok" once each has sent data
+    # (until its first sample a sensor is "stale").
+    qtbot.waitUntil(lambda: {window.scene_view.skeleton.tint_of(s) for s in geometry.segment_names} == {"ok"},
+                    timeout=5000)
 
 
 def test_menu_lists_only_working_items(window):
