@@ -71,3 +71,25 @@ def test_a_remembered_source_that_went_away_falls_back_to_the_simulated_suit(qtb
         assert "gone.h5" in window.source_error
     finally:
         window.close()
+
+
+def test_review_option_opens_the_session_and_a_missing_file_is_one_line(tmp_path):
+    session = tmp_path / "walk.h5"
+    made = subprocess.run([sys.executable, "-m", "mimucap", "simulate", "--scenario", "walk", "--duration", "3",
+                           "--out", str(session)], capture_output=True, text=True, timeout=120)
+    assert made.returncode == 0, made.stderr
+    out = tmp_path / "review.png"
+    done = subprocess.run(
+        [sys.executable, "-m", "mimucap", "gui", "--source", "simulated", "--review", str(session),
+         "--screenshot", str(out), "--after", "1.5"],
+        capture_output=True, text=True, timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    pixels = _pixels(out)
+    blue = (pixels[..., 2] - pixels[..., 0]) > 60  # the figure, shown by the review window
+    assert np.count_nonzero(blue) > 2000
+    missing = tmp_path / "gone.h5"
+    done = subprocess.run([sys.executable, "-m", "mimucap", "gui", "--review", str(missing)],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 1
+    assert done.stderr.strip() == f"mimucap gui: error: session file not found: {missing}"

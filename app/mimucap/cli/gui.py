@@ -21,10 +21,12 @@ def register(subparsers) -> None:
     parser.add_argument("--screenshot", metavar="PATH", default=None, help="write the window to this PNG and exit")
     parser.add_argument("--after", metavar="SECONDS", type=float, default=3.0,
                         help="seconds to wait before the screenshot (default 3)")
+    parser.add_argument("--review", metavar="FILE", default=None,
+                        help="also open this recorded session (.h5) for review (with --screenshot: shoot the review window)")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from mimucap.gui.app import run_gui
 
-    return run_gui(source=args.source, screenshot=args.screenshot, after_s=args.after)
+    return run_gui(source=args.source, screenshot=args.screenshot, after_s=args.after, review=args.review)

@@ -27,12 +27,15 @@ def _log_to_file(path: Path) -> None:
     root.addHandler(handler)
 
 
-def run_gui(source: str | None = None, screenshot: str | Path | None = None, after_s: float = 3.0) -> int:
+def run_gui(source: str | None = None, screenshot: str | Path | None = None, after_s: float = 3.0,
+            review: str | Path | None = None) -> int:
     """Open the main window on ``source`` (default: the last one chosen) and run the event
     loop; return the exit code.
 
-    With ``screenshot``, the window (3D view included) is written to that PNG ``after_s``
-    seconds after it appeared and the application quits with 0.
+    With ``review``, that recorded session also opens in a review window. With
+    ``screenshot``, the window (the review window when ``review`` is given; 3D view included)
+    is written to that PNG ``after_s`` seconds after it appeared and the application quits
+    with 0.
     """
     if not has_display():
         print(NO_DISPLAY_MESSAGE, file=sys.stderr)
@@ -42,6 +45,7 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
     from PyQt5 import QtCore, QtWidgets
 
     from mimucap.acquisition.source_spec import parse_source_spec
+    from mimucap.gui.capture import save_window_png
     from mimucap.gui.main_window import MainWindow
     from mimucap.gui.settings import config_dir
 
@@ -49,6 +53,8 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
 
     if source is not None:
         parse_source_spec(source)  # a bad spec is a one-line error before any window opens
+    if review is not None and not Path(review).is_file():
+        raise FileNotFoundError(f"session file not found: {review}")
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([sys.argv[0]])
     app.setApplicationName("MimuCap")
     app.setOrganizationName("MimuCap")
@@ -59,14 +65,20 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
         raise ValueError(message)
     window.show()
     window.start()
+    shown = window.open_review(review) if review is not None else window
     outcome = {"code": 0}
     if screenshot is not None:
         def shoot() -> None:
             try:
-                window.save_screenshot(screenshot)
+                if shown is window:
+                    window.save_screenshot(screenshot)
+                else:
+                    save_window_png(shown, screenshot)
             except OSError as error:
                 print(f"mimucap gui: error: {error}", file=sys.stderr)
                 outcome["code"] = 1
+            if shown is not window:
+                shown.close()
             window.close()
             app.quit()
 
