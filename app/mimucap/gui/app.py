@@ -42,12 +42,13 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
         return 1
     if after_s < 0 or after_s != after_s:
         raise ValueError(f"--after must be a number of seconds >= 0, got {after_s}")
-    from PyQt5 import QtCore, QtWidgets
+    from PyQt5 import QtCore, QtGui, QtWidgets
 
     from mimucap.acquisition.source_spec import parse_source_spec
     from mimucap.gui.capture import save_window_png
     from mimucap.gui.main_window import MainWindow
     from mimucap.gui.settings import config_dir
+    from mimucap.resources import resource_path
 
     _log_to_file(config_dir() / "mimucap.log")
 
@@ -58,6 +59,8 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication([sys.argv[0]])
     app.setApplicationName("MimuCap")
     app.setOrganizationName("MimuCap")
+    app.setDesktopFileName("mimucap")  # matches packaging/mimucap.desktop
+    app.setWindowIcon(QtGui.QIcon(str(resource_path("icons/mimucap.svg"))))
     window = MainWindow(source)
     if window.live is None:
         message = window.source_error or f"cannot open source {source}"
