@@ -25,7 +25,7 @@ from mimucap.core.magcal import MagCalibration
 from mimucap.core.simulate import SimulationConfig, SuitSimulator
 from mimucap.gui.wizards.body import BodyCalibrationWizard
 from mimucap.gui.wizards.magnetometer import MagnetometerWizard
-from mimucap.gui.wizards.screenshot import grab_page
+from mimucap.gui.capture import grab_window
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.bodycal_procedure import BodycalProcedureSettings
 
@@ -48,7 +48,7 @@ def _until(app: QtWidgets.QApplication, wizard, done: Callable[[], bool], steps:
 def _save(app, wizard, out_dir: Path, name: str, written: list[Path]) -> None:
     app.processEvents()
     path = out_dir / f"wizard-{name}.png"
-    grab_page(wizard).save(str(path))
+    grab_window(wizard).save(str(path), "PNG")
     written.append(path)
 
 

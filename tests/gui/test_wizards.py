@@ -19,7 +19,7 @@ from mimucap.core import rotation as rot
 from mimucap.core.simulate import SimulationConfig, SuitSimulator
 from mimucap.core.simulate_sensors import error_model
 from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
-from mimucap.gui.wizards.screenshot import grab_page
+from mimucap.gui.capture import grab_window
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.bodycal_procedure import BodycalProcedureSettings
 from mimucap.session.calibration_feed import SimulatedSuitFeed
@@ -61,7 +61,7 @@ def test_magnetometer_wizard_calibrates_several_sensors_at_once(qtbot, magnetome
     qtbot.waitUntil(lambda: wizard.procedure.status().axis_to_turn == "y", timeout=20000)
     assert wizard.axis_bars["x"].value() == 100 and wizard.picture.description == "turn about y"
     qtbot.waitUntil(lambda: wizard.view.fit_shown is not None and wizard.view.raw_cloud.count > 200, timeout=20000)
-    page = grab_page(wizard)
+    page = grab_window(wizard).toImage()
     vtk = wizard.view.vtk_widget
     corner = vtk.mapTo(wizard, QtCore.QPoint(0, 0))
     pixels = {page.pixel(corner.x() + x, corner.y() + y)

@@ -12,16 +12,15 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 
-import numpy as np
 import vtkmodules.vtkInteractionStyle  # noqa: F401  (registers the interactor styles)
 import vtkmodules.vtkRenderingFreeType  # noqa: F401  (text for the axes labels)
 import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (the OpenGL back end)
 from PyQt5 import QtCore, QtGui, QtWidgets
 from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
-from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkInteractionStyle import vtkInteractorStyleTrackballCamera
-from vtkmodules.vtkRenderingCore import vtkRenderer, vtkWindowToImageFilter
+from vtkmodules.vtkRenderingCore import vtkRenderer
 
+from mimucap.gui.capture import render_window_image
 from mimucap.gui.scene.environment import Stage
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
 from mimucap.session.camera import CAMERA_PRESETS, camera_preset
@@ -211,15 +210,4 @@ class SceneView(QtWidgets.QWidget):
         """The current 3D view as a ``QImage`` (read back from the render window)."""
         if not self._alive:
             raise RuntimeError("the 3D view is closed")
-        self.render_window.Render()
-        capture = vtkWindowToImageFilter()
-        capture.SetInput(self.render_window)
-        capture.SetInputBufferTypeToRGB()
-        capture.ReadFrontBufferOff()
-        capture.Update()
-        image = capture.GetOutput()
-        width, height, _ = image.GetDimensions()
-        pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(height, width, 3)
-        pixels = np.ascontiguousarray(pixels[::-1])  # VTK rows run bottom-up
-        qimage = QtGui.QImage(pixels.data, width, height, 3 * width, QtGui.QImage.Format_RGB888)
-        return qimage.copy()
+        return render_window_image(self.render_window)

@@ -23,7 +23,7 @@ import vtkmodules.vtkRenderingFreeType  # noqa: F401  (text actors)
 import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (the OpenGL back end)
 from PyQt5 import QtGui, QtWidgets
 from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
-from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
+from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
 from vtkmodules.vtkCommonCore import vtkLookupTable, vtkPoints
 from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
 from vtkmodules.vtkCommonMath import vtkMatrix4x4
@@ -35,10 +35,10 @@ from vtkmodules.vtkRenderingCore import (
     vtkPolyDataMapper,
     vtkRenderer,
     vtkTextActor,
-    vtkWindowToImageFilter,
 )
 
 from mimucap.core.magcal_fit import EllipsoidFit
+from mimucap.gui.capture import render_window_image
 
 ELLIPSOID_COLOUR = (0.95, 0.62, 0.18)
 SPHERE_COLOUR = (0.35, 0.75, 0.45)
@@ -264,16 +264,7 @@ class EllipsoidView(QtWidgets.QWidget):
     def grab_image(self) -> QtGui.QImage:
         """The VTK view as a ``QImage`` (read back from the render window)."""
         self.start()
-        self.render_window.Render()
-        capture = vtkWindowToImageFilter()
-        capture.SetInput(self.render_window)
-        capture.SetInputBufferTypeToRGB()
-        capture.ReadFrontBufferOff()
-        capture.Update()
-        image = capture.GetOutput()
-        width, height, _ = image.GetDimensions()
-        pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(height, width, 3)[::-1].copy()
-        return QtGui.QImage(pixels.data, width, height, 3 * width, QtGui.QImage.Format_RGB888).copy()
+        return render_window_image(self.render_window)
 
 
 class FieldMagnitudePlot(pg.PlotWidget):
