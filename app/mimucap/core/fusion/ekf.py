@@ -65,6 +65,16 @@ def _channel(name: str, values, n_sensors: int, n: int, single: bool) -> np.ndar
     return _kernel_array(array)
 
 
+def _time_grid(t_s, n_sensors: int, n: int) -> np.ndarray:
+    """Sample times (s) as ``(n_sensors, n)``: one shared ``(n,)`` row or one row per sensor."""
+    t = np.asarray(t_s, dtype=np.float64)
+    if t.shape == (n,):
+        return np.broadcast_to(t, (n_sensors, n))
+    if t.shape != (n_sensors, n):
+        raise ValueError(f"t_s: expected shape ({n},) or ({n_sensors}, {n}), got {t.shape}")
+    return t
+
+
 def _kernel_array(array: np.ndarray) -> np.ndarray:
     """C-contiguous, writeable float64 (one compiled kernel type, whatever the caller passed:
     read-only, broadcast or strided arrays would each need their own compilation)."""
@@ -117,11 +127,7 @@ class OrientationEKF:
         gyr = _channel("gyr", gyr_in, s_count, n, single)
         acc = None if acc_m_s2 is None else _channel("acc", acc_m_s2, s_count, n, single)
         mag = None if mag_uT is None else _channel("mag", mag_uT, s_count, n, single)
-        t = np.asarray(t_s, dtype=np.float64)
-        if t.shape == (n,):
-            t = np.broadcast_to(t, (s_count, n))
-        elif t.shape != (s_count, n):
-            raise ValueError(f"t_s: expected shape ({n},) or ({s_count}, {n}), got {t.shape}")
+        t = _time_grid(t_s, s_count, n)
         out_q = np.empty((s_count, n, 4))
         out_b = np.empty((s_count, n, 3))
         out_f = np.zeros((s_count, n), dtype=np.uint8)

@@ -197,6 +197,22 @@ def _inject(q, b, dx, bias_max):
         dx[i] = 0.0
 
 
+@njit(inline="always", **JIT_OPTIONS)
+def _store_prior(k, q, b, P, A, use_a, st_q, st_b, st_pp, st_a):
+    """Keep sample ``k``'s prior state for the smoother: q (4,), bias (3,), covariance (6, 6)
+    and the attitude block of the transition (3, 3), zero when ``use_a`` is false."""
+    for i in range(4):
+        st_q[k, i] = q[i]
+    for i in range(3):
+        st_b[k, i] = b[i]
+    for i in range(6):
+        for j in range(6):
+            st_pp[k, i, j] = P[i, j]
+    for i in range(3):
+        for j in range(3):
+            st_a[k, i, j] = A[i, j] if use_a else 0.0
+
+
 @njit(**JIT_OPTIONS)
 def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
               store, st_q, st_b, st_pp, st_pu, st_a):
@@ -285,16 +301,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     mwz = R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz
                     mag_accept(p, aux, math.sqrt(m2), math.atan2(-mwz, math.hypot(mwx, mwy)), 0.0, 0.0)
                 if store:
-                    for i in range(4):
-                        st_q[k, i] = q[i]
-                    for i in range(3):
-                        st_b[k, i] = b[i]
-                    for i in range(6):
-                        for j in range(6):
-                            st_pp[k, i, j] = P[i, j]
-                    for i in range(3):
-                        for j in range(3):
-                            st_a[k, i, j] = 0.0
+                    _store_prior(k, q, b, P, A, False, st_q, st_b, st_pp, st_a)
             else:
                 flags |= FLAG_UNINITIALISED
                 if not gyr_ok:
@@ -330,17 +337,10 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     out_bias[k, i] = b[i]
                 out_flags[k] = flags
                 if store:
-                    for i in range(4):
-                        st_q[k, i] = q[i]
-                    for i in range(3):
-                        st_b[k, i] = b[i]
+                    _store_prior(k, q, b, P, A, False, st_q, st_b, st_pp, st_a)
                     for i in range(6):
                         for j in range(6):
-                            st_pp[k, i, j] = P[i, j]
                             st_pu[k, i, j] = P[i, j]
-                    for i in range(3):
-                        for j in range(3):
-                            st_a[k, i, j] = 0.0
                 continue
             aux[AX_T_LAST] = t[k]
             wx, wy, wz = gx - b[0], gy - b[1], gz - b[2]
@@ -395,16 +395,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     P[i, i] += v
                     P[3 + i, 3 + i] += vb
             if store:
-                for i in range(4):
-                    st_q[k, i] = q[i]
-                for i in range(3):
-                    st_b[k, i] = b[i]
-                for i in range(6):
-                    for j in range(6):
-                        st_pp[k, i, j] = P[i, j]
-                for i in range(3):
-                    for j in range(3):
-                        st_a[k, i, j] = A[i, j]
+                _store_prior(k, q, b, P, A, True, st_q, st_b, st_pp, st_a)
 
             if not correct:
                 acc_ok = mag_ok = False

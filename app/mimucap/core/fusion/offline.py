@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-from mimucap.core.fusion.ekf import FusionResult, OrientationEKF
+from mimucap.core.fusion.ekf import FusionResult, OrientationEKF, _channel, _time_grid
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
 from mimucap.core.fusion.jit import JIT_OPTIONS
 from mimucap.core.fusion.propagation import exp_quat, quat_multiply, quat_normalise
@@ -131,21 +131,9 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
     gyr3 = gyr[None] if single else gyr
     n_sensors, n = gyr3.shape[0], gyr3.shape[1]
 
-    def channel(values, name):
-        if values is None:
-            return None
-        array = np.asarray(values, dtype=np.float64)
-        array = array[None] if single else array
-        if array.shape != gyr3.shape:
-            raise ValueError(f"{name}: expected shape {gyr.shape}, got {np.asarray(values).shape}")
-        return array
-
-    acc3, mag3 = channel(acc_m_s2, "acc"), channel(mag_uT, "mag")
-    t = np.asarray(t_s, dtype=np.float64)
-    if t.shape == (n,):
-        t = np.broadcast_to(t, (n_sensors, n))
-    elif t.shape != (n_sensors, n):
-        raise ValueError(f"t_s: expected shape ({n},) or ({n_sensors}, {n}), got {t.shape}")
+    acc3 = None if acc_m_s2 is None else _channel("acc", acc_m_s2, n_sensors, n, single)
+    mag3 = None if mag_uT is None else _channel("mag", mag_uT, n_sensors, n, single)
+    t = _time_grid(t_s, n_sensors, n)
     out_q = np.empty((n_sensors, n, 4))
     out_b = np.empty((n_sensors, n, 3))
     flags = np.zeros((n_sensors, n), dtype=np.uint8)
