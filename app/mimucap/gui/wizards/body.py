@@ -23,13 +23,14 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
-from PyQt5 import QtCore, QtGui, QtWidgets
+from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core import skeleton
 from mimucap.core.bodycal import fill_missing_segments
 from mimucap.core.simulate import SuitSimulator
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.wizards.pictures import PictureWidget
+from mimucap.gui.wizards.dialog import CalibrationDialog
 from mimucap.session.bodycal_procedure import ARMS, BodycalProcedure, BodycalProcedureSettings
 from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
 from mimucap.session.figure import FigureBuilder
@@ -41,7 +42,7 @@ METER_FULL_SCALE_DEG = 10.0
 NO_SENSOR = "(none)"
 
 
-class BodyCalibrationWizard(QtWidgets.QDialog):
+class BodyCalibrationWizard(CalibrationDialog):
     """Guided N-pose/T-pose body calibration.
 
     ``live_session``: the main window's live pipeline (source, model, height, and where an
@@ -409,18 +410,5 @@ class BodyCalibrationWizard(QtWidgets.QDialog):
         self.scene.start()
         self.scene._tick()
 
-    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
-        self.shutdown()
-        super().closeEvent(event)
-
-    def done(self, result: int) -> None:  # noqa: D401 (Qt API)
-        self.shutdown()
-        super().done(result)
-
-    def shutdown(self) -> None:
-        """Stop the timer and release the 3D view."""
-        self.timer.stop()
-        close = getattr(self.feed, "close", None)
-        if callable(close):
-            close()
-        self.scene.shutdown()
+    def vtk_view(self):
+        return self.scene

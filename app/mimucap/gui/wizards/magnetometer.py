@@ -42,6 +42,7 @@ from mimucap.session.magcal_procedure import (
 )
 from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
 from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget
+from mimucap.gui.wizards.dialog import CalibrationDialog
 
 PROTOCOL_LABELS = {
     "single_axis": "One turn about each sensor axis (recommended)",
@@ -56,7 +57,7 @@ def _matrix_text(m: np.ndarray) -> str:
     return "\n".join("  ".join(f"{v:+.3f}" for v in row) for row in np.asarray(m))
 
 
-class MagnetometerWizard(QtWidgets.QDialog):
+class MagnetometerWizard(CalibrationDialog):
     """Guided magnetometer calibration.
 
     ``live_session``: the main window's live session (read through
@@ -469,20 +470,10 @@ class MagnetometerWizard(QtWidgets.QDialog):
         else:
             self._refresh_views(force=True)
 
-    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
-        self.shutdown()
-        super().closeEvent(event)
+    def vtk_view(self):
+        return self.view
 
-    def done(self, result: int) -> None:  # noqa: D401 (Qt API)
-        self.shutdown()
-        super().done(result)
-
-    def shutdown(self) -> None:
-        """Stop the timer and release the 3D view."""
-        self.timer.stop()
+    def before_shutdown(self) -> None:
+        """A simulated subject still turning its sensors puts them back (N-pose)."""
         if self.procedure is not None and self.procedure.phase == "recording" and self.feed.simulated:
             self.feed.request_activity("npose")
-        close = getattr(self.feed, "close", None)
-        if callable(close):
-            close()
-        self.view.shutdown()

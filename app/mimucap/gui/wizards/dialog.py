@@ -1,0 +1,36 @@
+"""The life cycle both calibration wizards share: a tick timer driving a procedure from a
+sample feed, and one 3D view; closing or finishing the dialog stops the timer, closes the
+feed and releases the view, so nothing renders or reads samples afterwards."""
+
+from __future__ import annotations
+
+from PyQt5 import QtGui, QtWidgets
+
+
+class CalibrationDialog(QtWidgets.QDialog):
+    """Base of the wizards. Subclasses set ``self.timer`` (QTimer), ``self.feed`` (a sample
+    feed, optionally with ``close()``) and return their 3D view from :meth:`vtk_view`."""
+
+    def vtk_view(self):
+        """The wizard's VTK view (anything with ``shutdown()``)."""
+        raise NotImplementedError
+
+    def before_shutdown(self) -> None:
+        """Hook run after the timer stops and before the feed closes (default: nothing)."""
+
+    def shutdown(self) -> None:
+        """Stop the timer, close the feed and release the 3D view."""
+        self.timer.stop()
+        self.before_shutdown()
+        close = getattr(self.feed, "close", None)
+        if callable(close):
+            close()
+        self.vtk_view().shutdown()
+
+    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+        self.shutdown()
+        super().closeEvent(event)
+
+    def done(self, result: int) -> None:  # noqa: D401 (Qt API)
+        self.shutdown()
+        super().done(result)
