@@ -47,7 +47,7 @@ def make_screenshots(out_dir: Path) -> list[Path]:
         _wait(app, lambda: time.monotonic() - start > 3.0, 10, "recording")
         window.add_marker("heel strike")
         _wait(app, lambda: time.monotonic() - start > 6.0, 10, "recording")
-        window.plots.joint_combo.setCurrentText("knee_r")
+        window.plots.set_joints(["knee_r", "hip_r"])
         window.add_marker("turn")
         window.refresh_panels()
         app.processEvents()

@@ -1,11 +1,16 @@
 """Scrolling plots (pyqtgraph) of the selected sensor's accelerometer, gyroscope and magnetometer
-and of the selected joint's three angles.
+and of the selected joints' three angles.
 
 The data comes from a *plot source* (the live session, or the review player), which offers
 ``sensor_ids``, ``joint_names``, ``joint_columns(joint)``, ``series(sensor_id, window_s)`` →
 ``(t_s, acc, gyr, mag_uT)`` and ``joint_series(joint, window_s)`` → ``(t_s, angles_deg (N,3))``,
-and ``cursor_s`` (the time the 3D view shows). Curves are created once; one ``QTimer``
-(:data:`REFRESH_HZ`) calls ``setData`` on them; nothing is plotted while paused.
+and ``cursor_s`` (the time the 3D view shows). Curves are created once per plot; one
+``QTimer`` (:data:`REFRESH_HZ`) calls ``setData`` on them; nothing is plotted while paused.
+
+Live, the time axis is fixed and reads seconds before the pose shown (``-10 … 0``), so the
+axes and grid never need redrawing; in review it reads session time around the play head.
+The vertical ranges follow the data with hysteresis (:class:`_SteadyRange`) instead of
+pyqtgraph's auto-range, which re-laid out every axis on every refresh (``bench/bench_gui.py``).
 """
 
 from __future__ import annotations
@@ -20,21 +25,66 @@ from PyQt5 import QtCore, QtWidgets
 REFRESH_HZ = 30.0
 #: Selectable scrolling window lengths (s).
 WINDOW_CHOICES_S = (5.0, 10.0, 20.0, 30.0)
+#: At most this many joints are plotted at once (one plot each).
+MAX_JOINTS = 3
+DEFAULT_JOINT = "knee_r"
 AXIS_PENS = ("#d62728", "#2ca02c", "#1f77b4")
 AXIS_NAMES = ("x", "y", "z")
 #: (key, title, unit, smallest y range shown so that noise is not blown up to full height).
-PLOT_SPECS = (
+SENSOR_PLOTS = (
     ("acc", "Accelerometer", "m/s²", 2.0),
     ("gyr", "Gyroscope", "rad/s", 0.5),
     ("mag", "Magnetometer", "µT", 10.0),
-    ("angles", "Joint angles", "deg", 10.0),
 )
+ANGLE_UNIT, ANGLE_MIN_RANGE = "deg", 10.0
+#: Seconds a plot's data must stay well inside its range before the range shrinks.
+SHRINK_AFTER_S = 2.0
 
 pg.setConfigOptions(antialias=False, background="w", foreground="k")
 
 
+class _SteadyRange:
+    """A vertical range that grows at once to hold the data and shrinks only after the data
+    has used less than half of it for :data:`SHRINK_AFTER_S` (a steady axis is cheap to draw
+    and easy to read)."""
+
+    def __init__(self, min_span: float) -> None:
+        self.min_span = float(min_span)
+        self.low, self.high = -0.5 * self.min_span, 0.5 * self.min_span
+        self._small_since: float | None = None
+
+    def update(self, values: np.ndarray, now_s: float) -> bool:
+        """Fit the range to ``values`` (any shape, NaN ignored); True if it changed."""
+        finite = values[np.isfinite(values)]
+        if finite.size == 0:
+            return False
+        lo, hi = float(finite.min()), float(finite.max())
+        span = max(hi - lo, self.min_span)
+        centre = 0.5 * (lo + hi)
+        wanted = (centre - 0.6 * span, centre + 0.6 * span)  # 10 % margin on each side
+        if lo < self.low or hi > self.high:
+            self.low, self.high = wanted
+            self._small_since = None
+            return True
+        if span < 0.5 * (self.high - self.low) and (self.high - self.low) > 1.2 * self.min_span + 1e-12:
+            if self._small_since is None:
+                self._small_since = now_s
+            elif now_s - self._small_since >= SHRINK_AFTER_S:
+                self.low, self.high = wanted
+                self._small_since = None
+                return True
+        else:
+            self._small_since = None
+        return False
+
+
 class LivePlots(QtWidgets.QWidget):
-    """Four stacked plots with sensor/joint/window selectors and a pause button.
+    """Stacked plots (sensor: acc, gyr, mag; one per selected joint) with sensor, joint and
+    window selectors and a pause button.
+
+    Attributes:
+        relative_time: True (live) shows the time axis as seconds before the cursor;
+            False (review) shows session time.
 
     Signals:
         refreshed(float): after each refresh that drew new data (``time.perf_counter()``).
@@ -42,14 +92,20 @@ class LivePlots(QtWidgets.QWidget):
 
     refreshed = QtCore.pyqtSignal(float)
 
-    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+    def __init__(self, parent: QtWidgets.QWidget | None = None, relative_time: bool = False) -> None:
         super().__init__(parent)
         self.setObjectName("livePlots")
         self.source = None
+        self.relative_time = bool(relative_time)
         self.sensor_combo = QtWidgets.QComboBox(self)
         self.sensor_combo.setObjectName("plotSensor")
-        self.joint_combo = QtWidgets.QComboBox(self)
-        self.joint_combo.setObjectName("plotJoint")
+        self.joint_button = QtWidgets.QToolButton(self)
+        self.joint_button.setObjectName("plotJoints")
+        self.joint_button.setPopupMode(QtWidgets.QToolButton.InstantPopup)
+        self.joint_button.setMinimumWidth(96)
+        self.joint_menu = QtWidgets.QMenu(self.joint_button)
+        self.joint_button.setMenu(self.joint_menu)
+        self.joint_actions: dict[str, QtWidgets.QAction] = {}
         self.window_combo = QtWidgets.QComboBox(self)
         self.window_combo.setObjectName("plotWindow")
         for seconds in WINDOW_CHOICES_S:
@@ -62,7 +118,7 @@ class LivePlots(QtWidgets.QWidget):
         self.pause_button.toggled.connect(self._paused_changed)
 
         bar = QtWidgets.QHBoxLayout()
-        for text, widget in (("Sensor", self.sensor_combo), ("Joint", self.joint_combo), ("Window", self.window_combo)):
+        for text, widget in (("Sensor", self.sensor_combo), ("Joints", self.joint_button), ("Window", self.window_combo)):
             label = QtWidgets.QLabel(text, self)
             label.setBuddy(widget)
             bar.addWidget(label)
@@ -73,55 +129,145 @@ class LivePlots(QtWidgets.QWidget):
         self.layout_widget = pg.GraphicsLayoutWidget(self)
         self.plots: dict[str, pg.PlotItem] = {}
         self.curves: dict[str, list[pg.PlotDataItem]] = {}
-        self.cursors: list[pg.InfiniteLine] = []
-        for row, (key, title, unit, min_range) in enumerate(PLOT_SPECS):
-            plot = self.layout_widget.addPlot(row=row, col=0)
-            plot.setTitle(title, size="9pt")
-            left = plot.getAxis("left")
-            left.enableAutoSIPrefix(False)
-            left.setLabel(unit)
-            left.setWidth(48)
-            plot.getAxis("bottom").enableAutoSIPrefix(False)
-            if row == len(PLOT_SPECS) - 1:
-                plot.setLabel("bottom", "time (s)")
-            else:
-                # The plots share one x range: one time axis (the last) is enough, and a
-                # scrolling axis is the costliest item to repaint (bench/bench_gui.py).
-                plot.hideAxis("bottom")
-            plot.getViewBox().setLimits(minYRange=min_range)
-            plot.showGrid(x=True, y=True, alpha=0.25)
-            plot.setClipToView(True)
-            plot.setDownsampling(auto=True, mode="peak")
-            plot.addLegend(offset=(-5, 5), labelTextSize="8pt")
-            curves = []
-            for axis in range(3):
-                curve = plot.plot(pen=pg.mkPen(AXIS_PENS[axis], width=1), name=AXIS_NAMES[axis])
-                curves.append(curve)
-            cursor = pg.InfiniteLine(angle=90, movable=False, pen=pg.mkPen("#444", width=1, style=QtCore.Qt.DashLine))
-            plot.addItem(cursor, ignoreBounds=True)
-            self.cursors.append(cursor)
-            self.plots[key] = plot
-            self.curves[key] = curves
-        for key in ("gyr", "mag", "angles"):
-            self.plots[key].setXLink(self.plots["acc"])
+        self.cursors: dict[str, pg.InfiniteLine] = {}
+        self._ranges: dict[str, _SteadyRange] = {}
+        self._titles: dict[str, str] = {}
+        self.selected_joints: list[str] = []
+        for key, title, unit, min_range in SENSOR_PLOTS:
+            self._add_plot(key, title, unit, min_range, AXIS_NAMES)
+        self._time_axis_key = ""
+        self._place_time_axis()
 
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addLayout(bar)
         layout.addWidget(self.layout_widget, 1)
 
-        self.joint_combo.currentIndexChanged.connect(self._joint_changed)
+        self.window_combo.currentIndexChanged.connect(self._fix_x_range)
         self._timer = QtCore.QTimer(self)
         self._timer.setInterval(int(round(1000.0 / REFRESH_HZ)))
         self._timer.timeout.connect(self.refresh)
         self.refresh_count = 0
         self._titled_sensor = ""
+        self._origin = 0.0  # source time at x = 0 in the last refresh (s)
         self.refresh_times: list[float] = []
+        self._fix_x_range()
+
+    # -- plot rows ---------------------------------------------------------------------------
+    def _add_plot(self, key: str, title: str, unit: str, min_range: float, names) -> None:
+        plot = self.layout_widget.addPlot(row=len(self.plots), col=0)
+        plot.setMenuEnabled(False)
+        plot.hideButtons()
+        left = plot.getAxis("left")
+        left.enableAutoSIPrefix(False)
+        left.setLabel(unit)
+        left.setWidth(48)
+        plot.getAxis("bottom").enableAutoSIPrefix(False)
+        plot.hideAxis("bottom")
+        view = plot.getViewBox()
+        view.disableAutoRange()
+        view.setMouseEnabled(x=False, y=True)
+        plot.showGrid(x=True, y=True, alpha=0.25)
+        curves = [plot.plot(pen=pg.mkPen(AXIS_PENS[axis], width=1), name=names[axis]) for axis in range(3)]
+        # Axes, legend and title change rarely: keep each as a pixmap instead of re-drawing
+        # its text and ticks on every refresh.
+        cached = QtWidgets.QGraphicsItem.DeviceCoordinateCache
+        for item in (plot.getAxis("left"), plot.getAxis("bottom"), plot.titleLabel):
+            item.setCacheMode(cached)
+        cursor = pg.InfiniteLine(angle=90, movable=False, pen=pg.mkPen("#444", width=1, style=QtCore.Qt.DashLine))
+        plot.addItem(cursor, ignoreBounds=True)
+        if self.plots:
+            plot.setXLink(next(iter(self.plots.values())))
+        self.plots[key] = plot
+        self.curves[key] = curves
+        self._titles[key] = title
+        self._set_title(key, title)
+        self.cursors[key] = cursor
+        self._ranges[key] = _SteadyRange(min_range)
+        plot.setYRange(self._ranges[key].low, self._ranges[key].high, padding=0)
+
+    def _set_title(self, key: str, title: str) -> None:
+        """Title ``key``'s plot; the curve names follow in their colours (a legend inside the
+        short plots would hide the newest data)."""
+        names = " ".join(f'<span style="color:{pen}">&#9632;{curve.opts["name"]}</span>'
+                         for pen, curve in zip(AXIS_PENS, self.curves[key]))
+        self.plots[key].setTitle(f"<b>{title}</b>&nbsp;&nbsp;{names}", size="9pt")
+        self.plots[key].titleLabel.setMinimumWidth(0)  # a long title is cut, never widens the plot
+
+    def title_text(self, key: str) -> str:
+        """The title shown above plot ``key`` (``acc``, ``gyr``, ``mag`` or ``joint:<name>``)."""
+        return self.plots[key].titleLabel.text
+
+    def _remove_plot(self, key: str) -> None:
+        plot = self.plots.pop(key)
+        del self.curves[key], self.cursors[key], self._ranges[key], self._titles[key]
+        self.layout_widget.removeItem(plot)
+        plot.deleteLater()
+
+    def _place_time_axis(self) -> None:
+        """Show the time axis (and vertical grid) on the bottom plot only: the plots share one
+        time range, and a time axis is the costliest item to draw."""
+        last = list(self.plots)[-1]
+        if last == self._time_axis_key:
+            return
+        if self._time_axis_key in self.plots:
+            self.plots[self._time_axis_key].hideAxis("bottom")
+        plot = self.plots[last]
+        plot.showAxis("bottom")
+        plot.setLabel("bottom", "time before the pose shown (s)" if self.relative_time else "time (s)")
+        self._time_axis_key = last
+
+    def _joint_key(self, joint: str) -> str:
+        return f"joint:{joint}"
+
+    def set_joints(self, joints) -> None:
+        """Plot the angles of ``joints`` (at most :data:`MAX_JOINTS`, known to the source)."""
+        joints = list(dict.fromkeys(joints))
+        if len(joints) > MAX_JOINTS:
+            raise ValueError(f"at most {MAX_JOINTS} joints can be plotted at once, got {len(joints)}")
+        known = set(self.source.joint_names) if self.source is not None else set(joints)
+        unknown = [j for j in joints if j not in known]
+        if unknown:
+            raise ValueError(f"unknown joint(s): {', '.join(unknown)}")
+        for joint in self.selected_joints:
+            self._remove_plot(self._joint_key(joint))
+        for joint in joints:
+            self._add_joint_plot(joint)
+        self.selected_joints = joints
+        self._place_time_axis()
+        for joint, action in self.joint_actions.items():
+            action.blockSignals(True)
+            action.setChecked(joint in joints)
+            action.setEnabled(joint in joints or len(joints) < MAX_JOINTS)
+            action.blockSignals(False)
+        self.joint_button.setText(joints[0] + (f" +{len(joints) - 1}" if len(joints) > 1 else "") if joints else "(none)")
+        self.joint_button.setToolTip(f"Joints plotted (up to {MAX_JOINTS}): {', '.join(joints) or 'none'}")
+        self._fix_x_range()
+        self.refresh()
+
+    def _add_joint_plot(self, joint: str) -> None:
+        columns = self.source.joint_columns(joint) if self.source is not None else AXIS_NAMES
+        names = []
+        for column in columns:
+            label = column[len(joint) + 1:] if column.startswith(joint + "_") else column
+            names.append(label.removesuffix("_deg").replace("_", " "))
+        self._add_plot(self._joint_key(joint), f"{joint} angles", ANGLE_UNIT, ANGLE_MIN_RANGE, names)
+
+    def _joint_toggled(self, joint: str, on: bool) -> None:
+        joints = [j for j in self.selected_joints if j != joint]
+        if on:
+            joints.append(joint)
+        self.set_joints(joints[:MAX_JOINTS])
 
     # -- wiring ------------------------------------------------------------------------------
     def set_source(self, source) -> None:
         """Show data of ``source`` (a live session or a review player)."""
         self.source = source
+        for joint in self.selected_joints:
+            self._remove_plot(self._joint_key(joint))
+        self.selected_joints = []
+        self.joint_menu.clear()
+        self.joint_actions = {}
         self.update_choices()
 
     def update_choices(self) -> None:
@@ -138,31 +284,18 @@ class LivePlots(QtWidgets.QWidget):
                 self.sensor_combo.setCurrentText(current_sensor)
             self.sensor_combo.blockSignals(False)
         joints = list(self.source.joint_names)
-        if [self.joint_combo.itemText(i) for i in range(self.joint_combo.count())] != joints:
-            current_joint = self.joint_combo.currentText()
-            self.joint_combo.blockSignals(True)
-            self.joint_combo.clear()
-            self.joint_combo.addItems(joints)
-            if current_joint in joints:
-                self.joint_combo.setCurrentText(current_joint)
-            elif "knee_r" in joints:
-                self.joint_combo.setCurrentText("knee_r")
-            self.joint_combo.blockSignals(False)
-            self._joint_changed()
-
-    def _joint_changed(self) -> None:
-        joint = self.joint_combo.currentText()
-        plot = self.plots["angles"]
-        if not joint or self.source is None:
-            return
-        columns = self.source.joint_columns(joint)
-        plot.setTitle(f"Joint angles: {joint}", size="9pt")
-        legend = plot.legend
-        for curve, column in zip(self.curves["angles"], columns):
-            legend.removeItem(curve)
-            label = column[len(joint) + 1:] if column.startswith(joint + "_") else column
-            curve.opts["name"] = label.replace("_deg", " (deg)").replace("_", " ")
-            legend.addItem(curve, curve.opts["name"])
+        if list(self.joint_actions) != joints:
+            self.joint_menu.clear()
+            self.joint_actions = {}
+            for joint in joints:
+                action = self.joint_menu.addAction(joint)
+                action.setCheckable(True)
+                action.toggled.connect(lambda on, j=joint: self._joint_toggled(j, on))
+                self.joint_actions[joint] = action
+            kept = [j for j in self.selected_joints if j in joints]
+            if not kept and joints:
+                kept = [DEFAULT_JOINT if DEFAULT_JOINT in joints else joints[0]]
+            self.set_joints(kept)
 
     def start(self) -> None:
         self._timer.start()
@@ -181,46 +314,70 @@ class LivePlots(QtWidgets.QWidget):
     def window_s(self) -> float:
         return float(self.window_combo.currentData())
 
+    def _fix_x_range(self) -> None:
+        if self.relative_time and self.plots:
+            next(iter(self.plots.values())).setXRange(-self.window_s, 0.0, padding=0)
+        # Long windows hold several samples a pixel: draw each pixel column's extremes only.
+        long_window = self.window_s > 10.0
+        for curves in self.curves.values():
+            for curve in curves:
+                curve.setDownsampling(auto=long_window, method="peak")
+
     # -- drawing -----------------------------------------------------------------------------
+    def _show(self, key: str, t: np.ndarray, values: np.ndarray, origin: float, now_s: float) -> None:
+        x = t - origin
+        for axis, curve in enumerate(self.curves[key]):
+            curve.setData(x, values[:, axis], connect="finite")
+        steady = self._ranges[key]
+        if steady.update(values, now_s):
+            self.plots[key].setYRange(steady.low, steady.high, padding=0)
+
     def refresh(self) -> None:
         """Pull the newest window from the source into the curves (skipped while paused)."""
         if self.paused or self.source is None:
             return
-        if self.sensor_combo.count() == 0 or self.joint_combo.count() == 0:
+        if self.sensor_combo.count() == 0 or not self.joint_actions:
             self.update_choices()
         window = self.window_s
+        cursor = self.source.cursor_s
+        origin = cursor if self.relative_time and np.isfinite(cursor) else 0.0
+        self._origin = origin
+        now = time.perf_counter()
         sensor = self.sensor_combo.currentText()
         drew = False
         if sensor and sensor != self._titled_sensor:
-            for key, title, _unit, _r in PLOT_SPECS[:3]:
-                self.plots[key].setTitle(f"{title}: {sensor}", size="9pt")
+            for key, title, _unit, _r in SENSOR_PLOTS:
+                self._set_title(key, f"{title} {sensor}")
             self._titled_sensor = sensor
         if sensor:
             t, acc, gyr, mag = self.source.series(sensor, window)
             for key, values in (("acc", acc), ("gyr", gyr), ("mag", mag)):
-                for axis, curve in enumerate(self.curves[key]):
-                    curve.setData(t, values[:, axis], connect="finite")
+                self._show(key, t, values, origin, now)
             drew = drew or len(t) > 0
-        joint = self.joint_combo.currentText()
-        if joint:
+        for joint in self.selected_joints:
             t, angles = self.source.joint_series(joint, window)
-            for axis, curve in enumerate(self.curves["angles"]):
-                curve.setData(t, angles[:, axis], connect="finite")
+            self._show(self._joint_key(joint), t, angles, origin, now)
             drew = drew or len(t) > 0
-        cursor = self.source.cursor_s
         if np.isfinite(cursor):
-            for line in self.cursors:
-                line.setValue(cursor)
-            self.plots["acc"].setXRange(cursor - window, cursor, padding=0)
+            for line in self.cursors.values():
+                line.setValue(cursor - origin)
+            if not self.relative_time:
+                next(iter(self.plots.values())).setXRange(cursor - window, cursor, padding=0)
         if drew:
             self.refresh_count += 1
-            now = time.perf_counter()
             self.refresh_times.append(now)
             if len(self.refresh_times) > 600:
                 del self.refresh_times[:300]
             self.refreshed.emit(now)
 
     def curve_data(self, key: str, axis: int) -> tuple[np.ndarray, np.ndarray]:
-        """What curve ``axis`` of plot ``key`` (``acc``, ``gyr``, ``mag``, ``angles``) shows."""
+        """What curve ``axis`` of plot ``key`` shows, in source time (s): ``acc``, ``gyr``,
+        ``mag``, ``angles`` (the first selected joint) or a joint name."""
+        if key == "angles":
+            key = self.selected_joints[0] if self.selected_joints else ""
+        if key not in self.curves:
+            key = self._joint_key(key)
         x, y = self.curves[key][axis].getData()
-        return (np.zeros(0), np.zeros(0)) if x is None else (x, y)
+        if x is None:
+            return np.zeros(0), np.zeros(0)
+        return x + self._origin, y

@@ -2,9 +2,10 @@
 :class:`~mimucap.session.live.LiveSession`.
 
 The window holds no data: it shows what the live session has and forwards what the user
-asks. Timers: the pump (:data:`PUMP_INTERVAL_MS`) runs the session's pipeline; the 3D view
-renders from its own timer, once per frame; the plots refresh at 30 Hz; the panels at
-:data:`PANEL_INTERVAL_MS` (a stale sensor shows within a second).
+asks. Timers: the frame clock (:data:`PUMP_INTERVAL_MS`) runs the session's pipeline and,
+right after it, lets the 3D view render the newest pose (so a sample reaches the screen in
+one tick); the plots refresh at 30 Hz; the panels at :data:`PANEL_INTERVAL_MS` (a stale
+sensor shows within a second).
 """
 
 from __future__ import annotations
@@ -33,8 +34,9 @@ from mimucap.session.subject import default_recording_path
 
 log = logging.getLogger(__name__)
 
-#: How often the live pipeline is pumped (ms): 100 Hz, so a sample waits at most 10 ms.
-PUMP_INTERVAL_MS = 10
+#: The frame clock (ms): the live pipeline is pumped and the 3D view rendered 62.5 times a
+#: second, so a sample waits at most one tick before it is drawn.
+PUMP_INTERVAL_MS = 16
 #: How often the sensor panel, tints and status bar are refreshed (ms).
 PANEL_INTERVAL_MS = 250
 
@@ -85,7 +87,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._last_record_message = ""
 
         self.scene_view = SceneView(self)
-        self.plots = LivePlots(self)
+        self.plots = LivePlots(self, relative_time=True)
         splitter = QtWidgets.QSplitter(QtCore.Qt.Horizontal, self)
         splitter.addWidget(self.scene_view)
         splitter.addWidget(self.plots)
@@ -263,13 +265,14 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pump.start()
         self._panel_timer.start()
         self.plots.start()
-        self.scene_view.start()
+        self.scene_view.start(own_clock=False)
 
     def _pump_pipeline(self) -> None:
         if self.live is None:
             return
         try:
             self.live.step()
+            self.scene_view.tick()
         except Exception as error:  # shown, logged; the pump stops instead of looping on an error
             log.exception("live pipeline failed")
             self._pump.stop()

@@ -1,6 +1,6 @@
-"""The stage of the 3D view: floor grid, world axes, soft lighting and background.
+"""The stage of the 3D view: floor grid, world axes, a camera light and the background.
 
-The floor (30 m × 30 m, a line every 0.5 m) and the world axes (E, N, Up; 0.5 m, standing at
+The floor is a grid of lines (30 m × 30 m, a line every 0.5 m, no solid plane) and the world axes (E, N, Up; 0.5 m, standing at
 :data:`AXES_ORIGIN_WORLD_M`) are built in
 **world** coordinates (ENU, metres) and placed in the scene by the frame's
 ``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
@@ -12,9 +12,8 @@ import numpy as np
 from vtkmodules.vtkCommonCore import vtkPoints
 from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
 from vtkmodules.vtkCommonMath import vtkMatrix4x4
-from vtkmodules.vtkFiltersSources import vtkPlaneSource
 from vtkmodules.vtkRenderingAnnotation import vtkAxesActor
-from vtkmodules.vtkRenderingCore import vtkActor, vtkLightKit, vtkPolyDataMapper, vtkRenderer
+from vtkmodules.vtkRenderingCore import vtkActor, vtkLight, vtkPolyDataMapper, vtkRenderer
 
 FLOOR_SIZE_M = 30.0
 FLOOR_SPACING_M = 0.5
@@ -23,23 +22,11 @@ AXES_LENGTH_M = 0.5
 AXES_ORIGIN_WORLD_M = (-1.0, 0.0, 0.0)
 AXES_FONT_SIZE = 13
 BACKGROUND = (0.25, 0.28, 0.34)
-FLOOR_COLOUR = (0.33, 0.36, 0.41)
 GRID_COLOUR = (0.62, 0.65, 0.70)
-GRID_LIFT_M = 0.002
-
-
-def _plane(resolution: int) -> vtkPlaneSource:
-    half = FLOOR_SIZE_M / 2.0
-    plane = vtkPlaneSource()
-    plane.SetOrigin(-half, -half, 0.0)
-    plane.SetPoint1(half, -half, 0.0)
-    plane.SetPoint2(-half, half, 0.0)
-    plane.SetResolution(resolution, resolution)
-    return plane
 
 
 def _grid_lines(cells: int) -> vtkPolyData:
-    """The floor grid as ``2 * (cells + 1)`` straight lines (world, metres, 2 mm above the floor).
+    """The floor grid as ``2 * (cells + 1)`` straight lines (world, metres, on the floor).
 
     Plain line cells are far cheaper to draw on software OpenGL than a wireframe plane."""
     half = FLOOR_SIZE_M / 2.0
@@ -48,8 +35,8 @@ def _grid_lines(cells: int) -> vtkPolyData:
     for k in range(cells + 1):
         c = -half + k * FLOOR_SIZE_M / cells
         for start, end in (((c, -half), (c, half)), ((-half, c), (half, c))):
-            first = points.InsertNextPoint(start[0], start[1], GRID_LIFT_M)
-            second = points.InsertNextPoint(end[0], end[1], GRID_LIFT_M)
+            first = points.InsertNextPoint(start[0], start[1], 0.0)
+            second = points.InsertNextPoint(end[0], end[1], 0.0)
             lines.InsertNextCell(2)
             lines.InsertCellPoint(first)
             lines.InsertCellPoint(second)
@@ -64,28 +51,23 @@ class Stage:
 
     def __init__(self, renderer: vtkRenderer) -> None:
         self.renderer = renderer
-        # Opaque, single-colour stage: a gradient background and translucent floor cost
-        # 20-40 % of a frame on software OpenGL (bench/bench_gui.py).
+        # Single-colour background, one light following the camera, and a floor made of grid
+        # lines only: on software OpenGL every full-window pass and every extra light costs
+        # 1-5 ms a frame (a gradient background, a solid floor plane, a five-light kit were
+        # measured at 60-110 % of the remaining frame; bench/bench_gui.py).
         renderer.GradientBackgroundOff()
         renderer.SetBackground(*BACKGROUND)
-        self.light_kit = vtkLightKit()
-        self.light_kit.SetKeyLightIntensity(0.85)
-        self.light_kit.AddLightsToRenderer(renderer)
+        renderer.RemoveAllLights()
+        self.light = vtkLight()
+        self.light.SetLightTypeToHeadlight()
+        self.light.SetIntensity(1.0)
+        renderer.AddLight(self.light)
 
         self.world_matrix = vtkMatrix4x4()
         self.axes_matrix = vtkMatrix4x4()
         cells = int(round(FLOOR_SIZE_M / FLOOR_SPACING_M))
         # Keep the sources referenced: an output port does not keep its producer alive.
-        self._floor_source = _plane(1)
         self._grid_lines = _grid_lines(cells)
-        solid_mapper = vtkPolyDataMapper()
-        solid_mapper.SetInputConnection(self._floor_source.GetOutputPort())
-        self.floor = vtkActor()
-        self.floor.SetMapper(solid_mapper)
-        self.floor.GetProperty().SetColor(*FLOOR_COLOUR)
-        self.floor.GetProperty().LightingOff()  # flat floor: the cheapest fragment shader
-        self.floor.GetProperty().SetAmbient(0.4)
-        self.floor.SetUserMatrix(self.world_matrix)
 
         grid_mapper = vtkPolyDataMapper()
         grid_mapper.SetInputData(self._grid_lines)
@@ -118,7 +100,7 @@ class Stage:
         self.axes.SetUserMatrix(self.axes_matrix)
         self.set_world_matrix(np.eye(4))
 
-        for actor in (self.floor, self.grid, self.axes):
+        for actor in (self.grid, self.axes):
             renderer.AddActor(actor)
 
     def set_world_matrix(self, matrix) -> None:
@@ -132,11 +114,10 @@ class Stage:
                 self.axes_matrix.SetElement(row, col, float(shifted[row, col]))
         self.world_matrix.Modified()
         self.axes_matrix.Modified()
-        for actor in (self.floor, self.grid, self.axes):
+        for actor in (self.grid, self.axes):
             actor.Modified()
 
     def set_visible(self, floor: bool, axes: bool) -> None:
-        """Show or hide the floor (grid included) and the world axes."""
-        self.floor.SetVisibility(floor)
+        """Show or hide the floor grid and the world axes."""
         self.grid.SetVisibility(floor)
         self.axes.SetVisibility(axes)

@@ -1,16 +1,27 @@
-"""VTK actors of the skeleton figure: shaded capsules, joint spheres, anterior markers.
+"""The skeleton figure as one VTK actor: shaded capsules, joint spheres and anterior markers.
 
-The actors are created once per skeleton model (:class:`SkeletonActor`); every frame only
-their user matrices change, taken as they are from a
-:class:`mimucap.session.figure.FigureGeometry` (scene frame, metres). Each segment capsule
-is tinted by the state of the sensor on it (:data:`TINTS`).
+Every piece of the figure (segment capsule, connector, joint sphere, marker) is a copy of one
+of two unit templates (an open cylinder along +y, radius 1, height 1, centred at the origin;
+a sphere of radius 1) placed by its ``(4, 4)`` matrix from a
+:class:`mimucap.session.figure.FigureGeometry` (scene frame, metres). All copies live in a
+single ``vtkPolyData`` drawn by a single actor: each frame moves the vertices and normals
+in place (``points = M[:3, :3] @ p + M[:3, 3]``, ``normals ∝ M[:3, :3]^-T @ n``). On software
+OpenGL one draw call of ~15 000 triangles costs far less than ~60 actors of a few hundred
+triangles each (``bench/bench_gui.py``). Segment capsules carry the colour of the state of
+the sensor on them (:data:`TINTS`) as per-vertex colours.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import dataclass
 
-from vtkmodules.vtkCommonMath import vtkMatrix4x4
+import numpy as np
+from numpy.typing import NDArray
+from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
+from vtkmodules.vtkCommonCore import vtkPoints
+from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+from vtkmodules.vtkFiltersCore import vtkTriangleFilter
 from vtkmodules.vtkFiltersSources import vtkCylinderSource, vtkSphereSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
 
@@ -26,42 +37,86 @@ TINTS: dict[str, tuple[float, float, float]] = {
 JOINT_COLOUR = (0.92, 0.92, 0.90)
 CONNECTOR_COLOUR = (0.78, 0.78, 0.80)
 MARKER_COLOUR = (0.15, 0.18, 0.25)
+#: Facets of the unit shapes: enough for smooth Phong shading at figure size on screen, few
+#: enough to keep software OpenGL fast (its cost grows with the triangle count).
+CYLINDER_RESOLUTION = 16
+SPHERE_RESOLUTION = (12, 8)  # (theta, phi)
 
 
-def _shared_source(source) -> vtkPolyDataMapper:
-    source.Update()  # a static mapper never asks its input to execute: run it once here
-    mapper = vtkPolyDataMapper()
-    mapper.SetInputConnection(source.GetOutputPort())
-    mapper.StaticOn()  # geometry never changes: only actor matrices do
-    return mapper
+@dataclass(frozen=True)
+class _Template:
+    """A unit shape: ``points``/``normals`` ``(n, 3)`` float, ``triangles`` ``(m, 3)`` int."""
+
+    points: NDArray[np.float64]
+    normals: NDArray[np.float64]
+    triangles: NDArray[np.int64]
 
 
-def _make_actor(mapper: vtkPolyDataMapper, colour, specular: float = 0.35) -> vtkActor:
-    actor = vtkActor()
-    actor.SetMapper(mapper)
-    prop = actor.GetProperty()
-    prop.SetColor(*colour)
-    prop.SetInterpolationToPhong()
-    prop.SetAmbient(0.12)
-    prop.SetDiffuse(0.85)
-    prop.SetSpecular(specular)
-    prop.SetSpecularPower(25.0)
-    actor.SetUserMatrix(vtkMatrix4x4())
-    actor.VisibilityOff()
-    return actor
+def _template(source) -> _Template:
+    triangulate = vtkTriangleFilter()
+    triangulate.SetInputConnection(source.GetOutputPort())
+    triangulate.Update()
+    poly = triangulate.GetOutput()
+    points = vtk_to_numpy(poly.GetPoints().GetData()).astype(float)
+    normals = vtk_to_numpy(poly.GetPointData().GetNormals()).astype(float)
+    connectivity = vtk_to_numpy(poly.GetPolys().GetConnectivityArray()).astype(np.int64)
+    return _Template(points, normals, connectivity.reshape(-1, 3))
 
 
-def _set_matrix(actor: vtkActor, matrix) -> None:
-    target = actor.GetUserMatrix()
-    for row in range(4):
-        for col in range(4):
-            target.SetElement(row, col, float(matrix[row, col]))
-    target.Modified()
-    actor.Modified()
+def _unit_cylinder() -> _Template:
+    cylinder = vtkCylinderSource()
+    cylinder.SetRadius(1.0)
+    cylinder.SetHeight(1.0)
+    cylinder.SetResolution(CYLINDER_RESOLUTION)
+    cylinder.CappingOff()
+    return _template(cylinder)
+
+
+def _unit_sphere() -> _Template:
+    sphere = vtkSphereSource()
+    sphere.SetRadius(1.0)
+    sphere.SetThetaResolution(SPHERE_RESOLUTION[0])
+    sphere.SetPhiResolution(SPHERE_RESOLUTION[1])
+    return _template(sphere)
+
+
+def _rgb(colour) -> NDArray[np.uint8]:
+    return np.round(255.0 * np.asarray(colour)).astype(np.uint8)
+
+
+class _Batch:
+    """``count`` copies of ``template`` occupying vertices ``first`` … ``first + count * n - 1``."""
+
+    def __init__(self, template: _Template, count: int, first: int) -> None:
+        self.template = template
+        self.count = count
+        self.first = first
+        self.stop = first + count * len(template.points)
+
+    def vertex_range(self, index: int) -> slice:
+        n = len(self.template.points)
+        return slice(self.first + index * n, self.first + (index + 1) * n)
+
+    def place(self, matrices: NDArray[np.float64], points_out: np.ndarray, normals_out: np.ndarray) -> None:
+        """Write the vertices and unit normals of every copy placed by ``matrices`` ``(count, 4, 4)``."""
+        if self.count == 0:
+            return
+        linear = matrices[:, :3, :3]
+        # Row vectors: p' = p @ L^T + t ; n' ∝ n @ L^-1 (the inverse transpose, transposed).
+        placed = self.template.points @ linear.transpose(0, 2, 1) + matrices[:, None, :3, 3]
+        normals = self.template.normals @ np.linalg.inv(linear)
+        normals /= np.sqrt(np.einsum("kni,kni->kn", normals, normals))[..., None]
+        points_out[self.first:self.stop] = placed.reshape(-1, 3)
+        normals_out[self.first:self.stop] = normals.reshape(-1, 3)
+
+    def triangles(self) -> NDArray[np.int64]:
+        n = len(self.template.points)
+        offsets = self.first + n * np.arange(self.count)
+        return (self.template.triangles[None, :, :] + offsets[:, None, None]).reshape(-1, 3)
 
 
 class SkeletonActor:
-    """All actors of one figure, added to ``renderer`` and hidden until the first frame.
+    """The figure of one skeleton model, added to ``renderer`` and hidden until the first frame.
 
     Args:
         renderer: the VTK renderer of the 3D view.
@@ -70,67 +125,110 @@ class SkeletonActor:
 
     def __init__(self, renderer: vtkRenderer, builder: FigureBuilder) -> None:
         self.renderer = renderer
-        cylinder = vtkCylinderSource()
-        cylinder.SetRadius(1.0)
-        cylinder.SetHeight(1.0)
-        cylinder.SetResolution(18)
-        cylinder.CappingOff()
-        sphere = vtkSphereSource()
-        sphere.SetRadius(1.0)
-        sphere.SetThetaResolution(18)
-        sphere.SetPhiResolution(12)
-        self._sources = (cylinder, sphere)  # an output port does not keep its producer alive
-        self._cylinder_mapper = _shared_source(cylinder)
-        self._sphere_mapper = _shared_source(sphere)
-        self.segment_actors = {
-            name: _make_actor(self._cylinder_mapper, TINTS["no_sensor"]) for name in builder.segment_names
-        }
-        self.connector_actors = [
-            _make_actor(self._cylinder_mapper, CONNECTOR_COLOUR) for _ in builder.connector_names
-        ]
-        self.joint_actors = [
-            _make_actor(self._sphere_mapper, JOINT_COLOUR, specular=0.5) for _ in builder.joint_names
-        ]
-        self.marker_actors = [
-            _make_actor(self._sphere_mapper, MARKER_COLOUR, specular=0.1) for _ in builder.segment_names
-        ]
-        self._tints: dict[str, str] = {}
-        for actor in self.actors():
-            renderer.AddActor(actor)
+        self.segment_names = tuple(builder.segment_names)
+        cylinder, sphere = _unit_cylinder(), _unit_sphere()
+        n_segments, n_connectors = len(builder.segment_names), len(builder.connector_names)
+        n_joints = len(builder.joint_names)
+        self._segments = _Batch(cylinder, n_segments, 0)
+        self._connectors = _Batch(cylinder, n_connectors, self._segments.stop)
+        self._joints = _Batch(sphere, n_joints, self._connectors.stop)
+        self._markers = _Batch(sphere, n_segments, self._joints.stop)
+        batches = (self._segments, self._connectors, self._joints, self._markers)
+        n_points = self._markers.stop
 
-    def actors(self) -> list[vtkActor]:
-        """Every actor of the figure."""
-        return [*self.segment_actors.values(), *self.connector_actors, *self.joint_actors, *self.marker_actors]
+        self._points = np.zeros((n_points, 3))
+        self._normals = np.zeros((n_points, 3))
+        self._normals[:, 2] = 1.0
+        self._colours = np.empty((n_points, 3), dtype=np.uint8)
+        self._colours[: self._segments.stop] = _rgb(TINTS["no_sensor"])
+        self._colours[self._connectors.first:self._connectors.stop] = _rgb(CONNECTOR_COLOUR)
+        self._colours[self._joints.first:self._joints.stop] = _rgb(JOINT_COLOUR)
+        self._colours[self._markers.first:self._markers.stop] = _rgb(MARKER_COLOUR)
+
+        # VTK arrays that share memory with the numpy arrays above (kept referenced).
+        self._vtk_points = numpy_to_vtk(self._points, deep=False)
+        self._vtk_normals = numpy_to_vtk(self._normals, deep=False)
+        self._vtk_normals.SetName("Normals")
+        self._vtk_colours = numpy_to_vtk(self._colours, deep=False)
+        self._vtk_colours.SetName("Colours")
+        triangles = np.concatenate([b.triangles() for b in batches])
+        offsets = np.arange(0, 3 * len(triangles) + 1, 3, dtype=np.int64)
+        self._vtk_offsets = numpy_to_vtkIdTypeArray(offsets, deep=True)
+        self._vtk_connectivity = numpy_to_vtkIdTypeArray(triangles.reshape(-1).astype(np.int64), deep=True)
+        cells = vtkCellArray()
+        cells.SetData(self._vtk_offsets, self._vtk_connectivity)
+        points = vtkPoints()
+        points.SetData(self._vtk_points)
+        self.polydata = vtkPolyData()
+        self.polydata.SetPoints(points)
+        self.polydata.SetPolys(cells)
+        self.polydata.GetPointData().SetNormals(self._vtk_normals)
+        self.polydata.GetPointData().SetScalars(self._vtk_colours)
+
+        mapper = vtkPolyDataMapper()
+        mapper.SetInputData(self.polydata)
+        mapper.SetColorModeToDirectScalars()
+        mapper.SetScalarModeToUsePointData()
+        mapper.ScalarVisibilityOn()
+        self.actor = vtkActor()
+        self.actor.SetMapper(mapper)
+        prop = self.actor.GetProperty()
+        prop.SetInterpolationToPhong()
+        # Closed shapes (the open capsule ends sit inside the joint spheres): their far sides
+        # are never seen, and skipping them halves the work of software OpenGL.
+        prop.BackfaceCullingOn()
+        prop.SetAmbient(0.12)
+        prop.SetDiffuse(0.85)
+        prop.SetSpecular(0.35)
+        prop.SetSpecularPower(25.0)
+        self.actor.VisibilityOff()
+        self._tints: dict[str, str] = {}
+        renderer.AddActor(self.actor)
+
+    @property
+    def visible(self) -> bool:
+        """True once a frame has been shown."""
+        return bool(self.actor.GetVisibility())
 
     def remove(self) -> None:
         """Take the figure out of its renderer."""
-        for actor in self.actors():
-            self.renderer.RemoveActor(actor)
+        self.renderer.RemoveActor(self.actor)
 
     def update(self, geometry: FigureGeometry) -> None:
-        """Move every actor to ``geometry`` (and show them)."""
-        for name, matrix in zip(geometry.segment_names, geometry.segment_matrices):
-            _set_matrix(self.segment_actors[name], matrix)
-        for actor, matrix in zip(self.connector_actors, geometry.connector_matrices):
-            _set_matrix(actor, matrix)
-        for actor, matrix in zip(self.joint_actors, geometry.joint_matrices):
-            _set_matrix(actor, matrix)
-        for actor, matrix in zip(self.marker_actors, geometry.marker_matrices):
-            _set_matrix(actor, matrix)
-        for actor in self.actors():
-            actor.VisibilityOn()
+        """Move every piece to ``geometry`` (and show the figure)."""
+        if tuple(geometry.segment_names) != self.segment_names:
+            raise ValueError("the geometry belongs to another skeleton model than this figure")
+        self._segments.place(np.asarray(geometry.segment_matrices), self._points, self._normals)
+        self._connectors.place(np.asarray(geometry.connector_matrices), self._points, self._normals)
+        self._joints.place(np.asarray(geometry.joint_matrices), self._points, self._normals)
+        self._markers.place(np.asarray(geometry.marker_matrices), self._points, self._normals)
+        self._vtk_points.Modified()
+        self._vtk_normals.Modified()
+        self.polydata.Modified()
+        self.actor.VisibilityOn()
 
-    def set_tints(self, states: Mapping[str, str]) -> None:
-        """Colour each segment by its sensor state name (a key of :data:`TINTS`)."""
-        for name, actor in self.segment_actors.items():
+    def set_tints(self, states: Mapping[str, str]) -> bool:
+        """Colour each segment by its sensor state name (a key of :data:`TINTS`); returns
+        whether any colour changed."""
+        changed = False
+        for index, name in enumerate(self.segment_names):
             state = states.get(name, "no_sensor")
             if self._tints.get(name) == state:
                 continue
             if state not in TINTS:
                 raise ValueError(f"unknown sensor state {state!r} for segment {name}")
-            actor.GetProperty().SetColor(*TINTS[state])
+            self._colours[self._segments.vertex_range(index)] = _rgb(TINTS[state])
             self._tints[name] = state
+            changed = True
+        if changed:
+            self._vtk_colours.Modified()
+            self.polydata.Modified()
+        return changed
 
     def tint_of(self, segment: str) -> str:
         """The sensor state a segment is currently tinted with."""
         return self._tints.get(segment, "no_sensor")
+
+    def vertices_of_segment(self, segment: str) -> NDArray[np.float64]:
+        """The capsule vertices of ``segment`` as shown (scene frame, metres), ``(n, 3)``."""
+        return self._points[self._segments.vertex_range(self.segment_names.index(segment))].copy()

@@ -1,10 +1,13 @@
-"""The 3D view widget: owns one VTK render window inside Qt and a throttled render loop.
+"""The 3D view widget: one offscreen VTK render window shown in Qt, and a frame clock.
 
-Like pyvistaqt/MNE, the widget *has* a ``QVTKRenderWindowInteractor`` (no double
-inheritance). A ``QTimer`` ticks at :attr:`SceneView.target_fps`; each tick asks the frame
-provider for the newest :class:`~mimucap.session.figure.FigureGeometry` and renders once,
-only when something changed (new frame, tint, camera). Mouse orbit/zoom is VTK's trackball
-camera style. After :meth:`SceneView.shutdown` (called on close) nothing renders again.
+The widget *has* a :class:`~mimucap.gui.vtk_image_widget.VtkImageWidget` (no double
+inheritance). Each :meth:`SceneView.tick` asks the frame provider for the newest
+:class:`~mimucap.session.figure.FigureGeometry` and renders once, only when something
+changed (new frame, tint, camera). Ticks come either from the view's own ``QTimer`` at
+:attr:`SceneView.target_fps` (``start()``), or from the owner right after it has taken in new
+data (``start(own_clock=False)``; the main window does so, which keeps the time from a
+sample's arrival to the screen short). Mouse orbit/zoom is VTK's trackball camera style.
+After :meth:`SceneView.shutdown` (called on close) nothing renders again.
 """
 
 from __future__ import annotations
@@ -12,17 +15,12 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 
-import vtkmodules.vtkInteractionStyle  # noqa: F401  (registers the interactor styles)
-import vtkmodules.vtkRenderingFreeType  # noqa: F401  (text for the axes labels)
-import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (the OpenGL back end)
 from PyQt5 import QtCore, QtGui, QtWidgets
-from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
-from vtkmodules.vtkInteractionStyle import vtkInteractorStyleTrackballCamera
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
-from mimucap.gui.capture import render_window_image
 from mimucap.gui.scene.environment import Stage
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
+from mimucap.gui.vtk_image_widget import VtkImageWidget
 from mimucap.session.camera import CAMERA_PRESETS, camera_preset
 from mimucap.session.figure import FigureBuilder, FigureGeometry
 
@@ -43,19 +41,17 @@ class SceneView(QtWidgets.QWidget):
         super().__init__(parent)
         self.setObjectName("sceneView")
         self.target_fps = float(target_fps)
-        self.vtk_widget = QVTKRenderWindowInteractor(self)
+        self.vtk_widget = VtkImageWidget(self)
         self.vtk_widget.setObjectName("vtkWidget")
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.vtk_widget)
-        self.render_window = self.vtk_widget.GetRenderWindow()
-        self.render_window.SetMultiSamples(0)  # MSAA costs 4x on software GL; keep the frame rate
+        self.render_window = self.vtk_widget.render_window
         self.renderer = vtkRenderer()
         self.renderer.SetUseFXAA(False)
         self.render_window.AddRenderer(self.renderer)
         self.stage = Stage(self.renderer)
-        self.interactor = self.render_window.GetInteractor()
-        self.interactor.SetInteractorStyle(vtkInteractorStyleTrackballCamera())
+        self.interactor = self.vtk_widget.interactor
 
         self._provider: FrameProvider | None = None
         self._tint_provider: Callable[[], Mapping[str, str]] | None = None
@@ -68,13 +64,14 @@ class SceneView(QtWidgets.QWidget):
         self._dirty = True
         self._alive = True
         self._initialized = False
+        self._running = False
         self.frames_rendered = 0
         self.render_times: list[float] = []  # perf_counter() of recent renders (bounded)
 
         self._timer = QtCore.QTimer(self)
         self._timer.setTimerType(QtCore.Qt.PreciseTimer)
         self._timer.setInterval(max(1, int(round(1000.0 / self.target_fps))))
-        self._timer.timeout.connect(self._tick)
+        self._timer.timeout.connect(self.tick)
 
     # -- configuration -------------------------------------------------------------------
     def set_figure(self, builder: FigureBuilder) -> None:
@@ -125,22 +122,27 @@ class SceneView(QtWidgets.QWidget):
         return self._last_geometry
 
     # -- render loop -----------------------------------------------------------------------
-    def start(self) -> None:
-        """Start the render loop (idempotent)."""
+    def start(self, own_clock: bool = True) -> None:
+        """Start rendering (idempotent): ticked by the view's own timer, or, with
+        ``own_clock=False``, by the owner calling :meth:`tick` whenever new data came in."""
         if not self._alive:
             return
         if not self._initialized:
             self.vtk_widget.Initialize()
             self._initialized = True
-        if not self._timer.isActive():
+        self._running = True
+        if own_clock and not self._timer.isActive():
             self._timer.start()
+        elif not own_clock:
+            self._timer.stop()
 
     def stop(self) -> None:
         self._timer.stop()
+        self._running = False
 
     @property
     def running(self) -> bool:
-        return self._timer.isActive()
+        return self._running
 
     def _apply_camera(self, root_scene) -> None:
         if self._builder is None:
@@ -153,8 +155,9 @@ class SceneView(QtWidgets.QWidget):
         camera.SetViewAngle(30.0)
         self.renderer.ResetCameraClippingRange()
 
-    def _tick(self) -> None:
-        if not self._alive or self.skeleton is None:
+    def tick(self) -> None:
+        """Take the newest frame, tints and camera; render if anything changed."""
+        if not self._alive or not self._running or self.skeleton is None:
             return
         if self._provider is not None:
             frame = self._provider()
@@ -166,11 +169,8 @@ class SceneView(QtWidgets.QWidget):
                     self.skeleton.update(geometry)
                     self.stage.set_world_matrix(geometry.world_matrix)
                     self._dirty = True
-        if self._tint_provider is not None:
-            before = dict(self.skeleton._tints)
-            self.skeleton.set_tints(self._tint_provider())
-            if self.skeleton._tints != before:
-                self._dirty = True
+        if self._tint_provider is not None and self.skeleton.set_tints(self._tint_provider()):
+            self._dirty = True
         if self._last_geometry is not None and (self._camera_pending or self._camera_preset == "follow"):
             self._apply_camera(self._last_geometry.root_scene_m)
             self._camera_pending = False
@@ -182,7 +182,7 @@ class SceneView(QtWidgets.QWidget):
         if not self._alive or not self.isVisible():
             return
         self.renderer.ResetCameraClippingRange()
-        self.render_window.Render()
+        self.vtk_widget.render()
         self._dirty = False
         self.frames_rendered += 1
         now = time.perf_counter()
@@ -207,7 +207,8 @@ class SceneView(QtWidgets.QWidget):
 
     # -- capture ---------------------------------------------------------------------------
     def grab_image(self) -> QtGui.QImage:
-        """The current 3D view as a ``QImage`` (read back from the render window)."""
+        """The current 3D view as an RGB ``QImage`` (rendered now)."""
         if not self._alive:
             raise RuntimeError("the 3D view is closed")
-        return render_window_image(self.render_window)
+        self.vtk_widget.render()
+        return self.vtk_widget.image()

@@ -408,7 +408,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.scene.set_frame_provider(lambda: ("calibrated", geometry))
         self.scene.set_tint_provider(lambda: {s: "ok" for s in self.procedure.mapping})
         self.scene.start()
-        self.scene._tick()
+        self.scene.tick()
 
     def vtk_view(self):
         return self.scene
