@@ -1,53 +1,25 @@
-"""Pictures of windows: the Qt widgets grabbed, with each VTK view's own image painted in.
+"""Pictures of windows, 3D views included.
 
-``QWidget.grab()`` cannot read an OpenGL surface, so a 3D view comes out blank; the VTK image
-(read back with ``vtkWindowToImageFilter``) is painted into the VTK widget's rectangle. Any
-child widget with a ``vtk_widget`` and a ``grab_image()`` method (the skeleton view, the
-magnetometer wizard's ellipsoid view) is treated that way.
+Every VTK view of the application is a :class:`~mimucap.gui.vtk_image_widget.VtkImageWidget`
+(rendered offscreen and painted as an image), so ``QWidget.grab()`` sees it like any other
+widget; each visible view renders once first, so the picture shows the current state.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-from PyQt5 import QtCore, QtGui, QtWidgets
-from vtkmodules.util.numpy_support import vtk_to_numpy
-from vtkmodules.vtkRenderingCore import vtkRenderWindow, vtkWindowToImageFilter
+from PyQt5 import QtGui, QtWidgets
 
-
-def render_window_image(render_window: vtkRenderWindow) -> QtGui.QImage:
-    """Render ``render_window`` once and read its back buffer into an RGB ``QImage``."""
-    render_window.Render()
-    capture = vtkWindowToImageFilter()
-    capture.SetInput(render_window)
-    capture.SetInputBufferTypeToRGB()
-    capture.ReadFrontBufferOff()
-    capture.Update()
-    image = capture.GetOutput()
-    width, height, _ = image.GetDimensions()
-    pixels = vtk_to_numpy(image.GetPointData().GetScalars()).reshape(height, width, 3)
-    pixels = np.ascontiguousarray(pixels[::-1])  # VTK rows run bottom-up
-    return QtGui.QImage(pixels.data, width, height, 3 * width, QtGui.QImage.Format_RGB888).copy()
+from mimucap.gui.vtk_image_widget import VtkImageWidget
 
 
 def grab_window(window: QtWidgets.QWidget) -> QtGui.QPixmap:
-    """The whole ``window`` as a pixmap, every visible VTK view painted in properly."""
-    pixmap = window.grab()
-    painter = QtGui.QPainter(pixmap)
-    try:
-        for child in window.findChildren(QtWidgets.QWidget):
-            vtk_widget = getattr(child, "vtk_widget", None)
-            if vtk_widget is None or not hasattr(child, "grab_image"):
-                continue
-            if not child.isVisible() or not vtk_widget.isVisible() or not getattr(child, "alive", True):
-                continue
-            image = child.grab_image()
-            top_left = vtk_widget.mapTo(window, QtCore.QPoint(0, 0))
-            painter.drawImage(QtCore.QRect(top_left, vtk_widget.size()), image)
-    finally:
-        painter.end()
-    return pixmap
+    """The whole ``window`` as a pixmap, every visible 3D view freshly rendered."""
+    for view in window.findChildren(VtkImageWidget):
+        if view.isVisible() and not view.finalized:
+            view.render()
+    return window.grab()
 
 
 def save_window_png(window: QtWidgets.QWidget, path: str | Path) -> Path:

@@ -18,17 +18,12 @@ from __future__ import annotations
 
 import numpy as np
 import pyqtgraph as pg
-import vtkmodules.vtkInteractionStyle  # noqa: F401  (registers the interactor styles)
-import vtkmodules.vtkRenderingFreeType  # noqa: F401  (text actors)
-import vtkmodules.vtkRenderingOpenGL2  # noqa: F401  (the OpenGL back end)
 from PyQt5 import QtGui, QtWidgets
-from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
 from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
 from vtkmodules.vtkCommonCore import vtkLookupTable, vtkPoints
 from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
 from vtkmodules.vtkCommonMath import vtkMatrix4x4
 from vtkmodules.vtkFiltersSources import vtkSphereSource
-from vtkmodules.vtkInteractionStyle import vtkInteractorStyleTrackballCamera
 from vtkmodules.vtkRenderingAnnotation import vtkAxesActor
 from vtkmodules.vtkRenderingCore import (
     vtkActor,
@@ -38,7 +33,7 @@ from vtkmodules.vtkRenderingCore import (
 )
 
 from mimucap.core.magcal_fit import EllipsoidFit
-from mimucap.gui.capture import render_window_image
+from mimucap.gui.vtk_image_widget import VtkImageWidget
 
 ELLIPSOID_COLOUR = (0.95, 0.62, 0.18)
 SPHERE_COLOUR = (0.35, 0.75, 0.45)
@@ -129,14 +124,13 @@ class EllipsoidView(QtWidgets.QWidget):
     def __init__(self, parent: QtWidgets.QWidget | None = None, max_points: int = 4000) -> None:
         super().__init__(parent)
         self.max_points = int(max_points)
-        self.vtk_widget = QVTKRenderWindowInteractor(self)
+        self.vtk_widget = VtkImageWidget(self)
         self.vtk_widget.setObjectName("ellipsoidVtk")
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.vtk_widget)
         self.setMinimumSize(420, 260)
-        self.render_window = self.vtk_widget.GetRenderWindow()
-        self.render_window.SetMultiSamples(0)
+        self.render_window = self.vtk_widget.render_window
         lookup = vtkLookupTable()
         lookup.SetHueRange(0.66, 0.0)  # blue (early) → red (late)
         lookup.SetSaturationRange(0.85, 0.85)
@@ -160,8 +154,7 @@ class EllipsoidView(QtWidgets.QWidget):
         axes.AxisLabelsOff()
         self.corrected_renderer.AddActor(axes)
         self._axes = axes
-        self.interactor = self.render_window.GetInteractor()
-        self.interactor.SetInteractorStyle(vtkInteractorStyleTrackballCamera())
+        self.interactor = self.vtk_widget.interactor
         self._initialized = False
         self._alive = True
         self._framed_size: float | None = None
@@ -240,7 +233,7 @@ class EllipsoidView(QtWidgets.QWidget):
         self.start()
         self.raw_renderer.ResetCameraClippingRange()
         self.corrected_renderer.ResetCameraClippingRange()
-        self.render_window.Render()
+        self.vtk_widget.render()
 
     def reset(self) -> None:
         """Forget the data and the camera framing (a new recording)."""
@@ -262,9 +255,10 @@ class EllipsoidView(QtWidgets.QWidget):
         super().closeEvent(event)
 
     def grab_image(self) -> QtGui.QImage:
-        """The VTK view as a ``QImage`` (read back from the render window)."""
+        """The VTK view as an RGB ``QImage`` (rendered now)."""
         self.start()
-        return render_window_image(self.render_window)
+        self.vtk_widget.render()
+        return self.vtk_widget.image()
 
 
 class FieldMagnitudePlot(pg.PlotWidget):

@@ -1,0 +1,160 @@
+"""The live plots: what the curves show (time base, decimation), steady vertical ranges, and
+the selection of several joints."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mimucap.gui import live_plots
+from mimucap.gui.live_plots import LivePlots, MAX_JOINTS, _peak_decimate, _SteadyRange
+
+
+class FakeSource:
+    """A plot source with known signals: sample k at t = k / 100 s, acc x = sin, the angle
+    columns of joint j = (j, 2 j, 3 j) + t."""
+
+    def __init__(self, duration_s: float = 30.0, cursor_s: float | None = None) -> None:
+        self.t = np.arange(int(duration_s * 100)) / 100.0
+        self.cursor_s = self.t[-1] if cursor_s is None else cursor_s
+        self.sensor_ids = ("S01", "S02")
+        self.joint_names = ("hip_r", "knee_r", "ankle_r", "elbow_l")
+
+    def joint_columns(self, joint):
+        return tuple(f"{joint}_{name}_deg" for name in ("flexion", "adduction", "rotation"))
+
+    def _window(self, window_s):
+        keep = (self.t >= self.cursor_s - window_s) & (self.t <= self.cursor_s)
+        return self.t[keep]
+
+    def series(self, sensor_id, window_s):
+        t = self._window(window_s)
+        acc = np.stack([np.sin(t), np.zeros_like(t), np.full_like(t, 9.81)], axis=1)
+        gyr = np.zeros((len(t), 3))
+        mag = np.tile([20.0, 0.0, -40.0], (len(t), 1))
+        return t, acc, gyr, mag
+
+    def joint_series(self, joint, window_s):
+        t = self._window(window_s)
+        j = self.joint_names.index(joint) + 1
+        return t, np.stack([j + t, 2 * j + t, 3 * j + t], axis=1)
+
+
+@pytest.fixture
+def plots(qtbot):
+    widget = LivePlots(relative_time=True)
+    qtbot.addWidget(widget)
+    widget.set_source(FakeSource())
+    widget.show()
+    return widget
+
+
+def test_live_time_axis_is_relative_but_curve_data_is_in_source_time(plots):
+    plots.refresh()
+    x, y = plots.curve_data("acc", 0)
+    assert x[-1] == pytest.approx(plots.source.cursor_s)
+    assert x[0] == pytest.approx(plots.source.cursor_s - plots.window_s, abs=0.011)
+    np.testing.assert_allclose(y, np.sin(x), atol=1e-12)
+    drawn_x, _ = plots.curves["acc"][0].getData()
+    assert drawn_x[-1] == pytest.approx(0.0) and drawn_x[0] < -9.9
+    view_range = plots.plots["acc"].getViewBox().viewRange()[0]
+    assert view_range == pytest.approx([-10.0, 0.0])
+
+
+def test_review_plots_show_session_time_around_the_cursor(qtbot):
+    widget = LivePlots(relative_time=False)
+    qtbot.addWidget(widget)
+    widget.set_source(FakeSource(cursor_s=12.5))
+    widget.show()
+    widget.refresh()
+    drawn_x, _ = widget.curves["gyr"][1].getData()
+    assert drawn_x[-1] == pytest.approx(12.5)
+    assert widget.plots["acc"].getViewBox().viewRange()[0] == pytest.approx([2.5, 12.5])
+    assert widget.cursors["mag"].value() == pytest.approx(12.5)
+
+
+def test_default_joint_and_several_joints_each_with_its_plot(plots):
+    assert plots.selected_joints == ["knee_r"]
+    plots.set_joints(["hip_r", "ankle_r"])
+    plots.refresh()
+    assert list(plots.plots) == ["acc", "gyr", "mag", "joint:hip_r", "joint:ankle_r"]
+    _, flexion = plots.curve_data("hip_r", 0)
+    x, rotation = plots.curve_data("ankle_r", 2)
+    np.testing.assert_allclose(flexion, 1 + x)
+    np.testing.assert_allclose(rotation, 9 + x)
+    assert "flexion" in plots.title_text("joint:hip_r") and "rotation" in plots.title_text("joint:ankle_r")
+    # "angles" means the first selected joint (the plot the single-joint layout had).
+    np.testing.assert_allclose(plots.curve_data("angles", 0)[1], flexion)
+    # Only the bottom plot carries the time axis.
+    assert plots.plots["joint:ankle_r"].getAxis("bottom").isVisible()
+    assert not any(plots.plots[k].getAxis("bottom").isVisible() for k in ("acc", "gyr", "mag", "joint:hip_r"))
+    # The menu follows, and a fourth joint cannot be ticked.
+    plots.set_joints(["hip_r", "ankle_r", "elbow_l"])
+    assert [j for j, a in plots.joint_actions.items() if a.isChecked()] == ["hip_r", "ankle_r", "elbow_l"]
+    assert not plots.joint_actions["knee_r"].isEnabled()
+    assert plots.joint_button.text() == "hip_r +2"
+    plots.joint_actions["ankle_r"].setChecked(False)  # as the user would, in the menu
+    assert plots.selected_joints == ["hip_r", "elbow_l"]
+    assert "joint:ankle_r" not in plots.plots and plots.joint_actions["knee_r"].isEnabled()
+
+
+def test_joint_selection_is_checked(plots):
+    with pytest.raises(ValueError, match="at most"):
+        plots.set_joints(["hip_r", "knee_r", "ankle_r", "elbow_l"][: MAX_JOINTS + 1])
+    with pytest.raises(ValueError, match="unknown joint"):
+        plots.set_joints(["neck"])
+    assert plots.selected_joints == ["knee_r"]
+
+
+def test_long_windows_are_decimated_to_their_extremes(plots):
+    plots.window_combo.setCurrentIndex(plots.window_combo.findData(30.0))
+    plots.refresh()
+    x, y = plots.curve_data("acc", 0)
+    assert len(x) <= live_plots.MAX_POINTS
+    assert y.max() == pytest.approx(1.0, abs=1e-3) and y.min() == pytest.approx(-1.0, abs=1e-3)
+
+
+def test_peak_decimation_keeps_every_peak_and_every_gap():
+    x = np.arange(10_000) / 100.0
+    y = np.zeros((10_000, 2))
+    y[1234, 0] = 5.0   # a one-sample spike
+    y[7777, 1] = -3.0
+    y[5000:5100, :] = np.nan  # one second without data
+    dx, dy = _peak_decimate(x, y, 1000)
+    assert len(dx) <= 1000 and dy.shape == (len(dx), 2)
+    assert np.nanmax(dy[:, 0]) == 5.0 and np.nanmin(dy[:, 1]) == -3.0
+    assert np.isnan(dy).any()
+    assert np.all(np.diff(dx) >= 0)
+    same_x, same_y = _peak_decimate(x[:500], y[:500], 1000)
+    np.testing.assert_array_equal(same_x, x[:500])
+    np.testing.assert_array_equal(same_y, y[:500])
+
+
+def test_vertical_range_grows_at_once_and_shrinks_only_after_a_while():
+    steady = _SteadyRange(min_span=2.0)
+    assert steady.update(np.array([0.0, 10.0]), now_s=0.0)
+    assert steady.low < 0.0 and steady.high > 10.0
+    assert not steady.update(np.array([4.0, 6.0]), now_s=0.5)   # small data: range kept ...
+    assert not steady.update(np.array([4.0, 6.0]), now_s=1.5)
+    assert steady.update(np.array([4.0, 6.0]), now_s=2.6)      # ... until 2 s have passed
+    assert steady.low <= 4.0 and steady.high >= 6.0 and steady.high - steady.low < 5.0
+    assert not steady.update(np.full(3, np.nan), now_s=3.0)    # no data: nothing changes
+    assert steady.update(np.array([-50.0]), now_s=3.1)
+    assert steady.low <= -50.0
+    tiny = _SteadyRange(min_span=10.0)
+    tiny.update(np.array([0.0, 0.01]), now_s=0.0)
+    assert tiny.high - tiny.low >= 10.0  # noise is never blown up to full height
+
+
+def test_pause_freezes_the_curves(plots):
+    plots.refresh()
+    before = plots.curves["acc"][0].getData()[1].copy()
+    plots.pause_button.setChecked(True)
+    assert plots.pause_button.text() == "Resume"
+    plots.source.cursor_s -= 1.0
+    plots.refresh()
+    np.testing.assert_array_equal(plots.curves["acc"][0].getData()[1], before)
+    plots.pause_button.setChecked(False)
+    plots.refresh()
+    assert len(plots.curves["acc"][0].getData()[1]) == len(before)
+    assert not np.array_equal(plots.curves["acc"][0].getData()[1], before)

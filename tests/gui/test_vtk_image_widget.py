@@ -1,0 +1,99 @@
+"""The offscreen VTK view: what it renders is what Qt shows, and the mouse turns the camera."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PyQt5 import QtCore, QtGui, QtWidgets
+from vtkmodules.vtkFiltersSources import vtkSphereSource
+from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
+
+from mimucap.gui.vtk_image_widget import VtkImageWidget
+
+
+@pytest.fixture
+def view(qtbot):
+    widget = VtkImageWidget()
+    qtbot.addWidget(widget)
+    widget.resize(320, 240)
+    renderer = vtkRenderer()
+    renderer.SetBackground(0.0, 0.0, 1.0)  # pure blue background
+    sphere = vtkSphereSource()
+    sphere.SetCenter(0.6, 0.0, 0.0)  # right of centre: the picture is not symmetric
+    sphere.SetRadius(0.5)
+    mapper = vtkPolyDataMapper()
+    mapper.SetInputConnection(sphere.GetOutputPort())
+    actor = vtkActor()
+    actor.SetMapper(mapper)
+    actor.GetProperty().SetColor(1.0, 0.0, 0.0)
+    actor.GetProperty().LightingOff()  # pure red
+    renderer.AddActor(actor)
+    widget.render_window.AddRenderer(renderer)
+    renderer.GetActiveCamera().SetPosition(0.0, 0.0, 5.0)
+    renderer.GetActiveCamera().SetFocalPoint(0.0, 0.0, 0.0)
+    widget.renderer = renderer
+    widget.show()
+    qtbot.waitExposed(widget)
+    widget.render()
+    yield widget
+    widget.Finalize()
+
+
+def _rgb(image) -> np.ndarray:
+    """A copy of ``image``'s pixels, ``(height, width, 3)`` uint8."""
+    image = image.convertToFormat(QtGui.QImage.Format_RGB888)
+    ptr = image.constBits()
+    ptr.setsize(image.sizeInBytes())
+    rows = np.frombuffer(ptr, np.uint8).reshape(image.height(), image.bytesPerLine())
+    return rows[:, : 3 * image.width()].reshape(image.height(), image.width(), 3).copy()
+
+
+def test_the_widget_shows_the_rendered_frame_the_right_way_up(view):
+    assert tuple(view.render_window.GetSize()) == (view.width(), view.height())
+    pixels = _rgb(view.grab().toImage())
+    red = (pixels[:, :, 0] > 200) & (pixels[:, :, 2] < 50)
+    blue = (pixels[:, :, 2] > 200) & (pixels[:, :, 0] < 50)
+    assert red.mean() > 0.05 and blue.mean() > 0.5
+    columns = np.nonzero(red.any(axis=0))[0]
+    assert columns.mean() > view.width() / 2  # the sphere is right of centre, as in the scene
+    np.testing.assert_array_equal(_rgb(view.image()), pixels)
+
+
+def test_the_view_follows_a_resize(view, qtbot):
+    view.resize(200, 300)
+    qtbot.waitUntil(lambda: tuple(view.render_window.GetSize()) == (200, 300), timeout=2000)
+    assert (view.image().width(), view.image().height()) == (200, 300)
+
+
+def test_dragging_orbits_and_the_wheel_zooms(view, qtbot):
+    camera = view.renderer.GetActiveCamera()
+    before = np.array(camera.GetPosition())
+    frames = []
+    view.rendered.connect(lambda: frames.append(1))
+    centre = QtCore.QPoint(view.width() // 2, view.height() // 2)
+    qtbot.mousePress(view, QtCore.Qt.LeftButton, pos=centre)
+    for step in range(1, 6):  # a drag (QTest's mouseMove carries no pressed button)
+        move = QtGui.QMouseEvent(QtCore.QEvent.MouseMove, QtCore.QPointF(centre + QtCore.QPoint(12 * step, 0)),
+                                 QtCore.Qt.NoButton, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier)
+        QtWidgets.QApplication.sendEvent(view, move)
+    qtbot.mouseRelease(view, QtCore.Qt.LeftButton, pos=centre + QtCore.QPoint(60, 0))
+    after = np.array(camera.GetPosition())
+    assert np.linalg.norm(after - before) > 0.5  # turned about the focal point ...
+    assert np.linalg.norm(after) == pytest.approx(np.linalg.norm(before), rel=1e-6)  # ... at the same distance
+    assert frames  # and each step was drawn
+    distance = camera.GetDistance()
+    wheel = QtGui.QWheelEvent(QtCore.QPointF(centre), QtCore.QPointF(view.mapToGlobal(centre)), QtCore.QPoint(0, 0),
+                              QtCore.QPoint(0, 120), QtCore.Qt.NoButton, QtCore.Qt.NoModifier,
+                              QtCore.Qt.NoScrollPhase, False)
+    view.wheelEvent(wheel)
+    assert camera.GetDistance() < distance
+
+
+def test_after_finalize_nothing_renders(view):
+    count = []
+    view.rendered.connect(lambda: count.append(1))
+    view.Finalize()
+    assert view.finalized
+    view.render()
+    assert not count
+    view.grab()  # painting the last picture still works
