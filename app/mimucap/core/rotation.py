@@ -118,16 +118,22 @@ def rotate(q_a_from_b: ArrayLike, v_b: ArrayLike) -> FloatArray:
 def to_matrix(q: ArrayLike) -> FloatArray:
     """Rotation matrices ``R_A_from_B`` (``(..., 3, 3)``) of unit quaternions ``q_A_from_B``."""
     q = _as_quat(q)
-    w, x, y, z = np.moveaxis(q, -1, 0)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz = x * y, x * z, y * z
     wx, wy, wz = w * x, w * y, w * z
-    rows = (
-        (1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)),
-        (2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)),
-        (2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)),
-    )
-    return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+    # Entries written into one array (stacking rows is slow on the small arrays of live use).
+    r = np.empty(q.shape[:-1] + (3, 3))
+    r[..., 0, 0] = 1.0 - 2.0 * (yy + zz)
+    r[..., 0, 1] = 2.0 * (xy - wz)
+    r[..., 0, 2] = 2.0 * (xz + wy)
+    r[..., 1, 0] = 2.0 * (xy + wz)
+    r[..., 1, 1] = 1.0 - 2.0 * (xx + zz)
+    r[..., 1, 2] = 2.0 * (yz - wx)
+    r[..., 2, 0] = 2.0 * (xz - wy)
+    r[..., 2, 1] = 2.0 * (yz + wx)
+    r[..., 2, 2] = 1.0 - 2.0 * (xx + yy)
+    return r
 
 
 def from_matrix(matrix: ArrayLike) -> FloatArray:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -135,6 +136,82 @@ class SkeletonModel:
                 return joint
         raise ValueError(f"model {self.name!r} has no joint {name!r}; it has {', '.join(self.joint_names)}")
 
+    @cached_property
+    def tables(self) -> "ModelTables":
+        """Index and ratio arrays of this model for the vectorised functions (built once)."""
+        return ModelTables.of(self)
+
+
+@dataclass(frozen=True, eq=False)
+class ModelTables:
+    """A :class:`SkeletonModel` as arrays, segment axis first, for vectorised kinematics.
+
+    ``S`` segments in model order (parents first), ``J`` joints in :attr:`SkeletonModel.joints`
+    order. Lengths are fractions of body height (multiply by ``height_m`` for metres).
+
+    Attributes:
+        parent_index: ``(S,)`` index of each segment's parent; the root points at itself.
+        attach_ratio: ``(S, 3)`` each segment's proximal joint in its parent's frame (root: 0).
+        distal_ratio: ``(S, 3)`` proximal joint → distal end in the segment's own frame
+            (``direction · length_ratio``).
+        body_ratio, body_frame: ``(2S, 3)`` the attachments then the distal vectors, and
+            ``(2S,)`` the segment whose frame each is expressed in (parent, then own): forward
+            kinematics turns them all into the world frame with one rotation call.
+        levels: per depth in the tree (1, 2, ...): ``(segment indices, parent indices)``, so
+            that one vectorised step per level walks the whole tree.
+        joint_proximal, joint_distal: ``(J,)`` segment indices of each joint's two segments.
+        joint_mirror: ``(J, 4)`` quaternion factors: ``[1, -1, -1, 1]`` mirrors a left-side
+            joint across the sagittal plane (:func:`mirror_sagittal`), ones leave it as it is.
+        joint_flexion_sign: ``(J, 3)`` factors of the Z-X'-Y'' angles (:data:`FLEXION_SIGN`).
+        joint_is_shoulder: ``(J,)`` True for the joints a shoulder sequence applies to.
+    """
+
+    parent_index: NDArray[np.intp]
+    attach_ratio: FloatArray
+    distal_ratio: FloatArray
+    body_ratio: FloatArray
+    body_frame: NDArray[np.intp]
+    levels: tuple[tuple[NDArray[np.intp], NDArray[np.intp]], ...]
+    joint_proximal: NDArray[np.intp]
+    joint_distal: NDArray[np.intp]
+    joint_mirror: FloatArray
+    joint_flexion_sign: FloatArray
+    joint_is_shoulder: NDArray[np.bool_]
+
+    @classmethod
+    def of(cls, model: SkeletonModel) -> "ModelTables":
+        index = {name: i for i, name in enumerate(model.segment_names)}
+        parent = np.array([0 if s.parent is None else index[s.parent] for s in model.segments], dtype=np.intp)
+        depth = [0] * len(model.segments)
+        for i, segment in enumerate(model.segments):
+            if segment.parent is not None:
+                depth[i] = depth[index[segment.parent]] + 1
+        levels = []
+        for level in range(1, max(depth, default=0) + 1):
+            members = np.array([i for i, d in enumerate(depth) if d == level], dtype=np.intp)
+            levels.append((members, parent[members]))
+        attach = np.array([s.attach_ratio if s.parent is not None else (0.0, 0.0, 0.0) for s in model.segments],
+                          dtype=np.float64).reshape(-1, 3)
+        # Same operation order as the per-segment formula: (direction · length_ratio) · height.
+        distal = np.array([np.array(s.direction) * s.length_ratio for s in model.segments],
+                          dtype=np.float64).reshape(-1, 3)
+        joints = model.joints
+        return cls(
+            parent_index=parent,
+            attach_ratio=attach,
+            distal_ratio=distal,
+            body_ratio=np.concatenate((attach, distal)),
+            body_frame=np.concatenate((parent, np.arange(len(parent), dtype=np.intp))),
+            levels=tuple(levels),
+            joint_proximal=np.array([index[j.proximal] for j in joints], dtype=np.intp),
+            joint_distal=np.array([index[j.distal] for j in joints], dtype=np.intp),
+            joint_mirror=np.array([[1.0, -1.0, -1.0, 1.0] if j.side == "l" else [1.0] * 4 for j in joints],
+                                  dtype=np.float64).reshape(-1, 4),
+            joint_flexion_sign=np.array([[FLEXION_SIGN.get(j.kind, 1.0), 1.0, 1.0] for j in joints],
+                                        dtype=np.float64).reshape(-1, 3),
+            joint_is_shoulder=np.array([j.kind == "shoulder" for j in joints], dtype=bool),
+        )
+
 
 @dataclass(frozen=True)
 class SegmentPose:
@@ -213,10 +290,16 @@ def load_model(name_or_path: str | Path = "ten_segment") -> SkeletonModel:
     return _parse_model(data, str(candidate))
 
 
+def _check_height(height_m: float) -> float:
+    height = float(height_m)
+    if not np.isfinite(height) or not 0.5 <= height <= 2.5:
+        raise ValueError(f"subject height must be between 0.5 and 2.5 m, got {height_m}")
+    return height
+
+
 def segment_lengths(model: SkeletonModel, height_m: float) -> dict[str, float]:
     """Segment lengths (m) for a subject of ``height_m`` metres."""
-    if not np.isfinite(height_m) or not 0.5 <= height_m <= 2.5:
-        raise ValueError(f"subject height must be between 0.5 and 2.5 m, got {height_m}")
+    _check_height(height_m)
     return {segment.name: segment.length_ratio * height_m for segment in model.segments}
 
 
@@ -233,6 +316,51 @@ def q_world_from_body_facing(heading_rad: ArrayLike = 0.0) -> FloatArray:
     return rot.multiply(q_turn, q_north)
 
 
+def forward_kinematics_stacked(
+    model: SkeletonModel,
+    q_world_from_segment: ArrayLike,
+    height_m: float,
+    root_position_m: ArrayLike | None = None,
+) -> tuple[FloatArray, FloatArray]:
+    """Joint positions of every segment, vectorised over segments (segment axis first).
+
+    Args:
+        model: the skeleton model.
+        q_world_from_segment: ``(S, ..., 4)`` scalar-first orientations of the ``S`` segments
+            in model order (:attr:`SkeletonModel.segment_names`).
+        height_m: the subject's height (m).
+        root_position_m: ``(..., 3)`` the root segment's proximal point (world, m), default
+            ``(0, 0, root_height_ratio·height_m)``.
+
+    Returns:
+        ``(proximal_m, distal_m)``, each ``(S, ..., 3)`` in the world frame (ENU, metres), the
+        leading shape broadcast from the orientations and the root position. The same numbers
+        as :func:`forward_kinematics`.
+    """
+    height = _check_height(height_m)
+    tables = model.tables
+    q = np.asarray(q_world_from_segment, dtype=np.float64)
+    n_segments = len(tables.parent_index)
+    if q.ndim < 2 or q.shape[0] != n_segments or q.shape[-1] != 4:
+        raise ValueError(f"forward kinematics needs orientations of shape ({n_segments}, ..., 4) in model order, "
+                         f"got {q.shape}")
+    if root_position_m is None:
+        root = np.array([0.0, 0.0, model.root_height_ratio * height])
+    else:
+        root = np.asarray(root_position_m, dtype=np.float64)
+    lead = np.broadcast_shapes(q.shape[1:-1], root.shape[:-1])
+    # Attachments (in the parents' frames) and distal vectors (own frames) to the world frame
+    # at once, broadcast over the leading axes of the orientations.
+    expand = (2 * n_segments,) + (1,) * (q.ndim - 2) + (3,)
+    world = rot.rotate(q.take(tables.body_frame, axis=0), (tables.body_ratio * height).reshape(expand))
+    offset, along = world[:n_segments], world[n_segments:]
+    proximal = np.empty((n_segments,) + lead + (3,))
+    proximal[0] = root
+    for members, parents in tables.levels:
+        proximal[members] = proximal[parents] + offset[members]
+    return proximal, proximal + along
+
+
 def forward_kinematics(
     model: SkeletonModel,
     q_world_from_segment: Mapping[str, ArrayLike],
@@ -241,30 +369,20 @@ def forward_kinematics(
 ) -> dict[str, SegmentPose]:
     """Joint positions of every segment given its orientation.
 
-    ``q_world_from_segment`` maps each segment name to ``(..., 4)`` (all broadcastable);
-    ``root_position_m`` is the root segment's proximal point (mid-point of the hip joint
-    centres for the pelvis) in world metres, default ``(0, 0, root_height_ratio·height_m)``
-    (feet on the floor in the N-pose). Returns a :class:`SegmentPose` per segment.
+    ``q_world_from_segment`` maps each segment name to ``(..., 4)`` (all broadcastable; the
+    positions take the broadcast shape); ``root_position_m`` is the root segment's proximal
+    point (mid-point of the hip joint centres for the pelvis) in world metres, default
+    ``(0, 0, root_height_ratio·height_m)`` (feet on the floor in the N-pose). Returns a
+    :class:`SegmentPose` per segment (see :func:`forward_kinematics_stacked` for arrays).
     """
-    segment_lengths(model, height_m)  # validates the height
+    _check_height(height_m)
     missing = [name for name in model.segment_names if name not in q_world_from_segment]
     if missing:
         raise ValueError(f"forward kinematics needs an orientation for every segment; missing: {', '.join(missing)}")
-    if root_position_m is None:
-        root_position_m = np.array([0.0, 0.0, model.root_height_ratio * height_m])
-    root = np.asarray(root_position_m, dtype=np.float64)
-    poses: dict[str, SegmentPose] = {}
-    for segment in model.segments:
-        q = np.asarray(q_world_from_segment[segment.name], dtype=np.float64)
-        if segment.parent is None:
-            proximal = np.broadcast_to(root, np.broadcast_shapes(root.shape, q.shape[:-1] + (3,)))
-        else:
-            parent = poses[segment.parent]
-            offset = rot.rotate(parent.q_world_from_segment, np.array(segment.attach_ratio) * height_m)
-            proximal = parent.proximal_m + offset
-        distal = proximal + rot.rotate(q, np.array(segment.direction) * segment.length_ratio * height_m)
-        poses[segment.name] = SegmentPose(np.asarray(proximal, dtype=np.float64), distal, q)
-    return poses
+    q_list = [np.asarray(q_world_from_segment[name], dtype=np.float64) for name in model.segment_names]
+    proximal, distal = forward_kinematics_stacked(model, np.stack(np.broadcast_arrays(*q_list)), height_m,
+                                                  root_position_m)
+    return {name: SegmentPose(proximal[i], distal[i], q_list[i]) for i, name in enumerate(model.segment_names)}
 
 
 # --------------------------------------------------------------------------------------------
@@ -319,16 +437,63 @@ def joint_angle_columns(model: SkeletonModel, shoulder_sequence: str = "zxy") ->
     return [f"{joint.name}_{axis}_deg" for joint in model.joints for axis in _axis_names(joint, seq)]
 
 
-def _angles_of_rotation(joint: Joint, q_prox_from_dist: FloatArray, shoulder_sequence: str) -> FloatArray:
-    """The three angles (deg, ``(..., 3)``) of one joint, in the order of :func:`_axis_names`."""
-    q = mirror_sagittal(q_prox_from_dist) if joint.side == "l" else q_prox_from_dist
-    if joint.kind == "shoulder" and shoulder_sequence == "xzy":
-        return np.degrees(rot.to_euler(q, "XZY"))
-    if joint.kind == "shoulder" and shoulder_sequence == "yxy":
-        q_isb = rot.multiply(rot.multiply(rot.conjugate(_Q_Y_PI), q), _Q_Y_PI)
-        return np.degrees(rot.to_euler(q_isb, "YXY"))
-    angles = np.degrees(rot.to_euler(q, "ZXY"))
-    return angles * np.array([FLEXION_SIGN.get(joint.kind, 1.0), 1.0, 1.0])
+def _angles_of_rotations(
+    q_prox_from_dist: FloatArray,
+    mirror: FloatArray,
+    flexion_sign: FloatArray,
+    is_shoulder: NDArray[np.bool_],
+    shoulder_sequence: str,
+) -> FloatArray:
+    """The three angles (deg) of ``J`` joints at once, each in the order of :func:`_axis_names`.
+
+    ``q_prox_from_dist`` is ``(J, ..., 4)``; ``mirror`` ``(J, 4)``, ``flexion_sign`` ``(J, 3)``
+    and ``is_shoulder`` ``(J,)`` come from :class:`ModelTables`. Returns ``(J, ..., 3)``.
+    """
+    expand = (-1,) + (1,) * (q_prox_from_dist.ndim - 2)
+    q = q_prox_from_dist * mirror.reshape(expand + (4,))  # left side mirrored (mirror_sagittal)
+    if shoulder_sequence == "zxy" or not np.any(is_shoulder):
+        return np.degrees(rot.to_euler(q, "ZXY")) * flexion_sign.reshape(expand + (3,))
+    angles = np.empty(q.shape[:-1] + (3,))
+    others = ~is_shoulder
+    if np.any(others):
+        angles[others] = np.degrees(rot.to_euler(q[others], "ZXY")) * flexion_sign[others].reshape(expand + (3,))
+    shoulders = q[is_shoulder]
+    if shoulder_sequence == "xzy":
+        angles[is_shoulder] = np.degrees(rot.to_euler(shoulders, "XZY"))
+    else:
+        q_isb = rot.multiply(rot.multiply(rot.conjugate(_Q_Y_PI), shoulders), _Q_Y_PI)
+        angles[is_shoulder] = np.degrees(rot.to_euler(q_isb, "YXY"))
+    return angles
+
+
+def joint_angles_deg_stacked(
+    model: SkeletonModel,
+    q_world_from_segment: ArrayLike,
+    shoulder_sequence: str = "zxy",
+) -> FloatArray:
+    """Joint angles (deg) of every joint, vectorised over joints.
+
+    Args:
+        model: the skeleton model.
+        q_world_from_segment: ``(S, ..., 4)`` scalar-first orientations of the ``S`` segments
+            in model order (:attr:`SkeletonModel.segment_names`).
+        shoulder_sequence: ``"zxy"``, ``"xzy"`` or ``"yxy"`` (see :data:`JOINT_ANGLE_SIGNS_DOC`).
+
+    Returns:
+        ``(J, ..., 3)`` degrees, joints in :attr:`SkeletonModel.joints` order, the three angles
+        of each in the order of its columns (:func:`joint_angle_columns`): the numbers of
+        :func:`joint_angles_deg`.
+    """
+    seq = _check_shoulder_sequence(shoulder_sequence)
+    tables = model.tables
+    q = np.asarray(q_world_from_segment, dtype=np.float64)
+    n_segments = len(tables.parent_index)
+    if q.ndim < 2 or q.shape[0] != n_segments or q.shape[-1] != 4:
+        raise ValueError(f"joint angles need orientations of shape ({n_segments}, ..., 4) in model order, "
+                         f"got {q.shape}")
+    q_joint = rot.multiply(rot.conjugate(q[tables.joint_proximal]), q[tables.joint_distal])
+    return _angles_of_rotations(q_joint, tables.joint_mirror, tables.joint_flexion_sign,
+                                tables.joint_is_shoulder, seq)
 
 
 def joint_angles_deg(
@@ -339,17 +504,30 @@ def joint_angles_deg(
     """Joint angles (deg) keyed by column name (see :func:`joint_angle_columns`).
 
     Only joints whose two segments are present are returned; each value has the leading
-    shape of the orientations.
+    shape of the orientations (broadcast over the segments). :func:`joint_angles_deg_stacked`
+    takes and returns arrays.
     """
     seq = _check_shoulder_sequence(shoulder_sequence)
+    tables = model.tables
+    names = model.segment_names
+    present = [i for i, name in enumerate(names) if name in q_world_from_segment]
+    available = np.isin(tables.joint_proximal, present) & np.isin(tables.joint_distal, present)
+    if not np.any(available):
+        return {}
+    # Stack the present segments only; ``position`` maps a model index into that stack.
+    position = np.zeros(len(names), dtype=np.intp)
+    position[present] = np.arange(len(present))
+    q = np.stack(np.broadcast_arrays(
+        *[np.asarray(q_world_from_segment[names[i]], dtype=np.float64) for i in present]))
+    q_joint = rot.multiply(rot.conjugate(q[position[tables.joint_proximal[available]]]),
+                           q[position[tables.joint_distal[available]]])
+    angles = _angles_of_rotations(q_joint, tables.joint_mirror[available], tables.joint_flexion_sign[available],
+                                  tables.joint_is_shoulder[available], seq)
     columns: dict[str, FloatArray] = {}
-    rotations = joint_rotations(model, q_world_from_segment)
-    for joint in model.joints:
-        if joint.name not in rotations:
-            continue
-        angles = _angles_of_rotation(joint, rotations[joint.name], seq)
+    joints = [joint for joint, keep in zip(model.joints, available) if keep]
+    for j, joint in enumerate(joints):
         for index, axis in enumerate(_axis_names(joint, seq)):
-            columns[f"{joint.name}_{axis}_deg"] = angles[..., index]
+            columns[f"{joint.name}_{axis}_deg"] = angles[j, ..., index]
     return columns
 
 
