@@ -1,7 +1,9 @@
 """What the 3D view draws: the skeleton as capsules, joints and markers, in scene coordinates.
 
 Input is one frame of :func:`mimucap.core.skeleton.forward_kinematics` output (segment
-poses in the **world** frame, ENU, metres) and the skeleton model. Output is a
+poses in the **world** frame, ENU, metres) and the skeleton model, or the same as stacked
+arrays (:meth:`FigureBuilder.build_arrays`, what the live view uses: every piece of the
+figure is placed in a few vectorised steps with index arrays prepared once). Output is a
 :class:`FigureGeometry`: for every drawn piece a 4×4 matrix that places a *unit* primitive
 in the **scene** frame (VTK/OpenGL: y up, z towards the viewer,
 ``R_scene_from_world = [[1,0,0],[0,0,1],[0,-1,0]]``, conventions.md), so the GUI only hands
@@ -99,38 +101,73 @@ def _rz(angle: float) -> NDArray[np.float64]:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def _placement(
-    p0: NDArray[np.float64], p1: NDArray[np.float64], x_hint: NDArray[np.float64], radius: float
-) -> NDArray[np.float64]:
-    """4×4 matrix mapping the unit cylinder onto the capsule body from ``p0`` to ``p1``.
+#: Column orders turning row-wise ``a × b`` into two products of permuted columns.
+_NEXT = np.array([1, 2, 0])
+_PREV = np.array([2, 0, 1])
 
-    The cylinder's y axis follows ``p1 - p0``; its x axis follows ``x_hint`` made orthogonal
-    (so the segment's twist is kept); scaled by ``radius`` across and the length along.
+
+def _rows_dot(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Row-wise dot products of ``(K, 3)`` arrays: ``(K,)``."""
+    return np.einsum("ki,ki->k", a, b)
+
+
+def _anterior_axes(q_world_from_segment: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Segment x axes in the world frame, ``(S, 3)``, of unit quaternions ``(S, 4)``: the first
+    column of ``R_world_from_segment`` (:func:`mimucap.core.rotation.rotate` of ``[1, 0, 0]``,
+    written out for that vector)."""
+    w, x, y, z = q_world_from_segment.T
+    axes = np.empty((len(q_world_from_segment), 3))
+    axes[:, 0] = 1.0 - 2.0 * (y * y + z * z)
+    axes[:, 1] = 2.0 * (x * y + w * z)
+    axes[:, 2] = 2.0 * (x * z - w * y)
+    return axes
+
+
+def _placements(
+    p0: NDArray[np.float64], p1: NDArray[np.float64], x_hint: NDArray[np.float64], radius: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """``(K, 4, 4)`` matrices mapping the unit cylinder onto ``K`` capsule bodies at once.
+
+    Capsule ``k`` runs from ``p0[k]`` to ``p1[k]`` (``(K, 3)``, scene frame, metres): the
+    cylinder's y axis follows ``p1 - p0`` (scene y when the two points coincide); its x axis
+    follows ``x_hint[k]`` made orthogonal to it (so the segment's twist is kept; a fixed
+    helper axis when the hint is parallel); scaled by ``radius[k]`` (``(K,)``, m) across and
+    by the length along, centred between the two points.
     """
     axis = p1 - p0
-    length = float(np.linalg.norm(axis))
-    y = axis / length if length > 0 else np.array([0.0, 1.0, 0.0])
-    x = x_hint - np.dot(x_hint, y) * y
-    norm = np.linalg.norm(x)
-    if norm < 1e-9:
-        helper = np.array([1.0, 0.0, 0.0]) if abs(y[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-        x = helper - np.dot(helper, y) * y
-        norm = np.linalg.norm(x)
-    x = x / norm
-    z = np.cross(x, y)
-    matrix = np.eye(4)
-    matrix[:3, 0] = x * radius
-    matrix[:3, 1] = y * length
-    matrix[:3, 2] = z * radius
-    matrix[:3, 3] = 0.5 * (p0 + p1)
-    return matrix
+    length = np.sqrt(_rows_dot(axis, axis))
+    has_length = length > 0
+    y = axis / np.where(has_length, length, 1.0)[:, None]
+    if not np.all(has_length):
+        y[~has_length] = (0.0, 1.0, 0.0)
+    x = x_hint - _rows_dot(x_hint, y)[:, None] * y
+    norm = np.sqrt(_rows_dot(x, x))
+    parallel = norm < 1e-9
+    if np.any(parallel):
+        helper = np.where((np.abs(y[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+        fallback = helper - _rows_dot(helper, y)[:, None] * y
+        x[parallel] = fallback[parallel]
+        norm[parallel] = np.sqrt(_rows_dot(fallback, fallback))[parallel]
+    x = x / norm[:, None]
+    z = x.take(_NEXT, axis=1) * y.take(_PREV, axis=1) - x.take(_PREV, axis=1) * y.take(_NEXT, axis=1)  # x × y
+    matrices = np.zeros((len(axis), 4, 4))
+    matrices[:, :3, 0] = x * radius[:, None]
+    matrices[:, :3, 1] = y * length[:, None]
+    matrices[:, :3, 2] = z * radius[:, None]
+    matrices[:, :3, 3] = 0.5 * (p0 + p1)
+    matrices[:, 3, 3] = 1.0
+    return matrices
 
 
-def _sphere(center: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
-    matrix = np.eye(4)
-    matrix[:3, :3] *= radius
-    matrix[:3, 3] = center
-    return matrix
+def _spheres(centers: NDArray[np.float64], radius: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(K, 4, 4)`` matrices placing the unit sphere at ``centers`` (``(K, 3)``, scene, m)
+    scaled by ``radius`` (``(K,)``, m)."""
+    matrices = np.zeros((len(centers), 4, 4))
+    diagonal = np.arange(3)
+    matrices[:, diagonal, diagonal] = radius[:, None]
+    matrices[:, :3, 3] = centers
+    matrices[:, 3, 3] = 1.0
+    return matrices
 
 
 class FigureBuilder:
@@ -181,6 +218,21 @@ class FigureBuilder:
             joint_radius[f"{name}_end"] = self._radius[name]
         self.joint_names = tuple(joint_names)
         self._joint_radius = joint_radius
+        # Index arrays for build_arrays (segment indices in model order).
+        index = {name: i for i, name in enumerate(self.segment_names)}
+        n = len(self.segment_names)
+        self._segment_radius = np.array([self._radius[name] for name in self.segment_names], dtype=float)
+        self._connector_parent = np.array([index[p] for p, _c, _f in connectors], dtype=np.intp)
+        self._connector_child = np.array([index[c] for _p, c, _f in connectors], dtype=np.intp)
+        self._connector_fraction = np.array([f for _p, _c, f in connectors], dtype=float)
+        connector_radius = CONNECTOR_RADIUS_FACTOR * self._segment_radius[self._connector_parent]
+        self._capsule_radius = np.concatenate((self._segment_radius, connector_radius))  # segments, connectors
+        # Joint spheres sit on proximal points (index i) or distal ends (index n + i) of the
+        # stacked (proximal, distal) points, in joint_names order.
+        centers = [0] + [index[s.name] for s in model.segments if s.joint is not None]
+        centers += [n + index[name] for name in self._end_caps]
+        self._joint_point_index = np.array(centers, dtype=np.intp)
+        self._joint_sphere_radius = np.array([joint_radius[name] for name in self.joint_names], dtype=float)
 
     def display_alpha(self, mode: str, q_world_from_pelvis, heading_ref_rad: float | None) -> float:
         """The display rotation about the vertical for ``mode`` (see the module doc), radians."""
@@ -210,52 +262,65 @@ class FigureBuilder:
             origin_world_m: ``(2,)`` world east/north point shown at the scene origin in
                 world mode (body mode always centres the root).
         """
-        root = poses[self.segment_names[0]]
-        alpha = self.display_alpha(mode, root.q_world_from_segment, heading_ref_rad)
-        root_world = np.asarray(root.proximal_m, dtype=float)
+        chosen = [poses[name] for name in self.segment_names]
+        return self.build_arrays(
+            np.array([p.proximal_m for p in chosen], dtype=float),
+            np.array([p.distal_m for p in chosen], dtype=float),
+            np.array([p.q_world_from_segment for p in chosen], dtype=float),
+            mode=mode, heading_ref_rad=heading_ref_rad, origin_world_m=origin_world_m)
+
+    def build_arrays(
+        self,
+        proximal_m: NDArray[np.float64],
+        distal_m: NDArray[np.float64],
+        q_world_from_segment: NDArray[np.float64],
+        mode: str = "world",
+        heading_ref_rad: float | None = None,
+        origin_world_m=(0.0, 0.0),
+    ) -> FigureGeometry:
+        """:meth:`build` from stacked arrays, segments in model order (vectorised over pieces).
+
+        Args:
+            proximal_m: ``(S, 3)`` proximal joint of each segment (world ENU, metres), as
+                :func:`mimucap.core.skeleton.forward_kinematics_stacked` returns it.
+            distal_m: ``(S, 3)`` distal end of each segment (world, metres).
+            q_world_from_segment: ``(S, 4)`` scalar-first unit quaternions.
+            mode, heading_ref_rad, origin_world_m: as for :meth:`build`.
+        """
+        n = len(self.segment_names)
+        proximal_m = np.asarray(proximal_m, dtype=float)
+        distal_m = np.asarray(distal_m, dtype=float)
+        q = np.asarray(q_world_from_segment, dtype=float)
+        if proximal_m.shape != (n, 3) or distal_m.shape != (n, 3) or q.shape != (n, 4):
+            raise ValueError(f"the figure needs ({n}, 3) proximal and distal points and ({n}, 4) orientations "
+                             f"in model order, got {proximal_m.shape}, {distal_m.shape} and {q.shape}")
+        alpha = self.display_alpha(mode, q[0], heading_ref_rad)
+        root_world = proximal_m[0]
         if mode == "body":
             shift = np.array([root_world[0], root_world[1], 0.0])
         else:
             shift = np.array([float(origin_world_m[0]), float(origin_world_m[1]), 0.0])
         r_scene_from_world_display = R_SCENE_FROM_WORLD @ _rz(alpha)
+        r_transposed = r_scene_from_world_display.T  # row vectors: v_scene = v_world @ R.T
 
-        def to_scene(p_world) -> NDArray[np.float64]:
-            return r_scene_from_world_display @ (np.asarray(p_world, dtype=float) - shift)
+        # Proximal points (rows 0..S-1) then distal ends (rows S..2S-1), scene frame.
+        points = (np.concatenate((proximal_m, distal_m)) - shift) @ r_transposed
+        prox, dist = points[:n], points[n:]
+        x_axis = _anterior_axes(q) @ r_transposed  # scene frame
 
-        prox, dist, x_axis = {}, {}, {}
-        for name in self.segment_names:
-            pose = poses[name]
-            prox[name] = to_scene(pose.proximal_m)
-            dist[name] = to_scene(pose.distal_m)
-            x_world = rotation.rotate(np.asarray(pose.q_world_from_segment, dtype=float), [1.0, 0.0, 0.0])
-            x_axis[name] = r_scene_from_world_display @ x_world
+        # Segments and connectors in one batch of capsules.
+        parent, child = self._connector_parent, self._connector_child
+        parent_prox = prox.take(parent, axis=0)
+        anchor = parent_prox + self._connector_fraction[:, None] * (dist.take(parent, axis=0) - parent_prox)
+        capsules = _placements(
+            np.concatenate((prox, anchor)), np.concatenate((dist, prox.take(child, axis=0))),
+            np.concatenate((x_axis, x_axis.take(parent, axis=0))), self._capsule_radius)
+        seg_matrices, con_matrices = capsules[:n], capsules[n:]
 
-        seg_matrices = np.empty((len(self.segment_names), 4, 4))
-        marker_matrices = np.empty((len(self.segment_names), 4, 4))
-        for i, name in enumerate(self.segment_names):
-            radius = self._radius[name]
-            seg_matrices[i] = _placement(prox[name], dist[name], x_axis[name], radius)
-            middle = 0.5 * (prox[name] + dist[name])
-            front = seg_matrices[i][:3, 0] / radius
-            marker_matrices[i] = _sphere(middle + front * radius, MARKER_RADIUS_FACTOR * radius)
-
-        con_matrices = np.empty((len(self._connectors), 4, 4))
-        for i, (parent, child, fraction) in enumerate(self._connectors):
-            anchor = prox[parent] + fraction * (dist[parent] - prox[parent])
-            radius = CONNECTOR_RADIUS_FACTOR * self._radius[parent]
-            con_matrices[i] = _placement(anchor, prox[child], x_axis[parent], radius)
-
-        joint_matrices = np.empty((len(self.joint_names), 4, 4))
-        joint_matrices[0] = _sphere(prox[self.segment_names[0]], self._joint_radius["root"])
-        i = 1
-        for seg in self.model.segments:
-            if seg.joint is None:
-                continue
-            joint_matrices[i] = _sphere(prox[seg.name], self._joint_radius[seg.joint])
-            i += 1
-        for name in self._end_caps:
-            joint_matrices[i] = _sphere(dist[name], self._joint_radius[f"{name}_end"])
-            i += 1
+        radius = self._segment_radius[:, None]
+        front = seg_matrices[:, :3, 0] / radius
+        marker_matrices = _spheres(0.5 * (prox + dist) + front * radius, MARKER_RADIUS_FACTOR * self._segment_radius)
+        joint_matrices = _spheres(points.take(self._joint_point_index, axis=0), self._joint_sphere_radius)
 
         world_matrix = np.eye(4)
         world_matrix[:3, :3] = r_scene_from_world_display
@@ -268,7 +333,7 @@ class FigureBuilder:
             joint_names=self.joint_names,
             joint_matrices=joint_matrices,
             marker_matrices=marker_matrices,
-            root_scene_m=prox[self.segment_names[0]].copy(),
+            root_scene_m=prox[0].copy(),
             world_matrix=world_matrix,
             heading_alpha_rad=alpha,
         )
