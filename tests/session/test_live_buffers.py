@@ -46,3 +46,37 @@ def test_cpu_meter_reports_busy_work():
     for i in range(200_000):
         total += i * 0.5
     assert meter.sample() > 10.0
+
+
+@pytest.mark.parametrize("capacity", [1, 4, 7])
+def test_since_and_latest_time_agree_with_the_ordered_data(capacity):
+    """``since`` copies only the samples asked for, wrapped or not; the same as slicing ``data``."""
+    rng = np.random.default_rng(capacity)
+    buffer = RingBuffer(capacity, (2,))
+    assert np.isnan(buffer.latest_t())
+    t_next = 0.0
+    for _ in range(40):
+        n = int(rng.integers(0, capacity + 2))
+        t = t_next + np.arange(n) * 0.5
+        t_next += 0.5 * n
+        buffer.append(t, rng.normal(size=(n, 2)))
+        t_all, v_all = buffer.data()
+        if len(buffer):
+            assert buffer.latest_t() == t_all[-1]
+        for t_from in (-1.0, t_next - 1.2, t_next - 0.5, t_next + 1.0, *t_all):
+            first = int(np.searchsorted(t_all, t_from, side="left"))
+            t_since, v_since = buffer.since(t_from)
+            np.testing.assert_array_equal(t_since, t_all[first:])
+            np.testing.assert_array_equal(v_since, v_all[first:])
+            assert v_since.shape == (len(t_since), 2)
+            if len(v_since):
+                v_since[0] = 1e9  # a copy: the buffer keeps its values
+                assert not np.any(buffer.data()[1] == 1e9)
+
+
+def test_a_single_time_stamp_appends_one_sample():
+    buffer = RingBuffer(3, (3,))
+    buffer.append(2.5, [1.0, 2.0, 3.0])
+    assert buffer.latest_t() == 2.5 and buffer.latest()[1].tolist() == [1.0, 2.0, 3.0]
+    with pytest.raises(ValueError):
+        buffer.append([1.0, 2.0], np.zeros(3))

@@ -179,3 +179,33 @@ def test_an_applied_body_calibration_drives_the_figure_from_the_sensors():
     session.clear_body_calibration()
     _run(session, now, 0.1)
     assert session.pose_source == "simulator truth"
+
+
+@pytest.mark.parametrize("n_sensors", [10, 17])
+def test_joint_series_and_frames_follow_every_pose(n_sensors):
+    """Joint angles computed in batches (as the plots ask) and the figure of the newest pose
+    equal the skeleton functions applied to each pose the pipeline produced."""
+    from mimucap.core import skeleton
+
+    session, now = _session("walk", n_sensors=n_sensors)
+    times, poses = [], []
+    for tick in range(60):
+        now[0] += 0.01
+        session.step()
+        times.append(session.time_s)
+        poses.append(dict(session.q_world_from_segment))
+        if tick % 3 == 0:
+            session.joint_series(session.joint_names[0], 1.0)
+        if tick % 7 == 0:
+            _, geometry = session.frame()
+            expected = session.builder.build(
+                skeleton.forward_kinematics(session.model, poses[-1], session.height_m, session._root_m))  # root: simulator truth
+            np.testing.assert_allclose(geometry.segment_matrices, expected.segment_matrices, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(geometry.joint_matrices, expected.joint_matrices, rtol=0, atol=1e-12)
+    model = session.model
+    expected = skeleton.joint_angles_deg(model, {s: np.array([p[s] for p in poses]) for s in model.segment_names})
+    for joint in session.joint_names:
+        t, angles = session.joint_series(joint, 10.0)
+        np.testing.assert_array_equal(t, times)
+        columns = session.joint_columns(joint)
+        np.testing.assert_allclose(angles, np.stack([expected[c] for c in columns], axis=-1), rtol=0, atol=1e-9)

@@ -730,21 +730,38 @@ def segment_orientations(
 
     A calibrated sensor missing from ``q_world_from_sensor`` raises ``ValueError``, or, with
     ``require_all=False`` (live display while a sensor is silent), leaves its segment out.
+    Sensors of one shape are turned in one vectorised product (the live display's case).
     """
-    result = {}
+    chosen: list[tuple[str, str, FloatArray]] = []  # (segment, sensor, q_world_from_sensor)
+    missing: tuple[str, str] | None = None
     for segment, sensor in calibration.sensors.items():
-        if sensor not in q_world_from_sensor:
-            if not require_all:
-                continue
-            raise ValueError(
-                f"sensor {sensor} (segment {segment}) is missing from the data; it has: "
-                f"{', '.join(q_world_from_sensor)}"
-            )
-        q = np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
-        if not np.all(np.isfinite(q)):
+        if sensor in q_world_from_sensor:
+            chosen.append((segment, sensor, np.asarray(q_world_from_sensor[sensor], dtype=np.float64)))
+        elif require_all:
+            missing = (segment, sensor)  # reported after any NaN quaternion of an earlier segment
+            break
+    shapes = {q.shape for _seg, _sen, q in chosen}
+    stacked = np.stack([q for _seg, _sen, q in chosen]) if len(shapes) == 1 else None
+    if stacked is not None:
+        finite = np.isfinite(stacked).reshape(len(chosen), -1).all(axis=1).tolist()
+    else:
+        finite = [bool(np.all(np.isfinite(q))) for _seg, _sen, q in chosen]
+    for (segment, sensor, _q), ok in zip(chosen, finite):
+        if not ok:
             raise ValueError(f"sensor {sensor} (segment {segment}): NaN quaternion")
-        result[segment] = rot.multiply(q, rot.conjugate(calibration.q_segment_from_sensor[segment]))
-    return result
+    if missing is not None:
+        segment, sensor = missing
+        raise ValueError(
+            f"sensor {sensor} (segment {segment}) is missing from the data; it has: "
+            f"{', '.join(q_world_from_sensor)}"
+        )
+    if stacked is None:  # sensors of different shapes (or none): one product each
+        return {segment: rot.multiply(q, rot.conjugate(calibration.q_segment_from_sensor[segment]))
+                for segment, _sensor, q in chosen}
+    q_sensor_from_segment = rot.conjugate(np.array(
+        [calibration.q_segment_from_sensor[segment] for segment, _sensor, _q in chosen], dtype=np.float64))
+    product = rot.multiply(stacked, q_sensor_from_segment.reshape((len(chosen),) + (1,) * (stacked.ndim - 2) + (4,)))
+    return {segment: product[i] for i, (segment, _sensor, _q) in enumerate(chosen)}
 
 
 def fill_missing_segments(

@@ -12,7 +12,8 @@ runs it through the pipeline:
    suit shows the simulator's truth (:attr:`LiveSession.pose_source` says
    ``"simulator truth"``) and other sources show each assigned sensor's axes as its
    segment's (``"sensor axes (no body calibration)"``);
-4. joint angles (deg, :func:`mimucap.core.skeleton.joint_angles_deg`) of the newest pose;
+4. joint angles (deg, :func:`mimucap.core.skeleton.joint_angles_deg_stacked`) of every pose,
+   computed in one batch when the plots ask (:meth:`LiveSession.joint_series`);
 5. the recorder (:class:`~mimucap.session.recording.Recorder`) when recording.
 
 Times: ``t_s`` is seconds on the host monotonic clock since the live session started.
@@ -51,7 +52,7 @@ import numpy as np
 from mimucap.acquisition.samples import SampleBlock
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
 from mimucap.core import bodycal, rotation, skeleton
-from mimucap.core.fusion import OrientationEKF, decode_flags
+from mimucap.core.fusion import FLAG_NAMES, OrientationEKF
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.simulate import SimulationConfig, SuitTruth
 from mimucap.io.session import SessionTruth, read_session, write_session
@@ -76,6 +77,10 @@ POSE_SIMULATOR_TRUTH = "simulator truth"
 POSE_SENSOR_AXES = "sensor axes (no body calibration)"
 POSE_NONE = "no data"
 POSE_UNASSIGNED = "no sensor assigned (Session → Assign Sensors)"
+
+#: Fusion flags the sensor panel shows: flag name (:data:`FLAG_NAMES`) → label.
+FLAG_LABELS = {"rest": "rest", "mag_rejected": "mag disturbed", "acc_rejected": "acc disturbed",
+               "uninitialised": "starting"}
 
 
 @dataclass(frozen=True)
@@ -163,10 +168,15 @@ class LiveSession:
         self._capacity = int(MAX_WINDOW_S * BUFFER_RATE_HZ)
         self._sensors: dict[str, _SensorState] = {}
         self._joint_columns = self._group_columns()
+        #: joint → its row in :func:`skeleton.joint_angles_deg_stacked` output (model joint order)
+        self._joint_row = {joint: self.model.joint_names.index(joint) for joint in self._joint_columns}
+        self._segment_parents = [(s.name, s.parent) for s in self.model.segments]
         self._angles = {j: RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
         self._angle_t = RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ))
-        self._pending_angles: list[tuple[float, dict[str, np.ndarray]]] = []
+        #: poses since the last joint-angle update: (t_s, (S, 4) orientations in model order)
+        self._pending_angles: list[tuple[float, np.ndarray]] = []
         self._q_world_from_segment: dict[str, np.ndarray] | None = None
+        self._q_stacked: np.ndarray | None = None   # the same (S, 4), segments in model order
         self._root_m: np.ndarray | None = None
         self._pose_source = POSE_NONE
         self._t_s = float("nan")
@@ -309,7 +319,7 @@ class LiveSession:
             self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
         if not blocks:
             return 0
-        self.last_arrival_s = float(max(b.receive_time_s[-1] for b in blocks if len(b)))
+        self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
         self.events.blocks.emit(blocks)
         count = 0
         for block in blocks:
@@ -344,7 +354,7 @@ class LiveSession:
                 state.ekf = OrientationEKF(use_mag=mag is not None)
             result = state.ekf.update_batch(t, block.gyr, block.acc, mag)
             q = result.q_world_from_sensor[-1]
-            if np.all(np.isfinite(q)):
+            if np.isfinite(q).all():
                 state.q_world_from_sensor = q
             state.flags = int(result.flags[-1])
         return n
@@ -353,11 +363,12 @@ class LiveSession:
         truth = getattr(self.feed, "last_truth", None)
         q_segments: dict[str, np.ndarray] | None = None
         root = None
-        t_pose = self._newest_time()
+        t_pose = float("nan")
         if self.body_calibration is not None:
             found = bodycal.segment_orientations(self.body_calibration, self.latest_orientations(), require_all=False)
             if self.model.root in found:
                 q_segments = self._filled(found)
+                t_pose = self._newest_time()
                 self._pose_source = POSE_BODY_CALIBRATION
         elif truth is not None:
             q_segments = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
@@ -374,16 +385,23 @@ class LiveSession:
                 if self.model.root not in found:
                     found[self.model.root] = skeleton.q_world_from_body_facing(0.0)
                 q_segments = self._filled(found)
+                t_pose = self._newest_time()
                 self._pose_source = POSE_SENSOR_AXES
         if q_segments is None:
             self._pose_source = POSE_UNASSIGNED if self._sensors else POSE_NONE
             return
+        missing = [name for name in self.model.segment_names if name not in q_segments]
+        if missing:
+            raise ValueError(f"the {self.pose_source} pose lacks segments of the {self.model.name} model: "
+                             f"{', '.join(missing)}; choose the model the source was made for")
+        q_stacked = np.array([q_segments[name] for name in self.model.segment_names], dtype=float)
         self._q_world_from_segment = q_segments
+        self._q_stacked = q_stacked
         self._root_m = root
         self._t_s = t_pose
         self._frame_id += 1
         self._geometry = None
-        self._pending_angles.append((t_pose, q_segments))
+        self._pending_angles.append((t_pose, q_stacked))
         if len(self._pending_angles) > self._angle_t.capacity:
             del self._pending_angles[: len(self._pending_angles) - self._angle_t.capacity]
         self.events.frame.emit(self._frame_id)
@@ -395,18 +413,17 @@ class LiveSession:
             return
         pending, self._pending_angles = self._pending_angles, []
         t = np.array([p[0] for p in pending])
-        q = {name: np.stack([p[1][name] for p in pending]) for name in self.model.segment_names}
-        angles = skeleton.joint_angles_deg(self.model, q)
+        q = np.array([p[1] for p in pending]).transpose(1, 0, 2)  # (S, P, 4), segments in model order
+        angles = skeleton.joint_angles_deg_stacked(self.model, q)  # (J, P, 3) in column order
         self._angle_t.append(t, t)
-        for joint, columns in self._joint_columns.items():
-            self._angles[joint].append(t, np.stack([angles[c] for c in columns], axis=-1))
+        for joint, row in self._joint_row.items():
+            self._angles[joint].append(t, angles[row])
 
     def _filled(self, found: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        order = [(s.name, s.parent) for s in self.model.segments]
-        return bodycal.fill_missing_segments(found, order)
+        return bodycal.fill_missing_segments(found, self._segment_parents)
 
     def _newest_time(self) -> float:
-        times = [s.t.latest()[0] for s in self._sensors.values() if len(s.t)]
+        times = [s.t.latest_t() for s in self._sensors.values() if len(s.t)]
         return max(times) if times else float("nan")
 
     def frame(self) -> tuple[object, FigureGeometry] | None:
@@ -418,12 +435,13 @@ class LiveSession:
             return None
         frame_id = (self._frame_id, self.display_mode)
         if self._geometry is None or self._geometry[0] != frame_id:
-            q = self._q_world_from_segment
+            q = self._q_stacked
             heading_ref = None
             if self.body_calibration is not None:
                 heading_ref = bodycal_heading(self.body_calibration)
-            poses = skeleton.forward_kinematics(self.model, q, self.height_m, self._root_m)
-            geometry = self.builder.build(poses, mode=self.display_mode, heading_ref_rad=heading_ref)
+            proximal, distal = skeleton.forward_kinematics_stacked(self.model, q, self.height_m, self._root_m)
+            geometry = self.builder.build_arrays(proximal, distal, q, mode=self.display_mode,
+                                                 heading_ref_rad=heading_ref)
             self._geometry = (frame_id, geometry)
         return self._geometry
 
@@ -453,10 +471,7 @@ class LiveSession:
                 mag_cal, age = "not calibrated", float("nan")
             flags = ()
             if state is not None and state.ekf is not None:
-                masks = decode_flags(np.array(state.flags))
-                names = {"rest": "rest", "mag_rejected": "mag disturbed", "acc_rejected": "acc disturbed",
-                         "uninitialised": "starting"}
-                flags = tuple(label for key, label in names.items() if bool(masks[key]))
+                flags = tuple(label for key, label in FLAG_LABELS.items() if state.flags & FLAG_NAMES[key])
             if stale:
                 tint = "stale"
             elif mag_cal == "not calibrated" and not truth_shown:

@@ -43,9 +43,13 @@ class RingBuffer:
 
     def append(self, t_s: ArrayLike, values: ArrayLike) -> None:
         """Append samples: ``t_s`` shape ``(n,)``, ``values`` shape ``(n,) + sample_shape``."""
-        t = np.atleast_1d(np.asarray(t_s, dtype=np.float64))
-        v = np.asarray(values, dtype=self._v.dtype).reshape((t.shape[0],) + self.sample_shape)
+        t = np.asarray(t_s, dtype=np.float64)
+        if t.ndim == 0:
+            t = t.reshape(1)
         n = t.shape[0]
+        v = np.asarray(values, dtype=self._v.dtype)
+        if v.shape != (n,) + self.sample_shape:
+            v = v.reshape((n,) + self.sample_shape)
         if n == 0:
             return
         if n >= self.capacity:
@@ -80,10 +84,23 @@ class RingBuffer:
         return self._t[order], self._v[order]
 
     def since(self, t_from_s: float) -> tuple[NDArray[np.float64], NDArray]:
-        """Samples with ``t_s >= t_from_s``, oldest first (copies)."""
-        t, v = self.data()
+        """Samples with ``t_s >= t_from_s``, oldest first (copies).
+
+        Only the returned samples' values are copied (a live plot asks for a few seconds of
+        a buffer that holds thirty).
+        """
+        start = (self._head - self._count) % self.capacity
+        end = start + self._count
+        if end <= self.capacity:  # one contiguous run
+            t = self._t[start:end]
+            first = int(np.searchsorted(t, t_from_s, side="left"))
+            return t[first:].copy(), self._v[start + first : end].copy()
+        older = self.capacity - start  # samples in the run at the end of the arrays
+        t = np.concatenate((self._t[start:], self._t[: end - self.capacity]))
         first = int(np.searchsorted(t, t_from_s, side="left"))
-        return t[first:], v[first:]
+        if first >= older:
+            return t[first:], self._v[first - older : end - self.capacity].copy()
+        return t[first:], np.concatenate((self._v[start + first :], self._v[: end - self.capacity]))
 
     def latest(self) -> tuple[float, NDArray] | None:
         """The newest sample ``(t_s, value)`` or ``None`` when empty."""
@@ -91,6 +108,12 @@ class RingBuffer:
             return None
         index = (self._head - 1) % self.capacity
         return float(self._t[index]), self._v[index].copy()
+
+    def latest_t(self) -> float:
+        """Time (s) of the newest sample, NaN when empty."""
+        if self._count == 0:
+            return float("nan")
+        return float(self._t[(self._head - 1) % self.capacity])
 
     def at(self, t_s: float) -> tuple[float, NDArray] | None:
         """The newest sample at or before ``t_s`` (the oldest kept one if all are later)."""

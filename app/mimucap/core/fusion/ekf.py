@@ -69,6 +69,8 @@ def _time_grid(t_s, n_sensors: int, n: int) -> np.ndarray:
     """Sample times (s) as ``(n_sensors, n)``: one shared ``(n,)`` row or one row per sensor."""
     t = np.asarray(t_s, dtype=np.float64)
     if t.shape == (n,):
+        if n_sensors == 1:
+            return t.reshape(1, n)  # a view: no copy for the kernel when ``t_s`` is contiguous
         return np.broadcast_to(t, (n_sensors, n))
     if t.shape != (n_sensors, n):
         raise ValueError(f"t_s: expected shape ({n},) or ({n_sensors}, {n}), got {t.shape}")
@@ -78,7 +80,19 @@ def _time_grid(t_s, n_sensors: int, n: int) -> np.ndarray:
 def _kernel_array(array: np.ndarray) -> np.ndarray:
     """C-contiguous, writeable float64 (one compiled kernel type, whatever the caller passed:
     read-only, broadcast or strided arrays would each need their own compilation)."""
+    flags = array.flags
+    if array.dtype == np.float64 and flags.c_contiguous and flags.writeable and flags.aligned:
+        return array  # what np.require returns for such an array, without its overhead
     return np.require(array, dtype=np.float64, requirements=("C", "W", "A"))
+
+
+def _unused_outputs(n_sensors: int) -> tuple[np.ndarray, ...]:
+    """Zero-size arrays for the kernel's absent channels and storage when not storing
+    (``(S, 0, 3)`` absent channel, then ``st_q``, ``st_b``, ``st_pp``, ``st_pu``, ``st_a``)."""
+    absent = np.zeros((n_sensors, 0, 3))
+    pp = np.zeros((n_sensors, 0, 6, 6))
+    return (absent, np.zeros((n_sensors, 0, 4)), np.zeros((n_sensors, 0, 3)), pp, pp,
+            np.zeros((n_sensors, 0, 3, 3)))
 
 
 class OrientationEKF:
@@ -105,6 +119,7 @@ class OrientationEKF:
             FusionParams(**{**params.__dict__, "propagation": propagation}),
             use_mag=use_mag, correct=correct)
         self.state = state.copy() if state is not None else FusionState.new(n_sensors)
+        self._unused: tuple[int, tuple[np.ndarray, ...]] | None = None  # (S, _unused_outputs(S))
 
     @property
     def n_sensors(self) -> int:
@@ -132,15 +147,12 @@ class OrientationEKF:
         out_b = np.empty((s_count, n, 3))
         out_f = np.zeros((s_count, n), dtype=np.uint8)
         st = self.state
-        if _store is not None:
-            store = True
+        if self._unused is None or self._unused[0] != s_count:
+            self._unused = (s_count, _unused_outputs(s_count))  # zero-size: nothing is ever written
+        absent, st_q, st_b, st_pp, st_pu, st_a = self._unused[1]
+        store = _store is not None
+        if store:
             st_q, st_b, st_pp, st_pu, st_a = _store
-        else:
-            store = False
-            st_q, st_b = np.zeros((s_count, 0, 4)), np.zeros((s_count, 0, 3))
-            st_pp = st_pu = np.zeros((s_count, 0, 6, 6))
-            st_a = np.zeros((s_count, 0, 3, 3))
-        absent = np.zeros((s_count, 0, 3))
         ekf_sensors(self._packed, _kernel_array(t), gyr,
                     absent if acc is None else acc, absent if mag is None else mag,
                     st.q_world_from_sensor, st.bias_rad_s, st.cov, st.aux,

@@ -92,7 +92,8 @@ class FusionState:
 
     def counters(self, sensor: int = 0) -> dict[str, int]:
         """Counts of samples, skipped samples, rest samples and rejections of one sensor."""
-        return {name: int(self.aux[sensor, index]) for name, index in COUNTER_INDEX.items()}
+        row = self.aux[sensor].tolist()  # one conversion instead of one numpy scalar per counter
+        return {name: int(row[index]) for name, index in COUNTER_INDEX.items()}
 
     def initialised(self, sensor: int = 0) -> bool:
         return bool(self.aux[sensor, AX_INIT] > 0.0)
