@@ -7,6 +7,8 @@ missing sequence numbers (gaps), counted when the next sample arrives.
 
 from __future__ import annotations
 
+import math
+from bisect import bisect_left
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -35,6 +37,84 @@ class SensorStats:
         return self.drops / expected if expected else 0.0
 
 
+class _RecentValues:
+    """The last ``capacity`` float64 values appended, read oldest first.
+
+    A ring of preallocated memory (grown by doubling up to ``capacity``), so that appending
+    a block and reading the values back cost numpy copies, not per-value Python work.
+    """
+
+    def __init__(self, capacity: int) -> None:
+        self.capacity = max(int(capacity), 0)
+        self._data = np.empty(min(self.capacity, 1024))
+        self._start = 0  # index of the oldest value
+        self._count = 0
+
+    def __len__(self) -> int:
+        return self._count
+
+    def extend(self, values: np.ndarray) -> None:
+        """Append ``values``, a 1-D float64 array (the oldest values beyond the capacity go)."""
+        n = values.shape[0]
+        if n == 0 or self.capacity == 0:
+            return
+        if n > self.capacity:
+            values, n = values[-self.capacity :], self.capacity
+        if self._count + n > self._data.size and self._data.size < self.capacity:  # grow
+            ordered = self.values()
+            self._data = np.empty(min(self.capacity, max(2 * self._data.size, self._count + n)))
+            self._data[: self._count] = ordered
+            self._start = 0
+        size = self._data.size
+        end = self._start + self._count
+        if end >= size:
+            end -= size
+        stop = end + n
+        if stop <= size:
+            self._data[end:stop] = values
+        else:
+            self._data[end:] = values[: size - end]
+            self._data[: stop - size] = values[size - end :]
+        overwritten = max(self._count + n - size, 0)
+        self._count = min(self._count + n, size)
+        self._start = (self._start + overwritten) % size
+
+    def values(self) -> np.ndarray:
+        """A copy, oldest first, shape ``(len(self),)``."""
+        stop = self._start + self._count
+        if stop <= self._data.size:
+            return self._data[self._start : stop].copy()
+        return np.concatenate((self._data[self._start :], self._data[: stop - self._data.size]))
+
+
+def percentiles_linear(values: np.ndarray, percents: tuple[float, ...]) -> list[float]:
+    """``np.percentile(values, percents)`` (its default "linear" method), the same numbers.
+
+    One sort of the values, then numpy's own interpolation formula for each percentile; NaN
+    when ``values`` holds a NaN. ``values`` is 1-D and not empty.
+    """
+    ordered = np.sort(np.asarray(values, dtype=np.float64))
+    n = ordered.shape[0]
+    if math.isnan(ordered[-1]):  # NaN sorts last
+        return [float("nan")] * len(percents)
+    result = []
+    for percent in percents:
+        virtual = (n - 1) * (percent / 100)
+        below = math.floor(virtual)
+        above = below + 1
+        if virtual >= n - 1:
+            below = above = -1
+        a, b = float(ordered[below]), float(ordered[above])
+        gamma = virtual - below
+        diff = b - a
+        result.append(b - diff * (1 - gamma) if gamma >= 0.5 else a + diff * gamma)
+    return result
+
+
+def _arrival_time(arrival: tuple[float, int]) -> float:
+    return arrival[0]
+
+
 class SensorStatsTracker:
     """Accumulates :class:`SensorStats` for one sensor from the blocks it delivers."""
 
@@ -47,8 +127,10 @@ class SensorStatsTracker:
         self.drops = 0
         self.last_seq: int | None = None
         self.last_seen_s = float("nan")
+        # Arrivals within the window: (host time (s), samples received before it).
         self._arrivals: deque[tuple[float, int]] = deque()
-        self._latencies: deque[float] = deque(maxlen=latency_samples)
+        self._arrivals_in_order = True  # arrival times never decreased (then bisect finds the window)
+        self._latencies = _RecentValues(latency_samples)
         self.rejections: dict[str, int] = {}
 
     def add_block(self, block: SampleBlock, arrival_s: float) -> None:
@@ -62,26 +144,39 @@ class SensorStatsTracker:
         if self.last_seq is not None and first > self.last_seq + 1:
             self.drops += first - self.last_seq - 1
         self.last_seq = last if self.last_seq is None else max(self.last_seq, last)
+        if self._arrivals and not arrival_s >= self._arrivals[-1][0]:
+            self._arrivals_in_order = False
+        self._arrivals.append((arrival_s, self.received))
         self.received += n
         self.last_seen_s = arrival_s
-        self._arrivals.append((arrival_s, n))
         while self._arrivals and self._arrivals[0][0] < arrival_s - self.window_s:
             self._arrivals.popleft()
-        self._latencies.extend((arrival_s - block.host_time_s).tolist())
+        self._latencies.extend(np.asarray(arrival_s - block.host_time_s, dtype=np.float64).ravel())
 
     def latencies_s(self) -> np.ndarray:
         """The most recent latencies (s), oldest first."""
-        return np.asarray(self._latencies, dtype=np.float64)
+        return self._latencies.values()
+
+    def _samples_since(self, t_from_s: float) -> tuple[int, int]:
+        """Arrivals at or after ``t_from_s`` among those kept, and the samples they brought."""
+        arrivals = self._arrivals
+        if self._arrivals_in_order:
+            first = bisect_left(arrivals, t_from_s, key=_arrival_time)
+            count = len(arrivals) - first
+            return count, (self.received - arrivals[first][1]) if count else 0
+        received_after = [before for _t, before in arrivals][1:] + [self.received]
+        chosen = [after - before for (t, before), after in zip(arrivals, received_after) if t >= t_from_s]
+        return len(chosen), sum(chosen)
 
     def snapshot(self, now_s: float) -> SensorStats:
-        in_window = [(t, n) for t, n in self._arrivals if t >= now_s - self.window_s]
+        arrivals, samples = self._samples_since(now_s - self.window_s)
         span = self.window_s
-        if self.received and in_window:
+        if self.received and arrivals:
             first_arrival = self._arrivals[0][0] if len(self._arrivals) else now_s
             span = min(self.window_s, max(now_s - first_arrival, 1e-3))
-        rate = sum(n for _t, n in in_window) / span if in_window else 0.0
+        rate = samples / span if arrivals else 0.0
         latencies = self.latencies_s()
-        p50, p95 = (np.percentile(latencies, [50, 95]).tolist() if latencies.size
+        p50, p95 = (percentiles_linear(latencies, (50, 95)) if latencies.size
                     else (float("nan"), float("nan")))
         return SensorStats(self.sensor_id, self.source, self.received, self.drops, float(rate),
                            float(p50), float(p95), self.last_seen_s, dict(self.rejections))
