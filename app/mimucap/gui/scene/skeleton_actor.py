@@ -1,8 +1,8 @@
 """The skeleton figure as one VTK actor: shaded capsules, joint spheres and anterior markers.
 
-Every piece of the figure (segment capsule, connector, joint sphere, marker) is a copy of one
-of two unit templates (an open cylinder along +y, radius 1, height 1, centred at the origin;
-a sphere of radius 1) placed by its ``(4, 4)`` matrix from a
+Every piece of the figure (segment capsule, connector, joint sphere, marker) is a copy of a
+unit template (an open cylinder along +y, radius 1, height 1, centred at the origin; a
+sphere of radius 1, coarser for the small markers) placed by its ``(4, 4)`` matrix from a
 :class:`mimucap.session.figure.FigureGeometry` (scene frame, metres). All copies live in a
 single ``vtkPolyData`` drawn by a single actor: each frame moves the vertices and normals
 in place (``points = M[:3, :3] @ p + M[:3, 3]``, ``normals ∝ M[:3, :3]^-T @ n``). On software
@@ -41,6 +41,7 @@ MARKER_COLOUR = (0.15, 0.18, 0.25)
 #: enough to keep software OpenGL fast (its cost grows with the triangle count).
 CYLINDER_RESOLUTION = 16
 SPHERE_RESOLUTION = (12, 8)  # (theta, phi)
+MARKER_RESOLUTION = (8, 5)  # the anterior markers are a few pixels wide
 
 
 @dataclass(frozen=True)
@@ -72,11 +73,11 @@ def _unit_cylinder() -> _Template:
     return _template(cylinder)
 
 
-def _unit_sphere() -> _Template:
+def _unit_sphere(resolution: tuple[int, int]) -> _Template:
     sphere = vtkSphereSource()
     sphere.SetRadius(1.0)
-    sphere.SetThetaResolution(SPHERE_RESOLUTION[0])
-    sphere.SetPhiResolution(SPHERE_RESOLUTION[1])
+    sphere.SetThetaResolution(resolution[0])
+    sphere.SetPhiResolution(resolution[1])
     return _template(sphere)
 
 
@@ -126,13 +127,13 @@ class SkeletonActor:
     def __init__(self, renderer: vtkRenderer, builder: FigureBuilder) -> None:
         self.renderer = renderer
         self.segment_names = tuple(builder.segment_names)
-        cylinder, sphere = _unit_cylinder(), _unit_sphere()
+        cylinder, sphere, marker = _unit_cylinder(), _unit_sphere(SPHERE_RESOLUTION), _unit_sphere(MARKER_RESOLUTION)
         n_segments, n_connectors = len(builder.segment_names), len(builder.connector_names)
         n_joints = len(builder.joint_names)
         self._segments = _Batch(cylinder, n_segments, 0)
         self._connectors = _Batch(cylinder, n_connectors, self._segments.stop)
         self._joints = _Batch(sphere, n_joints, self._connectors.stop)
-        self._markers = _Batch(sphere, n_segments, self._joints.stop)
+        self._markers = _Batch(marker, n_segments, self._joints.stop)
         batches = (self._segments, self._connectors, self._joints, self._markers)
         n_points = self._markers.stop
 
