@@ -132,18 +132,29 @@ def test_peak_decimation_keeps_every_peak_and_every_gap():
 
 def test_vertical_range_grows_at_once_and_shrinks_only_after_a_while():
     steady = _SteadyRange(min_span=2.0)
-    assert steady.update(np.array([0.0, 10.0]), now_s=0.0)
+    assert steady.update(0.0, 10.0, now_s=0.0)
     assert steady.low < 0.0 and steady.high > 10.0
-    assert not steady.update(np.array([4.0, 6.0]), now_s=0.5)   # small data: range kept ...
-    assert not steady.update(np.array([4.0, 6.0]), now_s=1.5)
-    assert steady.update(np.array([4.0, 6.0]), now_s=2.6)      # ... until 2 s have passed
+    assert not steady.update(4.0, 6.0, now_s=0.5)   # small data: range kept ...
+    assert not steady.update(4.0, 6.0, now_s=1.5)
+    assert steady.update(4.0, 6.0, now_s=2.6)      # ... until 2 s have passed
     assert steady.low <= 4.0 and steady.high >= 6.0 and steady.high - steady.low < 5.0
-    assert not steady.update(np.full(3, np.nan), now_s=3.0)    # no data: nothing changes
-    assert steady.update(np.array([-50.0]), now_s=3.1)
+    assert not steady.update(None, None, now_s=3.0)    # no data: nothing changes
+    assert steady.update(-50.0, -50.0, now_s=3.1)
     assert steady.low <= -50.0
     tiny = _SteadyRange(min_span=10.0)
-    tiny.update(np.array([0.0, 0.01]), now_s=0.0)
+    tiny.update(0.0, 0.01, now_s=0.0)
     assert tiny.high - tiny.low >= 10.0  # noise is never blown up to full height
+
+
+def test_curves_know_their_bounds_and_the_range_holds_the_data(plots):
+    plots.refresh()
+    curve = plots.curves["acc"][0]
+    x, y = curve.getData()
+    assert curve.dataBounds(0) == (x[0], x[-1])
+    assert curve.dataBounds(1) == pytest.approx((np.min(y), np.max(y)))
+    low, high = plots.plots["acc"].getViewBox().viewRange()[1]
+    assert low <= np.min(y) and high >= 9.81  # the z axis column (gravity) is inside too
+    assert plots.curves["gyr"][0].dataBounds(1) == pytest.approx((0.0, 0.0))
 
 
 def test_pause_freezes_the_curves(plots):

@@ -73,6 +73,35 @@ def _peak_decimate(x: np.ndarray, values: np.ndarray, max_points: int) -> tuple[
     return out_x, out_values
 
 
+def _column_bounds(values: np.ndarray) -> tuple[list[float | None], list[float | None]]:
+    """Per column of ``values`` ``(N, C)``: its smallest and largest finite value (None if none)."""
+    if len(values) == 0:
+        return [None] * values.shape[1], [None] * values.shape[1]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column
+        low, high = np.nanmin(values, axis=0), np.nanmax(values, axis=0)
+    return ([None if np.isnan(v) else float(v) for v in low], [None if np.isnan(v) else float(v) for v in high])
+
+
+class _Curve(pg.PlotCurveItem):
+    """A curve told its data bounds with its data (found once per plot for all three axes),
+    instead of searching them again each time Qt asks for its bounding rectangle."""
+
+    _known_bounds: tuple | None = None
+
+    def show_data(self, x: np.ndarray, y: np.ndarray, y_bounds: tuple[float | None, float | None]) -> None:
+        """Show ``y`` against sorted ``x``; ``y_bounds`` = ``(nanmin(y), nanmax(y))`` or
+        ``(None, None)`` when ``y`` holds no finite value."""
+        x_bounds = (float(x[0]), float(x[-1])) if len(x) else (None, None)
+        self._known_bounds = (x_bounds, y_bounds)
+        self.setData(x, y, connect="finite")
+
+    def dataBounds(self, ax, frac=1.0, orthoRange=None):  # noqa: N802 (pyqtgraph API)
+        if self._known_bounds is not None and frac >= 1.0 and orthoRange is None:
+            return self._known_bounds[ax]
+        return super().dataBounds(ax, frac, orthoRange)
+
+
 class _SteadyRange:
     """A vertical range that grows at once to hold the data and shrinks only after the data
     has used less than half of it for :data:`SHRINK_AFTER_S` (a steady axis is cheap to draw
@@ -83,12 +112,11 @@ class _SteadyRange:
         self.low, self.high = -0.5 * self.min_span, 0.5 * self.min_span
         self._small_since: float | None = None
 
-    def update(self, values: np.ndarray, now_s: float) -> bool:
-        """Fit the range to ``values`` (any shape, NaN ignored); True if it changed."""
-        finite = values[np.isfinite(values)]
-        if finite.size == 0:
+    def update(self, low: float | None, high: float | None, now_s: float) -> bool:
+        """Fit the range to data spanning ``low`` … ``high`` (None: no data); True if it changed."""
+        if low is None or high is None:
             return False
-        lo, hi = float(finite.min()), float(finite.max())
+        lo, hi = float(low), float(high)
         span = max(hi - lo, self.min_span)
         centre = 0.5 * (lo + hi)
         wanted = (centre - 0.6 * span, centre + 0.6 * span)  # 10 % margin on each side
@@ -158,7 +186,7 @@ class LivePlots(QtWidgets.QWidget):
 
         self.layout_widget = pg.GraphicsLayoutWidget(self)
         self.plots: dict[str, pg.PlotItem] = {}
-        self.curves: dict[str, list[pg.PlotCurveItem]] = {}
+        self.curves: dict[str, list[_Curve]] = {}
         self.cursors: dict[str, pg.InfiniteLine] = {}
         self._ranges: dict[str, _SteadyRange] = {}
         self._titles: dict[str, str] = {}
@@ -202,7 +230,7 @@ class LivePlots(QtWidgets.QWidget):
         # twice the drawing itself at 30 Hz; the window is decimated here instead.
         curves = []
         for axis in range(3):
-            curve = pg.PlotCurveItem(pen=pg.mkPen(AXIS_PENS[axis], width=1), name=names[axis])
+            curve = _Curve(pen=pg.mkPen(AXIS_PENS[axis], width=1), name=names[axis])
             plot.addItem(curve)
             curves.append(curve)
         # Axes, legend and title change rarely: keep each as a pixmap instead of re-drawing
@@ -357,10 +385,13 @@ class LivePlots(QtWidgets.QWidget):
     # -- drawing -----------------------------------------------------------------------------
     def _show(self, key: str, t: np.ndarray, values: np.ndarray, origin: float, now_s: float) -> None:
         x, shown = _peak_decimate(t - origin, values, MAX_POINTS)
+        low, high = _column_bounds(shown)
         for axis, curve in enumerate(self.curves[key]):
-            curve.setData(x, shown[:, axis], connect="finite")
+            curve.show_data(x, shown[:, axis], (low[axis], high[axis]))
+        finite_low = [v for v in low if v is not None]
+        finite_high = [v for v in high if v is not None]
         steady = self._ranges[key]
-        if steady.update(values, now_s):
+        if finite_low and steady.update(min(finite_low), max(finite_high), now_s):
             self.plots[key].setYRange(steady.low, steady.high, padding=0)
 
     def refresh(self) -> None:
