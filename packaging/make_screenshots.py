@@ -54,6 +54,7 @@ def make_screenshots(out_dir: Path) -> list[Path]:
         written.append(window.save_screenshot(out_dir / "main-window.png"))
         _wait(app, lambda: time.monotonic() - start > 8.0, 10, "recording")
         window.session_panel.record_button.setChecked(False)
+        window.wait_for_saving()
         path = window.live.last_recording.session_path
 
         review = window.open_review(path)

@@ -7,6 +7,7 @@ times faster than the wall clock (every part of the pipeline reads the same cloc
 
 from __future__ import annotations
 
+import threading
 import time
 
 import numpy as np
@@ -18,7 +19,7 @@ from mimucap.gui.main_window import MainWindow
 from mimucap.gui.source_dialog import SourceDialog, last_source_spec
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session
-from mimucap.session.live import open_live_session
+from mimucap.session.live import RecordingToSave, open_live_session
 
 SPEED_UP = 5.0
 RECORD_S = 10.0
@@ -103,8 +104,9 @@ def test_record_export_review(app_window, qtbot, tmp_path, monkeypatch):
     qtbot.waitUntil(lambda: window.live.recording_info().elapsed_s >= RECORD_S, timeout=10000)
     info = window.live.recording_info()
     assert info.size_bytes > 0 and info.markers == 2
-    qtbot.mouseClick(window.session_panel.record_button, QtCore.Qt.LeftButton)
-    assert not window.live.recording
+    with qtbot.waitSignal(window.recording_saved, timeout=30000):
+        qtbot.mouseClick(window.session_panel.record_button, QtCore.Qt.LeftButton)
+        assert not window.live.recording
     result = window.live.last_recording
     assert result.complete and result.session_path.parent == tmp_path
     assert "Saved" in window.session_panel.record_status.text()
@@ -182,6 +184,36 @@ def test_record_export_review(app_window, qtbot, tmp_path, monkeypatch):
     qtbot.waitUntil(lambda: review.player.cursor_s > t_first + 0.5, timeout=5000)
     qtbot.mouseClick(review.play_button, QtCore.Qt.LeftButton)
     assert not review.player.playing
+
+
+def test_the_session_file_is_written_off_the_gui_thread(app_window, qtbot, tmp_path, monkeypatch):
+    window = app_window
+    monkeypatch.setattr(window, "recording_folder", lambda: tmp_path)
+    qtbot.waitUntil(lambda: window.live.samples_received > 0, timeout=10000)
+    release = threading.Event()
+    real_save = RecordingToSave.save
+    save_threads = []
+
+    def slow_save(pending):
+        save_threads.append(threading.current_thread())
+        assert release.wait(20)
+        return real_save(pending)
+
+    monkeypatch.setattr(RecordingToSave, "save", slow_save)
+    window.action_record.trigger()
+    qtbot.waitUntil(lambda: bool(window.live.recording_info().samples), timeout=10000)
+    window.action_record.trigger()
+    # Stopped at once; the window keeps running (frames keep coming) while the file is written.
+    assert not window.live.recording and window.saving
+    assert "Saving the session" in window.session_panel.record_status.text()
+    frames = window.scene_view.frames_rendered
+    qtbot.waitUntil(lambda: window.scene_view.frames_rendered > frames + 5, timeout=5000)
+    assert window.saving and save_threads and save_threads[0] is not threading.main_thread()
+    with qtbot.waitSignal(window.recording_saved, timeout=30000) as saved:
+        release.set()
+    assert saved.args[0].complete and saved.args[0].session_path.exists()
+    assert "Saved" in window.session_panel.record_status.text() and not window.saving
+    assert window.action_export.isEnabled()
 
 
 def test_closing_while_recording_asks_first(app_window, qtbot, tmp_path, monkeypatch):

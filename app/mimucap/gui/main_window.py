@@ -18,6 +18,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap import __version__
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
+from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import save_window_png
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.scene.view import SceneView
@@ -67,11 +68,17 @@ def _wizard_classes() -> dict[str, type]:
 class MainWindow(QtWidgets.QMainWindow):
     """MimuCap's main window.
 
+    Signals:
+        recording_saved(object): a stopped recording's session file was written (its
+            ``RecordingResult``).
+
     Args:
         source: the source spec to start with (default: the one chosen last time).
         session_factory: builds a :class:`LiveSession` from a spec (tests pass one with a
             fast clock).
     """
+
+    recording_saved = QtCore.pyqtSignal(object)
 
     def __init__(self, source: str | None = None,
                  session_factory: Callable[[str], LiveSession] = open_live_session) -> None:
@@ -85,6 +92,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._wizards = _wizard_classes()
         self._cpu = CpuMeter()
         self._last_record_message = ""
+        self.saving_tasks: list[BackgroundTask] = []
+        self.last_recording = None  # RecordingResult of the last recording saved
 
         self.scene_view = SceneView(self)
         self.plots = LivePlots(self, relative_time=True)
@@ -365,10 +374,39 @@ class MainWindow(QtWidgets.QMainWindow):
         elif not on and self.live.recording:
             self._finish_recording()
 
-    def _finish_recording(self) -> None:
-        result = self.live.stop_recording()
+    def _finish_recording(self, wait: bool = False) -> None:
+        """Stop recording at once; the session file is written in a background thread (the
+        journal holds every sample until then). ``wait``: block until it is written."""
+        live = self.live
+        pending = live.end_recording()
         self.session_panel.set_recording(False)
         self.action_record.setText("Start &Recording")
+        message = f"Saving the session to {pending.session_path}…"
+        self.session_panel.show_info(None, message)
+        self.statusBar().showMessage(message)
+        task = BackgroundTask(lambda _progress: pending.save(), self)
+        task.succeeded.connect(lambda result: self._recording_saved(live, result))
+        task.failed.connect(lambda error: self._recording_not_saved(pending, error))
+        task.finished.connect(lambda: self.saving_tasks.remove(task) if task in self.saving_tasks else None)
+        self.saving_tasks.append(task)
+        task.start()
+        if wait:
+            self.wait_for_saving()
+
+    def wait_for_saving(self) -> None:
+        """Block until every session file being written is written (their messages shown)."""
+        for task in list(self.saving_tasks):
+            task.wait()
+        QtCore.QCoreApplication.sendPostedEvents()  # deliver the tasks' results now
+
+    @property
+    def saving(self) -> bool:
+        """True while a stopped recording's session file is being written."""
+        return any(task.isRunning() for task in self.saving_tasks)
+
+    def _recording_saved(self, live: LiveSession, result) -> None:
+        live.last_recording = result
+        self.last_recording = result
         samples = sum(result.samples.values())
         if result.session_path is not None:
             message = f"Saved {samples} samples to {result.session_path}"
@@ -377,8 +415,18 @@ class MainWindow(QtWidgets.QMainWindow):
             self.action_export.setEnabled(True)
         else:
             message = result.message
+            log.warning("session file not written: %s", message)
+        if self.live is not None and not self.live.recording:
+            self.session_panel.show_info(None, message)
+        self.statusBar().showMessage(message)
+        self.recording_saved.emit(result)
+
+    def _recording_not_saved(self, pending, error: str) -> None:
+        message = (f"The session file {pending.session_path} could not be written ({error}); every sample is "
+                   f"kept in {pending.recorder.journal_path}: run `mimucap recover {pending.session_path}`.")
         self.session_panel.show_info(None, message)
         self.statusBar().showMessage(message)
+        QtWidgets.QMessageBox.critical(self, "Recording not saved", message)
 
     def add_marker(self, label: str = "") -> None:
         if self.live is None:
@@ -432,9 +480,9 @@ class MainWindow(QtWidgets.QMainWindow):
         return window
 
     def export_last_recording(self) -> None:
-        if self.live is None or self.live.last_recording is None or self.live.last_recording.session_path is None:
+        if self.last_recording is None or self.last_recording.session_path is None:
             return
-        window = self.open_review(self.live.last_recording.session_path)
+        window = self.open_review(self.last_recording.session_path)
         window.export_when_loaded = True
 
     def open_wizard(self, name: str) -> None:
@@ -466,6 +514,13 @@ class MainWindow(QtWidgets.QMainWindow):
                 event.ignore()
                 return
             self._finish_recording()
+        if self.saving:
+            self.statusBar().showMessage("Writing the session file before closing…")
+            QtWidgets.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
+            try:
+                self.wait_for_saving()
+            finally:
+                QtWidgets.QApplication.restoreOverrideCursor()
         self._pump.stop()
         self._panel_timer.stop()
         self.plots.stop()

@@ -560,20 +560,52 @@ class LiveSession:
     def recording_failure(self) -> str | None:
         return None if self._recorder is None else self._recorder.failure
 
-    def stop_recording(self) -> RecordingResult:
-        """Stop and write the session file; returns what was written."""
+    def end_recording(self) -> RecordingToSave:
+        """Stop recording now (fast: the journal gets its last records and is closed); the
+        returned :class:`RecordingToSave` writes the session file when asked (in any thread:
+        a long recording takes seconds to convert). Until then the journal holds everything."""
         if self._recorder is None:
             raise ValueError("not recording")
         recorder, self._recorder = self._recorder, None
         status = {sid: {"received": s.received, "drops": s.drops, "rate_hz": s.rate_hz}
                   for sid, s in self.feed.stats().items()}
-        result = recorder.stop(status)
+        recorder.close(status)
         truth_blocks, self._truth_blocks = self._truth_blocks, []
-        if truth_blocks and result.session_path is not None:
-            add_simulator_truth(result.session_path, SuitTruth.concatenate(truth_blocks),
-                                self.feed.host_time_of(0.0) - recorder.start_host_s, self.feed.time_scale)
-        self.last_recording = result
+        pending = RecordingToSave(recorder=recorder, truth=SuitTruth.concatenate(truth_blocks) if truth_blocks else None,
+                                  truth_offset_s=(self.feed.host_time_of(0.0) - recorder.start_host_s) if truth_blocks else 0.0,
+                                  time_scale=getattr(self.feed, "time_scale", 1.0))
         self.events.recording.emit(None)
+        return pending
+
+    def stop_recording(self) -> RecordingResult:
+        """Stop and write the session file now; returns what was written."""
+        result = self.end_recording().save()
+        self.last_recording = result
+        return result
+
+
+@dataclass
+class RecordingToSave:
+    """A stopped recording whose session file is still to be written.
+
+    :meth:`save` reads only what this object holds (the closed recorder, the simulator's
+    truth when the simulated suit was shown), so it may run off the GUI thread.
+    """
+
+    recorder: Recorder
+    truth: SuitTruth | None = None
+    truth_offset_s: float = 0.0   #: session time (s) of simulated time 0
+    time_scale: float = 1.0
+
+    @property
+    def session_path(self) -> Path:
+        return self.recorder.out_path
+
+    def save(self) -> RecordingResult:
+        """Write the session file (with the simulator's truth, if any) and remove the journal."""
+        result = self.recorder.write_session()
+        if self.truth is not None and result.session_path is not None:
+            add_simulator_truth(result.session_path, self.truth, self.truth_offset_s, self.time_scale)
         return result
 
 

@@ -102,6 +102,7 @@ class Recorder:
         self.samples: dict[str, int] = {}
         self.failure: str | None = None
         self._journal: JournalWriter | None = None
+        self._closed = False
 
     @property
     def recording(self) -> bool:
@@ -170,12 +171,15 @@ class Recorder:
         return self.failure is None
 
     def stop(self, status: Mapping[str, Any] | None = None, reason: str = "stopped") -> RecordingResult:
-        """End the recording and write the session file (the journal is then removed).
+        """End the recording and write the session file (the journal is then removed):
+        :meth:`close` then :meth:`write_session`."""
+        self.close(status, reason)
+        return self.write_session()
 
-        ``status`` (JSON-serialisable, e.g. per-sensor statistics) lands in the session
-        metadata under ``"acquisition"``. On a write error the journal is kept and the
-        result's ``message`` says how to recover it.
-        """
+    def close(self, status: Mapping[str, Any] | None = None, reason: str = "stopped") -> None:
+        """End the recording: the last records go to the journal, which is closed (fast;
+        nothing more is recorded). ``status`` (JSON-serialisable, e.g. per-sensor
+        statistics) lands in the session metadata under ``"acquisition"``."""
         if self._journal is None:
             raise ValueError("the recorder was not started")
         if status is not None:
@@ -188,6 +192,14 @@ class Recorder:
             if self.failure is None:
                 self._fail(error)
         self._journal = None
+        self._closed = True
+
+    def write_session(self) -> RecordingResult:
+        """Turn the closed journal into the session file and remove the journal (slow for
+        long recordings; may run in any thread). On a write error the journal is kept and
+        the result's ``message`` says how to recover it."""
+        if not self._closed:
+            raise ValueError("close the recording before writing its session file")
         try:
             result = _convert(self.journal_path, self.out_path)
         except OSError as error:
