@@ -6,7 +6,7 @@ import math
 
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.sensor_panel import SensorPanel
-from mimucap.gui.source_dialog import SourceDialog, last_source_spec
+from mimucap.gui.source_dialog import SourceDialog, last_skeleton_model, last_source_spec
 from mimucap.session.live import SensorRow
 
 
@@ -33,6 +33,19 @@ def test_source_dialog_builds_checks_and_remembers_specs(qtbot):
     assert again.current_kind() == "serial" and again.serial_baud.currentText() == "230400"
     again.set_spec("replay:/data/s.h5@2")
     assert again.current_spec() == "replay:/data/s.h5@2"
+
+
+def test_source_dialog_asks_for_the_skeleton_and_remembers_it(qtbot):
+    assert last_skeleton_model() == "ten_segment"
+    dialog = SourceDialog(None)
+    qtbot.addWidget(dialog)
+    assert dialog.model_combo.currentData() == "ten_segment"
+    dialog.model_combo.setCurrentIndex(dialog.model_combo.findData("fifteen_segment"))
+    dialog.accept()
+    assert dialog.model_name == "fifteen_segment" and last_skeleton_model() == "fifteen_segment"
+    again = SourceDialog(None)
+    qtbot.addWidget(again)
+    assert again.model_combo.currentData() == "fifteen_segment"
 
 
 def test_assignment_dialog_refuses_two_sensors_on_one_segment(qtbot):

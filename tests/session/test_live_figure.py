@@ -61,6 +61,18 @@ def test_bad_display_mode_and_source_are_refused(npose):
         npose.set_display_mode("sideways")
     with pytest.raises(ValueError):
         open_live_session("carrier-pigeon:1")
+    with pytest.raises(ValueError, match="skeleton model"):
+        open_live_session("simulated:walk", model_name="octopus")
+
+
+def test_the_skeleton_model_is_chosen_with_the_source():
+    assert open_live_session("simulated:walk").model.name == "ten_segment"
+    fifteen = open_live_session("simulated:walk", model_name="fifteen_segment")
+    assert fifteen.model.name == "fifteen_segment" and len(fifteen.sensor_ids) == 17
+    assert open_live_session("simulated:walk", n_sensors=17).model.name == "fifteen_segment"
+    udp = open_live_session("udp:127.0.0.1:5599", model_name="fifteen_segment")
+    assert udp.model.name == "fifteen_segment" and "head" in udp.builder.segment_names
+    assert open_live_session("udp:127.0.0.1:5599").model.name == "ten_segment"
 
 
 def test_frames_advance_with_the_wall_clock():

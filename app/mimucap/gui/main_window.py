@@ -25,7 +25,7 @@ from mimucap.gui.scene.view import SceneView
 from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.session_panel import SessionPanel
 from mimucap.gui.settings import gui_settings
-from mimucap.gui.source_dialog import DEFAULT_SPEC, SourceDialog, last_source_spec
+from mimucap.gui.source_dialog import DEFAULT_SPEC, SourceDialog, last_skeleton_model, last_source_spec
 from mimucap.io.calibration_store import user_data_dir
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
@@ -75,18 +75,21 @@ class MainWindow(QtWidgets.QMainWindow):
     Args:
         source: the source spec to start with (default: the one chosen last time).
         session_factory: builds a :class:`LiveSession` from a spec (tests pass one with a
-            fast clock).
+            fast clock); by default :func:`open_live_session` with the skeleton model chosen
+            in the source dialog (:attr:`model_name`).
     """
 
     recording_saved = QtCore.pyqtSignal(object)
 
     def __init__(self, source: str | None = None,
-                 session_factory: Callable[[str], LiveSession] = open_live_session) -> None:
+                 session_factory: Callable[[str], LiveSession] | None = None) -> None:
         super().__init__()
         self.setObjectName("mainWindow")
         self.setWindowTitle("MimuCap")
         self.resize(1280, 800)
-        self.session_factory = session_factory
+        self.model_name = last_skeleton_model()
+        self.session_factory = session_factory or (
+            lambda spec: open_live_session(spec, model_name=self.model_name))
         self.live: LiveSession | None = None
         self.review_windows: list[QtWidgets.QWidget] = []
         self._wizards = _wizard_classes()
@@ -316,8 +319,9 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # -- user actions: source, sensors, recording ------------------------------------------------
     def choose_source(self) -> None:
-        dialog = SourceDialog(self, self.live.label if self.live is not None else None)
+        dialog = SourceDialog(self, self.live.label if self.live is not None else None, self.model_name)
         if dialog.exec_() == QtWidgets.QDialog.Accepted:
+            self.model_name = dialog.model_name
             self.open_source(dialog.spec)
 
     def assign_sensors(self) -> None:

@@ -2,7 +2,8 @@
 
 It builds a source spec string (``simulated:demo``, ``udp:0.0.0.0:5555``,
 ``serial:/dev/ttyUSB0@115200``, ``replay:FILE@SPEED``), checks it with the acquisition
-layer's parser, and remembers the last choice in the GUI settings.
+layer's parser, asks which skeleton the sensors drive (ten segments, or fifteen with head,
+hands and feet), and remembers both choices in the GUI settings.
 """
 
 from __future__ import annotations
@@ -17,6 +18,11 @@ KINDS = ("simulated", "udp", "serial", "replay")
 KIND_LABELS = {"simulated": "Simulated suit", "udp": "UDP (wireless nodes)", "serial": "Serial port",
                "replay": "Replay a file"}
 DEFAULT_SPEC = "simulated:demo"
+DEFAULT_MODEL = "ten_segment"
+MODEL_LABELS = {
+    "ten_segment": "10 segments: pelvis, thorax, arms, thighs, shanks (7-10 sensors)",
+    "fifteen_segment": "15 segments: also head, hands and feet (up to 17 sensors)",
+}
 
 
 def last_source_spec() -> str:
@@ -24,10 +30,18 @@ def last_source_spec() -> str:
     return str(gui_settings().value("source/spec", DEFAULT_SPEC)) or DEFAULT_SPEC
 
 
-class SourceDialog(QtWidgets.QDialog):
-    """Pick a source; :attr:`spec` is the result after ``accept()``."""
+def last_skeleton_model() -> str:
+    """The skeleton model chosen last time (the ten-segment one the first time)."""
+    name = str(gui_settings().value("source/model", DEFAULT_MODEL))
+    return name if name in MODEL_LABELS else DEFAULT_MODEL
 
-    def __init__(self, parent: QtWidgets.QWidget | None = None, spec: str | None = None) -> None:
+
+class SourceDialog(QtWidgets.QDialog):
+    """Pick a source and a skeleton; :attr:`spec` and :attr:`model_name` are the result after
+    ``accept()``."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None, spec: str | None = None,
+                 model_name: str | None = None) -> None:
         super().__init__(parent)
         self.setWindowTitle("Choose the Source")
         self.setObjectName("sourceDialog")
@@ -78,6 +92,14 @@ class SourceDialog(QtWidgets.QDialog):
         for page in (sim, udp, serial, replay):
             self.stack.addWidget(page)
 
+        self.model_combo = QtWidgets.QComboBox(self)
+        self.model_combo.setObjectName("skeletonModel")
+        for name, label in MODEL_LABELS.items():
+            self.model_combo.addItem(label, name)
+        self.model_combo.setCurrentIndex(self.model_combo.findData(model_name or last_skeleton_model()))
+        model_row = QtWidgets.QFormLayout()
+        model_row.addRow("Skeleton", self.model_combo)
+
         self.error_label = QtWidgets.QLabel(self)
         self.error_label.setStyleSheet("color: #b00020")
         self.error_label.setWordWrap(True)
@@ -89,9 +111,11 @@ class SourceDialog(QtWidgets.QDialog):
         top.addWidget(self.stack, 1)
         layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(top)
+        layout.addLayout(model_row)
         layout.addWidget(self.error_label)
         layout.addWidget(buttons)
         self.spec = ""
+        self.model_name = ""
         self.set_spec(spec or last_source_spec())
 
     def _browse(self) -> None:
@@ -142,7 +166,9 @@ class SourceDialog(QtWidgets.QDialog):
             self.error_label.setText(str(error))
             return
         self.spec = spec
+        self.model_name = str(self.model_combo.currentData())
         settings = gui_settings()
         settings.setValue("source/spec", spec)
+        settings.setValue("source/model", self.model_name)
         settings.sync()
         super().accept()

@@ -645,19 +645,29 @@ def _age_s(created_utc: str) -> float:
 
 def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time.monotonic,
                       time_scale: float = 1.0, in_process_simulator: bool = True,
-                      n_sensors: int = 10, rate_hz: float = 100.0) -> LiveSession:
+                      n_sensors: int | None = None, rate_hz: float = 100.0,
+                      model_name: str | None = None) -> LiveSession:
     """A live session (not started) for source ``spec``.
 
-    ``simulated[:SCENARIO]`` runs the simulated suit (``n_sensors`` at ``rate_hz``; 17
-    sensors wear the fifteen-segment model) in process (wizards can direct it) unless
-    ``in_process_simulator`` is False; everything else (``udp:``, ``serial:``, ``replay:``)
-    runs in acquisition workers.
+    ``simulated[:SCENARIO]`` runs the simulated suit (``n_sensors`` at ``rate_hz``) in process
+    (wizards can direct it) unless ``in_process_simulator`` is False; everything else
+    (``udp:``, ``serial:``, ``replay:``) runs in acquisition workers.
+
+    ``model_name`` (``"ten_segment"`` or ``"fifteen_segment"``, default ten) is the skeleton
+    the sensors drive. The simulated suit wears 10 sensors on the ten-segment model and 17 on
+    the fifteen-segment one unless ``n_sensors`` says otherwise (more than 10 sensors imply
+    the fifteen-segment model).
     """
+    if model_name is not None and model_name not in skeleton.MODEL_NAMES:
+        raise ValueError(f"unknown skeleton model {model_name!r}; use one of {', '.join(skeleton.MODEL_NAMES)}")
     parsed = parse_source_spec(spec)
     if isinstance(parsed, SimulatedSpec) and in_process_simulator:
+        if n_sensors is None:
+            n_sensors = 17 if model_name == "fifteen_segment" else 10
         config = SimulationConfig(scenario=parsed.scenario, n_sensors=n_sensors, rate_hz=rate_hz)
         feed = SimulatorFeed(config, clock=clock, time_scale=time_scale)
         return LiveSession(feed, f"simulated:{parsed.scenario}", model_name=config.model_name,
                            height_m=config.height_m, clock=clock)
-    feed = SupervisorFeed(spec, SourceOptions())
-    return LiveSession(feed, spec, clock=clock)
+    options = SourceOptions() if n_sensors is None else SourceOptions(sensor_count=n_sensors)
+    feed = SupervisorFeed(spec, options)
+    return LiveSession(feed, spec, model_name=model_name or "ten_segment", clock=clock)
