@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mimucap.gui import live_plots
-from mimucap.gui.live_plots import LivePlots, MAX_JOINTS, _peak_decimate, _SteadyRange
+from mimucap.gui.live_plots import LivePlots, MAX_JOINTS, _peak_decimate, _SteadyRange, nice_ticks
 
 
 class FakeSource:
@@ -169,3 +169,18 @@ def test_pause_freezes_the_curves(plots):
     plots.refresh()
     assert len(plots.curves["acc"][0].getData()[1]) == len(before)
     assert not np.array_equal(plots.curves["acc"][0].getData()[1], before)
+
+
+@pytest.mark.parametrize("low, high", [(-0.66, 0.66), (-1.2, 1.2), (-13.0, 13.0), (-35.0, 2.0), (0.0, 65.0),
+                                       (9.5, 10.3), (-1e-3, 1e-3)])
+def test_every_range_gets_a_few_round_labelled_ticks(low, high):
+    ticks = nice_ticks(low, high)
+    values = [v for v, _ in ticks]
+    assert 3 <= len(ticks) <= 8
+    assert all(low <= v <= high for v in values)
+    steps = np.diff(values)
+    np.testing.assert_allclose(steps, steps[0])
+    mantissa = steps[0] / 10 ** np.floor(np.log10(steps[0]))
+    assert min(abs(mantissa - m) for m in (1, 2, 5, 10)) < 1e-9
+    assert len({label for _, label in ticks}) == len(ticks)  # labels tell the ticks apart
+    assert "-0" not in [label.rstrip("0.") or "0" for _, label in ticks if abs(float(label)) == 0]

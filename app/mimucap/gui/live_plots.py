@@ -73,6 +73,21 @@ def _peak_decimate(x: np.ndarray, values: np.ndarray, max_points: int) -> tuple[
     return out_x, out_values
 
 
+def nice_ticks(low: float, high: float, wanted: int = 4) -> list[tuple[float, str]]:
+    """About ``wanted`` round values (steps of 1, 2 or 5 × 10^k) inside ``low`` … ``high``,
+    each with its label (as many decimals as the step needs)."""
+    span = high - low
+    if not span > 0 or not np.isfinite(span):
+        return []
+    raw = span / wanted
+    magnitude = 10.0 ** np.floor(np.log10(raw))
+    step = next(m * magnitude for m in (1.0, 2.0, 5.0, 10.0) if m * magnitude >= raw * (1 - 1e-9))
+    decimals = max(0, -int(np.floor(np.log10(step) + 1e-9)))
+    first = np.ceil(low / step - 1e-9) * step
+    values = np.arange(first, high + 1e-9 * step, step)
+    return [(float(v), f"{0.0 if abs(v) < step / 1e6 else v:.{decimals}f}") for v in values]
+
+
 def _column_bounds(values: np.ndarray) -> tuple[list[float | None], list[float | None]]:
     """Per column of ``values`` ``(N, C)``: its smallest and largest finite value (None if none)."""
     if len(values) == 0:
@@ -220,6 +235,7 @@ class LivePlots(QtWidgets.QWidget):
         left.enableAutoSIPrefix(False)
         left.setLabel(unit)
         left.setWidth(48)
+        left.setStyle(hideOverlappingLabels=False)  # a tick near the top still gets its label
         plot.getAxis("bottom").enableAutoSIPrefix(False)
         plot.hideAxis("bottom")
         view = plot.getViewBox()
@@ -248,7 +264,20 @@ class LivePlots(QtWidgets.QWidget):
         self._set_title(key, title)
         self.cursors[key] = cursor
         self._ranges[key] = _SteadyRange(min_range)
-        plot.setYRange(self._ranges[key].low, self._ranges[key].high, padding=0)
+        self._apply_range(key)
+
+    def _apply_range(self, key: str) -> None:
+        """Show plot ``key``'s steady range with 3-5 round, labelled ticks (pyqtgraph's own
+        choice labels only 0 for some ranges)."""
+        steady = self._ranges[key]
+        ticks = nice_ticks(steady.low, steady.high)
+        low, high = steady.low, steady.high
+        if ticks:  # room for the outer labels (pyqtgraph drops a label that sticks out)
+            height_px = max(self.plots[key].getViewBox().height(), 60.0)
+            pad = 8.0 * (high - low) / (height_px - 16.0)
+            low, high = min(low, ticks[0][0] - pad), max(high, ticks[-1][0] + pad)
+        self.plots[key].setYRange(low, high, padding=0)
+        self.plots[key].getAxis("left").setTicks([ticks, []])
 
     def _set_title(self, key: str, title: str) -> None:
         """Title ``key``'s plot; the curve names follow in their colours (a legend inside the
@@ -392,7 +421,7 @@ class LivePlots(QtWidgets.QWidget):
         finite_high = [v for v in high if v is not None]
         steady = self._ranges[key]
         if finite_low and steady.update(min(finite_low), max(finite_high), now_s):
-            self.plots[key].setYRange(steady.low, steady.high, padding=0)
+            self._apply_range(key)
 
     def refresh(self) -> None:
         """Pull the newest window from the source into the curves (skipped while paused)."""
