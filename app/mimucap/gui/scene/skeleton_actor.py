@@ -1,14 +1,17 @@
-"""The skeleton figure as one VTK actor: shaded capsules, joint spheres and anterior markers.
+"""The skeleton figure as two VTK actors: shaded capsules, and joint spheres with anterior markers.
 
-Every piece of the figure (segment capsule, connector, joint sphere, marker) is a copy of a
-unit template (an open cylinder along +y, radius 1, height 1, centred at the origin; a
-sphere of radius 1, coarser for the small markers) placed by its ``(4, 4)`` matrix from a
-:class:`mimucap.session.figure.FigureGeometry` (scene frame, metres). All copies live in a
-single ``vtkPolyData`` drawn by a single actor: each frame moves the vertices and normals
-in place (``points = M[:3, :3] @ p + M[:3, 3]``, ``normals ∝ M[:3, :3]^-T @ n``). On software
-OpenGL one draw call of ~15 000 triangles costs far less than ~60 actors of a few hundred
-triangles each (``bench/bench_gui.py``). Segment capsules carry the colour of the state of
-the sensor on them (:data:`TINTS`) as per-vertex colours.
+Capsules (segments and the connectors between them) are copies of one unit template (an open
+cylinder along +y, radius 1, height 1, centred at the origin) placed by their ``(4, 4)``
+matrices from a :class:`mimucap.session.figure.FigureGeometry` (scene frame, metres). All
+copies live in a single ``vtkPolyData`` drawn by a single actor: each frame moves the vertices
+and normals in place (``points = M[:3, :3] @ p + M[:3, 3]``, ``normals ∝ M[:3, :3]^-T @ n``).
+On software OpenGL one draw call costs far less than one actor per piece.
+
+Spheres (joints and markers; a sphere's matrix is its radius times a rotation, plus its
+centre) are drawn by VTK's sphere impostor mapper: one point each, ray-traced per pixel, so a
+perfectly round sphere costs no triangles (35 meshed spheres were ~60 % of the figure's
+render time on software OpenGL; ``bench/bench_gui.py``). Segment capsules carry the colour of
+the state of the sensor on them (:data:`TINTS`) as per-vertex colours.
 """
 
 from __future__ import annotations
@@ -22,8 +25,9 @@ from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray,
 from vtkmodules.vtkCommonCore import vtkPoints
 from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
 from vtkmodules.vtkFiltersCore import vtkTriangleFilter
-from vtkmodules.vtkFiltersSources import vtkCylinderSource, vtkSphereSource
+from vtkmodules.vtkFiltersSources import vtkCylinderSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
+from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLSphereMapper
 
 from mimucap.session.figure import FigureBuilder, FigureGeometry
 
@@ -37,11 +41,9 @@ TINTS: dict[str, tuple[float, float, float]] = {
 JOINT_COLOUR = (0.92, 0.92, 0.90)
 CONNECTOR_COLOUR = (0.78, 0.78, 0.80)
 MARKER_COLOUR = (0.15, 0.18, 0.25)
-#: Facets of the unit shapes: enough for smooth Phong shading at figure size on screen, few
+#: Facets of the unit capsule: enough for smooth Phong shading at figure size on screen, few
 #: enough to keep software OpenGL fast (its cost grows with the triangle count).
-CYLINDER_RESOLUTION = 16
-SPHERE_RESOLUTION = (12, 8)  # (theta, phi)
-MARKER_RESOLUTION = (8, 5)  # the anterior markers are a few pixels wide
+CYLINDER_RESOLUTION = 20
 
 
 @dataclass(frozen=True)
@@ -71,14 +73,6 @@ def _unit_cylinder() -> _Template:
     cylinder.SetResolution(CYLINDER_RESOLUTION)
     cylinder.CappingOff()
     return _template(cylinder)
-
-
-def _unit_sphere(resolution: tuple[int, int]) -> _Template:
-    sphere = vtkSphereSource()
-    sphere.SetRadius(1.0)
-    sphere.SetThetaResolution(resolution[0])
-    sphere.SetPhiResolution(resolution[1])
-    return _template(sphere)
 
 
 def _rgb(colour) -> NDArray[np.uint8]:
@@ -116,6 +110,45 @@ class _Batch:
         return (self.template.triangles[None, :, :] + offsets[:, None, None]).reshape(-1, 3)
 
 
+def _polydata(points_array, cells: NDArray[np.int64], size: int) -> vtkPolyData:
+    """A polydata of ``points_array`` (a VTK array) with cells of ``size`` points each
+    (``cells`` ``(m, size)``): triangles for ``size`` 3, vertices for ``size`` 1."""
+    offsets = numpy_to_vtkIdTypeArray(np.arange(0, size * len(cells) + 1, size, dtype=np.int64), deep=True)
+    connectivity = numpy_to_vtkIdTypeArray(np.ascontiguousarray(cells, dtype=np.int64).reshape(-1), deep=True)
+    cell_array = vtkCellArray()
+    cell_array.SetData(offsets, connectivity)
+    points = vtkPoints()
+    points.SetData(points_array)
+    polydata = vtkPolyData()
+    polydata.SetPoints(points)
+    if size == 1:
+        polydata.SetVerts(cell_array)
+    else:
+        polydata.SetPolys(cell_array)
+    return polydata
+
+
+def _colour_by_scalars(mapper) -> None:
+    """Colour by the RGB bytes of the point scalars, as they are."""
+    mapper.SetColorModeToDirectScalars()
+    mapper.SetScalarModeToUsePointData()
+    mapper.ScalarVisibilityOn()
+
+
+def _shaded_actor(mapper) -> vtkActor:
+    """A hidden actor with the figure's material (Phong, soft specular)."""
+    actor = vtkActor()
+    actor.SetMapper(mapper)
+    prop = actor.GetProperty()
+    prop.SetInterpolationToPhong()
+    prop.SetAmbient(0.12)
+    prop.SetDiffuse(0.85)
+    prop.SetSpecular(0.35)
+    prop.SetSpecularPower(25.0)
+    actor.VisibilityOff()
+    return actor
+
+
 class SkeletonActor:
     """The figure of one skeleton model, added to ``renderer`` and hidden until the first frame.
 
@@ -127,15 +160,12 @@ class SkeletonActor:
     def __init__(self, renderer: vtkRenderer, builder: FigureBuilder) -> None:
         self.renderer = renderer
         self.segment_names = tuple(builder.segment_names)
-        cylinder, sphere, marker = _unit_cylinder(), _unit_sphere(SPHERE_RESOLUTION), _unit_sphere(MARKER_RESOLUTION)
+        cylinder = _unit_cylinder()
         n_segments, n_connectors = len(builder.segment_names), len(builder.connector_names)
         n_joints = len(builder.joint_names)
         self._segments = _Batch(cylinder, n_segments, 0)
         self._connectors = _Batch(cylinder, n_connectors, self._segments.stop)
-        self._joints = _Batch(sphere, n_joints, self._connectors.stop)
-        self._markers = _Batch(marker, n_segments, self._joints.stop)
-        batches = (self._segments, self._connectors, self._joints, self._markers)
-        n_points = self._markers.stop
+        n_points = self._connectors.stop
 
         self._points = np.zeros((n_points, 3))
         self._normals = np.zeros((n_points, 3))
@@ -143,8 +173,6 @@ class SkeletonActor:
         self._colours = np.empty((n_points, 3), dtype=np.uint8)
         self._colours[: self._segments.stop] = _rgb(TINTS["no_sensor"])
         self._colours[self._connectors.first:self._connectors.stop] = _rgb(CONNECTOR_COLOUR)
-        self._colours[self._joints.first:self._joints.stop] = _rgb(JOINT_COLOUR)
-        self._colours[self._markers.first:self._markers.stop] = _rgb(MARKER_COLOUR)
 
         # VTK arrays that share memory with the numpy arrays above (kept referenced).
         self._vtk_points = numpy_to_vtk(self._points, deep=False)
@@ -152,39 +180,42 @@ class SkeletonActor:
         self._vtk_normals.SetName("Normals")
         self._vtk_colours = numpy_to_vtk(self._colours, deep=False)
         self._vtk_colours.SetName("Colours")
-        triangles = np.concatenate([b.triangles() for b in batches])
-        offsets = np.arange(0, 3 * len(triangles) + 1, 3, dtype=np.int64)
-        self._vtk_offsets = numpy_to_vtkIdTypeArray(offsets, deep=True)
-        self._vtk_connectivity = numpy_to_vtkIdTypeArray(triangles.reshape(-1).astype(np.int64), deep=True)
-        cells = vtkCellArray()
-        cells.SetData(self._vtk_offsets, self._vtk_connectivity)
-        points = vtkPoints()
-        points.SetData(self._vtk_points)
-        self.polydata = vtkPolyData()
-        self.polydata.SetPoints(points)
-        self.polydata.SetPolys(cells)
+        triangles = np.concatenate([b.triangles() for b in (self._segments, self._connectors)])
+        self.polydata = _polydata(self._vtk_points, triangles, 3)
         self.polydata.GetPointData().SetNormals(self._vtk_normals)
         self.polydata.GetPointData().SetScalars(self._vtk_colours)
-
         mapper = vtkPolyDataMapper()
         mapper.SetInputData(self.polydata)
-        mapper.SetColorModeToDirectScalars()
-        mapper.SetScalarModeToUsePointData()
-        mapper.ScalarVisibilityOn()
-        self.actor = vtkActor()
-        self.actor.SetMapper(mapper)
-        prop = self.actor.GetProperty()
-        prop.SetInterpolationToPhong()
+        _colour_by_scalars(mapper)
+        self.actor = _shaded_actor(mapper)
         # Closed shapes (the open capsule ends sit inside the joint spheres): their far sides
         # are never seen, and skipping them halves the work of software OpenGL.
-        prop.BackfaceCullingOn()
-        prop.SetAmbient(0.12)
-        prop.SetDiffuse(0.85)
-        prop.SetSpecular(0.35)
-        prop.SetSpecularPower(25.0)
-        self.actor.VisibilityOff()
+        self.actor.GetProperty().BackfaceCullingOn()
+
+        # Joints then markers: one point each, with its radius and colour.
+        self._n_joints = n_joints
+        n_spheres = n_joints + n_segments
+        self._centres = np.zeros((n_spheres, 3))
+        self._radii = np.zeros(n_spheres, dtype=np.float32)
+        self._sphere_colours = np.empty((n_spheres, 3), dtype=np.uint8)
+        self._sphere_colours[:n_joints] = _rgb(JOINT_COLOUR)
+        self._sphere_colours[n_joints:] = _rgb(MARKER_COLOUR)
+        self._vtk_centres = numpy_to_vtk(self._centres, deep=False)
+        self._vtk_radii = numpy_to_vtk(self._radii, deep=False)
+        self._vtk_radii.SetName("radius")
+        self._vtk_sphere_colours = numpy_to_vtk(self._sphere_colours, deep=False)
+        self._vtk_sphere_colours.SetName("Colours")
+        self.sphere_polydata = _polydata(self._vtk_centres, np.arange(n_spheres).reshape(-1, 1), 1)
+        self.sphere_polydata.GetPointData().AddArray(self._vtk_radii)
+        self.sphere_polydata.GetPointData().SetScalars(self._vtk_sphere_colours)
+        sphere_mapper = vtkOpenGLSphereMapper()
+        sphere_mapper.SetInputData(self.sphere_polydata)
+        sphere_mapper.SetScaleArray("radius")
+        _colour_by_scalars(sphere_mapper)
+        self.sphere_actor = _shaded_actor(sphere_mapper)
         self._tints: dict[str, str] = {}
-        renderer.AddActor(self.actor)
+        for actor in (self.actor, self.sphere_actor):
+            renderer.AddActor(actor)
 
     @property
     def visible(self) -> bool:
@@ -193,7 +224,8 @@ class SkeletonActor:
 
     def remove(self) -> None:
         """Take the figure out of its renderer."""
-        self.renderer.RemoveActor(self.actor)
+        for actor in (self.actor, self.sphere_actor):
+            self.renderer.RemoveActor(actor)
 
     def update(self, geometry: FigureGeometry) -> None:
         """Move every piece to ``geometry`` (and show the figure)."""
@@ -201,12 +233,15 @@ class SkeletonActor:
             raise ValueError("the geometry belongs to another skeleton model than this figure")
         self._segments.place(np.asarray(geometry.segment_matrices), self._points, self._normals)
         self._connectors.place(np.asarray(geometry.connector_matrices), self._points, self._normals)
-        self._joints.place(np.asarray(geometry.joint_matrices), self._points, self._normals)
-        self._markers.place(np.asarray(geometry.marker_matrices), self._points, self._normals)
-        self._vtk_points.Modified()
-        self._vtk_normals.Modified()
+        spheres = np.concatenate([np.asarray(geometry.joint_matrices), np.asarray(geometry.marker_matrices)])
+        self._centres[:] = spheres[:, :3, 3]
+        self._radii[:] = np.linalg.norm(spheres[:, :3, 0], axis=1)
+        for array in (self._vtk_points, self._vtk_normals, self._vtk_centres, self._vtk_radii):
+            array.Modified()
         self.polydata.Modified()
+        self.sphere_polydata.Modified()
         self.actor.VisibilityOn()
+        self.sphere_actor.VisibilityOn()
 
     def set_tints(self, states: Mapping[str, str]) -> bool:
         """Colour each segment by its sensor state name (a key of :data:`TINTS`); returns
@@ -225,6 +260,11 @@ class SkeletonActor:
             self._vtk_colours.Modified()
             self.polydata.Modified()
         return changed
+
+    def spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Centres ``(n, 3)`` (scene frame, metres) and radii ``(n,)`` of the joint spheres,
+        then the markers, as shown."""
+        return self._centres.copy(), self._radii.astype(float)
 
     def tint_of(self, segment: str) -> str:
         """The sensor state a segment is currently tinted with."""
