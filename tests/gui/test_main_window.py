@@ -104,3 +104,30 @@ def test_save_screenshot_paints_the_3d_view(window, qtbot, tmp_path):
     path = window.save_screenshot(tmp_path / "shot.png")
     image = QtGui.QImage(str(path))
     assert image.width() == window.width() and image.height() == window.height()
+
+
+def test_the_follow_camera_moves_with_the_subject_and_keeps_the_users_turn(qtbot):
+    win = MainWindow("simulated:walk")
+    qtbot.addWidget(win)
+    win.show()
+    win.start()
+    try:
+        view = win.scene_view
+        qtbot.waitUntil(lambda: view.last_geometry is not None, timeout=15000)
+        win.set_camera_preset("follow")
+        qtbot.waitUntil(lambda: not view._camera_pending, timeout=5000)
+        camera = view.renderer.GetActiveCamera()
+        camera.Azimuth(40.0)  # as a mouse drag would
+        camera.Zoom(1.3)
+        start_root = view.last_geometry.root_scene_m.copy()
+        start_offset = np.array(camera.GetFocalPoint()) - start_root
+        direction = np.array(camera.GetPosition()) - np.array(camera.GetFocalPoint())
+        qtbot.waitUntil(lambda: np.hypot(*(view.last_geometry.root_scene_m - start_root)[[0, 2]]) > 0.4,
+                        timeout=15000)
+        root = view.last_geometry.root_scene_m
+        offset = np.array(camera.GetFocalPoint()) - root
+        np.testing.assert_allclose(offset[[0, 2]], start_offset[[0, 2]], atol=1e-9)  # followed along the floor
+        np.testing.assert_allclose(np.array(camera.GetPosition()) - np.array(camera.GetFocalPoint()), direction,
+                                   atol=1e-9)  # the user's turn and zoom are kept
+    finally:
+        win.close()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mimucap.core.simulate import SimulationConfig
-from mimucap.session.camera import camera_preset
+from mimucap.session.camera import camera_preset, follow_shift
 from mimucap.session.feeds import SimulatorFeed
 from mimucap.session.live import LiveSession, open_live_session
 
@@ -103,3 +103,5 @@ def test_camera_presets_frame_the_figure():
     assert follow.focal_point[0] == pytest.approx(1.3)
     with pytest.raises(ValueError, match="camera preset"):
         camera_preset("fisheye", root, 1.75)
+    # Following moves along the floor only: a bobbing root does not shake the view.
+    np.testing.assert_allclose(follow_shift(root, root + [0.5, 0.04, -0.2]), [0.5, 0.0, -0.2])

@@ -2,7 +2,8 @@
 
 A preset is a :class:`CameraPose` (position, focal point and view-up vector, metres, scene
 frame) computed from the figure's root position and the subject's height, so the whole
-figure fits the view. ``"follow"`` is the front view re-centred on the root every frame.
+figure fits the view. ``"follow"`` starts as the front view and then moves with the root
+(:func:`follow_shift`), keeping whatever turn and zoom the user gave it.
 """
 
 from __future__ import annotations
@@ -53,3 +54,12 @@ def camera_preset(name: str, root_scene_m: ArrayLike, height_m: float) -> Camera
         position = focus + np.array([0.0, distance, 0.0])
         up = np.array([0.0, 0.0, -1.0])
     return CameraPose(position=position, focal_point=focus, view_up=up)
+
+
+def follow_shift(previous_root_scene_m: ArrayLike, root_scene_m: ArrayLike) -> NDArray[np.float64]:
+    """How far (scene frame, metres, ``(3,)``) a following camera moves when the root goes
+    from ``previous_root_scene_m`` to ``root_scene_m``: along the floor only (scene x and z),
+    so the figure's bobbing up and down does not shake the view."""
+    shift = np.asarray(root_scene_m, dtype=float) - np.asarray(previous_root_scene_m, dtype=float)
+    shift[1] = 0.0
+    return shift

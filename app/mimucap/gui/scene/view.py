@@ -21,7 +21,7 @@ from vtkmodules.vtkRenderingCore import vtkRenderer
 from mimucap.gui.scene.environment import Stage
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
 from mimucap.gui.vtk_image_widget import VtkImageWidget
-from mimucap.session.camera import CAMERA_PRESETS, camera_preset
+from mimucap.session.camera import CAMERA_PRESETS, camera_preset, follow_shift
 from mimucap.session.figure import FigureBuilder, FigureGeometry
 
 #: Called every tick; returns ``(frame_id, geometry)`` for the newest frame or ``None``.
@@ -61,6 +61,7 @@ class SceneView(QtWidgets.QWidget):
         self._last_geometry: FigureGeometry | None = None
         self._camera_preset = "front"
         self._camera_pending = True
+        self._followed_root = None  # root (scene, m) the follow camera last moved to
         self._dirty = True
         self._alive = True
         self._initialized = False
@@ -144,6 +145,15 @@ class SceneView(QtWidgets.QWidget):
     def running(self) -> bool:
         return self._running
 
+    def _move_camera(self, shift) -> None:
+        """Translate camera and focal point by ``shift`` (scene, m): the user's turn and zoom stay."""
+        if not any(shift):
+            return
+        camera = self.renderer.GetActiveCamera()
+        camera.SetFocalPoint(*(camera.GetFocalPoint() + shift))
+        camera.SetPosition(*(camera.GetPosition() + shift))
+        self._dirty = True
+
     def _apply_camera(self, root_scene) -> None:
         if self._builder is None:
             return
@@ -171,9 +181,15 @@ class SceneView(QtWidgets.QWidget):
                     self._dirty = True
         if self._tint_provider is not None and self.skeleton.set_tints(self._tint_provider()):
             self._dirty = True
-        if self._last_geometry is not None and (self._camera_pending or self._camera_preset == "follow"):
-            self._apply_camera(self._last_geometry.root_scene_m)
-            self._camera_pending = False
+        if self._last_geometry is not None:
+            root = self._last_geometry.root_scene_m
+            if self._camera_pending:
+                self._apply_camera(root)
+                self._camera_pending = False
+                self._followed_root = root
+            elif self._camera_preset == "follow" and self._followed_root is not None:
+                self._move_camera(follow_shift(self._followed_root, root))
+                self._followed_root = root
         if self._dirty:
             self.render()
 
