@@ -10,8 +10,9 @@
 :class:`FieldMagnitudePlot` plots ``|raw|`` and ``|corrected|`` against time with the field
 radius as a dashed line: the corrected curve should be flat.
 
-Neither refits anything: the fit comes from :mod:`mimucap.session.magcal_procedure`; the
-callers throttle how often they call ``set_data`` (points are thinned to ``max_points``).
+Neither computes anything: they show a :class:`~mimucap.session.magcal_display.MagcalDisplay`
+(samples thinned, corrected, their magnitudes, the ellipsoid's matrix); the callers throttle
+how often they call ``set_data``.
 """
 
 from __future__ import annotations
@@ -34,10 +35,14 @@ from vtkmodules.vtkRenderingCore import (
 
 from mimucap.core.magcal_fit import EllipsoidFit
 from mimucap.gui.vtk_image_widget import VtkImageWidget
+from mimucap.session.magcal_display import MagcalDisplay
 
 ELLIPSOID_COLOUR = (0.95, 0.62, 0.18)
 SPHERE_COLOUR = (0.35, 0.75, 0.45)
 BACKGROUND = (0.11, 0.12, 0.15)
+#: Where the cameras look from (unit vector, sensor frame) and how far, in cloud sizes.
+CAMERA_DIRECTION = (0.5513, -0.6515, 0.5212)
+CAMERA_DISTANCE = 7.5
 
 
 class _Cloud:
@@ -119,11 +124,10 @@ def _label(renderer: vtkRenderer, text: str) -> vtkTextActor:
 
 class EllipsoidView(QtWidgets.QWidget):
     """Raw samples with the fitted ellipsoid (left) and corrected samples on the field sphere
-    (right), in the sensor frame (µT). ``max_points``: at most this many points are drawn."""
+    (right), in the sensor frame (µT)."""
 
-    def __init__(self, parent: QtWidgets.QWidget | None = None, max_points: int = 4000) -> None:
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
-        self.max_points = int(max_points)
         self.vtk_widget = VtkImageWidget(self)
         self.vtk_widget.setObjectName("ellipsoidVtk")
         layout = QtWidgets.QVBoxLayout(self)
@@ -167,62 +171,46 @@ class EllipsoidView(QtWidgets.QWidget):
             self.vtk_widget.Initialize()
             self._initialized = True
 
-    def set_data(self, mag_raw_uT: np.ndarray, t_s: np.ndarray, fit: EllipsoidFit | None) -> None:
-        """Show the samples (N, 3) µT with times (N,) s and the fit (None: none yet)."""
-        mag = np.asarray(mag_raw_uT, dtype=np.float64).reshape(-1, 3)
-        t = np.asarray(t_s, dtype=np.float64).reshape(-1)
-        if mag.shape[0] > self.max_points:
-            pick = np.linspace(0, mag.shape[0] - 1, self.max_points).astype(int)
-            mag, t = mag[pick], t[pick]
-        span = float(t[-1] - t[0]) if t.shape[0] > 1 else 1.0
-        colour = (t - t[0]) / span if t.shape[0] and span > 0 else np.zeros(t.shape[0])
-        self.raw_cloud.set(mag, colour)
-        self.fit_shown = fit
-        if fit is None:
+    def set_data(self, display: MagcalDisplay) -> None:
+        """Show one update of the samples and the fit (:func:`~mimucap.session.magcal_display.magcal_display`)."""
+        self.raw_cloud.set(display.raw_uT, display.time_fraction)
+        self.fit_shown = display.fit
+        if display.fit is None:
             self.ellipsoid_actor.VisibilityOff()
             self.sphere_actor.VisibilityOff()
             self.corrected_cloud.set(np.zeros((0, 3)), np.zeros(0))
-            self.raw_label.SetInput(f"raw samples (colour: time): {mag.shape[0]} shown, no fit yet")
+            self.raw_label.SetInput(f"raw samples (colour: time): {display.count} shown, no fit yet")
         else:
-            e = fit.ellipsoid
-            matrix = np.eye(4)
-            matrix[:3, :3] = e.axes @ np.diag(e.radii)
-            matrix[:3, 3] = e.centre
-            _set_matrix(self.ellipsoid_actor, matrix)
+            _set_matrix(self.ellipsoid_actor, display.ellipsoid_matrix)
             self.ellipsoid_actor.VisibilityOn()
-            sphere = np.eye(4)
-            sphere[:3, :3] *= fit.field_uT
-            _set_matrix(self.sphere_actor, sphere)
+            _set_matrix(self.sphere_actor, np.diag([display.field_uT, display.field_uT, display.field_uT, 1.0]))
             self.sphere_actor.VisibilityOn()
-            self.corrected_cloud.set(fit.apply(mag), colour)
+            self.corrected_cloud.set(display.corrected_uT, display.time_fraction)
+            centre = display.centre_uT
             self.raw_label.SetInput(
                 "raw samples (colour: time) and fitted ellipsoid\n"
-                f"offset {e.centre[0]:.1f}, {e.centre[1]:.1f}, {e.centre[2]:.1f} µT"
+                f"offset {centre[0]:.1f}, {centre[1]:.1f}, {centre[2]:.1f} µT"
             )
-            self.corrected_label.SetInput(f"corrected samples on the {fit.field_uT:.1f} µT sphere")
-        if mag.shape[0] > 10:
-            self._frame_camera(mag, fit)
+            self.corrected_label.SetInput(f"corrected samples on the {display.field_uT:.1f} µT sphere")
+        if display.count > 10:
+            self._frame_camera(display)
         self.updates += 1
         self.render()
 
-    def _frame_camera(self, mag: np.ndarray, fit: EllipsoidFit | None) -> None:
+    def _frame_camera(self, display: MagcalDisplay) -> None:
         """Look at the raw cloud (left) and the corrected one (right, around the origin) from
         the same oblique direction, far enough back for the whole cloud to fit the half-width
         viewport. Reframed only when the cloud's size changed by more than 15 %, so that a
         view the user turned stays put while samples arrive."""
-        centre = fit.ellipsoid.centre if fit is not None else mag.mean(axis=0)
-        size = float(np.max(fit.ellipsoid.radii)) if fit is not None else float(
-            np.max(np.linalg.norm(mag - centre, axis=1)))
+        size = display.extent_uT
         if self._framed_size is not None and abs(size - self._framed_size) <= 0.15 * self._framed_size:
             return
         self._framed_size = size
-        direction = np.array([0.55, -0.65, 0.52])
-        direction /= np.linalg.norm(direction)
-        for renderer, focal, extent in ((self.raw_renderer, centre, size),
-                                        (self.corrected_renderer, np.zeros(3), fit.field_uT if fit else size)):
+        for renderer, focal, extent in ((self.raw_renderer, display.centre_uT, size),
+                                        (self.corrected_renderer, (0.0, 0.0, 0.0), display.field_uT or size)):
             camera = renderer.GetActiveCamera()
             camera.SetFocalPoint(*focal)
-            camera.SetPosition(*(focal + 7.5 * extent * direction))
+            camera.SetPosition(*(np.asarray(focal) + CAMERA_DISTANCE * extent * np.asarray(CAMERA_DIRECTION)))
             camera.SetViewUp(0.0, 0.0, 1.0)
             camera.SetViewAngle(30.0)
 
@@ -265,9 +253,8 @@ class FieldMagnitudePlot(pg.PlotWidget):
     """``|raw|`` (grey) and ``|corrected|`` (green) field magnitude in µT against time (s),
     with the fitted field radius dashed."""
 
-    def __init__(self, parent: QtWidgets.QWidget | None = None, max_points: int = 3000) -> None:
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
-        self.max_points = int(max_points)
         self.setBackground("w")
         self.setLabel("left", "|field|", units="µT")
         self.setLabel("bottom", "time", units="s")
@@ -280,18 +267,13 @@ class FieldMagnitudePlot(pg.PlotWidget):
         self.addItem(self.field_line)
         self.setMinimumHeight(150)
 
-    def set_data(self, mag_raw_uT: np.ndarray, t_s: np.ndarray, fit: EllipsoidFit | None) -> None:
-        mag = np.asarray(mag_raw_uT, dtype=np.float64).reshape(-1, 3)
-        t = np.asarray(t_s, dtype=np.float64).reshape(-1)
-        if mag.shape[0] > self.max_points:
-            pick = np.linspace(0, mag.shape[0] - 1, self.max_points).astype(int)
-            mag, t = mag[pick], t[pick]
-        t = t - t[0] if t.shape[0] else t
-        self.raw_curve.setData(t, np.linalg.norm(mag, axis=1))
-        if fit is None:
+    def set_data(self, display: MagcalDisplay) -> None:
+        """Show ``|raw|`` and ``|corrected|`` of one update (:class:`MagcalDisplay`)."""
+        self.raw_curve.setData(display.t_s, display.raw_norm_uT)
+        if display.fit is None:
             self.corrected_curve.setData([], [])
             self.field_line.setVisible(False)
         else:
-            self.corrected_curve.setData(t, np.linalg.norm(fit.apply(mag), axis=1))
-            self.field_line.setValue(fit.field_uT)
+            self.corrected_curve.setData(display.t_s, display.corrected_norm_uT)
+            self.field_line.setValue(display.field_uT)
             self.field_line.setVisible(True)

@@ -41,6 +41,7 @@ from mimucap.session.magcal_procedure import (
     describe_age,
 )
 from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
+from mimucap.session.magcal_display import magcal_display
 from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget
 from mimucap.gui.wizards.dialog import CalibrationDialog
 
@@ -50,6 +51,8 @@ PROTOCOL_LABELS = {
     "free": "Free turning in every direction",
 }
 VERDICT_COLOURS = {"good": "#2ca02c", "warn": "#e08a00", "fail": "#d62728"}
+#: At most this many samples are drawn in the live views (evenly thinned).
+VIEW_MAX_POINTS = 4000
 VERDICT_WORDS = {"good": "Good", "warn": "Usable, with a warning", "fail": "Failed — redo"}
 
 
@@ -394,9 +397,9 @@ class MagnetometerWizard(CalibrationDialog):
         t, mag, _ = self.procedure.samples(sensor_id)
         if t.shape[0] == 0:
             return
-        fit = self.procedure.preview_fit(sensor_id)
-        self.view.set_data(mag, t, fit)
-        self.plot.set_data(mag, t, fit)
+        display = magcal_display(mag, t, self.procedure.preview_fit(sensor_id), max_points=VIEW_MAX_POINTS)
+        self.view.set_data(display)
+        self.plot.set_data(display)
 
     def _show_result(self) -> None:
         self.timer.stop()
