@@ -19,7 +19,7 @@ FLOOR_SIZE_M = 30.0
 FLOOR_SPACING_M = 0.5
 AXES_LENGTH_M = 0.5
 #: Where the world axes stand on the floor (world ENU, metres): beside the figure, not inside it.
-AXES_ORIGIN_WORLD_M = (-1.0, 0.0, 0.0)
+AXES_ORIGIN_WORLD_M = (-0.75, 0.5, 0.0)
 AXES_FONT_SIZE = 13
 BACKGROUND = (0.25, 0.28, 0.34)
 GRID_COLOUR = (0.62, 0.65, 0.70)
