@@ -100,3 +100,36 @@ def test_the_checker_sees_a_violation(tmp_path: Path) -> None:
         fake.unlink()
     assert "PyQt5" in names
     assert "mimucap.gui" in names
+
+
+#: Calls that read or write files; none may appear in ``core`` (pure numerics).
+FILE_CALLS = {"open", "read_text", "write_text", "read_bytes", "write_bytes", "load", "loads_file", "save",
+              "savez", "savez_compressed", "loadtxt", "savetxt", "genfromtxt", "dump", "mkdir", "unlink",
+              "resources_root", "resource_path", "tofile", "fromfile"}
+
+
+def file_calls(path: Path) -> list[str]:
+    """``name (line)`` of every call in the file at ``path`` whose function name is in FILE_CALLS."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call):
+            func = node.func
+            name = func.id if isinstance(func, ast.Name) else func.attr if isinstance(func, ast.Attribute) else ""
+            if name in FILE_CALLS:
+                found.append(f"{name} (line {node.lineno})")
+    return found
+
+
+def test_core_reads_and_writes_no_files() -> None:
+    offenders = {str(p.relative_to(PACKAGE_DIR)): file_calls(p) for p in layer_files("core")}
+    assert {k: v for k, v in offenders.items() if v} == {}
+    imports = {str(p.relative_to(PACKAGE_DIR)): sorted(n for n in imported_modules(p) if n.startswith("mimucap.resources"))
+               for p in layer_files("core")}
+    assert {k: v for k, v in imports.items() if v} == {}
+
+
+def test_the_file_checker_sees_a_file_read(tmp_path: Path) -> None:
+    probe = tmp_path / "probe.py"
+    probe.write_text("import json\n\ndef f(p):\n    return json.loads(p.read_text())\n", encoding="utf-8")
+    assert file_calls(probe) == ["read_text (line 4)"]

@@ -1,4 +1,4 @@
-"""Locate the data files shipped under ``resources/`` (skeleton models, icons, styles).
+"""Locate the data files shipped under ``resources/`` (icons).
 
 In a source checkout (editable install) they live in ``<repo>/resources``; in a built wheel
 they are packed as ``mimucap/_resources``. Callers ask for a relative path and get an
@@ -24,7 +24,7 @@ def resources_root() -> Path:
 
 
 def resource_path(relative: str) -> Path:
-    """Absolute path of ``relative`` (e.g. ``"models/ten_segment.json"``) inside the resources."""
+    """Absolute path of ``relative`` (e.g. ``"icons/mimucap.svg"``) inside the resources."""
     path = resources_root() / relative
     if not path.exists():
         raise FileNotFoundError(f"MimuCap resource missing: {relative} (looked in {path})")

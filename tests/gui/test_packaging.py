@@ -35,6 +35,6 @@ def test_desktop_entry_names_the_command_and_icon():
 def test_pyinstaller_spec_points_at_existing_files():
     source = (REPO / "packaging" / "mimucap.spec").read_text(encoding="utf-8")
     ast.parse(source)
-    for relative in ("app/mimucap/__main__.py", "resources/icons/mimucap.png", "resources/models/ten_segment.json"):
+    for relative in ("app/mimucap/__main__.py", "resources/icons/mimucap.png", "resources/icons/mimucap.svg"):
         assert (REPO / relative).is_file(), relative
     assert '"mimucap/_resources"' in source

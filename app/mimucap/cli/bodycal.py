@@ -16,7 +16,8 @@ import argparse
 import json
 
 from mimucap.core import bodycal
-from mimucap.core.skeleton import MODEL_NAMES, load_model
+from mimucap.core.skeleton import MODEL_NAMES
+from mimucap.io.skeleton_model_file import load_model
 from mimucap.io.body_calibration_file import write_body_calibration
 from mimucap.io.quaternion_tables import axis_vector, read_quaternion_table
 

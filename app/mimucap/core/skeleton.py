@@ -22,21 +22,20 @@ and its mirror image give the same numbers on both sides. Signs: see
 
 from __future__ import annotations
 
-import json
+import functools
 from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cached_property
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mimucap.core import rotation as rot
-from mimucap.resources import resources_root
+from mimucap.core.skeleton_models import BUILT_IN_MODELS
 
 FloatArray = NDArray[np.float64]
 
-MODEL_NAMES = ("ten_segment", "fifteen_segment")
+MODEL_NAMES = tuple(BUILT_IN_MODELS)  # ("ten_segment", "fifteen_segment")
 SHOULDER_SEQUENCES = ("zxy", "xzy", "yxy")
 
 #: Joints whose raw z angle is negated so that clinical flexion is positive: the knee bends
@@ -226,7 +225,9 @@ class SegmentPose:
 # Models
 # --------------------------------------------------------------------------------------------
 
-def _parse_model(data: object, origin: str) -> SkeletonModel:
+def model_from_dict(data: object, origin: str) -> SkeletonModel:
+    """Check and build a :class:`SkeletonModel` from a ``mimucap-skeleton`` document (format
+    version 1, see :mod:`mimucap.core.skeleton_models`); errors name ``origin``."""
     if not isinstance(data, dict) or data.get("format") != "mimucap-skeleton":
         raise ValueError(f"{origin}: not a MimuCap skeleton model (missing format 'mimucap-skeleton')")
     if data.get("format_version") != 1:
@@ -271,23 +272,17 @@ def _parse_model(data: object, origin: str) -> SkeletonModel:
         raise ValueError(f"{origin}: {error}") from error
 
 
-def load_model(name_or_path: str | Path = "ten_segment") -> SkeletonModel:
-    """Load a skeleton model by name (``"ten_segment"``, ``"fifteen_segment"``) or JSON path."""
-    candidate = Path(name_or_path)
-    if str(name_or_path) in MODEL_NAMES:
-        # Packaged, read-only model data (resources/models); the only file core reads.
-        candidate = resources_root() / "models" / f"{name_or_path}.json"
-    elif not candidate.suffix:
-        raise ValueError(f"unknown skeleton model {name_or_path!r}; use one of {', '.join(MODEL_NAMES)} or a JSON file")
-    try:
-        text = candidate.read_text(encoding="utf-8")
-    except OSError as error:
-        raise ValueError(f"cannot read skeleton model {candidate}: {error.strerror or error}") from error
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{candidate}: invalid JSON at line {error.lineno}: {error.msg}") from error
-    return _parse_model(data, str(candidate))
+def load_model(name: str = "ten_segment") -> SkeletonModel:
+    """The built-in skeleton model ``name`` (one of :data:`MODEL_NAMES`). A model of one's own,
+    stored as JSON, is read by :func:`mimucap.io.skeleton_model_file.load_model`."""
+    if name not in MODEL_NAMES:
+        raise ValueError(f"unknown skeleton model {name!r}; use one of {', '.join(MODEL_NAMES)} or a JSON file")
+    return _built_in_model(name)
+
+
+@functools.lru_cache(maxsize=None)
+def _built_in_model(name: str) -> SkeletonModel:
+    return model_from_dict(BUILT_IN_MODELS[name], f"built-in model {name}")
 
 
 def _check_height(height_m: float) -> float:
