@@ -204,7 +204,6 @@ class LivePlots(QtWidgets.QWidget):
         self.curves: dict[str, list[_Curve]] = {}
         self.cursors: dict[str, pg.InfiniteLine] = {}
         self._ranges: dict[str, _SteadyRange] = {}
-        self._titles: dict[str, str] = {}
         self.selected_joints: list[str] = []
         for key, title, unit, min_range in SENSOR_PLOTS:
             self._add_plot(key, title, unit, min_range, AXIS_NAMES)
@@ -249,7 +248,7 @@ class LivePlots(QtWidgets.QWidget):
             curve = _Curve(pen=pg.mkPen(AXIS_PENS[axis], width=1), name=names[axis])
             plot.addItem(curve)
             curves.append(curve)
-        # Axes, legend and title change rarely: keep each as a pixmap instead of re-drawing
+        # Axes and title change rarely: keep each as a pixmap instead of re-drawing
         # its text and ticks on every refresh.
         cached = QtWidgets.QGraphicsItem.DeviceCoordinateCache
         for item in (plot.getAxis("left"), plot.getAxis("bottom"), plot.titleLabel):
@@ -260,7 +259,6 @@ class LivePlots(QtWidgets.QWidget):
             plot.setXLink(next(iter(self.plots.values())))
         self.plots[key] = plot
         self.curves[key] = curves
-        self._titles[key] = title
         self._set_title(key, title)
         self.cursors[key] = cursor
         self._ranges[key] = _SteadyRange(min_range)
@@ -293,7 +291,7 @@ class LivePlots(QtWidgets.QWidget):
 
     def _remove_plot(self, key: str) -> None:
         plot = self.plots.pop(key)
-        del self.curves[key], self.cursors[key], self._ranges[key], self._titles[key]
+        del self.curves[key], self.cursors[key], self._ranges[key]
         self.layout_widget.removeItem(plot)
         plot.deleteLater()
 
