@@ -131,3 +131,58 @@ def test_the_follow_camera_moves_with_the_subject_and_keeps_the_users_turn(qtbot
                                    atol=1e-9)  # the user's turn and zoom are kept
     finally:
         win.close()
+
+
+def test_the_fusion_kernels_are_prepared_off_the_gui_thread_before_the_first_start(qtbot, monkeypatch):
+    import threading
+
+    from mimucap.gui import main_window as module
+
+    threads = []
+    release = threading.Event()
+
+    def slow_compile():
+        threads.append(threading.current_thread())
+        assert release.wait(20)
+
+    monkeypatch.setattr(module, "_kernels_ready", False)
+    monkeypatch.setattr(module, "compile_kernels", slow_compile)
+    win = MainWindow("simulated:demo")
+    qtbot.addWidget(win)
+    win.show()
+    win.start()
+    try:
+        qtbot.waitUntil(lambda: bool(threads), timeout=5000)
+        assert threads[0] is not threading.main_thread()
+        assert win.starting and not win.live.started and "Preparing the orientation filters" in \
+            win.statusBar().currentMessage()
+        qtbot.wait(200)  # the window stays responsive and nothing runs the pipeline meanwhile
+        assert win.live.samples_received == 0
+        release.set()
+        qtbot.waitUntil(lambda: win.live.started and win.live.samples_received > 0, timeout=10000)
+        assert not win.starting
+    finally:
+        release.set()
+        win.close()
+
+
+def test_closing_while_the_kernels_are_prepared_waits_for_them(qtbot, monkeypatch):
+    import threading
+
+    from PyQt5 import QtCore
+
+    from mimucap.gui import main_window as module
+
+    release = threading.Event()
+    monkeypatch.setattr(module, "_kernels_ready", False)
+    monkeypatch.setattr(module, "compile_kernels", lambda: release.wait(20))
+    win = MainWindow("simulated:demo")
+    qtbot.addWidget(win)
+    win.show()
+    win.start()
+    qtbot.waitUntil(lambda: win._warm_up is not None and win._warm_up.isRunning(), timeout=5000)
+    threading.Timer(0.3, release.set).start()
+    win.close()  # returns once the compile thread has finished: no thread destroyed while running
+    assert not win._warm_up.isRunning() and not win.isVisible()
+    assert not win.live or not win.live.started
+    QtCore.QCoreApplication.processEvents()

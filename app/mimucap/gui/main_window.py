@@ -17,6 +17,7 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap import __version__
+from mimucap.core.fusion.warmup import compile_kernels
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import save_window_png
@@ -34,6 +35,9 @@ from mimucap.session.live import LiveSession, open_live_session
 from mimucap.session.subject import default_recording_path
 
 log = logging.getLogger(__name__)
+
+#: Whether this process has compiled the fusion kernels (see :meth:`MainWindow.start`).
+_kernels_ready = False
 
 #: The frame clock (ms): the live pipeline is pumped and the 3D view rendered 62.5 times a
 #: second, so a sample waits at most one tick before it is drawn.
@@ -96,6 +100,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._cpu = CpuMeter()
         self._last_record_message = ""
         self.saving_tasks: list[BackgroundTask] = []
+        self._warm_up: BackgroundTask | None = None
         self.last_recording = None  # RecordingResult of the last recording saved
 
         self.scene_view = SceneView(self)
@@ -271,7 +276,36 @@ class MainWindow(QtWidgets.QMainWindow):
         self.live = None
 
     def start(self) -> None:
-        """Start the source, pumping, rendering and refreshing (call after ``show()``)."""
+        """Start the source, pumping, rendering and refreshing (call after ``show()``).
+
+        The first time in a process, the fusion kernels are compiled first, in a background
+        thread (seconds on a fresh install, milliseconds once numba's cache holds them), so
+        that the GUI thread never compiles them on the first sample."""
+        global _kernels_ready
+        if not _kernels_ready:
+            if self._warm_up is None:
+                self._warm_up = BackgroundTask(lambda _progress: compile_kernels(), self)
+                self._warm_up.succeeded.connect(self._kernels_compiled)
+                self._warm_up.failed.connect(self._kernels_compiled)  # then they compile on first use
+                self._warm_up.start()
+                self.statusBar().showMessage("Preparing the orientation filters (the first start after an "
+                                             "installation takes up to a minute)…")
+            return
+        self._start_live()
+
+    def _kernels_compiled(self, _result=None) -> None:
+        global _kernels_ready
+        _kernels_ready = True
+        self.statusBar().clearMessage()
+        if self.isVisible() and self._warm_up is not None:
+            self._start_live()
+
+    @property
+    def starting(self) -> bool:
+        """True while the fusion kernels are being prepared before the first start."""
+        return not _kernels_ready
+
+    def _start_live(self) -> None:
         if self.live is not None and not self.live.started:
             self.live.start()
         self._pump.start()
@@ -525,6 +559,10 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.wait_for_saving()
             finally:
                 QtWidgets.QApplication.restoreOverrideCursor()
+        if self._warm_up is not None and self._warm_up.isRunning():
+            self._warm_up.succeeded.disconnect()
+            self._warm_up.failed.disconnect()
+            self._warm_up.wait()  # compiling cannot be interrupted; it is kept in the cache
         self._pump.stop()
         self._panel_timer.stop()
         self.plots.stop()
