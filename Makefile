@@ -1,7 +1,7 @@
 # MimuCap: two set-up commands.
 #   make run    create .venv, install MimuCap (editable) and start the app on the simulated suit
 #   make test   install what the tests need (venv, Debian X packages when root) and run the suite
-# Extra targets: make screenshots, make bench.
+# Extra targets: make screenshots, make bench, make bundle (PyInstaller, one folder in dist/).
 
 PYTHON ?= python3
 VENV := .venv
@@ -15,7 +15,7 @@ XVFB_DEBS := xvfb xauth libxcb-icccm4 libxcb-keysyms1 libxcb-xinerama0 libxcb-ra
 	libxcb-cursor0 libegl1 libgl1 libglx-mesa0 libegl-mesa0
 XVFB_RUN := xvfb-run -a -s "-screen 0 1920x1200x24"
 
-.PHONY: run test install screenshots bench clean debs
+.PHONY: run test install screenshots bench bundle clean debs
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -60,5 +60,11 @@ bench: debs $(BENCH_STAMP)
 	  echo "== $$script"; QT_API=pyqt5 $(XVFB_RUN) $(PY) $$script || exit 1; \
 	done
 
+# A desktop bundle (dist/mimucap/mimucap); PyInstaller is a build tool, not a dependency.
+# Built under a virtual screen: collecting pyqtgraph's modules imports Qt.
+bundle: debs $(STAMP)
+	$(PY) -m pip install --quiet pyinstaller
+	$(XVFB_RUN) $(VENV)/bin/pyinstaller packaging/mimucap.spec --noconfirm --distpath dist --workpath build/pyinstaller
+
 clean:
-	rm -rf $(VENV) build *.egg-info app/*.egg-info
+	rm -rf $(VENV) build dist *.egg-info app/*.egg-info

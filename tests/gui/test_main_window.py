@@ -158,6 +158,12 @@ def test_the_fusion_kernels_are_prepared_off_the_gui_thread_before_the_first_sta
             win.statusBar().currentMessage()
         qtbot.wait(200)  # the window stays responsive and nothing runs the pipeline meanwhile
         assert win.live.samples_received == 0
+        # Meanwhile the 3D view shows the floor from the front, where the subject will stand.
+        camera = win.scene_view.renderer.GetActiveCamera()
+        np.testing.assert_allclose(camera.GetViewUp(), (0.0, 1.0, 0.0), atol=1e-9)
+        assert camera.GetPosition()[2] > camera.GetFocalPoint()[2] + 3.0
+        floor = win.scene_view.stage.world_matrix
+        assert [floor.GetElement(1, 2), floor.GetElement(2, 1)] == [1.0, -1.0]  # world up = scene y
         release.set()
         qtbot.waitUntil(lambda: win.live.started and win.live.samples_received > 0, timeout=10000)
         assert not win.starting

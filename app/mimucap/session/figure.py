@@ -84,6 +84,14 @@ class FigureGeometry:
     heading_alpha_rad: float
 
 
+def plain_world_matrix() -> NDArray[np.float64]:
+    """The ``(4, 4)`` world → scene matrix of world mode without a heading reference and with
+    the world origin at the scene origin: what the stage shows before the first frame."""
+    matrix = np.eye(4)
+    matrix[:3, :3] = R_SCENE_FROM_WORLD
+    return matrix
+
+
 def heading_rad(q_world_from_segment: NDArray[np.float64]) -> float:
     """Heading of a segment's anterior (x) axis, radians CCW from north (see module doc).
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Mapping
 
+import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
@@ -22,7 +23,7 @@ from mimucap.gui.scene.environment import Stage
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
 from mimucap.gui.vtk_image_widget import VtkImageWidget
 from mimucap.session.camera import CAMERA_PRESETS, camera_preset, follow_shift
-from mimucap.session.figure import FigureBuilder, FigureGeometry
+from mimucap.session.figure import FigureBuilder, FigureGeometry, plain_world_matrix
 
 #: Called every tick; returns ``(frame_id, geometry)`` for the newest frame or ``None``.
 FrameProvider = Callable[[], "tuple[object, FigureGeometry] | None"]
@@ -82,6 +83,10 @@ class SceneView(QtWidgets.QWidget):
         self._builder = builder
         self.skeleton = SkeletonActor(self.renderer, builder)
         self._last_frame_id = None
+        # Until the first frame, look at the floor where the subject will stand; the preset is
+        # applied again around the figure's root when it arrives.
+        self.stage.set_world_matrix(plain_world_matrix())
+        self._apply_camera(np.zeros(3))
         self._camera_pending = True
         self._dirty = True
 
