@@ -20,7 +20,7 @@ def register(subparsers) -> None:
     )
     parser.add_argument("--screenshot", metavar="PATH", default=None, help="write the window to this PNG and exit")
     parser.add_argument("--after", metavar="SECONDS", type=float, default=3.0,
-                        help="seconds to wait before the screenshot (default 3)")
+                        help="seconds of live data before the screenshot (default 3; counted once the filters are prepared)")
     parser.add_argument("--review", metavar="FILE", default=None,
                         help="also open this recorded session (.h5) for review (with --screenshot: shoot the review window)")
     parser.set_defaults(func=run)

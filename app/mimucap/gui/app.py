@@ -34,8 +34,8 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
 
     With ``review``, that recorded session also opens in a review window. With
     ``screenshot``, the window (the review window when ``review`` is given; 3D view included)
-    is written to that PNG ``after_s`` seconds after it appeared and the application quits
-    with 0.
+    is written to that PNG ``after_s`` seconds after live data started (after the first-start
+    preparation of the filters, if any) and the application quits with 0.
     """
     if not has_display():
         print(NO_DISPLAY_MESSAGE, file=sys.stderr)
@@ -85,7 +85,13 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
             window.close()
             app.quit()
 
-        QtCore.QTimer.singleShot(int(round(after_s * 1000)), shoot)
+        def shoot_when_started() -> None:
+            if window.starting:
+                QtCore.QTimer.singleShot(100, shoot_when_started)
+            else:
+                QtCore.QTimer.singleShot(int(round(after_s * 1000)), shoot)
+
+        shoot_when_started()
     app.exec_()
     window.close()
     window.deleteLater()
