@@ -1,5 +1,14 @@
-"""``python -m mimucap`` is the same as the ``mimucap`` command."""
+"""``python -m mimucap`` is the same as the ``mimucap`` command; also the desktop bundle's entry.
+
+In the PyInstaller bundle the acquisition worker processes (started with ``spawn``) run this
+same executable: ``freeze_support`` turns such a start into the worker instead of a second
+application. Outside a bundle it does nothing.
+"""
+
+import multiprocessing
 
 from mimucap.cli import main
 
-raise SystemExit(main())
+if __name__ == "__main__":
+    multiprocessing.freeze_support()
+    raise SystemExit(main())
