@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.gui import live_plots
-from mimucap.gui.live_plots import LivePlots, MAX_JOINTS, _peak_decimate, _SteadyRange, nice_ticks
+from mimucap.gui.live_plots import MAX_JOINTS, LivePlots
+from mimucap.session import plot_scaling
 
 
 class FakeSource:
@@ -110,40 +110,8 @@ def test_long_windows_are_decimated_to_their_extremes(plots):
     plots.window_combo.setCurrentIndex(plots.window_combo.findData(30.0))
     plots.refresh()
     x, y = plots.curve_data("acc", 0)
-    assert len(x) <= live_plots.MAX_POINTS
+    assert len(x) <= plot_scaling.MAX_POINTS
     assert y.max() == pytest.approx(1.0, abs=1e-3) and y.min() == pytest.approx(-1.0, abs=1e-3)
-
-
-def test_peak_decimation_keeps_every_peak_and_every_gap():
-    x = np.arange(10_000) / 100.0
-    y = np.zeros((10_000, 2))
-    y[1234, 0] = 5.0   # a one-sample spike
-    y[7777, 1] = -3.0
-    y[5000:5100, :] = np.nan  # one second without data
-    dx, dy = _peak_decimate(x, y, 1000)
-    assert len(dx) <= 1000 and dy.shape == (len(dx), 2)
-    assert np.nanmax(dy[:, 0]) == 5.0 and np.nanmin(dy[:, 1]) == -3.0
-    assert np.isnan(dy).any()
-    assert np.all(np.diff(dx) >= 0)
-    same_x, same_y = _peak_decimate(x[:500], y[:500], 1000)
-    np.testing.assert_array_equal(same_x, x[:500])
-    np.testing.assert_array_equal(same_y, y[:500])
-
-
-def test_vertical_range_grows_at_once_and_shrinks_only_after_a_while():
-    steady = _SteadyRange(min_span=2.0)
-    assert steady.update(0.0, 10.0, now_s=0.0)
-    assert steady.low < 0.0 and steady.high > 10.0
-    assert not steady.update(4.0, 6.0, now_s=0.5)   # small data: range kept ...
-    assert not steady.update(4.0, 6.0, now_s=1.5)
-    assert steady.update(4.0, 6.0, now_s=2.6)      # ... until 2 s have passed
-    assert steady.low <= 4.0 and steady.high >= 6.0 and steady.high - steady.low < 5.0
-    assert not steady.update(None, None, now_s=3.0)    # no data: nothing changes
-    assert steady.update(-50.0, -50.0, now_s=3.1)
-    assert steady.low <= -50.0
-    tiny = _SteadyRange(min_span=10.0)
-    tiny.update(0.0, 0.01, now_s=0.0)
-    assert tiny.high - tiny.low >= 10.0  # noise is never blown up to full height
 
 
 def test_curves_know_their_bounds_and_the_range_holds_the_data(plots):
@@ -169,18 +137,3 @@ def test_pause_freezes_the_curves(plots):
     plots.refresh()
     assert len(plots.curves["acc"][0].getData()[1]) == len(before)
     assert not np.array_equal(plots.curves["acc"][0].getData()[1], before)
-
-
-@pytest.mark.parametrize("low, high", [(-0.66, 0.66), (-1.2, 1.2), (-13.0, 13.0), (-35.0, 2.0), (0.0, 65.0),
-                                       (9.5, 10.3), (-1e-3, 1e-3)])
-def test_every_range_gets_a_few_round_labelled_ticks(low, high):
-    ticks = nice_ticks(low, high)
-    values = [v for v, _ in ticks]
-    assert 3 <= len(ticks) <= 8
-    assert all(low <= v <= high for v in values)
-    steps = np.diff(values)
-    np.testing.assert_allclose(steps, steps[0])
-    mantissa = steps[0] / 10 ** np.floor(np.log10(steps[0]))
-    assert min(abs(mantissa - m) for m in (1, 2, 5, 10)) < 1e-9
-    assert len({label for _, label in ticks}) == len(ticks)  # labels tell the ticks apart
-    assert "-0" not in [label.rstrip("0.") or "0" for _, label in ticks if abs(float(label)) == 0]

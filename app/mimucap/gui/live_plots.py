@@ -9,18 +9,19 @@ and ``cursor_s`` (the time the 3D view shows). Curves are created once per plot;
 
 Live, the time axis is fixed and reads seconds before the pose shown (``-10 … 0``), so the
 axes and grid never need redrawing; in review it reads session time around the play head.
-The vertical ranges follow the data with hysteresis (:class:`_SteadyRange`) instead of
+The vertical ranges follow the data with hysteresis (:class:`SteadyRange`) instead of
 pyqtgraph's auto-range, which re-laid out every axis on every refresh (``bench/bench_gui.py``).
 """
 
 from __future__ import annotations
 
 import time
-import warnings
 
 import numpy as np
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtWidgets
+
+from mimucap.session.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
 
 #: Plot refresh rate (Hz).
 REFRESH_HZ = 30.0
@@ -38,64 +39,8 @@ SENSOR_PLOTS = (
     ("mag", "Magnetometer", "µT", 10.0),
 )
 ANGLE_UNIT, ANGLE_MIN_RANGE = "deg", 10.0
-#: Seconds a plot's data must stay well inside its range before the range shrinks.
-SHRINK_AFTER_S = 2.0
 
 pg.setConfigOptions(antialias=False, background="w", foreground="k")
-
-
-#: Most points drawn per curve (a plot is a few hundred pixels wide; longer windows are
-#: decimated to each bin's extremes).
-MAX_POINTS = 1200
-
-
-def _peak_decimate(x: np.ndarray, values: np.ndarray, max_points: int) -> tuple[np.ndarray, np.ndarray]:
-    """Shorten ``x`` ``(N,)`` and ``values`` ``(N, C)`` to at most ``max_points`` rows keeping
-    each bin's minimum and maximum (per column), so that no peak disappears from a plot."""
-    n = len(x)
-    if n <= max_points:
-        return x, values
-    per_bin = int(np.ceil(2 * n / max_points))
-    bins = n // per_bin
-    head = bins * per_bin
-    shaped = values[:head].reshape(bins, per_bin, values.shape[1])
-    with np.errstate(all="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN bin stays NaN (a gap)
-        low, high = np.nanmin(shaped, axis=1), np.nanmax(shaped, axis=1)
-    out_values = np.empty((2 * bins, values.shape[1]))
-    out_values[0::2], out_values[1::2] = low, high
-    x_bins = x[:head].reshape(bins, per_bin)
-    out_x = np.empty(2 * bins)
-    out_x[0::2], out_x[1::2] = x_bins[:, 0], x_bins[:, -1]
-    if head < n:  # the newest few samples as they are
-        out_x = np.concatenate([out_x, x[head:]])
-        out_values = np.concatenate([out_values, values[head:]])
-    return out_x, out_values
-
-
-def nice_ticks(low: float, high: float, wanted: int = 4) -> list[tuple[float, str]]:
-    """About ``wanted`` round values (steps of 1, 2 or 5 × 10^k) inside ``low`` … ``high``,
-    each with its label (as many decimals as the step needs)."""
-    span = high - low
-    if not span > 0 or not np.isfinite(span):
-        return []
-    raw = span / wanted
-    magnitude = 10.0 ** np.floor(np.log10(raw))
-    step = next(m * magnitude for m in (1.0, 2.0, 5.0, 10.0) if m * magnitude >= raw * (1 - 1e-9))
-    decimals = max(0, -int(np.floor(np.log10(step) + 1e-9)))
-    first = np.ceil(low / step - 1e-9) * step
-    values = np.arange(first, high + 1e-9 * step, step)
-    return [(float(v), f"{0.0 if abs(v) < step / 1e6 else v:.{decimals}f}") for v in values]
-
-
-def _column_bounds(values: np.ndarray) -> tuple[list[float | None], list[float | None]]:
-    """Per column of ``values`` ``(N, C)``: its smallest and largest finite value (None if none)."""
-    if len(values) == 0:
-        return [None] * values.shape[1], [None] * values.shape[1]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column
-        low, high = np.nanmin(values, axis=0), np.nanmax(values, axis=0)
-    return ([None if np.isnan(v) else float(v) for v in low], [None if np.isnan(v) else float(v) for v in high])
 
 
 class _Curve(pg.PlotCurveItem):
@@ -115,40 +60,6 @@ class _Curve(pg.PlotCurveItem):
         if self._known_bounds is not None and frac >= 1.0 and orthoRange is None:
             return self._known_bounds[ax]
         return super().dataBounds(ax, frac, orthoRange)
-
-
-class _SteadyRange:
-    """A vertical range that grows at once to hold the data and shrinks only after the data
-    has used less than half of it for :data:`SHRINK_AFTER_S` (a steady axis is cheap to draw
-    and easy to read)."""
-
-    def __init__(self, min_span: float) -> None:
-        self.min_span = float(min_span)
-        self.low, self.high = -0.5 * self.min_span, 0.5 * self.min_span
-        self._small_since: float | None = None
-
-    def update(self, low: float | None, high: float | None, now_s: float) -> bool:
-        """Fit the range to data spanning ``low`` … ``high`` (None: no data); True if it changed."""
-        if low is None or high is None:
-            return False
-        lo, hi = float(low), float(high)
-        span = max(hi - lo, self.min_span)
-        centre = 0.5 * (lo + hi)
-        wanted = (centre - 0.6 * span, centre + 0.6 * span)  # 10 % margin on each side
-        if lo < self.low or hi > self.high:
-            self.low, self.high = wanted
-            self._small_since = None
-            return True
-        if span < 0.5 * (self.high - self.low) and (self.high - self.low) > 1.2 * self.min_span + 1e-12:
-            if self._small_since is None:
-                self._small_since = now_s
-            elif now_s - self._small_since >= SHRINK_AFTER_S:
-                self.low, self.high = wanted
-                self._small_since = None
-                return True
-        else:
-            self._small_since = None
-        return False
 
 
 class LivePlots(QtWidgets.QWidget):
@@ -203,7 +114,7 @@ class LivePlots(QtWidgets.QWidget):
         self.plots: dict[str, pg.PlotItem] = {}
         self.curves: dict[str, list[_Curve]] = {}
         self.cursors: dict[str, pg.InfiniteLine] = {}
-        self._ranges: dict[str, _SteadyRange] = {}
+        self._ranges: dict[str, SteadyRange] = {}
         self.selected_joints: list[str] = []
         for key, title, unit, min_range in SENSOR_PLOTS:
             self._add_plot(key, title, unit, min_range, AXIS_NAMES)
@@ -261,7 +172,7 @@ class LivePlots(QtWidgets.QWidget):
         self.curves[key] = curves
         self._set_title(key, title)
         self.cursors[key] = cursor
-        self._ranges[key] = _SteadyRange(min_range)
+        self._ranges[key] = SteadyRange(min_range)
         self._apply_range(key)
 
     def _apply_range(self, key: str) -> None:
@@ -411,8 +322,8 @@ class LivePlots(QtWidgets.QWidget):
 
     # -- drawing -----------------------------------------------------------------------------
     def _show(self, key: str, t: np.ndarray, values: np.ndarray, origin: float, now_s: float) -> None:
-        x, shown = _peak_decimate(t - origin, values, MAX_POINTS)
-        low, high = _column_bounds(shown)
+        x, shown = peak_decimate(t - origin, values, MAX_POINTS)
+        low, high = column_bounds(shown)
         for axis, curve in enumerate(self.curves[key]):
             curve.show_data(x, shown[:, axis], (low[axis], high[axis]))
         finite_low = [v for v in low if v is not None]
