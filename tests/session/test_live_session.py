@@ -209,3 +209,51 @@ def test_joint_series_and_frames_follow_every_pose(n_sensors):
         np.testing.assert_array_equal(t, times)
         columns = session.joint_columns(joint)
         np.testing.assert_allclose(angles, np.stack([expected[c] for c in columns], axis=-1), rtol=0, atol=1e-9)
+
+
+def test_small_blocks_give_the_same_session_as_whole_ones():
+    """Wireless nodes deliver a sample or two at a time; the pipeline joins each sensor's
+    blocks of one poll, and the buffers and orientations are those of whole blocks."""
+    import dataclasses
+
+    from mimucap.acquisition.samples import SampleBlock
+    from mimucap.core.simulate import SimulationConfig
+    from mimucap.session.feeds import SimulatorFeed
+    from mimucap.session.live import LiveSession
+
+    def one_sample_blocks(blocks):
+        pieces = []
+        for block in blocks:
+            for i in range(len(block)):
+                fields = {f.name: getattr(block, f.name) for f in dataclasses.fields(SampleBlock)}
+                pieces.append(SampleBlock(**{k: (v[i:i + 1] if isinstance(v, np.ndarray) else v)
+                                             for k, v in fields.items()}))
+        return pieces
+
+    sessions = []
+    for split in (False, True):
+        now = [50.0]
+        feed = SimulatorFeed(SimulationConfig(scenario="walk", seed=4), clock=lambda now=now: now[0])
+        if split:
+            poll = feed.poll
+            feed.poll = lambda poll=poll: one_sample_blocks(poll())
+        session = LiveSession(feed, clock=lambda now=now: now[0])
+        calls = []
+        take = session._take_block
+        session._take_block = lambda block, take=take, calls=calls: calls.append(len(block)) or take(block)
+        session.start()
+        for _ in range(40):
+            now[0] += 0.037
+            session.step()
+        sessions.append(session)
+        if split:  # one filter call per sensor and poll, not one per sample
+            assert len(calls) <= 40 * len(session.sensor_ids) and max(calls) > 1
+    whole, small = sessions
+    assert small.samples_received == whole.samples_received > 1000
+    for sensor_id in whole.sensor_ids:
+        for a, b in zip(whole.series(sensor_id, 30.0), small.series(sensor_id, 30.0)):
+            np.testing.assert_array_equal(a, b)
+    q_whole, q_small = whole.latest_orientations(), small.latest_orientations()
+    assert q_whole.keys() == q_small.keys()
+    for sensor_id in q_whole:
+        np.testing.assert_allclose(q_small[sensor_id], q_whole[sensor_id], atol=1e-12)
