@@ -25,6 +25,9 @@ from mimucap.gui.vtk_image_widget import VtkImageWidget
 from mimucap.session.camera import CAMERA_PRESETS, camera_preset, follow_shift
 from mimucap.session.figure import FigureBuilder, FigureGeometry, plain_world_matrix
 
+#: How far beyond the focal point the far plane lies (m): the whole floor grid.
+CLIPPING_FAR_M = 45.0
+
 #: Called every tick; returns ``(frame_id, geometry)`` for the newest frame or ``None``.
 FrameProvider = Callable[[], "tuple[object, FigureGeometry] | None"]
 
@@ -150,6 +153,14 @@ class SceneView(QtWidgets.QWidget):
     def running(self) -> bool:
         return self._running
 
+    def _set_clipping_range(self) -> None:
+        """Near and far planes from the camera distance alone: from 2 % of it to the far edge of
+        the 30 m floor. (VTK's reset computes every actor's bounds: 0.35 ms a frame on
+        software OpenGL, for planes that hardly change.)"""
+        camera = self.renderer.GetActiveCamera()
+        distance = camera.GetDistance()
+        camera.SetClippingRange(max(0.01, 0.02 * distance), distance + CLIPPING_FAR_M)
+
     def _move_camera(self, shift) -> None:
         """Translate camera and focal point by ``shift`` (scene, m): the user's turn and zoom stay."""
         if not any(shift):
@@ -202,7 +213,7 @@ class SceneView(QtWidgets.QWidget):
         """Render one frame now (does nothing after :meth:`shutdown` or before show)."""
         if not self._alive or not self.isVisible():
             return
-        self.renderer.ResetCameraClippingRange()
+        self._set_clipping_range()
         self.vtk_widget.render()
         self._dirty = False
         self.frames_rendered += 1
