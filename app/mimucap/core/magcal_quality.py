@@ -252,43 +252,29 @@ def _verdict(
         level = max(level, severity)
         reasons.append(f"{VERDICTS[severity]}: {text}")
 
+    def above(value: float | None, good: float, fail: float, describe) -> None:
+        """Warn above ``good``, fail above ``fail``; ``describe(limit)`` says what to do."""
+        if value is not None and value > good:
+            severity = 2 if value > fail else 1
+            flag(severity, describe(fail if severity == 2 else good))
+
     weakest = AXIS_NAMES[int(np.argmin(coverage))]
-    if condition > t.condition_good:
-        severity = 2 if condition > t.condition_fail else 1
-        limit = t.condition_fail if severity == 2 else t.condition_good
-        flag(
-            severity,
-            f"coverage too low (condition {condition:.0f} > {limit:g}): "
-            f"turn the sensor one full turn about its {weakest} axis again",
-        )
-    if rms > t.residual_good_uT:
-        severity = 2 if rms > t.residual_fail_uT else 1
-        limit = t.residual_fail_uT if severity == 2 else t.residual_good_uT
-        flag(
-            severity,
-            f"residual {rms:.2f} µT > {limit:g} µT: the field was disturbed or the sensor moved "
-            "near iron; record again away from metal, magnets and electronics",
-        )
-    if radii_ratio > t.radii_ratio_good:
-        severity = 2 if radii_ratio > t.radii_ratio_fail else 1
-        limit = t.radii_ratio_fail if severity == 2 else t.radii_ratio_good
-        flag(
-            severity,
-            f"radii ratio {radii_ratio:.2f} > {limit:g}: strong soft-iron distortion or poor "
-            "coverage; check the sensor's mounting and turn about all three axes",
-        )
+    above(condition, t.condition_good, t.condition_fail, lambda limit: (
+        f"coverage too low (condition {condition:.0f} > {limit:g}): "
+        f"turn the sensor one full turn about its {weakest} axis again"))
+    above(rms, t.residual_good_uT, t.residual_fail_uT, lambda limit: (
+        f"residual {rms:.2f} µT > {limit:g} µT: the field was disturbed or the sensor moved "
+        "near iron; record again away from metal, magnets and electronics"))
+    above(radii_ratio, t.radii_ratio_good, t.radii_ratio_fail, lambda limit: (
+        f"radii ratio {radii_ratio:.2f} > {limit:g}: strong soft-iron distortion or poor "
+        "coverage; check the sensor's mounting and turn about all three axes"))
     if not t.field_min_uT <= radius <= t.field_max_uT:
         flag(
             2,
             f"fitted field {radius:.1f} µT outside the Earth's {t.field_min_uT:g}–"
             f"{t.field_max_uT:g} µT: check the unit and scale of the input, or move away from iron",
         )
-    if dip_std is not None and dip_std > t.dip_std_good_deg:
-        severity = 2 if dip_std > t.dip_std_fail_deg else 1
-        limit = t.dip_std_fail_deg if severity == 2 else t.dip_std_good_deg
-        flag(
-            severity,
-            f"dip-angle scatter {dip_std:.1f}° > {limit:g}°: the field direction changed during "
-            "the recording; record again away from metal",
-        )
+    above(dip_std, t.dip_std_good_deg, t.dip_std_fail_deg, lambda limit: (
+        f"dip-angle scatter {dip_std:.1f}° > {limit:g}°: the field direction changed during "
+        "the recording; record again away from metal"))
     return VERDICTS[level], reasons
