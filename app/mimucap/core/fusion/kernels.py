@@ -50,6 +50,15 @@ from mimucap.core.fusion.state import (
 
 
 @njit(inline="always", **JIT_OPTIONS)
+def _vector_sample(values, k, range2):
+    """Row ``k`` of ``values`` (N, 3), its squared norm, and whether it is usable: finite,
+    non-zero and with a squared norm within ``range2`` (NaN compares False)."""
+    x, y, z = values[k, 0], values[k, 1], values[k, 2]
+    n2 = x * x + y * y + z * z
+    return x, y, z, n2, n2 > 1e-6 and n2 <= range2
+
+
+@njit(inline="always", **JIT_OPTIONS)
 def _rotmat(qw, qx, qy, qz, r):
     """Fill ``r`` (3, 3) with ``R_world_from_sensor`` of a unit quaternion."""
     xx, yy, zz = qx * qx, qy * qy, qz * qz
@@ -254,18 +263,14 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
         acc_ok = False
         ax = ay = az = 0.0
         if has_acc:
-            ax, ay, az = acc[k, 0], acc[k, 1], acc[k, 2]
-            a2 = ax * ax + ay * ay + az * az
-            acc_ok = a2 > 1e-6 and a2 <= acc_range2
+            ax, ay, az, _a2, acc_ok = _vector_sample(acc, k, acc_range2)
             if not acc_ok:
                 flags |= FLAG_ACC_MISSING
                 aux[AX_N_ACC_MISSING] += 1.0
         mag_ok = False
         mx = my = mz = 0.0
         if has_mag:
-            mx, my, mz = mag[k, 0], mag[k, 1], mag[k, 2]
-            m2 = mx * mx + my * my + mz * mz
-            mag_ok = m2 > 1e-6 and m2 <= mag_range2
+            mx, my, mz, m2, mag_ok = _vector_sample(mag, k, mag_range2)
             if not mag_ok:
                 flags |= FLAG_MAG_MISSING
                 aux[AX_N_MAG_MISSING] += 1.0

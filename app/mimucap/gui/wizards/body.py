@@ -30,7 +30,7 @@ from mimucap.core.bodycal import fill_missing_segments
 from mimucap.core.simulate import SuitSimulator
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.wizards.pictures import PictureWidget
-from mimucap.gui.wizards.dialog import CalibrationDialog
+from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
 from mimucap.session.bodycal_procedure import ARMS, BodycalProcedure, BodycalProcedureSettings
 from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
 from mimucap.session.figure import FigureBuilder
@@ -157,16 +157,8 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.setup_error.setWordWrap(True)
         self.setup_error.setStyleSheet("color: #d62728")
         layout.addWidget(self.setup_error)
-        buttons = QtWidgets.QHBoxLayout()
-        close = QtWidgets.QPushButton("Close")
-        close.clicked.connect(self.reject)
-        self.start_button = QtWidgets.QPushButton("Start")
-        self.start_button.setDefault(True)
-        self.start_button.clicked.connect(self.start)
-        buttons.addStretch(1)
-        buttons.addWidget(close)
-        buttons.addWidget(self.start_button)
-        layout.addLayout(buttons)
+        self.start_button = push_button("Start", self.start, default=True)
+        layout.addLayout(button_row(None, push_button("Close", self.reject), self.start_button))
         return page
 
     def _build_pose(self) -> QtWidgets.QWidget:
@@ -178,18 +170,10 @@ class BodyCalibrationWizard(CalibrationDialog):
         side = QtWidgets.QVBoxLayout()
         self.pose_title = QtWidgets.QLabel("<h2>Step 1 of 2: N-pose</h2>")
         side.addWidget(self.pose_title)
-        self.pose_instruction = QtWidgets.QLabel("")
-        self.pose_instruction.setWordWrap(True)
-        font = self.pose_instruction.font()
-        font.setPointSizeF(font.pointSizeF() * 1.3)
-        self.pose_instruction.setFont(font)
+        self.pose_instruction = large_label()
         side.addWidget(self.pose_instruction)
-        self.countdown = QtWidgets.QLabel("")
+        self.countdown = large_label(4.0, bold=True, wrap=False)
         self.countdown.setAlignment(QtCore.Qt.AlignCenter)
-        big = self.countdown.font()
-        big.setPointSizeF(big.pointSizeF() * 4.0)
-        big.setBold(True)
-        self.countdown.setFont(big)
         side.addWidget(self.countdown)
         side.addWidget(QtWidgets.QLabel("<b>Stillness</b>"))
         self.meter = QtWidgets.QProgressBar()
@@ -203,12 +187,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.movement_message.setStyleSheet("color: #d62728; font-weight: bold")
         side.addWidget(self.movement_message)
         side.addStretch(1)
-        buttons = QtWidgets.QHBoxLayout()
-        cancel = QtWidgets.QPushButton("Cancel")
-        cancel.clicked.connect(self.back_to_setup)
-        buttons.addWidget(cancel)
-        buttons.addStretch(1)
-        side.addLayout(buttons)
+        side.addLayout(button_row(push_button("Cancel", self.back_to_setup), None))
         outer.addLayout(side, 2)
         return page
 
@@ -231,18 +210,8 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.problems_label = QtWidgets.QLabel("")
         self.problems_label.setWordWrap(True)
         side.addWidget(self.problems_label)
-        buttons = QtWidgets.QHBoxLayout()
-        redo = QtWidgets.QPushButton("Redo")
-        redo.clicked.connect(self.redo)
-        close = QtWidgets.QPushButton("Close")
-        close.clicked.connect(self.reject)
-        self.accept_button = QtWidgets.QPushButton("Accept")
-        self.accept_button.clicked.connect(self.accept_result)
-        buttons.addWidget(redo)
-        buttons.addStretch(1)
-        buttons.addWidget(close)
-        buttons.addWidget(self.accept_button)
-        side.addLayout(buttons)
+        self.accept_button = push_button("Accept", self.accept_result)
+        side.addLayout(button_row(push_button("Redo", self.redo), None, push_button("Close", self.reject), self.accept_button))
         outer.addLayout(side, 2)
         return page
 
@@ -250,22 +219,10 @@ class BodyCalibrationWizard(CalibrationDialog):
         page = QtWidgets.QWidget()
         layout = QtWidgets.QVBoxLayout(page)
         layout.addWidget(QtWidgets.QLabel("<h2 style='color:#d62728'>Calibration refused</h2>"))
-        self.refusal_label = QtWidgets.QLabel("")
-        self.refusal_label.setWordWrap(True)
-        font = self.refusal_label.font()
-        font.setPointSizeF(font.pointSizeF() * 1.3)
-        self.refusal_label.setFont(font)
+        self.refusal_label = large_label()
         layout.addWidget(self.refusal_label)
         layout.addStretch(1)
-        buttons = QtWidgets.QHBoxLayout()
-        setup = QtWidgets.QPushButton("Change settings")
-        setup.clicked.connect(self.back_to_setup)
-        redo = QtWidgets.QPushButton("Redo")
-        redo.clicked.connect(self.redo)
-        buttons.addWidget(setup)
-        buttons.addStretch(1)
-        buttons.addWidget(redo)
-        layout.addLayout(buttons)
+        layout.addLayout(button_row(push_button("Change settings", self.back_to_setup), None, push_button("Redo", self.redo)))
         return page
 
     # -- state -------------------------------------------------------------------------------

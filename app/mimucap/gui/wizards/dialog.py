@@ -4,7 +4,42 @@ feed and releases the view, so nothing renders or reads samples afterwards."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from PyQt5 import QtGui, QtWidgets
+
+
+def push_button(text: str, slot: Callable[[], object], default: bool = False,
+           tooltip: str = "") -> QtWidgets.QPushButton:
+    """A push button calling ``slot`` when clicked."""
+    widget = QtWidgets.QPushButton(text)
+    widget.clicked.connect(slot)
+    widget.setDefault(default)
+    if tooltip:
+        widget.setToolTip(tooltip)
+    return widget
+
+
+def large_label(scale: float = 1.3, bold: bool = False, wrap: bool = True) -> QtWidgets.QLabel:
+    """An empty label in the dialog font scaled by ``scale`` (instructions, countdowns)."""
+    label = QtWidgets.QLabel("")
+    label.setWordWrap(wrap)
+    font = label.font()
+    font.setPointSizeF(font.pointSizeF() * scale)
+    font.setBold(bold)
+    label.setFont(font)
+    return label
+
+
+def button_row(*items: QtWidgets.QWidget | None) -> QtWidgets.QHBoxLayout:
+    """A row of ``items`` left to right; ``None`` is the stretch that pushes the rest right."""
+    row = QtWidgets.QHBoxLayout()
+    for item in items:
+        if item is None:
+            row.addStretch(1)
+        else:
+            row.addWidget(item)
+    return row
 
 
 class CalibrationDialog(QtWidgets.QDialog):

@@ -43,7 +43,7 @@ from mimucap.session.magcal_procedure import (
 from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
 from mimucap.session.magcal_display import magcal_display
 from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget
-from mimucap.gui.wizards.dialog import CalibrationDialog
+from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
 
 PROTOCOL_LABELS = {
     "single_axis": "One turn about each sensor axis (recommended)",
@@ -168,16 +168,8 @@ class MagnetometerWizard(CalibrationDialog):
         self.setup_error = QtWidgets.QLabel("")
         self.setup_error.setStyleSheet("color: #d62728")
         layout.addWidget(self.setup_error)
-        buttons = QtWidgets.QHBoxLayout()
-        self.start_button = QtWidgets.QPushButton("Start")
-        self.start_button.setDefault(True)
-        self.start_button.clicked.connect(self.start)
-        close = QtWidgets.QPushButton("Close")
-        close.clicked.connect(self.reject)
-        buttons.addStretch(1)
-        buttons.addWidget(close)
-        buttons.addWidget(self.start_button)
-        layout.addLayout(buttons)
+        self.start_button = push_button("Start", self.start, default=True)
+        layout.addLayout(button_row(None, push_button("Close", self.reject), self.start_button))
         return page
 
     def _build_recording(self) -> QtWidgets.QWidget:
@@ -187,12 +179,7 @@ class MagnetometerWizard(CalibrationDialog):
         layout.addWidget(self.recording_title)
         self.picture = PictureWidget()
         layout.addWidget(self.picture, 3)
-        self.instruction = QtWidgets.QLabel("")
-        self.instruction.setWordWrap(True)
-        font = self.instruction.font()
-        font.setPointSizeF(font.pointSizeF() * 1.3)
-        font.setBold(True)
-        self.instruction.setFont(font)
+        self.instruction = large_label(bold=True)
         layout.addWidget(self.instruction)
         self.axis_bars: dict[str, QtWidgets.QProgressBar] = {}
         grid = QtWidgets.QGridLayout()
@@ -211,16 +198,9 @@ class MagnetometerWizard(CalibrationDialog):
         layout.addWidget(self.axis_widget)
         self.recording_info = QtWidgets.QLabel("")
         layout.addWidget(self.recording_info)
-        buttons = QtWidgets.QHBoxLayout()
-        cancel = QtWidgets.QPushButton("Cancel")
-        cancel.clicked.connect(self.redo)
-        self.finish_button = QtWidgets.QPushButton("Compute now")
-        self.finish_button.setToolTip("Stop recording and compute with what was recorded")
-        self.finish_button.clicked.connect(self.finish_now)
-        buttons.addWidget(cancel)
-        buttons.addStretch(1)
-        buttons.addWidget(self.finish_button)
-        layout.addLayout(buttons)
+        self.finish_button = push_button("Compute now", self.finish_now,
+                                    tooltip="Stop recording and compute with what was recorded")
+        layout.addLayout(button_row(push_button("Cancel", self.redo), None, self.finish_button))
         return page
 
     def _build_result(self) -> QtWidgets.QWidget:
@@ -240,18 +220,9 @@ class MagnetometerWizard(CalibrationDialog):
         layout.addWidget(self.result_table, 2)
         self.result_details = QtWidgets.QTextBrowser()
         layout.addWidget(self.result_details, 2)
-        buttons = QtWidgets.QHBoxLayout()
-        self.redo_button = QtWidgets.QPushButton("Redo")
-        self.redo_button.clicked.connect(self.redo)
-        self.accept_button = QtWidgets.QPushButton("Accept")
-        self.accept_button.clicked.connect(self.accept_results)
-        close = QtWidgets.QPushButton("Close")
-        close.clicked.connect(self.reject)
-        buttons.addWidget(self.redo_button)
-        buttons.addStretch(1)
-        buttons.addWidget(close)
-        buttons.addWidget(self.accept_button)
-        layout.addLayout(buttons)
+        self.redo_button = push_button("Redo", self.redo)
+        self.accept_button = push_button("Accept", self.accept_results)
+        layout.addLayout(button_row(self.redo_button, None, push_button("Close", self.reject), self.accept_button))
         return page
 
     # -- state -------------------------------------------------------------------------------
