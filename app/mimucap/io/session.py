@@ -388,25 +388,27 @@ class _Reader:
     def error(self, message: str) -> SessionFormatError:
         return SessionFormatError(f"{self.path}: {message}")
 
-    def group(self, parent: h5py.Group, name: str, required: bool = True) -> h5py.Group | None:
+    def _item(self, parent: h5py.Group, name: str, kind: type, required: bool):
+        """``parent[name]`` if it is a ``kind`` (h5py Group or Dataset); None if absent and
+        not required; a :class:`SessionFormatError` naming it otherwise."""
+        noun = "group" if kind is h5py.Group else "dataset"
         if name not in parent:
             if required:
-                raise self.error(f"missing group {parent.name.rstrip('/')}/{name}")
+                raise self.error(f"missing {noun} {parent.name.rstrip('/')}/{name}")
             return None
         item = parent[name]
-        if not isinstance(item, h5py.Group):
-            raise self.error(f"{item.name} should be a group")
+        if not isinstance(item, kind):
+            raise self.error(f"{item.name} should be a {noun}")
         return item
+
+    def group(self, parent: h5py.Group, name: str, required: bool = True) -> h5py.Group | None:
+        return self._item(parent, name, h5py.Group, required)
 
     def array(self, parent: h5py.Group, name: str, shape_tail: tuple[int, ...] | None = None,
               rows: int | None = None, required: bool = True, dtype: Any = np.float64) -> np.ndarray | None:
-        if name not in parent:
-            if required:
-                raise self.error(f"missing dataset {parent.name.rstrip('/')}/{name}")
+        item = self._item(parent, name, h5py.Dataset, required)
+        if item is None:
             return None
-        item = parent[name]
-        if not isinstance(item, h5py.Dataset):
-            raise self.error(f"{item.name} should be a dataset")
         try:
             value = np.asarray(item[()], dtype=dtype)
         except (OSError, ValueError, TypeError) as error:
