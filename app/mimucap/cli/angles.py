@@ -26,7 +26,6 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n", 1)[1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("input", help="orientation table: .csv, .sto, Xsens .txt or folder, session .h5")
     parser.add_argument("--calibration", required=True, metavar="CAL.json", help="from mimucap bodycal")
     parser.add_argument("--shoulder", choices=SHOULDER_SEQUENCES, default="zxy",
                         help="shoulder Euler sequence (default zxy; yxy is ISB's, singular arm down)")

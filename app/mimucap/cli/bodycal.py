@@ -69,7 +69,8 @@ def choose_model(name: str, segments) -> object:
 
 
 def add_reader_options(parser: argparse.ArgumentParser) -> None:
-    """Options of the orientation readers, shared with ``mimucap angles``."""
+    """The input argument and the orientation readers' options, shared with ``mimucap angles``."""
+    parser.add_argument("input", help="orientation table: .csv, .sto, Xsens .txt or folder, session .h5")
     parser.add_argument("--up", metavar="AXIS", default=None,
                         help="world up axis of a CSV or .sto table (x, y, z, -x...; default: z)")
     parser.add_argument("--sensor-names", metavar="XML", default=None,
@@ -92,7 +93,6 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n", 1)[1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("input", help="orientation table: .csv, .sto, Xsens .txt or folder, session .h5")
     parser.add_argument("--mapping", action="append", metavar="SENSOR=SEGMENT[,...]",
                         help="sensor of each segment (repeatable; default: the session's assignment)")
     parser.add_argument("--npose", metavar="T0:T1", help="N-pose window in seconds")
