@@ -285,6 +285,16 @@ def _built_in_model(name: str) -> SkeletonModel:
     return model_from_dict(BUILT_IN_MODELS[name], f"built-in model {name}")
 
 
+def _stacked_orientations(model: SkeletonModel, q_world_from_segment: ArrayLike, what: str) -> FloatArray:
+    """``q_world_from_segment`` as float ``(S, ..., 4)`` for the model's ``S`` segments, or a
+    ``ValueError`` that starts with ``what``."""
+    q = np.asarray(q_world_from_segment, dtype=np.float64)
+    n_segments = len(model.tables.parent_index)
+    if q.ndim < 2 or q.shape[0] != n_segments or q.shape[-1] != 4:
+        raise ValueError(f"{what} orientations of shape ({n_segments}, ..., 4) in model order, got {q.shape}")
+    return q
+
+
 def _check_height(height_m: float) -> float:
     height = float(height_m)
     if not np.isfinite(height) or not 0.5 <= height <= 2.5:
@@ -334,11 +344,8 @@ def forward_kinematics_stacked(
     """
     height = _check_height(height_m)
     tables = model.tables
-    q = np.asarray(q_world_from_segment, dtype=np.float64)
-    n_segments = len(tables.parent_index)
-    if q.ndim < 2 or q.shape[0] != n_segments or q.shape[-1] != 4:
-        raise ValueError(f"forward kinematics needs orientations of shape ({n_segments}, ..., 4) in model order, "
-                         f"got {q.shape}")
+    q = _stacked_orientations(model, q_world_from_segment, "forward kinematics needs")
+    n_segments = q.shape[0]
     if root_position_m is None:
         root = np.array([0.0, 0.0, model.root_height_ratio * height])
     else:
@@ -481,11 +488,7 @@ def joint_angles_deg_stacked(
     """
     seq = _check_shoulder_sequence(shoulder_sequence)
     tables = model.tables
-    q = np.asarray(q_world_from_segment, dtype=np.float64)
-    n_segments = len(tables.parent_index)
-    if q.ndim < 2 or q.shape[0] != n_segments or q.shape[-1] != 4:
-        raise ValueError(f"joint angles need orientations of shape ({n_segments}, ..., 4) in model order, "
-                         f"got {q.shape}")
+    q = _stacked_orientations(model, q_world_from_segment, "joint angles need")
     q_joint = rot.multiply(rot.conjugate(q[tables.joint_proximal]), q[tables.joint_distal])
     return _angles_of_rotations(q_joint, tables.joint_mirror, tables.joint_flexion_sign,
                                 tables.joint_is_shoulder, seq)
