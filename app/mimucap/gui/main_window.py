@@ -22,6 +22,7 @@ from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignmen
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import save_window_png
 from mimucap.gui.live_plots import LivePlots
+from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.session_panel import SessionPanel
@@ -174,27 +175,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_marker.setShortcut(QtGui.QKeySequence("M"))
 
         view_menu = bar.addMenu("&View")
-        camera_menu = view_menu.addMenu("&Camera")
-        self.camera_group = QtWidgets.QActionGroup(self)
-        self.camera_actions: dict[str, QtWidgets.QAction] = {}
-        for index, name in enumerate(CAMERA_PRESETS, start=1):
-            action = camera_menu.addAction(name.capitalize())
-            action.setCheckable(True)
-            action.setShortcut(QtGui.QKeySequence(f"Ctrl+{index}"))
-            action.triggered.connect(lambda _checked, n=name: self.set_camera_preset(n))
-            self.camera_group.addAction(action)
-            self.camera_actions[name] = action
-        self.camera_actions[self.scene_view.camera_preset].setChecked(True)
-        display_menu = view_menu.addMenu("&Display Mode")
-        self.display_group = QtWidgets.QActionGroup(self)
-        self.display_actions: dict[str, QtWidgets.QAction] = {}
-        for name in DISPLAY_MODES:
-            action = display_menu.addAction(f"{name.capitalize()} Mode")
-            action.setCheckable(True)
-            action.triggered.connect(lambda _checked, n=name: self.set_display_mode(n))
-            self.display_group.addAction(action)
-            self.display_actions[name] = action
-        self.display_actions["world"].setChecked(True)
+        self.camera_actions = choice_actions(view_menu.addMenu("&Camera"), CAMERA_PRESETS, str.capitalize,
+                                             self.set_camera_preset, self.scene_view.camera_preset,
+                                             numbered_shortcuts=True)
+        self.display_actions = choice_actions(view_menu.addMenu("&Display Mode"), DISPLAY_MODES,
+                                              lambda name: f"{name.capitalize()} Mode", self.set_display_mode, "world")
         self.action_toggle_display = view_menu.addAction("&Toggle Body/World", self.toggle_display_mode)
         self.action_toggle_display.setShortcut(QtGui.QKeySequence("B"))
         view_menu.addSeparator()

@@ -17,6 +17,7 @@ from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import save_window_png
 from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import LivePlots
+from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
@@ -108,17 +109,9 @@ class ReviewWindow(QtWidgets.QMainWindow):
         menu.addSeparator()
         menu.addAction("&Close", self.close).setShortcut(QtGui.QKeySequence.Close)
         view = self.menuBar().addMenu("&View")
-        camera_menu = view.addMenu("&Camera")
-        self.camera_group = QtWidgets.QActionGroup(self)
-        self.camera_actions: dict[str, QtWidgets.QAction] = {}
-        for index, name in enumerate(CAMERA_PRESETS, start=1):
-            action = camera_menu.addAction(name.capitalize())
-            action.setCheckable(True)
-            action.setShortcut(QtGui.QKeySequence(f"Ctrl+{index}"))
-            action.triggered.connect(lambda _checked, n=name: self.scene_view.set_camera_preset(n))
-            self.camera_group.addAction(action)
-            self.camera_actions[name] = action
-        self.camera_actions[self.scene_view.camera_preset].setChecked(True)
+        self.camera_actions = choice_actions(view.addMenu("&Camera"), CAMERA_PRESETS, str.capitalize,
+                                             self.scene_view.set_camera_preset, self.scene_view.camera_preset,
+                                             numbered_shortcuts=True)
         self.action_body_mode = view.addAction("&Body Mode")
         self.action_body_mode.setCheckable(True)
         self.action_body_mode.toggled.connect(self._body_mode_toggled)

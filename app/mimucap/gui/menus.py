@@ -1,0 +1,26 @@
+"""Menu helpers shared by the main and review windows."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+from PyQt5 import QtGui, QtWidgets
+
+
+def choice_actions(menu: QtWidgets.QMenu, names: Sequence[str], label: Callable[[str], str],
+                   chosen: Callable[[str], None], checked: str,
+                   numbered_shortcuts: bool = False) -> dict[str, QtWidgets.QAction]:
+    """One checkable action per name in ``menu``, mutually exclusive, ``checked`` ticked;
+    triggering one calls ``chosen(name)``. With ``numbered_shortcuts`` the i-th is Ctrl+i."""
+    group = QtWidgets.QActionGroup(menu)
+    actions: dict[str, QtWidgets.QAction] = {}
+    for index, name in enumerate(names, start=1):
+        action = menu.addAction(label(name))
+        action.setCheckable(True)
+        if numbered_shortcuts:
+            action.setShortcut(QtGui.QKeySequence(f"Ctrl+{index}"))
+        action.triggered.connect(lambda _checked, n=name: chosen(n))
+        group.addAction(action)
+        actions[name] = action
+    actions[checked].setChecked(True)
+    return actions
