@@ -115,17 +115,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.setCentralWidget(splitter)
 
         self.session_panel = SessionPanel(self)
-        self.session_dock = QtWidgets.QDockWidget("Session", self)
-        self.session_dock.setObjectName("sessionDock")
-        self.session_dock.setWidget(self.session_panel)
-        self.session_dock.setFeatures(QtWidgets.QDockWidget.DockWidgetMovable)
-        self.addDockWidget(QtCore.Qt.LeftDockWidgetArea, self.session_dock)
+        self.session_dock = self._dock("Session", "sessionDock", self.session_panel, QtCore.Qt.LeftDockWidgetArea)
         self.sensor_panel = SensorPanel(self)
-        self.sensor_dock = QtWidgets.QDockWidget("Sensors", self)
-        self.sensor_dock.setObjectName("sensorDock")
-        self.sensor_dock.setWidget(self.sensor_panel)
-        self.sensor_dock.setFeatures(QtWidgets.QDockWidget.DockWidgetMovable)
-        self.addDockWidget(QtCore.Qt.BottomDockWidgetArea, self.sensor_dock)
+        self.sensor_dock = self._dock("Sensors", "sensorDock", self.sensor_panel, QtCore.Qt.BottomDockWidgetArea)
         self.resizeDocks([self.sensor_dock], [190], QtCore.Qt.Vertical)
 
         self.session_panel.record_toggled.connect(self._record_toggled)
@@ -149,6 +141,15 @@ class MainWindow(QtWidgets.QMainWindow):
             self.open_source(DEFAULT_SPEC, interactive=False)  # a remembered source that went away
 
     # -- construction ------------------------------------------------------------------------
+    def _dock(self, title: str, name: str, widget: QtWidgets.QWidget, area) -> QtWidgets.QDockWidget:
+        """``widget`` in a movable (not closable) dock named ``name`` at ``area``."""
+        dock = QtWidgets.QDockWidget(title, self)
+        dock.setObjectName(name)
+        dock.setWidget(widget)
+        dock.setFeatures(QtWidgets.QDockWidget.DockWidgetMovable)
+        self.addDockWidget(area, dock)
+        return dock
+
     def _build_menus(self) -> None:
         bar = self.menuBar()
         file_menu = bar.addMenu("&File")
