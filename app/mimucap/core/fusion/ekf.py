@@ -77,6 +77,25 @@ def _time_grid(t_s, n_sensors: int, n: int) -> np.ndarray:
     return t
 
 
+def shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT, n_sensors: int | None = None):
+    """The inputs as the kernels take them: ``(single, t (S, N), gyr (S, N, 3), acc, mag)``
+    with ``acc``/``mag`` ``(S, N, 3)`` or None. ``single`` says the caller passed one sensor's
+    ``(N, 3)`` arrays; ``n_sensors`` (default: from ``gyr``) is the count the arrays must have.
+    Bad shapes raise ``ValueError`` naming the input."""
+    gyr = np.asarray(gyr_rad_s, dtype=np.float64)
+    if gyr.ndim not in (2, 3):
+        raise ValueError(f"gyr: expected shape (N, 3) or (S, N, 3), got {gyr.shape}")
+    single = gyr.ndim == 2
+    if n_sensors is None:
+        n_sensors = 1 if single else gyr.shape[0]
+    elif single and n_sensors != 1:
+        raise ValueError(f"this filter has {n_sensors} sensors: gyr must be (S, N, 3)")
+    n = gyr.shape[-2]
+    return (single, _time_grid(t_s, n_sensors, n), _channel("gyr", gyr, n_sensors, n, single),
+            None if acc_m_s2 is None else _channel("acc", acc_m_s2, n_sensors, n, single),
+            None if mag_uT is None else _channel("mag", mag_uT, n_sensors, n, single))
+
+
 def _kernel_array(array: np.ndarray) -> np.ndarray:
     """C-contiguous, writeable float64 (one compiled kernel type, whatever the caller passed:
     read-only, broadcast or strided arrays would each need their own compilation)."""
@@ -131,18 +150,9 @@ class OrientationEKF:
     def update_batch(self, t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
                      _store: tuple | None = None) -> FusionResult:
         """Feed a block of samples (shapes in the module docstring); returns its outputs."""
-        gyr_in = np.asarray(gyr_rad_s, dtype=np.float64)
-        single = gyr_in.ndim == 2
-        if single and self.n_sensors != 1:
-            raise ValueError(f"this filter has {self.n_sensors} sensors: gyr must be (S, N, 3)")
-        if gyr_in.ndim not in (2, 3):
-            raise ValueError(f"gyr: expected shape (N, 3) or (S, N, 3), got {gyr_in.shape}")
-        n = gyr_in.shape[-2]
         s_count = self.n_sensors
-        gyr = _channel("gyr", gyr_in, s_count, n, single)
-        acc = None if acc_m_s2 is None else _channel("acc", acc_m_s2, s_count, n, single)
-        mag = None if mag_uT is None else _channel("mag", mag_uT, s_count, n, single)
-        t = _time_grid(t_s, s_count, n)
+        single, t, gyr, acc, mag = shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT, s_count)
+        n = gyr.shape[1]
         out_q = np.empty((s_count, n, 4))
         out_b = np.empty((s_count, n, 3))
         out_f = np.zeros((s_count, n), dtype=np.uint8)

@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-from mimucap.core.fusion.ekf import FusionResult, OrientationEKF, _channel, _time_grid
+from mimucap.core.fusion.ekf import FusionResult, OrientationEKF, shaped_inputs
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
 from mimucap.core.fusion.jit import JIT_OPTIONS
 from mimucap.core.fusion.propagation import exp_quat, quat_multiply, quat_normalise
@@ -124,16 +124,8 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
     sample) is held for one sensor at a time. The flags and counters are those of the forward
     pass.
     """
-    gyr = np.asarray(gyr_rad_s, dtype=np.float64)
-    if gyr.ndim not in (2, 3):
-        raise ValueError(f"gyr: expected shape (N, 3) or (S, N, 3), got {gyr.shape}")
-    single = gyr.ndim == 2
-    gyr3 = gyr[None] if single else gyr
+    single, t, gyr3, acc3, mag3 = shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT)
     n_sensors, n = gyr3.shape[0], gyr3.shape[1]
-
-    acc3 = None if acc_m_s2 is None else _channel("acc", acc_m_s2, n_sensors, n, single)
-    mag3 = None if mag_uT is None else _channel("mag", mag_uT, n_sensors, n, single)
-    t = _time_grid(t_s, n_sensors, n)
     out_q = np.empty((n_sensors, n, 4))
     out_b = np.empty((n_sensors, n, 3))
     flags = np.zeros((n_sensors, n), dtype=np.uint8)
