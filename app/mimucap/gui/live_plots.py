@@ -118,7 +118,6 @@ class LivePlots(QtWidgets.QWidget):
         self.selected_joints: list[str] = []
         for key, title, unit, min_range in SENSOR_PLOTS:
             self._add_plot(key, title, unit, min_range, AXIS_NAMES)
-        self._time_axis_key = ""
         self._place_time_axis()
 
         layout = QtWidgets.QVBoxLayout(self)
@@ -209,15 +208,11 @@ class LivePlots(QtWidgets.QWidget):
     def _place_time_axis(self) -> None:
         """Show the time axis (and vertical grid) on the bottom plot only: the plots share one
         time range, and a time axis is the costliest item to draw."""
-        last = list(self.plots)[-1]
-        if last == self._time_axis_key:
-            return
-        if self._time_axis_key in self.plots:
-            self.plots[self._time_axis_key].hideAxis("bottom")
-        plot = self.plots[last]
-        plot.showAxis("bottom")
-        plot.setLabel("bottom", "time before the pose shown (s)" if self.relative_time else "time (s)")
-        self._time_axis_key = last
+        *upper, last = self.plots.values()
+        for plot in upper:
+            plot.hideAxis("bottom")
+        last.setLabel("bottom", "time before the pose shown (s)" if self.relative_time else "time (s)")
+        last.showAxis("bottom")
 
     def _joint_key(self, joint: str) -> str:
         return f"joint:{joint}"
