@@ -192,3 +192,17 @@ def test_closing_while_the_kernels_are_prepared_waits_for_them(qtbot, monkeypatc
     assert not win._warm_up.isRunning() and not win.isVisible()
     assert not win.live or not win.live.started
     QtCore.QCoreApplication.processEvents()
+
+
+def test_world_axes_are_named_at_their_tips_and_the_names_hide_with_them(window, qtbot):
+    view = window.scene_view
+    window.camera_actions["front"].trigger()
+    qtbot.waitUntil(lambda: {label.text for label in view.vtk_widget.labels} == {"E", "N", "Up"}, timeout=5000)
+    width, height = view.render_window.GetSize()
+    labels = {label.text: label for label in view.vtk_widget.labels}
+    for label in labels.values():
+        assert 0 <= label.x_px < width and 0 <= label.y_px < height
+    assert labels["Up"].y_px < labels["E"].y_px  # Up above E on the screen
+    assert labels["E"].x_px > labels["Up"].x_px  # E (east) to the right in the front view
+    window.action_axes.setChecked(False)
+    qtbot.waitUntil(lambda: view.vtk_widget.labels == (), timeout=5000)

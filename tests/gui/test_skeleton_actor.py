@@ -81,3 +81,26 @@ def test_a_geometry_of_another_model_is_refused():
     actor = SkeletonActor(vtkRenderer(), ten)
     with pytest.raises(ValueError, match="another skeleton model"):
         actor.update(geometry)
+
+
+def test_capsules_are_lit_from_the_light_direction(figure):
+    from mimucap.gui.scene.skeleton_actor import AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER
+
+    actor, geometry, _ = figure
+    actor.update(geometry)
+    actor.set_tints({"pelvis": "ok"})
+    light = np.array([0.0, -1.0, 0.0])
+    actor.shade(light * 3.0)  # any length
+    facing = np.clip(actor._normals @ light, 0.0, None)
+    expected = actor._colours * (AMBIENT + DIFFUSE * facing)[:, None] + 255.0 * SPECULAR * facing[:, None] ** SPECULAR_POWER
+    np.testing.assert_allclose(actor._shaded, np.clip(expected, 0, 255), atol=1.0)
+    pelvis = actor._shaded[actor._segments.vertex_range(geometry.segment_names.index("pelvis"))].copy()
+    normals = actor._normals[actor._segments.vertex_range(geometry.segment_names.index("pelvis"))]
+    brightest, darkest = pelvis[np.argmax(normals @ light)], pelvis[np.argmin(normals @ light)]
+    assert brightest.sum() > darkest.sum()  # the side towards the light is the bright one
+    np.testing.assert_allclose(darkest, np.round(255 * np.array(TINTS["ok"])) * AMBIENT, atol=1.0)
+    # A new tint is lit at the next shade, even with the light unchanged.
+    actor.set_tints({"pelvis": "stale"})
+    actor.shade(light)
+    np.testing.assert_allclose(actor._shaded[actor._segments.vertex_range(geometry.segment_names.index("pelvis"))][np.argmin(normals @ light)],
+                               np.round(255 * np.array(TINTS["stale"])) * AMBIENT, atol=1.0)

@@ -97,3 +97,21 @@ def test_after_finalize_nothing_renders(view):
     view.render()
     assert not count
     view.grab()  # painting the last picture still works
+
+
+def test_labels_are_painted_over_the_frame_where_the_provider_puts_them(view):
+    from mimucap.gui.vtk_image_widget import OverlayLabel
+
+    view.label_provider = lambda: [OverlayLabel("WWW", 60.0, 40.0, (255, 255, 0))]
+    view.render()
+    assert view.labels == (OverlayLabel("WWW", 60.0, 40.0, (255, 255, 0)),)
+    for image in (view.grab().toImage(), view.image()):
+        pixels = _rgb(image)
+        yellow = (pixels[:, :, 0] > 200) & (pixels[:, :, 1] > 200) & (pixels[:, :, 2] < 80)
+        rows, columns = np.nonzero(yellow)
+        assert len(rows) > 20  # the text is there, centred on its anchor, nowhere else
+        assert abs(rows.mean() - 40.0) < 6.0 and abs(columns.mean() - 60.0) < 8.0
+    view.label_provider = None
+    view.render()
+    pixels = _rgb(view.image())
+    assert not ((pixels[:, :, 0] > 200) & (pixels[:, :, 1] > 200)).any()

@@ -13,9 +13,17 @@ with VTK's trackball-camera style (orbit with the left button, pan with the midd
 Shift+left, zoom with the right one or the wheel). Every ``Render()`` of the window,
 whoever asks for it (this widget, the interactor style, a screenshot), is read back and
 painted. Because the picture is an ordinary Qt image, ``QWidget.grab()`` sees it too.
+
+Text labels anchored in the scene (e.g. the names of the world axes) are painted by Qt over the
+picture (:class:`OverlayLabel`, from :attr:`VtkImageWidget.label_provider` after every frame):
+VTK's caption actors re-rasterised their text and rebuilt their shaders on every frame in
+which the scene moved, 5 % of a core at 60 frames per second (``bench/bench_gui.py``).
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import vtkmodules.vtkInteractionStyle  # noqa: F401  (registers the interactor styles)
@@ -35,6 +43,17 @@ _BUTTON_EVENTS = {
 }
 
 
+@dataclass(frozen=True)
+class OverlayLabel:
+    """A text painted over the picture, centred on ``(x_px, y_px)``: device pixels of the
+    render window, from the left and from the *top*; ``rgb`` 0..255."""
+
+    text: str
+    x_px: float
+    y_px: float
+    rgb: tuple[int, int, int] = (255, 255, 255)
+
+
 class VtkImageWidget(QtWidgets.QWidget):
     """One offscreen ``vtkRenderWindow`` (:attr:`render_window`) shown as a Qt image.
 
@@ -42,6 +61,9 @@ class VtkImageWidget(QtWidgets.QWidget):
         render_window: add renderers to it; call :meth:`render` (or its ``Render()``) to
             draw. Its size follows the widget's size in device pixels.
         interactor: the ``vtkGenericRenderWindowInteractor`` driven by Qt's mouse events.
+        label_provider: called after every frame (``None``: no labels); returns the
+            :class:`OverlayLabel` s to paint over it.
+        label_point_size: point size of the labels' bold font.
 
     Signals:
         rendered(): after each frame was read back (the widget repaints itself).
@@ -67,6 +89,9 @@ class VtkImageWidget(QtWidgets.QWidget):
         self._initialized = False
         self._finalized = False
         self._reading = False
+        self.label_provider: Callable[[], Sequence[OverlayLabel]] | None = None
+        self.label_point_size = 10.0
+        self._labels: tuple[OverlayLabel, ...] = ()
         self.render_window.AddObserver(vtkCommand.EndEvent, self._on_render_end)
 
     # -- life cycle --------------------------------------------------------------------------
@@ -111,14 +136,44 @@ class VtkImageWidget(QtWidgets.QWidget):
                                            QtGui.QImage.Format_RGBX8888)
                 self._image.setDevicePixelRatio(self.devicePixelRatioF())
             np.copyto(self._buffer, rgba[::-1])  # VTK's rows run bottom-up
+            self._labels = tuple(self.label_provider()) if self.label_provider is not None else ()
         finally:
             self._reading = False
         self.update()
         self.rendered.emit()
 
+    @property
+    def labels(self) -> tuple[OverlayLabel, ...]:
+        """The labels painted over the last frame."""
+        return self._labels
+
     def image(self) -> QtGui.QImage:
-        """A copy of the last frame (RGB, device pixels); a null image before the first one."""
-        return QtGui.QImage() if self._image is None else self._image.convertToFormat(QtGui.QImage.Format_RGB888)
+        """A copy of the last frame with its labels (RGB, device pixels); a null image before
+        the first one."""
+        if self._image is None:
+            return QtGui.QImage()
+        image = self._image.convertToFormat(QtGui.QImage.Format_RGB888)
+        painter = QtGui.QPainter(image)  # logical pixels: the copy keeps the device pixel ratio
+        self._paint_labels(painter)
+        painter.end()
+        return image
+
+    def _paint_labels(self, painter: QtGui.QPainter) -> None:
+        """Paint the labels with ``painter`` (logical pixels)."""
+        if not self._labels:
+            return
+        ratio = self.devicePixelRatioF()
+        font = QtGui.QFont(self.font())
+        font.setBold(True)
+        font.setPointSizeF(self.label_point_size)
+        painter.setFont(font)
+        metrics = painter.fontMetrics()
+        for label in self._labels:
+            width = metrics.horizontalAdvance(label.text)
+            x = label.x_px / ratio - width / 2.0
+            y = label.y_px / ratio + (metrics.ascent() - metrics.descent()) / 2.0
+            painter.setPen(QtGui.QColor(*label.rgb))
+            painter.drawText(QtCore.QPointF(x, y), label.text)
 
     def paintEvent(self, event: QtGui.QPaintEvent) -> None:  # noqa: N802 (Qt API)
         painter = QtGui.QPainter(self)
@@ -126,6 +181,7 @@ class VtkImageWidget(QtWidgets.QWidget):
             painter.fillRect(self.rect(), QtGui.QColor(64, 71, 87))
         else:
             painter.drawImage(QtCore.QPoint(0, 0), self._image)
+            self._paint_labels(painter)
         painter.end()
 
     def resizeEvent(self, event: QtGui.QResizeEvent) -> None:  # noqa: N802

@@ -1,5 +1,8 @@
 """The stage of the 3D view: floor grid, world axes, a camera light and the background.
 
+The axes' names (E, N, Up) are not VTK captions: :meth:`Stage.axis_labels` gives their anchors
+in the scene and the view has Qt paint them over the picture.
+
 The floor is a grid of lines (30 m × 30 m, a line every 0.5 m, no solid plane) and the world axes (E, N, Up; 0.5 m, standing at
 :data:`AXES_ORIGIN_WORLD_M`) are built in
 **world** coordinates (ENU, metres) and placed in the scene by the frame's
@@ -20,7 +23,9 @@ FLOOR_SPACING_M = 0.5
 AXES_LENGTH_M = 0.5
 #: Where the world axes stand on the floor (world ENU, metres): beside the figure, not inside it.
 AXES_ORIGIN_WORLD_M = (-0.75, 0.5, 0.0)
-AXES_FONT_SIZE = 13
+#: Where an axis name stands along its axis, as a fraction of the axis length.
+AXIS_LABEL_POSITION = 1.15
+AXIS_NAMES = ("E", "N", "Up")
 BACKGROUND = (0.25, 0.28, 0.34)
 GRID_COLOUR = (0.62, 0.65, 0.70)
 
@@ -81,22 +86,10 @@ class Stage:
 
         self.axes = vtkAxesActor()
         self.axes.SetTotalLength(AXES_LENGTH_M, AXES_LENGTH_M, AXES_LENGTH_M)
-        self.axes.SetXAxisLabelText("E")
-        self.axes.SetYAxisLabelText("N")
-        self.axes.SetZAxisLabelText("Up")
+        self.axes.AxisLabelsOff()
         self.axes.SetShaftTypeToCylinder()
         self.axes.SetCylinderRadius(0.02)
         self.axes.SetConeRadius(0.3)
-        for caption in (
-            self.axes.GetXAxisCaptionActor2D(),
-            self.axes.GetYAxisCaptionActor2D(),
-            self.axes.GetZAxisCaptionActor2D(),
-        ):
-            caption.GetTextActor().SetTextScaleModeToNone()
-            caption.GetCaptionTextProperty().SetFontSize(AXES_FONT_SIZE)
-            caption.GetCaptionTextProperty().ShadowOff()
-            caption.GetCaptionTextProperty().ItalicOff()
-            caption.GetCaptionTextProperty().BoldOn()
         self.axes.SetUserMatrix(self.axes_matrix)
         self.set_world_matrix(np.eye(4))
 
@@ -112,10 +105,22 @@ class Stage:
             for col in range(4):
                 self.world_matrix.SetElement(row, col, float(matrix[row, col]))
                 self.axes_matrix.SetElement(row, col, float(shifted[row, col]))
+        self._axes_scene = shifted
         self.world_matrix.Modified()
         self.axes_matrix.Modified()
         for actor in (self.grid, self.axes):
             actor.Modified()
+
+    def axis_labels(self) -> list[tuple[str, tuple[float, float, float]]]:
+        """``(name, point)`` for each world axis shown: where its name stands (scene frame,
+        metres), just beyond the arrow's tip. Empty while the axes are hidden."""
+        if not self.axes.GetVisibility():
+            return []
+        labels = []
+        for name, axis in zip(AXIS_NAMES, np.eye(3)):
+            point = self._axes_scene[:3, :3] @ (AXIS_LABEL_POSITION * AXES_LENGTH_M * axis) + self._axes_scene[:3, 3]
+            labels.append((name, tuple(float(v) for v in point)))
+        return labels
 
     def set_visible(self, floor: bool, axes: bool) -> None:
         """Show or hide the floor grid and the world axes."""

@@ -12,6 +12,11 @@ centre) are drawn by VTK's sphere impostor mapper: one point each, ray-traced pe
 perfectly round sphere costs no triangles (35 meshed spheres were ~60 % of the figure's
 render time on software OpenGL; ``bench/bench_gui.py``). Segment capsules carry the colour of
 the state of the sensor on them (:data:`TINTS`) as per-vertex colours.
+
+The capsules are lit per vertex here (:meth:`SkeletonActor.shade`, the view calls it before
+each frame with the camera's direction: a headlight) and drawn unlit: VTK's per-pixel
+lighting cost a millisecond a frame on software OpenGL, and a capsule, straight along its
+length, looks the same lit per vertex.
 """
 
 from __future__ import annotations
@@ -41,6 +46,9 @@ TINTS: dict[str, tuple[float, float, float]] = {
 JOINT_COLOUR = (0.92, 0.92, 0.90)
 CONNECTOR_COLOUR = (0.78, 0.78, 0.80)
 MARKER_COLOUR = (0.15, 0.18, 0.25)
+#: Capsule material, lit by a headlight: ambient and diffuse parts of the base colour, and a
+#: white highlight of this strength and exponent.
+AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER = 0.22, 0.78, 0.30, 12.0
 #: Facets of the unit capsule: enough for smooth Phong shading at figure size on screen, few
 #: enough to keep software OpenGL fast (its cost grows with the triangle count).
 CYLINDER_RESOLUTION = 20
@@ -173,21 +181,21 @@ class SkeletonActor:
         self._colours = np.empty((n_points, 3), dtype=np.uint8)
         self._colours[: self._segments.stop] = _rgb(TINTS["no_sensor"])
         self._colours[self._connectors.first:self._connectors.stop] = _rgb(CONNECTOR_COLOUR)
+        self._shaded = self._colours.copy()  # lit colours, what is drawn
+        self._light: np.ndarray | None = None  # direction towards the light of the last shade()
 
         # VTK arrays that share memory with the numpy arrays above (kept referenced).
         self._vtk_points = numpy_to_vtk(self._points, deep=False)
-        self._vtk_normals = numpy_to_vtk(self._normals, deep=False)
-        self._vtk_normals.SetName("Normals")
-        self._vtk_colours = numpy_to_vtk(self._colours, deep=False)
-        self._vtk_colours.SetName("Colours")
+        self._vtk_shaded = numpy_to_vtk(self._shaded, deep=False)
+        self._vtk_shaded.SetName("Colours")
         triangles = np.concatenate([b.triangles() for b in (self._segments, self._connectors)])
         self.polydata = _polydata(self._vtk_points, triangles, 3)
-        self.polydata.GetPointData().SetNormals(self._vtk_normals)
-        self.polydata.GetPointData().SetScalars(self._vtk_colours)
+        self.polydata.GetPointData().SetScalars(self._vtk_shaded)
         mapper = vtkPolyDataMapper()
         mapper.SetInputData(self.polydata)
         _colour_by_scalars(mapper)
         self.actor = _shaded_actor(mapper)
+        self.actor.GetProperty().LightingOff()  # lit by shade()
         # Closed shapes (the open capsule ends sit inside the joint spheres): their far sides
         # are never seen, and skipping them halves the work of software OpenGL.
         self.actor.GetProperty().BackfaceCullingOn()
@@ -236,7 +244,8 @@ class SkeletonActor:
         spheres = np.concatenate([np.asarray(geometry.joint_matrices), np.asarray(geometry.marker_matrices)])
         self._centres[:] = spheres[:, :3, 3]
         self._radii[:] = np.linalg.norm(spheres[:, :3, 0], axis=1)
-        for array in (self._vtk_points, self._vtk_normals, self._vtk_centres, self._vtk_radii):
+        self._light = None  # the normals moved: shade again
+        for array in (self._vtk_points, self._vtk_centres, self._vtk_radii):
             array.Modified()
         self.polydata.Modified()
         self.sphere_polydata.Modified()
@@ -257,9 +266,27 @@ class SkeletonActor:
             self._tints[name] = state
             changed = True
         if changed:
-            self._vtk_colours.Modified()
-            self.polydata.Modified()
+            self._light = None
         return changed
+
+    def shade(self, towards_light) -> None:
+        """Light the capsules by a distant light in direction ``towards_light`` ``(3,)``
+        (scene frame; from the surface to the light): per vertex, the base colour times
+        ``AMBIENT + DIFFUSE * max(0, n·l)`` plus a white ``SPECULAR * max(0, n·l)^SPECULAR_POWER``
+        (with the light at the eye the half vector is ``l``). Nothing is done when neither the
+        light, the pose nor the tints changed."""
+        light = np.asarray(towards_light, dtype=float)
+        light = light / np.linalg.norm(light)
+        if self._light is not None and np.array_equal(light, self._light):
+            return
+        facing = np.clip(self._normals @ light, 0.0, None)
+        shaded = self._colours * (AMBIENT + DIFFUSE * facing)[:, None]
+        shaded += (255.0 * SPECULAR) * (facing ** SPECULAR_POWER)[:, None]
+        np.clip(shaded, 0.0, 255.0, out=shaded)
+        self._shaded[:] = shaded
+        self._light = light
+        self._vtk_shaded.Modified()
+        self.polydata.Modified()
 
     def spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centres ``(n, 3)`` (scene frame, metres) and radii ``(n,)`` of the joint spheres,

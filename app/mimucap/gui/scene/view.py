@@ -17,11 +17,12 @@ from collections.abc import Callable, Mapping
 
 import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
+from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
 from mimucap.gui.scene.environment import Stage
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
-from mimucap.gui.vtk_image_widget import VtkImageWidget
+from mimucap.gui.vtk_image_widget import OverlayLabel, VtkImageWidget
 from mimucap.session.camera import CAMERA_PRESETS, camera_preset, follow_shift
 from mimucap.session.figure import FigureBuilder, FigureGeometry, plain_world_matrix
 
@@ -55,6 +56,10 @@ class SceneView(QtWidgets.QWidget):
         self.renderer.SetUseFXAA(False)
         self.render_window.AddRenderer(self.renderer)
         self.stage = Stage(self.renderer)
+        self.vtk_widget.label_provider = self._axis_labels
+        # Before every frame, whoever asks for it (the tick, the mouse), light the figure
+        # from the camera.
+        self.render_window.AddObserver(vtkCommand.StartEvent, self._light_figure)
         self.interactor = self.vtk_widget.interactor
 
         self._provider: FrameProvider | None = None
@@ -160,6 +165,23 @@ class SceneView(QtWidgets.QWidget):
         camera = self.renderer.GetActiveCamera()
         distance = camera.GetDistance()
         camera.SetClippingRange(max(0.01, 0.02 * distance), distance + CLIPPING_FAR_M)
+
+    def _light_figure(self, _caller=None, _event=None) -> None:
+        if self.skeleton is not None:
+            self.skeleton.shade(-np.asarray(self.renderer.GetActiveCamera().GetDirectionOfProjection()))
+
+    def _axis_labels(self) -> list[OverlayLabel]:
+        """The world axes' names where the frame just rendered shows their anchors (none
+        behind the camera or outside the picture)."""
+        width, height = self.render_window.GetSize()
+        labels = []
+        for name, point in self.stage.axis_labels():
+            self.renderer.SetWorldPoint(*point, 1.0)
+            self.renderer.WorldToDisplay()
+            x, y, depth = self.renderer.GetDisplayPoint()
+            if 0.0 < depth < 1.0 and 0.0 <= x < width and 0.0 <= y < height:
+                labels.append(OverlayLabel(name, x, height - y))
+        return labels
 
     def _move_camera(self, shift) -> None:
         """Translate camera and focal point by ``shift`` (scene, m): the user's turn and zoom stay."""
