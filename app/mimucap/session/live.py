@@ -125,10 +125,8 @@ class _SensorState:
 
     def __init__(self, sensor_id: str, capacity: int) -> None:
         self.sensor_id = sensor_id
-        self.t = RingBuffer(capacity)
-        self.acc = RingBuffer(capacity, (3,))
-        self.gyr = RingBuffer(capacity, (3,))
-        self.mag = RingBuffer(capacity, (3,))
+        #: rows acc (m/s²), gyr (rad/s), mag (µT, calibrated when applied); NaN when absent
+        self.raw = RingBuffer(capacity, (3, 3))
         self.ekf: OrientationEKF | None = None
         self.q_world_from_sensor: np.ndarray | None = None
         self.onboard = False
@@ -340,10 +338,11 @@ class LiveSession:
         calibration = self.mag_calibrations.get(block.sensor_id)
         if mag is not None and calibration is not None:
             mag = calibration.apply(mag, block.sensor_id)
-        state.t.append(t, t)
-        state.acc.append(t, np.full((n, 3), np.nan) if block.acc is None else block.acc)
-        state.gyr.append(t, np.full((n, 3), np.nan) if block.gyr is None else block.gyr)
-        state.mag.append(t, np.full((n, 3), np.nan) if mag is None else mag)
+        raw = np.full((n, 3, 3), np.nan)
+        for row, values in enumerate((block.acc, block.gyr, mag)):
+            if values is not None:
+                raw[:, row] = values
+        state.raw.append(t, raw)
         if block.battery_pct is not None:
             state.battery_pct = float(block.battery_pct[-1])
         if block.q_world_from_sensor is not None:
@@ -423,7 +422,7 @@ class LiveSession:
         return bodycal.fill_missing_segments(found, self._segment_parents)
 
     def _newest_time(self) -> float:
-        times = [s.t.latest_t() for s in self._sensors.values() if len(s.t)]
+        times = [s.raw.latest_t() for s in self._sensors.values() if len(s.raw)]
         return max(times) if times else float("nan")
 
     def frame(self) -> tuple[object, FigureGeometry] | None:
@@ -490,12 +489,11 @@ class LiveSession:
         """Last ``window_s`` seconds of one sensor: ``t_s`` (N,), ``acc`` (N,3) m/s², ``gyr``
         (N,3) rad/s, ``mag_uT`` (N,3) (calibrated when a calibration is applied)."""
         state = self._sensors.get(sensor_id)
-        if state is None or not len(state.t):
+        if state is None or not len(state.raw):
             empty = np.zeros((0, 3))
             return np.zeros(0), empty, empty, empty
-        t_from = state.t.latest()[0] - window_s
-        t, _ = state.t.since(t_from)
-        return t, state.acc.since(t_from)[1], state.gyr.since(t_from)[1], state.mag.since(t_from)[1]
+        t, raw = state.raw.since(state.raw.latest_t() - window_s)
+        return t, raw[:, 0], raw[:, 1], raw[:, 2]
 
     def joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Last ``window_s`` seconds of ``joint``'s angles: ``t_s`` (N,), ``angles_deg`` (N,3)
