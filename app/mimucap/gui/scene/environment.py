@@ -68,6 +68,7 @@ class Stage:
         self.light.SetIntensity(1.0)
         renderer.AddLight(self.light)
 
+        self._placed: np.ndarray | None = None  # the last world matrix applied
         self.world_matrix = vtkMatrix4x4()
         self.axes_matrix = vtkMatrix4x4()
         cells = int(round(FLOOR_SIZE_M / FLOOR_SPACING_M))
@@ -99,6 +100,9 @@ class Stage:
     def set_world_matrix(self, matrix) -> None:
         """Place floor and axes with a ``(4, 4)`` world→scene matrix (``FigureGeometry.world_matrix``)."""
         matrix = np.asarray(matrix, dtype=float)
+        if self._placed is not None and np.array_equal(matrix, self._placed):
+            return  # unchanged: a Modified() would make VTK rebuild the axes' parts
+        self._placed = matrix.copy()
         shifted = matrix.copy()
         shifted[:3, 3] = matrix[:3, :3] @ np.asarray(AXES_ORIGIN_WORLD_M) + matrix[:3, 3]
         for row in range(4):

@@ -54,6 +54,9 @@ class SceneView(QtWidgets.QWidget):
         self.render_window = self.vtk_widget.render_window
         self.renderer = vtkRenderer()
         self.renderer.SetUseFXAA(False)
+        # Every prop stands in or near the view; VTK's frustum culler would compute all
+        # their bounds on every frame to find that out (2 % of a core at 60 frames/s).
+        self.renderer.GetCullers().RemoveAllItems()
         self.render_window.AddRenderer(self.renderer)
         self.stage = Stage(self.renderer)
         self.vtk_widget.label_provider = self._axis_labels
