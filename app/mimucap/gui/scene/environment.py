@@ -12,15 +12,22 @@ The floor is a grid of lines (30 m × 30 m, a line every 0.5 m, no solid plane) 
 from __future__ import annotations
 
 import numpy as np
+from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkCommonCore import vtkPoints
 from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
 from vtkmodules.vtkCommonMath import vtkMatrix4x4
-from vtkmodules.vtkRenderingAnnotation import vtkAxesActor
+from vtkmodules.vtkCommonTransforms import vtkTransform
+from vtkmodules.vtkFiltersCore import vtkAppendPolyData, vtkPolyDataNormals
+from vtkmodules.vtkFiltersGeneral import vtkTransformPolyDataFilter
+from vtkmodules.vtkFiltersSources import vtkConeSource, vtkCylinderSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkLight, vtkPolyDataMapper, vtkRenderer
 
 FLOOR_SIZE_M = 30.0
 FLOOR_SPACING_M = 0.5
 AXES_LENGTH_M = 0.5
+#: Each axis: a shaft of this radius, then a cone tip of this length and base radius (m).
+AXES_SHAFT_RADIUS_M, AXES_TIP_LENGTH_M, AXES_TIP_RADIUS_M = 0.008, 0.1, 0.03
+AXES_COLOURS = ((1.0, 0.0, 0.0), (0.0, 0.8, 0.0), (0.0, 0.0, 1.0))  # E, N, Up
 #: Where the world axes stand on the floor (world ENU, metres): beside the figure, not inside it.
 AXES_ORIGIN_WORLD_M = (-0.75, 0.5, 0.0)
 #: Where an axis name stands along its axis, as a fraction of the axis length.
@@ -49,6 +56,56 @@ def _grid_lines(cells: int) -> vtkPolyData:
     grid.SetPoints(points)
     grid.SetLines(lines)
     return grid
+
+
+def _axes_mesh() -> vtkPolyData:
+    """The three world axes as one mesh (world frame, metres, from the origin): along E, N and
+    Up a shaft and a cone tip, :data:`AXES_LENGTH_M` long in all, coloured :data:`AXES_COLOURS`
+    (point scalars, RGB bytes). One mesh is one draw call, where VTK's axes actor makes six
+    actors and rebuilds them whenever it moves."""
+    shaft_length = AXES_LENGTH_M - AXES_TIP_LENGTH_M
+    shaft = vtkCylinderSource()  # along +y, centred on the origin
+    shaft.SetRadius(AXES_SHAFT_RADIUS_M)
+    shaft.SetHeight(shaft_length)
+    shaft.SetResolution(12)
+    tip = vtkConeSource()  # along +x, centred on the origin, apex towards +x
+    tip.SetRadius(AXES_TIP_RADIUS_M)
+    tip.SetHeight(AXES_TIP_LENGTH_M)
+    tip.SetResolution(16)
+    along_x = vtkTransform()  # the shaft from the origin along +x
+    along_x.PostMultiply()
+    along_x.RotateZ(-90.0)
+    along_x.Translate(shaft_length / 2.0, 0.0, 0.0)
+    at_the_end = vtkTransform()  # the tip after the shaft
+    at_the_end.Translate(shaft_length + AXES_TIP_LENGTH_M / 2.0, 0.0, 0.0)
+    #: rotations (angle in degrees, axis) that turn +x onto E, N and Up
+    onto_axis = ((0.0, (0.0, 0.0, 1.0)), (90.0, (0.0, 0.0, 1.0)), (-90.0, (0.0, 1.0, 0.0)))
+    append = vtkAppendPolyData()
+    for (angle, about), colour in zip(onto_axis, AXES_COLOURS):
+        for source, placement in ((shaft, along_x), (tip, at_the_end)):
+            transform = vtkTransform()
+            transform.PostMultiply()
+            transform.Concatenate(placement)
+            transform.RotateWXYZ(angle, *about)
+            moved = vtkTransformPolyDataFilter()
+            moved.SetInputConnection(source.GetOutputPort())
+            moved.SetTransform(transform)
+            moved.Update()
+            piece = vtkPolyData()
+            piece.ShallowCopy(moved.GetOutput())
+            piece.GetPointData().SetNormals(None)  # made for the whole mesh below
+            rgb = np.tile(np.round(255.0 * np.asarray(colour)).astype(np.uint8), (piece.GetNumberOfPoints(), 1))
+            colours = numpy_to_vtk(rgb, deep=True)
+            colours.SetName("Colours")
+            piece.GetPointData().SetScalars(colours)
+            append.AddInputData(piece)
+    normals = vtkPolyDataNormals()  # sharp edges at the cone's base and the shaft's end
+    normals.SetInputConnection(append.GetOutputPort())
+    normals.SetFeatureAngle(60.0)
+    normals.Update()
+    mesh = vtkPolyData()
+    mesh.ShallowCopy(normals.GetOutput())
+    return mesh
 
 
 class Stage:
@@ -85,12 +142,17 @@ class Stage:
         grid_prop.LightingOff()
         self.grid.SetUserMatrix(self.world_matrix)
 
-        self.axes = vtkAxesActor()
-        self.axes.SetTotalLength(AXES_LENGTH_M, AXES_LENGTH_M, AXES_LENGTH_M)
-        self.axes.AxisLabelsOff()
-        self.axes.SetShaftTypeToCylinder()
-        self.axes.SetCylinderRadius(0.02)
-        self.axes.SetConeRadius(0.3)
+        self._axes_mesh = _axes_mesh()
+        axes_mapper = vtkPolyDataMapper()
+        axes_mapper.SetInputData(self._axes_mesh)
+        axes_mapper.SetColorModeToDirectScalars()
+        axes_mapper.SetScalarModeToUsePointData()
+        self.axes = vtkActor()
+        self.axes.SetMapper(axes_mapper)
+        axes_prop = self.axes.GetProperty()
+        axes_prop.SetAmbient(0.25)
+        axes_prop.SetDiffuse(0.75)
+        axes_prop.BackfaceCullingOn()
         self.axes.SetUserMatrix(self.axes_matrix)
         self.set_world_matrix(np.eye(4))
 
