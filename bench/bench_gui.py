@@ -13,12 +13,15 @@ sensors' orientations). Measured over ``MEASURE_S`` seconds after a warm-up:
 * latency from a sample's arrival (its host time) to the end of the ``Render()`` that shows
   the pose it belongs to (p50/p95; target p95 < 30 ms),
 
-and each figure's ratio to its target (> 1 is better than the target). The last line names the
-OpenGL implementation and what an empty 3D frame of the same size costs on it.
+and each figure's ratio to its target (> 1 is better than the target). The CPU is also split by
+thread (Linux ``/proc``): the GUI thread, the software OpenGL rasteriser's threads (``llvmpipe-*``,
+work a GPU would do) and any others. The last line names the OpenGL implementation and what an
+empty 3D frame of the same size costs on it.
 """
 
 from __future__ import annotations
 
+import os
 import socket
 import subprocess
 import sys
@@ -51,6 +54,28 @@ def _free_udp_port() -> int:
     port = probe.getsockname()[1]
     probe.close()
     return port
+
+
+def thread_cpu_s() -> dict[str, float]:
+    """CPU time (s) so far of this process's threads by group: ``gui`` (the main thread),
+    ``gl`` (Mesa's llvmpipe rasteriser threads), ``other``; empty where ``/proc`` is missing."""
+    groups = {"gui": 0.0, "gl": 0.0, "other": 0.0}
+    ticks = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+    try:
+        tasks = os.listdir("/proc/self/task")
+    except OSError:
+        return {}
+    for tid in tasks:
+        try:
+            with open(f"/proc/self/task/{tid}/comm") as f:
+                name = f.read().strip()
+            with open(f"/proc/self/task/{tid}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+        except OSError:
+            continue  # the thread ended meanwhile
+        group = "gui" if int(tid) == os.getpid() else "gl" if name.startswith("llvmpipe") else "other"
+        groups[group] += (int(fields[11]) + int(fields[12])) / ticks  # utime + stime
+    return groups
 
 
 def run(window: MainWindow, prepare=None) -> dict[str, float]:
@@ -88,11 +113,12 @@ def run(window: MainWindow, prepare=None) -> dict[str, float]:
         prepare(window)
         _run_event_loop(WARMUP_S)
     frames0, plots0 = window.scene_view.frames_rendered, window.plots.refresh_count
-    wall0, cpu0 = time.perf_counter(), time.process_time()
+    wall0, cpu0, threads0 = time.perf_counter(), time.process_time(), thread_cpu_s()
     state["measuring"] = True
     _run_event_loop(MEASURE_S)
     wall = time.perf_counter() - wall0
     cpu = time.process_time() - cpu0
+    threads = {group: 100.0 * (value - threads0[group]) / wall for group, value in thread_cpu_s().items()}
     result = {
         "fps": (window.scene_view.frames_rendered - frames0) / wall,
         "plot_hz": (window.plots.refresh_count - plots0) / wall,
@@ -103,6 +129,7 @@ def run(window: MainWindow, prepare=None) -> dict[str, float]:
         "view": window.scene_view.vtk_widget.render_window.GetSize(),
         "cpu_3d_pct": 100.0 * spent["3d"] / wall,
         "cpu_plots_pct": 100.0 * spent["plots"] / wall,
+        "threads_pct": threads,
     }
     window.close()
     del painting
@@ -179,7 +206,8 @@ def main() -> int:
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["bench_gui"])
     print(f"GUI benchmark: main window 1280x800, 4 live plots, 100 Hz sensors, {MEASURE_S:.0f} s per load")
     print(f"{'load':<40}{'fps':>7}{'/60':>6}{'plot Hz':>9}{'/30':>6}{'CPU %':>8}{'50/CPU':>8}"
-          f"{'lat p50':>9}{'lat p95':>9}{'30/p95':>8}{'3D %':>7}{'plots %':>9}{'rest %':>8}")
+          f"{'lat p50':>9}{'lat p95':>9}{'30/p95':>8}{'3D %':>7}{'plots %':>9}{'rest %':>8}"
+          f"{'GUI thr.':>10}{'GL thr.':>9}")
     loads = [(f"simulated suit, {n} sensors", lambda n=n: run_simulated(n)) for n in (10, 17)]
     loads.append(("17 UDP boards (emulator process)", lambda: run_udp(17)))
     view = None
@@ -190,10 +218,12 @@ def main() -> int:
         print(f"{label:<40}{r['fps']:7.1f}{r['fps'] / 60:6.2f}{r['plot_hz']:9.1f}{r['plot_hz'] / 30:6.2f}"
               f"{r['cpu_pct']:8.0f}{50 / r['cpu_pct']:8.2f}{r['lat_p50_ms']:9.1f}{r['lat_p95_ms']:9.1f}"
               f"{30 / r['lat_p95_ms']:8.2f}{r['cpu_3d_pct']:7.0f}{r['cpu_plots_pct']:9.0f}"
-              f"{r['cpu_pct'] - r['cpu_3d_pct'] - r['cpu_plots_pct']:8.0f}")
+              f"{r['cpu_pct'] - r['cpu_3d_pct'] - r['cpu_plots_pct']:8.0f}"
+              f"{r['threads_pct'].get('gui', float('nan')):10.0f}{r['threads_pct'].get('gl', float('nan')):9.0f}")
     renderer, empty = empty_frame_cpu_ms(tuple(view))
     print("CPU % is of one core (process CPU time / wall time); 3D = rendering and reading back the 3D view,")
-    print("plots = refreshing and painting the plots, rest = pipeline (fusion, angles), panels, Qt.")
+    print("plots = refreshing and painting the plots, rest = pipeline (fusion, angles), panels, Qt;")
+    print("GUI thr. = the main thread, GL thr. = the software rasteriser's threads (a GPU's work), % of a core.")
     print(f"OpenGL: {renderer}; an empty {view[0]}x{view[1]} 3D frame costs {empty:.2f} ms of CPU "
           f"({empty * 60 / 10:.0f} % of a core at 60 fps)")
     app.processEvents()

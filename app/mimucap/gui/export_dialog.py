@@ -30,6 +30,7 @@ class ExportDialog(QtWidgets.QDialog):
         self.setObjectName("exportDialog")
         self.data = data
         self.result: ExportResult | None = None
+        self._chart: pg.PlotWidget | None = None  # drawn off screen for the summary PNG
         self._task: BackgroundTask | None = None
 
         range_box = QtWidgets.QGroupBox("Range", self)
@@ -224,12 +225,28 @@ class ExportDialog(QtWidgets.QDialog):
         if path:
             self.save_summary_png(path)
 
+    def _summary_chart(self) -> pg.PlotWidget:
+        """The off-screen chart of the summary PNG: a child of the dialog, made once and deleted
+        with it (a throwaway top-level plot was deleted at an arbitrary later moment, by Qt's
+        deferred delete or Python's garbage collector, while its items could still be painted)."""
+        if self._chart is None:
+            plot = pg.PlotWidget(self, background="w")
+            plot.setWindowFlags(QtCore.Qt.Window)  # its own size, not laid out in the dialog
+            plot.setAttribute(QtCore.Qt.WA_DontShowOnScreen, True)
+            left = plot.getAxis("left")
+            left.setWidth(190)
+            plot.setLabel("bottom", "joint angle, min to max (deg)")
+            plot.showGrid(x=True, alpha=0.3)
+            plot.invertY(True)
+            self._chart = plot
+        return self._chart
+
     def save_summary_png(self, path: str | Path, width: int = 1200) -> Path:
         """A bar chart of each column's range (min to max, degrees), written with pyqtgraph."""
         rows = self.summary_rows()
         height = 90 + 24 * len(rows)
-        plot = pg.PlotWidget(background="w")
-        plot.setAttribute(QtCore.Qt.WA_DontShowOnScreen, True)
+        plot = self._summary_chart()
+        plot.clear()
         plot.resize(width, height)
         y = np.arange(len(rows))
         lows = np.array([r.minimum_deg for r in rows])
@@ -238,22 +255,16 @@ class ExportDialog(QtWidgets.QDialog):
         ends = pg.ScatterPlotItem(np.concatenate([lows, highs]), np.concatenate([y, y]), symbol="s", size=6,
                                   brush="#1f3f66", pen=None)
         plot.addItem(ends)  # a joint that did not move still shows as a mark
-        left = plot.getAxis("left")
-        left.setTicks([[(i, r.column.replace("_deg", "")) for i, r in zip(y, rows)]])
-        left.setWidth(190)
-        plot.setLabel("bottom", "joint angle, min to max (deg)")
+        plot.getAxis("left").setTicks([[(i, r.column.replace("_deg", "")) for i, r in zip(y, rows)]])
         a, b = self.time_range()
         plot.setTitle(f"{self.data.path.name}: {a:.2f}–{b:.2f} s")
-        plot.showGrid(x=True, alpha=0.3)
-        plot.invertY(True)
         plot.setYRange(-0.8, len(rows) - 0.2, padding=0)
         plot.show()
         QtWidgets.QApplication.processEvents()
         exporter = pg.exporters.ImageExporter(plot.plotItem)
         exporter.parameters()["width"] = width
         exporter.export(str(path))
-        plot.close()
-        plot.deleteLater()
+        plot.hide()
         if not Path(path).exists():
             raise OSError(f"could not write {path}")
         self.message.setText(f"Summary chart saved to {path}")

@@ -1,12 +1,11 @@
 """The stage of the 3D view: floor grid, world axes, a camera light and the background.
 
-The axes' names (E, N, Up) are not VTK captions: :meth:`Stage.axis_labels` gives their anchors
-in the scene and the view has Qt paint them over the picture.
-
-The floor is a grid of lines (30 m × 30 m, a line every 0.5 m, no solid plane) and the world axes (E, N, Up; 0.5 m, standing at
-:data:`AXES_ORIGIN_WORLD_M`) are built in
-**world** coordinates (ENU, metres) and placed in the scene by the frame's
+The floor is a grid of lines (30 m × 30 m, a line every 0.5 m, no solid plane) and the world
+axes (E, N, Up; 0.5 m, standing at :data:`AXES_ORIGIN_WORLD_M`) are built in **world**
+coordinates (ENU, metres) and placed in the scene by the frame's
 ``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
+The axes' names are not VTK captions: :meth:`Stage.axis_labels` gives their anchors in the
+scene and the view has Qt paint them over the picture.
 """
 
 from __future__ import annotations
@@ -18,7 +17,7 @@ from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
 from vtkmodules.vtkCommonMath import vtkMatrix4x4
 from vtkmodules.vtkCommonTransforms import vtkTransform
 from vtkmodules.vtkFiltersCore import vtkAppendPolyData, vtkPolyDataNormals
-from vtkmodules.vtkFiltersGeneral import vtkTransformPolyDataFilter
+from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
 from vtkmodules.vtkFiltersSources import vtkConeSource, vtkCylinderSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkLight, vtkPolyDataMapper, vtkRenderer
 
@@ -87,7 +86,7 @@ def _axes_mesh() -> vtkPolyData:
             transform.PostMultiply()
             transform.Concatenate(placement)
             transform.RotateWXYZ(angle, *about)
-            moved = vtkTransformPolyDataFilter()
+            moved = vtkTransformFilter()
             moved.SetInputConnection(source.GetOutputPort())
             moved.SetTransform(transform)
             moved.Update()
