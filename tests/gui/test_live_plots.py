@@ -137,3 +137,24 @@ def test_pause_freezes_the_curves(plots):
     plots.refresh()
     assert len(plots.curves["acc"][0].getData()[1]) == len(before)
     assert not np.array_equal(plots.curves["acc"][0].getData()[1], before)
+
+
+def _subpaths(curve) -> int:
+    path = curve.getPath()
+    return sum(path.elementAt(i).isMoveTo() for i in range(path.elementCount()))
+
+
+def test_a_gap_in_the_data_stays_a_gap_in_the_curve(plots):
+    class Gappy(FakeSource):
+        def series(self, sensor_id, window_s):
+            t, acc, gyr, mag = super().series(sensor_id, window_s)
+            mag = mag.copy()
+            mag[len(t) // 2: len(t) // 2 + 20] = np.nan  # the magnetometer dropped out for 0.2 s
+            return t, acc, gyr, mag
+
+    plots.source = Gappy()
+    plots.refresh()
+    assert _subpaths(plots.curves["mag"][0]) == 2  # before and after the gap
+    assert _subpaths(plots.curves["acc"][0]) == 1  # continuous data, one line
+    x, y = plots.curve_data("mag", 0)
+    assert np.isnan(y).sum() == 20 and np.isfinite(y).sum() == len(y) - 20

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.session.plot_scaling import SteadyRange, nice_ticks, peak_decimate
+from mimucap.session.plot_scaling import SteadyRange, column_bounds, nice_ticks, peak_decimate
 
 
 def test_peak_decimation_keeps_every_peak_and_every_gap():
@@ -54,3 +54,10 @@ def test_every_range_gets_a_few_round_labelled_ticks(low, high):
     assert min(abs(mantissa - m) for m in (1, 2, 5, 10)) < 1e-9
     assert len({label for _, label in ticks}) == len(ticks)  # labels tell the ticks apart
     assert "-0" not in [label.rstrip("0.") or "0" for _, label in ticks if abs(float(label)) == 0]
+
+
+def test_column_bounds_skip_gaps_and_name_an_empty_column():
+    values = np.array([[1.0, np.nan, -2.0], [np.nan, np.nan, 5.0], [3.0, np.nan, np.nan]])
+    low, high = column_bounds(values)
+    assert low == [1.0, None, -2.0] and high == [3.0, None, 5.0]
+    assert column_bounds(np.zeros((0, 3))) == ([None] * 3, [None] * 3)

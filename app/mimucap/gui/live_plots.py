@@ -49,12 +49,17 @@ class _Curve(pg.PlotCurveItem):
 
     _known_bounds: tuple | None = None
 
-    def show_data(self, x: np.ndarray, y: np.ndarray, y_bounds: tuple[float | None, float | None]) -> None:
+    def show_data(self, x: np.ndarray, y: np.ndarray, y_bounds: tuple[float | None, float | None],
+                  all_finite: bool = False) -> None:
         """Show ``y`` against sorted ``x``; ``y_bounds`` = ``(nanmin(y), nanmax(y))`` or
-        ``(None, None)`` when ``y`` holds no finite value."""
+        ``(None, None)`` when ``y`` holds no finite value. ``all_finite`` (known by the caller)
+        skips pyqtgraph's search for gaps, which costs as much as the drawing's path."""
         x_bounds = (float(x[0]), float(x[-1])) if len(x) else (None, None)
         self._known_bounds = (x_bounds, y_bounds)
-        self.setData(x, y, connect="finite")
+        if all_finite:
+            self.setData(x, y, connect="all", skipFiniteCheck=True)
+        else:
+            self.setData(x, y, connect="finite", skipFiniteCheck=False)
 
     def dataBounds(self, ax, frac=1.0, orthoRange=None):  # noqa: N802 (pyqtgraph API)
         if self._known_bounds is not None and frac >= 1.0 and orthoRange is None:
@@ -319,8 +324,9 @@ class LivePlots(QtWidgets.QWidget):
     def _show(self, key: str, t: np.ndarray, values: np.ndarray, origin: float, now_s: float) -> None:
         x, shown = peak_decimate(t - origin, values, MAX_POINTS)
         low, high = column_bounds(shown)
+        all_finite = bool(np.isfinite(shown).all())
         for axis, curve in enumerate(self.curves[key]):
-            curve.show_data(x, shown[:, axis], (low[axis], high[axis]))
+            curve.show_data(x, shown[:, axis], (low[axis], high[axis]), all_finite)
         finite_low = [v for v in low if v is not None]
         finite_high = [v for v in high if v is not None]
         steady = self._ranges[key]

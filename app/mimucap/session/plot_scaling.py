@@ -69,9 +69,8 @@ def column_bounds(values: np.ndarray) -> tuple[list[float | None], list[float | 
     """Per column of ``values`` ``(N, C)``: its smallest and largest finite value (None if none)."""
     if len(values) == 0:
         return [None] * values.shape[1], [None] * values.shape[1]
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN column
-        low, high = np.nanmin(values, axis=0), np.nanmax(values, axis=0)
+    # fmin/fmax skip NaN (an all-NaN column stays NaN) without nanmin's warning machinery
+    low, high = np.fmin.reduce(values, axis=0), np.fmax.reduce(values, axis=0)
     return ([None if np.isnan(v) else float(v) for v in low], [None if np.isnan(v) else float(v) for v in high])
 
 
