@@ -79,8 +79,8 @@ class VtkImageWidget(QtWidgets.QWidget):
         self.render_window = vtkRenderWindow()
         self.render_window.SetMultiSamples(0)  # MSAA costs 4x on software OpenGL
         self.render_window.OffScreenRenderingOn()
-        # The frame is read from VTK's render framebuffer; copying it to the display
-        # framebuffer at the end of each frame (0.35 ms on software OpenGL) would be wasted.
+        # The frame is read back from VTK's own framebuffer; copying it on to the hidden
+        # window's framebuffer at the end of each frame (0.35 ms on software OpenGL) is waste.
         self.render_window.SetFrameBlitModeToNoBlit()
         self.render_window.SetSize(max(1, self.width()), max(1, self.height()))
         self.interactor = vtkGenericRenderWindowInteractor()

@@ -162,30 +162,28 @@ class Stage:
         """Place floor and axes with a ``(4, 4)`` world→scene matrix (``FigureGeometry.world_matrix``)."""
         matrix = np.asarray(matrix, dtype=float)
         if self._placed is not None and np.array_equal(matrix, self._placed):
-            return  # unchanged: a Modified() would make VTK rebuild the axes' parts
+            return  # unchanged (the usual case in world mode): VTK has nothing to update
         self._placed = matrix.copy()
-        shifted = matrix.copy()
-        shifted[:3, 3] = matrix[:3, :3] @ np.asarray(AXES_ORIGIN_WORLD_M) + matrix[:3, 3]
-        for row in range(4):
-            for col in range(4):
-                self.world_matrix.SetElement(row, col, float(matrix[row, col]))
-                self.axes_matrix.SetElement(row, col, float(shifted[row, col]))
-        self._axes_scene = shifted
-        self.world_matrix.Modified()
-        self.axes_matrix.Modified()
+        self.world_matrix.DeepCopy(matrix.ravel())
+        self.axes_matrix.DeepCopy(self._axes_placement().ravel())
         for actor in (self.grid, self.axes):
             actor.Modified()
+
+    def _axes_placement(self) -> np.ndarray:
+        """The axes' ``(4, 4)`` world→scene matrix: the world matrix, origin moved to
+        :data:`AXES_ORIGIN_WORLD_M`."""
+        placed = self._placed.copy()
+        placed[:3, 3] = self._placed[:3, :3] @ np.asarray(AXES_ORIGIN_WORLD_M) + self._placed[:3, 3]
+        return placed
 
     def axis_labels(self) -> list[tuple[str, tuple[float, float, float]]]:
         """``(name, point)`` for each world axis shown: where its name stands (scene frame,
         metres), just beyond the arrow's tip. Empty while the axes are hidden."""
         if not self.axes.GetVisibility():
             return []
-        labels = []
-        for name, axis in zip(AXIS_NAMES, np.eye(3)):
-            point = self._axes_scene[:3, :3] @ (AXIS_LABEL_POSITION * AXES_LENGTH_M * axis) + self._axes_scene[:3, 3]
-            labels.append((name, tuple(float(v) for v in point)))
-        return labels
+        axes = self._axes_placement()
+        tips = (AXIS_LABEL_POSITION * AXES_LENGTH_M * np.eye(3)) @ axes[:3, :3].T + axes[:3, 3]
+        return [(name, tuple(float(v) for v in tip)) for name, tip in zip(AXIS_NAMES, tips)]
 
     def set_visible(self, floor: bool, axes: bool) -> None:
         """Show or hide the floor grid and the world axes."""

@@ -182,7 +182,6 @@ class SkeletonActor:
         self._colours[: self._segments.stop] = _rgb(TINTS["no_sensor"])
         self._colours[self._connectors.first:self._connectors.stop] = _rgb(CONNECTOR_COLOUR)
         self._shaded = self._colours.copy()  # lit colours, what is drawn
-        self._light: np.ndarray | None = None  # direction towards the light of the last shade()
 
         # VTK arrays that share memory with the numpy arrays above (kept referenced).
         self._vtk_points = numpy_to_vtk(self._points, deep=False)
@@ -244,7 +243,6 @@ class SkeletonActor:
         spheres = np.concatenate([np.asarray(geometry.joint_matrices), np.asarray(geometry.marker_matrices)])
         self._centres[:] = spheres[:, :3, 3]
         self._radii[:] = np.linalg.norm(spheres[:, :3, 0], axis=1)
-        self._light = None  # the normals moved: shade again
         for array in (self._vtk_points, self._vtk_centres, self._vtk_radii):
             array.Modified()
         self.polydata.Modified()
@@ -265,26 +263,20 @@ class SkeletonActor:
             self._colours[self._segments.vertex_range(index)] = _rgb(TINTS[state])
             self._tints[name] = state
             changed = True
-        if changed:
-            self._light = None
         return changed
 
     def shade(self, towards_light) -> None:
         """Light the capsules by a distant light in direction ``towards_light`` ``(3,)``
         (scene frame; from the surface to the light): per vertex, the base colour times
         ``AMBIENT + DIFFUSE * max(0, n·l)`` plus a white ``SPECULAR * max(0, n·l)^SPECULAR_POWER``
-        (with the light at the eye the half vector is ``l``). Nothing is done when neither the
-        light, the pose nor the tints changed."""
+        (with the light at the eye the half vector is ``l``)."""
         light = np.asarray(towards_light, dtype=float)
         light = light / np.linalg.norm(light)
-        if self._light is not None and np.array_equal(light, self._light):
-            return
         facing = np.clip(self._normals @ light, 0.0, None)
         shaded = self._colours * (AMBIENT + DIFFUSE * facing)[:, None]
         shaded += (255.0 * SPECULAR) * (facing ** SPECULAR_POWER)[:, None]
         np.clip(shaded, 0.0, 255.0, out=shaded)
         self._shaded[:] = shaded
-        self._light = light
         self._vtk_shaded.Modified()
         self.polydata.Modified()
 
