@@ -172,6 +172,11 @@ def run_udp(n_sensors: int) -> dict[str, float]:
                             session_factory=lambda spec: open_live_session(spec, model_name="fifteen_segment"))
 
         def assign(win: MainWindow) -> None:
+            deadline = time.monotonic() + 30.0  # a cold start compiles the fusion kernels first
+            while len(win.live.sensor_ids) < n_sensors and time.monotonic() < deadline:
+                _run_event_loop(0.1)
+            if len(win.live.sensor_ids) < n_sensors:
+                raise RuntimeError(f"only {len(win.live.sensor_ids)} of {n_sensors} emulated boards were heard")
             segments = win.live.model.segment_names
             win.apply_assignment(dict(zip(win.live.sensor_ids, segments)))
 

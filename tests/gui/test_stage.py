@@ -38,3 +38,73 @@ def test_axis_names_stand_beyond_the_tips_and_follow_the_world_matrix():
     np.testing.assert_allclose(labels["Up"], origin + (0.0, 0.0, reach), atol=1e-12)
     stage.set_visible(floor=True, axes=False)
     assert stage.axis_labels() == []
+
+
+def test_world_to_display_matches_vtks_own_projection_for_any_camera():
+    from vtkmodules.vtkRenderingCore import vtkRenderWindow
+
+    from mimucap.gui.scene.view import world_to_display
+
+    window = vtkRenderWindow()
+    window.OffScreenRenderingOn()
+    window.SetSize(483, 560)
+    renderer = vtkRenderer()
+    window.AddRenderer(renderer)
+    rng = np.random.default_rng(7)
+    points = rng.uniform(-3.0, 3.0, size=(40, 3))
+    camera = renderer.GetActiveCamera()
+    for position, view_angle, viewport in (((0.0, -6.0, 1.0), 30.0, (0, 0, 1, 1)),
+                                           ((4.0, 3.0, 5.0), 45.0, (0, 0, 1, 1)),
+                                           ((-2.0, 5.0, -1.0), 20.0, (0.2, 0.1, 0.9, 0.8))):
+        renderer.SetViewport(*viewport)
+        camera.SetPosition(*position)
+        camera.SetFocalPoint(0.0, 0.0, 0.5)
+        camera.SetViewUp(0.0, 0.0, 1.0)
+        camera.SetViewAngle(view_angle)
+        camera.SetClippingRange(0.5, 20.0)
+        expected = []
+        for point in points:
+            renderer.SetWorldPoint(*point, 1.0)
+            renderer.WorldToDisplay()
+            expected.append(renderer.GetDisplayPoint())
+        np.testing.assert_allclose(world_to_display(renderer, points), expected, rtol=1e-9, atol=1e-6)
+
+
+def test_floor_grids_are_square_line_grids_of_their_size_and_spacing():
+    from mimucap.gui.scene.environment import _grid_lines
+
+    grid = _grid_lines(10.0, 0.5)
+    segments = vtk_to_numpy(grid.GetPoints().GetData()).reshape(-1, 2, 3)
+    assert grid.GetNumberOfLines() == len(segments) == 2 * 21
+    assert np.all(segments[:, :, 2] == 0.0)  # on the floor
+    along_y, along_x = segments[:21], segments[21:]
+    np.testing.assert_allclose(along_y[:, 0, 0], np.arange(-5.0, 5.01, 0.5))
+    np.testing.assert_allclose(along_y[:, :, 0], along_y[:, ::-1, 0])  # straight along y
+    np.testing.assert_allclose(along_y[:, :, 1], [[-5.0, 5.0]] * 21)
+    np.testing.assert_allclose(along_x[:, :, :2], along_y[:, :, 1::-1])  # the mirror image
+
+
+def test_fine_floor_patch_follows_the_figure_on_the_coarse_lines_and_stays_on_the_floor():
+    from mimucap.gui.scene.environment import (FLOOR_COARSE_SPACING_M, FLOOR_FINE_SIZE_M, FLOOR_SIZE_M,
+                                               FLOOR_SPACING_M, fine_patch_centre)
+
+    assert fine_patch_centre((0.3, -1.1)) == (0.0, 0.0)
+    assert fine_patch_centre((3.9, -6.4)) == (5.0, -7.5)
+    limit = (FLOOR_SIZE_M - FLOOR_FINE_SIZE_M) / 2
+    assert fine_patch_centre((40.0, -99.0)) == (limit, -limit)
+    assert fine_patch_centre((float("nan"), 1.0)) == (0.0, 0.0)
+    assert (FLOOR_COARSE_SPACING_M / FLOOR_SPACING_M) % 1 == 0  # patch lines fall on fine positions
+
+    stage = Stage(vtkRenderer())
+    turn = np.eye(4)
+    turn[:3, :3] = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]  # 90° about Up
+    turn[:3, 3] = (1.0, 2.0, 0.0)
+    figure_world = np.array([6.2, -2.4, 0.9])
+    stage.set_world_matrix(turn, turn[:3, :3] @ figure_world + turn[:3, 3])
+    assert stage.fine_patch_centre == (5.0, -2.5)
+    patch = np.array([[stage.patch_matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
+    expected = turn.copy()
+    expected[:3, 3] = turn[:3, :3] @ (5.0, -2.5, 0.0) + turn[:3, 3]
+    np.testing.assert_allclose(patch, expected, atol=1e-12)
+    stage.set_visible(floor=False, axes=True)
+    assert not stage.grid.GetVisibility() and not stage.fine_grid.GetVisibility()

@@ -197,6 +197,43 @@ class PackedBlock:
         return blocks
 
 
+def join_packed_blocks(blocks: Sequence[PackedBlock]) -> list[PackedBlock]:
+    """Consecutive packed blocks of one source joined into as few as possible: one per set of
+    channels, rows in their order. The supervisor joins what one poll drained, so that each
+    sensor comes out of :meth:`PackedBlock.unpack` once per poll, not once per message.
+
+    A worker's sensor list only grows (new sensors are appended), so a block whose
+    ``sensor_ids`` extend another's joins it; blocks of other sources or with unrelated
+    sensor lists stay apart.
+    """
+    groups: list[list[PackedBlock]] = []
+    open_groups: dict[tuple, int] = {}  # (source, channels) -> index of its last group
+    for block in blocks:
+        key = (block.source, tuple(block.channels))
+        index = open_groups.get(key)
+        if index is not None:
+            names = max((b.sensor_ids for b in groups[index]), key=len)
+            shorter, longer = sorted((names, block.sensor_ids), key=len)
+            if longer[: len(shorter)] == shorter:
+                groups[index].append(block)
+                continue
+        open_groups[key] = len(groups)
+        groups.append([block])
+    return [_join(group) for group in groups]
+
+
+def _join(blocks: list[PackedBlock]) -> PackedBlock:
+    if len(blocks) == 1:
+        return blocks[0]
+    first = blocks[0]
+    join = lambda name: np.concatenate([getattr(b, name) for b in blocks])  # noqa: E731
+    return PackedBlock(
+        source=first.source, sensor_ids=max((b.sensor_ids for b in blocks), key=len),
+        sensor_index=join("sensor_index"), seq=join("seq"), device_time_s=join("device_time_s"),
+        host_time_s=join("host_time_s"), receive_time_s=join("receive_time_s"),
+        channels={name: np.concatenate([b.channels[name] for b in blocks]) for name in first.channels})
+
+
 class _Group:
     __slots__ = ("channels", "index", "seq", "device", "host", "receive", "values")
 

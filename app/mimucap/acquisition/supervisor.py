@@ -21,7 +21,7 @@ from mimucap.acquisition.messages import (
     STATE_FAILED, STATE_FINISHED, STATE_STARTING, STATE_STOPPED, BlocksMessage, WorkerReport,
 )
 from mimucap.acquisition.rejections import RejectionCounter
-from mimucap.acquisition.samples import SampleBlock
+from mimucap.acquisition.samples import PackedBlock, SampleBlock, join_packed_blocks
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.timesync import ClockEstimate
 from mimucap.acquisition.worker import SourceConfig, run_worker
@@ -150,7 +150,12 @@ class Supervisor:
         return blocks
 
     def _drain(self, timeout_s: float) -> list[SampleBlock]:
+        """Everything in the queue now (waiting up to ``timeout_s`` for a first message): the
+        packed blocks of all the messages are joined before unpacking, so that each sensor
+        yields one block per poll (its statistics and the pipeline then work per poll, not
+        per message)."""
         blocks: list[SampleBlock] = []
+        packed: list[PackedBlock] = []
         for count in range(self.settings.max_messages_per_poll):
             try:
                 if count == 0 and timeout_s > 0:
@@ -159,15 +164,18 @@ class Supervisor:
                     message = self._queue.get_nowait()
             except (queue_module.Empty, EOFError, OSError):
                 break
-            arrival = time.monotonic()
             if isinstance(message, BlocksMessage):
                 self._markers.extend(message.markers)
-                unpacked = message.unpacked()
-                for block in unpacked:
-                    self._tracker(block).add_block(block, arrival)
-                blocks.extend(unpacked)
+                for block in message.blocks:
+                    (packed if isinstance(block, PackedBlock) else blocks).append(block)
             elif isinstance(message, WorkerReport):
                 self._apply_report(message)
+        # A source sends either packed or plain blocks, so a sensor's blocks keep their order.
+        for joined in join_packed_blocks(packed):
+            blocks.extend(joined.unpack())
+        arrival = time.monotonic()
+        for block in blocks:
+            self._tracker(block).add_block(block, arrival)
         return blocks
 
     def _tracker(self, block: SampleBlock) -> SensorStatsTracker:

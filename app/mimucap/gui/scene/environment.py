@@ -1,6 +1,8 @@
 """The stage of the 3D view: floor grid, world axes, a camera light and the background.
 
-The floor is a grid of lines (30 m × 30 m, a line every 0.5 m, no solid plane) and the world
+The floor is a grid of lines (no solid plane): a line every 2.5 m over 30 m × 30 m, and a line
+every 0.5 m over the 10 m × 10 m around the figure (the patch moves in 2.5 m steps as the
+figure walks, so its lines always fall on the same floor positions). The world
 axes (E, N, Up; 0.5 m, standing at :data:`AXES_ORIGIN_WORLD_M`) are built in **world**
 coordinates (ENU, metres) and placed in the scene by the frame's
 ``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
@@ -21,8 +23,11 @@ from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
 from vtkmodules.vtkFiltersSources import vtkConeSource, vtkCylinderSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkLight, vtkPolyDataMapper, vtkRenderer
 
-FLOOR_SIZE_M = 30.0
-FLOOR_SPACING_M = 0.5
+#: The floor grid (m): coarse lines over the whole floor, fine ones over a square patch around
+#: the figure. Far away, fine lines crowd into a grey band that software OpenGL rasterises
+#: line by line: fine lines near the figure only cost half (0.6 ms a frame less).
+FLOOR_SIZE_M, FLOOR_COARSE_SPACING_M = 30.0, 2.5
+FLOOR_FINE_SIZE_M, FLOOR_SPACING_M = 10.0, 0.5
 AXES_LENGTH_M = 0.5
 #: Each axis: a shaft of this radius, then a cone tip of this length and base radius (m).
 AXES_SHAFT_RADIUS_M, AXES_TIP_LENGTH_M, AXES_TIP_RADIUS_M = 0.008, 0.1, 0.03
@@ -36,25 +41,39 @@ BACKGROUND = (0.25, 0.28, 0.34)
 GRID_COLOUR = (0.62, 0.65, 0.70)
 
 
-def _grid_lines(cells: int) -> vtkPolyData:
-    """The floor grid as ``2 * (cells + 1)`` straight lines (world, metres, on the floor).
+def _grid_lines(size_m: float, spacing_m: float) -> vtkPolyData:
+    """A square grid of straight line cells, ``size_m`` wide with a line every ``spacing_m``
+    along x and along y (world, metres, on the floor, centred on the origin).
 
     Plain line cells are far cheaper to draw on software OpenGL than a wireframe plane."""
-    half = FLOOR_SIZE_M / 2.0
-    points = vtkPoints()
+    half = size_m / 2.0
+    across = np.linspace(-half, half, int(round(size_m / spacing_m)) + 1)
+    n = len(across)
+    points = np.zeros((4 * n, 3))  # lines along y (x = c), then along x (y = c); two ends each
+    points[0:2 * n:2, :2] = np.c_[across, np.full(n, -half)]
+    points[1:2 * n:2, :2] = np.c_[across, np.full(n, half)]
+    points[2 * n:, :2] = points[: 2 * n, 1::-1]
     lines = vtkCellArray()
-    for k in range(cells + 1):
-        c = -half + k * FLOOR_SIZE_M / cells
-        for start, end in (((c, -half), (c, half)), ((-half, c), (half, c))):
-            first = points.InsertNextPoint(start[0], start[1], 0.0)
-            second = points.InsertNextPoint(end[0], end[1], 0.0)
-            lines.InsertNextCell(2)
-            lines.InsertCellPoint(first)
-            lines.InsertCellPoint(second)
+    for k in range(2 * n):
+        lines.InsertNextCell(2)
+        lines.InsertCellPoint(2 * k)
+        lines.InsertCellPoint(2 * k + 1)
+    vtk_points = vtkPoints()
+    vtk_points.SetData(numpy_to_vtk(points, deep=True))
     grid = vtkPolyData()
-    grid.SetPoints(points)
+    grid.SetPoints(vtk_points)
     grid.SetLines(lines)
     return grid
+
+
+def fine_patch_centre(focus_world_xy) -> tuple[float, float]:
+    """Where the fine floor patch is centred for a figure at ``focus_world_xy`` (world E, N,
+    metres): the nearest multiple of the coarse spacing (so the patch's lines fall on the
+    fine positions of a fixed floor), kept within the floor."""
+    limit = (FLOOR_SIZE_M - FLOOR_FINE_SIZE_M) / 2.0
+    snapped = np.round(np.asarray(focus_world_xy, dtype=float) / FLOOR_COARSE_SPACING_M) * FLOOR_COARSE_SPACING_M
+    x, y = np.clip(np.nan_to_num(snapped), -limit, limit)
+    return float(x), float(y)
 
 
 def _axes_mesh() -> vtkPolyData:
@@ -107,6 +126,20 @@ def _axes_mesh() -> vtkPolyData:
     return mesh
 
 
+def _line_actor(lines: vtkPolyData, user_matrix: vtkMatrix4x4) -> vtkActor:
+    """An unlit actor drawing ``lines`` in the grid colour, placed by ``user_matrix``."""
+    mapper = vtkPolyDataMapper()
+    mapper.SetInputData(lines)
+    mapper.SetResolveCoincidentTopologyToPolygonOffset()
+    actor = vtkActor()
+    actor.SetMapper(mapper)
+    prop = actor.GetProperty()
+    prop.SetColor(*GRID_COLOUR)
+    prop.LightingOff()
+    actor.SetUserMatrix(user_matrix)
+    return actor
+
+
 class Stage:
     """Floor, axes, lights and background of ``renderer``."""
 
@@ -125,21 +158,16 @@ class Stage:
         renderer.AddLight(self.light)
 
         self._placed: np.ndarray | None = None  # the last world matrix applied
+        self._patch_centre = (0.0, 0.0)  # world E, N of the fine floor patch's centre (m)
+        self._label_points = np.zeros((len(AXIS_NAMES), 3))  # where the axes' names stand (scene, m)
         self.world_matrix = vtkMatrix4x4()
+        self.patch_matrix = vtkMatrix4x4()
         self.axes_matrix = vtkMatrix4x4()
-        cells = int(round(FLOOR_SIZE_M / FLOOR_SPACING_M))
         # Keep the sources referenced: an output port does not keep its producer alive.
-        self._grid_lines = _grid_lines(cells)
-
-        grid_mapper = vtkPolyDataMapper()
-        grid_mapper.SetInputData(self._grid_lines)
-        grid_mapper.SetResolveCoincidentTopologyToPolygonOffset()
-        self.grid = vtkActor()
-        self.grid.SetMapper(grid_mapper)
-        grid_prop = self.grid.GetProperty()
-        grid_prop.SetColor(*GRID_COLOUR)
-        grid_prop.LightingOff()
-        self.grid.SetUserMatrix(self.world_matrix)
+        self._grid_lines = _grid_lines(FLOOR_SIZE_M, FLOOR_COARSE_SPACING_M)
+        self._patch_lines = _grid_lines(FLOOR_FINE_SIZE_M, FLOOR_SPACING_M)
+        self.grid = _line_actor(self._grid_lines, self.world_matrix)
+        self.fine_grid = _line_actor(self._patch_lines, self.patch_matrix)
 
         self._axes_mesh = _axes_mesh()
         axes_mapper = vtkPolyDataMapper()
@@ -155,19 +183,36 @@ class Stage:
         self.axes.SetUserMatrix(self.axes_matrix)
         self.set_world_matrix(np.eye(4))
 
-        for actor in (self.grid, self.axes):
+        for actor in (self.grid, self.fine_grid, self.axes):
             renderer.AddActor(actor)
 
-    def set_world_matrix(self, matrix) -> None:
-        """Place floor and axes with a ``(4, 4)`` world→scene matrix (``FigureGeometry.world_matrix``)."""
+    def set_world_matrix(self, matrix, focus_scene_m=None) -> None:
+        """Place floor and axes with a ``(4, 4)`` world→scene matrix (``FigureGeometry.world_matrix``),
+        and the fine floor patch around ``focus_scene_m`` ``(3,)`` (scene, metres: the
+        figure's root) when given."""
         matrix = np.asarray(matrix, dtype=float)
-        if self._placed is not None and np.array_equal(matrix, self._placed):
+        centre = self._patch_centre
+        if focus_scene_m is not None:  # the focus in world coordinates: invert the placement
+            focus_world = np.linalg.solve(matrix[:3, :3], np.asarray(focus_scene_m, dtype=float) - matrix[:3, 3])
+            centre = fine_patch_centre(focus_world[:2])
+        if self._placed is not None and np.array_equal(matrix, self._placed) and centre == self._patch_centre:
             return  # unchanged (the usual case in world mode): VTK has nothing to update
         self._placed = matrix.copy()
+        self._patch_centre = centre
         self.world_matrix.DeepCopy(matrix.ravel())
-        self.axes_matrix.DeepCopy(self._axes_placement().ravel())
-        for actor in (self.grid, self.axes):
+        patch = matrix.copy()
+        patch[:3, 3] = matrix[:3, :3] @ (centre[0], centre[1], 0.0) + matrix[:3, 3]
+        self.patch_matrix.DeepCopy(patch.ravel())
+        axes = self._axes_placement()
+        self.axes_matrix.DeepCopy(axes.ravel())
+        self._label_points = (AXIS_LABEL_POSITION * AXES_LENGTH_M) * axes[:3, :3].T + axes[:3, 3]
+        for actor in (self.grid, self.fine_grid, self.axes):
             actor.Modified()
+
+    @property
+    def fine_patch_centre(self) -> tuple[float, float]:
+        """World E, N (m) of the centre of the fine floor patch."""
+        return self._patch_centre
 
     def _axes_placement(self) -> np.ndarray:
         """The axes' ``(4, 4)`` world→scene matrix: the world matrix, origin moved to
@@ -179,13 +224,19 @@ class Stage:
     def axis_labels(self) -> list[tuple[str, tuple[float, float, float]]]:
         """``(name, point)`` for each world axis shown: where its name stands (scene frame,
         metres), just beyond the arrow's tip. Empty while the axes are hidden."""
+        names, points = self.axis_label_points()
+        return [(name, tuple(float(v) for v in point)) for name, point in zip(names, points)]
+
+    def axis_label_points(self) -> tuple[tuple[str, ...], np.ndarray]:
+        """The names of the world axes shown and where they stand, ``(n, 3)`` (scene frame,
+        metres; row i is name i): what :meth:`axis_labels` gives, as one array (computed when
+        the world matrix changes, read on every frame). No names while the axes are hidden."""
         if not self.axes.GetVisibility():
-            return []
-        axes = self._axes_placement()
-        tips = (AXIS_LABEL_POSITION * AXES_LENGTH_M * np.eye(3)) @ axes[:3, :3].T + axes[:3, 3]
-        return [(name, tuple(float(v) for v in tip)) for name, tip in zip(AXIS_NAMES, tips)]
+            return (), np.zeros((0, 3))
+        return AXIS_NAMES, self._label_points
 
     def set_visible(self, floor: bool, axes: bool) -> None:
         """Show or hide the floor grid and the world axes."""
         self.grid.SetVisibility(floor)
+        self.fine_grid.SetVisibility(floor)
         self.axes.SetVisibility(axes)

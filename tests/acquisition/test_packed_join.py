@@ -1,0 +1,45 @@
+"""Joining the packed blocks of one poll: each sensor comes out once, its rows in order."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mimucap.acquisition.samples import BlockBuilder, Sample, join_packed_blocks
+
+
+def _message(builder: BlockBuilder, rows) -> list:
+    for name, seq, with_mag in rows:
+        sample = Sample(sensor_id=0, seq=seq, device_time_s=0.01 * seq, acc=(0.0, 0.0, 9.81),
+                        gyr=(0.001 * seq, 0.0, 0.0), mag_uT=(20.0, 0.0, -40.0) if with_mag else None)
+        builder.add(name, seq, sample, 100.0 + 0.01 * seq, 100.0 + 0.01 * seq + 0.002)
+    return builder.take()
+
+
+def test_messages_of_one_worker_join_into_one_block_per_channel_set_in_row_order():
+    builder = BlockBuilder("udp")
+    first = _message(builder, [("pelvis", 1, True), ("thigh_r", 1, True), ("pelvis", 2, True)])
+    second = _message(builder, [("thigh_r", 2, True), ("shank_r", 1, True), ("pelvis", 3, True)])  # a new sensor
+    third = _message(builder, [("pelvis", 4, False), ("thigh_r", 3, True)])  # pelvis loses its magnetometer
+    joined = join_packed_blocks(first + second + third)
+    assert len(joined) == 2  # with and without magnetometer
+    with_mag = {block.sensor_id: block for block in joined[0].unpack()}
+    assert joined[0].sensor_ids == ("pelvis", "thigh_r", "shank_r")
+    assert with_mag["pelvis"].seq.tolist() == [1, 2, 3]
+    assert with_mag["thigh_r"].seq.tolist() == [1, 2, 3]
+    assert with_mag["shank_r"].seq.tolist() == [1]
+    np.testing.assert_allclose(with_mag["thigh_r"].gyr[:, 0], [0.001, 0.002, 0.003])
+    np.testing.assert_allclose(with_mag["pelvis"].host_time_s, [100.01, 100.02, 100.03])
+    (without_mag,) = joined[1].unpack()
+    assert without_mag.sensor_id == "pelvis" and without_mag.seq.tolist() == [4] and without_mag.mag_uT is None
+
+
+def test_blocks_of_other_sources_or_unrelated_sensor_lists_stay_apart():
+    one, other = BlockBuilder("udp:a"), BlockBuilder("udp:b")
+    a = _message(one, [("pelvis", 1, True)])
+    b = _message(other, [("thigh_r", 1, True)])
+    restarted = BlockBuilder("udp:a")  # a restarted worker numbers its sensors afresh
+    c = _message(restarted, [("shank_r", 1, True), ("pelvis", 2, True)])
+    joined = join_packed_blocks(a + b + c)
+    assert [block.source for block in joined] == ["udp:a", "udp:b", "udp:a"]
+    assert [[s.sensor_id for s in block.unpack()] for block in joined] == [["pelvis"], ["thigh_r"], ["shank_r", "pelvis"]]
+    assert join_packed_blocks([]) == []
