@@ -240,7 +240,7 @@ def test_small_blocks_give_the_same_session_as_whole_ones():
         session = LiveSession(feed, clock=lambda now=now: now[0])
         calls = []
         take = session._take_block
-        session._take_block = lambda block, take=take, calls=calls: calls.append(len(block)) or take(block)
+        session._take_block = lambda block, *rest, take=take, calls=calls: calls.append(len(block)) or take(block, *rest)
         session.start()
         for _ in range(40):
             now[0] += 0.037
@@ -257,3 +257,38 @@ def test_small_blocks_give_the_same_session_as_whole_ones():
     assert q_whole.keys() == q_small.keys()
     for sensor_id in q_whole:
         np.testing.assert_allclose(q_small[sensor_id], q_whole[sensor_id], atol=1e-12)
+
+
+def test_fusing_a_poll_together_gives_each_sensor_what_its_own_filter_gives():
+    """Sensors with blocks of one length and channels share a filter call; a sensor with two
+    blocks in the poll, or other channels, is fused on its own, in order."""
+    from mimucap.core.fusion import OrientationEKF
+    from mimucap.session.live import _fuse, _FusionInput, _SensorState
+
+    rng = np.random.default_rng(3)
+
+    def block(n, t0, mag=True):
+        t = t0 + 0.01 * np.arange(1, n + 1)
+        acc = np.array([0.0, 0.0, 9.81]) + 0.05 * rng.standard_normal((n, 3))
+        return t, 0.02 * rng.standard_normal((n, 3)), acc, (np.array([0.0, 20.0, -40.0]) + rng.standard_normal((n, 3))) if mag else None
+
+    polls = [[("a", 4, True), ("b", 4, True), ("c", 4, True), ("d", 4, False), ("e", 3, True)],
+             [("a", 2, True), ("b", 2, True), ("a", 3, True), ("c", 5, True), ("d", 2, False), ("e", 2, True)]]
+    states = {name: _SensorState(name, 100) for name in "abcde"}
+    own = {name: OrientationEKF(use_mag=name != "d") for name in "abcde"}
+    clock = {name: 0.0 for name in "abcde"}
+    for poll in polls:
+        inputs, expected = [], {}
+        for name, n, with_mag in poll:
+            t, gyr, acc, mag = block(n, clock[name], with_mag)
+            clock[name] = t[-1]
+            state = states[name]
+            if state.ekf is None:
+                state.ekf = OrientationEKF(use_mag=with_mag)
+            inputs.append(_FusionInput(state, t, gyr, acc, mag))
+            result = own[name].update_batch(t, gyr, acc, mag)
+            expected[name] = (result.q_world_from_sensor[-1], int(result.flags[-1]))
+        _fuse(inputs)
+        for name, (q, flags) in expected.items():
+            assert np.array_equal(states[name].q_world_from_sensor, q), name
+            assert states[name].flags == flags

@@ -52,7 +52,7 @@ import numpy as np
 from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
 from mimucap.core import bodycal, rotation, skeleton
-from mimucap.core.fusion import FLAG_NAMES, OrientationEKF
+from mimucap.core.fusion import FLAG_NAMES, OrientationEKF, update_together
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.simulate import SimulationConfig, SuitTruth
 from mimucap.io.session import SessionTruth, read_session, write_session
@@ -320,13 +320,17 @@ class LiveSession:
         self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
         self.events.blocks.emit(blocks)
         count = 0
+        to_fuse: list[_FusionInput] = []
         for block in _merged_per_sensor(blocks):
-            count += self._take_block(block)
+            count += self._take_block(block, to_fuse)
+        _fuse(to_fuse)
         self.samples_received += count
         self._update_pose()
         return count
 
-    def _take_block(self, block: SampleBlock) -> int:
+    def _take_block(self, block: SampleBlock, to_fuse: list[_FusionInput]) -> int:
+        """Buffer ``block`` for the plots; queue its samples for the sensor's filter on
+        ``to_fuse`` (fused by :func:`_fuse` once the whole poll is in). Returns its length."""
         n = len(block)
         if n == 0:
             return 0
@@ -351,11 +355,7 @@ class LiveSession:
         elif block.gyr is not None:
             if state.ekf is None:
                 state.ekf = OrientationEKF(use_mag=mag is not None)
-            result = state.ekf.update_batch(t, block.gyr, block.acc, mag)
-            q = result.q_world_from_sensor[-1]
-            if np.isfinite(q).all():
-                state.q_world_from_sensor = q
-            state.flags = int(result.flags[-1])
+            to_fuse.append(_FusionInput(state, t, block.gyr, block.acc, mag))
         return n
 
     def _update_pose(self) -> None:
@@ -580,6 +580,53 @@ class LiveSession:
         result = self.end_recording().save()
         self.last_recording = result
         return result
+
+
+@dataclass
+class _FusionInput:
+    """One block of one sensor for its filter: times ``t`` (N,) s, ``gyr`` (N, 3) rad/s,
+    ``acc`` (N, 3) m/s² and ``mag`` (N, 3) µT (calibrated) or ``None``."""
+
+    state: _SensorState
+    t: np.ndarray
+    gyr: np.ndarray
+    acc: np.ndarray | None
+    mag: np.ndarray | None
+
+
+def _fuse(inputs: list[_FusionInput]) -> None:
+    """Run each input through its sensor's filter and keep the newest orientation and flags.
+
+    Sensors whose blocks have the same length and channels and whose filters the same
+    settings go through the filter in one call (:func:`update_together`): on a poll of a
+    17-sensor suit that is one call instead of 17. A sensor with more than one block in the
+    poll has its blocks fused one after the other."""
+    seen: dict[int, int] = {}
+    for item in inputs:
+        seen[id(item.state)] = seen.get(id(item.state), 0) + 1
+    groups: dict[tuple, list[_FusionInput]] = {}
+    for item in inputs:
+        if seen[id(item.state)] > 1:
+            key = ("alone", len(groups))  # in its own call, in order
+        else:
+            key = (len(item.t), item.acc is None, item.mag is None, item.state.ekf.grouping_key)
+        groups.setdefault(key, []).append(item)
+    for group in groups.values():
+        if len(group) == 1:
+            item = group[0]
+            result = item.state.ekf.update_batch(item.t, item.gyr, item.acc, item.mag)
+            newest_q, newest_flags = result.q_world_from_sensor[None, -1], result.flags[None, -1]
+        else:
+            stacked = lambda name: None if getattr(group[0], name) is None else np.stack(  # noqa: E731
+                [getattr(item, name) for item in group])
+            result = update_together([item.state.ekf for item in group], stacked("t"), stacked("gyr"),
+                                     stacked("acc"), stacked("mag"))
+            newest_q, newest_flags = result.q_world_from_sensor[:, -1], result.flags[:, -1]
+        finite = np.isfinite(newest_q).all(axis=1).tolist()
+        for item, q, flags, ok in zip(group, newest_q, newest_flags.tolist(), finite):
+            if ok:
+                item.state.q_world_from_sensor = q
+            item.state.flags = int(flags)
 
 
 def _merged_per_sensor(blocks: list[SampleBlock]) -> list[SampleBlock]:

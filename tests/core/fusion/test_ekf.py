@@ -76,6 +76,29 @@ def test_several_sensors_at_once_equal_separate_runs(recording_factory):
         assert np.array_equal(together.q_world_from_sensor[s], alone.q_world_from_sensor)
 
 
+def test_filters_fed_together_equal_their_own_calls_block_after_block(recording_factory):
+    from mimucap.core.fusion.ekf import update_together
+
+    recs = [recording_factory(duration_s=3.0, seed=s) for s in range(4)]
+    alone = [OrientationEKF() for _ in recs]
+    together = [OrientationEKF() for _ in recs]
+    together[1].update_batch(recs[1].t_s[:5], recs[1].gyr[:5], recs[1].acc[:5], recs[1].mag[:5])
+    alone[1].update_batch(recs[1].t_s[:5], recs[1].gyr[:5], recs[1].acc[:5], recs[1].mag[:5])  # one ahead
+    for a, b in ((5, 6), (6, 9), (9, 140), (140, 301)):
+        t = np.stack([r.t_s[a:b] for r in recs])
+        result = update_together(together, t, np.stack([r.gyr[a:b] for r in recs]),
+                                 np.stack([r.acc[a:b] for r in recs]), np.stack([r.mag[a:b] for r in recs]))
+        for s, (ekf, rec) in enumerate(zip(alone, recs)):
+            own = ekf.update_batch(rec.t_s[a:b], rec.gyr[a:b], rec.acc[a:b], rec.mag[a:b])
+            assert np.array_equal(result.q_world_from_sensor[s], own.q_world_from_sensor)
+            assert np.array_equal(result.flags[s], own.flags)
+            assert result.counters[s] == own.counters[0]
+    for mine, theirs in zip(together, alone):
+        assert np.array_equal(mine.state.cov, theirs.state.cov) and np.array_equal(mine.state.aux, theirs.state.aux)
+    with pytest.raises(ValueError, match="same"):
+        update_together([OrientationEKF(), OrientationEKF(use_mag=False)], t[:2], np.zeros((2, t.shape[1], 3)))
+
+
 def test_bad_samples_are_skipped_and_counted(recording):
     gyr, acc, mag, t = (recording.gyr.copy(), recording.acc.copy(), recording.mag.copy(),
                         recording.t_s.copy())

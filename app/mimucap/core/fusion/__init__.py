@@ -9,17 +9,18 @@ Frames and order: ``q_world_from_sensor``, scalar-first Hamilton quaternions, wo
 * :mod:`.state` — the filter state of S sensors and the per-sample diagnostic flags;
 * :mod:`.disturbance` — rest detection, accelerometer weighting, magnetic rejection;
 * :mod:`.kernels` — the compiled (numba) error-state EKF loop;
-* :mod:`.ekf` — :class:`OrientationEKF` (online: ``update`` / ``update_batch``) and :func:`fuse`;
+* :mod:`.ekf` — :class:`OrientationEKF` (online: ``update`` / ``update_batch``; several
+  one-sensor filters in one call: :func:`update_together`) and :func:`fuse`;
 * :mod:`.offline` — :func:`fuse_offline`, forward EKF plus RTS smoother;
 * :mod:`.evaluation` — the BROAD error metric (total / heading / inclination RMSE).
 """
 
-from mimucap.core.fusion.ekf import ALGORITHMS, FusionResult, OrientationEKF, fuse
+from mimucap.core.fusion.ekf import ALGORITHMS, FusionResult, OrientationEKF, fuse, update_together
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
 from mimucap.core.fusion.state import FLAG_NAMES, FusionState, decode_flags
 
 __all__ = [
     "ALGORITHMS", "DEFAULT_FUSION_PARAMS", "FLAG_NAMES", "FusionParams", "FusionResult",
-    "FusionState", "OrientationEKF", "decode_flags", "fuse", "fuse_offline",
+    "FusionState", "OrientationEKF", "decode_flags", "fuse", "fuse_offline", "update_together",
 ]
