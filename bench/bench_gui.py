@@ -21,6 +21,7 @@ empty 3D frame of the same size costs on it.
 
 from __future__ import annotations
 
+import argparse
 import os
 import socket
 import subprocess
@@ -207,14 +208,26 @@ def empty_frame_cpu_ms(size: tuple[int, int], frames: int = 100) -> tuple[str, f
     return renderer, cpu_ms
 
 
-def main() -> int:
+#: The loads: command-line name -> (label, run).
+LOADS = {
+    "sim10": ("simulated suit, 10 sensors", lambda: run_simulated(10)),
+    "sim17": ("simulated suit, 17 sensors", lambda: run_simulated(17)),
+    "udp": ("17 UDP boards (emulator process)", lambda: run_udp(17)),
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--load", choices=LOADS, action="append",
+                        help="run only this load (repeatable); default: all three. To compare two "
+                             "versions, alternate single-load runs with PYTHONPATH=<other checkout>/app.")
+    args = parser.parse_args(argv)
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["bench_gui"])
     print(f"GUI benchmark: main window 1280x800, 4 live plots, 100 Hz sensors, {MEASURE_S:.0f} s per load")
     print(f"{'load':<40}{'fps':>7}{'/60':>6}{'plot Hz':>9}{'/30':>6}{'CPU %':>8}{'50/CPU':>8}"
           f"{'lat p50':>9}{'lat p95':>9}{'30/p95':>8}{'3D %':>7}{'plots %':>9}{'rest %':>8}"
           f"{'GUI thr.':>10}{'GL thr.':>9}")
-    loads = [(f"simulated suit, {n} sensors", lambda n=n: run_simulated(n)) for n in (10, 17)]
-    loads.append(("17 UDP boards (emulator process)", lambda: run_udp(17)))
+    loads = [(name, run_load) for key, (name, run_load) in LOADS.items() if not args.load or key in args.load]
     view = None
     for name, load in loads:
         r = load()
