@@ -100,7 +100,7 @@ def test_fine_floor_patch_follows_the_figure_on_the_coarse_lines_and_stays_on_th
     turn[:3, :3] = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]  # 90° about Up
     turn[:3, 3] = (1.0, 2.0, 0.0)
     figure_world = np.array([6.2, -2.4, 0.9])
-    stage.set_world_matrix(turn, turn[:3, :3] @ figure_world + turn[:3, 3])
+    stage.set_world_matrix(turn, figure_world)
     assert stage.fine_patch_centre == (5.0, -2.5)
     patch = np.array([[stage.patch_matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
     expected = turn.copy()

@@ -100,7 +100,8 @@ def _reference_build(model, height_m, poses, mode, heading_ref_rad, origin_world
     return {
         "segment_matrices": np.array(segments), "marker_matrices": np.array(markers),
         "connector_matrices": np.array(connectors).reshape(-1, 4, 4), "joint_matrices": np.array(joints),
-        "root_scene_m": prox[model.root], "world_matrix": world, "heading_alpha_rad": alpha,
+        "root_scene_m": prox[model.root], "root_world_m": poses[model.root].proximal_m,
+        "world_matrix": world, "heading_alpha_rad": alpha,
     }
 
 
@@ -133,7 +134,7 @@ def test_vectorised_build_matches_the_piecewise_reference(model_name, mode):
         assert len(geometry.joint_names) == len(expected["joint_matrices"])
         assert geometry.heading_alpha_rad == pytest.approx(expected["heading_alpha_rad"], abs=TOLERANCE)
         for field in ("segment_matrices", "marker_matrices", "connector_matrices", "joint_matrices",
-                      "root_scene_m", "world_matrix"):
+                      "root_scene_m", "root_world_m", "world_matrix"):
             np.testing.assert_allclose(getattr(geometry, field), expected[field], rtol=0, atol=TOLERANCE,
                                        err_msg=f"{model_name} {mode} trial {trial}: {field}")
 

@@ -206,32 +206,31 @@ def join_packed_blocks(blocks: Sequence[PackedBlock]) -> list[PackedBlock]:
     ``sensor_ids`` extend another's joins it; blocks of other sources or with unrelated
     sensor lists stay apart.
     """
-    groups: list[list[PackedBlock]] = []
+    groups: list[tuple[tuple[str, ...], list[PackedBlock]]] = []  # (longest sensor list, blocks)
     open_groups: dict[tuple, int] = {}  # (source, channels) -> index of its last group
     for block in blocks:
         key = (block.source, tuple(block.channels))
         index = open_groups.get(key)
         if index is not None:
-            names = max((b.sensor_ids for b in groups[index]), key=len)
+            names, members = groups[index]
             shorter, longer = sorted((names, block.sensor_ids), key=len)
             if longer[: len(shorter)] == shorter:
-                groups[index].append(block)
+                members.append(block)
+                groups[index] = (longer, members)
                 continue
         open_groups[key] = len(groups)
-        groups.append([block])
-    return [_join(group) for group in groups]
+        groups.append((block.sensor_ids, [block]))
+    return [members[0] if len(members) == 1 else _join(names, members) for names, members in groups]
 
 
-def _join(blocks: list[PackedBlock]) -> PackedBlock:
-    if len(blocks) == 1:
-        return blocks[0]
-    first = blocks[0]
+def _join(sensor_ids: tuple[str, ...], blocks: list[PackedBlock]) -> PackedBlock:
+    """One packed block of ``blocks`` (one source, same channels; indices into ``sensor_ids``)."""
     join = lambda name: np.concatenate([getattr(b, name) for b in blocks])  # noqa: E731
     return PackedBlock(
-        source=first.source, sensor_ids=max((b.sensor_ids for b in blocks), key=len),
-        sensor_index=join("sensor_index"), seq=join("seq"), device_time_s=join("device_time_s"),
-        host_time_s=join("host_time_s"), receive_time_s=join("receive_time_s"),
-        channels={name: np.concatenate([b.channels[name] for b in blocks]) for name in first.channels})
+        source=blocks[0].source, sensor_ids=sensor_ids, sensor_index=join("sensor_index"), seq=join("seq"),
+        device_time_s=join("device_time_s"), host_time_s=join("host_time_s"),
+        receive_time_s=join("receive_time_s"),
+        channels={name: np.concatenate([b.channels[name] for b in blocks]) for name in blocks[0].channels})
 
 
 class _Group:

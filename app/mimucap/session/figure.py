@@ -67,6 +67,7 @@ class FigureGeometry:
         marker_matrices: ``(S, 4, 4)`` unit spheres on the anterior face of each segment (shows
             axial rotation), same order as ``segment_names``.
         root_scene_m: ``(3,)`` scene position of the root (pelvis proximal point), metres.
+        root_world_m: ``(3,)`` the same point in the world (ENU, metres).
         world_matrix: ``(4, 4)`` mapping world coordinates (ENU, metres) to the scene with
             this frame's display rotation and shift: the floor and world axes use it.
         heading_alpha_rad: the display rotation about the vertical that was applied.
@@ -80,6 +81,7 @@ class FigureGeometry:
     joint_matrices: NDArray[np.float64]
     marker_matrices: NDArray[np.float64]
     root_scene_m: NDArray[np.float64]
+    root_world_m: NDArray[np.float64]
     world_matrix: NDArray[np.float64]
     heading_alpha_rad: float
 
@@ -342,6 +344,7 @@ class FigureBuilder:
             joint_matrices=joint_matrices,
             marker_matrices=marker_matrices,
             root_scene_m=prox[0].copy(),
+            root_world_m=root_world.copy(),
             world_matrix=world_matrix,
             heading_alpha_rad=alpha,
         )

@@ -41,6 +41,7 @@ API for calibration wizards (``MagnetometerWizard(parent, live_session)``,
 from __future__ import annotations
 
 import time
+from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -601,29 +602,20 @@ def _fuse(inputs: list[_FusionInput]) -> None:
     settings go through the filter in one call (:func:`update_together`): on a poll of a
     17-sensor suit that is one call instead of 17. A sensor with more than one block in the
     poll has its blocks fused one after the other."""
-    seen: dict[int, int] = {}
+    blocks_of = Counter(id(item.state) for item in inputs)
+    groups: dict[object, list[_FusionInput]] = {}
     for item in inputs:
-        seen[id(item.state)] = seen.get(id(item.state), 0) + 1
-    groups: dict[tuple, list[_FusionInput]] = {}
-    for item in inputs:
-        if seen[id(item.state)] > 1:
-            key = ("alone", len(groups))  # in its own call, in order
-        else:
-            key = (len(item.t), item.acc is None, item.mag is None, item.state.ekf.grouping_key)
+        shares = blocks_of[id(item.state)] == 1  # a filter appears once in a call
+        key = (len(item.t), item.acc is None, item.mag is None, item.state.ekf.grouping_key) if shares else id(item)
         groups.setdefault(key, []).append(item)
     for group in groups.values():
-        if len(group) == 1:
-            item = group[0]
-            result = item.state.ekf.update_batch(item.t, item.gyr, item.acc, item.mag)
-            newest_q, newest_flags = result.q_world_from_sensor[None, -1], result.flags[None, -1]
-        else:
-            stacked = lambda name: None if getattr(group[0], name) is None else np.stack(  # noqa: E731
-                [getattr(item, name) for item in group])
-            result = update_together([item.state.ekf for item in group], stacked("t"), stacked("gyr"),
-                                     stacked("acc"), stacked("mag"))
-            newest_q, newest_flags = result.q_world_from_sensor[:, -1], result.flags[:, -1]
+        stacked = lambda name: None if getattr(group[0], name) is None else np.stack(  # noqa: E731
+            [getattr(item, name) for item in group])
+        result = update_together([item.state.ekf for item in group], stacked("t"), stacked("gyr"),
+                                 stacked("acc"), stacked("mag"))
+        newest_q = result.q_world_from_sensor[:, -1]
         finite = np.isfinite(newest_q).all(axis=1).tolist()
-        for item, q, flags, ok in zip(group, newest_q, newest_flags.tolist(), finite):
+        for item, q, flags, ok in zip(group, newest_q, result.flags[:, -1].tolist(), finite):
             if ok:
                 item.state.q_world_from_sensor = q
             item.state.flags = int(flags)

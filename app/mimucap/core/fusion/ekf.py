@@ -17,6 +17,7 @@ call (:func:`fuse`).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -105,13 +106,33 @@ def _kernel_array(array: np.ndarray) -> np.ndarray:
     return np.require(array, dtype=np.float64, requirements=("C", "W", "A"))
 
 
+@functools.lru_cache(maxsize=64)
 def _unused_outputs(n_sensors: int) -> tuple[np.ndarray, ...]:
     """Zero-size arrays for the kernel's absent channels and storage when not storing
-    (``(S, 0, 3)`` absent channel, then ``st_q``, ``st_b``, ``st_pp``, ``st_pu``, ``st_a``)."""
+    (``(S, 0, 3)`` absent channel, then ``st_q``, ``st_b``, ``st_pp``, ``st_pu``, ``st_a``).
+    Shared between calls: having no element, they are never written."""
     absent = np.zeros((n_sensors, 0, 3))
     pp = np.zeros((n_sensors, 0, 6, 6))
     return (absent, np.zeros((n_sensors, 0, 4)), np.zeros((n_sensors, 0, 3)), pp, pp,
             np.zeros((n_sensors, 0, 3, 3)))
+
+
+def _run_filter(packed: np.ndarray, state: FusionState, t, gyr, acc, mag,
+                store: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run the kernel over shaped inputs (:func:`shaped_inputs`) from ``state`` (updated in
+    place) with settings ``packed``; returns ``out_q`` (S, N, 4), ``out_b`` (S, N, 3) and
+    ``out_flags`` (S, N). ``store``: the ``st_*`` arrays the smoother fills, or None."""
+    s_count, n = gyr.shape[0], gyr.shape[1]
+    out_q = np.empty((s_count, n, 4))
+    out_b = np.empty((s_count, n, 3))
+    out_f = np.zeros((s_count, n), dtype=np.uint8)
+    absent, st_q, st_b, st_pp, st_pu, st_a = _unused_outputs(s_count)
+    if store is not None:
+        st_q, st_b, st_pp, st_pu, st_a = store
+    ekf_sensors(packed, _kernel_array(t), gyr, absent if acc is None else acc,
+                absent if mag is None else mag, state.q_world_from_sensor, state.bias_rad_s,
+                state.cov, state.aux, out_q, out_b, out_f, store is not None, st_q, st_b, st_pp, st_pu, st_a)
+    return out_q, out_b, out_f
 
 
 class OrientationEKF:
@@ -140,7 +161,6 @@ class OrientationEKF:
         self.state = state.copy() if state is not None else FusionState.new(n_sensors)
         #: filters with equal keys run the same equations (see :func:`update_together`)
         self.grouping_key = (algorithm, use_mag, params)
-        self._unused: tuple[int, tuple[np.ndarray, ...]] | None = None  # (S, _unused_outputs(S))
 
     @property
     def n_sensors(self) -> int:
@@ -154,22 +174,8 @@ class OrientationEKF:
         """Feed a block of samples (shapes in the module docstring); returns its outputs."""
         s_count = self.n_sensors
         single, t, gyr, acc, mag = shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT, s_count)
-        n = gyr.shape[1]
-        out_q = np.empty((s_count, n, 4))
-        out_b = np.empty((s_count, n, 3))
-        out_f = np.zeros((s_count, n), dtype=np.uint8)
-        st = self.state
-        if self._unused is None or self._unused[0] != s_count:
-            self._unused = (s_count, _unused_outputs(s_count))  # zero-size: nothing is ever written
-        absent, st_q, st_b, st_pp, st_pu, st_a = self._unused[1]
-        store = _store is not None
-        if store:
-            st_q, st_b, st_pp, st_pu, st_a = _store
-        ekf_sensors(self._packed, _kernel_array(t), gyr,
-                    absent if acc is None else acc, absent if mag is None else mag,
-                    st.q_world_from_sensor, st.bias_rad_s, st.cov, st.aux,
-                    out_q, out_b, out_f, store, st_q, st_b, st_pp, st_pu, st_a)
-        counters = tuple(st.counters(s) for s in range(s_count))
+        out_q, out_b, out_f = _run_filter(self._packed, self.state, t, gyr, acc, mag, _store)
+        counters = tuple(self.state.counters(s) for s in range(s_count))
         if single:
             return FusionResult(out_q[0], out_b[0], out_f[0], counters)
         return FusionResult(out_q, out_b, out_f, counters)
@@ -202,28 +208,17 @@ def update_together(filters, t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None) -> Fusi
             raise ValueError("update_together takes filters of one sensor each")
         if ekf.grouping_key != first.grouping_key:
             raise ValueError("update_together needs filters with the same algorithm, parameters and use_mag")
-    s_count = len(filters)
-    _, t, gyr, acc, mag = shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT, s_count)
-    n = gyr.shape[1]
+    _, t, gyr, acc, mag = shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT, len(filters))
     states = [ekf.state for ekf in filters]
-    q = np.concatenate([st.q_world_from_sensor for st in states])
-    b = np.concatenate([st.bias_rad_s for st in states])
-    cov = np.concatenate([st.cov for st in states])
-    aux = np.concatenate([st.aux for st in states])
-    out_q = np.empty((s_count, n, 4))
-    out_b = np.empty((s_count, n, 3))
-    out_f = np.zeros((s_count, n), dtype=np.uint8)
-    absent, st_q, st_b, st_pp, st_pu, st_a = _unused_outputs(s_count)
-    ekf_sensors(first._packed, _kernel_array(t), gyr, absent if acc is None else acc,
-                absent if mag is None else mag, q, b, cov, aux, out_q, out_b, out_f,
-                False, st_q, st_b, st_pp, st_pu, st_a)
+    together = FusionState(*(np.concatenate([getattr(st, name) for st in states])
+                             for name in ("q_world_from_sensor", "bias_rad_s", "cov", "aux")))
+    out_q, out_b, out_f = _run_filter(first._packed, together, t, gyr, acc, mag)
     for row, st in enumerate(states):
-        st.q_world_from_sensor[0] = q[row]
-        st.bias_rad_s[0] = b[row]
-        st.cov[0] = cov[row]
-        st.aux[0] = aux[row]
-    counters = tuple(st.counters(0) for st in states)
-    return FusionResult(out_q, out_b, out_f, counters)
+        st.q_world_from_sensor[0] = together.q_world_from_sensor[row]
+        st.bias_rad_s[0] = together.bias_rad_s[row]
+        st.cov[0] = together.cov[row]
+        st.aux[0] = together.aux[row]
+    return FusionResult(out_q, out_b, out_f, tuple(together.counters(s) for s in range(len(states))))
 
 
 def fuse(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,

@@ -14,14 +14,15 @@ from __future__ import annotations
 
 import numpy as np
 from vtkmodules.util.numpy_support import numpy_to_vtk
-from vtkmodules.vtkCommonCore import vtkPoints
-from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+from vtkmodules.vtkCommonDataModel import vtkPolyData
 from vtkmodules.vtkCommonMath import vtkMatrix4x4
 from vtkmodules.vtkCommonTransforms import vtkTransform
 from vtkmodules.vtkFiltersCore import vtkAppendPolyData, vtkPolyDataNormals
 from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
 from vtkmodules.vtkFiltersSources import vtkConeSource, vtkCylinderSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkLight, vtkPolyDataMapper, vtkRenderer
+
+from mimucap.gui.scene.polydata import polydata
 
 #: The floor grid (m): coarse lines over the whole floor, fine ones over a square patch around
 #: the figure. Far away, fine lines crowd into a grey band that software OpenGL rasterises
@@ -53,17 +54,7 @@ def _grid_lines(size_m: float, spacing_m: float) -> vtkPolyData:
     points[0:2 * n:2, :2] = np.c_[across, np.full(n, -half)]
     points[1:2 * n:2, :2] = np.c_[across, np.full(n, half)]
     points[2 * n:, :2] = points[: 2 * n, 1::-1]
-    lines = vtkCellArray()
-    for k in range(2 * n):
-        lines.InsertNextCell(2)
-        lines.InsertCellPoint(2 * k)
-        lines.InsertCellPoint(2 * k + 1)
-    vtk_points = vtkPoints()
-    vtk_points.SetData(numpy_to_vtk(points, deep=True))
-    grid = vtkPolyData()
-    grid.SetPoints(vtk_points)
-    grid.SetLines(lines)
-    return grid
+    return polydata(numpy_to_vtk(points, deep=True), np.arange(4 * n).reshape(-1, 2))
 
 
 def fine_patch_centre(focus_world_xy) -> tuple[float, float]:
@@ -186,15 +177,12 @@ class Stage:
         for actor in (self.grid, self.fine_grid, self.axes):
             renderer.AddActor(actor)
 
-    def set_world_matrix(self, matrix, focus_scene_m=None) -> None:
+    def set_world_matrix(self, matrix, focus_world_m=None) -> None:
         """Place floor and axes with a ``(4, 4)`` world→scene matrix (``FigureGeometry.world_matrix``),
-        and the fine floor patch around ``focus_scene_m`` ``(3,)`` (scene, metres: the
-        figure's root) when given."""
+        and the fine floor patch around ``focus_world_m`` ``(3,)`` (world ENU, metres: the
+        figure's root, ``FigureGeometry.root_world_m``) when given."""
         matrix = np.asarray(matrix, dtype=float)
-        centre = self._patch_centre
-        if focus_scene_m is not None:  # the focus in world coordinates: invert the placement
-            focus_world = np.linalg.solve(matrix[:3, :3], np.asarray(focus_scene_m, dtype=float) - matrix[:3, 3])
-            centre = fine_patch_centre(focus_world[:2])
+        centre = self._patch_centre if focus_world_m is None else fine_patch_centre(np.asarray(focus_world_m)[:2])
         if self._placed is not None and np.array_equal(matrix, self._placed) and centre == self._patch_centre:
             return  # unchanged (the usual case in world mode): VTK has nothing to update
         self._placed = matrix.copy()

@@ -26,14 +26,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray, vtk_to_numpy
-from vtkmodules.vtkCommonCore import vtkPoints
-from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
 from vtkmodules.vtkFiltersCore import vtkTriangleFilter
 from vtkmodules.vtkFiltersSources import vtkCylinderSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLSphereMapper
 
+from mimucap.gui.scene.polydata import polydata
 from mimucap.session.figure import FigureBuilder, FigureGeometry
 
 #: Segment colour (RGB 0..1) for each sensor state (see ``mimucap.session.sensor_status``).
@@ -49,7 +48,7 @@ MARKER_COLOUR = (0.15, 0.18, 0.25)
 #: Capsule material, lit by a headlight: ambient and diffuse parts of the base colour, and a
 #: white highlight of this strength and exponent.
 AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER = 0.22, 0.78, 0.30, 12.0
-#: Facets of the unit capsule: enough for smooth Phong shading at figure size on screen, few
+#: Facets of the unit capsule: enough for smooth shading at figure size on screen, few
 #: enough to keep software OpenGL fast (its cost grows with the triangle count).
 CYLINDER_RESOLUTION = 20
 
@@ -118,24 +117,6 @@ class _Batch:
         return (self.template.triangles[None, :, :] + offsets[:, None, None]).reshape(-1, 3)
 
 
-def _polydata(points_array, cells: NDArray[np.int64], size: int) -> vtkPolyData:
-    """A polydata of ``points_array`` (a VTK array) with cells of ``size`` points each
-    (``cells`` ``(m, size)``): triangles for ``size`` 3, vertices for ``size`` 1."""
-    offsets = numpy_to_vtkIdTypeArray(np.arange(0, size * len(cells) + 1, size, dtype=np.int64), deep=True)
-    connectivity = numpy_to_vtkIdTypeArray(np.ascontiguousarray(cells, dtype=np.int64).reshape(-1), deep=True)
-    cell_array = vtkCellArray()
-    cell_array.SetData(offsets, connectivity)
-    points = vtkPoints()
-    points.SetData(points_array)
-    polydata = vtkPolyData()
-    polydata.SetPoints(points)
-    if size == 1:
-        polydata.SetVerts(cell_array)
-    else:
-        polydata.SetPolys(cell_array)
-    return polydata
-
-
 def _colour_by_scalars(mapper) -> None:
     """Colour by the RGB bytes of the point scalars, as they are."""
     mapper.SetColorModeToDirectScalars()
@@ -143,16 +124,17 @@ def _colour_by_scalars(mapper) -> None:
     mapper.ScalarVisibilityOn()
 
 
-def _shaded_actor(mapper) -> vtkActor:
-    """A hidden actor with the figure's material (Phong, soft specular)."""
+def _figure_actor(mapper) -> vtkActor:
+    """A hidden actor with the figure's material (:data:`AMBIENT`, :data:`DIFFUSE`,
+    :data:`SPECULAR`, :data:`SPECULAR_POWER`): what VTK lights the spheres with, and what
+    :meth:`SkeletonActor.shade` lights the capsules with."""
     actor = vtkActor()
     actor.SetMapper(mapper)
     prop = actor.GetProperty()
-    prop.SetInterpolationToPhong()
-    prop.SetAmbient(0.12)
-    prop.SetDiffuse(0.85)
-    prop.SetSpecular(0.35)
-    prop.SetSpecularPower(25.0)
+    prop.SetAmbient(AMBIENT)
+    prop.SetDiffuse(DIFFUSE)
+    prop.SetSpecular(SPECULAR)
+    prop.SetSpecularPower(SPECULAR_POWER)
     actor.VisibilityOff()
     return actor
 
@@ -188,19 +170,18 @@ class SkeletonActor:
         self._vtk_shaded = numpy_to_vtk(self._shaded, deep=False)
         self._vtk_shaded.SetName("Colours")
         triangles = np.concatenate([b.triangles() for b in (self._segments, self._connectors)])
-        self.polydata = _polydata(self._vtk_points, triangles, 3)
+        self.polydata = polydata(self._vtk_points, triangles)
         self.polydata.GetPointData().SetScalars(self._vtk_shaded)
         mapper = vtkPolyDataMapper()
         mapper.SetInputData(self.polydata)
         _colour_by_scalars(mapper)
-        self.actor = _shaded_actor(mapper)
+        self.actor = _figure_actor(mapper)
         self.actor.GetProperty().LightingOff()  # lit by shade()
         # Closed shapes (the open capsule ends sit inside the joint spheres): their far sides
         # are never seen, and skipping them halves the work of software OpenGL.
         self.actor.GetProperty().BackfaceCullingOn()
 
         # Joints then markers: one point each, with its radius and colour.
-        self._n_joints = n_joints
         n_spheres = n_joints + n_segments
         self._centres = np.zeros((n_spheres, 3))
         self._radii = np.zeros(n_spheres, dtype=np.float32)
@@ -212,14 +193,14 @@ class SkeletonActor:
         self._vtk_radii.SetName("radius")
         self._vtk_sphere_colours = numpy_to_vtk(self._sphere_colours, deep=False)
         self._vtk_sphere_colours.SetName("Colours")
-        self.sphere_polydata = _polydata(self._vtk_centres, np.arange(n_spheres).reshape(-1, 1), 1)
+        self.sphere_polydata = polydata(self._vtk_centres, np.arange(n_spheres).reshape(-1, 1))
         self.sphere_polydata.GetPointData().AddArray(self._vtk_radii)
         self.sphere_polydata.GetPointData().SetScalars(self._vtk_sphere_colours)
         sphere_mapper = vtkOpenGLSphereMapper()
         sphere_mapper.SetInputData(self.sphere_polydata)
         sphere_mapper.SetScaleArray("radius")
         _colour_by_scalars(sphere_mapper)
-        self.sphere_actor = _shaded_actor(sphere_mapper)
+        self.sphere_actor = _figure_actor(sphere_mapper)
         self._tints: dict[str, str] = {}
         for actor in (self.actor, self.sphere_actor):
             renderer.AddActor(actor)

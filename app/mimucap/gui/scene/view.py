@@ -238,7 +238,7 @@ class SceneView(QtWidgets.QWidget):
                     self._last_frame_id = frame_id
                     self._last_geometry = geometry
                     self.skeleton.update(geometry)
-                    self.stage.set_world_matrix(geometry.world_matrix, geometry.root_scene_m)
+                    self.stage.set_world_matrix(geometry.world_matrix, geometry.root_world_m)
                     self._dirty = True
         if self._tint_provider is not None and self.skeleton.set_tints(self._tint_provider()):
             self._dirty = True

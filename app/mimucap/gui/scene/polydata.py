@@ -1,0 +1,35 @@
+"""``vtkPolyData`` from numpy arrays, in one step: no per-cell Python loop.
+
+:func:`polydata` takes the points as a VTK array (often sharing memory with a numpy array
+that is moved in place every frame) and the cells as an ``(m, k)`` integer array of point
+indices: ``k`` = 1 vertices, 2 lines, 3 triangles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from vtkmodules.util.numpy_support import numpy_to_vtkIdTypeArray
+from vtkmodules.vtkCommonCore import vtkPoints
+from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
+
+_SET_CELLS = {1: vtkPolyData.SetVerts, 2: vtkPolyData.SetLines, 3: vtkPolyData.SetPolys}
+
+
+def polydata(points_array, cells: NDArray[np.int64]) -> vtkPolyData:
+    """A polydata of ``points_array`` (a VTK array of ``(n, 3)`` points, kept by reference)
+    with the cells ``cells`` ``(m, k)``: vertices (k = 1), lines (2) or triangles (3)."""
+    cells = np.ascontiguousarray(cells, dtype=np.int64)
+    size = cells.shape[1]
+    if size not in _SET_CELLS:
+        raise ValueError(f"cells of {size} points: use 1 (vertices), 2 (lines) or 3 (triangles)")
+    offsets = numpy_to_vtkIdTypeArray(np.arange(0, size * len(cells) + 1, size, dtype=np.int64), deep=True)
+    connectivity = numpy_to_vtkIdTypeArray(cells.reshape(-1), deep=True)
+    cell_array = vtkCellArray()
+    cell_array.SetData(offsets, connectivity)
+    points = vtkPoints()
+    points.SetData(points_array)
+    result = vtkPolyData()
+    result.SetPoints(points)
+    _SET_CELLS[size](result, cell_array)
+    return result
