@@ -17,6 +17,12 @@ and each figure's ratio to its target (> 1 is better than the target). The CPU i
 thread (Linux ``/proc``): the GUI thread, the software OpenGL rasteriser's threads (``llvmpipe-*``,
 work a GPU would do) and any others. The last line names the OpenGL implementation and what an
 empty 3D frame of the same size costs on it.
+
+On software OpenGL the same loads then run again in a child process with Mesa's no-op driver
+(``GALLIUM_NOOP=true``: every OpenGL call is made, nothing is rasterised, read-backs return
+blank pictures). That second table estimates the window on a machine whose GPU does the
+drawing, *without* the GPU driver's own CPU cost: a lower bound, not a measurement on a GPU.
+``--without-rasteriser`` runs only that second pass.
 """
 
 from __future__ import annotations
@@ -221,9 +227,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--load", choices=LOADS, action="append",
                         help="run only this load (repeatable); default: all three. To compare two "
                              "versions, alternate single-load runs with PYTHONPATH=<other checkout>/app.")
+    parser.add_argument("--without-rasteriser", action="store_true",
+                        help="run the loads with Mesa's no-op driver only (see the module doc)")
     args = parser.parse_args(argv)
+    if args.without_rasteriser and os.environ.get("GALLIUM_NOOP") != "true":
+        return _run_without_rasteriser(args.load)
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["bench_gui"])
-    print(f"GUI benchmark: main window 1280x800, 4 live plots, 100 Hz sensors, {MEASURE_S:.0f} s per load")
+    if os.environ.get("GALLIUM_NOOP") == "true":
+        print("Without rasterisation (Mesa's no-op driver): a lower bound for the same window on a GPU")
+    else:
+        print(f"GUI benchmark: main window 1280x800, 4 live plots, 100 Hz sensors, {MEASURE_S:.0f} s per load")
     print(f"{'load':<40}{'fps':>7}{'/60':>6}{'plot Hz':>9}{'/30':>6}{'CPU %':>8}{'50/CPU':>8}"
           f"{'lat p50':>9}{'lat p95':>9}{'30/p95':>8}{'3D %':>7}{'plots %':>9}{'rest %':>8}"
           f"{'GUI thr.':>10}{'GL thr.':>9}")
@@ -239,13 +252,26 @@ def main(argv: list[str] | None = None) -> int:
               f"{r['cpu_pct'] - r['cpu_3d_pct'] - r['cpu_plots_pct']:8.0f}"
               f"{r['threads_pct'].get('gui', float('nan')):10.0f}{r['threads_pct'].get('gl', float('nan')):9.0f}")
     renderer, empty = empty_frame_cpu_ms(tuple(view))
-    print("CPU % is of one core (process CPU time / wall time); 3D = rendering and reading back the 3D view,")
-    print("plots = refreshing and painting the plots, rest = pipeline (fusion, angles), panels, Qt;")
-    print("GUI thr. = the main thread, GL thr. = the software rasteriser's threads (a GPU's work), % of a core.")
+    if not args.without_rasteriser:
+        print("CPU % is of one core (process CPU time / wall time); 3D = rendering and reading back the 3D view,")
+        print("plots = refreshing and painting the plots, rest = pipeline (fusion, angles), panels, Qt;")
+        print("GUI thr. = the main thread, GL thr. = the software rasteriser's threads (a GPU's work), % of a core.")
     print(f"OpenGL: {renderer}; an empty {view[0]}x{view[1]} 3D frame costs {empty:.2f} ms of CPU "
           f"({empty * 60 / 10:.0f} % of a core at 60 fps)")
     app.processEvents()
+    if "llvmpipe" in renderer and not args.without_rasteriser:
+        print()
+        sys.stdout.flush()
+        return _run_without_rasteriser(args.load)
     return 0
+
+
+def _run_without_rasteriser(loads: list[str] | None) -> int:
+    """Run ``loads`` (all when ``None``) again in a child process on Mesa's no-op driver."""
+    command = [sys.executable, str(Path(__file__).resolve()), "--without-rasteriser"]
+    for load in loads or ():
+        command += ["--load", load]
+    return subprocess.call(command, env={**os.environ, "GALLIUM_NOOP": "true"})
 
 
 if __name__ == "__main__":
