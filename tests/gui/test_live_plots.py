@@ -125,6 +125,26 @@ def test_curves_know_their_bounds_and_the_range_holds_the_data(plots):
     assert plots.curves["gyr"][0].dataBounds(1) == pytest.approx((0.0, 0.0))
 
 
+def test_bounding_rectangles_hold_the_data_and_a_pixel_for_the_pen(plots, qtbot):
+    plots.resize(700, 600)
+    qtbot.waitUntil(lambda: plots.plots["acc"].getViewBox().width() > 100)
+    plots.refresh()
+    view = plots.plots["gyr"].getViewBox()
+    pixel_w, pixel_h = view.viewPixelSize()
+    flat = plots.curves["gyr"][0].boundingRect()  # a flat zero line still has a height
+    assert flat.top() == pytest.approx(-pixel_h) and flat.height() == pytest.approx(2 * pixel_h)
+    x, _y = plots.curves["gyr"][0].getData()
+    assert flat.left() == pytest.approx(x[0] - pixel_w) and flat.right() == pytest.approx(x[-1] + pixel_w)
+    # what pyqtgraph's own bounds (mapping the item's pixel vectors) give, within rounding
+    curve = plots.curves["acc"][0]
+    own = super(type(curve), curve)
+    curve.invalidateBounds()
+    expected = own.boundingRect()
+    got = curve.boundingRect()
+    assert got.top() <= expected.top() + 1e-9 and got.bottom() >= expected.bottom() - 1e-9
+    assert got.height() == pytest.approx(expected.height(), rel=0.05)
+
+
 def test_pause_freezes_the_curves(plots):
     plots.refresh()
     before = plots.curves["acc"][0].getData()[1].copy()
