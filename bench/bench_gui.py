@@ -230,10 +230,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--without-rasteriser", action="store_true",
                         help="run the loads with Mesa's no-op driver only (see the module doc)")
     args = parser.parse_args(argv)
-    if args.without_rasteriser and os.environ.get("GALLIUM_NOOP") != "true":
+    no_op = os.environ.get("GALLIUM_NOOP") == "true"  # this process draws nothing
+    if args.without_rasteriser and not no_op:
         return _run_without_rasteriser(args.load)
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["bench_gui"])
-    if os.environ.get("GALLIUM_NOOP") == "true":
+    if no_op:
         print("Without rasterisation (Mesa's no-op driver): a lower bound for the same window on a GPU")
     else:
         print(f"GUI benchmark: main window 1280x800, 4 live plots, 100 Hz sensors, {MEASURE_S:.0f} s per load")
@@ -252,14 +253,14 @@ def main(argv: list[str] | None = None) -> int:
               f"{r['cpu_pct'] - r['cpu_3d_pct'] - r['cpu_plots_pct']:8.0f}"
               f"{r['threads_pct'].get('gui', float('nan')):10.0f}{r['threads_pct'].get('gl', float('nan')):9.0f}")
     renderer, empty = empty_frame_cpu_ms(tuple(view))
-    if not args.without_rasteriser:
+    if not no_op:
         print("CPU % is of one core (process CPU time / wall time); 3D = rendering and reading back the 3D view,")
         print("plots = refreshing and painting the plots, rest = pipeline (fusion, angles), panels, Qt;")
         print("GUI thr. = the main thread, GL thr. = the software rasteriser's threads (a GPU's work), % of a core.")
     print(f"OpenGL: {renderer}; an empty {view[0]}x{view[1]} 3D frame costs {empty:.2f} ms of CPU "
           f"({empty * 60 / 10:.0f} % of a core at 60 fps)")
     app.processEvents()
-    if "llvmpipe" in renderer and not args.without_rasteriser:
+    if "llvmpipe" in renderer:  # software OpenGL: estimate the window without its work
         print()
         sys.stdout.flush()
         return _run_without_rasteriser(args.load)

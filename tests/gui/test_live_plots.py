@@ -143,6 +143,17 @@ def test_bounding_rectangles_hold_the_data_and_a_pixel_for_the_pen(plots, qtbot)
     got = curve.boundingRect()
     assert got.top() <= expected.top() + 1e-9 and got.bottom() >= expected.bottom() - 1e-9
     assert got.height() == pytest.approx(expected.height(), rel=0.05)
+    # data that outgrow the range: the padding is a pixel of the range the curve is shown in
+    series = plots.source.series
+    plots.source.series = lambda sensor, window: (lambda t, acc, gyr, mag: (t, 50.0 * acc, gyr, mag))(
+        *series(sensor, window))
+    low_before = plots.plots["acc"].getViewBox().viewRange()[1][0]
+    plots.refresh()
+    view = plots.plots["acc"].getViewBox()
+    assert view.viewRange()[1][0] < low_before  # the range grew in this refresh
+    x, y = curve.getData()
+    rect = curve.boundingRect()
+    assert rect.top() == pytest.approx(np.min(y) - view.viewPixelSize()[1])
 
 
 def test_pause_freezes_the_curves(plots):

@@ -340,16 +340,16 @@ class LivePlots(QtWidgets.QWidget):
     def _show(self, key: str, t: np.ndarray, values: np.ndarray, origin: float, now_s: float) -> None:
         x, shown = peak_decimate(t - origin, values, MAX_POINTS)
         low, high = column_bounds(shown)
-        all_finite = bool(np.isfinite(shown).all())
-        pixel = self.plots[key].getViewBox().viewPixelSize()
-        pixel_size = (abs(pixel[0]), abs(pixel[1])) if all(map(np.isfinite, pixel)) else None
-        for axis, curve in enumerate(self.curves[key]):
-            curve.show_data(x, shown[:, axis], (low[axis], high[axis]), all_finite, pixel_size)
         finite_low = [v for v in low if v is not None]
         finite_high = [v for v in high if v is not None]
-        steady = self._ranges[key]
-        if finite_low and steady.update(min(finite_low), max(finite_high), now_s):
+        if finite_low and self._ranges[key].update(min(finite_low), max(finite_high), now_s):
             self._apply_range(key)
+        # the pixel's size in the range the curves are shown in (set just above)
+        pixel = self.plots[key].getViewBox().viewPixelSize()
+        pixel_size = (abs(pixel[0]), abs(pixel[1])) if all(map(np.isfinite, pixel)) else None
+        all_finite = bool(np.isfinite(shown).all())
+        for axis, curve in enumerate(self.curves[key]):
+            curve.show_data(x, shown[:, axis], (low[axis], high[axis]), all_finite, pixel_size)
 
     def refresh(self) -> None:
         """Pull the newest window from the source into the curves (skipped while paused)."""

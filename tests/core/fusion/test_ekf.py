@@ -55,6 +55,9 @@ def test_block_updates_equal_one_batch(recording):
     assert np.array_equal(q_blocks, batch.q_world_from_sensor)
     assert np.array_equal(np.concatenate([p.flags for p in parts]), batch.flags)
     assert ekf.counters() == batch.counters[0]
+    # each block's counters are those at its end, not the filter's later ones
+    assert [p.counters[0]["samples"] for p in parts] == cuts[1:]
+    assert len(parts[0].counters) == 1 and parts[0].counters[:] == [parts[0].counters[0]]
 
 
 def test_per_sample_update_equals_batch(recording):

@@ -18,6 +18,7 @@ call (:func:`fuse`).
 from __future__ import annotations
 
 import functools
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,13 +44,14 @@ class FusionResult:
     accelerometer sample; without an accelerometer channel the filter starts at the identity),
     ``bias_rad_s`` (N, 3) / (S, N, 3), ``flags`` (N,) / (S, N) uint8 (bits in
     :mod:`mimucap.core.fusion.state`; :meth:`flag_masks` decodes them) and ``counters`` (one
-    dict per sensor, cumulated over everything the filter has seen).
+    dict per sensor, cumulated over everything the filter had seen at the end of the block;
+    a :class:`~mimucap.core.fusion.state.SensorCounters` decodes them when read).
     """
 
     q_world_from_sensor: np.ndarray
     bias_rad_s: np.ndarray
     flags: np.ndarray
-    counters: tuple[dict[str, int], ...]
+    counters: Sequence[dict[str, int]]
 
     def flag_masks(self) -> dict[str, np.ndarray]:
         """Boolean arrays ``rest``, ``mag_rejected``, ``acc_rejected``, ``skipped``, ..."""
@@ -175,7 +177,7 @@ class OrientationEKF:
         s_count = self.n_sensors
         single, t, gyr, acc, mag = shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT, s_count)
         out_q, out_b, out_f = _run_filter(self._packed, self.state, t, gyr, acc, mag, _store)
-        counters = tuple(self.state.counters(s) for s in range(s_count))
+        counters = self.state.all_counters()
         if single:
             return FusionResult(out_q[0], out_b[0], out_f[0], counters)
         return FusionResult(out_q, out_b, out_f, counters)
@@ -218,7 +220,7 @@ def update_together(filters, t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None) -> Fusi
         st.bias_rad_s[0] = together.bias_rad_s[row]
         st.cov[0] = together.cov[row]
         st.aux[0] = together.aux[row]
-    return FusionResult(out_q, out_b, out_f, tuple(together.counters(s) for s in range(len(states))))
+    return FusionResult(out_q, out_b, out_f, together.all_counters())
 
 
 def fuse(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,

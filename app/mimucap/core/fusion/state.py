@@ -16,6 +16,7 @@ Arrays, not objects, because the numba kernels update them in place.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,8 +93,33 @@ class FusionState:
 
     def counters(self, sensor: int = 0) -> dict[str, int]:
         """Counts of samples, skipped samples, rest samples and rejections of one sensor."""
-        row = self.aux[sensor].tolist()  # one conversion instead of one numpy scalar per counter
-        return {name: int(row[index]) for name, index in COUNTER_INDEX.items()}
+        return _decode_counters(self.aux[sensor])
+
+    def all_counters(self) -> "SensorCounters":
+        """Every sensor's :meth:`counters` as they are now (decoded when read)."""
+        return SensorCounters(self.aux)
+
+
+def _decode_counters(aux_row: np.ndarray) -> dict[str, int]:
+    row = aux_row.tolist()  # one conversion instead of one numpy scalar per counter
+    return {name: int(row[index]) for name, index in COUNTER_INDEX.items()}
+
+
+class SensorCounters(Sequence):
+    """One counter dict per sensor (what :meth:`FusionState.counters` gives), from a copy of the
+    ``aux`` rows ``(S, AUX_COUNT)`` taken at construction and decoded only when read: the live
+    session fuses every sensor 60 times a second and rarely looks at the counts."""
+
+    def __init__(self, aux: np.ndarray) -> None:
+        self._aux = np.array(aux, dtype=np.float64)  # a copy: later updates do not show
+
+    def __len__(self) -> int:
+        return len(self._aux)
+
+    def __getitem__(self, sensor):
+        if isinstance(sensor, slice):
+            return [self[s] for s in range(*sensor.indices(len(self)))]
+        return _decode_counters(self._aux[sensor])
 
     def initialised(self, sensor: int = 0) -> bool:
         return bool(self.aux[sensor, AX_INIT] > 0.0)

@@ -6,7 +6,7 @@ figure walks, so its lines always fall on the same floor positions). The world
 axes (E, N, Up; 0.5 m, standing at :data:`AXES_ORIGIN_WORLD_M`) are built in **world**
 coordinates (ENU, metres) and placed in the scene by the frame's
 ``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
-The axes' names are not VTK captions: :meth:`Stage.axis_labels` gives their anchors in the
+The axes' names are not VTK captions: :meth:`Stage.axis_label_points` gives their anchors in the
 scene and the view has Qt paint them over the picture.
 """
 
@@ -209,16 +209,10 @@ class Stage:
         placed[:3, 3] = self._placed[:3, :3] @ np.asarray(AXES_ORIGIN_WORLD_M) + self._placed[:3, 3]
         return placed
 
-    def axis_labels(self) -> list[tuple[str, tuple[float, float, float]]]:
-        """``(name, point)`` for each world axis shown: where its name stands (scene frame,
-        metres), just beyond the arrow's tip. Empty while the axes are hidden."""
-        names, points = self.axis_label_points()
-        return [(name, tuple(float(v) for v in point)) for name, point in zip(names, points)]
-
     def axis_label_points(self) -> tuple[tuple[str, ...], np.ndarray]:
         """The names of the world axes shown and where they stand, ``(n, 3)`` (scene frame,
-        metres; row i is name i): what :meth:`axis_labels` gives, as one array (computed when
-        the world matrix changes, read on every frame). No names while the axes are hidden."""
+        metres; row i is name i), just beyond each arrow's tip (computed when the world matrix
+        changes, read on every frame). No names while the axes are hidden."""
         if not self.axes.GetVisibility():
             return (), np.zeros((0, 3))
         return AXIS_NAMES, self._label_points

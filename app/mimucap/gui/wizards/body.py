@@ -211,7 +211,8 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.problems_label.setWordWrap(True)
         side.addWidget(self.problems_label)
         self.accept_button = push_button("Accept", self.accept_result)
-        side.addLayout(button_row(push_button("Redo", self.redo), None, push_button("Close", self.reject), self.accept_button))
+        side.addLayout(button_row(push_button("Redo", self.redo), None, push_button("Close", self.reject),
+                                  self.accept_button))
         outer.addLayout(side, 2)
         return page
 
@@ -222,7 +223,8 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.refusal_label = large_label()
         layout.addWidget(self.refusal_label)
         layout.addStretch(1)
-        layout.addLayout(button_row(push_button("Change settings", self.back_to_setup), None, push_button("Redo", self.redo)))
+        layout.addLayout(button_row(push_button("Change settings", self.back_to_setup), None,
+                                    push_button("Redo", self.redo)))
         return page
 
     # -- state -------------------------------------------------------------------------------

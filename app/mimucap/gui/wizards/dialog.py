@@ -10,7 +10,7 @@ from PyQt5 import QtGui, QtWidgets
 
 
 def push_button(text: str, slot: Callable[[], object], default: bool = False,
-           tooltip: str = "") -> QtWidgets.QPushButton:
+                tooltip: str = "") -> QtWidgets.QPushButton:
     """A push button calling ``slot`` when clicked."""
     widget = QtWidgets.QPushButton(text)
     widget.clicked.connect(slot)

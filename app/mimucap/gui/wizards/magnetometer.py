@@ -199,7 +199,7 @@ class MagnetometerWizard(CalibrationDialog):
         self.recording_info = QtWidgets.QLabel("")
         layout.addWidget(self.recording_info)
         self.finish_button = push_button("Compute now", self.finish_now,
-                                    tooltip="Stop recording and compute with what was recorded")
+                                         tooltip="Stop recording and compute with what was recorded")
         layout.addLayout(button_row(push_button("Cancel", self.redo), None, self.finish_button))
         return page
 
