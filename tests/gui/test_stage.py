@@ -84,6 +84,33 @@ def test_floor_grids_are_square_line_grids_of_their_size_and_spacing():
     np.testing.assert_allclose(along_x[:, :, :2], along_y[:, :, 1::-1])  # the mirror image
 
 
+def test_fine_floor_patch_leaves_the_coarse_lines_alone_and_fades_into_the_background_at_its_edge():
+    from mimucap.gui.scene.environment import BACKGROUND, GRID_COLOUR, _fading_patch_lines
+
+    patch = _fading_patch_lines(10.0, 0.5, 2.5, 2.5)
+    points = vtk_to_numpy(patch.GetPoints().GetData())
+    colours = vtk_to_numpy(patch.GetPointData().GetScalars()).astype(float)
+    segments = vtk_to_numpy(patch.GetLines().GetConnectivityArray()).reshape(-1, 2)
+    assert np.all(points[:, 2] == 0.0)
+    ends = points[segments]
+    along_y = np.isclose(ends[:, 0, 0], ends[:, 1, 0])
+    line_at = np.where(along_y, ends[:, 0, 0], ends[:, 0, 1])  # x of a line along y, y of one along x
+    assert np.all(np.isclose(ends[along_y, 0, 0], ends[along_y, 1, 0]))
+    assert np.all(np.isclose(ends[~along_y, 0, 1], ends[~along_y, 1, 1]))  # the others run along x
+    fine = np.arange(-5.0, 5.01, 0.5)
+    expected = fine[~np.isclose(np.remainder(fine, 2.5), 0.0) & ~np.isclose(np.remainder(fine, 2.5), 2.5)]
+    np.testing.assert_allclose(np.unique(line_at.round(6)), expected)  # none on a coarse line
+    assert len(expected) == 16 and len(segments) == 2 * 16 * 20  # cut at each 0.5 m crossing
+    np.testing.assert_allclose(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1), 0.5)
+    grid, background = 255 * np.array(GRID_COLOUR), 255 * np.array(BACKGROUND)
+    from_edge = 5.0 - np.max(np.abs(points[:, :2]), axis=1)
+    np.testing.assert_allclose(colours[from_edge >= 2.5], np.broadcast_to(grid, colours[from_edge >= 2.5].shape), atol=0.5)
+    np.testing.assert_allclose(colours[from_edge == 0.0], np.broadcast_to(background, colours[from_edge == 0.0].shape), atol=0.5)
+    halfway = np.isclose(from_edge, 1.0)  # 40 % of the way from the background to the grid colour
+    np.testing.assert_allclose(colours[halfway], np.broadcast_to(background + 0.4 * (grid - background),
+                                                                  colours[halfway].shape), atol=0.5)
+
+
 def test_fine_floor_patch_follows_the_figure_on_the_coarse_lines_and_stays_on_the_floor():
     from mimucap.gui.scene.environment import (FLOOR_COARSE_SPACING_M, FLOOR_FINE_SIZE_M, FLOOR_SIZE_M,
                                                FLOOR_SPACING_M, fine_patch_centre)

@@ -15,6 +15,7 @@ import pytest
 from mimucap.core import rotation, skeleton
 from mimucap.session.figure import (
     CONNECTOR_RADIUS_FACTOR,
+    END_CAP_RADIUS_FACTOR,
     JOINT_RADIUS_FACTOR,
     MARKER_RADIUS_FACTOR,
     MIN_CONNECTOR_M,
@@ -92,7 +93,7 @@ def _reference_build(model, height_m, poses, mode, heading_ref_rad, origin_world
     joints = [_reference_sphere(prox[model.root], 0.8 * radius[model.root])]
     joints += [_reference_sphere(prox[seg.name], JOINT_RADIUS_FACTOR * min(radius[seg.name], radius[seg.parent]))
                for seg in model.segments if seg.joint is not None]
-    joints += [_reference_sphere(dist[name], radius[name]) for name in model.segment_names if name not in distal_joints]
+    joints += [_reference_sphere(dist[name], END_CAP_RADIUS_FACTOR * radius[name]) for name in model.segment_names if name not in distal_joints]
 
     world = np.eye(4)
     world[:3, :3] = r_display

@@ -46,8 +46,12 @@ R_SCENE_FROM_WORLD = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0
 MIN_CONNECTOR_M = 1e-3
 #: Radius of a connector ("clavicle", "hip bone") relative to the parent's radius.
 CONNECTOR_RADIUS_FACTOR = 0.45
-#: Radius of a joint sphere relative to the larger radius of the segments it joins.
+#: Radius of a joint sphere relative to the smaller radius of the two segments it joins.
 JOINT_RADIUS_FACTOR = 1.15
+#: Radius of a round end cap (a segment end with no joint on it) relative to its segment's
+#: radius. Wider than the capsule: a sphere exactly as wide meets the faceted capsule
+#: tangentially, and their seam then zigzags with the facets; at 1.1 it crosses them at 25°.
+END_CAP_RADIUS_FACTOR = 1.1
 #: Radius of the anterior marker sphere relative to its segment's radius.
 MARKER_RADIUS_FACTOR = 0.35
 
@@ -225,7 +229,7 @@ class FigureBuilder:
         self._end_caps = tuple(s.name for s in model.segments if s.name not in at_distal)
         for name in self._end_caps:
             joint_names.append(f"{name}_end")
-            joint_radius[f"{name}_end"] = self._radius[name]
+            joint_radius[f"{name}_end"] = END_CAP_RADIUS_FACTOR * self._radius[name]
         self.joint_names = tuple(joint_names)
         self._joint_radius = joint_radius
         # Index arrays for build_arrays (segment indices in model order).

@@ -2,7 +2,9 @@
 
 The floor is a grid of lines (no solid plane): a line every 2.5 m over 30 m × 30 m, and a line
 every 0.5 m over the 10 m × 10 m around the figure (the patch moves in 2.5 m steps as the
-figure walks, so its lines always fall on the same floor positions). The world
+figure walks, so its lines always fall on the same floor positions). The fine lines fade into
+the background over the patch's outer 2.5 m, so the patch has no visible edge and its steps
+do not make lines pop in and out beside the figure. The world
 axes (E, N, Up; 0.5 m, standing at :data:`AXES_ORIGIN_WORLD_M`) are built in **world**
 coordinates (ENU, metres) and placed in the scene by the frame's
 ``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
@@ -29,6 +31,9 @@ from mimucap.gui.scene.polydata import polydata
 #: line by line: fine lines near the figure only cost half (0.6 ms a frame less).
 FLOOR_SIZE_M, FLOOR_COARSE_SPACING_M = 30.0, 2.5
 FLOOR_FINE_SIZE_M, FLOOR_SPACING_M = 10.0, 0.5
+#: The fine lines fade from the grid colour to the background over this margin (m) inside the
+#: patch's edge.
+FLOOR_FINE_FADE_M = 2.5
 AXES_LENGTH_M = 0.5
 #: Each axis: a shaft of this radius, then a cone tip of this length and base radius (m).
 AXES_SHAFT_RADIUS_M, AXES_TIP_LENGTH_M, AXES_TIP_RADIUS_M = 0.008, 0.1, 0.03
@@ -55,6 +60,37 @@ def _grid_lines(size_m: float, spacing_m: float) -> vtkPolyData:
     points[1:2 * n:2, :2] = np.c_[across, np.full(n, half)]
     points[2 * n:, :2] = points[: 2 * n, 1::-1]
     return polydata(numpy_to_vtk(points, deep=True), np.arange(4 * n).reshape(-1, 2))
+
+
+def _fading_patch_lines(size_m: float, spacing_m: float, coarse_spacing_m: float, fade_m: float) -> vtkPolyData:
+    """The fine floor patch: a square grid ``size_m`` wide with a line every ``spacing_m``
+    (world, metres, on the floor, centred on the origin), without the lines the coarse grid
+    draws (multiples of ``coarse_spacing_m``), each line cut at every crossing so that its
+    colour can fade. Point scalars (RGB bytes): :data:`GRID_COLOUR` up to ``fade_m`` from the
+    patch's edge, then linearly towards :data:`BACKGROUND`, reached at the edge (distance from
+    the centre measured as ``max(|x|, |y|)``, the patch's square shape)."""
+    half = size_m / 2.0
+    across = np.linspace(-half, half, int(round(size_m / spacing_m)) + 1)
+    on_coarse = np.isclose(np.remainder(across + coarse_spacing_m / 2.0, coarse_spacing_m), coarse_spacing_m / 2.0)
+    kept = across[~on_coarse]
+    n_lines, n_points = len(kept), len(across)
+    # lines along y (x = c), then along x (y = c); each has a point at every crossing
+    along_y = np.zeros((n_lines, n_points, 3))
+    along_y[:, :, 0] = kept[:, None]
+    along_y[:, :, 1] = across[None, :]
+    along_x = along_y[:, :, [1, 0, 2]]
+    points = np.concatenate((along_y, along_x)).reshape(-1, 3)
+    start = np.arange(2 * n_lines)[:, None] * n_points + np.arange(n_points - 1)[None, :]
+    segments = np.stack((start.ravel(), start.ravel() + 1), axis=1)
+    lines = polydata(numpy_to_vtk(points, deep=True), segments)
+    from_edge = half - np.max(np.abs(points[:, :2]), axis=1)
+    weight = np.clip(from_edge / fade_m, 0.0, 1.0)[:, None]
+    background, grid = np.asarray(BACKGROUND), np.asarray(GRID_COLOUR)
+    rgb = np.round(255.0 * (background + weight * (grid - background))).astype(np.uint8)
+    colours = numpy_to_vtk(rgb, deep=True)
+    colours.SetName("Colours")
+    lines.GetPointData().SetScalars(colours)
+    return lines
 
 
 def fine_patch_centre(focus_world_xy) -> tuple[float, float]:
@@ -118,10 +154,15 @@ def _axes_mesh() -> vtkPolyData:
 
 
 def _line_actor(lines: vtkPolyData, user_matrix: vtkMatrix4x4) -> vtkActor:
-    """An unlit actor drawing ``lines`` in the grid colour, placed by ``user_matrix``."""
+    """An unlit actor drawing ``lines`` placed by ``user_matrix``: in their point colours (RGB
+    bytes) when they have some, otherwise in the grid colour."""
     mapper = vtkPolyDataMapper()
     mapper.SetInputData(lines)
     mapper.SetResolveCoincidentTopologyToPolygonOffset()
+    if lines.GetPointData().GetScalars() is not None:
+        mapper.SetColorModeToDirectScalars()
+        mapper.SetScalarModeToUsePointData()
+        mapper.ScalarVisibilityOn()
     actor = vtkActor()
     actor.SetMapper(mapper)
     prop = actor.GetProperty()
@@ -156,7 +197,8 @@ class Stage:
         self.axes_matrix = vtkMatrix4x4()
         # Keep the sources referenced: an output port does not keep its producer alive.
         self._grid_lines = _grid_lines(FLOOR_SIZE_M, FLOOR_COARSE_SPACING_M)
-        self._patch_lines = _grid_lines(FLOOR_FINE_SIZE_M, FLOOR_SPACING_M)
+        self._patch_lines = _fading_patch_lines(FLOOR_FINE_SIZE_M, FLOOR_SPACING_M, FLOOR_COARSE_SPACING_M,
+                                                FLOOR_FINE_FADE_M)
         self.grid = _line_actor(self._grid_lines, self.world_matrix)
         self.fine_grid = _line_actor(self._patch_lines, self.patch_matrix)
 
