@@ -59,7 +59,6 @@ def make_screenshots(out_dir: Path) -> list[Path]:
 
         review = window.open_review(path)
         _wait(app, lambda: review.player is not None or review.load_error, 60, "the review")
-        review.scene_view.set_camera_preset("follow")  # framed on the figure wherever it walked to
         review.seek_marker(1)
         _wait(app, lambda: review.scene_view.frames_rendered > 0, 10, "the review's 3D view")
         app.processEvents()

@@ -157,10 +157,13 @@ def test_record_export_review(app_window, qtbot, tmp_path, monkeypatch):
     dialog.accept()
     review.close()
 
-    # 5. Reopen the session from the File menu and scrub to the second marker.
+    # 5. Reopen the session from the File menu (its camera as the main window's) and scrub to
+    #    the second marker.
+    window.camera_actions["side"].trigger()
     monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName", lambda *a, **k: (str(result.session_path), ""))
     window.action_open.trigger()
     review = window.review_windows[-1]
+    assert review.scene_view.camera_preset == "side" and review.camera_actions["side"].isChecked()
     qtbot.waitUntil(lambda: review.player is not None, timeout=20000)
     assert review.markers_list.count() == 2
     review.camera_actions["follow"].trigger()

@@ -493,10 +493,12 @@ class MainWindow(QtWidgets.QMainWindow):
             self.open_review(path)
 
     def open_review(self, path: str | Path):
-        """Open the review window on session file ``path`` (loaded off the GUI thread)."""
+        """Open the review window on session file ``path`` (loaded off the GUI thread), its
+        camera on this window's preset."""
         from mimucap.gui.review_window import ReviewWindow
 
         window = ReviewWindow(path, parent=None)
+        window.set_camera_preset(self.scene_view.camera_preset)
         window.setAttribute(QtCore.Qt.WA_DeleteOnClose, False)
         self.review_windows.append(window)
         window.show()

@@ -218,6 +218,12 @@ class ReviewWindow(QtWidgets.QMainWindow):
             return
         self._show_cursor(self.player.advance(elapsed))
 
+    def set_camera_preset(self, name: str) -> None:
+        """Move the 3D view's camera to preset ``name`` (one of ``CAMERA_PRESETS``) and tick it
+        in the Camera menu."""
+        self.scene_view.set_camera_preset(name)
+        self.camera_actions[name].setChecked(True)
+
     def _body_mode_toggled(self, on: bool) -> None:
         if self.player is not None:
             self.player.set_display_mode("body" if on else "world")
