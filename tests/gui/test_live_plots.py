@@ -189,3 +189,25 @@ def test_a_gap_in_the_data_stays_a_gap_in_the_curve(plots):
     assert _subpaths(plots.curves["acc"][0]) == 1  # continuous data, one line
     x, y = plots.curve_data("mag", 0)
     assert np.isnan(y).sum() == 20 and np.isfinite(y).sum() == len(y) - 20
+
+
+def test_a_plot_whose_window_holds_no_data_says_so_in_its_title(plots):
+    """A source that sends no gyroscope (e.g. an Xsens export with accelerations and
+    orientations only) leaves that plot empty: its title says "no data" instead of naming
+    curves that are not there, and names them again once data comes."""
+
+    class NoGyroscope(FakeSource):
+        sends_gyroscope = False
+
+        def series(self, sensor_id, window_s):
+            t, acc, gyr, mag = super().series(sensor_id, window_s)
+            return t, acc, np.full_like(gyr, np.nan) if not self.sends_gyroscope else gyr, mag
+
+    source = NoGyroscope()
+    plots.source = source
+    plots.refresh()
+    assert "no data" in plots.title_text("gyr") and "Gyroscope S01" in plots.title_text("gyr")
+    assert "no data" not in plots.title_text("acc") and "&#9632;x" in plots.title_text("acc")
+    source.sends_gyroscope = True
+    plots.refresh()
+    assert "no data" not in plots.title_text("gyr") and "&#9632;x" in plots.title_text("gyr")

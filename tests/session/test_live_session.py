@@ -141,6 +141,9 @@ def test_replay_through_acquisition_workers_is_fused_and_shown(tmp_path):
             time.sleep(0.01)
         assert session.samples_received >= 500
         assert session.pose_source == POSE_UNASSIGNED
+        assert np.isnan(session.time_s)  # no pose yet, but the plots follow the newest samples
+        newest = max(session.series(sensor_id, 5.0)[0][-1] for sensor_id in session.sensor_ids)
+        assert session.cursor_s == newest
         for sensor_id, mounting in result.mounting.items():
             session.assign_sensor(sensor_id, mounting.segment)
         while session.samples_received < 1500 and time.monotonic() < deadline:

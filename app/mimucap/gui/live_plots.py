@@ -39,6 +39,8 @@ SENSOR_PLOTS = (
     ("mag", "Magnetometer", "µT", 10.0),
 )
 ANGLE_UNIT, ANGLE_MIN_RANGE = "deg", 10.0
+#: Colour of the "no data" note in a plot's title.
+NO_DATA_COLOUR = "#888888"
 
 pg.setConfigOptions(antialias=False, background="w", foreground="k")
 
@@ -136,6 +138,8 @@ class LivePlots(QtWidgets.QWidget):
         self.curves: dict[str, list[_Curve]] = {}
         self.cursors: dict[str, pg.InfiniteLine] = {}
         self._ranges: dict[str, SteadyRange] = {}
+        self._titles: dict[str, str] = {}     # each plot's title, without the curve names
+        self._no_data: dict[str, bool] = {}   # plots whose window held no finite value
         self.selected_joints: list[str] = []
         for key, title, unit, min_range in SENSOR_PLOTS:
             self._add_plot(key, title, unit, min_range, AXIS_NAMES)
@@ -210,9 +214,14 @@ class LivePlots(QtWidgets.QWidget):
 
     def _set_title(self, key: str, title: str) -> None:
         """Title ``key``'s plot; the curve names follow in their colours (a legend inside the
-        short plots would hide the newest data)."""
-        names = " ".join(f'<span style="color:{pen}">&#9632;{curve.opts["name"]}</span>'
-                         for pen, curve in zip(AXIS_PENS, self.curves[key]))
+        short plots would hide the newest data), or "no data" while the window holds none
+        (e.g. a source that does not send this sensor's gyroscope)."""
+        self._titles[key] = title
+        if self._no_data.get(key, False):
+            names = f'<span style="color:{NO_DATA_COLOUR}">no data</span>'
+        else:
+            names = " ".join(f'<span style="color:{pen}">&#9632;{curve.opts["name"]}</span>'
+                             for pen, curve in zip(AXIS_PENS, self.curves[key]))
         self.plots[key].setTitle(f"<b>{title}</b>&nbsp;&nbsp;{names}", size="9pt")
         self.plots[key].titleLabel.setMinimumWidth(0)  # a long title is cut, never widens the plot
 
@@ -222,7 +231,8 @@ class LivePlots(QtWidgets.QWidget):
 
     def _remove_plot(self, key: str) -> None:
         plot = self.plots.pop(key)
-        del self.curves[key], self.cursors[key], self._ranges[key]
+        del self.curves[key], self.cursors[key], self._ranges[key], self._titles[key]
+        self._no_data.pop(key, None)
         self.layout_widget.removeItem(plot)
         plot.deleteLater()
 
@@ -342,6 +352,9 @@ class LivePlots(QtWidgets.QWidget):
         low, high = column_bounds(shown)
         finite_low = [v for v in low if v is not None]
         finite_high = [v for v in high if v is not None]
+        if (not finite_low) != self._no_data.get(key, False):
+            self._no_data[key] = not finite_low
+            self._set_title(key, self._titles[key])
         if finite_low and self._ranges[key].update(min(finite_low), max(finite_high), now_s):
             self._apply_range(key)
         # the pixel's size in the range the curves are shown in (set just above)

@@ -235,7 +235,11 @@ class LiveSession:
 
     @property
     def cursor_s(self) -> float:
-        """The time the 3D view shows (s): the newest pose, live."""
+        """The time the plots are aligned to (s): the newest pose (what the 3D view shows),
+        live; while no pose is made (no sensor assigned yet), the newest sample's time, so the
+        plots still scroll with the raw data. NaN before any data."""
+        if self._pose_source in (POSE_NONE, POSE_UNASSIGNED):
+            return self._newest_time()
         return self._t_s
 
     @property
