@@ -45,6 +45,7 @@ def test_window_starts_and_renders_the_skeleton(window, qtbot):
     # The status bar follows at the panels' pace (4 Hz), after the first frames.
     qtbot.waitUntil(lambda: "simulator truth" in window.pose_status.text(), timeout=2000)
     assert "simulated:demo" in window.source_status.text()
+    assert window.scene_view.vtk_widget.hint == ""  # a figure is shown: nothing to explain
     # Every segment of the ten-sensor suit has a sensor: tinted "ok" once each has sent data
     # (until its first sample a sensor is "stale").
     qtbot.waitUntil(lambda: {window.scene_view.skeleton.tint_of(s) for s in geometry.segment_names} == {"ok"},
@@ -206,3 +207,28 @@ def test_world_axes_are_named_at_their_tips_and_the_names_hide_with_them(window,
     assert labels["E"].x_px > labels["Up"].x_px  # E (east) to the right in the front view
     window.action_axes.setChecked(False)
     qtbot.waitUntil(lambda: view.vtk_widget.labels == (), timeout=5000)
+
+
+def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtbot, shared_data):
+    """Xsens exports replayed (accelerations and on-board orientations, no segment known): the
+    3D view explains that no sensor is assigned yet, the accelerometer plot shows the newest
+    samples, and the gyroscope plot (not in the files) says it has no data."""
+    from mimucap.gui.main_window import VIEW_HINTS
+    from mimucap.session.live import POSE_UNASSIGNED
+
+    folder = shared_data / "body" / "opensense_example" / "IMUData"
+    win = MainWindow(f"replay:{folder}")
+    qtbot.addWidget(win)
+    win.show()
+    win.start()
+    try:
+        qtbot.waitUntil(lambda: win.live is not None and win.live.samples_received > 1200, timeout=30000)
+        qtbot.waitUntil(lambda: win.scene_view.vtk_widget.hint == VIEW_HINTS[POSE_UNASSIGNED], timeout=2000)
+        assert win.live.pose_source == POSE_UNASSIGNED
+        win.plots.refresh()
+        x, y = win.plots.curve_data("acc", 2)
+        newest = win.live.series(win.plots.sensor_combo.currentText(), 1.0)[0][-1]
+        assert len(x) > 100 and x[-1] == pytest.approx(newest) and np.all(np.isfinite(y))
+        assert "no data" in win.plots.title_text("gyr")
+    finally:
+        win.close()

@@ -115,3 +115,20 @@ def test_labels_are_painted_over_the_frame_where_the_provider_puts_them(view):
     view.render()
     pixels = _rgb(view.image())
     assert not ((pixels[:, :, 0] > 200) & (pixels[:, :, 1] > 200)).any()
+
+
+def test_a_hint_is_boxed_in_the_middle_of_the_picture_until_cleared(view):
+    view.render()
+    plain = _rgb(view.image())
+    view.set_hint("Waiting for data from the source…")
+    for image in (view.grab().toImage(), view.image()):
+        pixels = _rgb(image)
+        changed = np.any(pixels != plain, axis=2)
+        rows, columns = np.nonzero(changed)
+        assert len(rows) > 500  # a box with text, centred, away from the edges
+        assert abs(rows.mean() - 120.0) < 10.0 and abs(columns.mean() - 160.0) < 10.0
+        assert rows.min() > 60 and rows.max() < 180 and columns.min() > 5 and columns.max() < 315
+        white = (pixels[:, :, 0] > 220) & (pixels[:, :, 1] > 220) & (pixels[:, :, 2] > 220)
+        assert white[changed].sum() > 20  # the text
+    view.set_hint("")
+    np.testing.assert_array_equal(_rgb(view.image()), plain)

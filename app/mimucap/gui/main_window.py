@@ -32,7 +32,7 @@ from mimucap.io.calibration_store import user_data_dir
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
-from mimucap.session.live import LiveSession, open_live_session
+from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
 from mimucap.session.subject import default_recording_path
 
 log = logging.getLogger(__name__)
@@ -45,6 +45,11 @@ _kernels_ready = False
 PUMP_INTERVAL_MS = 16
 #: How often the sensor panel, tints and status bar are refreshed (ms).
 PANEL_INTERVAL_MS = 250
+#: What the 3D view says while it has no figure to show, by pose source.
+VIEW_HINTS = {
+    POSE_NONE: "Waiting for data from the source…",
+    POSE_UNASSIGNED: "No sensor is assigned to a body segment yet.\nSession → Assign Sensors…",
+}
 
 ABOUT_TEXT = (
     "<h3>MimuCap {version}</h3>"
@@ -327,6 +332,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.show_info(live.recording_info())
         self.source_status.setText(f"Source: {live.label}")
         self.pose_status.setText(f"Pose: {live.pose_source}")
+        self.scene_view.vtk_widget.set_hint(VIEW_HINTS.get(live.pose_source, ""))
         rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
         drops = sum(r.drops for r in rows)
         self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")

@@ -64,6 +64,8 @@ class VtkImageWidget(QtWidgets.QWidget):
         label_provider: called after every frame (``None``: no labels); returns the
             :class:`OverlayLabel` s to paint over it.
         label_point_size: point size of the labels' bold font.
+        hint: a message painted in a box in the middle of the picture (``""``: none), e.g.
+            what the view is waiting for; set it with :meth:`set_hint`.
 
     Signals:
         rendered(): after each frame was read back (the widget repaints itself).
@@ -97,6 +99,7 @@ class VtkImageWidget(QtWidgets.QWidget):
         self.label_provider: Callable[[], Sequence[OverlayLabel]] | None = None
         self.label_point_size = 10.0
         self._labels: tuple[OverlayLabel, ...] = ()
+        self.hint = ""
         self._label_font: tuple[tuple, QtGui.QFont, QtGui.QFontMetricsF] | None = None
         self.render_window.AddObserver(vtkCommand.EndEvent, self._on_render_end)
 
@@ -148,6 +151,13 @@ class VtkImageWidget(QtWidgets.QWidget):
         self.update()
         self.rendered.emit()
 
+    def set_hint(self, text: str) -> None:
+        """Show ``text`` in the middle of the picture (``""`` removes it); repaints only when it
+        changes."""
+        if text != self.hint:
+            self.hint = text
+            self.update()
+
     @property
     def labels(self) -> tuple[OverlayLabel, ...]:
         """The labels painted over the last frame."""
@@ -161,8 +171,30 @@ class VtkImageWidget(QtWidgets.QWidget):
         image = self._image.convertToFormat(QtGui.QImage.Format_RGB888)
         painter = QtGui.QPainter(image)  # logical pixels: the copy keeps the device pixel ratio
         self._paint_labels(painter)
+        self._paint_hint(painter, QtCore.QRectF(0.0, 0.0, image.width() / image.devicePixelRatio(),
+                                                image.height() / image.devicePixelRatio()))
         painter.end()
         return image
+
+    def _paint_hint(self, painter: QtGui.QPainter, area: QtCore.QRectF) -> None:
+        """Paint :attr:`hint` centred in ``area`` (logical pixels): white text, wrapped, on a
+        dark translucent box."""
+        if not self.hint:
+            return
+        font = QtGui.QFont(self.font())
+        font.setPointSizeF(font.pointSizeF() * 1.15)
+        painter.setFont(font)
+        width = min(area.width() - 24.0, 420.0)
+        flags = QtCore.Qt.AlignCenter | QtCore.Qt.TextWordWrap
+        text = QtGui.QFontMetricsF(font).boundingRect(QtCore.QRectF(0.0, 0.0, width, 1e4), flags, self.hint)
+        box = text.adjusted(-14.0, -10.0, 14.0, 10.0)
+        box.moveCenter(area.center())
+        painter.setRenderHint(QtGui.QPainter.Antialiasing)
+        painter.setPen(QtCore.Qt.NoPen)
+        painter.setBrush(QtGui.QColor(20, 24, 32, 200))
+        painter.drawRoundedRect(box, 6.0, 6.0)
+        painter.setPen(QtGui.QColor(255, 255, 255))
+        painter.drawText(box, flags, self.hint)
 
     def _paint_labels(self, painter: QtGui.QPainter) -> None:
         """Paint the labels with ``painter`` (logical pixels)."""
@@ -195,6 +227,7 @@ class VtkImageWidget(QtWidgets.QWidget):
         else:
             painter.drawImage(QtCore.QPoint(0, 0), self._image)
             self._paint_labels(painter)
+        self._paint_hint(painter, QtCore.QRectF(self.rect()))
         painter.end()
 
     def resizeEvent(self, event: QtGui.QResizeEvent) -> None:  # noqa: N802
