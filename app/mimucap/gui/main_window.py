@@ -332,7 +332,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.show_info(live.recording_info())
         self.source_status.setText(f"Source: {live.label}")
         self.pose_status.setText(f"Pose: {live.pose_source}")
-        self.scene_view.vtk_widget.set_hint(VIEW_HINTS.get(live.pose_source, ""))
+        self.scene_view.set_hint(VIEW_HINTS.get(live.pose_source, ""))
         rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
         drops = sum(r.drops for r in rows)
         self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")

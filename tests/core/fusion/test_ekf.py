@@ -218,3 +218,17 @@ def test_per_sensor_time_stamps(recording_factory):
     assert np.array_equal(result.q_world_from_sensor[1], alone.q_world_from_sensor)
     with pytest.raises(ValueError, match="t_s: expected shape"):
         fuse(t[:, :-1], np.stack([r.gyr for r in recs]))
+
+
+def test_state_getters_report_initialisation_attitude_uncertainty_and_learned_field(recording):
+    ekf = OrientationEKF(n_sensors=1)
+    assert not ekf.state.initialised(0) and ekf.state.magnetic_reference(0) is None
+    ekf.update_batch(recording.t_s, recording.gyr, recording.acc, recording.mag)
+    state = ekf.state
+    assert state.initialised(0)
+    std = state.attitude_std_rad(0)
+    assert std.shape == (3,) and np.all(np.isfinite(std)) and np.all(std > 0.0) and np.all(std < np.radians(5.0))
+    norm_uT, dip_rad = state.magnetic_reference(0)
+    # the recordings' field (conftest): 20 µT north, 40 µT down
+    assert norm_uT == pytest.approx(np.hypot(20.0, 40.0), rel=0.05)
+    assert dip_rad == pytest.approx(np.arctan2(40.0, 20.0), abs=np.radians(3.0))  # positive downwards

@@ -99,6 +99,19 @@ class FusionState:
         """Every sensor's :meth:`counters` as they are now (decoded when read)."""
         return SensorCounters(self.aux)
 
+    def initialised(self, sensor: int = 0) -> bool:
+        return bool(self.aux[sensor, AX_INIT] > 0.0)
+
+    def magnetic_reference(self, sensor: int = 0) -> tuple[float, float] | None:
+        """Learned reference ``(norm_uT, dip_rad)`` (dip positive downwards) or ``None``."""
+        if self.aux[sensor, AX_MAG_REF_OK] <= 0.0:
+            return None
+        return float(self.aux[sensor, AX_MAG_NORM_REF]), float(self.aux[sensor, AX_MAG_DIP_REF])
+
+    def attitude_std_rad(self, sensor: int = 0) -> np.ndarray:
+        """Standard deviations (3,) of the world-frame attitude error (rad): x, y tilt, z heading."""
+        return np.sqrt(np.clip(np.diag(self.cov[sensor])[:3], 0.0, None))
+
 
 def _decode_counters(aux_row: np.ndarray) -> dict[str, int]:
     row = aux_row.tolist()  # one conversion instead of one numpy scalar per counter
@@ -120,19 +133,6 @@ class SensorCounters(Sequence):
         if isinstance(sensor, slice):
             return [self[s] for s in range(*sensor.indices(len(self)))]
         return _decode_counters(self._aux[sensor])
-
-    def initialised(self, sensor: int = 0) -> bool:
-        return bool(self.aux[sensor, AX_INIT] > 0.0)
-
-    def magnetic_reference(self, sensor: int = 0) -> tuple[float, float] | None:
-        """Learned reference ``(norm_uT, dip_rad)`` (dip positive downwards) or ``None``."""
-        if self.aux[sensor, AX_MAG_REF_OK] <= 0.0:
-            return None
-        return float(self.aux[sensor, AX_MAG_NORM_REF]), float(self.aux[sensor, AX_MAG_DIP_REF])
-
-    def attitude_std_rad(self, sensor: int = 0) -> np.ndarray:
-        """Standard deviations (3,) of the world-frame attitude error (rad): x, y tilt, z heading."""
-        return np.sqrt(np.clip(np.diag(self.cov[sensor])[:3], 0.0, None))
 
 
 def decode_flags(flags: np.ndarray) -> dict[str, np.ndarray]:

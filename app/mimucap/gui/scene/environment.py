@@ -47,13 +47,28 @@ BACKGROUND = (0.25, 0.28, 0.34)
 GRID_COLOUR = (0.62, 0.65, 0.70)
 
 
+def _line_positions(size_m: float, spacing_m: float) -> np.ndarray:
+    """Where a square grid ``size_m`` wide, centred on the origin, has its lines: every
+    ``spacing_m`` from ``-size_m / 2`` to ``size_m / 2`` (metres)."""
+    half = size_m / 2.0
+    return np.linspace(-half, half, int(round(size_m / spacing_m)) + 1)
+
+
+def _placed_at(matrix: np.ndarray, origin_world_m) -> np.ndarray:
+    """The ``(4, 4)`` world→scene ``matrix`` for a piece built around the world origin and
+    standing at ``origin_world_m`` ``(3,)`` instead (world ENU, metres)."""
+    placed = matrix.copy()
+    placed[:3, 3] = matrix[:3, :3] @ np.asarray(origin_world_m, dtype=float) + matrix[:3, 3]
+    return placed
+
+
 def _grid_lines(size_m: float, spacing_m: float) -> vtkPolyData:
     """A square grid of straight line cells, ``size_m`` wide with a line every ``spacing_m``
     along x and along y (world, metres, on the floor, centred on the origin).
 
     Plain line cells are far cheaper to draw on software OpenGL than a wireframe plane."""
     half = size_m / 2.0
-    across = np.linspace(-half, half, int(round(size_m / spacing_m)) + 1)
+    across = _line_positions(size_m, spacing_m)
     n = len(across)
     points = np.zeros((4 * n, 3))  # lines along y (x = c), then along x (y = c); two ends each
     points[0:2 * n:2, :2] = np.c_[across, np.full(n, -half)]
@@ -70,7 +85,7 @@ def _fading_patch_lines(size_m: float, spacing_m: float, coarse_spacing_m: float
     patch's edge, then linearly towards :data:`BACKGROUND`, reached at the edge (distance from
     the centre measured as ``max(|x|, |y|)``, the patch's square shape)."""
     half = size_m / 2.0
-    across = np.linspace(-half, half, int(round(size_m / spacing_m)) + 1)
+    across = _line_positions(size_m, spacing_m)
     on_coarse = np.isclose(np.remainder(across + coarse_spacing_m / 2.0, coarse_spacing_m), coarse_spacing_m / 2.0)
     kept = across[~on_coarse]
     n_lines, n_points = len(kept), len(across)
@@ -230,10 +245,8 @@ class Stage:
         self._placed = matrix.copy()
         self._patch_centre = centre
         self.world_matrix.DeepCopy(matrix.ravel())
-        patch = matrix.copy()
-        patch[:3, 3] = matrix[:3, :3] @ (centre[0], centre[1], 0.0) + matrix[:3, 3]
-        self.patch_matrix.DeepCopy(patch.ravel())
-        axes = self._axes_placement()
+        self.patch_matrix.DeepCopy(_placed_at(matrix, (centre[0], centre[1], 0.0)).ravel())
+        axes = _placed_at(matrix, AXES_ORIGIN_WORLD_M)
         self.axes_matrix.DeepCopy(axes.ravel())
         self._label_points = (AXIS_LABEL_POSITION * AXES_LENGTH_M) * axes[:3, :3].T + axes[:3, 3]
         for actor in (self.grid, self.fine_grid, self.axes):
@@ -243,13 +256,6 @@ class Stage:
     def fine_patch_centre(self) -> tuple[float, float]:
         """World E, N (m) of the centre of the fine floor patch."""
         return self._patch_centre
-
-    def _axes_placement(self) -> np.ndarray:
-        """The axes' ``(4, 4)`` world→scene matrix: the world matrix, origin moved to
-        :data:`AXES_ORIGIN_WORLD_M`."""
-        placed = self._placed.copy()
-        placed[:3, 3] = self._placed[:3, :3] @ np.asarray(AXES_ORIGIN_WORLD_M) + self._placed[:3, 3]
-        return placed
 
     def axis_label_points(self) -> tuple[tuple[str, ...], np.ndarray]:
         """The names of the world axes shown and where they stand, ``(n, 3)`` (scene frame,

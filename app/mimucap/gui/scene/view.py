@@ -206,6 +206,10 @@ class SceneView(QtWidgets.QWidget):
                 labels.append(OverlayLabel(name, x, height - y))
         return labels
 
+    def set_hint(self, text: str) -> None:
+        """Say ``text`` in the middle of the view (``""``: nothing), e.g. why it shows no figure."""
+        self.vtk_widget.set_hint(text)
+
     def _move_camera(self, shift) -> None:
         """Translate camera and focal point by ``shift`` (scene, m): the user's turn and zoom stay."""
         if not any(shift):
