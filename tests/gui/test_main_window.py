@@ -146,8 +146,15 @@ def test_the_fusion_kernels_are_prepared_off_the_gui_thread_before_the_first_sta
         threads.append(threading.current_thread())
         assert release.wait(20)
 
+    class SlowPreparation:
+        def run(self):
+            slow_compile()
+
+        def cancel(self):
+            release.set()
+
     monkeypatch.setattr(module, "_kernels_ready", False)
-    monkeypatch.setattr(module, "compile_kernels", slow_compile)
+    monkeypatch.setattr(module, "KernelPreparation", SlowPreparation)
     win = MainWindow("simulated:demo")
     qtbot.addWidget(win)
     win.show()
@@ -173,23 +180,33 @@ def test_the_fusion_kernels_are_prepared_off_the_gui_thread_before_the_first_sta
         win.close()
 
 
-def test_closing_while_the_kernels_are_prepared_waits_for_them(qtbot, monkeypatch):
+def test_closing_while_the_kernels_are_prepared_stops_the_preparation_and_waits_for_it(qtbot, monkeypatch):
     import threading
 
     from PyQt5 import QtCore
 
     from mimucap.gui import main_window as module
 
-    release = threading.Event()
+    cancelled = threading.Event()
+    finished = []
+
+    class Preparation:  # as KernelPreparation: run() blocks until the child ends or cancel()
+        def run(self):
+            cancelled.wait(20)
+            finished.append(True)
+
+        def cancel(self):
+            cancelled.set()
+
     monkeypatch.setattr(module, "_kernels_ready", False)
-    monkeypatch.setattr(module, "compile_kernels", lambda: release.wait(20))
+    monkeypatch.setattr(module, "KernelPreparation", Preparation)
     win = MainWindow("simulated:demo")
     qtbot.addWidget(win)
     win.show()
     win.start()
     qtbot.waitUntil(lambda: win._warm_up is not None and win._warm_up.isRunning(), timeout=5000)
-    threading.Timer(0.3, release.set).start()
-    win.close()  # returns once the compile thread has finished: no thread destroyed while running
+    win.close()  # cancels, and returns once the thread has finished: none destroyed while running
+    assert cancelled.is_set() and finished == [True]
     assert not win._warm_up.isRunning() and not win.isVisible()
     assert not win.live or not win.live.started
     QtCore.QCoreApplication.processEvents()

@@ -17,7 +17,6 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap import __version__
-from mimucap.core.fusion.warmup import compile_kernels
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import save_window_png
@@ -32,6 +31,7 @@ from mimucap.io.calibration_store import user_data_dir
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
+from mimucap.session.kernel_preparation import KernelPreparation
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
 from mimucap.session.subject import default_recording_path
 
@@ -107,6 +107,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._last_record_message = ""
         self.saving_tasks: list[BackgroundTask] = []
         self._warm_up: BackgroundTask | None = None
+        self._preparation: KernelPreparation | None = None
         self.last_recording = None  # RecordingResult of the last recording saved
 
         self.scene_view = SceneView(self)
@@ -269,13 +270,16 @@ class MainWindow(QtWidgets.QMainWindow):
     def start(self) -> None:
         """Start the source, pumping, rendering and refreshing (call after ``show()``).
 
-        The first time in a process, the fusion kernels are compiled first, in a background
-        thread (seconds on a fresh install, milliseconds once numba's cache holds them), so
-        that the GUI thread never compiles them on the first sample."""
+        The first time in a process, the fusion kernels are prepared first, by a background
+        thread that has them compiled in a child process and then loads them from numba's
+        cache (:mod:`mimucap.session.kernel_preparation`: seconds on a fresh install,
+        milliseconds later), so that the GUI thread never compiles them on the first sample
+        and the compiler never holds it up."""
         global _kernels_ready
         if not _kernels_ready:
             if self._warm_up is None:
-                self._warm_up = BackgroundTask(lambda _progress: compile_kernels(), self)
+                self._preparation = KernelPreparation()
+                self._warm_up = BackgroundTask(lambda _progress: self._preparation.run(), self)
                 self._warm_up.succeeded.connect(self._kernels_compiled)
                 self._warm_up.failed.connect(self._kernels_compiled)  # then they compile on first use
                 self._warm_up.start()
@@ -556,7 +560,8 @@ class MainWindow(QtWidgets.QMainWindow):
         if self._warm_up is not None and self._warm_up.isRunning():
             self._warm_up.succeeded.disconnect()
             self._warm_up.failed.disconnect()
-            self._warm_up.wait()  # compiling cannot be interrupted; it is kept in the cache
+            self._preparation.cancel()  # stops the compiling child; what it cached is kept
+            self._warm_up.wait()
         self._pump.stop()
         self._panel_timer.stop()
         self.plots.stop()

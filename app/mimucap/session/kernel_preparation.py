@@ -1,0 +1,113 @@
+"""Prepare the fusion kernels for this process without holding up its other threads.
+
+On a fresh install numba compiles the fusion kernels on their first call (15-20 s on the
+2-core CI machine, :mod:`mimucap.core.fusion.warmup`). Compiled in a thread of the GUI
+process, that work holds Python's global interpreter lock in long stretches: the window froze
+for 1.4 s at a time, twice, during a cold start. So :func:`prepare_fusion_kernels` compiles
+them in a child process (started with ``spawn``, like the acquisition workers), which leaves
+the compiled code in numba's on-disk cache (``cache=True``; the same cache directory for both
+processes, since it is chosen from the kernels' source files and the environment). This
+process then loads them from that cache, which takes milliseconds. When the cache holds them
+already (every start but the first), no child is started
+(:func:`~mimucap.core.fusion.warmup.load_cached_kernels`).
+
+If the child fails, or ends without leaving a usable cache (a read-only install without a
+writable user cache, for example), the kernels are compiled in the calling thread, as before:
+slower for the GUI, never wrong. :class:`KernelPreparation` reports which way was taken.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import time
+from dataclasses import dataclass
+
+from mimucap.core.fusion.warmup import compile_kernels, load_cached_kernels
+
+log = logging.getLogger(__name__)
+
+#: Longest wait (s) for the compiling child before this process compiles the kernels itself.
+CHILD_TIMEOUT_S = 300.0
+
+
+@dataclass(frozen=True)
+class PreparationReport:
+    """How the kernels were made ready: ``cached`` they were all in numba's cache already (no
+    child was started); else ``child_exit_code`` of the compiling child (``None`` if it was
+    stopped), ``child_s`` its wall time (s); ``load_s`` the wall time (s) of the first calls
+    in this process (milliseconds when they came from the cache)."""
+
+    child_exit_code: int | None
+    child_s: float
+    load_s: float
+    cached: bool = False
+
+    @property
+    def compiled_in_child(self) -> bool:
+        return self.child_exit_code == 0
+
+
+class KernelPreparation:
+    """Compiles the fusion kernels in a child process, then loads them here.
+
+    :meth:`run` blocks (call it off the GUI thread); :meth:`cancel`, from any thread, stops
+    the child (a window closing during a first start need not wait for the compiler) and
+    makes :meth:`run` return without compiling here.
+    """
+
+    def __init__(self, timeout_s: float = CHILD_TIMEOUT_S) -> None:
+        if not timeout_s > 0:
+            raise ValueError(f"KernelPreparation: timeout_s must be > 0 s, got {timeout_s}")
+        self.timeout_s = float(timeout_s)
+        self._process = None
+        self._cancelled = False
+
+    def run(self) -> PreparationReport | None:
+        """Load the kernels from the cache if it holds them all; otherwise compile them in a
+        child, then load them here. ``None`` if cancelled before loading."""
+        if self._cancelled:
+            return None
+        loading = time.monotonic()
+        if load_cached_kernels():
+            return PreparationReport(None, 0.0, time.monotonic() - loading, cached=True)
+        started = time.monotonic()
+        exit_code = self._compile_in_child()
+        child_s = time.monotonic() - started
+        if self._cancelled:
+            return None
+        if exit_code != 0:
+            log.warning("compiling the fusion kernels in a child process failed (exit code %s); "
+                        "compiling them in this process", exit_code)
+        loading = time.monotonic()
+        compile_kernels()
+        return PreparationReport(exit_code, child_s, time.monotonic() - loading)
+
+    def cancel(self) -> None:
+        self._cancelled = True
+        process = self._process
+        if process is not None and process.is_alive():
+            process.terminate()
+
+    def _compile_in_child(self) -> int | None:
+        if self._cancelled:
+            return None
+        context = multiprocessing.get_context("spawn")
+        process = context.Process(target=compile_kernels, name="mimucap-compile-kernels", daemon=True)
+        self._process = process
+        try:
+            process.start()
+        except OSError as error:
+            log.warning("could not start a process to compile the fusion kernels: %s", error)
+            return None
+        process.join(self.timeout_s)
+        if process.is_alive():
+            process.terminate()
+            process.join(5.0)
+            return None
+        return process.exitcode
+
+
+def prepare_fusion_kernels(timeout_s: float = CHILD_TIMEOUT_S) -> PreparationReport | None:
+    """:meth:`KernelPreparation.run` of a new preparation (see the module doc)."""
+    return KernelPreparation(timeout_s).run()
