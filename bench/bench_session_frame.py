@@ -5,15 +5,15 @@ Plain script: ``.venv/bin/python bench/bench_session_frame.py [--seconds S] [--w
 
 A :class:`~mimucap.session.live.LiveSession` on the in-process simulated suit
 (``simulated:walk``, 100 Hz; 17 sensors wear the fifteen-segment model, 10 the ten-segment
-one) is driven by a fake monotonic clock in 10 ms ticks, as the GUI's pump timer does, so the
-figures do not depend on the machine's load. Each tick runs :meth:`LiveSession.step`; then,
-as the GUI's timers would:
+one) is driven by a fake monotonic clock in 16 ms ticks, as the GUI's frame clock
+(``mimucap.gui.main_window.PUMP_INTERVAL_MS``) does, so the figures do not depend on the
+machine's load. Each tick runs :meth:`LiveSession.step`; then, as the GUI's timers would:
 
-* every tick (a new pose at up to 100 Hz; the 3D view asks at 60 Hz): :meth:`LiveSession.frame`
+* every tick (the 3D view draws the new pose at 62.5 frames/s): :meth:`LiveSession.frame`
   (forward kinematics and the figure's matrices);
-* every third tick (the plots at ~30 Hz, ~3 poses each): :meth:`LiveSession.joint_series` of
-  the first joint, which computes the joint angles of the poses since the last call;
-* every 25th tick (the panel at 4 Hz): :meth:`LiveSession.sensor_rows`.
+* every second tick (the plots at ~31 Hz, two poses each): :meth:`LiveSession.joint_series`
+  of the first joint, which computes the joint angles of the poses since the last call;
+* every 16th tick (the panel at ~4 Hz): :meth:`LiveSession.sensor_rows`.
 
 Two pose sources are measured: the simulator's truth (the default before a body calibration)
 and a body calibration with the suit's true mounting (fusion → calibration → segments).
@@ -34,13 +34,14 @@ from mimucap.core import skeleton
 from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
 from mimucap.session.live import LiveSession, open_live_session
 
-TICK_S = 0.010
+#: The GUI's frame clock (s): one pipeline step and one 3D frame per tick.
+TICK_S = 0.016
 WARMUP_S = 1.0
 #: Per-call targets (ms) that keep the GUI process under half a core.
 TARGETS_MS = {"frame": 0.5, "angles": 1.0, "sensor_rows": 1.0}
-#: How often the GUI calls each (3D view at 60 frames/s, plots at 30 Hz, pump at 100 Hz,
-#: panel at 4 Hz).
-CALLS_PER_S = {"frame": 60.0, "angles": 30.0, "step": 100.0, "sensor_rows": 4.0}
+#: How often the GUI calls each (per second): a step and a frame per tick, the plots' joint
+#: angles every second tick, the panel every 16th.
+CALLS_PER_S = {"frame": 1 / TICK_S, "angles": 1 / (2 * TICK_S), "step": 1 / TICK_S, "sensor_rows": 1 / (16 * TICK_S)}
 
 
 def _known_mounting_calibration(session: LiveSession) -> BodyCalibration:
@@ -87,9 +88,9 @@ def run(n_sensors: int, seconds: float, body_calibration: bool, warmup_s: float 
             poll_at_start = timed_poll.total_s
         now[0] += TICK_S
         calls = [("step", session.step), ("frame", session.frame)]
-        if tick % 3 == 0:
+        if tick % 2 == 0:
             calls.append(("angles", lambda: session.joint_series(joint, 10.0)))
-        if tick % 25 == 0:
+        if tick % 16 == 0:
             calls.append(("sensor_rows", session.sensor_rows))
         for name, call in calls:
             start = time.thread_time()
@@ -117,9 +118,9 @@ def main() -> int:
                              "that sensor_rows summarises)")
     args = parser.parse_args()
     columns = ("frame", "angles", "step", "poll", "pipeline", "sensor_rows")
-    print(f"Live session per-call CPU time (ms, mean over {args.seconds:.0f} s of 10 ms ticks after "
+    print(f"Live session per-call CPU time (ms, mean over {args.seconds:.0f} s of {1000 * TICK_S:.0f} ms ticks after "
           f"{args.warmup:.0f} s warm-up); ratio = target / measured (> 1 is better); core % = share of one "
-          f"core at the GUI's call rates ({', '.join(f'{k} {v:g}/s' for k, v in CALLS_PER_S.items())})")
+          f"core at the GUI's call rates ({', '.join(f'{k} {v:.3g}/s' for k, v in CALLS_PER_S.items())})")
     print(f"{'load':<42}" + "".join(f"{name if name in TARGETS_MS or name == 'step' else f'({name})':>13}"
                                     for name in columns) + f"{'core %':>9}")
     for n in args.sensors:
