@@ -75,3 +75,34 @@ def test_a_cancelled_preparation_starts_no_child_and_loads_nothing():
 def test_a_timeout_must_be_positive():
     with pytest.raises(ValueError, match="timeout_s must be > 0"):
         KernelPreparation(timeout_s=0.0)
+
+
+def test_only_the_preparing_thread_is_refused_compilation(monkeypatch):
+    """While the preparation checks the cache, another thread (a review window loading a
+    recording, say) may still compile: the refusal is for the preparing thread alone."""
+    import threading
+
+    from numba import njit
+
+    from mimucap.session import kernel_preparation as module
+
+    compiled_elsewhere = []
+
+    def warm_up_while_another_thread_compiles():
+        @njit(cache=False)
+        def twice(x):
+            return 2.0 * x
+
+        other = threading.Thread(target=lambda: compiled_elsewhere.append(twice(1.5)))
+        other.start()
+        other.join()
+
+        @njit(cache=False)
+        def thrice(x):   # compiled by the preparing thread itself: refused
+            return 3.0 * x
+
+        thrice(1.0)
+
+    monkeypatch.setattr(module, "compile_kernels", warm_up_while_another_thread_compiles)
+    assert module.load_cached_kernels() is False
+    assert compiled_elsewhere == [3.0]

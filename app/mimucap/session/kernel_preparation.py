@@ -3,13 +3,15 @@
 On a fresh install numba compiles the fusion kernels on their first call (15-20 s on the
 2-core CI machine, :mod:`mimucap.core.fusion.warmup`). Compiled in a thread of the GUI
 process, that work holds Python's global interpreter lock in long stretches: the window froze
-for 1.4 s at a time, twice, during a cold start. So :func:`prepare_fusion_kernels` compiles
-them in a child process (started with ``spawn``, like the acquisition workers), which leaves
+for 1.3-1.5 s at a time, twice, during a cold start (``bench/bench_cold_start.py``). So
+:func:`prepare_fusion_kernels` compiles them in a child process (started with ``spawn``, like
+the acquisition workers), which leaves
 the compiled code in numba's on-disk cache (``cache=True``; the same cache directory for both
 processes, since it is chosen from the kernels' source files and the environment). This
 process then loads them from that cache, which takes milliseconds. When the cache holds them
-already (every start but the first), no child is started
-(:func:`~mimucap.core.fusion.warmup.load_cached_kernels`).
+already (every start but the first), no child is started: :func:`load_cached_kernels` makes
+the warm-up's calls while refusing any compilation in its thread, which tells in milliseconds
+whether one is due.
 
 If the child fails, or ends without leaving a usable cache (a read-only install without a
 writable user cache, for example), the kernels are compiled in the calling thread, as before:
@@ -20,10 +22,13 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import threading
 import time
 from dataclasses import dataclass
 
-from mimucap.core.fusion.warmup import compile_kernels, load_cached_kernels
+from numba.core import event
+
+from mimucap.core.fusion.warmup import compile_kernels
 
 log = logging.getLogger(__name__)
 
@@ -106,6 +111,38 @@ class KernelPreparation:
             process.join(5.0)
             return None
         return process.exitcode
+
+
+class _CompilationRefused(Exception):
+    """A kernel was about to be compiled where only loading it from the cache was allowed."""
+
+
+class _RefuseCompilation(event.Listener):
+    """numba event listener that stops, at its start, any compilation made by one thread
+    (numba's listeners hear every thread: another thread's compilations go on)."""
+
+    def __init__(self, thread_id: int) -> None:
+        self.thread_id = thread_id
+
+    def on_start(self, compilation: event.Event) -> None:
+        if threading.get_ident() == self.thread_id:
+            raise _CompilationRefused(str(compilation.data.get("dispatcher")))
+
+    def on_end(self, compilation: event.Event) -> None:
+        pass
+
+
+def load_cached_kernels() -> bool:
+    """Make :func:`~mimucap.core.fusion.warmup.compile_kernels`'s calls in this thread if
+    numba's on-disk cache holds every kernel they need: ``True`` when all were loaded from it,
+    ``False`` (at the first kernel missing from the cache, without compiling it) otherwise.
+    Milliseconds either way."""
+    try:
+        with event.install_listener("numba:compile", _RefuseCompilation(threading.get_ident())):
+            compile_kernels()
+    except _CompilationRefused:
+        return False
+    return True
 
 
 def prepare_fusion_kernels(timeout_s: float = CHILD_TIMEOUT_S) -> PreparationReport | None:

@@ -5,14 +5,11 @@ cache, about 10 ms once the compiled code is cached on disk (``cache=True``, und
 ``__pycache__`` or numba's user cache directory). The first call of a fresh install would
 therefore stall whatever thread makes it. :func:`compile_kernels` makes those first calls on
 a few samples of a resting sensor, so an application can run it off its GUI thread at start.
-:func:`load_cached_kernels` makes the same calls only as far as the cache serves them: it
-tells, in milliseconds, whether a compilation is due, without doing it.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from numba.core import event
 
 from mimucap.core.fusion.ekf import OrientationEKF
 from mimucap.core.fusion.offline import fuse_offline
@@ -31,32 +28,3 @@ def compile_kernels() -> None:
     for use_mag in (True, False):
         OrientationEKF(use_mag=use_mag).update_batch(t, gyr, acc, mag if use_mag else None)
     fuse_offline(t, gyr, acc, mag)
-
-
-class _CompilationRefused(Exception):
-    """A kernel was about to be compiled where only loading it from the cache was allowed."""
-
-
-class _RefuseCompilation(event.Listener):
-    """numba event listener that stops any compilation at its start (nothing is compiled)."""
-
-    def on_start(self, compilation: event.Event) -> None:
-        raise _CompilationRefused(str(compilation.data.get("dispatcher")))
-
-    def on_end(self, compilation: event.Event) -> None:
-        pass
-
-
-def load_cached_kernels() -> bool:
-    """Make :func:`compile_kernels`'s calls if numba's on-disk cache holds every kernel they
-    need: ``True`` when all were loaded from it, ``False`` (at the first kernel missing from
-    the cache, without compiling it) otherwise. Milliseconds either way.
-
-    While it runs, no other thread of the process may compile a numba function either (the
-    refusal listens to every compilation of the process)."""
-    try:
-        with event.install_listener("numba:compile", _RefuseCompilation()):
-            compile_kernels()
-    except _CompilationRefused:
-        return False
-    return True
