@@ -5,10 +5,10 @@ On a fresh install numba compiles the fusion kernels on their first call (15-20 
 process, that work holds Python's global interpreter lock in long stretches: the window froze
 for 1.3-1.5 s at a time, twice, during a cold start (``bench/bench_cold_start.py``). So
 :func:`prepare_fusion_kernels` compiles them in a child process (started with ``spawn``, like
-the acquisition workers), which leaves
-the compiled code in numba's on-disk cache (``cache=True``; the same cache directory for both
-processes, since it is chosen from the kernels' source files and the environment). This
-process then loads them from that cache, which takes milliseconds. When the cache holds them
+the acquisition workers), which leaves the compiled code in numba's on-disk cache
+(``cache=True``; the same cache directory for both processes, since it is chosen from the
+kernels' source files and the environment). This process then loads them from that cache,
+which takes milliseconds. When the cache holds them
 already (every start but the first), no child is started: :func:`load_cached_kernels` makes
 the warm-up's calls while refusing any compilation in its thread, which tells in milliseconds
 whether one is due.
