@@ -57,6 +57,26 @@ def test_a_child_that_does_not_finish_in_time_is_stopped_and_the_kernels_are_com
     assert preparation._process is not None and not preparation._process.is_alive()
 
 
+def test_cancelling_while_the_child_starts_stops_it_and_compiles_nothing_here(monkeypatch):
+    import threading
+    import time
+
+    from mimucap.session import kernel_preparation as module
+
+    monkeypatch.setattr(module, "load_cached_kernels", lambda: False)  # as if the cache were empty
+    preparation = KernelPreparation()
+    outcome = []
+    worker = threading.Thread(target=lambda: outcome.append(preparation.run()))
+    worker.start()
+    deadline = time.monotonic() + 10.0
+    while preparation._process is None and time.monotonic() < deadline:
+        time.sleep(0.001)
+    preparation.cancel()   # the child is still starting (spawn re-imports the package)
+    worker.join(10.0)
+    assert not worker.is_alive() and outcome == [None]
+    assert preparation._process.exitcode is not None and preparation._process.exitcode < 0  # terminated
+
+
 def test_with_every_kernel_in_the_cache_no_child_is_started():
     from mimucap.core.fusion.warmup import compile_kernels
 

@@ -34,6 +34,8 @@ log = logging.getLogger(__name__)
 
 #: Longest wait (s) for the compiling child before this process compiles the kernels itself.
 CHILD_TIMEOUT_S = 300.0
+#: How often (s) the wait for the child looks whether the preparation was cancelled.
+CANCEL_POLL_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -66,12 +68,12 @@ class KernelPreparation:
             raise ValueError(f"KernelPreparation: timeout_s must be > 0 s, got {timeout_s}")
         self.timeout_s = float(timeout_s)
         self._process = None
-        self._cancelled = False
+        self._cancel = threading.Event()
 
     def run(self) -> PreparationReport | None:
         """Load the kernels from the cache if it holds them all; otherwise compile them in a
         child, then load them here. ``None`` if cancelled before loading."""
-        if self._cancelled:
+        if self._cancel.is_set():
             return None
         loading = time.monotonic()
         if load_cached_kernels():
@@ -79,7 +81,7 @@ class KernelPreparation:
         started = time.monotonic()
         exit_code = self._compile_in_child()
         child_s = time.monotonic() - started
-        if self._cancelled:
+        if self._cancel.is_set():
             return None
         if exit_code != 0:
             log.warning("compiling the fusion kernels in a child process failed (exit code %s); "
@@ -89,13 +91,14 @@ class KernelPreparation:
         return PreparationReport(exit_code, child_s, time.monotonic() - loading)
 
     def cancel(self) -> None:
-        self._cancelled = True
-        process = self._process
-        if process is not None and process.is_alive():
-            process.terminate()
+        """Stop the preparation: the child is terminated (now, or as soon as :meth:`run` has
+        started it) and nothing is compiled here."""
+        self._cancel.set()
 
     def _compile_in_child(self) -> int | None:
-        if self._cancelled:
+        """The child's exit code, or ``None`` if it was stopped (cancelled, timed out) or could
+        not start."""
+        if self._cancel.is_set():
             return None
         context = multiprocessing.get_context("spawn")
         process = context.Process(target=compile_kernels, name="mimucap-compile-kernels", daemon=True)
@@ -105,7 +108,11 @@ class KernelPreparation:
         except OSError as error:
             log.warning("could not start a process to compile the fusion kernels: %s", error)
             return None
-        process.join(self.timeout_s)
+        deadline = time.monotonic() + self.timeout_s
+        # Waiting on the cancel event too: a cancel() at any moment, even while the child was
+        # starting, stops it within CANCEL_POLL_S.
+        while process.is_alive() and time.monotonic() < deadline and not self._cancel.is_set():
+            process.join(min(CANCEL_POLL_S, max(deadline - time.monotonic(), 0.0)))
         if process.is_alive():
             process.terminate()
             process.join(5.0)

@@ -24,7 +24,7 @@ from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
 from vtkmodules.vtkFiltersSources import vtkConeSource, vtkCylinderSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkLight, vtkPolyDataMapper, vtkRenderer
 
-from mimucap.gui.scene.polydata import polydata
+from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata
 
 #: The floor grid (m): coarse lines over the whole floor, fine ones over a square patch around
 #: the figure. Far away, fine lines crowd into a grey band that software OpenGL rasterises
@@ -175,9 +175,7 @@ def _line_actor(lines: vtkPolyData, user_matrix: vtkMatrix4x4) -> vtkActor:
     mapper.SetInputData(lines)
     mapper.SetResolveCoincidentTopologyToPolygonOffset()
     if lines.GetPointData().GetScalars() is not None:
-        mapper.SetColorModeToDirectScalars()
-        mapper.SetScalarModeToUsePointData()
-        mapper.ScalarVisibilityOn()
+        colour_by_point_rgb(mapper)
     actor = vtkActor()
     actor.SetMapper(mapper)
     prop = actor.GetProperty()
@@ -220,8 +218,7 @@ class Stage:
         self._axes_mesh = _axes_mesh()
         axes_mapper = vtkPolyDataMapper()
         axes_mapper.SetInputData(self._axes_mesh)
-        axes_mapper.SetColorModeToDirectScalars()
-        axes_mapper.SetScalarModeToUsePointData()
+        colour_by_point_rgb(axes_mapper)
         self.axes = vtkActor()
         self.axes.SetMapper(axes_mapper)
         axes_prop = self.axes.GetProperty()

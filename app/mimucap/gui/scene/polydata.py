@@ -2,7 +2,8 @@
 
 :func:`polydata` takes the points as a VTK array (often sharing memory with a numpy array
 that is moved in place every frame) and the cells as an ``(m, k)`` integer array of point
-indices: ``k`` = 1 vertices, 2 lines, 3 triangles.
+indices: ``k`` = 1 vertices, 2 lines, 3 triangles. :func:`colour_by_point_rgb` has a mapper
+draw such a polydata in the RGB bytes of its point scalars.
 """
 
 from __future__ import annotations
@@ -33,3 +34,10 @@ def polydata(points_array, cells: NDArray[np.int64]) -> vtkPolyData:
     result.SetPoints(points)
     _SET_CELLS[size](result, cell_array)
     return result
+
+
+def colour_by_point_rgb(mapper) -> None:
+    """Have ``mapper`` colour by its input's point scalars, RGB bytes used as they are."""
+    mapper.SetColorModeToDirectScalars()
+    mapper.SetScalarModeToUsePointData()
+    mapper.ScalarVisibilityOn()

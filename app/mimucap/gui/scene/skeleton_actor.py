@@ -32,7 +32,7 @@ from vtkmodules.vtkFiltersSources import vtkCylinderSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLSphereMapper
 
-from mimucap.gui.scene.polydata import polydata
+from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata
 from mimucap.session.figure import FigureBuilder, FigureGeometry
 
 #: Segment colour (RGB 0..1) for each sensor state (see ``mimucap.session.sensor_status``).
@@ -117,13 +117,6 @@ class _Batch:
         return (self.template.triangles[None, :, :] + offsets[:, None, None]).reshape(-1, 3)
 
 
-def _colour_by_scalars(mapper) -> None:
-    """Colour by the RGB bytes of the point scalars, as they are."""
-    mapper.SetColorModeToDirectScalars()
-    mapper.SetScalarModeToUsePointData()
-    mapper.ScalarVisibilityOn()
-
-
 def _figure_actor(mapper) -> vtkActor:
     """A hidden actor with the figure's material (:data:`AMBIENT`, :data:`DIFFUSE`,
     :data:`SPECULAR`, :data:`SPECULAR_POWER`): what VTK lights the spheres with, and what
@@ -174,7 +167,7 @@ class SkeletonActor:
         self.polydata.GetPointData().SetScalars(self._vtk_shaded)
         mapper = vtkPolyDataMapper()
         mapper.SetInputData(self.polydata)
-        _colour_by_scalars(mapper)
+        colour_by_point_rgb(mapper)
         self.actor = _figure_actor(mapper)
         self.actor.GetProperty().LightingOff()  # lit by shade()
         # Closed shapes (the open capsule ends sit inside the joint spheres): their far sides
@@ -199,7 +192,7 @@ class SkeletonActor:
         sphere_mapper = vtkOpenGLSphereMapper()
         sphere_mapper.SetInputData(self.sphere_polydata)
         sphere_mapper.SetScaleArray("radius")
-        _colour_by_scalars(sphere_mapper)
+        colour_by_point_rgb(sphere_mapper)
         self.sphere_actor = _figure_actor(sphere_mapper)
         self._tints: dict[str, str] = {}
         for actor in (self.actor, self.sphere_actor):
