@@ -6,11 +6,11 @@ import math
 
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.sensor_panel import SensorPanel
-from mimucap.gui.source_dialog import SourceDialog, last_skeleton_model, last_source_spec
+from mimucap.gui.source_dialog import SourceDialog, last_skeleton_model, last_source_spec, remember_source
 from mimucap.session.live import SensorRow
 
 
-def test_source_dialog_builds_checks_and_remembers_specs(qtbot):
+def test_source_dialog_builds_checks_and_starts_from_the_remembered_spec(qtbot):
     assert last_source_spec() == "simulated:demo"  # first start: the simulated suit
     dialog = SourceDialog(None)
     qtbot.addWidget(dialog)
@@ -27,6 +27,8 @@ def test_source_dialog_builds_checks_and_remembers_specs(qtbot):
     dialog.serial_device.setText("/dev/serial/by-id/usb-node")
     dialog.accept()
     assert dialog.spec == "serial:/dev/serial/by-id/usb-node@230400"
+    assert last_source_spec() == "simulated:demo"  # remembered by the window once the source opened
+    remember_source(dialog.spec, dialog.model_name)
     assert last_source_spec() == dialog.spec
     again = SourceDialog(None)
     qtbot.addWidget(again)
@@ -35,14 +37,16 @@ def test_source_dialog_builds_checks_and_remembers_specs(qtbot):
     assert again.current_spec() == "replay:/data/s.h5@2"
 
 
-def test_source_dialog_asks_for_the_skeleton_and_remembers_it(qtbot):
+def test_source_dialog_asks_for_the_skeleton_and_starts_from_the_remembered_one(qtbot):
     assert last_skeleton_model() == "ten_segment"
     dialog = SourceDialog(None)
     qtbot.addWidget(dialog)
     assert dialog.model_combo.currentData() == "ten_segment"
     dialog.model_combo.setCurrentIndex(dialog.model_combo.findData("fifteen_segment"))
     dialog.accept()
-    assert dialog.model_name == "fifteen_segment" and last_skeleton_model() == "fifteen_segment"
+    assert dialog.model_name == "fifteen_segment" and last_skeleton_model() == "ten_segment"
+    remember_source(dialog.spec, dialog.model_name)
+    assert last_skeleton_model() == "fifteen_segment"
     again = SourceDialog(None)
     qtbot.addWidget(again)
     assert again.model_combo.currentData() == "fifteen_segment"

@@ -59,7 +59,7 @@ def test_menu_lists_only_working_items(window):
         "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "Recording &Folder…",
         "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
         "Front", "Side", "Top", "Follow", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
-        "Show World &Axes", "&Pause Plots", "&About MimuCap",
+        "Show World &Axes", "&Pause Plots\tSpace", "&About MimuCap",
     }
     assert expected <= texts
     assert texts - expected <= {"&Magnetometers…", "&Body…"}  # the wizards, when installed
@@ -170,7 +170,7 @@ def test_the_fusion_kernels_are_prepared_off_the_gui_thread_before_the_first_sta
         camera = win.scene_view.renderer.GetActiveCamera()
         np.testing.assert_allclose(camera.GetViewUp(), (0.0, 1.0, 0.0), atol=1e-9)
         assert camera.GetPosition()[2] > camera.GetFocalPoint()[2] + 3.0
-        floor = win.scene_view.stage.world_matrix
+        floor = win.scene_view.stage.floor_matrix
         assert [floor.GetElement(1, 2), floor.GetElement(2, 1)] == [1.0, -1.0]  # world up = scene y
         release.set()
         qtbot.waitUntil(lambda: win.live.started and win.live.samples_received > 0, timeout=10000)

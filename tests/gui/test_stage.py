@@ -111,27 +111,27 @@ def test_fine_floor_patch_leaves_the_coarse_lines_alone_and_fades_into_the_backg
                                                                   colours[halfway].shape), atol=0.5)
 
 
-def test_fine_floor_patch_follows_the_figure_on_the_coarse_lines_and_stays_on_the_floor():
-    from mimucap.gui.scene.environment import (FLOOR_COARSE_SPACING_M, FLOOR_FINE_SIZE_M, FLOOR_SIZE_M,
-                                               FLOOR_SPACING_M, fine_patch_centre)
+def test_the_floor_follows_the_figure_on_the_coarse_lines_however_far_it_walks():
+    from mimucap.gui.scene.environment import FLOOR_COARSE_SPACING_M, FLOOR_SPACING_M, floor_centre
 
-    assert fine_patch_centre((0.3, -1.1)) == (0.0, 0.0)
-    assert fine_patch_centre((3.9, -6.4)) == (5.0, -7.5)
-    limit = (FLOOR_SIZE_M - FLOOR_FINE_SIZE_M) / 2
-    assert fine_patch_centre((40.0, -99.0)) == (limit, -limit)
-    assert fine_patch_centre((float("nan"), 1.0)) == (0.0, 0.0)
+    assert floor_centre((0.3, -1.1)) == (0.0, 0.0)
+    assert floor_centre((3.9, -6.4)) == (5.0, -7.5)
+    assert floor_centre((40.0, -99.0)) == (40.0, -100.0)  # no edge of the world: 15 m around the figure
+    assert floor_centre((float("nan"), 1.0)) == (0.0, 0.0)
     assert (FLOOR_COARSE_SPACING_M / FLOOR_SPACING_M) % 1 == 0  # patch lines fall on fine positions
 
     stage = Stage(vtkRenderer())
     turn = np.eye(4)
     turn[:3, :3] = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]  # 90° about Up
     turn[:3, 3] = (1.0, 2.0, 0.0)
-    figure_world = np.array([6.2, -2.4, 0.9])
+    figure_world = np.array([31.2, -2.4, 0.9])
     stage.set_world_matrix(turn, figure_world)
-    assert stage.fine_patch_centre == (5.0, -2.5)
-    patch = np.array([[stage.patch_matrix.GetElement(i, j) for j in range(4)] for i in range(4)])
+    assert stage.floor_centre == (30.0, -2.5)
     expected = turn.copy()
-    expected[:3, 3] = turn[:3, :3] @ (5.0, -2.5, 0.0) + turn[:3, 3]
-    np.testing.assert_allclose(patch, expected, atol=1e-12)
+    expected[:3, 3] = turn[:3, :3] @ (30.0, -2.5, 0.0) + turn[:3, 3]
+    for actor in (stage.grid, stage.fine_grid):  # both grids, centred under the figure
+        placed = actor.GetUserMatrix()
+        np.testing.assert_allclose([[placed.GetElement(i, j) for j in range(4)] for i in range(4)], expected,
+                                   atol=1e-12)
     stage.set_visible(floor=False, axes=True)
     assert not stage.grid.GetVisibility() and not stage.fine_grid.GetVisibility()

@@ -295,3 +295,18 @@ def test_fusing_a_poll_together_gives_each_sensor_what_its_own_filter_gives():
         for name, (q, flags) in expected.items():
             assert np.array_equal(states[name].q_world_from_sensor, q), name
             assert states[name].flags == flags
+
+
+def test_a_source_that_cannot_be_opened_says_why():
+    session = open_live_session("serial:/dev/mimucap_no_such_port@115200")
+    assert session.source_problem == ""  # nothing known before it starts
+    session.start()
+    try:
+        deadline = time.monotonic() + 15.0
+        while not session.source_problem and time.monotonic() < deadline:
+            session.step()
+            time.sleep(0.05)
+        assert "cannot open /dev/mimucap_no_such_port" in session.source_problem
+        assert session.samples_received == 0
+    finally:
+        session.stop()

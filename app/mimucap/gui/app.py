@@ -27,6 +27,26 @@ def _log_to_file(path: Path) -> None:
     root.addHandler(handler)
 
 
+def _report_uncaught_errors(log_path: Path) -> None:
+    """An error escaping a Qt slot goes to the log and, in one line, to the status bar of the
+    active window (what it did before: printed on the terminal only, which a clinician never
+    sees); the previous hook still runs."""
+    import logging
+
+    from PyQt5 import QtWidgets
+
+    previous = sys.excepthook
+
+    def hook(kind, value, traceback) -> None:
+        logging.getLogger("mimucap").error("unexpected error", exc_info=(kind, value, traceback))
+        window = QtWidgets.QApplication.activeWindow()
+        if isinstance(window, QtWidgets.QMainWindow):
+            window.statusBar().showMessage(f"Unexpected error: {value} (details in {log_path})", 15000)
+        previous(kind, value, traceback)
+
+    sys.excepthook = hook
+
+
 def run_gui(source: str | None = None, screenshot: str | Path | None = None, after_s: float = 3.0,
             review: str | Path | None = None) -> int:
     """Open the main window on ``source`` (default: the last one chosen) and run the event
@@ -50,7 +70,9 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
     from mimucap.gui.settings import config_dir
     from mimucap.resources import resource_path
 
-    _log_to_file(config_dir() / "mimucap.log")
+    log_path = config_dir() / "mimucap.log"
+    _log_to_file(log_path)
+    _report_uncaught_errors(log_path)
 
     if source is not None:
         parse_source_spec(source)  # a bad spec is a one-line error before any window opens
@@ -75,6 +97,8 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
             try:
                 if shown is window:
                     window.save_screenshot(screenshot)
+                elif shown.load_error is not None:
+                    raise OSError(f"cannot review {review}: {shown.load_error}")
                 else:
                     save_window_png(shown, screenshot)
             except OSError as error:

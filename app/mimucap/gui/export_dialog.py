@@ -7,6 +7,8 @@ with a progress bar; the work itself is :func:`mimucap.session.export.run_export
 
 from __future__ import annotations
 
+import logging
+import os
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +22,14 @@ from mimucap.session.export import (
 )
 from mimucap.session.review import ReviewData
 
+log = logging.getLogger(__name__)
+
+
+def _degrees(value: float) -> str:
+    """An angle (deg) with one decimal, never "-0.0"."""
+    text = f"{value:.1f}"
+    return "0.0" if text == "-0.0" else text
+
 
 class ExportDialog(QtWidgets.QDialog):
     """Export a reviewed session (``data``); ``cursor_s`` preselects nothing but is shown."""
@@ -32,6 +42,7 @@ class ExportDialog(QtWidgets.QDialog):
         self.result: ExportResult | None = None
         self._chart: pg.PlotWidget | None = None  # drawn off screen for the summary PNG
         self._task: BackgroundTask | None = None
+        self._range_valid = False  # the chosen range holds poses (set by update_summary)
 
         range_box = QtWidgets.QGroupBox("Range", self)
         self.range_all = QtWidgets.QRadioButton(f"Whole recording ({data.start_s:.2f}–{data.end_s:.2f} s)", range_box)
@@ -95,7 +106,10 @@ class ExportDialog(QtWidgets.QDialog):
         self.summary.setHorizontalHeaderLabels(["Joint angle", "Min (deg)", "Max (deg)", "Range of motion (deg)"])
         self.summary.verticalHeader().setVisible(False)
         self.summary.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
-        self.summary.horizontalHeader().setSectionResizeMode(0, QtWidgets.QHeaderView.Stretch)
+        header = self.summary.horizontalHeader()
+        header.setSectionResizeMode(0, QtWidgets.QHeaderView.Stretch)
+        for column in (1, 2, 3):  # the headers are read whole ("Range of motion (deg)")
+            header.setSectionResizeMode(column, QtWidgets.QHeaderView.ResizeToContents)
 
         self.export_button = QtWidgets.QPushButton("Export", self)
         self.export_button.setObjectName("exportButton")
@@ -124,10 +138,15 @@ class ExportDialog(QtWidgets.QDialog):
         self.resize(620, 720)
         for widget in (self.range_all, self.range_time, self.range_markers):
             widget.toggled.connect(self.update_summary)
+        # Editing a range's fields chooses that range (edits are never silently ignored).
         for widget in (self.t_from, self.t_to):
+            widget.valueChanged.connect(lambda _value: self.range_time.setChecked(True))
             widget.valueChanged.connect(self.update_summary)
         for widget in (self.marker_a, self.marker_b):
+            widget.activated.connect(lambda _index: self.range_markers.setChecked(True))
             widget.currentIndexChanged.connect(self.update_summary)
+        for box in (self.want_csv, self.want_mot, self.want_summary, self.want_sensors):
+            box.toggled.connect(self._update_buttons)
         self.update_summary()
 
     # -- range and summary -------------------------------------------------------------------
@@ -153,16 +172,29 @@ class ExportDialog(QtWidgets.QDialog):
         except ValueError as error:
             self.message.setText(str(error))
             self.summary.setRowCount(0)
+            self._range_valid = False
+            self._update_buttons()
             return
+        self._range_valid = True
+        self._update_buttons()
         self.message.setText("")
         self.summary.setRowCount(len(rows))
         for r, row in enumerate(rows):
-            values = (row.column, f"{row.minimum_deg:.1f}", f"{row.maximum_deg:.1f}", f"{row.rom_deg:.1f}")
+            values = (row.column, _degrees(row.minimum_deg), _degrees(row.maximum_deg), _degrees(row.rom_deg))
             for c, text in enumerate(values):
                 item = QtWidgets.QTableWidgetItem(text)
                 if c:
                     item.setTextAlignment(QtCore.Qt.AlignRight | QtCore.Qt.AlignVCenter)
                 self.summary.setItem(r, c, item)
+
+    def _update_buttons(self) -> None:
+        """Export needs a valid range, a file ticked and no export running; the summary
+        files a valid range."""
+        valid = self._range_valid
+        wanted = any(box.isChecked() for box in (self.want_csv, self.want_mot, self.want_summary, self.want_sensors))
+        self.export_button.setEnabled(valid and wanted and not self.busy)
+        self.summary_csv_button.setEnabled(valid)
+        self.summary_png_button.setEnabled(valid)
 
     # -- export ------------------------------------------------------------------------------
     def _browse(self) -> None:
@@ -170,10 +202,21 @@ class ExportDialog(QtWidgets.QDialog):
         if path:
             self.base_path.setText(str(Path(path).with_suffix("")))
 
+    def export_base_path(self) -> Path:
+        """Where the files go: the "Save as" text; a folder (an existing one, or a text ending
+        in a separator) gets the default name inside it. ``ValueError`` when empty."""
+        text = self.base_path.text().strip()
+        if not text:
+            raise ValueError("choose where to save the files (Save as)")
+        path = Path(text).expanduser()
+        if text.endswith(("/", os.sep)) or path.is_dir():
+            path = path / (self.data.path.stem + "_angles")
+        return path
+
     def request(self) -> ExportRequest:
         a, b = self.time_range()
         return ExportRequest(
-            base_path=Path(self.base_path.text().strip()), t_from_s=a, t_to_s=b,
+            base_path=self.export_base_path(), t_from_s=a, t_to_s=b,
             angles_csv=self.want_csv.isChecked(), angles_mot=self.want_mot.isChecked(),
             sensors_csv=self.want_sensors.isChecked(), summary_csv=self.want_summary.isChecked())
 
@@ -195,13 +238,14 @@ class ExportDialog(QtWidgets.QDialog):
 
     def _exported(self, result: ExportResult) -> None:
         self.result = result
-        self.export_button.setEnabled(True)
+        self._update_buttons()
         self.progress.setValue(100)
         names = ", ".join(p.name for p in result.files)
         self.message.setText(f"Exported {result.rows} rows to {result.files[0].parent}: {names}")
 
     def _export_failed(self, message: str) -> None:
-        self.export_button.setEnabled(True)
+        log.warning("export failed: %s", message)
+        self._update_buttons()
         self.message.setText(f"Export failed: {message}. Check the folder exists and is writable, then export again.")
 
     @property
@@ -212,7 +256,15 @@ class ExportDialog(QtWidgets.QDialog):
     def _ask_summary_csv(self) -> None:
         path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Summary", self.base_path.text() + "_summary.csv", "CSV (*.csv)")
         if path:
-            self.save_summary_csv(path)
+            self._save_or_say(self.save_summary_csv, path)
+
+    def _save_or_say(self, save, path: str) -> None:
+        """Run ``save(path)``; a failure is said in the dialog (and logged), never swallowed."""
+        try:
+            save(path)
+        except (ValueError, OSError) as error:
+            log.warning("summary not saved to %s: %s", path, error)
+            self.message.setText(f"Summary not saved: {error}. Choose a writable folder and save again.")
 
     def save_summary_csv(self, path: str | Path) -> Path:
         a, b = self.time_range()
@@ -223,7 +275,7 @@ class ExportDialog(QtWidgets.QDialog):
     def _ask_summary_png(self) -> None:
         path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Summary Chart", self.base_path.text() + "_summary.png", "PNG (*.png)")
         if path:
-            self.save_summary_png(path)
+            self._save_or_say(self.save_summary_png, path)
 
     def _summary_chart(self) -> pg.PlotWidget:
         """The off-screen chart of the summary PNG: a child of the dialog, made once and deleted

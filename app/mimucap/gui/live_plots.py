@@ -289,8 +289,16 @@ class LivePlots(QtWidgets.QWidget):
 
     # -- wiring ------------------------------------------------------------------------------
     def set_source(self, source) -> None:
-        """Show data of ``source`` (a live session or a review player)."""
+        """Show data of ``source`` (a live session or a review player); nothing of the
+        previous source stays on screen."""
         self.source = source
+        empty = np.zeros(0)
+        for key, title, _unit, _min_range in SENSOR_PLOTS:
+            for curve in self.curves[key]:
+                curve.show_data(empty, empty, (None, None), all_finite=True)
+            self._no_data[key] = False
+            self._set_title(key, title)
+        self._titled_sensor = ""
         for joint in self.selected_joints:
             self._remove_plot(self._joint_key(joint))
         self.selected_joints = []

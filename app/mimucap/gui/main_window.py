@@ -26,7 +26,13 @@ from mimucap.gui.scene.view import SceneView
 from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.session_panel import SessionPanel
 from mimucap.gui.settings import gui_settings
-from mimucap.gui.source_dialog import DEFAULT_SPEC, SourceDialog, last_skeleton_model, last_source_spec
+from mimucap.gui.source_dialog import (
+    DEFAULT_SPEC,
+    SourceDialog,
+    last_skeleton_model,
+    last_source_spec,
+    remember_source,
+)
 from mimucap.io.calibration_store import user_data_dir
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
@@ -108,6 +114,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.saving_tasks: list[BackgroundTask] = []
         self._warm_up: BackgroundTask | None = None
         self._preparation: KernelPreparation | None = None
+        self._wizard: QtWidgets.QWidget | None = None
+        self._source_problem = ""  # the last problem the source reported (logged when it changes)
         self.last_recording = None  # RecordingResult of the last recording saved
 
         self.scene_view = SceneView(self)
@@ -144,7 +152,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.scene_view.set_tint_provider(lambda: self._tints)
         self.source_error: str | None = None
         if not self.open_source(source or last_source_spec(), interactive=False) and source is None:
-            self.open_source(DEFAULT_SPEC, interactive=False)  # a remembered source that went away
+            error = self.source_error  # a remembered source that went away: say so over the fallback
+            self.open_source(DEFAULT_SPEC, interactive=False)
+            self.source_error = error
+            self.statusBar().showMessage(f"{error[0].upper()}{error[1:]}; showing the simulated suit instead.")
 
     # -- construction ------------------------------------------------------------------------
     def _dock(self, title: str, name: str, widget: QtWidgets.QWidget, area) -> QtWidgets.QDockWidget:
@@ -198,7 +209,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_axes.setCheckable(True)
         self.action_axes.setChecked(True)
         self.action_axes.toggled.connect(self._update_stage)
-        self.action_pause_plots = view_menu.addAction("&Pause Plots")
+        # The key belongs to the plots' Pause button (a second shortcut on the same key would
+        # make both ambiguous); the menu names it.
+        self.action_pause_plots = view_menu.addAction("&Pause Plots\tSpace")
         self.action_pause_plots.setCheckable(True)
         self.action_pause_plots.toggled.connect(self.plots.pause_button.setChecked)
         self.plots.pause_button.toggled.connect(self.action_pause_plots.setChecked)
@@ -241,7 +254,11 @@ class MainWindow(QtWidgets.QMainWindow):
                 QtWidgets.QMessageBox.warning(self, "Source", f"Cannot open source {spec}:\n{error}\n\nChoose another source (File → Choose Source).")
             return False
         self._stop_live()
+        self.source_error = None
+        self.statusBar().clearMessage()
+        self._close_wizard("the source changed")
         self.live = session
+        self.session_panel.markers_list.clear()  # the old source's markers, on its clock
         remembered = remembered_assignment()
         for sensor_id, segment in remembered.items():
             if sensor_id in session.sensor_ids and segment in session.model.segment_names:
@@ -336,7 +353,17 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.show_info(live.recording_info())
         self.source_status.setText(f"Source: {live.label}")
         self.pose_status.setText(f"Pose: {live.pose_source}")
-        self.scene_view.set_hint(VIEW_HINTS.get(live.pose_source, ""))
+        problem = live.source_problem
+        if problem != self._source_problem:
+            self._source_problem = problem
+            if problem:
+                log.warning("source %s: %s", live.label, problem)
+        if problem and live.pose_source == POSE_NONE:
+            self.scene_view.set_hint(f"No data from the source.\n{problem}\n\n"
+                                     "Check the device and its connection, or choose another source "
+                                     "(File → Choose Source…).")
+        else:
+            self.scene_view.set_hint(VIEW_HINTS.get(live.pose_source, ""))
         rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
         drops = sum(r.drops for r in rows)
         self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")
@@ -349,10 +376,19 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # -- user actions: source, sensors, recording ------------------------------------------------
     def choose_source(self) -> None:
+        """Ask for a source and a skeleton; both are used and remembered only if the source
+        opens (not while recording, nor when it fails)."""
+        if self.live is not None and self.live.recording:
+            QtWidgets.QMessageBox.warning(self, "Recording", "Stop the recording before changing the source.")
+            return
         dialog = SourceDialog(self, self.live.label if self.live is not None else None, self.model_name)
-        if dialog.exec_() == QtWidgets.QDialog.Accepted:
-            self.model_name = dialog.model_name
-            self.open_source(dialog.spec)
+        if dialog.exec_() != QtWidgets.QDialog.Accepted:
+            return
+        previous_model, self.model_name = self.model_name, dialog.model_name
+        if self.open_source(dialog.spec):
+            remember_source(dialog.spec, dialog.model_name)
+        else:
+            self.model_name = previous_model
 
     def assign_sensors(self) -> None:
         if self.live is None:
@@ -371,13 +407,26 @@ class MainWindow(QtWidgets.QMainWindow):
         self.refresh_panels()
 
     def recording_folder(self) -> Path:
+        """Where recordings go (created when needed; ``OSError`` if it cannot be, e.g. a
+        network drive that went away)."""
         default = user_data_dir() / "sessions"
         folder = Path(str(gui_settings().value("recording/folder", str(default))))
         folder.mkdir(parents=True, exist_ok=True)
         return folder
 
+    def _folder_to_browse(self) -> Path:
+        """The recording folder for a file dialog to start in, or the home folder (said in the
+        status bar) when it is out of reach: the user can still browse and choose another."""
+        try:
+            return self.recording_folder()
+        except OSError as error:
+            log.warning("recording folder unavailable: %s", error)
+            self.statusBar().showMessage(f"The recording folder is out of reach ({error}); "
+                                         "choose another one (File → Recording Folder).", 10000)
+            return Path.home()
+
     def choose_recording_folder(self) -> None:
-        folder = QtWidgets.QFileDialog.getExistingDirectory(self, "Recording Folder", str(self.recording_folder()))
+        folder = QtWidgets.QFileDialog.getExistingDirectory(self, "Recording Folder", str(self._folder_to_browse()))
         if folder:
             settings = gui_settings()
             settings.setValue("recording/folder", folder)
@@ -396,13 +445,20 @@ class MainWindow(QtWidgets.QMainWindow):
                 subject = self.session_panel.subject()
                 path = default_recording_path(self.recording_folder(), subject)
                 self.live.start_recording(path, subject.to_dict())
-            except (ValueError, OSError) as error:
+            except ValueError as error:
                 self.session_panel.set_recording(False)
                 QtWidgets.QMessageBox.warning(self, "Cannot record", str(error))
+                return
+            except OSError as error:
+                self.session_panel.set_recording(False)
+                log.warning("cannot record: %s", error)
+                QtWidgets.QMessageBox.warning(self, "Cannot record", f"{error}\n\nChoose another recording folder "
+                                              "(File → Recording Folder).")
                 return
             self.session_panel.markers_list.clear()
             self.session_panel.set_recording(True)
             self.action_record.setText("Stop &Recording")
+            self.action_source.setEnabled(False)
             self.session_panel.show_info(self.live.recording_info())
             self.statusBar().showMessage(f"Recording to {path}")
         elif not on and self.live.recording:
@@ -415,6 +471,7 @@ class MainWindow(QtWidgets.QMainWindow):
         pending = live.end_recording()
         self.session_panel.set_recording(False)
         self.action_record.setText("Start &Recording")
+        self.action_source.setEnabled(True)
         message = f"Saving the session to {pending.session_path}…"
         self.session_panel.show_info(None, message)
         self.statusBar().showMessage(message)
@@ -446,7 +503,9 @@ class MainWindow(QtWidgets.QMainWindow):
             message = f"Saved {samples} samples to {result.session_path}"
             if result.message:
                 message += f" ({result.message})"
-            self.action_export.setEnabled(True)
+            if samples == 0:
+                message += ": no data arrived from the source, nothing to export"
+            self.action_export.setEnabled(samples > 0)
         else:
             message = result.message
             log.warning("session file not written: %s", message)
@@ -470,8 +529,10 @@ class MainWindow(QtWidgets.QMainWindow):
         except OSError as error:
             QtWidgets.QMessageBox.critical(self, "Marker", str(error))
 
-    def _on_marker(self, t_s: float, label: str) -> None:
-        self.session_panel.add_marker_line(t_s, label)
+    def _on_marker(self, t_s: float, label: str, recorded: bool) -> None:
+        started_s = self.live.recording_started_s if self.live is not None else None
+        in_recording = recorded and started_s is not None
+        self.session_panel.add_marker_line(label, t_s - started_s if in_recording else None)
 
     def _height_changed(self, value: float) -> None:
         if self.live is not None and not self.live.recording:
@@ -498,7 +559,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # -- review, export, wizards, about ----------------------------------------------------------
     def ask_open_session(self) -> None:
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Open Session", str(self.recording_folder()), "MimuCap sessions (*.h5)")
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Open Session", str(self._folder_to_browse()), "MimuCap sessions (*.h5)")
         if path:
             self.open_review(path)
 
@@ -510,10 +571,17 @@ class MainWindow(QtWidgets.QMainWindow):
         window = ReviewWindow(path, parent=None)
         window.set_camera_preset(self.scene_view.camera_preset)
         window.setAttribute(QtCore.Qt.WA_DeleteOnClose, False)
+        window.closed.connect(lambda: self._review_closed(window))
         self.review_windows.append(window)
         window.show()
         window.load()
         return window
+
+    def _review_closed(self, window) -> None:
+        """A closed review window is let go (its session's data with it)."""
+        if window in self.review_windows:
+            self.review_windows.remove(window)
+            window.deleteLater()
 
     def export_last_recording(self) -> None:
         if self.last_recording is None or self.last_recording.session_path is None:
@@ -522,9 +590,21 @@ class MainWindow(QtWidgets.QMainWindow):
         window.export_when_loaded = True
 
     def open_wizard(self, name: str) -> None:
+        """Open calibration wizard ``name`` on the live session (one at a time)."""
+        if self.live is None:
+            return
+        self._close_wizard("another wizard was opened")
         wizard = self._wizards[name](self, self.live)
         self._wizard = wizard
         wizard.show()
+
+    def _close_wizard(self, why: str) -> None:
+        """Close the open calibration wizard, if any: it reads the live session, which is
+        about to change (nothing it had not applied yet is applied)."""
+        wizard, self._wizard = self._wizard, None
+        if wizard is not None and wizard.isVisible():
+            wizard.close()
+            self.statusBar().showMessage(f"The calibration wizard was closed: {why}.", 8000)
 
     def show_about(self) -> None:
         QtWidgets.QMessageBox.about(self, "About MimuCap", ABOUT_TEXT.format(version=__version__))
@@ -532,7 +612,12 @@ class MainWindow(QtWidgets.QMainWindow):
     def _ask_screenshot(self) -> None:
         path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Screenshot", "mimucap.png", "PNG images (*.png)")
         if path:
-            self.save_screenshot(path)
+            try:
+                self.save_screenshot(path)
+            except OSError as error:
+                log.warning("screenshot not saved: %s", error)
+                QtWidgets.QMessageBox.warning(self, "Screenshot not saved",
+                                              f"{path} could not be written: {error}\n\nChoose another folder.")
 
     def save_screenshot(self, path: str | Path) -> Path:
         """Write the window (3D view included) to ``path`` as PNG."""
@@ -567,6 +652,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plots.stop()
         self.scene_view.shutdown()
         self._stop_live()
-        for window in self.review_windows:
+        for window in list(self.review_windows):
             window.close()
         super().closeEvent(event)

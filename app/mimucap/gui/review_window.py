@@ -7,6 +7,7 @@ The session is loaded and its poses computed off the GUI thread
 
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 
@@ -22,6 +23,8 @@ from mimucap.gui.scene.view import SceneView
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
 
+log = logging.getLogger(__name__)
+
 #: Play timer interval (ms).
 PLAY_INTERVAL_MS = 33
 #: Slider steps per second of recording.
@@ -32,6 +35,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
     """Review of session file ``path``; call :meth:`load` after ``show()``."""
 
     loaded = QtCore.pyqtSignal()
+    closed = QtCore.pyqtSignal()
 
     def __init__(self, path: str | Path, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
@@ -166,11 +170,14 @@ class ReviewWindow(QtWidgets.QMainWindow):
             self.open_export()
 
     def _load_failed(self, message: str) -> None:
+        """Say why the file cannot be reviewed, then close: a window without a session has
+        nothing to play."""
         self.load_error = message
         self.progress.hide()
-        self.statusBar().showMessage(f"Cannot open {self.path}: {message}")
+        log.warning("cannot review %s: %s", self.path, message)
         QtWidgets.QMessageBox.warning(self, "Cannot open the session",
                                       f"{message}\n\nCheck that the file is a MimuCap session (.h5).")
+        self.close()
 
     # -- play head ---------------------------------------------------------------------------
     def seek(self, t_s: float) -> None:
@@ -239,10 +246,22 @@ class ReviewWindow(QtWidgets.QMainWindow):
     def _ask_screenshot(self) -> None:
         path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Screenshot", "review.png", "PNG images (*.png)")
         if path:
-            save_window_png(self, path)
+            try:
+                written = save_window_png(self, path)
+            except OSError as error:
+                log.warning("screenshot not saved: %s", error)
+                QtWidgets.QMessageBox.warning(self, "Screenshot not saved",
+                                              f"{path} could not be written: {error}\n\nChoose another folder.")
+                return
+            self.statusBar().showMessage(f"Screenshot saved to {written}", 5000)
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
-        if self._task is not None and self._task.isRunning():
+        if self._task is not None:
+            for signal in (self._task.succeeded, self._task.failed):
+                try:
+                    signal.disconnect()  # a closed window shows nothing the loader finds later
+                except TypeError:
+                    pass  # already disconnected (closed before)
             self._task.wait(10000)
         if self.export_dialog is not None and self.export_dialog.busy:
             self.export_dialog._task.wait(30000)
@@ -250,3 +269,4 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.plots.stop()
         self.scene_view.shutdown()
         super().closeEvent(event)
+        self.closed.emit()

@@ -5,7 +5,7 @@ It holds widgets only; the main window connects them to the live session.
 
 from __future__ import annotations
 
-from PyQt5 import QtCore, QtWidgets
+from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.session.live import RecordingInfo
 from mimucap.session.subject import DOMINANCE, Subject
@@ -53,6 +53,8 @@ class SessionPanel(QtWidgets.QWidget):
         self.record_button = QtWidgets.QPushButton("● Record", record_box)
         self.record_button.setObjectName("recordButton")
         self.record_button.setCheckable(True)
+        # Not focused by a click: Space (the plots' Pause key) must never stop a recording.
+        self.record_button.setFocusPolicy(QtCore.Qt.TabFocus)
         self.record_button.toggled.connect(self._record_toggled)
         self.record_status = QtWidgets.QLabel("Not recording", record_box)
         self.record_status.setObjectName("recordStatus")
@@ -63,6 +65,7 @@ class SessionPanel(QtWidgets.QWidget):
         self.marker_label.setPlaceholderText("marker label")
         self.marker_button = QtWidgets.QPushButton("Add Marker (M)", record_box)
         self.marker_button.setObjectName("markerButton")
+        self.marker_button.setFocusPolicy(QtCore.Qt.TabFocus)
         self.marker_button.clicked.connect(self.request_marker)
         self.marker_label.returnPressed.connect(self.request_marker)
         self.markers_list = QtWidgets.QListWidget(record_box)
@@ -115,6 +118,14 @@ class SessionPanel(QtWidgets.QWidget):
             f"Recording {int(minutes):02d}:{seconds:04.1f}, {_size(info.size_bytes)}, "
             f"{info.markers} marker(s)\n→ {info.path}")
 
-    def add_marker_line(self, t_s: float, label: str) -> None:
-        self.markers_list.addItem(f"{t_s:8.2f} s  {label}")
+    def add_marker_line(self, label: str, recording_t_s: float | None) -> None:
+        """List a marker: at its time in the recording (s since the recording started, as
+        review and export show it), or greyed as not recorded (``recording_t_s`` None)."""
+        if recording_t_s is None:
+            item = QtWidgets.QListWidgetItem(f"{'–':>8}    {label} (not recorded)")
+            item.setForeground(self.palette().brush(QtGui.QPalette.Disabled, QtGui.QPalette.Text))
+            item.setToolTip("Markers are saved only while recording.")
+        else:
+            item = QtWidgets.QListWidgetItem(f"{recording_t_s:8.2f} s  {label}")
+        self.markers_list.addItem(item)
         self.markers_list.scrollToBottom()

@@ -3,7 +3,8 @@
 It builds a source spec string (``simulated:demo``, ``udp:0.0.0.0:5555``,
 ``serial:/dev/ttyUSB0@115200``, ``replay:FILE@SPEED``), checks it with the acquisition
 layer's parser, asks which skeleton the sensors drive (ten segments, or fifteen with head,
-hands and feet), and remembers both choices in the GUI settings.
+hands and feet). :func:`remember_source` keeps both in the GUI settings once the main window
+has opened the source; the dialog starts from them.
 """
 
 from __future__ import annotations
@@ -34,6 +35,15 @@ def last_skeleton_model() -> str:
     """The skeleton model chosen last time (the ten-segment one the first time)."""
     name = str(gui_settings().value("source/model", DEFAULT_MODEL))
     return name if name in MODEL_LABELS else DEFAULT_MODEL
+
+
+def remember_source(spec: str, model_name: str) -> None:
+    """Keep ``spec`` and ``model_name`` for the next source dialog and the next start (the
+    main window calls it once the source has opened: a refused choice is not remembered)."""
+    settings = gui_settings()
+    settings.setValue("source/spec", spec)
+    settings.setValue("source/model", model_name)
+    settings.sync()
 
 
 class SourceDialog(QtWidgets.QDialog):
@@ -167,8 +177,4 @@ class SourceDialog(QtWidgets.QDialog):
             return
         self.spec = spec
         self.model_name = str(self.model_combo.currentData())
-        settings = gui_settings()
-        settings.setValue("source/spec", spec)
-        settings.setValue("source/model", self.model_name)
-        settings.sync()
         super().accept()

@@ -71,7 +71,10 @@ def marker_range(markers: Sequence[Marker], first: int, second: int) -> tuple[fl
             raise ValueError(f"marker {index} does not exist (the session has {len(markers)})")
     a, b = sorted((markers[first].t_s, markers[second].t_s))
     if b <= a:
-        raise ValueError(f"markers {first} and {second} are at the same time ({a:.3f} s)")
+        names = (f"'{markers[first].label}'" if first == second else
+                 f"'{markers[first].label}' and '{markers[second].label}'")
+        raise ValueError(f"choose two different markers: {names} "
+                         f"{'is one marker' if first == second else 'are at the same time'} ({a:.2f} s)")
     return float(a), float(b)
 
 

@@ -21,6 +21,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_FAILED
 from mimucap.acquisition.samples import SampleBlock
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.supervisor import Supervisor
@@ -130,6 +131,10 @@ class SimulatorFeed:
     def status_text(self) -> str:
         return f"scenario {self.config.scenario}, activity {self.simulator.current_activity()}"
 
+    def problem(self) -> str:
+        """Why data may not be coming ("" : nothing known); the simulator always delivers."""
+        return ""
+
     def stop(self) -> list[SampleBlock]:
         self._start_host_s = None
         return []
@@ -175,6 +180,16 @@ class SupervisorFeed:
                 text += f" ({status.last_error})"
             parts.append(text)
         return ", ".join(parts)
+
+    def problem(self) -> str:
+        """Why data may not be coming: each source that is disconnected (its worker retries)
+        or failed, with the reason its worker gave (e.g. ``serial:/dev/ttyUSB0: cannot open
+        /dev/ttyUSB0: No such file or directory``); "" when every source is fine."""
+        parts = []
+        for name, status in self.supervisor.sources().items():
+            if status.state in (STATE_DISCONNECTED, STATE_FAILED):
+                parts.append(f"{name}: {status.message or status.last_error or status.state}")
+        return "; ".join(parts)
 
     def stop(self) -> list[SampleBlock]:
         return self.supervisor.stop()

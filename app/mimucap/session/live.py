@@ -147,7 +147,9 @@ class LiveSession:
 
     Events (``self.events``): ``blocks(list[SampleBlock])`` raw data as it arrives;
     ``frame(frame_id)`` a new pose; ``calibration()`` a calibration was applied;
-    ``recording(info_or_None)`` recording started/stopped; ``marker(t_s, label)``.
+    ``recording(info_or_None)`` recording started/stopped; ``marker(t_s, label, recorded)``
+    (session time; ``recorded``: the marker is in the recording, as the user's markers are
+    while recording; the source's own, e.g. the simulator's activity changes, are shown only).
     """
 
     def __init__(self, feed, label: str = "", model_name: str = "ten_segment", height_m: float = 1.75,
@@ -223,6 +225,12 @@ class LiveSession:
         return result
 
     # -- state -------------------------------------------------------------------------------
+    @property
+    def source_problem(self) -> str:
+        """Why the source may be sending nothing, as its reader reported it (e.g. a serial
+        device that cannot be opened); "" when nothing is known to be wrong."""
+        return self.feed.problem()
+
     @property
     def pose_source(self) -> str:
         """What drives the figure (see the module doc)."""
@@ -316,8 +324,8 @@ class LiveSession:
         if not self.started:
             return 0
         blocks = self.feed.poll()
-        for host_s, label in self.feed.take_markers():
-            self.events.marker.emit(host_s - self.t0_host_s, label)
+        for host_s, label in self.feed.take_markers():  # the source's own (simulated activities): shown only
+            self.events.marker.emit(host_s - self.t0_host_s, label, False)
         if self._recorder is not None:
             self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
         if not blocks:
@@ -514,6 +522,15 @@ class LiveSession:
     def recording(self) -> bool:
         return self._recorder is not None
 
+    @property
+    def recording_started_s(self) -> float | None:
+        """Session time (s) at which the current recording started, ``None`` when not
+        recording: an instant's time in the recording (what review and export show) is its
+        session time minus this."""
+        if self._recorder is None:
+            return None
+        return self._recorder.start_host_s - self.t0_host_s
+
     def start_recording(self, path: str | Path, subject: Mapping[str, Any] | None = None) -> None:
         """Record everything from now on into session file ``path`` (journal beside it)."""
         if self._recorder is not None:
@@ -545,7 +562,7 @@ class LiveSession:
                 raise OSError(self._recorder.failure or f"could not write the marker to {self._recorder.out_path}")
             self._recording_markers += 1
         t_s = now - (self.t0_host_s or now)
-        self.events.marker.emit(t_s, label)
+        self.events.marker.emit(t_s, label, self._recorder is not None)
         return t_s
 
     def recording_info(self) -> RecordingInfo | None:

@@ -1,10 +1,11 @@
 """The stage of the 3D view: floor grid, world axes, a camera light and the background.
 
-The floor is a grid of lines (no solid plane): a line every 2.5 m over 30 m × 30 m, and a line
-every 0.5 m over the 10 m × 10 m around the figure (the patch moves in 2.5 m steps as the
-figure walks, so its lines always fall on the same floor positions). The fine lines fade into
-the background over the patch's outer 2.5 m, so the patch has no visible edge and its steps
-do not make lines pop in and out beside the figure. The world
+The floor is a grid of lines (no solid plane) around the figure: a line every 2.5 m over
+30 m × 30 m, and a line every 0.5 m over the central 10 m × 10 m. It moves with the figure in
+2.5 m steps, so its lines always fall on the same floor positions and a subject walking any
+distance always has 15 m of floor around them. The fine lines fade into the background over
+the patch's outer 2.5 m, so the patch has no visible edge and its steps do not make lines pop
+in and out beside the figure. The world
 axes (E, N, Up; 0.5 m, standing at :data:`AXES_ORIGIN_WORLD_M`) are built in **world**
 coordinates (ENU, metres) and placed in the scene by the frame's
 ``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
@@ -26,8 +27,8 @@ from vtkmodules.vtkRenderingCore import vtkActor, vtkLight, vtkPolyDataMapper, v
 
 from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata
 
-#: The floor grid (m): coarse lines over the whole floor, fine ones over a square patch around
-#: the figure. Far away, fine lines crowd into a grey band that software OpenGL rasterises
+#: The floor grid (m) around the figure: coarse lines over a square of FLOOR_SIZE_M, fine ones
+#: over a central patch of FLOOR_FINE_SIZE_M. Far away, fine lines crowd into a grey band that software OpenGL rasterises
 #: line by line: fine lines near the figure only cost half (0.6 ms a frame less).
 FLOOR_SIZE_M, FLOOR_COARSE_SPACING_M = 30.0, 2.5
 FLOOR_FINE_SIZE_M, FLOOR_SPACING_M = 10.0, 0.5
@@ -108,13 +109,12 @@ def _fading_patch_lines(size_m: float, spacing_m: float, coarse_spacing_m: float
     return lines
 
 
-def fine_patch_centre(focus_world_xy) -> tuple[float, float]:
-    """Where the fine floor patch is centred for a figure at ``focus_world_xy`` (world E, N,
-    metres): the nearest multiple of the coarse spacing (so the patch's lines fall on the
-    fine positions of a fixed floor), kept within the floor."""
-    limit = (FLOOR_SIZE_M - FLOOR_FINE_SIZE_M) / 2.0
+def floor_centre(focus_world_xy) -> tuple[float, float]:
+    """Where the floor grid is centred for a figure at ``focus_world_xy`` (world E, N, metres):
+    the nearest multiple of the coarse spacing, so that the grid's lines fall on the same
+    positions wherever the figure is (the origin for an unknown position)."""
     snapped = np.round(np.asarray(focus_world_xy, dtype=float) / FLOOR_COARSE_SPACING_M) * FLOOR_COARSE_SPACING_M
-    x, y = np.clip(np.nan_to_num(snapped), -limit, limit)
+    x, y = np.nan_to_num(snapped, nan=0.0, posinf=0.0, neginf=0.0)
     return float(x), float(y)
 
 
@@ -203,17 +203,16 @@ class Stage:
         renderer.AddLight(self.light)
 
         self._placed: np.ndarray | None = None  # the last world matrix applied
-        self._patch_centre = (0.0, 0.0)  # world E, N of the fine floor patch's centre (m)
+        self._floor_centre = (0.0, 0.0)  # world E, N of the floor grid's centre (m)
         self._label_points = np.zeros((len(AXIS_NAMES), 3))  # where the axes' names stand (scene, m)
-        self.world_matrix = vtkMatrix4x4()
-        self.patch_matrix = vtkMatrix4x4()
+        self.floor_matrix = vtkMatrix4x4()  # places both grids
         self.axes_matrix = vtkMatrix4x4()
         # Keep the sources referenced: an output port does not keep its producer alive.
         self._grid_lines = _grid_lines(FLOOR_SIZE_M, FLOOR_COARSE_SPACING_M)
         self._patch_lines = _fading_patch_lines(FLOOR_FINE_SIZE_M, FLOOR_SPACING_M, FLOOR_COARSE_SPACING_M,
                                                 FLOOR_FINE_FADE_M)
-        self.grid = _line_actor(self._grid_lines, self.world_matrix)
-        self.fine_grid = _line_actor(self._patch_lines, self.patch_matrix)
+        self.grid = _line_actor(self._grid_lines, self.floor_matrix)
+        self.fine_grid = _line_actor(self._patch_lines, self.floor_matrix)
 
         self._axes_mesh = _axes_mesh()
         axes_mapper = vtkPolyDataMapper()
@@ -233,16 +232,15 @@ class Stage:
 
     def set_world_matrix(self, matrix, focus_world_m=None) -> None:
         """Place floor and axes with a ``(4, 4)`` world→scene matrix (``FigureGeometry.world_matrix``),
-        and the fine floor patch around ``focus_world_m`` ``(3,)`` (world ENU, metres: the
-        figure's root, ``FigureGeometry.root_world_m``) when given."""
+        and the floor grid around ``focus_world_m`` ``(3,)`` (world ENU, metres: the figure's
+        root, ``FigureGeometry.root_world_m``) when given."""
         matrix = np.asarray(matrix, dtype=float)
-        centre = self._patch_centre if focus_world_m is None else fine_patch_centre(np.asarray(focus_world_m)[:2])
-        if self._placed is not None and np.array_equal(matrix, self._placed) and centre == self._patch_centre:
+        centre = self._floor_centre if focus_world_m is None else floor_centre(np.asarray(focus_world_m)[:2])
+        if self._placed is not None and np.array_equal(matrix, self._placed) and centre == self._floor_centre:
             return  # unchanged (the usual case in world mode): VTK has nothing to update
         self._placed = matrix.copy()
-        self._patch_centre = centre
-        self.world_matrix.DeepCopy(matrix.ravel())
-        self.patch_matrix.DeepCopy(_placed_at(matrix, (centre[0], centre[1], 0.0)).ravel())
+        self._floor_centre = centre
+        self.floor_matrix.DeepCopy(_placed_at(matrix, (centre[0], centre[1], 0.0)).ravel())
         axes = _placed_at(matrix, AXES_ORIGIN_WORLD_M)
         self.axes_matrix.DeepCopy(axes.ravel())
         self._label_points = (AXIS_LABEL_POSITION * AXES_LENGTH_M) * axes[:3, :3].T + axes[:3, 3]
@@ -250,9 +248,9 @@ class Stage:
             actor.Modified()
 
     @property
-    def fine_patch_centre(self) -> tuple[float, float]:
-        """World E, N (m) of the centre of the fine floor patch."""
-        return self._patch_centre
+    def floor_centre(self) -> tuple[float, float]:
+        """World E, N (m) of the centre of the floor grid."""
+        return self._floor_centre
 
     def axis_label_points(self) -> tuple[tuple[str, ...], np.ndarray]:
         """The names of the world axes shown and where they stand, ``(n, 3)`` (scene frame,
