@@ -67,12 +67,15 @@ def test_a_crash_is_recovered_up_to_the_last_flush(tmp_path):
     journal = journal_path_for(out)
     with open(journal, "ab") as handle:             # the crash tore the next record
         handle.write(b"\x40\x00\x00\x00garbage")
+    whole = journal.read_bytes()
     result = recover(out)
-    assert not result.complete and "torn" in result.message
+    assert not result.complete and "damaged" in result.message
     session = read_session(out)
     np.testing.assert_array_equal(session.sensors["7"].seq, np.arange(100))
     assert session.metadata["recording"]["ended"].startswith("crash")
     assert not journal.exists()
+    kept = journal.with_name(journal.name + ".damaged")  # nothing after the damage is thrown away
+    assert kept.read_bytes() == whole and str(kept) in result.message
     with pytest.raises(ValueError, match="no journal"):
         recover(out)
 

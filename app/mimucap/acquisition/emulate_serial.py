@@ -31,6 +31,10 @@ class SerialEmulator:
         self.settings = settings
         self.motion = motion
         self.link = None if link is None else Path(link)
+        if self.link is not None:
+            for path in (self.link, self.link.with_name(self.link.name + ".new")):
+                if path.exists() and not path.is_symlink():  # a link is replaced; a file never
+                    raise ValueError(f"--link {path} exists and is not a symbolic link; choose another path")
         self._lock = Lock()
         self.master_fd: int | None = None
         self.slave_fd: int | None = None
@@ -59,7 +63,7 @@ class SerialEmulator:
             self.slave_path = os.ttyname(slave)
             if self.link is not None:
                 temporary = self.link.with_name(self.link.name + ".new")
-                if temporary.is_symlink() or temporary.exists():
+                if temporary.is_symlink():
                     temporary.unlink()
                 os.symlink(self.slave_path, temporary)
                 os.replace(temporary, self.link)

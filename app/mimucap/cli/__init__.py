@@ -21,6 +21,17 @@ COMMAND_MODULES: tuple[str, ...] = ("gui", "magcal", "bodycal", "angles", "emula
 EXIT_USAGE = 2
 
 
+def refuse_to_overwrite_input(out, *inputs) -> None:
+    """``ValueError`` when the output path ``out`` is one of the ``inputs`` (the same file by
+    another name too): writing the result would destroy what it was computed from."""
+    from pathlib import Path
+
+    target = Path(out).expanduser().resolve()
+    for item in inputs:
+        if item is not None and Path(item).expanduser().resolve() == target:
+            raise ValueError(f"{out}: the output would overwrite the input {item}; choose another --out")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command registered."""
     parser = argparse.ArgumentParser(

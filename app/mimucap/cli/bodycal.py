@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from mimucap.cli import refuse_to_overwrite_input
 from mimucap.core import bodycal
 from mimucap.core.skeleton import MODEL_NAMES
 from mimucap.io.skeleton_model_file import load_model
@@ -111,6 +112,7 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    refuse_to_overwrite_input(args.out, args.input)
     table = read_input(args)
     mapping = parse_mapping(args.mapping)
     if not mapping:

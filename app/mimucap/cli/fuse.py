@@ -23,6 +23,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from mimucap.cli import refuse_to_overwrite_input
 from mimucap.core.fusion.ekf import ALGORITHMS, FusionResult, fuse
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.state import FLAG_NAMES
@@ -107,9 +108,12 @@ def write_orientation(path: Path, t_s: np.ndarray, result: FusionResult) -> None
 def run(args: argparse.Namespace) -> int:
     if args.out.suffix.lower() not in OUTPUT_SUFFIXES:
         raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
+    refuse_to_overwrite_input(args.out, args.input)
     inputs = _inputs(args.input, args.sensor)
     estimator = fuse_offline if args.offline else fuse
     several = len(inputs) > 1
+    for sensor_id, *_ in inputs:
+        refuse_to_overwrite_input(_output_path(args.out, sensor_id, several), args.input)
     for sensor_id, t_s, gyr, acc, mag in inputs:
         result = estimator(t_s, gyr, acc, None if args.no_mag else mag,
                            algorithm=args.algorithm, use_mag=not args.no_mag)

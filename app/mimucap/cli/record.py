@@ -66,6 +66,8 @@ def _status(supervisor: Supervisor) -> dict:
 def run(args: argparse.Namespace) -> int:
     if not args.duration > 0:
         raise ValueError(f"--duration must be > 0 s, got {args.duration}")
+    if Path(args.out).exists():
+        raise ValueError(f"{args.out} exists: a recording never replaces a file; choose another --out")
     spec = parse_source_spec(args.source)
     options = SourceOptions(sensor_ids=parse_sensor_ids(args.sensors),
                             allowed_addresses=tuple(args.allow) if args.allow else None,

@@ -38,6 +38,8 @@ from mimucap.io.journal import JournalContents, JournalWriter, iter_journal
 from mimucap.io.session import Marker, SensorStream, Session, read_session, write_session
 
 JOURNAL_SUFFIX = ".journal"
+#: A damaged journal is kept under its name plus this after recovery (nothing is thrown away).
+DAMAGED_SUFFIX = ".damaged"
 KIND_START = 1     #: JSON: metadata and start time
 KIND_BLOCK = 2     #: a sample block (mimucap.acquisition.block_codec)
 KIND_MARKER = 3    #: JSON: {"t_s": host time, "label": ...}
@@ -289,15 +291,24 @@ def _stream(sensor_id: str, blocks: list[SampleBlock], t0: float, segment: str |
 
 
 def _convert(journal_path: Path, session_path: Path) -> RecordingResult:
+    """Write the session of ``journal_path`` to ``session_path``; the journal is then removed,
+    unless reading stopped at a damaged record: then nothing is thrown away, the journal is
+    kept as ``<journal>.damaged`` (what followed the damage may still be intact)."""
     session, contents = session_from_journal(journal_path)
     write_session(session_path, session)
-    os.unlink(journal_path)
+    message = ""
+    if contents.torn:
+        kept = journal_path.with_name(journal_path.name + DAMAGED_SUFFIX)
+        os.replace(journal_path, kept)
+        message = (f"{journal_path} is damaged after byte {contents.valid_bytes}: the session holds what came "
+                   f"before; the {contents.discarded_bytes} bytes from there on were not read and the whole "
+                   f"journal is kept as {kept}")
+    else:
+        os.unlink(journal_path)
     ended = session.metadata["recording"]["ended"]
     complete = not contents.torn and not ended.startswith("crash") and ended != "write error"
     return RecordingResult(session_path, journal_path,
-                           {k: len(v) for k, v in session.sensors.items()}, complete,
-                           "" if not contents.torn else
-                           f"the last {contents.discarded_bytes} bytes of {journal_path} were torn and dropped")
+                           {k: len(v) for k, v in session.sensors.items()}, complete, message)
 
 
 def recover(path: str | os.PathLike[str]) -> RecordingResult:
