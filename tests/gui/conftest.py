@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 
 import pytest
+from PyQt5 import QtCore, QtWidgets
 
 from mimucap.gui.app import has_display
 
@@ -21,3 +22,18 @@ def pytest_collection_modifyitems(config, items):
 def _need_display():
     if not has_display():
         raise RuntimeError("the GUI tests need a display: run them under xvfb-run -a (make test does)")
+
+
+@pytest.fixture
+def accept_modal():
+    """``accept_modal(handle)``: run ``handle(dialog)`` on the next modal dialog, from inside its
+    event loop (call it just before the action that opens the dialog)."""
+    def arm(handle) -> None:
+        def poke() -> None:
+            dialog = QtWidgets.QApplication.activeModalWidget()
+            if dialog is None:
+                QtCore.QTimer.singleShot(20, poke)
+                return
+            handle(dialog)
+        QtCore.QTimer.singleShot(0, poke)
+    return arm

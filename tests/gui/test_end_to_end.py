@@ -46,25 +46,14 @@ def app_window(qtbot):
     window.close()
 
 
-def _accept_modal(qtbot, handle):
-    """Run ``handle(dialog)`` on the next modal dialog, from inside its event loop."""
-    def poke():
-        dialog = QtWidgets.QApplication.activeModalWidget()
-        if dialog is None:
-            QtCore.QTimer.singleShot(20, poke)
-            return
-        handle(dialog)
-    QtCore.QTimer.singleShot(0, poke)
-
-
-def test_record_export_review(app_window, qtbot, tmp_path, monkeypatch):
+def test_record_export_review(app_window, qtbot, tmp_path, monkeypatch, accept_modal):
     window = app_window
     # 1. Choose the simulated suit (walking) in the source dialog.
     def choose(dialog: SourceDialog):
         dialog.kind_buttons["simulated"].setChecked(True)
         dialog.scenario.setCurrentText("walk")
         dialog.accept()
-    _accept_modal(qtbot, choose)
+    accept_modal(choose)
     window.action_source.trigger()
     assert window.live.label == "simulated:walk"
     assert last_source_spec() == "simulated:walk"  # remembered for next time
@@ -77,7 +66,7 @@ def test_record_export_review(app_window, qtbot, tmp_path, monkeypatch):
         for sensor_id, segment in wanted.items():
             dialog.set_segment(sensor_id, segment)
         dialog.accept()
-    _accept_modal(qtbot, assign)
+    accept_modal(assign)
     window.action_assign.trigger()
     assert window.live.sensor_segments == wanted
     assert remembered_assignment() == wanted

@@ -29,17 +29,8 @@ def window(qtbot, tmp_path, monkeypatch):
     win.deleteLater()
 
 
-def _accept_next_dialog(handle):
-    def poke():
-        dialog = QtWidgets.QApplication.activeModalWidget()
-        if dialog is None:
-            QtCore.QTimer.singleShot(20, poke)
-            return
-        handle(dialog)
-    QtCore.QTimer.singleShot(0, poke)
-
-
-def test_no_source_change_while_recording_and_a_failed_one_is_not_remembered(window, qtbot, monkeypatch):
+def test_no_source_change_while_recording_and_a_failed_one_is_not_remembered(window, qtbot, monkeypatch,
+                                                                              accept_modal):
     warnings = []
     monkeypatch.setattr(QtWidgets.QMessageBox, "warning", lambda *a, **k: warnings.append(a[2]))
     window.action_record.trigger()
@@ -60,7 +51,7 @@ def test_no_source_change_while_recording_and_a_failed_one_is_not_remembered(win
         dialog.serial_device.setText("/dev/ttyGone")
         dialog.model_combo.setCurrentIndex(dialog.model_combo.findData("fifteen_segment"))
         dialog.accept()
-    _accept_next_dialog(choose)
+    accept_modal(choose)
     window.action_source.trigger()
     assert "no such device" in warnings[-1]
     assert window.model_name == "ten_segment" and window.live.label == "simulated:demo"

@@ -31,8 +31,10 @@ class SerialEmulator:
         self.settings = settings
         self.motion = motion
         self.link = None if link is None else Path(link)
+        #: where the next link is made before it replaces :attr:`link` in one step
+        self._new_link = None if link is None else self.link.with_name(self.link.name + ".new")
         if self.link is not None:
-            for path in (self.link, self.link.with_name(self.link.name + ".new")):
+            for path in (self.link, self._new_link):
                 if path.exists() and not path.is_symlink():  # a link is replaced; a file never
                     raise ValueError(f"--link {path} exists and is not a symbolic link; choose another path")
         self._lock = Lock()
@@ -62,11 +64,10 @@ class SerialEmulator:
             self.master_fd, self.slave_fd = master, slave
             self.slave_path = os.ttyname(slave)
             if self.link is not None:
-                temporary = self.link.with_name(self.link.name + ".new")
-                if temporary.is_symlink():
-                    temporary.unlink()
-                os.symlink(self.slave_path, temporary)
-                os.replace(temporary, self.link)
+                if self._new_link.is_symlink():
+                    self._new_link.unlink()
+                os.symlink(self.slave_path, self._new_link)
+                os.replace(self._new_link, self.link)
             self.plugged = True
 
     def unplug(self) -> None:

@@ -12,6 +12,7 @@ import argparse
 import importlib
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from mimucap import __version__
 
@@ -24,8 +25,6 @@ EXIT_USAGE = 2
 def refuse_to_overwrite_input(out, *inputs) -> None:
     """``ValueError`` when the output path ``out`` is one of the ``inputs`` (the same file by
     another name too): writing the result would destroy what it was computed from."""
-    from pathlib import Path
-
     target = Path(out).expanduser().resolve()
     for item in inputs:
         if item is not None and Path(item).expanduser().resolve() == target:

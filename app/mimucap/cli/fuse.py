@@ -108,11 +108,11 @@ def write_orientation(path: Path, t_s: np.ndarray, result: FusionResult) -> None
 def run(args: argparse.Namespace) -> int:
     if args.out.suffix.lower() not in OUTPUT_SUFFIXES:
         raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
-    refuse_to_overwrite_input(args.out, args.input)
+    refuse_to_overwrite_input(args.out, args.input)  # also when per-sensor names derive from it: a slip
     inputs = _inputs(args.input, args.sensor)
     estimator = fuse_offline if args.offline else fuse
     several = len(inputs) > 1
-    for sensor_id, *_ in inputs:
+    for sensor_id, *_ in inputs:  # every file to write, before any is written
         refuse_to_overwrite_input(_output_path(args.out, sensor_id, several), args.input)
     for sensor_id, t_s, gyr, acc, mag in inputs:
         result = estimator(t_s, gyr, acc, None if args.no_mag else mag,

@@ -66,8 +66,6 @@ def _status(supervisor: Supervisor) -> dict:
 def run(args: argparse.Namespace) -> int:
     if not args.duration > 0:
         raise ValueError(f"--duration must be > 0 s, got {args.duration}")
-    if Path(args.out).exists():
-        raise ValueError(f"{args.out} exists: a recording never replaces a file; choose another --out")
     spec = parse_source_spec(args.source)
     options = SourceOptions(sensor_ids=parse_sensor_ids(args.sensors),
                             allowed_addresses=tuple(args.allow) if args.allow else None,
@@ -76,10 +74,10 @@ def run(args: argparse.Namespace) -> int:
     metadata = {"source": format_source_spec(spec), "sensor_segments": sensor_segments(configs)}
     recorder = Recorder(args.out, metadata,
                         RecorderSettings(flush_interval_s=args.flush_interval))
+    recorder.start()  # refuses an existing file or journal before anything runs
     stop = _StopRequest()
     previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     supervisor = Supervisor(configs)
-    recorder.start()
     reason = "duration"
     try:
         supervisor.start()

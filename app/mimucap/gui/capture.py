@@ -7,11 +7,14 @@ widget; each visible view renders once first, so the picture shows the current s
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 from PyQt5 import QtGui, QtWidgets
 
 from mimucap.gui.vtk_image_widget import VtkImageWidget
+
+log = logging.getLogger(__name__)
 
 
 def grab_window(window: QtWidgets.QWidget) -> QtGui.QPixmap:
@@ -29,3 +32,20 @@ def save_window_png(window: QtWidgets.QWidget, path: str | Path) -> Path:
     if not grab_window(window).save(str(path), "PNG"):
         raise OSError(f"could not write the screenshot {path}")
     return path
+
+
+def ask_to_save_screenshot(window: QtWidgets.QMainWindow, default_name: str) -> Path | None:
+    """Ask where to write :func:`save_window_png` of ``window`` and write it; the result is said
+    in its status bar, a failure in a dialog (and the log). Returns the file written, if any."""
+    path, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Save Screenshot", default_name, "PNG images (*.png)")
+    if not path:
+        return None
+    try:
+        written = save_window_png(window, path)
+    except OSError as error:
+        log.warning("screenshot not saved: %s", error)
+        QtWidgets.QMessageBox.warning(window, "Screenshot not saved",
+                                      f"{path} could not be written: {error}\n\nChoose another folder.")
+        return None
+    window.statusBar().showMessage(f"Screenshot saved to {written}", 5000)
+    return written

@@ -81,6 +81,7 @@ class ExportDialog(QtWidgets.QDialog):
         self.want_mot = QtWidgets.QCheckBox("Joint angles, OpenSim .mot", files_box)
         self.want_summary = QtWidgets.QCheckBox("Summary per joint, CSV", files_box)
         self.want_sensors = QtWidgets.QCheckBox("Sensor data and orientations, one CSV per sensor", files_box)
+        self._file_boxes = (self.want_csv, self.want_mot, self.want_summary, self.want_sensors)
         for box in (self.want_csv, self.want_mot, self.want_summary):
             box.setChecked(True)
         self.base_path = QtWidgets.QLineEdit(str(data.path.with_suffix("")) + "_angles", files_box)
@@ -88,7 +89,7 @@ class ExportDialog(QtWidgets.QDialog):
         browse = QtWidgets.QPushButton("Browse…", files_box)
         browse.clicked.connect(self._browse)
         layout = QtWidgets.QVBoxLayout(files_box)
-        for box in (self.want_csv, self.want_mot, self.want_summary, self.want_sensors):
+        for box in self._file_boxes:
             layout.addWidget(box)
         row = QtWidgets.QHBoxLayout()
         row.addWidget(QtWidgets.QLabel("Save as"))
@@ -145,7 +146,7 @@ class ExportDialog(QtWidgets.QDialog):
         for widget in (self.marker_a, self.marker_b):
             widget.activated.connect(lambda _index: self.range_markers.setChecked(True))
             widget.currentIndexChanged.connect(self.update_summary)
-        for box in (self.want_csv, self.want_mot, self.want_summary, self.want_sensors):
+        for box in self._file_boxes:
             box.toggled.connect(self._update_buttons)
         self.update_summary()
 
@@ -190,11 +191,10 @@ class ExportDialog(QtWidgets.QDialog):
     def _update_buttons(self) -> None:
         """Export needs a valid range, a file ticked and no export running; the summary
         files a valid range."""
-        valid = self._range_valid
-        wanted = any(box.isChecked() for box in (self.want_csv, self.want_mot, self.want_summary, self.want_sensors))
-        self.export_button.setEnabled(valid and wanted and not self.busy)
-        self.summary_csv_button.setEnabled(valid)
-        self.summary_png_button.setEnabled(valid)
+        wanted = any(box.isChecked() for box in self._file_boxes)
+        self.export_button.setEnabled(self._range_valid and wanted and not self.busy)
+        self.summary_csv_button.setEnabled(self._range_valid)
+        self.summary_png_button.setEnabled(self._range_valid)
 
     # -- export ------------------------------------------------------------------------------
     def _browse(self) -> None:

@@ -19,7 +19,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap import __version__
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background import BackgroundTask
-from mimucap.gui.capture import save_window_png
+from mimucap.gui.capture import ask_to_save_screenshot, save_window_png
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView
@@ -179,7 +179,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_export.setEnabled(False)
         self.action_folder = file_menu.addAction("Recording &Folder…", self.choose_recording_folder)
         file_menu.addSeparator()
-        self.action_save_screenshot = file_menu.addAction("Save Screens&hot…", self._ask_screenshot)
+        self.action_save_screenshot = file_menu.addAction("Save Screens&hot…",
+                                                          lambda: ask_to_save_screenshot(self, "mimucap.png"))
         self.action_save_screenshot.setShortcut(QtGui.QKeySequence("Ctrl+Shift+S"))
         file_menu.addSeparator()
         self.action_quit = file_menu.addAction("&Quit", self.close)
@@ -241,8 +242,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def open_source(self, spec: str, interactive: bool = True) -> bool:
         """Stop the current source and start ``spec``; False (and a message, in a dialog when
         ``interactive``, else in the status bar and :attr:`source_error`) if it fails."""
-        if self.live is not None and self.live.recording:
-            QtWidgets.QMessageBox.warning(self, "Recording", "Stop the recording before changing the source.")
+        if self._refused_while_recording():
             return False
         try:
             session = self.session_factory(spec)
@@ -273,6 +273,13 @@ class MainWindow(QtWidgets.QMainWindow):
             self.start()
         self.refresh_panels()
         return True
+
+    def _refused_while_recording(self) -> bool:
+        """True (and said in a dialog) while recording: the source cannot change then."""
+        if self.live is not None and self.live.recording:
+            QtWidgets.QMessageBox.warning(self, "Recording", "Stop the recording before changing the source.")
+            return True
+        return False
 
     def _stop_live(self) -> None:
         if self.live is None:
@@ -378,8 +385,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def choose_source(self) -> None:
         """Ask for a source and a skeleton; both are used and remembered only if the source
         opens (not while recording, nor when it fails)."""
-        if self.live is not None and self.live.recording:
-            QtWidgets.QMessageBox.warning(self, "Recording", "Stop the recording before changing the source.")
+        if self._refused_while_recording():
             return
         dialog = SourceDialog(self, self.live.label if self.live is not None else None, self.model_name)
         if dialog.exec_() != QtWidgets.QDialog.Accepted:
@@ -445,33 +451,32 @@ class MainWindow(QtWidgets.QMainWindow):
                 subject = self.session_panel.subject()
                 path = default_recording_path(self.recording_folder(), subject)
                 self.live.start_recording(path, subject.to_dict())
-            except ValueError as error:
-                self.session_panel.set_recording(False)
-                QtWidgets.QMessageBox.warning(self, "Cannot record", str(error))
-                return
-            except OSError as error:
+            except (ValueError, OSError) as error:
                 self.session_panel.set_recording(False)
                 log.warning("cannot record: %s", error)
-                QtWidgets.QMessageBox.warning(self, "Cannot record", f"{error}\n\nChoose another recording folder "
-                                              "(File → Recording Folder).")
+                hint = "\n\nChoose another recording folder (File → Recording Folder)." if isinstance(error, OSError) else ""
+                QtWidgets.QMessageBox.warning(self, "Cannot record", f"{error}{hint}")
                 return
             self.session_panel.markers_list.clear()
-            self.session_panel.set_recording(True)
-            self.action_record.setText("Stop &Recording")
-            self.action_source.setEnabled(False)
+            self._show_recording(True)
             self.session_panel.show_info(self.live.recording_info())
             self.statusBar().showMessage(f"Recording to {path}")
         elif not on and self.live.recording:
             self._finish_recording()
+
+    def _show_recording(self, on: bool) -> None:
+        """The window's controls while recording (``on``) or not: the Record button and menu
+        item, the subject fields, and Choose Source (no source change while recording)."""
+        self.session_panel.set_recording(on)
+        self.action_record.setText("Stop &Recording" if on else "Start &Recording")
+        self.action_source.setEnabled(not on)
 
     def _finish_recording(self, wait: bool = False) -> None:
         """Stop recording at once; the session file is written in a background thread (the
         journal holds every sample until then). ``wait``: block until it is written."""
         live = self.live
         pending = live.end_recording()
-        self.session_panel.set_recording(False)
-        self.action_record.setText("Start &Recording")
-        self.action_source.setEnabled(True)
+        self._show_recording(False)
         message = f"Saving the session to {pending.session_path}…"
         self.session_panel.show_info(None, message)
         self.statusBar().showMessage(message)
@@ -608,16 +613,6 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def show_about(self) -> None:
         QtWidgets.QMessageBox.about(self, "About MimuCap", ABOUT_TEXT.format(version=__version__))
-
-    def _ask_screenshot(self) -> None:
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Screenshot", "mimucap.png", "PNG images (*.png)")
-        if path:
-            try:
-                self.save_screenshot(path)
-            except OSError as error:
-                log.warning("screenshot not saved: %s", error)
-                QtWidgets.QMessageBox.warning(self, "Screenshot not saved",
-                                              f"{path} could not be written: {error}\n\nChoose another folder.")
 
     def save_screenshot(self, path: str | Path) -> Path:
         """Write the window (3D view included) to ``path`` as PNG."""

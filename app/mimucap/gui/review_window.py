@@ -15,7 +15,7 @@ import pyqtgraph as pg
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.gui.background import BackgroundTask
-from mimucap.gui.capture import save_window_png
+from mimucap.gui.capture import ask_to_save_screenshot
 from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
@@ -109,7 +109,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.action_export = menu.addAction("&Export…", self.open_export)
         self.action_export.setShortcut(QtGui.QKeySequence("Ctrl+E"))
         self.action_export.setEnabled(False)
-        self.action_screenshot = menu.addAction("Save Screens&hot…", self._ask_screenshot)
+        self.action_screenshot = menu.addAction("Save Screens&hot…", lambda: ask_to_save_screenshot(self, "review.png"))
         menu.addSeparator()
         menu.addAction("&Close", self.close).setShortcut(QtGui.QKeySequence.Close)
         view = self.menuBar().addMenu("&View")
@@ -242,18 +242,6 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.export_dialog = ExportDialog(self, self.player.data)
         self.export_dialog.show()
         return self.export_dialog
-
-    def _ask_screenshot(self) -> None:
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Screenshot", "review.png", "PNG images (*.png)")
-        if path:
-            try:
-                written = save_window_png(self, path)
-            except OSError as error:
-                log.warning("screenshot not saved: %s", error)
-                QtWidgets.QMessageBox.warning(self, "Screenshot not saved",
-                                              f"{path} could not be written: {error}\n\nChoose another folder.")
-                return
-            self.statusBar().showMessage(f"Screenshot saved to {written}", 5000)
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
         if self._task is not None:

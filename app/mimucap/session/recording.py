@@ -115,6 +115,8 @@ class Recorder:
         if self.journal_path.exists():
             raise ValueError(f"{self.journal_path} exists (an interrupted recording?): "
                              f"run `mimucap recover {self.out_path}` or remove it first")
+        if self.out_path.exists():
+            raise ValueError(f"{self.out_path} exists: a recording never replaces a file; choose another name")
         if not self.out_path.parent.is_dir():
             raise OSError(f"cannot record to {self.out_path}: folder {self.out_path.parent} does not exist")
         self.start_host_s = time.monotonic() if start_host_s is None else float(start_host_s)
