@@ -154,6 +154,21 @@ def test_review_windows_are_let_go_when_closed_and_a_failed_one_closes(window, q
     qtbot.waitUntil(lambda: _let_go(good), timeout=5000)
 
 
+def test_a_click_on_the_review_slider_moves_the_play_head_there(window, qtbot, tmp_path):
+    review = window.open_review(_session_file(tmp_path))
+    with qtbot.waitSignal(review.loaded, timeout=20000):
+        pass
+    slider = review.slider
+    qtbot.mouseClick(slider, QtCore.Qt.LeftButton, pos=QtCore.QPoint(int(slider.width() * 0.75), slider.height() // 2))
+    fraction = (slider.value() - slider.minimum()) / (slider.maximum() - slider.minimum())
+    assert fraction == pytest.approx(0.75, abs=0.05)
+    assert review.player.cursor_s == pytest.approx(slider.value() / 100, abs=0.011)
+    before = slider.value()
+    qtbot.keyClick(slider, QtCore.Qt.Key_PageDown)
+    assert abs(slider.value() - before) == 100  # one second
+    review.close()
+
+
 def test_export_dialog_follows_the_users_edits_and_says_what_failed(qtbot, tmp_path):
     from mimucap.gui.export_dialog import ExportDialog
     from mimucap.session.review import load_review

@@ -82,6 +82,14 @@ def test_magnetometer_wizard_calibrates_several_sensors_at_once(qtbot, magnetome
     assert "calibrated just now (good)" in wizard.sensor_list.item(0).text()
 
 
+def test_enter_starts_the_magnetometer_wizard_instead_of_closing_it(qtbot, magnetometer_wizard) -> None:
+    _, wizard = magnetometer_wizard
+    wizard.sensor_list.setFocus()
+    qtbot.keyClick(wizard.sensor_list, QtCore.Qt.Key_Return)
+    assert wizard.isVisible() and wizard.page_name == "recording"
+    assert not wizard.finish_button.isDefault()  # Enter while turning neither finishes nor cancels
+
+
 def test_magnetometer_wizard_refuses_a_one_axis_capture(qtbot, magnetometer_wizard) -> None:
     _, wizard = magnetometer_wizard
     wizard.set_selected_sensors(["S02", "S03"])
@@ -141,6 +149,13 @@ def test_body_wizard_matches_the_true_mountings_and_applies_the_result(qtbot) ->
     with qtbot.waitSignal(wizard.calibration_accepted):
         qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
     assert live.applied == [calibration]
+
+
+def test_enter_starts_the_body_wizard(qtbot) -> None:
+    _, wizard = body_wizard(qtbot, seed=6)
+    wizard.height_spin.setFocus()
+    qtbot.keyClick(wizard.height_spin, QtCore.Qt.Key_Return)
+    assert wizard.isVisible() and wizard.page_name == "pose"
 
 
 def test_body_wizard_refuses_a_subject_moving_during_the_npose(qtbot) -> None:

@@ -61,3 +61,14 @@ def test_column_bounds_skip_gaps_and_name_an_empty_column():
     low, high = column_bounds(values)
     assert low == [1.0, None, -2.0] and high == [3.0, None, 5.0]
     assert column_bounds(np.zeros((0, 3))) == ([None] * 3, [None] * 3)
+
+
+@pytest.mark.parametrize("low, high, most, expected", [
+    (-35.8, 13.0, 1, [-20.0, 0.0]), (-12.5, 3.2, 2, [-10.0, 0.0]), (0.0, 65.0, 3, [0.0, 50.0]),
+    (0.0, 65.0, 1, [0.0, 50.0]),        # never a single label when two round values fit
+    (-5.0, 5.0, 2, [0.0, 5.0]),         # a coarser step (10) would leave 0 alone: the two nearest 0
+    (-0.66, 0.66, 2, [0.0, 0.5]), (-1.2, 1.2, 2, [0.0, 1.0])
+])
+def test_a_short_plot_gets_fewer_coarser_ticks(low, high, most, expected):
+    assert len(nice_ticks(low, high, 4)) > most
+    assert [v for v, _ in nice_ticks(low, high, 4, most=most)] == pytest.approx(expected)

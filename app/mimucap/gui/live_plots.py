@@ -39,6 +39,15 @@ SENSOR_PLOTS = (
     ("mag", "Magnetometer", "µT", 10.0),
 )
 ANGLE_UNIT, ANGLE_MIN_RANGE = "deg", 10.0
+#: Smallest height of one plot (px): below it the plots scroll instead of shrinking further.
+MIN_PLOT_HEIGHT_PX = 90
+#: Smallest distance between two labelled ticks of a vertical axis (px): fewer ticks on a
+#: short plot instead of overlapping labels.
+MIN_TICK_SPACING_PX = 26.0
+#: Height of the time axis under the bottom plot (px).
+TIME_AXIS_HEIGHT_PX = 40
+#: Most ticks on a vertical axis.
+MAX_TICKS = 4
 #: Colour of the "no data" note in a plot's title.
 NO_DATA_COLOUR = "#888888"
 
@@ -106,10 +115,12 @@ class LivePlots(QtWidgets.QWidget):
         self.relative_time = bool(relative_time)
         self.sensor_combo = QtWidgets.QComboBox(self)
         self.sensor_combo.setObjectName("plotSensor")
+        self.sensor_combo.setSizeAdjustPolicy(QtWidgets.QComboBox.AdjustToMinimumContentsLengthWithIcon)
+        self.sensor_combo.setMinimumContentsLength(4)
         self.joint_button = QtWidgets.QToolButton(self)
         self.joint_button.setObjectName("plotJoints")
         self.joint_button.setPopupMode(QtWidgets.QToolButton.InstantPopup)
-        self.joint_button.setMinimumWidth(96)
+        self.joint_button.setMinimumWidth(72)
         self.joint_menu = QtWidgets.QMenu(self.joint_button)
         self.joint_button.setMenu(self.joint_menu)
         self.joint_actions: dict[str, QtWidgets.QAction] = {}
@@ -133,7 +144,13 @@ class LivePlots(QtWidgets.QWidget):
         bar.addStretch(1)
         bar.addWidget(self.pause_button)
 
-        self.layout_widget = pg.GraphicsLayoutWidget(self)
+        self.layout_widget = pg.GraphicsLayoutWidget()
+        # In a small window the plots keep a readable height and scroll.
+        self.scroll_area = QtWidgets.QScrollArea(self)
+        self.scroll_area.setFrameShape(QtWidgets.QFrame.NoFrame)
+        self.scroll_area.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
+        self.scroll_area.setWidgetResizable(True)
+        self.scroll_area.setWidget(self.layout_widget)
         self.plots: dict[str, pg.PlotItem] = {}
         self.curves: dict[str, list[_Curve]] = {}
         self.cursors: dict[str, pg.InfiniteLine] = {}
@@ -148,7 +165,7 @@ class LivePlots(QtWidgets.QWidget):
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addLayout(bar)
-        layout.addWidget(self.layout_widget, 1)
+        layout.addWidget(self.scroll_area, 1)
 
         self.window_combo.currentIndexChanged.connect(self._fix_x_range)
         self._timer = QtCore.QTimer(self)
@@ -194,6 +211,7 @@ class LivePlots(QtWidgets.QWidget):
             plot.setXLink(next(iter(self.plots.values())))
         self.plots[key] = plot
         self.curves[key] = curves
+        view.sigResized.connect(lambda _view, key=key: self._apply_range(key) if key in self.plots else None)
         self._set_title(key, title)
         self.cursors[key] = cursor
         self._ranges[key] = SteadyRange(min_range)
@@ -203,10 +221,10 @@ class LivePlots(QtWidgets.QWidget):
         """Show plot ``key``'s steady range with 3-5 round, labelled ticks (pyqtgraph's own
         choice labels only 0 for some ranges)."""
         steady = self._ranges[key]
-        ticks = nice_ticks(steady.low, steady.high)
+        height_px = max(self.plots[key].getViewBox().height(), 60.0)
+        ticks = nice_ticks(steady.low, steady.high, MAX_TICKS, most=int(height_px // MIN_TICK_SPACING_PX))
         low, high = steady.low, steady.high
         if ticks:  # room for the outer labels (pyqtgraph drops a label that sticks out)
-            height_px = max(self.plots[key].getViewBox().height(), 60.0)
             pad = 8.0 * (high - low) / (height_px - 16.0)
             low, high = min(low, ticks[0][0] - pad), max(high, ticks[-1][0] + pad)
         self.plots[key].setYRange(low, high, padding=0)
@@ -244,6 +262,7 @@ class LivePlots(QtWidgets.QWidget):
             plot.hideAxis("bottom")
         last.setLabel("bottom", "time before the pose shown (s)" if self.relative_time else "time (s)")
         last.showAxis("bottom")
+        self.layout_widget.setMinimumHeight(len(self.plots) * MIN_PLOT_HEIGHT_PX + TIME_AXIS_HEIGHT_PX)
 
     def _joint_key(self, joint: str) -> str:
         return f"joint:{joint}"

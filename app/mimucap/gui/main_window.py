@@ -20,6 +20,7 @@ from mimucap import __version__
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot, save_window_png
+from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView
@@ -51,6 +52,10 @@ _kernels_ready = False
 PUMP_INTERVAL_MS = 16
 #: How often the sensor panel, tints and status bar are refreshed (ms).
 PANEL_INTERVAL_MS = 250
+#: The Sensors dock's height when the window opens (px).
+SENSOR_DOCK_START_PX = 190
+#: A dock takes at most this share of a small window's height (Sensors) or width (Session).
+DOCK_MOST_SHARE = 0.3
 #: What the 3D view says while it has no figure to show, by pose source.
 VIEW_HINTS = {
     POSE_NONE: "Waiting for data from the source…",
@@ -63,6 +68,16 @@ ABOUT_TEXT = (
     "recording, review and export.</p>"
     "<p>Built with PyQt5, VTK, pyqtgraph, NumPy, SciPy and h5py.</p>"
 )
+
+
+def _scrolling(widget: QtWidgets.QWidget) -> QtWidgets.QScrollArea:
+    """``widget`` in a frameless scroll area: a small window scrolls it instead of being held
+    at its full height."""
+    area = QtWidgets.QScrollArea()
+    area.setFrameShape(QtWidgets.QFrame.NoFrame)
+    area.setWidgetResizable(True)
+    area.setWidget(widget)
+    return area
 
 
 def _wizard_classes() -> dict[str, type]:
@@ -129,10 +144,18 @@ class MainWindow(QtWidgets.QMainWindow):
         self.setCentralWidget(splitter)
 
         self.session_panel = SessionPanel(self)
-        self.session_dock = self._dock("Session", "sessionDock", self.session_panel, QtCore.Qt.LeftDockWidgetArea)
+        self.session_dock = self._dock("Session", "sessionDock", _scrolling(self.session_panel),
+                                       QtCore.Qt.LeftDockWidgetArea)
         self.sensor_panel = SensorPanel(self)
         self.sensor_dock = self._dock("Sensors", "sensorDock", self.sensor_panel, QtCore.Qt.BottomDockWidgetArea)
-        self.resizeDocks([self.sensor_dock], [190], QtCore.Qt.Vertical)
+        scrollbar = self.style().pixelMetric(QtWidgets.QStyle.PM_ScrollBarExtent)
+        #: dock → (size it keeps (px), the direction it is sized in); see :meth:`resizeEvent`
+        self._dock_sizes = {
+            self.sensor_dock: (SENSOR_DOCK_START_PX, QtCore.Qt.Vertical),
+            self.session_dock: (self.session_panel.sizeHint().width() + scrollbar, QtCore.Qt.Horizontal)}
+        for dock, (size, orientation) in self._dock_sizes.items():
+            self.resizeDocks([dock], [size], orientation)
+        self.installEventFilter(self)
 
         self.session_panel.record_toggled.connect(self._record_toggled)
         self.session_panel.marker_requested.connect(self.add_marker)
@@ -230,8 +253,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _build_status_bar(self) -> None:
         status = self.statusBar()
-        self.source_status = QtWidgets.QLabel(self)
-        self.pose_status = QtWidgets.QLabel(self)
+        self.source_status = ElidedLabel("", self)
+        self.pose_status = ElidedLabel("", self)
         self.rate_status = QtWidgets.QLabel(self)
         self.cpu_status = QtWidgets.QLabel(self)
         self.fps_status = QtWidgets.QLabel(self)
@@ -619,6 +642,26 @@ class MainWindow(QtWidgets.QMainWindow):
         written = save_window_png(self, path)
         self.statusBar().showMessage(f"Screenshot saved to {written}", 5000)
         return written
+
+    def resizeEvent(self, event: QtGui.QResizeEvent) -> None:  # noqa: N802 (Qt API)
+        """Give the docks back the size they had before the window was made too small for it, at
+        most :data:`DOCK_MOST_SHARE` of the window (Qt gives all of a growing window to the 3D view and plots: a window shrunk and grown
+        again left the sensor table 1.5 rows tall and the session panel cut)."""
+        super().resizeEvent(event)
+        for dock, (size, orientation) in self._dock_sizes.items():
+            window = event.size().height() if orientation == QtCore.Qt.Vertical else event.size().width()
+            self.resizeDocks([dock], [min(size, int(DOCK_MOST_SHARE * window))], orientation)
+
+    def eventFilter(self, watched: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt API)
+        """The dock sizes to keep are the ones the user leaves after dragging a separator (mouse
+        events on the window itself, between its docks)."""
+        if watched is self and event.type() == QtCore.QEvent.MouseButtonRelease:
+            QtCore.QTimer.singleShot(0, self._remember_dock_sizes)
+        return super().eventFilter(watched, event)
+
+    def _remember_dock_sizes(self) -> None:
+        self._dock_sizes = {dock: ((dock.height() if orientation == QtCore.Qt.Vertical else dock.width()), orientation)
+                            for dock, (_size, orientation) in self._dock_sizes.items()}
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
         if self.live is not None and self.live.recording:

@@ -29,6 +29,22 @@ log = logging.getLogger(__name__)
 PLAY_INTERVAL_MS = 33
 #: Slider steps per second of recording.
 SLIDER_STEPS_PER_S = 100
+#: Heights of successive marker labels on the timeline (fraction of its height): neighbours
+#: alternate, so that two close markers' labels do not overlap.
+MARKER_LABEL_HEIGHTS = (0.75, 0.3)
+#: What the arrow keys (a tenth of a second) and Page Up/Down (a second) move the slider by (s).
+SLIDER_ARROW_STEP_S, SLIDER_PAGE_STEP_S = 0.1, 1.0
+
+
+class _JumpToClickStyle(QtWidgets.QProxyStyle):
+    """The application's style, except that a left click on a slider's groove puts the handle
+    there (instead of moving it one page step towards the click, which barely moves a long
+    recording's play head)."""
+
+    def styleHint(self, hint, option=None, widget=None, return_data=None):  # noqa: N802 (Qt API)
+        if hint == QtWidgets.QStyle.SH_Slider_AbsoluteSetButtons:
+            return int(QtCore.Qt.LeftButton)
+        return super().styleHint(hint, option, widget, return_data)
 
 
 class ReviewWindow(QtWidgets.QMainWindow):
@@ -63,6 +79,10 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.play_button.toggled.connect(self._play_toggled)
         self.slider = QtWidgets.QSlider(QtCore.Qt.Horizontal, self)
         self.slider.setObjectName("timelineSlider")
+        self._slider_style = _JumpToClickStyle()  # kept: the slider does not own its style
+        self.slider.setStyle(self._slider_style)
+        self.slider.setSingleStep(int(round(SLIDER_ARROW_STEP_S * SLIDER_STEPS_PER_S)))
+        self.slider.setPageStep(int(round(SLIDER_PAGE_STEP_S * SLIDER_STEPS_PER_S)))
         self.slider.valueChanged.connect(self._slider_moved)
         self.time_label = QtWidgets.QLabel("–", self)
         self.time_label.setMinimumWidth(150)
@@ -74,6 +94,8 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.markers_list = QtWidgets.QListWidget(self)
         self.markers_list.setObjectName("reviewMarkers")
         self.markers_list.setMaximumWidth(260)
+        # As tall as the timeline and its controls beside it, never taller (it scrolls).
+        self.markers_list.setSizePolicy(QtWidgets.QSizePolicy.Preferred, QtWidgets.QSizePolicy.Ignored)
         self.markers_list.itemActivated.connect(lambda item: self.seek_marker(self.markers_list.row(item)))
         self.markers_list.itemClicked.connect(lambda item: self.seek_marker(self.markers_list.row(item)))
         self.timeline = pg.PlotWidget(self)
@@ -154,7 +176,9 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.timeline.setYRange(0, 1)
         for index, marker in enumerate(data.markers):
             line = pg.InfiniteLine(marker.t_s, angle=90, movable=False, pen=pg.mkPen("#2c3e50", width=1),
-                                   label=marker.label, labelOpts={"position": 0.75, "color": "#2c3e50"})
+                                   label=marker.label,
+                                   labelOpts={"position": MARKER_LABEL_HEIGHTS[index % len(MARKER_LABEL_HEIGHTS)],
+                                              "color": "#2c3e50"})
             self.timeline.addItem(line)
             self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker.label}")
         self.pose_status.setText(f"Pose: {data.pose_source}")

@@ -47,19 +47,40 @@ def peak_decimate(x: np.ndarray, values: np.ndarray, max_points: int) -> tuple[n
     return out_x, out_values
 
 
-def nice_ticks(low: float, high: float, wanted: int = 4) -> list[tuple[float, str]]:
+def nice_ticks(low: float, high: float, wanted: int = 4, most: int | None = None) -> list[tuple[float, str]]:
     """About ``wanted`` round values (steps of 1, 2 or 5 × 10^k) inside ``low`` … ``high``,
-    each with its label (as many decimals as the step needs)."""
+    each with its label (as many decimals as the step needs); never more than ``most`` of them
+    (at least two): a coarser step instead (e.g. a plot too short for more labels) or, when a
+    coarser step would leave a single value, the values nearest zero (positive first)."""
     span = high - low
     if not span > 0 or not np.isfinite(span):
         return []
     raw = span / wanted
     magnitude = 10.0 ** np.floor(np.log10(raw))
     step = next(m * magnitude for m in (1.0, 2.0, 5.0, 10.0) if m * magnitude >= raw * (1 - 1e-9))
+    values = _multiples(low, high, step)
+    while most is not None and len(values) > max(most, 2):
+        coarser = _next_round_step(step)
+        if len(_multiples(low, high, coarser)) < 2:
+            # the coarser step would leave a single tick: keep this one, the values nearest 0
+            values = np.sort(values[np.argsort(np.abs(values) - 1e-9 * np.sign(values), kind="stable")[:max(most, 2)]])
+            break
+        step, values = coarser, _multiples(low, high, coarser)
     decimals = max(0, -int(np.floor(np.log10(step) + 1e-9)))
-    first = np.ceil(low / step - 1e-9) * step
-    values = np.arange(first, high + 1e-9 * step, step)
     return [(float(v), f"{0.0 if abs(v) < step / 1e6 else v:.{decimals}f}") for v in values]
+
+
+def _multiples(low: float, high: float, step: float) -> np.ndarray:
+    """The multiples of ``step`` from ``low`` to ``high`` (inclusive, to rounding)."""
+    first = np.ceil(low / step - 1e-9) * step
+    return np.arange(first, high + 1e-9 * step, step)
+
+
+def _next_round_step(step: float) -> float:
+    """The round step after ``step`` in 1, 2, 5, 10, 20, … × 10^k."""
+    magnitude = 10.0 ** np.floor(np.log10(step) + 1e-9)
+    mantissa = step / magnitude
+    return (2.0 if mantissa < 1.5 else 5.0 if mantissa < 3.5 else 10.0) * magnitude
 
 
 def column_bounds(values: np.ndarray) -> tuple[list[float | None], list[float | None]]:

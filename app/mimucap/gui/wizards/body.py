@@ -102,6 +102,8 @@ class BodyCalibrationWizard(CalibrationDialog):
             self.pages.addWidget(page)
         layout = QtWidgets.QVBoxLayout(self)
         layout.addWidget(self.pages)
+        self.set_page_defaults(self.pages, {self.setup_page: self.start_button,
+                                            self.result_page: self.accept_button})
         self.timer = QtCore.QTimer(self)
         self.timer.setInterval(int(tick_ms))
         self.timer.timeout.connect(self._tick)
@@ -157,7 +159,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.setup_error.setWordWrap(True)
         self.setup_error.setStyleSheet("color: #d62728")
         layout.addWidget(self.setup_error)
-        self.start_button = push_button("Start", self.start, default=True)
+        self.start_button = push_button("Start", self.start)
         layout.addLayout(button_row(None, push_button("Close", self.reject), self.start_button))
         return page
 

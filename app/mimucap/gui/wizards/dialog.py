@@ -4,17 +4,16 @@ feed and releases the view, so nothing renders or reads samples afterwards."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 from PyQt5 import QtGui, QtWidgets
 
 
-def push_button(text: str, slot: Callable[[], object], default: bool = False,
-                tooltip: str = "") -> QtWidgets.QPushButton:
-    """A push button calling ``slot`` when clicked."""
+def push_button(text: str, slot: Callable[[], object], tooltip: str = "") -> QtWidgets.QPushButton:
+    """A push button calling ``slot`` when clicked (which button Enter presses is the dialog's
+    choice: :meth:`CalibrationDialog.set_page_defaults`)."""
     widget = QtWidgets.QPushButton(text)
     widget.clicked.connect(slot)
-    widget.setDefault(default)
     if tooltip:
         widget.setToolTip(tooltip)
     return widget
@@ -45,6 +44,23 @@ def button_row(*items: QtWidgets.QWidget | None) -> QtWidgets.QHBoxLayout:
 class CalibrationDialog(QtWidgets.QDialog):
     """Base of the wizards. Subclasses set ``self.timer`` (QTimer), ``self.feed`` (a sample
     feed, optionally with ``close()``) and return their 3D view from :meth:`vtk_view`."""
+
+    def set_page_defaults(self, pages: QtWidgets.QStackedWidget,
+                          defaults: Mapping[QtWidgets.QWidget, QtWidgets.QPushButton]) -> None:
+        """Make Enter press the main button of the page shown (``defaults``: page → button; a page
+        not in it has none, and Enter does nothing there). Without this, Qt makes the first
+        button after the focused widget the default one when the dialog opens: Enter in the
+        sensor list pressed *Close*. Call it once the pages are in the dialog."""
+
+        def follow(_index: int) -> None:
+            for button in self.findChildren(QtWidgets.QPushButton):
+                button.setDefault(False)
+            button = defaults.get(pages.currentWidget())
+            if button is not None:
+                button.setDefault(True)
+
+        pages.currentChanged.connect(follow)
+        follow(pages.currentIndex())
 
     def vtk_view(self):
         """The wizard's VTK view (anything with ``shutdown()``)."""

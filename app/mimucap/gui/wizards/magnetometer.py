@@ -124,6 +124,8 @@ class MagnetometerWizard(CalibrationDialog):
         layout = QtWidgets.QHBoxLayout(self)
         layout.addWidget(self.pages, 2)
         layout.addWidget(self.views_panel, 3)
+        self.set_page_defaults(self.pages, {self.setup_page: self.start_button,
+                                            self.result_page: self.accept_button})
 
         self.timer = QtCore.QTimer(self)
         self.timer.setInterval(int(tick_ms))
@@ -168,7 +170,7 @@ class MagnetometerWizard(CalibrationDialog):
         self.setup_error = QtWidgets.QLabel("")
         self.setup_error.setStyleSheet("color: #d62728")
         layout.addWidget(self.setup_error)
-        self.start_button = push_button("Start", self.start, default=True)
+        self.start_button = push_button("Start", self.start)
         layout.addLayout(button_row(None, push_button("Close", self.reject), self.start_button))
         return page
 
