@@ -310,3 +310,29 @@ def test_a_source_that_cannot_be_opened_says_why():
         assert session.samples_received == 0
     finally:
         session.stop()
+
+
+def test_the_simulated_suit_shows_the_sensor_assignment():
+    """Until a body calibration, the simulated subject's true pose is shown through the sensor
+    assignment: a segment moves as the segment its sensor is really worn on."""
+    session, now = _session()
+    _run(session, now, 1.0)
+    truth = session.feed.last_truth
+    q = session.q_world_from_segment
+    np.testing.assert_allclose(q["thigh_r"], truth.q_world_from_segment["thigh_r"][-1])
+
+    session.assign_sensor("S07", "thigh_r")   # S07 is worn on the left thigh
+    _run(session, now, 0.5)
+    truth = session.feed.last_truth
+    q = session.q_world_from_segment
+    np.testing.assert_allclose(q["thigh_r"], truth.q_world_from_segment["thigh_l"][-1])
+    # thigh_l lost its sensor: it turns with its parent, the pelvis
+    np.testing.assert_allclose(q["thigh_l"], q["pelvis"])
+    assert session.pose_source == "simulator truth"
+
+    for sensor_id in list(session.sensor_segments):
+        session.assign_sensor(sensor_id, None)
+    frame_id = session.frame()[0]
+    _run(session, now, 0.5)
+    assert session.pose_source == POSE_UNASSIGNED
+    assert session.frame()[0] == frame_id  # no new pose: the view says why (no sensor assigned)

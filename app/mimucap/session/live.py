@@ -383,7 +383,7 @@ class LiveSession:
                 t_pose = self._newest_time()
                 self._pose_source = POSE_BODY_CALIBRATION
         elif truth is not None:
-            q_segments = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
+            q_segments = self._truth_through_assignment(truth)
             root = truth.root_position_m[-1] * (self.height_m / self.feed.config.height_m)
             if self._recorder is not None and (not self._truth_blocks or self._truth_blocks[-1] is not truth):
                 self._truth_blocks.append(truth)
@@ -399,7 +399,7 @@ class LiveSession:
                 q_segments = self._filled(found)
                 t_pose = self._newest_time()
                 self._pose_source = POSE_SENSOR_AXES
-        if q_segments is None:
+        if not q_segments:
             self._pose_source = POSE_UNASSIGNED if self._sensors else POSE_NONE
             return
         missing = [name for name in self.model.segment_names if name not in q_segments]
@@ -430,6 +430,22 @@ class LiveSession:
         self._angle_t.append(t, t)
         for joint, row in self._joint_row.items():
             self._angles[joint].append(t, angles[row])
+
+    def _truth_through_assignment(self, truth: SuitTruth) -> dict[str, np.ndarray] | None:
+        """The simulated subject's pose as the sensor assignment shows it: each assigned
+        segment turns as the segment its sensor is really worn on (so a sensor assigned to the
+        wrong segment shows as it would on real hardware), the others follow their parents
+        (:func:`bodycal.fill_missing_segments`; an unassigned pelvis faces north). ``None`` when
+        no sensor is assigned."""
+        worn_on = self.feed.sensor_segments()
+        newest = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
+        found = {segment: newest[worn_on[sid]] for sid, segment in self.sensor_segments.items()
+                 if worn_on.get(sid) in newest}
+        if not found:
+            return None
+        if self.model.root not in found:
+            found[self.model.root] = skeleton.q_world_from_body_facing(0.0)
+        return self._filled(found)
 
     def _filled(self, found: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         return bodycal.fill_missing_segments(found, self._segment_parents)
