@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from mimucap.io.broad import is_broad_file, list_broad_trials, read_broad
+from mimucap.io.session import MAX_GYRO_RAD_S
 
 BROAD_DIR = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
 
@@ -73,3 +74,23 @@ def _empty(tmp_path: Path) -> Path:
     folder = tmp_path / "empty"
     folder.mkdir()
     return folder
+
+
+def test_every_real_trial_is_within_the_gyroscope_bound():
+    for path in list_broad_trials(BROAD_DIR):
+        trial = read_broad(path)
+        assert np.nanmax(np.abs(trial.gyr_rad_s)) < MAX_GYRO_RAD_S, path.name
+
+
+def test_a_gyroscope_in_degrees_per_second_is_refused(tmp_path):
+    with h5py.File(BROAD_DIR / "06_undisturbed_fast_rotation_A.hdf5", "r") as source:
+        gyr, acc, mag = (source[name][:20000] for name in ("imu_gyr", "imu_acc", "imu_mag"))
+        rate = source.attrs["sampling_rate"]
+    path = tmp_path / "dps.hdf5"
+    with h5py.File(path, "w") as handle:
+        handle["imu_gyr"], handle["imu_acc"], handle["imu_mag"] = np.rad2deg(gyr), acc, mag
+        handle.attrs["sampling_rate"] = rate
+    row, axis = np.unravel_index(np.nanargmax(np.abs(gyr)), gyr.shape)
+    with pytest.raises(ValueError, match=rf"dps\.hdf5: imu_gyr: gyroscope reaches .* rad/s about its "
+                                         rf"{'xyz'[axis]} axis at row {row}, .*is it in °/s\?"):
+        read_broad(path)

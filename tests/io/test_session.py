@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from mimucap.io.session import (
+    MAX_GYRO_RAD_S,
     SESSION_FORMAT_VERSION,
     Marker,
     SensorStream,
@@ -16,6 +17,7 @@ from mimucap.io.session import (
     Session,
     SessionFormatError,
     SessionTruth,
+    gyro_range_problem,
     make_subject,
     read_metadata,
     read_session,
@@ -210,3 +212,71 @@ def test_empty_session_round_trip(tmp_path: Path) -> None:
     assert back.sensors == {} and back.markers == [] and back.truth is None
     assert back.calibrations == {} and back.results == {}
     assert set(back.metadata) == {"created_utc", "mimucap_version"}
+
+
+def _replace_dataset(path: Path, name: str, change) -> None:
+    """Rewrite dataset ``name`` of the session at ``path`` with ``change(values)``."""
+    with h5py.File(path, "a") as h5:
+        values = change(h5[name][()].copy())
+        del h5[name]
+        h5[name] = values
+
+
+def _set_rows(rows, value):
+    def change(values):
+        values[rows] = value
+        return values
+    return change
+
+
+def _swap(values):
+    values[[200, 201]] = values[[201, 200]]
+    return values
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda t: np.where(np.arange(len(t)) >= 300, t - 2.0, t), r"goes back from 2\.990 s to 1\.000 s at row 300"),
+    (_set_rows(151, 1.50), r"repeats 1\.500 s at row 151"),
+    (_swap, r"goes back from 2\.010 s to 2\.000 s at row 201"),
+    (_set_rows(99, np.nan), r"is NaN at row 99"),
+    (_set_rows(480, np.inf), r"is \+inf at row 480"),
+])
+def test_time_stamps_must_be_finite_and_increasing(tmp_path: Path, change, message) -> None:
+    path = write_session(tmp_path / "t.h5", _session(np.random.default_rng(3)))
+    _replace_dataset(path, "sensors/S01/t_s", change)
+    with pytest.raises(SessionFormatError, match=r"t\.h5: sensor S01: t_s " + message):
+        read_session(path)
+
+
+def test_a_gyroscope_in_degrees_per_second_is_refused(tmp_path: Path) -> None:
+    from mimucap.core.simulate import SimulationConfig, simulate_session
+    from mimucap.io.session import session_from_simulation
+
+    result = simulate_session(SimulationConfig(scenario="walk", duration_s=4.0, n_sensors=10, seed=1))
+    path = write_session(tmp_path / "dps.h5", session_from_simulation(result, include_truth=False))
+    read_session(path)                                  # in rad/s the simulated walk reads
+    gyr = result.samples["S03"].gyr
+    _replace_dataset(path, "sensors/S03/gyr", np.rad2deg)
+    row, axis = np.unravel_index(np.nanargmax(np.abs(gyr)), gyr.shape)
+    peak = np.rad2deg(np.abs(gyr[row, axis]))
+    with pytest.raises(SessionFormatError,
+                       match=rf"dps\.h5: sensor S03: gyroscope reaches {peak:.4g} rad/s about its "
+                             rf"{'xyz'[axis]} axis at row {row}, .*±70 rad/s ≈ ±4011 °/s.*is it in °/s\? "
+                             rf"MimuCap expects rad/s"):
+        read_session(path)
+
+
+def test_the_gyroscope_bound_keeps_saturated_and_missing_samples(tmp_path: Path) -> None:
+    """A ±2000 °/s sensor saturated on every axis is a rate in rad/s; NaN and infinite values are
+    left to the filters (which skip and count them); only a value beyond the bound is refused."""
+    saturated = np.full((3, 3), np.deg2rad(2000.0))
+    assert gyro_range_problem(saturated) is None
+    assert gyro_range_problem(np.array([[MAX_GYRO_RAD_S, -MAX_GYRO_RAD_S, np.nan], [np.inf, 0, -np.inf]])) is None
+    assert "not a plausible rate" in gyro_range_problem(np.array([[0.0, 1e30, 0.0]]))
+    path = write_session(tmp_path / "g.h5", _session(np.random.default_rng(4)))
+    _replace_dataset(path, "sensors/S01/gyr", _set_rows(slice(10, 20), np.nan))
+    _replace_dataset(path, "sensors/S01/gyr", _set_rows(30, np.inf))
+    assert np.isnan(read_session(path).sensors["S01"].gyr[10:20]).all()
+    _replace_dataset(path, "sensors/S01/gyr", _set_rows((77, 1), -71.0))
+    with pytest.raises(SessionFormatError, match=r"sensor S01: gyroscope reaches 71 rad/s about its y axis at row 77"):
+        read_session(path)

@@ -80,6 +80,63 @@ def test_a_crash_is_recovered_up_to_the_last_flush(tmp_path):
         recover(out)
 
 
+def closed_journal(out, blocks_per_sensor: int = 30):
+    """A recorder journal of two sensors left behind without its session file (as after a
+    crash), and the byte offset where each of its records starts."""
+    recorder = Recorder(out, {"source": "simulated:demo", "sensor_segments": {"1": "pelvis"}},
+                        RecorderSettings(flush_interval_s=0.1))
+    recorder.start(start_host_s=T0)
+    for k in range(blocks_per_sensor):
+        recorder.add_blocks([block("1", 20 * k, 20), block("2", 20 * k, 20, full=False)])
+    recorder.close(None, "duration")
+    journal = journal_path_for(out)
+    starts, offset = [], 12
+    for _kind, payload in read_journal(journal).records:
+        starts.append(offset)
+        offset += 8 + 1 + len(payload)
+    return journal, starts
+
+
+def test_damage_in_the_middle_of_a_journal_costs_only_the_records_it_hits(tmp_path):
+    reference, _ = closed_journal(tmp_path / "ref.h5")
+    assert recover(tmp_path / "ref.h5").complete
+    whole = read_session(tmp_path / "ref.h5")
+    out = tmp_path / "hit.h5"
+    journal, starts = closed_journal(out)
+    raw = bytearray(journal.read_bytes())
+    first = starts[21] + 40                           # 200 bytes inside record 21: one block of sensor "1"
+    raw[first:first + 200] = bytes(b ^ 0xA5 for b in raw[first:first + 200])
+    journal.write_bytes(bytes(raw))
+    result = recover(out)
+    damaged_bytes = starts[22] - starts[21]
+    assert f"skipped {damaged_bytes} damaged bytes at offset {starts[21]}" in result.message
+    assert f"{len(starts) - 22} records after it recovered" in result.message
+    assert "torn" not in result.message and not result.complete
+    session = read_session(out)
+    one, two = session.sensors["1"], session.sensors["2"]
+    assert len(one) == len(whole.sensors["1"]) - 20 and len(two) == len(whole.sensors["2"])
+    np.testing.assert_array_equal(one.seq, np.r_[np.arange(200), np.arange(220, 600)])   # block 10 lost
+    np.testing.assert_array_equal(two.seq, whole.sensors["2"].seq)
+    assert one.segment == "pelvis" and session.metadata["recording"]["ended"] == "duration"
+    assert session.metadata["recording"]["journal_skipped_bytes"] == [[starts[21], damaged_bytes]]
+    kept = journal.with_name(journal.name + ".damaged")
+    assert not journal.exists() and kept.read_bytes() == bytes(raw) and str(kept) in result.message
+
+
+def test_a_damaged_start_record_keeps_the_samples_after_it(tmp_path):
+    out = tmp_path / "start.h5"
+    journal, starts = closed_journal(out, blocks_per_sensor=5)
+    raw = bytearray(journal.read_bytes())
+    raw[starts[0] + 20] ^= 0xFF
+    journal.write_bytes(bytes(raw))
+    result = recover(out)
+    assert "start record was damaged" in result.message
+    assert f"skipped {starts[1] - starts[0]} damaged bytes at offset {starts[0]}" in result.message
+    session = read_session(out)
+    assert len(session.sensors["1"]) == 100 and len(session.sensors["2"]) == 100
+    assert session.sensors["1"].t_s[0] == 0.0 and session.metadata["recording"]["start_record_lost"]
+
+
 def test_open_session_recovers_first_and_a_stale_journal_blocks_a_new_recording(tmp_path):
     out = tmp_path / "o.h5"
     recorder = Recorder(out, {}, RecorderSettings(flush_interval_s=0.1))

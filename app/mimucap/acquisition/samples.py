@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mimucap.acquisition.rejections import Rejection
+from mimucap.core.sensor_limits import ACC_MAX_M_S2, GYR_MAX_RAD_S, MAG_MAX_UT
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
@@ -33,13 +34,13 @@ CHANNELS = ("acc", "gyr", "mag_uT", "q_world_from_sensor", "calibration", "batte
 class ValueLimits:
     """Physical limits beyond which a measurement is refused as ``out_of_range``.
 
-    Defaults are about twice the full scale of MEMS sensors used for human motion
-    (BNO055 / MPU-9250: ±16 g, ±2000 °/s, ±4900 µT).
+    Defaults are :mod:`mimucap.core.sensor_limits` (about twice the full scale of MEMS sensors
+    used for human motion), the limits the file readers apply too.
     """
 
-    acc_max: float = 320.0          #: m/s², per axis (≈ 32 g)
-    gyr_max: float = 70.0           #: rad/s, per axis (≈ 4000 °/s)
-    mag_max_uT: float = 5000.0      #: µT, per axis
+    acc_max: float = ACC_MAX_M_S2   #: m/s², per axis (≈ 32 g)
+    gyr_max: float = GYR_MAX_RAD_S  #: rad/s, per axis (≈ 4000 °/s)
+    mag_max_uT: float = MAG_MAX_UT  #: µT, per axis
     quat_norm_tolerance: float = 0.05  #: a quaternion's norm must be within 1 ± this
     device_time_max_s: float = 1.0e9   #: device clocks beyond ~30 years are corrupt
 

@@ -4,7 +4,8 @@ One file per trial with datasets ``imu_gyr`` (N, 3) rad/s, ``imu_acc`` (N, 3) m/
 (N, 3) µT (sensor frame), the optical reference ``opt_quat`` (N, 4) ``q_world_from_sensor``
 (scalar first, ENU; NaN rows where markers were occluded), ``opt_pos`` (N, 3) m, ``movement``
 (N,) bool and the attribute ``sampling_rate`` (Hz). Only the IMU channels and
-``sampling_rate`` are required (the ``mimucap fuse`` input); the reference is optional.
+``sampling_rate`` are required (the ``mimucap fuse`` input); the reference is optional. A
+gyroscope beyond :data:`~mimucap.io.session.MAX_GYRO_RAD_S` (most likely °/s) is refused.
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+
+from mimucap.io.session import gyro_range_problem
 
 REQUIRED_DATASETS = ("imu_gyr", "imu_acc", "imu_mag")
 
@@ -87,6 +90,9 @@ def read_broad(path: str | Path) -> BroadTrial:
         raise ValueError(f"{path}: not an HDF5 file ({error})") from None
     with handle:
         gyr = _dataset(handle, path, "imu_gyr", 3)
+        problem = gyro_range_problem(gyr)
+        if problem is not None:
+            raise ValueError(f"{path}: imu_gyr: {problem}")
         acc = _dataset(handle, path, "imu_acc", 3)
         mag = _dataset(handle, path, "imu_mag", 3)
         if not (gyr.shape == acc.shape == mag.shape):

@@ -8,9 +8,14 @@ loss) costs at most what was not yet flushed; the writer flushes at least every
     record   u32 body length L, u32 CRC-32 of the body, body (L bytes):
              u8 kind, then L−1 bytes of payload (meaning defined by the writer's user)
 
-:func:`read_journal` returns every intact record up to the first torn one (short length,
-short body, or CRC mismatch) and says where it stopped; nothing after a torn record is
-trusted. A file without the magic raises :class:`JournalError` naming the file.
+:func:`read_journal` returns every intact record (plausible length, whole body, matching
+CRC) and says what it could not read. A damaged stretch in the middle (flipped or garbage
+bytes) is stepped over: the reader resynchronises on the next record whose checksum matches
+and reports the skipped bytes (:class:`DamagedSpan`); bytes at the end that hold no intact
+record are a *torn tail* (the unflushed moment of a crash). A length field inside damaged
+bytes is never trusted on its own: a record counts only when its CRC-32 matches, so a wild
+length cannot swallow the good records after it. A file without the magic raises
+:class:`JournalError` naming the file.
 """
 
 from __future__ import annotations
@@ -23,6 +28,9 @@ import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import BinaryIO
+
+import numpy as np
 
 MAGIC = b"MCJRNL\r\n"
 VERSION = 1
@@ -30,6 +38,14 @@ _HEADER = struct.Struct("<8sHH")
 _RECORD = struct.Struct("<II")
 #: Records longer than this are treated as corruption by the reader.
 MAX_RECORD_BYTES = 256 * 1024 * 1024
+#: Bytes scanned per read while searching for the next intact record after damage.
+RESYNC_WINDOW_BYTES = 64 * 1024
+#: While resynchronising, a candidate record up to this long has its CRC checked at once;
+#: a longer one must first start a chain of :data:`RESYNC_CHAIN_RECORDS` plausible record
+#: headers (or reach the end of the file exactly), so that random length fields in damaged
+#: bytes do not each cost a checksum over megabytes.
+RESYNC_DIRECT_CHECK_BYTES = 64 * 1024
+RESYNC_CHAIN_RECORDS = 3
 
 
 class JournalError(ValueError):
@@ -151,26 +167,135 @@ class JournalWriter:
         return self._file.closed
 
 
+@dataclass(frozen=True)
+class DamagedSpan:
+    """Damaged bytes between two intact records that the reader stepped over."""
+
+    offset: int        #: file offset (bytes) of the first damaged byte
+    size: int          #: number of damaged bytes skipped
+    next_record: int   #: index (0-based) of the first intact record after the damage
+
+
 @dataclass
 class JournalContents:
-    """What :func:`read_journal` found: intact records and where reading stopped."""
+    """What :func:`read_journal` found: intact records and what could not be read."""
 
     path: Path
     records: list[tuple[int, bytes]] = field(default_factory=list)
     valid_bytes: int = 0      #: bytes up to the end of the last intact record
     file_bytes: int = 0
-    torn: bool = False        #: True when bytes after ``valid_bytes`` were not a valid record
+    torn: bool = False        #: True when bytes after ``valid_bytes`` hold no intact record
+    skipped: list[DamagedSpan] = field(default_factory=list)   #: damage followed by intact records
+    record_count: int = 0     #: intact records read
+
+    @property
+    def torn_bytes(self) -> int:
+        """Bytes at the end of the file that hold no intact record (the torn tail)."""
+        return self.file_bytes - self.valid_bytes
 
     @property
     def discarded_bytes(self) -> int:
-        return self.file_bytes - self.valid_bytes
+        """Every byte that was not read as part of an intact record (skipped and torn)."""
+        return self.torn_bytes + sum(span.size for span in self.skipped)
+
+    @property
+    def damaged(self) -> bool:
+        """Whether any byte of the file could not be read (skipped damage or a torn tail)."""
+        return self.torn or bool(self.skipped)
+
+    def records_after(self, span: DamagedSpan) -> int:
+        """Intact records read after ``span`` (up to the end of the file)."""
+        return self.record_count - span.next_record
+
+
+def _plausible_length(length: int, offset: int, size: int) -> bool:
+    """Whether a record of body ``length`` bytes can start at ``offset`` of a ``size``-byte file."""
+    return 1 <= length <= MAX_RECORD_BYTES and offset + _RECORD.size + length <= size
+
+
+def _record_at(handle: BinaryIO, offset: int, size: int) -> bytes | None:
+    """The body of the intact record starting at byte ``offset``, or ``None`` if there is none
+    (short or implausible length, short body, or CRC mismatch)."""
+    handle.seek(offset)
+    prefix = handle.read(_RECORD.size)
+    if len(prefix) < _RECORD.size:
+        return None
+    length, crc = _RECORD.unpack(prefix)
+    if not _plausible_length(length, offset, size):
+        return None
+    body = handle.read(length)
+    if len(body) < length or zlib.crc32(body) != crc:
+        return None
+    return body
+
+
+def _plausible_starts(chunk: bytes, first_offset: int, count: int, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """Offsets among ``first_offset + [0, count)`` whose 4 bytes in ``chunk`` (read from
+    ``first_offset``) form a plausible record length, and those lengths (both int64 arrays)."""
+    raw = np.frombuffer(chunk, dtype=np.uint8).astype(np.int64)
+    count = min(count, len(raw) - 3)
+    if count <= 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    lengths = (raw[:count] | raw[1:count + 1] << 8 | raw[2:count + 2] << 16 | raw[3:count + 3] << 24)
+    offsets = first_offset + np.arange(count, dtype=np.int64)
+    plausible = (lengths >= 1) & (lengths <= MAX_RECORD_BYTES) & (offsets + _RECORD.size + lengths <= size)
+    return offsets[plausible], lengths[plausible]
+
+
+def _starts_a_chain(handle: BinaryIO, offset: int, size: int) -> bool:
+    """Whether following record lengths from ``offset`` meets :data:`RESYNC_CHAIN_RECORDS`
+    plausible record headers in a row, or ends exactly at the end of the file."""
+    for _ in range(RESYNC_CHAIN_RECORDS):
+        handle.seek(offset)
+        prefix = handle.read(_RECORD.size)
+        if len(prefix) < _RECORD.size:
+            return False
+        length, _crc = _RECORD.unpack(prefix)
+        if not _plausible_length(length, offset, size):
+            return False
+        offset += _RECORD.size + length
+        if offset == size:
+            return True
+    return True
+
+
+def _next_intact_record(handle: BinaryIO, damaged_at: int, size: int) -> int | None:
+    """Offset of the first intact record that starts after ``damaged_at`` (the offset of a
+    record that failed), or ``None`` when the rest of the file holds none.
+
+    Every byte offset is a candidate; a candidate counts only if its CRC matches. Short
+    candidates are checked at once; long ones (see :data:`RESYNC_DIRECT_CHECK_BYTES`) first
+    need a plausible chain of headers, and those without one are checked last, only where they
+    end before the first record found (so a length read from damaged bytes never reaches over
+    an intact record).
+    """
+    found = None
+    deferred: list[tuple[int, int]] = []     # (offset, body length) of long unchained candidates
+    window = damaged_at + 1
+    while found is None and window + _RECORD.size <= size:
+        handle.seek(window)
+        chunk = handle.read(RESYNC_WINDOW_BYTES + 3)
+        offsets, lengths = _plausible_starts(chunk, window, RESYNC_WINDOW_BYTES, size)
+        for offset, length in zip(offsets.tolist(), lengths.tolist()):
+            if length > RESYNC_DIRECT_CHECK_BYTES and not _starts_a_chain(handle, offset, size):
+                deferred.append((offset, length))
+            elif _record_at(handle, offset, size) is not None:
+                found = offset
+                break
+        window += RESYNC_WINDOW_BYTES
+    limit = size if found is None else found
+    for offset, length in deferred:
+        if offset + _RECORD.size + length <= limit and _record_at(handle, offset, size) is not None:
+            return offset
+    return found
 
 
 def iter_journal(path: str | os.PathLike[str], contents: JournalContents | None = None
                  ) -> Iterator[tuple[int, bytes]]:
-    """Yield ``(kind, payload)`` of each intact record; stop at the first torn one.
+    """Yield ``(kind, payload)`` of each intact record, stepping over damaged bytes.
 
-    ``contents`` (optional) is updated with ``valid_bytes``, ``file_bytes`` and ``torn``.
+    ``contents`` (optional) is updated with ``valid_bytes``, ``file_bytes``, ``torn``,
+    ``skipped`` and ``record_count``.
     """
     path = Path(path)
     contents = contents if contents is not None else JournalContents(path)
@@ -185,23 +310,19 @@ def iter_journal(path: str | os.PathLike[str], contents: JournalContents | None 
             raise JournalError(f"{path}: journal version {version} is newer than this MimuCap ({VERSION})")
         position = _HEADER.size
         contents.valid_bytes = position
-        while True:
-            prefix = handle.read(_RECORD.size)
-            if not prefix:
-                return
-            if len(prefix) < _RECORD.size:
-                contents.torn = True
-                return
-            length, crc = _RECORD.unpack(prefix)
-            if length < 1 or length > MAX_RECORD_BYTES or position + _RECORD.size + length > size:
-                contents.torn = True
-                return
-            body = handle.read(length)
-            if len(body) < length or zlib.crc32(body) != crc:
-                contents.torn = True
-                return
-            position += _RECORD.size + length
+        while position < size:
+            body = _record_at(handle, position, size)
+            if body is None:
+                resume = _next_intact_record(handle, position, size)
+                if resume is None:
+                    contents.torn = True
+                    return
+                contents.skipped.append(DamagedSpan(position, resume - position, contents.record_count))
+                position = resume
+                continue
+            position += _RECORD.size + len(body)
             contents.valid_bytes = position
+            contents.record_count += 1
             yield body[0], body[1:]
 
 

@@ -12,7 +12,10 @@ seconds on the host clock since session start. Every dataset carries its unit as
 attribute ``unit``.
 
 A file that is not a MimuCap session, is truncated or damaged, or was written by a newer
-format version raises :class:`SessionFormatError` naming the file and what is wrong.
+format version raises :class:`SessionFormatError` naming the file and what is wrong. So does
+a sensor whose ``t_s`` is not finite and strictly increasing (:func:`time_stamp_problem`) or
+whose gyroscope exceeds :data:`MAX_GYRO_RAD_S` (:func:`gyro_range_problem`: most likely °/s
+stored as rad/s); the message names the sensor and the first offending row.
 """
 
 from __future__ import annotations
@@ -30,6 +33,7 @@ import h5py
 import numpy as np
 
 from mimucap import __version__
+from mimucap.core.sensor_limits import GYR_MAX_RAD_S
 
 #: Value of the root attribute ``format``.
 SESSION_FORMAT = "mimucap-session"
@@ -47,6 +51,16 @@ SENSOR_CHANNELS: dict[str, tuple[tuple[int, ...], str]] = {
 }
 
 _COMPRESS_MIN_ELEMENTS = 4096
+
+#: Largest angular rate (rad/s, per axis) a stored gyroscope sample may hold: the limit live
+#: acquisition applies too (:mod:`mimucap.core.sensor_limits`, ≈ 4000 °/s), so every recording
+#: reads back. A larger value is not a rate in rad/s: most likely °/s (57.3 times too large).
+#: The fusion filter skips samples beyond its own ``gyr_range_rad_s``; this bound refuses a
+#: whole file whose unit is wrong.
+MAX_GYRO_RAD_S = GYR_MAX_RAD_S
+#: :data:`MAX_GYRO_RAD_S` in °/s: a larger number is not a rate in either unit.
+_MAX_GYRO_DPS = float(np.rad2deg(MAX_GYRO_RAD_S))
+_AXES = "xyz"
 
 
 class SessionFormatError(ValueError):
@@ -200,6 +214,53 @@ def make_subject(
     if dominance not in ("right", "left", "unknown"):
         raise ValueError(f"subject dominance must be right, left or unknown, got {dominance!r}")
     return {"id": str(subject_id), "height_m": float(height_m), "dominance": dominance, "notes": str(notes)}
+
+
+# --------------------------------------------------------------------------------------------
+# Plausibility of recorded samples
+# --------------------------------------------------------------------------------------------
+
+def time_stamp_problem(t_s: np.ndarray) -> str | None:
+    """Why ``t_s`` (N,) s cannot be one sensor's sample times, or ``None`` when it can.
+
+    Sample times must be finite and strictly increasing (the replay source, the filters and
+    the joint-angle grid rely on it); the answer names the first bad row (0-based), e.g.
+    ``"t_s goes back from 9.990 s to 5.000 s at row 1000"``, ``"t_s repeats 4.000 s at row
+    401"`` or ``"t_s is NaN at row 400"``.
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    not_finite = np.flatnonzero(~np.isfinite(t))
+    not_increasing = np.flatnonzero(np.diff(t) <= 0.0) + 1    # NaN steps are caught above
+    candidates = [int(rows[0]) for rows in (not_finite, not_increasing) if rows.size]
+    if not candidates:
+        return None
+    row = min(candidates)
+    if np.isnan(t[row]):
+        return f"t_s is NaN at row {row}"
+    if np.isinf(t[row]):
+        return f"t_s is {t[row]:+} at row {row}"
+    if t[row] == t[row - 1]:
+        return f"t_s repeats {t[row]:.3f} s at row {row}"
+    return f"t_s goes back from {t[row - 1]:.3f} s to {t[row]:.3f} s at row {row}"
+
+
+def gyro_range_problem(gyr_rad_s: np.ndarray) -> str | None:
+    """Why the gyroscope samples ``gyr_rad_s`` (N, 3) cannot be in rad/s, or ``None``.
+
+    A component beyond :data:`MAX_GYRO_RAD_S` is refused; the answer names the largest one,
+    its axis and row (0-based) and the likely cause. NaN and infinite values are left to the
+    filters, which skip and count them.
+    """
+    rate = np.abs(np.asarray(gyr_rad_s, dtype=np.float64))
+    rate = np.where(np.isfinite(rate), rate, 0.0)
+    if rate.size == 0 or rate.max() <= MAX_GYRO_RAD_S:
+        return None
+    row, axis = np.unravel_index(int(np.argmax(rate)), rate.shape)
+    peak = float(rate[row, axis])
+    cause = ("is it in °/s? MimuCap expects rad/s" if peak <= _MAX_GYRO_DPS
+             else "not a plausible rate in rad/s or °/s (a damaged or wrongly scaled value?)")
+    return (f"gyroscope reaches {peak:.4g} rad/s about its {_AXES[axis]} axis at row {row}, beyond the "
+            f"range of motion-sensor gyroscopes (±{MAX_GYRO_RAD_S:g} rad/s ≈ ±{_MAX_GYRO_DPS:.0f} °/s): {cause}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -477,6 +538,11 @@ class _Reader:
         if extra_group is not None:
             for name in extra_group:
                 extra[name] = self.array(extra_group, name, rows=n, dtype=None)
+        problem = time_stamp_problem(t_s)
+        if problem is None and channels["gyr"] is not None:
+            problem = gyro_range_problem(channels["gyr"])
+        if problem is not None:
+            raise self.error(f"sensor {sensor_id}: {problem}")
         segment = g.attrs.get("segment")
         return SensorStream(
             sensor_id=sensor_id, t_s=t_s, seq=seq, segment=None if segment is None else str(segment),
@@ -676,7 +742,8 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
 
 
 __all__ = [
-    "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
+    "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "MAX_GYRO_RAD_S", "SessionFormatError",
+    "time_stamp_problem", "gyro_range_problem",
     "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "make_subject",
     "write_session", "read_session", "read_metadata", "session_duration_s", "session_from_simulation",
 ]

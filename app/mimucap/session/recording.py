@@ -7,6 +7,8 @@ appended to a journal beside the output (``SESSION.h5.journal``, see
 (:func:`mimucap.io.session.write_session`) and removed. After a crash the journal is still
 there: :func:`recover` (``mimucap recover FILE``) or :func:`open_session` rebuilds the
 session from every intact record, so a ``kill -9`` loses at most the last flush interval.
+Damaged bytes in the middle of a journal cost only the records they hit: reading resumes at
+the next intact record, and the result's message says which bytes were skipped.
 
 A write error (disk full, storage removed) stops the recording with a message naming the
 file and what to do; whatever reached the disk stays readable through :func:`recover`.
@@ -246,7 +248,9 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
         except ValueError as error:
             raise ValueError(f"{journal_path}: record {index + 1} is damaged: {error}") from None
     if start is None:
-        raise ValueError(f"{journal_path}: the journal holds no recording start (nothing to recover)")
+        start = _start_from_samples(per_sensor)
+        if start is None:
+            raise ValueError(f"{journal_path}: the journal holds no recording start (nothing to recover)")
     try:
         t0 = float(start["start_host_s"])
         metadata = dict(start.get("metadata") or {})
@@ -255,9 +259,11 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
         raise ValueError(f"{journal_path}: the start or a marker record is damaged: {error!r}") from None
     segments = metadata.pop("sensor_segments", {}) or {}
     recording = {"started_utc": start.get("started_utc"), "start_host_monotonic_s": t0,
+                 "start_record_lost": bool(start.get("lost", False)),
                  "journal_flush_interval_s": start.get("flush_interval_s"),
                  "ended": (end or {}).get("reason", "crash (recovered from the journal)"),
-                 "journal_discarded_bytes": contents.discarded_bytes}
+                 "journal_discarded_bytes": contents.discarded_bytes,
+                 "journal_skipped_bytes": [[span.offset, span.size] for span in contents.skipped]}
     metadata["recording"] = recording
     if status is not None:
         metadata["acquisition"] = status
@@ -266,6 +272,17 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
     session = Session(metadata=metadata, sensors=sensors,
                       markers=[Marker(t, label) for t, label in markers])
     return session, contents
+
+
+def _start_from_samples(per_sensor: Mapping[str, list[SampleBlock]]) -> dict[str, Any] | None:
+    """A stand-in for a damaged start record: time zero at the first sample (host monotonic
+    s), no metadata (source, subject and sensor segments are lost with the record); ``None``
+    when there is no sample either."""
+    first = min((float(np.min(b.host_time_s)) for blocks in per_sensor.values() for b in blocks if len(b)),
+                default=None)
+    if first is None:
+        return None
+    return {"metadata": {}, "start_host_s": first, "started_utc": None, "flush_interval_s": None, "lost": True}
 
 
 def _stream(sensor_id: str, blocks: list[SampleBlock], t0: float, segment: str | None) -> SensorStream:
@@ -292,23 +309,36 @@ def _stream(sensor_id: str, blocks: list[SampleBlock], t0: float, segment: str |
         device_time_s=joined("device_time_s", ()), extra=extra)
 
 
+def damage_report(contents: JournalContents) -> str:
+    """What reading a journal could not use, one clause per damaged stretch: skipped bytes in
+    the middle (offset, size and the records recovered after them) and a torn tail."""
+    parts = [f"skipped {span.size} damaged bytes at offset {span.offset}; "
+             f"{contents.records_after(span)} records after it recovered" for span in contents.skipped]
+    if contents.torn:
+        parts.append(f"the last {contents.torn_bytes} bytes (from offset {contents.valid_bytes}) are a torn "
+                     f"tail holding no intact record (the unflushed moment of a crash)")
+    return "; ".join(parts)
+
+
 def _convert(journal_path: Path, session_path: Path) -> RecordingResult:
     """Write the session of ``journal_path`` to ``session_path``; the journal is then removed,
-    unless reading stopped at a damaged record: then nothing is thrown away, the journal is
-    kept as ``<journal>.damaged`` (what followed the damage may still be intact)."""
+    unless some of its bytes could not be read (damage or a torn tail): then nothing is thrown
+    away, the journal is kept as ``<journal>.damaged``."""
     session, contents = session_from_journal(journal_path)
     write_session(session_path, session)
     message = ""
-    if contents.torn:
+    if contents.damaged:
         kept = journal_path.with_name(journal_path.name + DAMAGED_SUFFIX)
         os.replace(journal_path, kept)
-        message = (f"{journal_path} is damaged after byte {contents.valid_bytes}: the session holds what came "
-                   f"before; the {contents.discarded_bytes} bytes from there on were not read and the whole "
-                   f"journal is kept as {kept}")
+        message = (f"{journal_path} is damaged: {damage_report(contents)}; the session holds every intact "
+                   f"record and the whole journal is kept as {kept}")
+        if session.metadata["recording"]["start_record_lost"]:
+            message += ("; the recording's start record was damaged: its metadata (source, subject, sensor "
+                        "segments) is lost and times count from the first sample")
     else:
         os.unlink(journal_path)
     ended = session.metadata["recording"]["ended"]
-    complete = not contents.torn and not ended.startswith("crash") and ended != "write error"
+    complete = not contents.damaged and not ended.startswith("crash") and ended != "write error"
     return RecordingResult(session_path, journal_path,
                            {k: len(v) for k, v in session.sensors.items()}, complete, message)
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation as rot
-from mimucap.core.fusion.ekf import OrientationEKF, fuse
+from mimucap.core.fusion.ekf import ALGORITHMS, FusionResult, OrientationEKF, fuse, update_together
+from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.evaluation import error_angles_rad
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
 from mimucap.core.fusion.state import FLAG_SKIPPED, FLAG_UNINITIALISED
@@ -232,3 +233,54 @@ def test_state_getters_report_initialisation_attitude_uncertainty_and_learned_fi
     # the recordings' field (conftest): 20 µT north, 40 µT down
     assert norm_uT == pytest.approx(np.hypot(20.0, 40.0), rel=0.05)
     assert dip_rad == pytest.approx(np.arctan2(40.0, 20.0), abs=np.radians(3.0))  # positive downwards
+
+
+def _unusable_rows(recording):
+    """The recording with NaN, infinite, zero and out-of-range accelerometer and magnetometer
+    rows in every phase of the filter, and the rows that must be counted for each channel."""
+    gyr, acc, mag, t = (recording.gyr.copy(), recording.acc.copy(), recording.mag.copy(),
+                        recording.t_s.copy())
+    acc[0:3] = np.nan                                   # before the first orientation
+    gyr[50], acc[50], mag[50] = np.nan, [np.inf, 0, 0], np.nan   # with a skipped gyro sample
+    acc[300:310] = np.nan
+    mag[400:405] = [0.0, -np.inf, 1.0]
+    acc[500] = 0.0
+    mag[600] = [1e5, 0.0, 0.0]
+    t[700], mag[700] = t[699], np.nan                   # with a repeated time stamp
+    acc_rows = [0, 1, 2, 50, *range(300, 310), 500]
+    mag_rows = [50, *range(400, 405), 600, 700]
+    return (t, gyr, acc, mag), acc_rows, mag_rows
+
+
+@pytest.mark.parametrize("algorithm", sorted(ALGORITHMS))
+def test_unusable_acc_and_mag_rows_are_counted_with_their_own_reason(recording, algorithm):
+    """NaN/infinite/zero/out-of-range rows are refused and counted once, as ``acc_missing`` /
+    ``mag_missing`` (not as disturbance rejections, whose flags the live view shows as
+    "disturbed"), in every phase of the filter; every counter equals its flag's count."""
+    inputs, acc_rows, mag_rows = _unusable_rows(recording)
+    results = {"batch": fuse(*inputs, algorithm=algorithm),
+               "offline": fuse_offline(*inputs, algorithm=algorithm)}
+    ekf = OrientationEKF(algorithm=algorithm)
+    cuts = [0, 2, 3, 50, 51, 305, 700, 701, len(inputs[0])]
+    parts = [ekf.update_batch(*(x[a:b] for x in inputs)) for a, b in zip(cuts[:-1], cuts[1:])]
+    results["blocks"] = FusionResult(np.concatenate([p.q_world_from_sensor for p in parts]),
+                                     np.concatenate([p.bias_rad_s for p in parts]),
+                                     np.concatenate([p.flags for p in parts]), parts[-1].counters)
+    first, second = OrientationEKF(algorithm=algorithm), OrientationEKF(algorithm=algorithm)
+    together = update_together([first, second], *(np.stack([x, x]) for x in inputs))
+    results["together"] = FusionResult(together.q_world_from_sensor[1], together.bias_rad_s[1],
+                                       together.flags[1], together.counters[1:])
+    correcting = ALGORITHMS[algorithm][1]
+    for name, result in results.items():
+        masks = result.flag_masks()
+        counters = result.counters[0]
+        assert np.flatnonzero(masks["acc_missing"]).tolist() == acc_rows, name
+        assert np.flatnonzero(masks["mag_missing"]).tolist() == mag_rows, name
+        assert not (masks["acc_rejected"][acc_rows].any() or masks["mag_rejected"][mag_rows].any()), name
+        for reason in ("skipped", "rest", "acc_rejected", "mag_rejected", "acc_missing", "mag_missing"):
+            assert counters[reason] == masks[reason].sum(), (name, reason)
+        assert (counters["acc_missing"], counters["mag_missing"], counters["skipped"]) == (15, 8, 2), name
+        assert np.isfinite(result.q_world_from_sensor[3:]).all(), name
+        if correcting:
+            diff = rot.angle_between(result.q_world_from_sensor[-1], recording.q_true[-1])
+            assert np.degrees(diff) < 3.0, name
