@@ -88,6 +88,32 @@ def test_fuse_user_errors(tmp_path, capsys):
     assert "no such file" in capsys.readouterr().err
 
 
+def test_fuse_refuses_input_that_gives_no_orientation_and_counts_invalid_rows(tmp_path, capsys):
+    n = 300
+    t = np.arange(n) / 100.0
+    gyr, mag = np.zeros((n, 3)), np.tile([0.0, 20.0, -40.0], (n, 1))
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1))
+    dead = np.zeros((n, 3))                      # a dead accelerometer: no gravity, no orientation
+    bad_mag = mag.copy()
+    bad_mag[50:60] = np.nan
+    sensors = {"S01": SensorStream("S01", t, np.arange(n), acc=acc, gyr=gyr, mag_uT=bad_mag),
+               "S02": SensorStream("S02", t, np.arange(n), acc=dead, gyr=gyr, mag_uT=mag)}
+    path = write_session(tmp_path / "rec.h5", Session(metadata={}, sensors=sensors))
+    out = tmp_path / "q.csv"
+    assert main(["fuse", str(path), "--out", str(out)]) == 1
+    error = capsys.readouterr().err
+    assert "rec.h5: sensor S02: fusion gave no orientation" in error and "nothing was written" in error
+    assert not list(tmp_path.glob("q*.csv"))     # not even the good sensor's: one command, one outcome
+    assert main(["fuse", str(path), "--sensor", "S01", "--out", str(out)]) == 0
+    assert "magnetometer rejected 0 and missing or invalid 10" in capsys.readouterr().out
+
+    empty = {"S01": SensorStream("S01", np.zeros(0), np.zeros(0, int), acc=np.zeros((0, 3)), gyr=np.zeros((0, 3)),
+                                 mag_uT=np.zeros((0, 3)))}
+    path = write_session(tmp_path / "empty.h5", Session(metadata={}, sensors=empty))
+    assert main(["fuse", str(path), "--out", str(out)]) == 1
+    assert "empty.h5: sensor S01: no samples (0 rows): nothing to fuse" in capsys.readouterr().err
+
+
 def test_bench_orientation_json(tmp_path, capsys):
     folder = tmp_path / "broad"
     folder.mkdir()

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from mimucap.cli import main
+from mimucap.cli.magcal import FAIL_EXIT_STATUS
 from mimucap.io.calibration_store import CalibrationStore
 
 JSON_KEYS = {
@@ -28,8 +29,8 @@ def synthetic_counts(n: int = 600, seed: int = 0) -> tuple[np.ndarray, np.ndarra
     return counts, a, b_counts
 
 
-def run_json(capsys, *args: str) -> dict:
-    assert main(["magcal", "fit", "--json", *args]) == 0
+def run_json(capsys, *args: str, status: int = 0) -> dict:
+    assert main(["magcal", "fit", "--json", *args]) == status
     return json.loads(capsys.readouterr().out)
 
 
@@ -63,7 +64,7 @@ def test_fit_real_recordings_and_save(shared_data: Path, capsys) -> None:
              for name in ("x-pointing-forward", "y-pointing-left", "z-pointing-up")]
     union = run_json(capsys, *turns, "--format", "csv")
     assert np.linalg.norm(np.subtract(union["offset_uT"], full["offset_uT"])) < 0.5
-    single = run_json(capsys, turns[1])
+    single = run_json(capsys, turns[1], status=FAIL_EXIT_STATUS)
     assert single["verdict"] == "fail" and any("coverage" in r for r in single["reasons"])
     assert main(["magcal", "fit", *turns, "--sensor", "HMC-1", "--save"]) == 0
     text = capsys.readouterr().out
@@ -154,3 +155,17 @@ def test_fit_one_sensor_of_a_session(tmp_path: Path, capsys) -> None:
     assert "several sensors (S01, S02)" in capsys.readouterr().err
     assert main(["magcal", "fit", str(path), "--format", "session", "--sensor", "S02"]) == 0
     assert "dip" in capsys.readouterr().out  # the session's accelerometer gives the dip figure
+
+
+def test_a_failed_fit_is_not_saved_over_a_good_one(shared_data: Path, capsys) -> None:
+    folder = shared_data.joinpath(*SET2)
+    turns = [str(folder / f"rotate-ccw-around-{name}" / "mag_hmc5883l.csv.gz")
+             for name in ("x-pointing-forward", "y-pointing-left", "z-pointing-up")]
+    assert main(["magcal", "fit", *turns, "--sensor", "HMC-2", "--save"]) == 0
+    good = CalibrationStore().load("HMC-2")
+    capsys.readouterr()
+    assert main(["magcal", "fit", turns[1], "--sensor", "HMC-2", "--save"]) == FAIL_EXIT_STATUS
+    captured = capsys.readouterr()
+    assert "verdict        fail" in captured.out and "saved " not in captured.out
+    assert "not saved" in captured.err
+    np.testing.assert_array_equal(CalibrationStore().load("HMC-2").offset_uT, good.offset_uT)

@@ -167,3 +167,13 @@ def test_a_source_that_cannot_start_ends_with_its_reason(tmp_path):
     assert completed.returncode == 1
     assert "source udp failed" in completed.stderr and "Address already in use" in completed.stderr
     assert read_session(tmp_path / "busy.h5").sensors == {}      # still a readable (empty) session
+
+
+def test_a_recording_that_received_nothing_fails_and_says_why(tmp_path):
+    out = tmp_path / "missing.h5"
+    completed = subprocess.run(MIMUCAP + ["record", "--source", f"serial:{tmp_path / 'ttyUSB9'}", "--duration", "2.5",
+                                          "--out", str(out), "--quiet"], capture_output=True, text=True, timeout=60)
+    assert completed.returncode == 1
+    assert "no sample was received" in completed.stderr and "cannot open" in completed.stderr
+    assert "ttyUSB9" in completed.stderr and str(out) in completed.stderr
+    assert read_session(out).sensors == {}

@@ -96,7 +96,38 @@ def test_bad_arguments_give_one_line(tmp_path: Path, capsys) -> None:
     assert "--disturbance '30,0,x,1,2': expected five numbers" in capsys.readouterr().err
     assert main(["simulate", "--disturbance", "30,0,0,2,1", "--out", str(tmp_path / "x.h5")]) == 1
     assert "must end after it starts" in capsys.readouterr().err
-    assert not (tmp_path / "x.h5").exists()
+    for duration in ("0", "0.004"):
+        assert main(["simulate", "--duration", duration, "--out", str(tmp_path / "x.h5")]) == 1
+        assert "holds no sample at 100 Hz: give at least 0.01 s" in capsys.readouterr().err
+    assert main(["simulate", "--duration", "1e6", "--sensors", "17", "--rate", "1000",
+                 "--out", str(tmp_path / "x.h5")]) == 1        # refused before any memory is taken
+    assert "at most 353 s at this rate and sensor count" in capsys.readouterr().err
+    assert main(["simulate", "--duration", "1", "--out", str(tmp_path / "x.csv")]) == 1
+    assert "name it .h5 or .hdf5" in capsys.readouterr().err
+    assert not (tmp_path / "x.h5").exists() and not (tmp_path / "x.csv").exists()
+
+
+def test_memory_exhaustion_and_a_closed_pipe_are_not_tracebacks(tmp_path: Path, monkeypatch, capsys) -> None:
+    import mimucap.cli.simulate as simulate_command
+
+    def exhausted(config):
+        raise MemoryError
+
+    monkeypatch.setattr(simulate_command, "simulate_session", exhausted)
+    assert main(["simulate", "--duration", "1", "--out", str(tmp_path / "x.h5")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("mimucap simulate: error: not enough memory") and "\n" not in err
+    # `mimucap … | head -1`: the reader leaving early is not an error (no "Broken pipe" message)
+    import mimucap.cli as cli
+
+    def reader_gone(config):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    quieted = []
+    monkeypatch.setattr(simulate_command, "simulate_session", reader_gone)
+    monkeypatch.setattr(cli, "_quiet_stdout", lambda: quieted.append(True))  # not this test process's stdout
+    assert main(["simulate", "--duration", "1", "--out", str(tmp_path / "x.h5")]) == 0
+    assert capsys.readouterr().err == "" and quieted == [True]
 
 
 def test_installed_command_runs(tmp_path: Path) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -63,6 +64,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("mimucap: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of our output went away (e.g. `| head`): not an error of ours
+        _quiet_stdout()
+        return 0
+    except MemoryError:
+        print(f"mimucap {args.command}: error: not enough memory for this request; ask for less "
+              f"(a shorter duration, fewer sensors or a lower rate)", file=sys.stderr)
+        return 1
     except (ValueError, OSError) as error:
         print(f"mimucap {args.command}: error: {error}", file=sys.stderr)
         return 1
+
+
+def _quiet_stdout() -> None:
+    """Point stdout at /dev/null, so that Python's flush at exit does not report the broken pipe
+    again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass

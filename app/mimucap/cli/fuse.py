@@ -114,14 +114,24 @@ def run(args: argparse.Namespace) -> int:
     several = len(inputs) > 1
     for sensor_id, *_ in inputs:  # every file to write, before any is written
         refuse_to_overwrite_input(_output_path(args.out, sensor_id, several), args.input)
-    for sensor_id, t_s, gyr, acc, mag in inputs:
+    results = []
+    for sensor_id, t_s, gyr, acc, mag in inputs:  # every sensor fused, and checked, before any file is written
+        name = f"{args.input}: " + (f"sensor {sensor_id}: " if sensor_id is not None else "")
+        if len(t_s) == 0:
+            raise ValueError(f"{name}no samples (0 rows): nothing to fuse")
         result = estimator(t_s, gyr, acc, None if args.no_mag else mag,
                            algorithm=args.algorithm, use_mag=not args.no_mag)
+        if not np.isfinite(result.q_world_from_sensor).all(axis=-1).any():
+            raise ValueError(f"{name}fusion gave no orientation: no valid accelerometer sample among "
+                             f"{len(t_s)} (all missing, NaN or zero); nothing was written")
+        results.append((sensor_id, np.asarray(t_s, dtype=np.float64), result))
+    for sensor_id, t_s, result in results:
         path = _output_path(args.out, sensor_id, several)
-        write_orientation(path, np.asarray(t_s, dtype=np.float64), result)
+        write_orientation(path, t_s, result)
         counts = result.counters[0]
         label = f"sensor {sensor_id}: " if sensor_id is not None else ""
         print(f"{label}{counts['samples']} samples -> {path} (skipped {counts['skipped']}, "
-              f"rest {counts['rest']}, magnetometer rejected {counts['mag_rejected']}, "
-              f"accelerometer rejected {counts['acc_rejected']})", file=sys.stdout)
+              f"rest {counts['rest']}, magnetometer rejected {counts['mag_rejected']} and missing or invalid "
+              f"{counts['mag_missing']}, accelerometer rejected {counts['acc_rejected']} and missing or invalid "
+              f"{counts['acc_missing']})", file=sys.stdout)
     return 0

@@ -10,7 +10,9 @@ object is printed with exactly the keys ``offset_uT``, ``soft_iron``, ``field_uT
 ``rms_residual_uT``, ``rms_residual_pct``, ``condition``, ``samples_used``,
 ``samples_rejected``, ``verdict``, ``reasons``. ``--save`` stores the calibration for the
 sensor (see :mod:`mimucap.io.calibration_store`). A refused fit exits with status 1 and its
-reason.
+reason. A fit whose verdict is ``fail`` is printed but never saved (a calibration already
+stored for the sensor is kept) and exits with status :data:`FAIL_EXIT_STATUS`, so that a
+script can tell it from a usable fit.
 
 ``mimucap magcal study [--trials N] [--seed K] [--folder DIR] [--plot OUT.png]`` prints the seed's Tables 1–2
 (centre and radii RMSE against a reference fit, protocol durations). Without ``--folder`` the
@@ -28,6 +30,7 @@ import argparse
 import json
 import math
 import re
+import sys
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -45,6 +48,8 @@ from mimucap.core.magcal_study import (
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.io.magdata import FORMATS, MAG_UNITS, MagRecording, read_mag_files, to_microtesla
 
+#: Exit status of a fit printed but failing its quality checks (1 is a fit refused outright).
+FAIL_EXIT_STATUS = 3
 JSON_KEYS = (
     "offset_uT", "soft_iron", "field_uT", "rms_residual_uT", "rms_residual_pct", "condition",
     "samples_used", "samples_rejected", "verdict", "reasons",
@@ -147,10 +152,15 @@ def run_fit(args: argparse.Namespace) -> int:
         "verdict": quality.verdict,
         "reasons": list(quality.reasons),
     }
-    saved = CalibrationStore().save(result.calibration) if args.save else None
+    failed = quality.verdict == "fail"
+    saved = CalibrationStore().save(result.calibration) if args.save and not failed else None
+    status = FAIL_EXIT_STATUS if failed else 0
+    if failed and args.save:
+        print(f"mimucap magcal: the fit of sensor {sensor_id} failed its quality checks: not saved "
+              f"(a calibration stored before is kept)", file=sys.stderr)
     if args.json:
         print(json.dumps(summary))
-        return 0
+        return status
     print(f"sensor {sensor_id}: {len(recordings)} file(s), {fit.samples_input} samples, method {fit.method}")
     print(f"offset_uT      {_vector(fit.offset_uT)}")
     for index, row in enumerate(fit.soft_iron):
@@ -171,7 +181,7 @@ def run_fit(args: argparse.Namespace) -> int:
         print(f"  - {reason}")
     if saved is not None:
         print(f"saved          {saved}")
-    return 0
+    return status
 
 
 def _vector(values, digits: int = 3) -> str:

@@ -79,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
     previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     supervisor = Supervisor(configs)
     reason = "duration"
+    last_troubles = ""  # the sources' last complaint (e.g. a device that cannot be opened)
     try:
         supervisor.start()
         end = time.monotonic() + args.duration
@@ -100,14 +101,16 @@ def run(args: argparse.Namespace) -> int:
             if not recorder.add_blocks(blocks):
                 reason = "write error"
                 break
-            if not args.quiet and now >= next_line:
+            if now >= next_line:
                 next_line = now + 1.0
                 total = sum(recorder.samples.values())
                 troubles = "; ".join(f"{name} {s.state}: {s.message}" for name, s in supervisor.sources().items()
                                      if s.state not in ("running", "starting"))
-                print(f"recording {now - recorder.start_host_s:6.1f} s: {total} samples from "
-                      f"{len(recorder.samples)} sensors" + (f" ({troubles})" if troubles else ""),
-                      file=sys.stderr, flush=True)
+                last_troubles = troubles or last_troubles
+                if not args.quiet:
+                    print(f"recording {now - recorder.start_host_s:6.1f} s: {total} samples from "
+                          f"{len(recorder.samples)} sensors" + (f" ({troubles})" if troubles else ""),
+                          file=sys.stderr, flush=True)
     finally:
         recorder.add_blocks(supervisor.stop())
         for sig, handler in previous.items():
@@ -131,8 +134,18 @@ def run(args: argparse.Namespace) -> int:
         print(f"mimucap record: error: {reasons} (wrote {result.session_path} with "
               f"{sum(result.samples.values())} samples)", file=sys.stderr)
         return 1
+    if sum(result.samples.values()) == 0:
+        print(f"mimucap record: error: no sample was received in {reason_text(reason)}"
+              f"{' (' + last_troubles + ')' if last_troubles else ''}; wrote the empty session "
+              f"{result.session_path}", file=sys.stderr)
+        return 1
     print(f"wrote {result.session_path} ({sum(result.samples.values())} samples, "
           f"{len(result.samples)} sensors, ended: {reason})")
     if result.message:
         print(result.message)
     return 0
+
+
+def reason_text(reason: str) -> str:
+    """How the end of a recording reads after "no sample was received in …"."""
+    return "the whole recording" if reason == "duration" else f"the recording (it ended: {reason})"
