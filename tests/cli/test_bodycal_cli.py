@@ -247,3 +247,67 @@ def test_simulated_session_from_mimucap_simulate(tmp_path, capsys):
     for column, values in table.angles_deg.items():
         expected = np.interp(table.t_s[walking], truth_t, session.truth.joint_angles_deg[column])
         np.testing.assert_allclose(values[walking], expected, atol=1.0, err_msg=column)
+
+
+def test_a_calibration_file_with_a_bad_cell_or_a_shared_sensor_is_refused_naming_it(suit, suit_csv, tmp_path, capsys):
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(suit_csv), "--mapping", suit[2], "--npose", "0:0.99", "--tpose", "2:2.99",
+                 "--out", str(cal)]) == 0
+    capsys.readouterr()
+    document = json.loads(cal.read_text())
+    text = json.loads(cal.read_text())
+    text["segments"]["thorax"]["q_segment_from_sensor"][0] = "a"   # was: "could not convert string to float: 'a'"
+    edited = tmp_path / "edited.json"
+    edited.write_text(json.dumps(text))
+    err = run_error(["angles", str(suit_csv), "--calibration", str(edited), "--out", str(tmp_path / "a.csv")], capsys)
+    assert "edited.json: segment thorax: q_segment_from_sensor: expected a list of numbers" in err
+    shared = json.loads(cal.read_text())
+    shared["segments"]["thorax"]["sensor"] = document["segments"]["pelvis"]["sensor"]  # as --mapping refuses it
+    edited.write_text(json.dumps(shared))
+    err = run_error(["angles", str(suit_csv), "--calibration", str(edited), "--out", str(tmp_path / "a.csv")], capsys)
+    assert "edited.json: sensor imu0 serves two segments (pelvis and thorax)" in err
+    assert not (tmp_path / "a.csv").exists()
+
+
+def test_reader_options_are_checked_not_replaced_or_ignored(suit, suit_csv, tmp_path, capsys, shared_data):
+    xsens = (shared_data / "body" / "opensense_example" / "xsens_format_variants"
+             / "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt")
+    heading = ["--mapping", "00B42D4F=pelvis", "--heading-from", "00B42D4F:x"]
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(xsens), *heading, "--out", str(cal)]) == 0
+    capsys.readouterr()
+    for rate in ("0", "nan", "-100", "inf"):   # was: 0 fell back to 100 Hz, nan gave a time error, -100 ignored
+        err = run_error(["bodycal", str(xsens), *heading, f"--rate={rate}", "--out", str(tmp_path / "c.json")], capsys)
+        assert f"--rate {rate}: the update rate must be a positive number of Hz" in err
+        err = run_error(["angles", str(xsens), "--calibration", str(cal), f"--rate={rate}",
+                         "--out", str(tmp_path / "a.csv")], capsys)
+        assert f"--rate {rate}: the update rate must be a positive number of Hz" in err
+    # --up where the world is z up by definition: refused, not ignored (was: ignored silently)
+    err = run_error(["bodycal", str(xsens), *heading, "--up", "y", "--out", str(tmp_path / "c.json")], capsys)
+    assert "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt: up axis y cannot apply" in err
+    assert main(["bodycal", str(xsens), *heading, "--up", "z", "--out", str(tmp_path / "c.json")]) == 0
+
+
+def test_a_bad_out_path_is_refused_before_the_computation(suit, suit_csv, tmp_path, capsys, monkeypatch):
+    import mimucap.cli.angles as angles_command
+    import mimucap.cli.bodycal as bodycal_command
+
+    def must_not_read(args):
+        raise AssertionError("the input was read before the output path was checked")
+
+    monkeypatch.setattr(bodycal_command, "read_input", must_not_read)
+    monkeypatch.setattr(angles_command, "read_input", must_not_read)
+    blocker = tmp_path / "notes.txt"
+    blocker.write_text("a file, not a folder")
+    cal = tmp_path / "CAL.json"
+    cal.write_text("{}")
+    for out, message in ((tmp_path / "missing" / "c.json", f"folder {tmp_path / 'missing'} does not exist"),
+                         (blocker / "c.json", f"{blocker} is a file, not a folder")):
+        err = run_error(["bodycal", str(suit_csv), "--mapping", suit[2], "--npose", "0:0.99", "--tpose", "2:2.99",
+                         "--out", str(out)], capsys)
+        assert err.endswith(f"cannot write {out}: {message}")
+    valid = {"format": "mimucap-body-calibration", "format_version": 1, "q_world_from_body": [1, 0, 0, 0],
+             "up_world": [0, 0, 1], "segments": {"pelvis": {"sensor": "imu0", "q_segment_from_sensor": [1, 0, 0, 0]}}}
+    cal.write_text(json.dumps(valid))
+    err = run_error(["angles", str(suit_csv), "--calibration", str(cal), "--out", str(blocker / "a.csv")], capsys)
+    assert f"cannot write {blocker / 'a.csv'}: {blocker} is a file, not a folder" in err

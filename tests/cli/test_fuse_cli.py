@@ -132,3 +132,51 @@ def test_bench_orientation_json(tmp_path, capsys):
     assert report["mean"]["taylor3"]["total_deg"] > 3 * ours["total_deg"]
     assert main(["bench", "orientation", str(folder), "--algorithm", "rk4"]) == 0
     assert "MEAN over 1 trials" in capsys.readouterr().out
+
+
+def _broad_slice(source: Path, target: Path, rows: int, nan_acc: bool = False) -> Path:
+    """The first ``rows`` samples of a BROAD trial, all evaluated (``movement`` true),
+    optionally with every accelerometer sample NaN."""
+    with h5py.File(source) as src, h5py.File(target, "w") as dst:
+        for name in ("imu_gyr", "imu_acc", "imu_mag", "opt_quat"):
+            data = src[name][:rows]
+            if name == "imu_acc" and nan_acc:
+                data = np.full_like(data, np.nan)
+            dst.create_dataset(name, data=data)
+        dst.create_dataset("movement", data=np.ones(rows, dtype=np.uint8))
+        dst.attrs["sampling_rate"] = src.attrs["sampling_rate"]
+    return target
+
+
+def test_bench_skips_a_trial_with_nothing_to_evaluate_and_names_it(tmp_path, capsys):
+    folder = tmp_path / "broad"
+    folder.mkdir()
+    _broad_slice(TRIAL, folder / "01_good.hdf5", 3000)
+    _broad_slice(TRIAL, folder / "02_dead_acc.hdf5", 3000, nan_acc=True)
+    assert main(["bench", "orientation", str(folder), "--algorithm", "ekf-taylor3", "--json"]) == 0
+    captured = capsys.readouterr()        # was: "no sample to evaluate", exit 1, no trial named
+    report = json.loads(captured.out)
+    assert [t["trial"] for t in report["trials"]] == ["01_good"]
+    assert [s["trial"] for s in report["skipped"]] == ["02_dead_acc"]
+    assert "skipped trial 02_dead_acc" in captured.err and "no sample to evaluate" in captured.err
+    assert main(["bench", "orientation", str(folder), "--algorithm", "ekf-taylor3"]) == 0
+    assert "MEAN over 1 trials" in capsys.readouterr().out
+    (folder / "01_good.hdf5").unlink()
+    assert main(["bench", "orientation", str(folder), "--algorithm", "ekf-taylor3"]) == 1
+    assert "no trial could be evaluated (02_dead_acc: ekf-taylor3: no sample" in capsys.readouterr().err
+
+
+def test_fuse_checks_the_output_folder_before_fusing(tmp_path, capsys, monkeypatch):
+    import mimucap.cli.fuse as fuse_command
+
+    def must_not_read(path, sensor):
+        raise AssertionError("the input was read before the output path was checked")
+
+    monkeypatch.setattr(fuse_command, "_inputs", must_not_read)
+    blocker = tmp_path / "notes.txt"
+    blocker.write_text("a file")
+    assert main(["fuse", str(TRIAL), "--out", str(tmp_path / "missing" / "q.csv")]) == 1  # was: [Errno 2] after fusing
+    assert f"cannot write {tmp_path / 'missing' / 'q.csv'}: folder {tmp_path / 'missing'} does not exist" \
+        in capsys.readouterr().err
+    assert main(["fuse", str(TRIAL), "--out", str(blocker / "q.csv")]) == 1
+    assert f"{blocker} is a file, not a folder" in capsys.readouterr().err

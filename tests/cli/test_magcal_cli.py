@@ -79,6 +79,42 @@ def test_refused_fit_exits_with_the_reason(tmp_path: Path, capsys) -> None:
     np.savetxt(path, np.random.default_rng(1).normal(size=(12, 3)) * 40)
     assert main(["magcal", "fit", str(path)]) == 1
     assert "at least 30" in capsys.readouterr().err
+    assert main(["magcal", "fit", str(path), "--sensor", "S07"]) == 1   # was: no file, no sensor
+    assert f"error: {path}: sensor S07: only 12 valid samples" in capsys.readouterr().err
+
+
+def test_an_unrecognised_csv_header_is_an_error_not_x_y_z(tmp_path: Path, capsys) -> None:
+    counts, _, _ = synthetic_counts()
+    path = tmp_path / "missing_col.csv"
+    np.savetxt(path, np.column_stack((np.arange(len(counts)) * 0.01, counts[:, :2])), delimiter=",",
+               header="t_s,mx_uT,my_uT", comments="")
+    assert main(["magcal", "fit", str(path)]) == 1   # was: t_s read as x, exit 0
+    assert f"{path}:1: the header t_s,mx_uT,my_uT has no mz column" in capsys.readouterr().err
+
+
+def test_study_folders_without_trials_are_errors(tmp_path: Path, capsys) -> None:
+    study = tmp_path / "study"
+    (study / "reference").mkdir(parents=True)
+    assert main(["magcal", "study", "--folder", str(study)]) == 1
+    assert f"{study / 'reference'}: no recording in the reference folder" in capsys.readouterr().err
+    counts, _, _ = synthetic_counts()
+    np.savetxt(study / "reference" / "dense.csv", counts * 0.15, delimiter=",")
+    (study / "figure8-1").mkdir()
+    assert main(["magcal", "study", "--folder", str(study)]) == 1   # was: a row of nan, exit 0
+    assert f"{study / 'figure8-1'}: no trial" in capsys.readouterr().err
+
+
+def test_study_checks_the_plot_path_before_the_study(tmp_path: Path, capsys, monkeypatch) -> None:
+    import mimucap.cli.magcal as magcal_command
+
+    def must_not_run(settings):
+        raise AssertionError("the study ran before the plot path was checked")
+
+    monkeypatch.setattr(magcal_command, "simulate_study", must_not_run)
+    blocker = tmp_path / "notes.txt"
+    blocker.write_text("a file")
+    assert main(["magcal", "study", "--trials", "1", "--plot", str(blocker / "x.png")]) == 1
+    assert f"cannot write {blocker / 'x.png'}: {blocker} is a file, not a folder" in capsys.readouterr().err
 
 
 def test_study_prints_both_tables(capsys) -> None:

@@ -11,7 +11,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
+from mimucap.cli import main
 from mimucap.io.session import read_session
 from mimucap.session.recording import journal_path_for
 
@@ -177,3 +179,45 @@ def test_a_recording_that_received_nothing_fails_and_says_why(tmp_path):
     assert "no sample was received" in completed.stderr and "cannot open" in completed.stderr
     assert "ttyUSB9" in completed.stderr and str(out) in completed.stderr
     assert read_session(out).sensors == {}
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--source", "simulated", "--sensor-count", "0"], "--sensor-count must be at least 1, got 0"),  # was: 10 sensors
+    (["--source", "simulated", "--rate", "0"], "--rate must be a positive number of Hz, got 0"),       # was: 100 Hz
+    (["--source", "udp:127.0.0.1:5999", "--sensors", "10-1"], "--sensors '10-1': the range 10-1 is empty"),
+    (["--source", "simulated", "--sensors", "1-3"], "--sensors applies to udp and serial sources only"),
+    (["--source", "serial:/dev/ttyUSB0", "--allow", "10.0.0.2"], "--allow applies to udp sources only"),
+    (["--source", "udp:127.0.0.1:5999", "--sensor-count", "4"], "--sensor-count applies to simulated sources only"),
+])
+def test_record_refuses_option_values_it_would_replace_or_ignore(tmp_path, capsys, options, message):
+    out = tmp_path / "x.h5"
+    assert main(["record", *options, "--duration", "1", "--out", str(out), "--quiet"]) == 1
+    assert message in capsys.readouterr().err
+    assert not out.exists() and not Path(f"{out}.journal").exists()
+
+
+def test_replaying_a_text_file_named_like_a_session_says_it_is_not_hdf5(tmp_path, capsys):
+    text = tmp_path / "text.h5"
+    text.write_text("t_s,ax\n0,1\n")
+    assert main(["record", "--source", f"replay:{text}", "--duration", "1", "--out", str(tmp_path / "x.h5")]) == 1
+    err = capsys.readouterr().err           # was: "line 1: no PacketCounter column" (read as an Xsens export)
+    assert f"replay file {text}: not an HDF5 session" in err
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    (["--unplug-after", "0.2", "--unplug-for=-1"], "--unplug-for must be a number of seconds >= 0, got -1"),
+    (["--unplug-after=-1"], "--unplug-after must be a number of seconds >= 0, got -1"),
+    (["--unplug-after", "nan"], "--unplug-after must be a number of seconds >= 0, got nan"),
+    (["--unplug-for", "2"], "--unplug-for needs --unplug-after"),
+])
+def test_emulate_serial_refuses_unplug_times_it_would_ignore(tmp_path, capsys, options, message):
+    link = tmp_path / "tty"
+    assert main(["emulate", "serial", "--sensors", "1", "--duration", "1", "--link", str(link), *options]) == 1
+    assert message in capsys.readouterr().err
+    assert not link.exists()
+
+
+def test_emulate_udp_refuses_a_target_host_that_cannot_be_resolved(capsys):
+    assert main(["emulate", "udp", "--sensors", "1", "--duration", "1",
+                 "--target", "no.such.host.invalid:5005"]) == 1      # was: exit 0 with "100 send errors"
+    assert "--target no.such.host.invalid:5005: cannot resolve host 'no.such.host.invalid'" in capsys.readouterr().err

@@ -63,6 +63,19 @@ def test_malformed_csv_names_file_and_line(tmp_path: Path) -> None:
         read_csv(path)
 
 
+@pytest.mark.parametrize(("header", "message"), [
+    ("t_s,mx_uT,my_uT", r"mag\.csv:2: the header t_s,mx_uT,my_uT has no mz column; expected mx,my,mz"),
+    ("mx,mz,temperature", r"mag\.csv:2: the header mx,mz,temperature has no my column"),
+    ("time,a,b", r"mag\.csv:2: no magnetometer columns in the header time,a,b: expected mx,my,mz"),
+])
+def test_an_unrecognised_three_column_header_is_not_read_as_x_y_z(tmp_path: Path, header: str, message: str) -> None:
+    """Was: any 3-field header fell back to plain x, y, z (a time column read as x)."""
+    path = tmp_path / "mag.csv"
+    path.write_text("# comment\n" + header + "\n" + "\n".join(",".join(map(str, row)) for row in SAMPLES) + "\n")
+    with pytest.raises(ValueError, match=message):
+        read_csv(path)
+
+
 def test_units() -> None:
     with pytest.raises(ValueError, match="--scale-to-uT"):
         to_microtesla(SAMPLES, "counts", None)

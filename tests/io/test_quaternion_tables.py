@@ -323,6 +323,36 @@ def test_csv_errors_name_line_and_sensor(tmp_path, text, message):
         qt.read_quaternion_table(path)
 
 
+def test_a_declared_up_axis_that_is_not_an_axis_names_file_and_line(tmp_path):
+    path = tmp_path / "q.csv"
+    path.write_text("# MimuCap quaternion table\n\n# up_axis: w\nt_s,A_qw,A_qx,A_qy,A_qz\n0,1,0,0,0\n")
+    with pytest.raises(ValueError, match=r"q\.csv: line 3: '# up_axis': unknown axis 'w'"):
+        qt.read_quaternion_table(path)   # was: "unknown axis 'w'" without file or line
+    assert qt.read_quaternion_table(path, up_axis="y").up_world.tolist() == [0.0, 1.0, 0.0]  # the override wins
+
+
+def test_an_up_axis_for_a_z_up_input_is_refused_not_ignored(tmp_path, variants):
+    from mimucap.io.session import SensorStream, Session, write_session
+
+    t = np.arange(0.0, 1.0, 0.01)
+    session = tmp_path / "s.h5"
+    write_session(session, Session(sensors={"A": SensorStream("A", t, np.arange(t.size),
+                                                              q_world_from_sensor=rot.identity((t.size,)))}))
+    xsens = variants / "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt"
+    apdm = variants / "apdm_format7.csv"
+    for path in (session, xsens, apdm):
+        with pytest.raises(ValueError, match=f"{path.name}: up axis -y cannot apply"):
+            qt.read_quaternion_table(path, up_axis="-y")
+        assert qt.read_quaternion_table(path, up_axis="z").up_world.tolist() == [0.0, 0.0, 1.0]
+
+
+@pytest.mark.parametrize("rate", [0.0, -100.0, float("nan"), float("inf")])
+def test_a_given_xsens_rate_must_be_positive(variants, rate):
+    """Was: 0 fell back to the 100-Hz default, NaN gave "time must be finite"."""
+    with pytest.raises(ValueError, match="the update rate must be a positive number of Hz"):
+        qt.read_xsens_file(variants / "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt", rate)
+
+
 def test_unknown_file_types(tmp_path):
     with pytest.raises(FileNotFoundError, match="no such file"):
         qt.read_quaternion_table(tmp_path / "missing.csv")

@@ -20,6 +20,18 @@ from mimucap.acquisition import protocol_udp as proto
 from mimucap.acquisition.emulate_common import Corrupter, EmulatorSettings, MotionSource, NodeSchedule
 
 
+def resolve_target(target: tuple[str, int]) -> tuple[str, int]:
+    """``(IPv4 address, port)`` of ``target`` (host name or address, port), resolved once;
+    ``ValueError`` naming the host when it cannot be resolved (every send would fail)."""
+    host, port = target
+    try:
+        info = socket.getaddrinfo(host, port, socket.AF_INET, socket.SOCK_DGRAM)
+    except (socket.gaierror, UnicodeError) as error:
+        reason = error.strerror if isinstance(error, socket.gaierror) else str(error)
+        raise ValueError(f"--target {host}:{port}: cannot resolve host {host!r} ({reason})") from None
+    return info[0][4][0], port
+
+
 class UdpEmulator:
     """N emulated nodes; :meth:`run` sends until the duration is over or ``stop`` is set."""
 
@@ -29,7 +41,7 @@ class UdpEmulator:
         (instead of its nominal sampling instant), so send→arrival latency can be measured."""
         self.settings = settings
         self.stamp_on_send = stamp_on_send
-        self.target = target
+        self.target = resolve_target(target)
         self.motion = motion
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         self.sock.bind((bind_address, 0))

@@ -32,6 +32,21 @@ def refuse_to_overwrite_input(out, *inputs) -> None:
             raise ValueError(f"{out}: the output would overwrite the input {item}; choose another --out")
 
 
+def check_output_path(out) -> Path:
+    """``OSError`` unless a file can be created at ``out``: its folder must exist (and be a
+    folder) and ``out`` must not be a folder. Commands call this before their computation, so
+    a mistyped ``--out`` costs nothing."""
+    target = Path(out).expanduser()
+    folder = target.parent
+    if target.is_dir():
+        raise OSError(f"cannot write {out}: it is a folder; give a file name")
+    if folder.exists() and not folder.is_dir():
+        raise OSError(f"cannot write {out}: {folder} is a file, not a folder")
+    if not folder.is_dir():
+        raise OSError(f"cannot write {out}: folder {folder} does not exist")
+    return target
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command registered."""
     parser = argparse.ArgumentParser(

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 
-from mimucap.cli import refuse_to_overwrite_input
+from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.cli.bodycal import add_reader_options, choose_model, read_input
 from mimucap.core import bodycal
 from mimucap.core.skeleton import SHOULDER_SEQUENCES, joint_angle_columns, joint_angles_deg
@@ -40,9 +40,15 @@ def run(args: argparse.Namespace) -> int:
     calibration, document = read_body_calibration(args.calibration)
     if not str(args.out).lower().endswith((".csv", ".mot")):
         raise ValueError(f"{args.out}: joint angles are written as .csv or .mot")
+    check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input, args.calibration)
     table = read_input(args)
-    model = choose_model(args.model or document.get("model", "auto"), calibration.sensors)
+    try:
+        model = choose_model(args.model or document.get("model", "auto"), calibration.sensors)
+    except ValueError as error:
+        if args.model is not None:
+            raise
+        raise ValueError(f"{args.calibration}: the calibration's model: {error}") from None
     unknown = [s for s in calibration.sensors if s not in model.segment_names]
     if unknown:
         raise ValueError(f"{args.calibration}: segment(s) {', '.join(unknown)} not in model {model.name}")

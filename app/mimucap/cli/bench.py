@@ -7,13 +7,17 @@ heading / inclination RMSE in degrees with BROAD's metric
 ``ekf-rk4``, ``taylor3``, ``rk4`` (gyro-only after the initial alignment) and the smoothed
 ``ekf-taylor3-offline`` / ``ekf-rk4-offline``. If the ``vqf`` package is installed, VQF 9D
 with default parameters (online ``vqf`` and ``vqf-offline``) is added as a reference row.
-Every algorithm uses the same default parameters on every trial.
+Every algorithm uses the same default parameters on every trial. A trial on which an
+algorithm leaves no sample to evaluate (e.g. an accelerometer that is NaN throughout) is
+skipped, named with its reason on stderr, in the table and under ``skipped`` in the JSON; the
+means are over the other trials, and a folder in which every trial is skipped is an error.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -79,6 +83,22 @@ def estimate(trial: BroadTrial, algorithm: str) -> np.ndarray:
                      algorithm=name).q_world_from_sensor
 
 
+def _trial_errors(trial: BroadTrial, algorithm: str) -> dict:
+    """One algorithm's errors (deg) and time (s) on one trial; ``ValueError`` naming the
+    algorithm when no sample can be evaluated."""
+    if trial.n_samples == 0:
+        raise ValueError("no samples (0 rows)")
+    start = time.perf_counter()
+    q = estimate(trial, algorithm)
+    elapsed = time.perf_counter() - start
+    try:
+        errors = orientation_errors(q, trial.q_ref_world_from_sensor, trial.movement)
+    except ValueError as error:
+        raise ValueError(f"{algorithm}: {error}") from None
+    return {"total_deg": errors.total_deg, "heading_deg": errors.heading_deg,
+            "inclination_deg": errors.inclination_deg, "time_s": elapsed}
+
+
 def evaluate(directory: Path, algorithms: list[str]) -> dict:
     """Per-trial, per-category and mean errors; the structure printed by ``--json``."""
     trials = []
@@ -88,20 +108,21 @@ def evaluate(directory: Path, algorithms: list[str]) -> dict:
                       mag_uT=first.mag_uT[:50])
     for algorithm in algorithms:
         estimate(warm_up, algorithm)  # load compiled kernels before anything is timed
+    skipped = []
     for path in paths:
         trial = read_broad(path)
         if trial.q_ref_world_from_sensor is None or trial.movement is None:
             raise ValueError(f"{path}: needs the reference datasets opt_quat and movement")
-        rows = {}
-        for algorithm in algorithms:
-            start = time.perf_counter()
-            q = estimate(trial, algorithm)
-            elapsed = time.perf_counter() - start
-            errors = orientation_errors(q, trial.q_ref_world_from_sensor, trial.movement)
-            rows[algorithm] = {"total_deg": errors.total_deg, "heading_deg": errors.heading_deg,
-                               "inclination_deg": errors.inclination_deg, "time_s": elapsed}
+        try:
+            rows = {algorithm: _trial_errors(trial, algorithm) for algorithm in algorithms}
+        except ValueError as error:  # nothing to evaluate on this trial: go on with the others
+            skipped.append({"trial": trial.name, "file": str(path), "reason": str(error)})
+            continue
         trials.append({"trial": trial.name, "category": trial.category,
                        "samples": trial.n_samples, "results": rows})
+    if not trials:
+        reasons = "; ".join(f"{s['trial']}: {s['reason']}" for s in skipped)
+        raise ValueError(f"{directory}: no trial could be evaluated ({reasons})")
 
     def mean_of(selected: list[dict]) -> dict:
         return {algorithm: {key: float(np.mean([t["results"][algorithm][key] for t in selected]))
@@ -110,7 +131,7 @@ def evaluate(directory: Path, algorithms: list[str]) -> dict:
 
     categories = {c: mean_of([t for t in trials if t["category"] == c])
                   for c in CATEGORIES if any(t["category"] == c for t in trials)}
-    return {"algorithms": algorithms, "trials": trials, "categories": categories,
+    return {"algorithms": algorithms, "trials": trials, "skipped": skipped, "categories": categories,
             "mean": mean_of(trials),
             "metric": "RMSE (deg) over movement samples of q_est ⊗ q_ref⁻¹; mean over trials"}
 
@@ -134,6 +155,8 @@ def format_table(report: dict) -> str:
     lines.append(f"{'MEAN over ' + str(len(report['trials'])) + ' trials':38s}" + cells(report["mean"]))
     lines.append(f"{'time per trial (s)':38s}" + "".join(
         f"{report['mean'][a]['time_s']:>{cell}.3f}" for a in algorithms))
+    for item in report["skipped"]:
+        lines.append(f"skipped {item['trial']}: {item['reason']}")
     return "\n".join(lines)
 
 
@@ -145,6 +168,8 @@ def run_orientation(args: argparse.Namespace) -> int:
         if algorithm in VQF_ALGORITHMS and not _vqf_available():
             raise ValueError(f"{algorithm}: the vqf package is not installed (pip install vqf)")
     report = evaluate(args.directory, algorithms)
+    for item in report["skipped"]:
+        print(f"mimucap bench: skipped trial {item['trial']} ({item['file']}): {item['reason']}", file=sys.stderr)
     if args.json:
         print(json.dumps(report, indent=1))
     else:

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 
-from mimucap.cli import refuse_to_overwrite_input
+from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.core import bodycal
 from mimucap.core.skeleton import MODEL_NAMES
 from mimucap.io.skeleton_model_file import load_model
@@ -83,6 +84,9 @@ def add_reader_options(parser: argparse.ArgumentParser) -> None:
 
 
 def read_input(args: argparse.Namespace):
+    """The orientation table of ``args.input`` with the reader options checked first."""
+    if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
+        raise ValueError(f"--rate {args.rate:g}: the update rate must be a positive number of Hz")
     return read_quaternion_table(args.input, up_axis=args.up, sensor_names=args.sensor_names,
                                  trial_prefix=args.trial, rate_hz=args.rate)
 
@@ -112,6 +116,7 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)
     table = read_input(args)
     mapping = parse_mapping(args.mapping)

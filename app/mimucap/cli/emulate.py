@@ -9,12 +9,14 @@
 ``udp`` runs N nodes speaking the UDP protocol (answering time-sync requests); ``serial``
 writes the serial line protocol on a pseudo-terminal and prints the device path to open
 (first line of the output). The emulated clock reads ``host_monotonic·(1+drift) + offset``.
-Both stop after ``--duration`` seconds, or on Ctrl+C.
+Both stop after ``--duration`` seconds, or on Ctrl+C. ``--unplug-after`` and ``--unplug-for``
+are seconds ≥ 0 (``--unplug-for``, default 1 s, only with ``--unplug-after``).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import threading
 
@@ -22,6 +24,9 @@ from mimucap.acquisition.emulate_common import EmulatorSettings
 from mimucap.acquisition.emulate_motion import SimulatorMotion
 from mimucap.acquisition.emulate_serial import SerialEmulator
 from mimucap.acquisition.emulate_udp import UdpEmulator
+
+#: How long ``--unplug-after`` keeps the emulated serial device unplugged by default, s.
+DEFAULT_UNPLUG_S = 1.0
 
 
 def _target(text: str) -> tuple[str, int]:
@@ -56,8 +61,22 @@ def register(subparsers) -> None:
     _common(serial)
     serial.add_argument("--link", metavar="PATH", help="also make PATH a symlink to the device")
     serial.add_argument("--unplug-after", type=float, metavar="S", help="unplug the device after S seconds")
-    serial.add_argument("--unplug-for", type=float, default=1.0, metavar="S", help="stay unplugged S seconds (default 1)")
+    serial.add_argument("--unplug-for", type=float, default=None, metavar="S",
+                        help=f"stay unplugged S seconds (default {DEFAULT_UNPLUG_S:g})")
     parser.set_defaults(func=run)
+
+
+def unplug_times(args: argparse.Namespace) -> tuple[float, float] | None:
+    """``(after_s, for_s)`` of the serial unplug, or ``None``; a negative or non-finite time,
+    or ``--unplug-for`` without ``--unplug-after``, is refused rather than ignored."""
+    for option, value in (("--unplug-after", args.unplug_after), ("--unplug-for", args.unplug_for)):
+        if value is not None and not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{option} must be a number of seconds >= 0, got {value:g}")
+    if args.unplug_after is None:
+        if args.unplug_for is not None:
+            raise ValueError("--unplug-for needs --unplug-after S (when to unplug the device)")
+        return None
+    return args.unplug_after, DEFAULT_UNPLUG_S if args.unplug_for is None else args.unplug_for
 
 
 def _settings(args: argparse.Namespace) -> EmulatorSettings:
@@ -81,12 +100,14 @@ def run(args: argparse.Namespace) -> int:
             print(f"sent {schedule.sent} samples ({emulator.corrupt.corrupted} damaged), lost {schedule.lost} on purpose, "
                   f"answered {emulator.sync_answered} time-sync requests, {emulator.send_errors} send errors")
             return 0
+        unplug = unplug_times(args)
         emulator = SerialEmulator(settings, motion, link=args.link)
         print(emulator.device_path, flush=True)
         timers = []
-        if args.unplug_after is not None:
-            timers = [threading.Timer(args.unplug_after, emulator.unplug),
-                      threading.Timer(args.unplug_after + args.unplug_for, emulator.replug)]
+        if unplug is not None:
+            after_s, for_s = unplug
+            timers = [threading.Timer(after_s, emulator.unplug),
+                      threading.Timer(after_s + for_s, emulator.replug)]
             for timer in timers:
                 timer.daemon = True
                 timer.start()

@@ -23,7 +23,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from mimucap.cli import refuse_to_overwrite_input
+from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.core.fusion.ekf import ALGORITHMS, FusionResult, fuse
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.state import FLAG_NAMES
@@ -108,6 +108,7 @@ def write_orientation(path: Path, t_s: np.ndarray, result: FusionResult) -> None
 def run(args: argparse.Namespace) -> int:
     if args.out.suffix.lower() not in OUTPUT_SUFFIXES:
         raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
+    check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)  # also when per-sensor names derive from it: a slip
     inputs = _inputs(args.input, args.sensor)
     estimator = fuse_offline if args.offline else fuse

@@ -36,6 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mimucap.cli import check_output_path
 from mimucap.core.magcal import FitSettings, calibrate
 from mimucap.core.magcal_study import (
     StudyResult,
@@ -125,6 +126,13 @@ def _sensor_id(recordings: list[MagRecording], requested: str | None) -> str:
     return ids[0] if ids else "unknown"
 
 
+def _samples_origin(recordings: list[MagRecording], requested: str | None) -> str:
+    """The files (and sensor) the fitted samples came from, to head an error message."""
+    files = ", ".join(dict.fromkeys(r.source.split("#", 1)[0] for r in recordings))
+    sensors = sorted({r.sensor_id for r in recordings if r.sensor_id is not None} | ({requested} - {None}))
+    return files + (f": sensor {', '.join(sensors)}" if sensors else "")
+
+
 def _finite_or_none(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
@@ -135,10 +143,13 @@ def run_fit(args: argparse.Namespace) -> int:
     sensor_id = _sensor_id(recordings, args.sensor)
     mag, acc = _samples_uT(recordings, args)
     created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
-    result = calibrate(
-        mag, sensor_id, acc=acc, settings=FitSettings(method=args.method, field_uT=args.field_uT),
-        protocol="file", created_utc=created,
-    )
+    try:
+        result = calibrate(
+            mag, sensor_id, acc=acc, settings=FitSettings(method=args.method, field_uT=args.field_uT),
+            protocol="file", created_utc=created,
+        )
+    except ValueError as error:  # e.g. too few samples: say whose samples
+        raise ValueError(f"{_samples_origin(recordings, args.sensor)}: {error}") from None
     fit, quality = result.fit, result.quality
     summary = {
         "offset_uT": [float(v) for v in fit.offset_uT],
@@ -211,6 +222,8 @@ def _trial_paths(folder: Path) -> list[list[Path]]:
 
 def run_study(args: argparse.Namespace) -> int:
     """Run the protocol study (simulated or on a folder) and print the tables."""
+    if args.plot is not None:
+        check_output_path(args.plot)  # before the study, which takes a while
     if args.folder is None:
         result = simulate_study(StudySettings(trials=args.trials, seed=args.seed))
     else:
@@ -230,12 +243,18 @@ def _folder_study(args: argparse.Namespace) -> StudyResult:
     reference_dir = folder / "reference"
     if not reference_dir.is_dir():
         raise ValueError(f"{folder}: the study folder needs a 'reference' sub-folder with the dense recording")
-    reference = _folder_trial([p for group in _trial_paths(reference_dir) for p in group], args)
+    reference_files = [p for group in _trial_paths(reference_dir) for p in group]
+    if not reference_files:
+        raise ValueError(f"{reference_dir}: no recording in the reference folder")
+    reference = _folder_trial(reference_files, args)
     trials: dict[str, list[Trial]] = {}
     for protocol_dir in sorted(p for p in folder.iterdir() if p.is_dir() and p.name != "reference"):
         if not _PROTOCOL_FOLDER.match(protocol_dir.name):
             raise ValueError(f"{protocol_dir}: protocol folders are named <protocol>-<turns>, e.g. figure8-3")
-        trials[protocol_dir.name] = [_folder_trial(group, args) for group in _trial_paths(protocol_dir)]
+        groups = _trial_paths(protocol_dir)
+        if not groups:
+            raise ValueError(f"{protocol_dir}: no trial (one file, or one sub-folder of files, per trial)")
+        trials[protocol_dir.name] = [_folder_trial(group, args) for group in groups]
     if not trials:
         raise ValueError(f"{folder}: no protocol folders (named like figure8-1 or single_axis-1)")
     return evaluate_protocols(

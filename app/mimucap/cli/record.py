@@ -6,19 +6,29 @@ SPEC is one of ``simulated[:SCENARIO]``, ``udp:BIND_ADDRESS:PORT``, ``serial:DEV
 ``replay:FILE[@SPEED]``. Samples are journaled to ``SESSION.h5.journal`` as they arrive
 (flushed at least every second) and turned into the session file at the end. Ctrl+C or
 SIGTERM end the recording early and still write the file. The exit code is 1 when the
-recording ended by an error (the message says how to recover the journal).
+recording ended by an error (the message says how to recover the journal), and when it
+received no sample at all (the message gives the source's last complaint, e.g. a device that
+cannot be opened; the empty session file is still written). Options that do not apply to the
+source are refused rather than ignored: ``--sensors`` (udp, serial), ``--allow`` (udp),
+``--sensor-count`` and ``--rate`` (simulated).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import sys
 import time
 from pathlib import Path
 
-from mimucap.acquisition.source_spec import VALID_FORMS, format_source_spec, parse_source_spec
+import h5py
+
+from mimucap.acquisition.source_spec import (
+    VALID_FORMS, ReplaySpec, SerialSpec, SimulatedSpec, SourceSpec, UdpSpec, format_source_spec, parse_source_spec,
+)
 from mimucap.acquisition.supervisor import Supervisor
+from mimucap.io.quaternion_tables import SESSION_SUFFIXES
 from mimucap.session.recording import Recorder, RecorderSettings
 from mimucap.session.sources import SourceOptions, parse_sensor_ids, sensor_segments, source_configs
 
@@ -63,10 +73,48 @@ def _status(supervisor: Supervisor) -> dict:
     return {"sensors": stats, "sources": sources}
 
 
+#: The source kinds each source-specific option applies to (it is refused for the others).
+OPTION_SOURCES = {
+    "--sensors": (UdpSpec, SerialSpec),
+    "--allow": (UdpSpec,),
+    "--sensor-count": (SimulatedSpec,),
+    "--rate": (SimulatedSpec,),
+}
+_SOURCE_NAMES = {UdpSpec: "udp", SerialSpec: "serial", SimulatedSpec: "simulated", ReplaySpec: "replay"}
+
+
+def check_options(args: argparse.Namespace, spec: SourceSpec) -> None:
+    """``ValueError`` for an option value that would be replaced by a default or ignored:
+    an option the source does not use, a sensor count below 1, a rate that is not a positive
+    number, an empty id range, a replay file named like a session that is not HDF5."""
+    given = {"--sensors": args.sensors, "--allow": args.allow, "--sensor-count": args.sensor_count,
+             "--rate": args.rate}
+    for option, kinds in OPTION_SOURCES.items():
+        if given[option] is not None and not isinstance(spec, kinds):
+            names = " and ".join(_SOURCE_NAMES[k] for k in kinds)
+            raise ValueError(f"{option} applies to {names} sources only, not to "
+                             f"{_SOURCE_NAMES.get(type(spec), 'this')} ({format_source_spec(spec)})")
+    if args.sensor_count is not None and args.sensor_count < 1:
+        raise ValueError(f"--sensor-count must be at least 1, got {args.sensor_count}")
+    if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
+        raise ValueError(f"--rate must be a positive number of Hz, got {args.rate:g}")
+    for part in (args.sensors or "").split(","):
+        low, sep, high = part.strip().partition("-")
+        if sep and low.strip().isdigit() and high.strip().isdigit() and int(low) > int(high):
+            raise ValueError(f"--sensors {args.sensors!r}: the range {part.strip()} is empty "
+                             f"(give the lower id first, e.g. {int(high)}-{int(low)})")
+    if isinstance(spec, ReplaySpec):
+        path = Path(spec.path)
+        if path.suffix.lower() in SESSION_SUFFIXES and path.is_file() and not h5py.is_hdf5(path):
+            raise ValueError(f"replay file {path}: not an HDF5 session (a MimuCap session is HDF5; "
+                             f"replayed Xsens exports are .txt files)")
+
+
 def run(args: argparse.Namespace) -> int:
     if not args.duration > 0:
         raise ValueError(f"--duration must be > 0 s, got {args.duration}")
     spec = parse_source_spec(args.source)
+    check_options(args, spec)
     options = SourceOptions(sensor_ids=parse_sensor_ids(args.sensors),
                             allowed_addresses=tuple(args.allow) if args.allow else None,
                             sensor_count=args.sensor_count, rate_hz=args.rate)

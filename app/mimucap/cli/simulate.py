@@ -11,7 +11,9 @@ Scenarios: ``demo`` (N-pose, T-pose, walking, turning, squats, arm raises, loopi
 with second units on thorax and pelvis). ``--disturbance`` adds a magnetic field (world ENU,
 µT) to every sensor from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. The file (format in ``docs/session-format.md``)
 holds the raw streams, the activity markers and, unless ``--no-truth``, the ground truth.
-Prints one summary line.
+Prints one summary line. The duration must hold at least one sample (≥ 1/rate s) and at most
+:data:`MAX_SENSOR_SAMPLES` sensor samples (duration × rate × sensors, e.g. 100 minutes of 10
+sensors at 100 Hz): a larger request is refused before any memory is taken.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import dataclasses
 import math
 from pathlib import Path
 
+from mimucap.cli import check_output_path
 from mimucap.core.simulate import (
     ERROR_PRESETS,
     SCENARIOS,
@@ -34,7 +37,7 @@ from mimucap.io.session import session_from_simulation, write_session
 #: Most sensor samples (duration × rate × sensors) one simulation may hold: the simulation, its
 #: truth and the session written from it take about 0.7 kB of memory per sensor sample (measured:
 #: 17 sensors at 100 Hz, 60 s → 256 MB and 240 s → 473 MB peak), so this is about 4 GB, e.g.
-#: 17 sensors at 100 Hz for an hour.
+#: 10 sensors at 100 Hz for 100 minutes.
 MAX_SENSOR_SAMPLES = 6_000_000
 
 
@@ -45,7 +48,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Simulate a sensor suit on a moving skeleton and write an HDF5 session file.",
     )
     parser.add_argument("--scenario", default="demo", help=f"one of: {', '.join(SCENARIOS)} (default demo)")
-    parser.add_argument("--duration", type=float, default=30.0, metavar="S", help="seconds to simulate (default 30)")
+    parser.add_argument("--duration", type=float, default=30.0, metavar="S",
+                        help=f"seconds to simulate (default 30; duration × rate × sensors at most "
+                             f"{MAX_SENSOR_SAMPLES:,})")
     parser.add_argument("--sensors", type=int, default=10, metavar="N", help="number of sensors 1..17 (default 10)")
     parser.add_argument("--seed", type=int, default=0, metavar="K", help="random seed (default 0)")
     parser.add_argument("--out", required=True, metavar="FILE.h5", help="session file to write")
@@ -83,7 +88,7 @@ def check_size(duration_s: float, rate_hz: float, n_sensors: int) -> None:
     if samples > MAX_SENSOR_SAMPLES:
         most_s = MAX_SENSOR_SAMPLES / (rate_hz * n_sensors)
         raise ValueError(f"--duration {duration_s:g} s of {n_sensors} sensors at {rate_hz:g} Hz is "
-                         f"{samples:.3g} samples, more than {MAX_SENSOR_SAMPLES:.0e} a simulation can hold "
+                         f"{samples:.3g} samples, more than the {MAX_SENSOR_SAMPLES:,} a simulation can hold "
                          f"in memory: at most {most_s:.0f} s at this rate and sensor count")
 
 
@@ -91,6 +96,7 @@ def run(args: argparse.Namespace) -> int:
     """Simulate, write the file and print one summary line; bad arguments raise ValueError."""
     if Path(args.out).suffix.lower() not in (".h5", ".hdf5"):
         raise ValueError(f"{args.out}: a simulated session is an HDF5 file: name it .h5 or .hdf5")
+    check_output_path(args.out)
     errors = error_model(args.errors)
     if args.onboard:
         errors = dataclasses.replace(errors, onboard_orientation=True)

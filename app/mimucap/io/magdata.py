@@ -3,8 +3,10 @@
 Formats (``read_mag_files(..., fmt=...)``; ``"auto"`` picks by content):
 
 * ``"csv"``: text, optionally gzipped (``.gz``), ``#`` comment lines skipped.
-  - *Plain*: three numeric columns x, y, z, with or without a header line, separated by
-    commas, semicolons, tabs or spaces. The unit is not stated (``unit=None``).
+  - *Plain*: three numeric columns x, y, z, without a header line (or with the header
+    ``x,y,z``), separated by commas, semicolons, tabs or spaces. The unit is not stated
+    (``unit=None``). Only a file whose first row is numeric is read as plain x, y, z: a
+    header naming other columns (``t_s,mx_uT,my_uT``) is an error naming the columns expected.
   - *Headered*: columns named like ``mx``/``mag_x``/``Mag_X`` (and y, z), optionally a time
     column ``t_s``/``time_s``; a unit suffix ``_gauss``, ``_uT`` or ``_counts`` on the
     magnetometer columns sets the unit. The sunsided/sensor-fusion recordings
@@ -152,15 +154,38 @@ def _number(text: str) -> float:
 
 
 _MAG_COLUMN = re.compile(r"^(?:m|mag|magn|magnetometer)[_ ]?([xyz])(?:[_ ]?\(?([a-z]+)\)?)?$", re.IGNORECASE)
+#: The header of a plain file: bare axis names ``x,y,z`` (with an optional unit suffix).
+_BARE_AXIS_COLUMN = re.compile(r"^([xyz])(?:[_ ]?\(?([a-z]+)\)?)?$", re.IGNORECASE)
 _TIME_COLUMNS = ("t_s", "time_s", "t", "time", "timestamp_s")
+#: What a magnetometer CSV header must name, for the error that refuses another header.
+EXPECTED_COLUMNS = ("mx,my,mz or mag_x,mag_y,mag_z, optionally with a unit suffix (_uT, _gauss, _counts) "
+                    "and a t_s column")
+
+
+def _axis_columns(names: list[str], pattern: re.Pattern) -> dict[str, tuple[int, str | None]]:
+    """Axis letter → (column index, unit suffix or None) of the columns matching ``pattern``."""
+    found: dict[str, tuple[int, str | None]] = {}
+    for index, name in enumerate(names):
+        match = pattern.match(name.strip())
+        if match:
+            found.setdefault(match.group(1).lower(), (index, match.group(2)))
+    return found
+
+
+def _missing_axes_message(names: list[str]) -> str:
+    """Why ``names`` is not a magnetometer header: the axis columns it lacks, or that it has none."""
+    found = _axis_columns(names, _MAG_COLUMN)
+    if found:
+        missing = ", ".join(f"m{axis}" for axis in "xyz" if axis not in found)
+        return f"the header {','.join(names)} has no {missing} column; expected {EXPECTED_COLUMNS}"
+    return (f"no magnetometer columns in the header {','.join(names)}: expected {EXPECTED_COLUMNS}; "
+            f"a file without a header holds three numbers x, y, z per line")
 
 
 def _mag_columns(names: list[str]) -> tuple[list[int], str | None] | None:
-    found: dict[str, tuple[int, str | None]] = {}
-    for index, name in enumerate(names):
-        match = _MAG_COLUMN.match(name.strip())
-        if match:
-            found.setdefault(match.group(1).lower(), (index, match.group(2)))
+    found = _axis_columns(names, _MAG_COLUMN)
+    if set(found) != {"x", "y", "z"}:
+        found = _axis_columns(names, _BARE_AXIS_COLUMN) if len(names) == 3 else {}
     if set(found) != {"x", "y", "z"}:
         return None
     units = {found[a][1].lower() if found[a][1] else None for a in "xyz"}
@@ -201,13 +226,9 @@ def read_csv(path: str | Path) -> MagRecording:
     else:
         data_rows = rows[1:]
         detected = _mag_columns(first)
-        if detected is not None:
-            columns, unit = detected
-        elif len(first) != 3:
-            raise ValueError(
-                f"{path}:{rows[0][0]}: no magnetometer columns (mx/my/mz or mag_x/mag_y/mag_z) "
-                f"in the header {first}"
-            )
+        if detected is None:
+            raise ValueError(f"{path}:{rows[0][0]}: {_missing_axes_message(first)}")
+        columns, unit = detected
         lowered = [name.strip().lower() for name in first]
         for name in _TIME_COLUMNS:
             if name in lowered:

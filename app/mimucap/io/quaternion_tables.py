@@ -181,6 +181,7 @@ def read_quaternion_csv(path: str | Path, up_axis: str | None = None) -> Quatern
     path = Path(path)
     source = str(path)
     declared_up = None
+    declared_up_line = 0
     header: list[str] | None = None
     data_lines: list[str] = []
     line_numbers: list[int] = []
@@ -192,7 +193,7 @@ def read_quaternion_csv(path: str | Path, up_axis: str | None = None) -> Quatern
             if text.startswith("#"):
                 match = re.match(r"#\s*up_axis\s*[:=]\s*(\S+)", text)
                 if match:
-                    declared_up = match.group(1)
+                    declared_up, declared_up_line = match.group(1), number
                 continue
             if header is None:
                 header = [c.strip() for c in next(csv.reader([text]))]
@@ -222,7 +223,15 @@ def read_quaternion_csv(path: str | Path, up_axis: str | None = None) -> Quatern
         raise ValueError(f"{source}: no '<sensor>_qw,_qx,_qy,_qz' columns in the header")
     t = data[:, header.index("t_s")]
     _check_time(t, source, lines)
-    up = axis_vector(up_axis or declared_up or "z")
+    if up_axis is not None:
+        up = axis_vector(up_axis)
+    elif declared_up is not None:
+        try:
+            up = axis_vector(declared_up)
+        except ValueError as error:
+            raise ValueError(f"{source}: line {declared_up_line}: '# up_axis': {error}") from None
+    else:
+        up = axis_vector("z")
     return QuaternionTable(t, sensors, up, "ENU" if up[2] == 1.0 else "declared", source)
 
 
@@ -488,6 +497,8 @@ def read_xsens_file(path: str | Path, rate_hz: float | None = None) -> XsensReco
         raise ValueError(
             f"{source}: line {int(line_array[np.argmax(step) + 1])}: PacketCounter does not increase"
         )
+    if rate_hz is not None and not (math.isfinite(rate_hz) and rate_hz > 0.0):
+        raise ValueError(f"{source}: the update rate must be a positive number of Hz, got {rate_hz:g}")
     rate = header_rate or rate_hz or XSENS_DEFAULT_RATE_HZ
     if rate <= 0.0:
         raise ValueError(f"{source}: update rate must be positive, got {rate}")
@@ -763,6 +774,17 @@ def resample_slerp(t_src: np.ndarray, q_src: np.ndarray, t_dst: np.ndarray) -> n
 # Dispatcher
 # --------------------------------------------------------------------------------------------
 
+#: Why an up axis cannot be chosen for some inputs.
+_FIXED_UP = "Xsens exports, APDM files and MimuCap sessions are z up"
+
+
+def _refuse_up_axis(path: Path, up_axis: str | None) -> None:
+    """``ValueError`` when an up axis other than +z is given for an input whose world is z up
+    (it would otherwise be ignored without a word)."""
+    if up_axis is not None and not np.allclose(axis_vector(up_axis), (0.0, 0.0, 1.0)):
+        raise ValueError(f"{path}: up axis {up_axis} cannot apply: {_FIXED_UP}")
+
+
 def read_quaternion_table(
     path: str | Path,
     up_axis: str | None = None,
@@ -773,23 +795,24 @@ def read_quaternion_table(
     """Read any supported orientation file or folder (see the module docstring).
 
     ``up_axis`` overrides the up axis the format implies (only for CSV and ``.sto``: Xsens,
-    APDM and sessions are always z up). ``sensor_names`` (an OpenSense mapping XML),
-    ``trial_prefix`` and ``rate_hz`` (used when a header gives no rate) apply to Xsens exports.
+    APDM and sessions are always z up, and another up axis given for them is refused rather
+    than ignored). ``sensor_names`` (an OpenSense mapping XML), ``trial_prefix`` and
+    ``rate_hz`` (used when a header gives no rate; a positive number) apply to Xsens exports.
     """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"{path}: no such file or folder")
-    fixed_up = "Xsens exports, APDM files and MimuCap sessions are z up"
     if path.is_dir():
-        if up_axis is not None and not np.allclose(axis_vector(up_axis), (0, 0, 1)):
-            raise ValueError(f"{path}: up axis {up_axis} cannot apply: {fixed_up}")
+        _refuse_up_axis(path, up_axis)
         return read_xsens_folder(path, sensor_names, trial_prefix, rate_hz)
     suffix = path.suffix.lower()
     if suffix == ".sto":
         return read_opensim_sto(path, up_axis)
     if suffix in SESSION_SUFFIXES:
+        _refuse_up_axis(path, up_axis)
         return read_session_table(path)
     if suffix == ".txt":
+        _refuse_up_axis(path, up_axis)
         rec = read_xsens_file(path, rate_hz)
         name = rec.device_id
         if sensor_names is not None:
@@ -799,6 +822,7 @@ def read_quaternion_table(
         with path.open(encoding="utf-8") as handle:
             first = handle.readline()
         if first.startswith("Format="):
+            _refuse_up_axis(path, up_axis)
             return read_apdm_csv(path)
         return read_quaternion_csv(path, up_axis)
     raise ValueError(
