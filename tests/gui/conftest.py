@@ -37,3 +37,18 @@ def accept_modal():
             handle(dialog)
         QtCore.QTimer.singleShot(0, poke)
     return arm
+
+
+@pytest.fixture
+def window(qtbot):
+    """The main window live on the simulated suit, shown and started (closed after the test).
+    Tests that may leave a recording running define their own (closing would ask first)."""
+    from mimucap.gui.main_window import MainWindow
+
+    win = MainWindow("simulated:demo")
+    qtbot.addWidget(win)
+    win.show()
+    win.start()
+    qtbot.waitExposed(win)
+    yield win
+    win.close()

@@ -5,22 +5,10 @@ their size back afterwards, and a short plot labels fewer ticks instead of overl
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from PyQt5 import QtWidgets
 
 from mimucap.gui.live_plots import MIN_PLOT_HEIGHT_PX, LivePlots
-from mimucap.gui.main_window import SENSOR_DOCK_START_PX, MainWindow
-
-
-@pytest.fixture
-def window(qtbot):
-    win = MainWindow("simulated:demo")
-    qtbot.addWidget(win)
-    win.show()
-    win.start()
-    qtbot.waitExposed(win)
-    yield win
-    win.close()
+from mimucap.gui.main_window import SENSOR_DOCK_START_PX
 
 
 def test_the_main_window_shrinks_to_800_by_500_and_its_docks_come_back(window, qtbot):

@@ -9,17 +9,6 @@ from PyQt5 import QtGui, QtWidgets
 from mimucap.gui.main_window import MainWindow
 
 
-@pytest.fixture
-def window(qtbot):
-    win = MainWindow("simulated:demo")
-    qtbot.addWidget(win)
-    win.show()
-    win.start()
-    qtbot.waitExposed(win)
-    yield win
-    win.close()
-
-
 def _menu_actions(win):
     actions = []
     for menu_action in win.menuBar().actions():

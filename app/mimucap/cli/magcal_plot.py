@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mimucap.cli import check_output_path
 from mimucap.core.magcal_fit import Ellipsoid, symmetric_sqrt
 from mimucap.core.magcal_study import StudyResult
 
@@ -96,9 +97,7 @@ def render_study_png(result: StudyResult, path: str | Path) -> Path:
         vtkWindowToImageFilter,
     )
 
-    path = Path(path)
-    if not path.parent.is_dir():
-        raise OSError(f"cannot write {path}: folder {path.parent} does not exist")
+    path = check_output_path(path)
     panels = list(result.protocols)
     rows = max(1, math.ceil(len(panels) / PANELS_PER_ROW))
     columns = min(PANELS_PER_ROW, max(1, len(panels)))

@@ -183,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
               f"{sum(result.samples.values())} samples)", file=sys.stderr)
         return 1
     if sum(result.samples.values()) == 0:
-        print(f"mimucap record: error: no sample was received in {reason_text(reason)}"
+        print(f"mimucap record: error: no sample was received in {_reason_text(reason)}"
               f"{' (' + last_troubles + ')' if last_troubles else ''}; wrote the empty session "
               f"{result.session_path}", file=sys.stderr)
         return 1
@@ -194,6 +194,6 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def reason_text(reason: str) -> str:
+def _reason_text(reason: str) -> str:
     """How the end of a recording reads after "no sample was received in …"."""
     return "the whole recording" if reason == "duration" else f"the recording (it ended: {reason})"

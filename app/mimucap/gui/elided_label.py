@@ -23,7 +23,6 @@ class ElidedLabel(QtWidgets.QLabel):
     def setText(self, text: str) -> None:  # noqa: N802 (Qt API)
         super().setText(text)
         self.setToolTip(text)
-        self.updateGeometry()
 
     def minimumSizeHint(self) -> QtCore.QSize:  # noqa: N802 (Qt API)
         hint = super().minimumSizeHint()

@@ -213,16 +213,24 @@ def _plausible_length(length: int, offset: int, size: int) -> bool:
     return 1 <= length <= MAX_RECORD_BYTES and offset + _RECORD.size + length <= size
 
 
-def _record_at(handle: BinaryIO, offset: int, size: int) -> bytes | None:
-    """The body of the intact record starting at byte ``offset``, or ``None`` if there is none
-    (short or implausible length, short body, or CRC mismatch)."""
+def _header_at(handle: BinaryIO, offset: int, size: int) -> tuple[int, int] | None:
+    """``(body length, CRC)`` of a record header at byte ``offset`` whose length is plausible
+    (:func:`_plausible_length`), or ``None``; the handle is left just after the header."""
     handle.seek(offset)
     prefix = handle.read(_RECORD.size)
     if len(prefix) < _RECORD.size:
         return None
     length, crc = _RECORD.unpack(prefix)
-    if not _plausible_length(length, offset, size):
+    return (length, crc) if _plausible_length(length, offset, size) else None
+
+
+def _record_at(handle: BinaryIO, offset: int, size: int) -> bytes | None:
+    """The body of the intact record starting at byte ``offset``, or ``None`` if there is none
+    (short or implausible length, short body, or CRC mismatch)."""
+    header = _header_at(handle, offset, size)
+    if header is None:
         return None
+    length, crc = header
     body = handle.read(length)
     if len(body) < length or zlib.crc32(body) != crc:
         return None
@@ -246,14 +254,10 @@ def _starts_a_chain(handle: BinaryIO, offset: int, size: int) -> bool:
     """Whether following record lengths from ``offset`` meets :data:`RESYNC_CHAIN_RECORDS`
     plausible record headers in a row, or ends exactly at the end of the file."""
     for _ in range(RESYNC_CHAIN_RECORDS):
-        handle.seek(offset)
-        prefix = handle.read(_RECORD.size)
-        if len(prefix) < _RECORD.size:
+        header = _header_at(handle, offset, size)
+        if header is None:
             return False
-        length, _crc = _RECORD.unpack(prefix)
-        if not _plausible_length(length, offset, size):
-            return False
-        offset += _RECORD.size + length
+        offset += _RECORD.size + header[0]
         if offset == size:
             return True
     return True

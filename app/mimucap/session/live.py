@@ -163,7 +163,9 @@ class LiveSession:
         self._clock = clock
         self.t0_host_s: float | None = None
         self.display_mode = "world"
-        self.sensor_segments: dict[str, str] = dict(feed.sensor_segments())
+        #: sensor id → the segment it is worn on, as the source knows it (the simulated suit's truth)
+        self._worn_on: dict[str, str] = dict(feed.sensor_segments())
+        self.sensor_segments: dict[str, str] = dict(self._worn_on)
         self.mag_calibrations: dict[str, MagCalibration] = {}
         self.body_calibration: bodycal.BodyCalibration | None = None
         self._capacity = int(MAX_WINDOW_S * BUFFER_RATE_HZ)
@@ -392,11 +394,9 @@ class LiveSession:
             self._pose_source = POSE_SIMULATOR_TRUTH
         else:
             latest = self.latest_orientations()
-            found = {seg: latest[sid] for sid, seg in self.sensor_segments.items() if sid in latest}
-            if found:
-                if self.model.root not in found:
-                    found[self.model.root] = skeleton.q_world_from_body_facing(0.0)
-                q_segments = self._filled(found)
+            q_segments = self._figure_from({seg: latest[sid] for sid, seg in self.sensor_segments.items()
+                                            if sid in latest})
+            if q_segments is not None:
                 t_pose = self._newest_time()
                 self._pose_source = POSE_SENSOR_AXES
         if not q_segments:
@@ -437,12 +437,17 @@ class LiveSession:
         wrong segment shows as it would on real hardware), the others follow their parents
         (:func:`bodycal.fill_missing_segments`; an unassigned pelvis faces north). ``None`` when
         no sensor is assigned."""
-        worn_on = self.feed.sensor_segments()
         newest = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
-        found = {segment: newest[worn_on[sid]] for sid, segment in self.sensor_segments.items()
-                 if worn_on.get(sid) in newest}
+        return self._figure_from({segment: newest[self._worn_on[sid]] for sid, segment in self.sensor_segments.items()
+                                  if self._worn_on.get(sid) in newest})
+
+    def _figure_from(self, found: Mapping[str, np.ndarray]) -> dict[str, np.ndarray] | None:
+        """Every segment's orientation from those of the segments that have one (``found``,
+        segment → ``q_world_from_segment``): the others follow their parents, an absent root
+        faces north. ``None`` when ``found`` is empty."""
         if not found:
             return None
+        found = dict(found)
         if self.model.root not in found:
             found[self.model.root] = skeleton.q_world_from_body_facing(0.0)
         return self._filled(found)
