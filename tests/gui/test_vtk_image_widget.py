@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from PyQt5 import QtCore, QtGui, QtWidgets
 from vtkmodules.vtkFiltersSources import vtkSphereSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
 
-from mimucap.gui.vtk_image_widget import VtkImageWidget
+from mimucap.gui.vtk_image_widget import SOFTWARE_GL_THREADS, VtkImageWidget
 
 
 @pytest.fixture
@@ -132,3 +137,43 @@ def test_a_hint_is_boxed_in_the_middle_of_the_picture_until_cleared(view):
         assert white[changed].sum() > 20  # the text
     view.set_hint("")
     np.testing.assert_array_equal(_rgb(view.image()), plain)
+
+
+def test_software_opengl_draws_without_helper_threads_unless_the_user_chose(qtbot, monkeypatch):
+    monkeypatch.delenv("LP_NUM_THREADS", raising=False)
+    widget = VtkImageWidget()
+    qtbot.addWidget(widget)
+    assert os.environ["LP_NUM_THREADS"] == SOFTWARE_GL_THREADS == "0"
+    widget.Finalize()
+    monkeypatch.setenv("LP_NUM_THREADS", "3")
+    widget = VtkImageWidget()
+    qtbot.addWidget(widget)
+    assert os.environ["LP_NUM_THREADS"] == "3"
+    widget.Finalize()
+
+
+_COUNT_RASTERISER_THREADS = """
+import os
+from PyQt5 import QtWidgets
+app = QtWidgets.QApplication(["t"])
+from mimucap.gui.vtk_image_widget import SOFTWARE_GL_THREADS, VtkImageWidget
+widget = VtkImageWidget()
+widget.resize(200, 150)
+widget.render()
+names = [open(f"/proc/self/task/{tid}/comm").read().strip() for tid in os.listdir("/proc/self/task")]
+renderer = widget.render_window.ReportCapabilities().split("OpenGL renderer string:")[-1].splitlines()[0]
+print(sum(name.startswith("llvmpipe") for name in names), renderer.strip(), sep="|")
+widget.Finalize()
+"""
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="needs Linux /proc")
+def test_a_new_process_rendering_on_llvmpipe_starts_no_rasteriser_threads():
+    environ = {key: value for key, value in os.environ.items() if key != "LP_NUM_THREADS"}
+    out = subprocess.run([sys.executable, "-c", _COUNT_RASTERISER_THREADS], env=environ,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    threads, renderer = out.stdout.strip().splitlines()[-1].split("|", 1)
+    if not renderer.startswith("llvmpipe"):
+        pytest.skip(f"OpenGL is not Mesa's llvmpipe here: {renderer}")
+    assert int(threads) == 0
