@@ -12,7 +12,9 @@ from mimucap.core.simulate import SimulationConfig, simulate_session
 from mimucap.io.session import read_session, session_from_simulation, write_session
 from mimucap.session.export import ExportRequest, marker_range, run_export, summary_table
 from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.live import POSE_SENSOR_AXES, POSE_UNASSIGNED, STALE_AFTER_S, LiveSession, open_live_session
+from mimucap.session.live import (POSE_SENSOR_AXES, POSE_UNASSIGNED, STALE_AFTER_S, TRUTH_NOTE, LiveSession,
+                                  open_live_session)
+from mimucap.session.recording import open_session
 from mimucap.session.review import ReviewPlayer, load_review
 
 
@@ -124,6 +126,30 @@ def test_recording_markers_review_and_export(tmp_path):
     assert rows[0].minimum_deg == -5.0 and rows[0].maximum_deg == 10.0 and rows[0].rom_deg == 15.0
     with pytest.raises(ValueError, match="end after its start"):
         ExportRequest(tmp_path / "bad", 3.0, 2.0)
+
+
+def test_a_crashed_recording_of_the_simulated_suit_keeps_its_truth(tmp_path):
+    session, now = _session("walk")
+    _run(session, now, 0.5)
+    path = tmp_path / "crash.h5"
+    session.start_recording(path)
+    _run(session, now, 2.0)
+    shown = session.feed.last_truth  # journaled now, on disk after the next flush
+    time.sleep(0.6)  # the journal's flush interval (0.5 s) has passed: the next step flushes
+    _run(session, now, 0.02)
+    # The application dies here: no stop. Opening the recording recovers it from its journal.
+    stored = open_session(path)
+    truth = stored.truth
+    assert truth is not None and truth.attributes["origin"] == TRUTH_NOTE
+    assert truth.t_s[0] >= 0.0 and truth.t_s[-1] == pytest.approx(2.02, abs=0.03)
+    samples = next(iter(stored.sensors.values()))
+    assert abs(truth.t_s[-1] - samples.t_s[-1]) < 0.03 and np.all(np.diff(truth.t_s) > 0)
+    shown_t_s = shown.t_s[-1] + session.feed.host_time_of(0.0) - session.t0_host_s - session.recording_started_s
+    (row,) = np.flatnonzero(np.isclose(truth.t_s, shown_t_s, rtol=0.0, atol=1e-9))  # the instant `shown` ends at
+    assert shown_t_s == pytest.approx(2.0, abs=0.011)
+    np.testing.assert_allclose(truth.q_world_from_segment["thigh_r"][row], shown.q_world_from_segment["thigh_r"][-1])
+    np.testing.assert_allclose(truth.joint_angles_deg["knee_r_flexion_deg"][row],
+                               shown.joint_angles_deg["knee_r_flexion_deg"][-1])
 
 
 def test_replay_through_acquisition_workers_is_fused_and_shown(tmp_path):

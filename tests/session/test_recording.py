@@ -80,6 +80,55 @@ def test_a_crash_is_recovered_up_to_the_last_flush(tmp_path):
         recover(out)
 
 
+def truth_rows(first: int, n: int, rate: float = 100.0):
+    """Simulator truth rows ``first`` … ``first + n - 1``: host times, a knee turning about x
+    by ``row`` degrees, its angle, and the root walking north at 1 m/s."""
+    rows = np.arange(first, first + n)
+    half = np.radians(rows) / 2.0
+    q = np.column_stack([np.cos(half), np.sin(half), np.zeros(n), np.zeros(n)])
+    root = np.column_stack([np.zeros(n), rows / rate, np.full(n, 0.9)])
+    return T0 + rows / rate, {"shank_r": q, "pelvis": np.tile([1.0, 0, 0, 0], (n, 1))}, \
+        {"knee_r_flexion_deg": rows.astype(float)}, root
+
+
+def test_the_simulator_truth_is_journaled_and_survives_a_crash(tmp_path):
+    out = tmp_path / "truth.h5"
+    recorder = Recorder(out, {"source": "simulated:walk"}, RecorderSettings(flush_interval_s=0.1))
+    recorder.start(start_host_s=T0 + 0.05)  # truth rows before the start are not kept
+    for k in range(4):
+        recorder.add_blocks([block("1", 25 * k, 25)])
+        recorder.add_truth(*truth_rows(25 * k, 25), note="simulated suit")
+    recorder.add_truth(*truth_rows(99, 1))  # a repeated instant is kept once
+    time.sleep(0.12)
+    recorder.tick()
+    # No stop: the process died here. Recovery rebuilds samples and truth from the journal.
+    recover(out)
+    truth = read_session(out).truth
+    np.testing.assert_allclose(truth.t_s, np.arange(5, 100) / 100.0 - 0.05, atol=1e-9)
+    np.testing.assert_allclose(truth.joint_angles_deg["knee_r_flexion_deg"], np.arange(5, 100))
+    np.testing.assert_allclose(truth.q_world_from_segment["shank_r"][0], truth_rows(5, 1)[1]["shank_r"][0])
+    np.testing.assert_allclose(truth.extra["root_position_m"][-1], [0.0, 0.99, 0.9])
+    assert truth.attributes["origin"] == "simulated suit"
+
+
+def test_a_damaged_truth_record_names_the_record(tmp_path):
+    from mimucap.session.recording import KIND_TRUTH, decode_truth, encode_truth
+
+    payload = encode_truth(*truth_rows(0, 3))
+    part = decode_truth(payload)
+    np.testing.assert_allclose(part.joint_angles_deg["knee_r_flexion_deg"], [0.0, 1.0, 2.0])
+    with pytest.raises(ValueError, match="wrong number of values for 3 rows"):
+        decode_truth(payload[:-8])
+    out = tmp_path / "bad.h5"
+    recorder = Recorder(out, {"source": "simulated:walk"})
+    recorder.start(start_host_s=T0)
+    recorder.add_blocks([block("1", 0, 10)])
+    recorder._append(KIND_TRUTH, payload[:-8])  # written whole (CRC matches) but does not add up
+    recorder.close()
+    with pytest.raises(ValueError, match="record 3 is damaged: truth record holds the wrong number"):
+        recorder.write_session()
+
+
 def closed_journal(out, blocks_per_sensor: int = 30):
     """A recorder journal of two sensors left behind without its session file (as after a
     crash), and the byte offset where each of its records starts."""

@@ -56,7 +56,6 @@ from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.fusion import FLAG_NAMES, OrientationEKF, update_together
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.simulate import SimulationConfig, SuitTruth
-from mimucap.io.session import SessionTruth, read_session, write_session
 from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
 from mimucap.session.figure import FigureBuilder, FigureGeometry, heading_rad
@@ -75,6 +74,8 @@ ANGLE_BUFFER_RATE_HZ = 120.0
 
 POSE_BODY_CALIBRATION = "body calibration"
 POSE_SIMULATOR_TRUTH = "simulator truth"
+#: Where a recording's ground truth came from (stored with it).
+TRUTH_NOTE = "simulated suit shown live in mimucap gui"
 POSE_SENSOR_AXES = "sensor axes (no body calibration)"
 POSE_NONE = "no data"
 POSE_UNASSIGNED = "no sensor assigned (Session → Assign Sensors)"
@@ -186,7 +187,7 @@ class LiveSession:
         self._frame_id = 0
         self._geometry: tuple[object, FigureGeometry] | None = None
         self._recorder: Recorder | None = None
-        self._truth_blocks: list = []   # simulator truth while recording (SuitTruth blocks)
+        self._journaled_truth: SuitTruth | None = None   # the simulator truth block last recorded
         self._recording_markers = 0
         self.last_recording: RecordingResult | None = None
         self.samples_received = 0
@@ -387,8 +388,8 @@ class LiveSession:
         elif truth is not None:
             q_segments = self._truth_through_assignment(truth)
             root = truth.root_position_m[-1] * (self.height_m / self.feed.config.height_m)
-            if self._recorder is not None and (not self._truth_blocks or self._truth_blocks[-1] is not truth):
-                self._truth_blocks.append(truth)
+            if self._recorder is not None and truth is not self._journaled_truth:
+                self._journal_truth(truth)
             t_pose = float(truth.t_s[-1]) / getattr(self.feed, "time_scale", 1.0) + \
                 self.feed.host_time_of(0.0) - self.t0_host_s
             self._pose_source = POSE_SIMULATOR_TRUTH
@@ -430,6 +431,14 @@ class LiveSession:
         self._angle_t.append(t, t)
         for joint, row in self._joint_row.items():
             self._angles[joint].append(t, angles[row])
+
+    def _journal_truth(self, truth: SuitTruth) -> None:
+        """Hand a new block of the simulator's truth to the recorder, on host time (simulated
+        time runs ``time_scale`` times faster)."""
+        self._journaled_truth = truth
+        host_s = truth.t_s / getattr(self.feed, "time_scale", 1.0) + self.feed.host_time_of(0.0)
+        self._recorder.add_truth(host_s, truth.q_world_from_segment, truth.joint_angles_deg,
+                                 truth.root_position_m, TRUTH_NOTE)
 
     def _truth_through_assignment(self, truth: SuitTruth) -> dict[str, np.ndarray] | None:
         """The simulated subject's pose as the sensor assignment shows it: each assigned
@@ -570,7 +579,7 @@ class LiveSession:
         recorder = Recorder(path, metadata)
         recorder.start(self._clock())
         self._recorder = recorder
-        self._truth_blocks = []
+        self._journaled_truth = None
         self._recording_markers = 0
         self.events.recording.emit(self.recording_info())
 
@@ -611,10 +620,7 @@ class LiveSession:
         status = {sid: {"received": s.received, "drops": s.drops, "rate_hz": s.rate_hz}
                   for sid, s in self.feed.stats().items()}
         recorder.close(status)
-        truth_blocks, self._truth_blocks = self._truth_blocks, []
-        pending = RecordingToSave(recorder=recorder, truth=SuitTruth.concatenate(truth_blocks) if truth_blocks else None,
-                                  truth_offset_s=(self.feed.host_time_of(0.0) - recorder.start_host_s) if truth_blocks else 0.0,
-                                  time_scale=getattr(self.feed, "time_scale", 1.0))
+        pending = RecordingToSave(recorder=recorder)
         self.events.recording.emit(None)
         return pending
 
@@ -678,44 +684,19 @@ def _merged_per_sensor(blocks: list[SampleBlock]) -> list[SampleBlock]:
 class RecordingToSave:
     """A stopped recording whose session file is still to be written.
 
-    :meth:`save` reads only what this object holds (the closed recorder, the simulator's
-    truth when the simulated suit was shown), so it may run off the GUI thread.
+    :meth:`save` reads only the closed recorder's journal (samples, markers and, when the
+    simulated suit was shown, its truth), so it may run off the GUI thread.
     """
 
     recorder: Recorder
-    truth: SuitTruth | None = None
-    truth_offset_s: float = 0.0   #: session time (s) of simulated time 0
-    time_scale: float = 1.0
 
     @property
     def session_path(self) -> Path:
         return self.recorder.out_path
 
     def save(self) -> RecordingResult:
-        """Write the session file (with the simulator's truth, if any) and remove the journal."""
-        result = self.recorder.write_session()
-        if self.truth is not None and result.session_path is not None:
-            add_simulator_truth(result.session_path, self.truth, self.truth_offset_s, self.time_scale)
-        return result
-
-
-def add_simulator_truth(path: Path, truth: SuitTruth, offset_s: float, time_scale: float = 1.0) -> None:
-    """Store the simulator's true segment orientations and joint angles in session ``path``.
-
-    ``truth.t_s`` is simulated time; the session's time is ``truth.t_s / time_scale +
-    offset_s`` (seconds since the recording started). Only samples at ``t_s >= 0`` are kept.
-    """
-    t = truth.t_s / time_scale + offset_s
-    keep = t >= 0.0
-    session = read_session(path)
-    session.truth = SessionTruth(
-        t_s=t[keep],
-        q_world_from_segment={k: v[keep] for k, v in truth.q_world_from_segment.items()},
-        joint_angles_deg={k: v[keep] for k, v in truth.joint_angles_deg.items()},
-        extra={"root_position_m": truth.root_position_m[keep]},
-        attributes={"origin": "simulated suit shown live in mimucap gui"},
-    )
-    write_session(path, session)
+        """Write the session file and remove the journal."""
+        return self.recorder.write_session()
 
 
 def bodycal_heading(calibration: bodycal.BodyCalibration) -> float:

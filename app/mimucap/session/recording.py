@@ -10,6 +10,10 @@ session from every intact record, so a ``kill -9`` loses at most the last flush 
 Damaged bytes in the middle of a journal cost only the records they hit: reading resumes at
 the next intact record, and the result's message says which bytes were skipped.
 
+While the simulated suit is shown, the simulator's ground truth (true segment orientations,
+joint angles, root position) is journaled beside the samples (:meth:`Recorder.add_truth`), so a
+recovered recording keeps it too.
+
 A write error (disk full, storage removed) stops the recording with a message naming the
 file and what to do; whatever reached the disk stays readable through :func:`recover`.
 
@@ -25,6 +29,7 @@ import errno
 import json
 import math
 import os
+import struct
 import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -37,7 +42,7 @@ import numpy as np
 from mimucap.acquisition.block_codec import decode_block, encode_block
 from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
 from mimucap.io.journal import JournalContents, JournalWriter, iter_journal
-from mimucap.io.session import Marker, SensorStream, Session, read_session, write_session
+from mimucap.io.session import Marker, SensorStream, Session, SessionTruth, read_session, write_session
 
 JOURNAL_SUFFIX = ".journal"
 #: A damaged journal is kept under its name plus this after recovery (nothing is thrown away).
@@ -47,6 +52,9 @@ KIND_BLOCK = 2     #: a sample block (mimucap.acquisition.block_codec)
 KIND_MARKER = 3    #: JSON: {"t_s": host time, "label": ...}
 KIND_STATUS = 4    #: JSON: acquisition statistics at the end
 KIND_END = 5       #: JSON: why the recording ended
+KIND_TRUTH = 6     #: a block of the simulator's ground truth (:func:`encode_truth`)
+
+_TRUTH_HEADER = struct.Struct("<I")  # length of the truth record's JSON header
 
 
 @dataclass(frozen=True)
@@ -166,6 +174,18 @@ class Recorder:
         host_s = time.monotonic() if host_s is None else float(host_s)
         return self._append(KIND_MARKER, json.dumps({"host_s": host_s, "label": str(label)}).encode("utf-8"))
 
+    def add_truth(self, host_s: np.ndarray, q_world_from_segment: Mapping[str, np.ndarray],
+                  joint_angles_deg: Mapping[str, np.ndarray], root_position_m: np.ndarray,
+                  note: str = "") -> bool:
+        """Append a block of the simulator's ground truth: at host monotonic times ``host_s``
+        (n,) s, each segment's ``q_world_from_segment`` (n, 4) (scalar first), each joint-angle
+        column's ``joint_angles_deg`` (n,) and the root's ``root_position_m`` (n, 3) (world
+        ENU, m). ``note`` says where it came from (stored once with the truth)."""
+        if len(host_s) == 0:
+            return self.failure is None
+        return self._append(KIND_TRUTH, encode_truth(host_s, q_world_from_segment, joint_angles_deg,
+                                                     root_position_m, note))
+
     def tick(self) -> bool:
         """Flush the journal if due (call it regularly, also when no data arrives)."""
         if self._journal is None or self.failure is not None:
@@ -232,6 +252,7 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
     end: dict[str, Any] | None = None
     markers: list[Any] = []
     per_sensor: dict[str, list[SampleBlock]] = {}
+    truth_parts: list[_TruthPart] = []
     for index, (kind, payload) in enumerate(iter_journal(journal_path, contents)):
         try:
             if kind == KIND_START:
@@ -245,6 +266,8 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
                 status = json.loads(payload)
             elif kind == KIND_END:
                 end = json.loads(payload)
+            elif kind == KIND_TRUTH:
+                truth_parts.append(decode_truth(payload))
         except ValueError as error:
             raise ValueError(f"{journal_path}: record {index + 1} is damaged: {error}") from None
     if start is None:
@@ -270,8 +293,89 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
     sensors = {sensor_id: _stream(sensor_id, blocks, t0, segments.get(sensor_id))
                for sensor_id, blocks in sorted(per_sensor.items())}
     session = Session(metadata=metadata, sensors=sensors,
-                      markers=[Marker(t, label) for t, label in markers])
+                      markers=[Marker(t, label) for t, label in markers],
+                      truth=_joined_truth(truth_parts, t0))
     return session, contents
+
+
+@dataclass
+class _TruthPart:
+    """One decoded :data:`KIND_TRUTH` record (see :func:`encode_truth`)."""
+
+    host_s: np.ndarray
+    q_world_from_segment: dict[str, np.ndarray]
+    joint_angles_deg: dict[str, np.ndarray]
+    root_position_m: np.ndarray
+    note: str
+
+
+def encode_truth(host_s, q_world_from_segment: Mapping[str, np.ndarray], joint_angles_deg: Mapping[str, np.ndarray],
+                 root_position_m, note: str = "") -> bytes:
+    """A truth block as a journal payload: u32 length of a JSON header (row count, segment
+    and joint-angle column names, note), the header, then float64 little-endian arrays in
+    this order: host times (n,), each segment's quaternions (n, 4), each angle column (n,),
+    root positions (n, 3)."""
+    host = np.asarray(host_s, dtype="<f8").reshape(-1)
+    n = len(host)
+    segments, columns = list(q_world_from_segment), list(joint_angles_deg)
+    arrays = [host]
+    arrays += [np.asarray(q_world_from_segment[name], dtype="<f8").reshape(n, 4) for name in segments]
+    arrays += [np.asarray(joint_angles_deg[name], dtype="<f8").reshape(n) for name in columns]
+    arrays.append(np.asarray(root_position_m, dtype="<f8").reshape(n, 3))
+    header = json.dumps({"n": n, "segments": segments, "angles": columns, "note": str(note)}).encode("utf-8")
+    return _TRUTH_HEADER.pack(len(header)) + header + b"".join(a.tobytes() for a in arrays)
+
+
+def decode_truth(payload: bytes) -> _TruthPart:
+    """The inverse of :func:`encode_truth`; ``ValueError`` when the payload does not add up."""
+    if len(payload) < _TRUTH_HEADER.size:
+        raise ValueError("truth record shorter than its header")
+    (header_length,) = _TRUTH_HEADER.unpack_from(payload)
+    try:
+        header = json.loads(payload[_TRUTH_HEADER.size:_TRUTH_HEADER.size + header_length])
+        n, segments, columns = int(header["n"]), list(header["segments"]), list(header["angles"])
+    except (KeyError, TypeError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ValueError(f"truth record header unreadable: {error}") from None
+    values = np.frombuffer(payload, dtype="<f8", offset=_TRUTH_HEADER.size + header_length) \
+        if (len(payload) - _TRUTH_HEADER.size - header_length) % 8 == 0 else None
+    if values is None or len(values) != n * (1 + 4 * len(segments) + len(columns) + 3):
+        raise ValueError(f"truth record holds the wrong number of values for {n} rows")
+    host, rest = values[:n], values[n:]
+    quaternions = {}
+    for name in segments:
+        quaternions[name], rest = rest[:4 * n].reshape(n, 4), rest[4 * n:]
+    angles = {}
+    for name in columns:
+        angles[name], rest = rest[:n], rest[n:]
+    return _TruthPart(host, quaternions, angles, rest.reshape(n, 3), str(header.get("note", "")))
+
+
+def _joined_truth(parts: list[_TruthPart], t0: float) -> SessionTruth | None:
+    """The truth blocks of a recording as one :class:`SessionTruth` on session time (``t_s =
+    host − t0``, rows before the start dropped, sorted, a repeated instant kept once);
+    ``None`` when there is none. Blocks whose names differ from the first one's are left out
+    (one recording shows one simulated suit)."""
+    parts = [p for p in parts if p.q_world_from_segment.keys() == parts[0].q_world_from_segment.keys()
+             and p.joint_angles_deg.keys() == parts[0].joint_angles_deg.keys()] if parts else []
+    if not parts:
+        return None
+    t = np.concatenate([p.host_s for p in parts]) - t0
+    order = np.argsort(t, kind="stable")
+    keep = order[t[order] >= 0.0]
+    if len(keep):
+        keep = keep[np.r_[True, np.diff(t[keep]) > 0.0]]
+
+    def joined(pick) -> np.ndarray:
+        return np.concatenate([pick(p) for p in parts])[keep]
+
+    return SessionTruth(
+        t_s=t[keep],
+        q_world_from_segment={name: joined(lambda p, k=name: p.q_world_from_segment[k])
+                              for name in parts[0].q_world_from_segment},
+        joint_angles_deg={name: joined(lambda p, k=name: p.joint_angles_deg[k]) for name in parts[0].joint_angles_deg},
+        extra={"root_position_m": joined(lambda p: p.root_position_m)},
+        attributes={"origin": parts[0].note} if parts[0].note else {},
+    )
 
 
 def _start_from_samples(per_sensor: Mapping[str, list[SampleBlock]]) -> dict[str, Any] | None:
