@@ -1,4 +1,5 @@
-"""UDP and serial protocols: round trips, named rejections, and fuzzing (never raise, never NaN)."""
+"""UDP and serial protocols: round trips, named rejections (the same for recorded rows), and fuzzing
+(never raise, never NaN)."""
 
 from __future__ import annotations
 
@@ -6,13 +7,14 @@ import math
 import struct
 import zlib
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mimucap.acquisition import protocol_serial, protocol_udp
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import Sample
+from mimucap.acquisition.samples import Sample, refused_rows, validate_sample
 
 FULL = Sample(sensor_id=7, seq=123456, device_time_s=1234.567891, acc=(0.1, -0.2, 9.81),
               gyr=(0.01, 0.02, -0.03), mag_uT=(20.0, -5.5, -40.25),
@@ -89,6 +91,33 @@ def test_serial_rejections_are_named():
     assert protocol_serial.parse_line(framed("MIMU,1,-2,3")) is Rejection.BAD_FIELD
     assert protocol_serial.parse_line(framed("MIMU,1,2,3,Q,0.1,0,0,0")) is Rejection.OUT_OF_RANGE
     assert isinstance(protocol_serial.parse_line(framed("MIMU,1,2,3,Q,1,0,0,0")), Sample)
+
+
+def test_recorded_rows_are_refused_as_validate_sample_refuses_the_same_samples():
+    """The replay source validates a recording's rows in columns: every row gets the reason
+    (or acceptance) that :func:`validate_sample` gives the same sample from a live source."""
+    rng = np.random.default_rng(11)
+    n = 400
+    channels = {"acc": rng.normal(0.0, 5.0, (n, 3)), "gyr": rng.normal(0.0, 1.0, (n, 3)),
+                "mag_uT": rng.normal(0.0, 40.0, (n, 3)), "q_world_from_sensor": rng.normal(size=(n, 4)),
+                "calibration": rng.integers(0, 4, (n, 4)).astype(np.int8), "battery_pct": rng.uniform(0, 100, n)}
+    channels["q_world_from_sensor"] /= np.linalg.norm(channels["q_world_from_sensor"], axis=1, keepdims=True)
+    for name, bad in (("acc", np.nan), ("acc", 400.0), ("gyr", -np.inf), ("gyr", 80.0), ("mag_uT", 6000.0),
+                      ("q_world_from_sensor", np.nan), ("q_world_from_sensor", 1.5), ("battery_pct", np.nan),
+                      ("battery_pct", 120.0), ("calibration", 4)):
+        rows = rng.choice(n, 12, replace=False)
+        values = channels[name]
+        if values.ndim == 1:
+            values[rows] = bad
+        else:
+            values[rows, rng.integers(0, values.shape[1], rows.size)] = bad
+    reasons = refused_rows(channels)
+    for row in range(n):
+        sample = Sample(1, row, 1.0 + row, **{name: tuple(v[row].tolist()) if v.ndim > 1 else float(v[row])
+                                              for name, v in channels.items()})
+        expected = validate_sample(sample)
+        assert reasons[row] == (expected.value if isinstance(expected, Rejection) else ""), row
+    assert {"non_finite", "out_of_range", ""} == set(reasons.tolist())
 
 
 # ---------------------------------------------------------------- fuzzing

@@ -1,10 +1,14 @@
-"""Per-sensor statistics: exact percentiles of recent latencies and rates over the window."""
+"""Per-sensor statistics: exact percentiles of recent latencies and rates over the window, and
+drops that count packet loss only (not samples the source received and refused)."""
 
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 import pytest
 
+from mimucap.acquisition.replay import ReplayDriver, ReplaySourceConfig, ReplayStream
 from mimucap.acquisition.samples import SampleBlock
 from mimucap.acquisition.stats import SensorStatsTracker, _RecentValues, percentiles_linear
 
@@ -64,3 +68,44 @@ def test_rate_counts_the_samples_that_arrived_within_the_window(ordered):
                 assert stats.rate_hz == (sum(in_window) / span if in_window else 0.0)
                 assert [stats.latency_p50_s, stats.latency_p95_s] == np.percentile(latencies[-500:], [50, 95]).tolist()
                 assert stats.received == seq and stats.drops == 0
+
+
+def test_a_replayed_stream_refuses_invalid_rows_and_reports_them_not_as_gaps():
+    """Rows with NaN/inf or beyond the limits are not released; the replay driver counts them
+    as rejections per sensor and reports those lying between released rows (which leave gaps
+    in the sequence numbers that are not packet loss)."""
+    n = 50
+    acc = np.tile([0.0, 0.0, 9.81], (n, 1))
+    acc[10:14] = np.nan          # 4 refused between released rows
+    acc[20, 0] = 500.0           # 1 out of range between released rows
+    acc[47:] = np.inf            # 3 refused after the last released row
+    seq = np.arange(n) + np.where(np.arange(n) >= 30, 2, 0)   # 2 packets really lost
+    stream = ReplayStream.from_recording("S07", np.arange(n) / 100.0, seq, {"acc": acc})
+    assert stream.n_refused == 8 and len(stream.t_s) == n - 8 and np.isfinite(stream.acc).all()
+    blocks, reports = [], []
+
+    class Outbox:
+        overflow_samples = 0
+
+        def send_blocks(self, message):
+            blocks.extend(message.blocks)
+
+        def send_report(self, report, final=False):
+            reports.append(report)
+
+        def report_due(self, now_s):
+            return False
+
+    driver = ReplayDriver(ReplaySourceConfig(name="replay", streams=(stream,), speed=100.0), Outbox())
+    driver.run(threading.Event())
+    report = reports[-1]
+    assert report.state == "finished" and report.rejections == {"non_finite": 7, "out_of_range": 1}
+    assert report.rejections_by_sensor == {"S07": {"non_finite": 7, "out_of_range": 1}}
+    assert report.refused_in_gaps == {"S07": 5}
+    np.testing.assert_array_equal(np.concatenate([b.seq for b in blocks]), stream.seq)
+    tracker = SensorStatsTracker("S07", "replay")
+    for block in blocks:
+        tracker.add_block(block, 1.0)
+    assert tracker.snapshot(1.0).drops == 7                 # the gaps alone: 5 refused + 2 lost
+    tracker.refused_in_gaps = report.refused_in_gaps["S07"]
+    assert tracker.snapshot(1.0).drops == 2                 # only the 2 packets really lost

@@ -288,6 +288,50 @@ def test_reader_options_are_checked_not_replaced_or_ignored(suit, suit_csv, tmp_
     assert main(["bodycal", str(xsens), *heading, "--up", "z", "--out", str(tmp_path / "c.json")]) == 0
 
 
+def test_xsens_reader_options_are_refused_for_inputs_they_do_not_apply_to(suit, suit_csv, tmp_path, capsys,
+                                                                        shared_data):
+    """Was: --sensor-names, --trial and --rate were used for Xsens exports and silently ignored
+    for every other input (a session, a CSV, a BROAD trial...)."""
+    from mimucap.io.session import SensorStream, Session, write_session
+
+    t, sensors, mapping, *_ = suit
+    session = write_session(tmp_path / "suit.h5", Session(sensors={
+        s: SensorStream(s, t, np.arange(t.size), q_world_from_sensor=q) for s, q in sensors.items()}))
+    opensense = shared_data / "body" / "opensense_example"
+    xml = str(opensense / "myIMUMappings.xml")
+    xsens_file = opensense / "xsens_format_variants" / "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt"
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(suit_csv), "--mapping", mapping, "--npose", "0:0.99", "--tpose", "2:2.99",
+                 "--out", str(cal)]) == 0
+    cases = [
+        (session, ["--trial", "MT_012005D6_009-001"], "--trial applies to Xsens export folders only, "
+                                                      "not to MimuCap sessions"),
+        (session, ["--sensor-names", xml], "--sensor-names applies to Xsens export folders and Xsens export "
+                                           "files only, not to MimuCap sessions"),
+        (suit_csv, ["--sensor-names", xml], "not to quaternion CSV files"),
+        (suit_csv, ["--trial", "MT"], "--trial applies to Xsens export folders only, not to quaternion CSV files"),
+        (opensense / "test_resources" / "imuOrientations.sto", ["--trial", "MT"], "not to OpenSim .sto tables"),
+        (opensense / "xsens_format_variants" / "apdm_format7.csv", ["--sensor-names", xml], "not to APDM CSV files"),
+        (shared_data / "broad" / "24_disturbed_tapping_A.hdf5", ["--trial", "MT"], "not to BROAD trials"),
+        (xsens_file, ["--trial", "MT"], "--trial applies to Xsens export folders only, not to Xsens export files"),
+        (session, ["--rate", "100"], "--rate applies to Xsens export folders and Xsens export files only, "
+                                     "not to MimuCap sessions"),
+        (suit_csv, ["--rate", "60"], "not to quaternion CSV files"),
+    ]
+    for path, option, message in cases:
+        err = run_error(["bodycal", str(path), "--mapping", mapping, "--npose", "0:0.99", "--tpose", "2:2.99",
+                         *option, "--out", str(tmp_path / "c.json")], capsys)
+        assert err.startswith(f"mimucap bodycal: error: {path}: {option[0]} applies to Xsens export folders")
+        assert err.endswith(message)
+        err = run_error(["angles", str(path), "--calibration", str(cal), *option,
+                         "--out", str(tmp_path / "a.csv")], capsys)
+        assert err.startswith(f"mimucap angles: error: {path}: {option[0]} applies to") and err.endswith(message)
+    assert not (tmp_path / "c.json").exists() and not (tmp_path / "a.csv").exists()
+    # where they apply they are still used: --sensor-names renames a single Xsens file's sensor
+    assert main(["bodycal", str(xsens_file), "--sensor-names", xml, "--mapping", "00B42D4F=pelvis",
+                 "--heading-from", "00B42D4F:x", "--out", str(tmp_path / "c.json")]) == 0
+
+
 def test_a_bad_out_path_is_refused_before_the_computation(suit, suit_csv, tmp_path, capsys, monkeypatch):
     import mimucap.cli.angles as angles_command
     import mimucap.cli.bodycal as bodycal_command

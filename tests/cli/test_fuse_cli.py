@@ -114,6 +114,29 @@ def test_fuse_refuses_input_that_gives_no_orientation_and_counts_invalid_rows(tm
     assert "empty.h5: sensor S01: no samples (0 rows): nothing to fuse" in capsys.readouterr().err
 
 
+def test_fuse_names_the_dataset_a_broad_trial_lacks(tmp_path, capsys):
+    """Was: "not a MimuCap session (no 'format' attribute; foreign HDF5 file?)" for a BROAD
+    trial without ``imu_mag``: the BROAD layout was recognised only when complete."""
+    for missing, meaning in (("imu_mag", "magnetometer, µT"), ("imu_acc", "accelerometer, m/s²"),
+                             ("imu_gyr", "gyroscope, rad/s")):
+        trial = tmp_path / f"no_{missing}.hdf5"
+        with h5py.File(TRIAL) as src, h5py.File(trial, "w") as dst:
+            for name in src:
+                if name != missing:
+                    dst.create_dataset(name, data=src[name][:1000])
+            dst.attrs["sampling_rate"] = src.attrs["sampling_rate"]
+        out = tmp_path / "q.csv"
+        assert main(["fuse", str(trial), "--out", str(out)]) == 1
+        err = capsys.readouterr().err
+        assert f"{trial}: BROAD trial without '{missing}' ({meaning}); it holds " in err
+        assert "not a MimuCap session" not in err and not out.exists()
+    foreign = tmp_path / "foreign.h5"
+    with h5py.File(foreign, "w") as handle:
+        handle["x"] = np.zeros(3)
+    assert main(["fuse", str(foreign), "--out", str(tmp_path / "q.csv")]) == 1
+    assert "foreign.h5: not a MimuCap session (no 'format' attribute; foreign HDF5 file?)" in capsys.readouterr().err
+
+
 def test_bench_orientation_json(tmp_path, capsys):
     folder = tmp_path / "broad"
     folder.mkdir()

@@ -204,6 +204,43 @@ def test_replaying_a_text_file_named_like_a_session_says_it_is_not_hdf5(tmp_path
     assert f"replay file {text}: not an HDF5 session" in err
 
 
+def test_replayed_invalid_samples_are_rejections_with_their_reason_not_drops(tmp_path, capsys):
+    """Was: the 20 NaN accelerometer rows of a replayed session were counted as ``drops``
+    (packet loss) and no rejection was reported; a live source refuses such samples as
+    ``non_finite`` / ``out_of_range``."""
+    from mimucap.io.session import SensorStream, Session, write_session
+
+    n = 400
+    t = np.arange(n) / 100.0
+    seq = np.arange(n) + np.where(np.arange(n) >= 300, 5, 0)      # 5 packets really lost before row 300
+    rng = np.random.default_rng(3)
+    streams = {}
+    for sid in ("S01", "S02"):
+        acc, gyr = rng.normal(0.0, 1.0, (n, 3)) + [0.0, 0.0, 9.81], rng.normal(0.0, 0.1, (n, 3))
+        mag = rng.normal(0.0, 1.0, (n, 3)) + [0.0, 20.0, -40.0]
+        if sid == "S02":
+            acc[100:120] = np.nan          # 20 NaN rows in the middle
+            gyr[200, 1] = np.inf           # one infinite value
+            mag[250] = [6000.0, 0.0, 0.0]  # beyond the magnetometer limit (5000 µT)
+            acc[395:] = np.nan             # 5 NaN rows at the very end (no sample follows them)
+        streams[sid] = SensorStream(sid, t, seq, acc=acc, gyr=gyr, mag_uT=mag)
+    source = write_session(tmp_path / "in.h5", Session(metadata={}, sensors=streams))
+    out = tmp_path / "out.h5"
+    assert main(["record", "--source", f"replay:{source}@8", "--duration", "60", "--out", str(out), "--quiet"]) == 0
+    table = {line.split()[0]: line.split(None, 5) for line in capsys.readouterr().out.splitlines()
+             if line.split()[:1] in (["S01"], ["S02"])}
+    assert table["S01"][1:3] == ["400", "5"] and table["S01"][5] == "-"            # the real loss stays a drop
+    assert table["S02"][1:3] == [str(n - 27), "5"]                                  # was: drops 32, no rejection
+    assert table["S02"][5] == "non_finite: 26, out_of_range: 1"
+    recorded = read_session(out).sensors["S02"]
+    valid = np.ones(n, dtype=bool)
+    valid[[*range(100, 120), 200, 250, *range(395, n)]] = False
+    np.testing.assert_array_equal(recorded.seq, seq[valid])                        # no valid sample lost
+    np.testing.assert_array_equal(recorded.acc, streams["S02"].acc[valid])
+    assert np.isfinite(recorded.acc).all() and np.isfinite(recorded.gyr).all()     # no NaN went on
+    assert np.abs(recorded.mag_uT).max() < 5000.0
+
+
 @pytest.mark.parametrize(("options", "message"), [
     (["--unplug-after", "0.2", "--unplug-for=-1"], "--unplug-for must be a number of seconds >= 0, got -1"),
     (["--unplug-after=-1"], "--unplug-after must be a number of seconds >= 0, got -1"),

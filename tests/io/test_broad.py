@@ -50,7 +50,7 @@ def test_clear_errors(tmp_path):
     with h5py.File(partial, "w") as handle:
         handle["imu_gyr"] = np.zeros((5, 3))
         handle["imu_acc"] = np.zeros((5, 3))
-    with pytest.raises(ValueError, match=r"partial.hdf5.*'imu_mag' is missing"):
+    with pytest.raises(ValueError, match=r"partial.hdf5: BROAD trial without 'imu_mag'"):
         read_broad(partial)
     shape = tmp_path / "shape.hdf5"
     with h5py.File(shape, "w") as handle:
@@ -68,6 +68,33 @@ def test_clear_errors(tmp_path):
         read_broad(rate)
     with pytest.raises(ValueError, match="no BROAD trial"):
         list_broad_trials(_empty(tmp_path))
+
+
+def test_a_trial_without_an_imu_dataset_is_told_from_a_foreign_file(tmp_path):
+    """Was: a BROAD trial lacking ``imu_mag`` was not recognised at all, so ``mimucap fuse``
+    called it a foreign HDF5 file ("not a MimuCap session")."""
+    source = BROAD_DIR / "24_disturbed_tapping_A.hdf5"
+    for missing in (("imu_mag",), ("imu_acc",), ("imu_gyr", "imu_acc")):
+        path = tmp_path / f"without_{'_'.join(missing)}.hdf5"
+        with h5py.File(source) as src, h5py.File(path, "w") as dst:
+            for name in src:
+                if name not in missing:
+                    dst.create_dataset(name, data=src[name][:500])
+            dst.attrs["sampling_rate"] = src.attrs["sampling_rate"]
+        assert is_broad_file(path)
+        names = " and ".join(f"'{name}'" + r" \([a-z]+, [^)]+\)" for name in missing)
+        with pytest.raises(ValueError, match=f"{path.name}: BROAD trial without {names}; it holds"):
+            read_broad(path)
+    foreign = tmp_path / "foreign.h5"
+    with h5py.File(foreign, "w") as handle:
+        handle["x"] = np.zeros(3)
+    session = tmp_path / "session.h5"
+    with h5py.File(session, "w") as handle:       # a MimuCap session is marked by its 'format'
+        handle.attrs["format"] = "mimucap-session"
+        handle["imu_acc"] = np.zeros((3, 3))
+    assert not is_broad_file(foreign) and not is_broad_file(session)
+    with pytest.raises(ValueError, match=r"foreign.h5: not a BROAD trial, dataset 'imu_gyr' is missing"):
+        read_broad(foreign)
 
 
 def _empty(tmp_path: Path) -> Path:

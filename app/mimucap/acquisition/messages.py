@@ -54,3 +54,6 @@ class WorkerReport:
     overflow_samples: int = 0        #: samples discarded because the queue was full
     reconnects: int = 0
     node_restarts: dict[str, int] = field(default_factory=dict)   #: sensor → reboots seen
+    #: sensor → refused samples whose sequence numbers lie between delivered ones (the gaps
+    #: they leave are rejections, not drops)
+    refused_in_gaps: dict[str, int] = field(default_factory=dict)

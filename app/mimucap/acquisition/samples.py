@@ -104,6 +104,48 @@ def validate_sample(sample: Sample, limits: ValueLimits = DEFAULT_LIMITS) -> Sam
     return sample
 
 
+def refused_rows(channels: dict[str, np.ndarray], limits: ValueLimits = DEFAULT_LIMITS) -> np.ndarray:
+    """Why :func:`validate_sample` would refuse each row of columnar ``channels``.
+
+    ``channels`` maps channel names of :data:`CHANNELS` to ``(N, ...)`` arrays in the units of
+    :class:`SampleBlock` (absent channels are left out). Returns an ``(N,)`` array of
+    :class:`~mimucap.acquisition.rejections.Rejection` values (``"non_finite"``,
+    ``"out_of_range"``), ``""`` for a row that would be accepted; each row gets the first
+    reason :func:`validate_sample` would find. The device clock is not checked: a recorded
+    row's time is the recording's, which its reader checks.
+    """
+    n = len(next(iter(channels.values()))) if channels else 0
+    reasons = np.full(n, "", dtype=f"<U{max(len(r.value) for r in Rejection)}")
+
+    def refuse(reason: Rejection, bad: np.ndarray) -> None:
+        reasons[bad & (reasons == "")] = reason.value
+
+    def values(name: str) -> np.ndarray | None:
+        value = channels.get(name)
+        return None if value is None else np.asarray(value, dtype=np.float64).reshape(n, -1)
+
+    with np.errstate(invalid="ignore"):
+        for name, bound in (("acc", limits.acc_max), ("gyr", limits.gyr_max), ("mag_uT", limits.mag_max_uT)):
+            vector = values(name)
+            if vector is not None:
+                refuse(Rejection.NON_FINITE, ~np.all(np.isfinite(vector), axis=1))
+                refuse(Rejection.OUT_OF_RANGE, np.any(np.abs(vector) > bound, axis=1))
+        q = values("q_world_from_sensor")
+        if q is not None:
+            refuse(Rejection.NON_FINITE, ~np.all(np.isfinite(q), axis=1))
+        battery = values("battery_pct")
+        if battery is not None:
+            refuse(Rejection.NON_FINITE, ~np.isfinite(battery[:, 0]))
+            refuse(Rejection.OUT_OF_RANGE, (battery[:, 0] < 0.0) | (battery[:, 0] > 100.0))
+        calibration = values("calibration")
+        if calibration is not None:
+            refuse(Rejection.OUT_OF_RANGE, np.any((calibration < 0) | (calibration > 3), axis=1))
+        if q is not None:
+            norm = np.linalg.norm(q, axis=1)
+            refuse(Rejection.OUT_OF_RANGE, np.abs(norm - 1.0) > limits.quat_norm_tolerance)
+    return reasons
+
+
 @dataclass(eq=False, slots=True)
 class SampleBlock:
     """Consecutive samples of one sensor, columnar (``N`` samples, time-ordered).

@@ -2,7 +2,9 @@
 
 All times are the host's monotonic clock in seconds. *Latency* is the time from a sample's
 (mapped) host timestamp to its arrival in the pipeline (the supervisor's poll); *drops* are
-missing sequence numbers (gaps), counted when the next sample arrives.
+missing sequence numbers (gaps), counted when the next sample arrives, less the samples the
+source received but refused within those gaps (its ``refused_in_gaps``: they are counted as
+rejections, with their reason, not as packet loss).
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ class SensorStats:
     sensor_id: str
     source: str
     received: int               #: samples delivered to the pipeline
-    drops: int                  #: sequence numbers never received (gaps)
+    drops: int                  #: sequence numbers never received (gaps less refused samples)
     rate_hz: float              #: samples per second over the last ``window_s``
     latency_p50_s: float        #: NaN before the first sample
     latency_p95_s: float
@@ -124,7 +126,7 @@ class SensorStatsTracker:
         self.source = source
         self.window_s = window_s
         self.received = 0
-        self.drops = 0
+        self.gaps = 0           # sequence numbers missing between the samples received
         self.last_seq: int | None = None
         self.last_seen_s = float("nan")
         # Arrivals within the window: (host time (s), samples received before it).
@@ -132,6 +134,7 @@ class SensorStatsTracker:
         self._arrivals_in_order = True  # arrival times never decreased (then bisect finds the window)
         self._latencies = _RecentValues(latency_samples)
         self.rejections: dict[str, int] = {}
+        self.refused_in_gaps = 0  # samples the source refused within the sequence gaps (not drops)
 
     def add_block(self, block: SampleBlock, arrival_s: float) -> None:
         n = len(block)
@@ -140,9 +143,9 @@ class SensorStatsTracker:
         # sequence numbers of a sensor are strictly increasing (workers refuse stale ones),
         # so the gaps inside a block are its span minus its length
         first, last = int(block.seq[0]), int(block.seq[-1])
-        self.drops += max(last - first + 1 - n, 0)
+        self.gaps += max(last - first + 1 - n, 0)
         if self.last_seq is not None and first > self.last_seq + 1:
-            self.drops += first - self.last_seq - 1
+            self.gaps += first - self.last_seq - 1
         self.last_seq = last if self.last_seq is None else max(self.last_seq, last)
         if self._arrivals and not arrival_s >= self._arrivals[-1][0]:
             self._arrivals_in_order = False
@@ -178,5 +181,6 @@ class SensorStatsTracker:
         latencies = self.latencies_s()
         p50, p95 = (percentiles_linear(latencies, (50, 95)) if latencies.size
                     else (float("nan"), float("nan")))
-        return SensorStats(self.sensor_id, self.source, self.received, self.drops, float(rate),
+        drops = max(self.gaps - self.refused_in_gaps, 0)
+        return SensorStats(self.sensor_id, self.source, self.received, drops, float(rate),
                            float(p50), float(p95), self.last_seen_s, dict(self.rejections))

@@ -156,6 +156,7 @@ class Supervisor:
         per message)."""
         blocks: list[SampleBlock] = []
         packed: list[PackedBlock] = []
+        reports: list[WorkerReport] = []
         for count in range(self.settings.max_messages_per_poll):
             try:
                 if count == 0 and timeout_s > 0:
@@ -169,13 +170,15 @@ class Supervisor:
                 for block in message.blocks:
                     (packed if isinstance(block, PackedBlock) else blocks).append(block)
             elif isinstance(message, WorkerReport):
-                self._apply_report(message)
+                reports.append(message)
         # A source sends either packed or plain blocks, so a sensor's blocks keep their order.
         for joined in join_packed_blocks(packed):
             blocks.extend(joined.unpack())
         arrival = time.monotonic()
         for block in blocks:
             self._tracker(block).add_block(block, arrival)
+        for report in reports:  # after the blocks sent before them: a sensor first seen here has its tracker
+            self._apply_report(report)
         return blocks
 
     def _tracker(self, block: SampleBlock) -> SensorStatsTracker:
@@ -206,6 +209,9 @@ class Supervisor:
         for sensor, counts in report.rejections_by_sensor.items():
             if sensor in self._trackers:
                 self._trackers[sensor].rejections = dict(counts)
+        for sensor, count in report.refused_in_gaps.items():
+            if sensor in self._trackers:
+                self._trackers[sensor].refused_in_gaps = count
 
     def _watch(self) -> None:
         """Restart failed workers (after the backoff)."""

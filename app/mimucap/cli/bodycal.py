@@ -21,7 +21,9 @@ from mimucap.core import bodycal
 from mimucap.core.skeleton import MODEL_NAMES
 from mimucap.io.skeleton_model_file import load_model
 from mimucap.io.body_calibration_file import write_body_calibration
-from mimucap.io.quaternion_tables import axis_vector, read_quaternion_table
+from mimucap.io.quaternion_tables import (
+    XSENS_FILE, XSENS_FOLDER, axis_vector, orientation_input_kind, read_quaternion_table,
+)
 
 
 def parse_window(text: str, option: str) -> tuple[float, float]:
@@ -83,10 +85,31 @@ def add_reader_options(parser: argparse.ArgumentParser) -> None:
                         help="Xsens update rate when the export header gives none (default 100)")
 
 
+#: The inputs each Xsens reader option applies to (it is refused for the others, not ignored).
+OPTION_INPUTS = {
+    "--sensor-names": (XSENS_FOLDER, XSENS_FILE),
+    "--trial": (XSENS_FOLDER,),
+    "--rate": (XSENS_FOLDER, XSENS_FILE),
+}
+
+
+def check_reader_options(args: argparse.Namespace) -> None:
+    """``ValueError`` for a reader option given with an input it does not apply to (e.g.
+    ``--trial`` with a MimuCap session), which the reader would otherwise ignore silently."""
+    given = {"--sensor-names": args.sensor_names, "--trial": args.trial, "--rate": args.rate}
+    if all(value is None for value in given.values()):
+        return
+    kind = orientation_input_kind(args.input)
+    for option, kinds in OPTION_INPUTS.items():
+        if given[option] is not None and kind not in kinds:
+            raise ValueError(f"{args.input}: {option} applies to {' and '.join(kinds)} only, not to {kind}")
+
+
 def read_input(args: argparse.Namespace):
     """The orientation table of ``args.input`` with the reader options checked first."""
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise ValueError(f"--rate {args.rate:g}: the update rate must be a positive number of Hz")
+    check_reader_options(args)
     return read_quaternion_table(args.input, up_axis=args.up, sensor_names=args.sensor_names,
                                  trial_prefix=args.trial, rate_hz=args.rate)
 

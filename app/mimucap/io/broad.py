@@ -6,6 +6,10 @@ One file per trial with datasets ``imu_gyr`` (N, 3) rad/s, ``imu_acc`` (N, 3) m/
 (N,) bool and the attribute ``sampling_rate`` (Hz). Only the IMU channels and
 ``sampling_rate`` are required (the ``mimucap fuse`` input); the reference is optional. A
 gyroscope beyond :data:`~mimucap.io.session.MAX_GYRO_RAD_S` (most likely °/s) is refused.
+
+A file is recognised as a BROAD trial by its layout (any of BROAD's datasets and no MimuCap
+``format`` attribute), not by its completeness: a trial that lacks an IMU channel is read as
+one and refused naming the missing dataset (``X.hdf5: BROAD trial without 'imu_mag'``).
 """
 
 from __future__ import annotations
@@ -20,6 +24,11 @@ import numpy as np
 from mimucap.io.session import gyro_range_problem
 
 REQUIRED_DATASETS = ("imu_gyr", "imu_acc", "imu_mag")
+#: Every dataset of a BROAD trial; any one of them marks a file as laid out like one.
+BROAD_DATASETS = REQUIRED_DATASETS + ("opt_quat", "opt_pos", "movement")
+#: What each required dataset holds: (N, 3) in the sensor frame.
+CHANNEL_MEANINGS = {"imu_gyr": "gyroscope, rad/s", "imu_acc": "accelerometer, m/s²",
+                    "imu_mag": "magnetometer, µT"}
 
 #: Category of a BROAD trial from its name (the dataset's own grouping).
 CATEGORY_PATTERNS = (
@@ -70,13 +79,33 @@ def _dataset(handle: h5py.File, path: Path, name: str, columns: int | None) -> n
     return data
 
 
+def _has_broad_layout(handle: h5py.File) -> bool:
+    """Whether an open HDF5 file is laid out as a BROAD trial: at least one of
+    :data:`BROAD_DATASETS` and no ``format`` attribute (which marks a MimuCap session)."""
+    return "format" not in handle.attrs and any(name in handle for name in BROAD_DATASETS)
+
+
 def is_broad_file(path: str | Path) -> bool:
-    """Whether ``path`` is an HDF5 file holding the BROAD IMU datasets."""
+    """Whether ``path`` is an HDF5 file laid out as a BROAD trial, complete or not (then
+    :func:`read_broad` names the missing dataset; a foreign HDF5 file gives ``False``)."""
     try:
         with h5py.File(path, "r") as handle:
-            return all(name in handle for name in REQUIRED_DATASETS)
+            return _has_broad_layout(handle)
     except OSError:
         return False
+
+
+def _check_channels(handle: h5py.File, path: Path) -> None:
+    """``ValueError`` naming every required IMU dataset the file lacks: a BROAD trial without
+    some channel, or a file that is no BROAD trial at all."""
+    missing = [name for name in REQUIRED_DATASETS if name not in handle]
+    if not missing:
+        return
+    found = ", ".join(sorted(handle.keys())) or "nothing"
+    if not _has_broad_layout(handle):
+        raise ValueError(f"{path}: not a BROAD trial, dataset {missing[0]!r} is missing (found: {found})")
+    names = " and ".join(f"{name!r} ({CHANNEL_MEANINGS[name]})" for name in missing)
+    raise ValueError(f"{path}: BROAD trial without {names}; it holds {found}")
 
 
 def read_broad(path: str | Path) -> BroadTrial:
@@ -89,6 +118,7 @@ def read_broad(path: str | Path) -> BroadTrial:
     except OSError as error:
         raise ValueError(f"{path}: not an HDF5 file ({error})") from None
     with handle:
+        _check_channels(handle, path)
         gyr = _dataset(handle, path, "imu_gyr", 3)
         problem = gyro_range_problem(gyr)
         if problem is not None:

@@ -774,6 +774,46 @@ def resample_slerp(t_src: np.ndarray, q_src: np.ndarray, t_dst: np.ndarray) -> n
 # Dispatcher
 # --------------------------------------------------------------------------------------------
 
+#: Kinds of orientation input (:func:`orientation_input_kind`), each named as a message says it.
+XSENS_FOLDER = "Xsens export folders"
+XSENS_FILE = "Xsens export files"
+OPENSIM_STO = "OpenSim .sto tables"
+MIMUCAP_SESSION = "MimuCap sessions"
+BROAD_TRIAL = "BROAD trials"
+APDM_CSV = "APDM CSV files"
+QUATERNION_CSV = "quaternion CSV files"
+
+
+def orientation_input_kind(path: str | Path) -> str:
+    """Which kind of input ``path`` is (one of the constants above), as
+    :func:`read_quaternion_table` tells them apart: a folder is an Xsens export folder, then
+    the suffix decides (``.sto``, ``.txt``, ``.h5``/``.hdf5``/``.mimucap``, ``.csv`` whose first
+    line ``Format=`` marks APDM). An HDF5 file laid out as a BROAD trial is a BROAD trial.
+    ``FileNotFoundError`` for a missing path, ``ValueError`` for an unknown suffix."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"{path}: no such file or folder")
+    if path.is_dir():
+        return XSENS_FOLDER
+    suffix = path.suffix.lower()
+    if suffix == ".sto":
+        return OPENSIM_STO
+    if suffix in SESSION_SUFFIXES:
+        from mimucap.io.broad import is_broad_file
+
+        return BROAD_TRIAL if is_broad_file(path) else MIMUCAP_SESSION
+    if suffix == ".txt":
+        return XSENS_FILE
+    if suffix == ".csv":
+        with path.open(encoding="utf-8") as handle:
+            first = handle.readline()
+        return APDM_CSV if first.startswith("Format=") else QUATERNION_CSV
+    raise ValueError(
+        f"{path}: unknown orientation file type {suffix!r} (use .csv, .sto, an Xsens .txt or "
+        "folder, or a MimuCap session .h5)"
+    )
+
+
 #: Why an up axis cannot be chosen for some inputs.
 _FIXED_UP = "Xsens exports, APDM files and MimuCap sessions are z up"
 
@@ -800,32 +840,23 @@ def read_quaternion_table(
     ``rate_hz`` (used when a header gives no rate; a positive number) apply to Xsens exports.
     """
     path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"{path}: no such file or folder")
-    if path.is_dir():
+    kind = orientation_input_kind(path)
+    if kind == XSENS_FOLDER:
         _refuse_up_axis(path, up_axis)
         return read_xsens_folder(path, sensor_names, trial_prefix, rate_hz)
-    suffix = path.suffix.lower()
-    if suffix == ".sto":
+    if kind == OPENSIM_STO:
         return read_opensim_sto(path, up_axis)
-    if suffix in SESSION_SUFFIXES:
+    if kind in (MIMUCAP_SESSION, BROAD_TRIAL):
         _refuse_up_axis(path, up_axis)
         return read_session_table(path)
-    if suffix == ".txt":
+    if kind == XSENS_FILE:
         _refuse_up_axis(path, up_axis)
         rec = read_xsens_file(path, rate_hz)
         name = rec.device_id
         if sensor_names is not None:
             name = read_xsens_mapping(sensor_names).names.get(rec.device_id, rec.device_id)
         return merge_xsens_recordings({name: rec}, source=str(path))
-    if suffix == ".csv":
-        with path.open(encoding="utf-8") as handle:
-            first = handle.readline()
-        if first.startswith("Format="):
-            _refuse_up_axis(path, up_axis)
-            return read_apdm_csv(path)
-        return read_quaternion_csv(path, up_axis)
-    raise ValueError(
-        f"{path}: unknown orientation file type {suffix!r} (use .csv, .sto, an Xsens .txt or "
-        "folder, or a MimuCap session .h5)"
-    )
+    if kind == APDM_CSV:
+        _refuse_up_axis(path, up_axis)
+        return read_apdm_csv(path)
+    return read_quaternion_csv(path, up_axis)

@@ -7,8 +7,11 @@ Everything else is mapped directly onto acquisition configs.
 
 Replayed Xsens exports carry ``acc`` (m/s²), ``gyr`` (rad/s) and ``q_world_from_sensor``
 (ENU); their magnetometer is in arbitrary units (normalised to the local field), not µT, so
-it is not replayed. Rows with a missing (NaN) value — in either kind of file — are skipped
-and counted in :attr:`LoadedReplay.skipped_rows`, so no NaN reaches the pipeline.
+it is not replayed. Rows that a live source would refuse — a missing (NaN) or infinite value,
+a value beyond the physical limits, in either kind of file — are not replayed
+(:meth:`~mimucap.acquisition.replay.ReplayStream.from_recording`), so no NaN reaches the
+pipeline: they are counted in :attr:`LoadedReplay.skipped_rows` and reported by the replay
+source as rejections with their reason (``non_finite``, ``out_of_range``), not as drops.
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ class SourceOptions:
 @dataclass
 class LoadedReplay:
     streams: tuple[ReplayStream, ...]
-    skipped_rows: dict[str, int] = field(default_factory=dict)
+    skipped_rows: dict[str, int] = field(default_factory=dict)  #: sensor → rows refused before replay
 
 
 def load_replay(path: str | Path) -> LoadedReplay:
@@ -67,13 +70,10 @@ def load_replay(path: str | Path) -> LoadedReplay:
         channels = {k: v for k, v in channels.items() if v is not None}
         if not channels:
             raise ValueError(f"{file}: no accelerometer, gyroscope or orientation columns to replay")
-        good = np.ones(len(recording.packet_counter), dtype=bool)
-        for value in channels.values():
-            good &= np.all(np.isfinite(value), axis=1)
-        skipped[recording.device_id] = int(np.sum(~good))
-        streams.append(ReplayStream(sensor_id=recording.device_id, t_s=recording.t_s[good],
-                                    seq=recording.packet_counter[good].astype(np.int64),
-                                    **{k: v[good] for k, v in channels.items()}))
+        stream = ReplayStream.from_recording(recording.device_id, recording.t_s,
+                                             recording.packet_counter.astype(np.int64), channels)
+        skipped[stream.sensor_id] = stream.n_refused
+        streams.append(stream)
     return LoadedReplay(tuple(streams), skipped)
 
 
@@ -87,15 +87,10 @@ def _session_streams(path: Path) -> LoadedReplay:
                     "calibration": None if calibration is None else np.asarray(calibration, dtype=np.int8),
                     "battery_pct": None if stream.battery is None else stream.battery * 100.0}
         channels = {k: v for k, v in channels.items() if v is not None}
-        good = np.isfinite(stream.t_s)
-        for name, values in channels.items():   # a NaN row (e.g. a channel missing for a while)
-            if name != "calibration":           # is skipped: no NaN reaches the pipeline
-                good &= np.all(np.isfinite(values.reshape(len(values), -1)), axis=1)
-        if "calibration" in channels:
-            good &= np.all(channels["calibration"] >= 0, axis=1)
-        skipped[stream.sensor_id] = int(np.sum(~good))
-        streams.append(ReplayStream(sensor_id=stream.sensor_id, t_s=stream.t_s[good], seq=stream.seq[good],
-                                    **{k: v[good] for k, v in channels.items()}))
+        # a NaN row (e.g. a channel missing for a while) is refused, as a live source refuses it
+        replayed = ReplayStream.from_recording(stream.sensor_id, stream.t_s, stream.seq, channels)
+        skipped[stream.sensor_id] = replayed.n_refused
+        streams.append(replayed)
     if not streams:
         raise ValueError(f"replay file {path} holds no sensor streams")
     return LoadedReplay(tuple(streams), skipped)
