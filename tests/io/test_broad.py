@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mimucap.io.broad import is_broad_file, list_broad_trials, read_broad
-from mimucap.io.session import MAX_GYRO_RAD_S
+from mimucap.core.sensor_limits import GYR_MAX_RAD_S
 
 BROAD_DIR = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
 
@@ -106,7 +106,7 @@ def _empty(tmp_path: Path) -> Path:
 def test_every_real_trial_is_within_the_gyroscope_bound():
     for path in list_broad_trials(BROAD_DIR):
         trial = read_broad(path)
-        assert np.nanmax(np.abs(trial.gyr_rad_s)) < MAX_GYRO_RAD_S, path.name
+        assert np.nanmax(np.abs(trial.gyr_rad_s)) < GYR_MAX_RAD_S, path.name
 
 
 def test_a_gyroscope_in_degrees_per_second_is_refused(tmp_path):

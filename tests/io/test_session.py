@@ -8,8 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
+from mimucap.core.sensor_limits import GYR_MAX_RAD_S
 from mimucap.io.session import (
-    MAX_GYRO_RAD_S,
     SESSION_FORMAT_VERSION,
     Marker,
     SensorStream,
@@ -271,7 +271,7 @@ def test_the_gyroscope_bound_keeps_saturated_and_missing_samples(tmp_path: Path)
     left to the filters (which skip and count them); only a value beyond the bound is refused."""
     saturated = np.full((3, 3), np.deg2rad(2000.0))
     assert gyro_range_problem(saturated) is None
-    assert gyro_range_problem(np.array([[MAX_GYRO_RAD_S, -MAX_GYRO_RAD_S, np.nan], [np.inf, 0, -np.inf]])) is None
+    assert gyro_range_problem(np.array([[GYR_MAX_RAD_S, -GYR_MAX_RAD_S, np.nan], [np.inf, 0, -np.inf]])) is None
     assert "not a plausible rate" in gyro_range_problem(np.array([[0.0, 1e30, 0.0]]))
     path = write_session(tmp_path / "g.h5", _session(np.random.default_rng(4)))
     _replace_dataset(path, "sensors/S01/gyr", _set_rows(slice(10, 20), np.nan))

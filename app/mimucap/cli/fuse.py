@@ -105,6 +105,11 @@ def write_orientation(path: Path, t_s: np.ndarray, result: FusionResult) -> None
         raise ValueError(f"{path}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
 
 
+def _sensor_label(sensor_id: str | None) -> str:
+    """``"sensor S03: "`` heading a line about one sensor of several (``""`` for a single one)."""
+    return f"sensor {sensor_id}: " if sensor_id is not None else ""
+
+
 def run(args: argparse.Namespace) -> int:
     if args.out.suffix.lower() not in OUTPUT_SUFFIXES:
         raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
@@ -117,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         refuse_to_overwrite_input(_output_path(args.out, sensor_id, several), args.input)
     results = []
     for sensor_id, t_s, gyr, acc, mag in inputs:  # every sensor fused, and checked, before any file is written
-        name = f"{args.input}: " + (f"sensor {sensor_id}: " if sensor_id is not None else "")
+        name = f"{args.input}: {_sensor_label(sensor_id)}"
         if len(t_s) == 0:
             raise ValueError(f"{name}no samples (0 rows): nothing to fuse")
         result = estimator(t_s, gyr, acc, None if args.no_mag else mag,
@@ -130,8 +135,7 @@ def run(args: argparse.Namespace) -> int:
         path = _output_path(args.out, sensor_id, several)
         write_orientation(path, t_s, result)
         counts = result.counters[0]
-        label = f"sensor {sensor_id}: " if sensor_id is not None else ""
-        print(f"{label}{counts['samples']} samples -> {path} (skipped {counts['skipped']}, "
+        print(f"{_sensor_label(sensor_id)}{counts['samples']} samples -> {path} (skipped {counts['skipped']}, "
               f"rest {counts['rest']}, magnetometer rejected {counts['mag_rejected']} and missing or invalid "
               f"{counts['mag_missing']}, accelerometer rejected {counts['acc_rejected']} and missing or invalid "
               f"{counts['acc_missing']})", file=sys.stdout)

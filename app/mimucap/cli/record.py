@@ -22,13 +22,10 @@ import sys
 import time
 from pathlib import Path
 
-import h5py
-
 from mimucap.acquisition.source_spec import (
     VALID_FORMS, ReplaySpec, SerialSpec, SimulatedSpec, SourceSpec, UdpSpec, format_source_spec, parse_source_spec,
 )
 from mimucap.acquisition.supervisor import Supervisor
-from mimucap.io.quaternion_tables import SESSION_SUFFIXES
 from mimucap.session.recording import Recorder, RecorderSettings
 from mimucap.session.sources import SourceOptions, parse_sensor_ids, sensor_segments, source_configs
 
@@ -86,7 +83,7 @@ _SOURCE_NAMES = {UdpSpec: "udp", SerialSpec: "serial", SimulatedSpec: "simulated
 def check_options(args: argparse.Namespace, spec: SourceSpec) -> None:
     """``ValueError`` for an option value that would be replaced by a default or ignored:
     an option the source does not use, a sensor count below 1, a rate that is not a positive
-    number, an empty id range, a replay file named like a session that is not HDF5."""
+    number (the id list and the replay file are checked where they are read)."""
     given = {"--sensors": args.sensors, "--allow": args.allow, "--sensor-count": args.sensor_count,
              "--rate": args.rate}
     for option, kinds in OPTION_SOURCES.items():
@@ -98,16 +95,6 @@ def check_options(args: argparse.Namespace, spec: SourceSpec) -> None:
         raise ValueError(f"--sensor-count must be at least 1, got {args.sensor_count}")
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise ValueError(f"--rate must be a positive number of Hz, got {args.rate:g}")
-    for part in (args.sensors or "").split(","):
-        low, sep, high = part.strip().partition("-")
-        if sep and low.strip().isdigit() and high.strip().isdigit() and int(low) > int(high):
-            raise ValueError(f"--sensors {args.sensors!r}: the range {part.strip()} is empty "
-                             f"(give the lower id first, e.g. {int(high)}-{int(low)})")
-    if isinstance(spec, ReplaySpec):
-        path = Path(spec.path)
-        if path.suffix.lower() in SESSION_SUFFIXES and path.is_file() and not h5py.is_hdf5(path):
-            raise ValueError(f"replay file {path}: not an HDF5 session (a MimuCap session is HDF5; "
-                             f"replayed Xsens exports are .txt files)")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -115,7 +102,11 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--duration must be > 0 s, got {args.duration}")
     spec = parse_source_spec(args.source)
     check_options(args, spec)
-    options = SourceOptions(sensor_ids=parse_sensor_ids(args.sensors),
+    try:
+        sensor_ids = parse_sensor_ids(args.sensors)
+    except ValueError as error:
+        raise ValueError(f"--sensors {args.sensors!r}: {error}") from None
+    options = SourceOptions(sensor_ids=sensor_ids,
                             allowed_addresses=tuple(args.allow) if args.allow else None,
                             sensor_count=args.sensor_count, rate_hz=args.rate)
     configs = source_configs(spec, options)

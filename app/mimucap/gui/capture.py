@@ -34,18 +34,23 @@ def save_window_png(window: QtWidgets.QWidget, path: str | Path) -> Path:
     return path
 
 
+def save_screenshot(window: QtWidgets.QMainWindow, path: str | Path) -> Path:
+    """:func:`save_window_png` of ``window``, said in its status bar; raises OSError on failure."""
+    written = save_window_png(window, path)
+    window.statusBar().showMessage(f"Screenshot saved to {written}", 5000)
+    return written
+
+
 def ask_to_save_screenshot(window: QtWidgets.QMainWindow, default_name: str) -> Path | None:
-    """Ask where to write :func:`save_window_png` of ``window`` and write it; the result is said
-    in its status bar, a failure in a dialog (and the log). Returns the file written, if any."""
+    """Ask where to :func:`save_screenshot` ``window`` and write it; a failure is said in a
+    dialog (and the log). Returns the file written, if any."""
     path, _ = QtWidgets.QFileDialog.getSaveFileName(window, "Save Screenshot", default_name, "PNG images (*.png)")
     if not path:
         return None
     try:
-        written = save_window_png(window, path)
+        return save_screenshot(window, path)
     except OSError as error:
         log.warning("screenshot not saved: %s", error)
         QtWidgets.QMessageBox.warning(window, "Screenshot not saved",
                                       f"{path} could not be written: {error}\n\nChoose another folder.")
         return None
-    window.statusBar().showMessage(f"Screenshot saved to {written}", 5000)
-    return written

@@ -19,7 +19,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap import __version__
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background import BackgroundTask
-from mimucap.gui.capture import ask_to_save_screenshot, save_window_png
+from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
 from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
@@ -639,9 +639,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def save_screenshot(self, path: str | Path) -> Path:
         """Write the window (3D view included) to ``path`` as PNG."""
-        written = save_window_png(self, path)
-        self.statusBar().showMessage(f"Screenshot saved to {written}", 5000)
-        return written
+        return save_screenshot(self, path)
 
     def resizeEvent(self, event: QtGui.QResizeEvent) -> None:  # noqa: N802 (Qt API)
         """Give the docks back the size they had before the window was made too small for it, at

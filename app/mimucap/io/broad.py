@@ -5,7 +5,7 @@ One file per trial with datasets ``imu_gyr`` (N, 3) rad/s, ``imu_acc`` (N, 3) m/
 (scalar first, ENU; NaN rows where markers were occluded), ``opt_pos`` (N, 3) m, ``movement``
 (N,) bool and the attribute ``sampling_rate`` (Hz). Only the IMU channels and
 ``sampling_rate`` are required (the ``mimucap fuse`` input); the reference is optional. A
-gyroscope beyond :data:`~mimucap.io.session.MAX_GYRO_RAD_S` (most likely °/s) is refused.
+gyroscope beyond :data:`~mimucap.core.sensor_limits.GYR_MAX_RAD_S` (most likely °/s) is refused.
 
 A file is recognised as a BROAD trial by its layout (any of BROAD's datasets and no MimuCap
 ``format`` attribute), not by its completeness: a trial that lacks an IMU channel is read as

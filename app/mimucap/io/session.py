@@ -14,8 +14,8 @@ attribute ``unit``.
 A file that is not a MimuCap session, is truncated or damaged, or was written by a newer
 format version raises :class:`SessionFormatError` naming the file and what is wrong. So does
 a sensor whose ``t_s`` is not finite and strictly increasing (:func:`time_stamp_problem`) or
-whose gyroscope exceeds :data:`MAX_GYRO_RAD_S` (:func:`gyro_range_problem`: most likely °/s
-stored as rad/s); the message names the sensor and the first offending row.
+whose gyroscope exceeds :data:`~mimucap.core.sensor_limits.GYR_MAX_RAD_S`, the limit live
+acquisition applies too (:func:`gyro_range_problem`: most likely °/s stored as rad/s); the message names the sensor and the first offending row.
 """
 
 from __future__ import annotations
@@ -52,14 +52,9 @@ SENSOR_CHANNELS: dict[str, tuple[tuple[int, ...], str]] = {
 
 _COMPRESS_MIN_ELEMENTS = 4096
 
-#: Largest angular rate (rad/s, per axis) a stored gyroscope sample may hold: the limit live
-#: acquisition applies too (:mod:`mimucap.core.sensor_limits`, ≈ 4000 °/s), so every recording
-#: reads back. A larger value is not a rate in rad/s: most likely °/s (57.3 times too large).
-#: The fusion filter skips samples beyond its own ``gyr_range_rad_s``; this bound refuses a
-#: whole file whose unit is wrong.
-MAX_GYRO_RAD_S = GYR_MAX_RAD_S
-#: :data:`MAX_GYRO_RAD_S` in °/s: a larger number is not a rate in either unit.
-_MAX_GYRO_DPS = float(np.rad2deg(MAX_GYRO_RAD_S))
+#: :data:`~mimucap.core.sensor_limits.GYR_MAX_RAD_S` in °/s: a larger number is not a rate in
+#: either unit.
+_MAX_GYRO_DPS = float(np.rad2deg(GYR_MAX_RAD_S))
 _AXES = "xyz"
 
 
@@ -247,20 +242,22 @@ def time_stamp_problem(t_s: np.ndarray) -> str | None:
 def gyro_range_problem(gyr_rad_s: np.ndarray) -> str | None:
     """Why the gyroscope samples ``gyr_rad_s`` (N, 3) cannot be in rad/s, or ``None``.
 
-    A component beyond :data:`MAX_GYRO_RAD_S` is refused; the answer names the largest one,
+    A component beyond :data:`~mimucap.core.sensor_limits.GYR_MAX_RAD_S` is refused (the
+    fusion filter skips single samples beyond its own ``gyr_range_rad_s``; this refuses a whole
+    file whose unit is wrong); the answer names the largest one,
     its axis and row (0-based) and the likely cause. NaN and infinite values are left to the
     filters, which skip and count them.
     """
     rate = np.abs(np.asarray(gyr_rad_s, dtype=np.float64))
     rate = np.where(np.isfinite(rate), rate, 0.0)
-    if rate.size == 0 or rate.max() <= MAX_GYRO_RAD_S:
+    if rate.size == 0 or rate.max() <= GYR_MAX_RAD_S:
         return None
     row, axis = np.unravel_index(int(np.argmax(rate)), rate.shape)
     peak = float(rate[row, axis])
     cause = ("is it in °/s? MimuCap expects rad/s" if peak <= _MAX_GYRO_DPS
              else "not a plausible rate in rad/s or °/s (a damaged or wrongly scaled value?)")
     return (f"gyroscope reaches {peak:.4g} rad/s about its {_AXES[axis]} axis at row {row}, beyond the "
-            f"range of motion-sensor gyroscopes (±{MAX_GYRO_RAD_S:g} rad/s ≈ ±{_MAX_GYRO_DPS:.0f} °/s): {cause}")
+            f"range of motion-sensor gyroscopes (±{GYR_MAX_RAD_S:g} rad/s ≈ ±{_MAX_GYRO_DPS:.0f} °/s): {cause}")
 
 
 # --------------------------------------------------------------------------------------------
@@ -742,7 +739,7 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
 
 
 __all__ = [
-    "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "MAX_GYRO_RAD_S", "SessionFormatError",
+    "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
     "time_stamp_problem", "gyro_range_problem",
     "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "make_subject",
     "write_session", "read_session", "read_metadata", "session_duration_s", "session_from_simulation",

@@ -77,8 +77,8 @@ class SimulatorFeed:
         self._start_host_s = now
         self._last_poll = now
 
-    def host_time_of(self, t_sim_s: float) -> float:
-        """Host monotonic time (s) of simulated time ``t_sim_s``."""
+    def host_time_of(self, t_sim_s: float | np.ndarray) -> float | np.ndarray:
+        """Host monotonic time (s) of simulated time ``t_sim_s`` (s, a number or an array)."""
         return self._start_host_s + self._skipped_s + t_sim_s / self.time_scale
 
     def poll(self) -> list[SampleBlock]:
@@ -106,7 +106,7 @@ class SimulatorFeed:
         for sensor_id, samples in block.samples.items():
             if len(samples.t_s) == 0:
                 continue
-            host = self.host_time_of(0.0) + samples.t_s / self.time_scale
+            host = self.host_time_of(samples.t_s)
             out = SampleBlock(
                 source=self.name, sensor_id=sensor_id, seq=samples.seq.astype(np.int64),
                 device_time_s=samples.device_time_s, host_time_s=host,

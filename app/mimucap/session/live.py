@@ -390,8 +390,7 @@ class LiveSession:
             root = truth.root_position_m[-1] * (self.height_m / self.feed.config.height_m)
             if self._recorder is not None and truth is not self._journaled_truth:
                 self._journal_truth(truth)
-            t_pose = float(truth.t_s[-1]) / getattr(self.feed, "time_scale", 1.0) + \
-                self.feed.host_time_of(0.0) - self.t0_host_s
+            t_pose = self.feed.host_time_of(float(truth.t_s[-1])) - self.t0_host_s
             self._pose_source = POSE_SIMULATOR_TRUTH
         else:
             latest = self.latest_orientations()
@@ -433,11 +432,9 @@ class LiveSession:
             self._angles[joint].append(t, angles[row])
 
     def _journal_truth(self, truth: SuitTruth) -> None:
-        """Hand a new block of the simulator's truth to the recorder, on host time (simulated
-        time runs ``time_scale`` times faster)."""
+        """Hand a new block of the simulator's truth to the recorder, on host time."""
         self._journaled_truth = truth
-        host_s = truth.t_s / getattr(self.feed, "time_scale", 1.0) + self.feed.host_time_of(0.0)
-        self._recorder.add_truth(host_s, truth.q_world_from_segment, truth.joint_angles_deg,
+        self._recorder.add_truth(self.feed.host_time_of(truth.t_s), truth.q_world_from_segment, truth.joint_angles_deg,
                                  truth.root_position_m, TRUTH_NOTE)
 
     def _truth_through_assignment(self, truth: SuitTruth) -> dict[str, np.ndarray] | None:

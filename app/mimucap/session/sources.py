@@ -31,7 +31,7 @@ from mimucap.acquisition.source_spec import (
 from mimucap.acquisition.simulated import SimulatedSourceConfig
 from mimucap.acquisition.udp import UdpSourceConfig
 from mimucap.acquisition.worker import SourceConfig
-from mimucap.io.quaternion_tables import read_xsens_file
+from mimucap.io.quaternion_tables import SESSION_SUFFIXES, read_xsens_file
 from mimucap.io.session import read_session
 
 
@@ -57,7 +57,10 @@ def load_replay(path: str | Path) -> LoadedReplay:
     path = Path(path)
     if not path.exists():
         raise ValueError(f"replay file {path} does not exist")
-    if path.is_file() and h5py.is_hdf5(path):
+    if path.is_file() and (h5py.is_hdf5(path) or path.suffix.lower() in SESSION_SUFFIXES):
+        if not h5py.is_hdf5(path):
+            raise ValueError(f"replay file {path}: not an HDF5 session (a MimuCap session is HDF5; "
+                             f"replayed Xsens exports are .txt files)")
         return _session_streams(path)
     files = sorted(path.glob("*.txt")) if path.is_dir() else [path]
     if not files:
@@ -128,7 +131,8 @@ def sensor_segments(configs: list[SourceConfig]) -> dict[str, str]:
 
 
 def parse_sensor_ids(text: str | None) -> tuple[int, ...] | None:
-    """``"1-4,7"`` → ``(1, 2, 3, 4, 7)``; ``None``/empty → ``None`` (accept any id)."""
+    """``"1-4,7"`` → ``(1, 2, 3, 4, 7)``; ``None``/empty → ``None`` (accept any id). A range
+    whose first id is above its last (``10-1``) is refused: it holds no id."""
     if not text:
         return None
     ids: list[int] = []
@@ -139,6 +143,8 @@ def parse_sensor_ids(text: str | None) -> tuple[int, ...] | None:
             values = range(int(low), int(high) + 1) if sep else [int(low)]
         except ValueError:
             raise ValueError(f"bad sensor id list {text!r}: use e.g. 1-4,7") from None
+        if not values:
+            raise ValueError(f"the range {part} is empty (give the lower id first, e.g. {int(high)}-{int(low)})")
         for value in values:
             if not 0 <= value < 0xFFFF:
                 raise ValueError(f"sensor id {value} is outside 0..65534")
