@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from mimucap.acquisition.intake import MAX_TRACKED_UNKNOWN, IntakeSettings, SampleIntake
-from mimucap.acquisition.samples import Sample
+from mimucap.acquisition.rejections import Rejection
+from mimucap.acquisition.samples import RefusedSample, Sample
 
 
 def test_strangers_are_counted_in_bounded_memory_and_stale_samples_refused():
@@ -49,3 +50,35 @@ def test_a_rebooted_node_continues_without_stale_refusals_or_false_drops():
     assert abs(host[100] - 51.5) < 1e-6                     # the new clock maps onto the host again
     assert intake.report("running").node_restarts == {"3": 1}
     assert not intake.rejections.as_dict()
+
+
+def test_refused_samples_are_rejections_of_their_sensor_and_not_drops():
+    """A NaN or out-of-range sample of a known sensor is counted against that sensor, and the
+    sequence number it leaves free is reported in ``refused_in_gaps`` (so the drop count of the
+    supervisor, gaps less refused, stays at the real losses)."""
+    messages = []
+    intake = SampleIntake("udp", IntakeSettings(sensor_ids=(1,), sensor_names=((1, "pelvis"),)),
+                          messages.append)
+    intake.refuse(RefusedSample(1, 0, Rejection.NON_FINITE))        # before any accepted: no gap
+    for seq in range(1, 20):
+        if seq in (5, 6, 12):
+            intake.refuse(RefusedSample(1, seq, Rejection.NON_FINITE))
+        elif seq == 9:
+            intake.refuse(RefusedSample(1, seq, Rejection.OUT_OF_RANGE))
+        elif seq == 15:
+            continue                                                 # a real loss
+        else:
+            assert intake.accept(Sample(sensor_id=1, seq=seq, device_time_s=1.0 + seq * 0.01),
+                                 2.0 + seq * 0.01)
+    intake.refuse(RefusedSample(1, 12, Rejection.NON_FINITE))       # a stale duplicate
+    intake.refuse(RefusedSample(1, 25, Rejection.NON_FINITE))       # pending: no later sample yet
+    intake.refuse(RefusedSample(4, 3, Rejection.NON_FINITE))        # not a sensor of the session
+    intake.flush()
+    report = intake.report("running")
+    assert report.refused_in_gaps == {"pelvis": 4}                   # 5, 6, 9 and 12
+    assert report.rejections_by_sensor == {"pelvis": {"non_finite": 6, "out_of_range": 1}}
+    assert report.rejections == {"non_finite": 6, "out_of_range": 1, "unknown_sensor": 1}
+    assert report.unknown_sensors == {"id 4": 1}
+    seqs = [int(v) for m in messages for b in m.unpacked() for v in b.seq]
+    gaps = seqs[-1] - seqs[0] + 1 - len(seqs)
+    assert gaps - report.refused_in_gaps["pelvis"] == 1              # only seq 15 was lost

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from mimucap.acquisition import protocol_serial, protocol_udp
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import Sample, refused_rows, validate_sample
+from mimucap.acquisition.samples import RefusedSample, Sample, refused_rows, validate_sample
 
 FULL = Sample(sensor_id=7, seq=123456, device_time_s=1234.567891, acc=(0.1, -0.2, 9.81),
               gyr=(0.01, 0.02, -0.03), mag_uT=(20.0, -5.5, -40.25),
@@ -69,9 +69,12 @@ def test_udp_rejections_are_named():
     assert protocol_udp.decode_packet(reframe(body[:2] + b"\x09" + body[3:])) is Rejection.UNSUPPORTED_VERSION
     assert protocol_udp.decode_packet(reframe(body[:-3])) is Rejection.LENGTH_MISMATCH
     nan_sample = reframe(body[:20] + struct.pack("<f", math.nan) + body[24:])
-    assert protocol_udp.decode_packet(nan_sample) is Rejection.NON_FINITE
+    # a valid frame with refused values keeps its sensor and sequence number
+    assert protocol_udp.decode_packet(nan_sample) == RefusedSample(FULL.sensor_id, FULL.seq,
+                                                                   Rejection.NON_FINITE)
     huge = reframe(body[:20] + struct.pack("<f", 1e6) + body[24:])
-    assert protocol_udp.decode_packet(huge) is Rejection.OUT_OF_RANGE
+    assert protocol_udp.decode_packet(huge) == RefusedSample(FULL.sensor_id, FULL.seq,
+                                                             Rejection.OUT_OF_RANGE)
 
 
 def test_serial_rejections_are_named():
@@ -84,12 +87,13 @@ def test_serial_rejections_are_named():
         raw = body.encode()
         return b"$" + raw + b"*" + f"{protocol_serial.checksum(raw):02X}".encode()
 
-    assert protocol_serial.parse_line(framed("MIMU,1,2,3,A,nan,0,0")) is Rejection.NON_FINITE
-    assert protocol_serial.parse_line(framed("MIMU,1,2,3,A,inf,0,0")) is Rejection.NON_FINITE
+    assert protocol_serial.parse_line(framed("MIMU,1,2,3,A,nan,0,0")) == RefusedSample(1, 2, Rejection.NON_FINITE)
+    assert protocol_serial.parse_line(framed("MIMU,1,2,3,A,inf,0,0")) == RefusedSample(1, 2, Rejection.NON_FINITE)
+    assert protocol_serial.parse_line(framed("MIMU,1,2,3,A,nan,0,0,x")) is Rejection.BAD_FIELD
     assert protocol_serial.parse_line(framed("MIMU,1,2,3,A,x,0,0")) is Rejection.BAD_FIELD
     assert protocol_serial.parse_line(framed("MIMU,1,2,3,G,0,0,0,A,0,0,0")) is Rejection.BAD_FIELD
     assert protocol_serial.parse_line(framed("MIMU,1,-2,3")) is Rejection.BAD_FIELD
-    assert protocol_serial.parse_line(framed("MIMU,1,2,3,Q,0.1,0,0,0")) is Rejection.OUT_OF_RANGE
+    assert protocol_serial.parse_line(framed("MIMU,1,2,3,Q,0.1,0,0,0")) == RefusedSample(1, 2, Rejection.OUT_OF_RANGE)
     assert isinstance(protocol_serial.parse_line(framed("MIMU,1,2,3,Q,1,0,0,0")), Sample)
 
 
@@ -123,7 +127,10 @@ def test_recorded_rows_are_refused_as_validate_sample_refuses_the_same_samples()
 # ---------------------------------------------------------------- fuzzing
 
 def _check_total(result) -> None:
-    assert isinstance(result, (Sample, Rejection, protocol_udp.SyncRequest, protocol_udp.SyncResponse))
+    assert isinstance(result, (Sample, RefusedSample, Rejection, protocol_udp.SyncRequest,
+                               protocol_udp.SyncResponse))
+    if isinstance(result, RefusedSample):
+        assert result.reason in (Rejection.NON_FINITE, Rejection.OUT_OF_RANGE)
     if isinstance(result, Sample):
         for name in ("acc", "gyr", "mag_uT", "q_world_from_sensor"):
             value = getattr(result, name)

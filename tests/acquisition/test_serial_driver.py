@@ -33,3 +33,18 @@ def test_lines_split_across_reads_oversized_and_garbage_are_counted():
     # the line cut by the oversized burst is lost (one malformed), the rest arrives
     assert rejections == {"oversized": 1, "malformed_line": 2}
     assert received == 19
+
+
+def test_a_line_with_nan_is_a_rejection_of_its_sensor_and_not_a_drop():
+    queue = ListQueue()
+    driver = SerialDriver(SerialSourceConfig(intake=IntakeSettings(flush_interval_s=1e-6)), Outbox(queue, "serial"))
+    for k in range(10):
+        gyr = (float("nan") if k in (3, 4) else 0.0, 0.0, 0.5)
+        driver.handle_bytes(protocol_serial.encode_line(Sample(sensor_id=2, seq=k, device_time_s=10 + k * 0.01,
+                                                               gyr=gyr)), now=100.0 + k * 0.01)
+    driver.intake.flush()
+    report = driver.intake.report("running")
+    assert report.rejections == {"non_finite": 2}
+    assert report.rejections_by_sensor == {"2": {"non_finite": 2}}
+    assert report.refused_in_gaps == {"2": 2}
+    assert [int(s) for m in queue.items for b in m.unpacked() for s in b.seq] == [0, 1, 2, 5, 6, 7, 8, 9]

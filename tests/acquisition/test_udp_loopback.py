@@ -147,3 +147,30 @@ def test_jitter_that_reorders_packets_is_counted_not_silent(synthetic_motion):
     assert stale > 0                                     # 25 ms jitter at 10 ms spacing reorders
     assert received + stale == emulator.schedule.sent    # every packet is delivered or counted
     assert all(s.received + s.drops <= int(rate * 2.0) for s in stats.values())  # no sample invented
+
+
+def test_a_node_sending_nan_shows_rejections_not_drops():
+    """Through a real socket and worker process: samples of a known node with NaN or
+    out-of-range values are rejections of that node with their reason, and the sequence
+    numbers they leave free are not counted as dropped packets; a real loss still is."""
+    port = free_udp_port()
+    config = UdpSourceConfig(name="udp", port=port, intake=IntakeSettings(sensor_ids=(1,)))
+    nan_seqs, huge_seqs, lost_seqs = {7, 8, 30}, {41}, {55}
+    with Supervisor([config]) as supervisor:
+        wait_for(lambda: supervisor.sources()["udp"].state == "running", supervisor)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sender:
+            for seq in range(80):
+                gyr = (float("nan") if seq in nan_seqs else 500.0 if seq in huge_seqs else 0.0, 0.0, 1.0)
+                sample = Sample(sensor_id=1, seq=seq, device_time_s=time.monotonic(), gyr=gyr)
+                if seq not in lost_seqs:
+                    sender.sendto(protocol_udp.encode_sample(sample), ("127.0.0.1", port))
+                time.sleep(0.002)
+        wait_for(lambda: supervisor.stats().get("1") is not None
+                 and supervisor.stats()["1"].received == 75
+                 and sum(supervisor.sources()["udp"].rejections.values()) == 4
+                 and supervisor.stats()["1"].drops == 1, supervisor)
+        stats = supervisor.stats()["1"]
+        status = supervisor.sources()["udp"]
+    assert status.rejections == {"non_finite": 3, "out_of_range": 1}
+    assert stats.rejections == {"non_finite": 3, "out_of_range": 1}
+    assert stats.drops == 1

@@ -11,22 +11,31 @@ pending, so memory stays bounded and latency stays low.
 
 Mapped host times are kept strictly increasing per sensor (a refit of the clock that would
 move a sample before its predecessor places it 1 µs after it).
+
+A well-framed sample whose values are refused (:class:`RefusedSample`: NaN, beyond the limits)
+is a rejection of its sensor. Its sequence number, if newer than the last accepted one, waits
+until the next accepted sample: then it lies in the gap that sample leaves, and is reported in
+``refused_in_gaps`` so the gap is not counted as a drop.
 """
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from mimucap.acquisition.messages import BlocksMessage, WorkerReport
 from mimucap.acquisition.rejections import Rejection, RejectionCounter
-from mimucap.acquisition.samples import BlockBuilder, Sample, SequenceUnwrapper
+from mimucap.acquisition.samples import BlockBuilder, RefusedSample, Sample, SequenceUnwrapper
 from mimucap.acquisition.timesync import ClockSync, ClockSyncSettings
 
 #: Distinct unknown ids/addresses tracked individually; beyond this they are lumped together.
 MAX_TRACKED_UNKNOWN = 256
 #: A node clock that jumps back by more than this (s) has restarted (reboot, brown-out).
 RESTART_CLOCK_JUMP_S = 1.0
+#: Refused sequence numbers remembered per sensor while no sample is accepted (about 10 min at
+#: 100 Hz); older ones are forgotten, and their gap is then counted as a drop.
+MAX_PENDING_REFUSED = 65536
 
 
 def default_sensor_name(sensor_id: int) -> str:
@@ -51,7 +60,7 @@ class IntakeSettings:
 
 class _SensorState:
     __slots__ = ("name", "unwrapper", "clock", "last_host_s", "last_device_s", "rejections",
-                 "restarts", "clock_settings")
+                 "restarts", "clock_settings", "pending_refused", "refused_in_gaps")
 
     def __init__(self, name: str, clock_settings: ClockSyncSettings) -> None:
         self.name = name
@@ -62,11 +71,30 @@ class _SensorState:
         self.last_device_s = float("-inf")
         self.rejections = RejectionCounter()
         self.restarts = 0
+        self.pending_refused: deque[int] = deque(maxlen=MAX_PENDING_REFUSED)  # unwrapped numbers
+        self.refused_in_gaps = 0
 
     def restart(self) -> None:
         """The node rebooted: its clock starts over (sequence numbers continue, see intake)."""
         self.clock = ClockSync(self.clock_settings)
         self.restarts += 1
+        self.pending_refused.clear()   # the renumbered counter leaves no gap after them
+
+    def note_refused(self, wire_seq: int) -> None:
+        """Remember a refused sample's number if it is newer than the last accepted one."""
+        seq = self.unwrapper.peek(wire_seq)
+        if seq is not None:
+            self.pending_refused.append(seq)
+
+    def settle_refused(self, accepted_seq: int) -> None:
+        """Count the refused numbers that lie before ``accepted_seq`` (they are in its gap)."""
+        pending = self.pending_refused
+        if not pending:
+            return
+        later = [seq for seq in pending if seq > accepted_seq]
+        self.refused_in_gaps += len({seq for seq in pending if seq < accepted_seq})
+        pending.clear()
+        pending.extend(later)
 
 
 class SampleIntake:
@@ -98,6 +126,15 @@ class SampleIntake:
             key = "other"
         self.unknown[key] = self.unknown.get(key, 0) + 1
 
+    def refuse(self, refused: RefusedSample) -> None:
+        """Count a well-framed sample whose values were refused, against its sensor."""
+        state = self.sensor(refused.sensor_id)
+        if state is None:
+            self.count_unknown(f"id {refused.sensor_id}", Rejection.UNKNOWN_SENSOR)
+            return
+        self.reject(refused.reason, refused.sensor_id)
+        state.note_refused(refused.seq)
+
     def sensor(self, sensor_id: int) -> _SensorState | None:
         """State of an accepted sensor, creating it on first sight; ``None`` if unknown."""
         state = self._sensors.get(sensor_id)
@@ -128,6 +165,7 @@ class SampleIntake:
                 self.reject(Rejection.STALE_SEQUENCE, sample.sensor_id)
                 return False
             seq = state.unwrapper.restart(sample.seq)
+        state.settle_refused(seq)
         state.last_device_s = sample.device_time_s
         state.clock.add_one_way(sample.device_time_s, receive_time_s)
         estimate = state.clock.estimate
@@ -161,6 +199,7 @@ class SampleIntake:
         """A cumulative :class:`WorkerReport` of this intake."""
         clocks = {}
         by_sensor = {}
+        in_gaps = {s.name: s.refused_in_gaps for s in self._sensors.values() if s.refused_in_gaps}
         restarts = {s.name: s.restarts for s in self._sensors.values() if s.restarts}
         for sensor in self._sensors.values():
             estimate = sensor.clock.estimate
@@ -173,4 +212,4 @@ class SampleIntake:
             rejections[Rejection.QUEUE_OVERFLOW.value] = overflow_samples
         return WorkerReport(self.source, state, message, rejections,
                             dict(self.unknown), by_sensor, clocks, overflow_samples, reconnects,
-                            restarts)
+                            restarts, in_gaps)

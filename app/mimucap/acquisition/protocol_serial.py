@@ -9,16 +9,16 @@ One sample per ASCII line, NMEA-style, with an XOR checksum of every byte betwee
 Units: ``A`` m/s², ``G`` rad/s, ``M`` µT (sensor frame), ``Q`` = q_world_from_sensor scalar
 first, ``C`` calibration status 0..3, ``B`` battery percent; ``time_us`` is the board clock in
 µs. Each tag appears at most once, in this order. Lines longer than :data:`MAX_LINE_BYTES` are
-refused. :func:`parse_line` is total: any bytes give a Sample or a Rejection, never an
-exception and never a NaN (``nan``/``inf`` spellings are refused as ``non_finite``).
+refused. :func:`parse_line` is total: any bytes give a Sample, a RefusedSample (a well-formed
+line whose values are refused, e.g. ``nan``/``inf`` spellings as ``non_finite``: its sensor and
+sequence number are kept) or a Rejection, never an exception and never a NaN.
 """
 
 from __future__ import annotations
 
-import math
-
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import DEFAULT_LIMITS, Sample, ValueLimits, validate_sample
+from mimucap.acquisition.samples import (DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits,
+                                         validated_or_refused)
 
 TALKER = "MIMU"
 MAX_LINE_BYTES = 256
@@ -68,7 +68,7 @@ def _int_field(text: str, upper: int) -> int | None:
     return value if value <= upper else None
 
 
-def parse_line(line: bytes, limits: ValueLimits = DEFAULT_LIMITS) -> Sample | Rejection:
+def parse_line(line: bytes, limits: ValueLimits = DEFAULT_LIMITS) -> Sample | RefusedSample | Rejection:
     """Decode one line (with or without its line terminator); never raises."""
     try:
         return _parse(bytes(line), limits)
@@ -76,7 +76,7 @@ def parse_line(line: bytes, limits: ValueLimits = DEFAULT_LIMITS) -> Sample | Re
         return Rejection.UNDECODABLE
 
 
-def _parse(line: bytes, limits: ValueLimits) -> Sample | Rejection:
+def _parse(line: bytes, limits: ValueLimits) -> Sample | RefusedSample | Rejection:
     line = line.rstrip(b"\r\n")
     if len(line) > MAX_LINE_BYTES:
         return Rejection.OVERSIZED
@@ -121,9 +121,7 @@ def _parse(line: bytes, limits: ValueLimits) -> Sample | Rejection:
                 numbers = [float(v) for v in raw]
             except ValueError:
                 return Rejection.BAD_FIELD
-            if not all(math.isfinite(v) for v in numbers):
-                return Rejection.NON_FINITE
             values[name] = numbers[0] if count == 1 else tuple(numbers)
         index += 1 + count
     sample = Sample(sensor_id=sensor_id, seq=seq, device_time_s=time_us * 1e-6, **values)
-    return validate_sample(sample, limits)
+    return validated_or_refused(sample, limits)  # refuses NaN and infinity as non_finite

@@ -1,9 +1,10 @@
 """The MimuCap UDP protocol of wireless sensor nodes (ESP32 + BNO055 class), version 1.
 
 Pure encoders and a *total* decoder: :func:`decode_packet` turns any byte string into a
-:class:`~mimucap.acquisition.samples.Sample`, a :class:`SyncRequest`, a :class:`SyncResponse`
-or a :class:`~mimucap.acquisition.rejections.Rejection`; it never raises and never lets a
-NaN through. The layout is documented in ``docs/protocols.md``; in short (little-endian)::
+:class:`~mimucap.acquisition.samples.Sample`, a :class:`SyncRequest`, a :class:`SyncResponse`,
+a :class:`~mimucap.acquisition.samples.RefusedSample` (a valid frame whose values are NaN or out
+of range: its sensor and sequence number are kept) or a
+:class:`~mimucap.acquisition.rejections.Rejection`; it never raises and never lets a NaN through. The layout is documented in ``docs/protocols.md``; in short (little-endian)::
 
     header (20 bytes)  magic u16 = 0x434D ("MC"), version u8 = 1, type u8,
                        sensor_id u16, flags u16, seq u32, time_us u64
@@ -27,7 +28,8 @@ import zlib
 from dataclasses import dataclass
 
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import DEFAULT_LIMITS, Sample, ValueLimits, validate_sample
+from mimucap.acquisition.samples import (DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits,
+                                         validated_or_refused)
 
 MAGIC = 0x434D
 VERSION = 1
@@ -129,7 +131,7 @@ def encode_sync_response(response: SyncResponse) -> bytes:
 
 
 def decode_packet(data: bytes, limits: ValueLimits = DEFAULT_LIMITS
-                  ) -> Sample | SyncRequest | SyncResponse | Rejection:
+                  ) -> Sample | RefusedSample | SyncRequest | SyncResponse | Rejection:
     """Decode one datagram; any input gives a message or a :class:`Rejection` (never raises)."""
     try:
         return _decode(bytes(data), limits)
@@ -137,7 +139,8 @@ def decode_packet(data: bytes, limits: ValueLimits = DEFAULT_LIMITS
         return Rejection.UNDECODABLE
 
 
-def _decode(data: bytes, limits: ValueLimits) -> Sample | SyncRequest | SyncResponse | Rejection:
+def _decode(data: bytes, limits: ValueLimits
+            ) -> Sample | RefusedSample | SyncRequest | SyncResponse | Rejection:
     if len(data) > MAX_PACKET_BYTES:
         return Rejection.OVERSIZED
     if len(data) < HEADER.size + CRC.size:
@@ -184,7 +187,7 @@ def _payload_struct(flags: int) -> struct.Struct:
 
 
 def _decode_sample(sensor_id: int, flags: int, seq: int, time_us: int, payload: bytes,
-                   limits: ValueLimits) -> Sample | Rejection:
+                   limits: ValueLimits) -> Sample | RefusedSample | Rejection:
     if sensor_id == BROADCAST_ID:
         return Rejection.UNKNOWN_SENSOR
     if flags & ~KNOWN_FLAGS:
@@ -207,4 +210,4 @@ def _decode_sample(sensor_id: int, flags: int, seq: int, time_us: int, payload: 
     if flags & FLAG_BATTERY:
         values["battery_pct"] = float(fields[offset])
     sample = Sample(sensor_id=sensor_id, seq=seq, device_time_s=time_us * 1e-6, **values)
-    return validate_sample(sample, limits)
+    return validated_or_refused(sample, limits)

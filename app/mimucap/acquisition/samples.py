@@ -67,6 +67,28 @@ class Sample:
         return tuple(name for name in CHANNELS if getattr(self, name) is not None)
 
 
+@dataclass(frozen=True)
+class RefusedSample:
+    """A well-framed sample whose values were refused (NaN, infinity, beyond the limits).
+
+    Its frame passed the checksum, so its sensor and sequence number are trusted: the intake
+    counts the refusal against that sensor, and the sequence number it leaves free is a
+    rejection with a reason, not a lost packet (see ``refused_in_gaps`` in the worker report).
+    """
+
+    sensor_id: int          #: the node's numeric id on the wire
+    seq: int                #: the node's sequence number as sent (wraps at 2**32)
+    reason: Rejection       #: ``non_finite`` or ``out_of_range``
+
+
+def validated_or_refused(sample: Sample, limits: ValueLimits = DEFAULT_LIMITS) -> Sample | RefusedSample:
+    """``sample`` validated by :func:`validate_sample`, or a :class:`RefusedSample` naming it."""
+    result = validate_sample(sample, limits)
+    if isinstance(result, Rejection):
+        return RefusedSample(sample.sensor_id, sample.seq, result)
+    return result
+
+
 def validate_sample(sample: Sample, limits: ValueLimits = DEFAULT_LIMITS) -> Sample | Rejection:
     """``sample`` (with its quaternion normalised) or the reason it must be refused.
 
@@ -374,6 +396,16 @@ class SequenceUnwrapper:
             return None
         self._last_wire += delta
         return self._last_wire + self._offset
+
+    def peek(self, wire_seq: int) -> int | None:
+        """What :meth:`unwrap` would number ``wire_seq`` (``None`` if stale or before the first
+        accepted number), without accepting it."""
+        if self._last_wire is None:
+            return None
+        delta = (int(wire_seq) - self._last_wire) % self.MODULUS
+        if delta == 0 or delta >= self.MODULUS // 2:
+            return None
+        return self._last_wire + delta + self._offset
 
     def restart(self, wire_seq: int) -> int:
         """The node restarted its counter at ``wire_seq``: number it right after the last one."""

@@ -21,7 +21,7 @@ from mimucap.acquisition.intake import IntakeSettings, SampleIntake
 from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_RUNNING, STATE_STARTING
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import DEFAULT_LIMITS, Sample, ValueLimits
+from mimucap.acquisition.samples import DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits
 
 READ_CHUNK_BYTES = 4096
 
@@ -142,5 +142,7 @@ class SerialDriver:
         result = proto.parse_line(line, self.config.limits)
         if isinstance(result, Sample):
             self.intake.accept(result, now)
+        elif isinstance(result, RefusedSample):
+            self.intake.refuse(result)
         else:
             self.intake.reject(result)

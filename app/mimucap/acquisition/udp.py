@@ -21,7 +21,7 @@ from mimucap.acquisition.intake import IntakeSettings, SampleIntake
 from mimucap.acquisition.messages import STATE_RUNNING
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import DEFAULT_LIMITS, Sample, ValueLimits
+from mimucap.acquisition.samples import DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits
 
 #: Outstanding sync requests remembered per node (older ones are forgotten).
 MAX_PENDING_SYNC = 16
@@ -136,6 +136,8 @@ class UdpDriver:
         message = proto.decode_packet(data, self.config.limits)
         if isinstance(message, Rejection):
             self.intake.reject(message)
+        elif isinstance(message, RefusedSample):
+            self.intake.refuse(message)
         elif isinstance(message, Sample):
             if self.intake.accept(message, now):
                 if message.sensor_id not in self._addresses:
