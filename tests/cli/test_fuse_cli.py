@@ -128,13 +128,38 @@ def test_fuse_names_the_dataset_a_broad_trial_lacks(tmp_path, capsys):
         out = tmp_path / "q.csv"
         assert main(["fuse", str(trial), "--out", str(out)]) == 1
         err = capsys.readouterr().err
-        assert f"{trial}: BROAD trial without '{missing}' ({meaning}); it holds " in err
+        if missing == "imu_mag":
+            assert f"{trial}: BROAD trial without 'imu_mag' (magnetometer, µT): fuse it without the " \
+                   "magnetometer with --no-mag" in err
+        else:
+            assert f"{trial}: BROAD trial without '{missing}' ({meaning}); it holds " in err
         assert "not a MimuCap session" not in err and not out.exists()
     foreign = tmp_path / "foreign.h5"
     with h5py.File(foreign, "w") as handle:
         handle["x"] = np.zeros(3)
     assert main(["fuse", str(foreign), "--out", str(tmp_path / "q.csv")]) == 1
     assert "foreign.h5: not a MimuCap session (no 'format' attribute; foreign HDF5 file?)" in capsys.readouterr().err
+
+
+def test_fuse_no_mag_reads_a_broad_trial_without_a_magnetometer(tmp_path, capsys):
+    """Was: ``--no-mag`` on a BROAD trial without ``imu_mag`` was refused for the missing
+    dataset the option says not to use. It now gives the same orientation as ``--no-mag`` on
+    the same samples with the magnetometer present."""
+    complete, partial = tmp_path / "complete.hdf5", tmp_path / "partial.hdf5"
+    with h5py.File(TRIAL) as src:
+        for path, names in ((complete, ("imu_gyr", "imu_acc", "imu_mag")), (partial, ("imu_gyr", "imu_acc"))):
+            with h5py.File(path, "w") as dst:
+                for name in names:
+                    dst.create_dataset(name, data=src[name][:2000])
+                dst.attrs["sampling_rate"] = src.attrs["sampling_rate"]
+    outputs = []
+    for path in (complete, partial):
+        out = tmp_path / f"{path.stem}.npy"
+        assert main(["fuse", str(path), "--no-mag", "--out", str(out)]) == 0
+        outputs.append(np.load(out))
+    capsys.readouterr()
+    assert outputs[0].shape == (2000, 4) and np.isfinite(outputs[0][-1]).all()
+    np.testing.assert_array_equal(outputs[0], outputs[1])
 
 
 def test_bench_orientation_json(tmp_path, capsys):

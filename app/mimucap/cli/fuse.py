@@ -3,8 +3,8 @@
 ``mimucap fuse INPUT [--algorithm ekf-taylor3|ekf-rk4|taylor3|rk4] [--offline] [--no-mag]
 [--sensor ID] --out OUT.{csv,h5,npy}``
 
-INPUT is a BROAD-style HDF5 trial (``imu_gyr``, ``imu_acc``, ``imu_mag``, attribute
-``sampling_rate``) or a MimuCap session (:func:`mimucap.io.session.read_session`). A session
+INPUT is a BROAD-style HDF5 trial (``imu_gyr``, ``imu_acc``, ``imu_mag`` unless ``--no-mag``,
+attribute ``sampling_rate``) or a MimuCap session (:func:`mimucap.io.session.read_session`). A session
 gives one output per sensor with a gyroscope, named ``OUT_<sensor id>.<ext>``, or only the
 sensor chosen with ``--sensor`` (written to OUT itself).
 
@@ -50,7 +50,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def _inputs(path: Path, sensor: str | None) -> list[tuple[str | None, np.ndarray, np.ndarray,
+def _inputs(path: Path, sensor: str | None, no_mag: bool) -> list[tuple[str | None, np.ndarray, np.ndarray,
                                                           np.ndarray | None, np.ndarray | None]]:
     """``(sensor id or None, t_s, gyr, acc, mag)`` for each stream to fuse."""
     if not path.is_file():
@@ -58,7 +58,10 @@ def _inputs(path: Path, sensor: str | None) -> list[tuple[str | None, np.ndarray
     if is_broad_file(path):
         if sensor is not None:
             raise ValueError(f"{path}: a BROAD trial has one sensor; --sensor does not apply")
-        trial = read_broad(path)
+        trial = read_broad(path, require_mag=False)
+        if trial.mag_uT is None and not no_mag:
+            raise ValueError(f"{path}: BROAD trial without 'imu_mag' (magnetometer, µT): "
+                             "fuse it without the magnetometer with --no-mag")
         return [(None, trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT)]
     session = read_session(path)
     streams = session.sensors
@@ -115,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)  # also when per-sensor names derive from it: a slip
-    inputs = _inputs(args.input, args.sensor)
+    inputs = _inputs(args.input, args.sensor, args.no_mag)
     estimator = fuse_offline if args.offline else fuse
     several = len(inputs) > 1
     for sensor_id, *_ in inputs:  # every file to write, before any is written

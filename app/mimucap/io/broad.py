@@ -4,7 +4,8 @@ One file per trial with datasets ``imu_gyr`` (N, 3) rad/s, ``imu_acc`` (N, 3) m/
 (N, 3) µT (sensor frame), the optical reference ``opt_quat`` (N, 4) ``q_world_from_sensor``
 (scalar first, ENU; NaN rows where markers were occluded), ``opt_pos`` (N, 3) m, ``movement``
 (N,) bool and the attribute ``sampling_rate`` (Hz). Only the IMU channels and
-``sampling_rate`` are required (the ``mimucap fuse`` input); the reference is optional. A
+``sampling_rate`` are required (the ``mimucap fuse`` input); the reference is optional, and so
+is ``imu_mag`` when the caller fuses without the magnetometer (``require_mag=False``). A
 gyroscope beyond :data:`~mimucap.core.sensor_limits.GYR_MAX_RAD_S` (most likely °/s) is refused.
 
 A file is recognised as a BROAD trial by its layout (any of BROAD's datasets and no MimuCap
@@ -47,7 +48,7 @@ class BroadTrial:
     sampling_rate_hz: float
     gyr_rad_s: np.ndarray
     acc_m_s2: np.ndarray
-    mag_uT: np.ndarray
+    mag_uT: np.ndarray | None       #: ``None`` only when read with ``require_mag=False``
     q_ref_world_from_sensor: np.ndarray | None
     movement: np.ndarray | None
 
@@ -95,10 +96,10 @@ def is_broad_file(path: str | Path) -> bool:
         return False
 
 
-def _check_channels(handle: h5py.File, path: Path) -> None:
-    """``ValueError`` naming every required IMU dataset the file lacks: a BROAD trial without
-    some channel, or a file that is no BROAD trial at all."""
-    missing = [name for name in REQUIRED_DATASETS if name not in handle]
+def _check_channels(handle: h5py.File, path: Path, required: tuple[str, ...]) -> None:
+    """``ValueError`` naming every ``required`` IMU dataset the file lacks: a BROAD trial
+    without some channel, or a file that is no BROAD trial at all."""
+    missing = [name for name in required if name not in handle]
     if not missing:
         return
     found = ", ".join(sorted(handle.keys())) or "nothing"
@@ -108,8 +109,11 @@ def _check_channels(handle: h5py.File, path: Path) -> None:
     raise ValueError(f"{path}: BROAD trial without {names}; it holds {found}")
 
 
-def read_broad(path: str | Path) -> BroadTrial:
-    """Read one BROAD trial; ``ValueError`` naming the file and the problem if it is not one."""
+def read_broad(path: str | Path, require_mag: bool = True) -> BroadTrial:
+    """Read one BROAD trial; ``ValueError`` naming the file and the problem if it is not one.
+
+    With ``require_mag=False`` a trial without ``imu_mag`` is read with ``mag_uT=None``.
+    """
     path = Path(path)
     if not path.is_file():
         raise OSError(f"{path}: no such file")
@@ -118,16 +122,17 @@ def read_broad(path: str | Path) -> BroadTrial:
     except OSError as error:
         raise ValueError(f"{path}: not an HDF5 file ({error})") from None
     with handle:
-        _check_channels(handle, path)
+        required = REQUIRED_DATASETS if require_mag else ("imu_gyr", "imu_acc")
+        _check_channels(handle, path, required)
         gyr = _dataset(handle, path, "imu_gyr", 3)
         problem = gyro_range_problem(gyr)
         if problem is not None:
             raise ValueError(f"{path}: imu_gyr: {problem}")
         acc = _dataset(handle, path, "imu_acc", 3)
-        mag = _dataset(handle, path, "imu_mag", 3)
-        if not (gyr.shape == acc.shape == mag.shape):
-            raise ValueError(f"{path}: imu_gyr {gyr.shape}, imu_acc {acc.shape} and imu_mag "
-                             f"{mag.shape} must have the same number of rows")
+        mag = _dataset(handle, path, "imu_mag", 3) if "imu_mag" in handle or require_mag else None
+        if gyr.shape != acc.shape or (mag is not None and mag.shape != gyr.shape):
+            shapes = f"imu_gyr {gyr.shape}, imu_acc {acc.shape}" + ("" if mag is None else f", imu_mag {mag.shape}")
+            raise ValueError(f"{path}: {shapes} must have the same number of rows")
         if "sampling_rate" not in handle.attrs:
             raise ValueError(f"{path}: attribute 'sampling_rate' (Hz) is missing")
         rate = float(np.asarray(handle.attrs["sampling_rate"]).reshape(-1)[0])
