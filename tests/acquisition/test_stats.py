@@ -46,28 +46,55 @@ def _block(first_seq: int, host_time_s: np.ndarray) -> SampleBlock:
 
 
 @pytest.mark.parametrize("ordered", [True, False])
-def test_rate_counts_the_samples_that_arrived_within_the_window(ordered):
+def test_latencies_and_counts_follow_every_block(ordered):
     rng = np.random.default_rng(7)
     tracker = SensorStatsTracker("S01", "test", window_s=2.0, latency_samples=500)
-    arrivals, latencies, seq, t = [], [], 0, 10.0
+    latencies, seq, t = [], 0, 10.0
     for k in range(400):
         n = int(rng.integers(1, 6))
         arrival = t if ordered or k % 9 else t - 0.3  # now and then a late poll time
         host = arrival - rng.uniform(0.001, 0.02, size=n)
         tracker.add_block(_block(seq, host), arrival)
-        arrivals.append((arrival, n))
         latencies.extend((arrival - host).tolist())
         seq += n
         t += 0.013
-        arrivals = [(a, m) for a, m in arrivals if a >= arrival - 2.0]
         if k % 50 == 49:
-            for now in (t, t + 1.0, t + 5.0):
-                stats = tracker.snapshot(now)
-                in_window = [m for a, m in arrivals if a >= now - 2.0]
-                span = min(2.0, max(now - arrivals[0][0], 1e-3)) if in_window else 2.0
-                assert stats.rate_hz == (sum(in_window) / span if in_window else 0.0)
-                assert [stats.latency_p50_s, stats.latency_p95_s] == np.percentile(latencies[-500:], [50, 95]).tolist()
-                assert stats.received == seq and stats.drops == 0
+            stats = tracker.snapshot(t)
+            assert [stats.latency_p50_s, stats.latency_p95_s] == np.percentile(latencies[-500:], [50, 95]).tolist()
+            assert stats.received == seq and stats.drops == 0
+
+
+@pytest.mark.parametrize("poll_s", [0.016, 0.0167, 0.04, 0.005])
+def test_a_steady_stream_reads_its_true_rate_whenever_the_panel_looks(poll_s):
+    """Was: every sample that arrived within the window over the window's length, off by up
+    to a batch at each end: a steady 100 Hz suit polled every 16 ms read 97.5 Hz, 0 drops."""
+    rate = 100.0
+    tracker = SensorStatsTracker("S01", "test", window_s=2.0)
+    seq, produced, poll = 0, 0.0, 5.0
+    readings = []
+    while poll < 9.0:
+        due = int(np.floor((poll - 5.0) * rate)) + 1 - seq       # samples made since the last poll
+        if due:
+            host = 5.0 + np.arange(seq, seq + due) / rate
+            tracker.add_block(_block(seq, host), poll + 0.003)     # 3 ms transport
+            seq += due
+        for phase in (0.0, 0.3, 0.7, 0.99):                        # the panel reads at any moment
+            readings.append(tracker.rate_hz(poll + 0.003 + phase * poll_s))
+        poll += poll_s
+    readings = np.array(readings[len(readings) // 2:])              # a full window in
+    assert np.abs(readings - rate).max() < 0.55    # within one sample over the 2 s window
+
+
+def test_a_sensor_that_stops_shows_a_falling_rate_then_zero():
+    tracker = SensorStatsTracker("S01", "test", window_s=2.0)
+    for k in range(200):                                           # 100 Hz in 16 ms polls for 2 s
+        t = 1.0 + 0.016 * k
+        tracker.add_block(_block(2 * k, np.array([t - 0.006, t])), t)
+    last = 1.0 + 0.016 * 199
+    assert tracker.rate_hz(last + 0.05) == pytest.approx(125.0, rel=0.01)   # 2 samples / 16 ms
+    assert tracker.rate_hz(last + 1.0) < 0.6 * 125.0
+    assert tracker.rate_hz(last + 1.9) < tracker.rate_hz(last + 1.0)
+    assert tracker.rate_hz(last + 2.5) == 0.0
 
 
 def test_a_replayed_stream_refuses_invalid_rows_and_reports_them_not_as_gaps():

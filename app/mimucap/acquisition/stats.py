@@ -18,6 +18,10 @@ import numpy as np
 
 from mimucap.acquisition.samples import SampleBlock
 
+#: After this long (s) without an arrival, a sensor's rate is taken over the time up to now
+#: (it falls), not up to its last arrival.
+ARRIVAL_GRACE_S = 0.1
+
 
 @dataclass(frozen=True)
 class SensorStats:
@@ -160,24 +164,39 @@ class SensorStatsTracker:
         """The most recent latencies (s), oldest first."""
         return self._latencies.values()
 
-    def _samples_since(self, t_from_s: float) -> tuple[int, int]:
-        """Arrivals at or after ``t_from_s`` among those kept, and the samples they brought."""
+    def _arrivals_since(self, t_from_s: float) -> list[tuple[float, int]]:
+        """``(arrival time, samples it brought)`` of the arrivals at or after ``t_from_s``."""
         arrivals = self._arrivals
-        if self._arrivals_in_order:
-            first = bisect_left(arrivals, t_from_s, key=_arrival_time)
-            count = len(arrivals) - first
-            return count, (self.received - arrivals[first][1]) if count else 0
-        received_after = [before for _t, before in arrivals][1:] + [self.received]
-        chosen = [after - before for (t, before), after in zip(arrivals, received_after) if t >= t_from_s]
-        return len(chosen), sum(chosen)
+        first = (bisect_left(arrivals, t_from_s, key=_arrival_time) if self._arrivals_in_order
+                 else 0)
+        kept = list(arrivals)[first:]
+        brought = [after - before for (_t, before), (_u, after)
+                   in zip(kept, kept[1:] + [(0.0, self.received)])]
+        return [(t, n) for (t, _before), n in zip(kept, brought) if t >= t_from_s]
+
+    def rate_hz(self, now_s: float) -> float:
+        """Samples per second over the arrivals of the last ``window_s``.
+
+        Samples come in batches (one per poll or message), so counting every sample that
+        arrived within the window would be off by up to a batch at each end (a steady 100 Hz
+        read as 97.5-101). The rate is instead the samples that arrived *after* the first
+        arrival of the window divided by the time from that arrival to the last one: exact for
+        a steady stream whatever the batching. Once nothing has arrived for
+        :data:`ARRIVAL_GRACE_S`, the time runs on to ``now_s``, so a sensor that stopped
+        sending shows a falling rate (and 0 once the window holds no arrival).
+        """
+        window = self._arrivals_since(now_s - self.window_s)
+        if not window:
+            return 0.0
+        if len(window) == 1:
+            return window[0][1] / min(self.window_s, max(now_s - window[0][0], 1e-3))
+        first_t, first_n = min(window)
+        last_t = max(t for t, _n in window)
+        span = max(last_t - first_t, now_s - first_t - ARRIVAL_GRACE_S, 1e-3)
+        return (sum(n for _t, n in window) - first_n) / span
 
     def snapshot(self, now_s: float) -> SensorStats:
-        arrivals, samples = self._samples_since(now_s - self.window_s)
-        span = self.window_s
-        if self.received and arrivals:
-            first_arrival = self._arrivals[0][0] if len(self._arrivals) else now_s
-            span = min(self.window_s, max(now_s - first_arrival, 1e-3))
-        rate = samples / span if arrivals else 0.0
+        rate = self.rate_hz(now_s)
         latencies = self.latencies_s()
         p50, p95 = (percentiles_linear(latencies, (50, 95)) if latencies.size
                     else (float("nan"), float("nan")))
