@@ -190,16 +190,19 @@ class SampleIntake:
             self.flush()
 
     def flush(self) -> None:
-        """Send every pending sample now."""
+        """Send every pending sample now (with the refused samples in their gaps so far)."""
         if len(self._builder):
-            self._send(BlocksMessage(self.source, tuple(self._builder.take())))
+            self._send(BlocksMessage(self.source, tuple(self._builder.take()),
+                                     refused_in_gaps=self._refused_in_gaps()))
+
+    def _refused_in_gaps(self) -> dict[str, int]:
+        return {s.name: s.refused_in_gaps for s in self._sensors.values() if s.refused_in_gaps}
 
     def report(self, state: str, message: str = "", overflow_samples: int = 0,
                reconnects: int = 0) -> WorkerReport:
         """A cumulative :class:`WorkerReport` of this intake."""
         clocks = {}
         by_sensor = {}
-        in_gaps = {s.name: s.refused_in_gaps for s in self._sensors.values() if s.refused_in_gaps}
         restarts = {s.name: s.restarts for s in self._sensors.values() if s.restarts}
         for sensor in self._sensors.values():
             estimate = sensor.clock.estimate
@@ -212,4 +215,4 @@ class SampleIntake:
             rejections[Rejection.QUEUE_OVERFLOW.value] = overflow_samples
         return WorkerReport(self.source, state, message, rejections,
                             dict(self.unknown), by_sensor, clocks, overflow_samples, reconnects,
-                            restarts, in_gaps)
+                            restarts, self._refused_in_gaps())

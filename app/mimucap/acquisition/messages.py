@@ -28,6 +28,10 @@ class BlocksMessage:
     source: str
     blocks: tuple[SampleBlock | PackedBlock, ...]
     markers: tuple[tuple[float, str], ...] = ()   #: (host monotonic s, label), e.g. activity changes
+    #: sensor → refused samples in its sequence gaps so far (cumulative, as in
+    #: :attr:`WorkerReport.refused_in_gaps`), sent with the blocks whose gaps they explain so
+    #: that the drop count never counts them for a moment
+    refused_in_gaps: dict[str, int] = field(default_factory=dict)
 
     def sample_count(self) -> int:
         return sum(len(block) for block in self.blocks)

@@ -143,11 +143,15 @@ class ReplayDriver:
         rows numbered between released ones (``refused_in_gaps``)."""
         message = message or self.summary
         by_sensor = {sensor: counter.as_dict() for sensor, counter in self.rejections_by_sensor.items()}
-        in_gaps = {stream.sensor_id: stream.refused_between(released)
-                   for stream, released in zip(self.streams, self.positions)}
         return WorkerReport(self.config.name, state, message, self.rejections.as_dict(),
                             rejections_by_sensor=by_sensor, overflow_samples=self.outbox.overflow_samples,
-                            refused_in_gaps={sensor: n for sensor, n in in_gaps.items() if n})
+                            refused_in_gaps=self.refused_in_gaps())
+
+    def refused_in_gaps(self) -> dict[str, int]:
+        """Per sensor, the refused rows numbered between released ones so far."""
+        in_gaps = {stream.sensor_id: stream.refused_between(released)
+                   for stream, released in zip(self.streams, self.positions) if stream.refused is not None}
+        return {sensor: n for sensor, n in in_gaps.items() if n}
 
     def run(self, stop: Event) -> None:
         streams = self.streams
@@ -171,7 +175,8 @@ class ReplayDriver:
                 self._count_refused(index, stream, horizon)
             if blocks:
                 self.released += sum(len(b) for b in blocks)
-                self.outbox.send_blocks(BlocksMessage(self.config.name, tuple(blocks)))
+                self.outbox.send_blocks(BlocksMessage(self.config.name, tuple(blocks),
+                                                      refused_in_gaps=self.refused_in_gaps()))
             if all(positions[i] >= len(s.t_s) and self.refused_positions[i] >= s.n_refused
                    for i, s in enumerate(streams)):
                 refused = self.rejections.total()

@@ -157,6 +157,7 @@ class Supervisor:
         blocks: list[SampleBlock] = []
         packed: list[PackedBlock] = []
         reports: list[WorkerReport] = []
+        refused_in_gaps: dict[str, int] = {}
         for count in range(self.settings.max_messages_per_poll):
             try:
                 if count == 0 and timeout_s > 0:
@@ -167,6 +168,7 @@ class Supervisor:
                 break
             if isinstance(message, BlocksMessage):
                 self._markers.extend(message.markers)
+                refused_in_gaps.update(message.refused_in_gaps)
                 for block in message.blocks:
                     (packed if isinstance(block, PackedBlock) else blocks).append(block)
             elif isinstance(message, WorkerReport):
@@ -177,6 +179,7 @@ class Supervisor:
         arrival = time.monotonic()
         for block in blocks:
             self._tracker(block).add_block(block, arrival)
+        self._set_refused_in_gaps(refused_in_gaps)   # with the gaps they explain
         for report in reports:  # after the blocks sent before them: a sensor first seen here has its tracker
             self._apply_report(report)
         return blocks
@@ -209,9 +212,15 @@ class Supervisor:
         for sensor, counts in report.rejections_by_sensor.items():
             if sensor in self._trackers:
                 self._trackers[sensor].rejections = dict(counts)
-        for sensor, count in report.refused_in_gaps.items():
-            if sensor in self._trackers:
-                self._trackers[sensor].refused_in_gaps = count
+        self._set_refused_in_gaps(report.refused_in_gaps)
+
+    def _set_refused_in_gaps(self, counts: dict[str, int]) -> None:
+        """Cumulative counts from blocks and reports; a report drained after newer blocks
+        may carry an older, smaller count, so a count only grows."""
+        for sensor, count in counts.items():
+            tracker = self._trackers.get(sensor)
+            if tracker is not None and count > tracker.refused_in_gaps:
+                tracker.refused_in_gaps = count
 
     def _watch(self) -> None:
         """Restart failed workers (after the backoff)."""
