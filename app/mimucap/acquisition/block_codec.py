@@ -1,15 +1,19 @@
-"""Bytes for a :class:`~mimucap.acquisition.samples.SampleBlock` (used by the recorder's journal).
+"""Bytes for a :class:`~mimucap.acquisition.samples.SampleBlock` (used by the recorder's journal),
+on a general layout of named arrays that other journal records share (:func:`encode_arrays`).
 
-Layout: u32 length of a UTF-8 JSON header, the header
-``{"source", "sensor_id", "n", "arrays": [[name, dtype, trailing shape], ...]}``, then each
-array's little-endian bytes in header order. :func:`decode_block` checks every size and
-refuses anything inconsistent with ``ValueError``.
+Layout: u32 length of a UTF-8 JSON header, the header (the record's own fields, ``"n"`` the
+row count, and ``"arrays": [[name, dtype, trailing shape], ...]``), then each array's
+little-endian bytes in header order; every array has ``n`` rows. A sample block's own fields
+are ``"source"`` and ``"sensor_id"``. :func:`decode_arrays` checks every size and refuses
+anything inconsistent with ``ValueError``.
 """
 
 from __future__ import annotations
 
 import json
 import struct
+from collections.abc import Iterable, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -20,57 +24,81 @@ _TIME_ARRAYS = ("seq", "device_time_s", "host_time_s", "receive_time_s")
 _DTYPES = {"int64": "<i8", "float64": "<f8", "int8": "i1"}
 
 
-def encode_block(block: SampleBlock) -> bytes:
-    names = [name for name in _TIME_ARRAYS + CHANNELS if getattr(block, name) is not None]
-    arrays = []
-    entries = []
-    for name in names:
-        array = np.asarray(getattr(block, name))
-        dtype = {"i": "int64", "f": "float64"}.get(array.dtype.kind, "float64")
-        if name == "calibration":
-            dtype = "int8"
+def encode_arrays(fields: Mapping[str, Any], n: int, arrays: Iterable[tuple[str, np.ndarray]]) -> bytes:
+    """A record of JSON-able ``fields`` and named ``arrays`` of ``n`` rows each (dtypes int64,
+    float64 or int8; others are refused)."""
+    entries, blobs = [], []
+    for name, array in arrays:
+        dtype = np.asarray(array).dtype.name
+        if dtype not in _DTYPES:
+            raise ValueError(f"array {name!r}: dtype {dtype} cannot be journaled")
         array = np.ascontiguousarray(array, dtype=_DTYPES[dtype])
+        if array.shape[:1] != (n,):
+            raise ValueError(f"array {name!r} has {array.shape[:1]} rows, not {n}")
         entries.append([name, dtype, list(array.shape[1:])])
-        arrays.append(array.tobytes())
-    header = json.dumps({"source": block.source, "sensor_id": block.sensor_id, "n": len(block),
-                         "arrays": entries}, separators=(",", ":")).encode("utf-8")
-    return _LENGTH.pack(len(header)) + header + b"".join(arrays)
+        blobs.append(array.tobytes())
+    header = json.dumps({**fields, "n": int(n), "arrays": entries}, separators=(",", ":")).encode("utf-8")
+    return _LENGTH.pack(len(header)) + header + b"".join(blobs)
 
 
-def decode_block(data: bytes) -> SampleBlock:
-    """The block encoded in ``data``; ``ValueError`` if the bytes are inconsistent."""
+def decode_arrays(data: bytes, what: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """The header fields and the arrays (name → copy, in record order) of a record made by
+    :func:`encode_arrays`; ``ValueError`` naming ``what`` (e.g. ``"truth record"``) when the
+    bytes are inconsistent."""
     try:
-        return _decode(data)
+        return _decode_arrays(data, what)
     except (TypeError, KeyError, AttributeError, OverflowError) as error:
-        raise ValueError(f"sample block record is malformed: {error}") from None
+        raise ValueError(f"{what} is malformed: {error}") from None
 
 
-def _decode(data: bytes) -> SampleBlock:
+def _decode_arrays(data: bytes, what: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     if len(data) < _LENGTH.size:
-        raise ValueError("sample block record too short")
+        raise ValueError(f"{what} is shorter than its header")
     (length,) = _LENGTH.unpack_from(data)
     try:
         header = json.loads(data[_LENGTH.size:_LENGTH.size + length].decode("utf-8"))
         n = int(header["n"])
         entries = header["arrays"]
     except (UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as error:
-        raise ValueError(f"sample block record has a bad header: {error}") from None
+        raise ValueError(f"{what} has a bad header: {error}") from None
+    if n < 0 or not isinstance(entries, list):
+        raise ValueError(f"{what} has a bad header")
     position = _LENGTH.size + length
     values: dict[str, np.ndarray] = {}
-    if n < 0 or not isinstance(entries, list):
-        raise ValueError("sample block record has a bad header")
     for name, dtype, tail in entries:
-        if name not in _TIME_ARRAYS + CHANNELS or dtype not in _DTYPES:
-            raise ValueError(f"sample block record has an unknown array {name!r} ({dtype})")
+        if dtype not in _DTYPES:
+            raise ValueError(f"{what} has an array {name!r} of unknown type {dtype!r}")
         shape = (n, *[int(v) for v in tail])
         if any(v < 0 for v in shape):
-            raise ValueError(f"sample block record has a negative shape for {name!r}")
+            raise ValueError(f"{what} has a negative shape for {name!r}")
         count = int(np.prod(shape))
         size = count * np.dtype(_DTYPES[dtype]).itemsize
         if position + size > len(data):
-            raise ValueError(f"sample block record is short in array {name!r}")
+            break
         values[name] = np.frombuffer(data, dtype=_DTYPES[dtype], count=count, offset=position).reshape(shape).copy()
         position += size
-    if position != len(data) or any(name not in values for name in _TIME_ARRAYS):
-        raise ValueError("sample block record has the wrong size")
+    if position != len(data) or len(values) != len(entries):
+        raise ValueError(f"{what} holds the wrong number of values for {n} rows")
+    return header, values
+
+
+def encode_block(block: SampleBlock) -> bytes:
+    """The record of ``block``: times int64/float64, channels float64, calibration int8."""
+    arrays = []
+    for name in _TIME_ARRAYS + CHANNELS:
+        value = getattr(block, name)
+        if value is not None:
+            value = np.asarray(value)
+            dtype = "int8" if name == "calibration" else "int64" if value.dtype.kind == "i" else "float64"
+            arrays.append((name, value.astype(_DTYPES[dtype], copy=False)))
+    return encode_arrays({"source": block.source, "sensor_id": block.sensor_id}, len(block), arrays)
+
+
+def decode_block(data: bytes) -> SampleBlock:
+    """The block encoded in ``data``; ``ValueError`` if the bytes are inconsistent."""
+    header, values = decode_arrays(data, "sample block record")
+    unknown = [name for name in values if name not in _TIME_ARRAYS + CHANNELS]
+    if unknown or "sensor_id" not in header or any(name not in values for name in _TIME_ARRAYS):
+        raise ValueError(f"sample block record has unknown arrays {unknown}, or lacks its sensor id or a "
+                         f"time array")
     return SampleBlock(source=str(header.get("source", "")), sensor_id=str(header["sensor_id"]), **values)

@@ -391,11 +391,10 @@ class SequenceUnwrapper:
         if self._last_wire is None:
             self._last_wire = int(wire_seq)
             return self._last_wire + self._offset
-        delta = (int(wire_seq) - self._last_wire) % self.MODULUS
-        if delta == 0 or delta >= self.MODULUS // 2:
-            return None
-        self._last_wire += delta
-        return self._last_wire + self._offset
+        seq = self.peek(wire_seq)
+        if seq is not None:
+            self._last_wire = seq - self._offset
+        return seq
 
     def peek(self, wire_seq: int) -> int | None:
         """What :meth:`unwrap` would number ``wire_seq`` (``None`` if stale or before the first

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_left
+from itertools import islice
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -169,7 +170,7 @@ class SensorStatsTracker:
         arrivals = self._arrivals
         first = (bisect_left(arrivals, t_from_s, key=_arrival_time) if self._arrivals_in_order
                  else 0)
-        kept = list(arrivals)[first:]
+        kept = list(islice(arrivals, first, None))
         brought = [after - before for (_t, before), (_u, after)
                    in zip(kept, kept[1:] + [(0.0, self.received)])]
         return [(t, n) for (t, _before), n in zip(kept, brought) if t >= t_from_s]

@@ -21,6 +21,7 @@ import numpy as np
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtWidgets
 
+from mimucap.gui.scrolling import scrolling
 from mimucap.session.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
 
 #: Plot refresh rate (Hz).
@@ -146,11 +147,7 @@ class LivePlots(QtWidgets.QWidget):
 
         self.layout_widget = pg.GraphicsLayoutWidget()
         # In a small window the plots keep a readable height and scroll.
-        self.scroll_area = QtWidgets.QScrollArea(self)
-        self.scroll_area.setFrameShape(QtWidgets.QFrame.NoFrame)
-        self.scroll_area.setHorizontalScrollBarPolicy(QtCore.Qt.ScrollBarAlwaysOff)
-        self.scroll_area.setWidgetResizable(True)
-        self.scroll_area.setWidget(self.layout_widget)
+        self.scroll_area = scrolling(self.layout_widget, self, horizontal=False)
         self.plots: dict[str, pg.PlotItem] = {}
         self.curves: dict[str, list[_Curve]] = {}
         self.cursors: dict[str, pg.InfiniteLine] = {}

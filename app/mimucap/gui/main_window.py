@@ -24,6 +24,7 @@ from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView
+from mimucap.gui.scrolling import scrolling
 from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.session_panel import SessionPanel
 from mimucap.gui.settings import gui_settings
@@ -68,16 +69,6 @@ ABOUT_TEXT = (
     "recording, review and export.</p>"
     "<p>Built with PyQt5, VTK, pyqtgraph, NumPy, SciPy and h5py.</p>"
 )
-
-
-def _scrolling(widget: QtWidgets.QWidget) -> QtWidgets.QScrollArea:
-    """``widget`` in a frameless scroll area: a small window scrolls it instead of being held
-    at its full height."""
-    area = QtWidgets.QScrollArea()
-    area.setFrameShape(QtWidgets.QFrame.NoFrame)
-    area.setWidgetResizable(True)
-    area.setWidget(widget)
-    return area
 
 
 def _wizard_classes() -> dict[str, type]:
@@ -144,7 +135,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.setCentralWidget(splitter)
 
         self.session_panel = SessionPanel(self)
-        self.session_dock = self._dock("Session", "sessionDock", _scrolling(self.session_panel),
+        self.session_dock = self._dock("Session", "sessionDock", scrolling(self.session_panel),
                                        QtCore.Qt.LeftDockWidgetArea)
         self.sensor_panel = SensorPanel(self)
         self.sensor_dock = self._dock("Sensors", "sensorDock", self.sensor_panel, QtCore.Qt.BottomDockWidgetArea)

@@ -52,12 +52,6 @@ class SensorPanel(QtWidgets.QTableWidget):
         self.horizontalHeader().setStretchLastSection(True)
         self._shown_ids: tuple[str, ...] = ()
 
-    def rows_height(self) -> int:
-        """Height (px) that shows the header and every row without scrolling."""
-        rows = sum(self.rowHeight(row) for row in range(self.rowCount()))
-        scrollbar = self.horizontalScrollBar().sizeHint().height() if self.horizontalScrollBar().isVisible() else 0
-        return self.horizontalHeader().height() + rows + 2 * self.frameWidth() + scrollbar
-
     def show_rows(self, rows: Sequence[SensorRow]) -> None:
         ids = tuple(row.sensor_id for row in rows)
         refit = ids != self._shown_ids

@@ -24,7 +24,9 @@ import numpy as np
 
 from mimucap.io.session import gyro_range_problem
 
-REQUIRED_DATASETS = ("imu_gyr", "imu_acc", "imu_mag")
+#: The IMU datasets a trial must hold, the magnetometer's only when it is used.
+INERTIAL_DATASETS = ("imu_gyr", "imu_acc")
+REQUIRED_DATASETS = INERTIAL_DATASETS + ("imu_mag",)
 #: Every dataset of a BROAD trial; any one of them marks a file as laid out like one.
 BROAD_DATASETS = REQUIRED_DATASETS + ("opt_quat", "opt_pos", "movement")
 #: What each required dataset holds: (N, 3) in the sensor frame.
@@ -122,14 +124,13 @@ def read_broad(path: str | Path, require_mag: bool = True) -> BroadTrial:
     except OSError as error:
         raise ValueError(f"{path}: not an HDF5 file ({error})") from None
     with handle:
-        required = REQUIRED_DATASETS if require_mag else ("imu_gyr", "imu_acc")
-        _check_channels(handle, path, required)
+        _check_channels(handle, path, REQUIRED_DATASETS if require_mag else INERTIAL_DATASETS)
         gyr = _dataset(handle, path, "imu_gyr", 3)
         problem = gyro_range_problem(gyr)
         if problem is not None:
             raise ValueError(f"{path}: imu_gyr: {problem}")
         acc = _dataset(handle, path, "imu_acc", 3)
-        mag = _dataset(handle, path, "imu_mag", 3) if "imu_mag" in handle or require_mag else None
+        mag = _dataset(handle, path, "imu_mag", 3) if "imu_mag" in handle else None  # present when required
         if gyr.shape != acc.shape or (mag is not None and mag.shape != gyr.shape):
             shapes = f"imu_gyr {gyr.shape}, imu_acc {acc.shape}" + ("" if mag is None else f", imu_mag {mag.shape}")
             raise ValueError(f"{path}: {shapes} must have the same number of rows")

@@ -29,7 +29,6 @@ import errno
 import json
 import math
 import os
-import struct
 import time
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -39,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.acquisition.block_codec import decode_block, encode_block
+from mimucap.acquisition.block_codec import decode_arrays, decode_block, encode_arrays, encode_block
 from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
 from mimucap.io.journal import JournalContents, JournalWriter, iter_journal
 from mimucap.io.session import Marker, SensorStream, Session, SessionTruth, read_session, write_session
@@ -53,8 +52,6 @@ KIND_MARKER = 3    #: JSON: {"t_s": host time, "label": ...}
 KIND_STATUS = 4    #: JSON: acquisition statistics at the end
 KIND_END = 5       #: JSON: why the recording ended
 KIND_TRUTH = 6     #: a block of the simulator's ground truth (:func:`encode_truth`)
-
-_TRUTH_HEADER = struct.Struct("<I")  # length of the truth record's JSON header
 
 
 @dataclass(frozen=True)
@@ -309,45 +306,37 @@ class _TruthPart:
     note: str
 
 
+#: Prefixes of a truth record's per-segment and per-column array names.
+_SEGMENT_PREFIX, _ANGLE_PREFIX = "q_world_from_segment:", "joint_angles_deg:"
+
+
 def encode_truth(host_s, q_world_from_segment: Mapping[str, np.ndarray], joint_angles_deg: Mapping[str, np.ndarray],
                  root_position_m, note: str = "") -> bytes:
-    """A truth block as a journal payload: u32 length of a JSON header (row count, segment
-    and joint-angle column names, note), the header, then float64 little-endian arrays in
-    this order: host times (n,), each segment's quaternions (n, 4), each angle column (n,),
-    root positions (n, 3)."""
-    host = np.asarray(host_s, dtype="<f8").reshape(-1)
+    """A truth block as a journal payload (:func:`~mimucap.acquisition.block_codec.encode_arrays`,
+    header field ``note``): float64 arrays ``host_s`` (n,), ``q_world_from_segment:<segment>``
+    (n, 4), ``joint_angles_deg:<column>`` (n,) and ``root_position_m`` (n, 3)."""
+    host = np.asarray(host_s, dtype=np.float64).reshape(-1)
     n = len(host)
-    segments, columns = list(q_world_from_segment), list(joint_angles_deg)
-    arrays = [host]
-    arrays += [np.asarray(q_world_from_segment[name], dtype="<f8").reshape(n, 4) for name in segments]
-    arrays += [np.asarray(joint_angles_deg[name], dtype="<f8").reshape(n) for name in columns]
-    arrays.append(np.asarray(root_position_m, dtype="<f8").reshape(n, 3))
-    header = json.dumps({"n": n, "segments": segments, "angles": columns, "note": str(note)}).encode("utf-8")
-    return _TRUTH_HEADER.pack(len(header)) + header + b"".join(a.tobytes() for a in arrays)
+    arrays = [("host_s", host)]
+    arrays += [(_SEGMENT_PREFIX + name, np.asarray(q, dtype=np.float64).reshape(n, 4))
+               for name, q in q_world_from_segment.items()]
+    arrays += [(_ANGLE_PREFIX + name, np.asarray(a, dtype=np.float64).reshape(n))
+               for name, a in joint_angles_deg.items()]
+    arrays.append(("root_position_m", np.asarray(root_position_m, dtype=np.float64).reshape(n, 3)))
+    return encode_arrays({"note": str(note)}, n, arrays)
 
 
 def decode_truth(payload: bytes) -> _TruthPart:
     """The inverse of :func:`encode_truth`; ``ValueError`` when the payload does not add up."""
-    if len(payload) < _TRUTH_HEADER.size:
-        raise ValueError("truth record shorter than its header")
-    (header_length,) = _TRUTH_HEADER.unpack_from(payload)
-    try:
-        header = json.loads(payload[_TRUTH_HEADER.size:_TRUTH_HEADER.size + header_length])
-        n, segments, columns = int(header["n"]), list(header["segments"]), list(header["angles"])
-    except (KeyError, TypeError, UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise ValueError(f"truth record header unreadable: {error}") from None
-    values = np.frombuffer(payload, dtype="<f8", offset=_TRUTH_HEADER.size + header_length) \
-        if (len(payload) - _TRUTH_HEADER.size - header_length) % 8 == 0 else None
-    if values is None or len(values) != n * (1 + 4 * len(segments) + len(columns) + 3):
-        raise ValueError(f"truth record holds the wrong number of values for {n} rows")
-    host, rest = values[:n], values[n:]
-    quaternions = {}
-    for name in segments:
-        quaternions[name], rest = rest[:4 * n].reshape(n, 4), rest[4 * n:]
-    angles = {}
-    for name in columns:
-        angles[name], rest = rest[:n], rest[n:]
-    return _TruthPart(host, quaternions, angles, rest.reshape(n, 3), str(header.get("note", "")))
+    header, arrays = decode_arrays(payload, "truth record")
+    if "host_s" not in arrays or "root_position_m" not in arrays:
+        raise ValueError("truth record lacks its host times or root positions")
+
+    def named(prefix: str) -> dict[str, np.ndarray]:
+        return {name[len(prefix):]: value for name, value in arrays.items() if name.startswith(prefix)}
+
+    return _TruthPart(arrays["host_s"], named(_SEGMENT_PREFIX), named(_ANGLE_PREFIX), arrays["root_position_m"],
+                      str(header.get("note", "")))
 
 
 def _joined_truth(parts: list[_TruthPart], t0: float) -> SessionTruth | None:

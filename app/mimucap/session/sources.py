@@ -57,8 +57,9 @@ def load_replay(path: str | Path) -> LoadedReplay:
     path = Path(path)
     if not path.exists():
         raise ValueError(f"replay file {path} does not exist")
-    if path.is_file() and (h5py.is_hdf5(path) or path.suffix.lower() in SESSION_SUFFIXES):
-        if not h5py.is_hdf5(path):
+    is_hdf5 = path.is_file() and h5py.is_hdf5(path)
+    if is_hdf5 or (path.is_file() and path.suffix.lower() in SESSION_SUFFIXES):
+        if not is_hdf5:
             raise ValueError(f"replay file {path}: not an HDF5 session (a MimuCap session is HDF5; "
                              f"replayed Xsens exports are .txt files)")
         return _session_streams(path)
