@@ -6,23 +6,24 @@ with 10 sensors (ten segments) and 17 sensors (fifteen segments), and 17 emulate
 boards in another process sending over loopback UDP (fifteen segments, poses from the
 sensors' orientations). Measured over ``MEASURE_S`` seconds after a warm-up:
 
-* 3D view frame rate (``Render()`` calls per second; target 60),
+* 3D view frame rate (pictures shown per second; target 60),
 * plot refresh rate (target >= 30 Hz),
-* CPU use of the GUI process (process CPU time / wall time; target < 50 % of one core;
-  under Xvfb the software OpenGL renderer runs inside this process and is counted),
-* latency from a sample's arrival (its host time) to the end of the ``Render()`` that shows
-  the pose it belongs to (p50/p95; target p95 < 30 ms),
+* CPU use of the GUI process (process CPU time / wall time; target < 50 % of one core),
+* latency from a sample's arrival (its host time) to the moment the picture of the pose it
+  belongs to is shown (p50/p95; target p95 < 30 ms),
 
-and each figure's ratio to its target (> 1 is better than the target). The CPU is also split by
-thread (Linux ``/proc``): the GUI thread, the software OpenGL rasteriser's threads (``llvmpipe-*``,
-work a GPU would do) and any others. The last line names the OpenGL implementation and what an
-empty 3D frame of the same size costs on it.
+and each figure's ratio to its target (> 1 is better than the target). The GUI process's CPU
+is split into the 3D view's part (sending the scene to the render process and showing its
+pictures, or drawing them itself), the plots' part (refreshing and painting) and the rest
+(pipeline, panels, Qt). ``render %`` is the CPU of the render process that draws the 3D view
+(``mimucap.gui.scene.render_process``): on this machine Mesa's software rasteriser, on a
+machine with a GPU mostly the GPU's work. ``total %`` is both processes.
 
-On software OpenGL the same loads then run again in a child process with Mesa's no-op driver
-(``GALLIUM_NOOP=true``: every OpenGL call is made, nothing is rasterised, read-backs return
-blank pictures). That second table estimates the window on a machine whose GPU does the
-drawing, *without* the GPU driver's own CPU cost: a lower bound, not a measurement on a GPU.
-``--without-rasteriser`` runs only that second pass.
+The same loads then run again in a child process with the 3D view drawn inside the GUI
+process (``MIMUCAP_RENDER_PROCESS=0``, the fallback when no render process can start), for
+comparison. ``--in-process`` runs only that pass; ``--without-rasteriser`` runs the loads on
+Mesa's no-op driver (``GALLIUM_NOOP=true``: every OpenGL call is made, nothing is rasterised),
+a lower bound for the drawing on a GPU.
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 from vtkmodules.vtkRenderingCore import vtkRenderer, vtkRenderWindow
 
 from mimucap.gui.main_window import MainWindow
+from mimucap.gui.scene.view import RENDER_PROCESS_VARIABLE, render_process_wanted
 from mimucap.session.live import open_live_session
 
 WARMUP_S = 2.0
@@ -63,26 +65,16 @@ def _free_udp_port() -> int:
     return port
 
 
-def thread_cpu_s() -> dict[str, float]:
-    """CPU time (s) so far of this process's threads by group: ``gui`` (the main thread),
-    ``gl`` (Mesa's llvmpipe rasteriser threads), ``other``; empty where ``/proc`` is missing."""
-    groups = {"gui": 0.0, "gl": 0.0, "other": 0.0}
-    ticks = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+def process_cpu_s(pid: int | None) -> float:
+    """CPU time (s) so far of process ``pid`` (Linux ``/proc``; NaN when unknown)."""
+    if pid is None:
+        return float("nan")
     try:
-        tasks = os.listdir("/proc/self/task")
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
     except OSError:
-        return {}
-    for tid in tasks:
-        try:
-            with open(f"/proc/self/task/{tid}/comm") as f:
-                name = f.read().strip()
-            with open(f"/proc/self/task/{tid}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-        except OSError:
-            continue  # the thread ended meanwhile
-        group = "gui" if int(tid) == os.getpid() else "gl" if name.startswith("llvmpipe") else "other"
-        groups[group] += (int(fields[11]) + int(fields[12])) / ticks  # utime + stime
-    return groups
+        return float("nan")
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def run(window: MainWindow, prepare=None) -> dict[str, float]:
@@ -92,51 +84,68 @@ def run(window: MainWindow, prepare=None) -> dict[str, float]:
     window.start()
     latencies: list[float] = []
     state = {"measuring": False}
+    data_time: dict[object, float] = {}  # frame id -> host time (s) of the newest sample in it
+    view = window.scene_view
 
     def on_render(now_perf: float) -> None:
-        live = window.live
-        if state["measuring"] and live is not None and live.time_s == live.time_s:
-            latencies.append(time.monotonic() - (live.t0_host_s + live.time_s))
+        arrived = data_time.get(view.shown_frame_id)
+        if state["measuring"] and arrived is not None:
+            latencies.append(time.monotonic() - arrived)
 
-    window.scene_view.frame_rendered.connect(on_render)
+    view.frame_rendered.connect(on_render)
     spent = {"3d": 0.0, "plots": 0.0}
 
     def timed(part: str, function):
-        def wrapper(*args):
+        def wrapper(*args, **kwargs):
             start = time.process_time()
             try:
-                return function(*args)
+                return function(*args, **kwargs)
             finally:
                 if state["measuring"]:
                     spent[part] += time.process_time() - start
         return wrapper
 
-    view = window.scene_view.vtk_widget
+    # The 3D view's cost in this process: drawing here, or sending the scene to the render
+    # process and showing its pictures.
     view.render = timed("3d", view.render)
+    if view.render_client is not None:
+        view.vtk_widget.show_frame = timed("3d", view.vtk_widget.show_frame)
     window.plots.refresh = timed("plots", window.plots.refresh)
     painting = _PaintTimer(window.plots.layout_widget, spent, state)
     _run_event_loop(WARMUP_S)
     if prepare is not None:
         prepare(window)
         _run_event_loop(WARMUP_S)
-    frames0, plots0 = window.scene_view.frames_rendered, window.plots.refresh_count
-    wall0, cpu0, threads0 = time.perf_counter(), time.process_time(), thread_cpu_s()
+    live = window.live
+
+    def frame_with_its_time():
+        frame = live.frame()
+        if frame is not None and live.time_s == live.time_s:
+            data_time.setdefault(frame[0], live.t0_host_s + live.time_s)
+        return frame
+
+    view.set_frame_provider(frame_with_its_time)
+    _run_event_loop(0.5)
+    render_pid = view.render_client.pid if view.render_client is not None else None
+    frames0, plots0 = view.frames_rendered, window.plots.refresh_count
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    render0 = process_cpu_s(render_pid)
     state["measuring"] = True
     _run_event_loop(MEASURE_S)
     wall = time.perf_counter() - wall0
     cpu = time.process_time() - cpu0
-    threads = {group: 100.0 * (value - threads0[group]) / wall for group, value in thread_cpu_s().items()}
     result = {
-        "fps": (window.scene_view.frames_rendered - frames0) / wall,
+        "fps": (view.frames_rendered - frames0) / wall,
         "plot_hz": (window.plots.refresh_count - plots0) / wall,
         "cpu_pct": 100.0 * cpu / wall,
+        "render_pct": 100.0 * (process_cpu_s(render_pid) - render0) / wall,
+        "render_failure": view.render_failure,
         "lat_p50_ms": 1000.0 * float(np.percentile(latencies, 50)) if latencies else float("nan"),
         "lat_p95_ms": 1000.0 * float(np.percentile(latencies, 95)) if latencies else float("nan"),
         "segments": len(window.live.model.segment_names),
-        "view": window.scene_view.vtk_widget.render_window.GetSize(),
+        "view": view.vtk_widget.render_window.GetSize(),
         "cpu_3d_pct": 100.0 * spent["3d"] / wall,
         "cpu_plots_pct": 100.0 * spent["plots"] / wall,
-        "threads_pct": threads,
     }
     window.close()
     del painting
@@ -227,52 +236,58 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--load", choices=LOADS, action="append",
                         help="run only this load (repeatable); default: all three. To compare two "
                              "versions, alternate single-load runs with PYTHONPATH=<other checkout>/app.")
+    parser.add_argument("--in-process", action="store_true",
+                        help="only draw the 3D view inside the GUI process (MIMUCAP_RENDER_PROCESS=0)")
     parser.add_argument("--without-rasteriser", action="store_true",
-                        help="run the loads with Mesa's no-op driver only (see the module doc)")
+                        help="run the loads with Mesa's no-op driver (see the module doc)")
     args = parser.parse_args(argv)
-    no_op = os.environ.get("GALLIUM_NOOP") == "true"  # this process draws nothing
-    if args.without_rasteriser and not no_op:
-        return _run_without_rasteriser(args.load)
+    if args.in_process and os.environ.get(RENDER_PROCESS_VARIABLE) != "0":
+        return _run_again(args, {RENDER_PROCESS_VARIABLE: "0"})
+    if args.without_rasteriser and os.environ.get("GALLIUM_NOOP") != "true":
+        return _run_again(args, {"GALLIUM_NOOP": "true"})
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["bench_gui"])
-    if no_op:
-        print("Without rasterisation (Mesa's no-op driver): a lower bound for the same window on a GPU")
-    else:
-        print(f"GUI benchmark: main window 1280x800, 4 live plots, 100 Hz sensors, {MEASURE_S:.0f} s per load")
+    in_process = not render_process_wanted()
+    where = "drawn in the GUI process" if in_process else "drawn by the render process"
+    nothing = ", Mesa's no-op driver (nothing rasterised)" if os.environ.get("GALLIUM_NOOP") == "true" else ""
+    print(f"GUI benchmark: main window 1280x800, 4 live plots, 100 Hz sensors, {MEASURE_S:.0f} s per load; "
+          f"3D view {where}{nothing}")
     print(f"{'load':<40}{'fps':>7}{'/60':>6}{'plot Hz':>9}{'/30':>6}{'CPU %':>8}{'50/CPU':>8}"
           f"{'lat p50':>9}{'lat p95':>9}{'30/p95':>8}{'3D %':>7}{'plots %':>9}{'rest %':>8}"
-          f"{'GUI thr.':>10}{'GL thr.':>9}")
+          f"{'render %':>10}{'total %':>9}")
     loads = [(name, run_load) for key, (name, run_load) in LOADS.items() if not args.load or key in args.load]
     view = None
     for name, load in loads:
         r = load()
         view = r["view"]
         label = f"{name}, {r['segments']} seg."
+        render = r["render_pct"] if r["render_pct"] == r["render_pct"] else 0.0
         print(f"{label:<40}{r['fps']:7.1f}{r['fps'] / 60:6.2f}{r['plot_hz']:9.1f}{r['plot_hz'] / 30:6.2f}"
               f"{r['cpu_pct']:8.0f}{50 / r['cpu_pct']:8.2f}{r['lat_p50_ms']:9.1f}{r['lat_p95_ms']:9.1f}"
               f"{30 / r['lat_p95_ms']:8.2f}{r['cpu_3d_pct']:7.0f}{r['cpu_plots_pct']:9.0f}"
               f"{r['cpu_pct'] - r['cpu_3d_pct'] - r['cpu_plots_pct']:8.0f}"
-              f"{r['threads_pct'].get('gui', float('nan')):10.0f}{r['threads_pct'].get('gl', float('nan')):9.0f}")
+              f"{r['render_pct']:10.0f}{r['cpu_pct'] + render:9.0f}")
+        if r["render_failure"]:
+            print(f"  the render process failed ({r['render_failure']}); the 3D view was drawn in the GUI process")
     renderer, empty = empty_frame_cpu_ms(tuple(view))
-    if not no_op:
-        print("CPU % is of one core (process CPU time / wall time); 3D = rendering and reading back the 3D view,")
-        print("plots = refreshing and painting the plots, rest = pipeline (fusion, angles), panels, Qt;")
-        print("GUI thr. = the main thread, GL thr. = the software rasteriser's threads (a GPU's work), % of a core.")
+    print("CPU % = the GUI process (process CPU time / wall time, % of one core): 3D = the 3D view's part,")
+    print("plots = refreshing and painting the plots, rest = pipeline (fusion, angles), panels, Qt;")
+    print("render % = the render process (a GPU's work on a machine with one); total % = both.")
     print(f"OpenGL: {renderer}; an empty {view[0]}x{view[1]} 3D frame costs {empty:.2f} ms of CPU "
           f"({empty * 60 / 10:.0f} % of a core at 60 fps)")
     app.processEvents()
-    if "llvmpipe" in renderer:  # software OpenGL: estimate the window without its work
+    if not in_process and not args.in_process and not args.without_rasteriser:
         print()
         sys.stdout.flush()
-        return _run_without_rasteriser(args.load)
+        return _run_again(args, {RENDER_PROCESS_VARIABLE: "0"})
     return 0
 
 
-def _run_without_rasteriser(loads: list[str] | None) -> int:
-    """Run ``loads`` (all when ``None``) again in a child process on Mesa's no-op driver."""
-    command = [sys.executable, str(Path(__file__).resolve()), "--without-rasteriser"]
-    for load in loads or ():
+def _run_again(args: argparse.Namespace, env: dict[str, str]) -> int:
+    """Run the chosen loads again in a child process with ``env`` added to the environment."""
+    command = [sys.executable, str(Path(__file__).resolve())]
+    for load in args.load or ():
         command += ["--load", load]
-    return subprocess.call(command, env={**os.environ, "GALLIUM_NOOP": "true"})
+    return subprocess.call(command, env={**os.environ, **env})
 
 
 if __name__ == "__main__":

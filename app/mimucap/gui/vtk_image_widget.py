@@ -106,10 +106,12 @@ class VtkImageWidget(QtWidgets.QWidget):
         self.interactor.SetInteractorStyle(vtkInteractorStyleTrackballCamera())
         self._pixels = vtkUnsignedCharArray()
         self._image: QtGui.QImage | None = None
-        self._buffer: np.ndarray | None = None  # keeps the QImage's memory alive
+        self._buffer: np.ndarray | None = None  # the copy of the last frame (show_frame)
+        self._image_source: np.ndarray | None = None  # the memory the QImage shows, kept alive
         self._initialized = False
         self._finalized = False
         self._reading = False
+        self._remote = None
         self.label_provider: Callable[[], Sequence[OverlayLabel]] | None = None
         self.label_point_size = 10.0
         self._labels: tuple[OverlayLabel, ...] = ()
@@ -138,32 +140,74 @@ class VtkImageWidget(QtWidgets.QWidget):
         return self._finalized
 
     def render(self) -> None:
-        """Draw one frame now (nothing after :meth:`Finalize`)."""
+        """Draw one frame now and show it (nothing after :meth:`Finalize`); with a remote
+        renderer (:meth:`set_remote`), wait until its picture is shown."""
         if self._finalized:
             return
         self.Initialize()
-        self.render_window.Render()
+        if self._remote is not None:
+            self._remote.render(wait=True)
+        else:
+            self.render_window.Render()
 
     # -- read-back and painting ----------------------------------------------------------------
     def _on_render_end(self, _caller, _event) -> None:
-        if self._reading or self._finalized:
+        if self._reading or self._finalized or self._remote is not None:
             return
         self._reading = True
         try:
             width, height = self.render_window.GetSize()
             self.render_window.GetRGBACharPixelData(0, 0, width - 1, height - 1, 0, self._pixels, 0)
             rgba = vtk_to_numpy(self._pixels).reshape(height, width, 4)
-            if self._buffer is None or self._buffer.shape != rgba.shape:
-                self._buffer = np.empty_like(rgba)
-                self._image = QtGui.QImage(self._buffer.data, width, height, 4 * width,
-                                           QtGui.QImage.Format_RGBX8888)
-                self._image.setDevicePixelRatio(self.devicePixelRatioF())
-            np.copyto(self._buffer, rgba[::-1])  # VTK's rows run bottom-up
-            self._labels = tuple(self.label_provider()) if self.label_provider is not None else ()
+            labels = tuple(self.label_provider()) if self.label_provider is not None else ()
+            self.show_frame(rgba[::-1], labels)  # VTK's rows run bottom-up
         finally:
             self._reading = False
+
+    def show_frame(self, pixels: np.ndarray, labels: Sequence[OverlayLabel] = (),
+                   image_format: QtGui.QImage.Format = QtGui.QImage.Format_RGBX8888, copy: bool = True) -> None:
+        """Show the picture ``pixels`` ``(height, width, 4)`` (bytes in ``image_format``, rows
+        from the top) with ``labels`` over it, and emit :attr:`rendered`. With ``copy=False``
+        the widget shows ``pixels`` in place: the caller keeps that memory valid and unchanged
+        until the next call."""
+        height, width = pixels.shape[:2]
+        if copy:
+            if self._buffer is None or self._buffer.shape != pixels.shape:
+                self._buffer = np.empty((height, width, 4), dtype=np.uint8)
+            np.copyto(self._buffer, pixels)
+            pixels = self._buffer
+        if self._image is None or self._image_source is not pixels or self._image.format() != image_format:
+            self._image = QtGui.QImage(pixels.data, width, height, 4 * width, image_format)
+            self._image.setDevicePixelRatio(self.devicePixelRatioF())
+            self._image_source = pixels
+        self._labels = tuple(labels)
         self.update()
         self.rendered.emit()
+
+    # -- drawing in another process -------------------------------------------------------------
+    def set_remote(self, remote) -> None:
+        """Have ``remote`` draw the pictures from now on (``None``: draw here again).
+
+        ``remote`` has ``render(wait: bool)``, which draws the scene as it is now and brings the
+        picture back through :meth:`show_frame` (e.g. a
+        :class:`~mimucap.gui.scene.render_client.RenderClient`). This window then never draws:
+        the mouse still turns the camera here, and each turn asks ``remote`` for a frame."""
+        self._remote = remote
+        if remote is None:
+            self.interactor.EnableRenderOn()
+        else:
+            self.interactor.EnableRenderOff()
+
+    @property
+    def remote(self):
+        """Who draws the pictures (``None``: this widget)."""
+        return self._remote
+
+    def _camera_moved(self) -> None:
+        """After a mouse event: a frame from the remote renderer (VTK's interactor style renders
+        by itself when this widget draws)."""
+        if self._remote is not None:
+            self._remote.render(wait=False)
 
     def set_hint(self, text: str) -> None:
         """Show ``text`` in the middle of the picture (``""`` removes it); repaints only when it
@@ -254,7 +298,9 @@ class VtkImageWidget(QtWidgets.QWidget):
         self.render_window.SetSize(width, height)
         self.interactor.SetSize(width, height)
         self.interactor.ConfigureEvent()
-        if self._initialized:
+        if self._initialized and self._remote is not None:
+            self._remote.render(wait=False)
+        elif self._initialized:
             self.render()
 
     # -- mouse -----------------------------------------------------------------------------------
@@ -274,6 +320,7 @@ class VtkImageWidget(QtWidgets.QWidget):
         self.Initialize()
         self._set_event_position(event, repeat=1 if event.type() == QtCore.QEvent.MouseButtonDblClick else 0)
         getattr(self.interactor, names[0])()
+        self._camera_moved()
 
     mouseDoubleClickEvent = mousePressEvent
 
@@ -283,12 +330,15 @@ class VtkImageWidget(QtWidgets.QWidget):
             return
         self._set_event_position(event)
         getattr(self.interactor, names[1])()
+        self._camera_moved()
 
     def mouseMoveEvent(self, event: QtGui.QMouseEvent) -> None:  # noqa: N802
         if self._finalized:
             return
         self._set_event_position(event)
         self.interactor.MouseMoveEvent()
+        if event.buttons():
+            self._camera_moved()
 
     def wheelEvent(self, event: QtGui.QWheelEvent) -> None:  # noqa: N802
         if self._finalized:
@@ -299,3 +349,4 @@ class VtkImageWidget(QtWidgets.QWidget):
             self.interactor.MouseWheelForwardEvent()
         elif event.angleDelta().y() < 0:
             self.interactor.MouseWheelBackwardEvent()
+        self._camera_moved()

@@ -185,6 +185,18 @@ def _line_actor(lines: vtkPolyData, user_matrix: vtkMatrix4x4) -> vtkActor:
     return actor
 
 
+def scene_renderer() -> vtkRenderer:
+    """A renderer set up for the skeleton scene (the live view and any mirror of it draw alike).
+
+    No FXAA, and no frustum culling: every prop stands in or near the view, and VTK's culler
+    would compute all their bounds on every frame to find that out (2 % of a core at 60
+    frames per second)."""
+    renderer = vtkRenderer()
+    renderer.SetUseFXAA(False)
+    renderer.GetCullers().RemoveAllItems()
+    return renderer
+
+
 class Stage:
     """Floor, axes, lights and background of ``renderer``."""
 
@@ -259,6 +271,20 @@ class Stage:
         if not self.axes.GetVisibility():
             return (), np.zeros((0, 3))
         return AXIS_NAMES, self._label_points
+
+    def placement(self) -> tuple[np.ndarray, np.ndarray, bool, bool]:
+        """The floor grids' and the axes' ``(4, 4)`` scene matrices, and whether floor and axes
+        are shown: all that :meth:`set_placement` needs to show the same stage elsewhere."""
+        return (np.array(self.floor_matrix.GetData()).reshape(4, 4), np.array(self.axes_matrix.GetData()).reshape(4, 4),
+                bool(self.grid.GetVisibility()), bool(self.axes.GetVisibility()))
+
+    def set_placement(self, floor_matrix, axes_matrix, floor_visible: bool, axes_visible: bool) -> None:
+        """Show the stage as :meth:`placement` of another stage described it."""
+        self.floor_matrix.DeepCopy(np.asarray(floor_matrix, dtype=float).ravel())
+        self.axes_matrix.DeepCopy(np.asarray(axes_matrix, dtype=float).ravel())
+        for actor in (self.grid, self.fine_grid, self.axes):
+            actor.Modified()
+        self.set_visible(floor_visible, axes_visible)
 
     def set_visible(self, floor: bool, axes: bool) -> None:
         """Show or hide the floor grid and the world axes."""

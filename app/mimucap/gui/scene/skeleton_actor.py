@@ -137,7 +137,8 @@ class SkeletonActor:
 
     Args:
         renderer: the VTK renderer of the 3D view.
-        builder: the :class:`FigureBuilder` whose geometry this figure shows (names fixed).
+        builder: the :class:`FigureBuilder` whose geometry this figure shows (names fixed), or
+            anything with its ``segment_names``, ``connector_names`` and ``joint_names``.
     """
 
     def __init__(self, renderer: vtkRenderer, builder: FigureBuilder) -> None:
@@ -253,6 +254,29 @@ class SkeletonActor:
         self._shaded[:] = shaded
         self._vtk_shaded.Modified()
         self.polydata.Modified()
+
+    def drawn_arrays(self) -> dict[str, np.ndarray]:
+        """Copies of what is drawn: ``points`` ``(n, 3)`` capsule vertices (scene frame, metres),
+        ``shaded`` ``(n, 3)`` their lit colours (RGB bytes), ``centres`` ``(m, 3)`` and ``radii``
+        ``(m,)`` of the spheres (metres), ``sphere_colours`` ``(m, 3)`` (RGB bytes)."""
+        return {"points": self._points.copy(), "shaded": self._shaded.copy(), "centres": self._centres.copy(),
+                "radii": self._radii.copy(), "sphere_colours": self._sphere_colours.copy()}
+
+    def draw_arrays(self, arrays: Mapping[str, np.ndarray], visible: bool = True) -> None:
+        """Draw the arrays :meth:`drawn_arrays` of a figure with the same layout gave (a mirror
+        of that figure, e.g. in a render process); raises ``ValueError`` on a shape mismatch."""
+        for name, target in (("points", self._points), ("shaded", self._shaded), ("centres", self._centres),
+                             ("radii", self._radii), ("sphere_colours", self._sphere_colours)):
+            values = np.asarray(arrays[name])
+            if values.shape != target.shape:
+                raise ValueError(f"figure array {name} has shape {values.shape}, this figure needs {target.shape}")
+            target[:] = values
+        for array in (self._vtk_points, self._vtk_shaded, self._vtk_centres, self._vtk_radii, self._vtk_sphere_colours):
+            array.Modified()
+        self.polydata.Modified()
+        self.sphere_polydata.Modified()
+        self.actor.SetVisibility(visible)
+        self.sphere_actor.SetVisibility(visible)
 
     def spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centres ``(n, 3)`` (scene frame, metres) and radii ``(n,)`` of the joint spheres,

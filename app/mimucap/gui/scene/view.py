@@ -12,6 +12,8 @@ After :meth:`SceneView.shutdown` (called on close) nothing renders again.
 
 from __future__ import annotations
 
+import logging
+import os
 import time
 from collections.abc import Callable, Mapping
 
@@ -20,11 +22,26 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkRenderingCore import vtkRenderer
 
-from mimucap.gui.scene.environment import Stage
+from mimucap.gui.scene.environment import Stage, scene_renderer
+from mimucap.gui.scene.render_client import RenderClient
+from mimucap.gui.scene.scene_state import FigureLayout, SceneState, capture_scene
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
 from mimucap.gui.vtk_image_widget import OverlayLabel, VtkImageWidget
 from mimucap.session.camera import CAMERA_PRESETS, camera_preset, follow_shift
 from mimucap.session.figure import FigureBuilder, FigureGeometry, plain_world_matrix
+
+log = logging.getLogger(__name__)
+
+#: Environment variable: ``0`` has every 3D view draw in the GUI process instead of a render
+#: process (e.g. where starting processes is not allowed).
+RENDER_PROCESS_VARIABLE = "MIMUCAP_RENDER_PROCESS"
+
+
+def render_process_wanted() -> bool:
+    """Whether a new 3D view draws in a render process (the default; see
+    :data:`RENDER_PROCESS_VARIABLE`)."""
+    return os.environ.get(RENDER_PROCESS_VARIABLE, "1").strip() not in ("0", "no", "false", "off")
+
 
 #: How far beyond the focal point the far plane lies (m): the whole floor grid.
 CLIPPING_FAR_M = 45.0
@@ -56,13 +73,24 @@ def world_to_display(renderer: vtkRenderer, points: np.ndarray) -> np.ndarray:
 class SceneView(QtWidgets.QWidget):
     """The skeleton's 3D view.
 
+    The pictures are drawn by a render process (:mod:`mimucap.gui.scene.render_process`)
+    holding a mirror of this scene, unless ``render_process`` is false (default:
+    :func:`render_process_wanted`) or that process fails, in which case the view draws in
+    this process and says why in :attr:`render_failure`. Either way the scene (camera,
+    stage, figure) lives here.
+
+    Attributes:
+        frames_rendered: pictures shown so far.
+        shown_frame_id: the frame id (from the frame provider) of the picture on screen.
+
     Signals:
-        frame_rendered(float): emitted after each ``Render()`` with ``time.perf_counter()``.
+        frame_rendered(float): emitted when a new picture is shown, with ``time.perf_counter()``.
     """
 
     frame_rendered = QtCore.pyqtSignal(float)
 
-    def __init__(self, parent: QtWidgets.QWidget | None = None, target_fps: float = 60.0) -> None:
+    def __init__(self, parent: QtWidgets.QWidget | None = None, target_fps: float = 60.0,
+                 render_process: bool | None = None) -> None:
         super().__init__(parent)
         self.setObjectName("sceneView")
         self.target_fps = float(target_fps)
@@ -72,11 +100,7 @@ class SceneView(QtWidgets.QWidget):
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.vtk_widget)
         self.render_window = self.vtk_widget.render_window
-        self.renderer = vtkRenderer()
-        self.renderer.SetUseFXAA(False)
-        # Every prop stands in or near the view; VTK's frustum culler would compute all
-        # their bounds on every frame to find that out (2 % of a core at 60 frames/s).
-        self.renderer.GetCullers().RemoveAllItems()
+        self.renderer = scene_renderer()
         self.render_window.AddRenderer(self.renderer)
         self.stage = Stage(self.renderer)
         self.vtk_widget.label_provider = self._axis_labels
@@ -99,7 +123,15 @@ class SceneView(QtWidgets.QWidget):
         self._initialized = False
         self._running = False
         self.frames_rendered = 0
-        self.render_times: list[float] = []  # perf_counter() of recent renders (bounded)
+        self.shown_frame_id: object = None
+        self.render_times: list[float] = []  # perf_counter() of recent frames shown (bounded)
+        self.render_failure: str | None = None
+        self.render_client: RenderClient | None = None
+        if render_process_wanted() if render_process is None else render_process:
+            self.render_client = RenderClient(self.vtk_widget, self._scene_state)
+            self.render_client.failed.connect(self._render_here)
+            self.render_client.frame_shown.connect(self._frame_shown)
+            self.vtk_widget.set_remote(self.render_client)
 
         self._timer = QtCore.QTimer(self)
         self._timer.setTimerType(QtCore.Qt.PreciseTimer)
@@ -113,6 +145,8 @@ class SceneView(QtWidgets.QWidget):
             self.skeleton.remove()
         self._builder = builder
         self.skeleton = SkeletonActor(self.renderer, builder)
+        if self.render_client is not None:
+            self.render_client.set_figure(FigureLayout.of(builder))
         self._last_frame_id = None
         # Until the first frame, look at the floor where the subject will stand; the preset is
         # applied again around the figure's root when it arrives.
@@ -189,6 +223,20 @@ class SceneView(QtWidgets.QWidget):
         distance = camera.GetDistance()
         camera.SetClippingRange(max(0.01, 0.02 * distance), distance + CLIPPING_FAR_M)
 
+    def _scene_state(self) -> SceneState:
+        """The scene now, lit from the camera, for the render process."""
+        self._light_figure()
+        return capture_scene(self.renderer, self.stage, self.skeleton)
+
+    def _render_here(self, reason: str) -> None:
+        """The render process failed (``reason``): draw in this process from now on."""
+        self.render_failure = reason
+        self.render_client = None
+        self.vtk_widget.set_remote(None)
+        self._dirty = True
+        if self._running:
+            self.render()
+
     def _light_figure(self, _caller=None, _event=None) -> None:
         if self.skeleton is not None:
             self.skeleton.shade(-np.asarray(self.renderer.GetActiveCamera().GetDirectionOfProjection()))
@@ -259,13 +307,22 @@ class SceneView(QtWidgets.QWidget):
             self.render()
 
     def render(self) -> None:
-        """Render one frame now (does nothing after :meth:`shutdown` or before show)."""
+        """Draw one frame of the scene as it is now (does nothing after :meth:`shutdown` or
+        before show). In this process the picture is shown on return; from the render process
+        it follows (:attr:`frame_rendered`) while this returns at once."""
         if not self._alive or not self.isVisible():
             return
         self._set_clipping_range()
-        self.vtk_widget.render()
         self._dirty = False
+        if self.render_client is not None:
+            self.render_client.render(tag=self._last_frame_id)
+        else:
+            self.vtk_widget.render()
+            self._frame_shown(self._last_frame_id)
+
+    def _frame_shown(self, frame_id: object) -> None:
         self.frames_rendered += 1
+        self.shown_frame_id = frame_id
         now = time.perf_counter()
         self.render_times.append(now)
         if len(self.render_times) > 600:
@@ -280,6 +337,10 @@ class SceneView(QtWidgets.QWidget):
         self._alive = False
         self._provider = None
         self._tint_provider = None
+        if self.render_client is not None:
+            self.render_client.close()
+            self.render_client = None
+            self.vtk_widget.set_remote(None)
         self.vtk_widget.Finalize()
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
