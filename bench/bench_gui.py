@@ -260,12 +260,14 @@ def main(argv: list[str] | None = None) -> int:
         r = load()
         view = r["view"]
         label = f"{name}, {r['segments']} seg."
-        render = r["render_pct"] if r["render_pct"] == r["render_pct"] else 0.0
+        drawn_apart = r["render_pct"] == r["render_pct"]  # NaN without a render process
+        render = r["render_pct"] if drawn_apart else 0.0
+        render_column = f"{render:.0f}" if drawn_apart else "-"
         print(f"{label:<40}{r['fps']:7.1f}{r['fps'] / 60:6.2f}{r['plot_hz']:9.1f}{r['plot_hz'] / 30:6.2f}"
               f"{r['cpu_pct']:8.0f}{50 / r['cpu_pct']:8.2f}{r['lat_p50_ms']:9.1f}{r['lat_p95_ms']:9.1f}"
               f"{30 / r['lat_p95_ms']:8.2f}{r['cpu_3d_pct']:7.0f}{r['cpu_plots_pct']:9.0f}"
               f"{r['cpu_pct'] - r['cpu_3d_pct'] - r['cpu_plots_pct']:8.0f}"
-              f"{r['render_pct']:10.0f}{r['cpu_pct'] + render:9.0f}")
+              f"{render_column:>10}{r['cpu_pct'] + render:9.0f}")
         if r["render_failure"]:
             print(f"  the render process failed ({r['render_failure']}); the 3D view was drawn in the GUI process")
     renderer, empty = empty_frame_cpu_ms(tuple(view))

@@ -164,3 +164,13 @@ def test_closing_the_view_stops_the_render_process_and_removes_its_frame_files(q
     assert not any(os.path.exists(path) for path in paths)
     assert not os.path.exists(f"/proc/{pid}")  # ended and reaped
     view.render()  # nothing renders after close
+
+
+def test_the_main_window_says_when_its_3d_view_is_drawn_by_the_window_itself(qtbot, window):
+    view = window.scene_view
+    qtbot.waitUntil(lambda: view.frames_rendered >= 2, timeout=30000)
+    assert view.render_client is not None
+    os.kill(view.render_client.pid, signal.SIGKILL)
+    qtbot.waitUntil(lambda: "render process stopped" in window.statusBar().currentMessage(), timeout=10000)
+    shown = view.frames_rendered
+    qtbot.waitUntil(lambda: view.frames_rendered > shown + 5, timeout=5000)  # live, drawn here now

@@ -14,6 +14,11 @@ Shift+left, zoom with the right one or the wheel). Every ``Render()`` of the win
 whoever asks for it (this widget, the interactor style, a screenshot), is read back and
 painted. Because the picture is an ordinary Qt image, ``QWidget.grab()`` sees it too.
 
+The pictures may also be drawn elsewhere (:meth:`VtkImageWidget.set_remote`): the skeleton view
+has a render process draw them (``mimucap.gui.scene.render_client``) and hands them to
+:meth:`VtkImageWidget.show_frame`; this widget's own window then never draws, its camera still
+follows the mouse, and each turn asks for a new picture.
+
 Text labels anchored in the scene (e.g. the names of the world axes) are painted by Qt over the
 picture (:class:`OverlayLabel`, from :attr:`VtkImageWidget.label_provider` after every frame):
 VTK's caption actors re-rasterised their text and rebuilt their shaders on every frame in

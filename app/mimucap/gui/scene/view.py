@@ -43,6 +43,12 @@ def render_process_wanted() -> bool:
     return os.environ.get(RENDER_PROCESS_VARIABLE, "1").strip() not in ("0", "no", "false", "off")
 
 
+def drawing_moved_message(reason: str) -> str:
+    """What a window's status bar says when its 3D view's render process failed (``reason``)."""
+    return (f"The 3D view's render process stopped ({reason}); this window now draws the view itself, "
+            "which takes more of the processor. Restart MimuCap to draw it apart again.")
+
+
 #: How far beyond the focal point the far plane lies (m): the whole floor grid.
 CLIPPING_FAR_M = 45.0
 
@@ -85,9 +91,12 @@ class SceneView(QtWidgets.QWidget):
 
     Signals:
         frame_rendered(float): emitted when a new picture is shown, with ``time.perf_counter()``.
+        drawing_moved_here(str): the render process failed (the reason); the view now draws
+            in this process.
     """
 
     frame_rendered = QtCore.pyqtSignal(float)
+    drawing_moved_here = QtCore.pyqtSignal(str)
 
     def __init__(self, parent: QtWidgets.QWidget | None = None, target_fps: float = 60.0,
                  render_process: bool | None = None) -> None:
@@ -236,6 +245,7 @@ class SceneView(QtWidgets.QWidget):
         self._dirty = True
         if self._running:
             self.render()
+        self.drawing_moved_here.emit(reason)
 
     def _light_figure(self, _caller=None, _event=None) -> None:
         if self.skeleton is not None:
