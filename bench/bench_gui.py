@@ -41,6 +41,7 @@ from PyQt5 import QtCore, QtWidgets
 from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
 from vtkmodules.vtkRenderingCore import vtkRenderer, vtkRenderWindow
 
+from bench_acquisition import cpu_seconds  # bench/ is on sys.path when a bench script runs
 from mimucap.gui.main_window import MainWindow
 from mimucap.gui.scene.view import RENDER_PROCESS_VARIABLE, render_process_wanted
 from mimucap.session.live import open_live_session
@@ -63,18 +64,6 @@ def _free_udp_port() -> int:
     port = probe.getsockname()[1]
     probe.close()
     return port
-
-
-def process_cpu_s(pid: int | None) -> float:
-    """CPU time (s) so far of process ``pid`` (Linux ``/proc``; NaN when unknown)."""
-    if pid is None:
-        return float("nan")
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-    except OSError:
-        return float("nan")
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def run(window: MainWindow, prepare=None) -> dict[str, float]:
@@ -129,7 +118,7 @@ def run(window: MainWindow, prepare=None) -> dict[str, float]:
     render_pid = view.render_client.pid if view.render_client is not None else None
     frames0, plots0 = view.frames_rendered, window.plots.refresh_count
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    render0 = process_cpu_s(render_pid)
+    render0 = cpu_seconds(render_pid)
     state["measuring"] = True
     _run_event_loop(MEASURE_S)
     wall = time.perf_counter() - wall0
@@ -138,7 +127,7 @@ def run(window: MainWindow, prepare=None) -> dict[str, float]:
         "fps": (view.frames_rendered - frames0) / wall,
         "plot_hz": (window.plots.refresh_count - plots0) / wall,
         "cpu_pct": 100.0 * cpu / wall,
-        "render_pct": 100.0 * (process_cpu_s(render_pid) - render0) / wall,
+        "render_pct": 100.0 * (cpu_seconds(render_pid) - render0) / wall,
         "render_failure": view.render_failure,
         "lat_p50_ms": 1000.0 * float(np.percentile(latencies, 50)) if latencies else float("nan"),
         "lat_p95_ms": 1000.0 * float(np.percentile(latencies, 95)) if latencies else float("nan"),

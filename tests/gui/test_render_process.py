@@ -142,6 +142,20 @@ def test_turning_the_camera_with_the_mouse_brings_a_new_picture_from_the_render_
     assert view.render_window.GetNeverRendered()
 
 
+def test_a_new_figure_while_frames_are_under_way_keeps_the_render_process(qtbot):
+    view = _view(qtbot, render_process=True)
+    view.render()
+    view.render()  # one frame in flight, the newest state waiting (taken with the old figure)
+    model = skeleton.load_model("ten_segment")
+    small = FigureBuilder(model, 1.75)
+    q = {name: np.array([1.0, 0.0, 0.0, 0.0]) for name in model.segment_names}
+    geometry = small.build(skeleton.forward_kinematics(model, q, 1.75), mode="world")
+    view.set_figure(small)
+    view.set_frame_provider(lambda: ("ten segments", geometry))
+    qtbot.waitUntil(lambda: view.shown_frame_id == "ten segments", timeout=10000)
+    assert view.render_failure is None and view.render_client is not None
+
+
 def test_when_the_render_process_dies_the_view_draws_itself_and_goes_on(qtbot):
     view = _view(qtbot, render_process=True)
     os.kill(view.render_client.pid, signal.SIGKILL)

@@ -97,8 +97,6 @@ class RenderClient(QtCore.QObject):
         self._in_flight: tuple[int, Sequence[OverlayLabel], object, float] | None = None  # id, labels, tag, sent at
         self._waiting: tuple[SceneState, Sequence[OverlayLabel], object] | None = None
         self._closed = False
-        self.frames_shown = 0
-        self.process_cpu_s = 0.0  # the render process's CPU time (s) at its last frame
         self._notifier = QtCore.QSocketNotifier(self._connection.fileno(), QtCore.QSocketNotifier.Read, self)
         self._notifier.activated.connect(self._read_replies)
         self._watchdog = QtCore.QTimer(self)
@@ -121,7 +119,9 @@ class RenderClient(QtCore.QObject):
         return tuple(frame_file.path for frame_file in self._frame_files)
 
     def set_figure(self, layout: FigureLayout | None) -> None:
-        """Show a figure of ``layout`` from the next frame on (``None``: no figure)."""
+        """Show a figure of ``layout`` from the next frame on (``None``: no figure). A state
+        still waiting was taken with the previous figure: it is dropped."""
+        self._waiting = None
         self._send(NoFigure() if layout is None else layout)
 
     def render(self, tag: object = None, wait: bool = False) -> None:
@@ -208,12 +208,10 @@ class RenderClient(QtCore.QObject):
             return
         _, labels, tag, _sent = self._in_flight
         self._in_flight = None
-        self.process_cpu_s = done.cpu_s
         # Shown in place: the next frame goes to the other file.
         image_format = QtGui.QImage.Format_RGB32 if self._bgra else QtGui.QImage.Format_RGBX8888
         pixels = self._frame_files[self._frame_index].pixels(done.width, done.height)
         self._widget.show_frame(pixels, labels, image_format, copy=False)
-        self.frames_shown += 1
         self.frame_shown.emit(tag)
         if self._waiting is not None:
             self._send_waiting()

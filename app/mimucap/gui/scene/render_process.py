@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import mmap
 import os
-import time
 import traceback
 from dataclasses import dataclass
 
@@ -54,13 +53,12 @@ class FrameRequest:
 
 @dataclass(frozen=True)
 class FrameDone:
-    """The picture of request ``request_id`` is in the frame file: ``width × height`` RGBA
-    pixels, rows from the top; ``cpu_s``: the process's CPU time (s) so far."""
+    """The picture of request ``request_id`` is in its frame file: ``width × height`` pixels,
+    rows from the top."""
 
     request_id: int
     width: int
     height: int
-    cpu_s: float
 
 
 @dataclass(frozen=True)
@@ -158,7 +156,7 @@ def _serve(connection, stop_event) -> None:
                 else:
                     np.copyto(out, rgba)
                 out = rgba = None  # a replaced frame file is unmapped once unused
-                connection.send(FrameDone(message.request_id, width, height, time.process_time()))
+                connection.send(FrameDone(message.request_id, width, height))
             else:
                 raise ValueError(f"the render process got a message it does not know: {type(message).__name__}")
     finally:
