@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 
 import pytest
-from PyQt5 import QtCore, QtWidgets
+from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.gui.app import has_display
 
@@ -37,6 +37,21 @@ def accept_modal():
             handle(dialog)
         QtCore.QTimer.singleShot(0, poke)
     return arm
+
+
+@pytest.fixture
+def left_drag(qtbot):
+    """``left_drag(widget, start, step, steps=5)``: press the left button at ``start`` (a
+    ``QPoint``), move by ``step`` ``steps`` times with the button held, release there. (QTest's
+    mouseMove carries no pressed button, so the moves are sent as events.)"""
+    def drag(widget, start, step, steps: int = 5) -> None:
+        qtbot.mousePress(widget, QtCore.Qt.LeftButton, pos=start)
+        for index in range(1, steps + 1):
+            move = QtGui.QMouseEvent(QtCore.QEvent.MouseMove, QtCore.QPointF(start + step * index),
+                                     QtCore.Qt.NoButton, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier)
+            QtWidgets.QApplication.sendEvent(widget, move)
+        qtbot.mouseRelease(widget, QtCore.Qt.LeftButton, pos=start + step * steps)
+    return drag
 
 
 @pytest.fixture

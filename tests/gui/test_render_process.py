@@ -9,7 +9,7 @@ import signal
 
 import numpy as np
 import pytest
-from PyQt5 import QtCore, QtGui, QtWidgets
+from PyQt5 import QtCore
 
 from mimucap.core import skeleton
 from mimucap.gui.scene.environment import Stage, scene_renderer
@@ -122,7 +122,7 @@ def test_the_render_process_draws_the_picture_the_gui_process_would(qtbot):
     assert remote.render_window.GetNeverRendered()
 
 
-def test_turning_the_camera_with_the_mouse_brings_a_new_picture_from_the_render_process(qtbot):
+def test_turning_the_camera_with_the_mouse_brings_a_new_picture_from_the_render_process(qtbot, left_drag):
     view = _view(qtbot, render_process=True)
     before = _rgb(view.grab_image())
     shown = view.frames_rendered
@@ -130,12 +130,7 @@ def test_turning_the_camera_with_the_mouse_brings_a_new_picture_from_the_render_
     position = camera.GetPosition()
     widget = view.vtk_widget
     centre = widget.rect().center()
-    qtbot.mousePress(widget, QtCore.Qt.LeftButton, pos=centre)
-    for step in range(1, 6):  # a drag (QTest's mouseMove carries no pressed button)
-        move = QtGui.QMouseEvent(QtCore.QEvent.MouseMove, QtCore.QPointF(centre + QtCore.QPoint(12 * step, 0)),
-                                 QtCore.Qt.NoButton, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier)
-        QtWidgets.QApplication.sendEvent(widget, move)
-    qtbot.mouseRelease(widget, QtCore.Qt.LeftButton, pos=centre + QtCore.QPoint(60, 0))
+    left_drag(widget, centre, QtCore.QPoint(12, 0))
     assert not np.allclose(camera.GetPosition(), position)
     qtbot.waitUntil(lambda: view.frames_rendered > shown, timeout=10000)
     assert not np.array_equal(_rgb(view.grab_image()), before)

@@ -9,11 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from PyQt5 import QtCore, QtGui, QtWidgets
+from PyQt5 import QtCore, QtGui
 from vtkmodules.vtkFiltersSources import vtkSphereSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
 
-from mimucap.gui.vtk_image_widget import SOFTWARE_GL_THREADS, VtkImageWidget
+from mimucap.gui.software_gl import SOFTWARE_GL_THREADS
+from mimucap.gui.vtk_image_widget import VtkImageWidget
 
 
 @pytest.fixture
@@ -70,18 +71,13 @@ def test_the_view_follows_a_resize(view, qtbot):
     assert (view.image().width(), view.image().height()) == (200, 300)
 
 
-def test_dragging_orbits_and_the_wheel_zooms(view, qtbot):
+def test_dragging_orbits_and_the_wheel_zooms(view, qtbot, left_drag):
     camera = view.renderer.GetActiveCamera()
     before = np.array(camera.GetPosition())
     frames = []
     view.rendered.connect(lambda: frames.append(1))
     centre = QtCore.QPoint(view.width() // 2, view.height() // 2)
-    qtbot.mousePress(view, QtCore.Qt.LeftButton, pos=centre)
-    for step in range(1, 6):  # a drag (QTest's mouseMove carries no pressed button)
-        move = QtGui.QMouseEvent(QtCore.QEvent.MouseMove, QtCore.QPointF(centre + QtCore.QPoint(12 * step, 0)),
-                                 QtCore.Qt.NoButton, QtCore.Qt.LeftButton, QtCore.Qt.NoModifier)
-        QtWidgets.QApplication.sendEvent(view, move)
-    qtbot.mouseRelease(view, QtCore.Qt.LeftButton, pos=centre + QtCore.QPoint(60, 0))
+    left_drag(view, centre, QtCore.QPoint(12, 0))
     after = np.array(camera.GetPosition())
     assert np.linalg.norm(after - before) > 0.5  # turned about the focal point ...
     assert np.linalg.norm(after) == pytest.approx(np.linalg.norm(before), rel=1e-6)  # ... at the same distance
@@ -156,7 +152,8 @@ _COUNT_RASTERISER_THREADS = """
 import os
 from PyQt5 import QtWidgets
 app = QtWidgets.QApplication(["t"])
-from mimucap.gui.vtk_image_widget import SOFTWARE_GL_THREADS, VtkImageWidget
+from mimucap.gui.software_gl import SOFTWARE_GL_THREADS
+from mimucap.gui.vtk_image_widget import VtkImageWidget
 widget = VtkImageWidget()
 widget.resize(200, 150)
 widget.render()

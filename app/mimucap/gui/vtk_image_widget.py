@@ -24,18 +24,12 @@ picture (:class:`OverlayLabel`, from :attr:`VtkImageWidget.label_provider` after
 VTK's caption actors re-rasterised their text and rebuilt their shaders on every frame in
 which the scene moved, 5 % of a core at 60 frames per second (``bench/bench_gui.py``).
 
-On Mesa's software OpenGL (llvmpipe) the rasteriser draws in the rendering thread unless the
-user chose otherwise (:data:`SOFTWARE_GL_THREADS`, Mesa's ``LP_NUM_THREADS``). Its helper
-threads, one per core by default, cost more in hand-over than they save on a view of this size:
-on a 2-core machine the main window on 17 simulated sensors took 89 % of a core with them and
-79 % without (an empty 493 × 560 frame: 1.74 ms against 0.89 ms of CPU), and a full-screen
-1920 × 1200 window drew 38 frames per second with them and 47 without. The variable is read
-when the first OpenGL context of the process is made; a GPU driver ignores it.
+On Mesa's software OpenGL the rasteriser draws without helper threads unless the user chose
+otherwise (:mod:`mimucap.gui.software_gl`).
 """
 
 from __future__ import annotations
 
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -50,9 +44,8 @@ from vtkmodules.vtkInteractionStyle import vtkInteractorStyleTrackballCamera
 from vtkmodules.vtkRenderingCore import vtkRenderWindow
 from vtkmodules.vtkRenderingUI import vtkGenericRenderWindowInteractor
 
-#: Helper threads of Mesa's software rasteriser when ``LP_NUM_THREADS`` is not set: none (see
-#: the module doc).
-SOFTWARE_GL_THREADS = "0"
+from mimucap.gui.software_gl import prefer_unthreaded_software_gl
+
 
 _BUTTON_EVENTS = {
     QtCore.Qt.LeftButton: ("LeftButtonPressEvent", "LeftButtonReleaseEvent"),
@@ -96,7 +89,7 @@ class VtkImageWidget(QtWidgets.QWidget):
         self.setAttribute(QtCore.Qt.WA_OpaquePaintEvent)
         self.setFocusPolicy(QtCore.Qt.WheelFocus)
         self.setMinimumSize(160, 120)
-        os.environ.setdefault("LP_NUM_THREADS", SOFTWARE_GL_THREADS)  # before the first context
+        prefer_unthreaded_software_gl()  # before the first context
         self.render_window = vtkRenderWindow()
         self.render_window.SetMultiSamples(0)  # MSAA costs 4x on software OpenGL
         self.render_window.OffScreenRenderingOn()

@@ -1,8 +1,9 @@
 """The GUI side of the render process: sends scene states, shows the pictures that come back.
 
 :class:`RenderClient` starts :func:`mimucap.gui.scene.render_process.serve` (spawn method),
-keeps at most one frame in flight and, while one is, only the newest state waiting: a slow
-frame delays the picture, never the GUI thread, and never piles up requests. The picture
+keeps at most one frame in flight; a frame asked for meanwhile is taken (state and labels) when
+that one is back, so a slow frame delays the picture, never the GUI thread, and requests never
+pile up. The picture
 comes back through a memory-mapped frame file and is handed to a
 :class:`~mimucap.gui.vtk_image_widget.VtkImageWidget` (``show_frame``) with the labels
 computed for the same state. :meth:`RenderClient.render` with ``wait=True`` blocks until the
@@ -27,7 +28,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from PyQt5 import QtCore, QtGui
 
-from mimucap.gui.scene.render_process import FrameDone, FrameRequest, NoFigure, RenderFailed, serve
+from mimucap.gui.scene.render_process import FrameDone, FrameRequest, NoFigure, RenderFailed, frame_pixels, serve
 from mimucap.gui.scene.scene_state import FigureLayout, SceneState
 from mimucap.gui.vtk_image_widget import OverlayLabel, VtkImageWidget
 
@@ -54,7 +55,7 @@ class _FrameFile:
         self.capacity = capacity
 
     def pixels(self, width: int, height: int) -> np.ndarray:
-        return np.frombuffer(self.map, dtype=np.uint8, count=width * height * 4).reshape(height, width, 4)
+        return frame_pixels(self.map, width, height)
 
     def close(self) -> None:
         try:
@@ -70,17 +71,20 @@ class RenderClient(QtCore.QObject):
     Args:
         widget: where the pictures are shown (``show_frame``); its ``label_provider`` is read
             with each state.
-        capture: returns the :class:`SceneState` to draw now.
+        capture: returns the :class:`SceneState` to draw now and a tag for it (e.g. the id
+            of the frame it shows), called when the state is sent: a frame asked for while
+            another is in flight is taken once that one is back, so it is the newest state and
+            always fits the figure last set.
 
     Signals:
         failed(str): the render process failed (once; the client is closed).
-        frame_shown(object): a picture was shown; the ``tag`` given to :meth:`render`.
+        frame_shown(object): a picture was shown; the tag ``capture`` gave with its state.
     """
 
     failed = QtCore.pyqtSignal(str)
     frame_shown = QtCore.pyqtSignal(object)
 
-    def __init__(self, widget: VtkImageWidget, capture: Callable[[], SceneState]) -> None:
+    def __init__(self, widget: VtkImageWidget, capture: Callable[[], tuple[SceneState, object]]) -> None:
         super().__init__(widget)
         self._widget = widget
         self._capture = capture
@@ -95,7 +99,7 @@ class RenderClient(QtCore.QObject):
         self._bgra = sys.byteorder == "little"  # Qt's RGB32 pixels are B, G, R, A bytes there
         self._next_id = 0
         self._in_flight: tuple[int, Sequence[OverlayLabel], object, float] | None = None  # id, labels, tag, sent at
-        self._waiting: tuple[SceneState, Sequence[OverlayLabel], object] | None = None
+        self._wanted = False  # a frame was asked for and not sent yet
         self._closed = False
         self._notifier = QtCore.QSocketNotifier(self._connection.fileno(), QtCore.QSocketNotifier.Read, self)
         self._notifier.activated.connect(self._read_replies)
@@ -119,24 +123,21 @@ class RenderClient(QtCore.QObject):
         return tuple(frame_file.path for frame_file in self._frame_files)
 
     def set_figure(self, layout: FigureLayout | None) -> None:
-        """Show a figure of ``layout`` from the next frame on (``None``: no figure). A state
-        still waiting was taken with the previous figure: it is dropped."""
-        self._waiting = None
+        """Show a figure of ``layout`` from the next frame on (``None``: no figure)."""
         self._send(NoFigure() if layout is None else layout)
 
-    def render(self, tag: object = None, wait: bool = False) -> None:
-        """Draw the scene as it is now; ``tag`` comes back with :attr:`frame_shown`. Without
-        ``wait`` this returns at once (the picture follows); with it, it returns once the
-        picture is shown (or the client failed)."""
+    def render(self, wait: bool = False) -> None:
+        """Draw the scene: now, or as it is when the frame in flight is back. Without ``wait``
+        this returns at once (the picture follows); with it, it returns once the picture is
+        shown (or the client failed)."""
         if self._closed:
             return
-        labels = tuple(self._widget.label_provider()) if self._widget.label_provider is not None else ()
-        self._waiting = (self._capture(), labels, tag)
+        self._wanted = True
         if self._in_flight is None:
-            self._send_waiting()
+            self._send_wanted()
         if wait:
             deadline = time.monotonic() + FRAME_TIMEOUT_S
-            while not self._closed and (self._in_flight is not None or self._waiting is not None):
+            while not self._closed and (self._in_flight is not None or self._wanted):
                 if time.monotonic() > deadline:
                     self._fail(f"a frame took over {FRAME_TIMEOUT_S:.0f} s")
                     break
@@ -173,9 +174,10 @@ class RenderClient(QtCore.QObject):
         except (OSError, ValueError) as error:
             self._fail(f"the render process cannot be reached ({error})")
 
-    def _send_waiting(self) -> None:
-        state, labels, tag = self._waiting
-        self._waiting = None
+    def _send_wanted(self) -> None:
+        self._wanted = False
+        state, tag = self._capture()
+        labels = tuple(self._widget.label_provider()) if self._widget.label_provider is not None else ()
         width, height = state.size_px
         needed = width * height * 4
         if not self._frame_files or self._frame_files[0].capacity < needed:
@@ -213,8 +215,8 @@ class RenderClient(QtCore.QObject):
         pixels = self._frame_files[self._frame_index].pixels(done.width, done.height)
         self._widget.show_frame(pixels, labels, image_format, copy=False)
         self.frame_shown.emit(tag)
-        if self._waiting is not None:
-            self._send_waiting()
+        if self._wanted:
+            self._send_wanted()
 
     def _check_in_flight(self) -> None:
         if self._in_flight is not None and time.monotonic() - self._in_flight[3] > FRAME_TIMEOUT_S:

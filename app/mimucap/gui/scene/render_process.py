@@ -20,17 +20,13 @@ event is set or the connection closes.
 from __future__ import annotations
 
 import mmap
-import os
 import traceback
 from dataclasses import dataclass
 
 import numpy as np
 
-#: Mesa's software rasteriser's helper threads in the render process (``LP_NUM_THREADS``,
-#: read when the first OpenGL context is made; a GPU driver ignores it). None: a frame of the
-#: view's size costs more in hand-over between threads than it saves (see
-#: ``mimucap.gui.vtk_image_widget``).
-SOFTWARE_GL_THREADS = "0"
+from mimucap.gui.software_gl import prefer_unthreaded_software_gl
+
 
 
 @dataclass(frozen=True)
@@ -69,6 +65,15 @@ class RenderFailed:
     details: str
 
 
+def frame_pixels(buffer, width: int, height: int) -> np.ndarray:
+    """The ``(height, width, 4)`` picture bytes at the start of a frame file's mapped ``buffer``
+    (a view, no copy); ``ValueError`` when the file is too small for them."""
+    needed = width * height * 4
+    if len(buffer) < needed:
+        raise ValueError(f"a frame file of {len(buffer)} bytes cannot hold a {width}x{height} picture ({needed} bytes)")
+    return np.frombuffer(buffer, dtype=np.uint8, count=needed).reshape(height, width, 4)
+
+
 class _FrameFiles:
     """The memory-mapped frame files the pictures go to (the GUI alternates between two)."""
 
@@ -84,11 +89,7 @@ class _FrameFiles:
                 self._maps[path] = mmap.mmap(file.fileno(), 0)
             while len(self._maps) > self.KEPT:
                 del self._maps[next(iter(self._maps))]  # unmapped once no array uses it
-        mapped = self._maps[path]
-        needed = width * height * 4
-        if len(mapped) < needed:
-            raise ValueError(f"the frame file {path} holds {len(mapped)} bytes, a {width}x{height} picture needs {needed}")
-        return np.frombuffer(mapped, dtype=np.uint8, count=needed).reshape(height, width, 4)
+        return frame_pixels(self._maps[path], width, height)
 
     def close(self) -> None:
         self._maps.clear()
@@ -96,7 +97,7 @@ class _FrameFiles:
 
 def serve(connection, stop_event) -> None:
     """Render process entry point (top-level so that ``spawn`` can import it)."""
-    os.environ.setdefault("LP_NUM_THREADS", SOFTWARE_GL_THREADS)
+    prefer_unthreaded_software_gl()
     try:
         _serve(connection, stop_event)
     except Exception as error:  # said to the GUI, which falls back to drawing itself

@@ -232,10 +232,12 @@ class SceneView(QtWidgets.QWidget):
         distance = camera.GetDistance()
         camera.SetClippingRange(max(0.01, 0.02 * distance), distance + CLIPPING_FAR_M)
 
-    def _scene_state(self) -> SceneState:
-        """The scene now, lit from the camera, for the render process."""
+    def _scene_state(self) -> tuple[SceneState, object]:
+        """The scene now, lit from the camera, for the render process, and the id of the frame
+        it shows."""
+        self._set_clipping_range()
         self._light_figure()
-        return capture_scene(self.renderer, self.stage, self.skeleton)
+        return capture_scene(self.renderer, self.stage, self.skeleton), self._last_frame_id
 
     def _render_here(self, reason: str) -> None:
         """The render process failed (``reason``): draw in this process from now on."""
@@ -322,11 +324,11 @@ class SceneView(QtWidgets.QWidget):
         it follows (:attr:`frame_rendered`) while this returns at once."""
         if not self._alive or not self.isVisible():
             return
-        self._set_clipping_range()
         self._dirty = False
         if self.render_client is not None:
-            self.render_client.render(tag=self._last_frame_id)
+            self.render_client.render()
         else:
+            self._set_clipping_range()
             self.vtk_widget.render()
             self._frame_shown(self._last_frame_id)
 
