@@ -105,12 +105,12 @@ def test_study_folders_without_trials_are_errors(tmp_path: Path, capsys) -> None
 
 
 def test_study_checks_the_plot_path_before_the_study(tmp_path: Path, capsys, monkeypatch) -> None:
-    import mimucap.cli.magcal as magcal_command
+    import mimucap.core.magcal_study as magcal_study
 
     def must_not_run(settings):
         raise AssertionError("the study ran before the plot path was checked")
 
-    monkeypatch.setattr(magcal_command, "simulate_study", must_not_run)
+    monkeypatch.setattr(magcal_study, "simulate_study", must_not_run)
     blocker = tmp_path / "notes.txt"
     blocker.write_text("a file")
     assert main(["magcal", "study", "--trials", "1", "--plot", str(blocker / "x.png")]) == 1

@@ -14,10 +14,7 @@ import argparse
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.cli.bodycal import add_reader_options, choose_model, read_input
-from mimucap.core import bodycal
-from mimucap.core.skeleton import SHOULDER_SEQUENCES, joint_angle_columns, joint_angles_deg
-from mimucap.io.angles_export import write_angles
-from mimucap.io.body_calibration_file import read_body_calibration
+from mimucap.core.skeleton_models import SHOULDER_SEQUENCES
 
 
 def register(subparsers) -> None:
@@ -37,6 +34,11 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from mimucap.core import bodycal
+    from mimucap.core.skeleton import joint_angle_columns, joint_angles_deg
+    from mimucap.io.angles_export import write_angles
+    from mimucap.io.body_calibration_file import read_body_calibration
+
     calibration, document = read_body_calibration(args.calibration)
     if not str(args.out).lower().endswith((".csv", ".mot")):
         raise ValueError(f"{args.out}: joint angles are written as .csv or .mot")

@@ -33,21 +33,16 @@ import re
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from mimucap.cli import check_output_path
-from mimucap.core.magcal import FitSettings, calibrate
-from mimucap.core.magcal_study import (
-    StudyResult,
-    StudySettings,
-    Trial,
-    evaluate_protocols,
-    format_tables,
-    simulate_study,
-)
-from mimucap.io.calibration_store import CalibrationStore
-from mimucap.io.magdata import FORMATS, MAG_UNITS, MagRecording, read_mag_files, to_microtesla
+from mimucap.io.input_names import FORMATS, MAG_UNITS
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from mimucap.core.magcal_study import StudyResult, Trial
+    from mimucap.io.magdata import MagRecording
 
 #: Exit status of a fit printed but failing its quality checks (1 is a fit refused outright).
 FAIL_EXIT_STATUS = 3
@@ -106,6 +101,10 @@ def _add_input_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _samples_uT(recordings: list[MagRecording], args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray | None]:
+    import numpy as np
+
+    from mimucap.io.magdata import to_microtesla
+
     mags, accs = [], []
     for recording in recordings:
         unit = args.unit or recording.unit or "uT"
@@ -139,6 +138,10 @@ def _finite_or_none(value: float) -> float | None:
 
 def run_fit(args: argparse.Namespace) -> int:
     """Fit, print (text or JSON) and optionally save; returns the exit code."""
+    from mimucap.core.magcal import FitSettings, calibrate
+    from mimucap.io.calibration_store import CalibrationStore
+    from mimucap.io.magdata import read_mag_files
+
     recordings = read_mag_files(args.files, args.format, args.sensor)
     sensor_id = _sensor_id(recordings, args.sensor)
     mag, acc = _samples_uT(recordings, args)
@@ -200,6 +203,9 @@ def _vector(values, digits: int = 3) -> str:
 
 
 def _folder_trial(paths: list[Path], args: argparse.Namespace) -> Trial:
+    from mimucap.core.magcal_study import Trial
+    from mimucap.io.magdata import read_mag_files
+
     recordings = read_mag_files(paths, args.format, args.sensor)
     mag, _ = _samples_uT(recordings, args)
     durations = [float(r.t_s[-1] - r.t_s[0]) for r in recordings if r.t_s is not None and len(r.t_s) > 1]
@@ -222,13 +228,15 @@ def _trial_paths(folder: Path) -> list[list[Path]]:
 
 def run_study(args: argparse.Namespace) -> int:
     """Run the protocol study (simulated or on a folder) and print the tables."""
+    from mimucap.core import magcal_study
+
     if args.plot is not None:
         check_output_path(args.plot)  # before the study, which takes a while
     if args.folder is None:
-        result = simulate_study(StudySettings(trials=args.trials, seed=args.seed))
+        result = magcal_study.simulate_study(magcal_study.StudySettings(trials=args.trials, seed=args.seed))
     else:
         result = _folder_study(args)
-    print(format_tables(result))
+    print(magcal_study.format_tables(result))
     if args.plot is not None:
         from mimucap.cli.magcal_plot import render_study_png
 
@@ -237,6 +245,8 @@ def run_study(args: argparse.Namespace) -> int:
 
 
 def _folder_study(args: argparse.Namespace) -> StudyResult:
+    from mimucap.core.magcal_study import evaluate_protocols
+
     folder = args.folder
     if not folder.is_dir():
         raise FileNotFoundError(f"{folder}: no such folder")

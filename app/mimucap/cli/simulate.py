@@ -23,16 +23,13 @@ import dataclasses
 import math
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from mimucap.cli import check_output_path
-from mimucap.core.simulate import (
-    ERROR_PRESETS,
-    SCENARIOS,
-    MagneticDisturbance,
-    SimulationConfig,
-    error_model,
-    simulate_session,
-)
-from mimucap.io.session import session_from_simulation, write_session
+from mimucap.core.simulate_names import ERROR_PRESET_NAMES, SCENARIOS
+
+if TYPE_CHECKING:
+    from mimucap.core.simulate import MagneticDisturbance
 
 #: Most sensor samples (duration × rate × sensors) one simulation may hold: the simulation, its
 #: truth and the session written from it take about 0.7 kB of memory per sensor sample (measured:
@@ -58,7 +55,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--drops", type=float, default=0.0, metavar="P", help="packet drop probability 0..0.9 (default 0)")
     parser.add_argument("--no-truth", action="store_true", help="leave the ground truth out of the file")
     parser.add_argument("--errors", default="default", metavar="PRESET",
-                        help=f"sensor error model: {', '.join(ERROR_PRESETS)} (default default)")
+                        help=f"sensor error model: {', '.join(ERROR_PRESET_NAMES)} (default default)")
     parser.add_argument("--onboard", action="store_true", help="sensors also send on-board orientation (like a BNO055)")
     parser.add_argument("--height", type=float, default=1.75, metavar="M", help="subject height in metres (default 1.75)")
     parser.add_argument("--disturbance", action="append", default=[], metavar="BX,BY,BZ,START,END",
@@ -68,6 +65,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def parse_disturbance(text: str) -> MagneticDisturbance:
     """``"BX,BY,BZ,START,END"`` (µT, µT, µT, s, s) → a :class:`MagneticDisturbance` for all sensors."""
+    from mimucap.core.simulate import MagneticDisturbance
+
     parts = text.split(",")
     try:
         values = [float(p) for p in parts]
@@ -94,6 +93,9 @@ def check_size(duration_s: float, rate_hz: float, n_sensors: int) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write the file and print one summary line; bad arguments raise ValueError."""
+    from mimucap.core.simulate import SimulationConfig, error_model, simulate_session
+    from mimucap.io.session import session_from_simulation, write_session
+
     if Path(args.out).suffix.lower() not in (".h5", ".hdf5"):
         raise ValueError(f"{args.out}: a simulated session is an HDF5 file: name it .h5 or .hdf5")
     check_output_path(args.out)

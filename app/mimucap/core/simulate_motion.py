@@ -29,6 +29,7 @@ import numpy as np
 
 from mimucap.core import rotation as rot
 from mimucap.core.simulate_calibration import HAND_HEIGHT_M, HAND_PATHS
+from mimucap.core.simulate_names import ACTIVITY_NAMES, SCENARIOS
 from mimucap.core.simulate_sensors import minimum_jerk
 
 #: Seconds over which a new activity is blended in.
@@ -563,7 +564,6 @@ class HoldSensors(Activity):
         return f"{self.name}({','.join(self.sensor_ids)})"
 
 
-ACTIVITY_NAMES = ("npose", "tpose", "walk", "turn", "arm_raise", "squat", "mag_single_axis", "mag_figure8", "mag_tumble")
 
 
 def make_activity(name: str, params: dict | None = None, *, sensor_ids: tuple[str, ...] = (), seed: int = 0) -> Activity:
@@ -593,7 +593,6 @@ def demo_cycle() -> list[Activity]:
     ]
 
 
-SCENARIOS = ACTIVITY_NAMES + ("demo", "bodycal")
 
 
 def _demo_loop() -> Iterator[Activity]:
