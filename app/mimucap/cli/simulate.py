@@ -2,15 +2,21 @@
 
 ``mimucap simulate --scenario NAME --duration S --sensors N --seed K --out FILE.h5
 [--rate HZ] [--drops P] [--no-truth] [--errors PRESET] [--height M] [--onboard]
-[--disturbance BX,BY,BZ,START,END ...]``
+[--disturbance BX,BY,BZ,START,END ...] [--[no-]magcal-turns]``
 
-Scenarios: ``demo`` (N-pose, T-pose, walking, turning, squats, arm raises, looping),
+Scenarios: ``demo`` (magnetometer turns, then N-pose, T-pose, walking, turning, squats, arm
+raises, looping from the N-pose),
 ``bodycal`` (N-pose 3 s, T-pose 3 s, N-pose), or one activity (``npose``, ``tpose``,
 ``walk``, ``turn``, ``arm_raise``, ``squat``, ``mag_single_axis``, ``mag_figure8``,
 ``mag_tumble``). Sensors: 1..17 (10: the ten-segment suit; 17: the fifteen-segment suit
 with second units on thorax and pelvis). ``--disturbance`` adds a magnetic field (world ENU,
 µT) to every sensor from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. The file (format in ``docs/session-format.md``)
-holds the raw streams, the activity markers and, unless ``--no-truth``, the ground truth.
+holds the raw streams, a marker at the start of each phase ("magnetometer turns", "N-pose",
+"T-pose", "walk", ...; :mod:`mimucap.core.phases`) and, unless ``--no-truth``, the ground truth.
+The demo begins with the magnetometer turns: every unit is taken off the body, the units are
+held together and turned once about each of their axes (about 26 s), then worn again, so that
+``mimucap magcal fit FILE.h5`` can calibrate them all from the file; ``--no-magcal-turns``
+leaves them out, ``--magcal-turns`` puts them before any other scenario.
 Prints one summary line. The duration must hold at least one sample (≥ 1/rate s) and at most
 :data:`MAX_SENSOR_SAMPLES` sensor samples (duration × rate × sensors, e.g. 100 minutes of 10
 sensors at 100 Hz): a larger request is refused before any memory is taken.
@@ -58,6 +64,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help=f"sensor error model: {', '.join(ERROR_PRESET_NAMES)} (default default)")
     parser.add_argument("--onboard", action="store_true", help="sensors also send on-board orientation (like a BNO055)")
     parser.add_argument("--height", type=float, default=1.75, metavar="M", help="subject height in metres (default 1.75)")
+    parser.add_argument("--magcal-turns", action=argparse.BooleanOptionalAction, default=None,
+                        help="begin with the magnetometer turns of all units (default: for the demo only)")
     parser.add_argument("--disturbance", action="append", default=[], metavar="BX,BY,BZ,START,END",
                         help="add a field (world ENU, µT) to all sensors from START to END s; repeatable")
     parser.set_defaults(func=run)
@@ -106,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
         scenario=args.scenario, duration_s=args.duration, n_sensors=args.sensors, rate_hz=args.rate,
         seed=args.seed, errors=errors, drop_probability=args.drops, height_m=args.height,
         disturbances=tuple(parse_disturbance(text) for text in args.disturbance),
+        magcal_turns=(args.scenario == "demo") if args.magcal_turns is None else args.magcal_turns,
     )
     check_size(config.duration_s, config.rate_hz, config.n_sensors)
     result = simulate_session(config)

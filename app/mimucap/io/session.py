@@ -705,6 +705,7 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
         "seed": config.seed, "model": result.model_name, "height_m": result.height_m,
         "errors": asdict(errors), "earth_field": asdict(config.earth_field),
         "disturbances": [asdict(d) for d in config.disturbances], "random_mounting": config.random_mounting,
+        "magcal_turns": config.magcal_turns,
     }
     metadata = {
         "source": source,
