@@ -14,6 +14,14 @@ reason. A fit whose verdict is ``fail`` is printed but never saved (a calibratio
 stored for the sensor is kept) and exits with status :data:`FAIL_EXIT_STATUS`, so that a
 script can tell it from a usable fit.
 
+A single MimuCap session file is fitted per sensor (every sensor with a magnetometer, or only
+``--sensor``): each from its samples in the session's magnetometer-turn windows, which run from
+a marker labelled "magnetometer turns" to the next marker (:mod:`mimucap.core.phases`; all its
+samples when no marker says so). One line per sensor gives its verdict; ``--json`` prints one
+object per sensor and line, with a ``sensor`` key besides the keys above when there are
+several; ``--save`` stores every usable fit. The exit status is 1 if a sensor's fit was
+refused, else :data:`FAIL_EXIT_STATUS` if one failed its checks, else 0.
+
 ``mimucap magcal study [--trials N] [--seed K] [--folder DIR] [--plot OUT.png]`` prints the seed's Tables 1–2
 (centre and radii RMSE against a reference fit, protocol durations). Without ``--folder`` the
 trials are simulated (MPU-9250-like noise, 49.3 µT field). With ``--folder`` the trials are
@@ -63,7 +71,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     actions = parser.add_subparsers(dest="magcal_command", metavar="ACTION")
 
     fit = actions.add_parser("fit", help="fit a calibration to the samples of one or more files")
-    fit.add_argument("files", nargs="+", metavar="FILE", help="CSV, Xsens export or session file")
+    fit.add_argument("files", nargs="+", metavar="FILE",
+                     help="CSV, Xsens export or session file (a session alone: every sensor, from its magnetometer turns)")
     _add_input_options(fit)
     fit.add_argument("--field-uT", type=float, default=None, metavar="F", help="known local field magnitude, µT")
     fit.add_argument("--method", choices=("ellipsoid", "quadric"), default="ellipsoid",
