@@ -124,14 +124,15 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from mimucap.core.fusion.ekf import fuse
-    from mimucap.core.fusion.offline import fuse_offline
 
     if args.out.suffix.lower() not in OUTPUT_SUFFIXES:
         raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)  # also when per-sensor names derive from it: a slip
     inputs = _inputs(args.input, args.sensor, args.no_mag)
-    estimator = fuse_offline if args.offline else fuse
+    estimator = fuse
+    if args.offline:
+        from mimucap.core.fusion.offline import fuse_offline as estimator
     several = len(inputs) > 1
     for sensor_id, *_ in inputs:  # every file to write, before any is written
         refuse_to_overwrite_input(_output_path(args.out, sensor_id, several), args.input)
