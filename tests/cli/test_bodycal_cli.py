@@ -229,7 +229,7 @@ def test_simulated_session_from_mimucap_simulate(tmp_path, capsys):
 
     session_path = tmp_path / "demo.h5"
     assert main(["simulate", "--scenario", "demo", "--duration", "14", "--sensors", "10", "--seed", "5",
-                 "--errors", "ideal", "--onboard", "--out", str(session_path)]) == 0
+                 "--errors", "ideal", "--onboard", "--no-magcal-turns", "--out", str(session_path)]) == 0
     cal = tmp_path / "CAL.json"
     assert main(["bodycal", str(session_path), "--npose", "1:2.9", "--tpose", "5:5.9", "--out", str(cal)]) == 0
     out = tmp_path / "angles.csv"
