@@ -50,8 +50,8 @@ class _OrientationStream:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mimucap.core import bodycal
-    from mimucap.core.skeleton import joint_angle_columns, joint_angles_deg
+    from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED, process_recording
+    from mimucap.core.skeleton import joint_angle_columns
     from mimucap.io.angles_export import write_angles
     from mimucap.io.body_calibration_file import read_body_calibration
 

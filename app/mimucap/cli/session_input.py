@@ -19,7 +19,7 @@ from pathlib import Path
 POSE_SETTLE_S = 1.0
 #: Seconds before the next marker that still belong to the pose, and the longest window (s).
 POSE_MARGIN_S = 0.3
-POSE_LONGEST_S = 1.5
+POSE_LONGEST_S = 1.0
 
 
 def add_session_options(parser: argparse.ArgumentParser) -> None:
