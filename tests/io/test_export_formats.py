@@ -97,7 +97,7 @@ def test_sto_columns_are_opensim_bodies_and_raw_sensors_carry_the_mounting(walk,
     segments = review.model.segment_names
     assert set(v.sensor_ids) == {opensense.imu_label(s) for s in segments if s in opensense.OPENSIM_BODIES}
     assert {"pelvis_imu", "torso_imu", "femur_r_imu", "tibia_l_imu", "humerus_r_imu", "radius_l_imu"} <= set(v.sensor_ids)
-    assert set(r.sensor_ids) == set(v.sensor_ids)
+    assert set(r.sensor_ids) >= set(v.sensor_ids)  # every sensor on a segment with an OpenSim body
     header = virtual.read_text().split("endheader")[0]
     assert "DataType=Quaternion" in header and "base_heading_axis x" in header
     assert "marker at 0.000 s: activity:npose" in header
