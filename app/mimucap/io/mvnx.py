@@ -319,6 +319,25 @@ XSENS_JOINTS: dict[str, tuple[str, str, float]] = {
 }
 
 
+#: Xsens's forearm and hand frames are ours turned about the long axis (y) by these angles (rad):
+#: Xsens counts the forearm's axial rotation from the anatomical position, palms forward (ISB,
+#: Wu et al., "ISB recommendation on definitions of joint coordinate systems ... Part II: shoulder,
+#: elbow, wrist and hand", J. Biomech. 38:981, 2005), ours from the N-pose, palms towards the
+#: thighs. Turned so, our joint-angle code gives Xsens's elbow and wrist angles to rounding
+#: (``bench/bench_mvnx_angles.py``).
+ANATOMICAL_TURN_RAD = {"forearm_r": math.pi / 2, "hand_r": math.pi / 2, "forearm_l": -math.pi / 2, "hand_l": -math.pi / 2}
+
+
+def anatomical_forearms(q_world_from_segment: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """``q_world_from_segment`` with the forearm and hand frames turned to Xsens's (palms forward
+    at zero, :data:`ANATOMICAL_TURN_RAD`); the other segments unchanged."""
+    result = dict(q_world_from_segment)
+    for segment, angle in ANATOMICAL_TURN_RAD.items():
+        if segment in result:
+            result[segment] = rotation.multiply(result[segment], rotation.from_axis_angle(np.array([0.0, 1.0, 0.0]), angle))
+    return result
+
+
 def xsens_angles_as_ours(recording: MvnxRecording, joint: str) -> np.ndarray | None:
     """Xsens's own angles of our ``joint`` as (F, 3) (flexion, adduction, rotation) degrees with our
     signs (:data:`XSENS_JOINTS`), or ``None`` when the file does not hold them."""
