@@ -126,7 +126,7 @@ def test_bad_files_are_refused_with_a_reason(sample, tmp_path):
     with pytest.raises(ValueError, match=r"frame 5: orientation has \d+ numbers"):
         mvnx.read_mvnx(short)
     with pytest.raises(ValueError, match="reads Xsens .mvnx files"):
-        from mimucap.cli.import_ import session_from_file
+        from mimucap.io.imports import session_from_file
 
         session_from_file(tmp_path / "x.bvh")
 

@@ -34,30 +34,15 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def session_from_file(path: str | Path):
-    """A :class:`~mimucap.io.session.Session` of an ``.mvnx`` or OpenSense ``.sto`` file."""
-    path = Path(path)
-    suffix = path.suffix.lower()
-    if suffix == ".mvnx":
-        from mimucap.io.mvnx import read_mvnx, session_from_mvnx
-
-        return session_from_mvnx(read_mvnx(path))
-    if suffix == ".sto":
-        from mimucap.io.opensense import session_from_sto
-
-        return session_from_sto(path)
-    raise ValueError(f"{path}: import reads Xsens .mvnx files and OpenSense .sto tables, not {suffix or 'no suffix'!r}")
-
-
 def run(args: argparse.Namespace) -> int:
     if Path(args.out).suffix.lower() not in (".h5", ".hdf5"):
         raise ValueError(f"{args.out}: a session is an HDF5 file: name it .h5")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)
-    from mimucap.io.session import write_session
+    from mimucap.io.imports import import_recording
 
-    session = session_from_file(args.input)
-    path = write_session(args.out, session)
+    session = import_recording(args.input, args.out)
+    path = args.out
     assigned = sorted({s.segment for s in session.sensors.values() if s.segment})
     duration = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s.t_s)), default=0.0)
     print(f"wrote {path}: {len(session.sensors)} sensors ({len(assigned)} on segments: {', '.join(assigned)}), "
