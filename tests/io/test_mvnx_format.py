@@ -143,3 +143,26 @@ def test_opensense_table_imports_with_segments(shared_data, tmp_path):
     assert segments["torso_imu"] == "thorax" and data.model.name == "fifteen_segment"
     # The shank's long axis (sensor axes, no calibration) points about vertically in standing.
     assert len(data.t_s) > 10
+
+
+def test_export_applies_the_calibration_given(sample, tmp_path):
+    """``mimucap export --calibration`` replaces the stored body calibration: a forearm calibration
+    turned by 20° about the flexion axis moves the elbow's flexion by 20°."""
+    from mimucap.core.bodycal import BodyCalibration
+    from mimucap.io.angles_export import read_angles_csv
+    from mimucap.io.body_calibration_file import write_body_calibration
+    from mimucap.io.imports import import_recording
+
+    session = import_recording(sample, tmp_path / "imported.h5")
+    calibration = BodyCalibration.from_dict(session.calibrations["body"])
+    turn = rot.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.radians(20.0))
+    turned = dict(calibration.q_segment_from_sensor)
+    turned["forearm_r"] = rot.multiply(turn, turned["forearm_r"])
+    write_body_calibration(tmp_path / "cal.json", BodyCalibration(
+        calibration.q_world_from_body, calibration.up_world, calibration.sensors, turned, calibration.quality))
+    stored, given = tmp_path / "stored.csv", tmp_path / "given.csv"
+    assert main(["export", str(tmp_path / "imported.h5"), "--out", str(stored)]) == 0
+    assert main(["export", str(tmp_path / "imported.h5"), "--calibration", str(tmp_path / "cal.json"),
+                 "--out", str(given)]) == 0
+    shift = read_angles_csv(given).angles_deg["elbow_r_flexion_deg"] - read_angles_csv(stored).angles_deg["elbow_r_flexion_deg"]
+    assert np.abs(np.abs(shift) - 20.0).max() < 1.0

@@ -86,7 +86,7 @@ class ExportDialog(QtWidgets.QDialog):
         self.want_c3d = QtWidgets.QCheckBox("Angles, orientations, joint centres and events, C3D (Visual3D, Mokka)", files_box)
         self.want_bvh = QtWidgets.QCheckBox("Skeleton animation, BVH (Blender)", files_box)
         self.want_sto = QtWidgets.QCheckBox("Segment orientations, OpenSense .sto (OpenSim IMU kinematics)", files_box)
-        self._file_boxes = (self.want_csv, self.want_mot, self.want_summary, self.want_sensors, self.want_opensim_mot,
+        self._file_boxes = (self.want_csv, self.want_mot, self.want_opensim_mot, self.want_summary, self.want_sensors,
                             self.want_c3d, self.want_bvh, self.want_sto)
         for box in (self.want_csv, self.want_mot, self.want_summary):
             box.setChecked(True)
