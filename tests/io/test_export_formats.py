@@ -10,6 +10,8 @@ tolerances a real sensor pipeline meets. Tests marked so depend on the pipeline'
 from __future__ import annotations
 
 import importlib.util
+import json
+import os
 import subprocess
 import sys
 import warnings
@@ -238,6 +240,37 @@ def test_bvh_forward_kinematics_reproduce_the_segments(walk, review, tmp_path):
             worst_cm = max(worst_cm, float(np.linalg.norm(position - expected)) * 100.0)
     assert worst_deg < 0.01, worst_deg
     assert worst_cm < 0.01, worst_cm
+
+
+def blender_python() -> str | None:
+    """A Python with ``bpy``: this one, or the one ``MIMUCAP_BLENDER_PYTHON`` names (bpy 5.0 wants
+    numpy < 2, which the project's own environment does not have)."""
+    if importlib.util.find_spec("bpy") is not None:
+        return sys.executable
+    return os.environ.get("MIMUCAP_BLENDER_PYTHON") or None
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(blender_python() is None,
+                    reason="no bpy: Blender as a Python module (pip install bpy, Python 3.11, numpy < 2) in a "
+                           "separate environment named by MIMUCAP_BLENDER_PYTHON")
+def test_blender_imports_the_bvh_where_our_skeleton_is(walk, review, tmp_path):
+    path = tmp_path / "walk.bvh"
+    assert main(["export", str(walk), "--format", "bvh", "--out", str(path)]) == 0
+    frames = [0, 150, 333, 480]
+    run = subprocess.run([blender_python(), str(HERE / "blender_bvh_import.py"), str(path), *map(str, frames)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    bones = json.loads(next(line for line in run.stdout.splitlines() if line.startswith("BONES "))[6:])
+    worst = 0.0
+    for frame in frames:
+        root_m = None if review.root_position_m is None else review.root_position_m[frame]
+        poses = skeleton.forward_kinematics(review.model, {s: q[frame] for s, q in review.q_world_from_segment.items()},
+                                            review.height_m, root_m)
+        for name, head in bones[str(frame)].items():
+            # Blender's world is z up with y = -BVH z: our ENU world.
+            worst = max(worst, float(np.linalg.norm(np.array(head) - poses[name].proximal_m)))
+    assert worst < 1e-4, worst
 
 
 def test_bvh_refuses_a_model_segment_without_orientation(review, tmp_path):
