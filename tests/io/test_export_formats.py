@@ -290,3 +290,8 @@ def test_export_command_refuses_unknown_suffix_and_misplaced_options(walk, tmp_p
     assert "cannot tell the format" in capsys.readouterr().err
     assert main(["export", str(walk), "--format", "c3d", "--opensim-names", "--out", str(tmp_path / "x.c3d")]) == 1
     assert "--opensim-names applies to --format mot" in capsys.readouterr().err
+    before = walk.read_bytes()
+    assert main(["export", str(walk), "--format", "csv", "--out", str(walk)]) == 1
+    assert "would overwrite the input" in capsys.readouterr().err and walk.read_bytes() == before
+    assert main(["import", str(tmp_path / "x.sto"), "--out", str(walk)]) == 1
+    assert "exists" in capsys.readouterr().err and walk.read_bytes() == before

@@ -166,3 +166,24 @@ def test_export_applies_the_calibration_given(sample, tmp_path):
                  "--out", str(given)]) == 0
     shift = read_angles_csv(given).angles_deg["elbow_r_flexion_deg"] - read_angles_csv(stored).angles_deg["elbow_r_flexion_deg"]
     assert np.abs(np.abs(shift) - 20.0).max() < 1.0
+
+
+def test_a_file_without_sensor_data_stands_its_segments_for_sensors(sample, tmp_path):
+    text = sample.read_text(encoding="utf-8")
+    for tag in ("sensorFreeAcceleration", "sensorMagneticField", "sensorOrientation"):
+        text = re.sub(rf"\s*<{tag}>.*?</{tag}>", "", text)
+    path = tmp_path / "segments_only.mvnx"
+    path.write_text(text, encoding="utf-8")
+    recording = mvnx.read_mvnx(path)
+    assert not recording.q_global_from_sensor
+    session = mvnx.session_from_mvnx(recording)
+    assert session.sensors["RightForeArm"].segment == "forearm_r" and session.sensors["Pelvis"].acc is None
+    from mimucap.io.session import write_session
+    from mimucap.session.review import load_review
+
+    data = load_review(write_session(tmp_path / "s.h5", session))
+    model = skeleton.load_model("fifteen_segment")
+    ours = per_joint(model, mvnx.anatomical_forearms(data.q_world_from_segment))
+    for joint in mvnx.XSENS_JOINTS:
+        difference = (ours[joint] - mvnx.xsens_angles_as_ours(recording, joint) + 180.0) % 360.0 - 180.0
+        assert np.abs(difference).max() < 0.01, joint

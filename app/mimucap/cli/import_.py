@@ -39,6 +39,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.out}: a session is an HDF5 file: name it .h5")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)
+    if Path(args.out).exists():  # it may be a recording: never replaced by an import
+        raise OSError(f"{args.out} exists: choose another --out (an import never replaces a session file)")
     from mimucap.io.imports import import_recording
 
     session = import_recording(args.input, args.out)

@@ -363,7 +363,8 @@ def session_from_mvnx(recording: MvnxRecording):
     """A :class:`mimucap.io.session.Session` of ``recording``, reviewed and exported like ours.
 
     * one sensor stream per Xsens sensor (id = its label): ``q_world_from_sensor`` (ENU) from
-      ``sensorOrientation`` (Xsens's fusion, as a sensor that fuses on board sends it); ``acc`` the
+      ``sensorOrientation`` (Xsens's fusion, as a sensor that fuses on board sends it; a file
+      exported without sensor data gives one stream per mapped segment, aligned with it); ``acc`` the
       specific force in the sensor frame, ``R_sensor_from_global·(free acceleration + g·up)``;
       the magnetic field as the extra channel ``mag_au`` (Xsens units, not µT); no gyroscope (MVNX
       holds none); ``segment`` our segment where the sensor's segment has one;
@@ -379,15 +380,19 @@ def session_from_mvnx(recording: MvnxRecording):
     from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
     from mimucap.io.session import Session, SensorStream, make_subject
 
-    if not recording.q_global_from_sensor:
-        raise ValueError(f"{recording.path}: no sensor orientations (sensorOrientation) to build a session from")
     t = recording.t_s
     segments = recording.q_world_from_segment()
     sensors = {}
     mapping: dict[str, str] = {}
     q_seg_from_sensor: dict[str, np.ndarray] = {}
     up = np.array([0.0, 0.0, 1.0])
-    for label, q_global in recording.q_global_from_sensor.items():
+    sensor_q = recording.q_global_from_sensor
+    if not sensor_q:
+        # An export without sensor data: each segment Xsens tracked stands for a sensor aligned
+        # with it (Xsens's fusion output, as a sensor fusing on board would send it).
+        sensor_q = {label: rotation.multiply(recording.q_global_from_segment[label], Q_XSENS_FROM_OURS[segment])
+                    for label, segment in SEGMENT_OF_XSENS.items() if label in recording.q_global_from_segment}
+    for label, q_global in sensor_q.items():
         q_world = rotation.multiply(Q_ENU_FROM_GLOBAL, q_global)
         acc = None
         if label in recording.free_acc_mps2:

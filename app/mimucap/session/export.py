@@ -32,7 +32,8 @@ class ExportRequest:
     ``angles_mot``, ``sensors_csv`` (raw acc m/s², gyr rad/s, mag µT and ``q_world_from_sensor``
     per sensor), ``summary_csv`` choose the files; ``opensim_mot`` (``<base>_opensim.mot``, joint
     angles named as OpenSim coordinates), ``c3d`` (``<base>.c3d``), ``bvh`` (``<base>.bvh``) and
-    ``opensense_sto`` (``<base>_orientations.sto``) the motion files.
+    ``opensense_sto`` (``<base>_orientations.sto``) the motion files; ``events`` gait events
+    ``(t_s, context, label)`` (context ``Left``, ``Right`` or ``General``) that go with them.
     """
 
     base_path: Path
@@ -46,6 +47,7 @@ class ExportRequest:
     c3d: bool = False
     bvh: bool = False
     opensense_sto: bool = False
+    events: tuple[tuple[float, str, str], ...] = ()
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.t_from_s) and np.isfinite(self.t_to_s)) or self.t_to_s <= self.t_from_s:
@@ -159,7 +161,7 @@ def run_export(data: ReviewData, request: ExportRequest,
                     (request.opensense_sto, "sto", base.with_name(base.name + "_orientations.sto")))
     for wanted, fmt, path in motion_files:
         if wanted:
-            jobs.append((fmt, lambda f=fmt, p=path: write_motion_file(data, request, f, p)))
+            jobs.append((fmt, lambda f=fmt, p=path: write_motion_file(data, request, f, p, events=request.events)))
     if request.sensors_csv:
         for sensor_id in data.session.sensors:
             jobs.append((sensor_id, lambda s=sensor_id: write_sensor_csv(base.with_name(f"{base.name}_{s}.csv"), data, s,
