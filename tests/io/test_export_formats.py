@@ -185,6 +185,10 @@ def test_c3d_read_by_the_other_library(review, tmp_path):
     thigh = rot.from_rotvec(np.radians(frames[:, labels.index("ThighROrientation")]))
     error = np.degrees(rot.angle_between(thigh, truth_segment_on(t, review, "thigh_r")))
     assert np.percentile(error, 95) < 5.0
+    # What the other library decodes is what the pipeline handed the writer (C3D stores float32).
+    assert np.abs(knee - np.column_stack([review.angles_deg[f"knee_r_{a}_deg"] for a in ("flexion", "adduction", "rotation")])).max() < 1e-3
+    decoded = np.degrees(rot.angle_between(thigh, review.q_world_from_segment["thigh_r"]))
+    assert decoded.max() < 0.01
     # Joint centres in mm, z up: the knee under the hip, about a thigh length apart.
     hip_jc, knee_jc = frames[0, labels.index("RHipJC")], frames[0, labels.index("RKneeJC")]
     assert np.linalg.norm(hip_jc - knee_jc) == pytest.approx(0.245 * 1750.0, rel=0.01)
