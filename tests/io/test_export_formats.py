@@ -299,3 +299,20 @@ def test_export_command_refuses_unknown_suffix_and_misplaced_options(walk, tmp_p
     assert "would overwrite the input" in capsys.readouterr().err and walk.read_bytes() == before
     assert main(["import", str(tmp_path / "x.sto"), "--out", str(walk)]) == 1
     assert "exists" in capsys.readouterr().err and walk.read_bytes() == before
+
+
+def test_writers_refuse_bad_input_naming_what_is_wrong(review, tmp_path):
+    from mimucap.io.c3d_export import write_c3d
+
+    t = np.array([0.0, 0.01, 0.02])
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (3, 1))
+    q[1] = np.nan
+    with pytest.raises(ValueError, match="IMU femur_r_imu: non-finite quaternion at row 1"):
+        opensense.write_orientation_sto(tmp_path / "x.sto", t, {"pelvis_imu": np.tile([1.0, 0, 0, 0], (3, 1)), "femur_r_imu": q})
+    with pytest.raises(ValueError, match="strictly increasing"):
+        opensense.write_orientation_sto(tmp_path / "x.sto", t[::-1], {"pelvis_imu": np.tile([1.0, 0, 0, 0], (3, 1))})
+    with pytest.raises(ValueError, match="no OpenSim body: OpenSim's full-body models carry the head"):
+        opensense.imu_label("head")
+    with pytest.raises(ValueError, match="context must be Left, Right or General"):
+        write_c3d(tmp_path / "x.c3d", review.model, review.height_m, review.t_s, review.q_world_from_segment,
+                  review.angles_deg, events=[(1.0, "left", "Foot Strike")])
