@@ -1,4 +1,5 @@
-"""The export dialog: joint angles (CSV, OpenSim .mot), sensor data, and the summary table per
+"""The export dialog: joint angles (CSV, OpenSim .mot, with our or OpenSim's coordinate names),
+the motion as C3D, BVH and an OpenSense orientation table, sensor data, and the summary table per
 joint (min, max, range of motion) saved as CSV and as a PNG chart for a report.
 
 The files are written off the GUI thread (:class:`~mimucap.gui.background.BackgroundTask`)
@@ -81,7 +82,12 @@ class ExportDialog(QtWidgets.QDialog):
         self.want_mot = QtWidgets.QCheckBox("Joint angles, OpenSim .mot", files_box)
         self.want_summary = QtWidgets.QCheckBox("Summary per joint, CSV", files_box)
         self.want_sensors = QtWidgets.QCheckBox("Sensor data and orientations, one CSV per sensor", files_box)
-        self._file_boxes = (self.want_csv, self.want_mot, self.want_summary, self.want_sensors)
+        self.want_opensim_mot = QtWidgets.QCheckBox("Joint angles as OpenSim coordinates, .mot (OpenSim)", files_box)
+        self.want_c3d = QtWidgets.QCheckBox("Angles, orientations, joint centres and events, C3D (Visual3D, Mokka)", files_box)
+        self.want_bvh = QtWidgets.QCheckBox("Skeleton animation, BVH (Blender)", files_box)
+        self.want_sto = QtWidgets.QCheckBox("Segment orientations, OpenSense .sto (OpenSim IMU kinematics)", files_box)
+        self._file_boxes = (self.want_csv, self.want_mot, self.want_opensim_mot, self.want_summary, self.want_sensors,
+                            self.want_c3d, self.want_bvh, self.want_sto)
         for box in (self.want_csv, self.want_mot, self.want_summary):
             box.setChecked(True)
         self.base_path = QtWidgets.QLineEdit(str(data.path.with_suffix("")) + "_angles", files_box)
@@ -136,7 +142,7 @@ class ExportDialog(QtWidgets.QDialog):
         main.addWidget(self.message)
         main.addWidget(self.summary, 1)
         main.addLayout(buttons)
-        self.resize(620, 720)
+        self.resize(620, 820)
         for widget in (self.range_all, self.range_time, self.range_markers):
             widget.toggled.connect(self.update_summary)
         # Editing a range's fields chooses that range (edits are never silently ignored).
@@ -218,7 +224,9 @@ class ExportDialog(QtWidgets.QDialog):
         return ExportRequest(
             base_path=self.export_base_path(), t_from_s=a, t_to_s=b,
             angles_csv=self.want_csv.isChecked(), angles_mot=self.want_mot.isChecked(),
-            sensors_csv=self.want_sensors.isChecked(), summary_csv=self.want_summary.isChecked())
+            sensors_csv=self.want_sensors.isChecked(), summary_csv=self.want_summary.isChecked(),
+            opensim_mot=self.want_opensim_mot.isChecked(), c3d=self.want_c3d.isChecked(), bvh=self.want_bvh.isChecked(),
+            opensense_sto=self.want_sto.isChecked())
 
     def start_export(self) -> None:
         """Write the files in the background; :attr:`result` holds what was written."""

@@ -36,6 +36,7 @@ from mimucap.gui.source_dialog import (
     remember_source,
 )
 from mimucap.io.calibration_store import user_data_dir
+from mimucap.io.imports import IMPORT_SUFFIXES, import_recording
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
@@ -614,9 +615,32 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # -- review, export, wizards, about ----------------------------------------------------------
     def ask_open_session(self) -> None:
-        path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Open Session", str(self._folder_to_browse()), "MimuCap sessions (*.h5)")
+        path, _ = QtWidgets.QFileDialog.getOpenFileName(
+            self, "Open Session", str(self._folder_to_browse()),
+            "Sessions and recordings to import (*.h5 *.mvnx *.sto);;MimuCap sessions (*.h5);;"
+            "Xsens MVNX (*.mvnx);;OpenSense orientation tables (*.sto)")
+        if path and Path(path).suffix.lower() in IMPORT_SUFFIXES:
+            path = self.import_recording(path)
         if path:
             self.open_review(path)
+
+    def import_recording(self, path: str | Path) -> Path | None:
+        """Turn an Xsens MVNX file or an OpenSense table into a session file (asking where to save
+        it) and return its path; ``None`` when the user cancels or the file cannot be read (said)."""
+        default = self._folder_to_browse() / (Path(path).stem + ".h5")
+        out, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Imported Session As", str(default), "MimuCap sessions (*.h5)")
+        if not out:
+            return None
+        QtWidgets.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
+        try:
+            import_recording(path, out)
+        except (ValueError, OSError) as error:
+            QtWidgets.QApplication.restoreOverrideCursor()
+            QtWidgets.QMessageBox.warning(self, "Import", f"Cannot import {Path(path).name}:\n{error}")
+            return None
+        QtWidgets.QApplication.restoreOverrideCursor()
+        self.statusBar().showMessage(f"Imported {Path(path).name} as {out}", 5000)
+        return Path(out)
 
     def open_review(self, path: str | Path):
         """Open the review window on session file ``path`` (loaded off the GUI thread), its

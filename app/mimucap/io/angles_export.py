@@ -10,7 +10,11 @@ for their meaning, see :func:`mimucap.core.skeleton.joint_angle_columns`), in de
 * ``.mot``: OpenSim's storage format: a name line, ``version=1``, ``nRows``, ``nColumns``
   (counting ``time``), ``inDegrees=yes``, free description lines, ``endheader``, then a
   tab-separated table whose first column is ``time``. Description lines carry no ``=``
-  (OpenSim reads ``key=value`` header lines as metadata).
+  (OpenSim reads ``key=value`` header lines as metadata). With ``opensim_names`` the columns are
+  named as the OpenSim model's coordinates instead (``hip_flexion_r``, ``knee_angle_r``,
+  ``lumbar_extension``…, with OpenSim's signs; the table is
+  :data:`mimucap.io.opensense.OPENSIM_COORDINATES`), so that OpenSim loads the file as a motion of
+  its Rajagopal or gait2392-style models.
 """
 
 from __future__ import annotations
@@ -41,7 +45,8 @@ def sequence_description(shoulder_sequence: str) -> str:
     return f"Euler sequences (intrinsic): shoulders {shoulder}; every other joint Z-X'-Y''"
 
 
-def _check(t_s: np.ndarray, angles: Mapping[str, np.ndarray]) -> tuple[np.ndarray, list[str], np.ndarray]:
+def _check(t_s: np.ndarray, angles: Mapping[str, np.ndarray],
+           unit_suffix: bool = True) -> tuple[np.ndarray, list[str], np.ndarray]:
     t = np.asarray(t_s, dtype=np.float64)
     if t.ndim != 1 or t.size == 0:
         raise ValueError("joint angles need a non-empty 1-D time axis t_s")
@@ -49,7 +54,7 @@ def _check(t_s: np.ndarray, angles: Mapping[str, np.ndarray]) -> tuple[np.ndarra
         raise ValueError("no joint angle columns to write")
     columns = list(angles)
     for name in columns:
-        if not name.endswith("_deg") or any(c in name for c in " \t,"):
+        if (unit_suffix and not name.endswith("_deg")) or any(c in name for c in " \t,"):
             raise ValueError(f"joint angle column {name!r} must end in '_deg' and hold no blank or comma")
     data = np.column_stack([np.asarray(angles[c], dtype=np.float64) for c in columns]) if columns else None
     if data.shape[0] != t.size:
@@ -89,9 +94,30 @@ def write_angles_mot(
     shoulder_sequence: str = "zxy",
     notes: Sequence[str] = (),
     name: str = "mimucap_joint_angles",
+    opensim_names: bool = False,
 ) -> None:
-    """Write joint angles (deg) as an OpenSim ``.mot`` motion with ``inDegrees=yes``."""
-    t, columns, data = _check(t_s, angles_deg)
+    """Write joint angles (deg) as an OpenSim ``.mot`` motion with ``inDegrees=yes``.
+
+    ``opensim_names``: name the columns as OpenSim coordinates with OpenSim's signs (see the
+    module doc; needs the shoulder's Z-X'-Y'' columns for ``arm_flex``/``arm_add``/``arm_rot``);
+    joint-angle columns without an OpenSim coordinate are left out."""
+    if opensim_names:
+        from mimucap.io.opensense import OPENSIM_COORDINATES, opensim_coordinates
+
+        if shoulder_sequence.lower() != "zxy":
+            raise ValueError(f"{path}: OpenSim's arm_flex/arm_add/arm_rot are Z-X'-Y'' angles: "
+                             f"export with the zxy shoulder sequence, not {shoulder_sequence}")
+
+        renamed = opensim_coordinates(angles_deg)
+        if not renamed:
+            raise ValueError(f"{path}: no joint-angle column has an OpenSim coordinate")
+        notes = list(notes) + [
+            "Columns are OpenSim coordinates (Rajagopal 2015 names and signs), computed from MimuCap's angles: "
+            + "; ".join(f"{c} = {'-' if OPENSIM_COORDINATES[c][1] < 0 else ''}{OPENSIM_COORDINATES[c][0]}"
+                        for c in renamed)]
+        t, columns, data = _check(t_s, renamed, unit_suffix=False)
+    else:
+        t, columns, data = _check(t_s, angles_deg)
     with Path(path).open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"{name}\nversion=1\nnRows={t.size}\nnColumns={len(columns) + 1}\ninDegrees=yes\n\n")
         handle.write("Units are S.I. units (second, meters, Newtons, ...)\n")
@@ -105,13 +131,16 @@ def write_angles_mot(
             handle.write(f"{time:.6f}\t" + "\t".join(f"{v:.6f}" for v in row) + "\n")
 
 
-def write_angles(path: str | Path, t_s, angles_deg, shoulder_sequence: str = "zxy", notes: Sequence[str] = ()) -> None:
-    """Write ``.csv`` or ``.mot`` by the file's suffix."""
+def write_angles(path: str | Path, t_s, angles_deg, shoulder_sequence: str = "zxy", notes: Sequence[str] = (),
+                 opensim_names: bool = False) -> None:
+    """Write ``.csv`` or ``.mot`` by the file's suffix (``opensim_names`` only for ``.mot``)."""
     suffix = Path(path).suffix.lower()
+    if opensim_names and suffix != ".mot":
+        raise ValueError(f"{path}: OpenSim coordinate names are for .mot files")
     if suffix == ".csv":
         write_angles_csv(path, t_s, angles_deg, shoulder_sequence, notes)
     elif suffix == ".mot":
-        write_angles_mot(path, t_s, angles_deg, shoulder_sequence, notes)
+        write_angles_mot(path, t_s, angles_deg, shoulder_sequence, notes, opensim_names=opensim_names)
     else:
         raise ValueError(f"{path}: joint angles are written as .csv or .mot, not {suffix or 'no suffix'!r}")
 

@@ -1,5 +1,7 @@
 """Exports of a reviewed session: joint angles (CSV, OpenSim ``.mot``), per-sensor raw data and
-orientations (CSV), and a per-joint summary (min, max, range of motion) as CSV.
+orientations (CSV), a per-joint summary (min, max, range of motion) as CSV, and the motion as
+C3D, BVH and an OpenSense orientation table (:func:`write_motion_file`; the formats are
+described in :mod:`mimucap.io.c3d_export`, :mod:`mimucap.io.bvh` and :mod:`mimucap.io.opensense`).
 
 The time range is ``[t_from_s, t_to_s]`` in session seconds, or the span between two markers
 (:func:`marker_range`). Joint angle files use :mod:`mimucap.io.angles_export` (their header
@@ -28,7 +30,10 @@ class ExportRequest:
     ``base_path``: files are ``<base>.csv``, ``<base>.mot``, ``<base>_summary.csv``,
     ``<base>_<sensor>.csv``; ``t_from_s``/``t_to_s`` the range (s); ``angles_csv``,
     ``angles_mot``, ``sensors_csv`` (raw acc m/s², gyr rad/s, mag µT and ``q_world_from_sensor``
-    per sensor), ``summary_csv`` choose the files.
+    per sensor), ``summary_csv`` choose the files; ``opensim_mot`` (``<base>_opensim.mot``, joint
+    angles named as OpenSim coordinates), ``c3d`` (``<base>.c3d``), ``bvh`` (``<base>.bvh``) and
+    ``opensense_sto`` (``<base>_orientations.sto``) the motion files; ``events`` gait events
+    ``(t_s, context, label)`` (context ``Left``, ``Right`` or ``General``) that go with them.
     """
 
     base_path: Path
@@ -38,11 +43,17 @@ class ExportRequest:
     angles_mot: bool = True
     sensors_csv: bool = False
     summary_csv: bool = True
+    opensim_mot: bool = False
+    c3d: bool = False
+    bvh: bool = False
+    opensense_sto: bool = False
+    events: tuple[tuple[float, str, str], ...] = ()
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.t_from_s) and np.isfinite(self.t_to_s)) or self.t_to_s <= self.t_from_s:
             raise ValueError(f"export range must have its end after its start, got {self.t_from_s:.3f}..{self.t_to_s:.3f} s")
-        if not (self.angles_csv or self.angles_mot or self.sensors_csv or self.summary_csv):
+        if not (self.angles_csv or self.angles_mot or self.sensors_csv or self.summary_csv or self.opensim_mot
+                or self.c3d or self.bvh or self.opensense_sto):
             raise ValueError("choose at least one file to export")
 
 
@@ -147,15 +158,106 @@ def run_export(data: ReviewData, request: ExportRequest,
     if request.summary_csv:
         jobs.append(("summary", lambda: write_summary_csv(base.with_name(base.name + "_summary.csv"), result.summary,
                                                           request.t_from_s, request.t_to_s)))
+    motion_files = ((request.opensim_mot, "opensim_mot", base.with_name(base.name + "_opensim.mot")),
+                    (request.c3d, "c3d", base.with_suffix(".c3d")), (request.bvh, "bvh", base.with_suffix(".bvh")),
+                    (request.opensense_sto, "sto", base.with_name(base.name + "_orientations.sto")))
+    for wanted, fmt, path in motion_files:
+        if wanted:
+            jobs.append((fmt, lambda f=fmt, p=path: write_motion_file(data, request, f, p, events=request.events)))
     if request.sensors_csv:
         for sensor_id in data.session.sensors:
             jobs.append((sensor_id, lambda s=sensor_id: write_sensor_csv(base.with_name(f"{base.name}_{s}.csv"), data, s,
                                                                         request.t_from_s, request.t_to_s)))
     report(0.0)
     for done, (_name, job) in enumerate(jobs, start=1):
-        result.files.append(job())
+        written = job()
+        result.files.extend(written if isinstance(written, list) else [written])
         report(done / len(jobs))
     return result
+
+
+def _segment_sensors(data: ReviewData) -> dict[str, str]:
+    """Segment → the sensor id the pipeline took its orientation from: the body calibration's
+    assignment where there is one, else each sensor's recorded segment (the first per segment)."""
+    calibration = getattr(data, "body_calibration", None)
+    if calibration is None and data.session.calibrations.get("body"):
+        from mimucap.core.bodycal import BodyCalibration
+
+        calibration = BodyCalibration.from_dict(data.session.calibrations["body"], f"{data.path}: body calibration")
+    if calibration is not None:
+        return dict(calibration.sensors)
+    result: dict[str, str] = {}
+    for sensor_id, stream in data.session.sensors.items():
+        if stream.segment and stream.segment not in result:
+            result[stream.segment] = sensor_id
+    return result
+
+
+def write_motion_file(data: ReviewData, request: ExportRequest, fmt: str, path: Path,
+                      opensim_names: bool = False, raw_sensors: bool = False,
+                      events: Sequence[tuple[float, str, str]] = ()) -> list[Path]:
+    """Write the motion of ``data`` in ``request``'s range as ``fmt`` to ``path``.
+
+    ``fmt``: ``"c3d"``, ``"bvh"``, ``"sto"`` (OpenSense orientations; ``raw_sensors`` for the
+    sensors' own instead of segment-aligned virtual sensors), ``"mot"`` (``opensim_names``: OpenSim
+    coordinates), ``"opensim_mot"`` (the same as ``"mot"`` with ``opensim_names``) or ``"csv"``.
+    The markers in the range go with it (C3D events; header lines of ``.mot``/``.csv``/``.sto``;
+    a ``<name>_markers.csv`` beside a BVH file, which has no place for them), and so do the gait
+    ``events`` ``(t_s, context, label)``. Returns the files written.
+    """
+    from mimucap.io import opensense
+    from mimucap.io.angles_export import write_angles
+
+    path = Path(path)
+    t_from, t_to = request.t_from_s, request.t_to_s
+    keep = (data.t_s >= t_from) & (data.t_s <= t_to)
+    if np.count_nonzero(keep) < 2:
+        raise ValueError(f"fewer than two poses between {t_from:.3f} and {t_to:.3f} s (the recording spans "
+                         f"{data.start_s:.3f}..{data.end_s:.3f} s)")
+    t = data.t_s[keep]
+    q_segments = {s: q[keep] for s, q in data.q_world_from_segment.items()}
+    angles = {c: v[keep] for c, v in data.angles_deg.items()}
+    root = None if data.root_position_m is None else data.root_position_m[keep]
+    markers = [(m.t_s, m.label) for m in data.markers if t_from <= m.t_s <= t_to]
+    events = [e for e in events if t_from <= e[0] <= t_to]
+    notes = [f"Session {data.path.name}; pose from {data.pose_source}; {t_from:.3f}..{t_to:.3f} s"]
+    notes += [f"marker at {time:.3f} s: {label}" for time, label in markers]
+    notes += [f"event at {time:.3f} s: {context} {label}" for time, context, label in events]
+    subject = (data.session.metadata.get("subject") or {}).get("id", "")
+    if fmt == "c3d":
+        from mimucap.io.c3d_export import write_c3d
+
+        return [write_c3d(path, data.model, data.height_m, t, q_segments, angles, root, markers, events, subject)]
+    if fmt == "bvh":
+        from mimucap.io.bvh import write_bvh
+
+        written = [write_bvh(path, data.model, data.height_m, t, q_segments, root)]
+        if markers or events:
+            side = path.with_name(path.stem + "_markers.csv")
+            with side.open("w", encoding="utf-8", newline="") as handle:
+                handle.write(f"# markers and events of {path.name}; t_s seconds from the first BVH frame\n")
+                writer = csv.writer(handle)
+                writer.writerow(["t_s", "context", "label"])
+                for time, label in markers:
+                    writer.writerow([f"{time - t[0]:.6f}", "General", label])
+                for time, context, label in events:
+                    writer.writerow([f"{time - t[0]:.6f}", context, label])
+            written.append(side)
+        return written
+    if fmt == "sto":
+        if raw_sensors:
+            sensors = _segment_sensors(data)
+            stream_t = {sid: data.session.sensors[sid].t_s for sid in sensors.values() if sid in data.session.sensors}
+            table = opensense.raw_sensor_table(t, sensors, stream_t, data.q_world_from_sensor)
+            header = opensense.RAW_SENSOR_NOTES
+        else:
+            table = opensense.virtual_sensor_table(q_segments)
+            header = opensense.VIRTUAL_SENSOR_NOTES
+        return [opensense.write_orientation_sto(path, t, table, list(header) + notes)]
+    if fmt in ("mot", "opensim_mot", "csv"):
+        write_angles(path, t, angles, notes=notes, opensim_names=opensim_names or fmt == "opensim_mot")
+        return [path]
+    raise ValueError(f"unknown export format {fmt!r}; use c3d, bvh, sto, mot or csv")
 
 
 def _written(path: Path, write: Callable[[Path], None]) -> Path:

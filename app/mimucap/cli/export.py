@@ -1,0 +1,105 @@
+"""``mimucap export``: a session's motion in the file formats other programs open.
+
+``mimucap export SESSION.h5 [--calibration CAL.json] [--format c3d|bvh|sto|mot|csv] --out FILE
+[--from S] [--to S] [--opensim-names] [--raw-sensors]``
+
+The motion is the pipeline's result for the session (segment orientations and joint angles, as
+the review shows them), computed with the session's stored calibrations, or with the body
+calibration of ``--calibration``. The format follows ``--format``, else the suffix of ``--out``:
+
+* ``c3d``: joint angles (``LKneeAngles``… X/Y/Z = flexion/adduction/rotation, degrees), segment
+  orientations, joint centres, the markers as events (Visual3D, Mokka, Vicon Nexus, OpenSim);
+* ``bvh``: the skeleton's hierarchy and motion (Blender, MotionBuilder, game engines);
+* ``sto``: an OpenSense orientation table, one virtual IMU per segment (``--raw-sensors``: the
+  sensors' own orientations) for OpenSim's IMUPlacer and IMUInverseKinematicsTool;
+* ``mot``: joint angles as an OpenSim motion (``--opensim-names``: as OpenSim coordinates);
+* ``csv``: joint angles with a header naming sequences, signs and units.
+
+``--from``/``--to`` (seconds) keep a part of the recording. The markers go into every format that
+has a place for them: C3D events, ``.mot``/``.csv``/``.sto`` header lines; BVH has none, so they
+are listed in a ``.markers.csv`` file beside it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+from pathlib import Path
+
+from mimucap.cli import check_output_path, refuse_to_overwrite_input
+
+FORMATS = ("c3d", "bvh", "sto", "mot", "csv")
+
+
+def register(subparsers) -> None:
+    parser = subparsers.add_parser(
+        "export",
+        help="a session's motion as C3D, BVH, OpenSense .sto, OpenSim .mot or CSV",
+        description=__doc__.split("\n\n", 1)[1],
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("session", metavar="SESSION.h5", help="a MimuCap session file")
+    parser.add_argument("--calibration", metavar="CAL.json", default=None,
+                        help="body calibration to apply (default: the one stored with the session)")
+    parser.add_argument("--format", choices=FORMATS, default=None, help="file format (default: from --out's suffix)")
+    parser.add_argument("--out", required=True, metavar="FILE", help="file to write")
+    parser.add_argument("--from", dest="t_from", type=float, default=None, metavar="S", help="start (s)")
+    parser.add_argument("--to", dest="t_to", type=float, default=None, metavar="S", help="end (s)")
+    parser.add_argument("--opensim-names", action="store_true",
+                        help="mot: name the columns as OpenSim coordinates (hip_flexion_r, knee_angle_r…)")
+    parser.add_argument("--raw-sensors", action="store_true",
+                        help="sto: the sensors' own orientations instead of segment-aligned virtual sensors")
+    parser.set_defaults(func=run)
+
+
+def choose_format(out: str, given: str | None) -> str:
+    """The export format: ``given``, else the suffix of ``out``; ``ValueError`` otherwise."""
+    if given is not None:
+        return given
+    suffix = Path(out).suffix.lower().lstrip(".")
+    if suffix not in FORMATS:
+        raise ValueError(f"{out}: cannot tell the format from the suffix; give --format {'|'.join(FORMATS)}")
+    return suffix
+
+
+def review_for_export(session_path: str | Path, calibration_path: str | Path | None = None):
+    """The pipeline's result for ``session_path`` (:func:`mimucap.session.review.load_review`),
+    with the body calibration read from ``calibration_path`` in place of the stored one."""
+    from mimucap.session import review
+
+    parameters = inspect.signature(review.load_review).parameters
+    options = {"result": "reprocessed"} if "result" in parameters else {}
+    if calibration_path is None:
+        return review.load_review(session_path, **options)
+    from mimucap.io.body_calibration_file import read_body_calibration
+    from mimucap.session.recording import open_session
+
+    calibration, _document = read_body_calibration(calibration_path)
+    if "calibration" in parameters:
+        return review.load_review(session_path, calibration=calibration, **options)
+    session = open_session(session_path)
+    session.calibrations = {**session.calibrations, "body": calibration.to_dict()}
+    return review.build_review(session_path, session)
+
+
+def run(args: argparse.Namespace) -> int:
+    fmt = choose_format(args.out, args.format)
+    if args.opensim_names and fmt != "mot":
+        raise ValueError("--opensim-names applies to --format mot")
+    if args.raw_sensors and fmt != "sto":
+        raise ValueError("--raw-sensors applies to --format sto")
+    check_output_path(args.out)
+    refuse_to_overwrite_input(args.out, args.session, args.calibration)
+    from mimucap.session.export import ExportRequest, write_motion_file
+
+    data = review_for_export(args.session, args.calibration)
+    t_from = data.start_s if args.t_from is None else args.t_from
+    t_to = data.end_s if args.t_to is None else args.t_to
+    chosen = {"c3d": "c3d", "bvh": "bvh", "sto": "opensense_sto", "mot": "angles_mot", "csv": "angles_csv"}[fmt]
+    request = ExportRequest(**{"base_path": Path(args.out).with_suffix(""), "t_from_s": t_from, "t_to_s": t_to,
+                               "angles_csv": False, "angles_mot": False, "summary_csv": False, chosen: True})
+    written = write_motion_file(data, request, fmt, Path(args.out), opensim_names=args.opensim_names,
+                                raw_sensors=args.raw_sensors)
+    print(f"{data.path.name} ({data.pose_source}): {len(written)} file(s) written: "
+          + ", ".join(str(p) for p in written))
+    return 0
