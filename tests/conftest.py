@@ -32,10 +32,11 @@ def _isolated_user_dirs(tmp_path_factory, monkeypatch):
 
 
 def record_calibrated_session(path: Path, scenario: str = "walk", seconds: float = 8.0, seed: int = 3,
-                              n_sensors: int = 10, markers: tuple = ()) -> Path:
+                              n_sensors: int = 10, markers: tuple = (), settle_s: float = 1.0) -> Path:
     """A session recorded as a clinician records one, on the simulated suit with its default
     sensor errors: magnetometer turns, N/T-pose body calibration (both stored in the session),
-    then ``seconds`` of ``scenario``. Its truth is kept for evaluation only."""
+    then, ``settle_s`` after the subject went back to ``scenario`` (whose lead-in is a second of
+    N-pose), ``seconds`` of it. Its truth is kept for evaluation only."""
     from mimucap.core.simulate import SimulationConfig
     from mimucap.io.calibration_store import CalibrationStore
     from mimucap.session.feeds import SimulatorFeed
@@ -48,8 +49,14 @@ def record_calibrated_session(path: Path, scenario: str = "walk", seconds: float
                        height_m=config.height_m, clock=clock)
     live.start()
     run_guided_session(live, clock, path, seconds, CalibrationStore(path.parent / f"{path.stem}-store"),
-                       markers=markers)
+                       markers=markers, settle_s=settle_s, subject={"id": "simulated", "height_m": config.height_m})
     return path
+
+
+@pytest.fixture(scope="session")
+def record_calibrated():
+    """:func:`record_calibrated_session`, for tests that record their own."""
+    return record_calibrated_session
 
 
 @pytest.fixture(scope="session")

@@ -394,8 +394,11 @@ class SuitSimulator:
         self._cache = None
 
     def resume_scenario(self) -> None:
-        """Go back to the configured scenario (after doing what a calibration asked)."""
-        self.set_activity(self.config.scenario, **dict(self.config.scenario_params))
+        """Start the configured scenario again from its beginning, its lead-in included (after
+        doing what a calibration asked: the subject stands a moment, then moves)."""
+        self._switches += 1
+        self.schedule.switch(self.time_s, self._activities(self.config.scenario, dict(self.config.scenario_params)))
+        self._cache = None
 
     def current_activity(self) -> str:
         """Label of the activity at the next sample's time."""

@@ -47,11 +47,13 @@ class GuidedOutcome:
 def run_guided_session(live, clock: SteppedClock, out_path: str | Path, record_s: float,
                        store: CalibrationStore, step_s: float = 0.02,
                        markers: tuple[tuple[float, str], ...] = (),
-                       on_step: Callable[[], None] | None = None) -> GuidedOutcome:
+                       on_step: Callable[[], None] | None = None, settle_s: float = 1.0,
+                       subject: dict | None = None) -> GuidedOutcome:
     """Calibrate every magnetometer (one bundle, one turn about each axis), calibrate the body
-    (N-pose, T-pose), let the subject carry on and record ``record_s`` seconds of it into
-    ``out_path`` with ``markers`` (seconds after the start, label). ``live`` must be started
-    on ``clock``. ``ValueError`` when a calibration is refused."""
+    (N-pose, T-pose), let the subject carry on and, ``settle_s`` seconds later, record
+    ``record_s`` seconds of it into ``out_path`` with ``markers`` (seconds after the start,
+    label) and the ``subject`` form (id, height...). ``live`` must be started on ``clock``.
+    ``ValueError`` when a calibration is refused."""
 
     def tick() -> None:
         clock.now += step_s
@@ -82,9 +84,9 @@ def run_guided_session(live, clock: SteppedClock, out_path: str | Path, record_s
     finally:
         feed.instruct(RESUME)
         feed.close()
-    for _ in range(int(round(1.0 / step_s))):  # the subject gets going
+    for _ in range(int(round(settle_s / step_s))):
         tick()
-    live.start_recording(out_path)
+    live.start_recording(out_path, subject)
     start = clock.now
     pending = sorted(markers)
     while clock.now - start < record_s:
