@@ -95,7 +95,7 @@ def parse_source_spec(spec: str) -> SourceSpec:
             raise _error(spec, "expected udp:BIND_ADDRESS:PORT")
         return UdpSpec(_bind_address(spec, address), _port(spec, port_text))
     if kind == "slimevr":
-        if not rest:
+        if spec.strip() == "slimevr":
             return SlimeVrSpec()
         address, sep, port_text = rest.rpartition(":")
         if sep and not address:
