@@ -135,6 +135,7 @@ class _SensorState:
         self.ekf: OrientationEKF | None = None
         self.q_world_from_sensor: np.ndarray | None = None
         self.onboard = False
+        self.has_mag = False
         self.flags = 0
         self.battery_pct = float("nan")
 
@@ -273,6 +274,11 @@ class LiveSession:
         """Sensor id → newest ``q_world_from_sensor`` (4,) (sensors with an estimate only)."""
         return {sid: s.q_world_from_sensor for sid, s in self._sensors.items() if s.q_world_from_sensor is not None}
 
+    def orientation_only_sensors(self) -> tuple[str, ...]:
+        """Sensors that send their own orientation and no magnetometer readings (on-board
+        fusion that calibrates itself, e.g. SlimeVR trackers): nothing to calibrate here."""
+        return tuple(sid for sid, s in self._sensors.items() if s.onboard and not s.has_mag)
+
     def set_display_mode(self, mode: str) -> None:
         """``"world"`` or ``"body"`` (see :mod:`mimucap.session.figure`)."""
         self.builder.display_alpha(mode, rotation.identity(), 0.0)  # validates
@@ -366,6 +372,7 @@ class LiveSession:
             if values is not None:
                 raw[:, row] = values
         state.raw.append(t, raw)
+        state.has_mag = state.has_mag or mag is not None
         if block.battery_pct is not None:
             state.battery_pct = float(block.battery_pct[-1])
         if block.q_world_from_sensor is not None:

@@ -1,0 +1,113 @@
+"""Orientation-only sensors (on-board fusion, no raw channels: SlimeVR trackers) through the
+product: the live session takes their quaternions, the body calibration works from them, the
+magnetometer wizard says they calibrate themselves, the sensor panel shows battery and signal.
+
+The sensors are the simulated suit's with on-board orientation, stripped of acc, gyr and mag
+as a SlimeVR tracker sends them; the body calibration is checked against the simulator's true
+mounting rotations (an independent reference)."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from PyQt5 import QtCore
+
+from mimucap.core import rotation as rot
+from mimucap.core.simulate import SimulationConfig
+from mimucap.core.simulate_sensors import error_model
+from mimucap.gui.sensor_panel import SensorPanel
+from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
+from mimucap.io.calibration_store import CalibrationStore
+from mimucap.session.feeds import SimulatorFeed
+from mimucap.session.live import LiveSession
+
+pytestmark = pytest.mark.gui
+ONBOARD = replace(error_model("default"), onboard_orientation=True, onboard_error_deg=0.3)
+
+
+class OrientationOnlyFeed(SimulatorFeed):
+    """The simulated suit as SlimeVR trackers would deliver it: orientation, battery, signal."""
+
+    def poll(self):
+        return [dataclasses.replace(block, acc=None, gyr=None, mag_uT=None,
+                                    battery_pct=np.full(len(block), 64.0))
+                for block in super().poll()]
+
+    def signal_dbm(self) -> dict[str, float]:
+        return {sid: -55.0 for sid in self.sensor_ids}
+
+
+class FakeClock:
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def _live(scenario: str) -> tuple[LiveSession, FakeClock]:
+    clock = FakeClock()
+    config = SimulationConfig(scenario=scenario, n_sensors=10, seed=8, errors=ONBOARD)
+    live = LiveSession(OrientationOnlyFeed(config, clock=clock, time_scale=4.0), clock=clock)
+    live.start()
+    return live, clock
+
+
+def test_the_panel_shows_battery_and_signal_and_the_magnetometer_wizard_asks_nothing(qtbot, tmp_path):
+    live, clock = _live("npose")
+    for _ in range(20):
+        clock.now += 0.025
+        live.step()
+    assert sorted(live.orientation_only_sensors()) == sorted(live.sensor_ids)
+    assert set(live.latest_orientations()) == set(live.sensor_ids)   # the device's quaternions
+    panel = SensorPanel()
+    qtbot.addWidget(panel)
+    panel.show_rows(live.sensor_rows())
+    assert panel.cell_text("S01", "Battery (%)") == "64"
+    assert panel.cell_text("S01", "Signal (dBm)") == "-55"
+    assert panel.cell_text("S01", "Mag. calibration") == "on-board"
+    assert panel.cell_text("S01", "State") == "ok"
+
+    wizard = MagnetometerWizard(None, live, store=CalibrationStore(tmp_path))
+    qtbot.addWidget(wizard)
+    wizard.show()
+    note = wizard.self_calibrating_note
+    assert note.isVisible() and "calibrate themselves" in note.text() and "S01" in note.text()
+    assert wizard.sensor_list.count() == 0 and not wizard.start_button.isEnabled()
+    wizard.close()
+
+
+def test_the_body_calibration_works_from_their_quaternions(qtbot):
+    live, clock = _live("npose")
+    wizard = BodyCalibrationWizard(None, live, tick_ms=1)
+    qtbot.addWidget(wizard)
+    wizard.show()
+    stepper = QtCore.QTimer()
+
+    def step() -> None:
+        clock.now += 0.025
+        live.step()
+
+    stepper.timeout.connect(step)
+    stepper.start(1)
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    qtbot.waitUntil(lambda: wizard.page_name in ("result", "refused"), timeout=30000)
+    stepper.stop()
+    assert wizard.page_name == "result", wizard.refusal_label.text()
+    calibration = wizard.procedure.calibration
+    simulator = live.simulator
+    errors = [float(np.degrees(rot.angle_between(calibration.q_segment_from_sensor[seg],
+                                                 simulator.mounting[sid].q_segment_from_sensor)))
+              for seg, sid in calibration.sensors.items()]
+    assert len(errors) == 10 and max(errors) < 1.0
+    qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
+    assert live.body_calibration is calibration
+    for _ in range(10):          # the skeleton follows the sensors through the calibration
+        clock.now += 0.025
+        live.step()
+    assert live.pose_source == "body calibration"
+    q_segments = live.q_world_from_segment
+    assert q_segments is not None and set(q_segments) >= set(calibration.sensors)
