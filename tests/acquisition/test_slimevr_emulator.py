@@ -110,6 +110,7 @@ def expected_q_world_from_sensor(t: int, s: int, k: np.ndarray) -> np.ndarray:
     return np.column_stack([np.cos(h), np.sin(h)[:, None] * a])
 
 
+@pytest.mark.slow
 def test_emulated_trackers_through_the_live_pipeline(emulation_modules):
     port = _free_udp_port()
     live = open_live_session(f"slimevr:127.0.0.1:{port}")

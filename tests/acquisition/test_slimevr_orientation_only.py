@@ -111,3 +111,15 @@ def test_the_body_calibration_works_from_their_quaternions(qtbot):
     assert live.pose_source == "body calibration"
     q_segments = live.q_world_from_segment
     assert q_segments is not None and set(q_segments) >= set(calibration.sensors)
+
+
+def test_the_source_dialog_offers_slimevr_trackers(qtbot):
+    from mimucap.gui.source_dialog import SourceDialog
+
+    dialog = SourceDialog(None, spec="slimevr:127.0.0.1:7000")
+    qtbot.addWidget(dialog)
+    assert dialog.current_kind() == "slimevr" and dialog.current_spec() == "slimevr:127.0.0.1:7000"
+    dialog.slimevr_port.setValue(6969)
+    dialog.slimevr_address.setText("0.0.0.0")
+    dialog.accept()
+    assert dialog.spec == "slimevr:0.0.0.0:6969"

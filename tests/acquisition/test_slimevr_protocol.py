@@ -98,8 +98,8 @@ def test_other_protocol_versions_are_refused_with_a_message(driver, build, firmw
     assert driver.sock.sent == []          # no answer: the tracker keeps looking for a server
     report = driver.report("running")
     assert report.rejections == {"unsupported_version": 1}
-    assert "02:4D:43:00:00:07" in report.message
-    assert f"{proto.MIN_PROTOCOL_BUILD}-{proto.MAX_PROTOCOL_BUILD}" in report.message
+    assert "02:4D:43:00:00:07" in report.warning
+    assert f"{proto.MIN_PROTOCOL_BUILD}-{proto.MAX_PROTOCOL_BUILD}" in report.warning
     driver.handle_datagram(rotation_packet(1, 0, (0, 0, 0, 1)), TRACKER, 10.1)
     assert blocks_of(driver) == {}
     assert driver.report("running").rejections["unknown_address"] == 1
@@ -183,3 +183,30 @@ def test_slimevr_specs_parse_and_round_trip(text, expected):
 def test_malformed_slimevr_specs_say_why(text):
     with pytest.raises(ValueError, match=r"slimevr\[:\[BIND_ADDRESS:\]PORT\]"):
         parse_source_spec(text)
+
+
+def test_a_refused_tracker_is_named_as_the_sources_problem():
+    """Through the worker process and the live session: the user reads why a tracker is not there."""
+    import socket
+    import time
+
+    from mimucap.session.live import open_live_session
+
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    live = open_live_session(f"slimevr:127.0.0.1:{port}")
+    live.start()
+    tracker = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline and "build 99" not in live.source_problem:
+            tracker.sendto(handshake(build=99, firmware=b"9.9.9"), ("127.0.0.1", port))
+            live.step()
+            time.sleep(0.05)
+        problem = live.source_problem
+        assert "02:4D:43:00:00:07" in problem and "build 99" in problem and "9-17" in problem
+        assert live.sensor_ids == ()
+    finally:
+        tracker.close()
+        live.stop()

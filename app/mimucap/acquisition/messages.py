@@ -34,6 +34,8 @@ class BlocksMessage:
     refused_in_gaps: dict[str, int] = field(default_factory=dict)
     #: sensor → strength of its radio link (dBm), for sources that report one (SlimeVR)
     signal_dbm: dict[str, float] = field(default_factory=dict)
+    #: something the user should act on while the source runs (e.g. a refused SlimeVR tracker)
+    warning: str = ""
 
     def sample_count(self) -> int:
         return sum(len(block) for block in self.blocks)
@@ -65,3 +67,5 @@ class WorkerReport:
     refused_in_gaps: dict[str, int] = field(default_factory=dict)
     #: sensor → strength of its radio link (dBm), for sources that report one (SlimeVR)
     signal_dbm: dict[str, float] = field(default_factory=dict)
+    #: something the user should act on while the source runs (e.g. a refused SlimeVR tracker)
+    warning: str = ""

@@ -116,7 +116,7 @@ class SlimeVrDriver:
         self._builder = BlockBuilder(config.name)
         self.rejections = RejectionCounter()
         self.refused_trackers: dict[str, int] = {}        # "tracker MAC (build N)" → handshakes refused
-        self.message = ""
+        self.warning = ""
         self.counts = {"acceleration_packets": 0, "ignored_packets": 0, "handshakes": 0}
         self._next_heartbeat_s = 0.0
         self._sensor_count = 0
@@ -234,7 +234,7 @@ class SlimeVrDriver:
             if key not in self.refused_trackers:
                 print(f"mimucap slimevr: refused {why}", file=sys.stderr, flush=True)
             self.refused_trackers[key] = self.refused_trackers.get(key, 0) + 1
-            self.message = f"refused {why}"
+            self.warning = f"refused {why}"
             return
         mac = handshake.mac.hex().upper() if any(handshake.mac) else f"{address[0]}:{address[1]}"
         tracker = self._trackers.get(mac)
@@ -340,6 +340,6 @@ class SlimeVrDriver:
             rejections[Rejection.QUEUE_OVERFLOW.value] = overflow
         restarts = {s.name: t.handshakes - 1 for t in self._trackers.values() for s in t.sensors.values()
                     if t.handshakes > 1}
-        return WorkerReport(self.config.name, state, message or self.message, rejections,
+        return WorkerReport(self.config.name, state, message, rejections,
                             dict(self.refused_trackers), by_sensor, {}, overflow, 0, restarts,
-                            signal_dbm=self.signal_dbm())
+                            signal_dbm=self.signal_dbm(), warning=self.warning)

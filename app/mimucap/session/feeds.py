@@ -196,8 +196,8 @@ class SupervisorFeed:
         for name, status in self.supervisor.sources().items():
             if status.state in (STATE_DISCONNECTED, STATE_FAILED):
                 parts.append(f"{name}: {status.message or status.last_error or status.state}")
-            elif status.message:   # a running source with something to say (a refused SlimeVR tracker)
-                parts.append(f"{name}: {status.message}")
+            elif status.warning:   # running, with something to act on (e.g. a refused SlimeVR tracker)
+                parts.append(f"{name}: {status.warning}")
         return "; ".join(parts)
 
     def stop(self) -> list[SampleBlock]:
