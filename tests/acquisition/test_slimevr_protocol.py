@@ -132,14 +132,22 @@ def test_lost_packets_are_drops_of_the_trackers_sensors_and_old_numbers_are_refu
     for number in (0, 1, 5, 6):           # 2, 3, 4 lost on the way
         driver.handle_datagram(rotation_packet(number, 0, (0, 0, 0, 1)), TRACKER, 10.0 + number * 0.01)
     driver.handle_datagram(rotation_packet(5, 0, (0, 0, 0, 1)), TRACKER, 10.1)   # a duplicate
+    # the firmware echoes the server's ping as it came, numbered 0: taken, no drops, no refusal
+    driver._send_heartbeats(10.11)
+    pong = driver.sock.sent[-1][0]
+    assert pong[:12] == struct.pack(">IQ", 10, 0)
+    driver.handle_datagram(pong, TRACKER, 10.12)
+    driver.handle_datagram(rotation_packet(7, 0, (0, 0, 0, 1)), TRACKER, 10.13)
     (block,) = blocks_of(driver)["024D43000007-0"]
-    assert list(block.seq) == [0, 1, 5, 6]  # three numbers missing: three drops
+    # the round trip 10.11 → 10.12 s: half of it is the network delay taken off the arrival
+    assert block.host_time_s[-1] == pytest.approx(10.13 - 0.005)
+    assert list(block.seq) == [0, 1, 5, 6, 7]  # three numbers missing: three drops
     assert driver.report("running").rejections == {"stale_sequence": 1}
     # the tracker reboots: a new handshake starts its numbers at 0 again, without false drops
     driver.handle_datagram(handshake(), TRACKER, 11.0)
     driver.handle_datagram(rotation_packet(0, 0, (0, 0, 0, 1)), TRACKER, 11.01)
     (block,) = blocks_of(driver)["024D43000007-0"]
-    assert list(block.seq) == [7]
+    assert list(block.seq) == [8]
 
 
 def test_bundles_carry_several_packets_and_refused_values_are_counted(driver):

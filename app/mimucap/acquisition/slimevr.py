@@ -29,8 +29,9 @@ include the network; ``device_time_s`` is the same instant.
 Drops: a tracker numbers every packet it sends since its handshake. Packet numbers missing on
 arrival are lost packets of that tracker (whatever they carried), and each of its sensors
 counts them: a sensor's sequence number is its rotation count plus its tracker's lost packets.
-A packet number at or before the last one is refused (``stale_sequence``); a new handshake
-starts the count again. Signal strength (dBm, per tracker or per sensor) travels in the
+A packet number at or before the last one is refused (``stale_sequence``), except 0, which
+SlimeVR-Server also takes as unnumbered (the firmware echoes the server's ping with it); a new
+handshake starts the count again. Signal strength (dBm, per tracker or per sensor) travels in the
 worker report (``signal_dbm``), not in the samples: it describes the radio link, not the body.
 """
 
@@ -52,6 +53,8 @@ from mimucap.acquisition.samples import BlockBuilder, Sample, ValueLimits, DEFAU
 
 #: Datagrams read per wake-up before timers and flushing get their turn.
 MAX_DRAIN = 512
+#: Trackers served at most (a flood of handshakes with made-up MACs cannot grow the memory).
+MAX_TRACKERS = 256
 #: Distinct refused trackers remembered by name; beyond this they are lumped together.
 MAX_TRACKED_REFUSED = 64
 
@@ -212,14 +215,17 @@ class SlimeVrDriver:
         if tracker is None:      # no handshake from there (yet): a tracker of an earlier server run
             self.rejections.add(Rejection.UNKNOWN_ADDRESS)
             return
-        if tracker.last_number is not None:
-            if datagram.number <= tracker.last_number:
-                self.rejections.add(Rejection.STALE_SEQUENCE)
-                for sensor in tracker.sensors.values():
-                    sensor.rejections.add(Rejection.STALE_SEQUENCE)
-                return
-            tracker.lost += datagram.number - tracker.last_number - 1
-        tracker.last_number = datagram.number
+        if datagram.number == 0 and tracker.last_number is not None:
+            pass      # number 0 is unnumbered (the firmware echoes the server's ping as it came)
+        elif tracker.last_number is not None and datagram.number <= tracker.last_number:
+            self.rejections.add(Rejection.STALE_SEQUENCE)
+            for sensor in tracker.sensors.values():
+                sensor.rejections.add(Rejection.STALE_SEQUENCE)
+            return
+        else:
+            if tracker.last_number is not None:
+                tracker.lost += datagram.number - tracker.last_number - 1
+            tracker.last_number = datagram.number
         tracker.last_packet_s = now
         for message in datagram.messages:
             self._message(tracker, message, address, now)
@@ -238,6 +244,9 @@ class SlimeVrDriver:
             return
         mac = handshake.mac.hex().upper() if any(handshake.mac) else f"{address[0]}:{address[1]}"
         tracker = self._trackers.get(mac)
+        if tracker is None and len(self._trackers) >= MAX_TRACKERS:   # memory stays bounded
+            self.rejections.add(Rejection.UNKNOWN_SENSOR)
+            return
         if tracker is None:
             tracker = self._trackers[mac] = _Tracker(mac, address, handshake.build)
         else:                    # the same tracker again (rebooted or reconnected, maybe moved)
