@@ -20,8 +20,9 @@
 //   wifi <ssid> [password]       join this network (restart to apply)
 //   host <ip> [port]             the MimuCap host (default port 5555)
 //   output udp|serial|both       where samples go (default udp)
-//   battery <gpio> <divider>     measure the battery on this ADC pin behind a divider of this
-//                                ratio (e.g. 35 2.0); "battery off" sends no battery channel
+//   battery <gpio> <divider>     measure the battery on this ADC1 pin (GPIO 32-39) behind a
+//                                divider of this ratio (e.g. 35 2.0); "battery off" sends no
+//                                battery channel
 //   restart
 #include <Arduino.h>
 #include <Preferences.h>
@@ -280,8 +281,9 @@ void command(String line) {
   } else if (verb == "battery" && first.length() && second.length()) {
     long pin = first.toInt();
     float divider = second.toFloat();
-    if (pin < 0 || pin > 39 || !(divider >= 1.0f && divider <= 20.0f)) {
-      Serial.printf("# battery <gpio 0..39> <divider 1..20>, e.g. battery 35 2.0\r\n");
+    // ADC1 pins only (GPIO 32-39): ADC2 cannot be read while Wi-Fi is on
+    if (pin < 32 || pin > 39 || !(divider >= 1.0f && divider <= 20.0f)) {
+      Serial.printf("# battery <gpio 32..39 (ADC1)> <divider 1..20>, e.g. battery 35 2.0\r\n");
       return;
     }
     settings.battery_pin = int(pin);
