@@ -123,3 +123,60 @@ def test_the_source_dialog_offers_slimevr_trackers(qtbot):
     dialog.slimevr_address.setText("0.0.0.0")
     dialog.accept()
     assert dialog.spec == "slimevr:0.0.0.0:6969"
+
+
+def test_trackers_that_appear_later_are_worn_where_they_were_last_time(qtbot):
+    """A worker source's sensors appear with their first samples, after the window opened the
+    source: the remembered assignment reaches them then, and they drive the figure."""
+    import socket
+    import struct
+
+    from mimucap.acquisition import slimevr_protocol as proto
+    from mimucap.gui.assignment_dialog import remember_assignment
+    from mimucap.gui.main_window import MainWindow
+    from mimucap.session.live import POSE_SENSOR_AXES
+
+    mac = bytes([0x02, 0x4D, 0x43, 0, 0, 9])
+    remember_assignment({"024D43000009-0": "pelvis", "024D43000009-1": "thorax"})
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    win = MainWindow(f"slimevr:127.0.0.1:{port}")
+    qtbot.addWidget(win)
+    win.show()
+    win.start()
+    tracker = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    tracker.bind(("127.0.0.1", 0))
+    tracker.setblocking(False)
+    number = [0]
+    connected = [False]
+    handshake = struct.pack(">7i", 5, 4, 2, 0, 0, 0, 13) + bytes([5]) + b"0.4.1" + mac
+
+    def send(packet_type: int, payload: bytes) -> None:
+        tracker.sendto(proto.encode_tracker_packet(packet_type, number[0], payload), ("127.0.0.1", port))
+        number[0] += 1
+
+    def tick() -> None:      # a tracker: looks for its server until answered, then sends rotations
+        try:
+            while True:
+                answer = tracker.recv(2048)
+                connected[0] = connected[0] or answer[:1] == b"\x03"
+        except BlockingIOError:
+            pass
+        if not connected[0]:
+            tracker.sendto(proto.encode_tracker_packet(proto.PACKET_HANDSHAKE, 0, handshake), ("127.0.0.1", port))
+            return
+        for sensor in (0, 1):
+            send(proto.PACKET_ROTATION_DATA, struct.pack(">BB4fB", sensor, 1, 0.0, 0.0, 0.0, 1.0, 0))
+
+    timer = QtCore.QTimer()
+    timer.timeout.connect(tick)
+    try:
+        timer.start(20)
+        qtbot.waitUntil(lambda: win.live.sensor_segments.get("024D43000009-1") == "thorax", timeout=20000)
+        assert win.live.sensor_segments.get("024D43000009-0") == "pelvis"
+        qtbot.waitUntil(lambda: win.live.pose_source == POSE_SENSOR_AXES, timeout=5000)
+    finally:
+        timer.stop()
+        tracker.close()
+        win.close()
