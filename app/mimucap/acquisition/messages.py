@@ -32,6 +32,10 @@ class BlocksMessage:
     #: :attr:`WorkerReport.refused_in_gaps`), sent with the blocks whose gaps they explain so
     #: that the drop count never counts them for a moment
     refused_in_gaps: dict[str, int] = field(default_factory=dict)
+    #: sensor → strength of its radio link (dBm), for sources that report one (SlimeVR)
+    signal_dbm: dict[str, float] = field(default_factory=dict)
+    #: something the user should act on while the source runs (e.g. a refused SlimeVR tracker)
+    warning: str = ""
 
     def sample_count(self) -> int:
         return sum(len(block) for block in self.blocks)
@@ -61,3 +65,7 @@ class WorkerReport:
     #: sensor → refused samples whose sequence numbers lie between delivered ones (the gaps
     #: they leave are rejections, not drops)
     refused_in_gaps: dict[str, int] = field(default_factory=dict)
+    #: sensor → strength of its radio link (dBm), for sources that report one (SlimeVR)
+    signal_dbm: dict[str, float] = field(default_factory=dict)
+    #: something the user should act on while the source runs (e.g. a refused SlimeVR tracker)
+    warning: str = ""

@@ -6,6 +6,7 @@ Valid forms (see :data:`VALID_FORMS`)::
     udp:BIND_ADDRESS:PORT     wireless nodes speaking the UDP protocol, e.g. udp:0.0.0.0:5555
     serial:DEVICE[@BAUD]      a serial board or radio receiver, e.g. serial:/dev/ttyUSB0@115200
     replay:FILE[@SPEED]       a session file or Xsens export, SPEED × real time (default 1)
+    slimevr[:[BIND_ADDRESS:]PORT]  a SlimeVR server for SlimeVR trackers (default 0.0.0.0:6969)
 
 :func:`parse_source_spec` returns a frozen spec; :func:`format_source_spec` is its inverse.
 """
@@ -17,9 +18,12 @@ import re
 from dataclasses import dataclass
 
 VALID_FORMS = ("simulated[:SCENARIO]", "udp:BIND_ADDRESS:PORT", "serial:DEVICE[@BAUD]",
-               "replay:FILE[@SPEED]")
+               "replay:FILE[@SPEED]", "slimevr[:[BIND_ADDRESS:]PORT]")
 DEFAULT_SCENARIO = "demo"
 DEFAULT_BAUD = 115200
+#: Where SlimeVR trackers look for their server (they broadcast to this port on the LAN).
+DEFAULT_SLIMEVR_ADDRESS = "0.0.0.0"
+DEFAULT_SLIMEVR_PORT = 6969
 _SCENARIO_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*$")
 
 
@@ -46,11 +50,33 @@ class ReplaySpec:
     speed: float = 1.0
 
 
-SourceSpec = SimulatedSpec | UdpSpec | SerialSpec | ReplaySpec
+@dataclass(frozen=True)
+class SlimeVrSpec:
+    bind_address: str = DEFAULT_SLIMEVR_ADDRESS
+    port: int = DEFAULT_SLIMEVR_PORT
+
+
+SourceSpec = SimulatedSpec | UdpSpec | SerialSpec | ReplaySpec | SlimeVrSpec
 
 
 def _error(spec: str, why: str) -> ValueError:
     return ValueError(f"invalid source {spec!r}: {why}; valid forms: {', '.join(VALID_FORMS)}")
+
+
+def _bind_address(spec: str, address: str) -> str:
+    address = address.strip("[]")
+    try:
+        ipaddress.ip_address(address)
+    except ValueError:
+        if address != "localhost":
+            raise _error(spec, f"bad bind address {address!r}") from None
+    return address
+
+
+def _port(spec: str, port_text: str) -> int:
+    if not port_text.isdigit() or not 0 < int(port_text) < 65536:
+        raise _error(spec, f"bad port {port_text!r} (1..65535)")
+    return int(port_text)
 
 
 def parse_source_spec(spec: str) -> SourceSpec:
@@ -67,15 +93,15 @@ def parse_source_spec(spec: str) -> SourceSpec:
         address, sep, port_text = rest.rpartition(":")
         if not sep or not address:
             raise _error(spec, "expected udp:BIND_ADDRESS:PORT")
-        address = address.strip("[]")
-        try:
-            ipaddress.ip_address(address)
-        except ValueError:
-            if address != "localhost":
-                raise _error(spec, f"bad bind address {address!r}") from None
-        if not port_text.isdigit() or not 0 < int(port_text) < 65536:
-            raise _error(spec, f"bad port {port_text!r} (1..65535)")
-        return UdpSpec(address, int(port_text))
+        return UdpSpec(_bind_address(spec, address), _port(spec, port_text))
+    if kind == "slimevr":
+        if spec.strip() == "slimevr":
+            return SlimeVrSpec()
+        address, sep, port_text = rest.rpartition(":")
+        if sep and not address:
+            raise _error(spec, "expected slimevr:[BIND_ADDRESS:]PORT")
+        address = _bind_address(spec, address) if sep else DEFAULT_SLIMEVR_ADDRESS
+        return SlimeVrSpec(address, _port(spec, port_text))
     if kind == "serial":
         device, sep, baud_text = rest.rpartition("@") if "@" in rest else (rest, "", "")
         if not device:
@@ -110,4 +136,7 @@ def format_source_spec(spec: SourceSpec) -> str:
         return f"serial:{spec.device}@{spec.baud}"
     if isinstance(spec, ReplaySpec):
         return f"replay:{spec.path}@{spec.speed:g}"
+    if isinstance(spec, SlimeVrSpec):
+        address = f"[{spec.bind_address}]" if ":" in spec.bind_address else spec.bind_address
+        return f"slimevr:{address}:{spec.port}"
     raise TypeError(f"not a source spec: {spec!r}")

@@ -56,6 +56,8 @@ class SourceStatus:
     unknown_sensors: dict[str, int] = field(default_factory=dict)
     clocks: dict[str, ClockEstimate] = field(default_factory=dict)
     node_restarts: dict[str, int] = field(default_factory=dict)   #: sensor → reboots seen
+    signal_dbm: dict[str, float] = field(default_factory=dict)    #: sensor → radio link (dBm)
+    warning: str = ""                #: the worker's last warning (see WorkerReport.warning)
     exit_code: int | None = None
 
 
@@ -209,6 +211,8 @@ class Supervisor:
         status.overflow_samples = worker.previous_overflow + report.overflow_samples
         status.clocks = dict(report.clocks)
         status.node_restarts = dict(report.node_restarts)
+        status.signal_dbm = dict(report.signal_dbm)
+        status.warning = report.warning
         for sensor, counts in report.rejections_by_sensor.items():
             if sensor in self._trackers:
                 self._trackers[sensor].rejections = dict(counts)

@@ -24,12 +24,14 @@ from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.replay import ReplayDriver, ReplaySourceConfig
 from mimucap.acquisition.serial_port import SerialDriver, SerialSourceConfig
 from mimucap.acquisition.simulated import SimulatedDriver, SimulatedSourceConfig
+from mimucap.acquisition.slimevr import SlimeVrDriver, SlimeVrSourceConfig
 from mimucap.acquisition.udp import UdpDriver, UdpSourceConfig
 
 #: GIL switch interval in worker processes (s).
 WORKER_SWITCH_INTERVAL_S = 0.0005
 
-SourceConfig = UdpSourceConfig | SerialSourceConfig | SimulatedSourceConfig | ReplaySourceConfig
+SourceConfig = (UdpSourceConfig | SerialSourceConfig | SimulatedSourceConfig | ReplaySourceConfig
+                | SlimeVrSourceConfig)
 
 
 def make_driver(config: SourceConfig, outbox: Outbox):
@@ -42,6 +44,8 @@ def make_driver(config: SourceConfig, outbox: Outbox):
         return SimulatedDriver(config, outbox)
     if isinstance(config, ReplaySourceConfig):
         return ReplayDriver(config, outbox)
+    if isinstance(config, SlimeVrSourceConfig):
+        return SlimeVrDriver(config, outbox)
     raise TypeError(f"unknown source config {type(config).__name__}")
 
 

@@ -129,6 +129,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._preparation: KernelPreparation | None = None
         self._wizard: QtWidgets.QWidget | None = None
         self._source_problem = ""  # the last problem the source reported (logged when it changes)
+        self._sensors_seen: set[str] = set()  # sensors the remembered assignment was offered to
         self.last_recording = None  # RecordingResult of the last recording saved
 
         self.scene_view = SceneView(self)
@@ -288,6 +289,7 @@ class MainWindow(QtWidgets.QMainWindow):
         for sensor_id, segment in remembered.items():
             if sensor_id in session.sensor_ids and segment in session.model.segment_names:
                 session.assign_sensor(sensor_id, segment)
+        self._sensors_seen = set(session.sensor_ids)   # later ones: _assign_remembered
         session.set_height(self.session_panel.height.value())
         session.set_display_mode(next(k for k, a in self.display_actions.items() if a.isChecked()))
         session.events.marker.connect(self._on_marker)
@@ -398,11 +400,26 @@ class MainWindow(QtWidgets.QMainWindow):
         return (f"; vs. simulator truth (last 5 s): hip/knee/elbow flexion RMS {sum(flexion) / len(flexion):.1f}°, "
                 f"worst {max(flexion):.1f}°")
 
+    def _assign_remembered(self, live) -> None:
+        """Wear each sensor that appeared since the last call (a worker source's sensors appear
+        with their first samples) on the segment remembered for it, unless that segment is taken."""
+        new = [sid for sid in live.sensor_ids if sid not in self._sensors_seen]
+        if not new:
+            return
+        self._sensors_seen.update(new)
+        remembered = remembered_assignment()
+        for sensor_id in new:
+            segment = remembered.get(sensor_id)
+            if (segment in live.model.segment_names and sensor_id not in live.sensor_segments
+                    and segment not in live.sensor_segments.values()):
+                live.assign_sensor(sensor_id, segment)
+
     def refresh_panels(self) -> None:
         """Sensor panel, tints, recording status and status bar from the live session."""
         live = self.live
         if live is None:
             return
+        self._assign_remembered(live)
         rows = live.sensor_rows()
         self.sensor_panel.show_rows(rows)
         self._tints = {r.segment: r.state for r in rows if r.segment is not None}

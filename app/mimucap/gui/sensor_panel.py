@@ -1,5 +1,6 @@
-"""The sensor panel: one row per sensor (id, segment, rate, drops, latency, battery, magnetometer
-calibration, fusion flags), a stale sensor flagged in red. Shows
+"""The sensor panel: one row per sensor (id, segment, rate, drops, latency, battery, radio signal,
+magnetometer calibration, fusion flags), a stale sensor flagged in red. Orientation-only
+sensors (on-board fusion, e.g. SlimeVR trackers) read "on-board" under magnetometer calibration. Shows
 :class:`~mimucap.session.live.SensorRow` values as they are; computes nothing."""
 
 from __future__ import annotations
@@ -11,8 +12,8 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.session.live import SensorRow
 
-COLUMNS = ("Sensor", "Segment", "Rate (Hz)", "Drops", "Latency p95 (ms)", "Battery (%)", "Mag. calibration",
-           "Fusion flags", "State")
+COLUMNS = ("Sensor", "Segment", "Rate (Hz)", "Drops", "Latency p95 (ms)", "Battery (%)", "Signal (dBm)",
+           "Mag. calibration", "Fusion flags", "State")
 STALE_BRUSH = QtGui.QBrush(QtGui.QColor(255, 205, 205))
 WARN_BRUSH = QtGui.QBrush(QtGui.QColor(255, 236, 200))
 
@@ -68,7 +69,8 @@ class SensorPanel(QtWidgets.QTableWidget):
                 state = "ok"
             values = (
                 row.sensor_id, row.segment or "(not assigned)", _number(row.rate_hz, 1), str(row.drops),
-                _number(row.latency_ms, 1), _number(row.battery_pct), row.mag_cal + (f" ({row.mag_cal_verdict})" if row.mag_cal_verdict else "") + _age(row.mag_cal_age_s),
+                _number(row.latency_ms, 1), _number(row.battery_pct), _number(row.signal_dbm),
+                row.mag_cal + (f" ({row.mag_cal_verdict})" if row.mag_cal_verdict else "") + _age(row.mag_cal_age_s),
                 ", ".join(row.flags) or "–", state,
             )
             brush = STALE_BRUSH if row.stale else WARN_BRUSH if row.state != "ok" or row.mag_field_warning else QtGui.QBrush()

@@ -1,7 +1,7 @@
-"""The source dialog: simulated suit (default), UDP, serial port or replay file.
+"""The source dialog: simulated suit (default), UDP, serial port, replay file or SlimeVR trackers.
 
 It builds a source spec string (``simulated:demo``, ``udp:0.0.0.0:5555``,
-``serial:/dev/ttyUSB0@115200``, ``replay:FILE@SPEED``), checks it with the acquisition
+``serial:/dev/ttyUSB0@115200``, ``replay:FILE@SPEED``, ``slimevr:0.0.0.0:6969``), checks it with the acquisition
 layer's parser, asks which skeleton the sensors drive (ten segments, or fifteen with head,
 hands and feet). :func:`remember_source` keeps both in the GUI settings once the main window
 has opened the source; the dialog starts from them.
@@ -15,9 +15,9 @@ from mimucap.acquisition.source_spec import parse_source_spec
 from mimucap.core.simulate import SCENARIOS
 from mimucap.gui.settings import gui_settings
 
-KINDS = ("simulated", "udp", "serial", "replay")
+KINDS = ("simulated", "udp", "serial", "replay", "slimevr")
 KIND_LABELS = {"simulated": "Simulated suit", "udp": "UDP (wireless nodes)", "serial": "Serial port",
-               "replay": "Replay a file"}
+               "replay": "Replay a file", "slimevr": "SlimeVR trackers"}
 DEFAULT_SPEC = "simulated:demo"
 DEFAULT_MODEL = "ten_segment"
 MODEL_LABELS = {
@@ -99,7 +99,16 @@ class SourceDialog(QtWidgets.QDialog):
         form = QtWidgets.QFormLayout(replay)
         form.addRow("File", row)
         form.addRow("Speed", self.replay_speed)
-        for page in (sim, udp, serial, replay):
+        slime = QtWidgets.QWidget()
+        self.slimevr_address = QtWidgets.QLineEdit("0.0.0.0", slime)
+        self.slimevr_port = QtWidgets.QSpinBox(slime)
+        self.slimevr_port.setRange(1, 65535)
+        self.slimevr_port.setValue(6969)
+        form = QtWidgets.QFormLayout(slime)
+        form.addRow("Listen on address", self.slimevr_address)
+        form.addRow("Port", self.slimevr_port)
+        form.addRow(QtWidgets.QLabel("Close the SlimeVR server first: the trackers talk to one server.", slime))
+        for page in (sim, udp, serial, replay, slime):
             self.stack.addWidget(page)
 
         self.model_combo = QtWidgets.QComboBox(self)
@@ -150,6 +159,9 @@ class SourceDialog(QtWidgets.QDialog):
         elif kind == "serial":
             self.serial_device.setText(parsed.device)
             self.serial_baud.setCurrentText(str(parsed.baud))
+        elif kind == "slimevr":
+            self.slimevr_address.setText(parsed.bind_address)
+            self.slimevr_port.setValue(parsed.port)
         else:
             self.replay_path.setText(str(parsed.path))
             self.replay_speed.setValue(float(parsed.speed))
@@ -166,6 +178,8 @@ class SourceDialog(QtWidgets.QDialog):
             return f"udp:{self.udp_address.text().strip()}:{self.udp_port.value()}"
         if kind == "serial":
             return f"serial:{self.serial_device.text().strip()}@{self.serial_baud.currentText().strip()}"
+        if kind == "slimevr":
+            return f"slimevr:{self.slimevr_address.text().strip()}:{self.slimevr_port.value()}"
         return f"replay:{self.replay_path.text().strip()}@{self.replay_speed.value():g}"
 
     def accept(self) -> None:

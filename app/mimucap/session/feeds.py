@@ -193,6 +193,13 @@ class SupervisorFeed:
     def stats(self) -> dict[str, SensorStats]:
         return self.supervisor.stats()
 
+    def signal_dbm(self) -> dict[str, float]:
+        """Sensor id → strength of its radio link (dBm), for sources that report it (SlimeVR)."""
+        out: dict[str, float] = {}
+        for status in self.supervisor.sources().values():
+            out.update(status.signal_dbm)
+        return out
+
     def status_text(self) -> str:
         parts = []
         for name, status in self.supervisor.sources().items():
@@ -210,6 +217,8 @@ class SupervisorFeed:
         for name, status in self.supervisor.sources().items():
             if status.state in (STATE_DISCONNECTED, STATE_FAILED):
                 parts.append(f"{name}: {status.message or status.last_error or status.state}")
+            elif status.warning:   # running, with something to act on (e.g. a refused SlimeVR tracker)
+                parts.append(f"{name}: {status.warning}")
         return "; ".join(parts)
 
     def stop(self) -> list[SampleBlock]:

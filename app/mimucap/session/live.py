@@ -98,7 +98,9 @@ class SensorRow:
     verdict (``good``, ``warn``; "" without one); ``mag_field_warning`` says when the local field
     (magnitude, dip) no longer matches the calibration's (""); ``flags`` fusion flags
     now (``"rest"``, ``"mag disturbed"``, ...); ``stale`` no sample for :data:`STALE_AFTER_S`;
-    ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``).
+    ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``);
+    ``signal_dbm`` the strength of its radio link where the source reports one (SlimeVR), NaN
+    otherwise.
     """
 
     sensor_id: str
@@ -114,6 +116,7 @@ class SensorRow:
     state: str
     mag_cal_verdict: str = ""
     mag_field_warning: str = ""
+    signal_dbm: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -135,6 +138,7 @@ class _SensorState:
         self.sensor_id = sensor_id
         #: rows acc (m/s²), gyr (rad/s), mag (µT, calibrated when applied); NaN when absent
         self.raw = RingBuffer(capacity, (3, 3))
+        self.has_mag = False
         self.battery_pct = float("nan")
 
 
@@ -309,6 +313,12 @@ class LiveSession:
         """Sensors that send their own orientation (fused on board: no magnetometer to calibrate)."""
         return tuple(sid for sid, chain in self.pipeline.chains.items() if chain.onboard)
 
+    def orientation_only_sensors(self) -> tuple[str, ...]:
+        """Sensors that send their own orientation and no magnetometer readings (on-board
+        fusion that calibrates itself, e.g. SlimeVR trackers): nothing to calibrate here."""
+        onboard = set(self.onboard_sensors())
+        return tuple(sid for sid, s in self._sensors.items() if sid in onboard and not s.has_mag)
+
     def set_display_mode(self, mode: str) -> None:
         """``"world"`` or ``"body"`` (see :mod:`mimucap.session.figure`)."""
         self.builder.display_alpha(mode, rotation.identity(), 0.0)  # validates
@@ -438,6 +448,7 @@ class LiveSession:
             if values is not None:
                 raw[:, row] = values
         state.raw.append(t, raw)
+        state.has_mag = state.has_mag or mag is not None
         if block.battery_pct is not None:
             state.battery_pct = float(block.battery_pct[-1])
         return n
@@ -570,6 +581,7 @@ class LiveSession:
         """One :class:`SensorRow` per known sensor, in the source's order."""
         now = self._clock()
         stats = self.feed.stats()
+        signal = self.feed.signal_dbm() if hasattr(self.feed, "signal_dbm") else {}
         rows = []
         for sid in self.sensor_ids:
             st = stats.get(sid)
@@ -603,7 +615,8 @@ class LiveSession:
                 rate_hz=float("nan") if st is None else st.rate_hz, drops=0 if st is None else st.drops,
                 latency_ms=float("nan") if st is None else 1000.0 * st.latency_p95_s,
                 battery_pct=float("nan") if state is None else state.battery_pct,
-                mag_cal=mag_cal, mag_cal_age_s=age, flags=flags, stale=stale, state=tint))
+                mag_cal=mag_cal, mag_cal_age_s=age, flags=flags, stale=stale, state=tint,
+                signal_dbm=signal.get(sid, float("nan"))))
         return rows
 
     def series(self, sensor_id: str, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

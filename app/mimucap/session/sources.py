@@ -26,9 +26,10 @@ from mimucap.acquisition.intake import IntakeSettings
 from mimucap.acquisition.replay import ReplaySourceConfig, ReplayStream
 from mimucap.acquisition.serial_port import SerialSourceConfig
 from mimucap.acquisition.source_spec import (
-    ReplaySpec, SerialSpec, SimulatedSpec, SourceSpec, UdpSpec, parse_source_spec,
+    ReplaySpec, SerialSpec, SimulatedSpec, SlimeVrSpec, SourceSpec, UdpSpec, parse_source_spec,
 )
 from mimucap.acquisition.simulated import SimulatedSourceConfig
+from mimucap.acquisition.slimevr import SlimeVrSourceConfig
 from mimucap.acquisition.udp import UdpSourceConfig
 from mimucap.acquisition.worker import SourceConfig
 from mimucap.io.quaternion_tables import SESSION_SUFFIXES, read_xsens_file
@@ -115,6 +116,9 @@ def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOption
     if isinstance(spec, ReplaySpec):
         loaded = load_replay(spec.path)
         return [ReplaySourceConfig(name=name or "replay", streams=loaded.streams, speed=spec.speed)]
+    if isinstance(spec, SlimeVrSpec):
+        # SlimeVR trackers name their sensors by MAC (see acquisition.slimevr); wire ids do not apply
+        return [SlimeVrSourceConfig(name=name or "slimevr", bind_address=spec.bind_address, port=spec.port)]
     if isinstance(spec, SimulatedSpec):
         return [SimulatedSourceConfig(name=name or "simulated", scenario=spec.scenario,
                                       n_sensors=options.sensor_count, rate_hz=options.rate_hz,

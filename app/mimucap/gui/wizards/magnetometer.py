@@ -150,10 +150,23 @@ class MagnetometerWizard(CalibrationDialog):
                                  "Each sensor gets its own calibration.</p>")
         title.setWordWrap(True)
         layout.addWidget(title)
+        # orientation-only sensors (on-board fusion, no magnetometer readings) calibrate themselves
+        live = getattr(self.feed, "live_session", None)
+        self.self_calibrating = tuple(live.orientation_only_sensors()) if live is not None else ()
+        self.self_calibrating_note = QtWidgets.QLabel(
+            f"<p><b>{len(self.self_calibrating)} sensor(s) calibrate themselves</b> "
+            f"({', '.join(self.self_calibrating)}): they fuse their own orientation on board and send no "
+            "magnetometer readings, so no turns are asked for them here. Follow their maker's "
+            "calibration (for SlimeVR trackers: the SlimeVR firmware's own procedure).</p>")
+        self.self_calibrating_note.setObjectName("selfCalibratingNote")
+        self.self_calibrating_note.setWordWrap(True)
+        self.self_calibrating_note.setVisible(bool(self.self_calibrating))
+        layout.addWidget(self.self_calibrating_note)
         layout.addWidget(QtWidgets.QLabel("<b>Sensors to calibrate together</b>"))
         self.sensor_list = QtWidgets.QListWidget()
-        chosen = set(self.feed.sensor_ids if preselected is None else preselected)
-        for sensor_id in self.feed.sensor_ids:
+        to_calibrate = [s for s in self.feed.sensor_ids if s not in self.self_calibrating]
+        chosen = set(to_calibrate if preselected is None else preselected) - set(self.self_calibrating)
+        for sensor_id in to_calibrate:
             item = QtWidgets.QListWidgetItem(sensor_id)
             item.setFlags(item.flags() | QtCore.Qt.ItemIsUserCheckable)
             item.setCheckState(QtCore.Qt.Checked if sensor_id in chosen else QtCore.Qt.Unchecked)
@@ -172,6 +185,7 @@ class MagnetometerWizard(CalibrationDialog):
         self.setup_error.setStyleSheet("color: #d62728")
         layout.addWidget(self.setup_error)
         self.start_button = push_button("Start", self.start)
+        self.start_button.setEnabled(bool(to_calibrate))   # every sensor calibrates itself: nothing to do
         layout.addLayout(button_row(None, push_button("Close", self.reject), self.start_button))
         return page
 
