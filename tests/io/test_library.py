@@ -10,7 +10,6 @@ import sys
 import textwrap
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from mimucap.io.library import (
@@ -19,26 +18,11 @@ from mimucap.io.library import (
 from mimucap.io.library_settings import (
     LIBRARY_ENV, configured_library_folder, remember_library_folder, remembered_library_folder,
 )
-from mimucap.io.session import Marker, SensorStream, Session, make_subject, read_metadata, write_session
+from mimucap.io.session import read_metadata
+
+from tests.library_sessions import make_session
 
 APP_DIR = Path(__file__).resolve().parents[2] / "app"
-
-
-def make_session(path: Path, subject_id: str, duration_s: float = 2.0, started_utc: str = "2026-03-01T09:00:00+00:00",
-                 condition: str = "", tags=(), trial: str = "", height_m: float = 1.70, body_verdict: str | None = None,
-                 ) -> Path:
-    """A small session file: two sensors at 50 Hz over ``duration_s``, a marker, a subject."""
-    t = np.arange(0.0, duration_s + 1e-9, 0.02)
-    sensors = {sid: SensorStream(sid, t + 0.001 * k, np.arange(len(t)), acc=np.tile([0.0, 0.0, 9.81], (len(t), 1)),
-                                 gyr=np.zeros((len(t), 3)), segment=segment)
-               for k, (sid, segment) in enumerate((("S01", "pelvis"), ("S02", "thigh_r")))}
-    metadata = {"subject": make_subject(subject_id, height_m, "left", f"notes of {subject_id}"),
-                "recording": {"started_utc": started_utc},
-                "library": library_fields(condition, tags, trial)}
-    if body_verdict is not None:
-        metadata["body_calibration"] = {"verdict": body_verdict}
-    write_session(path, Session(metadata=metadata, sensors=sensors, markers=[Marker(0.5, "start walking")]))
-    return path
 
 
 @pytest.fixture
