@@ -41,7 +41,8 @@ from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
-from mimucap.session.subject import default_recording_path
+from mimucap.io.library import library_fields, recording_path
+from mimucap.io.library_settings import configured_library_folder, remember_library_folder
 
 log = logging.getLogger(__name__)
 
@@ -114,6 +115,7 @@ class MainWindow(QtWidgets.QMainWindow):
             lambda spec: open_live_session(spec, model_name=self.model_name))
         self.live: LiveSession | None = None
         self.review_windows: list[QtWidgets.QWidget] = []
+        self.library_window = None  # gui.library_window.LibraryWindow once opened
         self._wizards = _wizard_classes()
         self._cpu = CpuMeter()
         self._last_record_message = ""
@@ -193,7 +195,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_export = file_menu.addAction("&Export Last Recording…", self.export_last_recording)
         self.action_export.setShortcut(QtGui.QKeySequence("Ctrl+E"))
         self.action_export.setEnabled(False)
-        self.action_folder = file_menu.addAction("Recording &Folder…", self.choose_recording_folder)
+        self.action_library = file_menu.addAction("&Library…", self.open_library)
+        self.action_library.setShortcut(QtGui.QKeySequence("Ctrl+L"))
+        self.action_folder = file_menu.addAction("Library &Folder…", self.choose_recording_folder)
         file_menu.addSeparator()
         self.action_save_screenshot = file_menu.addAction("Save Screens&hot…",
                                                           lambda: ask_to_save_screenshot(self, "mimucap.png"))
@@ -429,10 +433,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.refresh_panels()
 
     def recording_folder(self) -> Path:
-        """Where recordings go (created when needed; ``OSError`` if it cannot be, e.g. a
-        network drive that went away)."""
-        default = user_data_dir() / "sessions"
-        folder = Path(str(gui_settings().value("recording/folder", str(default))))
+        """Where recordings go: the library folder (created when needed; ``OSError`` if it cannot
+        be, e.g. a network drive that went away). Not chosen yet: the documents folder's
+        "MimuCap Library" (or the recording folder chosen before the library existed)."""
+        documents = QtCore.QStandardPaths.writableLocation(QtCore.QStandardPaths.DocumentsLocation)
+        default = Path(documents) / "MimuCap Library" if documents else user_data_dir() / "library"
+        folder = configured_library_folder(gui_settings().value("recording/folder", str(default)))
         folder.mkdir(parents=True, exist_ok=True)
         return folder
 
@@ -448,12 +454,12 @@ class MainWindow(QtWidgets.QMainWindow):
             return Path.home()
 
     def choose_recording_folder(self) -> None:
-        folder = QtWidgets.QFileDialog.getExistingDirectory(self, "Recording Folder", str(self._folder_to_browse()))
+        folder = QtWidgets.QFileDialog.getExistingDirectory(self, "Library Folder", str(self._folder_to_browse()))
         if folder:
-            settings = gui_settings()
-            settings.setValue("recording/folder", folder)
-            settings.sync()
-            self.statusBar().showMessage(f"Recordings go to {folder}", 5000)
+            remember_library_folder(folder)
+            self.statusBar().showMessage(f"Recordings go to the library {folder}", 5000)
+            if self.library_window is not None:
+                self.library_window.set_folder(Path(folder))
 
     def toggle_recording(self) -> None:
         self._record_toggled(not (self.live is not None and self.live.recording))
@@ -465,8 +471,10 @@ class MainWindow(QtWidgets.QMainWindow):
         if on and not self.live.recording:
             try:
                 subject = self.session_panel.subject()
-                path = default_recording_path(self.recording_folder(), subject)
-                self.live.start_recording(path, subject.to_dict())
+                condition, tags = self.session_panel.session_fields()
+                path = recording_path(self.recording_folder(), subject.subject_id)
+                fields = library_fields(condition, tags, path.stem.rsplit("_", 1)[-1])
+                self.live.start_recording(path, subject.to_dict(), {"library": fields})
             except (ValueError, OSError) as error:
                 self.session_panel.set_recording(False)
                 log.warning("cannot record: %s", error)
@@ -533,6 +541,8 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.live is not None and not self.live.recording:
             self.session_panel.show_info(None, message)
         self.statusBar().showMessage(message)
+        if self.library_window is not None and result.session_path is not None:
+            self.library_window.refresh()
         self.recording_saved.emit(result)
 
     def _recording_not_saved(self, pending, error: str) -> None:
@@ -603,6 +613,30 @@ class MainWindow(QtWidgets.QMainWindow):
         if window in self.review_windows:
             self.review_windows.remove(window)
             window.deleteLater()
+
+    def open_library(self):
+        """Show the library window (one, kept while this window lives)."""
+        from mimucap.gui.library_window import LibraryWindow
+
+        if self.library_window is None:
+            self.library_window = LibraryWindow(self._folder_to_browse(), open_review=self.open_review,
+                                                new_session=self.new_session_for)
+        self.library_window.show()
+        self.library_window.raise_()
+        self.library_window.activateWindow()
+        self.library_window.refresh()
+        return self.library_window
+
+    def new_session_for(self, subject_id: str, height_m: float | None, dominance: str, notes: str) -> None:
+        """Make the next recording one of this subject: its record in the session panel, this window in front."""
+        if self.live is not None and self.live.recording:
+            QtWidgets.QMessageBox.warning(self, "Recording", "Stop the recording before starting another subject's.")
+            return
+        self.session_panel.set_subject(subject_id, height_m, dominance, notes)
+        self.show()
+        self.raise_()
+        self.activateWindow()
+        self.statusBar().showMessage(f"Next recording: subject {subject_id} (Session → Start Recording)", 8000)
 
     def export_last_recording(self) -> None:
         if self.last_recording is None or self.last_recording.session_path is None:
@@ -683,4 +717,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self._stop_live()
         for window in list(self.review_windows):
             window.close()
+        if self.library_window is not None:
+            self.library_window.close()
         super().closeEvent(event)

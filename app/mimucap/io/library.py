@@ -246,6 +246,27 @@ def session_file_name(subject_id: str, date: str, trial: str) -> str:
     return f"{subject_id}_{date}_{trial}.h5"
 
 
+def recording_path(root: str | os.PathLike[str], subject_id: str, trial: str | None = None,
+                   now: datetime | None = None) -> Path:
+    """Where a new recording of ``subject_id`` goes: ``<subject>_<YYYY-MM-DD>_<trial>.h5`` in the
+    library folder ``root`` (local date of ``now``); without ``trial`` the next free
+    ``trialNN`` of that day. ``FileExistsError`` when a named trial's file (or journal) exists."""
+    if not _NAME_RE.match(subject_id or ""):
+        raise ValueError(f"subject id {subject_id!r}: use 1-40 letters, digits, '_', '.' or '-'")
+    folder = Path(root)
+    date = (now or datetime.now()).strftime("%Y-%m-%d")
+    taken = lambda p: p.exists() or Path(str(p) + ".journal").exists()  # noqa: E731
+    if trial is not None:
+        path = folder / session_file_name(subject_id, date, check_trial_name(trial))
+        if taken(path):
+            raise FileExistsError(f"{path} exists already: choose another trial name")
+        return path
+    number = 1
+    while taken(path := folder / session_file_name(subject_id, date, f"trial{number:02d}")):
+        number += 1
+    return path
+
+
 def _verdicts(metadata: Mapping[str, Any], calibrations: Mapping[str, Any]) -> dict[str, str]:
     """Calibration → verdict from a session's metadata and stored calibrations."""
     verdicts: dict[str, str] = {}
@@ -259,6 +280,10 @@ def _verdicts(metadata: Mapping[str, Any], calibrations: Mapping[str, Any]) -> d
             quality = calibration.get("quality") if isinstance(calibration, Mapping) else None
             verdict = quality.get("verdict") if isinstance(quality, Mapping) else None
             verdicts[f"magnetometer {sensor_id}"] = str(verdict or "applied")
+    recorded = metadata.get("mag_calibration_verdicts")
+    if isinstance(recorded, Mapping):
+        for sensor_id, verdict in sorted(recorded.items()):
+            verdicts.setdefault(f"magnetometer {sensor_id}", str(verdict))
     for sensor_id in metadata.get("mag_calibrated_sensors") or ():
         verdicts.setdefault(f"magnetometer {sensor_id}", "applied")
     return verdicts
@@ -674,21 +699,8 @@ class Library:
         return target
 
     def recording_path(self, subject_id: str, trial: str | None = None, now: datetime | None = None) -> Path:
-        """Where a new recording of ``subject_id`` goes: ``<subject>_<YYYY-MM-DD>_<trial>.h5``
-        in the library folder; without ``trial`` the next free ``trialNN`` of that day."""
-        if not _NAME_RE.match(subject_id or ""):
-            raise ValueError(f"subject id {subject_id!r}: use 1-40 letters, digits, '_', '.' or '-'")
-        date = (now or datetime.now()).strftime("%Y-%m-%d")
-        taken = lambda p: p.exists() or Path(str(p) + ".journal").exists()  # noqa: E731
-        if trial is not None:
-            path = self.root / session_file_name(subject_id, date, check_trial_name(trial))
-            if taken(path):
-                raise FileExistsError(f"{path} exists already: choose another trial name")
-            return path
-        number = 1
-        while taken(path := self.root / session_file_name(subject_id, date, f"trial{number:02d}")):
-            number += 1
-        return path
+        """Where a new recording goes (:func:`recording_path` in this library's folder)."""
+        return recording_path(self.root, subject_id, trial, now)
 
     # -- analysis results --------------------------------------------------------------------
     def store_result(self, path: str | os.PathLike[str], name: str, value: Any) -> None:
@@ -723,5 +735,5 @@ class Library:
 __all__ = [
     "INDEX_NAME", "TRASH_NAME", "SCHEMA_VERSION", "BUSY_TIMEOUT_S", "METADATA_KEY", "STATUS_OK", "STATUS_DAMAGED",
     "LibraryError", "LibraryVersionError", "SessionEntry", "SubjectEntry", "ScanReport", "Library",
-    "read_entry", "library_fields", "check_tags", "check_trial_name", "session_file_name", "parse_utc",
+    "read_entry", "recording_path", "library_fields", "check_tags", "check_trial_name", "session_file_name", "parse_utc",
 ]

@@ -13,7 +13,6 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -135,14 +134,5 @@ def comparison_csv(tables: Sequence[ComparisonTable]) -> str:
     return out.getvalue()
 
 
-def library_path_of(library: Library, path: str | os.PathLike[str]) -> Path | None:
-    """``path`` if it lies inside the library folder (else None)."""
-    try:
-        library.relative(path)
-    except ValueError:
-        return None
-    return Path(path)
-
-
 __all__ = ["open_library", "TimeWindow", "ComparedSession", "ComparisonTable", "rom_table", "COMPARISON_TABLES",
-           "compare", "comparison_csv", "library_path_of"]
+           "compare", "comparison_csv"]

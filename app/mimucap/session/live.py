@@ -558,8 +558,10 @@ class LiveSession:
             return None
         return self._recorder.start_host_s - self.t0_host_s
 
-    def start_recording(self, path: str | Path, subject: Mapping[str, Any] | None = None) -> None:
-        """Record everything from now on into session file ``path`` (journal beside it)."""
+    def start_recording(self, path: str | Path, subject: Mapping[str, Any] | None = None,
+                        extra_metadata: Mapping[str, Any] | None = None) -> None:
+        """Record everything from now on into session file ``path`` (journal beside it);
+        ``extra_metadata``: further top-level metadata keys (e.g. the library's ``"library"``)."""
         if self._recorder is not None:
             raise ValueError(f"already recording to {self._recorder.out_path}")
         if not self.started:
@@ -573,6 +575,9 @@ class LiveSession:
             metadata["body_calibration"] = self.body_calibration.to_dict()
         if self.mag_calibrations:
             metadata["mag_calibrated_sensors"] = sorted(self.mag_calibrations)
+            metadata["mag_calibration_verdicts"] = {sid: str(cal.quality.get("verdict", "unknown"))
+                                                    for sid, cal in sorted(self.mag_calibrations.items())}
+        metadata.update(extra_metadata or {})
         recorder = Recorder(path, metadata)
         recorder.start(self._clock())
         self._recorder = recorder
