@@ -70,7 +70,8 @@ def test_two_sessions_recorded_found_and_compared(app_window, qtbot, tmp_path):
     assert first.session_path.parent == tmp_path / "library" and first.session_path.name.endswith("_trial01.h5")
 
     # The library window lists it under its subject.
-    library_window = window.open_library()
+    window.action_library.trigger()
+    library_window = window.library_window
     with qtbot.waitSignal(library_window.refreshed, timeout=20000):
         pass
     assert "P042" in library_window.subjects
@@ -224,3 +225,27 @@ def test_the_window_changes_files_and_shows_damaged_ones(prepared, qtbot):
     assert window.banner.isVisible() and "Update MimuCap" in window.banner.text()
     assert window.visible_paths() == [] and np.all([not b.isEnabled() for b in window.buttons.values()])
     window.close()
+
+
+def test_the_library_folder_is_chosen_once_and_remembered(window, qtbot, tmp_path, monkeypatch):
+    from PyQt5 import QtWidgets
+
+    from mimucap.io.library_settings import remembered_library_folder
+
+    monkeypatch.delenv(LIBRARY_ENV, raising=False)
+    documents = QtCore.QStandardPaths.writableLocation(QtCore.QStandardPaths.DocumentsLocation)
+    monkeypatch.setattr(QtCore.QStandardPaths, "writableLocation", lambda *a: str(tmp_path / "Documents"))
+    assert window.recording_folder() == tmp_path / "Documents" / "MimuCap Library"  # the default
+    assert documents  # Qt knows a documents folder here too
+    window.action_library.trigger()
+    library_window = window.library_window
+    library_window.wait_for_scan()
+    assert library_window.library.root == tmp_path / "Documents" / "MimuCap Library"
+    chosen = tmp_path / "clinic library"
+    chosen.mkdir()
+    make_session(chosen / "P007_2026-01-05_trial01.h5", "P007")
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getExistingDirectory", lambda *a, **k: str(chosen))
+    window.action_folder.trigger()
+    assert remembered_library_folder() == chosen and window.recording_folder() == chosen
+    library_window.wait_for_scan()
+    assert list(library_window.subjects) == ["P007"] and str(chosen) in library_window.windowTitle()
