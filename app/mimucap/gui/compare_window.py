@@ -77,11 +77,12 @@ class WindowPicker(QtWidgets.QGroupBox):
         return TimeWindow(None if start is None else start.t_s, None if end is None else end.t_s, label)
 
 
-def _cell(value) -> QtWidgets.QTableWidgetItem:
+def _cell(value, signed: bool = False) -> QtWidgets.QTableWidgetItem:
     if value is None:
         item = QtWidgets.QTableWidgetItem("–")
     elif isinstance(value, float):
-        item = QtWidgets.QTableWidgetItem(f"{value:.1f}")
+        shown = round(value, 1) + 0.0  # no "-0.0"
+        item = QtWidgets.QTableWidgetItem(f"{shown:+.1f}" if signed and shown else f"{shown:.1f}")
         item.setTextAlignment(int(QtCore.Qt.AlignRight | QtCore.Qt.AlignVCenter))
     else:
         item = QtWidgets.QTableWidgetItem(str(value))
@@ -96,15 +97,17 @@ def table_widget(table: ComparisonTable, parent: QtWidgets.QWidget | None = None
     widget.verticalHeader().hide()
     for row, values in enumerate(table.rows):
         for column, value in enumerate(values):
-            item = _cell(value)
-            if column == len(values) - 1 and isinstance(value, float) and abs(value) >= 0.05:
+            last = column == len(values) - 1
+            item = _cell(value, signed=last)
+            if last and isinstance(value, float) and abs(value) >= 0.05:
                 item.setForeground(QtGui.QBrush(QtGui.QColor(MORE_COLOUR if value > 0 else LESS_COLOUR)))
                 font = item.font()
                 font.setBold(True)
                 item.setFont(font)
             widget.setItem(row, column, item)
-    widget.resizeColumnsToContents()
-    widget.horizontalHeader().setStretchLastSection(True)
+    header = widget.horizontalHeader()
+    header.setSectionResizeMode(QtWidgets.QHeaderView.Stretch)
+    header.setSectionResizeMode(0, QtWidgets.QHeaderView.ResizeToContents)
     return widget
 
 
@@ -128,6 +131,7 @@ class CompareWindow(QtWidgets.QMainWindow):
         self.entries = (first, second)
         self.reviews = None
         self.tables: list[ComparisonTable] = []
+        self.table_widgets: list[QtWidgets.QTableWidget] = []  # one per table, in order
         self.error: str | None = None
         self._task: BackgroundTask | None = None
 
@@ -207,16 +211,20 @@ class CompareWindow(QtWidgets.QMainWindow):
         while self.tables_layout.count():
             widget = self.tables_layout.takeAt(0).widget()
             if widget is not None:
+                widget.hide()  # gone from the window now; deleted when the event loop runs
+                widget.setParent(None)
                 widget.deleteLater()
         if self.error is not None:
             self.message.setText(self.error)
         else:
             sources = ", ".join(sorted({review.pose_source for review in self.reviews}))
             self.message.setText(f"B − A: positive where B (the later session) moves more. Poses: {sources}.")
+        self.table_widgets = []
         for table in self.tables:
             box = QtWidgets.QGroupBox(table.name, self.tables_area)
             box_layout = QtWidgets.QVBoxLayout(box)
-            box_layout.addWidget(table_widget(table, box), 1)
+            self.table_widgets.append(table_widget(table, box))
+            box_layout.addWidget(self.table_widgets[-1], 1)
             if table.note:
                 note = QtWidgets.QLabel(table.note, box)
                 note.setWordWrap(True)

@@ -93,7 +93,7 @@ def session_row(entry: SessionEntry) -> list[QtGui.QStandardItem]:
         _item(str(len(entry.sensors)) if entry.ok else "", len(entry.sensors), tooltip=entry.sensors_text()),
         _item(entry.verdicts_text()), _item(str(len(entry.markers)) if entry.ok else "", len(entry.markers),
                                             tooltip=markers),
-        _item(status, tooltip=entry.problem or entry.path),
+        _item(status, tooltip=f"{entry.path}: {entry.problem}" if entry.problem else entry.path),
     ]
     cells[0].setData(entry.path, PATH_ROLE)
     if not entry.ok:
@@ -343,8 +343,8 @@ class LibraryWindow(QtWidgets.QMainWindow):
         self._fill_choices(self.tag_filter, "any tag", sorted({t for e in sessions for t in e.tags}))
         self._subject_changed()
         self.table.resizeColumnsToContents()
-        for column in (6, 7):  # sensors, calibration: long text, a tooltip tells the rest
-            self.table.setColumnWidth(column, min(self.table.columnWidth(column), 220))
+        for column in (7, 9):  # calibration, status: long text, a tooltip tells the rest
+            self.table.setColumnWidth(column, min(self.table.columnWidth(column), 260))
         if selected_paths:
             self.select_paths(selected_paths)
         self._update_actions()

@@ -300,11 +300,31 @@ def _subject_of(metadata: Mapping[str, Any]) -> dict[str, Any]:
     return dict(subject) if isinstance(subject, Mapping) else {}
 
 
+_FILE_NAME_RE = re.compile(r"^(?P<subject>[A-Za-z0-9.-][A-Za-z0-9_.-]*?)_(?P<date>\d{4}-\d{2}-\d{2})_"
+                           r"(?P<trial>[A-Za-z0-9_.-]+)\.h5(\.journal)?$")
+
+
 def _guess_subject(relative: str) -> str:
     """The subject id a damaged file's name suggests (``<subject>_...``), '' if none."""
     name = relative.rsplit("/", 1)[-1]
+    match = _FILE_NAME_RE.match(name)
+    if match:
+        return match["subject"]
     head = name.split("_", 1)[0] if "_" in name else ""
     return head if _NAME_RE.match(head or "") else ""
+
+
+def _named(relative: str) -> dict[str, str]:
+    """Date (``recorded_utc``, the day's local noon) and trial that a library file name tells
+    (``<subject>_<YYYY-MM-DD>_<trial>.h5``): shown for a file that cannot be read."""
+    match = _FILE_NAME_RE.match(relative.rsplit("/", 1)[-1])
+    if not match:
+        return {}
+    try:
+        noon = datetime.fromisoformat(match["date"] + "T12:00:00").astimezone().astimezone(timezone.utc)
+    except ValueError:
+        return {"trial": match["trial"]}
+    return {"recorded_utc": noon.isoformat(timespec="seconds"), "trial": match["trial"]}
 
 
 def read_entry(root: str | os.PathLike[str], relative: str) -> SessionEntry:
@@ -318,7 +338,7 @@ def read_entry(root: str | os.PathLike[str], relative: str) -> SessionEntry:
     stat = path.stat()
     signature = {"file_size": int(stat.st_size), "file_mtime_ns": int(stat.st_mtime_ns)}
     if relative.endswith(".journal"):
-        return SessionEntry(path=relative, subject_id=_guess_subject(relative), status=STATUS_DAMAGED,
+        return SessionEntry(path=relative, subject_id=_guess_subject(relative), **_named(relative), status=STATUS_DAMAGED,
                             problem=("recording not finished (only its journal is here: in progress, or "
                                      f"interrupted; `mimucap recover {relative[:-len('.journal')]}` rebuilds it)"),
                             **signature)
@@ -330,7 +350,7 @@ def read_entry(root: str | os.PathLike[str], relative: str) -> SessionEntry:
         except (SessionFormatError, OSError, ValueError):
             subject = ""
         reason = str(error).removeprefix(f"{path}: ")
-        return SessionEntry(path=relative, subject_id=str(subject or _guess_subject(relative)),
+        return SessionEntry(path=relative, subject_id=str(subject or _guess_subject(relative)), **_named(relative),
                             status=STATUS_DAMAGED, problem=reason, **signature)
     metadata = session.metadata
     subject = _subject_of(metadata)
