@@ -72,9 +72,18 @@ def test_record_into_the_library(folder, capsys):
     assert "subject P001, trial trial" in code.stdout
     library = Library(folder)
     new = [s for s in library.sessions("P001") if s.condition == "3 months"]
-    assert len(new) == 1 and new[0].tags == ("knee", "fast") and new[0].ok and new[0].duration_s > 1.0
+    assert len(new) == 1 and new[0].tags == ("knee", "fast") and new[0].ok and new[0].duration_s > 0.0
     subject = read_metadata(library.file(new[0]))["subject"]
     assert subject["height_m"] == pytest.approx(1.70) and subject["dominance"] == "left"  # as the library knew P001
     assert main(["record", "--source", "simulated", "--duration", "1", "--out", str(folder / "x.h5"),
                  "--condition", "pre-op"]) == 1
     assert "--condition apply to recordings into the library only" in capsys.readouterr().err
+
+
+def test_the_library_commands_start_without_qt(folder):
+    code = ("import sys\nfrom mimucap.cli import main\n"
+            f"assert main(['library', 'list', '--library', {str(folder)!r}]) == 0\n"
+            "loaded = sorted(m for m in sys.modules if m.split('.')[0] in ('PyQt5', 'vtk', 'vtkmodules', 'pyqtgraph'))\n"
+            "assert not loaded, loaded\n")
+    completed = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert completed.returncode == 0, completed.stderr

@@ -170,8 +170,8 @@ class CompareWindow(QtWidgets.QMainWindow):
         files = [self.library.file(entry) for entry in self.entries]
 
         def work(progress):
-            first = load_review(files[0], lambda f: progress(0.5 * f))
-            second = load_review(files[1], lambda f: progress(0.5 + 0.5 * f))
+            first = load_review(files[0], progress=lambda f: progress(0.5 * f))
+            second = load_review(files[1], progress=lambda f: progress(0.5 + 0.5 * f))
             return first, second
 
         self._task = BackgroundTask(work, self)
