@@ -450,7 +450,7 @@ class MainWindow(QtWidgets.QMainWindow):
         except OSError as error:
             log.warning("recording folder unavailable: %s", error)
             self.statusBar().showMessage(f"The recording folder is out of reach ({error}); "
-                                         "choose another one (File → Recording Folder).", 10000)
+                                         "choose another one (File → Library Folder).", 10000)
             return Path.home()
 
     def choose_recording_folder(self) -> None:
@@ -478,7 +478,7 @@ class MainWindow(QtWidgets.QMainWindow):
             except (ValueError, OSError) as error:
                 self.session_panel.set_recording(False)
                 log.warning("cannot record: %s", error)
-                hint = "\n\nChoose another recording folder (File → Recording Folder)." if isinstance(error, OSError) else ""
+                hint = "\n\nChoose another library folder (File → Library Folder)." if isinstance(error, OSError) else ""
                 QtWidgets.QMessageBox.warning(self, "Cannot record", f"{error}{hint}")
                 return
             self.session_panel.markers_list.clear()
