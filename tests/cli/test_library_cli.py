@@ -58,6 +58,11 @@ def test_rebuild_and_a_missing_folder(folder, tmp_path, capsys):
     assert main(["library", "rebuild", "--library", str(folder)]) == 0
     assert "from 3 session file(s), 1 damaged" in capsys.readouterr().out
     assert Library(folder).index_rows() == before
+    (folder / "mimucap-library.sqlite").write_bytes(b"not a database" * 100)
+    assert main(["library", "list", "--library", str(folder)]) == 1
+    assert "is damaged" in capsys.readouterr().err
+    assert main(["library", "rebuild", "--library", str(folder)]) == 0
+    assert Library(folder).index_rows() == before
     assert main(["library", "list", "--library", str(tmp_path / "nowhere")]) == 1
     assert "does not exist" in capsys.readouterr().err
 

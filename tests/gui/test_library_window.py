@@ -217,6 +217,15 @@ def test_the_window_changes_files_and_shows_damaged_ones(prepared, qtbot):
         moved = window.move_to_trash(confirm=False)
     assert all(p.exists() and p.parent == prepared / "trash" for p in moved) and len(moved) == 2
     assert sorted(window.subjects) == ["P001"] and len(window.visible_paths()) == 2
+    # A damaged index is said in the banner and made again from the files.
+    listed = window.visible_paths()
+    (prepared / "mimucap-library.sqlite").write_bytes(b"no database" * 500)
+    with qtbot.waitSignal(window.refreshed, timeout=10000):
+        window.refresh()
+    assert window.banner.isVisible() and "is damaged" in window.banner.text() and window.visible_paths() == []
+    with qtbot.waitSignal(window.refreshed, timeout=10000):
+        qtbot.mouseClick(window.rebuild_button, QtCore.Qt.LeftButton)
+    assert not window.banner.isVisible() and sorted(window.visible_paths()) == sorted(listed)
     # A refused index is said in the banner, and nothing is listed.
     import sqlite3
     with sqlite3.connect(prepared / "mimucap-library.sqlite") as connection:

@@ -136,7 +136,11 @@ class LibraryWindow(QtWidgets.QMainWindow):
         change = QtWidgets.QPushButton("Change Folder…", self)
         change.clicked.connect(self.choose_folder)
         self.rescan_button = QtWidgets.QPushButton("Rescan", self)
+        self.rescan_button.setToolTip("List files added, changed or removed since the last scan")
         self.rescan_button.clicked.connect(self.refresh)
+        self.rebuild_button = QtWidgets.QPushButton("Rebuild Index", self)
+        self.rebuild_button.setToolTip("Make the index again from the session files alone (e.g. when it is damaged)")
+        self.rebuild_button.clicked.connect(lambda: self.refresh(rebuild=True))
         self.banner = QtWidgets.QLabel(self)
         self.banner.setObjectName("libraryBanner")
         self.banner.setWordWrap(True)
@@ -146,6 +150,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         top.addWidget(QtWidgets.QLabel("Library:", self))
         top.addWidget(self.folder_label, 1)
         top.addWidget(self.rescan_button)
+        top.addWidget(self.rebuild_button)
         top.addWidget(change)
 
         self.subjects_list = QtWidgets.QListWidget(self)
@@ -270,8 +275,9 @@ class LibraryWindow(QtWidgets.QMainWindow):
         self.banner.setText(message)
         self.banner.show()
 
-    def refresh(self) -> None:
-        """Scan the folder off the GUI thread, then show the index (:attr:`refreshed`)."""
+    def refresh(self, rebuild: bool = False) -> None:
+        """Scan the folder (``rebuild``: make the index again from the files) off the GUI
+        thread, then show the index (:attr:`refreshed`)."""
         if self.library is None:
             self.refreshed.emit()
             return
@@ -279,8 +285,10 @@ class LibraryWindow(QtWidgets.QMainWindow):
             self._scan_again = True
             return
         library = self.library
-        self.statusBar().showMessage("Scanning the library folder…")
-        task = BackgroundTask(lambda _progress: library.scan(), self)
+        self.banner.hide()
+        self.statusBar().showMessage("Rebuilding the index from the session files…" if rebuild
+                                     else "Scanning the library folder…")
+        task = BackgroundTask(lambda _progress: library.rebuild() if rebuild else library.scan(), self)
         task.succeeded.connect(lambda report: self._scanned(library, report, None))
         task.failed.connect(lambda error: self._scanned(library, None, error))
         self._scan_task = task

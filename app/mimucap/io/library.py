@@ -407,7 +407,8 @@ class Library:
     Every method opens the index for its own work and closes it again, so a ``Library`` may be
     kept for as long as a window is open while other processes use the same folder.
     ``LibraryVersionError`` when the index comes from a newer MimuCap; ``LibraryError`` when
-    the folder cannot be made or the index is damaged (:meth:`rebuild` sets that right).
+    the folder cannot be made, or at first use when the index is damaged (:meth:`rebuild` sets
+    that right).
     """
 
     def __init__(self, root: str | os.PathLike[str]) -> None:
@@ -420,8 +421,13 @@ class Library:
             raise LibraryError(f"library folder {self.root} is not a folder")
         self.index_path = self.root / INDEX_NAME
         self.trash = self.root / TRASH_NAME
-        with self._connection():
-            pass  # creates the index, or refuses a newer one, now rather than at first use
+        try:
+            with self._connection():
+                pass  # creates the index, or refuses a newer one, now rather than at first use
+        except LibraryVersionError:
+            raise
+        except LibraryError:
+            pass  # a damaged index: said at first use, made again by rebuild()
 
     # -- the index ---------------------------------------------------------------------------
     @contextmanager
