@@ -51,7 +51,7 @@ def run_suit(bundle_size: int, seed: int = 11) -> list[tuple[str, float, str, st
         rows.append((f"magnetometers {bundle[0]}..{bundle[-1]}", feed.time_s - t0, "/".join(verdicts),
                      f"offset error ≤ {max(offsets):.2f} µT"))
     # Strapping the units on is not part of the guided time; the filters settle meanwhile.
-    feed.request_activity("npose")
+    feed.simulator.set_activity("npose")
     for _ in range(int(DON_S / feed.step_s)):
         feed.read()
     mapping = {m.segment: sid for sid, m in simulator.mounting.items()}

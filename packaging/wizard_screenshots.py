@@ -85,7 +85,7 @@ def write_wizard_screenshots(out_dir: str | Path) -> list[Path]:
     mag.set_selected_sensors(["S06", "S07"])
     mag.start()
     _until(app, mag, lambda: mag.procedure.status().axis_progress["x"] >= 1.0)
-    mag.feed.request_activity("npose")
+    mag.feed.simulator.set_activity("npose")
     for _ in range(10):
         mag._tick()
     mag.finish_now()
@@ -122,7 +122,7 @@ def write_wizard_screenshots(out_dir: str | Path) -> list[Path]:
     # Movement during the N-pose: restart message, then refusal.
     body.redo()
     _until(app, body, lambda: bodyproc.status().capturing)
-    body.feed.request_activity("arm_raise")
+    body.feed.simulator.set_activity("arm_raise")
     _until(app, body, lambda: bodyproc.status().message.startswith("Movement"))
     _save(app, body, out_dir, "body-6-npose-movement", written)
     _until(app, body, lambda: bodyproc.phase == "refused")

@@ -95,7 +95,7 @@ def test_magnetometer_wizard_refuses_a_one_axis_capture(qtbot, magnetometer_wiza
     wizard.set_selected_sensors(["S02", "S03"])
     qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
     qtbot.waitUntil(lambda: wizard.axis_bars["x"].value() == 100, timeout=20000)
-    wizard.feed.request_activity("npose")  # the user stops after one axis and presses "Compute now"
+    wizard.feed.simulator.set_activity("npose")  # the user stops after one axis and presses "Compute now"
     qtbot.mouseClick(wizard.finish_button, QtCore.Qt.LeftButton)
     assert wizard.page_name == "result"
     assert not wizard.accept_button.isEnabled()
@@ -162,7 +162,7 @@ def test_body_wizard_refuses_a_subject_moving_during_the_npose(qtbot) -> None:
     _, wizard = body_wizard(qtbot, seed=7, settings=BodycalProcedureSettings(pose_timeout_s=8.0))
     qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
     qtbot.waitUntil(lambda: wizard.procedure.status().capturing, timeout=10000)
-    wizard.feed.request_activity("arm_raise")
+    wizard.feed.simulator.set_activity("arm_raise")
     qtbot.waitUntil(lambda: wizard.movement_message.text().startswith("Movement detected"), timeout=10000)
     assert not wizard.meter.property("still")
     qtbot.waitUntil(lambda: wizard.page_name == "refused", timeout=20000)

@@ -72,7 +72,7 @@ def test_movement_restarts_the_capture_and_a_restless_subject_is_refused() -> No
     procedure.start()
     while not procedure.status().capturing:
         procedure.step()
-    feed.request_activity("arm_raise")  # the subject moves during the N-pose capture
+    feed.simulator.set_activity("arm_raise")  # the subject moves during the N-pose capture
     statuses = run(procedure)
     assert any(s.message.startswith("Movement detected: sensor S0") for s in statuses)
     assert max(s.restarts for s in statuses) >= 1
@@ -91,7 +91,7 @@ class _StubbornSubject:
 
     def __init__(self, feed):
         self._feed = feed
-        self.sensor_ids, self.simulated = feed.sensor_ids, True
+        self.sensor_ids = feed.sensor_ids
 
     @property
     def time_s(self):
@@ -100,9 +100,9 @@ class _StubbornSubject:
     def read(self):
         return self._feed.read()
 
-    def request_activity(self, name, **params):
-        if name != "tpose":
-            self._feed.request_activity(name, **params)
+    def instruct(self, instruction):
+        if instruction.kind != "tpose":
+            self._feed.instruct(instruction)
 
 
 def test_arms_not_raised_are_refused() -> None:

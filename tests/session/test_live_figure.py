@@ -12,8 +12,11 @@ from mimucap.session.live import LiveSession, open_live_session
 
 
 def _session(scenario: str, now: list[float]) -> LiveSession:
+    """The simulated suit with ideal sensors mounted along their segments: before a body
+    calibration each sensor's axes are shown as its segment's, which then are the segment's."""
     clock = lambda: now[0]  # noqa: E731
-    return LiveSession(SimulatorFeed(SimulationConfig(scenario=scenario), clock=clock), clock=clock)
+    config = SimulationConfig(scenario=scenario, errors="ideal", random_mounting=False)
+    return LiveSession(SimulatorFeed(config, clock=clock), clock=clock)
 
 
 def _segment_centre(geometry, name):

@@ -32,7 +32,7 @@ def shape_and_offset_error(calibration, parameters) -> tuple[float, float]:
 
 def make_feed(seed: int = 3) -> tuple[SuitSimulator, SimulatedSuitFeed]:
     simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=seed))
-    return simulator, SimulatedSuitFeed(simulator, step_s=0.2, fuse=False)
+    return simulator, SimulatedSuitFeed(simulator, step_s=0.2)
 
 
 def run(procedure: MagcalProcedure, limit_s: float = 200.0) -> list:
@@ -83,7 +83,7 @@ def test_one_axis_only_is_refused_with_advice_for_the_missing_axes(tmp_path) -> 
     while procedure.status().axis_progress["x"] < 1.0:
         procedure.step()
         assert feed.time_s < 30.0
-    feed.request_activity("npose")  # the user stops after one axis
+    feed.simulator.set_activity("npose")  # the user stops after one axis
     for _ in range(15):
         status = procedure.step()
     assert status.phase == "recording" and status.axis_to_turn == "y"
@@ -138,7 +138,7 @@ class _NoAccelerometer:
     """A feed of units that send no accelerometer channel."""
 
     def __init__(self, feed):
-        self._feed, self.sensor_ids, self.simulated = feed, feed.sensor_ids, True
+        self._feed, self.sensor_ids = feed, feed.sensor_ids
 
     @property
     def time_s(self):
@@ -147,8 +147,8 @@ class _NoAccelerometer:
     def read(self):
         return {s: replace(b, acc=None) for s, b in self._feed.read().items()}
 
-    def request_activity(self, name, **params):
-        self._feed.request_activity(name, **params)
+    def instruct(self, instruction):
+        self._feed.instruct(instruction)
 
 
 def test_units_without_accelerometer_are_calibrated_without_the_dip_figure(tmp_path) -> None:

@@ -388,6 +388,10 @@ class SuitSimulator:
         self.schedule.switch(self.time_s, activities)
         self._cache = None
 
+    def resume_scenario(self) -> None:
+        """Go back to the configured scenario (after doing what a calibration asked)."""
+        self.set_activity(self.config.scenario, **dict(self.config.scenario_params))
+
     def current_activity(self) -> str:
         """Label of the activity at the next sample's time."""
         return self.schedule.label_at(self.time_s)

@@ -280,10 +280,6 @@ def _verdicts(metadata: Mapping[str, Any], calibrations: Mapping[str, Any]) -> d
             quality = calibration.get("quality") if isinstance(calibration, Mapping) else None
             verdict = quality.get("verdict") if isinstance(quality, Mapping) else None
             verdicts[f"magnetometer {sensor_id}"] = str(verdict or "applied")
-    recorded = metadata.get("mag_calibration_verdicts")
-    if isinstance(recorded, Mapping):
-        for sensor_id, verdict in sorted(recorded.items()):
-            verdicts.setdefault(f"magnetometer {sensor_id}", str(verdict))
     for sensor_id in metadata.get("mag_calibrated_sensors") or ():
         verdicts.setdefault(f"magnetometer {sensor_id}", "applied")
     return verdicts

@@ -17,8 +17,9 @@ call per timer tick, or a loop in tests). It pulls sensor orientations
 Then :func:`mimucap.core.bodycal.calibrate_npose_tpose` computes the sensor-to-segment
 rotations from the two windows and the arm movement in between (phase ``"result"``), or
 refuses (phase ``"refused"`` with the reason). A pose that is not held still within
-``pose_timeout_s`` is refused as well ("the subject kept moving in the N-pose"). With a
-simulated feed the simulated subject does what each page asks (``npose``, ``tpose``).
+``pose_timeout_s`` is refused as well ("the subject kept moving in the N-pose"). Each page's
+instruction goes to the feed (:mod:`mimucap.session.instructions`): the person reads it, and the
+simulated subject of the simulated suit does it.
 
 Samples of the sensors are put on a common time base (that of the sensor with the most
 samples, each other sensor's nearest sample: within half a sample period at the common rate).
@@ -43,7 +44,9 @@ from mimucap.core.bodycal import (
     calibrate_npose_tpose,
     check_mapping,
 )
+from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed
+from mimucap.session.instructions import Instruction
 
 PHASES = ("ready", "npose", "tpose", "result", "refused")
 ARMS = ("both", "right", "left")
@@ -194,19 +197,15 @@ class BodycalProcedure:
         self._window_start = None
         self._restarts = 0
         self._worst_motion = ("", 0.0)
-        if self.feed.simulated:
-            if pose == "npose":
-                self.feed.request_activity("npose")
-            else:
-                self.feed.request_activity("tpose", arms=self.arms)
+        self.feed.instruct(self._instruction_of(pose))
         self._message = self.instruction(pose)
+
+    def _instruction_of(self, pose: str) -> Instruction:
+        return instructions.npose() if pose == "npose" else instructions.tpose(self.arms)
 
     def instruction(self, pose: str) -> str:
         """The instruction of the ``"npose"`` or ``"tpose"`` page."""
-        if pose == "npose":
-            return "Stand upright, arms hanging at the sides, palms in, and hold still"
-        arms = {"both": "both arms", "right": "the right arm", "left": "the left arm"}[self.arms]
-        return f"Raise {arms} sideways to shoulder height, palms down, and hold still"
+        return self._instruction_of(pose).text
 
     def step(self) -> BodycalStatus:
         """Pull new samples and advance the capture."""
@@ -296,8 +295,7 @@ class BodycalProcedure:
         self.refusal = reason
         self.phase = "refused"
         self._message = f"Calibration refused: {reason}"
-        if self.feed.simulated:
-            self.feed.request_activity("npose")
+        self.feed.instruct(instructions.npose())
 
     def _common_time_base(self) -> tuple[np.ndarray, dict[str, np.ndarray]]:
         reference = max(self._sensors, key=lambda s: self._tracks[s].arrays()[0].shape[0])
@@ -324,8 +322,7 @@ class BodycalProcedure:
             return
         self.phase = "result"
         self._message = f"Calibration {self.calibration.quality.verdict}: check the figure and accept"
-        if self.feed.simulated:
-            self.feed.request_activity("npose")
+        self.feed.instruct(instructions.npose())
 
     # -- views -------------------------------------------------------------------------------
     def status(self) -> BodycalStatus:

@@ -136,7 +136,9 @@ def run_export(data: ReviewData, request: ExportRequest,
     result = ExportResult(rows=len(t), summary=summary_table(angles))
     base = Path(request.base_path)
     base.parent.mkdir(parents=True, exist_ok=True)
-    notes = [f"Session {data.path.name}; pose from {data.pose_source}; {request.t_from_s:.3f}..{request.t_to_s:.3f} s"]
+    notes = [f"Session {data.path.name}; {request.t_from_s:.3f}..{request.t_to_s:.3f} s",
+             f"Result: {data.result_label}; pose from {data.pose_source}; computed from the sensors"]
+    notes += [f"Note: {text}" for text in data.missing]
     jobs: list[tuple[str, Callable[[], Path]]] = []
     if request.angles_csv:
         jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(p, t, angles, notes=notes))))

@@ -6,9 +6,9 @@ same blocks, so the rest of the live pipeline (fusion, calibration, recording) d
 which one runs:
 
 * :class:`SimulatorFeed` runs :class:`~mimucap.core.simulate.SuitSimulator` in this process,
-  advanced by the wall clock each :meth:`poll` (like the simulated acquisition driver), so
-  that a calibration wizard can direct the simulated subject with
-  ``feed.simulator.set_activity(...)`` and read the true state (``feed.last_truth``);
+  advanced by the clock each :meth:`poll` (like the simulated acquisition driver); its
+  subject follows the calibration procedures' instructions (:meth:`SimulatorFeed.follow`) and
+  its true state (``feed.last_truth``) is kept for evaluation only;
 * :class:`SupervisorFeed` runs any source spec (``udp:``, ``serial:``, ``replay:``,
   ``simulated:``) in acquisition worker processes through
   :class:`~mimucap.acquisition.supervisor.Supervisor`, polled without blocking.
@@ -26,6 +26,8 @@ from mimucap.acquisition.samples import SampleBlock
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.supervisor import Supervisor
 from mimucap.core.simulate import SENSOR_PLACEMENTS, SimulationConfig, SuitSimulator, SuitTruth
+from mimucap.session import instructions
+from mimucap.session.instructions import Instruction
 from mimucap.session.sources import SourceOptions, sensor_segments, source_configs
 
 #: Longest wall-clock gap (s) the simulator catches up in one poll: after a stall it skips
@@ -36,25 +38,23 @@ STATS_WINDOW_S = 2.0
 
 
 class SimulatorFeed:
-    """The simulated suit, in this process, in real time (or ``time_scale`` times faster).
+    """The simulated suit, in this process, on ``clock`` (real time, or a faster clock in tests:
+    every part of the session reads the same clock).
 
     Args:
         config: the simulation (scenario, sensors, rate, error model, seed, height).
         clock: monotonic clock (s); tests pass a fake one.
-        time_scale: simulated seconds per clock second.
         name: the source name carried by the blocks.
+        simulator: an existing simulator of ``config`` to run (a new one by default).
     """
 
     kind = "simulated"
 
     def __init__(self, config: SimulationConfig = SimulationConfig(), clock: Callable[[], float] = time.monotonic,
-                 time_scale: float = 1.0, name: str = "simulated") -> None:
-        if not time_scale > 0:
-            raise ValueError(f"time scale must be positive, got {time_scale}")
+                 name: str = "simulated", simulator: SuitSimulator | None = None) -> None:
         self.config = config
-        self.simulator = SuitSimulator(config)
+        self.simulator = simulator if simulator is not None else SuitSimulator(config)
         self.name = name
-        self.time_scale = float(time_scale)
         self._clock = clock
         self._start_host_s: float | None = None
         self._last_poll: float | None = None
@@ -79,7 +79,7 @@ class SimulatorFeed:
 
     def host_time_of(self, t_sim_s: float | np.ndarray) -> float | np.ndarray:
         """Host monotonic time (s) of simulated time ``t_sim_s`` (s, a number or an array)."""
-        return self._start_host_s + self._skipped_s + t_sim_s / self.time_scale
+        return self._start_host_s + self._skipped_s + t_sim_s
 
     def poll(self) -> list[SampleBlock]:
         """Blocks of every sample simulated since the last poll (one block per sensor)."""
@@ -90,7 +90,7 @@ class SimulatorFeed:
         if gap > MAX_CATCH_UP_S:
             self._skipped_s += gap - MAX_CATCH_UP_S
         self._last_poll = now
-        target_sim_s = (now - self._start_host_s - self._skipped_s) * self.time_scale
+        target_sim_s = now - self._start_host_s - self._skipped_s
         return self.advance_to(target_sim_s, now)
 
     def advance_to(self, target_sim_s: float, arrival_s: float | None = None) -> list[SampleBlock]:
@@ -123,6 +123,21 @@ class SimulatorFeed:
         """Activity changes since the last call: ``(host monotonic s, label)``."""
         markers, self._markers = self._markers, []
         return markers
+
+    def follow(self, instruction: Instruction) -> None:
+        """The simulated subject does what ``instruction`` asks; :data:`instructions.RESUME`
+        sends it back to its scenario."""
+        kind = instruction.kind
+        if kind == instructions.NPOSE:
+            self.simulator.set_activity("npose")
+        elif kind == instructions.TPOSE:
+            self.simulator.set_activity("tpose", arms=instruction.arms)
+        elif kind == instructions.TURN_SENSORS:
+            activity = {"single_axis": "mag_single_axis", "figure8": "mag_figure8", "free": "mag_tumble"}[instruction.protocol]
+            self.simulator.set_activity(activity, sensor_ids=list(instruction.sensor_ids),
+                                        turns=instructions.PROTOCOL_TURNS[instruction.protocol])
+        else:
+            self.simulator.resume_scenario()
 
     def stats(self) -> dict[str, SensorStats]:
         now = self._clock()
@@ -168,6 +183,9 @@ class SupervisorFeed:
 
     def take_markers(self) -> list[tuple[float, str]]:
         return self.supervisor.take_markers()
+
+    def follow(self, instruction: Instruction) -> None:
+        """Real sensors are worn by a person, who reads the instruction on the screen."""
 
     def stats(self) -> dict[str, SensorStats]:
         return self.supervisor.stats()

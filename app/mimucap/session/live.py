@@ -1,47 +1,45 @@
 """The live session the main window shows: sensor blocks in, skeleton, plots and files out (no Qt).
 
 :class:`LiveSession` is driven by the GUI's timers, in one thread: :meth:`LiveSession.step`
-takes whatever the feed (:mod:`mimucap.session.feeds`) delivered since the last call and
-runs it through the pipeline:
+takes whatever the source (a feed of :mod:`mimucap.session.feeds`) delivered since the last
+call and runs it through the one processing path of :mod:`mimucap.core.pipeline`
+(:class:`~mimucap.core.pipeline.LivePipeline`): magnetometer calibration, orientation filter
+(``q_world_from_sensor``, world ENU, scalar first; the device's own when it fuses on board),
+poses at one instant through the body calibration (until one is applied, each assigned
+sensor's axes stand for its segment, for every source alike), joint angles (deg) computed in
+one batch when the plots ask (:meth:`LiveSession.joint_series`), and the recorder
+(:class:`~mimucap.session.recording.Recorder`) when recording. A recording stores what is
+needed to compute the same numbers again (:mod:`mimucap.session.processing`).
 
-1. magnetometer calibration of each sensor that has one (``mag_cal = A⁻¹ (mag_raw − b)``, µT);
-2. orientation ``q_world_from_sensor`` (world ENU, scalar first): the device's own when it
-   sends one, otherwise an online :class:`~mimucap.core.fusion.OrientationEKF` per sensor;
-3. segment orientations ``q_world_from_segment``: through the applied body calibration
-   (:func:`mimucap.core.bodycal.segment_orientations`); until one is applied, the simulated
-   suit shows the simulator's truth (:attr:`LiveSession.pose_source` says
-   ``"simulator truth"``) and other sources show each assigned sensor's axes as its
-   segment's (``"sensor axes (no body calibration)"``);
-4. joint angles (deg, :func:`mimucap.core.skeleton.joint_angles_deg_stacked`) of every pose,
-   computed in one batch when the plots ask (:meth:`LiveSession.joint_series`);
-5. the recorder (:class:`~mimucap.session.recording.Recorder`) when recording.
+The session is a composition of parts with small interfaces: the *source* (``feed``: ``poll``,
+``stats``, ``follow(instruction)``), the *pipeline* (``pipeline``), the *pose* (the newest
+pose, its figure and the joint-angle history) and the *recorder*. Magnetometer calibrations are
+data that persist: they are loaded from the calibration store for every sensor the source
+brings, and a calibration made in the wizard is saved there. The simulated suit's ground truth
+is kept beside the data for evaluation only (:meth:`LiveSession.truth_pose`, the recording's
+truth); it never drives the figure.
 
 Times: ``t_s`` is seconds on the host monotonic clock since the live session started.
 
 API for calibration wizards (``MagnetometerWizard(parent, live_session)``,
 ``BodyCalibrationWizard(parent, live_session)``):
 
-* ``live_session.simulator``: the :class:`~mimucap.core.simulate.SuitSimulator` when the source
-  is the simulated suit in process (``None`` otherwise); ``simulator.set_activity("tpose",
-  arms="both")`` makes the subject do what the wizard asks.
-* ``live_session.events.blocks.connect(callback)``: ``callback(blocks)`` gets every list of
-  :class:`~mimucap.acquisition.samples.SampleBlock` (raw, before calibration) as it arrives;
-  disconnect with ``live_session.events.blocks.disconnect(callback)`` when the wizard closes.
+* ``live_session.instruct(instruction)`` (:mod:`mimucap.session.instructions`): what the subject
+  is asked to do; the source is told too (the simulated subject does it);
+* ``live_session.events.processed.connect(callback)``: ``callback(items)`` gets every list of
+  :class:`ProcessedBlock` (raw samples and the pipeline's orientations) as it arrives;
 * ``live_session.sensor_ids``, ``live_session.sensor_segments`` (sensor id → segment),
   ``live_session.latest_orientations()`` (sensor id → ``q_world_from_sensor`` (4,)),
-  ``live_session.series(sensor_id, window_s)`` (recent raw ``t_s``, ``acc``, ``gyr``, ``mag_uT``).
-* ``live_session.apply_mag_calibration(cal)`` (a :class:`~mimucap.core.magcal.MagCalibration`;
-  the sensor's fusion restarts with calibrated samples), ``live_session.mag_calibrations``.
-* ``live_session.apply_body_calibration(cal)`` (a :class:`~mimucap.core.bodycal.BodyCalibration`:
-  the figure then follows the sensors through it, world mode is normalised to its N-pose) and
-  ``live_session.clear_body_calibration()``.
-* ``live_session.events.calibration`` is emitted after either is applied.
+  ``live_session.series(sensor_id, window_s)`` (recent ``t_s``, ``acc``, ``gyr``, ``mag_uT``);
+* ``live_session.apply_mag_calibration(cal)``, ``live_session.mag_calibrations``,
+  ``live_session.onboard_sensors()`` (sensors that fuse on board: nothing to calibrate);
+* ``live_session.apply_body_calibration(cal)`` and ``live_session.clear_body_calibration()``;
+* ``live_session.events.calibration`` is emitted after either changes.
 """
 
 from __future__ import annotations
 
 import time
-from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -53,12 +51,18 @@ import numpy as np
 from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
 from mimucap.core import bodycal, rotation, skeleton
-from mimucap.core.fusion import FLAG_NAMES, OrientationEKF, update_together
+from mimucap.core.fusion import FLAG_NAMES
 from mimucap.core.magcal import MagCalibration
+from mimucap.core.pipeline import (
+    POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorBlock, SensorOrientations,
+)
 from mimucap.core.simulate import SimulationConfig, SuitTruth
+from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
 from mimucap.session.figure import FigureBuilder, FigureGeometry, heading_rad
+from mimucap.session.instructions import Instruction
+from mimucap.session.processing import recording_record
 from mimucap.session.recording import Recorder, RecordingResult
 from mimucap.session.ring_buffer import RingBuffer
 from mimucap.session.sources import SourceOptions
@@ -72,11 +76,8 @@ BUFFER_RATE_HZ = 200.0
 #: Joint-angle history rate bound: one pose per pipeline step (the GUI pumps at 100 Hz).
 ANGLE_BUFFER_RATE_HZ = 120.0
 
-POSE_BODY_CALIBRATION = "body calibration"
-POSE_SIMULATOR_TRUTH = "simulator truth"
-#: Where a recording's ground truth came from (stored with it).
+#: Where a recording's ground truth came from (stored with it, for evaluation).
 TRUTH_NOTE = "simulated suit shown live in mimucap gui"
-POSE_SENSOR_AXES = "sensor axes (no body calibration)"
 POSE_NONE = "no data"
 POSE_UNASSIGNED = "no sensor assigned (Session → Assign Sensors)"
 
@@ -123,17 +124,26 @@ class RecordingInfo:
 
 
 class _SensorState:
-    """Per-sensor live state: recent raw samples for the plots, fusion, latest orientation."""
+    """Per-sensor live state: recent samples for the plots and the battery charge."""
 
     def __init__(self, sensor_id: str, capacity: int) -> None:
         self.sensor_id = sensor_id
         #: rows acc (m/s²), gyr (rad/s), mag (µT, calibrated when applied); NaN when absent
         self.raw = RingBuffer(capacity, (3, 3))
-        self.ekf: OrientationEKF | None = None
-        self.q_world_from_sensor: np.ndarray | None = None
-        self.onboard = False
-        self.flags = 0
         self.battery_pct = float("nan")
+
+
+@dataclass(frozen=True)
+class ProcessedBlock:
+    """One sensor's new samples as the pipeline took them: ``t_s`` (N,) session seconds,
+    ``block`` the raw :class:`~mimucap.acquisition.samples.SampleBlock` (uncalibrated
+    magnetometer), ``orientation`` the pipeline's output (``None`` for a sensor without an
+    orientation: no gyroscope and no on-board fusion)."""
+
+    sensor_id: str
+    t_s: np.ndarray
+    block: SampleBlock
+    orientation: SensorOrientations | None
 
 
 class LiveSession:
@@ -145,8 +155,12 @@ class LiveSession:
         model_name: skeleton model (``"ten_segment"`` or ``"fifteen_segment"``).
         height_m: the subject's height (m).
         clock: monotonic clock (s), the same the feed uses.
+        calibration_store: where magnetometer calibrations are kept (loaded for every sensor
+            the source brings, saved when the wizard makes one); ``None`` keeps them in memory.
+        settings: the processing path's settings (stored with every recording).
 
     Events (``self.events``): ``blocks(list[SampleBlock])`` raw data as it arrives;
+    ``processed(list[ProcessedBlock])`` the same data with the pipeline's orientations;
     ``frame(frame_id)`` a new pose; ``calibration()`` a calibration was applied;
     ``recording(info_or_None)`` recording started/stopped; ``marker(t_s, label, recorded)``
     (session time; ``recorded``: the marker is in the recording, as the user's markers are
@@ -154,27 +168,30 @@ class LiveSession:
     """
 
     def __init__(self, feed, label: str = "", model_name: str = "ten_segment", height_m: float = 1.75,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, calibration_store: CalibrationStore | None = None,
+                 settings: PipelineSettings = PipelineSettings()) -> None:
         self.feed = feed
         self.label = label or getattr(feed, "name", "source")
         self.model = skeleton.load_model(model_name)
         self.height_m = float(height_m)
         self.builder = FigureBuilder(self.model, self.height_m)
-        self.events = EmitterGroup("blocks", "frame", "calibration", "recording", "marker")
+        self.events = EmitterGroup("blocks", "processed", "frame", "calibration", "recording", "marker")
+        self.pipeline = LivePipeline(self.model, settings)
+        self.calibration_store = calibration_store
+        #: sensor → why its stored magnetometer calibration could not be loaded
+        self.calibration_problems: dict[str, str] = {}
         self._clock = clock
         self.t0_host_s: float | None = None
         self.display_mode = "world"
-        #: sensor id → the segment it is worn on, as the source knows it (the simulated suit's truth)
-        self._worn_on: dict[str, str] = dict(feed.sensor_segments())
-        self.sensor_segments: dict[str, str] = dict(self._worn_on)
-        self.mag_calibrations: dict[str, MagCalibration] = {}
+        #: sensor id → segment, as the source names it (a replayed recording's placement, the
+        #: simulated suit's labels); the user's assignment changes it
+        self.sensor_segments: dict[str, str] = dict(feed.sensor_segments())
         self.body_calibration: bodycal.BodyCalibration | None = None
         self._capacity = int(MAX_WINDOW_S * BUFFER_RATE_HZ)
         self._sensors: dict[str, _SensorState] = {}
         self._joint_columns = self._group_columns()
         #: joint → its row in :func:`skeleton.joint_angles_deg_stacked` output (model joint order)
         self._joint_row = {joint: self.model.joint_names.index(joint) for joint in self._joint_columns}
-        self._segment_parents = [(s.name, s.parent) for s in self.model.segments]
         self._angles = {j: RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
         self._angle_t = RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ))
         #: poses since the last joint-angle update: (t_s, (S, 4) orientations in model order)
@@ -188,11 +205,14 @@ class LiveSession:
         self._geometry: tuple[object, FigureGeometry] | None = None
         self._recorder: Recorder | None = None
         self._journaled_truth: SuitTruth | None = None   # the simulator truth block last recorded
+        #: newest pose of the simulator's truth (segment → (4,)), for evaluation only
+        self._truth_pose: dict[str, np.ndarray] | None = None
         self._recording_markers = 0
         self.last_recording: RecordingResult | None = None
         self.samples_received = 0
         self.last_arrival_s = float("nan")   #: host time the newest block arrived (latency bench)
         self.started = False
+        self._load_stored_calibrations(self.feed.sensor_ids)
 
     def _group_columns(self) -> dict[str, tuple[str, str, str]]:
         columns = skeleton.joint_angle_columns(self.model)
@@ -204,8 +224,14 @@ class LiveSession:
     # -- source ----------------------------------------------------------------------------
     @property
     def simulator(self):
-        """The in-process :class:`~mimucap.core.simulate.SuitSimulator`, or ``None``."""
+        """The in-process :class:`~mimucap.core.simulate.SuitSimulator`, or ``None`` (for the
+        evaluation of its truth; the pipeline and the procedures never ask for it)."""
         return getattr(self.feed, "simulator", None)
+
+    def instruct(self, instruction: Instruction) -> None:
+        """Tell the source what a procedure asks of the subject (the person reads it on the
+        screen; the simulated subject does it)."""
+        self.feed.follow(instruction)
 
     @property
     def sensor_ids(self) -> tuple[str, ...]:
@@ -268,7 +294,11 @@ class LiveSession:
 
     def latest_orientations(self) -> dict[str, np.ndarray]:
         """Sensor id → newest ``q_world_from_sensor`` (4,) (sensors with an estimate only)."""
-        return {sid: s.q_world_from_sensor for sid, s in self._sensors.items() if s.q_world_from_sensor is not None}
+        return self.pipeline.latest_orientations()
+
+    def onboard_sensors(self) -> tuple[str, ...]:
+        """Sensors that send their own orientation (fused on board: no magnetometer to calibrate)."""
+        return tuple(sid for sid, chain in self.pipeline.chains.items() if chain.onboard)
 
     def set_display_mode(self, mode: str) -> None:
         """``"world"`` or ``"body"`` (see :mod:`mimucap.session.figure`)."""
@@ -296,27 +326,57 @@ class LiveSession:
             self.sensor_segments[sensor_id] = segment
 
     # -- calibrations ------------------------------------------------------------------------
-    def apply_mag_calibration(self, calibration: MagCalibration) -> None:
-        """Use ``calibration`` for its sensor from now on (its fusion restarts)."""
-        self.mag_calibrations[calibration.sensor_id] = calibration
-        state = self._sensors.get(calibration.sensor_id)
-        if state is not None:
-            state.ekf = None
+    @property
+    def mag_calibrations(self) -> dict[str, MagCalibration]:
+        """Sensor id → the magnetometer calibration in use."""
+        return self.pipeline.mag_calibrations
+
+    def _load_stored_calibrations(self, sensor_ids) -> None:
+        """Load the stored magnetometer calibration of each sensor in ``sensor_ids`` that has one
+        and is not calibrated yet (a damaged file is named in :attr:`calibration_problems`)."""
+        if self.calibration_store is None:
+            return
+        stored = set(self.calibration_store.sensor_ids())
+        for sensor_id in sensor_ids:
+            if sensor_id in self.mag_calibrations or sensor_id not in stored or sensor_id in self.calibration_problems:
+                continue
+            try:
+                self.pipeline.set_mag_calibration(self.calibration_store.load(sensor_id))
+            except (CalibrationFileError, OSError, ValueError) as error:
+                self.calibration_problems[sensor_id] = str(error)
+
+    def _refuse_while_recording(self, what: str) -> None:
+        if self._recorder is not None:
+            raise ValueError(f"stop recording before {what}: a recording is computed with the calibrations "
+                             "it started with")
+
+    def apply_mag_calibration(self, calibration: MagCalibration, save: bool = True) -> None:
+        """Use ``calibration`` for its sensor from now on (its filter restarts) and keep it in
+        the calibration store (``save``) for the next start."""
+        self._refuse_while_recording("changing a magnetometer calibration")
+        self.pipeline.set_mag_calibration(calibration)
+        self.calibration_problems.pop(calibration.sensor_id, None)
+        if save and self.calibration_store is not None:
+            self.calibration_store.save(calibration)
         self.events.calibration.emit()
 
     def apply_body_calibration(self, calibration: bodycal.BodyCalibration) -> None:
         """Drive the figure through ``calibration`` (sensor → segment rotations) from now on."""
+        self._refuse_while_recording("applying a body calibration")
         unknown = [s for s in calibration.segments if s not in self.model.segment_names]
         if unknown:
             raise ValueError(f"the body calibration has segments the {self.model.name} model lacks: {', '.join(unknown)}")
         self.body_calibration = calibration
         for segment, sensor in calibration.sensors.items():
             self.assign_sensor(sensor, segment)
+        self.pipeline.forget_poses()
         self._geometry = None
         self.events.calibration.emit()
 
     def clear_body_calibration(self) -> None:
+        self._refuse_while_recording("clearing the body calibration")
         self.body_calibration = None
+        self.pipeline.forget_poses()
         self._geometry = None
         self.events.calibration.emit()
 
@@ -327,37 +387,40 @@ class LiveSession:
         if not self.started:
             return 0
         blocks = self.feed.poll()
-        for host_s, label in self.feed.take_markers():  # the source's own (simulated activities): shown only
-            self.events.marker.emit(host_s - self.t0_host_s, label, False)
+        self.feed.take_markers()  # the source's own markers (the simulated activities) are not the user's
         if self._recorder is not None:
             self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
+        self._note_truth()
         if not blocks:
             return 0
         self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
         self.events.blocks.emit(blocks)
+        merged = _merged_per_sensor(blocks)
+        new_sensors = [b.sensor_id for b in merged if b.sensor_id not in self._sensors]
+        if new_sensors:
+            self._load_stored_calibrations(new_sensors)
+        times = [block.host_time_s - self.t0_host_s for block in merged]
+        outputs = self.pipeline.feed([SensorBlock(b.sensor_id, t, b.acc, b.gyr, b.mag_uT, b.q_world_from_sensor)
+                                      for b, t in zip(merged, times)])
+        by_sensor = {out.sensor_id: out for out in outputs}
+        processed = []
         count = 0
-        to_fuse: list[_FusionInput] = []
-        for block in _merged_per_sensor(blocks):
-            count += self._take_block(block, to_fuse)
-        _fuse(to_fuse)
+        for block, t in zip(merged, times):
+            orientation = by_sensor.get(block.sensor_id)
+            count += self._buffer(block, t, None if orientation is None else orientation.mag_uT)
+            processed.append(ProcessedBlock(block.sensor_id, t, block, orientation))
+        self.events.processed.emit(processed)
         self.samples_received += count
         self._update_pose()
         return count
 
-    def _take_block(self, block: SampleBlock, to_fuse: list[_FusionInput]) -> int:
-        """Buffer ``block`` for the plots; queue its samples for the sensor's filter on
-        ``to_fuse`` (fused by :func:`_fuse` once the whole poll is in). Returns its length."""
+    def _buffer(self, block: SampleBlock, t: np.ndarray, mag_calibrated: np.ndarray | None) -> int:
+        """Keep ``block`` for the plots (the calibrated field when there is one)."""
         n = len(block)
-        if n == 0:
-            return 0
         state = self._sensors.get(block.sensor_id)
         if state is None:
             state = self._sensors[block.sensor_id] = _SensorState(block.sensor_id, self._capacity)
-        t = block.host_time_s - self.t0_host_s
-        mag = block.mag_uT
-        calibration = self.mag_calibrations.get(block.sensor_id)
-        if mag is not None and calibration is not None:
-            mag = calibration.apply(mag, block.sensor_id)
+        mag = mag_calibrated if mag_calibrated is not None else block.mag_uT
         raw = np.full((n, 3, 3), np.nan)
         for row, values in enumerate((block.acc, block.gyr, mag)):
             if values is not None:
@@ -365,43 +428,16 @@ class LiveSession:
         state.raw.append(t, raw)
         if block.battery_pct is not None:
             state.battery_pct = float(block.battery_pct[-1])
-        if block.q_world_from_sensor is not None:
-            state.onboard = True
-            state.q_world_from_sensor = np.asarray(block.q_world_from_sensor[-1], dtype=float)
-        elif block.gyr is not None:
-            if state.ekf is None:
-                state.ekf = OrientationEKF(use_mag=mag is not None)
-            to_fuse.append(_FusionInput(state, t, block.gyr, block.acc, mag))
         return n
 
     def _update_pose(self) -> None:
-        truth = getattr(self.feed, "last_truth", None)
-        q_segments: dict[str, np.ndarray] | None = None
-        root = None
-        t_pose = float("nan")
-        if self.body_calibration is not None:
-            found = bodycal.segment_orientations(self.body_calibration, self.latest_orientations(), require_all=False)
-            if self.model.root in found:
-                q_segments = self._filled(found)
-                t_pose = self._newest_time()
-                self._pose_source = POSE_BODY_CALIBRATION
-        elif truth is not None:
-            q_segments = self._truth_through_assignment(truth)
-            root = truth.root_position_m[-1] * (self.height_m / self.feed.config.height_m)
-            if self._recorder is not None and truth is not self._journaled_truth:
-                self._journal_truth(truth)
-            t_pose = self.feed.host_time_of(float(truth.t_s[-1])) - self.t0_host_s
-            self._pose_source = POSE_SIMULATOR_TRUTH
-        else:
-            latest = self.latest_orientations()
-            q_segments = self._figure_from({seg: latest[sid] for sid, seg in self.sensor_segments.items()
-                                            if sid in latest})
-            if q_segments is not None:
-                t_pose = self._newest_time()
-                self._pose_source = POSE_SENSOR_AXES
-        if not q_segments:
-            self._pose_source = POSE_UNASSIGNED if self._sensors else POSE_NONE
+        pose = self.pipeline.pose(self.body_calibration, self.sensor_segments)
+        if pose is None:
+            if self._q_world_from_segment is None or not self._assigned_sensors_seen():
+                self._pose_source = POSE_UNASSIGNED if self._sensors else POSE_NONE
             return
+        t_pose, q_segments = pose
+        self._pose_source = POSE_BODY_CALIBRATION if self.body_calibration is not None else POSE_SENSOR_AXES
         missing = [name for name in self.model.segment_names if name not in q_segments]
         if missing:
             raise ValueError(f"the {self.pose_source} pose lacks segments of the {self.model.name} model: "
@@ -409,7 +445,7 @@ class LiveSession:
         q_stacked = np.array([q_segments[name] for name in self.model.segment_names], dtype=float)
         self._q_world_from_segment = q_segments
         self._q_stacked = q_stacked
-        self._root_m = root
+        self._root_m = None
         self._t_s = t_pose
         self._frame_id += 1
         self._geometry = None
@@ -417,6 +453,11 @@ class LiveSession:
         if len(self._pending_angles) > self._angle_t.capacity:
             del self._pending_angles[: len(self._pending_angles) - self._angle_t.capacity]
         self.events.frame.emit(self._frame_id)
+
+    def _assigned_sensors_seen(self) -> bool:
+        segments = (self.body_calibration.sensors.values() if self.body_calibration is not None
+                    else self.sensor_segments)
+        return any(sid in self._sensors for sid in segments)
 
     def _flush_angles(self) -> None:
         """Joint angles of the poses since the last call, computed in one vectorised batch
@@ -431,35 +472,27 @@ class LiveSession:
         for joint, row in self._joint_row.items():
             self._angles[joint].append(t, angles[row])
 
+    # -- the simulator's truth (evaluation only) -----------------------------------------------
+    def _note_truth(self) -> None:
+        """Keep the simulator's newest true pose for the on-screen comparison and journal its
+        truth while recording; neither ever drives the figure."""
+        truth = getattr(self.feed, "last_truth", None)
+        if truth is None or truth is self._journaled_truth:
+            return
+        self._truth_pose = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
+        if self._recorder is not None:
+            self._journal_truth(truth)
+        self._journaled_truth = truth
+
+    def truth_pose(self) -> dict[str, np.ndarray] | None:
+        """The simulated subject's true segment orientations now (segment → (4,)), or ``None``
+        for a source without truth. For evaluation: shown beside the estimate, never as it."""
+        return self._truth_pose
+
     def _journal_truth(self, truth: SuitTruth) -> None:
         """Hand a new block of the simulator's truth to the recorder, on host time."""
-        self._journaled_truth = truth
         self._recorder.add_truth(self.feed.host_time_of(truth.t_s), truth.q_world_from_segment, truth.joint_angles_deg,
                                  truth.root_position_m, TRUTH_NOTE)
-
-    def _truth_through_assignment(self, truth: SuitTruth) -> dict[str, np.ndarray] | None:
-        """The simulated subject's pose as the sensor assignment shows it: each assigned
-        segment turns as the segment its sensor is really worn on (so a sensor assigned to the
-        wrong segment shows as it would on real hardware), the others follow their parents
-        (:func:`bodycal.fill_missing_segments`; an unassigned pelvis faces north). ``None`` when
-        no sensor is assigned."""
-        newest = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
-        return self._figure_from({segment: newest[self._worn_on[sid]] for sid, segment in self.sensor_segments.items()
-                                  if self._worn_on.get(sid) in newest})
-
-    def _figure_from(self, found: Mapping[str, np.ndarray]) -> dict[str, np.ndarray] | None:
-        """Every segment's orientation from those of the segments that have one (``found``,
-        segment → ``q_world_from_segment``): the others follow their parents, an absent root
-        faces north. ``None`` when ``found`` is empty."""
-        if not found:
-            return None
-        found = dict(found)
-        if self.model.root not in found:
-            found[self.model.root] = skeleton.q_world_from_body_facing(0.0)
-        return self._filled(found)
-
-    def _filled(self, found: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-        return bodycal.fill_missing_segments(found, self._segment_parents)
 
     def _newest_time(self) -> float:
         times = [s.raw.latest_t() for s in self._sensors.values() if len(s.raw)]
@@ -500,8 +533,8 @@ class LiveSession:
             last_seen = float("nan") if st is None else st.last_seen_s
             stale = not (now - last_seen <= STALE_AFTER_S)
             calibration = self.mag_calibrations.get(sid)
-            onboard = state is not None and state.onboard
-            truth_shown = self._pose_source == POSE_SIMULATOR_TRUTH
+            chain = self.pipeline.chains.get(sid)
+            onboard = chain is not None and chain.onboard
             if calibration is not None:
                 mag_cal, age = "calibrated", _age_s(calibration.created_utc)
             elif onboard:
@@ -509,11 +542,12 @@ class LiveSession:
             else:
                 mag_cal, age = "not calibrated", float("nan")
             flags = ()
-            if state is not None and state.ekf is not None:
-                flags = tuple(label for key, label in FLAG_LABELS.items() if state.flags & FLAG_NAMES[key])
+            if chain is not None and chain.ekf is not None:
+                value = self.pipeline.flags.get(sid, 0)
+                flags = tuple(label for key, label in FLAG_LABELS.items() if value & FLAG_NAMES[key])
             if stale:
                 tint = "stale"
-            elif mag_cal == "not calibrated" and not truth_shown:
+            elif mag_cal == "not calibrated":
                 tint = "mag_uncalibrated"
             else:
                 tint = "ok"
@@ -566,20 +600,18 @@ class LiveSession:
             raise ValueError(f"already recording to {self._recorder.out_path}")
         if not self.started:
             raise ValueError("start the source before recording")
+        start_host_s = self._clock()
         metadata = {
             "source": self.label, "sensor_segments": dict(self.sensor_segments),
             "skeleton_model": self.model.name, "height_m": self.height_m,
             "subject": dict(subject or {}), "created_by": "mimucap gui",
+            **recording_record(mag_calibrations=self.mag_calibrations, body_calibration=self.body_calibration,
+                               settings=self.pipeline.settings, filter_states=self.pipeline.filter_states(),
+                               time_offset_s=start_host_s - self.t0_host_s),
         }
-        if self.body_calibration is not None:
-            metadata["body_calibration"] = self.body_calibration.to_dict()
-        if self.mag_calibrations:
-            metadata["mag_calibrated_sensors"] = sorted(self.mag_calibrations)
-            metadata["mag_calibration_verdicts"] = {sid: str(cal.quality.get("verdict", "unknown"))
-                                                    for sid, cal in sorted(self.mag_calibrations.items())}
         metadata.update(extra_metadata or {})
         recorder = Recorder(path, metadata)
-        recorder.start(self._clock())
+        recorder.start(start_host_s)
         self._recorder = recorder
         self._journaled_truth = None
         self._recording_markers = 0
@@ -633,44 +665,6 @@ class LiveSession:
         return result
 
 
-@dataclass
-class _FusionInput:
-    """One block of one sensor for its filter: times ``t`` (N,) s, ``gyr`` (N, 3) rad/s,
-    ``acc`` (N, 3) m/s² and ``mag`` (N, 3) µT (calibrated) or ``None``."""
-
-    state: _SensorState
-    t: np.ndarray
-    gyr: np.ndarray
-    acc: np.ndarray | None
-    mag: np.ndarray | None
-
-
-def _fuse(inputs: list[_FusionInput]) -> None:
-    """Run each input through its sensor's filter and keep the newest orientation and flags.
-
-    Sensors whose blocks have the same length and channels and whose filters the same
-    settings go through the filter in one call (:func:`update_together`): on a poll of a
-    17-sensor suit that is one call instead of 17. A sensor with more than one block in the
-    poll has its blocks fused one after the other."""
-    blocks_of = Counter(id(item.state) for item in inputs)
-    groups: dict[object, list[_FusionInput]] = {}
-    for item in inputs:
-        shares = blocks_of[id(item.state)] == 1  # a filter appears once in a call
-        key = (len(item.t), item.acc is None, item.mag is None, item.state.ekf.grouping_key) if shares else id(item)
-        groups.setdefault(key, []).append(item)
-    for group in groups.values():
-        stacked = lambda name: None if getattr(group[0], name) is None else np.stack(  # noqa: E731
-            [getattr(item, name) for item in group])
-        result = update_together([item.state.ekf for item in group], stacked("t"), stacked("gyr"),
-                                 stacked("acc"), stacked("mag"))
-        newest_q = result.q_world_from_sensor[:, -1]
-        finite = np.isfinite(newest_q).all(axis=1).tolist()
-        for item, q, flags, ok in zip(group, newest_q, result.flags[:, -1].tolist(), finite):
-            if ok:
-                item.state.q_world_from_sensor = q
-            item.state.flags = int(flags)
-
-
 def _merged_per_sensor(blocks: list[SampleBlock]) -> list[SampleBlock]:
     """The blocks of one poll with each sensor's consecutive blocks (same channels) joined:
     wireless nodes arrive a sample or two at a time, and the filter, buffers and statistics
@@ -717,14 +711,18 @@ def _age_s(created_utc: str) -> float:
 
 
 def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time.monotonic,
-                      time_scale: float = 1.0, in_process_simulator: bool = True,
+                      in_process_simulator: bool = True,
                       n_sensors: int | None = None, rate_hz: float = 100.0,
-                      model_name: str | None = None) -> LiveSession:
+                      model_name: str | None = None,
+                      calibration_store: CalibrationStore | None = None) -> LiveSession:
     """A live session (not started) for source ``spec``.
 
     ``simulated[:SCENARIO]`` runs the simulated suit (``n_sensors`` at ``rate_hz``) in process
     (wizards can direct it) unless ``in_process_simulator`` is False; everything else
     (``udp:``, ``serial:``, ``replay:``) runs in acquisition workers.
+
+    ``calibration_store`` keeps the magnetometer calibrations (default: the user's store,
+    :class:`~mimucap.io.calibration_store.CalibrationStore`).
 
     ``model_name`` (``"ten_segment"`` or ``"fifteen_segment"``, default ten) is the skeleton
     the sensors drive. The simulated suit wears 10 sensors on the ten-segment model and 17 on
@@ -734,13 +732,14 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
     if model_name is not None and model_name not in skeleton.MODEL_NAMES:
         raise ValueError(f"unknown skeleton model {model_name!r}; use one of {', '.join(skeleton.MODEL_NAMES)}")
     parsed = parse_source_spec(spec)
+    store = calibration_store if calibration_store is not None else CalibrationStore()
     if isinstance(parsed, SimulatedSpec) and in_process_simulator:
         if n_sensors is None:
             n_sensors = 17 if model_name == "fifteen_segment" else 10
         config = SimulationConfig(scenario=parsed.scenario, n_sensors=n_sensors, rate_hz=rate_hz)
-        feed = SimulatorFeed(config, clock=clock, time_scale=time_scale)
+        feed = SimulatorFeed(config, clock=clock)
         return LiveSession(feed, f"simulated:{parsed.scenario}", model_name=config.model_name,
-                           height_m=config.height_m, clock=clock)
+                           height_m=config.height_m, clock=clock, calibration_store=store)
     options = SourceOptions() if n_sensors is None else SourceOptions(sensor_count=n_sensors)
     feed = SupervisorFeed(spec, options)
-    return LiveSession(feed, spec, model_name=model_name or "ten_segment", clock=clock)
+    return LiveSession(feed, spec, model_name=model_name or "ten_segment", clock=clock, calibration_store=store)

@@ -18,9 +18,8 @@ Protocols (:data:`PROTOCOLS`):
 
 Either way it stops after ``max_duration_s``, and :meth:`finish_now` computes with what was
 recorded. Phases: ``"ready"`` → ``"recording"`` → ``"result"`` (``redo`` goes back to
-``"ready"``). With a simulated feed the simulated subject picks the selected units up and
-performs the protocol (``mag_single_axis``, ``mag_figure8``, ``mag_tumble``), and puts them
-back (``npose``) when the recording ends.
+``"ready"``). The instructions (turn these sensors; put them back on) go to the feed
+(:mod:`mimucap.session.instructions`): the person reads them, the simulated subject does them.
 
 Results (:class:`SensorOutcome`) carry the fit, its quality, the verdict and reasons in the
 words of the person calibrating ("turn about y again: coverage too low"), and the sensor's
@@ -43,11 +42,11 @@ from mimucap.core.magcal import CalibrationResult, FitRefused, FitSettings, Qual
 from mimucap.core.magcal_fit import EllipsoidFit, fit_ellipsoid
 from mimucap.core.magcal_guidance import AXIS_NAMES, GuidanceSettings, GuidanceState, SingleAxisGuide
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
+from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed
 
 PROTOCOLS = ("single_axis", "figure8", "free")
 #: Simulated activity performing each protocol, and its number of turns / gestures.
-SIMULATED_ACTIVITY = {"single_axis": ("mag_single_axis", 1), "figure8": ("mag_figure8", 3), "free": ("mag_tumble", 2)}
 PHASES = ("ready", "recording", "result")
 
 
@@ -285,12 +284,10 @@ class MagcalProcedure:
 
     # -- driving -----------------------------------------------------------------------------
     def start(self) -> None:
-        """Begin recording (a simulated subject picks the units up and starts the protocol)."""
+        """Begin recording: the subject is asked to turn the sensors by the protocol."""
         self._reset()
         self.phase = "recording"
-        if self.feed.simulated:
-            activity, turns = SIMULATED_ACTIVITY[self.protocol]
-            self.feed.request_activity(activity, sensor_ids=list(self.sensor_ids), turns=turns)
+        self.feed.instruct(instructions.turn_sensors(self.sensor_ids, self.protocol))
         self.feed.read()  # samples before the start do not belong to the calibration
 
     def redo(self) -> None:
@@ -345,8 +342,7 @@ class MagcalProcedure:
         """Stop recording and compute every sensor's result (phase ``"result"``)."""
         if self.phase != "recording":
             raise ValueError("the magnetometer calibration is not recording")
-        if self.feed.simulated:
-            self.feed.request_activity("npose")  # put the units back on
+        self.feed.instruct(instructions.put_sensors_back())
         now = self._now()
         created = now.strftime("%Y-%m-%dT%H:%M:%SZ")
         outcomes = {}

@@ -278,6 +278,7 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
     except (KeyError, TypeError, ValueError, AttributeError) as error:
         raise ValueError(f"{journal_path}: the start or a marker record is damaged: {error!r}") from None
     segments = metadata.pop("sensor_segments", {}) or {}
+    calibrations = metadata.pop("calibrations", {}) or {}
     recording = {"started_utc": start.get("started_utc"), "start_host_monotonic_s": t0,
                  "start_record_lost": bool(start.get("lost", False)),
                  "journal_flush_interval_s": start.get("flush_interval_s"),
@@ -291,7 +292,7 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
                for sensor_id, blocks in sorted(per_sensor.items())}
     session = Session(metadata=metadata, sensors=sensors,
                       markers=[Marker(t, label) for t, label in markers],
-                      truth=_joined_truth(truth_parts, t0))
+                      truth=_joined_truth(truth_parts, t0), calibrations=dict(calibrations))
     return session, contents
 
 

@@ -1,15 +1,19 @@
 """Review of a recorded session: poses and joint angles on a timeline, and a play head (no Qt).
 
 :func:`load_review` opens a session file (recovering an interrupted recording first, via
-:func:`mimucap.session.recording.open_session`) and computes, once, what the review shows:
+:func:`mimucap.session.recording.open_session`) and runs it, once, through the one processing
+path (:func:`mimucap.session.processing.process_session`) with the calibrations the recording
+stores. Two results exist: *as seen live* (:data:`~mimucap.core.pipeline.RESULT_LIVE`, the
+forward filter continuing from the state the live view had, which reproduces what was shown)
+and *reprocessed* (:data:`~mimucap.core.pipeline.RESULT_REPROCESSED`, smoothed with past and
+future data; the default). The review holds:
 
 * segment orientations ``q_world_from_segment`` (T, 4) (world ENU, scalar first) on the pose
-  time grid ``t_s`` (T,) (seconds since the recording started), from, in this order of
-  preference: the simulator's truth stored in the file (``"simulator truth"``); the body
-  calibration stored with the recording applied to each sensor's orientation (on-board, or
-  fused offline with :func:`mimucap.core.fusion.fuse`) (``"body calibration"``); each
-  assigned sensor's orientation as its segment's (``"sensor axes (no body calibration)"``);
+  instants ``t_s`` (T,) (seconds since the recording started);
 * joint angles (deg) of every joint, :func:`mimucap.core.skeleton.joint_angles_deg`.
+
+A simulated recording's ground truth is kept beside them (``truth``) for the on-screen
+comparison only; it never replaces the estimate.
 
 :class:`ReviewPlayer` holds the play head (``cursor_s``), play/pause, speed and the display
 mode; it offers the same plot-source methods as the live session, with windows that end
@@ -19,27 +23,33 @@ at the play head.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from mimucap.core import bodycal, rotation, skeleton
-from mimucap.core.fusion import fuse
-from mimucap.io.session import Marker, Session
+from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
+from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.figure import FigureBuilder, FigureGeometry, heading_rad
+from mimucap.session.processing import process_session, recorded_processing, session_model
 from mimucap.session.recording import open_session
 
-POSE_SIMULATOR_TRUTH = "simulator truth"
-POSE_BODY_CALIBRATION = "body calibration"
-POSE_SENSOR_AXES = "sensor axes (no body calibration)"
+__all__ = ["POSE_BODY_CALIBRATION", "POSE_SENSOR_AXES", "ReviewData", "ReviewPlayer", "SPEEDS", "build_review",
+           "load_review"]
+
 #: Playback speeds offered (× real time).
 SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0)
 
 
 @dataclass
 class ReviewData:
-    """Everything the review shows, computed once (see the module doc)."""
+    """Everything the review shows, computed once (see the module doc).
+
+    ``result`` is :data:`~mimucap.core.pipeline.RESULT_LIVE` or
+    :data:`~mimucap.core.pipeline.RESULT_REPROCESSED`; ``missing`` says what an older recording
+    does not store; ``truth`` is the simulator's ground truth (evaluation only) or None.
+    """
 
     path: Path
     session: Session
@@ -52,6 +62,17 @@ class ReviewData:
     pose_source: str
     heading_ref_rad: float | None
     q_world_from_sensor: dict[str, np.ndarray]       #: sensor → (N, 4) on that sensor's t_s
+    result: str = RESULT_REPROCESSED
+    body_calibration: bodycal.BodyCalibration | None = None
+    missing: list[str] = field(default_factory=list)
+
+    @property
+    def result_label(self) -> str:
+        return RESULT_LABELS[self.result]
+
+    @property
+    def truth(self) -> SessionTruth | None:
+        return self.session.truth
 
     @property
     def markers(self) -> list[Marker]:
@@ -66,89 +87,34 @@ class ReviewData:
         return float(self.t_s[-1]) if len(self.t_s) else 0.0
 
 
-def _sensor_orientations(session: Session) -> dict[str, np.ndarray]:
-    result = {}
-    for sensor_id, stream in session.sensors.items():
-        if len(stream.t_s) == 0:
-            continue
-        if stream.q_world_from_sensor is not None:
-            result[sensor_id] = np.asarray(stream.q_world_from_sensor, dtype=float)
-        elif stream.gyr is not None:
-            result[sensor_id] = fuse(stream.t_s, stream.gyr, stream.acc, stream.mag_uT).q_world_from_sensor
-    return result
-
-
-def _nearest(t_from: np.ndarray, values: np.ndarray, t_to: np.ndarray) -> np.ndarray:
-    """``values`` sampled at ``t_from`` picked at the nearest earlier-or-equal time of ``t_to``."""
-    index = np.clip(np.searchsorted(t_from, t_to, side="right") - 1, 0, len(t_from) - 1)
-    return values[index]
-
-
-def _body_calibration(session: Session) -> bodycal.BodyCalibration | None:
-    data = session.calibrations.get("body") or session.metadata.get("body_calibration")
-    if not data:
-        return None
-    return bodycal.BodyCalibration.from_dict(data, origin="the session's body calibration")
-
-
-def build_review(path: str | Path, session: Session, progress: Callable[[float], None] | None = None) -> ReviewData:
-    """Compute the review of ``session`` (read from ``path``); ``progress(fraction)`` is
-    called as the work advances."""
+def build_review(path: str | Path, session: Session, progress: Callable[[float], None] | None = None,
+                 result: str = RESULT_REPROCESSED) -> ReviewData:
+    """Compute the review of ``session`` (read from ``path``) as ``result``;
+    ``progress(fraction)`` is called as the work advances."""
     report = progress or (lambda fraction: None)
-    meta = session.metadata
-    model = skeleton.load_model(str(meta.get("skeleton_model") or "ten_segment"))
-    subject = meta.get("subject") or {}
-    height = float(meta.get("height_m") or subject.get("height_m") or 1.75)
+    model, height = session_model(session)
     report(0.1)
-    q_sensor = _sensor_orientations(session)
-    report(0.6)
-    order = [(s.name, s.parent) for s in model.segments]
-    root = None
+    recorded = recorded_processing(session, origin=str(path))
+    output = process_session(session, result=result, recorded=recorded, model=model)
+    report(0.9)
+    if not len(output.t_s):
+        reasons = "; ".join(output.problems) or "no sensor is assigned to a segment and none is calibrated"
+        raise ValueError(f"{path}: nothing to review ({reasons})")
     heading_ref = None
-    truth = session.truth
-    calibration = _body_calibration(session)
-    if truth is not None and all(s in truth.q_world_from_segment for s in model.segment_names):
-        t = np.asarray(truth.t_s, dtype=float)
-        q_segments = {s: np.asarray(truth.q_world_from_segment[s], dtype=float) for s in model.segment_names}
-        root_data = truth.extra.get("root_position_m")
-        root = None if root_data is None else np.asarray(root_data, dtype=float)
-        source = POSE_SIMULATOR_TRUTH
-    else:
-        streams = {sid: s for sid, s in session.sensors.items() if sid in q_sensor}
-        if not streams:
-            raise ValueError(f"{path}: no sensor orientations to review (no gyroscope or orientation data)")
-        if calibration is not None:
-            mapping = dict(calibration.sensors)
-            source = POSE_BODY_CALIBRATION
-            heading_ref = heading_rad(np.asarray(calibration.q_world_from_body, dtype=float))
-        else:
-            mapping = {stream.segment: sid for sid, stream in streams.items() if stream.segment}
-            source = POSE_SENSOR_AXES
-        root_sensor = mapping.get(model.root)
-        grid_sensor = root_sensor if root_sensor in streams else next(iter(streams))
-        t = np.asarray(streams[grid_sensor].t_s, dtype=float)
-        picked = {sid: _nearest(streams[sid].t_s, q_sensor[sid], t) for sid in mapping.values() if sid in streams}
-        if calibration is not None:
-            found = bodycal.segment_orientations(calibration, picked, require_all=False)
-        else:
-            found = {seg: picked[sid] for seg, sid in mapping.items() if sid in picked}
-        valid = np.all(np.isfinite(np.stack([q for q in found.values()], axis=0)), axis=(0, 2)) if found else None
-        if found:
-            t = t[valid]
-            found = {k: v[valid] for k, v in found.items()}
-        if model.root not in found:
-            found[model.root] = np.broadcast_to(skeleton.q_world_from_body_facing(0.0), (len(t), 4)).copy()
-        q_segments = bodycal.fill_missing_segments(found, order)
-    report(0.8)
-    angles = skeleton.joint_angles_deg(model, q_segments) if len(t) else {}
+    if recorded.body_calibration is not None:
+        heading_ref = heading_rad(np.asarray(recorded.body_calibration.q_world_from_body, dtype=float))
     report(1.0)
-    return ReviewData(Path(path), session, model, height, t, q_segments, root, angles, source, heading_ref, q_sensor)
+    return ReviewData(Path(path), session, model, height, output.t_s, output.q_world_from_segment, None,
+                      output.angles_deg, output.pose_source, heading_ref, output.q_world_from_sensor,
+                      result=output.result, body_calibration=recorded.body_calibration,
+                      missing=list(recorded.missing) + list(output.problems))
 
 
-def load_review(path: str | Path, progress: Callable[[float], None] | None = None) -> ReviewData:
+def load_review(path: str | Path, progress: Callable[[float], None] | None = None,
+                result: str = RESULT_REPROCESSED) -> ReviewData:
     """Open session file ``path`` (recovering it first if needed) and build its review."""
     session = open_session(path)
-    return build_review(path, session, progress)
+    return build_review(path, session, progress, result)
 
 
 class ReviewPlayer:

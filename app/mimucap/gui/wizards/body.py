@@ -32,6 +32,7 @@ from mimucap.gui.scene.view import SceneView
 from mimucap.gui.wizards.pictures import PictureWidget
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
 from mimucap.session.bodycal_procedure import ARMS, BodycalProcedure, BodycalProcedureSettings
+from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
 from mimucap.session.figure import FigureBuilder
 
@@ -66,7 +67,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         tick_ms: int = 40,
     ) -> None:
         super().__init__(parent)
-        self.live_session = live_session
+        self.live_session = live_session if live_session is not None else getattr(feed, "live_session", None)
         if feed is None:
             if live_session is None:
                 raise ValueError("the body calibration wizard needs a live session or a feed")
@@ -268,8 +269,7 @@ class BodyCalibrationWizard(CalibrationDialog):
 
     def back_to_setup(self) -> None:
         self.timer.stop()
-        if self.feed.simulated:
-            self.feed.request_activity("npose")
+        self.feed.instruct(instructions.npose())
         self.pages.setCurrentWidget(self.setup_page)
 
     def accept_result(self) -> None:

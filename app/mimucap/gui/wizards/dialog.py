@@ -8,6 +8,8 @@ from collections.abc import Callable, Mapping
 
 from PyQt5 import QtGui, QtWidgets
 
+from mimucap.session import instructions
+
 
 def push_button(text: str, slot: Callable[[], object], tooltip: str = "") -> QtWidgets.QPushButton:
     """A push button calling ``slot`` when clicked (which button Enter presses is the dialog's
@@ -42,8 +44,8 @@ def button_row(*items: QtWidgets.QWidget | None) -> QtWidgets.QHBoxLayout:
 
 
 class CalibrationDialog(QtWidgets.QDialog):
-    """Base of the wizards. Subclasses set ``self.timer`` (QTimer), ``self.feed`` (a sample
-    feed, optionally with ``close()``) and return their 3D view from :meth:`vtk_view`."""
+    """Base of the wizards. Subclasses set ``self.timer`` (QTimer), ``self.feed`` (a
+    calibration feed, optionally with ``close()``) and return their 3D view from :meth:`vtk_view`."""
 
     def set_page_defaults(self, pages: QtWidgets.QStackedWidget,
                           defaults: Mapping[QtWidgets.QWidget, QtWidgets.QPushButton]) -> None:
@@ -70,9 +72,11 @@ class CalibrationDialog(QtWidgets.QDialog):
         """Hook run after the timer stops and before the feed closes (default: nothing)."""
 
     def shutdown(self) -> None:
-        """Stop the timer, close the feed and release the 3D view."""
+        """Stop the timer, let the subject carry on (the simulated subject resumes its
+        scenario), close the feed and release the 3D view."""
         self.timer.stop()
         self.before_shutdown()
+        self.feed.instruct(instructions.RESUME)
         close = getattr(self.feed, "close", None)
         if callable(close):
             close()

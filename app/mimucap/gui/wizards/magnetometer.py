@@ -30,6 +30,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.core.magcal_guidance import AXIS_NAMES
 from mimucap.core.simulate import SuitSimulator
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
+from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
 from mimucap.session.magcal_procedure import (
     PROTOCOLS,
@@ -89,7 +90,7 @@ class MagnetometerWizard(CalibrationDialog):
             if live_session is None:
                 raise ValueError("the magnetometer wizard needs a live session or a feed")
             feed = feed_for_live_session(live_session)
-        self.live_session = live_session
+        self.live_session = live_session if live_session is not None else getattr(feed, "live_session", None)
         self.feed = feed
         self.store = store if store is not None else CalibrationStore()
         self._now = now
@@ -137,7 +138,7 @@ class MagnetometerWizard(CalibrationDialog):
         cls, simulator: SuitSimulator, parent: QtWidgets.QWidget | None = None, step_s: float = 0.2, **kwargs
     ) -> MagnetometerWizard:
         """A wizard on a simulated suit advancing ``step_s`` simulated seconds per tick."""
-        return cls(parent, None, feed=SimulatedSuitFeed(simulator, step_s=step_s, fuse=False), **kwargs)
+        return cls(parent, None, feed=SimulatedSuitFeed(simulator, step_s=step_s), **kwargs)
 
     # -- pages -------------------------------------------------------------------------------
     def _build_setup(self, preselected: Sequence[str] | None) -> QtWidgets.QWidget:
@@ -315,8 +316,8 @@ class MagnetometerWizard(CalibrationDialog):
         """Back to the setup page; the recording is discarded."""
         self.timer.stop()
         if self.procedure is not None:
-            if self.procedure.phase == "recording" and self.feed.simulated:
-                self.feed.request_activity("npose")
+            if self.procedure.phase == "recording":
+                self.feed.instruct(instructions.put_sensors_back())
             self.procedure.redo()
         self.views_panel.setVisible(False)
         self._update_previous()
@@ -331,7 +332,7 @@ class MagnetometerWizard(CalibrationDialog):
         apply = getattr(self.live_session, "apply_mag_calibration", None)
         if callable(apply):
             for calibration in calibrations:
-                apply(calibration)
+                apply(calibration, save=False)  # the procedure has stored it
         self.calibrations_accepted.emit(calibrations)
         failed = [s for s in self.procedure.sensor_ids if s not in stored]
         text = f"Stored: {', '.join(stored) or 'none'}."
@@ -450,6 +451,6 @@ class MagnetometerWizard(CalibrationDialog):
         return self.view
 
     def before_shutdown(self) -> None:
-        """A simulated subject still turning its sensors puts them back (N-pose)."""
-        if self.procedure is not None and self.procedure.phase == "recording" and self.feed.simulated:
-            self.feed.request_activity("npose")
+        """Sensors still being turned are put back on."""
+        if self.procedure is not None and self.procedure.phase == "recording":
+            self.feed.instruct(instructions.put_sensors_back())

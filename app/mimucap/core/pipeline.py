@@ -1,0 +1,581 @@
+"""One processing path per sensor, from raw samples to joint angles (no I/O, no Qt).
+
+Every consumer (the live view, both calibration wizards, the recorder's review, export and the
+commands ``fuse``, ``bodycal``, ``angles``) runs its data through these functions:
+
+1. **Magnetometer calibration** (Choe, Zhao, Qiu, So, "Study of calibration method of low-cost
+   MEMS magnetometer"): ``mag_cal_uT = A⁻¹ · (mag_raw_uT − b)`` per sensor
+   (:class:`~mimucap.core.magcal.MagCalibration`).
+2. **Orientation filter** (the error-state Kalman filter of Zhang, Gao, Zhou, "Head attitude
+   sensing algorithm based on IMU in VR device", :mod:`mimucap.core.fusion`) giving
+   ``q_world_from_sensor`` (world ENU, scalar first) for every sample; a device that fuses on
+   board sends it instead. Two results exist: :data:`RESULT_LIVE` is the forward filter, as the
+   live view ran it (continuing from the filter state it had when a recording started);
+   :data:`RESULT_REPROCESSED` adds the Rauch-Tung-Striebel smoother over the whole recording
+   (past and future data; what Xsens calls HD reprocessing).
+3. **Poses at one instant**: a pose is formed at a sample instant ``t`` of the *reference
+   sensor* (the pelvis sensor when there is one) from every sensor's orientation at that same
+   instant (exact at its own sample times, slerp between two of its samples, held after its
+   last one, absent before its first: :func:`orientation_at`).
+4. **Body calibration** (Podoprosvetov, Aliseychik, Orlov, Rebrik, "Calibration algorithm for
+   MIMU sensors group"): ``q_world_from_segment = q_world_from_sensor ⊗ q_sensor_from_segment``;
+   without one, each assigned sensor's axes stand for its segment's. Segments without a sensor
+   follow their parents; a root without a sensor faces north.
+5. **Joint angles** (ISB, :func:`mimucap.core.skeleton.joint_angles_deg`).
+
+:class:`LivePipeline` is the online form (block by block, as samples arrive);
+:func:`process_recording` the batch form. Fed the same samples from the same filter state they
+give the same numbers, which is how a recording's *as seen live* result reproduces the screen.
+
+Times ``t_s`` are float64 seconds on one clock per call; units are SI with the magnetic field
+in µT.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core.fusion import DEFAULT_FUSION_PARAMS, FusionParams, FusionState, OrientationEKF, update_together
+from mimucap.core.magcal import MagCalibration
+
+RESULT_LIVE = "live"
+RESULT_REPROCESSED = "reprocessed"
+#: How screens and file headers name each result.
+RESULT_LABELS = {RESULT_LIVE: "as seen live (forward filter)",
+                 RESULT_REPROCESSED: "reprocessed (filter smoothed with past and future data)"}
+RESULTS = (RESULT_LIVE, RESULT_REPROCESSED)
+
+POSE_BODY_CALIBRATION = "body calibration"
+POSE_SENSOR_AXES = "sensor axes (no body calibration)"
+
+#: A sensor silent for longer than this (s) no longer holds back a live pose (it is held).
+HOLD_BACK_LIMIT_S = 1.0
+
+
+@dataclass(frozen=True)
+class PipelineSettings:
+    """Settings of the processing path that a recording stores so that it can be recomputed.
+
+    ``fusion``: the orientation filter's parameters (units in their names).
+    """
+
+    fusion: FusionParams = DEFAULT_FUSION_PARAMS
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"fusion": asdict(self.fusion)}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any] | None, origin: str = "pipeline settings") -> "PipelineSettings":
+        """Inverse of :meth:`to_dict`; an unknown filter parameter name raises ``ValueError``."""
+        if not data:
+            return cls()
+        try:
+            fusion = FusionParams(**dict(data.get("fusion") or {}))
+        except TypeError as error:
+            raise ValueError(f"{origin}: {error}") from None
+        return cls(fusion=fusion)
+
+
+DEFAULT_PIPELINE_SETTINGS = PipelineSettings()
+
+
+def check_result(result: str) -> str:
+    if result not in RESULTS:
+        raise ValueError(f"unknown result {result!r}; use one of {', '.join(RESULTS)}")
+    return result
+
+
+# --------------------------------------------------------------------------------------------
+# Filter states that a recording carries (the live filter at its start)
+# --------------------------------------------------------------------------------------------
+
+def state_to_dict(state: FusionState) -> dict[str, list]:
+    """A one-sensor :class:`FusionState` as JSON-ready lists."""
+    return {"q_world_from_sensor": state.q_world_from_sensor[0].tolist(), "bias_rad_s": state.bias_rad_s[0].tolist(),
+            "cov": state.cov[0].tolist(), "aux": state.aux[0].tolist()}
+
+
+def state_from_dict(data: Mapping[str, Any], origin: str) -> FusionState:
+    """Inverse of :func:`state_to_dict`; ``ValueError`` naming ``origin`` when malformed."""
+    template = FusionState.new(1)
+    try:
+        arrays = [np.asarray(data[name], dtype=np.float64)[None]
+                  for name in ("q_world_from_sensor", "bias_rad_s", "cov", "aux")]
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"{origin}: malformed filter state ({error!r})") from None
+    for array, name, like in zip(arrays, ("q", "bias", "cov", "aux"),
+                                 (template.q_world_from_sensor, template.bias_rad_s, template.cov, template.aux)):
+        if array.shape != like.shape or not np.all(np.isfinite(array)):
+            raise ValueError(f"{origin}: filter state {name} must be finite with shape {like.shape[1:]}")
+    return FusionState(*arrays)
+
+
+# --------------------------------------------------------------------------------------------
+# Steps 1-2, online: one chain per sensor
+# --------------------------------------------------------------------------------------------
+
+class SensorChain:
+    """Magnetometer calibration and orientation filter of one sensor, fed block by block.
+
+    The filter is created on the first block with a gyroscope (using the magnetometer if that
+    block has one); a new magnetometer calibration restarts it (its heading would otherwise
+    converge slowly from the one the uncorrected field gave).
+    """
+
+    def __init__(self, sensor_id: str, mag_calibration: MagCalibration | None = None,
+                 settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS) -> None:
+        self.sensor_id = sensor_id
+        self.settings = settings
+        self.mag_calibration = mag_calibration
+        self.ekf: OrientationEKF | None = None
+        self.onboard = False
+
+    def set_mag_calibration(self, calibration: MagCalibration | None) -> None:
+        if calibration is not None and calibration.sensor_id != self.sensor_id:
+            raise ValueError(f"the magnetometer calibration of sensor {calibration.sensor_id} cannot be "
+                             f"used for sensor {self.sensor_id}")
+        self.mag_calibration = calibration
+        self.ekf = None
+
+    def calibrated_mag(self, mag_raw_uT: np.ndarray | None) -> np.ndarray | None:
+        """``mag_raw_uT`` (N, 3) corrected by this sensor's calibration (raw when it has none)."""
+        if mag_raw_uT is None or self.mag_calibration is None:
+            return mag_raw_uT
+        return self.mag_calibration.apply(mag_raw_uT, self.sensor_id)
+
+    def filter_for(self, has_mag: bool) -> OrientationEKF:
+        if self.ekf is None:
+            self.ekf = OrientationEKF(self.settings.fusion, use_mag=has_mag)
+        return self.ekf
+
+    def state_snapshot(self) -> dict[str, list] | None:
+        """The filter state now (JSON-ready), ``None`` before the filter has started."""
+        return None if self.ekf is None else state_to_dict(self.ekf.state)
+
+
+@dataclass
+class ChainInput:
+    """One block of one sensor for :func:`run_chains`: ``t_s`` (N,), ``gyr`` (N, 3) rad/s,
+    ``acc`` (N, 3) m/s² or None, ``mag_uT`` (N, 3) calibrated µT or None."""
+
+    chain: SensorChain
+    t_s: np.ndarray
+    gyr: np.ndarray
+    acc: np.ndarray | None
+    mag_uT: np.ndarray | None
+
+
+@dataclass
+class ChainOutput:
+    """Filter outputs of one :class:`ChainInput`: ``q_world_from_sensor`` (N, 4) (NaN rows before
+    the filter has an orientation) and ``flags`` (N,) uint8 (:data:`~mimucap.core.fusion.FLAG_NAMES`)."""
+
+    sensor_id: str
+    t_s: np.ndarray
+    q_world_from_sensor: np.ndarray
+    flags: np.ndarray
+
+
+def run_chains(inputs: Sequence[ChainInput]) -> list[ChainOutput]:
+    """Run each input through its sensor's filter, in order (outputs in the inputs' order).
+
+    Sensors whose blocks have the same length and channels and whose filters the same settings
+    go through the filter in one call (:func:`~mimucap.core.fusion.update_together`): for a
+    17-sensor suit one kernel call per poll instead of 17, with the same numbers. A sensor with
+    more than one block has them fused one after the other."""
+    for item in inputs:
+        item.chain.filter_for(item.mag_uT is not None)
+    blocks_of = Counter(id(item.chain) for item in inputs)
+    groups: dict[object, list[int]] = {}
+    for index, item in enumerate(inputs):
+        shares = blocks_of[id(item.chain)] == 1  # a filter appears once in a call
+        key = ((len(item.t_s), item.acc is None, item.mag_uT is None, item.chain.ekf.grouping_key)
+               if shares else ("alone", index))
+        groups.setdefault(key, []).append(index)
+    outputs: list[ChainOutput | None] = [None] * len(inputs)
+    for indices in sorted(groups.values()):
+        group = [inputs[i] for i in indices]
+
+        def stacked(name: str):
+            first = getattr(group[0], name)
+            return None if first is None else np.stack([getattr(item, name) for item in group])
+
+        result = update_together([item.chain.ekf for item in group], stacked("t_s"), stacked("gyr"),
+                                 stacked("acc"), stacked("mag_uT"))
+        for row, index in enumerate(indices):
+            item = inputs[index]
+            outputs[index] = ChainOutput(item.chain.sensor_id, item.t_s, result.q_world_from_sensor[row],
+                                         result.flags[row])
+    return outputs  # type: ignore[return-value]
+
+
+# --------------------------------------------------------------------------------------------
+# Step 2, batch
+# --------------------------------------------------------------------------------------------
+
+def sensor_orientation(t_s: np.ndarray, gyr_rad_s: np.ndarray | None, acc_m_s2: np.ndarray | None,
+                       mag_raw_uT: np.ndarray | None, q_onboard: np.ndarray | None, *, sensor_id: str,
+                       result: str = RESULT_REPROCESSED, mag_calibration: MagCalibration | None = None,
+                       settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS,
+                       initial_state: FusionState | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """``q_world_from_sensor`` (N, 4) and flags (N,) of one sensor's whole recording.
+
+    ``t_s`` (N,) s; ``gyr_rad_s``, ``acc_m_s2`` (N, 3) or None; ``mag_raw_uT`` (N, 3) raw µT
+    (calibrated here with ``mag_calibration``) or None; ``q_onboard`` (N, 4) the device's own
+    orientation, used as it is when given. ``result``: :data:`RESULT_LIVE` runs the forward
+    filter from ``initial_state`` (the live filter's state when the recording started; a
+    fresh filter when None, as the live view starts one), :data:`RESULT_REPROCESSED` the
+    forward filter plus smoother from a fresh start. ``ValueError`` naming the sensor when it
+    has neither an orientation nor a gyroscope.
+    """
+    check_result(result)
+    n = len(t_s)
+    if q_onboard is not None:
+        return np.asarray(q_onboard, dtype=np.float64), np.zeros(n, dtype=np.uint8)
+    if gyr_rad_s is None:
+        raise ValueError(f"sensor {sensor_id}: neither an on-board orientation nor a gyroscope to fuse")
+    chain = SensorChain(sensor_id, mag_calibration, settings)
+    mag = chain.calibrated_mag(mag_raw_uT)
+    if result == RESULT_LIVE:
+        ekf = OrientationEKF(settings.fusion, use_mag=mag is not None, state=initial_state)
+        out = ekf.update_batch(t_s, gyr_rad_s, acc_m_s2, mag)
+    else:
+        from mimucap.core.fusion import fuse_offline
+
+        out = fuse_offline(t_s, gyr_rad_s, acc_m_s2, mag, params=settings.fusion, use_mag=mag is not None)
+    return np.asarray(out.q_world_from_sensor), np.asarray(out.flags)
+
+
+# --------------------------------------------------------------------------------------------
+# Steps 3-5: poses at one instant, segments, joint angles
+# --------------------------------------------------------------------------------------------
+
+def orientation_at(t_query: np.ndarray, t_s: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """One sensor's orientation at the instants ``t_query`` (M,) from its samples ``(t_s (N,),
+    q (N, 4))`` (finite rows, increasing times): the sample itself at a sample time, slerp
+    between the two samples around ``t``, the last sample after the last time, NaN before the
+    first. (M, 4)."""
+    t_query = np.asarray(t_query, dtype=np.float64)
+    out = np.full(t_query.shape + (4,), np.nan)
+    if len(t_s) == 0:
+        return out
+    after = np.searchsorted(t_s, t_query, side="right")  # first sample later than t
+    index = after - 1
+    known = index >= 0
+    exact_or_held = known & ((index == len(t_s) - 1) | (t_s[np.clip(index, 0, len(t_s) - 1)] == t_query))
+    out[exact_or_held] = q[index[exact_or_held]]
+    between = known & ~exact_or_held
+    if np.any(between):
+        i = index[between]
+        fraction = (t_query[between] - t_s[i]) / (t_s[i + 1] - t_s[i])
+        out[between] = rotation.slerp(q[i], q[i + 1], fraction)
+    return out
+
+
+def finite_track(t_s: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of a sensor's orientation track that hold an orientation."""
+    keep = np.isfinite(q).all(axis=1)
+    return np.asarray(t_s)[keep], np.asarray(q)[keep]
+
+
+def reference_sensor(model: skeleton.SkeletonModel, segment_of_sensor: Mapping[str, str],
+                     available: Sequence[str]) -> str | None:
+    """The sensor whose sample instants are the pose instants: the root segment's sensor, else
+    the first segment's (model order) that has one among ``available``; ``None`` without any."""
+    by_segment = {segment: sensor for sensor, segment in segment_of_sensor.items() if sensor in available}
+    for name in model.segment_names:
+        if name in by_segment:
+            return by_segment[name]
+    return None
+
+
+def assignment_of(body_calibration: bodycal.BodyCalibration | None,
+                  sensor_segments: Mapping[str, str]) -> dict[str, str]:
+    """Sensor id → segment as the pose uses it: the body calibration's when there is one."""
+    if body_calibration is not None:
+        return {sensor: segment for segment, sensor in body_calibration.sensors.items()}
+    return dict(sensor_segments)
+
+
+def segments_from_sensors(model: skeleton.SkeletonModel, q_world_from_sensor: Mapping[str, np.ndarray],
+                          body_calibration: bodycal.BodyCalibration | None,
+                          sensor_segments: Mapping[str, str]) -> dict[str, np.ndarray] | None:
+    """Every segment's ``q_world_from_segment`` (..., 4) from its sensors' orientations at the
+    same instants (step 4). Rows where a sensor has no orientation (NaN) leave its segment to
+    follow its parent; ``None`` when no assigned sensor has any orientation."""
+    found: dict[str, np.ndarray] = {}
+    if body_calibration is not None:
+        present = {s: q for s, q in q_world_from_sensor.items() if s in body_calibration.sensors.values()}
+        turned = _segment_orientations_nan_safe(body_calibration, present)
+        found.update(turned)
+    else:
+        for sensor, segment in sensor_segments.items():
+            if sensor in q_world_from_sensor and segment in model.segment_names:
+                found[segment] = np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
+    if not found:
+        return None
+    shape = next(iter(found.values())).shape
+    if model.root not in found:
+        found[model.root] = np.broadcast_to(skeleton.q_world_from_body_facing(0.0), shape).copy()
+    order = [(s.name, s.parent) for s in model.segments]
+    result: dict[str, np.ndarray] = {}
+    for name, parent in order:
+        own = found.get(name)
+        if own is None:
+            result[name] = result[parent]
+            continue
+        if parent is not None:
+            missing = ~np.isfinite(own).all(axis=-1)
+            if np.any(missing):
+                own = own.copy()
+                own[missing] = result[parent][missing]
+        else:
+            missing = ~np.isfinite(own).all(axis=-1)
+            if np.any(missing):
+                own = own.copy()
+                own[missing] = skeleton.q_world_from_body_facing(0.0)
+        result[name] = own
+    return result
+
+
+def _segment_orientations_nan_safe(calibration: bodycal.BodyCalibration,
+                                   q_world_from_sensor: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """:func:`bodycal.segment_orientations` that passes NaN rows through (a sensor without an
+    orientation yet) instead of refusing them."""
+    result = {}
+    for segment, sensor in calibration.sensors.items():
+        if sensor in q_world_from_sensor:
+            q = np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
+            result[segment] = rotation.multiply(q, rotation.conjugate(calibration.q_segment_from_sensor[segment]))
+    return result
+
+
+@dataclass
+class PipelineOutput:
+    """What the processing path gives for a recording.
+
+    ``t_s`` (T,) pose instants (the reference sensor's sample times, s); ``q_world_from_segment``
+    segment → (T, 4); ``angles_deg`` column → (T,) degrees (:func:`skeleton.joint_angle_columns`);
+    ``q_world_from_sensor`` sensor → (N, 4) on that sensor's own ``t_s``; ``flags`` sensor →
+    (N,) filter flags; ``result`` one of :data:`RESULTS`; ``pose_source`` :data:`POSE_BODY_CALIBRATION`
+    or :data:`POSE_SENSOR_AXES`; ``reference_sensor`` the sensor whose instants are the poses'.
+    """
+
+    result: str
+    t_s: np.ndarray
+    q_world_from_segment: dict[str, np.ndarray]
+    angles_deg: dict[str, np.ndarray]
+    q_world_from_sensor: dict[str, np.ndarray]
+    flags: dict[str, np.ndarray]
+    pose_source: str
+    reference_sensor: str | None
+    problems: list[str] = field(default_factory=list)
+
+
+def process_recording(streams: Mapping[str, Any], model: skeleton.SkeletonModel, *,
+                      result: str = RESULT_REPROCESSED,
+                      mag_calibrations: Mapping[str, MagCalibration] | None = None,
+                      body_calibration: bodycal.BodyCalibration | None = None,
+                      sensor_segments: Mapping[str, str] | None = None,
+                      settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS,
+                      initial_states: Mapping[str, FusionState] | None = None,
+                      time_offset_s: float = 0.0,
+                      shoulder_sequence: str = "zxy") -> PipelineOutput:
+    """Run a whole recording through the processing path (see the module docstring).
+
+    ``streams``: sensor id → an object with ``t_s`` (N,) s and ``acc``, ``gyr``, ``mag_uT``
+    (raw µT), ``q_world_from_sensor`` arrays or None (a recorded
+    :class:`~mimucap.io.session.SensorStream`). ``sensor_segments``: sensor → segment, used
+    without a body calibration. ``initial_states`` and ``time_offset_s`` reproduce the live
+    filter (:data:`RESULT_LIVE`): the filter runs on ``t_s + time_offset_s``, the clock the
+    live view ran it on. A sensor that can give no orientation is left out and named in
+    ``problems``.
+    """
+    check_result(result)
+    mag_calibrations = dict(mag_calibrations or {})
+    initial_states = dict(initial_states or {}) if result == RESULT_LIVE else {}
+    q_sensor: dict[str, np.ndarray] = {}
+    flags: dict[str, np.ndarray] = {}
+    problems: list[str] = []
+    for sensor_id, stream in streams.items():
+        t = np.asarray(stream.t_s, dtype=np.float64)
+        if len(t) == 0:
+            continue
+        try:
+            q, f = sensor_orientation(t + time_offset_s, stream.gyr, stream.acc, stream.mag_uT,
+                                      stream.q_world_from_sensor, sensor_id=sensor_id, result=result,
+                                      mag_calibration=mag_calibrations.get(sensor_id), settings=settings,
+                                      initial_state=initial_states.get(sensor_id))
+        except ValueError as error:
+            problems.append(str(error))
+            continue
+        q_sensor[sensor_id], flags[sensor_id] = q, f
+    segments = assignment_of(body_calibration, sensor_segments or {})
+    tracks = {sid: finite_track(streams[sid].t_s, q) for sid, q in q_sensor.items() if sid in segments}
+    tracks = {sid: track for sid, track in tracks.items() if len(track[0])}
+    source = POSE_BODY_CALIBRATION if body_calibration is not None else POSE_SENSOR_AXES
+    reference = reference_sensor(model, segments, list(tracks))
+    if reference is None:
+        return PipelineOutput(result, np.zeros(0), {}, {}, q_sensor, flags, source, None, problems)
+    t_pose = tracks[reference][0]
+    at = {sid: orientation_at(t_pose, t, q) for sid, (t, q) in tracks.items()}
+    q_segments = segments_from_sensors(model, at, body_calibration, sensor_segments or {}) or {}
+    angles = skeleton.joint_angles_deg(model, q_segments, shoulder_sequence) if len(t_pose) else {}
+    return PipelineOutput(result, t_pose, q_segments, angles, q_sensor, flags, source, reference, problems)
+
+
+# --------------------------------------------------------------------------------------------
+# The online form
+# --------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class SensorBlock:
+    """One sensor's new samples for :meth:`LivePipeline.feed` (arrays of N rows, sensor frame):
+    ``t_s`` (N,) s, ``acc`` m/s², ``gyr`` rad/s, ``mag_uT`` raw µT, ``q_world_from_sensor`` the
+    device's own orientation; absent channels None."""
+
+    sensor_id: str
+    t_s: np.ndarray
+    acc: np.ndarray | None
+    gyr: np.ndarray | None
+    mag_uT: np.ndarray | None
+    q_world_from_sensor: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class SensorOrientations:
+    """What the pipeline made of one :class:`SensorBlock`: ``t_s`` (N,), ``q_world_from_sensor``
+    (N, 4) (NaN rows before the filter has an orientation), ``mag_uT`` (N, 3) the calibrated
+    field or None, ``flags`` (N,) filter flags (zeros for an on-board orientation)."""
+
+    sensor_id: str
+    t_s: np.ndarray
+    q_world_from_sensor: np.ndarray
+    mag_uT: np.ndarray | None
+    flags: np.ndarray
+    onboard: bool
+
+
+class _Track:
+    """Recent finite orientations of one sensor (bounded)."""
+
+    def __init__(self, capacity: int = 4096) -> None:
+        self.t = np.empty(0)
+        self.q = np.empty((0, 4))
+        self.capacity = capacity
+
+    def add(self, t: np.ndarray, q: np.ndarray) -> None:
+        t, q = finite_track(t, q)
+        if not len(t):
+            return
+        if len(self.t) and t[0] <= self.t[-1]:
+            keep = t > self.t[-1]
+            t, q = t[keep], q[keep]
+        self.t = np.concatenate([self.t, t])[-self.capacity:]
+        self.q = np.concatenate([self.q, q])[-self.capacity:]
+
+    @property
+    def newest_t(self) -> float:
+        return float(self.t[-1]) if len(self.t) else float("nan")
+
+
+class LivePipeline:
+    """The processing path fed block by block (see the module docstring).
+
+    Args:
+        model: the skeleton model the poses are for.
+        settings: the filter settings.
+    """
+
+    def __init__(self, model: skeleton.SkeletonModel, settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS) -> None:
+        self.model = model
+        self.settings = settings
+        self.chains: dict[str, SensorChain] = {}
+        self.mag_calibrations: dict[str, MagCalibration] = {}
+        self.flags: dict[str, int] = {}
+        self._tracks: dict[str, _Track] = {}
+        self._last_pose_t = -np.inf
+
+    def chain(self, sensor_id: str) -> SensorChain:
+        chain = self.chains.get(sensor_id)
+        if chain is None:
+            chain = self.chains[sensor_id] = SensorChain(sensor_id, self.mag_calibrations.get(sensor_id), self.settings)
+        return chain
+
+    def set_mag_calibration(self, calibration: MagCalibration) -> None:
+        """Use ``calibration`` for its sensor from now on (its filter restarts)."""
+        self.mag_calibrations[calibration.sensor_id] = calibration
+        self.chain(calibration.sensor_id).set_mag_calibration(calibration)
+
+    def filter_states(self) -> dict[str, dict[str, list]]:
+        """Sensor → its filter state now (JSON-ready), for the sensors whose filter runs."""
+        return {sid: snap for sid, chain in self.chains.items() if (snap := chain.state_snapshot()) is not None}
+
+    def feed(self, blocks: Sequence[SensorBlock]) -> list[SensorOrientations]:
+        """Calibrate and fuse new samples; returns their orientations, in the blocks' order."""
+        results: list[SensorOrientations | None] = [None] * len(blocks)
+        inputs: list[ChainInput] = []
+        slots: list[tuple[int, np.ndarray | None]] = []
+        for index, block in enumerate(blocks):
+            chain = self.chain(block.sensor_id)
+            mag = chain.calibrated_mag(block.mag_uT)
+            if block.q_world_from_sensor is not None:
+                chain.onboard = True
+                q = np.asarray(block.q_world_from_sensor, dtype=np.float64)
+                results[index] = SensorOrientations(block.sensor_id, block.t_s, q, mag,
+                                                    np.zeros(len(block.t_s), dtype=np.uint8), True)
+            elif block.gyr is not None:
+                inputs.append(ChainInput(chain, block.t_s, block.gyr, block.acc, mag))
+                slots.append((index, mag))
+        for (index, mag), out in zip(slots, run_chains(inputs)):
+            results[index] = SensorOrientations(out.sensor_id, out.t_s, out.q_world_from_sensor, mag, out.flags, False)
+        done = [r for r in results if r is not None]
+        for item in done:
+            self._tracks.setdefault(item.sensor_id, _Track()).add(item.t_s, item.q_world_from_sensor)
+            if len(item.flags):
+                self.flags[item.sensor_id] = int(item.flags[-1])
+        return done
+
+    def latest_orientations(self) -> dict[str, np.ndarray]:
+        """Sensor → its newest ``q_world_from_sensor`` (4,) (sensors with one only)."""
+        return {sid: track.q[-1] for sid, track in self._tracks.items() if len(track.t)}
+
+    def newest_time(self) -> float:
+        times = [track.newest_t for track in self._tracks.values() if len(track.t)]
+        return max(times) if times else float("nan")
+
+    def pose(self, body_calibration: bodycal.BodyCalibration | None,
+             sensor_segments: Mapping[str, str]) -> tuple[float, dict[str, np.ndarray]] | None:
+        """The newest pose every assigned sensor has delivered for: ``(t_s, segment → (4,))``,
+        or ``None`` when no new one is ready. Its instant is a sample time of the reference
+        sensor that no assigned, non-silent sensor lags behind (:data:`HOLD_BACK_LIMIT_S`), so
+        that every segment comes from samples of the same instant (as :func:`process_recording`
+        forms it)."""
+        segments = assignment_of(body_calibration, sensor_segments)
+        tracks = {sid: self._tracks[sid] for sid in segments if sid in self._tracks and len(self._tracks[sid].t)}
+        reference = reference_sensor(self.model, segments, list(tracks))
+        if reference is None:
+            return None
+        newest = max(track.newest_t for track in tracks.values())
+        limit = min(track.newest_t for track in tracks.values() if track.newest_t >= newest - HOLD_BACK_LIMIT_S)
+        ref_t = tracks[reference].t
+        position = int(np.searchsorted(ref_t, limit, side="right")) - 1
+        if position < 0 or ref_t[position] <= self._last_pose_t:
+            return None
+        t_pose = float(ref_t[position])
+        at = {sid: orientation_at(np.array([t_pose]), track.t, track.q)[0] for sid, track in tracks.items()}
+        q_segments = segments_from_sensors(self.model, at, body_calibration, sensor_segments)
+        if q_segments is None:
+            return None
+        self._last_pose_t = t_pose
+        return t_pose, q_segments
+
+    def forget_poses(self) -> None:
+        """Allow the next pose to be any instant again (after a calibration changed)."""
+        self._last_pose_t = -np.inf
