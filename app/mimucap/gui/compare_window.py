@@ -13,6 +13,7 @@ from pathlib import Path
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
+from mimucap.core.pipeline import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.gui.background import BackgroundTask
 from mimucap.io.library import Library, SessionEntry
 from mimucap.session.library import ComparedSession, ComparisonTable, TimeWindow, compare, comparison_csv
@@ -140,6 +141,16 @@ class CompareWindow(QtWidgets.QMainWindow):
         for picker in self.pickers:
             picker.changed.connect(self.recompute)
             pickers.addWidget(picker, 1)
+        self.result_combo = QtWidgets.QComboBox(self)
+        self.result_combo.setObjectName("resultCombo")
+        for result, label in RESULT_LABELS.items():
+            self.result_combo.addItem(label, result)
+        self.result_combo.setCurrentIndex(self.result_combo.findData(RESULT_REPROCESSED))
+        self.result_combo.currentIndexChanged.connect(lambda *_: self.load())
+        result_row = QtWidgets.QHBoxLayout()
+        result_row.addWidget(QtWidgets.QLabel("Joint angles of both sessions:", self))
+        result_row.addWidget(self.result_combo)
+        result_row.addStretch(1)
         self.message = QtWidgets.QLabel("Processing both sessions…", self)
         self.message.setWordWrap(True)
         self.progress = QtWidgets.QProgressBar(self)
@@ -159,21 +170,36 @@ class CompareWindow(QtWidgets.QMainWindow):
         central = QtWidgets.QWidget(self)
         layout = QtWidgets.QVBoxLayout(central)
         layout.addLayout(pickers)
+        layout.addLayout(result_row)
         layout.addWidget(self.message)
         layout.addWidget(self.progress)
         layout.addWidget(self.tables_area, 1)
         layout.addLayout(buttons)
         self.setCentralWidget(central)
 
+    @property
+    def result(self) -> str:
+        """Which result of the processing both sessions show (``core.pipeline.RESULTS``)."""
+        return self.result_combo.currentData()
+
     def load(self) -> None:
-        """Process both sessions in the background, then show the tables."""
+        """Process both sessions in the background (the result chosen), then show the tables."""
+        if self._task is not None and self._task.isRunning():
+            self._task.succeeded.disconnect()
+            self._task.failed.disconnect()
+            self._task.wait()
         files = [self.library.file(entry) for entry in self.entries]
+        result = self.result
 
         def work(progress):
-            first = load_review(files[0], progress=lambda f: progress(0.5 * f))
-            second = load_review(files[1], progress=lambda f: progress(0.5 + 0.5 * f))
+            first = load_review(files[0], progress=lambda f: progress(0.5 * f), result=result)
+            second = load_review(files[1], progress=lambda f: progress(0.5 + 0.5 * f), result=result)
             return first, second
 
+        self.reviews, self.tables, self.error = None, [], None
+        self.message.setText("Processing both sessions…")
+        self.progress.setValue(0)
+        self.progress.show()
         self._task = BackgroundTask(work, self)
         self._task.progress.connect(lambda fraction: self.progress.setValue(int(100 * fraction)))
         self._task.succeeded.connect(self._loaded)
@@ -218,7 +244,7 @@ class CompareWindow(QtWidgets.QMainWindow):
             self.message.setText(self.error)
         else:
             sources = ", ".join(sorted({review.pose_source for review in self.reviews}))
-            self.message.setText(f"B − A: positive where B (the later session) moves more. Poses: {sources}.")
+            self.message.setText(f"B − A: positive where B (the later session) moves more. Poses from: {sources}.")
         self.table_widgets = []
         for table in self.tables:
             box = QtWidgets.QGroupBox(table.name, self.tables_area)
