@@ -49,11 +49,13 @@ def make_library(folder: Path) -> None:
     from mimucap.io.session import Marker, make_subject, session_from_simulation, write_session
 
     for name, subject, height, started, condition, tags, trial, scenario, parameters, seed in SESSIONS:
+        # Error-free sensors worn along their segments: without calibrations the sensors' own
+        # orientations then stand for the segments' (the simulator's truth is not used).
         config = SimulationConfig(scenario=scenario, duration_s=8.0, seed=seed, height_m=height,
-                                  scenario_params=parameters)
-        session = session_from_simulation(simulate_session(config),
-                                          make_subject(subject, height, "right", "left knee arthroplasty"
-                                                       if subject == "P042" else ""))
+                                  scenario_params=parameters, errors="ideal", random_mounting=False)
+        notes = "left knee arthroplasty" if subject == "P042" else ""
+        session = session_from_simulation(simulate_session(config), make_subject(subject, height, "right", notes),
+                                          include_truth=False)
         session.metadata["recording"] = {"started_utc": started}
         session.metadata["library"] = library_fields(condition, tags, trial)
         session.markers = [Marker(0.5, f"{scenario} start"), Marker(7.5, f"{scenario} end")]

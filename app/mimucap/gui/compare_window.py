@@ -23,6 +23,8 @@ log = logging.getLogger(__name__)
 
 #: Colours of a difference column: larger in B, smaller in B.
 MORE_COLOUR, LESS_COLOUR = "#1b5e20", "#b00020"
+#: Differences at least this large (°) are coloured: smaller ones are within what the sensors measure.
+HIGHLIGHT_DEG = 1.0
 
 
 class WindowPicker(QtWidgets.QGroupBox):
@@ -100,7 +102,7 @@ def table_widget(table: ComparisonTable, parent: QtWidgets.QWidget | None = None
         for column, value in enumerate(values):
             last = column == len(values) - 1
             item = _cell(value, signed=last)
-            if last and isinstance(value, float) and abs(value) >= 0.05:
+            if last and isinstance(value, float) and abs(value) >= HIGHLIGHT_DEG:
                 item.setForeground(QtGui.QBrush(QtGui.QColor(MORE_COLOUR if value > 0 else LESS_COLOUR)))
                 font = item.font()
                 font.setBold(True)
