@@ -501,36 +501,8 @@ def test_settings_reject_negative_limits():
 
 
 # --------------------------------------------------------------------------------------------
-# Live mapping, display modes, serialisation
+# Live mapping, serialisation
 # --------------------------------------------------------------------------------------------
-
-def test_world_mode_faces_the_camera_in_the_npose_and_turns_with_the_person():
-    for heading in (0.0, 2.2):
-        mountings = random_mountings(TEN, seed=61)
-        t, sensors, mapping, truth = suit_recording(heading, mountings)
-        cal = bc.calibrate_npose_tpose(t, sensors, mapping, N_POSE, T_POSE)
-        facing_camera = sk.q_world_from_body_facing(np.pi)  # the default camera looks north
-        assert deg_between(bc.Q_DISPLAY_FROM_BODY, facing_camera) < 1e-9
-        shown = bc.world_mode(bc.segment_orientations(cal, {s: q[:50] for s, q in sensors.items()}), cal)
-        for q in shown.values():
-            assert np.max(deg_between(q, facing_camera)) < 1e-6
-    # The person turns 40° to the left (counter-clockwise seen from above): so does the figure.
-    turned = rot.multiply(rot.from_axis_angle(EZ, np.radians(40.0)), sensors[mapping["pelvis"]][0])
-    shown = bc.world_mode(bc.segment_orientations(cal, {mapping["pelvis"]: turned}, require_all=False), cal)
-    assert deg_between(shown["pelvis"], sk.q_world_from_body_facing(np.pi + np.radians(40.0))) < 1e-6
-
-
-def test_body_mode_keeps_the_pelvis_facing_the_camera_but_shows_its_lean():
-    q_body = sk.q_world_from_body_facing(1.3)
-    lean = rot.from_axis_angle(EZ, np.radians(-20.0))  # pelvis tips forward
-    segments = {"pelvis": rot.multiply(q_body, lean), "thigh_r": rot.multiply(q_body, FORWARD_90)}
-    shown = bc.body_mode(segments)
-    facing_camera = sk.q_world_from_body_facing(np.pi)
-    assert deg_between(shown["pelvis"], rot.multiply(facing_camera, lean)) < 1e-6
-    assert deg_between(shown["thigh_r"], rot.multiply(facing_camera, FORWARD_90)) < 1e-6
-    with pytest.raises(ValueError, match="needs the pelvis"):
-        bc.body_mode({"thorax": q_body})
-
 
 def test_fill_missing_segments_follows_the_parent():
     q = rot.from_axis_angle(EY, 0.3)

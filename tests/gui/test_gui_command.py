@@ -30,10 +30,11 @@ def test_screenshot_command_shows_the_skeleton(tmp_path):
     pixels = _pixels(out)
     height, width, _ = pixels.shape
     assert (width, height) == (1280, 800)
-    # The figure is tinted blue (sensor "ok"): far bluer than the grey floor and the slate
-    # background. Its pixels sit in the middle of the 3D view, below the menu bar.
-    blue = (pixels[..., 2] - pixels[..., 0]) > 60
-    rows, cols = np.nonzero(blue)
+    # Before a magnetometer calibration the figure is tinted amber (sensors "magnetometer not
+    # calibrated"): far redder than the grey floor and the slate background. Its pixels sit in
+    # the middle of the 3D view, below the menu bar.
+    amber = (pixels[..., 0].astype(int) - pixels[..., 2]) > 60
+    rows, cols = np.nonzero(amber)
     assert rows.size > 2000
     assert 0.3 * width < np.median(cols) < 0.7 * width
     assert rows.min() > 20 and rows.max() < height - 20

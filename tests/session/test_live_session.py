@@ -330,3 +330,20 @@ def test_the_simulated_suit_shows_what_its_sensors_give_before_a_body_calibratio
     _run(session, now, 0.5)
     assert session.pose_source == POSE_UNASSIGNED
     assert session.frame()[0] == frame_id  # no new pose: the view says why (no sensor assigned)
+
+
+def test_a_calibration_that_no_longer_matches_the_local_field_is_flagged():
+    """The sensor panel warns when the calibrated field's magnitude no longer matches the
+    calibration's (the sensor is in another room, or near metal)."""
+    session, now = _session(errors="ideal", scenario="npose")
+    _run(session, now, 0.5)
+    field = float(np.median(np.linalg.norm(session.series("S02", 0.4)[3], axis=1)))
+    for field_uT, flagged in ((field, False), (2.0 * field, True)):
+        session.apply_mag_calibration(MagCalibration("S02", offset_uT=np.zeros(3), soft_iron=np.eye(3),
+                                                     field_uT=field_uT, quality={"verdict": "good"}))
+        _run(session, now, 0.5)
+        row = {r.sensor_id: r for r in session.sensor_rows()}["S02"]
+        assert row.mag_cal_verdict == "good"
+        assert bool(row.mag_field_warning) == flagged, row.mag_field_warning
+        if flagged:
+            assert "calibrate again" in row.mag_field_warning

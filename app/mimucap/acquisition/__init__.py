@@ -7,7 +7,7 @@ May import ``core`` only (never ``io``, ``session`` or ``gui``). Modules, one co
 * ``timesync`` (node clock offset and drift), ``intake`` (per-sample session checks and mapping)
 * ``udp``, ``serial_port``, ``simulated``, ``replay`` (drivers), ``worker`` (process entry point),
   ``outbox``/``messages`` (worker → supervisor), ``supervisor``, ``stats``
-* ``source_spec`` (spec strings), ``alignment`` (common timeline)
+* ``source_spec`` (spec strings)
 * ``emulate_common``, ``emulate_udp``, ``emulate_serial``, ``emulate_motion`` (device emulators)
 
 See ``docs/protocols.md``.

@@ -1,11 +1,16 @@
 """``mimucap angles``: joint angles of a recording with a body calibration.
 
-``mimucap angles INPUT --calibration CAL.json [--shoulder zxy|xzy|yxy] --out OUT.{csv,mot}``
+``mimucap angles INPUT --calibration CAL.json [--live] [--shoulder zxy|xzy|yxy]
+[--mag-calibration FILE] [--accept-poor] --out OUT.{csv,mot}``
 
-Every sample of INPUT (any orientation table ``mimucap bodycal`` reads) gives
-``q_world_from_segment = q_world_from_sensor ⊗ q_sensor_from_segment`` for the calibrated
-segments, and the joint angles of every joint whose two segments have sensors
-(conventions: ISB Z-X'-Y'', left mirrored, zero in the calibrated N-pose).
+INPUT is a MimuCap session or any orientation table ``mimucap bodycal`` reads. It goes through
+the one processing path (a session's raw samples: magnetometer calibration, orientation
+filter; then the body calibration ``q_world_from_segment = q_world_from_sensor ⊗
+q_sensor_from_segment`` at the reference sensor's instants, and the joint angles of every joint
+whose two segments have sensors; conventions: ISB Z-X'-Y'', left mirrored, zero in the
+calibrated N-pose). A session is reprocessed (filter smoothed with past and future data) unless
+``--live`` asks for the forward filter as the live view ran it. A calibration whose verdict is
+poor is refused unless ``--accept-poor``.
 """
 
 from __future__ import annotations
@@ -14,8 +19,8 @@ import argparse
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.cli.bodycal import add_reader_options, choose_model, read_input
-from mimucap.core import bodycal
-from mimucap.core.skeleton import SHOULDER_SEQUENCES, joint_angle_columns, joint_angles_deg
+from mimucap.core.pipeline import RESULT_LABELS, RESULT_LIVE, RESULT_REPROCESSED, process_recording
+from mimucap.core.skeleton import SHOULDER_SEQUENCES, joint_angle_columns
 from mimucap.io.angles_export import write_angles
 from mimucap.io.body_calibration_file import read_body_calibration
 
@@ -31,9 +36,20 @@ def register(subparsers) -> None:
     parser.add_argument("--shoulder", choices=SHOULDER_SEQUENCES, default="zxy",
                         help="shoulder Euler sequence (default zxy; yxy is ISB's, singular arm down)")
     parser.add_argument("--model", default=None, help="skeleton model (default: the calibration's)")
+    parser.add_argument("--live", action="store_true",
+                        help="a session's forward filter as the live view ran it (default: reprocessed)")
+    parser.add_argument("--accept-poor", action="store_true", help="use a calibration whose verdict is poor")
     add_reader_options(parser)
     parser.add_argument("--out", required=True, metavar="OUT.{csv,mot}", help="joint-angle file to write")
     parser.set_defaults(func=run)
+
+
+class _OrientationStream:
+    """An orientation table's column as a stream of on-board orientations."""
+
+    def __init__(self, t_s, q) -> None:
+        self.t_s, self.q_world_from_sensor = t_s, q
+        self.acc = self.gyr = self.mag_uT = None
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,7 +58,10 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.out}: joint angles are written as .csv or .mot")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input, args.calibration)
-    table = read_input(args)
+    if calibration.quality.verdict == "poor" and not args.accept_poor:
+        problems = "; ".join(calibration.quality.problems) or "see the calibration file"
+        raise ValueError(f"{args.calibration}: the calibration's verdict is poor ({problems}); redo it, "
+                         "or pass --accept-poor to use it anyway")
     try:
         model = choose_model(args.model or document.get("model", "auto"), calibration.sensors)
     except ValueError as error:
@@ -52,20 +71,61 @@ def run(args: argparse.Namespace) -> int:
     unknown = [s for s in calibration.sensors if s not in model.segment_names]
     if unknown:
         raise ValueError(f"{args.calibration}: segment(s) {', '.join(unknown)} not in model {model.name}")
-    q_world_from_segment = bodycal.segment_orientations(calibration, table.q_world_from_sensor)
-    angles = joint_angles_deg(model, q_world_from_segment, args.shoulder)
-    if not angles:
+    result = RESULT_LIVE if args.live else RESULT_REPROCESSED
+    if _is_session(args):
+        output, source_note = _session_output(args, model, calibration, result)
+    else:
+        if args.live:
+            raise ValueError(f"{args.input}: --live applies to MimuCap sessions (an orientation table has no filter to run)")
+        table, _session = read_input(args)
+        missing = [sensor for sensor in calibration.sensors.values() if sensor not in table.q_world_from_sensor]
+        if missing:
+            raise ValueError(f"{args.input}: calibrated sensor(s) {', '.join(missing)} missing from the data; it has: "
+                             f"{', '.join(table.q_world_from_sensor)}")
+        streams = {sid: _OrientationStream(table.t_s, q) for sid, q in table.q_world_from_sensor.items()}
+        output = process_recording(streams, model, body_calibration=calibration, shoulder_sequence=args.shoulder)
+        source_note = "orientations as the input gives them"
+    angles = output.angles_deg
+    ordered = {c: angles[c] for c in joint_angle_columns(model, args.shoulder) if c in angles}
+    if not ordered:
         raise ValueError(
             f"{args.calibration}: no joint has calibrated segments on both sides "
             f"(segments: {', '.join(calibration.sensors)})"
         )
-    ordered = {c: angles[c] for c in joint_angle_columns(model, args.shoulder) if c in angles}
     notes = [
         f"input: {args.input}",
         f"calibration: {args.calibration} (method {calibration.quality.method}, verdict {calibration.quality.verdict})",
         f"model: {model.name}",
+        f"result: {source_note}; computed from the sensors",
     ]
-    write_angles(args.out, table.t_s, ordered, args.shoulder, notes)
+    write_angles(args.out, output.t_s, ordered, args.shoulder, notes)
     joints = [j for j in model.joint_names if any(c.startswith(j + "_") for c in ordered)]
-    print(f"{len(table.t_s)} samples, {len(ordered)} angle columns ({', '.join(joints)}) written to {args.out}")
+    print(f"{len(output.t_s)} samples, {len(ordered)} angle columns ({', '.join(joints)}) written to {args.out}")
     return 0
+
+
+def _is_session(args: argparse.Namespace) -> bool:
+    from mimucap.cli.session_input import is_session
+
+    return is_session(args.input)
+
+
+def _session_output(args: argparse.Namespace, model, calibration, result: str):
+    """A session's joint angles through the processing path with ``calibration``."""
+    from mimucap.cli.bodycal import check_reader_options
+    from mimucap.cli.session_input import magnetometer_calibrations
+    from mimucap.io.session import read_session
+    from mimucap.session.processing import process_session
+
+    check_reader_options(args)
+    session = read_session(args.input)
+    missing = [sensor for sensor in calibration.sensors.values() if sensor not in session.sensors]
+    if missing:
+        raise ValueError(f"{args.input}: calibrated sensor(s) {', '.join(missing)} missing from the data; it has: "
+                         f"{', '.join(session.sensors)}")
+    mags, lines = magnetometer_calibrations(session, args.mag_calibration)
+    for line in lines:
+        print(f"  {line}")
+    output = process_session(session, result=result, mag_calibrations=mags, body_calibration=calibration,
+                             model=model, shoulder_sequence=args.shoulder)
+    return output, RESULT_LABELS[result]

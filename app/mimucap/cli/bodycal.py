@@ -1,13 +1,18 @@
 """``mimucap bodycal``: body calibration of a recording, written as CAL.json.
 
-``mimucap bodycal INPUT --mapping SENSOR=SEGMENT[,...] [--npose T0:T1] [--tpose T2:T3]
-[--heading-from SENSOR:AXIS] --out CAL.json [--json]``
+``mimucap bodycal INPUT [--mapping SENSOR=SEGMENT[,...]] [--npose T0:T1] [--tpose T2:T3]
+[--heading-from SENSOR:AXIS] [--mag-calibration FILE] [--accept-poor] --out CAL.json [--json]``
 
-INPUT is any orientation table :func:`mimucap.io.quaternion_tables.read_quaternion_table`
-reads (quaternion CSV, OpenSim ``.sto``, Xsens export file or folder, APDM CSV, MimuCap
-session). With ``--tpose`` the N/T-pose calibration runs (``--npose`` required); with
-``--heading-from pelvis_imu:z`` the forward direction is that sensor axis (OpenSense's
-``base_heading_axis``) in the N-pose window (default: the first sample).
+INPUT is a MimuCap session or any orientation table
+:func:`mimucap.io.quaternion_tables.read_quaternion_table` reads (quaternion CSV, OpenSim
+``.sto``, Xsens export file or folder, APDM CSV). A session's raw samples go through the
+processing path (its magnetometer calibrations, or the stored ones, or ``--mag-calibration``;
+the orientation filter, reprocessed), and its N-pose and T-pose markers give the windows when
+``--npose``/``--tpose`` are not given. With ``--tpose`` the N/T-pose calibration runs
+(``--npose`` required); with ``--heading-from pelvis_imu:z`` the forward direction is that
+sensor axis (OpenSense's ``base_heading_axis``) in the N-pose window (default: the first
+sample). A calibration whose verdict is poor is written but the command exits with status 3,
+unless ``--accept-poor``.
 """
 
 from __future__ import annotations
@@ -15,8 +20,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
+
+import numpy as np
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
+from mimucap.cli.session_input import (
+    add_session_options, is_session, magnetometer_calibrations, orientation_table, pose_windows_from_markers,
+)
 from mimucap.core import bodycal
 from mimucap.core.skeleton import MODEL_NAMES
 from mimucap.io.skeleton_model_file import load_model
@@ -83,6 +94,7 @@ def add_reader_options(parser: argparse.ArgumentParser) -> None:
                         help="trial prefix when an Xsens folder holds several trials")
     parser.add_argument("--rate", metavar="HZ", type=float, default=None,
                         help="Xsens update rate when the export header gives none (default 100)")
+    add_session_options(parser)
 
 
 #: The inputs each Xsens reader option applies to (it is refused for the others, not ignored).
@@ -105,13 +117,35 @@ def check_reader_options(args: argparse.Namespace) -> None:
             raise ValueError(f"{args.input}: {option} applies to {' and '.join(kinds)} only, not to {kind}")
 
 
+#: Exit status of a calibration whose verdict is poor (written, but not to be used unseen).
+EXIT_POOR = 3
+
+
 def read_input(args: argparse.Namespace):
-    """The orientation table of ``args.input`` with the reader options checked first."""
+    """The orientation table of ``args.input`` with the reader options checked first (a
+    session's through the processing path); the session too, or None."""
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise ValueError(f"--rate {args.rate:g}: the update rate must be a positive number of Hz")
     check_reader_options(args)
+    if is_session(args.input):
+        from mimucap.io.session import read_session
+
+        _refuse_up_for_session(args)
+        session = read_session(args.input)
+        mags, lines = magnetometer_calibrations(session, args.mag_calibration)
+        for line in lines:
+            print(f"  {line}")
+        return orientation_table(session, str(args.input), mags), session
+    if args.mag_calibration:
+        raise ValueError(f"{args.input}: --mag-calibration applies to MimuCap sessions (raw magnetometer "
+                         "samples), not to orientation tables")
     return read_quaternion_table(args.input, up_axis=args.up, sensor_names=args.sensor_names,
-                                 trial_prefix=args.trial, rate_hz=args.rate)
+                                 trial_prefix=args.trial, rate_hz=args.rate), None
+
+
+def _refuse_up_for_session(args: argparse.Namespace) -> None:
+    if args.up is not None and not np.allclose(axis_vector(args.up), (0.0, 0.0, 1.0)):
+        raise ValueError(f"{args.input}: up axis {args.up} cannot apply: MimuCap sessions are z up")
 
 
 def register(subparsers) -> None:
@@ -132,6 +166,8 @@ def register(subparsers) -> None:
     parser.add_argument("--forward-from", choices=("swing", "rotation_axis"), default="swing",
                         help="forward estimate of the N/T-pose: the arm's swing (default) or its rotation axis (seed)")
     parser.add_argument("--model", default="auto", help=f"skeleton model: auto, {', '.join(MODEL_NAMES)} or a JSON file")
+    parser.add_argument("--accept-poor", action="store_true",
+                        help="exit 0 even when the calibration's verdict is poor")
     add_reader_options(parser)
     parser.add_argument("--out", required=True, metavar="CAL.json", help="calibration file to write")
     parser.add_argument("--json", action="store_true", help="print the calibration as JSON")
@@ -141,7 +177,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)
-    table = read_input(args)
+    table, session = read_input(args)
     mapping = parse_mapping(args.mapping)
     if not mapping:
         if not table.segment_hints:
@@ -150,13 +186,18 @@ def run(args: argparse.Namespace) -> int:
     model = choose_model(args.model, mapping)
     mapping = bodycal.check_mapping(mapping, table.sensor_ids, model.segment_names)
     npose = parse_window(args.npose, "--npose") if args.npose else None
+    tpose = parse_window(args.tpose, "--tpose") if args.tpose else None
     if args.tpose and args.heading_from:
         raise ValueError("give either --tpose (N/T-pose calibration) or --heading-from, not both")
-    if args.tpose:
+    if session is not None and npose is None and tpose is None and not args.heading_from:
+        npose, tpose = pose_windows_from_markers(session.markers, float(table.t_s[-1]))
+        print(f"  pose windows from the session's markers: N-pose {npose[0]:.2f}-{npose[1]:.2f} s, "
+              f"T-pose {tpose[0]:.2f}-{tpose[1]:.2f} s")
+    if tpose is not None:
         if npose is None:
             raise ValueError("--tpose needs --npose T0:T1 as well")
         calibration = bodycal.calibrate_npose_tpose(
-            table.t_s, table.q_world_from_sensor, mapping, npose, parse_window(args.tpose, "--tpose"),
+            table.t_s, table.q_world_from_sensor, mapping, npose, tpose,
             up_world=table.up_world, arms=args.arms,
             settings=bodycal.BodyCalSettings(forward_from=args.forward_from),
         )
@@ -193,4 +234,8 @@ def run(args: argparse.Namespace) -> int:
         worst = max(quality.stillness, key=lambda s: s.max_deviation_deg)
         print(f"  stillness: worst {worst.sensor} in the {worst.pose}, {worst.max_deviation_deg:.2f}°")
         print(f"  {len(calibration.sensors)} segments calibrated, written to {args.out}")
+    if calibration.quality.verdict == "poor" and not args.accept_poor:
+        print(f"mimucap bodycal: the calibration's verdict is poor ({'; '.join(calibration.quality.problems)}): "
+              "redo the poses, or pass --accept-poor to use it anyway", file=sys.stderr)
+        return EXIT_POOR
     return 0

@@ -34,11 +34,8 @@ Then, per segment (seed 3.8–3.10), with the N-pose averaged over its window:
 where ``q_segment_from_body(N)`` is the identity for a true N-pose. Live (3.11):
 ``q_world_from_segment(t) = q_world_from_sensor(t) ⊗ q_sensor_from_segment``.
 
-Display (seed section 4.3, equations 4.2–4.3), both returning orientations in a display
-world (ENU, the default camera looks north) in which the calibrated N-pose faces the camera
-(south): *world mode* removes the calibrated heading once (the figure turns when the person
-turns), *body mode* removes the reference segment's current heading at every instant (the
-figure always faces the camera).
+The display modes of seed section 4.3 (equations 4.2–4.3) are drawn by
+:mod:`mimucap.session.figure`, from the calibration's ``q_world_from_body``.
 
 Checks: each pose window must be still (every sample within ``stillness_limit_deg`` of the
 window's mean orientation), or the calibration is refused naming the sensor that moved; the
@@ -68,12 +65,6 @@ ARM_SEGMENTS = {
     "right": ("upper_arm_r", "forearm_r", "hand_r"),
     "left": ("upper_arm_l", "forearm_l", "hand_l"),
 }
-
-#: ``R_display_from_body`` of the calibrated N-pose in the display world: facing the default
-#: camera (body x forward → world −y, y up → world +z, z right → world −x).
-Q_DISPLAY_FROM_BODY = rot.from_matrix(
-    np.array([[0.0, 0.0, -1.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
-)
 
 
 class CalibrationRefused(ValueError):
@@ -780,52 +771,3 @@ def fill_missing_segments(
             raise ValueError(f"segment {segment} has no sensor and no parent orientation to follow")
         result[segment] = result[parent]
     return result
-
-
-def world_mode(q_world_from_segment: Mapping[str, ArrayLike], calibration: BodyCalibration) -> dict[str, FloatArray]:
-    """Display orientations normalised to the calibrated N-pose (seed 4.2–4.3).
-
-    ``q_display_from_segment = Q_DISPLAY_FROM_BODY ⊗ q_body_from_world ⊗ q_world_from_segment``:
-    the N-pose faces the camera and the figure turns on screen when the person turns.
-    """
-    q_display_from_world = rot.multiply(Q_DISPLAY_FROM_BODY, rot.conjugate(calibration.q_world_from_body))
-    return {s: rot.multiply(q_display_from_world, np.asarray(q, dtype=np.float64))
-            for s, q in q_world_from_segment.items()}
-
-
-def heading_frame(q_world_from_segment: ArrayLike, up_world: ArrayLike = (0.0, 0.0, 1.0)) -> FloatArray:
-    """``q_world_from_heading`` (..., 4): x = the segment's horizontal forward direction, y = up.
-
-    The forward direction blends the horizontal parts of the segment's x axis and of
-    ``up × z`` (its right axis turned forward), so that it stays defined when the segment
-    bends forward or sideways.
-    """
-    q = np.asarray(q_world_from_segment, dtype=np.float64)
-    up = _unit(up_world, "up_world")
-    x = rot.rotate(q, np.array([1.0, 0.0, 0.0]))
-    z = rot.rotate(q, np.array([0.0, 0.0, 1.0]))
-    forward = horizontal(x, up) + horizontal(np.cross(up, z), up)
-    norm = np.linalg.norm(forward, axis=-1, keepdims=True)
-    forward = forward / np.where(norm < 1e-12, 1.0, norm)
-    right = np.cross(forward, up)
-    matrix = np.stack((forward, np.broadcast_to(up, forward.shape), right), axis=-1)
-    return rot.from_matrix(matrix)
-
-
-def body_mode(
-    q_world_from_segment: Mapping[str, ArrayLike],
-    up_world: ArrayLike = (0.0, 0.0, 1.0),
-    reference: str = "pelvis",
-) -> dict[str, FloatArray]:
-    """Display orientations relative to the reference segment's current heading.
-
-    ``q_display_from_segment(t) = Q_DISPLAY_FROM_BODY ⊗ q_heading_from_world(t) ⊗ q_world_from_segment(t)``
-    with the heading frame of ``reference`` (:func:`heading_frame`): the figure always faces
-    the camera, leaning and bending as the person does.
-    """
-    if reference not in q_world_from_segment:
-        raise ValueError(f"body mode needs the {reference} orientation (segments: {', '.join(q_world_from_segment)})")
-    q_heading = heading_frame(q_world_from_segment[reference], up_world)
-    q_display_from_world = rot.multiply(Q_DISPLAY_FROM_BODY, rot.conjugate(q_heading))
-    return {s: rot.multiply(q_display_from_world, np.asarray(q, dtype=np.float64))
-            for s, q in q_world_from_segment.items()}

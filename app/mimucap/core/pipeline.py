@@ -231,8 +231,9 @@ def sensor_orientation(t_s: np.ndarray, gyr_rad_s: np.ndarray | None, acc_m_s2: 
     orientation, used as it is when given. ``result``: :data:`RESULT_LIVE` runs the forward
     filter from ``initial_state`` (the live filter's state when the recording started; a
     fresh filter when None, as the live view starts one), :data:`RESULT_REPROCESSED` the
-    forward filter plus smoother from a fresh start. ``ValueError`` naming the sensor when it
-    has neither an orientation nor a gyroscope.
+    forward filter plus smoother with the same prior (what the live filter had learnt before
+    the recording: gyro bias, heading). ``ValueError`` naming the sensor when it has neither an
+    orientation nor a gyroscope.
     """
     check_result(result)
     n = len(t_s)
@@ -248,7 +249,8 @@ def sensor_orientation(t_s: np.ndarray, gyr_rad_s: np.ndarray | None, acc_m_s2: 
     else:
         from mimucap.core.fusion import fuse_offline
 
-        out = fuse_offline(t_s, gyr_rad_s, acc_m_s2, mag, params=settings.fusion, use_mag=mag is not None)
+        out = fuse_offline(t_s, gyr_rad_s, acc_m_s2, mag, params=settings.fusion, use_mag=mag is not None,
+                           state=initial_state)
     return np.asarray(out.q_world_from_sensor), np.asarray(out.flags)
 
 
@@ -392,14 +394,14 @@ def process_recording(streams: Mapping[str, Any], model: skeleton.SkeletonModel,
     ``streams``: sensor id → an object with ``t_s`` (N,) s and ``acc``, ``gyr``, ``mag_uT``
     (raw µT), ``q_world_from_sensor`` arrays or None (a recorded
     :class:`~mimucap.io.session.SensorStream`). ``sensor_segments``: sensor → segment, used
-    without a body calibration. ``initial_states`` and ``time_offset_s`` reproduce the live
-    filter (:data:`RESULT_LIVE`): the filter runs on ``t_s + time_offset_s``, the clock the
-    live view ran it on. A sensor that can give no orientation is left out and named in
-    ``problems``.
+    without a body calibration. ``initial_states`` (the live filter's state at the start) and
+    ``time_offset_s`` continue the live filter: it runs on ``t_s + time_offset_s``, the clock the
+    live view ran it on (both results start from that prior). A sensor that can give no
+    orientation is left out and named in ``problems``.
     """
     check_result(result)
     mag_calibrations = dict(mag_calibrations or {})
-    initial_states = dict(initial_states or {}) if result == RESULT_LIVE else {}
+    initial_states = dict(initial_states or {})
     q_sensor: dict[str, np.ndarray] = {}
     flags: dict[str, np.ndarray] = {}
     problems: list[str] = []

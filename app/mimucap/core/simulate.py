@@ -468,6 +468,15 @@ class SuitSimulator:
         end = int(math.floor(self._target_time_s * self.rate_hz + 1e-9))
         return self.advance_samples(max(end - self._next_sample, 0))
 
+    def skip_samples(self, n: int) -> None:
+        """Let ``n`` samples pass unmeasured (a radio dropout: the subject moves on, the
+        sensors send nothing; their sequence numbers jump)."""
+        if n < 0:
+            raise ValueError(f"cannot skip {n} samples")
+        self._next_sample += int(n)
+        self._target_time_s = max(self._target_time_s, self._next_sample * self.dt)
+        self.schedule.forget_before(self._next_sample * self.dt - 1.0)
+
     def advance_samples(self, n: int) -> SuitBlock:
         """Simulate the next ``n`` samples.
 

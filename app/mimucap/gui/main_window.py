@@ -40,6 +40,7 @@ from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
+from mimucap.core.pipeline import POSE_SENSOR_AXES
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
@@ -62,7 +63,12 @@ DOCK_MOST_SHARE = 0.3
 VIEW_HINTS = {
     POSE_NONE: "Waiting for data from the source…",
     POSE_UNASSIGNED: "No sensor is assigned to a body segment yet.\nSession → Assign Sensors…",
+    POSE_SENSOR_AXES: "Not calibrated yet: each sensor's axes stand for its segment.\n"
+                      "Calibrate → Magnetometers…, then Calibrate → Body…",
 }
+#: Joint angles the on-screen accuracy check sums up (simulated suit only).
+ACCURACY_COLUMNS = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg",
+                    "elbow_l_flexion_deg", "elbow_r_flexion_deg")
 
 ABOUT_TEXT = (
     "<h3>MimuCap {version}</h3>"
@@ -273,11 +279,13 @@ class MainWindow(QtWidgets.QMainWindow):
             if interactive:
                 QtWidgets.QMessageBox.warning(self, "Source", f"Cannot open source {spec}:\n{error}\n\nChoose another source (File → Choose Source).")
             return False
+        previous = self.live
         self._stop_live()
         self.source_error = None
         self.statusBar().clearMessage()
         self._close_wizard("the source changed")
         self.live = session
+        kept = self._keep_body_calibration(previous, session)
         self.session_panel.markers_list.clear()  # the old source's markers, on its clock
         remembered = remembered_assignment()
         for sensor_id, segment in remembered.items():
@@ -292,7 +300,21 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.isVisible():
             self.start()
         self.refresh_panels()
+        if kept:
+            self.statusBar().showMessage(kept, 10000)
         return True
+
+    @staticmethod
+    def _keep_body_calibration(previous: LiveSession | None, session: LiveSession) -> str:
+        """Carry the body calibration over to the new source when it drives the same skeleton
+        (the sensors that are still worn keep their segments; magnetometer calibrations come
+        from the store by themselves); returns what the status bar should say ("" if nothing)."""
+        calibration = None if previous is None else previous.body_calibration
+        if calibration is None or previous.model.name != session.model.name:
+            return ""
+        session.apply_body_calibration(calibration)
+        return (f"The body calibration ({len(calibration.sensors)} segments) is kept for the new source; "
+                "Calibrate → Body… to redo it.")
 
     def _refused_while_recording(self) -> bool:
         """True (and said in a dialog) while recording: the source cannot change then."""
@@ -367,6 +389,18 @@ class MainWindow(QtWidgets.QMainWindow):
             self._finish_recording()
             QtWidgets.QMessageBox.critical(self, "Recording stopped", failure)
 
+    @staticmethod
+    def _accuracy_text(live: LiveSession) -> str:
+        """The running accuracy check against the simulator's truth ("" for other sources)."""
+        if not live.has_truth:
+            return ""
+        errors = live.truth_errors(5.0)
+        flexion = [errors[c] for c in ACCURACY_COLUMNS if c in errors]
+        if not flexion:
+            return ""
+        return (f"; vs. simulator truth (last 5 s): hip/knee/elbow flexion RMS {sum(flexion) / len(flexion):.1f}°, "
+                f"worst {max(flexion):.1f}°")
+
     def refresh_panels(self) -> None:
         """Sensor panel, tints, recording status and status bar from the live session."""
         live = self.live
@@ -379,7 +413,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if live.recording:
             self.session_panel.show_info(live.recording_info())
         self.source_status.setText(f"Source: {live.label}")
-        self.pose_status.setText(f"Pose: {live.pose_source}")
+        self.pose_status.setText(f"Pose: {live.pose_source}" + self._accuracy_text(live))
         problem = live.source_problem
         if problem != self._source_problem:
             self._source_problem = problem

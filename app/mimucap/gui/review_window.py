@@ -21,6 +21,8 @@ from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView, drawing_moved_message
 from mimucap.session.camera import CAMERA_PRESETS
+from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
+from mimucap.session.evaluation import angle_errors
 from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
 
 log = logging.getLogger(__name__)
@@ -45,6 +47,26 @@ class _JumpToClickStyle(QtWidgets.QProxyStyle):
         if hint == QtWidgets.QStyle.SH_Slider_AbsoluteSetButtons:
             return int(QtCore.Qt.LeftButton)
         return super().styleHint(hint, option, widget, return_data)
+
+
+#: How the result choice names each result.
+RESULT_TITLES = {RESULT_REPROCESSED: "Reprocessed", RESULT_LIVE: "As seen live"}
+#: Columns the accuracy check sums up.
+ACCURACY_COLUMNS = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg",
+                    "elbow_l_flexion_deg", "elbow_r_flexion_deg")
+
+
+def accuracy_text(data: ReviewData) -> str:
+    """", error vs. simulator truth: …" for a simulated recording (evaluation of the estimate,
+    which never reads the truth), "" otherwise."""
+    truth = data.truth
+    if truth is None or not len(data.t_s):
+        return ""
+    errors = angle_errors(data.t_s, data.angles_deg, truth.t_s, truth.joint_angles_deg)
+    flexion = [errors[c].rms_deg for c in ACCURACY_COLUMNS if c in errors]
+    if not flexion:
+        return ""
+    return f"; vs. simulator truth: hip/knee/elbow flexion RMS {sum(flexion) / len(flexion):.1f}° (worst {max(flexion):.1f}°)"
 
 
 class ReviewWindow(QtWidgets.QMainWindow):
@@ -93,6 +115,15 @@ class ReviewWindow(QtWidgets.QMainWindow):
             self.speed_combo.addItem(f"{speed:g}×", speed)
         self.speed_combo.setCurrentIndex(SPEEDS.index(1.0))
         self.speed_combo.currentIndexChanged.connect(self._speed_changed)
+        self.result_combo = QtWidgets.QComboBox(self)
+        self.result_combo.setObjectName("resultChoice")
+        for result in (RESULT_REPROCESSED, RESULT_LIVE):
+            self.result_combo.addItem(RESULT_TITLES[result], result)
+        self.result_combo.setToolTip("Reprocessed: the orientation filter smoothed with past and future data "
+                                     "(the default for export).\nAs seen live: the forward filter, as the live "
+                                     "view showed it.")
+        self.result_combo.currentIndexChanged.connect(lambda _i: self.set_result(self.result_combo.currentData()))
+        self._marker_lines: list = []
         self.markers_list = QtWidgets.QListWidget(self)
         self.markers_list.setObjectName("reviewMarkers")
         self.markers_list.setMaximumWidth(260)
@@ -117,6 +148,8 @@ class ReviewWindow(QtWidgets.QMainWindow):
         controls.addWidget(self.time_label)
         controls.addWidget(QtWidgets.QLabel("Speed"))
         controls.addWidget(self.speed_combo)
+        controls.addWidget(QtWidgets.QLabel("Result"))
+        controls.addWidget(self.result_combo)
         timeline_box = QtWidgets.QVBoxLayout()
         timeline_box.addWidget(self.timeline)
         timeline_box.addLayout(controls)
@@ -160,13 +193,42 @@ class ReviewWindow(QtWidgets.QMainWindow):
     def load(self) -> None:
         """Load the session in the background; :attr:`loaded` is emitted when it is shown."""
         self.statusBar().showMessage(f"Opening {self.path}…")
-        self._task = BackgroundTask(lambda progress: load_review(self.path, progress), self)
+        result = self.result_combo.currentData()
+        self._task = BackgroundTask(lambda progress: load_review(self.path, progress, result=result), self)
         self._task.progress.connect(lambda f: self.progress.setValue(int(round(100 * f))))
         self._task.succeeded.connect(self._loaded)
         self._task.failed.connect(self._load_failed)
         self._task.start()
 
+    @property
+    def result(self) -> str:
+        """Which result the review shows (:data:`~mimucap.core.pipeline.RESULTS`)."""
+        return self.result_combo.currentData()
+
+    def set_result(self, result: str) -> None:
+        """Show ``result`` (as seen live, or reprocessed): the session is processed again."""
+        index = self.result_combo.findData(result)
+        if index < 0:
+            raise ValueError(f"unknown result {result!r}")
+        if index != self.result_combo.currentIndex():
+            self.result_combo.setCurrentIndex(index)  # comes back here
+            return
+        if self.player is None or self.player.data.result == result:
+            return
+        self._cursor_to_keep = self.player.cursor_s
+        self._timer.stop()
+        self.progress.setValue(0)
+        self.progress.show()
+        self.action_export.setEnabled(False)
+        self.load()
+
     def _loaded(self, data: ReviewData) -> None:
+        keep = getattr(self, "_cursor_to_keep", None)
+        self._cursor_to_keep = None
+        for line in self._marker_lines:
+            self.timeline.removeItem(line)
+        self._marker_lines.clear()
+        self.markers_list.clear()
         self.player = ReviewPlayer(data)
         self.progress.hide()
         self.scene_view.set_figure(self.player.builder)
@@ -182,12 +244,17 @@ class ReviewWindow(QtWidgets.QMainWindow):
                                    labelOpts={"position": MARKER_LABEL_HEIGHTS[index % len(MARKER_LABEL_HEIGHTS)],
                                               "color": "#2c3e50"})
             self.timeline.addItem(line)
+            self._marker_lines.append(line)
             self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker.label}")
-        self.pose_status.setText(f"Pose: {data.pose_source}")
-        self.statusBar().showMessage(f"{self.path}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
-                                     f"{len(data.markers)} markers", 8000)
+        self.pose_status.setText(f"Pose: {data.pose_source}; {RESULT_TITLES[data.result].lower()}"
+                                 + accuracy_text(data))
+        message = (f"{self.path}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
+                   f"{len(data.markers)} markers")
+        if data.missing:
+            message += " — " + "; ".join(data.missing)
+        self.statusBar().showMessage(message, 15000)
         self.action_export.setEnabled(True)
-        self.seek(data.start_s)
+        self.seek(data.start_s if keep is None else keep)
         self.scene_view.start()
         self.plots.start()
         self._timer.start()

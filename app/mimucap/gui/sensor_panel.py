@@ -62,14 +62,16 @@ class SensorPanel(QtWidgets.QTableWidget):
                 state = "STALE: no data"
             elif row.state == "mag_uncalibrated":
                 state = "magnetometer not calibrated"
+            elif row.mag_field_warning:
+                state = row.mag_field_warning
             else:
                 state = "ok"
             values = (
                 row.sensor_id, row.segment or "(not assigned)", _number(row.rate_hz, 1), str(row.drops),
-                _number(row.latency_ms, 1), _number(row.battery_pct), row.mag_cal + _age(row.mag_cal_age_s),
+                _number(row.latency_ms, 1), _number(row.battery_pct), row.mag_cal + (f" ({row.mag_cal_verdict})" if row.mag_cal_verdict else "") + _age(row.mag_cal_age_s),
                 ", ".join(row.flags) or "–", state,
             )
-            brush = STALE_BRUSH if row.stale else WARN_BRUSH if row.state != "ok" else QtGui.QBrush()
+            brush = STALE_BRUSH if row.stale else WARN_BRUSH if row.state != "ok" or row.mag_field_warning else QtGui.QBrush()
             for c, text in enumerate(values):
                 item = self.item(r, c)
                 if item is None:

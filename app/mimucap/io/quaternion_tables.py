@@ -32,7 +32,10 @@ Supported inputs (:func:`read_quaternion_table` picks the reader):
   trial and renames device ids to ``name_in_model``.
 * APDM ``Format=7`` CSV (found among OpenSense's format samples): one block per sensor with
   ``Orientation S,X,Y,Z`` = q_world_from_sensor in a z-up world; ``Time`` in microseconds.
-* MimuCap sessions (``.h5``/``.mimucap``) through :func:`mimucap.io.session.read_session`.
+
+MimuCap sessions and BROAD trials hold raw samples, not orientations: they are recognised
+(:func:`orientation_input_kind`) and refused by :func:`read_quaternion_table`, since their
+orientations come from the processing path (:mod:`mimucap.core.pipeline`), never from a reader.
 
 Bad input raises ``ValueError`` naming the file, line and sensor: malformed rows, missing
 columns, NaN or zero quaternions, non-increasing time.
@@ -697,64 +700,6 @@ def read_apdm_csv(path: str | Path) -> QuaternionTable:
 # MimuCap sessions
 # --------------------------------------------------------------------------------------------
 
-def read_session_table(path: str | Path) -> QuaternionTable:
-    """Orientations of a MimuCap session on the time axis of its best-sampled sensor.
-
-    Uses each stream's recorded ``q_world_from_sensor``; a stream without one is fused from
-    its acc/gyr/mag with :func:`mimucap.core.fusion.offline.fuse_offline`. Streams are
-    resampled (slerp) onto the time axis of the stream with most samples, over the interval
-    every stream covers. World: ENU, up +z.
-    """
-    from mimucap.io import session as session_io
-
-    session = session_io.read_session(path)
-    source = str(path)
-    if not session.sensors:
-        raise ValueError(f"{source}: the session has no sensor streams")
-    series: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    hints: dict[str, str] = {}
-    for sensor_id, stream in session.sensors.items():
-        if stream.q_world_from_sensor is None:
-            t, q = _fuse_stream(stream, source, sensor_id)
-        else:
-            t, q = np.asarray(stream.t_s, dtype=np.float64), stream.q_world_from_sensor
-        q = _checked_unit(np.asarray(q, dtype=np.float64), source, sensor_id)
-        if t.size < 1:
-            raise ValueError(f"{source}: sensor {sensor_id} has no samples")
-        series[sensor_id] = (t, q)
-        if getattr(stream, "segment", None):
-            hints[sensor_id] = stream.segment
-    start = max(t[0] for t, _ in series.values())
-    stop = min(t[-1] for t, _ in series.values())
-    if stop < start:
-        raise ValueError(f"{source}: the sensor streams do not overlap in time")
-    reference = max(series, key=lambda s: series[s][0].size)
-    t_ref = series[reference][0]
-    t_common = t_ref[(t_ref >= start) & (t_ref <= stop)]
-    quats = {s: resample_slerp(t, q, t_common) for s, (t, q) in series.items()}
-    return QuaternionTable(t_common, quats, np.array([0.0, 0.0, 1.0]), "ENU", source, hints)
-
-
-def _fuse_stream(stream, source: str, sensor_id: str) -> tuple[np.ndarray, np.ndarray]:
-    """Offline-fused orientation of a stream without one: (t_s, q) without the NaN rows the
-    filter gives before its first valid accelerometer sample."""
-    try:
-        from mimucap.core.fusion.offline import fuse_offline
-    except ImportError:
-        raise ValueError(
-            f"{source}: sensor {sensor_id} has no recorded q_world_from_sensor and no offline "
-            "fusion (mimucap.core.fusion) is available to compute it"
-        ) from None
-    if stream.acc is None or stream.gyr is None:
-        raise ValueError(f"{source}: sensor {sensor_id} has neither orientations nor acc and gyr to fuse")
-    result = fuse_offline(stream.t_s, stream.gyr, stream.acc, stream.mag_uT)
-    q = np.asarray(result.q_world_from_sensor, dtype=np.float64)
-    valid = np.all(np.isfinite(q), axis=1)
-    if not np.any(valid):
-        raise ValueError(f"{source}: sensor {sensor_id}: fusion gave no orientation (no valid accelerometer sample)")
-    return np.asarray(stream.t_s, dtype=np.float64)[valid], q[valid]
-
-
 def resample_slerp(t_src: np.ndarray, q_src: np.ndarray, t_dst: np.ndarray) -> np.ndarray:
     """Quaternions (M, 4) at times ``t_dst`` (M,) by slerp between samples ``(t_src, q_src)``.
 
@@ -815,7 +760,7 @@ def orientation_input_kind(path: str | Path) -> str:
 
 
 #: Why an up axis cannot be chosen for some inputs.
-_FIXED_UP = "Xsens exports, APDM files and MimuCap sessions are z up"
+_FIXED_UP = "Xsens exports and APDM files are z up"
 
 
 def _refuse_up_axis(path: Path, up_axis: str | None) -> None:
@@ -847,8 +792,8 @@ def read_quaternion_table(
     if kind == OPENSIM_STO:
         return read_opensim_sto(path, up_axis)
     if kind in (MIMUCAP_SESSION, BROAD_TRIAL):
-        _refuse_up_axis(path, up_axis)
-        return read_session_table(path)
+        raise ValueError(f"{path}: {kind} hold raw samples, not orientations: their orientations come from "
+                         "the processing path (mimucap bodycal, angles and fuse read them)")
     if kind == XSENS_FILE:
         _refuse_up_axis(path, up_axis)
         rec = read_xsens_file(path, rate_hz)

@@ -30,8 +30,8 @@ from mimucap.session import instructions
 from mimucap.session.instructions import Instruction
 from mimucap.session.sources import SourceOptions, sensor_segments, source_configs
 
-#: Longest wall-clock gap (s) the simulator catches up in one poll: after a stall it skips
-#: ahead instead of computing a long backlog on the GUI thread.
+#: Longest clock gap (s) the simulator catches up in one poll: after a longer stall the
+#: samples before that are lost (a dropout) instead of computed as a long backlog on the GUI thread.
 MAX_CATCH_UP_S = 1.0
 #: Window (s) over which sensor rates are computed.
 STATS_WINDOW_S = 2.0
@@ -58,7 +58,6 @@ class SimulatorFeed:
         self._clock = clock
         self._start_host_s: float | None = None
         self._last_poll: float | None = None
-        self._skipped_s = 0.0
         self._trackers = {sid: SensorStatsTracker(sid, name, STATS_WINDOW_S) for sid in self.simulator.sensor_ids}
         self._markers: list[tuple[float, str]] = []
         #: truth of the newest simulated sample (segment orientations, root), or None
@@ -79,7 +78,7 @@ class SimulatorFeed:
 
     def host_time_of(self, t_sim_s: float | np.ndarray) -> float | np.ndarray:
         """Host monotonic time (s) of simulated time ``t_sim_s`` (s, a number or an array)."""
-        return self._start_host_s + self._skipped_s + t_sim_s
+        return self._start_host_s + t_sim_s
 
     def poll(self) -> list[SampleBlock]:
         """Blocks of every sample simulated since the last poll (one block per sensor)."""
@@ -88,9 +87,13 @@ class SimulatorFeed:
         now = self._clock()
         gap = now - self._last_poll
         if gap > MAX_CATCH_UP_S:
-            self._skipped_s += gap - MAX_CATCH_UP_S
+            # The samples of the stall are lost, as a radio link loses them: the subject moved
+            # on meanwhile (the clock and the samples' times stay one).
+            lost_until = now - MAX_CATCH_UP_S - self._start_host_s
+            due = int(np.floor(lost_until * self.simulator.rate_hz + 1e-9))
+            self.simulator.skip_samples(max(due - int(round(self.simulator.time_s * self.simulator.rate_hz)), 0))
         self._last_poll = now
-        target_sim_s = now - self._start_host_s - self._skipped_s
+        target_sim_s = now - self._start_host_s
         return self.advance_to(target_sim_s, now)
 
     def advance_to(self, target_sim_s: float, arrival_s: float | None = None) -> list[SampleBlock]:

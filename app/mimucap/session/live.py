@@ -52,6 +52,7 @@ from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
 from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.fusion import FLAG_NAMES
+from mimucap.core.locomotion import RootTracker
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
     POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorBlock, SensorOrientations,
@@ -93,7 +94,9 @@ class SensorRow:
     ``rate_hz`` samples/s over the last 2 s; ``drops`` sequence gaps; ``latency_ms`` p95 from
     the sample's host time to its arrival in this process; ``battery_pct`` (NaN if unknown);
     ``mag_cal`` ``"calibrated"``, ``"on-board"`` (device fuses itself) or ``"not calibrated"``;
-    ``mag_cal_age_s`` since the calibration was made (NaN if none); ``flags`` fusion flags
+    ``mag_cal_age_s`` since the calibration was made (NaN if none); ``mag_cal_verdict`` its
+    verdict (``good``, ``warn``; "" without one); ``mag_field_warning`` says when the local field
+    (magnitude, dip) no longer matches the calibration's (""); ``flags`` fusion flags
     now (``"rest"``, ``"mag disturbed"``, ...); ``stale`` no sample for :data:`STALE_AFTER_S`;
     ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``).
     """
@@ -109,6 +112,8 @@ class SensorRow:
     flags: tuple[str, ...]
     stale: bool
     state: str
+    mag_cal_verdict: str = ""
+    mag_field_warning: str = ""
 
 
 @dataclass(frozen=True)
@@ -177,6 +182,8 @@ class LiveSession:
         self.builder = FigureBuilder(self.model, self.height_m)
         self.events = EmitterGroup("blocks", "processed", "frame", "calibration", "recording", "marker")
         self.pipeline = LivePipeline(self.model, settings)
+        #: where the figure stands, from its feet's contact with the floor
+        self._root_tracker = RootTracker(self.model, self.height_m)
         self.calibration_store = calibration_store
         #: sensor → why its stored magnetometer calibration could not be loaded
         self.calibration_problems: dict[str, str] = {}
@@ -207,6 +214,8 @@ class LiveSession:
         self._journaled_truth: SuitTruth | None = None   # the simulator truth block last recorded
         #: newest pose of the simulator's truth (segment → (4,)), for evaluation only
         self._truth_pose: dict[str, np.ndarray] | None = None
+        #: the simulator's true joint angles (deg) of the last seconds, for the accuracy check
+        self._truth_angles = {j: RingBuffer(int(MAX_WINDOW_S * BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
         self._recording_markers = 0
         self.last_recording: RecordingResult | None = None
         self.samples_received = 0
@@ -311,6 +320,7 @@ class LiveSession:
         builder = FigureBuilder(self.model, float(height_m))  # validates
         self.height_m = float(height_m)
         self.builder = builder
+        self._root_tracker = RootTracker(self.model, self.height_m)
         self._geometry = None
 
     def assign_sensor(self, sensor_id: str, segment: str | None) -> None:
@@ -370,6 +380,7 @@ class LiveSession:
         for segment, sensor in calibration.sensors.items():
             self.assign_sensor(sensor, segment)
         self.pipeline.forget_poses()
+        self._root_tracker.reset()
         self._geometry = None
         self.events.calibration.emit()
 
@@ -377,6 +388,7 @@ class LiveSession:
         self._refuse_while_recording("clearing the body calibration")
         self.body_calibration = None
         self.pipeline.forget_poses()
+        self._root_tracker.reset()
         self._geometry = None
         self.events.calibration.emit()
 
@@ -445,7 +457,7 @@ class LiveSession:
         q_stacked = np.array([q_segments[name] for name in self.model.segment_names], dtype=float)
         self._q_world_from_segment = q_segments
         self._q_stacked = q_stacked
-        self._root_m = None
+        self._root_m = self._root_tracker.update(q_stacked)
         self._t_s = t_pose
         self._frame_id += 1
         self._geometry = None
@@ -480,6 +492,10 @@ class LiveSession:
         if truth is None or truth is self._journaled_truth:
             return
         self._truth_pose = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
+        t = self.feed.host_time_of(truth.t_s) - self.t0_host_s
+        for joint, columns in self._joint_columns.items():
+            if all(c in truth.joint_angles_deg for c in columns):
+                self._truth_angles[joint].append(t, np.stack([truth.joint_angles_deg[c] for c in columns], axis=-1))
         if self._recorder is not None:
             self._journal_truth(truth)
         self._journaled_truth = truth
@@ -488,6 +504,34 @@ class LiveSession:
         """The simulated subject's true segment orientations now (segment → (4,)), or ``None``
         for a source without truth. For evaluation: shown beside the estimate, never as it."""
         return self._truth_pose
+
+    @property
+    def has_truth(self) -> bool:
+        """Whether the source knows the true pose (the simulated suit)."""
+        return self._truth_pose is not None
+
+    def truth_joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """The simulator's true angles of ``joint`` over the last ``window_s`` seconds (as
+        :meth:`joint_series`; empty for a source without truth). For evaluation only."""
+        buffer = self._truth_angles[joint]
+        if not len(buffer):
+            return np.zeros(0), np.zeros((0, 3))
+        return buffer.since(buffer.latest()[0] - window_s)
+
+    def truth_errors(self, window_s: float = 5.0) -> dict[str, float]:
+        """RMS error (deg) of each joint-angle column against the simulator's truth over the last
+        ``window_s`` seconds (empty for a source without truth): the on-screen accuracy check."""
+        from mimucap.session.evaluation import angle_errors
+
+        errors: dict[str, float] = {}
+        for joint, columns in self._joint_columns.items():
+            t, estimate = self.joint_series(joint, window_s)
+            t_true, true = self.truth_joint_series(joint, window_s + 1.0)
+            if not len(t) or len(t_true) < 2:
+                continue
+            found = angle_errors(t, dict(zip(columns, estimate.T)), t_true, dict(zip(columns, true.T)))
+            errors.update({column: error.rms_deg for column, error in found.items()})
+        return errors
 
     def _journal_truth(self, truth: SuitTruth) -> None:
         """Hand a new block of the simulator's truth to the recorder, on host time."""
@@ -551,7 +595,10 @@ class LiveSession:
                 tint = "mag_uncalibrated"
             else:
                 tint = "ok"
+            verdict = "" if calibration is None else str(calibration.quality.get("verdict", ""))
+            warning = "" if calibration is None or state is None else field_mismatch(calibration, state.raw)
             rows.append(SensorRow(
+                mag_cal_verdict=verdict, mag_field_warning=warning,
                 sensor_id=sid, segment=self.sensor_segments.get(sid),
                 rate_hz=float("nan") if st is None else st.rate_hz, drops=0 if st is None else st.drops,
                 latency_ms=float("nan") if st is None else 1000.0 * st.latency_p95_s,
@@ -698,6 +745,43 @@ class RecordingToSave:
 def bodycal_heading(calibration: bodycal.BodyCalibration) -> float:
     """Heading (rad, CCW from north) the subject faced in the calibration's N-pose."""
     return heading_rad(np.asarray(calibration.q_world_from_body, dtype=float))
+
+
+#: The local field's magnitude may differ this much (fraction) from the calibration's, its dip
+#: this much (deg), before the sensor panel warns that the calibration may no longer hold.
+FIELD_MAGNITUDE_TOLERANCE = 0.15
+FIELD_DIP_TOLERANCE_DEG = 10.0
+#: Seconds of recent samples the field check looks at.
+FIELD_CHECK_WINDOW_S = 2.0
+
+
+def field_mismatch(calibration: MagCalibration, raw: RingBuffer) -> str:
+    """Why the local field no longer matches ``calibration`` ("" when it does, or cannot be
+    told): the median magnitude of the recent calibrated field (µT) against the calibration's,
+    and, while the sensor is still (specific force ≈ g), the dip against the calibration's."""
+    if not len(raw):
+        return ""
+    _t, rows = raw.since(raw.latest_t() - FIELD_CHECK_WINDOW_S)
+    acc, mag = rows[:, 0], rows[:, 2]
+    finite = np.isfinite(mag).all(axis=1)
+    if np.count_nonzero(finite) < 10:
+        return ""
+    norm = np.linalg.norm(mag[finite], axis=1)
+    magnitude = float(np.median(norm))
+    if abs(magnitude / calibration.field_uT - 1.0) > FIELD_MAGNITUDE_TOLERANCE:
+        return (f"local field {magnitude:.0f} µT, {calibration.field_uT:.0f} µT when calibrated: "
+                "calibrate again here")
+    dip_ref = calibration.quality.get("dip_mean_deg")
+    acc_norm = np.linalg.norm(acc, axis=1)
+    still = finite & np.isfinite(acc_norm) & (np.abs(acc_norm - 9.81) < 0.5)
+    if dip_ref is None or not np.isfinite(dip_ref) or np.count_nonzero(still) < 10:
+        return ""
+    up = acc[still] / acc_norm[still, None]
+    m = mag[still] / np.linalg.norm(mag[still], axis=1)[:, None]
+    dip = float(np.degrees(np.median(-np.arcsin(np.clip(np.sum(up * m, axis=1), -1.0, 1.0)))))
+    if abs(dip - float(dip_ref)) > FIELD_DIP_TOLERANCE_DEG:
+        return f"field dip {dip:.0f}°, {float(dip_ref):.0f}° when calibrated: calibrate again here"
+    return ""
 
 
 def _age_s(created_utc: str) -> float:

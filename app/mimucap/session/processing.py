@@ -23,7 +23,7 @@ from mimucap.core import bodycal, skeleton
 from mimucap.core.fusion import FusionState
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
-    RESULT_LIVE, RESULT_REPROCESSED, PipelineOutput, PipelineSettings, check_result, process_recording,
+    RESULT_REPROCESSED, PipelineOutput, PipelineSettings, check_result, process_recording,
     state_from_dict,
 )
 from mimucap.io.calibration_store import SESSION_KEY, calibration_from_json, calibration_to_json
@@ -132,9 +132,8 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
         unknown = [s for s in body.sensors if s not in model.segment_names]
         if unknown:
             raise ValueError(f"the body calibration has segments the {model.name} model lacks: {', '.join(unknown)}")
-    live = result == RESULT_LIVE
     return process_recording(
         session.sensors, model, result=result, mag_calibrations=mags, body_calibration=body,
         sensor_segments=recorded.sensor_segments, settings=recorded.settings,
-        initial_states=recorded.initial_states if live else None,
-        time_offset_s=recorded.time_offset_s if live else 0.0, shoulder_sequence=shoulder_sequence)
+        initial_states=recorded.initial_states, time_offset_s=recorded.time_offset_s,
+        shoulder_sequence=shoulder_sequence)

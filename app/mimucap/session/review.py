@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core.locomotion import root_positions
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.figure import FigureBuilder, FigureGeometry, heading_rad
@@ -57,7 +58,7 @@ class ReviewData:
     height_m: float
     t_s: np.ndarray                                  #: (T,) pose times, s
     q_world_from_segment: dict[str, np.ndarray]      #: segment → (T, 4)
-    root_position_m: np.ndarray | None               #: (T, 3) world, or None (model default)
+    root_position_m: np.ndarray | None               #: (T, 3) world, from the feet's contact (core.locomotion)
     angles_deg: dict[str, np.ndarray]                #: column → (T,)
     pose_source: str
     heading_ref_rad: float | None
@@ -104,7 +105,9 @@ def build_review(path: str | Path, session: Session, progress: Callable[[float],
     if recorded.body_calibration is not None:
         heading_ref = heading_rad(np.asarray(recorded.body_calibration.q_world_from_body, dtype=float))
     report(1.0)
-    return ReviewData(Path(path), session, model, height, output.t_s, output.q_world_from_segment, None,
+    q_stacked = np.stack([output.q_world_from_segment[name] for name in model.segment_names])
+    root = root_positions(model, height, q_stacked)
+    return ReviewData(Path(path), session, model, height, output.t_s, output.q_world_from_segment, root,
                       output.angles_deg, output.pose_source, heading_ref, output.q_world_from_sensor,
                       result=output.result, body_calibration=recorded.body_calibration,
                       missing=list(recorded.missing) + list(output.problems))

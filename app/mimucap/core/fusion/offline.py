@@ -23,6 +23,7 @@ from numba import njit
 
 from mimucap.core.fusion.ekf import FusionResult, OrientationEKF, shaped_inputs
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
+from mimucap.core.fusion.state import FusionState
 from mimucap.core.fusion.jit import JIT_OPTIONS
 from mimucap.core.fusion.propagation import exp_quat, quat_multiply, quat_normalise
 
@@ -117,12 +118,14 @@ def rts_smooth(q_post, b_post, q_prior, b_prior, p_prior, p_post, a_blk, out_q, 
 
 def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
                  params: FusionParams = DEFAULT_FUSION_PARAMS, algorithm: str = "ekf-taylor3",
-                 use_mag: bool = True) -> FusionResult:
+                 use_mag: bool = True, state: FusionState | None = None) -> FusionResult:
     """Smoothed orientation of a whole recording (same inputs and outputs as :func:`ekf.fuse`).
 
     Sensors are smoothed one after the other, so the forward-pass storage (about 0.7 kB per
     sample) is held for one sensor at a time. The flags and counters are those of the forward
-    pass.
+    pass. ``state`` (one sensor's) is the prior at the first sample, e.g. what a filter that ran
+    before the recording had learnt (gyro bias, heading, their covariance); a fresh filter
+    starts when it is None.
     """
     single, t, gyr3, acc3, mag3 = shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT)
     n_sensors, n = gyr3.shape[0], gyr3.shape[1]
@@ -133,7 +136,9 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
     for s in range(n_sensors):
         store = (np.empty((1, n, 4)), np.empty((1, n, 3)), np.empty((1, n, 6, 6)),
                  np.empty((1, n, 6, 6)), np.empty((1, n, 3, 3)))
-        ekf = OrientationEKF(params, algorithm=algorithm, use_mag=use_mag)
+        if state is not None and n_sensors != 1:
+            raise ValueError("a prior state is given for one sensor at a time")
+        ekf = OrientationEKF(params, algorithm=algorithm, use_mag=use_mag, state=state)
         forward = ekf.update_batch(t[s], gyr3[s], None if acc3 is None else acc3[s],
                                    None if mag3 is None else mag3[s], _store=store)
         if n:

@@ -73,21 +73,17 @@ class BodyCalibrationWizard(CalibrationDialog):
                 raise ValueError("the body calibration wizard needs a live session or a feed")
             feed = feed_for_live_session(live_session)
         self.feed = feed
-        simulator = getattr(feed, "simulator", None)
+        live = self.live_session
         if model is None:
-            model = getattr(live_session, "model", None) or (simulator.model if simulator is not None else None)
+            model = getattr(live, "model", None)
         if model is None:
             raise ValueError("the body calibration wizard needs the skeleton model")
         self.model = model
-        if mapping is None and live_session is not None:
-            mapping = {segment: sid for sid, segment in getattr(live_session, "sensor_segments", {}).items()
-                       if segment}
-        if mapping is None and simulator is not None:
-            mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
+        if mapping is None and live is not None:
+            mapping = {segment: sid for sid, segment in getattr(live, "sensor_segments", {}).items() if segment}
         self.initial_mapping = dict(mapping or {})
         if height_m is None:
-            height_m = float(getattr(live_session, "height_m", 0.0) or
-                             (simulator.config.height_m if simulator is not None else 1.75))
+            height_m = float(getattr(live, "height_m", 0.0) or 1.75)
         self.settings = settings
         self.procedure: BodycalProcedure | None = None
         self.accepted_calibration = None
@@ -114,7 +110,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         cls, simulator: SuitSimulator, parent: QtWidgets.QWidget | None = None, step_s: float = 0.1,
         feed: SimulatedSuitFeed | None = None, **kwargs,
     ) -> BodyCalibrationWizard:
-        """A wizard on a simulated suit (its true mapping prefilled), ``step_s`` simulated
+        """A wizard on a simulated suit (its sensors' labels prefill the mapping), ``step_s`` simulated
         seconds per tick; pass ``feed`` to reuse one (e.g. with magnetometer calibrations)."""
         feed = feed if feed is not None else SimulatedSuitFeed(simulator, step_s=step_s)
         return cls(parent, None, feed=feed, model=simulator.model, **kwargs)

@@ -1,0 +1,129 @@
+"""A MimuCap session on the command line: its samples through the one processing path.
+
+``bodycal`` and ``angles`` read a session's raw samples and run them through
+:func:`mimucap.session.processing.process_session` (magnetometer calibration, orientation
+filter, body calibration, joint angles), exactly as review and export do. The magnetometer
+calibrations applied are, for each sensor, the first found of: a ``--mag-calibration`` file,
+the calibration the session recorded, the user's calibration store (where ``mimucap magcal fit
+--save`` and the wizard keep them). The N-pose and T-pose windows come from the session's
+markers when none are given.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+from pathlib import Path
+
+#: Markers that start the calibration poses (case and punctuation ignored).
+_NPOSE = re.compile(r"\bn[\s_-]?pose\b", re.IGNORECASE)
+_TPOSE = re.compile(r"\bt[\s_-]?pose\b", re.IGNORECASE)
+#: Seconds after a pose's marker before the pose can be held (the subject gets into it).
+POSE_SETTLE_S = 1.0
+#: Seconds before the next marker that still belong to the pose, and the longest window (s).
+POSE_MARGIN_S = 0.3
+POSE_LONGEST_S = 1.5
+
+
+def add_session_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--mag-calibration", action="append", metavar="FILE", default=None,
+                        help="magnetometer calibration JSON to apply (repeatable; default: the session's, "
+                             "then the user's stored ones)")
+
+
+def is_session(path) -> bool:
+    from mimucap.io.quaternion_tables import MIMUCAP_SESSION, orientation_input_kind
+
+    return orientation_input_kind(path) == MIMUCAP_SESSION
+
+
+def magnetometer_calibrations(session, files) -> tuple[dict, list[str]]:
+    """Sensor → the calibration to apply (see the module docstring) and one line per sensor
+    saying where its calibration came from."""
+    from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore, calibration_from_json
+    from mimucap.session.processing import recorded_processing
+
+    chosen: dict = {}
+    origin: dict[str, str] = {}
+    for name in files or []:
+        path = Path(name)
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as error:
+            raise ValueError(f"--mag-calibration {path}: cannot read it ({error})") from None
+        calibration = calibration_from_json(data, str(path))
+        if calibration.sensor_id not in session.sensors:
+            raise ValueError(f"--mag-calibration {path}: sensor {calibration.sensor_id} is not in the session "
+                             f"(it has {', '.join(session.sensors)})")
+        chosen[calibration.sensor_id] = calibration
+        origin[calibration.sensor_id] = str(path)
+    recorded = recorded_processing(session).mag_calibrations
+    store = CalibrationStore()
+    stored = set(store.sensor_ids())
+    for sensor_id, stream in session.sensors.items():
+        if sensor_id in chosen or stream.mag_uT is None:
+            continue
+        if sensor_id in recorded:
+            chosen[sensor_id], origin[sensor_id] = recorded[sensor_id], "recorded with the session"
+        elif sensor_id in stored:
+            try:
+                chosen[sensor_id], origin[sensor_id] = store.load(sensor_id), f"stored ({store.path_for(sensor_id)})"
+            except CalibrationFileError as error:
+                raise ValueError(str(error)) from None
+    lines = [f"magnetometer {sid}: {origin.get(sid, 'not calibrated (raw field used)')}"
+             for sid, stream in session.sensors.items() if stream.mag_uT is not None]
+    return chosen, lines
+
+
+def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float], tuple[float, float]]:
+    """The N-pose and T-pose windows (s) from the session's markers: the end of each pose, up to
+    the next marker minus :data:`POSE_MARGIN_S`, at most :data:`POSE_LONGEST_S` long and not
+    before the pose's marker plus :data:`POSE_SETTLE_S` (the subject is in the pose and still).
+    ``ValueError`` when the markers do not name both poses."""
+    ordered = sorted(markers, key=lambda m: m.t_s)
+
+    def window(pattern, name):
+        for index, marker in enumerate(ordered):
+            if pattern.search(marker.label):
+                following = ordered[index + 1].t_s if index + 1 < len(ordered) else end_s
+                stop = following - POSE_MARGIN_S
+                start = max(marker.t_s + POSE_SETTLE_S, stop - POSE_LONGEST_S)
+                if stop <= start:
+                    raise ValueError(f"the {name} marker '{marker.label}' at {marker.t_s:.2f} s leaves no time "
+                                     f"to hold the pose before the next marker")
+                return start, stop
+        labels = ", ".join(f"'{m.label}'" for m in ordered) or "none"
+        raise ValueError(f"no {name} marker in the session (markers: {labels}); give --npose and --tpose")
+
+    npose = window(_NPOSE, "N-pose")
+    tpose = window(_TPOSE, "T-pose")
+    if tpose[0] <= npose[1]:
+        raise ValueError("the session's T-pose marker does not follow its N-pose marker; give --npose and --tpose")
+    return npose, tpose
+
+
+def orientation_table(session, source: str, mag_calibrations: dict):
+    """Every sensor's orientation (reprocessed) on the reference sensor's instants where every
+    sensor has one, as a :class:`~mimucap.io.quaternion_tables.QuaternionTable` (world ENU)."""
+    import numpy as np
+
+    from mimucap.core.pipeline import RESULT_REPROCESSED, finite_track, orientation_at
+    from mimucap.io.quaternion_tables import QuaternionTable
+    from mimucap.session.processing import process_session
+
+    output = process_session(session, result=RESULT_REPROCESSED, mag_calibrations=mag_calibrations)
+    for problem in output.problems:
+        print(f"  {problem}")
+    tracks = {sid: finite_track(session.sensors[sid].t_s, q) for sid, q in output.q_world_from_sensor.items()}
+    tracks = {sid: track for sid, track in tracks.items() if len(track[0])}
+    if not tracks:
+        raise ValueError(f"{source}: no sensor gives an orientation")
+    reference = max(tracks, key=lambda sid: len(tracks[sid][0]))
+    start = max(t[0] for t, _q in tracks.values())
+    stop = min(t[-1] for t, _q in tracks.values())
+    t_ref = tracks[reference][0]
+    t_common = t_ref[(t_ref >= start) & (t_ref <= stop)]
+    quats = {sid: orientation_at(t_common, t, q) for sid, (t, q) in tracks.items()}
+    hints = {sid: s.segment for sid, s in session.sensors.items() if s.segment}
+    return QuaternionTable(t_common, quats, np.array([0.0, 0.0, 1.0]), "ENU", source, hints)

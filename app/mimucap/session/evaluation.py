@@ -1,0 +1,53 @@
+"""Accuracy of the estimated joint angles against a simulation's ground truth (no Qt).
+
+The simulated suit knows every true joint angle; the estimate comes from its sensors only. This
+module compares the two, for the on-screen accuracy check (live and in review), the tests and
+the end-to-end benchmark. Truth is never an input of the estimate: it enters here, and only here.
+
+Angles in degrees; times in seconds on one clock (the truth's samples are interpolated onto the
+estimate's instants).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class AngleError:
+    """One joint-angle column's error over a span: ``rms_deg``, ``max_abs_deg``, ``mean_deg``
+    (bias, estimate − truth) and ``samples`` compared."""
+
+    column: str
+    rms_deg: float
+    max_abs_deg: float
+    mean_deg: float
+    samples: int
+
+
+def truth_at(t_s: np.ndarray, truth_t_s: np.ndarray, truth_deg: np.ndarray) -> np.ndarray:
+    """The true angle (deg) at the instants ``t_s`` (linear interpolation; NaN outside the truth)."""
+    return np.interp(t_s, truth_t_s, truth_deg, left=np.nan, right=np.nan)
+
+
+def angle_errors(t_s: np.ndarray, angles_deg: Mapping[str, np.ndarray], truth_t_s: np.ndarray,
+                 truth_deg: Mapping[str, np.ndarray], span_s: tuple[float, float] | None = None) -> dict[str, AngleError]:
+    """Error of every column the estimate and the truth both have, over ``span_s`` (the whole
+    overlap when None). Columns without a sample in the span are left out."""
+    t_s = np.asarray(t_s, dtype=np.float64)
+    keep = np.ones(t_s.shape, dtype=bool) if span_s is None else (t_s >= span_s[0]) & (t_s <= span_s[1])
+    errors = {}
+    for column, values in angles_deg.items():
+        if column not in truth_deg:
+            continue
+        reference = truth_at(t_s[keep], np.asarray(truth_t_s), np.asarray(truth_deg[column]))
+        diff = np.asarray(values)[keep] - reference
+        diff = diff[np.isfinite(diff)]
+        if not diff.size:
+            continue
+        errors[column] = AngleError(column, float(np.sqrt(np.mean(diff ** 2))), float(np.max(np.abs(diff))),
+                                    float(np.mean(diff)), int(diff.size))
+    return errors
