@@ -50,7 +50,7 @@ def test_more_tables_are_added_as_builders_and_subjects_must_match():
 
 def test_two_recordings_of_the_simulated_suit_compare_as_the_simulator_moved():
     """Recorded through the live pipeline (error-free sensors, their mounting as the body
-    calibration), processed by ``load_review`` as seen live, compared: each range of motion
+    calibration), processed by ``load_review`` (reprocessed), compared: each range of motion
     within 6° of the simulator's (a range rests on two extreme samples, each with the filter's
     2-3° error)."""
     import tempfile
@@ -92,7 +92,7 @@ def test_two_recordings_of_the_simulated_suit_compare_as_the_simulator_moved():
                 live.add_marker("stride end")
                 run(2.0)
                 path = live.stop_recording().session_path
-                review = load_review(path, result="live")
+                review = load_review(path)
                 sides.append((ComparedSession(SessionEntry(path.name, "P001"), review.t_s, review.angles_deg,
                                               review.markers), read_session(path).truth))
     finally:
