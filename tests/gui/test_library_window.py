@@ -269,3 +269,11 @@ def test_the_library_folder_is_chosen_once_and_remembered(window, qtbot, tmp_pat
     assert remembered_library_folder() == chosen and window.recording_folder() == chosen
     library_window.wait_for_scan()
     assert list(library_window.subjects) == ["P007"] and str(chosen) in library_window.windowTitle()
+    # A library folder out of reach is said in the window (never replaced by another folder).
+    blocked = tmp_path / "a_file"
+    blocked.write_text("x")
+    monkeypatch.setenv(LIBRARY_ENV, str(blocked / "library"))
+    window.action_library.trigger()
+    assert window.library_window is library_window
+    assert library_window.library is None and library_window.banner.isVisible()
+    assert "cannot use" in library_window.banner.text() and library_window.visible_paths() == []

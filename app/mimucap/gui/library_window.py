@@ -251,6 +251,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
     # -- the folder ------------------------------------------------------------------------
     def set_folder(self, folder: Path) -> None:
         """Show the library in ``folder`` (its index made when new; a refused index in the banner)."""
+        self.folder = Path(folder)
         self.setWindowTitle(f"MimuCap Library: {folder}")
         self.folder_label.setText(str(folder))
         try:

@@ -466,13 +466,19 @@ class MainWindow(QtWidgets.QMainWindow):
             self.live.assign_sensor(sensor_id, segment)
         self.refresh_panels()
 
-    def recording_folder(self) -> Path:
-        """Where recordings go: the library folder (created when needed; ``OSError`` if it cannot
-        be, e.g. a network drive that went away). Not chosen yet: the documents folder's
-        "MimuCap Library" (or the recording folder chosen before the library existed)."""
+    @staticmethod
+    def library_folder() -> Path:
+        """The library folder as configured (:mod:`mimucap.io.library_settings`); not chosen
+        yet: the documents folder's "MimuCap Library" (or the recording folder chosen before the
+        library existed). Not created here."""
         documents = QtCore.QStandardPaths.writableLocation(QtCore.QStandardPaths.DocumentsLocation)
         default = Path(documents) / "MimuCap Library" if documents else user_data_dir() / "library"
-        folder = configured_library_folder(gui_settings().value("recording/folder", str(default)))
+        return configured_library_folder(gui_settings().value("recording/folder", str(default)))
+
+    def recording_folder(self) -> Path:
+        """Where recordings go: the library folder (created when needed; ``OSError`` if it cannot
+        be, e.g. a network drive that went away)."""
+        folder = self.library_folder()
         folder.mkdir(parents=True, exist_ok=True)
         return folder
 
@@ -652,13 +658,16 @@ class MainWindow(QtWidgets.QMainWindow):
         """Show the library window (one, kept while this window lives)."""
         from mimucap.gui.library_window import LibraryWindow
 
+        folder = self.library_folder()  # as configured, even out of reach: the window then says so
         if self.library_window is None:
-            self.library_window = LibraryWindow(self._folder_to_browse(), open_review=self.open_review,
-                                                new_session=self.new_session_for)
+            self.library_window = LibraryWindow(folder, open_review=self.open_review, new_session=self.new_session_for)
+        elif self.library_window.folder != folder:
+            self.library_window.set_folder(folder)
+        else:
+            self.library_window.refresh()
         self.library_window.show()
         self.library_window.raise_()
         self.library_window.activateWindow()
-        self.library_window.refresh()
         return self.library_window
 
     def new_session_for(self, subject_id: str, height_m: float | None, dominance: str, notes: str) -> None:
