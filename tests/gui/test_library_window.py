@@ -7,7 +7,7 @@ import time
 
 import numpy as np
 import pytest
-from PyQt5 import QtCore
+from PyQt5 import QtCore, QtWidgets
 
 from mimucap.gui.library_window import LibraryWindow
 from mimucap.gui.main_window import MainWindow
@@ -183,7 +183,7 @@ def prepared(tmp_path):
     return root
 
 
-def test_the_window_changes_files_and_shows_damaged_ones(prepared, qtbot):
+def test_the_window_changes_files_and_shows_damaged_ones(prepared, qtbot, monkeypatch):
     reviewed, started = [], []
     window = LibraryWindow(prepared, open_review=reviewed.append, new_session=lambda *a: started.append(a))
     qtbot.addWidget(window)
@@ -221,12 +221,19 @@ def test_the_window_changes_files_and_shows_damaged_ones(prepared, qtbot):
                                                                  "tags": ["knee", "fast"], "trial": "tug"}
     assert window.tag_filter.findData("fast") > 0 and window.condition_filter.findData("6 weeks post-op") > 0
     window.select_paths({renamed.path})
-    window.open_selected()
+    QtWidgets.QApplication.setActiveWindow(window)
+    window.table.setFocus()
+    qtbot.keyClick(window.table, QtCore.Qt.Key_Return)
     assert reviewed == [prepared / renamed.path]
     window.select_paths({damaged.path, "P002_2026-04-13_trial01.h5"})
+    asked = []
+    monkeypatch.setattr(QtWidgets.QMessageBox, "question",
+                        lambda *a, **k: asked.append(a[2]) or QtWidgets.QMessageBox.Yes)
     with qtbot.waitSignal(window.refreshed, timeout=10000):
-        moved = window.move_to_trash(confirm=False)
-    assert all(p.exists() and p.parent == prepared / "trash" for p in moved) and len(moved) == 2
+        qtbot.keyClick(window.table, QtCore.Qt.Key_Delete)
+    assert asked and "Move 2 session file(s)" in asked[0]
+    moved = [prepared / "trash" / p for p in (damaged.path, "P002_2026-04-13_trial01.h5")]
+    assert all(p.exists() for p in moved) and not (prepared / damaged.path).exists()
     assert sorted(window.subjects) == ["P001"] and len(window.visible_paths()) == 2
     # A damaged index is said in the banner and made again from the files.
     listed = window.visible_paths()

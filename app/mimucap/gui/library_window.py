@@ -203,6 +203,10 @@ class LibraryWindow(QtWidgets.QMainWindow):
         self.table.verticalHeader().hide()
         self.table.horizontalHeader().setStretchLastSection(True)
         self.table.doubleClicked.connect(lambda *_: self.open_selected())
+        QtWidgets.QShortcut(QtGui.QKeySequence(QtCore.Qt.Key_Return), self.table, activated=self.open_selected,
+                            context=QtCore.Qt.WidgetShortcut)
+        QtWidgets.QShortcut(QtGui.QKeySequence.Delete, self.table, activated=lambda: self.move_to_trash(),
+                            context=QtCore.Qt.WidgetShortcut)
         self.table.selectionModel().selectionChanged.connect(lambda *_: self._update_actions())
 
         self.buttons: dict[str, QtWidgets.QPushButton] = {}
@@ -215,6 +219,8 @@ class LibraryWindow(QtWidgets.QMainWindow):
                                 ("trash", "Move to Trash", lambda: self.move_to_trash())):
             button = QtWidgets.QPushButton(text, self)
             button.setObjectName(f"{key}Button")
+            button.setToolTip({"open": "Enter or double-click", "trash": "Delete key; the files go to the library's "
+                               "trash folder and stay there"}.get(key, ""))
             button.clicked.connect(slot)
             actions.addWidget(button)
             self.buttons[key] = button
