@@ -257,3 +257,27 @@ def test_two_processes_write_one_library_without_losing_anything(library):
     assert sorted(results) == sorted(f"{n}/{i}" for n in "ab" for i in range(60))
     assert all(results[f"{n}/{i}"] == i for n in "ab" for i in range(60))
     assert library.index_rows() == before
+
+
+def test_a_metadata_change_that_fails_leaves_the_file_as_it_was(library, monkeypatch):
+    import h5py
+
+    from mimucap.io import session as session_io
+
+    path = library.file("P001_2026-03-01_trial01.h5")
+    before = path.read_bytes()
+    with pytest.raises(ValueError, match="JSON"):
+        session_io.update_metadata(path, {"library": {"condition": float("nan")}})
+
+    real_file = h5py.File
+
+    def failing_file(name, mode="r", *args, **kwargs):
+        if mode == "r+":  # the copy being changed
+            raise OSError("disk full")
+        return real_file(name, mode, *args, **kwargs)
+
+    monkeypatch.setattr(h5py, "File", failing_file)
+    with pytest.raises(OSError, match="disk full"):
+        library.set_condition(path, "after")
+    assert path.read_bytes() == before and not list(library.root.glob(".*.part"))
+    assert library.session(path).condition == "pre-op"
