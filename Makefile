@@ -21,8 +21,11 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 
+# After installing, the fusion kernels are compiled into numba's on-disk cache (next to their
+# sources), where the application loads them at its first start instead of compiling them.
 $(STAMP): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e .
+	$(PY) -m mimucap.core.fusion.warmup
 	touch $@
 
 $(TEST_STAMP): pyproject.toml $(STAMP)

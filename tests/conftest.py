@@ -29,3 +29,32 @@ def _isolated_user_dirs(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("MIMUCAP_DATA_DIR", str(base / "data"))
     monkeypatch.setenv("XDG_CONFIG_HOME", str(base / "config"))
     monkeypatch.setenv("XDG_DATA_HOME", str(base / "share"))
+
+
+def record_calibrated_session(path: Path, scenario: str = "walk", seconds: float = 8.0, seed: int = 3,
+                              n_sensors: int = 10, markers: tuple = ()) -> Path:
+    """A session recorded as a clinician records one, on the simulated suit with its default
+    sensor errors: magnetometer turns, N/T-pose body calibration (both stored in the session),
+    then ``seconds`` of ``scenario``. Its truth is kept for evaluation only."""
+    from mimucap.core.simulate import SimulationConfig
+    from mimucap.io.calibration_store import CalibrationStore
+    from mimucap.session.feeds import SimulatorFeed
+    from mimucap.session.guided_session import SteppedClock, run_guided_session
+    from mimucap.session.live import LiveSession
+
+    clock = SteppedClock(10.0)
+    config = SimulationConfig(scenario=scenario, seed=seed, n_sensors=n_sensors)
+    live = LiveSession(SimulatorFeed(config, clock=clock), scenario, model_name=config.model_name,
+                       height_m=config.height_m, clock=clock)
+    live.start()
+    run_guided_session(live, clock, path, seconds, CalibrationStore(path.parent / f"{path.stem}-store"),
+                       markers=markers)
+    return path
+
+
+@pytest.fixture(scope="session")
+def calibrated_walk(tmp_path_factory) -> Path:
+    """A calibrated recording of eight seconds of walking (see :func:`record_calibrated_session`),
+    with markers at 2 s and 6 s; shared by the tests that read it (do not modify it)."""
+    folder = tmp_path_factory.mktemp("calibrated")
+    return record_calibrated_session(folder / "walk.h5", markers=((2.0, "start"), (6.0, "end")))

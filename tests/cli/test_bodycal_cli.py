@@ -212,7 +212,7 @@ def test_angles_errors(suit, suit_csv, tmp_path, capsys):
     other = tmp_path / "other.csv"
     write_quaternion_csv(other, QuaternionTable(np.arange(3) * 0.01, {"zz": rot.identity((3,))}, source="x"))
     err = run_error(["angles", str(other), "--calibration", str(cal), "--out", str(tmp_path / "a.csv")], capsys)
-    assert "sensor imu0 (segment pelvis) is missing from the data" in err
+    assert "calibrated sensor(s) imu0, imu4 missing from the data" in err
     lone = tmp_path / "lone.json"
     document = json.loads(cal.read_text())
     document["segments"] = {"pelvis": document["segments"]["pelvis"]}
@@ -229,7 +229,7 @@ def test_simulated_session_from_mimucap_simulate(tmp_path, capsys):
 
     session_path = tmp_path / "demo.h5"
     assert main(["simulate", "--scenario", "demo", "--duration", "14", "--sensors", "10", "--seed", "5",
-                 "--errors", "ideal", "--onboard", "--out", str(session_path)]) == 0
+                 "--errors", "ideal", "--onboard", "--no-magcal-turns", "--out", str(session_path)]) == 0
     cal = tmp_path / "CAL.json"
     assert main(["bodycal", str(session_path), "--npose", "1:2.9", "--tpose", "5:5.9", "--out", str(cal)]) == 0
     out = tmp_path / "angles.csv"
@@ -355,3 +355,33 @@ def test_a_bad_out_path_is_refused_before_the_computation(suit, suit_csv, tmp_pa
     cal.write_text(json.dumps(valid))
     err = run_error(["angles", str(suit_csv), "--calibration", str(cal), "--out", str(blocker / "a.csv")], capsys)
     assert f"cannot write {blocker / 'a.csv'}: {blocker} is a file, not a folder" in err
+
+
+def test_session_streams_are_put_on_one_time_axis_through_the_processing_path(tmp_path):
+    """The commands' view of a session: every sensor's orientation (on-board, or fused by the
+    pipeline) at the instants of the best-sampled sensor where all have one."""
+    from mimucap.cli.session_input import orientation_table
+    from mimucap.io.session import SensorStream, Session
+
+    t_a = np.arange(0.0, 2.0, 0.01)
+    t_b = np.arange(0.003, 2.0, 0.02)
+    turn_a = rot.from_axis_angle([0, 0, 1.0], 0.5 * t_a)   # 0.5 rad/s about up
+    turn_b = rot.from_axis_angle([1.0, 0, 0], -0.3 * t_b)
+    q_true = rot.from_axis_angle([1.0, 0, 0], np.radians(30.0))  # F rests tilted 30° about x
+    acc = np.broadcast_to(rot.rotate(rot.conjugate(q_true), [0, 0, 9.81]), (t_a.size, 3)).copy()
+    session = Session(sensors={
+        "A": SensorStream("A", t_a, np.arange(t_a.size), q_world_from_sensor=turn_a, segment="pelvis"),
+        "B": SensorStream("B", t_b, np.arange(t_b.size), q_world_from_sensor=turn_b, segment="thorax"),
+        "F": SensorStream("F", t_a, np.arange(t_a.size), acc=acc, gyr=np.zeros((t_a.size, 3))),
+        "M": SensorStream("M", t_a, np.arange(t_a.size), mag_uT=np.ones((t_a.size, 3))),
+    })
+    table = orientation_table(session, "s.h5", {})
+    assert table.t_s[0] >= 0.003 and table.t_s[-1] <= t_b[-1]
+    assert set(table.q_world_from_sensor) == {"A", "B", "F"}   # M has nothing to give an orientation
+    assert table.segment_hints == {"A": "pelvis", "B": "thorax"}
+    expected_b = rot.from_axis_angle([1.0, 0, 0], -0.3 * table.t_s)
+    assert np.degrees(rot.angle_between(table.q_world_from_sensor["B"], expected_b)).max() < 1e-6
+    expected_a = rot.from_axis_angle([0, 0, 1.0], 0.5 * table.t_s)
+    assert np.degrees(rot.angle_between(table.q_world_from_sensor["A"], expected_a)).max() < 1e-6
+    up_in_sensor = rot.rotate(rot.conjugate(table.q_world_from_sensor["F"][-1]), [0, 0, 1.0])
+    np.testing.assert_allclose(up_in_sensor, rot.rotate(rot.conjugate(q_true), [0, 0, 1.0]), atol=0.01)

@@ -105,12 +105,12 @@ def test_study_folders_without_trials_are_errors(tmp_path: Path, capsys) -> None
 
 
 def test_study_checks_the_plot_path_before_the_study(tmp_path: Path, capsys, monkeypatch) -> None:
-    import mimucap.cli.magcal as magcal_command
+    import mimucap.core.magcal_study as magcal_study
 
     def must_not_run(settings):
         raise AssertionError("the study ran before the plot path was checked")
 
-    monkeypatch.setattr(magcal_command, "simulate_study", must_not_run)
+    monkeypatch.setattr(magcal_study, "simulate_study", must_not_run)
     blocker = tmp_path / "notes.txt"
     blocker.write_text("a file")
     assert main(["magcal", "study", "--trials", "1", "--plot", str(blocker / "x.png")]) == 1
@@ -187,8 +187,10 @@ def test_fit_one_sensor_of_a_session(tmp_path: Path, capsys) -> None:
     result = run_json(capsys, str(path), "--sensor", "S02")
     np.testing.assert_allclose(result["offset_uT"], motions["S02"].mag_b_uT, atol=0.3)
     assert result["verdict"] == "good"
-    assert main(["magcal", "fit", str(path)]) == 1
-    assert "several sensors (S01, S02)" in capsys.readouterr().err
+    assert main(["magcal", "fit", str(path), "--json"]) == 0   # a session: every sensor on its own
+    fits = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [fit.pop("sensor") for fit in fits] == ["S01", "S02"] and set(fits[1]) == JSON_KEYS
+    np.testing.assert_allclose(fits[0]["offset_uT"], motions["S01"].mag_b_uT, atol=0.3)
     assert main(["magcal", "fit", str(path), "--format", "session", "--sensor", "S02"]) == 0
     assert "dip" in capsys.readouterr().out  # the session's accelerometer gives the dip figure
 

@@ -64,9 +64,8 @@ def test_sensor_truth_follows_segment_and_mounting(demo17) -> None:
 
 def test_demo_runs_through_its_activities(demo17) -> None:
     labels = [label for _, label in demo17.markers]
-    assert labels[:9] == ["activity:npose", "activity:tpose(both)", "activity:npose", "activity:walk", "activity:turn",
-                          "activity:walk", "activity:turn", "activity:squat", "activity:arm_raise(both,flexion)"]
-    assert labels[9] == "activity:npose"  # the demo loops
+    assert labels[:9] == ["N-pose", "T-pose", "N-pose", "walk", "turn", "walk", "turn", "squat", "arm raise"]
+    assert labels[9] == "N-pose"  # the demo loops
     t = demo17.truth.t_s
     angles = demo17.truth.joint_angles_deg
     in_tpose = (t > 4.8) & (t < 6.0)
@@ -247,7 +246,7 @@ def test_set_activity_blends_smoothly_into_a_right_t_pose() -> None:
     np.testing.assert_allclose(angles["shoulder_l_adduction_deg"], 0.0, atol=1e-12)
     step = rot.angle_between(joined.truth.q_world_from_sensor["S06"][1:], joined.truth.q_world_from_sensor["S06"][:-1])
     assert np.degrees(step).max() < 2.0  # no jump: at most 200 °/s at 100 Hz
-    assert after.markers == [(1.0, "activity:tpose(right)")]
+    assert after.markers == [(1.0, "T-pose (right arm)")]
     with pytest.raises(ValueError, match="arms must be right, left or both"):
         simulator.set_activity("tpose", arms="up")
     with pytest.raises(ValueError, match="unknown activity 'dance'"):

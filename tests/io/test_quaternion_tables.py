@@ -332,18 +332,25 @@ def test_a_declared_up_axis_that_is_not_an_axis_names_file_and_line(tmp_path):
 
 
 def test_an_up_axis_for_a_z_up_input_is_refused_not_ignored(tmp_path, variants):
+    xsens = variants / "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt"
+    apdm = variants / "apdm_format7.csv"
+    for path in (xsens, apdm):
+        with pytest.raises(ValueError, match=f"{path.name}: up axis -y cannot apply"):
+            qt.read_quaternion_table(path, up_axis="-y")
+        assert qt.read_quaternion_table(path, up_axis="z").up_world.tolist() == [0.0, 0.0, 1.0]
+
+
+def test_a_session_is_refused_its_orientations_come_from_the_processing_path(tmp_path):
+    """A reader never fuses: a session's raw samples go through core.pipeline (the commands
+    read sessions that way, tests/cli)."""
     from mimucap.io.session import SensorStream, Session, write_session
 
     t = np.arange(0.0, 1.0, 0.01)
     session = tmp_path / "s.h5"
     write_session(session, Session(sensors={"A": SensorStream("A", t, np.arange(t.size),
                                                               q_world_from_sensor=rot.identity((t.size,)))}))
-    xsens = variants / "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt"
-    apdm = variants / "apdm_format7.csv"
-    for path in (session, xsens, apdm):
-        with pytest.raises(ValueError, match=f"{path.name}: up axis -y cannot apply"):
-            qt.read_quaternion_table(path, up_axis="-y")
-        assert qt.read_quaternion_table(path, up_axis="z").up_world.tolist() == [0.0, 0.0, 1.0]
+    with pytest.raises(ValueError, match="s.h5: MimuCap sessions hold raw samples.*processing path"):
+        qt.read_quaternion_table(session)
 
 
 @pytest.mark.parametrize("rate", [0.0, -100.0, float("nan"), float("inf")])
@@ -364,50 +371,3 @@ def test_unknown_file_types(tmp_path):
         qt.axis_vector("w")
 
 
-def test_session_streams_are_resampled_onto_one_time_axis(tmp_path):
-    from mimucap.io.session import SensorStream, Session, write_session
-
-    t_a = np.arange(0.0, 2.0, 0.01)
-    t_b = np.arange(0.003, 2.0, 0.02)
-    turn_a = rot.from_axis_angle([0, 0, 1.0], 0.5 * t_a)   # 0.5 rad/s about up
-    turn_b = rot.from_axis_angle([1.0, 0, 0], -0.3 * t_b)
-    session = Session(sensors={
-        "A": SensorStream("A", t_a, np.arange(t_a.size), q_world_from_sensor=turn_a, segment="pelvis"),
-        "B": SensorStream("B", t_b, np.arange(t_b.size), q_world_from_sensor=turn_b, segment="thorax"),
-    })
-    path = tmp_path / "s.h5"
-    write_session(path, session)
-    table = qt.read_quaternion_table(path)
-    assert table.t_s[0] >= 0.003 and table.t_s[-1] <= t_b[-1]
-    assert table.segment_hints == {"A": "pelvis", "B": "thorax"}
-    expected_b = rot.from_axis_angle([1.0, 0, 0], -0.3 * table.t_s)
-    assert np.degrees(rot.angle_between(table.q_world_from_sensor["B"], expected_b)).max() < 1e-6
-    expected_a = rot.from_axis_angle([0, 0, 1.0], 0.5 * table.t_s)
-    assert np.degrees(rot.angle_between(table.q_world_from_sensor["A"], expected_a)).max() < 1e-6
-
-
-def test_session_stream_without_orientation_or_imu_is_named(tmp_path):
-    from mimucap.io.session import SensorStream, Session, write_session
-
-    t = np.arange(0.0, 1.0, 0.01)
-    session = Session(sensors={"M": SensorStream("M", t, np.arange(t.size), mag_uT=np.ones((t.size, 3)))})
-    path = tmp_path / "s.h5"
-    write_session(path, session)
-    with pytest.raises(ValueError, match="sensor M has neither orientations nor acc and gyr"):
-        qt.read_quaternion_table(path)
-
-
-@pytest.mark.slow  # the fusion kernels compile on first use
-def test_session_stream_without_orientation_is_fused(tmp_path):
-    """A resting sensor tilted 30° about x: fusion recovers its inclination."""
-    from mimucap.io.session import SensorStream, Session, write_session
-
-    t = np.arange(0.0, 3.0, 0.01)
-    q_true = rot.from_axis_angle([1.0, 0, 0], np.radians(30.0))
-    acc = np.broadcast_to(rot.rotate(rot.conjugate(q_true), [0, 0, G]), (t.size, 3)).copy()
-    session = Session(sensors={"F": SensorStream("F", t, np.arange(t.size), acc=acc, gyr=np.zeros((t.size, 3)))})
-    path = tmp_path / "s.h5"
-    write_session(path, session)
-    table = qt.read_quaternion_table(path)
-    up_in_sensor = rot.rotate(rot.conjugate(table.q_world_from_sensor["F"][-1]), [0, 0, 1.0])
-    np.testing.assert_allclose(up_in_sensor, rot.rotate(rot.conjugate(q_true), [0, 0, 1.0]), atol=0.01)

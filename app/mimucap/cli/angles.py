@@ -19,10 +19,7 @@ import argparse
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.cli.bodycal import add_reader_options, choose_model, read_input
-from mimucap.core.pipeline import RESULT_LABELS, RESULT_LIVE, RESULT_REPROCESSED, process_recording
-from mimucap.core.skeleton import SHOULDER_SEQUENCES, joint_angle_columns
-from mimucap.io.angles_export import write_angles
-from mimucap.io.body_calibration_file import read_body_calibration
+from mimucap.core.skeleton_models import SHOULDER_SEQUENCES
 
 
 def register(subparsers) -> None:
@@ -53,6 +50,11 @@ class _OrientationStream:
 
 
 def run(args: argparse.Namespace) -> int:
+    from mimucap.core import bodycal
+    from mimucap.core.skeleton import joint_angle_columns, joint_angles_deg
+    from mimucap.io.angles_export import write_angles
+    from mimucap.io.body_calibration_file import read_body_calibration
+
     calibration, document = read_body_calibration(args.calibration)
     if not str(args.out).lower().endswith((".csv", ".mot")):
         raise ValueError(f"{args.out}: joint angles are written as .csv or .mot")
@@ -113,6 +115,7 @@ def _is_session(args: argparse.Namespace) -> bool:
 def _session_output(args: argparse.Namespace, model, calibration, result: str):
     """A session's joint angles through the processing path with ``calibration``."""
     from mimucap.cli.bodycal import check_reader_options
+    from mimucap.core.pipeline import RESULT_LABELS
     from mimucap.cli.session_input import magnetometer_calibrations
     from mimucap.io.session import read_session
     from mimucap.session.processing import process_session

@@ -21,13 +21,14 @@ import sys
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+from mimucap.core.fusion.algorithms import ALGORITHMS
 
-from mimucap.core.fusion.ekf import ALGORITHMS, fuse
-from mimucap.core.fusion.evaluation import orientation_errors
-from mimucap.core.fusion.offline import fuse_offline
-from mimucap.io.broad import BroadTrial, list_broad_trials, read_broad
+if TYPE_CHECKING:
+    import numpy as np
+
+    from mimucap.io.broad import BroadTrial
 
 OUR_ALGORITHMS = ("ekf-taylor3", "ekf-taylor3-offline", "ekf-rk4", "ekf-rk4-offline",
                   "taylor3", "rk4")
@@ -64,6 +65,11 @@ def _vqf_available() -> bool:
 
 def estimate(trial: BroadTrial, algorithm: str) -> np.ndarray:
     """``q_world_from_sensor`` (N, 4) of one algorithm on one trial."""
+    import numpy as np
+
+    from mimucap.core.fusion.ekf import fuse
+    from mimucap.core.fusion.offline import fuse_offline
+
     if algorithm in VQF_ALGORITHMS:
         import vqf
 
@@ -86,6 +92,8 @@ def estimate(trial: BroadTrial, algorithm: str) -> np.ndarray:
 def _trial_errors(trial: BroadTrial, algorithm: str) -> dict:
     """One algorithm's errors (deg) and time (s) on one trial; ``ValueError`` naming the
     algorithm when no sample can be evaluated."""
+    from mimucap.core.fusion.evaluation import orientation_errors
+
     if trial.n_samples == 0:
         raise ValueError("no samples (0 rows)")
     start = time.perf_counter()
@@ -101,6 +109,10 @@ def _trial_errors(trial: BroadTrial, algorithm: str) -> dict:
 
 def evaluate(directory: Path, algorithms: list[str]) -> dict:
     """Per-trial, per-category and mean errors; the structure printed by ``--json``."""
+    import numpy as np
+
+    from mimucap.io.broad import list_broad_trials, read_broad
+
     trials = []
     paths = list_broad_trials(directory)
     first = read_broad(paths[0])

@@ -22,19 +22,12 @@ import json
 import math
 import sys
 
-import numpy as np
-
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.cli.session_input import (
     add_session_options, is_session, magnetometer_calibrations, orientation_table, pose_windows_from_markers,
 )
-from mimucap.core import bodycal
-from mimucap.core.skeleton import MODEL_NAMES
-from mimucap.io.skeleton_model_file import load_model
-from mimucap.io.body_calibration_file import write_body_calibration
-from mimucap.io.quaternion_tables import (
-    XSENS_FILE, XSENS_FOLDER, axis_vector, orientation_input_kind, read_quaternion_table,
-)
+from mimucap.core.skeleton_models import MODEL_NAMES
+from mimucap.io.input_names import XSENS_FILE, XSENS_FOLDER
 
 
 def parse_window(text: str, option: str) -> tuple[float, float]:
@@ -74,6 +67,8 @@ def parse_mapping(items: list[str] | None) -> dict[str, str]:
 
 def choose_model(name: str, segments) -> object:
     """The skeleton model named (or, for ``auto``, the smallest one holding every segment)."""
+    from mimucap.io.skeleton_model_file import load_model
+
     if name != "auto":
         return load_model(name)
     for candidate in MODEL_NAMES:
@@ -108,6 +103,8 @@ OPTION_INPUTS = {
 def check_reader_options(args: argparse.Namespace) -> None:
     """``ValueError`` for a reader option given with an input it does not apply to (e.g.
     ``--trial`` with a MimuCap session), which the reader would otherwise ignore silently."""
+    from mimucap.io.quaternion_tables import orientation_input_kind
+
     given = {"--sensor-names": args.sensor_names, "--trial": args.trial, "--rate": args.rate}
     if all(value is None for value in given.values()):
         return
@@ -124,6 +121,8 @@ EXIT_POOR = 3
 def read_input(args: argparse.Namespace):
     """The orientation table of ``args.input`` with the reader options checked first (a
     session's through the processing path); the session too, or None."""
+    from mimucap.io.quaternion_tables import read_quaternion_table
+
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise ValueError(f"--rate {args.rate:g}: the update rate must be a positive number of Hz")
     check_reader_options(args)
@@ -144,6 +143,10 @@ def read_input(args: argparse.Namespace):
 
 
 def _refuse_up_for_session(args: argparse.Namespace) -> None:
+    import numpy as np
+
+    from mimucap.io.quaternion_tables import axis_vector
+
     if args.up is not None and not np.allclose(axis_vector(args.up), (0.0, 0.0, 1.0)):
         raise ValueError(f"{args.input}: up axis {args.up} cannot apply: MimuCap sessions are z up")
 
@@ -175,6 +178,10 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from mimucap.core import bodycal
+    from mimucap.io.body_calibration_file import write_body_calibration
+    from mimucap.io.quaternion_tables import axis_vector
+
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)
     table, session = read_input(args)

@@ -19,11 +19,10 @@ import argparse
 import math
 import signal
 import threading
+from typing import TYPE_CHECKING
 
-from mimucap.acquisition.emulate_common import EmulatorSettings
-from mimucap.acquisition.emulate_motion import SimulatorMotion
-from mimucap.acquisition.emulate_serial import SerialEmulator
-from mimucap.acquisition.emulate_udp import UdpEmulator
+if TYPE_CHECKING:
+    from mimucap.acquisition.emulate_common import EmulatorSettings
 
 #: How long ``--unplug-after`` keeps the emulated serial device unplugged by default, s.
 DEFAULT_UNPLUG_S = 1.0
@@ -80,6 +79,8 @@ def unplug_times(args: argparse.Namespace) -> tuple[float, float] | None:
 
 
 def _settings(args: argparse.Namespace) -> EmulatorSettings:
+    from mimucap.acquisition.emulate_common import EmulatorSettings
+
     return EmulatorSettings(n_sensors=args.sensors, rate_hz=args.rate, loss=args.loss, jitter_ms=args.jitter,
                             corrupt=args.corrupt,
                             drift_ppm=args.drift, offset_ms=args.offset_ms, duration_s=args.duration,
@@ -87,6 +88,10 @@ def _settings(args: argparse.Namespace) -> EmulatorSettings:
 
 
 def run(args: argparse.Namespace) -> int:
+    from mimucap.acquisition.emulate_motion import SimulatorMotion
+    from mimucap.acquisition.emulate_serial import SerialEmulator
+    from mimucap.acquisition.emulate_udp import UdpEmulator
+
     settings = _settings(args)
     motion = SimulatorMotion(settings.n_sensors, settings.rate_hz, args.scenario, args.seed)
     stop = threading.Event()

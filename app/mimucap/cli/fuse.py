@@ -19,16 +19,15 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-
-import h5py
-import numpy as np
+from typing import TYPE_CHECKING
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
-from mimucap.core.fusion.ekf import ALGORITHMS, FusionResult, fuse
-from mimucap.core.fusion.offline import fuse_offline
-from mimucap.core.fusion.state import FLAG_NAMES
-from mimucap.io.broad import is_broad_file, read_broad
-from mimucap.io.session import read_session
+from mimucap.core.fusion.algorithms import ALGORITHMS
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from mimucap.core.fusion.ekf import FusionResult
 
 OUTPUT_SUFFIXES = (".csv", ".h5", ".hdf5", ".npy")
 
@@ -53,6 +52,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _inputs(path: Path, sensor: str | None, no_mag: bool) -> list[tuple[str | None, np.ndarray, np.ndarray,
                                                           np.ndarray | None, np.ndarray | None]]:
     """``(sensor id or None, t_s, gyr, acc, mag)`` for each stream to fuse."""
+    from mimucap.io.broad import is_broad_file, read_broad
+    from mimucap.io.session import read_session
+
     if not path.is_file():
         raise OSError(f"{path}: no such file")
     if is_broad_file(path):
@@ -89,6 +91,11 @@ def _output_path(out: Path, sensor_id: str | None, several: bool) -> Path:
 
 def write_orientation(path: Path, t_s: np.ndarray, result: FusionResult) -> None:
     """Write ``q_world_from_sensor`` as CSV, HDF5 or .npy (chosen by the suffix of ``path``)."""
+    import h5py
+    import numpy as np
+
+    from mimucap.core.fusion.state import FLAG_NAMES
+
     q = result.q_world_from_sensor
     suffix = path.suffix.lower()
     if suffix == ".csv":
@@ -114,12 +121,18 @@ def _sensor_label(sensor_id: str | None) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from mimucap.core.fusion.ekf import fuse
+
     if args.out.suffix.lower() not in OUTPUT_SUFFIXES:
         raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)  # also when per-sensor names derive from it: a slip
     inputs = _inputs(args.input, args.sensor, args.no_mag)
-    estimator = fuse_offline if args.offline else fuse
+    estimator = fuse
+    if args.offline:
+        from mimucap.core.fusion.offline import fuse_offline as estimator
     several = len(inputs) > 1
     for sensor_id, *_ in inputs:  # every file to write, before any is written
         refuse_to_overwrite_input(_output_path(args.out, sensor_id, several), args.input)

@@ -17,10 +17,12 @@ import argparse
 import csv
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mimucap.cli import check_output_path
-from mimucap.io.library import Library, SessionEntry
-from mimucap.io.library_settings import configured_library_folder
+
+if TYPE_CHECKING:  # the library (numpy, h5py) is loaded when a command runs
+    from mimucap.io.library import Library, SessionEntry
 
 #: Columns of ``export-csv``, one row per session file.
 CSV_COLUMNS = ("subject", "date", "recorded_utc", "condition", "tags", "trial", "file", "duration_s", "sensors",
@@ -49,6 +51,9 @@ def register(subparsers) -> None:
 
 
 def _library(args: argparse.Namespace, scan: bool = True) -> Library:
+    from mimucap.io.library import Library
+    from mimucap.io.library_settings import configured_library_folder
+
     folder = args.library if args.library is not None else configured_library_folder()
     if not Path(folder).expanduser().is_dir():
         raise OSError(f"library folder {folder} does not exist (give --library DIR, or set MIMUCAP_LIBRARY)")

@@ -14,6 +14,14 @@ reason. A fit whose verdict is ``fail`` is printed but never saved (a calibratio
 stored for the sensor is kept) and exits with status :data:`FAIL_EXIT_STATUS`, so that a
 script can tell it from a usable fit.
 
+A single MimuCap session file is fitted per sensor (every sensor with a magnetometer, or only
+``--sensor``): each from its samples in the session's magnetometer-turn windows, which run from
+a marker labelled "magnetometer turns" to the next marker (:mod:`mimucap.core.phases`; all its
+samples when no marker says so). One line per sensor gives its verdict; ``--json`` prints one
+object per sensor and line, with a ``sensor`` key besides the keys above when there are
+several; ``--save`` stores every usable fit. The exit status is 1 if a sensor's fit was
+refused, else :data:`FAIL_EXIT_STATUS` if one failed its checks, else 0.
+
 ``mimucap magcal study [--trials N] [--seed K] [--folder DIR] [--plot OUT.png]`` prints the seed's Tables 1–2
 (centre and radii RMSE against a reference fit, protocol durations). Without ``--folder`` the
 trials are simulated (MPU-9250-like noise, 49.3 µT field). With ``--folder`` the trials are
@@ -33,21 +41,16 @@ import re
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from mimucap.cli import check_output_path
-from mimucap.core.magcal import FitSettings, calibrate
-from mimucap.core.magcal_study import (
-    StudyResult,
-    StudySettings,
-    Trial,
-    evaluate_protocols,
-    format_tables,
-    simulate_study,
-)
-from mimucap.io.calibration_store import CalibrationStore
-from mimucap.io.magdata import FORMATS, MAG_UNITS, MagRecording, read_mag_files, to_microtesla
+from mimucap.io.input_names import FORMATS, MAG_UNITS
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from mimucap.core.magcal_study import StudyResult, Trial
+    from mimucap.io.magdata import MagRecording
 
 #: Exit status of a fit printed but failing its quality checks (1 is a fit refused outright).
 FAIL_EXIT_STATUS = 3
@@ -68,7 +71,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     actions = parser.add_subparsers(dest="magcal_command", metavar="ACTION")
 
     fit = actions.add_parser("fit", help="fit a calibration to the samples of one or more files")
-    fit.add_argument("files", nargs="+", metavar="FILE", help="CSV, Xsens export or session file")
+    fit.add_argument("files", nargs="+", metavar="FILE",
+                     help="CSV, Xsens export or session file (a session alone: every sensor, from its magnetometer turns)")
     _add_input_options(fit)
     fit.add_argument("--field-uT", type=float, default=None, metavar="F", help="known local field magnitude, µT")
     fit.add_argument("--method", choices=("ellipsoid", "quadric"), default="ellipsoid",
@@ -106,6 +110,10 @@ def _add_input_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _samples_uT(recordings: list[MagRecording], args: argparse.Namespace) -> tuple[np.ndarray, np.ndarray | None]:
+    import numpy as np
+
+    from mimucap.io.magdata import to_microtesla
+
     mags, accs = [], []
     for recording in recordings:
         unit = args.unit or recording.unit or "uT"
@@ -137,21 +145,26 @@ def _finite_or_none(value: float) -> float | None:
     return float(value) if math.isfinite(value) else None
 
 
-def run_fit(args: argparse.Namespace) -> int:
-    """Fit, print (text or JSON) and optionally save; returns the exit code."""
-    recordings = read_mag_files(args.files, args.format, args.sensor)
-    sensor_id = _sensor_id(recordings, args.sensor)
+def _fit(recordings: list[MagRecording], sensor_id: str, args: argparse.Namespace, protocol: str):
+    """The :class:`~mimucap.core.magcal.CalibrationResult` of the samples of ``recordings``;
+    a refused fit raises ``ValueError`` naming whose samples they were."""
+    from mimucap.core.magcal import FitSettings, calibrate
+
     mag, acc = _samples_uT(recordings, args)
     created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     try:
-        result = calibrate(
+        return calibrate(
             mag, sensor_id, acc=acc, settings=FitSettings(method=args.method, field_uT=args.field_uT),
-            protocol="file", created_utc=created,
+            protocol=protocol, created_utc=created,
         )
     except ValueError as error:  # e.g. too few samples: say whose samples
-        raise ValueError(f"{_samples_origin(recordings, args.sensor)}: {error}") from None
+        raise ValueError(f"{_samples_origin(recordings, sensor_id)}: {error}") from None
+
+
+def _summary(result) -> dict:
+    """The JSON object of one fit (keys :data:`JSON_KEYS`)."""
     fit, quality = result.fit, result.quality
-    summary = {
+    return {
         "offset_uT": [float(v) for v in fit.offset_uT],
         "soft_iron": [[float(v) for v in row] for row in fit.soft_iron],
         "field_uT": float(fit.field_uT),
@@ -163,16 +176,24 @@ def run_fit(args: argparse.Namespace) -> int:
         "verdict": quality.verdict,
         "reasons": list(quality.reasons),
     }
-    failed = quality.verdict == "fail"
-    saved = CalibrationStore().save(result.calibration) if args.save and not failed else None
-    status = FAIL_EXIT_STATUS if failed else 0
-    if failed and args.save:
-        print(f"mimucap magcal: the fit of sensor {sensor_id} failed its quality checks: not saved "
-              f"(a calibration stored before is kept)", file=sys.stderr)
-    if args.json:
-        print(json.dumps(summary))
-        return status
-    print(f"sensor {sensor_id}: {len(recordings)} file(s), {fit.samples_input} samples, method {fit.method}")
+
+
+def _save(result, args: argparse.Namespace) -> Path | None:
+    """Store a usable fit when ``--save`` asks; a failed one is never stored (said on stderr)."""
+    from mimucap.io.calibration_store import CalibrationStore
+
+    if not args.save:
+        return None
+    if result.quality.verdict == "fail":
+        print(f"mimucap magcal: the fit of sensor {result.calibration.sensor_id} failed its quality checks: "
+              f"not saved (a calibration stored before is kept)", file=sys.stderr)
+        return None
+    return CalibrationStore().save(result.calibration)
+
+
+def _print_detail(result, heading: str, saved: Path | None) -> None:
+    fit, quality = result.fit, result.quality
+    print(heading)
     print(f"offset_uT      {_vector(fit.offset_uT)}")
     for index, row in enumerate(fit.soft_iron):
         print(f"{'soft_iron' if index == 0 else '':<14} {_vector(row, 4)}")
@@ -192,6 +213,113 @@ def run_fit(args: argparse.Namespace) -> int:
         print(f"  - {reason}")
     if saved is not None:
         print(f"saved          {saved}")
+
+
+def run_fit(args: argparse.Namespace) -> int:
+    """Fit, print (text or JSON) and optionally save; returns the exit code."""
+    from mimucap.io.magdata import detect_format, read_mag_files
+
+    if len(args.files) == 1 and Path(args.files[0]).is_file() and (
+            args.format == "session" or (args.format == "auto" and detect_format(args.files[0]) == "session")):
+        return _run_session_fit(args)
+    recordings = read_mag_files(args.files, args.format, args.sensor)
+    sensor_id = _sensor_id(recordings, args.sensor)
+    result = _fit(recordings, sensor_id, args, "file")
+    saved = _save(result, args)
+    status = FAIL_EXIT_STATUS if result.quality.verdict == "fail" else 0
+    if args.json:
+        print(json.dumps(_summary(result)))
+        return status
+    _print_detail(result, f"sensor {sensor_id}: {len(recordings)} file(s), {result.fit.samples_input} samples, "
+                          f"method {result.fit.method}", saved)
+    return status
+
+
+def session_turn_recordings(path: Path, sensor: str | None) -> tuple[dict[str, MagRecording], list[tuple[float, float]]]:
+    """Per sensor with a magnetometer (only ``sensor`` if given), its samples in the session's
+    magnetometer-turn windows (markers "magnetometer turns", :mod:`mimucap.core.phases`), and
+    those windows (s); all its samples, and no window, when no marker marks turns. µT, sensor
+    frame; the accelerometer samples come along for the dip figure."""
+    import numpy as np
+
+    from mimucap.core import phases
+    from mimucap.io.magdata import ImuStream, MagRecording
+    from mimucap.io.session import read_session
+
+    session = read_session(path, include_truth=False)
+    # Just past the last sample, so that a window running to the end of the recording holds it.
+    end_s = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s)), default=0.0) + 1.0
+    windows = phases.phase_windows(session.markers, phases.MAG_TURNS, end_s)
+    if sensor is not None and sensor not in session.sensors:
+        raise ValueError(f"{path}: no sensor {sensor} in this session (sensors: {', '.join(session.sensors) or 'none'})")
+    recordings = {}
+    for sid, stream in session.sensors.items():
+        if sensor is not None and sid != sensor:
+            continue
+        if stream.mag_uT is None:
+            if sensor is not None:
+                raise ValueError(f"{path}: sensor {sid} has no magnetometer samples")
+            continue
+        t = np.asarray(stream.t_s, dtype=np.float64)
+        keep = np.zeros(t.shape, dtype=bool) if windows else np.ones(t.shape, dtype=bool)
+        for start_s, stop_s in windows:
+            keep |= (t >= start_s) & (t < stop_s)
+        pick = (lambda a: None if a is None else np.asarray(a, dtype=np.float64)[keep])  # noqa: E731
+        recordings[sid] = MagRecording(
+            source=f"{path}#{sid}", sensor_id=sid, mag=pick(stream.mag_uT), unit="uT", t_s=t[keep],
+            imu=ImuStream(t_s=t[keep], acc_mps2=pick(stream.acc), gyr_rad_s=pick(stream.gyr)))
+    if not recordings:
+        raise ValueError(f"{path}: no sensor with a magnetometer in this session "
+                         f"(sensors: {', '.join(session.sensors) or 'none'})")
+    return recordings, windows
+
+
+def _run_session_fit(args: argparse.Namespace) -> int:
+    """A session file: every sensor (or ``--sensor``) fitted on its own from the session's
+    magnetometer turns; the exit status is 1 if a fit was refused, else
+    :data:`FAIL_EXIT_STATUS` if one failed its checks, else 0. Usable fits are saved either way."""
+    path = Path(args.files[0])
+    recordings, windows = session_turn_recordings(path, args.sensor)
+    where = (", ".join(f"{a:.1f}-{b:.1f} s" for a, b in windows)
+             if windows else "all samples (no 'magnetometer turns' marker)")
+    protocol = "single_axis" if windows else "file"
+    results, refused = {}, {}
+    for sid, recording in recordings.items():
+        try:
+            results[sid] = _fit([recording], sid, args, protocol)
+        except ValueError as error:
+            refused[sid] = str(error)
+    saved = {sid: _save(result, args) for sid, result in results.items()}
+    for sid, reason in refused.items():
+        print(f"mimucap magcal: {reason}", file=sys.stderr)
+    failed = [sid for sid, result in results.items() if result.quality.verdict == "fail"]
+    status = 1 if refused else FAIL_EXIT_STATUS if failed else 0
+    several = len(recordings) > 1
+    if args.json:
+        for sid, result in results.items():
+            print(json.dumps({"sensor": sid, **_summary(result)} if several else _summary(result)))
+        return status
+    if not several:
+        for sid, result in results.items():
+            _print_detail(result, f"sensor {sid}: {path}, magnetometer turns: {where}, {result.fit.samples_input} "
+                                  f"samples, method {result.fit.method}", saved[sid])
+        return status
+    print(f"{path}: {len(recordings)} sensors, magnetometer turns: {where}, method {args.method}")
+    print(f"{'sensor':8s} {'samples':>7s}  {'offset_uT':26s} {'field_uT':>8s} {'rms_uT':>7s} {'condition':>9s}  "
+          f"{'verdict':8s} saved")
+    folders = {p.parent for p in saved.values() if p is not None}
+    for sid in recordings:
+        if sid in refused:
+            print(f"{sid:8s} {len(recordings[sid].mag):7d}  refused: {refused[sid].split(': ')[-1]}")
+            continue
+        fit, quality = results[sid].fit, results[sid].quality
+        print(f"{sid:8s} {fit.samples_input:7d}  {_vector(fit.offset_uT, 2):26s} {fit.field_uT:8.2f} "
+              f"{quality.rms_residual_uT:7.3f} {quality.condition:9.1f}  {quality.verdict:8s} "
+              f"{'yes' if saved[sid] is not None else '-'}")
+        for reason in quality.reasons:
+            print(f"  - {reason}")
+    for folder in sorted(folders):
+        print(f"saved in {folder}")
     return status
 
 
@@ -200,6 +328,9 @@ def _vector(values, digits: int = 3) -> str:
 
 
 def _folder_trial(paths: list[Path], args: argparse.Namespace) -> Trial:
+    from mimucap.core.magcal_study import Trial
+    from mimucap.io.magdata import read_mag_files
+
     recordings = read_mag_files(paths, args.format, args.sensor)
     mag, _ = _samples_uT(recordings, args)
     durations = [float(r.t_s[-1] - r.t_s[0]) for r in recordings if r.t_s is not None and len(r.t_s) > 1]
@@ -222,13 +353,15 @@ def _trial_paths(folder: Path) -> list[list[Path]]:
 
 def run_study(args: argparse.Namespace) -> int:
     """Run the protocol study (simulated or on a folder) and print the tables."""
+    from mimucap.core import magcal_study
+
     if args.plot is not None:
         check_output_path(args.plot)  # before the study, which takes a while
     if args.folder is None:
-        result = simulate_study(StudySettings(trials=args.trials, seed=args.seed))
+        result = magcal_study.simulate_study(magcal_study.StudySettings(trials=args.trials, seed=args.seed))
     else:
         result = _folder_study(args)
-    print(format_tables(result))
+    print(magcal_study.format_tables(result))
     if args.plot is not None:
         from mimucap.cli.magcal_plot import render_study_png
 
@@ -237,6 +370,8 @@ def run_study(args: argparse.Namespace) -> int:
 
 
 def _folder_study(args: argparse.Namespace) -> StudyResult:
+    from mimucap.core.magcal_study import evaluate_protocols
+
     folder = args.folder
     if not folder.is_dir():
         raise FileNotFoundError(f"{folder}: no such folder")

@@ -22,13 +22,14 @@ import signal
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from mimucap.acquisition.source_spec import (
     VALID_FORMS, ReplaySpec, SerialSpec, SimulatedSpec, SourceSpec, UdpSpec, format_source_spec, parse_source_spec,
 )
-from mimucap.acquisition.supervisor import Supervisor
-from mimucap.session.recording import Recorder, RecorderSettings
-from mimucap.session.sources import SourceOptions, parse_sensor_ids, sensor_segments, source_configs
+
+if TYPE_CHECKING:
+    from mimucap.acquisition.supervisor import Supervisor
 
 
 def register(subparsers) -> None:
@@ -105,6 +106,10 @@ def check_options(args: argparse.Namespace, spec: SourceSpec) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from mimucap.acquisition.supervisor import Supervisor
+    from mimucap.session.recording import Recorder, RecorderSettings
+    from mimucap.session.sources import SourceOptions, parse_sensor_ids, sensor_segments, source_configs
+
     if not args.duration > 0:
         raise ValueError(f"--duration must be > 0 s, got {args.duration}")
     spec = parse_source_spec(args.source)

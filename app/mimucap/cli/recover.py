@@ -9,8 +9,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from mimucap.session.recording import recover
-
 
 def register(subparsers) -> None:
     parser = subparsers.add_parser("recover", help="rebuild a session after a crash",
@@ -20,6 +18,8 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from mimucap.session.recording import recover
+
     result = recover(args.file)
     print(f"recovered {result.session_path}: {sum(result.samples.values())} samples from "
           f"{len(result.samples)} sensors")

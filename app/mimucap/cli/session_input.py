@@ -13,12 +13,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 from pathlib import Path
 
-#: Markers that start the calibration poses (case and punctuation ignored).
-_NPOSE = re.compile(r"\bn[\s_-]?pose\b", re.IGNORECASE)
-_TPOSE = re.compile(r"\bt[\s_-]?pose\b", re.IGNORECASE)
 #: Seconds after a pose's marker before the pose can be held (the subject gets into it).
 POSE_SETTLE_S = 1.0
 #: Seconds before the next marker that still belong to the pose, and the longest window (s).
@@ -77,30 +73,32 @@ def magnetometer_calibrations(session, files) -> tuple[dict, list[str]]:
 
 
 def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float], tuple[float, float]]:
-    """The N-pose and T-pose windows (s) from the session's markers: the end of each pose, up to
-    the next marker minus :data:`POSE_MARGIN_S`, at most :data:`POSE_LONGEST_S` long and not
-    before the pose's marker plus :data:`POSE_SETTLE_S` (the subject is in the pose and still).
-    ``ValueError`` when the markers do not name both poses."""
-    ordered = sorted(markers, key=lambda m: m.t_s)
+    """The N-pose and T-pose windows (s) from the session's phase markers
+    (:mod:`mimucap.core.phases`): the end of each pose, up to the next marker minus
+    :data:`POSE_MARGIN_S`, at most :data:`POSE_LONGEST_S` long and not before the pose's marker
+    plus :data:`POSE_SETTLE_S` (the subject is in the pose and still). The last N-pose before
+    the first T-pose after it is used. ``ValueError`` when the markers do not name both poses."""
+    from mimucap.core import phases
 
-    def window(pattern, name):
-        for index, marker in enumerate(ordered):
-            if pattern.search(marker.label):
-                following = ordered[index + 1].t_s if index + 1 < len(ordered) else end_s
-                stop = following - POSE_MARGIN_S
-                start = max(marker.t_s + POSE_SETTLE_S, stop - POSE_LONGEST_S)
-                if stop <= start:
-                    raise ValueError(f"the {name} marker '{marker.label}' at {marker.t_s:.2f} s leaves no time "
-                                     f"to hold the pose before the next marker")
-                return start, stop
-        labels = ", ".join(f"'{m.label}'" for m in ordered) or "none"
-        raise ValueError(f"no {name} marker in the session (markers: {labels}); give --npose and --tpose")
+    npose_all = phases.phase_windows(markers, phases.NPOSE, end_s)
+    tpose_all = phases.phase_windows(markers, phases.TPOSE, end_s)
+    pairs = [(n, t) for t in tpose_all for n in npose_all if n[1] <= t[0]]
+    if not pairs:
+        labels = ", ".join(f"'{m.label}'" for m in sorted(markers, key=lambda m: m.t_s)) or "none"
+        raise ValueError(f"no '{phases.NPOSE}' marker followed by a '{phases.TPOSE}' marker in the session "
+                         f"(markers: {labels}); give --npose and --tpose")
+    # The first T-pose, and the N-pose just before it.
+    npose, tpose = min(pairs, key=lambda pair: (pair[1][0], -pair[0][0]))
 
-    npose = window(_NPOSE, "N-pose")
-    tpose = window(_TPOSE, "T-pose")
-    if tpose[0] <= npose[1]:
-        raise ValueError("the session's T-pose marker does not follow its N-pose marker; give --npose and --tpose")
-    return npose, tpose
+    def held(window, name):
+        start, stop = window
+        last = stop - POSE_MARGIN_S
+        first = max(start + POSE_SETTLE_S, last - POSE_LONGEST_S)
+        if last <= first:
+            raise ValueError(f"the {name} from {start:.2f} s to {stop:.2f} s is too short to hold the pose")
+        return first, last
+
+    return held(npose, "N-pose"), held(tpose, "T-pose")
 
 
 def orientation_table(session, source: str, mag_calibrations: dict):

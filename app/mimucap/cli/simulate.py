@@ -2,15 +2,21 @@
 
 ``mimucap simulate --scenario NAME --duration S --sensors N --seed K --out FILE.h5
 [--rate HZ] [--drops P] [--no-truth] [--errors PRESET] [--height M] [--onboard]
-[--disturbance BX,BY,BZ,START,END ...]``
+[--disturbance BX,BY,BZ,START,END ...] [--[no-]magcal-turns]``
 
-Scenarios: ``demo`` (N-pose, T-pose, walking, turning, squats, arm raises, looping),
+Scenarios: ``demo`` (magnetometer turns, then N-pose, T-pose, walking, turning, squats, arm
+raises, looping from the N-pose),
 ``bodycal`` (N-pose 3 s, T-pose 3 s, N-pose), or one activity (``npose``, ``tpose``,
 ``walk``, ``turn``, ``arm_raise``, ``squat``, ``mag_single_axis``, ``mag_figure8``,
 ``mag_tumble``). Sensors: 1..17 (10: the ten-segment suit; 17: the fifteen-segment suit
 with second units on thorax and pelvis). ``--disturbance`` adds a magnetic field (world ENU,
 µT) to every sensor from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. The file (format in ``docs/session-format.md``)
-holds the raw streams, the activity markers and, unless ``--no-truth``, the ground truth.
+holds the raw streams, a marker at the start of each phase ("magnetometer turns", "N-pose",
+"T-pose", "walk", ...; :mod:`mimucap.core.phases`) and, unless ``--no-truth``, the ground truth.
+The demo begins with the magnetometer turns: every unit is taken off the body, the units are
+held together and turned once about each of their axes (about 26 s), then worn again, so that
+``mimucap magcal fit FILE.h5`` can calibrate them all from the file; ``--no-magcal-turns``
+leaves them out, ``--magcal-turns`` puts them before any other scenario.
 Prints one summary line. The duration must hold at least one sample (≥ 1/rate s) and at most
 :data:`MAX_SENSOR_SAMPLES` sensor samples (duration × rate × sensors, e.g. 100 minutes of 10
 sensors at 100 Hz): a larger request is refused before any memory is taken.
@@ -23,16 +29,13 @@ import dataclasses
 import math
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from mimucap.cli import check_output_path
-from mimucap.core.simulate import (
-    ERROR_PRESETS,
-    SCENARIOS,
-    MagneticDisturbance,
-    SimulationConfig,
-    error_model,
-    simulate_session,
-)
-from mimucap.io.session import session_from_simulation, write_session
+from mimucap.core.simulate_names import ERROR_PRESET_NAMES, SCENARIOS
+
+if TYPE_CHECKING:
+    from mimucap.core.simulate import MagneticDisturbance
 
 #: Most sensor samples (duration × rate × sensors) one simulation may hold: the simulation, its
 #: truth and the session written from it take about 0.7 kB of memory per sensor sample (measured:
@@ -58,9 +61,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--drops", type=float, default=0.0, metavar="P", help="packet drop probability 0..0.9 (default 0)")
     parser.add_argument("--no-truth", action="store_true", help="leave the ground truth out of the file")
     parser.add_argument("--errors", default="default", metavar="PRESET",
-                        help=f"sensor error model: {', '.join(ERROR_PRESETS)} (default default)")
+                        help=f"sensor error model: {', '.join(ERROR_PRESET_NAMES)} (default default)")
     parser.add_argument("--onboard", action="store_true", help="sensors also send on-board orientation (like a BNO055)")
     parser.add_argument("--height", type=float, default=1.75, metavar="M", help="subject height in metres (default 1.75)")
+    parser.add_argument("--magcal-turns", action=argparse.BooleanOptionalAction, default=None,
+                        help="begin with the magnetometer turns of all units (default: for the demo only)")
     parser.add_argument("--disturbance", action="append", default=[], metavar="BX,BY,BZ,START,END",
                         help="add a field (world ENU, µT) to all sensors from START to END s; repeatable")
     parser.set_defaults(func=run)
@@ -68,6 +73,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def parse_disturbance(text: str) -> MagneticDisturbance:
     """``"BX,BY,BZ,START,END"`` (µT, µT, µT, s, s) → a :class:`MagneticDisturbance` for all sensors."""
+    from mimucap.core.simulate import MagneticDisturbance
+
     parts = text.split(",")
     try:
         values = [float(p) for p in parts]
@@ -94,6 +101,9 @@ def check_size(duration_s: float, rate_hz: float, n_sensors: int) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write the file and print one summary line; bad arguments raise ValueError."""
+    from mimucap.core.simulate import SimulationConfig, error_model, simulate_session
+    from mimucap.io.session import session_from_simulation, write_session
+
     if Path(args.out).suffix.lower() not in (".h5", ".hdf5"):
         raise ValueError(f"{args.out}: a simulated session is an HDF5 file: name it .h5 or .hdf5")
     check_output_path(args.out)
@@ -104,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
         scenario=args.scenario, duration_s=args.duration, n_sensors=args.sensors, rate_hz=args.rate,
         seed=args.seed, errors=errors, drop_probability=args.drops, height_m=args.height,
         disturbances=tuple(parse_disturbance(text) for text in args.disturbance),
+        magcal_turns=(args.scenario == "demo") if args.magcal_turns is None else args.magcal_turns,
     )
     check_size(config.duration_s, config.rate_hz, config.n_sensors)
     result = simulate_session(config)

@@ -429,7 +429,19 @@ def process_recording(streams: Mapping[str, Any], model: skeleton.SkeletonModel,
     at = {sid: orientation_at(t_pose, t, q) for sid, (t, q) in tracks.items()}
     q_segments = segments_from_sensors(model, at, body_calibration, sensor_segments or {}) or {}
     angles = skeleton.joint_angles_deg(model, q_segments, shoulder_sequence) if len(t_pose) else {}
+    measured = {segments[sid] for sid in tracks}
+    angles = measured_joint_angles(model, angles, measured)
     return PipelineOutput(result, t_pose, q_segments, angles, q_sensor, flags, source, reference, problems)
+
+
+def measured_joint_angles(model: skeleton.SkeletonModel, angles_deg: Mapping[str, np.ndarray],
+                          measured_segments) -> dict[str, np.ndarray]:
+    """The joint-angle columns of the joints whose two segments carry a sensor: a segment
+    without one only follows its parent, and its joint's angle would be a constant zero."""
+    measured = set(measured_segments)
+    keep = {joint.name for joint in model.joints if joint.proximal in measured and joint.distal in measured}
+    return {column: values for column, values in angles_deg.items()
+            if any(column.startswith(joint + "_") for joint in keep)}
 
 
 # --------------------------------------------------------------------------------------------

@@ -110,7 +110,9 @@ class SimulationConfig:
     ``drop_probability`` overrides the error model's when not None; ``earth_field``;
     ``disturbances`` local field episodes; ``height_m`` subject height; ``model`` skeleton
     model name (default by ``n_sensors``); ``random_mounting`` False mounts every unit aligned
-    with its segment.
+    with its segment; ``magcal_turns`` True begins the scenario with the magnetometer turns of
+    every unit held together (:func:`mimucap.core.simulate_motion.magcal_turns`), as a session
+    that carries its own calibration does.
     """
 
     scenario: str = "demo"
@@ -126,6 +128,7 @@ class SimulationConfig:
     model: str | None = None
     scenario_params: Mapping[str, Any] = field(default_factory=dict)
     random_mounting: bool = True
+    magcal_turns: bool = False
 
     def __post_init__(self) -> None:
         if self.scenario not in SCENARIOS:
@@ -250,7 +253,8 @@ class SuitTruth:
 @dataclass
 class SuitBlock:
     """One interval of simulation: ``samples`` per sensor id, ``truth``, and ``markers``
-    ``(t_s, label)`` for activities starting in the interval (``activity:<name>``)."""
+    ``(t_s, label)`` for activities starting in the interval (labels of :mod:`mimucap.core.phases`:
+    "magnetometer turns", "N-pose", "T-pose", "walk", ...)."""
 
     samples: dict[str, SensorSamples]
     truth: SuitTruth
@@ -339,7 +343,8 @@ class SuitSimulator:
         self._seed = seed
         self._switches = 0
         self._lengths = skeleton.segment_lengths(self.model, config.height_m)
-        self.schedule = Schedule(self._activities(config.scenario, dict(config.scenario_params)))
+        self.schedule = Schedule(self._activities(config.scenario, dict(config.scenario_params),
+                                                  with_magcal_turns=config.magcal_turns))
         neutral = skeleton.forward_kinematics(
             self.model, {name: skeleton.q_world_from_body_facing(0.0) for name in self.model.segment_names},
             config.height_m,
@@ -353,9 +358,9 @@ class SuitSimulator:
         self._cache_start = self._cache_end = 0
 
     # ---------------------------------------------------------------------------------------
-    def _activities(self, name: str, params: dict):
+    def _activities(self, name: str, params: dict, with_magcal_turns: bool = False):
         activities = scenario_activities(name, params, sensor_ids=self.sensor_ids,
-                                         seed=self._seed + 7919 * self._switches)
+                                         seed=self._seed + 7919 * self._switches, with_magcal_turns=with_magcal_turns)
         legs = (self._lengths["thigh_r"], self._lengths["shank_r"])
         return (a.fit_legs(legs) if isinstance(a, Walk) else a for a in activities)
 
@@ -548,8 +553,7 @@ class SuitSimulator:
             held={sid: state["held"][:n, i] for i, sid in enumerate(self.sensor_ids)},
         )
         t_start, t_end = k0 * self.dt, (k0 + n) * self.dt
-        markers = [(start, f"activity:{label}") for start, label in self.schedule.entries
-                   if t_start <= start < t_end]
+        markers = [(start, label) for start, label in self.schedule.markers if t_start <= start < t_end]
         return SuitBlock(samples=samples, truth=truth, markers=markers)
 
 

@@ -27,8 +27,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mimucap.core import phases
 from mimucap.core import rotation as rot
 from mimucap.core.simulate_calibration import HAND_HEIGHT_M, HAND_PATHS
+from mimucap.core.simulate_names import ACTIVITY_NAMES, SCENARIOS
 from mimucap.core.simulate_sensors import minimum_jerk
 
 #: Seconds over which a new activity is blended in.
@@ -181,6 +183,8 @@ class Activity(ABC):
     """Base of all activities: ``duration_s`` (None: indefinite) and :meth:`pose`."""
 
     name = "activity"
+    #: Label of the marker written where the activity starts (:mod:`mimucap.core.phases`).
+    marker = "activity"
     duration_s: float | None = None
     #: Seconds over which this activity is blended in, and over which the next one replaces it
     #: (the longer of the two applies).
@@ -203,6 +207,10 @@ class Activity(ABC):
     def describe(self) -> str:
         return self.name
 
+    def marker_label(self) -> str:
+        """The label of the marker at this activity's start, as a person would write it."""
+        return self.marker
+
 
 def _check_arms(arms: str) -> tuple[str, ...]:
     options = {"right": ("r",), "left": ("l",), "both": ("l", "r")}
@@ -216,6 +224,7 @@ class NPose(Activity):
     with quiet-standing sway of ``sway_deg`` (0 for a perfectly still subject)."""
 
     name = "npose"
+    marker = phases.NPOSE
 
     def __init__(self, duration_s: float | None = None, sway_deg: float = 0.3) -> None:
         self.duration_s = duration_s
@@ -230,6 +239,7 @@ class TPose(Activity):
     in ``raise_s`` seconds (minimum jerk), then held; ``arms`` right, left or both."""
 
     name = "tpose"
+    marker = phases.TPOSE
 
     def __init__(self, duration_s: float | None = None, arms: str = "both", angle_deg: float = 88.0,
                  raise_s: float = 1.5, sway_deg: float = 0.3) -> None:
@@ -250,6 +260,9 @@ class TPose(Activity):
 
     def describe(self) -> str:
         return f"tpose({self.arms})"
+
+    def marker_label(self) -> str:
+        return self.marker if self.arms == "both" else f"{self.marker} ({self.arms} arm)"
 
 
 #: Leg segment lengths (thigh, shank) in m of the default subject (1.75 m, ten-segment ratios).
@@ -287,6 +300,7 @@ class Walk(Activity):
     """
 
     name = "walk"
+    marker = phases.WALK
     blend_in_s = 1.0  # gait initiation and termination take about one step
     blend_out_s = 1.0
 
@@ -405,6 +419,7 @@ class Turn(Activity):
     times (None: forever)."""
 
     name = "turn"
+    marker = phases.TURN
 
     def __init__(self, duration_s: float | None = None, angle_deg: float = 180.0, turn_s: float = 2.5,
                  pause_s: float = 1.0, turns: int | None = None) -> None:
@@ -456,6 +471,7 @@ class ArmRaise(_Cyclic):
     "abduction" (sideways, below 90°: Z-X'-Y'' is singular at 90°); ``arms`` right/left/both."""
 
     name = "arm_raise"
+    marker = phases.ARM_RAISE
 
     def __init__(self, duration_s: float | None = None, arms: str = "both", plane: str = "flexion",
                  angle_deg: float = 150.0, cycles: int | None = None, move_s: float = 1.5,
@@ -492,6 +508,7 @@ class Squat(_Cyclic):
     (shanks 30° forward), the ankles dorsiflex 30° and the arms reach forward 80°."""
 
     name = "squat"
+    marker = phases.SQUAT
 
     def __init__(self, duration_s: float | None = None, depth: float = 0.8, cycles: int | None = None,
                  move_s: float = 1.4, hold_s: float = 0.3, rest_s: float = 0.4) -> None:
@@ -536,6 +553,8 @@ class HoldSensors(Activity):
         if int(turns) != turns or not 1 <= turns <= 5:
             raise ValueError(f"turns must be an integer from 1 to 5, got {turns}")
         self.name = f"mag_{protocol}"
+        self.marker = {"single_axis": phases.MAG_TURNS, "figure8": phases.MAG_FIGURE8,
+                       "tumble": phases.MAG_TUMBLE}[protocol]
         self.protocol = protocol
         self.sensor_ids = tuple(sensor_ids)
         self.path = HAND_PATHS[protocol](np.random.default_rng([int(seed) & 0xFFFFFFFF, 404]), int(turns))
@@ -563,7 +582,6 @@ class HoldSensors(Activity):
         return f"{self.name}({','.join(self.sensor_ids)})"
 
 
-ACTIVITY_NAMES = ("npose", "tpose", "walk", "turn", "arm_raise", "squat", "mag_single_axis", "mag_figure8", "mag_tumble")
 
 
 def make_activity(name: str, params: dict | None = None, *, sensor_ids: tuple[str, ...] = (), seed: int = 0) -> Activity:
@@ -593,7 +611,6 @@ def demo_cycle() -> list[Activity]:
     ]
 
 
-SCENARIOS = ACTIVITY_NAMES + ("demo", "bodycal")
 
 
 def _demo_loop() -> Iterator[Activity]:
@@ -601,14 +618,45 @@ def _demo_loop() -> Iterator[Activity]:
         yield from demo_cycle()
 
 
+def magcal_turns(sensor_ids: tuple[str, ...] = (), seed: int = 0) -> HoldSensors:
+    """The magnetometer turns of a session's start: every unit (``sensor_ids``; all if empty)
+    taken off the body, held together and turned one full turn about its x, then y, then z axis
+    (the single-axis protocol of Choe, Zhao, Qiu and So, "Study of calibration method of
+    low-cost MEMS magnetometer"), about 26 s; the units are put back by the next activity."""
+    turns = HoldSensors("single_axis", sensor_ids=tuple(sensor_ids), turns=1, seed=seed)
+    turns.duration_s = turns.path.duration_s
+    return turns
+
+
+def _after_magcal_turns(activities: Iterator[Activity], turns: HoldSensors) -> Iterator[Activity]:
+    """``turns``, then ``activities``; a first N-pose of fixed length is lengthened by the time
+    the units take to be put back on the body, so that it still holds its full still time."""
+    yield turns
+    first = next(activities, None)
+    if first is None:
+        return
+    if isinstance(first, NPose) and first.duration_s is not None:
+        first.duration_s += turns.blend_out_s
+    yield first
+    yield from activities
+
+
 def scenario_activities(name: str, params: dict | None = None, *, sensor_ids: tuple[str, ...] = (),
-                        seed: int = 0) -> Iterator[Activity]:
+                        seed: int = 0, with_magcal_turns: bool = False) -> Iterator[Activity]:
     """The activities of a scenario in order (an endless iterator for ``demo``).
 
     ``demo`` loops :func:`demo_cycle`; ``bodycal`` is N-pose 3 s, T-pose 3 s (``params`` go to
     the T-pose), then N-pose; any activity name is that activity alone, preceded by 1 s of
-    N-pose unless it is ``npose``. Parameters are checked here, before anything runs.
+    N-pose unless it is ``npose``. With ``with_magcal_turns`` the scenario begins with
+    :func:`magcal_turns` of ``sensor_ids``. Parameters are checked here, before anything runs.
     """
+    activities = _scenario(name, params, sensor_ids, seed)
+    if with_magcal_turns:
+        return _after_magcal_turns(activities, magcal_turns(sensor_ids, seed))
+    return activities
+
+
+def _scenario(name: str, params: dict | None, sensor_ids: tuple[str, ...], seed: int) -> Iterator[Activity]:
     if name == "demo":
         if params:
             raise ValueError("the demo scenario takes no parameters")
@@ -632,6 +680,7 @@ class _Entry:
     activity: Activity
     state: BaseState
     label: str
+    marker: str
     blend_s: float
     #: Whether this entry's poses may include a hand-held bundle (it or a predecessor holds one).
     carries_bundle: bool
@@ -657,6 +706,11 @@ class Schedule:
         """(start time, label) of every activity placed so far."""
         return [(e.start_s, e.label) for e in self._entries]
 
+    @property
+    def markers(self) -> list[tuple[float, str]]:
+        """(start time, marker label) of every activity placed so far."""
+        return [(e.start_s, e.marker) for e in self._entries]
+
     def _append_next(self) -> bool:
         if self._source is None:
             return False
@@ -677,7 +731,8 @@ class Schedule:
         else:
             state = self._pending_state
         carries = isinstance(activity, HoldSensors) or bool(self._entries and self._entries[-1].carries_bundle)
-        self._entries.append(_Entry(start_s, activity, state, activity.describe(), blend_s, carries))
+        self._entries.append(_Entry(start_s, activity, state, activity.describe(), activity.marker_label(),
+                                    blend_s, carries))
         self._starts.append(start_s)
         if activity.duration_s is not None:
             self._pending_start = start_s + activity.duration_s

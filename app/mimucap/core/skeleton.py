@@ -31,12 +31,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mimucap.core import rotation as rot
-from mimucap.core.skeleton_models import BUILT_IN_MODELS
+from mimucap.core.skeleton_models import BUILT_IN_MODELS, MODEL_NAMES, SHOULDER_SEQUENCES
 
 FloatArray = NDArray[np.float64]
 
-MODEL_NAMES = tuple(BUILT_IN_MODELS)  # ("ten_segment", "fifteen_segment")
-SHOULDER_SEQUENCES = ("zxy", "xzy", "yxy")
 
 #: Joints whose raw z angle is negated so that clinical flexion is positive: the knee bends
 #: backwards, and for the lumbar spine and the neck (distal segment above the joint) forward

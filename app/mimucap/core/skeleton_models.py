@@ -77,3 +77,9 @@ BUILT_IN_MODELS: dict[str, dict] = {
     "fifteen_segment": _document(
         "fifteen_segment", "The ten-segment model plus head, hands and feet.", TEN_SEGMENTS + HEAD_HANDS_FEET),
 }
+
+#: Names of the built-in models (``ten_segment``, ``fifteen_segment``).
+MODEL_NAMES = tuple(BUILT_IN_MODELS)
+#: Euler sequences the shoulder's joint angles can be given in (kept here, with the model
+#: names, so that the command line lists both without importing numpy).
+SHOULDER_SEQUENCES = ("zxy", "xzy", "yxy")

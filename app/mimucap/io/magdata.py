@@ -48,10 +48,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from mimucap.io.input_names import FORMATS, MAG_UNITS
+
 FloatArray = NDArray[np.float64]
 
-MAG_UNITS = ("uT", "gauss", "counts")
-FORMATS = ("auto", "csv", "xsens", "session")
 UT_PER_GAUSS = 100.0
 STANDARD_GRAVITY_MPS2 = 9.80665
 #: Xsens SampleTimeFine ticks per second.

@@ -54,6 +54,9 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.core import rotation
+from mimucap.io.input_names import (
+    APDM_CSV, BROAD_TRIAL, MIMUCAP_SESSION, OPENSIM_STO, QUATERNION_CSV, XSENS_FILE, XSENS_FOLDER,
+)
 
 #: A quaternion whose norm is outside ``1 ± QUATERNION_NORM_TOLERANCE`` is rejected as corrupt.
 QUATERNION_NORM_TOLERANCE = 0.05
@@ -719,14 +722,8 @@ def resample_slerp(t_src: np.ndarray, q_src: np.ndarray, t_dst: np.ndarray) -> n
 # Dispatcher
 # --------------------------------------------------------------------------------------------
 
-#: Kinds of orientation input (:func:`orientation_input_kind`), each named as a message says it.
-XSENS_FOLDER = "Xsens export folders"
-XSENS_FILE = "Xsens export files"
-OPENSIM_STO = "OpenSim .sto tables"
-MIMUCAP_SESSION = "MimuCap sessions"
-BROAD_TRIAL = "BROAD trials"
-APDM_CSV = "APDM CSV files"
-QUATERNION_CSV = "quaternion CSV files"
+# The kinds of orientation input (XSENS_FOLDER, ... QUATERNION_CSV) are named in
+# mimucap.io.input_names, which the command line reads without loading numpy.
 
 
 def orientation_input_kind(path: str | Path) -> str:

@@ -248,7 +248,14 @@ def gyro_range_problem(gyr_rad_s: np.ndarray) -> str | None:
     its axis and row (0-based) and the likely cause. NaN and infinite values are left to the
     filters, which skip and count them.
     """
-    rate = np.abs(np.asarray(gyr_rad_s, dtype=np.float64))
+    gyr = np.asarray(gyr_rad_s, dtype=np.float64)
+    if gyr.size == 0:
+        return None
+    # fmin/fmax skip NaN and copy nothing: the usual case (all in range) costs two passes,
+    # not three temporary arrays (hours of samples are hundreds of MB).
+    if -GYR_MAX_RAD_S <= np.fmin.reduce(gyr, axis=None) and np.fmax.reduce(gyr, axis=None) <= GYR_MAX_RAD_S:
+        return None
+    rate = np.abs(gyr)
     rate = np.where(np.isfinite(rate), rate, 0.0)
     if rate.size == 0 or rate.max() <= GYR_MAX_RAD_S:
         return None
@@ -732,6 +739,7 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
         "seed": config.seed, "model": result.model_name, "height_m": result.height_m,
         "errors": asdict(errors), "earth_field": asdict(config.earth_field),
         "disturbances": [asdict(d) for d in config.disturbances], "random_mounting": config.random_mounting,
+        "magcal_turns": config.magcal_turns,
     }
     metadata = {
         "source": source,

@@ -3,6 +3,7 @@
 Frames and order: ``q_world_from_sensor``, scalar-first Hamilton quaternions, world = ENU
 (magnetic north along +y unless a declination is set). Modules, one concept each:
 
+* :mod:`.algorithms` — the algorithm names of the command line (no numba);
 * :mod:`.params` — :class:`FusionParams` (frozen settings, units in the names) and
   :data:`DEFAULT_FUSION_PARAMS`, the one parameter set for every sensor and recording;
 * :mod:`.propagation` — RK4, coning-corrected third-order Taylor and exact gyro steps;
@@ -15,12 +16,29 @@ Frames and order: ``q_world_from_sensor``, scalar-first Hamilton quaternions, wo
 * :mod:`.evaluation` — the BROAD error metric (total / heading / inclination RMSE).
 """
 
-from mimucap.core.fusion.ekf import ALGORITHMS, FusionResult, OrientationEKF, fuse, update_together
-from mimucap.core.fusion.offline import fuse_offline
-from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
-from mimucap.core.fusion.state import FLAG_NAMES, FusionState, decode_flags
+from __future__ import annotations
 
-__all__ = [
-    "ALGORITHMS", "DEFAULT_FUSION_PARAMS", "FLAG_NAMES", "FusionParams", "FusionResult",
-    "FusionState", "OrientationEKF", "decode_flags", "fuse", "fuse_offline", "update_together",
-]
+import importlib
+
+#: Public name -> submodule defining it. Loaded on first use (PEP 562), so that importing
+#: ``mimucap.core.fusion.algorithms`` (the command line's ``--help``) does not load numba.
+_EXPORTS = {
+    "ALGORITHMS": "algorithms", "FusionResult": "ekf", "OrientationEKF": "ekf", "fuse": "ekf",
+    "update_together": "ekf", "fuse_offline": "offline", "DEFAULT_FUSION_PARAMS": "params",
+    "FusionParams": "params", "FLAG_NAMES": "state", "FusionState": "state", "decode_flags": "state",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -23,17 +23,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mimucap.core.fusion.algorithms import ALGORITHMS
 from mimucap.core.fusion.kernels import ekf_sensors
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams, pack_params
 from mimucap.core.fusion.state import FusionState, decode_flags
 
-#: Algorithm names of the command line and the bench: name -> (propagation, corrections on).
-ALGORITHMS: dict[str, tuple[str, bool]] = {
-    "ekf-taylor3": ("taylor3", True),
-    "ekf-rk4": ("rk4", True),
-    "taylor3": ("taylor3", False),
-    "rk4": ("rk4", False),
-}
 
 
 @dataclass(frozen=True)

@@ -5,9 +5,16 @@ cache, about 10 ms once the compiled code is cached on disk (``cache=True``, und
 ``__pycache__`` or numba's user cache directory). The first call of a fresh install would
 therefore stall whatever thread makes it. :func:`compile_kernels` makes those first calls on
 a few samples of a resting sensor, so an application can run it off its GUI thread at start.
+
+``python -m mimucap.core.fusion.warmup`` does it once, at installation (``make install``):
+numba writes the compiled code to its cache directory (``__pycache__`` beside the kernels'
+sources when writable, else the user's cache; ``NUMBA_CACHE_DIR`` overrides both), the same
+one the application reads later, so its first start loads the kernels in milliseconds.
 """
 
 from __future__ import annotations
+
+import time
 
 import numpy as np
 
@@ -28,3 +35,9 @@ def compile_kernels() -> None:
     for use_mag in (True, False):
         OrientationEKF(use_mag=use_mag).update_batch(t, gyr, acc, mag if use_mag else None)
     fuse_offline(t, gyr, acc, mag)
+
+
+if __name__ == "__main__":
+    started = time.perf_counter()
+    compile_kernels()
+    print(f"fusion kernels compiled into numba's cache in {time.perf_counter() - started:.1f} s")
