@@ -4,7 +4,8 @@ Usage: ``python packaging/make_screenshots.py OUT_DIR`` (under a display; ``make
 runs it under Xvfb). The VTK views are captured properly (their own image is painted into the
 window grab). The simulated suit walks; a 10-second session is recorded with two markers,
 reopened for review (play head on the second marker) and shown with its export dialog. The
-calibration wizards' pictures are added by ``packaging/wizard_screenshots.py`` when it exists.
+calibration wizards' pictures are added by ``packaging/wizard_screenshots.py`` when it exists,
+the library's by ``packaging/library_screenshots.py``.
 """
 
 from __future__ import annotations
@@ -77,6 +78,11 @@ def make_screenshots(out_dir: Path) -> list[Path]:
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
         written.extend(module.write_wizard_screenshots(out_dir))
+    library_script = Path(__file__).with_name("library_screenshots.py")
+    spec = importlib.util.spec_from_file_location("library_screenshots", library_script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    written.extend(module.write_library_screenshots(out_dir))
     return written
 
 

@@ -49,7 +49,7 @@ def test_menu_lists_only_working_items(window):
     texts = {a.text() for a in _menu_actions(window)}
     # Each of these is exercised by a test of tests/gui.
     expected = {
-        "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "Recording &Folder…",
+        "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "&Library…", "Library &Folder…",
         "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
         "Front", "Side", "Top", "Follow", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
         "Show World &Axes", "&Pause Plots\tSpace", "&About MimuCap",

@@ -1,6 +1,7 @@
 """``mimucap record``: record a session without the GUI (crash-safe, see ``mimucap recover``).
 
     mimucap record --source SPEC --duration S --out SESSION.h5 [--sensors 1-10] [--allow IP ...]
+    mimucap record --source SPEC --duration S --subject ID [--library DIR] [--condition TEXT] [--tags A,B]
 
 SPEC is one of ``simulated[:SCENARIO]``, ``udp:BIND_ADDRESS:PORT``, ``serial:DEVICE[@BAUD]``,
 ``replay:FILE[@SPEED]``. Samples are journaled to ``SESSION.h5.journal`` as they arrive
@@ -37,7 +38,13 @@ def register(subparsers) -> None:
         description=__doc__.split("\n\n")[0].replace("``", "") + " Valid sources: " + ", ".join(VALID_FORMS))
     parser.add_argument("--source", required=True, metavar="SPEC", help="data source: " + ", ".join(VALID_FORMS))
     parser.add_argument("--duration", required=True, type=float, metavar="S", help="seconds to record")
-    parser.add_argument("--out", required=True, type=Path, metavar="SESSION.h5", help="session file to write")
+    parser.add_argument("--out", type=Path, metavar="SESSION.h5", help="session file to write (or --subject)")
+    parser.add_argument("--subject", metavar="ID", help="record into the library for subject ID (instead of --out)")
+    parser.add_argument("--library", type=Path, metavar="DIR",
+                        help="library folder for --subject (default: MIMUCAP_LIBRARY, else the application's)")
+    parser.add_argument("--condition", default="", metavar="TEXT", help="with --subject: e.g. 'pre-op', '6 weeks'")
+    parser.add_argument("--tags", default="", metavar="A,B", help="with --subject: comma-separated tags")
+    parser.add_argument("--trial", metavar="NAME", help="with --subject: trial name (default: the next trialNN of the day)")
     parser.add_argument("--sensors", metavar="IDS", help="expected sensor ids, e.g. 1-10 (others are counted and ignored)")
     parser.add_argument("--allow", nargs="+", metavar="IP", help="UDP sender addresses allowed (default: any)")
     parser.add_argument("--sensor-count", type=int, metavar="N", help="simulated suit: number of sensors")
@@ -116,6 +123,17 @@ def run(args: argparse.Namespace) -> int:
                             sensor_count=args.sensor_count, rate_hz=args.rate)
     configs = source_configs(spec, options)
     metadata = {"source": format_source_spec(spec), "sensor_segments": sensor_segments(configs)}
+    library = None
+    if args.subject is not None:
+        library, args.out, library_metadata = library_recording(args)
+        metadata.update(library_metadata)
+    elif args.out is None:
+        raise ValueError("give --out SESSION.h5, or --subject ID (with --library DIR, or the configured library)")
+    else:
+        given = [name for name, value in (("--library", args.library), ("--condition", args.condition),
+                                           ("--tags", args.tags), ("--trial", args.trial)) if value]
+        if given:
+            raise ValueError(f"{', '.join(given)} apply to recordings into the library only (with --subject)")
     recorder = Recorder(args.out, metadata,
                         RecorderSettings(flush_interval_s=args.flush_interval))
     recorder.start()  # refuses an existing file or journal before anything runs
@@ -185,9 +203,33 @@ def run(args: argparse.Namespace) -> int:
         return 1
     print(f"wrote {result.session_path} ({sum(result.samples.values())} samples, "
           f"{len(result.samples)} sensors, ended: {reason})")
+    if library is not None:
+        entry = library.add_file(result.session_path)
+        print(f"library {library.root}: subject {entry.subject_id}, trial {entry.trial}")
     if result.message:
         print(result.message)
     return 0
+
+
+def library_recording(args: argparse.Namespace):
+    """``(library, session path, metadata)`` of a recording into the library for ``--subject``:
+    the subject's record as the library knows it (defaults for a new subject), and the
+    condition, tags and trial."""
+    from mimucap.io.library import library_fields
+    from mimucap.io.session import make_subject
+    from mimucap.session.library import open_library
+
+    if args.out is not None:
+        raise ValueError("--out and --subject exclude each other: a library recording is named by the library")
+    library = open_library(args.library)
+    known = library.subject(args.subject)
+    if known is not None and known.height_m is not None:
+        subject = make_subject(args.subject, known.height_m, known.dominance or "unknown", known.notes)
+    else:
+        subject = make_subject(args.subject, dominance="unknown")
+    path = library.recording_path(args.subject, args.trial)
+    fields = library_fields(args.condition, args.tags.split(","), args.trial or path.stem.rsplit("_", 1)[-1])
+    return library, path, {"subject": subject, "library": fields}
 
 
 def _reason_text(reason: str) -> str:

@@ -43,7 +43,8 @@ from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
 from mimucap.core.pipeline import POSE_SENSOR_AXES
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
-from mimucap.session.subject import default_recording_path
+from mimucap.io.library import library_fields, recording_path
+from mimucap.io.library_settings import configured_library_folder, remember_library_folder
 
 log = logging.getLogger(__name__)
 
@@ -121,6 +122,7 @@ class MainWindow(QtWidgets.QMainWindow):
             lambda spec: open_live_session(spec, model_name=self.model_name))
         self.live: LiveSession | None = None
         self.review_windows: list[QtWidgets.QWidget] = []
+        self.library_window = None  # gui.library_window.LibraryWindow once opened
         self._wizards = _wizard_classes()
         self._cpu = CpuMeter()
         self._last_record_message = ""
@@ -201,7 +203,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_export = file_menu.addAction("&Export Last Recording…", self.export_last_recording)
         self.action_export.setShortcut(QtGui.QKeySequence("Ctrl+E"))
         self.action_export.setEnabled(False)
-        self.action_folder = file_menu.addAction("Recording &Folder…", self.choose_recording_folder)
+        self.action_library = file_menu.addAction("&Library…", self.open_library)
+        self.action_library.setShortcut(QtGui.QKeySequence("Ctrl+L"))
+        self.action_folder = file_menu.addAction("Library &Folder…", self.choose_recording_folder)
         file_menu.addSeparator()
         self.action_save_screenshot = file_menu.addAction("Save Screens&hot…",
                                                           lambda: ask_to_save_screenshot(self, "mimucap.png"))
@@ -480,11 +484,19 @@ class MainWindow(QtWidgets.QMainWindow):
             self.live.assign_sensor(sensor_id, segment)
         self.refresh_panels()
 
+    @staticmethod
+    def library_folder() -> Path:
+        """The library folder as configured (:mod:`mimucap.io.library_settings`); not chosen
+        yet: the documents folder's "MimuCap Library" (or the recording folder chosen before the
+        library existed). Not created here."""
+        documents = QtCore.QStandardPaths.writableLocation(QtCore.QStandardPaths.DocumentsLocation)
+        default = Path(documents) / "MimuCap Library" if documents else user_data_dir() / "library"
+        return configured_library_folder(gui_settings().value("recording/folder", str(default)))
+
     def recording_folder(self) -> Path:
-        """Where recordings go (created when needed; ``OSError`` if it cannot be, e.g. a
-        network drive that went away)."""
-        default = user_data_dir() / "sessions"
-        folder = Path(str(gui_settings().value("recording/folder", str(default))))
+        """Where recordings go: the library folder (created when needed; ``OSError`` if it cannot
+        be, e.g. a network drive that went away)."""
+        folder = self.library_folder()
         folder.mkdir(parents=True, exist_ok=True)
         return folder
 
@@ -496,16 +508,16 @@ class MainWindow(QtWidgets.QMainWindow):
         except OSError as error:
             log.warning("recording folder unavailable: %s", error)
             self.statusBar().showMessage(f"The recording folder is out of reach ({error}); "
-                                         "choose another one (File → Recording Folder).", 10000)
+                                         "choose another one (File → Library Folder).", 10000)
             return Path.home()
 
     def choose_recording_folder(self) -> None:
-        folder = QtWidgets.QFileDialog.getExistingDirectory(self, "Recording Folder", str(self._folder_to_browse()))
+        folder = QtWidgets.QFileDialog.getExistingDirectory(self, "Library Folder", str(self._folder_to_browse()))
         if folder:
-            settings = gui_settings()
-            settings.setValue("recording/folder", folder)
-            settings.sync()
-            self.statusBar().showMessage(f"Recordings go to {folder}", 5000)
+            remember_library_folder(folder)
+            self.statusBar().showMessage(f"Recordings go to the library {folder}", 5000)
+            if self.library_window is not None:
+                self.library_window.set_folder(Path(folder))
 
     def toggle_recording(self) -> None:
         self._record_toggled(not (self.live is not None and self.live.recording))
@@ -517,12 +529,14 @@ class MainWindow(QtWidgets.QMainWindow):
         if on and not self.live.recording:
             try:
                 subject = self.session_panel.subject()
-                path = default_recording_path(self.recording_folder(), subject)
-                self.live.start_recording(path, subject.to_dict())
+                condition, tags = self.session_panel.session_fields()
+                path = recording_path(self.recording_folder(), subject.subject_id)
+                fields = library_fields(condition, tags, path.stem.rsplit("_", 1)[-1])
+                self.live.start_recording(path, subject.to_dict(), {"library": fields})
             except (ValueError, OSError) as error:
                 self.session_panel.set_recording(False)
                 log.warning("cannot record: %s", error)
-                hint = "\n\nChoose another recording folder (File → Recording Folder)." if isinstance(error, OSError) else ""
+                hint = "\n\nChoose another library folder (File → Library Folder)." if isinstance(error, OSError) else ""
                 QtWidgets.QMessageBox.warning(self, "Cannot record", f"{error}{hint}")
                 return
             self.session_panel.markers_list.clear()
@@ -585,6 +599,8 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.live is not None and not self.live.recording:
             self.session_panel.show_info(None, message)
         self.statusBar().showMessage(message)
+        if self.library_window is not None and result.session_path is not None:
+            self.library_window.refresh()
         self.recording_saved.emit(result)
 
     def _recording_not_saved(self, pending, error: str) -> None:
@@ -679,6 +695,33 @@ class MainWindow(QtWidgets.QMainWindow):
             self.review_windows.remove(window)
             window.deleteLater()
 
+    def open_library(self):
+        """Show the library window (one, kept while this window lives)."""
+        from mimucap.gui.library_window import LibraryWindow
+
+        folder = self.library_folder()  # as configured, even out of reach: the window then says so
+        if self.library_window is None:
+            self.library_window = LibraryWindow(folder, open_review=self.open_review, new_session=self.new_session_for)
+        elif self.library_window.folder != folder:
+            self.library_window.set_folder(folder)
+        else:
+            self.library_window.refresh()
+        self.library_window.show()
+        self.library_window.raise_()
+        self.library_window.activateWindow()
+        return self.library_window
+
+    def new_session_for(self, subject_id: str, height_m: float | None, dominance: str, notes: str) -> None:
+        """Make the next recording one of this subject: its record in the session panel, this window in front."""
+        if self.live is not None and self.live.recording:
+            QtWidgets.QMessageBox.warning(self, "Recording", "Stop the recording before starting another subject's.")
+            return
+        self.session_panel.set_subject(subject_id, height_m, dominance, notes)
+        self.show()
+        self.raise_()
+        self.activateWindow()
+        self.statusBar().showMessage(f"Next recording: subject {subject_id} (Session → Start Recording)", 8000)
+
     def export_last_recording(self) -> None:
         if self.last_recording is None or self.last_recording.session_path is None:
             return
@@ -758,4 +801,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self._stop_live()
         for window in list(self.review_windows):
             window.close()
+        if self.library_window is not None:
+            self.library_window.close()
         super().closeEvent(event)

@@ -43,11 +43,19 @@ class SessionPanel(QtWidgets.QWidget):
         self.notes = QtWidgets.QPlainTextEdit(subject_box)
         self.notes.setPlaceholderText("Notes (no personal data)")
         self.notes.setMaximumHeight(60)
+        self.condition = QtWidgets.QLineEdit(subject_box)
+        self.condition.setObjectName("sessionCondition")
+        self.condition.setPlaceholderText("e.g. pre-op, 6 weeks")
+        self.tags = QtWidgets.QLineEdit(subject_box)
+        self.tags.setObjectName("sessionTags")
+        self.tags.setPlaceholderText("comma-separated")
         form = QtWidgets.QFormLayout(subject_box)
         form.addRow("Id", self.subject_id)
         form.addRow("Height", self.height)
         form.addRow("Dominant side", self.dominance)
         form.addRow(self.notes)
+        form.addRow("Condition", self.condition)
+        form.addRow("Tags", self.tags)
 
         record_box = QtWidgets.QGroupBox("Recording", self)
         self.record_button = QtWidgets.QPushButton("● Record", record_box)
@@ -90,8 +98,21 @@ class SessionPanel(QtWidgets.QWidget):
         return Subject(subject_id=self.subject_id.text().strip(), height_m=round(self.height.value(), 3),
                        dominance=self.dominance.currentText(), notes=self.notes.toPlainText().strip())
 
+    def set_subject(self, subject_id: str, height_m: float | None, dominance: str, notes: str) -> None:
+        """Fill the subject fields (a known subject's record; the height unchanged when None)."""
+        self.subject_id.setText(subject_id)
+        if height_m is not None:
+            self.height.setValue(height_m)
+        if dominance in DOMINANCE:
+            self.dominance.setCurrentText(dominance)
+        self.notes.setPlainText(notes)
+
+    def session_fields(self) -> tuple[str, list[str]]:
+        """The condition and the tags (split at commas) of the next recording."""
+        return self.condition.text().strip(), [t.strip() for t in self.tags.text().split(",") if t.strip()]
+
     def set_subject_editable(self, editable: bool) -> None:
-        for widget in (self.subject_id, self.height, self.dominance, self.notes):
+        for widget in (self.subject_id, self.height, self.dominance, self.notes, self.condition, self.tags):
             widget.setEnabled(editable)
 
     def _record_toggled(self, on: bool) -> None:

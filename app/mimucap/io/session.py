@@ -679,6 +679,33 @@ def read_metadata(path: str | os.PathLike[str]) -> dict[str, Any]:
         h5.close()
 
 
+def update_metadata(path: str | os.PathLike[str], changes: Mapping[str, Any]) -> dict[str, Any]:
+    """Set the top-level metadata keys ``changes`` of session file ``path``; return the new metadata.
+
+    The file is copied beside itself, the copy changed and renamed over the original (as
+    :func:`write_session` does), so a crash leaves either the old or the new file, never a
+    half-changed one. Same errors as :func:`read_metadata` for a file that is not a session.
+    """
+    import shutil
+
+    source = Path(path)
+    metadata = read_metadata(source)
+    metadata.update(changes)
+    metadata_json = _json(metadata, "session metadata")
+    temporary = source.parent / f".{source.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.part"
+    try:
+        shutil.copy2(source, temporary)
+        with h5py.File(temporary, "r+") as h5:
+            h5.attrs["metadata_json"] = metadata_json
+        with open(temporary, "rb+") as handle:
+            os.fsync(handle.fileno())
+        os.replace(temporary, source)
+    except BaseException:
+        temporary.unlink(missing_ok=True)
+        raise
+    return metadata
+
+
 def session_duration_s(session: Session) -> float:
     """Time span (s) covered by the sensor streams (0 when there are no samples)."""
     starts = [s.t_s[0] for s in session.sensors.values() if len(s)]
@@ -750,5 +777,5 @@ __all__ = [
     "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
     "time_stamp_problem", "gyro_range_problem",
     "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "make_subject",
-    "write_session", "read_session", "read_metadata", "session_duration_s", "session_from_simulation",
+    "write_session", "read_session", "read_metadata", "update_metadata", "session_duration_s", "session_from_simulation",
 ]

@@ -652,8 +652,10 @@ class LiveSession:
             return None
         return self._recorder.start_host_s - self.t0_host_s
 
-    def start_recording(self, path: str | Path, subject: Mapping[str, Any] | None = None) -> None:
-        """Record everything from now on into session file ``path`` (journal beside it)."""
+    def start_recording(self, path: str | Path, subject: Mapping[str, Any] | None = None,
+                        extra_metadata: Mapping[str, Any] | None = None) -> None:
+        """Record everything from now on into session file ``path`` (journal beside it);
+        ``extra_metadata``: further top-level metadata keys (e.g. the library's ``"library"``)."""
         if self._recorder is not None:
             raise ValueError(f"already recording to {self._recorder.out_path}")
         if not self.started:
@@ -667,6 +669,7 @@ class LiveSession:
                                settings=self.pipeline.settings, filter_states=self.pipeline.filter_states(),
                                time_offset_s=start_host_s - self.t0_host_s),
         }
+        metadata.update(extra_metadata or {})
         recorder = Recorder(path, metadata)
         recorder.start(start_host_s)
         self._recorder = recorder

@@ -1,4 +1,4 @@
-"""The subject record of a session and where its recordings go.
+"""The subject record of a session.
 
 Only what the analysis needs is asked for (no name, no birth date): a pseudonymous id, the
 height (m, scales the skeleton), the dominant side, and free notes.
@@ -8,8 +8,6 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from datetime import datetime
-from pathlib import Path
 
 from mimucap.io.session import make_subject
 
@@ -38,15 +36,3 @@ class Subject:
     def to_dict(self) -> dict:
         """The session file's ``metadata["subject"]`` record (:func:`mimucap.io.session.make_subject`)."""
         return make_subject(self.subject_id, self.height_m, self.dominance, self.notes)
-
-
-def default_recording_path(folder: str | Path, subject: Subject, now: datetime | None = None) -> Path:
-    """``<folder>/<subject_id>_<YYYYmmdd-HHMMSS>.h5``, with ``_2``, ``_3``... if taken."""
-    stamp = (now or datetime.now()).strftime("%Y%m%d-%H%M%S")
-    folder = Path(folder)
-    path = folder / f"{subject.subject_id}_{stamp}.h5"
-    index = 2
-    while path.exists() or Path(str(path) + ".journal").exists():
-        path = folder / f"{subject.subject_id}_{stamp}_{index}.h5"
-        index += 1
-    return path
