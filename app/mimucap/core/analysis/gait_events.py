@@ -21,8 +21,9 @@ then timed on a copy low-passed at ``event_lowpass_hz`` (zero phase, so no delay
   "Estimation of step-by-step spatio-temporal parameters of normal and impaired gait using
   shank-mounted magneto-inertial sensors", J. NeuroEng. Rehabil. 11:152): FC is the minimum
   of the rate before the swing (push-off), IC the first local minimum after the swing's zero
-  crossing (the shank is stopped and thrown back at heel strike); where no local minimum
-  follows within ``shank_ic_window_s`` (a smooth signal without impact), the zero crossing.
+  crossing when it is sharp (the shank is stopped and thrown back at heel strike); where no
+  such impact follows within ``shank_ic_window_s`` (a smooth signal), the zero crossing itself,
+  the instant the shank's forward swing ends.
 
 Times in seconds on the signal's own clock; events that cannot be timed are NaN.
 """
@@ -56,7 +57,8 @@ class EventSettings:
     durations (s); ``swing_lowpass_hz`` cut-off of the copy that finds swings;
     ``event_lowpass_hz`` cut-off of the copy that times events; ``fc_window_s`` how far
     before a swing the push-off minimum is searched (s); ``shank_ic_window_s`` how far after
-    the end of a swing the shank's heel-strike minimum is searched (s).
+    the end of a swing the shank's heel-strike minimum is searched (s);
+    ``shank_impact_rad_s`` how sharply the rate must climb out of it to count as an impact.
     """
 
     min_swing_peak_rad_s: float = 1.0
@@ -66,11 +68,13 @@ class EventSettings:
     swing_lowpass_hz: float = 5.0
     event_lowpass_hz: float = 30.0
     fc_window_s: float = 0.35
-    shank_ic_window_s: float = 0.12
+    shank_ic_window_s: float = 0.06
+    shank_impact_rad_s: float = 0.35
 
     def __post_init__(self) -> None:
         for name in ("min_swing_peak_rad_s", "min_swing_angle_rad", "min_swing_s", "max_swing_s",
-                     "swing_lowpass_hz", "event_lowpass_hz", "fc_window_s", "shank_ic_window_s"):
+                     "swing_lowpass_hz", "event_lowpass_hz", "fc_window_s", "shank_ic_window_s",
+                     "shank_impact_rad_s"):
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ValueError(f"event setting {name} must be a positive number, got {value}")
@@ -145,10 +149,14 @@ def detect_swing_events(t_s: np.ndarray, sagittal_rate: np.ndarray, placement: s
             continue  # the recording cuts the swing: its contacts are not in it
         ic = zero_crossing_time(grid, fast, fall)
         if placement == "shank":
-            window = fast[fall + 1: min(fall + 1 + ic_window, n - 1)]
-            minima = [i for i in range(1, len(window) - 1) if window[i] < window[i - 1] and window[i] <= window[i + 1]]
-            if minima:
-                ic = extremum_time(grid, fast, fall + 1 + minima[0])
+            # The heel-strike minimum: the first local minimum after the crossing that the rate
+            # climbs out of by at least ``shank_impact_rad_s`` (an impact, not a smooth turn).
+            stop = min(fall + 1 + ic_window, n - 1)
+            for i in range(fall + 1, stop):
+                if fast[i] < fast[i - 1] and fast[i] <= fast[i + 1]:
+                    if np.max(fast[i:min(i + ic_window, n)]) - fast[i] >= settings.shank_impact_rad_s:
+                        ic = extremum_time(grid, fast, i)
+                    break
         low = max(rise - fc_window, previous_ic_index)
         if rise - low >= 2:
             index = low + int(np.argmin(fast[low:rise + 1]))

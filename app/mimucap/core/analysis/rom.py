@@ -1,0 +1,181 @@
+"""Range of motion (ROM) of the standard clinical movements, from joint angles.
+
+Each :class:`RomMovement` names the joint-angle column it reads and the sign that makes the
+movement positive (abduction is negative adduction in the ISB convention of
+``core.skeleton.JOINT_ANGLE_SIGNS_DOC``; trunk rotation to the right is negative). Shoulder
+movements use the humerus's **elevation** instead (angle between the upper arm's and the
+thorax's long axes, from the segment orientations): the Z-X'-Y'' decomposition is singular at
+90° of abduction, and elevation is what a goniometer reads in the plane of the movement.
+
+A movement is repeated; the peaks are found with a prominence of at least
+``min_prominence_deg`` and averaged. The active ROM of one repetition is its peak minus the
+lowest angle before it (since the previous peak); the table gives their mean, the peak angles,
+the left/right difference and the reference value.
+
+Reference values for adults (active ROM, degrees) are those of the American Academy of
+Orthopaedic Surgeons, "Joint Motion: Method of Measuring and Recording" (AAOS, 1965), as
+tabulated in Norkin & White, "Measurement of Joint Motion: A Guide to Goniometry" (F. A. Davis):
+shoulder flexion 180, abduction 180, elbow flexion 150, hip flexion 120, abduction 45, knee
+flexion 135, thoracolumbar flexion 80 and rotation 45. Soucie et al. 2011 ("Range of motion
+measurements: reference values and a database for comparison studies", Haemophilia
+17:500-507) measured passive ROM by age and sex and found mean adult values below several of
+these (e.g. shoulder flexion and knee flexion); clinicians comparing with it should keep that
+in mind.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import find_peaks
+
+from mimucap.core import rotation as rot
+
+REFERENCE_SOURCE = "AAOS 1965 (Norkin & White)"
+
+
+@dataclass(frozen=True)
+class RomMovement:
+    """One clinical movement: ``key``, ``label``, ``joint`` (model joint), ``axis`` (column
+    axis, or ``elevation``), ``sign`` (+1/−1, or per side for trunk rotation via
+    ``sign_left``/``sign_right``), ``sided`` (a limb joint done left and right),
+    ``instruction`` for the subject, ``reference_deg`` normal adult active ROM."""
+
+    key: str
+    label: str
+    joint: str
+    axis: str
+    sign_left: float
+    sign_right: float
+    sided: bool
+    instruction: str
+    reference_deg: float
+
+    def column(self, side: str) -> str:
+        if self.sided:
+            return f"{self.joint}_{side[0]}_{self.axis}_deg"
+        return f"{self.joint}_{self.axis}_deg"
+
+    def sign(self, side: str) -> float:
+        return self.sign_left if side == "left" else self.sign_right
+
+
+MOVEMENTS: tuple[RomMovement, ...] = (
+    RomMovement("shoulder_flexion", "Shoulder flexion", "shoulder", "elevation", 1, 1, True,
+                "Raise the {side} arm forward and up as far as you can, thumb up, then lower it.", 180.0),
+    RomMovement("shoulder_abduction", "Shoulder abduction", "shoulder", "elevation", 1, 1, True,
+                "Raise the {side} arm sideways and up as far as you can, palm forward, then lower it.", 180.0),
+    RomMovement("elbow_flexion", "Elbow flexion", "elbow", "flexion", 1, 1, True,
+                "Bend the {side} elbow as far as you can, palm up, then straighten it.", 150.0),
+    RomMovement("hip_flexion", "Hip flexion", "hip", "flexion", 1, 1, True,
+                "Standing, lift the {side} knee towards the chest as far as you can, then put the foot down.", 120.0),
+    RomMovement("hip_abduction", "Hip abduction", "hip", "adduction", -1, -1, True,
+                "Standing, move the straight {side} leg out to the side as far as you can, then back.", 45.0),
+    RomMovement("knee_flexion", "Knee flexion", "knee", "flexion", 1, 1, True,
+                "Standing, bend the {side} knee and bring the heel towards the buttock, then put the foot down.", 135.0),
+    RomMovement("trunk_flexion", "Trunk flexion", "lumbar", "flexion", 1, 1, False,
+                "Bend forward as far as you can with straight knees, then stand up straight.", 80.0),
+    RomMovement("trunk_rotation", "Trunk rotation", "lumbar", "rotation", 1, -1, True,
+                "Keeping the hips still, turn the upper body to the {side} as far as you can, then back.", 45.0),
+)
+MOVEMENT_KEYS = tuple(m.key for m in MOVEMENTS)
+
+
+def movement(key: str) -> RomMovement:
+    for m in MOVEMENTS:
+        if m.key == key:
+            return m
+    raise ValueError(f"unknown ROM movement {key!r}; use one of {', '.join(MOVEMENT_KEYS)}")
+
+
+def sides_of(m: RomMovement) -> tuple[str, ...]:
+    return ("left", "right") if m.sided else ("both",)
+
+
+def elevation_deg(q_world_from_thorax: np.ndarray, q_world_from_upper_arm: np.ndarray) -> np.ndarray:
+    """Angle (T,) deg between the upper arm's and the thorax's long (y) axes: 0 with the arm
+    hanging (N-pose), 180 overhead."""
+    y = np.array([0.0, 1.0, 0.0])
+    a = rot.rotate(np.asarray(q_world_from_thorax, dtype=float), y)
+    b = rot.rotate(np.asarray(q_world_from_upper_arm, dtype=float), y)
+    return np.degrees(np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0)))
+
+
+def movement_series(m: RomMovement, side: str, angles_deg: dict[str, np.ndarray],
+                    q_world_from_segment: dict[str, np.ndarray] | None = None) -> np.ndarray:
+    """The angle (T,) deg of movement ``m`` on ``side``, positive in the movement's direction.
+    ``ValueError`` when the recording lacks the joint."""
+    if m.axis == "elevation":
+        arm = f"upper_arm_{side[0]}"
+        if not q_world_from_segment or arm not in q_world_from_segment or "thorax" not in q_world_from_segment:
+            raise ValueError(f"{m.label} ({side}) needs the thorax and {arm} orientations")
+        return elevation_deg(q_world_from_segment["thorax"], q_world_from_segment[arm])
+    column = m.column(side if m.joint != "lumbar" else "both")
+    if column not in angles_deg:
+        raise ValueError(f"{m.label} ({side}) needs the joint-angle column {column}")
+    return m.sign(side) * np.asarray(angles_deg[column], dtype=float)
+
+
+@dataclass(frozen=True)
+class RomResult:
+    """ROM of one movement on one side: ``peaks_deg`` (K,) the repetitions' peak angles,
+    ``excursions_deg`` (K,) their active ROM; ``peak_deg`` and ``active_rom_deg`` the means
+    (NaN when no repetition was found); ``reference_deg`` the normal value."""
+
+    key: str
+    side: str
+    peaks_deg: tuple[float, ...]
+    excursions_deg: tuple[float, ...]
+    reference_deg: float
+
+    @property
+    def repetitions(self) -> int:
+        return len(self.peaks_deg)
+
+    @property
+    def peak_deg(self) -> float:
+        return float(np.mean(self.peaks_deg)) if self.peaks_deg else math.nan
+
+    @property
+    def active_rom_deg(self) -> float:
+        return float(np.mean(self.excursions_deg)) if self.excursions_deg else math.nan
+
+    @property
+    def percent_of_reference(self) -> float:
+        return 100.0 * self.active_rom_deg / self.reference_deg
+
+
+def repetitions(values_deg: np.ndarray, min_prominence_deg: float = 10.0) -> tuple[list[float], list[float]]:
+    """Peaks and excursions (module doc) of a movement angle series (T,) deg."""
+    v = np.asarray(values_deg, dtype=float)
+    finite = np.isfinite(v)
+    if np.count_nonzero(finite) < 3:
+        return [], []
+    v = np.where(finite, v, np.interp(np.arange(v.size), np.flatnonzero(finite), v[finite]))
+    span = float(v.max() - v.min())
+    prominence = max(min_prominence_deg, 0.3 * span)
+    peaks, _ = find_peaks(v, prominence=prominence)
+    peak_values, excursions = [], []
+    previous = 0
+    for p in peaks:
+        low = float(v[previous:p + 1].min())
+        peak_values.append(float(v[p]))
+        excursions.append(float(v[p]) - low)
+        previous = p
+    return peak_values, excursions
+
+
+def rom_of(m: RomMovement, side: str, values_deg: np.ndarray, min_prominence_deg: float = 10.0) -> RomResult:
+    """The :class:`RomResult` of movement ``m`` on ``side`` from its angle series."""
+    peaks, excursions = repetitions(values_deg, min_prominence_deg)
+    return RomResult(m.key, side, tuple(peaks), tuple(excursions), m.reference_deg)
+
+
+def left_right_difference_deg(results: dict[tuple[str, str], RomResult], key: str) -> float:
+    """Left minus right active ROM (deg) of movement ``key`` (NaN when a side is missing)."""
+    left, right = results.get((key, "left")), results.get((key, "right"))
+    if left is None or right is None:
+        return math.nan
+    return left.active_rom_deg - right.active_rom_deg
