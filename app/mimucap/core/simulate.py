@@ -372,7 +372,8 @@ class SuitSimulator:
         """From the next sample on, do activity (or scenario) ``name`` with keyword ``params``.
 
         Names: ``npose``, ``tpose`` (``arms="right|left|both"``), ``walk``, ``turn``,
-        ``arm_raise``, ``squat``, ``demo``, ``bodycal``, and ``mag_single_axis``/``mag_figure8``/
+        ``arm_raise``, ``squat``, ``rom`` (``joint=, axis=, angle_deg=``: one joint moved and back), ``demo``,
+        ``bodycal``, and ``mag_single_axis``/``mag_figure8``/
         ``mag_tumble`` (``sensor_ids=[...]`` held together and turned; default all). The new
         activity is blended in over 0.5 s (1 s when walking starts or stops and when sensors
         are picked up or put back). Switching again while units are being picked up or put

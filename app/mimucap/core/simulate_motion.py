@@ -532,6 +532,37 @@ class Squat(_Cyclic):
         return pose
 
 
+class JointExcursion(_Cyclic):
+    """One joint moved along one axis to ``angle_deg`` and back, as in a range-of-motion test
+    (shoulder flexion, elbow flexion, hip abduction, trunk rotation, ...): ``joint`` a model
+    joint (``shoulder_r``, ``lumbar``, ...), ``axis`` flexion, adduction or rotation, ``angle_deg``
+    the peak in the clinical signs of ``skeleton.JOINT_ANGLE_SIGNS_DOC`` (abduction is negative
+    adduction), repeated ``cycles`` times; standing otherwise still."""
+
+    name = "rom"
+
+    def __init__(self, duration_s: float | None = None, joint: str = "elbow_r", axis: str = "flexion",
+                 angle_deg: float = 120.0, cycles: int | None = None, move_s: float = 1.5,
+                 hold_s: float = 0.5, rest_s: float = 0.5) -> None:
+        axes = ("flexion", "adduction", "rotation")
+        if axis not in axes:
+            raise ValueError(f"ROM axis must be one of {', '.join(axes)}, got {axis!r}")
+        if not 0.0 < abs(angle_deg) <= 180.0:
+            raise ValueError(f"ROM angle must be within ±180° and not 0, got {angle_deg}")
+        self.joint, self.axis, self.angle_deg = str(joint), axis, float(angle_deg)
+        self._setup(duration_s, cycles, move_s, hold_s, rest_s)
+
+    def pose(self, tau, start):
+        pose = self._standing(tau, start, 0.2)
+        angles = np.zeros((tau.shape[0], 3))
+        angles[:, ("flexion", "adduction", "rotation").index(self.axis)] = self.angle_deg * self.level(tau)
+        pose.joint_angles_deg[self.joint] = angles
+        return pose
+
+    def describe(self) -> str:
+        return f"rom({self.joint},{self.axis})"
+
+
 class HoldSensors(Activity):
     """Standing while turning a bundle of sensors held in the hands (magnetometer calibration).
 
@@ -579,7 +610,8 @@ class HoldSensors(Activity):
         return f"{self.name}({','.join(self.sensor_ids)})"
 
 
-ACTIVITY_NAMES = ("npose", "tpose", "walk", "turn", "arm_raise", "squat", "mag_single_axis", "mag_figure8", "mag_tumble")
+ACTIVITY_NAMES = ("npose", "tpose", "walk", "turn", "arm_raise", "squat", "rom", "mag_single_axis", "mag_figure8",
+                  "mag_tumble")
 
 
 def make_activity(name: str, params: dict | None = None, *, sensor_ids: tuple[str, ...] = (), seed: int = 0) -> Activity:
@@ -588,6 +620,7 @@ def make_activity(name: str, params: dict | None = None, *, sensor_ids: tuple[st
     params = dict(params or {})
     factories: dict[str, Callable[..., Activity]] = {
         "npose": NPose, "tpose": TPose, "walk": Walk, "turn": Turn, "arm_raise": ArmRaise, "squat": Squat,
+        "rom": JointExcursion,
     }
     try:
         if name in factories:

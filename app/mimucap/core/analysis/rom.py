@@ -7,8 +7,8 @@ movements use the humerus's **elevation** instead (angle between the upper arm's
 thorax's long axes, from the segment orientations): the Z-X'-Y'' decomposition is singular at
 90° of abduction, and elevation is what a goniometer reads in the plane of the movement.
 
-A movement is repeated; the peaks are found with a prominence of at least
-``min_prominence_deg`` and averaged. The active ROM of one repetition is its peak minus the
+A movement is repeated; each repetition's peak is captured by :class:`RepetitionCounter`
+(at least ``min_prominence_deg`` of movement) and the peaks are averaged. The active ROM of one repetition is its peak minus the
 lowest angle before it (since the previous peak); the table gives their mean, the peak angles,
 the left/right difference and the reference value.
 
@@ -29,7 +29,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import find_peaks
 
 from mimucap.core import rotation as rot
 
@@ -54,9 +53,10 @@ class RomMovement:
     reference_deg: float
 
     def column(self, side: str) -> str:
-        if self.sided:
-            return f"{self.joint}_{side[0]}_{self.axis}_deg"
-        return f"{self.joint}_{self.axis}_deg"
+        """The joint-angle column read (trunk joints have one column for both sides)."""
+        if self.joint in ("lumbar", "neck"):
+            return f"{self.joint}_{self.axis}_deg"
+        return f"{self.joint}_{side[0]}_{self.axis}_deg"
 
     def sign(self, side: str) -> float:
         return self.sign_left if side == "left" else self.sign_right
@@ -112,7 +112,7 @@ def movement_series(m: RomMovement, side: str, angles_deg: dict[str, np.ndarray]
         if not q_world_from_segment or arm not in q_world_from_segment or "thorax" not in q_world_from_segment:
             raise ValueError(f"{m.label} ({side}) needs the thorax and {arm} orientations")
         return elevation_deg(q_world_from_segment["thorax"], q_world_from_segment[arm])
-    column = m.column(side if m.joint != "lumbar" else "both")
+    column = m.column(side)
     if column not in angles_deg:
         raise ValueError(f"{m.label} ({side}) needs the joint-angle column {column}")
     return m.sign(side) * np.asarray(angles_deg[column], dtype=float)
@@ -147,24 +147,45 @@ class RomResult:
         return 100.0 * self.active_rom_deg / self.reference_deg
 
 
+class RepetitionCounter:
+    """Captures repetitions of a movement angle sample by sample: once the angle has risen at
+    least ``min_prominence_deg`` above the lowest angle since the previous repetition, its
+    highest value is the peak, captured when the angle has come back down by half of that
+    excursion (and at least ``min_prominence_deg``). Hysteresis makes a held plateau with
+    sensor noise one repetition, not several."""
+
+    def __init__(self, min_prominence_deg: float = 10.0) -> None:
+        self.min_prominence_deg = float(min_prominence_deg)
+        self.baseline = math.inf
+        self.peak = -math.inf
+        self.peaks: list[float] = []
+        self.excursions: list[float] = []
+
+    def feed(self, value: float) -> bool:
+        """Take one angle (deg); True when it completed a repetition."""
+        if not math.isfinite(value):
+            return False
+        if value > self.peak:
+            self.peak = value
+        if self.peak - self.baseline < self.min_prominence_deg and value < self.baseline:
+            self.baseline = self.peak = value
+            return False
+        excursion = self.peak - self.baseline
+        if excursion >= self.min_prominence_deg and self.peak - value >= max(self.min_prominence_deg, 0.5 * excursion):
+            self.peaks.append(self.peak)
+            self.excursions.append(excursion)
+            self.baseline = self.peak = value
+            return True
+        return False
+
+
 def repetitions(values_deg: np.ndarray, min_prominence_deg: float = 10.0) -> tuple[list[float], list[float]]:
-    """Peaks and excursions (module doc) of a movement angle series (T,) deg."""
-    v = np.asarray(values_deg, dtype=float)
-    finite = np.isfinite(v)
-    if np.count_nonzero(finite) < 3:
-        return [], []
-    v = np.where(finite, v, np.interp(np.arange(v.size), np.flatnonzero(finite), v[finite]))
-    span = float(v.max() - v.min())
-    prominence = max(min_prominence_deg, 0.3 * span)
-    peaks, _ = find_peaks(v, prominence=prominence)
-    peak_values, excursions = [], []
-    previous = 0
-    for p in peaks:
-        low = float(v[previous:p + 1].min())
-        peak_values.append(float(v[p]))
-        excursions.append(float(v[p]) - low)
-        previous = p
-    return peak_values, excursions
+    """Peaks and excursions (deg) of the repetitions in a movement angle series (T,)
+    (:class:`RepetitionCounter`)."""
+    counter = RepetitionCounter(min_prominence_deg)
+    for value in np.asarray(values_deg, dtype=float):
+        counter.feed(float(value))
+    return counter.peaks, counter.excursions
 
 
 def rom_of(m: RomMovement, side: str, values_deg: np.ndarray, min_prominence_deg: float = 10.0) -> RomResult:
