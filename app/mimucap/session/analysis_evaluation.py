@@ -29,7 +29,7 @@ from mimucap.core import bodycal, skeleton
 from mimucap.core.analysis.strides import Stride
 from mimucap.core.simulate import SimulationConfig, SimulationResult, simulate_session
 from mimucap.io.gait_csv import ReferenceStride
-from mimucap.io.session import session_from_simulation, write_session
+from mimucap.io.session import Marker, session_from_simulation, write_session
 from mimucap.session.analysis import SessionAnalysis, analyse_review
 from mimucap.session.review import load_review
 
@@ -149,11 +149,14 @@ def simulated_reference(result: SimulationResult) -> list[ReferenceStride]:
     return strides
 
 
-def simulated_analysis(config: SimulationConfig, folder: str | Path) -> tuple[SimulationResult, SessionAnalysis]:
+def simulated_analysis(config: SimulationConfig, folder: str | Path,
+                       markers: tuple[tuple[float, str], ...] = ()) -> tuple[SimulationResult, SessionAnalysis]:
     """Simulate ``config`` (a scenario that starts with the N-pose/T-pose of ``demo``),
-    calibrate, write the session without truth to ``folder`` and analyse it (module doc)."""
+    calibrate, write the session without truth (plus ``markers`` (t_s, label), as a user would
+    set them) to ``folder`` and analyse it (module doc)."""
     result = simulate_session(config)
     session = session_from_simulation(result, include_truth=False)
+    session.markers = sorted(session.markers + [Marker(float(t), label) for t, label in markers], key=lambda m: m.t_s)
     grid_sensor = next(iter(session.sensors.values()))
     t = grid_sensor.t_s
     q = {}

@@ -11,6 +11,9 @@ Only straight walking is analysed. A stride is refused, with the reason in words
 * its final contact is missing or not between its initial contacts,
 * it ends the walk: the foot does not swing again within ``max_stride_s`` (gait termination:
   the walker slows into standing, and the last step is shortened),
+* it is irregular: it lasts more than ``max_time_ratio`` (1.5) times the median stride time of
+  its foot's other candidate strides (a swing the detector did not see, such as the small
+  steps of turning on the spot, joins two strides into one),
 * it turns: its heading changes by more than ``max_heading_change_deg`` (45°: the smallest
   turn counted as one in turning studies, e.g. El-Gohary et al. 2014, "Continuous monitoring
   of turning in patients with movement disability", Sensors 14:356-369; the gentle
@@ -33,11 +36,13 @@ SIDES = ("left", "right")
 @dataclass(frozen=True)
 class StrideSettings:
     """``min_stride_s``/``max_stride_s`` plausible stride times (s); ``max_heading_change_deg``
-    largest heading change (deg) of a straight stride."""
+    largest heading change (deg) of a straight stride; ``max_time_ratio`` longest stride time
+    as a multiple of the foot's median."""
 
     min_stride_s: float = 0.6
     max_stride_s: float = 2.5
     max_heading_change_deg: float = 45.0
+    max_time_ratio: float = 1.5
 
     def __post_init__(self) -> None:
         if not 0 < self.min_stride_s < self.max_stride_s:
@@ -104,6 +109,11 @@ def pair_strides(side: str, t_ic_s: np.ndarray, t_fc_s: np.ndarray) -> list[Stri
 def classify(strides: list[Stride], settings: StrideSettings = DEFAULT_STRIDE_SETTINGS) -> list[Stride]:
     """The strides (of one or both feet) with ``straight``, ``analysed`` and
     ``refused_because`` set (module doc)."""
+    medians = {}
+    for side in SIDES:
+        times = [s.stride_time_s for s in strides
+                 if s.side == side and settings.min_stride_s <= s.stride_time_s <= settings.max_stride_s]
+        medians[side] = float(np.median(times)) if times else math.nan
     result = []
     for s in strides:
         later = [o.ic_s for o in strides if o.side == s.side and o.ic_s >= s.next_ic_s - 1e-9]
@@ -117,6 +127,9 @@ def classify(strides: list[Stride], settings: StrideSettings = DEFAULT_STRIDE_SE
                       f"({settings.min_stride_s:g}-{settings.max_stride_s:g} s): a pause or a swing not seen")
         elif not (math.isfinite(s.fc_s) and s.ic_s < s.fc_s < s.next_ic_s):
             reason = "no final contact between its initial contacts"
+        elif s.stride_time_s > settings.max_time_ratio * medians[s.side]:
+            reason = (f"irregular: {s.stride_time_s:.2f} s, more than {settings.max_time_ratio:g} × the median "
+                      f"stride time {medians[s.side]:.2f} s (a swing not seen, e.g. turning on the spot)")
         elif ends_walk:
             reason = "ends the walk: the foot comes to rest after it (gait termination)"
         elif not straight:
