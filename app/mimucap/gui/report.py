@@ -327,7 +327,7 @@ def _rom_section(doc: _Document, analysis: SessionAnalysis) -> None:
         return
     doc.table(["Movement", "Side", "Reps", "Active ROM °", "Peak °", "L − R °", "Reference °", "% of ref."],
               _rom_rows(analysis.rom), [0.22, 0.09, 0.07, 0.13, 0.11, 0.11, 0.13, 0.12])
-    doc.text(f"Reference: active ROM of healthy adults, {rom_core.REFERENCE_SOURCE}. Shoulder: humeral elevation.",
+    doc.text(f"Reference: active ROM of healthy adults, {rom_core.REFERENCE_SOURCE}. Shoulder: humeral elevation in the plane of the movement.",
              7.5, colour=QColor(70, 70, 70), gap=8)
 
 

@@ -3,9 +3,12 @@
 Each :class:`RomMovement` names the joint-angle column it reads and the sign that makes the
 movement positive (abduction is negative adduction in the ISB convention of
 ``core.skeleton.JOINT_ANGLE_SIGNS_DOC``; trunk rotation to the right is negative). Shoulder
-movements use the humerus's **elevation** instead (angle between the upper arm's and the
-thorax's long axes, from the segment orientations): the Z-X'-Y'' decomposition is singular at
-90° of abduction, and elevation is what a goniometer reads in the plane of the movement.
+movements use the humerus's **elevation in the plane of the movement** instead, from the
+segment orientations (the Z-X'-Y'' decomposition is singular at 90° of abduction): the
+direction of the upper arm (elbow from shoulder) in the thorax frame, ``d = (d_x forward,
+d_y up, d_z right)``, gives flexion ``atan2(d_x, −d_y)`` in the sagittal plane and abduction
+``atan2(±d_z, −d_y)`` in the frontal plane (+ for the right arm, − for the left): 0 with the arm
+hanging, 90° horizontal, 180° overhead, as a goniometer reads them.
 
 A movement is repeated; each repetition's peak is captured by :class:`RepetitionCounter`
 (at least ``min_prominence_deg`` of movement) and the peaks are averaged. The active ROM of one repetition is its peak minus the
@@ -38,7 +41,7 @@ REFERENCE_SOURCE = "AAOS 1965 (Norkin & White)"
 @dataclass(frozen=True)
 class RomMovement:
     """One clinical movement: ``key``, ``label``, ``joint`` (model joint), ``axis`` (column
-    axis, or ``elevation``), ``sign`` (+1/−1, or per side for trunk rotation via
+    axis, or ``sagittal``/``frontal`` for the shoulder's elevation in that plane), ``sign`` (+1/−1, or per side for trunk rotation via
     ``sign_left``/``sign_right``), ``sided`` (a limb joint done left and right),
     ``instruction`` for the subject, ``reference_deg`` normal adult active ROM."""
 
@@ -63,9 +66,9 @@ class RomMovement:
 
 
 MOVEMENTS: tuple[RomMovement, ...] = (
-    RomMovement("shoulder_flexion", "Shoulder flexion", "shoulder", "elevation", 1, 1, True,
+    RomMovement("shoulder_flexion", "Shoulder flexion", "shoulder", "sagittal", 1, 1, True,
                 "Raise the {side} arm forward and up as far as you can, thumb up, then lower it.", 180.0),
-    RomMovement("shoulder_abduction", "Shoulder abduction", "shoulder", "elevation", 1, 1, True,
+    RomMovement("shoulder_abduction", "Shoulder abduction", "shoulder", "frontal", 1, 1, True,
                 "Raise the {side} arm sideways and up as far as you can, palm forward, then lower it.", 180.0),
     RomMovement("elbow_flexion", "Elbow flexion", "elbow", "flexion", 1, 1, True,
                 "Bend the {side} elbow as far as you can, palm up, then straighten it.", 150.0),
@@ -94,24 +97,28 @@ def sides_of(m: RomMovement) -> tuple[str, ...]:
     return ("left", "right") if m.sided else ("both",)
 
 
-def elevation_deg(q_world_from_thorax: np.ndarray, q_world_from_upper_arm: np.ndarray) -> np.ndarray:
-    """Angle (T,) deg between the upper arm's and the thorax's long (y) axes: 0 with the arm
-    hanging (N-pose), 180 overhead."""
-    y = np.array([0.0, 1.0, 0.0])
-    a = rot.rotate(np.asarray(q_world_from_thorax, dtype=float), y)
-    b = rot.rotate(np.asarray(q_world_from_upper_arm, dtype=float), y)
-    return np.degrees(np.arccos(np.clip(np.sum(a * b, axis=-1), -1.0, 1.0)))
+def shoulder_elevation_deg(q_world_from_thorax: np.ndarray, q_world_from_upper_arm: np.ndarray, plane: str,
+                           side: str) -> np.ndarray:
+    """Elevation (T,) deg of the upper arm in the sagittal (``plane="sagittal"``: flexion) or
+    frontal (``"frontal"``: abduction) plane of the thorax (module doc)."""
+    q_thorax_from_arm = rot.multiply(rot.conjugate(np.asarray(q_world_from_thorax, dtype=float)),
+                                     np.asarray(q_world_from_upper_arm, dtype=float))
+    d = rot.rotate(q_thorax_from_arm, np.array([0.0, -1.0, 0.0]))  # towards the elbow
+    if plane == "sagittal":
+        return np.degrees(np.arctan2(d[..., 0], -d[..., 1]))
+    outward = d[..., 2] if side == "right" else -d[..., 2]
+    return np.degrees(np.arctan2(outward, -d[..., 1]))
 
 
 def movement_series(m: RomMovement, side: str, angles_deg: dict[str, np.ndarray],
                     q_world_from_segment: dict[str, np.ndarray] | None = None) -> np.ndarray:
     """The angle (T,) deg of movement ``m`` on ``side``, positive in the movement's direction.
     ``ValueError`` when the recording lacks the joint."""
-    if m.axis == "elevation":
+    if m.axis in ("sagittal", "frontal"):
         arm = f"upper_arm_{side[0]}"
         if not q_world_from_segment or arm not in q_world_from_segment or "thorax" not in q_world_from_segment:
             raise ValueError(f"{m.label} ({side}) needs the thorax and {arm} orientations")
-        return elevation_deg(q_world_from_segment["thorax"], q_world_from_segment[arm])
+        return shoulder_elevation_deg(q_world_from_segment["thorax"], q_world_from_segment[arm], m.axis, side)
     column = m.column(side)
     if column not in angles_deg:
         raise ValueError(f"{m.label} ({side}) needs the joint-angle column {column}")
