@@ -52,6 +52,29 @@ class RomStep:
         return self.movement.instruction.format(side=self.side)
 
 
+#: What the simulated subject does for each movement (``SuitSimulator.set_activity("rom", ...)``):
+#: joint, axis and signed peak angle (deg) of a healthy adult's active range, side letter filled in.
+SIMULATED_MOVES = {
+    "shoulder_flexion": ("shoulder_{s}", "flexion", 165.0),
+    "shoulder_abduction": ("shoulder_{s}", "adduction", -160.0),
+    "elbow_flexion": ("elbow_{s}", "flexion", 140.0),
+    "hip_flexion": ("hip_{s}", "flexion", 110.0),
+    "hip_abduction": ("hip_{s}", "adduction", -40.0),
+    "knee_flexion": ("knee_{s}", "flexion", 125.0),
+    "trunk_flexion": ("lumbar", "flexion", 75.0),
+    "trunk_rotation": ("lumbar", "rotation", 40.0),
+}
+
+
+def simulated_activity(step: RomStep, cycles: int = 5) -> dict:
+    """Keyword arguments of ``SuitSimulator.set_activity("rom", ...)`` that make the simulated
+    subject do ``step`` (trunk rotation to the right turns the other way)."""
+    joint, axis, angle = SIMULATED_MOVES[step.key]
+    if step.key == "trunk_rotation" and step.side == "right":
+        angle = -angle
+    return {"joint": joint.format(s=step.side[0]), "axis": axis, "angle_deg": angle, "cycles": cycles}
+
+
 def default_steps() -> tuple[RomStep, ...]:
     """Every movement, each side (the whole protocol)."""
     return tuple(RomStep(m.key, side) for m in rom_core.MOVEMENTS for side in rom_core.sides_of(m))
