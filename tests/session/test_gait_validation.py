@@ -64,7 +64,7 @@ def test_gaitmap_stride_time_agrees_with_the_optical_reference(gaitmap_result):
         assert gait.parameters.get("stride_time", side).mean == pytest.approx(expected, abs=0.01)
 
 
-@pytest.mark.parametrize("n_sensors, ic_ms, length_cm", [(17, 50.0, 3.0), (10, 30.0, 10.0)])
+@pytest.mark.parametrize("n_sensors, ic_ms, length_cm", [(17, 50.0, 3.0), (10, 30.0, 6.0)])
 def test_simulated_suit_events_and_stride_lengths(tmp_path, n_sensors, ic_ms, length_cm):
     """Pipeline-dependent: sensor orientations (on-board, BNO055-like), body calibration and
     review. The simulated feet have no impact, and the simulated foot rolls off the ground

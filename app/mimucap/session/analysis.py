@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mimucap.core import bodycal, skeleton
+from mimucap.core import bodycal
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait import GaitAnalysis, GaitInput, analyse_gait
 from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves
@@ -83,10 +83,7 @@ def gait_inputs(review: ReviewData) -> tuple[list[GaitInput], LegChain | None]:
     q = review.q_world_from_segment
     needed = ("pelvis", "thigh_l", "thigh_r", "shank_l", "shank_r")
     if review.pose_source != POSE_SENSOR_AXES and all(s in q for s in needed) and len(review.t_s) > 1:
-        lengths = skeleton.segment_lengths(review.model, review.height_m)
-        legs = LegChain(np.asarray(review.t_s, dtype=float),
-                        {"left": q["thigh_l"], "right": q["thigh_r"]}, {"left": q["shank_l"], "right": q["shank_r"]},
-                        q["pelvis"], float(lengths["thigh_r"]), float(lengths["shank_r"]))
+        legs = LegChain.from_segments(review.model, review.height_m, np.asarray(review.t_s, dtype=float), q)
     return inputs, legs
 
 

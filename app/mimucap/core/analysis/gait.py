@@ -81,6 +81,7 @@ def analyse_gait(inputs: list[GaitInput], legs: LegChain | None = None,
     strides: list[Stride] = []
     events: dict[str, SwingEvents] = {}
     sources: dict[str, str] = {}
+    shank_items = []
     for item in inputs:
         if item.placement == "foot":
             if item.acc is None or item.gyr is None:
@@ -91,20 +92,37 @@ def analyse_gait(inputs: list[GaitInput], legs: LegChain | None = None,
         elif item.placement == "shank":
             events[item.side] = detect_swing_events(item.t_s, item.sagittal_rate, "shank", event_settings)
             found = pair_strides(item.side, events[item.side].t_ic_s, events[item.side].t_fc_s)
+            shank_items.append(item.side)
             if legs is not None:
-                found = [replace(s, stride_length_m=_finite_or_nan(legs.stride_length_m(s.side, s.ic_s, s.fc_s, s.next_ic_s)),
-                                 heading_change_deg=legs.heading_change_deg(s.ic_s, s.next_ic_s))
-                         if math.isfinite(s.fc_s) else s for s in found]
                 sources[item.side] = f"shank sensor {item.sensor_id}; stride length: {LENGTH_METHODS['shank']}"
             else:
                 sources[item.side] = f"shank sensor {item.sensor_id}; stride length not estimable (no leg orientations)"
         else:
             raise ValueError(f"sensor {item.sensor_id}: placement must be foot or shank, got {item.placement!r}")
         strides.extend(found)
+    if legs is not None:
+        strides = [_with_leg_model(s, legs, events) if s.side in shank_items else s for s in strides]
     strides.sort(key=lambda s: (s.ic_s, s.side))
     strides = classify(strides, stride_settings)
     strides, bouts, turns = bouts_and_turns(strides, stride_settings)
     return GaitAnalysis(strides, bouts, turns, gait_parameters(strides), events, sources)
+
+
+def _with_leg_model(stride: Stride, legs: LegChain, events: dict[str, SwingEvents]) -> Stride:
+    """The stride with its leg-model length (the other foot's contacts in its stance, when
+    known) and its pelvis heading change."""
+    if not math.isfinite(stride.fc_s):
+        return stride
+    other = events.get("left" if stride.side == "right" else "right")
+    other_fc = other_ic = math.nan
+    if other is not None:
+        fcs = other.t_fc_s[(other.t_fc_s > stride.ic_s) & (other.t_fc_s < stride.fc_s)]
+        ics = other.t_ic_s[(other.t_ic_s > stride.ic_s) & (other.t_ic_s < stride.fc_s)]
+        if fcs.size and ics.size:
+            other_fc, other_ic = float(fcs.min()), float(ics.max())
+    length = legs.stride_length_m(stride.side, stride.ic_s, stride.fc_s, stride.next_ic_s, other_fc, other_ic)
+    return replace(stride, stride_length_m=_finite_or_nan(length),
+                   heading_change_deg=legs.heading_change_deg(stride.ic_s, stride.next_ic_s))
 
 
 def _finite_or_nan(value: float) -> float:
