@@ -64,3 +64,18 @@ def test_gait_csv_with_no_walking_says_so(tmp_path, capsys):
     assert main(["gait", str(still), "--rate", "100", "--out", str(tmp_path / "o")]) == 0
     out = capsys.readouterr().out
     assert "0 strides analysed" in out
+
+
+def test_gait_on_a_session_writes_every_table(tmp_path, capsys):
+    from mimucap.core.simulate import SimulationConfig
+    from mimucap.session.analysis_evaluation import simulated_analysis
+
+    config = SimulationConfig(scenario="demo", duration_s=30.0, n_sensors=10, errors="bno055", seed=8)
+    _, analysis = simulated_analysis(config, tmp_path)
+    out = tmp_path / "out"
+    assert main(["gait", str(analysis.review.path), "--out", str(out)]) == 0
+    assert "strides analysed" in capsys.readouterr().out
+    for name in ("strides.csv", "parameters.csv", "bouts_turns.csv", "gait_cycle_curves.csv"):
+        assert (out / name).is_file()
+    assert main(["gait", str(analysis.review.path), "--rate", "100", "--out", str(out)]) == 1
+    assert "--rate applies to CSV input only" in capsys.readouterr().err
