@@ -71,8 +71,14 @@ def run(args: argparse.Namespace) -> int:
     refused = len(gait.strides) - len(analysed)
     cadence = gait.parameters.get("cadence", "both")
     speed = gait.parameters.get("gait_speed", "both")
-    print(f"{len(analysed)} strides analysed, {refused} refused, {len(gait.turns)} turn(s); "
-          f"cadence {cadence.mean:.1f} steps/min, gait speed {speed.mean:.2f} m/s")
+    summary = f"{len(analysed)} strides analysed, {refused} refused, {len(gait.turns)} turn(s)"
+    if analysed:
+        summary += f"; cadence {cadence.mean:.1f} steps/min"
+        if speed.n:
+            summary += f", gait speed {speed.mean:.2f} m/s"
+    else:
+        summary += ": no straight-walking stride found"
+    print(summary)
     for path in written:
         print(f"wrote {path}")
     return 0

@@ -268,6 +268,10 @@ def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
         verdicts = ", ".join(f"{sid}: {(entry or {}).get('verdict', (entry or {}).get('quality', {}).get('verdict', '?'))}"
                              for sid, entry in mag.items())
         doc.text(f"Magnetometer calibrations: {verdicts}.", 8)
+    elif session.metadata.get("mag_calibrated_sensors"):
+        doc.text("Magnetometer calibrated (live): " + ", ".join(session.metadata["mag_calibrated_sensors"]) + ".", 8)
+    else:
+        doc.text("Magnetometer calibrations: none recorded.", 8)
     doc.text(f"Poses from: {review.pose_source}.", 8, gap=8)
 
 
