@@ -92,3 +92,19 @@ def test_simulated_suit_events_and_stride_lengths(tmp_path, n_sensors, ic_ms, le
     assert np.argmax(knee.mean_deg) > knee.stance_percent - 5
     rows = read_table(tmp_path / "out" / "strides.csv")
     assert {r["foot"] for r in rows} == {"left", "right"}
+
+
+def test_gaitmap_without_known_axes_uses_the_dominant_gyroscope_axis():
+    """A sensor without body calibration: the sagittal axis is found from the gyroscope
+    alone (its dominant axis), and the goals still hold on the real data."""
+    from mimucap.core.analysis.sagittal import dominant_axis, sagittal_rate_dominant
+
+    folder = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "gait" / "gaitmap_example"
+    feet = read_foot_imu_csv(folder / "imu_sample.csv", 204.8, "deg/s")
+    for imu in feet.values():
+        assert dominant_axis(imu.gyr) @ np.array([0.0, -1.0, 0.0]) > 0.85  # the foot's mediolateral axis
+    gait = analyse_gait([GaitInput(side, "foot", side, imu.t_s, sagittal_rate_dominant(imu.gyr), imu.acc, imu.gyr)
+                         for side, imu in feet.items()])
+    figures = compare(gait.strides, straight_reference(read_gaitmap_reference(folder))).summary()
+    assert figures["missed"] == 0 and figures["extra"] == 0
+    assert figures["ic_median_ms"] <= 20.0 and figures["fc_median_ms"] <= 30.0
