@@ -85,3 +85,12 @@ def test_rom_wizard_waits_for_a_body_calibration(qtbot):
     wizard.tick()
     assert "Calibrate the body first" in wizard.instruction.text()
     assert not wizard.start_button.isEnabled()
+
+
+def test_the_assess_menu_opens_the_wizard_on_the_live_session(window, qtbot):
+    window.action_rom.trigger()
+    wizard = window._wizard
+    assert isinstance(wizard, RomWizard) and wizard.isVisible()
+    assert wizard.live is window.live
+    qtbot.waitUntil(lambda: wizard.step_label.text() != "", timeout=5000)
+    wizard.close()
