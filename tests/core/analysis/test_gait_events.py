@@ -130,3 +130,20 @@ def test_refused_strides_say_why_and_turns_and_bouts_are_found():
     assert [(b.start_s, b.end_s) for b in bouts] == [(0.0, 4.0), (7.5, 9.5)]
     assert len(turns) == 1 and turns[0].angle_deg == pytest.approx(120.0)
     assert math.isnan(gait_parameters(strides).get("stride_time", "left").mean)
+
+
+def test_turns_are_found_in_a_continuous_heading_and_stride_sway_is_not_one():
+    from mimucap.core.analysis.turns import find_turns
+
+    t = np.arange(0, 30, 0.01)
+    sway = np.radians(5.0) * np.sin(2 * np.pi * t / 1.1)  # the pelvis's rotation within each stride
+    turn = np.pi * np.clip((t - 12.0) / 2.5, 0.0, 1.0)     # 180° to the left over 2.5 s
+    found = find_turns(t, sway + turn)
+    assert len(found) == 1
+    assert found[0].angle_deg == pytest.approx(180.0, abs=12.0)
+    assert 11.0 < found[0].start_s < 12.5 and 14.5 < found[0].end_s < 16.0
+    assert find_turns(t, sway) == []
+    # A stride mostly inside the turn is refused as turning.
+    strides = classify([Stride("left", 12.5, 13.1, 13.6, 1.0, 10.0), Stride("left", 13.6, 14.2, 14.7, 1.0, 10.0),
+                        Stride("left", 14.7, 15.3, 15.8, 1.0, 10.0)], turns=found)
+    assert "inside the turn" in strides[0].refused_because

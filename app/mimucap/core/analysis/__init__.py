@@ -8,6 +8,7 @@ One concept per module:
 * :mod:`.zupt` stride length and heading change of a foot sensor by zero-velocity-update
   integration;
 * :mod:`.leg_model` stride length from thigh and shank orientations (double-pendulum leg model);
+* :mod:`.turns` turns from a continuous heading, found before the strides are judged;
 * :mod:`.strides` strides (initial contact to initial contact), turns, walking bouts and the
   reason every refused stride was refused;
 * :mod:`.gait_parameters` temporal and spatial gait parameters per side and for both, their

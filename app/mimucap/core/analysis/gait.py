@@ -6,6 +6,8 @@ with lengths and heading changes, refusals, bouts and turns, then the parameters
 * A shank sensor gives events by the shank rules; stride length and heading change come from
   the segment orientations (:class:`~.leg_model.LegChain`: the double-pendulum leg model and the
   pelvis heading) when those are given, and are left out (NaN) otherwise.
+* With segment orientations, turns are found first from the pelvis heading (:mod:`.turns`);
+  foot sensors alone give turns from their strides' heading changes.
 """
 
 from __future__ import annotations
@@ -18,7 +20,8 @@ import numpy as np
 from mimucap.core.analysis.foot import foot_strides
 from mimucap.core.analysis.gait_events import DEFAULT_EVENT_SETTINGS, EventSettings, SwingEvents, detect_swing_events
 from mimucap.core.analysis.gait_parameters import GaitParameters, gait_parameters
-from mimucap.core.analysis.leg_model import LegChain
+from mimucap.core.analysis.leg_model import LegChain, heading_rad
+from mimucap.core.analysis.turns import find_turns
 from mimucap.core.analysis.strides import (
     DEFAULT_STRIDE_SETTINGS,
     SIDES,
@@ -103,8 +106,11 @@ def analyse_gait(inputs: list[GaitInput], legs: LegChain | None = None,
     if legs is not None:
         strides = [_with_leg_model(s, legs, events) if s.side in shank_items else s for s in strides]
     strides.sort(key=lambda s: (s.ic_s, s.side))
-    strides = classify(strides, stride_settings)
-    strides, bouts, turns = bouts_and_turns(strides, stride_settings)
+    found_turns = None
+    if legs is not None and legs.t_s.shape[0] >= 10:
+        found_turns = find_turns(legs.t_s, heading_rad(legs.q_pelvis))
+    strides = classify(strides, stride_settings, found_turns)
+    strides, bouts, turns = bouts_and_turns(strides, stride_settings, found_turns)
     return GaitAnalysis(strides, bouts, turns, gait_parameters(strides), events, sources)
 
 

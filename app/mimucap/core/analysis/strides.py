@@ -19,8 +19,10 @@ Only straight walking is analysed. A stride is refused, with the reason in words
   of turning in patients with movement disability", Sensors 14:356-369; the gentle
   curves of 30° that bring a walker onto the next straight stay in).
 
-Turns are runs of turning strides (of either foot, overlapping in time); walking bouts are
-runs of strides of either foot without a pause between them.
+Turns are found first from a continuous heading where there is one (the pelvis's, see
+:mod:`.turns`), and a stride more than half inside a turn is refused as turning too; without
+one (foot sensors alone), turns are the runs of turning strides (of either foot, overlapping in
+time). Walking bouts are runs of strides of either foot without a pause between them.
 """
 
 from __future__ import annotations
@@ -106,9 +108,11 @@ def pair_strides(side: str, t_ic_s: np.ndarray, t_fc_s: np.ndarray) -> list[Stri
     return strides
 
 
-def classify(strides: list[Stride], settings: StrideSettings = DEFAULT_STRIDE_SETTINGS) -> list[Stride]:
+def classify(strides: list[Stride], settings: StrideSettings = DEFAULT_STRIDE_SETTINGS,
+             turns: list[Interval] | None = None) -> list[Stride]:
     """The strides (of one or both feet) with ``straight``, ``analysed`` and
-    ``refused_because`` set (module doc)."""
+    ``refused_because`` set (module doc). ``turns`` found beforehand from a continuous heading
+    (:mod:`.turns`): a stride more than half inside one is a turning stride too."""
     medians = {}
     for side in SIDES:
         times = [s.stride_time_s for s in strides
@@ -122,6 +126,7 @@ def classify(strides: list[Stride], settings: StrideSettings = DEFAULT_STRIDE_SE
             for o in strides)
         reason = ""
         straight = not (math.isfinite(s.heading_change_deg) and abs(s.heading_change_deg) > settings.max_heading_change_deg)
+        within = [t for t in turns or () if _overlap(s.ic_s, s.next_ic_s, t) > 0.5]
         if not settings.min_stride_s <= s.stride_time_s <= settings.max_stride_s:
             reason = (f"{s.stride_time_s:.2f} s between initial contacts is not one stride "
                       f"({settings.min_stride_s:g}-{settings.max_stride_s:g} s): a pause or a swing not seen")
@@ -135,8 +140,18 @@ def classify(strides: list[Stride], settings: StrideSettings = DEFAULT_STRIDE_SE
         elif not straight:
             reason = (f"turning: heading changed by {s.heading_change_deg:+.0f}° "
                       f"(straight walking: at most {settings.max_heading_change_deg:g}°)")
+        elif within:
+            straight = False
+            reason = (f"turning: inside the turn of {within[0].angle_deg:+.0f}° at "
+                      f"{within[0].start_s:.1f}-{within[0].end_s:.1f} s")
         result.append(replace(s, straight=straight, analysed=not reason, refused_because=reason))
     return result
+
+
+def _overlap(start_s: float, end_s: float, turn: Interval) -> float:
+    """Share (0..1) of ``start_s .. end_s`` inside ``turn``."""
+    inside = min(end_s, turn.end_s) - max(start_s, turn.start_s)
+    return max(inside, 0.0) / (end_s - start_s) if end_s > start_s else 0.0
 
 
 def _merge(intervals: list[tuple[float, float, int, float]]) -> list[Interval]:
@@ -152,18 +167,24 @@ def _merge(intervals: list[tuple[float, float, int, float]]) -> list[Interval]:
     return [Interval(a, b, n, g) for a, b, n, g in merged]
 
 
-def bouts_and_turns(strides: list[Stride],
-                    settings: StrideSettings = DEFAULT_STRIDE_SETTINGS) -> tuple[list[Stride], list[Interval], list[Interval]]:
-    """Walking bouts (runs of strides of either foot that are not pauses) and turns (runs of
-    turning strides); returns the strides with their ``bout`` index, the bouts and the turns.
-    A turn's angle is the summed heading change of the turning strides of the foot that turned
-    most within it (deg, positive counter-clockwise from above)."""
+def bouts_and_turns(strides: list[Stride], settings: StrideSettings = DEFAULT_STRIDE_SETTINGS,
+                    turns: list[Interval] | None = None) -> tuple[list[Stride], list[Interval], list[Interval]]:
+    """Walking bouts (runs of strides of either foot that are not pauses) and turns; returns
+    the strides with their ``bout`` index, the bouts and the turns. The turns are ``turns``
+    when they were found beforehand from a continuous heading (with the number of strides
+    overlapping each), else the runs of turning strides, whose angle is the summed heading
+    change of the turning strides of the foot that turned most within it (deg, positive
+    counter-clockwise from above)."""
     walking = [s for s in strides if settings.min_stride_s <= s.stride_time_s <= settings.max_stride_s]
     bouts = _merge([(s.ic_s, s.next_ic_s, 1, math.nan) for s in walking])
     numbered = []
     for s in strides:
         index = next((i for i, b in enumerate(bouts) if b.start_s <= s.ic_s and s.next_ic_s <= b.end_s), -1)
         numbered.append(replace(s, bout=index if s in walking else -1))
+    if turns is not None:
+        counted = [replace(t, n_strides=sum(1 for s in walking if _overlap(s.ic_s, s.next_ic_s, t) > 0.0))
+                   for t in turns]
+        return numbered, bouts, counted
     turning = [s for s in walking if not s.straight]
     spans = _merge([(s.ic_s, s.next_ic_s, 1, math.nan) for s in turning])
     turns = []
