@@ -123,6 +123,18 @@ class _Document:
         self.painter.end()
 
 
+def _ticks(lo: float, hi: float) -> list[float]:
+    """Round tick values (1, 2 or 5 × 10^k apart, 3 to 6 of them) within ``lo .. hi``."""
+    span = hi - lo
+    step = 10.0 ** math.floor(math.log10(span / 3.0))
+    for factor in (1.0, 2.0, 5.0, 10.0):
+        if span / (step * factor) <= 6:
+            step *= factor
+            break
+    first = math.ceil(lo / step) * step
+    return [round(first + k * step, 6) for k in range(int((hi - first) / step) + 1)]
+
+
 def _plot(doc: _Document, rect: QRectF, title: str, curves: list[tuple[object, QColor, Qt.PenStyle]],
           band: NormativeBand | None, boundaries: list[tuple[float, QColor]]) -> None:
     """One gait-cycle plot: x 0-100 %, y degrees; each curve a CycleCurve drawn mean ± SD."""
@@ -150,8 +162,12 @@ def _plot(doc: _Document, rect: QRectF, title: str, curves: list[tuple[object, Q
     p.drawRect(area)
     doc.font(6.5)
     p.setPen(QColor(60, 60, 60))
-    for deg in (lo + pad, 0.5 * (lo + hi), hi - pad):
-        p.drawText(QRectF(rect.left(), y_of(deg) - 8, 40, 16), int(Qt.AlignRight | Qt.AlignVCenter), f"{deg:.0f}°".replace("-0°", "0°"))
+    for deg in _ticks(lo, hi):
+        p.drawText(QRectF(rect.left(), y_of(deg) - 8, 40, 16), int(Qt.AlignRight | Qt.AlignVCenter),
+                   f"{deg:g}°".replace("-0°", "0°"))
+        p.setPen(QPen(QColor(225, 225, 225), 1))
+        p.drawLine(QPointF(area.left(), y_of(deg)), QPointF(area.left() + 4, y_of(deg)))
+        p.setPen(QColor(60, 60, 60))
     for pct in (0, 50, 100):
         p.drawText(QRectF(x_of(pct) - 20, area.bottom() + 2, 40, 14), int(Qt.AlignCenter), f"{pct}%")
     if lo < 0 < hi:
