@@ -100,6 +100,8 @@ class _Document:
         for w in widths:
             xs.append(xs[-1] + w * self.width)
 
+        right = [k > 0 and bool(rows) and all(_numeric(str(r[k])) for r in rows) for k in range(len(header))]
+
         def draw_row(cells, bold, shade):
             self.need(line)
             if shade:
@@ -107,8 +109,7 @@ class _Document:
             self.font(size, bold)
             self.painter.setPen(QColor(0, 0, 0))
             for k, cell in enumerate(cells):
-                numeric = k > 0 and _numeric(str(cell))
-                align = int(Qt.AlignVCenter | (Qt.AlignRight if numeric else Qt.AlignLeft))
+                align = int(Qt.AlignVCenter | (Qt.AlignRight if right[k] else Qt.AlignLeft))
                 self.painter.drawText(QRectF(xs[k] + 3, self.y, xs[k + 1] - xs[k] - 6, line), align, str(cell))
             self.y += line
 
