@@ -33,7 +33,7 @@ from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.sagittal import sagittal_rate_calibrated, sagittal_rate_dominant
 from mimucap.io.gait_csv import write_table
 from mimucap.io.session import Marker
-from mimucap.session.review import POSE_SENSOR_AXES, ReviewData
+from mimucap.session.review import ReviewData
 
 SIDE_LETTER = {"left": "l", "right": "r"}
 ROM_MARKER_PREFIX = "rom:"
@@ -82,7 +82,9 @@ def gait_inputs(review: ReviewData) -> tuple[list[GaitInput], LegChain | None]:
     legs = None
     q = review.q_world_from_segment
     needed = ("pelvis", "thigh_l", "thigh_r", "shank_l", "shank_r")
-    if review.pose_source != POSE_SENSOR_AXES and all(s in q for s in needed) and len(review.t_s) > 1:
+    # Segment orientations mean something only through a body calibration (sensor axes alone
+    # are not the segments' axes).
+    if calibration is not None and all(s in q for s in needed) and len(review.t_s) > 1:
         legs = LegChain.from_segments(review.model, review.height_m, np.asarray(review.t_s, dtype=float), q)
     return inputs, legs
 
