@@ -9,8 +9,9 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.mimucap-installed
 TEST_STAMP := $(VENV)/.mimucap-test-installed
 BENCH_STAMP := $(VENV)/.mimucap-bench-installed
-# Debian packages for a virtual X server and the Qt xcb platform plugin.
-XVFB_DEBS := xvfb xauth libxcb-icccm4 libxcb-keysyms1 libxcb-xinerama0 libxcb-randr0 \
+# Debian packages for a virtual X server and the Qt xcb platform plugin; poppler-utils
+# (pdftoppm) turns the PDF report's pages into pictures in its test.
+XVFB_DEBS := poppler-utils xvfb xauth libxcb-icccm4 libxcb-keysyms1 libxcb-xinerama0 libxcb-randr0 \
 	libxcb-render-util0 libxcb-image0 libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0 \
 	libxcb-cursor0 libegl1 libgl1 libglx-mesa0 libegl-mesa0
 XVFB_RUN := xvfb-run -a -s "-screen 0 1920x1200x24"

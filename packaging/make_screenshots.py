@@ -83,6 +83,10 @@ def make_screenshots(out_dir: Path) -> list[Path]:
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     written.extend(module.write_library_screenshots(out_dir))
+    spec = importlib.util.spec_from_file_location("analysis_screenshots", Path(__file__).with_name("analysis_screenshots.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    written.extend(module.write_analysis_screenshots(out_dir))
     return written
 
 

@@ -55,7 +55,7 @@ def test_menu_lists_only_working_items(window):
         "Show World &Axes", "&Pause Plots\tSpace", "&About MimuCap",
     }
     assert expected <= texts
-    assert texts - expected <= {"&Magnetometers…", "&Body…"}  # the wizards, when installed
+    assert texts - expected <= {"&Magnetometers…", "&Body…", "&Range of Motion…"}  # the wizards, when installed
 
 
 def test_screenshot_and_quit_from_the_file_menu(window, qtbot, tmp_path, monkeypatch):

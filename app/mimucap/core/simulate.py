@@ -221,7 +221,9 @@ class SuitTruth:
     root; per sensor id: ``q_world_from_sensor`` (T,4), ``position_m`` (T,3) world,
     ``gyr_bias_rad_s`` (T,3), ``field_world_uT`` (T,3); ``mag_axis_turned`` (T,) bundle axis
     0/1/2 turned during a hand-held magnetometer calibration, −1 otherwise; ``held`` sensor id →
-    (T,) weight of being held in the hands (1) rather than worn (0).
+    (T,) weight of being held in the hands (1) rather than worn (0); ``foot_contact`` (T,2)
+    whether the left and right foot are on the ground (1) or in the air (0), blended like the
+    poses (gait-event truth: a contact begins where it rises through 0.5).
     """
 
     t_s: np.ndarray
@@ -234,6 +236,7 @@ class SuitTruth:
     field_world_uT: dict[str, np.ndarray]
     mag_axis_turned: np.ndarray
     held: dict[str, np.ndarray]
+    foot_contact: np.ndarray
 
     @staticmethod
     def concatenate(parts: list[SuitTruth]) -> SuitTruth:
@@ -247,6 +250,7 @@ class SuitTruth:
             q_world_from_sensor=cat_dict("q_world_from_sensor"), position_m=cat_dict("position_m"),
             gyr_bias_rad_s=cat_dict("gyr_bias_rad_s"), field_world_uT=cat_dict("field_world_uT"),
             mag_axis_turned=np.concatenate([p.mag_axis_turned for p in parts]), held=cat_dict("held"),
+            foot_contact=np.concatenate([p.foot_contact for p in parts]),
         )
 
 
@@ -373,7 +377,8 @@ class SuitSimulator:
         """From the next sample on, do activity (or scenario) ``name`` with keyword ``params``.
 
         Names: ``npose``, ``tpose`` (``arms="right|left|both"``), ``walk``, ``turn``,
-        ``arm_raise``, ``squat``, ``demo``, ``bodycal``, and ``mag_single_axis``/``mag_figure8``/
+        ``arm_raise``, ``squat``, ``rom`` (``joint=, axis=, angle_deg=``: one joint moved and back), ``demo``,
+        ``bodycal``, and ``mag_single_axis``/``mag_figure8``/
         ``mag_tumble`` (``sensor_ids=[...]`` held together and turned; default all). The new
         activity is blended in over 0.5 s (1 s when walking starts or stops and when sensors
         are picked up or put back). Switching again while units are being picked up or put
@@ -466,6 +471,7 @@ class SuitSimulator:
         return {
             "segments": segments, "angles": angles, "q_sensor": q_sensor, "p_sensor": p_sensor,
             "root": root + shift, "axis_turned": pose.axis_turned.astype(np.int64), "held": held,
+            "contact": pose.contact,
         }
 
     def advance(self, duration_s: float) -> SuitBlock:
@@ -554,6 +560,7 @@ class SuitSimulator:
             field_world_uT={sid: fields[:, i] for i, sid in enumerate(self.sensor_ids)},
             mag_axis_turned=state["axis_turned"][:n],
             held={sid: state["held"][:n, i] for i, sid in enumerate(self.sensor_ids)},
+            foot_contact=state["contact"][:n].copy(),
         )
         t_start, t_end = k0 * self.dt, (k0 + n) * self.dt
         markers = [(start, label) for start, label in self.schedule.markers if t_start <= start < t_end]
@@ -578,7 +585,7 @@ def _slice_block(block: SuitBlock, block_start: int, k0: int, k1: int, dt: float
         t_s=tr.t_s[a:b], q_world_from_segment=cut(tr.q_world_from_segment), joint_angles_deg=cut(tr.joint_angles_deg),
         root_position_m=tr.root_position_m[a:b], q_world_from_sensor=cut(tr.q_world_from_sensor),
         position_m=cut(tr.position_m), gyr_bias_rad_s=cut(tr.gyr_bias_rad_s), field_world_uT=cut(tr.field_world_uT),
-        mag_axis_turned=tr.mag_axis_turned[a:b], held=cut(tr.held),
+        mag_axis_turned=tr.mag_axis_turned[a:b], held=cut(tr.held), foot_contact=tr.foot_contact[a:b],
     )
     markers = [(t, label) for t, label in block.markers if k0 * dt <= t < k1 * dt]
     return SuitBlock(samples=samples, truth=truth, markers=markers)

@@ -64,7 +64,9 @@ class BodyPose:
     valid with weight ``bundle_weight`` (n,) (0: no bundle; identity and origin then);
     ``axis_turned`` (n,) int: bundle axis 0/1/2 being turned, −1 otherwise; ``ground`` (n,) in
     [0,1]: 1 sets the root height so that the lower ankle touches the ground, 0 uses the
-    standing height plus ``root_dz_m`` (n,) (m) given by the activity.
+    standing height plus ``root_dz_m`` (n,) (m) given by the activity; ``contact`` (n,2) in
+    [0,1]: whether the left and right foot are on the ground (1) or in the air (0), the
+    evaluation truth of gait events (initial contact where it rises through 0.5).
     """
 
     heading_rad: np.ndarray
@@ -79,6 +81,7 @@ class BodyPose:
     axis_turned: np.ndarray | None = None
     ground: np.ndarray | None = None
     root_dz_m: np.ndarray | None = None
+    contact: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = self.plant.shape[0]
@@ -94,6 +97,8 @@ class BodyPose:
             self.ground = np.ones(n)
         if self.root_dz_m is None:
             self.root_dz_m = np.zeros(n)
+        if self.contact is None:
+            self.contact = np.ones((n, 2))
 
     def take(self, index: np.ndarray) -> BodyPose:
         """The poses at ``index`` (boolean mask or integer indices)."""
@@ -104,7 +109,7 @@ class BodyPose:
             plant=self.plant[index], held={k: v[index] for k, v in self.held.items()},
             bundle_q=self.bundle_q[index], bundle_p_m=self.bundle_p_m[index],
             bundle_weight=self.bundle_weight[index], axis_turned=self.axis_turned[index],
-            ground=self.ground[index], root_dz_m=self.root_dz_m[index],
+            ground=self.ground[index], root_dz_m=self.root_dz_m[index], contact=self.contact[index],
         )
 
     def put(self, index: np.ndarray, other: BodyPose) -> None:
@@ -117,6 +122,7 @@ class BodyPose:
         self.plant[index] = other.plant
         self.ground[index] = other.ground
         self.root_dz_m[index] = other.root_dz_m
+        self.contact[index] = other.contact
         for k in self.held:
             self.held[k][index] = other.held[k]
         self.bundle_q[index] = other.bundle_q
@@ -155,6 +161,7 @@ def blend(previous: BodyPose, new: BodyPose, weight: np.ndarray) -> BodyPose:
         joint_angles_deg=angles, plant=mix(previous.plant, new.plant), held=held,
         bundle_q=bundle_q, bundle_p_m=bundle_p, bundle_weight=mix(previous.bundle_weight, new.bundle_weight),
         axis_turned=axis, ground=mix(previous.ground, new.ground), root_dz_m=mix(previous.root_dz_m, new.root_dz_m),
+        contact=mix(previous.contact, new.contact),
     )
 
 
@@ -269,6 +276,10 @@ class TPose(Activity):
 DEFAULT_LEG_LENGTHS_M = (0.245 * 1.75, 0.246 * 1.75)
 _GAIT_GRID = 512
 _GAIT_HARMONICS = 40
+
+
+#: Gait phase of toe-off (heel strike at 0) of every simulated leg.
+TOE_OFF_PHASE = 0.62
 
 
 def stance_weight_right(phase: np.ndarray) -> np.ndarray:
@@ -409,8 +420,11 @@ class Walk(Activity):
         angles["lumbar"] = np.stack((np.full(n, 2.0), -0.7 * obliquity, -0.8 * yaw), axis=-1)
         angles["neck"] = np.stack((np.full(n, -4.0), np.zeros(n), -0.2 * yaw), axis=-1)
         root_dz = -0.035 + 0.02 * np.cos(2.0 * _TWO_PI * (phase - 0.3))
+        # Each foot is on the ground from its heel strike (own phase 0) to its toe-off (0.62).
+        contact = np.stack([((phase + shift) % 1.0 < TOE_OFF_PHASE).astype(float) for shift in (0.5, 0.0)], axis=-1)
         return BodyPose(heading_rad=heading, root_xy_m=xy, q_body_from_pelvis=_pelvis(yaw, obliquity, lean),
-                        joint_angles_deg=angles, plant=np.zeros(n), ground=np.zeros(n), root_dz_m=root_dz)
+                        joint_angles_deg=angles, plant=np.zeros(n), ground=np.zeros(n), root_dz_m=root_dz,
+                        contact=contact)
 
 
 class Turn(Activity):
@@ -439,8 +453,10 @@ class Turn(Activity):
         # Stepping: alternate legs lift (hip and knee flex) while turning, four steps per turn.
         stepping = np.where(within < self.turn_s, np.sin(np.pi * within / self.turn_s) ** 2, 0.0)
         step_phase = 2.0 * within / self.turn_s
-        for side, shift in (("r", 0.0), ("l", 0.5)):
+        pose.contact = np.ones((tau.shape[0], 2))
+        for column, (side, shift) in ((1, ("r", 0.0)), (0, ("l", 0.5))):
             lift = stepping * np.maximum(0.0, np.sin(_TWO_PI * (step_phase + shift))) ** 2
+            pose.contact[:, column] = (lift <= 0.0).astype(float)
             zeros = np.zeros_like(tau)
             pose.joint_angles_deg[f"hip_{side}"] = np.stack((20.0 * lift, zeros, zeros), axis=-1)
             pose.joint_angles_deg[f"knee_{side}"] = np.stack((40.0 * lift, zeros, zeros), axis=-1)
@@ -533,6 +549,37 @@ class Squat(_Cyclic):
         return pose
 
 
+class JointExcursion(_Cyclic):
+    """One joint moved along one axis to ``angle_deg`` and back, as in a range-of-motion test
+    (shoulder flexion, elbow flexion, hip abduction, trunk rotation, ...): ``joint`` a model
+    joint (``shoulder_r``, ``lumbar``, ...), ``axis`` flexion, adduction or rotation, ``angle_deg``
+    the peak in the clinical signs of ``skeleton.JOINT_ANGLE_SIGNS_DOC`` (abduction is negative
+    adduction), repeated ``cycles`` times; standing otherwise still."""
+
+    name = "rom"
+
+    def __init__(self, duration_s: float | None = None, joint: str = "elbow_r", axis: str = "flexion",
+                 angle_deg: float = 120.0, cycles: int | None = None, move_s: float = 1.5,
+                 hold_s: float = 0.5, rest_s: float = 0.5) -> None:
+        axes = ("flexion", "adduction", "rotation")
+        if axis not in axes:
+            raise ValueError(f"ROM axis must be one of {', '.join(axes)}, got {axis!r}")
+        if not 0.0 < abs(angle_deg) <= 180.0:
+            raise ValueError(f"ROM angle must be within ±180° and not 0, got {angle_deg}")
+        self.joint, self.axis, self.angle_deg = str(joint), axis, float(angle_deg)
+        self._setup(duration_s, cycles, move_s, hold_s, rest_s)
+
+    def pose(self, tau, start):
+        pose = self._standing(tau, start, 0.2)
+        angles = np.zeros((tau.shape[0], 3))
+        angles[:, ("flexion", "adduction", "rotation").index(self.axis)] = self.angle_deg * self.level(tau)
+        pose.joint_angles_deg[self.joint] = angles
+        return pose
+
+    def describe(self) -> str:
+        return f"rom({self.joint},{self.axis})"
+
+
 class HoldSensors(Activity):
     """Standing while turning a bundle of sensors held in the hands (magnetometer calibration).
 
@@ -590,6 +637,7 @@ def make_activity(name: str, params: dict | None = None, *, sensor_ids: tuple[st
     params = dict(params or {})
     factories: dict[str, Callable[..., Activity]] = {
         "npose": NPose, "tpose": TPose, "walk": Walk, "turn": Turn, "arm_raise": ArmRaise, "squat": Squat,
+        "rom": JointExcursion,
     }
     try:
         if name in factories:

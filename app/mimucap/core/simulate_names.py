@@ -2,7 +2,8 @@
 without numpy (the command line lists them in ``--help``)."""
 
 #: Activities the simulated subject can perform (:func:`mimucap.core.simulate_motion.make_activity`).
-ACTIVITY_NAMES = ("npose", "tpose", "walk", "turn", "arm_raise", "squat", "mag_single_axis", "mag_figure8", "mag_tumble")
+ACTIVITY_NAMES = ("npose", "tpose", "walk", "turn", "arm_raise", "squat", "rom", "mag_single_axis", "mag_figure8",
+                  "mag_tumble")
 #: Scenarios of :class:`mimucap.core.simulate.SimulationConfig`: every activity, ``demo`` and ``bodycal``.
 SCENARIOS = ACTIVITY_NAMES + ("demo", "bodycal")
 #: Presets of :func:`mimucap.core.simulate_sensors.error_model` (the keys of ``ERROR_PRESETS``).

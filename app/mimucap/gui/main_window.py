@@ -92,6 +92,11 @@ def _wizard_classes() -> dict[str, type]:
         found["body"] = BodyCalibrationWizard
     except ImportError:
         log.info("body calibration wizard not available")
+    try:
+        from mimucap.gui.wizards.rom import RomWizard
+        found["rom"] = RomWizard
+    except ImportError:
+        log.info("range-of-motion wizard not available")
     return found
 
 
@@ -252,6 +257,8 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.action_magcal = self.calibrate_menu.addAction("&Magnetometers…", lambda: self.open_wizard("magnetometer"))
             if "body" in self._wizards:
                 self.action_bodycal = self.calibrate_menu.addAction("&Body…", lambda: self.open_wizard("body"))
+            if "rom" in self._wizards:
+                self.action_rom = bar.addMenu("&Assess").addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
 
         help_menu = bar.addMenu("&Help")
         self.action_about = help_menu.addAction("&About MimuCap", self.show_about)

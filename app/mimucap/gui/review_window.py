@@ -83,6 +83,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.resize(1280, 800)
         self.player: ReviewPlayer | None = None
         self.export_dialog: ExportDialog | None = None
+        self.analysis_window = None
         self.export_when_loaded = False
         self.load_error: str | None = None
         self._task: BackgroundTask | None = None
@@ -166,6 +167,9 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.action_export = menu.addAction("&Export…", self.open_export)
         self.action_export.setShortcut(QtGui.QKeySequence("Ctrl+E"))
         self.action_export.setEnabled(False)
+        self.action_analysis = menu.addAction("&Analysis…", self.open_analysis)
+        self.action_analysis.setShortcut(QtGui.QKeySequence("Ctrl+G"))
+        self.action_analysis.setEnabled(False)
         self.action_screenshot = menu.addAction("Save Screens&hot…", lambda: ask_to_save_screenshot(self, "review.png"))
         menu.addSeparator()
         menu.addAction("&Close", self.close).setShortcut(QtGui.QKeySequence.Close)
@@ -254,6 +258,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
             message += " — " + "; ".join(data.missing)
         self.statusBar().showMessage(message, 15000)
         self.action_export.setEnabled(True)
+        self.action_analysis.setEnabled(True)
         self.seek(data.start_s if keep is None else keep)
         self.scene_view.start()
         self.plots.start()
@@ -336,7 +341,24 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.export_dialog.show()
         return self.export_dialog
 
+    def open_analysis(self):
+        """The Analysis window (gait, ROM, report) of the loaded session."""
+        if self.player is None:
+            return None
+        from mimucap.gui.analysis_view import AnalysisWindow
+
+        if self.analysis_window is None:
+            self.analysis_window = AnalysisWindow(self, self.player.data)
+            self.analysis_window.show()
+            self.analysis_window.run()
+        else:
+            self.analysis_window.show()
+            self.analysis_window.raise_()
+        return self.analysis_window
+
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+        if self.analysis_window is not None:
+            self.analysis_window.close()
         if self._task is not None:
             for signal in (self._task.succeeded, self._task.failed):
                 try:

@@ -764,7 +764,8 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
         truth = SessionTruth(
             t_s=tr.t_s, q_world_from_segment=dict(tr.q_world_from_segment), joint_angles_deg=dict(tr.joint_angles_deg),
             sensors=sensor_truth, field_world_uT=np.asarray(result.field_world_uT),
-            extra={"root_position_m": tr.root_position_m, "mag_axis_turned": tr.mag_axis_turned},
+            extra={"root_position_m": tr.root_position_m, "mag_axis_turned": tr.mag_axis_turned,
+                   "foot_contact": tr.foot_contact},
             attributes={"joint_angle_sequence": "ZXY", "model": result.model_name, "height_m": result.height_m},
         )
     return Session(

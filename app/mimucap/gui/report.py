@@ -1,0 +1,436 @@
+"""The clinical PDF report, drawn with Qt's own PDF writer (``QPdfWriter`` and ``QPainter``: no
+further dependency). Needs a ``QGuiApplication`` (the command line makes one on the offscreen
+platform).
+
+A report of one session (:func:`write_report`): subject id, recording date and length,
+sensors and calibration quality, the gait table beside typical adult values, the gait-cycle
+curves of every joint angle (left and right mean ± SD, stance/swing boundary, a normative band
+where one is given), the ROM table beside the reference values, the markers and the notes.
+A comparison report (:func:`write_comparison_report`) puts two sessions of one subject
+(before / after) side by side with the differences.
+
+What it shows comes from :class:`mimucap.session.analysis.SessionAnalysis` only; pages are
+A4 portrait at 150 dpi.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+from PyQt5.QtCore import QMarginsF, QPointF, QRectF, Qt
+from PyQt5.QtGui import QColor, QFont, QPageLayout, QPageSize, QPainter, QPdfWriter, QPen, QPolygonF
+
+from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand, split_column
+from mimucap.core.analysis.gait_parameters import LABELS, PARAMETERS, SYMMETRY_PARAMETERS, UNITS
+from mimucap.core.analysis import rom as rom_core
+from mimucap.session.analysis import SessionAnalysis
+
+DPI = 150
+LEFT_COLOUR = QColor(30, 100, 200)
+RIGHT_COLOUR = QColor(200, 50, 40)
+#: Typical values of healthy adults walking at their own pace (Perry & Burnfield, "Gait
+#: Analysis: Normal and Pathological Function", 2nd ed., 2010: velocity 82 m/min, cadence 113
+#: steps/min, stride length 1.41 m, stance 60 %, swing 40 %, double support 2 × 10 %).
+TYPICAL_ADULT = {"cadence": 113.0, "stride_length": 1.41, "gait_speed": 1.37, "stance": 60.0, "swing": 40.0,
+                 "double_support": 20.0, "stride_time": 120.0 / 113.0, "step_time": 60.0 / 113.0}
+TYPICAL_SOURCE = "typical adult: Perry & Burnfield 2010"
+
+
+def _fmt(value: float, digits: int = 2) -> str:
+    return "–" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+
+
+def _numeric(text: str) -> bool:
+    head = text.split(" ")[0].replace("–", "").replace("−", "-")
+    try:
+        float(head)
+        return True
+    except ValueError:
+        return text.strip() in ("–", "")
+
+
+class _Document:
+    """A paginated drawing surface: a cursor ``y`` (pixels) moving down A4 pages."""
+
+    def __init__(self, path: Path, title: str) -> None:
+        self.writer = QPdfWriter(str(path))
+        self.writer.setResolution(DPI)
+        self.writer.setPageLayout(QPageLayout(QPageSize(QPageSize.A4), QPageLayout.Portrait, QMarginsF(15, 15, 15, 15)))
+        self.writer.setTitle(title)
+        self.writer.setCreator("MimuCap")
+        self.painter = QPainter(self.writer)
+        rect = self.writer.pageLayout().paintRectPixels(DPI)
+        self.width, self.height = rect.width(), rect.height()
+        self.y = 0.0
+        self.page = 1
+
+    def font(self, size: float, bold: bool = False) -> None:
+        font = QFont("DejaVu Sans")
+        font.setPointSizeF(size)
+        font.setBold(bold)
+        self.painter.setFont(font)
+
+    def need(self, height: float) -> None:
+        if self.y + height > self.height - 30:
+            self.new_page()
+
+    def new_page(self) -> None:
+        self.writer.newPage()
+        self.page += 1
+        self.y = 0.0
+
+    def text(self, text: str, size: float = 9.0, bold: bool = False, gap: float = 4.0,
+             colour: QColor | None = None) -> None:
+        self.font(size, bold)
+        metrics = self.painter.fontMetrics()
+        rect = metrics.boundingRect(0, 0, int(self.width), 10000, int(Qt.TextWordWrap), text)
+        self.need(rect.height() + gap)
+        self.painter.setPen(colour or QColor(0, 0, 0))
+        self.painter.drawText(QRectF(0, self.y, self.width, rect.height() + 2), int(Qt.TextWordWrap), text)
+        self.y += rect.height() + gap
+
+    def table(self, header: Sequence[str], rows: Sequence[Sequence[str]], widths: Sequence[float],
+              size: float = 8.0) -> None:
+        """A table; ``widths`` fractions of the page width."""
+        self.font(size)
+        line = self.painter.fontMetrics().height() + 6
+        xs = [0.0]
+        for w in widths:
+            xs.append(xs[-1] + w * self.width)
+
+        right = [k > 0 and bool(rows) and all(_numeric(str(r[k])) for r in rows) for k in range(len(header))]
+
+        def draw_row(cells, bold, shade):
+            self.need(line)
+            if shade:
+                self.painter.fillRect(QRectF(0, self.y, xs[-1], line), QColor(238, 241, 246))
+            self.font(size, bold)
+            self.painter.setPen(QColor(0, 0, 0))
+            for k, cell in enumerate(cells):
+                align = int(Qt.AlignVCenter | (Qt.AlignRight if right[k] else Qt.AlignLeft))
+                self.painter.drawText(QRectF(xs[k] + 3, self.y, xs[k + 1] - xs[k] - 6, line), align, str(cell))
+            self.y += line
+
+        draw_row(header, True, False)
+        self.painter.setPen(QPen(QColor(80, 80, 80), 1))
+        self.painter.drawLine(QPointF(0, self.y), QPointF(xs[-1], self.y))
+        for index, row in enumerate(rows):
+            draw_row(row, False, index % 2 == 1)
+        self.y += 8
+
+    def finish(self) -> None:
+        self.painter.end()
+
+
+def _ticks(lo: float, hi: float) -> list[float]:
+    """Round tick values (1, 2 or 5 × 10^k apart, 3 to 6 of them) within ``lo .. hi``."""
+    span = hi - lo
+    step = 10.0 ** math.floor(math.log10(span / 3.0))
+    for factor in (1.0, 2.0, 5.0, 10.0):
+        if span / (step * factor) <= 6:
+            step *= factor
+            break
+    first = math.ceil(lo / step) * step
+    return [round(first + k * step, 6) for k in range(int((hi - first) / step) + 1)]
+
+
+def _plot(doc: _Document, rect: QRectF, title: str, curves: list[tuple[object, QColor, Qt.PenStyle]],
+          band: NormativeBand | None, boundaries: list[tuple[float, QColor]]) -> None:
+    """One gait-cycle plot: x 0-100 %, y degrees; each curve a CycleCurve drawn mean ± SD."""
+    p = doc.painter
+    values = []
+    for curve, _, _ in curves:
+        values += list(curve.mean_deg - curve.sd_deg) + list(curve.mean_deg + curve.sd_deg)
+    if band is not None:
+        low, high = band.on_cycle()
+        values += list(low) + list(high)
+    finite = [v for v in values if math.isfinite(v)]
+    lo, hi = (min(finite), max(finite)) if finite else (-1.0, 1.0)
+    if hi - lo < 5.0:
+        mid = 0.5 * (hi + lo)
+        lo, hi = mid - 2.5, mid + 2.5
+    pad = 0.08 * (hi - lo)
+    lo, hi = lo - pad, hi + pad
+    doc.font(7.5, True)
+    p.setPen(QColor(0, 0, 0))
+    p.drawText(QRectF(rect.left(), rect.top(), rect.width(), 18), int(Qt.AlignLeft | Qt.AlignVCenter), title)
+    area = QRectF(rect.left() + 42, rect.top() + 20, rect.width() - 48, rect.height() - 42)
+    x_of = lambda pct: area.left() + pct / 100.0 * area.width()  # noqa: E731
+    y_of = lambda deg: area.bottom() - (deg - lo) / (hi - lo) * area.height()  # noqa: E731
+    p.setPen(QPen(QColor(150, 150, 150), 1))
+    p.drawRect(area)
+    doc.font(6.5)
+    p.setPen(QColor(60, 60, 60))
+    for deg in _ticks(lo, hi):
+        p.drawText(QRectF(rect.left(), y_of(deg) - 8, 40, 16), int(Qt.AlignRight | Qt.AlignVCenter),
+                   f"{deg:g}°".replace("-0°", "0°"))
+        p.setPen(QPen(QColor(225, 225, 225), 1))
+        p.drawLine(QPointF(area.left(), y_of(deg)), QPointF(area.left() + 4, y_of(deg)))
+        p.setPen(QColor(60, 60, 60))
+    for pct in (0, 50, 100):
+        p.drawText(QRectF(x_of(pct) - 20, area.bottom() + 2, 40, 14), int(Qt.AlignCenter), f"{pct}%")
+    if lo < 0 < hi:
+        p.setPen(QPen(QColor(200, 200, 200), 1, Qt.DotLine))
+        p.drawLine(QPointF(area.left(), y_of(0)), QPointF(area.right(), y_of(0)))
+    if band is not None:
+        low, high = band.on_cycle()
+        polygon = QPolygonF([QPointF(x_of(x), y_of(v)) for x, v in zip(CYCLE_PERCENT, high)]
+                            + [QPointF(x_of(x), y_of(v)) for x, v in zip(CYCLE_PERCENT[::-1], low[::-1])])
+        p.setPen(Qt.NoPen)
+        p.setBrush(QColor(160, 160, 160, 90))
+        p.drawPolygon(polygon)
+        p.setBrush(Qt.NoBrush)
+    for pct, colour in boundaries:
+        if math.isfinite(pct):
+            p.setPen(QPen(colour, 1.2, Qt.DashLine))
+            p.drawLine(QPointF(x_of(pct), area.top()), QPointF(x_of(pct), area.bottom()))
+    for curve, colour, style in curves:
+        shade = QColor(colour)
+        shade.setAlpha(45)
+        upper, lower = curve.mean_deg + curve.sd_deg, curve.mean_deg - curve.sd_deg
+        polygon = QPolygonF([QPointF(x_of(x), y_of(v)) for x, v in zip(CYCLE_PERCENT, upper)]
+                            + [QPointF(x_of(x), y_of(v)) for x, v in zip(CYCLE_PERCENT[::-1], lower[::-1])])
+        p.setPen(Qt.NoPen)
+        p.setBrush(shade)
+        p.drawPolygon(polygon)
+        p.setBrush(Qt.NoBrush)
+        p.setPen(QPen(colour, 2.0, style))
+        p.drawPolyline(QPolygonF([QPointF(x_of(x), y_of(v)) for x, v in zip(CYCLE_PERCENT, curve.mean_deg)]))
+
+
+def _joint_axes(analyses: Sequence[SessionAnalysis]) -> list[tuple[str, str]]:
+    """(joint, axis) of every curve, in the model's joint order."""
+    seen: list[tuple[str, str]] = []
+    for analysis in analyses:
+        for curve in analysis.curves.values():
+            joint, _, axis = split_column(curve.column)
+            if (joint, axis) not in seen:
+                seen.append((joint, axis))
+    order = {j: i for i, j in enumerate(analyses[0].review.model.joint_names)}
+    return sorted(seen, key=lambda ja: (order.get(ja[0], order.get(f"{ja[0]}_r", 99)), ("flexion", "adduction", "rotation",
+                                                                                         "plane_of_elevation", "elevation").index(ja[1])
+                                        if ja[1] in ("flexion", "adduction", "rotation", "plane_of_elevation", "elevation") else 9))
+
+
+def _curves_of(analysis: SessionAnalysis, joint: str, axis: str) -> dict[str, object]:
+    found = {}
+    for curve in analysis.curves.values():
+        j, _, a = split_column(curve.column)
+        if (j, a) == (joint, axis):
+            found[curve.side] = curve
+    return found
+
+
+def _curve_pages(doc: _Document, analyses: Sequence[SessionAnalysis], bands: dict[tuple[str, str], NormativeBand],
+                 labels: Sequence[str]) -> None:
+    pairs = _joint_axes(analyses)
+    if not pairs:
+        doc.text("No gait-cycle curves (no straight-walking stride).", 9)
+        return
+    columns, plot_h = 3, 250.0
+    plot_w = doc.width / columns
+    styles = [Qt.DashLine, Qt.SolidLine] if len(analyses) == 2 else [Qt.SolidLine]
+    legend = "Left blue, right red: mean ± SD over the analysed strides; dashed vertical: stance/swing boundary"
+    if len(analyses) == 2:
+        legend = (f"Left blue, right red; {labels[0]} dashed, {labels[1]} solid; mean ± SD over the analysed "
+                  f"strides; vertical lines: stance/swing boundary")
+    if bands:
+        legend += "; grey: normative band (" + "; ".join(sorted({b.source for b in bands.values()})) + ")"
+    doc.text(legend, 7.5, gap=6, colour=QColor(70, 70, 70))
+    for index, (joint, axis) in enumerate(pairs):
+        column = index % columns
+        if column == 0:
+            doc.need(plot_h)
+        rect = QRectF(column * plot_w, doc.y, plot_w - 10, plot_h - 10)
+        curves, boundaries = [], []
+        for analysis, style in zip(analyses, styles):
+            for side, colour in (("left", LEFT_COLOUR), ("right", RIGHT_COLOUR)):
+                curve = _curves_of(analysis, joint, axis).get(side)
+                if curve is not None:
+                    curves.append((curve, colour, style))
+                    boundaries.append((curve.stance_percent, colour))
+        _plot(doc, rect, f"{joint.replace('_', ' ')} {axis.replace('_', ' ')} (deg)", curves, bands.get((joint, axis)), boundaries)
+        if column == columns - 1 or index == len(pairs) - 1:
+            doc.y += plot_h
+
+
+def _header(doc: _Document, analysis: SessionAnalysis, title: str) -> None:
+    review = analysis.review
+    meta = review.session.metadata
+    subject = meta.get("subject") or {}
+    doc.text(title, 16, True, gap=8)
+    created = str(meta.get("created_utc") or "not recorded")
+    duration = review.end_s - review.start_s
+    doc.text(f"Subject: {subject.get('id') or 'not recorded'}    Recorded: {created}    "
+             f"Length: {duration:.1f} s    File: {review.path.name}", 9)
+
+
+def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
+    from mimucap.session.analysis import body_calibration_of
+    review = analysis.review
+    session = review.session
+    doc.text("Sensors and calibration", 11, True, gap=4)
+    sensors = ", ".join(f"{sid} ({s.segment or 'unassigned'})" for sid, s in session.sensors.items())
+    doc.text(f"{len(session.sensors)} sensors: {sensors}", 8)
+    calibration = body_calibration_of(review)
+    if calibration is None:
+        doc.text("Body calibration: none (segments shown in sensor axes; spatial results not available).", 8)
+    else:
+        problems = "; ".join(calibration.quality.problems) or "no problems"
+        doc.text(f"Body calibration: {calibration.quality.method or 'stored'}, verdict {calibration.quality.verdict} ({problems}).", 8)
+    mag = session.calibrations.get("magnetometer") or {}
+    if mag:
+        verdicts = ", ".join(f"{sid}: {(entry or {}).get('verdict', (entry or {}).get('quality', {}).get('verdict', '?'))}"
+                             for sid, entry in mag.items())
+        doc.text(f"Magnetometer calibrations: {verdicts}.", 8)
+    elif session.metadata.get("mag_calibrated_sensors"):
+        doc.text("Magnetometer calibrated (live): " + ", ".join(session.metadata["mag_calibrated_sensors"]) + ".", 8)
+    else:
+        doc.text("Magnetometer calibrations: none recorded.", 8)
+    doc.text(f"Poses from: {review.pose_source}.", 8, gap=8)
+
+
+def _gait_rows(analysis: SessionAnalysis) -> list[list[str]]:
+    rows = []
+    gait = analysis.gait
+    for name, unit, label in PARAMETERS:
+        digits = 1 if unit in ("%", "steps/min") else 2
+        cells = [f"{label} ({unit})"]
+        for side in ("left", "right", "both"):
+            s = gait.parameters.get(name, side)
+            cells.append(f"{_fmt(s.mean, digits)} ± {_fmt(s.sd, digits)}")
+        cells.append(_fmt(gait.parameters.get(name, "both").cv_percent, 1))
+        cells.append(_fmt(gait.parameters.symmetry_percent.get(name, math.nan), 1) if name in SYMMETRY_PARAMETERS else "")
+        cells.append(_fmt(TYPICAL_ADULT.get(name, math.nan), digits))
+        rows.append(cells)
+    return rows
+
+
+def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
+    doc.text("Gait", 11, True, gap=4)
+    gait = analysis.gait
+    if gait is None or not gait.analysed:
+        doc.text(f"No gait analysis: {analysis.gait_problem or 'no straight-walking stride'}.", 9, gap=8)
+        return
+    refused = [s for s in gait.strides if not s.analysed]
+    n = {side: sum(1 for s in gait.analysed if s.side == side) for side in ("left", "right")}
+    doc.text(f"{len(gait.analysed)} straight strides analysed (left {n['left']}, right {n['right']}), "
+             f"{len(refused)} refused, {len(gait.bouts)} walking bout(s), {len(gait.turns)} turn(s). "
+             + " ".join(f"{side.capitalize()}: {source}." for side, source in gait.sources.items()), 8)
+    doc.table(["Parameter", "Left mean ± SD", "Right mean ± SD", "Both mean ± SD", "CV %", "Symmetry %", "Typical adult"],
+              _gait_rows(analysis), [0.22, 0.14, 0.14, 0.14, 0.08, 0.11, 0.12])
+    if refused:
+        reasons: dict[str, int] = {}
+        for s in refused:
+            reasons[s.refused_because.split(":")[0]] = reasons.get(s.refused_because.split(":")[0], 0) + 1
+        doc.text("Refused strides: " + "; ".join(f"{count} × {reason}" for reason, count in reasons.items())
+                 + f". Symmetry: 100·|L−R|/mean(L,R) (Robinson et al. 1987). {TYPICAL_SOURCE}.", 7.5,
+                 colour=QColor(70, 70, 70), gap=8)
+
+
+def _rom_rows(rom: dict) -> list[list[str]]:
+    rows = []
+    for (key, side), r in rom.items():
+        m = rom_core.movement(key)
+        difference = rom_core.left_right_difference_deg(rom, key)
+        rows.append([m.label, side, str(r.repetitions), _fmt(r.active_rom_deg, 1), _fmt(r.peak_deg, 1),
+                     _fmt(difference, 1) if side == "left" else "", _fmt(r.reference_deg, 0),
+                     _fmt(r.percent_of_reference, 0)])
+    return rows
+
+
+def _rom_section(doc: _Document, analysis: SessionAnalysis) -> None:
+    doc.text("Range of motion", 11, True, gap=4)
+    if not analysis.rom:
+        doc.text("No ROM protocol in this recording.", 9, gap=8)
+        return
+    doc.table(["Movement", "Side", "Reps", "Active ROM °", "Peak °", "L − R °", "Reference °", "% of ref."],
+              _rom_rows(analysis.rom), [0.22, 0.09, 0.07, 0.13, 0.11, 0.11, 0.13, 0.12])
+    doc.text(f"Reference: active ROM of healthy adults, {rom_core.REFERENCE_SOURCE}. Shoulder: humeral elevation in the plane of the movement.",
+             7.5, colour=QColor(70, 70, 70), gap=8)
+
+
+def _markers_and_notes(doc: _Document, analysis: SessionAnalysis, notes: str) -> None:
+    doc.text("Markers", 11, True, gap=4)
+    markers = analysis.review.markers
+    if markers:
+        doc.table(["Time (s)", "Label"], [[f"{m.t_s:.2f}", m.label] for m in markers], [0.15, 0.6])
+    else:
+        doc.text("No markers.", 9, gap=8)
+    subject_notes = ((analysis.review.session.metadata.get("subject") or {}).get("notes") or "").strip()
+    doc.text("Notes", 11, True, gap=4)
+    doc.text("\n".join(t for t in (subject_notes, notes.strip()) if t) or "None.", 9, gap=8)
+
+
+def write_report(path: str | Path, analysis: SessionAnalysis, bands: dict[tuple[str, str], NormativeBand] | None = None,
+                 notes: str = "") -> Path:
+    """Write the report of one session to ``path`` (PDF); returns the path."""
+    target = Path(path)
+    doc = _Document(target, "MimuCap clinical report")
+    try:
+        _header(doc, analysis, "MimuCap clinical report")
+        _sensors_section(doc, analysis)
+        _gait_section(doc, analysis)
+        _rom_section(doc, analysis)
+        _markers_and_notes(doc, analysis, notes)
+        doc.new_page()
+        doc.text("Joint angles over the gait cycle", 11, True, gap=4)
+        _curve_pages(doc, [analysis], bands or {}, ["session"])
+    finally:
+        doc.finish()
+    return target
+
+
+def write_comparison_report(path: str | Path, before: SessionAnalysis, after: SessionAnalysis,
+                            bands: dict[tuple[str, str], NormativeBand] | None = None, notes: str = "") -> Path:
+    """Write a before/after report of two sessions to ``path`` (PDF); returns the path."""
+    target = Path(path)
+    doc = _Document(target, "MimuCap comparison report")
+    labels = (f"before ({before.review.path.name})", f"after ({after.review.path.name})")
+    try:
+        _header(doc, after, "MimuCap comparison report")
+        doc.text(f"Before: {before.review.path.name}, recorded {before.review.session.metadata.get('created_utc') or 'not recorded'}. "
+                 f"After: {after.review.path.name}, recorded {after.review.session.metadata.get('created_utc') or 'not recorded'}.", 9)
+        ids = {str(((a.review.session.metadata.get('subject') or {}).get('id')) or '') for a in (before, after)}
+        if len(ids) > 1:
+            doc.text(f"Warning: the two sessions name different subjects ({', '.join(sorted(ids))}).", 9, True,
+                     colour=QColor(180, 0, 0))
+        doc.text("Gait", 11, True, gap=4)
+        if before.gait is None or after.gait is None:
+            doc.text("Gait comparison not possible: "
+                     + "; ".join(f"{label}: {a.gait_problem}" for label, a in zip(labels, (before, after)) if a.gait is None), 9)
+        else:
+            rows = []
+            for name, unit, label in PARAMETERS:
+                digits = 1 if unit in ("%", "steps/min") else 2
+                for side in ("left", "right", "both"):
+                    b = before.gait.parameters.get(name, side).mean
+                    a = after.gait.parameters.get(name, side).mean
+                    rows.append([f"{label} ({unit})" if side == "left" else "", side, _fmt(b, digits), _fmt(a, digits),
+                                 _fmt(a - b, digits)])
+            doc.table(["Parameter", "Side", "Before", "After", "After − before"], rows, [0.3, 0.1, 0.16, 0.16, 0.18])
+        doc.text("Range of motion (active ROM, degrees)", 11, True, gap=4)
+        keys = list(dict.fromkeys(list(before.rom) + list(after.rom)))
+        if keys:
+            rows = []
+            for key, side in keys:
+                b = before.rom.get((key, side))
+                a = after.rom.get((key, side))
+                bv = b.active_rom_deg if b else math.nan
+                av = a.active_rom_deg if a else math.nan
+                rows.append([rom_core.movement(key).label, side, _fmt(bv, 1), _fmt(av, 1), _fmt(av - bv, 1),
+                             _fmt(rom_core.movement(key).reference_deg, 0)])
+            doc.table(["Movement", "Side", "Before", "After", "After − before", "Reference"], rows,
+                      [0.26, 0.1, 0.14, 0.14, 0.18, 0.14])
+        else:
+            doc.text("No ROM protocol in either session.", 9, gap=8)
+        doc.text("Notes", 11, True, gap=4)
+        doc.text(notes.strip() or "None.", 9)
+        doc.new_page()
+        doc.text("Joint angles over the gait cycle, before and after", 11, True, gap=4)
+        _curve_pages(doc, [before, after], bands or {}, labels)
+    finally:
+        doc.finish()
+    return target

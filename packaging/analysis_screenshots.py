@@ -1,0 +1,154 @@
+"""Screenshots of the Analysis window (gait tab, ROM tab) and of the PDF report's first two
+pages, on a simulated session processed like a real one (no truth in the file): the ``demo``
+scenario with BNO055-like sensors, its body calibration from the N-pose/T-pose, and ROM
+markers around the squats and the arm raises; and of the ROM wizard on the simulated suit
+(its sensors' orientations through a body calibration made from its N-pose/T-pose). Called by
+``make_screenshots.py``."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+from PyQt5 import QtCore, QtWidgets
+
+ROM_MARKERS = (
+    (30.0, "rom:knee_flexion:left:start"), (37.0, "rom:knee_flexion:left:end"),
+    (30.0, "rom:knee_flexion:right:start"), (37.0, "rom:knee_flexion:right:end"),
+    (37.2, "rom:shoulder_flexion:left:start"), (44.9, "rom:shoulder_flexion:left:end"),
+    (37.2, "rom:shoulder_flexion:right:start"), (44.9, "rom:shoulder_flexion:right:end"),
+)
+
+
+def _wait(app, condition, timeout_s: float, what: str) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise RuntimeError(f"timed out waiting for {what}")
+        app.processEvents(QtCore.QEventLoop.AllEvents, 20)
+
+
+class _PipelineLive:
+    """The parts of the live session the ROM wizard reads, from the simulated suit's sensor
+    output: on-board orientations through a body calibration from its N-pose/T-pose."""
+
+    def __init__(self) -> None:
+        import numpy as np
+
+        from mimucap.core import bodycal
+        from mimucap.core.simulate import SimulationConfig, SuitSimulator
+
+        self.np, self.bodycal = np, bodycal
+        self.simulator = SuitSimulator(SimulationConfig(scenario="bodycal", n_sensors=10, errors="bno055", seed=6))
+        self.model = self.simulator.model
+        block = self.simulator.advance(7.0)
+        t = block.samples["S01"].t_s
+        q = {sid: s.q_world_from_sensor[np.clip(np.searchsorted(s.t_s, t), 0, len(s.t_s) - 1)]
+             for sid, s in block.samples.items()}
+        mapping = {s.segment: sid for sid, s in block.samples.items()}
+        self.body_calibration = bodycal.calibrate_npose_tpose(t, q, mapping, (0.5, 2.5), (4.6, 5.9))
+        self.columns = {j: tuple(f"{j}_{a}_deg" for a in ("flexion", "adduction", "rotation"))
+                        for j in self.model.joint_names}
+        self.markers: list[str] = []
+        self.advance()
+
+    def advance(self) -> None:
+        from mimucap.core import skeleton
+
+        block = self.simulator.advance(0.04)
+        q = {sid: s.q_world_from_sensor[-1] for sid, s in block.samples.items() if len(s.t_s)}
+        segments = self.bodycal.segment_orientations(self.body_calibration, q, require_all=False)
+        self.q_world_from_segment = self.bodycal.fill_missing_segments(
+            segments, [(s.name, s.parent) for s in self.model.segments])
+        self.time_s = float(block.truth.t_s[-1])
+        self._angles = skeleton.joint_angles_deg(self.model, self.q_world_from_segment)
+
+    @property
+    def joint_names(self):
+        return tuple(self.columns)
+
+    def joint_columns(self, joint):
+        return self.columns[joint]
+
+    def joint_series(self, joint, window_s):
+        return self.np.array([self.time_s]), self.np.array([[self._angles[c] for c in self.columns[joint]]])
+
+    def add_marker(self, label: str) -> float:
+        self.markers.append(label)
+        return self.time_s
+
+
+def write_rom_wizard_screenshot(out_dir: Path) -> list[Path]:
+    from mimucap.gui.capture import save_window_png
+    from mimucap.gui.wizards.rom import RomWizard
+    from mimucap.session.rom_procedure import RomProcedure, RomStep
+
+    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
+    live = _PipelineLive()
+    steps = (RomStep("shoulder_flexion", "right"), RomStep("knee_flexion", "left"))
+    wizard = RomWizard(None, live, procedure=RomProcedure(steps, repeats=3))
+    wizard.timer.stop()
+    wizard.show()
+    wizard.start_button.click()
+    while wizard.procedure.state != "step_done":
+        live.advance()
+        wizard.tick()
+        app.processEvents()
+    wizard.next_button.click()
+    wizard.start_button.click()
+    captured = 0
+    for _ in range(2000):
+        live.advance()
+        wizard.tick()
+        app.processEvents()
+        if len(wizard.procedure.peaks_deg) == 1:
+            captured += 1
+        if captured and wizard.procedure.active_angle_deg > 100.0:
+            break
+    path = save_window_png(wizard, out_dir / "rom-wizard.png")
+    wizard.close()
+    return [path]
+
+
+def write_analysis_screenshots(out_dir: Path) -> list[Path]:
+    from mimucap.core.simulate import SimulationConfig
+    from mimucap.gui.capture import save_window_png
+    from mimucap.gui.review_window import ReviewWindow
+    from mimucap.session.analysis_evaluation import simulated_analysis
+
+    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
+    written = []
+    with tempfile.TemporaryDirectory() as scratch:
+        config = SimulationConfig(scenario="demo", duration_s=45.0, n_sensors=10, errors="bno055", seed=3)
+        _, analysis = simulated_analysis(config, scratch, ROM_MARKERS)
+        review = ReviewWindow(analysis.review.path)
+        review.show()
+        review.load()
+        _wait(app, lambda: review.player is not None, 60, "the review")
+        window = review.open_analysis()
+        _wait(app, lambda: window.analysis is not None, 60, "the analysis")
+        window.resize(1400, 860)
+        app.processEvents()
+        written.append(save_window_png(window, out_dir / "analysis-gait.png"))
+        window.tabs.setCurrentWidget(window.rom_tab)
+        window.marker_from.setCurrentIndex(next(i for i in range(window.marker_from.count())
+                                                if "activity:squat" in window.marker_from.itemText(i)))
+        window.marker_to.setCurrentIndex(next(i for i in range(window.marker_to.count())
+                                              if "activity:arm_raise" in window.marker_to.itemText(i)))
+        window.compute_marker_rom()
+        app.processEvents()
+        written.append(save_window_png(window, out_dir / "analysis-rom.png"))
+        pdf = Path(scratch) / "report.pdf"
+        window.notes.setText("Simulated subject; screenshot of the report.")
+        window.write_report(pdf)
+        if shutil.which("pdftoppm"):
+            subprocess.run(["pdftoppm", "-r", "80", "-png", "-f", "1", "-l", "2", str(pdf),
+                            str(out_dir / "report-page")], check=True)
+            written += sorted(out_dir.glob("report-page-*.png"))
+        window.close()
+        review.close()
+    written += write_rom_wizard_screenshot(out_dir)
+    return written
