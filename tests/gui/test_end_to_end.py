@@ -155,8 +155,8 @@ def test_record_export_review(app_window, qtbot, tmp_path, monkeypatch, accept_m
     assert review.scene_view.camera_preset == "side" and review.camera_actions["side"].isChecked()
     qtbot.waitUntil(lambda: review.player is not None, timeout=20000)
     assert review.markers_list.count() == 2
-    review.camera_actions["follow"].trigger()
-    assert review.scene_view.camera_preset == "follow"
+    review.camera_actions["top"].trigger()
+    assert review.scene_view.camera_preset == "top"
     assert review.pose_status.text() == "Pose: simulator truth"
     qtbot.waitUntil(lambda: review.scene_view.frames_rendered > 0, timeout=10000)
     item = review.markers_list.item(1)

@@ -2,10 +2,10 @@
 
 A preset is a :class:`CameraPose` (position, focal point and view-up vector, metres, scene
 frame) computed from the figure's root position, the subject's height and the view's aspect
-ratio, so that a standing figure with its arms spread (a T pose: about one height wide and one
-height tall) fits the picture with a margin. Every preset follows the subject: the view moves
-the camera with the root along the floor (:func:`follow_shift`), keeping whatever turn and zoom
-the user gave it, so a subject walking away stays framed.
+ratio, so that a standing figure with its arms spread (a T pose) fits the picture with a
+margin. Every preset follows the subject: the view moves the camera with the root along the
+floor (:func:`follow_shift`), keeping whatever turn and zoom the user gave it, so a subject
+walking away stays framed.
 """
 
 from __future__ import annotations
@@ -20,9 +20,10 @@ CAMERA_PRESETS = ("front", "side", "top")
 
 #: The camera's vertical view angle (degrees).
 VIEW_ANGLE_DEG = 30.0
-#: What must fit in the picture, as multiples of the subject's height: a T pose is about as
-#: wide as the subject is tall.
-FIT_WIDTH_HEIGHTS, FIT_HEIGHT_HEIGHTS = 1.0, 1.0
+#: What must fit in the picture, as multiples of the subject's height: the figure's T pose, from
+#: one hand's tip to the other, is 1.13 heights wide (a person's arm span is about their height;
+#: the figure's hands are drawn straight out).
+FIT_WIDTH_HEIGHTS, FIT_HEIGHT_HEIGHTS = 1.15, 1.0
 #: Room left around that box, as a fraction of its size on either side.
 FIT_MARGIN = 0.12
 #: Height of the focal point above the floor, as a fraction of the subject's height.
