@@ -47,7 +47,7 @@ def test_menu_lists_only_working_items(window):
     expected = {
         "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "Recording &Folder…",
         "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
-        "Front", "Side", "Top", "Follow", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
+        "Front", "Side", "Top", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
         "Show World &Axes", "&Pause Plots\tSpace", "&About MimuCap",
     }
     assert expected <= texts
