@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from PyQt5 import QtGui
+from PyQt5 import QtCore, QtGui
 
 from mimucap.core import skeleton
 from mimucap.gui.scene.view import SceneView, world_to_display
@@ -227,7 +227,9 @@ def test_after_close_nothing_renders(qtbot):
     view.tick()
     view.render()
     view.set_hint("closed")
-    qtbot.wait(100)  # timers that would tick, had they survived
+    view.vtk_widget.repaint()
+    QtCore.QCoreApplication.processEvents()
+    assert not view.running and not view._timer.isActive()  # no clock left to tick it
     assert view.frames_rendered == frames and not drawn
     with pytest.raises(RuntimeError, match="closed"):
         view.grab_image()

@@ -43,7 +43,7 @@ AXES_COLOURS = ((1.0, 0.0, 0.0), (0.0, 0.8, 0.0), (0.0, 0.0, 1.0))  # E, N, Up
 #: Where the world axes stand on the floor (world ENU, metres): beside the figure, not inside it.
 AXES_ORIGIN_WORLD_M = (-0.75, 0.5, 0.0)
 #: Where an axis name stands along its axis, as a fraction of the axis length.
-AXIS_LABEL_POSITION = 1.3
+AXIS_LABEL_POSITION = 1.22
 AXIS_NAMES = ("E", "N", "Up")
 #: The axes' names: bold, this size (points at 72 dots per inch: the render window's DPI
 #: follows the screen's pixel ratio), white with a dark shadow so they read on floor and sky.
