@@ -14,6 +14,8 @@ after a warm-up:
   time in % of one core (target < 80 %). The emulator that stands in for the sensors is not
   part of the application and is not counted; neither is the X server, whose CPU (presenting
   the frames on a machine without a GPU) is printed apart,
+* how long the GUI thread waited, ready to run, for a core taken by other work (``queued``;
+  a shared machine's perturbation, printed so that a low frame rate can be told apart),
 * latency from a sample's arrival (its host time) to the moment the picture of the pose it
   belongs to is shown (p50/p95; target p95 < 30 ms),
 
@@ -31,6 +33,7 @@ import os
 import socket
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -101,6 +104,15 @@ def _cpu_of(pids: list[int]) -> dict[int, float]:
     return seconds
 
 
+def queued_s() -> float:
+    """How long (s) the GUI thread has waited, ready to run, for a core (Linux schedstat; NaN
+    elsewhere): on a shared machine, the time other work took from it."""
+    try:
+        return int(open(f"/proc/self/task/{threading.get_native_id()}/schedstat").read().split()[1]) / 1e9
+    except (OSError, IndexError, ValueError):
+        return float("nan")
+
+
 def x_server_pid() -> int | None:
     """The Xvfb process serving ``$DISPLAY``, if that is what serves it."""
     display = os.environ.get("DISPLAY", "").split(".")[0]
@@ -169,6 +181,7 @@ def run(window: MainWindow, prepare=None, excluded: set[int] = frozenset()) -> d
     wall0, cpu0 = time.perf_counter(), time.process_time()
     others0 = _cpu_of([pid for pid in processes if pid != os.getpid()])
     x0 = cpu_seconds(x_server)
+    queued0 = queued_s()
     state["measuring"] = True
     _run_event_loop(MEASURE_S)
     wall = time.perf_counter() - wall0
@@ -182,6 +195,7 @@ def run(window: MainWindow, prepare=None, excluded: set[int] = frozenset()) -> d
         "others_pct": 100.0 * others / wall,
         "processes": len(others1) + 1,
         "x_pct": 100.0 * (cpu_seconds(x_server) - x0) / wall,
+        "queued_pct": 100.0 * (queued_s() - queued0) / wall,
         "lat_p50_ms": 1000.0 * float(np.percentile(latencies, 50)) if latencies else float("nan"),
         "lat_p95_ms": 1000.0 * float(np.percentile(latencies, 95)) if latencies else float("nan"),
         "segments": len(window.live.model.segment_names),
@@ -289,7 +303,7 @@ def main(argv: list[str] | None = None) -> int:
           f"3D view drawn in the GUI process{nothing}")
     print(f"{'load':<40}{'fps':>7}{'/60':>6}{'plot Hz':>9}{'/30':>6}{'lat p50':>9}{'lat p95':>9}{'30/p95':>8}"
           f"{'GUI %':>7}{'3D %':>6}{'plots %':>9}{'rest %':>8}{'others %':>10}{'total %':>9}{'80/total':>10}"
-          f"{'X %':>6}")
+          f"{'X %':>6}{'queued %':>10}")
     loads = [(name, run_load) for key, (name, run_load) in LOADS.items() if not args.load or key in args.load]
     view = None
     for name, load in loads:
@@ -302,13 +316,15 @@ def main(argv: list[str] | None = None) -> int:
               f"{r['lat_p50_ms']:9.1f}{r['lat_p95_ms']:9.1f}{30 / r['lat_p95_ms']:8.2f}"
               f"{r['cpu_pct']:7.0f}{r['cpu_3d_pct']:6.0f}{r['cpu_plots_pct']:9.0f}"
               f"{r['cpu_pct'] - r['cpu_3d_pct'] - r['cpu_plots_pct']:8.0f}"
-              f"{r['others_pct']:10.0f}{total:9.0f}{80 / total:10.2f}{x_column:>6}")
+              f"{r['others_pct']:10.0f}{total:9.0f}{80 / total:10.2f}{x_column:>6}{r['queued_pct']:10.0f}")
     renderer, empty = empty_frame_cpu_ms(tuple(view))
     print("CPU in % of one core (process CPU time / wall time). GUI = the GUI process, all threads:")
     print("3D = drawing and presenting the 3D view, plots = refreshing and painting the plots, rest =")
     print("pipeline (fusion, angles), panels, Qt; others = the processes the application started")
     print("(acquisition workers); total = GUI + others, the whole application (the UDP emulator, the")
     print("sensors' stand-in, not counted). X = the X server (Xvfb), not part of the application.")
+    print("queued = time the GUI thread was ready to run but waited for a core (other work on the machine):")
+    print("where it is more than a few %, the frame rate and the latency are the machine's, not the program's.")
     print(f"OpenGL: {renderer}; an empty {view[0]}x{view[1]} 3D frame on screen costs {empty:.2f} ms of CPU "
           f"({empty * 60 / 10:.0f} % of a core at 60 fps)")
     app.processEvents()
