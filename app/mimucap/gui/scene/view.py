@@ -14,7 +14,6 @@ renders again.
 
 from __future__ import annotations
 
-import logging
 import textwrap
 import time
 from collections.abc import Callable, Mapping
@@ -29,8 +28,6 @@ from mimucap.gui.scene.skeleton_actor import SkeletonActor
 from mimucap.gui.vtk_widget import VtkWidget
 from mimucap.session.camera import CAMERA_PRESETS, camera_preset, follow_shift
 from mimucap.session.figure import FigureBuilder, FigureGeometry, plain_world_matrix
-
-log = logging.getLogger(__name__)
 
 #: How far beyond the focal point the far plane lies (m): the whole floor grid.
 CLIPPING_FAR_M = 45.0
