@@ -146,3 +146,22 @@ def test_a_picture_of_a_window_has_each_3d_view_in_place(qtbot):
     inside = pixels[corner.y():corner.y() + view.height(), corner.x():corner.x() + view.width()]
     _red_on_blue(inside, view.width())
     view.Finalize()
+
+
+def test_only_the_views_ancestors_become_native_windows(qtbot):
+    window = QtWidgets.QWidget()
+    qtbot.addWidget(window)
+    layout = QtWidgets.QVBoxLayout(window)
+    box = QtWidgets.QWidget(window)
+    box_layout = QtWidgets.QHBoxLayout(box)
+    siblings = [QtWidgets.QPushButton(f"button {index}", box) for index in range(3)]
+    for button in siblings:
+        box_layout.addWidget(button)
+    layout.addWidget(box)
+    view = VtkWidget(window)
+    layout.addWidget(view)
+    window.show()
+    qtbot.waitExposed(window)
+    assert view.windowHandle() is not None and window.windowHandle() is not None
+    assert box.windowHandle() is None and all(button.windowHandle() is None for button in siblings)
+    view.Finalize()

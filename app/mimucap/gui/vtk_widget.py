@@ -57,6 +57,10 @@ class VtkWidget(QVTKRenderWindowInteractor):
     rendered = QtCore.pyqtSignal()
 
     def __init__(self, parent=None) -> None:
+        # A native child window makes its ancestors native, and by default their siblings too
+        # (in the main window 26 widgets, each then an X window of its own, flushed apart): only
+        # the chain down to this widget has to be.
+        QtCore.QCoreApplication.setAttribute(QtCore.Qt.AA_DontCreateNativeWidgetSiblings)
         super().__init__(parent)
         self.setMinimumSize(160, 120)
         self.render_window = self.GetRenderWindow()
