@@ -40,7 +40,7 @@ def make_screenshots(out_dir: Path) -> list[Path]:
         window.recording_folder = lambda: Path(scratch)
         window.show()
         window.start()
-        window.set_camera_preset("follow")
+        window.set_camera_preset("front")
         _wait(app, lambda: window.live.samples_received > 0, 20, "live data")
         window.session_panel.subject_id.setText("P001")
         window.session_panel.record_button.setChecked(True)

@@ -190,6 +190,40 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
         compared += int(np.count_nonzero(inside))
     assert compared > 100
 
+    # Reopen the session from the File menu (its camera as the main window's), scrub to the
+    # second marker and play.
+    t_first, t_second = (m.t_s for m in session.markers)
+    # 5. Reopen the session from the File menu (its camera as the main window's) and scrub to
+    #    the second marker.
+    window.camera_actions["side"].trigger()
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName", lambda *a, **k: (str(result.session_path), ""))
+    window.action_open.trigger()
+    review = window.review_windows[-1]
+    assert review.scene_view.camera_preset == "side" and review.camera_actions["side"].isChecked()
+    qtbot.waitUntil(lambda: review.player is not None, timeout=20000)
+    assert review.markers_list.count() == 2
+    review.camera_actions["top"].trigger()
+    assert review.scene_view.camera_preset == "top"
+    assert review.pose_status.text().startswith("Pose: body calibration; reprocessed")
+    qtbot.waitUntil(lambda: review.scene_view.frames_rendered > 0, timeout=10000)
+    item = review.markers_list.item(1)
+    rect = review.markers_list.visualItemRect(item)
+    qtbot.mouseClick(review.markers_list.viewport(), QtCore.Qt.LeftButton, pos=rect.center())
+    assert review.player.cursor_s == pytest.approx(t_second)
+    assert review.slider.value() == round(t_second * 100)
+    assert f"{t_second:7.2f}" in review.time_label.text()
+    qtbot.waitUntil(lambda: review.scene_view.last_geometry is not None
+                    and review.scene_view._last_frame_id[0] == review.player.index(), timeout=5000)
+    x, _y = review.plots.curve_data("angles", 0)
+    assert len(x) and x[-1] <= t_second + 1e-9
+    # Play at 2x moves the play head forward.
+    review.speed_combo.setCurrentIndex(review.speed_combo.findData(2.0))
+    review.seek_marker(0)
+    qtbot.mouseClick(review.play_button, QtCore.Qt.LeftButton)
+    qtbot.waitUntil(lambda: review.player.cursor_s > t_first + 0.5, timeout=5000)
+    qtbot.mouseClick(review.play_button, QtCore.Qt.LeftButton)
+    assert not review.player.playing
+
 
 def test_the_session_file_is_written_off_the_gui_thread(app_window, qtbot, tmp_path, monkeypatch):
     window = app_window

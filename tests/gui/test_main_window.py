@@ -38,7 +38,7 @@ def test_window_starts_and_renders_the_skeleton(window, qtbot):
     qtbot.waitUntil(lambda: "sensor axes" in window.pose_status.text(), timeout=2000)
     assert "vs. simulator truth" in window.pose_status.text()  # the on-screen accuracy check
     assert "simulated:demo" in window.source_status.text()
-    assert window.scene_view.vtk_widget.hint == VIEW_HINTS[POSE_SENSOR_AXES]
+    assert window.scene_view.hint == VIEW_HINTS[POSE_SENSOR_AXES]
     # Every segment of the ten-sensor suit has a sensor: tinted "magnetometer not calibrated"
     # once each has sent data (until its first sample a sensor is "stale").
     qtbot.waitUntil(lambda: {window.scene_view.skeleton.tint_of(s) for s in geometry.segment_names}
@@ -51,7 +51,7 @@ def test_menu_lists_only_working_items(window):
     expected = {
         "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "&Library…", "Library &Folder…",
         "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
-        "Front", "Side", "Top", "Follow", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
+        "Front", "Side", "Top", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
         "Show World &Axes", "&Pause Plots\tSpace", "&About MimuCap",
     }
     assert expected <= texts
@@ -100,7 +100,7 @@ def test_save_screenshot_paints_the_3d_view(window, qtbot, tmp_path):
     assert image.width() == window.width() and image.height() == window.height()
 
 
-def test_the_follow_camera_moves_with_the_subject_and_keeps_the_users_turn(qtbot):
+def test_the_camera_moves_with_the_subject_and_keeps_the_users_turn(qtbot):
     win = MainWindow("simulated:walk")
     qtbot.addWidget(win)
     win.show()
@@ -108,7 +108,7 @@ def test_the_follow_camera_moves_with_the_subject_and_keeps_the_users_turn(qtbot
     try:
         view = win.scene_view
         qtbot.waitUntil(lambda: view.last_geometry is not None, timeout=15000)
-        win.set_camera_preset("follow")
+        win.set_camera_preset("side")
         qtbot.waitUntil(lambda: not view._camera_pending, timeout=5000)
         camera = view.renderer.GetActiveCamera()
         camera.Azimuth(40.0)  # as a mouse drag would
@@ -208,15 +208,14 @@ def test_closing_while_the_kernels_are_prepared_stops_the_preparation_and_waits_
 def test_world_axes_are_named_at_their_tips_and_the_names_hide_with_them(window, qtbot):
     view = window.scene_view
     window.camera_actions["front"].trigger()
-    qtbot.waitUntil(lambda: {label.text for label in view.vtk_widget.labels} == {"E", "N", "Up"}, timeout=5000)
-    width, height = view.render_window.GetSize()
-    labels = {label.text: label for label in view.vtk_widget.labels}
-    for label in labels.values():
-        assert 0 <= label.x_px < width and 0 <= label.y_px < height
-    assert labels["Up"].y_px < labels["E"].y_px  # Up above E on the screen
-    assert labels["E"].x_px > labels["Up"].x_px  # E (east) to the right in the front view
+    qtbot.waitUntil(lambda: set(view.axis_label_positions()) == {"E", "N", "Up"}, timeout=5000)
+    labels = view.axis_label_positions()
+    assert labels["Up"][1] < labels["E"][1]  # Up above E on the screen
+    assert labels["E"][0] > labels["Up"][0]  # E (east) to the right in the front view
+    assert all(label.GetVisibility() for label in view.stage.axis_labels)
     window.action_axes.setChecked(False)
-    qtbot.waitUntil(lambda: view.vtk_widget.labels == (), timeout=5000)
+    qtbot.waitUntil(lambda: view.axis_label_positions() == {}, timeout=5000)
+    assert not any(label.GetVisibility() for label in view.stage.axis_labels)
 
 
 def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtbot, shared_data):
@@ -233,7 +232,7 @@ def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtb
     win.start()
     try:
         qtbot.waitUntil(lambda: win.live is not None and win.live.samples_received > 1200, timeout=30000)
-        qtbot.waitUntil(lambda: win.scene_view.vtk_widget.hint == VIEW_HINTS[POSE_UNASSIGNED], timeout=2000)
+        qtbot.waitUntil(lambda: win.scene_view.hint == VIEW_HINTS[POSE_UNASSIGNED], timeout=2000)
         assert win.live.pose_source == POSE_UNASSIGNED
         win.plots.refresh()
         x, y = win.plots.curve_data("acc", 2)

@@ -83,24 +83,25 @@ def test_a_geometry_of_another_model_is_refused():
         actor.update(geometry)
 
 
-def test_capsules_are_lit_from_the_light_direction(figure):
+def test_capsules_are_lit_by_vtk_with_outward_normals_that_move_with_them(figure):
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+
     from mimucap.gui.scene.skeleton_actor import AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER
 
     actor, geometry, _ = figure
+    for prop in (actor.actor.GetProperty(), actor.sphere_actor.GetProperty()):
+        assert prop.GetLighting()
+        assert (prop.GetAmbient(), prop.GetDiffuse(), prop.GetSpecular(), prop.GetSpecularPower()) == pytest.approx(
+            (AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER))
     actor.update(geometry)
-    actor.set_tints({"pelvis": "ok"})
-    light = np.array([0.0, -1.0, 0.0])
-    actor.shade(light * 3.0)  # any length
-    facing = np.clip(actor._normals @ light, 0.0, None)
-    expected = actor._colours * (AMBIENT + DIFFUSE * facing)[:, None] + 255.0 * SPECULAR * facing[:, None] ** SPECULAR_POWER
-    np.testing.assert_allclose(actor._shaded, np.clip(expected, 0, 255), atol=1.0)
-    pelvis = actor._shaded[actor._segments.vertex_range(geometry.segment_names.index("pelvis"))].copy()
-    normals = actor._normals[actor._segments.vertex_range(geometry.segment_names.index("pelvis"))]
-    brightest, darkest = pelvis[np.argmax(normals @ light)], pelvis[np.argmin(normals @ light)]
-    assert brightest.sum() > darkest.sum()  # the side towards the light is the bright one
-    np.testing.assert_allclose(darkest, np.round(255 * np.array(TINTS["ok"])) * AMBIENT, atol=1.0)
-    # A new tint is lit at the next shade, even with the light unchanged.
-    actor.set_tints({"pelvis": "stale"})
-    actor.shade(light)
-    np.testing.assert_allclose(actor._shaded[actor._segments.vertex_range(geometry.segment_names.index("pelvis"))][np.argmin(normals @ light)],
-                               np.round(255 * np.array(TINTS["stale"])) * AMBIENT, atol=1.0)
+    drawn = vtk_to_numpy(actor.polydata.GetPointData().GetNormals())
+    np.testing.assert_allclose(np.linalg.norm(drawn, axis=1), 1.0, atol=1e-9)
+    for index, name in enumerate(geometry.segment_names):
+        matrix = geometry.segment_matrices[index]
+        axis = matrix[:3, 1] / np.linalg.norm(matrix[:3, 1])
+        vertices = actor.vertices_of_segment(name)
+        normals = drawn[actor._segments.vertex_range(index)]
+        radial = vertices - matrix[:3, 3]
+        radial -= (radial @ axis)[:, None] * axis  # from the capsule's axis to the vertex
+        radial /= np.linalg.norm(radial, axis=1)[:, None]
+        np.testing.assert_allclose(normals, radial, atol=1e-6, err_msg=name)  # outward, across the axis

@@ -102,8 +102,8 @@ def test_camera_presets_frame_the_figure():
     assert side.position[0] > side.focal_point[0] + 3.0
     top = camera_preset("top", root, 1.75)
     assert top.position[1] > top.focal_point[1] + 3.0 and np.allclose(top.view_up, (0, 0, -1))
-    follow = camera_preset("follow", root + [1.0, 0, 0], 1.75)
-    assert follow.focal_point[0] == pytest.approx(1.3)
+    moved = camera_preset("front", root + [1.0, 0, 0], 1.75)
+    assert moved.focal_point[0] == pytest.approx(1.3)
     with pytest.raises(ValueError, match="camera preset"):
         camera_preset("fisheye", root, 1.75)
     # Following moves along the floor only: a bobbing root does not shake the view.

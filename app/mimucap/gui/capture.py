@@ -1,8 +1,9 @@
 """Pictures of windows, 3D views included.
 
-Every VTK view of the application is a :class:`~mimucap.gui.vtk_image_widget.VtkImageWidget`
-(rendered offscreen and painted as an image), so ``QWidget.grab()`` sees it like any other
-widget; each visible view renders once first, so the picture shows the current state.
+Every VTK view of the application is a :class:`~mimucap.gui.vtk_widget.VtkWidget`: a native
+OpenGL window, which ``QWidget.grab()`` does not paint. :func:`grab_window` grabs the Qt
+widgets, then draws each visible view afresh, reads its picture back from OpenGL
+(:meth:`~mimucap.gui.vtk_widget.VtkWidget.image`) and puts it where the view stands.
 """
 
 from __future__ import annotations
@@ -10,19 +11,30 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-from PyQt5 import QtGui, QtWidgets
+from PyQt5 import QtCore, QtGui, QtWidgets
 
-from mimucap.gui.vtk_image_widget import VtkImageWidget
+from mimucap.gui.vtk_widget import VtkWidget
 
 log = logging.getLogger(__name__)
 
 
 def grab_window(window: QtWidgets.QWidget) -> QtGui.QPixmap:
-    """The whole ``window`` as a pixmap, every visible 3D view freshly rendered."""
-    for view in window.findChildren(VtkImageWidget):
-        if view.isVisible() and not view.finalized:
-            view.render()
-    return window.grab()
+    """The whole ``window`` as a pixmap, every visible 3D view freshly rendered in it."""
+    pixmap = window.grab()
+    painter = QtGui.QPainter(pixmap)
+    for view in window.findChildren(VtkWidget):
+        if not view.isVisible() or view.finalized:
+            continue
+        area = view.visibleRegion().boundingRect()  # the part of the view not hidden by its parents
+        if area.isEmpty():
+            continue
+        image = view.image()
+        corner = view.mapTo(window, QtCore.QPoint(0, 0))
+        ratio = image.devicePixelRatio()
+        source = QtCore.QRectF(area.x() * ratio, area.y() * ratio, area.width() * ratio, area.height() * ratio)
+        painter.drawImage(QtCore.QRectF(area.translated(corner)), image, source)
+    painter.end()
+    return pixmap
 
 
 def save_window_png(window: QtWidgets.QWidget, path: str | Path) -> Path:

@@ -23,7 +23,7 @@ from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
 from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
-from mimucap.gui.scene.view import SceneView, drawing_moved_message
+from mimucap.gui.scene.view import SceneView
 from mimucap.gui.scrolling import scrolling
 from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.session_panel import SessionPanel
@@ -140,8 +140,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.last_recording = None  # RecordingResult of the last recording saved
 
         self.scene_view = SceneView(self)
-        self.scene_view.drawing_moved_here.connect(
-            lambda reason: self.statusBar().showMessage(drawing_moved_message(reason)))
         self.plots = LivePlots(self, relative_time=True)
         splitter = QtWidgets.QSplitter(QtCore.Qt.Horizontal, self)
         splitter.addWidget(self.scene_view)

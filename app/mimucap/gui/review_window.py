@@ -19,7 +19,7 @@ from mimucap.gui.capture import ask_to_save_screenshot
 from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
-from mimucap.gui.scene.view import SceneView, drawing_moved_message
+from mimucap.gui.scene.view import SceneView
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.session.evaluation import angle_errors
@@ -90,8 +90,6 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self._last_tick = time.perf_counter()
 
         self.scene_view = SceneView(self)
-        self.scene_view.drawing_moved_here.connect(
-            lambda reason: self.statusBar().showMessage(drawing_moved_message(reason)))
         self.plots = LivePlots(self)
         splitter = QtWidgets.QSplitter(QtCore.Qt.Horizontal, self)
         splitter.addWidget(self.scene_view)

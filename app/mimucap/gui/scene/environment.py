@@ -9,8 +9,9 @@ in and out beside the figure. The world
 axes (E, N, Up; 0.5 m, standing at :data:`AXES_ORIGIN_WORLD_M`) are built in **world**
 coordinates (ENU, metres) and placed in the scene by the frame's
 ``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
-The axes' names are not VTK captions: :meth:`Stage.axis_label_points` gives their anchors in the
-scene and the view has Qt paint them over the picture.
+The axes' names are VTK text actors anchored just beyond each arrow's tip
+(:meth:`Stage.axis_label_points`): each name is rasterised once into a texture, and only its
+place on screen is computed per frame.
 """
 
 from __future__ import annotations
@@ -23,13 +24,13 @@ from vtkmodules.vtkCommonTransforms import vtkTransform
 from vtkmodules.vtkFiltersCore import vtkAppendPolyData, vtkPolyDataNormals
 from vtkmodules.vtkFiltersGeneral import vtkTransformFilter
 from vtkmodules.vtkFiltersSources import vtkConeSource, vtkCylinderSource
-from vtkmodules.vtkRenderingCore import vtkActor, vtkLight, vtkPolyDataMapper, vtkRenderer
+from vtkmodules.vtkRenderingCore import vtkActor, vtkLight, vtkPolyDataMapper, vtkRenderer, vtkTextActor
 
 from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata
 
 #: The floor grid (m) around the figure: coarse lines over a square of FLOOR_SIZE_M, fine ones
-#: over a central patch of FLOOR_FINE_SIZE_M. Far away, fine lines crowd into a grey band that software OpenGL rasterises
-#: line by line: fine lines near the figure only cost half (0.6 ms a frame less).
+#: over a central patch of FLOOR_FINE_SIZE_M. Far away, fine lines would crowd into a grey
+#: band (and cost rasterising line by line for nothing to see).
 FLOOR_SIZE_M, FLOOR_COARSE_SPACING_M = 30.0, 2.5
 FLOOR_FINE_SIZE_M, FLOOR_SPACING_M = 10.0, 0.5
 #: The fine lines fade from the grid colour to the background over this margin (m) inside the
@@ -42,8 +43,11 @@ AXES_COLOURS = ((1.0, 0.0, 0.0), (0.0, 0.8, 0.0), (0.0, 0.0, 1.0))  # E, N, Up
 #: Where the world axes stand on the floor (world ENU, metres): beside the figure, not inside it.
 AXES_ORIGIN_WORLD_M = (-0.75, 0.5, 0.0)
 #: Where an axis name stands along its axis, as a fraction of the axis length.
-AXIS_LABEL_POSITION = 1.15
+AXIS_LABEL_POSITION = 1.22
 AXIS_NAMES = ("E", "N", "Up")
+#: The axes' names: bold, this size (points at 72 dots per inch: the render window's DPI
+#: follows the screen's pixel ratio), white with a dark shadow so they read on floor and sky.
+AXIS_LABEL_FONT_SIZE = 15
 BACKGROUND = (0.25, 0.28, 0.34)
 GRID_COLOUR = (0.62, 0.65, 0.70)
 
@@ -65,9 +69,8 @@ def _placed_at(matrix: np.ndarray, origin_world_m) -> np.ndarray:
 
 def _grid_lines(size_m: float, spacing_m: float) -> vtkPolyData:
     """A square grid of straight line cells, ``size_m`` wide with a line every ``spacing_m``
-    along x and along y (world, metres, on the floor, centred on the origin).
-
-    Plain line cells are far cheaper to draw on software OpenGL than a wireframe plane."""
+    along x and along y (world, metres, on the floor, centred on the origin): two points per
+    line, where a wireframe plane has one cell per square."""
     half = size_m / 2.0
     across = _line_positions(size_m, spacing_m)
     n = len(across)
@@ -185,8 +188,25 @@ def _line_actor(lines: vtkPolyData, user_matrix: vtkMatrix4x4) -> vtkActor:
     return actor
 
 
+def _axis_label(name: str) -> vtkTextActor:
+    """The text actor of an axis name, centred on its anchor, which is given in the scene
+    (metres) by :meth:`Stage.set_world_matrix`."""
+    label = vtkTextActor()
+    label.SetInput(name)
+    label.GetPositionCoordinate().SetCoordinateSystemToWorld()
+    text = label.GetTextProperty()
+    text.SetFontSize(AXIS_LABEL_FONT_SIZE)
+    text.BoldOn()
+    text.SetColor(1.0, 1.0, 1.0)
+    text.ShadowOn()
+    text.SetJustificationToCentered()
+    text.SetVerticalJustificationToCentered()
+    label.PickableOff()
+    return label
+
+
 def scene_renderer() -> vtkRenderer:
-    """A renderer set up for the skeleton scene (the live view and any mirror of it draw alike).
+    """A renderer set up for the skeleton scene.
 
     No FXAA, and no frustum culling: every prop stands in or near the view, and VTK's culler
     would compute all their bounds on every frame to find that out (2 % of a core at 60
@@ -202,10 +222,8 @@ class Stage:
 
     def __init__(self, renderer: vtkRenderer) -> None:
         self.renderer = renderer
-        # Single-colour background, one light following the camera, and a floor made of grid
-        # lines only: on software OpenGL every full-window pass and every extra light costs
-        # 1-5 ms a frame (a gradient background, a solid floor plane, a five-light kit were
-        # measured at 60-110 % of the remaining frame; bench/bench_gui.py).
+        # Single-colour background, one light following the camera (a headlight: every part
+        # the viewer sees is lit), and a floor made of grid lines only.
         renderer.GradientBackgroundOff()
         renderer.SetBackground(*BACKGROUND)
         renderer.RemoveAllLights()
@@ -237,10 +255,13 @@ class Stage:
         axes_prop.SetDiffuse(0.75)
         axes_prop.BackfaceCullingOn()
         self.axes.SetUserMatrix(self.axes_matrix)
+        self.axis_labels = tuple(_axis_label(name) for name in AXIS_NAMES)
         self.set_world_matrix(np.eye(4))
 
         for actor in (self.grid, self.fine_grid, self.axes):
             renderer.AddActor(actor)
+        for label in self.axis_labels:
+            renderer.AddViewProp(label)
 
     def set_world_matrix(self, matrix, focus_world_m=None) -> None:
         """Place floor and axes with a ``(4, 4)`` world→scene matrix (``FigureGeometry.world_matrix``),
@@ -258,6 +279,8 @@ class Stage:
         self._label_points = (AXIS_LABEL_POSITION * AXES_LENGTH_M) * axes[:3, :3].T + axes[:3, 3]
         for actor in (self.grid, self.fine_grid, self.axes):
             actor.Modified()
+        for label, point in zip(self.axis_labels, self._label_points.tolist()):
+            label.GetPositionCoordinate().SetValue(*point)
 
     @property
     def floor_centre(self) -> tuple[float, float]:
@@ -272,22 +295,10 @@ class Stage:
             return (), np.zeros((0, 3))
         return AXIS_NAMES, self._label_points
 
-    def placement(self) -> tuple[np.ndarray, np.ndarray, bool, bool]:
-        """The floor grids' and the axes' ``(4, 4)`` scene matrices, and whether floor and axes
-        are shown: all that :meth:`set_placement` needs to show the same stage elsewhere."""
-        return (np.array(self.floor_matrix.GetData()).reshape(4, 4), np.array(self.axes_matrix.GetData()).reshape(4, 4),
-                bool(self.grid.GetVisibility()), bool(self.axes.GetVisibility()))
-
-    def set_placement(self, floor_matrix, axes_matrix, floor_visible: bool, axes_visible: bool) -> None:
-        """Show the stage as :meth:`placement` of another stage described it."""
-        self.floor_matrix.DeepCopy(np.asarray(floor_matrix, dtype=float).ravel())
-        self.axes_matrix.DeepCopy(np.asarray(axes_matrix, dtype=float).ravel())
-        for actor in (self.grid, self.fine_grid, self.axes):
-            actor.Modified()
-        self.set_visible(floor_visible, axes_visible)
-
     def set_visible(self, floor: bool, axes: bool) -> None:
         """Show or hide the floor grid and the world axes."""
         self.grid.SetVisibility(floor)
         self.fine_grid.SetVisibility(floor)
         self.axes.SetVisibility(axes)
+        for label in self.axis_labels:
+            label.SetVisibility(axes)

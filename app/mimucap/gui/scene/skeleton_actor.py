@@ -4,19 +4,18 @@ Capsules (segments and the connectors between them) are copies of one unit templ
 cylinder along +y, radius 1, height 1, centred at the origin) placed by their ``(4, 4)``
 matrices from a :class:`mimucap.session.figure.FigureGeometry` (scene frame, metres). All
 copies live in a single ``vtkPolyData`` drawn by a single actor: each frame moves the vertices
-and normals in place (``points = M[:3, :3] @ p + M[:3, 3]``, ``normals ∝ M[:3, :3]^-T @ n``).
-On software OpenGL one draw call costs far less than one actor per piece.
+and normals in place (``points = M[:3, :3] @ p + M[:3, 3]``, ``normals ∝ M[:3, :3]^-T @ n``),
+one buffer upload and one draw call for the whole figure, where one actor per piece would
+cost a draw call, a matrix and a state change each.
 
 Spheres (joints and markers; a sphere's matrix is its radius times a rotation, plus its
 centre) are drawn by VTK's sphere impostor mapper: one point each, ray-traced per pixel, so a
 perfectly round sphere costs no triangles (35 meshed spheres were ~60 % of the figure's
-render time on software OpenGL; ``bench/bench_gui.py``). Segment capsules carry the colour of
+render time without a GPU; ``bench/bench_gui.py``). Segment capsules carry the colour of
 the state of the sensor on them (:data:`TINTS`) as per-vertex colours.
 
-The capsules are lit per vertex here (:meth:`SkeletonActor.shade`, the view calls it before
-each frame with the camera's direction: a headlight) and drawn unlit: VTK's per-pixel
-lighting cost a millisecond a frame on software OpenGL, and a capsule, straight along its
-length, looks the same lit per vertex.
+Both actors are lit by VTK (the stage's headlight) with one material: :data:`AMBIENT`,
+:data:`DIFFUSE`, :data:`SPECULAR`, :data:`SPECULAR_POWER`.
 """
 
 from __future__ import annotations
@@ -48,8 +47,8 @@ MARKER_COLOUR = (0.15, 0.18, 0.25)
 #: Capsule material, lit by a headlight: ambient and diffuse parts of the base colour, and a
 #: white highlight of this strength and exponent.
 AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER = 0.22, 0.78, 0.30, 12.0
-#: Facets of the unit capsule: enough for smooth shading at figure size on screen, few
-#: enough to keep software OpenGL fast (its cost grows with the triangle count).
+#: Facets of the unit capsule: with per-pixel lighting, enough for a round outline at figure
+#: size on screen.
 CYLINDER_RESOLUTION = 20
 
 
@@ -119,8 +118,7 @@ class _Batch:
 
 def _figure_actor(mapper) -> vtkActor:
     """A hidden actor with the figure's material (:data:`AMBIENT`, :data:`DIFFUSE`,
-    :data:`SPECULAR`, :data:`SPECULAR_POWER`): what VTK lights the spheres with, and what
-    :meth:`SkeletonActor.shade` lights the capsules with."""
+    :data:`SPECULAR`, :data:`SPECULAR_POWER`)."""
     actor = vtkActor()
     actor.SetMapper(mapper)
     prop = actor.GetProperty()
@@ -157,22 +155,23 @@ class SkeletonActor:
         self._colours = np.empty((n_points, 3), dtype=np.uint8)
         self._colours[: self._segments.stop] = _rgb(TINTS["no_sensor"])
         self._colours[self._connectors.first:self._connectors.stop] = _rgb(CONNECTOR_COLOUR)
-        self._shaded = self._colours.copy()  # lit colours, what is drawn
 
         # VTK arrays that share memory with the numpy arrays above (kept referenced).
         self._vtk_points = numpy_to_vtk(self._points, deep=False)
-        self._vtk_shaded = numpy_to_vtk(self._shaded, deep=False)
-        self._vtk_shaded.SetName("Colours")
+        self._vtk_normals = numpy_to_vtk(self._normals, deep=False)
+        self._vtk_normals.SetName("Normals")
+        self._vtk_colours = numpy_to_vtk(self._colours, deep=False)
+        self._vtk_colours.SetName("Colours")
         triangles = np.concatenate([b.triangles() for b in (self._segments, self._connectors)])
         self.polydata = polydata(self._vtk_points, triangles)
-        self.polydata.GetPointData().SetScalars(self._vtk_shaded)
+        self.polydata.GetPointData().SetNormals(self._vtk_normals)
+        self.polydata.GetPointData().SetScalars(self._vtk_colours)
         mapper = vtkPolyDataMapper()
         mapper.SetInputData(self.polydata)
         colour_by_point_rgb(mapper)
         self.actor = _figure_actor(mapper)
-        self.actor.GetProperty().LightingOff()  # lit by shade()
         # Closed shapes (the open capsule ends sit inside the joint spheres): their far sides
-        # are never seen, and skipping them halves the work of software OpenGL.
+        # are never seen, so they are not drawn.
         self.actor.GetProperty().BackfaceCullingOn()
 
         # Joints then markers: one point each, with its radius and colour.
@@ -218,7 +217,7 @@ class SkeletonActor:
         spheres = np.concatenate([np.asarray(geometry.joint_matrices), np.asarray(geometry.marker_matrices)])
         self._centres[:] = spheres[:, :3, 3]
         self._radii[:] = np.linalg.norm(spheres[:, :3, 0], axis=1)
-        for array in (self._vtk_points, self._vtk_centres, self._vtk_radii):
+        for array in (self._vtk_points, self._vtk_normals, self._vtk_centres, self._vtk_radii):
             array.Modified()
         self.polydata.Modified()
         self.sphere_polydata.Modified()
@@ -238,45 +237,10 @@ class SkeletonActor:
             self._colours[self._segments.vertex_range(index)] = _rgb(TINTS[state])
             self._tints[name] = state
             changed = True
+        if changed:
+            self._vtk_colours.Modified()
+            self.polydata.Modified()
         return changed
-
-    def shade(self, towards_light) -> None:
-        """Light the capsules by a distant light in direction ``towards_light`` ``(3,)``
-        (scene frame; from the surface to the light): per vertex, the base colour times
-        ``AMBIENT + DIFFUSE * max(0, n·l)`` plus a white ``SPECULAR * max(0, n·l)^SPECULAR_POWER``
-        (with the light at the eye the half vector is ``l``)."""
-        light = np.asarray(towards_light, dtype=float)
-        light = light / np.linalg.norm(light)
-        facing = np.clip(self._normals @ light, 0.0, None)
-        shaded = self._colours * (AMBIENT + DIFFUSE * facing)[:, None]
-        shaded += (255.0 * SPECULAR) * (facing ** SPECULAR_POWER)[:, None]
-        np.clip(shaded, 0.0, 255.0, out=shaded)
-        self._shaded[:] = shaded
-        self._vtk_shaded.Modified()
-        self.polydata.Modified()
-
-    def drawn_arrays(self) -> dict[str, np.ndarray]:
-        """Copies of what is drawn: ``points`` ``(n, 3)`` capsule vertices (scene frame, metres),
-        ``shaded`` ``(n, 3)`` their lit colours (RGB bytes), ``centres`` ``(m, 3)`` and ``radii``
-        ``(m,)`` of the spheres (metres), ``sphere_colours`` ``(m, 3)`` (RGB bytes)."""
-        return {"points": self._points.copy(), "shaded": self._shaded.copy(), "centres": self._centres.copy(),
-                "radii": self._radii.copy(), "sphere_colours": self._sphere_colours.copy()}
-
-    def draw_arrays(self, arrays: Mapping[str, np.ndarray], visible: bool = True) -> None:
-        """Draw the arrays :meth:`drawn_arrays` of a figure with the same layout gave (a mirror
-        of that figure, e.g. in a render process); raises ``ValueError`` on a shape mismatch."""
-        for name, target in (("points", self._points), ("shaded", self._shaded), ("centres", self._centres),
-                             ("radii", self._radii), ("sphere_colours", self._sphere_colours)):
-            values = np.asarray(arrays[name])
-            if values.shape != target.shape:
-                raise ValueError(f"figure array {name} has shape {values.shape}, this figure needs {target.shape}")
-            target[:] = values
-        for array in (self._vtk_points, self._vtk_shaded, self._vtk_centres, self._vtk_radii, self._vtk_sphere_colours):
-            array.Modified()
-        self.polydata.Modified()
-        self.sphere_polydata.Modified()
-        self.actor.SetVisibility(visible)
-        self.sphere_actor.SetVisibility(visible)
 
     def spheres(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Centres ``(n, 3)`` (scene frame, metres) and radii ``(n,)`` of the joint spheres,

@@ -34,7 +34,7 @@ from vtkmodules.vtkRenderingCore import (
 )
 
 from mimucap.core.magcal_fit import EllipsoidFit
-from mimucap.gui.vtk_image_widget import VtkImageWidget
+from mimucap.gui.vtk_widget import VtkWidget
 from mimucap.session.magcal_display import MagcalDisplay
 
 ELLIPSOID_COLOUR = (0.95, 0.62, 0.18)
@@ -128,7 +128,7 @@ class EllipsoidView(QtWidgets.QWidget):
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
-        self.vtk_widget = VtkImageWidget(self)
+        self.vtk_widget = VtkWidget(self)
         self.vtk_widget.setObjectName("ellipsoidVtk")
         layout = QtWidgets.QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
