@@ -52,7 +52,7 @@ def test_menu_lists_only_working_items(window):
         "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "&Library…", "Library &Folder…",
         "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
         "Front", "Side", "Top", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
-        "Show World &Axes", "&Pause Plots\tSpace", "&About MimuCap",
+        "Show World &Axes", "Show Simulator &Truth", "&Pause Plots\tSpace", "&About MimuCap",
     }
     assert expected <= texts
     assert texts - expected <= {"&Magnetometers…", "&Body…", "&Range of Motion…"}  # the wizards, when installed
@@ -241,3 +241,18 @@ def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtb
         assert "no data" in win.plots.title_text("gyr")
     finally:
         win.close()
+
+
+def test_the_simulators_truth_is_a_ghost_beside_the_estimate(window, qtbot):
+    """On the simulated suit the true pose is drawn as a pale translucent second figure (an
+    accuracy check); the estimate stays the figure. View → Show Simulator Truth hides it."""
+    view = window.scene_view
+    qtbot.waitUntil(lambda: view.ghost is not None and view.ghost.visible, timeout=15000)
+    qtbot.waitUntil(window.action_truth.isEnabled, timeout=2000)  # the panels' pace
+    assert window.action_truth.isChecked()
+    assert view.ghost.actor.GetProperty().GetOpacity() < 0.5
+    estimate = view.skeleton.vertices_of_segment("thigh_r")
+    ghost = view.ghost.vertices_of_segment("thigh_r")
+    assert not np.allclose(estimate, ghost)  # two figures: the estimate is not the truth
+    window.action_truth.setChecked(False)
+    assert not view.ghost.visible

@@ -6,7 +6,9 @@
 INPUT is a BROAD-style HDF5 trial (``imu_gyr``, ``imu_acc``, ``imu_mag`` unless ``--no-mag``,
 attribute ``sampling_rate``) or a MimuCap session (:func:`mimucap.io.session.read_session`). A session
 gives one output per sensor with a gyroscope, named ``OUT_<sensor id>.<ext>``, or only the
-sensor chosen with ``--sensor`` (written to OUT itself).
+sensor chosen with ``--sensor`` (written to OUT itself); its magnetometer samples are calibrated
+first as the processing path does (the session's calibrations, else the stored ones, or
+``--mag-calibration FILE``).
 
 Output: one row per input sample, ``q_world_from_sensor`` (world ENU, scalar first; NaN rows
 before the first valid accelerometer sample). CSV: header ``t_s,qw,qx,qy,qz``; HDF5: dataset
@@ -45,13 +47,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="forward EKF plus RTS smoother over the whole recording")
     parser.add_argument("--no-mag", action="store_true", help="ignore the magnetometer")
     parser.add_argument("--sensor", help="session input: fuse only this sensor id")
+    parser.add_argument("--mag-calibration", action="append", metavar="FILE", default=None,
+                        help="session input: magnetometer calibration JSON to apply (repeatable; default: the "
+                             "session's, then the user's stored ones)")
     parser.add_argument("--out", type=Path, required=True, help="output .csv, .h5 or .npy")
     parser.set_defaults(func=run)
 
 
-def _inputs(path: Path, sensor: str | None, no_mag: bool) -> list[tuple[str | None, np.ndarray, np.ndarray,
-                                                          np.ndarray | None, np.ndarray | None]]:
-    """``(sensor id or None, t_s, gyr, acc, mag)`` for each stream to fuse."""
+def _inputs(path: Path, sensor: str | None, no_mag: bool,
+            mag_files: list[str] | None = None) -> list[tuple[str | None, np.ndarray, np.ndarray,
+                                                              np.ndarray | None, np.ndarray | None]]:
+    """``(sensor id or None, t_s, gyr, acc, mag)`` for each stream to fuse; a session's
+    magnetometer samples come calibrated, as the processing path calibrates them (the session's
+    own calibrations, the stored ones, or ``mag_files``; :mod:`mimucap.cli.session_input`)."""
+    from mimucap.cli.session_input import magnetometer_calibrations
     from mimucap.io.broad import is_broad_file, read_broad
     from mimucap.io.session import read_session
 
@@ -64,8 +73,15 @@ def _inputs(path: Path, sensor: str | None, no_mag: bool) -> list[tuple[str | No
         if trial.mag_uT is None and not no_mag:
             raise ValueError(f"{path}: BROAD trial without 'imu_mag' (magnetometer, µT): "
                              "fuse it without the magnetometer with --no-mag")
+        if mag_files:
+            raise ValueError(f"{path}: --mag-calibration applies to MimuCap sessions (sensor ids), not to a BROAD trial")
         return [(None, trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT)]
     session = read_session(path)
+    calibrations = {}
+    if not no_mag:
+        calibrations, lines = magnetometer_calibrations(session, mag_files)
+        for line in lines:
+            print(f"  {line}")
     streams = session.sensors
     if sensor is not None:
         if sensor not in streams:
@@ -77,7 +93,10 @@ def _inputs(path: Path, sensor: str | None, no_mag: bool) -> list[tuple[str | No
             if sensor is not None:
                 raise ValueError(f"{path}: sensor {sensor_id} has no gyroscope channel")
             continue
-        chosen.append((sensor_id, stream.t_s, stream.gyr, stream.acc, stream.mag_uT))
+        mag = stream.mag_uT
+        if mag is not None and sensor_id in calibrations:
+            mag = calibrations[sensor_id].apply(mag, sensor_id)
+        chosen.append((sensor_id, stream.t_s, stream.gyr, stream.acc, mag))
     if not chosen:
         raise ValueError(f"{path}: no sensor with a gyroscope channel to fuse")
     return chosen
@@ -129,7 +148,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)  # also when per-sensor names derive from it: a slip
-    inputs = _inputs(args.input, args.sensor, args.no_mag)
+    inputs = _inputs(args.input, args.sensor, args.no_mag, args.mag_calibration)
     estimator = fuse
     if args.offline:
         from mimucap.core.fusion.offline import fuse_offline as estimator

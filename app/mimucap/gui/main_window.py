@@ -241,6 +241,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_axes.setCheckable(True)
         self.action_axes.setChecked(True)
         self.action_axes.toggled.connect(self._update_stage)
+        self.action_truth = view_menu.addAction("Show Simulator &Truth")
+        self.action_truth.setCheckable(True)
+        self.action_truth.setChecked(True)
+        self.action_truth.setToolTip("The simulated subject's true pose as a pale figure beside the estimate "
+                                     "(the simulated suit only): an accuracy check")
+        self.action_truth.toggled.connect(lambda _on: self._update_ghost())
         # The key belongs to the plots' Pause button (a second shortcut on the same key would
         # make both ambiguous); the menu names it.
         self.action_pause_plots = view_menu.addAction("&Pause Plots\tSpace")
@@ -304,6 +310,7 @@ class MainWindow(QtWidgets.QMainWindow):
         session.events.marker.connect(self._on_marker)
         self.scene_view.set_figure(session.builder)
         self.scene_view.set_frame_provider(session.frame)
+        self._update_ghost()
         self.plots.set_source(session)
         if self.isVisible():
             self.start()
@@ -397,6 +404,12 @@ class MainWindow(QtWidgets.QMainWindow):
             self._finish_recording()
             QtWidgets.QMessageBox.critical(self, "Recording stopped", failure)
 
+    def _update_ghost(self) -> None:
+        """Show the simulator's truth as a ghost figure when asked (sources without truth give none)."""
+        live = self.live
+        wanted = live is not None and self.action_truth.isChecked()
+        self.scene_view.set_ghost_provider(live.truth_frame if wanted else None)
+
     @staticmethod
     def _accuracy_text(live: LiveSession) -> str:
         """The running accuracy check against the simulator's truth ("" for other sources)."""
@@ -437,6 +450,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.show_info(live.recording_info())
         self.source_status.setText(f"Source: {live.label}")
         self.pose_status.setText(f"Pose: {live.pose_source}" + self._accuracy_text(live))
+        self.action_truth.setEnabled(live.has_truth)
         problem = live.source_problem
         if problem != self._source_problem:
             self._source_problem = problem

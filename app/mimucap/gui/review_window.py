@@ -178,6 +178,12 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.action_body_mode = view.addAction("&Body Mode")
         self.action_body_mode.setCheckable(True)
         self.action_body_mode.toggled.connect(self._body_mode_toggled)
+        self.action_truth = view.addAction("Show Simulator &Truth")
+        self.action_truth.setCheckable(True)
+        self.action_truth.setChecked(True)
+        self.action_truth.setToolTip("The simulated subject's true pose as a pale figure beside the estimate "
+                                     "(simulated recordings only): an accuracy check")
+        self.action_truth.toggled.connect(lambda _on: self._update_ghost())
         self.action_play = view.addAction("&Play/Pause", self.play_button.toggle)
         self.action_play.setShortcut(QtGui.QKeySequence("Ctrl+Space"))
 
@@ -235,6 +241,8 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.progress.hide()
         self.scene_view.set_figure(self.player.builder)
         self.scene_view.set_frame_provider(self.player.frame)
+        self._update_ghost()
+        self.action_truth.setEnabled(data.truth is not None)
         self.scene_view.set_tint_provider(lambda: {s: "ok" for s in data.model.segment_names})
         self.plots.set_source(self.player)
         self.slider.setRange(int(round(data.start_s * SLIDER_STEPS_PER_S)), int(round(data.end_s * SLIDER_STEPS_PER_S)))
@@ -326,6 +334,12 @@ class ReviewWindow(QtWidgets.QMainWindow):
         in the Camera menu."""
         self.scene_view.set_camera_preset(name)
         self.camera_actions[name].setChecked(True)
+
+    def _update_ghost(self) -> None:
+        """Show the simulator's truth as a ghost figure when asked and the recording has it."""
+        player = self.player
+        wanted = player is not None and self.action_truth.isChecked()
+        self.scene_view.set_ghost_provider(player.truth_frame if wanted else None)
 
     def _body_mode_toggled(self, on: bool) -> None:
         if self.player is not None:

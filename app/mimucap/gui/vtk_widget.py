@@ -75,13 +75,19 @@ class VtkWidget(QVTKRenderWindowInteractor):
     # -- life cycle --------------------------------------------------------------------------
     def Initialize(self) -> None:  # noqa: N802 (VTK's name)
         """Make the OpenGL context (idempotent; nothing after :meth:`Finalize`)."""
-        if not self._initialized and not self._finalized:
+        if not self._gone and not self._initialized:
             self.interactor.Initialize()
             self._initialized = True
 
+    @property
+    def _gone(self) -> bool:
+        """Finalized, or torn down by Python before its constructor's attributes exist (Qt can
+        still deliver an event then; VTK's ``__getattr__`` would recurse looking for them)."""
+        return self.__dict__.get("_finalized", True)
+
     def Finalize(self) -> None:  # noqa: N802
         """Release the OpenGL context for good; nothing renders afterwards (idempotent)."""
-        if self._finalized:
+        if self._gone:
             return
         self._finalized = True
         self.render_window.RemoveObserver(self._end_observer)
@@ -90,11 +96,11 @@ class VtkWidget(QVTKRenderWindowInteractor):
 
     @property
     def finalized(self) -> bool:
-        return self._finalized
+        return self._gone
 
     def render(self) -> None:
         """Draw one frame now and present it (nothing after :meth:`Finalize`)."""
-        if self._finalized:
+        if self._gone:
             return
         self.Initialize()
         self.render_window.Render()
@@ -104,19 +110,19 @@ class VtkWidget(QVTKRenderWindowInteractor):
 
     # -- Qt events that would draw ---------------------------------------------------------------
     def paintEvent(self, event: QtGui.QPaintEvent) -> None:  # noqa: N802 (Qt API)
-        if not self._finalized:
+        if not self._gone:
             self.Initialize()
             super().paintEvent(event)
 
     def resizeEvent(self, event: QtGui.QResizeEvent) -> None:  # noqa: N802
-        if not self._finalized:
+        if not self._gone:
             super().resizeEvent(event)
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802
         self.Finalize()
 
     def _mouse_allowed(self) -> bool:
-        if self._finalized:
+        if self._gone:
             return False
         self.Initialize()
         return True
@@ -152,7 +158,7 @@ class VtkWidget(QVTKRenderWindowInteractor):
         """The picture now on screen, read back from OpenGL after a fresh frame: an RGB
         ``QImage`` of the render window's size (device pixels; the widget's device pixel ratio
         set). A null image after :meth:`Finalize`."""
-        if self._finalized:
+        if self._gone:
             return QtGui.QImage()
         self.render()
         grabber = vtkWindowToImageFilter()

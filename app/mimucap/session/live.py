@@ -218,6 +218,7 @@ class LiveSession:
         self._journaled_truth: SuitTruth | None = None   # the simulator truth block last recorded
         #: newest pose of the simulator's truth (segment → (4,)), for evaluation only
         self._truth_pose: dict[str, np.ndarray] | None = None
+        self._truth_geometry: tuple[object, FigureGeometry] | None = None
         #: the simulator's true joint angles (deg) of the last seconds, for the accuracy check
         self._truth_angles = {j: RingBuffer(int(MAX_WINDOW_S * BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
         self._recording_markers = 0
@@ -571,6 +572,24 @@ class LiveSession:
                                                  heading_ref_rad=heading_ref)
             self._geometry = (frame_id, geometry)
         return self._geometry
+
+    def truth_frame(self) -> tuple[object, FigureGeometry] | None:
+        """``(frame_id, geometry)`` of the simulator's true pose, standing where the estimate
+        stands (the ghost figure of the on-screen accuracy check); ``None`` for a source without
+        truth or before the first estimated pose. Evaluation only: never the figure itself."""
+        truth = self._truth_pose
+        if truth is None or self._q_world_from_segment is None:
+            return None
+        if any(name not in truth for name in self.model.segment_names):
+            return None
+        frame_id = ("truth", self._frame_id, self.display_mode)
+        if self._truth_geometry is None or self._truth_geometry[0] != frame_id:
+            q = np.array([truth[name] for name in self.model.segment_names], dtype=float)
+            heading_ref = None if self.body_calibration is None else bodycal_heading(self.body_calibration)
+            proximal, distal = skeleton.forward_kinematics_stacked(self.model, q, self.height_m, self._root_m)
+            geometry = self.builder.build_arrays(proximal, distal, q, mode=self.display_mode, heading_ref_rad=heading_ref)
+            self._truth_geometry = (frame_id, geometry)
+        return self._truth_geometry
 
     # -- views for the panel and the plots -----------------------------------------------------
     def segment_states(self) -> dict[str, str]:

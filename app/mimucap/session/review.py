@@ -133,6 +133,7 @@ class ReviewPlayer:
         self.playing = False
         self._cursor = data.start_s
         self._geometry: tuple[object, FigureGeometry] | None = None
+        self._truth_geometry: tuple[object, FigureGeometry] | None = None
         self._columns = {}
         columns = skeleton.joint_angle_columns(self.model)
         for joint in self.model.joint_names:
@@ -204,6 +205,37 @@ class ReviewPlayer:
             geometry = self.builder.build(poses, mode=self.display_mode, heading_ref_rad=self.data.heading_ref_rad)
             self._geometry = (frame_id, geometry)
         return self._geometry
+
+    def truth_frame(self) -> tuple[object, FigureGeometry] | None:
+        """``(frame_id, geometry)`` of the simulator's true pose at the play head, standing
+        where the estimate stands (the ghost figure); ``None`` without truth. Evaluation only."""
+        truth = self.data.truth
+        if truth is None or not len(self.data.t_s) or not len(truth.t_s):
+            return None
+        if any(name not in truth.q_world_from_segment for name in self.model.segment_names):
+            return None
+        i = self.index()
+        t = self.data.t_s[i]
+        k = int(np.clip(np.searchsorted(truth.t_s, t - 1e-9), 0, len(truth.t_s) - 1))
+        frame_id = ("truth", i, self.display_mode)
+        if self._truth_geometry is None or self._truth_geometry[0] != frame_id:
+            q = {s: np.asarray(truth.q_world_from_segment[s][k], dtype=float) for s in self.model.segment_names}
+            root = None if self.data.root_position_m is None else self.data.root_position_m[i]
+            poses = skeleton.forward_kinematics(self.model, q, self.height_m, root)
+            geometry = self.builder.build(poses, mode=self.display_mode, heading_ref_rad=self.data.heading_ref_rad)
+            self._truth_geometry = (frame_id, geometry)
+        return self._truth_geometry
+
+    def truth_joint_series(self, joint: str, window_s: float):
+        """The simulator's true angles of ``joint`` over the window ending at the play head (as
+        :meth:`joint_series`; empty without truth). Evaluation only."""
+        truth = self.data.truth
+        columns = self._columns.get(joint)
+        if truth is None or columns is None or any(c not in truth.joint_angles_deg for c in columns):
+            return np.zeros(0), np.zeros((0, 3))
+        t = np.asarray(truth.t_s)
+        a, b = np.searchsorted(t, [self._cursor - window_s, self._cursor], side="right")
+        return t[a:b], np.stack([np.asarray(truth.joint_angles_deg[c])[a:b] for c in columns], axis=-1)
 
     # -- plot source -------------------------------------------------------------------------
     @property

@@ -41,6 +41,9 @@ TINTS: dict[str, tuple[float, float, float]] = {
     "stale": (0.90, 0.32, 0.30),
     "no_sensor": (0.62, 0.62, 0.64),
 }
+#: The ghost figure (the simulator's truth shown beside the estimate): colour and opacity.
+GHOST_COLOUR = (0.85, 0.88, 0.90)
+GHOST_OPACITY = 0.35
 JOINT_COLOUR = (0.92, 0.92, 0.90)
 CONNECTOR_COLOUR = (0.78, 0.78, 0.80)
 MARKER_COLOUR = (0.15, 0.18, 0.25)
@@ -197,6 +200,22 @@ class SkeletonActor:
         self._tints: dict[str, str] = {}
         for actor in (self.actor, self.sphere_actor):
             renderer.AddActor(actor)
+
+    def make_ghost(self) -> None:
+        """Draw this figure as a ghost: one pale, translucent colour, no tints (the simulator's
+        truth beside the estimate)."""
+        self._colours[:] = _rgb(GHOST_COLOUR)
+        self._sphere_colours[:] = _rgb(GHOST_COLOUR)
+        self._vtk_colours.Modified()
+        self._vtk_sphere_colours.Modified()
+        for actor in (self.actor, self.sphere_actor):
+            actor.GetProperty().SetOpacity(GHOST_OPACITY)
+            actor.SetPickable(False)
+
+    def hide(self) -> None:
+        """Hide the figure until the next :meth:`update`."""
+        self.actor.VisibilityOff()
+        self.sphere_actor.VisibilityOff()
 
     @property
     def visible(self) -> bool:

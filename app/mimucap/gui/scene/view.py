@@ -113,8 +113,12 @@ class SceneView(QtWidgets.QWidget):
 
         self._provider: FrameProvider | None = None
         self._tint_provider: Callable[[], Mapping[str, str]] | None = None
+        self._ghost_provider: FrameProvider | None = None
+        self._ghost_frame_id: object = None
         self._builder: FigureBuilder | None = None
         self.skeleton: SkeletonActor | None = None
+        #: the simulator's truth as a translucent figure beside the estimate (evaluation only)
+        self.ghost: SkeletonActor | None = None
         self._last_frame_id: object = None
         self._last_geometry: FigureGeometry | None = None
         self._camera_preset = CAMERA_PRESETS[0]
@@ -137,8 +141,13 @@ class SceneView(QtWidgets.QWidget):
         """Show the figure of ``builder``'s model (replaces any previous figure)."""
         if self.skeleton is not None:
             self.skeleton.remove()
+        if self.ghost is not None:
+            self.ghost.remove()
         self._builder = builder
         self.skeleton = SkeletonActor(self.renderer, builder)
+        self.ghost = SkeletonActor(self.renderer, builder)
+        self.ghost.make_ghost()
+        self._ghost_frame_id = None
         self._last_frame_id = None
         self._last_geometry = None
         # Until the first frame, look at the floor where the subject will stand; the preset is
@@ -152,6 +161,15 @@ class SceneView(QtWidgets.QWidget):
         """Where each tick gets the newest frame (``None`` freezes the view)."""
         self._provider = provider
         self._last_frame_id = None
+        self._dirty = True
+
+    def set_ghost_provider(self, provider: FrameProvider | None) -> None:
+        """Where each tick gets the ghost figure's frame (the simulator's truth, drawn
+        translucent beside the estimate); ``None`` (or a provider giving ``None``) hides it."""
+        self._ghost_provider = provider
+        self._ghost_frame_id = None
+        if provider is None and self.ghost is not None and self.ghost.visible:
+            self.ghost.hide()
         self._dirty = True
 
     def set_tint_provider(self, provider: Callable[[], Mapping[str, str]] | None) -> None:
@@ -278,6 +296,16 @@ class SceneView(QtWidgets.QWidget):
                     self.skeleton.update(geometry)
                     self.stage.set_world_matrix(geometry.world_matrix, geometry.root_world_m)
                     self._dirty = True
+        if self._ghost_provider is not None and self.ghost is not None:
+            ghost = self._ghost_provider()
+            if ghost is None:
+                if self.ghost.visible:
+                    self.ghost.hide()
+                    self._dirty = True
+            elif ghost[0] != self._ghost_frame_id:
+                self._ghost_frame_id = ghost[0]
+                self.ghost.update(ghost[1])
+                self._dirty = True
         if self._tint_provider is not None and self.skeleton.set_tints(self._tint_provider()):
             self._dirty = True
         if self._last_geometry is not None:
