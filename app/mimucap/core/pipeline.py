@@ -450,9 +450,10 @@ def measured_joint_angles(model: skeleton.SkeletonModel, angles_deg: Mapping[str
 
 @dataclass(frozen=True)
 class SensorBlock:
-    """One sensor's new samples for :meth:`LivePipeline.feed` (arrays of N rows, sensor frame):
+    """One sensor's samples as the processing path takes them (arrays of N rows, sensor frame):
     ``t_s`` (N,) s, ``acc`` m/s², ``gyr`` rad/s, ``mag_uT`` raw µT, ``q_world_from_sensor`` the
-    device's own orientation; absent channels None."""
+    device's own orientation (or, in a calibration feed's hands, the pipeline's); absent channels
+    None, never zero-filled. :meth:`LivePipeline.feed` takes them, calibration feeds hand them out."""
 
     sensor_id: str
     t_s: np.ndarray

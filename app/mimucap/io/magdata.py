@@ -54,8 +54,6 @@ FloatArray = NDArray[np.float64]
 
 UT_PER_GAUSS = 100.0
 STANDARD_GRAVITY_MPS2 = 9.80665
-#: Xsens SampleTimeFine ticks per second.
-XSENS_TICKS_PER_S = 10_000.0
 SESSION_SUFFIXES = (".h5", ".hdf5", ".mimucap")
 SUNSIDED_IMU_FILE = "imu_mpu6050.csv.gz"
 
@@ -295,81 +293,24 @@ def read_sunsided_imu(path: str | Path, variant: str = "auto") -> ImuStream:
 
 
 def read_xsens(path: str | Path) -> MagRecording:
-    """Read an Xsens MT Manager text export with ``Mag_X..Z`` columns (see module docstring)."""
+    """Read an Xsens MT Manager text export with ``Mag_X..Z`` columns (see module docstring).
+
+    The file is parsed by the one Xsens reader, :func:`mimucap.io.quaternion_tables.read_xsens_file`
+    (headers, delimiters, empty fields, packet counters); this keeps its magnetometer (Xsens's
+    arbitrary units, normalised to the local field: ``unit="counts"``, to be scaled) and its
+    accelerometer and gyroscope as the companion inertial samples."""
+    from mimucap.io.quaternion_tables import read_xsens_file
+
     path = Path(path)
-    lines = _open_text(path)
-    sensor_id = None
-    rate_hz = None
-    header_index = None
-    for index, line in enumerate(lines):
-        stripped = line.strip()
-        if stripped.startswith("//"):
-            match = re.search(r"DeviceId:\s*([0-9A-Fa-f]+)", stripped)
-            if match:
-                sensor_id = match.group(1).upper()
-            match = re.search(r"Update Rate:\s*([0-9.]+)\s*Hz", stripped)
-            if match:
-                rate_hz = float(match.group(1))
-            continue
-        if stripped:
-            header_index = index
-            break
-    if header_index is None:
-        raise ValueError(f"{path}: no column header found")
-    if sensor_id is None:
-        match = re.search(r"_([0-9A-Fa-f]{8})$", path.stem)
-        if match:
-            sensor_id = match.group(1).upper()
-    header_line = lines[header_index]
-    delimiter = _delimiter(header_line)
-    names = _split(header_line, delimiter)
-    try:
-        mag_columns = [names.index(f"Mag_{a}") for a in "XYZ"]
-    except ValueError:
-        raise ValueError(f"{path}:{header_index + 1}: no Mag_X, Mag_Y, Mag_Z columns in this Xsens export") from None
-
-    def optional(prefix: str) -> list[int] | None:
-        try:
-            return [names.index(f"{prefix}_{a}") for a in "XYZ"]
-        except ValueError:
-            return None
-
-    acc_columns, gyr_columns = optional("Acc"), optional("Gyr")
-    counter_column = names.index("PacketCounter") if "PacketCounter" in names else None
-    fine_column = names.index("SampleTimeFine") if "SampleTimeFine" in names else None
-    rows = []
-    for number, line in enumerate(lines[header_index + 1 :], start=header_index + 2):
-        if not line.strip():
-            continue
-        fields = _split(line, delimiter)
-        if delimiter is None and len(fields) < len(names):
-            fields = fields[:1] + [""] * (len(names) - len(fields)) + fields[1:]
-        if len(fields) < len(names):
-            fields += [""] * (len(names) - len(fields))
-        try:
-            rows.append([_number(f) for f in fields[: len(names)]])
-        except ValueError:
-            raise ValueError(f"{path}:{number}: not a number in {line.strip()[:80]!r}") from None
-    if not rows:
-        raise ValueError(f"{path}: no samples after the header")
-    table = np.array(rows)
-    t_s = None
-    if fine_column is not None and np.all(np.isfinite(table[:, fine_column])):
-        t_s = np.unwrap(table[:, fine_column], period=2.0**32) / XSENS_TICKS_PER_S
-        t_s = t_s - t_s[0]
-    elif counter_column is not None and rate_hz and np.all(np.isfinite(table[:, counter_column])):
-        counter = np.unwrap(table[:, counter_column], period=65536.0)
-        t_s = (counter - counter[0]) / rate_hz
+    recording = read_xsens_file(path)
+    if recording.mag_au is None:
+        raise ValueError(f"{path}: no Mag_X, Mag_Y, Mag_Z columns in this Xsens export")
+    t_s = recording.t_s
     imu = None
-    if t_s is not None and (acc_columns or gyr_columns):
-        imu = ImuStream(
-            t_s=t_s,
-            acc_mps2=table[:, acc_columns] if acc_columns else None,
-            gyr_rad_s=table[:, gyr_columns] if gyr_columns else None,
-        )
-    return MagRecording(
-        source=str(path), sensor_id=sensor_id, mag=table[:, mag_columns], unit="counts", t_s=t_s, imu=imu
-    )
+    if recording.acc is not None or recording.gyr is not None:
+        imu = ImuStream(t_s=t_s, acc_mps2=recording.acc, gyr_rad_s=recording.gyr)
+    return MagRecording(source=str(path), sensor_id=recording.device_id, mag=recording.mag_au, unit="counts",
+                        t_s=t_s, imu=imu)
 
 
 def read_session_mag(path: str | Path, sensor_id: str | None = None) -> list[MagRecording]:

@@ -4,8 +4,10 @@ A calibration procedure pulls samples from a *feed* and tells the subject what t
 asks for. A feed has:
 
 * ``sensor_ids`` (tuple of str), ``time_s`` (s, time of the newest sample delivered);
-* ``read() -> dict[str, FeedSamples]``: the samples that arrived since the last call, with the
-  orientation the live session's processing path (:mod:`mimucap.core.pipeline`) gave them;
+* ``read() -> dict[str, SensorBlock]``: the samples that arrived since the last call
+  (:class:`mimucap.core.pipeline.SensorBlock`, the pipeline's own record of a sensor's samples:
+  raw magnetometer), with ``q_world_from_sensor`` the orientation the live session's processing
+  path gave them;
 * ``instruct(instruction)``: what the subject is asked to do
   (:mod:`mimucap.session.instructions`); the source decides who follows it (a person reads the
   screen; the simulated subject does it). No procedure asks which one it is.
@@ -23,27 +25,14 @@ rad/s, ``mag_uT`` µT (raw: a new magnetometer calibration needs raw samples),
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
 
 from mimucap.core.magcal import MagCalibration
+from mimucap.core.pipeline import SensorBlock
 from mimucap.core.simulate import SuitSimulator
 from mimucap.session.instructions import Instruction
-
-
-@dataclass(frozen=True)
-class FeedSamples:
-    """One sensor's new samples: ``t_s`` (N,) s, ``acc`` (N, 3) m/s², ``gyr`` (N, 3) rad/s,
-    ``mag_uT`` (N, 3) µT (raw), ``q_world_from_sensor`` (N, 4); a channel the sensor does not
-    send (or an orientation not available) is None, never zero-filled."""
-
-    t_s: np.ndarray
-    acc: np.ndarray | None
-    gyr: np.ndarray | None
-    mag_uT: np.ndarray | None
-    q_world_from_sensor: np.ndarray | None
 
 
 class CalibrationFeed(Protocol):
@@ -54,7 +43,7 @@ class CalibrationFeed(Protocol):
     @property
     def time_s(self) -> float: ...
 
-    def read(self) -> dict[str, FeedSamples]: ...
+    def read(self) -> dict[str, SensorBlock]: ...
 
     def instruct(self, instruction: Instruction) -> None: ...
 
@@ -93,25 +82,26 @@ class LiveSessionFeed:
     def instruct(self, instruction: Instruction) -> None:
         self.live_session.instruct(instruction)
 
-    def read(self) -> dict[str, FeedSamples]:
+    def read(self) -> dict[str, SensorBlock]:
         """The samples that arrived since the last call, per sensor (a channel is None when
         any of the sensor's blocks lacks it)."""
         items, self._pending = self._pending, []
-        parts: dict[str, list[FeedSamples]] = {}
+        parts: dict[str, list[SensorBlock]] = {}
         for item in items:
             if len(item.t_s) == 0:
                 continue
             block = item.block
             q = None if item.orientation is None else item.orientation.q_world_from_sensor
-            parts.setdefault(item.sensor_id, []).append(FeedSamples(item.t_s, block.acc, block.gyr, block.mag_uT, q))
+            parts.setdefault(item.sensor_id, []).append(
+                SensorBlock(item.sensor_id, item.t_s, block.acc, block.gyr, block.mag_uT, q))
             newest = float(item.t_s[-1])
             self._time_s = max(newest, self._time_s) if math.isfinite(self._time_s) else newest
 
-        def joined(samples: list[FeedSamples], name: str) -> np.ndarray | None:
+        def joined(samples: list[SensorBlock], name: str) -> np.ndarray | None:
             arrays = [getattr(s, name) for s in samples]
             return None if any(a is None for a in arrays) else np.concatenate(arrays)
 
-        return {sensor_id: FeedSamples(joined(samples, "t_s"), joined(samples, "acc"), joined(samples, "gyr"),
+        return {sensor_id: SensorBlock(sensor_id, joined(samples, "t_s"), joined(samples, "acc"), joined(samples, "gyr"),
                                        joined(samples, "mag_uT"), joined(samples, "q_world_from_sensor"))
                 for sensor_id, samples in parts.items()}
 
@@ -157,7 +147,7 @@ class SimulatedSuitFeed(LiveSessionFeed):
             raise ValueError(f"sensor {calibration.sensor_id} is not in this suit")
         self.live_session.apply_mag_calibration(calibration, save=False)
 
-    def read(self) -> dict[str, FeedSamples]:
+    def read(self) -> dict[str, SensorBlock]:
         """Advance the simulation by ``step_s`` and return each sensor's new samples."""
         self._clock.now += self.step_s
         self.live_session.step()
