@@ -254,5 +254,14 @@ def test_the_simulators_truth_is_a_ghost_beside_the_estimate(window, qtbot):
     estimate = view.skeleton.vertices_of_segment("thigh_r")
     ghost = view.ghost.vertices_of_segment("thigh_r")
     assert not np.allclose(estimate, ghost)  # two figures: the estimate is not the truth
+    # The plotted joint's true angles are dashed curves beside the estimate.
+    plots = window.plots
+    key = plots._joint_key(plots.selected_joints[0])
+    def drawn() -> int:
+        x, _y = plots.truth_curves[key][0].getData()
+        return 0 if x is None else len(x)
+
+    qtbot.waitUntil(lambda: drawn() > 10, timeout=5000)
     window.action_truth.setChecked(False)
     assert not view.ghost.visible
+    qtbot.waitUntil(lambda: drawn() == 0, timeout=5000)

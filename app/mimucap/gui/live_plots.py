@@ -150,6 +150,11 @@ class LivePlots(QtWidgets.QWidget):
         self.scroll_area = scrolling(self.layout_widget, self, horizontal=False)
         self.plots: dict[str, pg.PlotItem] = {}
         self.curves: dict[str, list[_Curve]] = {}
+        #: joint plot key → dashed curves of the simulator's true angles (evaluation only)
+        self.truth_curves: dict[str, list[pg.PlotCurveItem]] = {}
+        #: whether the joint plots draw the simulator's truth beside the estimate (when the
+        #: source has one: ``truth_joint_series``)
+        self.show_truth = True
         self.cursors: dict[str, pg.InfiniteLine] = {}
         self._ranges: dict[str, SteadyRange] = {}
         self._titles: dict[str, str] = {}     # each plot's title, without the curve names
@@ -248,6 +253,7 @@ class LivePlots(QtWidgets.QWidget):
         plot = self.plots.pop(key)
         del self.curves[key], self.cursors[key], self._ranges[key], self._titles[key]
         self._no_data.pop(key, None)
+        self.truth_curves.pop(key, None)
         self.layout_widget.removeItem(plot)
         plot.deleteLater()
 
@@ -295,7 +301,14 @@ class LivePlots(QtWidgets.QWidget):
         for column in columns:
             label = column[len(joint) + 1:] if column.startswith(joint + "_") else column
             names.append(label.removesuffix("_deg").replace("_", " "))
-        self._add_plot(self._joint_key(joint), f"{joint} angles", ANGLE_UNIT, ANGLE_MIN_RANGE, names)
+        key = self._joint_key(joint)
+        self._add_plot(key, f"{joint} angles", ANGLE_UNIT, ANGLE_MIN_RANGE, names)
+        truth = []
+        for axis in range(3):
+            curve = pg.PlotCurveItem(pen=pg.mkPen(AXIS_PENS[axis], width=1, style=QtCore.Qt.DashLine))
+            self.plots[key].addItem(curve)
+            truth.append(curve)
+        self.truth_curves[key] = truth
 
     def _joint_toggled(self, joint: str, on: bool) -> None:
         joints = [j for j in self.selected_joints if j != joint]
@@ -410,10 +423,12 @@ class LivePlots(QtWidgets.QWidget):
             for key, values in (("acc", acc), ("gyr", gyr), ("mag", mag)):
                 self._show(key, t, values, origin, now)
             drew = drew or len(t) > 0
+        truth_of = getattr(self.source, "truth_joint_series", None) if self.show_truth else None
         for joint in self.selected_joints:
             t, angles = self.source.joint_series(joint, window)
             self._show(self._joint_key(joint), t, angles, origin, now)
             drew = drew or len(t) > 0
+            self._show_truth(self._joint_key(joint), joint, truth_of, window, origin)
         if np.isfinite(cursor):
             for line in self.cursors.values():
                 line.setValue(cursor - origin)
@@ -425,6 +440,15 @@ class LivePlots(QtWidgets.QWidget):
             if len(self.refresh_times) > 600:
                 del self.refresh_times[:300]
             self.refreshed.emit(now)
+
+    def _show_truth(self, key: str, joint: str, truth_of, window: float, origin: float) -> None:
+        """The simulator's true angles as dashed curves beside the estimate (cleared when the
+        source has no truth or it is not wanted)."""
+        curves = self.truth_curves.get(key, ())
+        t, angles = truth_of(joint, window) if truth_of is not None else (np.zeros(0), np.zeros((0, 3)))
+        x, shown = peak_decimate(t - origin, angles, MAX_POINTS) if len(t) else (t, angles)
+        for axis, curve in enumerate(curves):
+            curve.setData(x, shown[:, axis] if len(x) else x)
 
     def curve_data(self, key: str, axis: int) -> tuple[np.ndarray, np.ndarray]:
         """What curve ``axis`` of plot ``key`` shows, in source time (s): ``acc``, ``gyr``,

@@ -409,6 +409,7 @@ class MainWindow(QtWidgets.QMainWindow):
         live = self.live
         wanted = live is not None and self.action_truth.isChecked()
         self.scene_view.set_ghost_provider(live.truth_frame if wanted else None)
+        self.plots.show_truth = self.action_truth.isChecked()
 
     @staticmethod
     def _accuracy_text(live: LiveSession) -> str:

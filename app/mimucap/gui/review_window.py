@@ -340,6 +340,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         player = self.player
         wanted = player is not None and self.action_truth.isChecked()
         self.scene_view.set_ghost_provider(player.truth_frame if wanted else None)
+        self.plots.show_truth = self.action_truth.isChecked()
 
     def _body_mode_toggled(self, on: bool) -> None:
         if self.player is not None:
