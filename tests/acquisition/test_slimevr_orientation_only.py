@@ -51,7 +51,7 @@ class FakeClock:
 def _live(scenario: str) -> tuple[LiveSession, FakeClock]:
     clock = FakeClock()
     config = SimulationConfig(scenario=scenario, n_sensors=10, seed=8, errors=ONBOARD)
-    live = LiveSession(OrientationOnlyFeed(config, clock=clock, time_scale=4.0), clock=clock)
+    live = LiveSession(OrientationOnlyFeed(config, clock=clock), clock=clock)
     live.start()
     return live, clock
 
@@ -59,7 +59,7 @@ def _live(scenario: str) -> tuple[LiveSession, FakeClock]:
 def test_the_panel_shows_battery_and_signal_and_the_magnetometer_wizard_asks_nothing(qtbot, tmp_path):
     live, clock = _live("npose")
     for _ in range(20):
-        clock.now += 0.025
+        clock.now += 0.1
         live.step()
     assert sorted(live.orientation_only_sensors()) == sorted(live.sensor_ids)
     assert set(live.latest_orientations()) == set(live.sensor_ids)   # the device's quaternions
@@ -88,7 +88,7 @@ def test_the_body_calibration_works_from_their_quaternions(qtbot):
     stepper = QtCore.QTimer()
 
     def step() -> None:
-        clock.now += 0.025
+        clock.now += 0.1
         live.step()
 
     stepper.timeout.connect(step)
@@ -106,7 +106,7 @@ def test_the_body_calibration_works_from_their_quaternions(qtbot):
     qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
     assert live.body_calibration is calibration
     for _ in range(10):          # the skeleton follows the sensors through the calibration
-        clock.now += 0.025
+        clock.now += 0.1
         live.step()
     assert live.pose_source == "body calibration"
     q_segments = live.q_world_from_segment

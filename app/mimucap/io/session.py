@@ -745,6 +745,8 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
         "source": source,
         "subject": subject if subject is not None else make_subject("simulated", result.height_m, "right", "simulated subject"),
         "sensor_segments": {sid: s.segment for sid, s in result.samples.items()},
+        "skeleton_model": result.model_name,
+        "height_m": result.height_m,
     }
     truth = None
     if include_truth:

@@ -112,10 +112,12 @@ def _contacts(t: np.ndarray, contact: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def walk_windows(markers: list[tuple[float, str]], end_s: float) -> list[tuple[float, float]]:
-    """Steady-walking windows of a simulation (its ``activity:walk`` spans, trimmed)."""
+    """Steady-walking windows of a simulation (its ``walk`` phases, :mod:`mimucap.core.phases`, trimmed)."""
+    from mimucap.core import phases
+
     windows = []
     for i, (start, label) in enumerate(markers):
-        if label == "activity:walk":
+        if phases.is_phase(label, phases.WALK):
             stop = markers[i + 1][0] if i + 1 < len(markers) else end_s
             if stop - start > 2 * WALK_TRIM_S:
                 windows.append((start + WALK_TRIM_S, stop - WALK_TRIM_S))
