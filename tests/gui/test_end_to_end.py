@@ -59,26 +59,26 @@ def _window(qtbot, spec: str):
     return window
 
 
-@pytest.fixture
-def app_window(qtbot):
-    window = _window(qtbot, "simulated:demo")
-    yield window
+def _closed(window) -> None:
     for review in window.review_windows:
         review.close()
     if window.live is not None and window.live.recording:
         window.live.stop_recording()
     window.close()
+
+
+@pytest.fixture
+def app_window(qtbot):
+    window = _window(qtbot, "simulated:demo")
+    yield window
+    _closed(window)
 
 
 @pytest.fixture
 def walking_window(qtbot):
     window = _window(qtbot, "simulated:walk")
     yield window
-    for review in window.review_windows:
-        review.close()
-    if window.live is not None and window.live.recording:
-        window.live.stop_recording()
-    window.close()
+    _closed(window)
 
 
 def _calibrate(window, qtbot) -> None:

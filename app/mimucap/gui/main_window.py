@@ -22,7 +22,7 @@ from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
 from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
-from mimucap.gui.menus import choice_actions
+from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.scrolling import scrolling
 from mimucap.gui.sensor_panel import SensorPanel
@@ -65,7 +65,7 @@ VIEW_HINTS = {
     POSE_NONE: "Waiting for data from the source…",
     POSE_UNASSIGNED: "No sensor is assigned to a body segment yet.\nSession → Assign Sensors…",
     POSE_SENSOR_AXES: "Not calibrated yet: each sensor's axes stand for its segment.\n"
-                      "Calibrate → Magnetometers…, then Calibrate → Body…",
+                      "Calibrate the magnetometers, then the body (menu Calibrate).",
 }
 #: Joint angles the on-screen accuracy check sums up (simulated suit only).
 ACCURACY_COLUMNS = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg",
@@ -241,12 +241,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_axes.setCheckable(True)
         self.action_axes.setChecked(True)
         self.action_axes.toggled.connect(self._update_stage)
-        self.action_truth = view_menu.addAction("Show Simulator &Truth")
-        self.action_truth.setCheckable(True)
-        self.action_truth.setChecked(True)
-        self.action_truth.setToolTip("The simulated subject's true pose as a pale figure beside the estimate "
-                                     "(the simulated suit only): an accuracy check")
-        self.action_truth.toggled.connect(lambda _on: self._update_ghost())
+        self.action_truth = truth_action(view_menu, lambda _on: self._update_ghost())
         # The key belongs to the plots' Pause button (a second shortcut on the same key would
         # make both ambiguous); the menu names it.
         self.action_pause_plots = view_menu.addAction("&Pause Plots\tSpace")

@@ -24,3 +24,15 @@ def choice_actions(menu: QtWidgets.QMenu, names: Sequence[str], label: Callable[
         actions[name] = action
     actions[checked].setChecked(True)
     return actions
+
+
+def truth_action(menu: QtWidgets.QMenu, toggled: Callable[[bool], None]) -> QtWidgets.QAction:
+    """View → Show Simulator Truth: the simulated subject's true pose as a ghost figure and
+    dashed curves beside the estimate (checked; ``toggled(on)`` when changed)."""
+    action = menu.addAction("Show Simulator &Truth")
+    action.setCheckable(True)
+    action.setChecked(True)
+    action.setToolTip("The simulated subject's true pose as a pale figure and dashed curves beside the "
+                      "estimate (the simulated suit only): an accuracy check")
+    action.toggled.connect(toggled)
+    return action

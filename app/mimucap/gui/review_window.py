@@ -18,7 +18,7 @@ from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot
 from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import LivePlots
-from mimucap.gui.menus import choice_actions
+from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
@@ -178,12 +178,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.action_body_mode = view.addAction("&Body Mode")
         self.action_body_mode.setCheckable(True)
         self.action_body_mode.toggled.connect(self._body_mode_toggled)
-        self.action_truth = view.addAction("Show Simulator &Truth")
-        self.action_truth.setCheckable(True)
-        self.action_truth.setChecked(True)
-        self.action_truth.setToolTip("The simulated subject's true pose as a pale figure beside the estimate "
-                                     "(simulated recordings only): an accuracy check")
-        self.action_truth.toggled.connect(lambda _on: self._update_ghost())
+        self.action_truth = truth_action(view, lambda _on: self._update_ghost())
         self.action_play = view.addAction("&Play/Pause", self.play_button.toggle)
         self.action_play.setShortcut(QtGui.QKeySequence("Ctrl+Space"))
 

@@ -200,7 +200,9 @@ class SceneView(QtWidgets.QWidget):
         if text == self.hint:
             return
         self.hint = text
-        lines = [wrapped for paragraph in text.split("\n")
+        # VTK's built-in font has no arrow: menu paths read "Calibrate > Body…" in the view.
+        shown = text.replace(" → ", " > ")
+        lines = [wrapped for paragraph in shown.split("\n")
                  for wrapped in (textwrap.wrap(paragraph, HINT_LINE_CHARACTERS) or [""])]
         # A space either side of each line keeps the text off the box's edges.
         self._hint_actor.SetInput("\n".join(f" {line} " for line in lines))
