@@ -347,3 +347,25 @@ def test_a_calibration_that_no_longer_matches_the_local_field_is_flagged():
         assert bool(row.mag_field_warning) == flagged, row.mag_field_warning
         if flagged:
             assert "calibrate again" in row.mag_field_warning
+
+
+def test_after_a_restart_the_magnetometer_calibrations_are_back_with_their_age(tmp_path):
+    """A calibration made before (kept in the calibration store) is applied at the next start
+    and at every source change, for the sensors the source brings; the panel shows its age."""
+    from mimucap.io.calibration_store import CalibrationStore
+
+    store = CalibrationStore(tmp_path / "store")
+    store.save(MagCalibration("S02", offset_uT=np.array([5.0, -3.0, 1.0]), soft_iron=np.eye(3), field_uT=49.0,
+                              created_utc="2026-01-01T00:00:00+00:00", quality={"verdict": "good"}))
+    store.save(MagCalibration("S99", offset_uT=np.zeros(3), soft_iron=np.eye(3), field_uT=49.0))  # not worn today
+    now = [50.0]
+    clock = lambda: now[0]  # noqa: E731
+    for _restart in range(2):
+        session = LiveSession(SimulatorFeed(SimulationConfig(scenario="npose"), clock=clock), clock=clock,
+                              calibration_store=store)
+        assert set(session.mag_calibrations) == {"S02"}
+        session.start()
+        _run(session, now, 0.3)
+        row = {r.sensor_id: r for r in session.sensor_rows()}["S02"]
+        assert row.mag_cal == "calibrated" and row.mag_cal_verdict == "good" and row.mag_cal_age_s > 86400
+        session.stop()
