@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 
@@ -29,6 +30,38 @@ from mimucap.core.simulate import SENSOR_PLACEMENTS, SimulationConfig, SuitSimul
 from mimucap.session import instructions
 from mimucap.session.instructions import Instruction
 from mimucap.session.sources import SourceOptions, sensor_segments, source_configs
+
+class LiveSource(Protocol):
+    """What the live session needs of a source (both feeds below are one)."""
+
+    name: str
+    simulator: SuitSimulator | None      #: the simulated subject (evaluation only), or None
+    last_truth: SuitTruth | None         #: the simulator's newest truth (evaluation only), or None
+
+    @property
+    def sensor_ids(self) -> tuple[str, ...]: ...
+
+    def sensor_segments(self) -> dict[str, str]:
+        """Sensor id → segment, as the source names it."""
+
+    def start(self) -> None: ...
+
+    def poll(self) -> list[SampleBlock]:
+        """The sample blocks that arrived since the last call (never blocks)."""
+
+    def take_markers(self) -> list[tuple[float, str]]: ...
+
+    def stats(self) -> dict[str, SensorStats]: ...
+
+    def follow(self, instruction: Instruction) -> None:
+        """A calibration procedure's instruction (the simulated subject does it)."""
+
+    def status_text(self) -> str: ...
+
+    def problem(self) -> str: ...
+
+    def stop(self) -> list[SampleBlock]: ...
+
 
 #: Longest clock gap (s) the simulator catches up in one poll: after a longer stall the
 #: samples before that are lost (a dropout) instead of computed as a long backlog on the GUI thread.
@@ -165,6 +198,7 @@ class SupervisorFeed:
 
     def __init__(self, spec: str, options: SourceOptions = SourceOptions()) -> None:
         self.spec = spec
+        self.name = spec
         self.configs = source_configs(spec, options)
         self.supervisor = Supervisor(self.configs)
         self.simulator = None

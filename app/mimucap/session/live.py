@@ -159,7 +159,8 @@ class LiveSession:
     """The live pipeline of one source (see the module doc).
 
     Args:
-        feed: a :class:`SimulatorFeed` or :class:`SupervisorFeed` (not started yet).
+        feed: the source, a :class:`~mimucap.session.feeds.LiveSource` (:class:`SimulatorFeed`
+            or :class:`SupervisorFeed`, not started yet).
         label: how the status bar names the source.
         model_name: skeleton model (``"ten_segment"`` or ``"fifteen_segment"``).
         height_m: the subject's height (m).
