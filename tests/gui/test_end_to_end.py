@@ -140,7 +140,11 @@ def test_record_export_review(app_window, qtbot, tmp_path, monkeypatch, accept_m
     assert np.ptp(knee) > 30.0  # walking bends the knee
     assert np.allclose(mot.angles_deg["knee_r_flexion_deg"], knee, atol=1e-5)
     summary = (tmp_path / "walk_angles_summary.csv").read_text().splitlines()
-    assert summary[1] == "column,min_deg,max_deg,rom_deg"
+    assert "column,label,min_deg,max_deg,rom_deg" in summary
+    assert "knee_r_flexion_deg,Right knee flexion (°)," in "\n".join(summary)
+    # the two markers bounding the range are in both angle files' headers
+    for written in (table, mot):
+        assert [m.label for m in written.markers] == [m.label for m in review.player.data.markers[:2]]
     png = dialog.save_summary_png(tmp_path / "summary.png")
     assert png.stat().st_size > 5000
     dialog.accept()
