@@ -71,7 +71,7 @@ def test_record_export_review(app_window, qtbot, tmp_path, monkeypatch, accept_m
     assert window.live.sensor_segments == wanted
     assert remembered_assignment() == wanted
     window.refresh_panels()
-    assert window.sensor_panel.cell_text("S01", "Segment") == "pelvis"
+    assert window.sensor_panel.cell_text("S01", "Segment") == "Pelvis"
 
     # 3. Subject, then record ten (simulated) seconds with two markers.
     window.session_panel.subject_id.setText("P042")

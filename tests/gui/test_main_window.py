@@ -233,7 +233,7 @@ def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtb
         assert win.live.pose_source == POSE_UNASSIGNED
         win.plots.refresh()
         x, y = win.plots.curve_data("acc", 2)
-        newest = win.live.series(win.plots.sensor_combo.currentText(), 1.0)[0][-1]
+        newest = win.live.series(win.plots.sensor_id, 1.0)[0][-1]
         assert len(x) > 100 and x[-1] == pytest.approx(newest) and np.all(np.isfinite(y))
         assert "no data" in win.plots.title_text("gyr")
     finally:

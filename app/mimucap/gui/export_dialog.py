@@ -16,6 +16,7 @@ import pyqtgraph as pg
 import pyqtgraph.exporters  # noqa: F401  (registers ImageExporter)
 from PyQt5 import QtCore, QtWidgets
 
+from mimucap.core.clinical_names import angle_label, angle_sign_text
 from mimucap.gui.background import BackgroundTask
 from mimucap.session.export import (
     ExportRequest, ExportResult, angles_in_range, marker_range, run_export, summary_table, write_summary_csv,
@@ -61,6 +62,7 @@ class ExportDialog(QtWidgets.QDialog):
         for combo in (self.marker_a, self.marker_b):
             for marker in data.markers:
                 combo.addItem(f"{marker.label} ({marker.t_s:.2f} s)")
+                combo.setItemData(combo.count() - 1, marker.label, QtCore.Qt.ToolTipRole)
         if len(data.markers) >= 2:
             self.marker_b.setCurrentIndex(1)
         else:
@@ -104,12 +106,12 @@ class ExportDialog(QtWidgets.QDialog):
         self.message.setWordWrap(True)
         self.summary = QtWidgets.QTableWidget(0, 4, self)
         self.summary.setObjectName("summaryTable")
-        self.summary.setHorizontalHeaderLabels(["Joint angle", "Min (deg)", "Max (deg)", "Range of motion (deg)"])
+        self.summary.setHorizontalHeaderLabels(["Joint angle", "Min (°)", "Max (°)", "Range of motion (°)"])
         self.summary.verticalHeader().setVisible(False)
         self.summary.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
         header = self.summary.horizontalHeader()
         header.setSectionResizeMode(0, QtWidgets.QHeaderView.Stretch)
-        for column in (1, 2, 3):  # the headers are read whole ("Range of motion (deg)")
+        for column in (1, 2, 3):  # the headers are read whole ("Range of motion (°)")
             header.setSectionResizeMode(column, QtWidgets.QHeaderView.ResizeToContents)
 
         self.export_button = QtWidgets.QPushButton("Export", self)
@@ -181,11 +183,15 @@ class ExportDialog(QtWidgets.QDialog):
         self.message.setText("")
         self.summary.setRowCount(len(rows))
         for r, row in enumerate(rows):
-            values = (row.column, _degrees(row.minimum_deg), _degrees(row.maximum_deg), _degrees(row.rom_deg))
+            values = (angle_label(row.column), _degrees(row.minimum_deg), _degrees(row.maximum_deg),
+                      _degrees(row.rom_deg))
             for c, text in enumerate(values):
                 item = QtWidgets.QTableWidgetItem(text)
                 if c:
                     item.setTextAlignment(QtCore.Qt.AlignRight | QtCore.Qt.AlignVCenter)
+                else:  # the file's column name and the sign, for whoever reads the files
+                    sign = angle_sign_text(row.column)
+                    item.setToolTip(f"{row.column} in the files" + (f"; {sign}" if sign else ""))
                 self.summary.setItem(r, c, item)
 
     def _update_buttons(self) -> None:
@@ -286,8 +292,8 @@ class ExportDialog(QtWidgets.QDialog):
             plot.setWindowFlags(QtCore.Qt.Window)  # its own size, not laid out in the dialog
             plot.setAttribute(QtCore.Qt.WA_DontShowOnScreen, True)
             left = plot.getAxis("left")
-            left.setWidth(190)
-            plot.setLabel("bottom", "joint angle, min to max (deg)")
+            left.setWidth(260)
+            plot.setLabel("bottom", "joint angle, min to max (°)")
             plot.showGrid(x=True, alpha=0.3)
             plot.invertY(True)
             self._chart = plot
@@ -307,7 +313,7 @@ class ExportDialog(QtWidgets.QDialog):
         ends = pg.ScatterPlotItem(np.concatenate([lows, highs]), np.concatenate([y, y]), symbol="s", size=6,
                                   brush="#1f3f66", pen=None)
         plot.addItem(ends)  # a joint that did not move still shows as a mark
-        plot.getAxis("left").setTicks([[(i, r.column.replace("_deg", "")) for i, r in zip(y, rows)]])
+        plot.getAxis("left").setTicks([[(i, angle_label(r.column)) for i, r in zip(y, rows)]])
         a, b = self.time_range()
         plot.setTitle(f"{self.data.path.name}: {a:.2f}–{b:.2f} s")
         plot.setYRange(-0.8, len(rows) - 0.2, padding=0)

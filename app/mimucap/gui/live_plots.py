@@ -4,7 +4,9 @@ and of the selected joints' three angles.
 The data comes from a *plot source* (the live session, or the review player), which offers
 ``sensor_ids``, ``joint_names``, ``joint_columns(joint)``, ``series(sensor_id, window_s)`` →
 ``(t_s, acc, gyr, mag_uT)`` and ``joint_series(joint, window_s)`` → ``(t_s, angles_deg (N,3))``,
-and ``cursor_s`` (the time the 3D view shows). Curves are created once per plot; one
+``cursor_s`` (the time the 3D view shows) and, when it knows them, ``sensor_segments`` (sensor
+id → segment). Sensors, joints and angle axes are shown by their clinical names
+(:mod:`mimucap.core.clinical_names`: "Pelvis sensor (S01)", "Right knee", "flexion"). Curves are created once per plot; one
 ``QTimer`` (:data:`REFRESH_HZ`) calls ``setData`` on them; nothing is plotted while paused.
 
 Live, the time axis is fixed and reads seconds before the pose shown (``-10 … 0``), so the
@@ -21,6 +23,7 @@ import numpy as np
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtWidgets
 
+from mimucap.core.clinical_names import axis_short_name, joint_name, sensor_name, split_angle_column
 from mimucap.gui.scrolling import scrolling
 from mimucap.session.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
 
@@ -39,7 +42,7 @@ SENSOR_PLOTS = (
     ("gyr", "Gyroscope", "rad/s", 0.5),
     ("mag", "Magnetometer", "µT", 10.0),
 )
-ANGLE_UNIT, ANGLE_MIN_RANGE = "deg", 10.0
+ANGLE_UNIT, ANGLE_MIN_RANGE = "°", 10.0
 #: Smallest height of one plot (px): below it the plots scroll instead of shrinking further.
 MIN_PLOT_HEIGHT_PX = 90
 #: Smallest distance between two labelled ticks of a vertical axis (px): fewer ticks on a
@@ -116,12 +119,12 @@ class LivePlots(QtWidgets.QWidget):
         self.relative_time = bool(relative_time)
         self.sensor_combo = QtWidgets.QComboBox(self)
         self.sensor_combo.setObjectName("plotSensor")
-        self.sensor_combo.setSizeAdjustPolicy(QtWidgets.QComboBox.AdjustToMinimumContentsLengthWithIcon)
-        self.sensor_combo.setMinimumContentsLength(4)
+        self.sensor_combo.setSizeAdjustPolicy(QtWidgets.QComboBox.AdjustToContents)
         self.joint_button = QtWidgets.QToolButton(self)
         self.joint_button.setObjectName("plotJoints")
         self.joint_button.setPopupMode(QtWidgets.QToolButton.InstantPopup)
         self.joint_button.setMinimumWidth(72)
+        self.joint_button.setToolButtonStyle(QtCore.Qt.ToolButtonTextOnly)
         self.joint_menu = QtWidgets.QMenu(self.joint_button)
         self.joint_button.setMenu(self.joint_menu)
         self.joint_actions: dict[str, QtWidgets.QAction] = {}
@@ -284,18 +287,23 @@ class LivePlots(QtWidgets.QWidget):
             action.setChecked(joint in joints)
             action.setEnabled(joint in joints or len(joints) < MAX_JOINTS)
             action.blockSignals(False)
-        self.joint_button.setText(joints[0] + (f" +{len(joints) - 1}" if len(joints) > 1 else "") if joints else "(none)")
-        self.joint_button.setToolTip(f"Joints plotted (up to {MAX_JOINTS}): {', '.join(joints) or 'none'}")
+        first = joint_name(joints[0]) if joints else "(none)"
+        self.joint_button.setText(first + (f" +{len(joints) - 1}" if len(joints) > 1 else ""))
+        self.joint_button.setToolTip(f"Joints plotted (up to {MAX_JOINTS}): "
+                                     f"{', '.join(joint_name(j) for j in joints) or 'none'}")
         self._fix_x_range()
         self.refresh()
 
     def _add_joint_plot(self, joint: str) -> None:
-        columns = self.source.joint_columns(joint) if self.source is not None else AXIS_NAMES
         names = []
+        columns = (self.source.joint_columns(joint) if self.source is not None
+                   else [f"{joint}_{axis}_deg" for axis in ("flexion", "adduction", "rotation")])
         for column in columns:
-            label = column[len(joint) + 1:] if column.startswith(joint + "_") else column
-            names.append(label.removesuffix("_deg").replace("_", " "))
-        self._add_plot(self._joint_key(joint), f"{joint} angles", ANGLE_UNIT, ANGLE_MIN_RANGE, names)
+            try:
+                names.append(axis_short_name(*split_angle_column(column)))
+            except ValueError:  # a column named otherwise keeps its name
+                names.append(column.removesuffix("_deg").replace("_", " "))
+        self._add_plot(self._joint_key(joint), joint_name(joint), ANGLE_UNIT, ANGLE_MIN_RANGE, names)
 
     def _joint_toggled(self, joint: str, on: bool) -> None:
         joints = [j for j in self.selected_joints if j != joint]
@@ -326,21 +334,26 @@ class LivePlots(QtWidgets.QWidget):
         """Refresh the sensor and joint lists from the source (keeps the selection)."""
         if self.source is None:
             return
-        current_sensor = self.sensor_combo.currentText()
-        sensors = list(self.source.sensor_ids)
-        if [self.sensor_combo.itemText(i) for i in range(self.sensor_combo.count())] != sensors:
+        current_sensor = self.sensor_id
+        segments = getattr(self.source, "sensor_segments", None) or {}
+        entries = [(sensor_name(segments.get(sid), sid), sid) for sid in self.source.sensor_ids]
+        shown = [(self.sensor_combo.itemText(i), self.sensor_combo.itemData(i)) for i in range(self.sensor_combo.count())]
+        if shown != entries:
             self.sensor_combo.blockSignals(True)
             self.sensor_combo.clear()
-            self.sensor_combo.addItems(sensors)
-            if current_sensor in sensors:
-                self.sensor_combo.setCurrentText(current_sensor)
+            for text, sid in entries:
+                self.sensor_combo.addItem(text, sid)
+            index = self.sensor_combo.findData(current_sensor)
+            if index >= 0:
+                self.sensor_combo.setCurrentIndex(index)
             self.sensor_combo.blockSignals(False)
+            self._titled_sensor = ""  # the sensor's name may have changed with its segment
         joints = list(self.source.joint_names)
         if list(self.joint_actions) != joints:
             self.joint_menu.clear()
             self.joint_actions = {}
             for joint in joints:
-                action = self.joint_menu.addAction(joint)
+                action = self.joint_menu.addAction(joint_name(joint))
                 action.setCheckable(True)
                 action.toggled.connect(lambda on, j=joint: self._joint_toggled(j, on))
                 self.joint_actions[joint] = action
@@ -354,6 +367,12 @@ class LivePlots(QtWidgets.QWidget):
 
     def stop(self) -> None:
         self._timer.stop()
+
+    @property
+    def sensor_id(self) -> str:
+        """The id of the sensor plotted ("" when none)."""
+        data = self.sensor_combo.currentData()
+        return "" if data is None else str(data)
 
     @property
     def paused(self) -> bool:
@@ -399,11 +418,11 @@ class LivePlots(QtWidgets.QWidget):
         origin = cursor if self.relative_time and np.isfinite(cursor) else 0.0
         self._origin = origin
         now = time.perf_counter()
-        sensor = self.sensor_combo.currentText()
+        sensor = self.sensor_id
         drew = False
         if sensor and sensor != self._titled_sensor:
             for key, title, _unit, _r in SENSOR_PLOTS:
-                self._set_title(key, f"{title} {sensor}")
+                self._set_title(key, f"{title}, {self.sensor_combo.currentText()}")
             self._titled_sensor = sensor
         if sensor:
             t, acc, gyr, mag = self.source.series(sensor, window)

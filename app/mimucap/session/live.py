@@ -94,7 +94,9 @@ class SensorRow:
     ``mag_cal`` ``"calibrated"``, ``"on-board"`` (device fuses itself) or ``"not calibrated"``;
     ``mag_cal_age_s`` since the calibration was made (NaN if none); ``flags`` fusion flags
     now (``"rest"``, ``"mag disturbed"``, ...); ``stale`` no sample for :data:`STALE_AFTER_S`;
-    ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``).
+    ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``);
+    ``rejections`` packets of this sensor the source refused, by reason
+    (:class:`~mimucap.acquisition.rejections.Rejection` value → count, since the source started).
     """
 
     sensor_id: str
@@ -108,6 +110,7 @@ class SensorRow:
     flags: tuple[str, ...]
     stale: bool
     state: str
+    rejections: Mapping[str, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -522,7 +525,8 @@ class LiveSession:
                 rate_hz=float("nan") if st is None else st.rate_hz, drops=0 if st is None else st.drops,
                 latency_ms=float("nan") if st is None else 1000.0 * st.latency_p95_s,
                 battery_pct=float("nan") if state is None else state.battery_pct,
-                mag_cal=mag_cal, mag_cal_age_s=age, flags=flags, stale=stale, state=tint))
+                mag_cal=mag_cal, mag_cal_age_s=age, flags=flags, stale=stale, state=tint,
+                rejections={} if st is None else dict(st.rejections)))
         return rows
 
     def series(self, sensor_id: str, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -26,6 +26,7 @@ import numpy as np
 from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core import skeleton
+from mimucap.core.clinical_names import segment_name
 from mimucap.core.bodycal import fill_missing_segments
 from mimucap.core.simulate import SuitSimulator
 from mimucap.gui.scene.view import SceneView
@@ -148,7 +149,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.mapping_table.horizontalHeader().setStretchLastSection(True)
         self.mapping_combos: dict[str, QtWidgets.QComboBox] = {}
         for row, segment in enumerate(self.model.segment_names):
-            self.mapping_table.setItem(row, 0, QtWidgets.QTableWidgetItem(segment.replace("_", " ")))
+            self.mapping_table.setItem(row, 0, QtWidgets.QTableWidgetItem(segment_name(segment)))
             combo = QtWidgets.QComboBox()
             combo.addItems([NO_SENSOR, *self.feed.sensor_ids])
             combo.setCurrentText(self.initial_mapping.get(segment, NO_SENSOR))

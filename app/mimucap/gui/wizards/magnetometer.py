@@ -43,6 +43,7 @@ from mimucap.session.magcal_procedure import (
 from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
 from mimucap.session.magcal_display import magcal_display
 from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget
+from mimucap.core.clinical_names import sensor_name
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
 
 PROTOCOL_LABELS = {
@@ -109,7 +110,7 @@ class MagnetometerWizard(CalibrationDialog):
         self.view = EllipsoidView()
         self.plot = FieldMagnitudePlot()
         self.view_sensor = QtWidgets.QComboBox()
-        self.view_sensor.currentTextChanged.connect(lambda _: self._refresh_views(force=True))
+        self.view_sensor.currentIndexChanged.connect(lambda _: self._refresh_views(force=True))
         right = QtWidgets.QWidget()
         right_layout = QtWidgets.QVBoxLayout(right)
         row = QtWidgets.QHBoxLayout()
@@ -248,6 +249,11 @@ class MagnetometerWizard(CalibrationDialog):
     def set_protocol(self, protocol: str) -> None:
         self.protocol_buttons[protocol].setChecked(True)
 
+    def sensor_label(self, sensor_id: str) -> str:
+        """The sensor by the segment it is worn on, when the live session says: "Pelvis sensor (S01)"."""
+        segment = getattr(self.live_session, "sensor_segments", {}).get(sensor_id)
+        return sensor_name(segment, sensor_id) if segment else sensor_id
+
     def _update_previous(self) -> None:
         now = self._now()
         for i in range(self.sensor_list.count()):
@@ -255,12 +261,12 @@ class MagnetometerWizard(CalibrationDialog):
             sensor_id = item.data(QtCore.Qt.UserRole)
             try:
                 old = self.store.load(sensor_id)
-                text = (f"{sensor_id} — calibrated {describe_age(age_days_since(old.created_utc, now))} "
+                text = (f"{self.sensor_label(sensor_id)} — calibrated {describe_age(age_days_since(old.created_utc, now))} "
                         f"({old.quality.get('verdict', 'unknown')})")
             except FileNotFoundError:
-                text = f"{sensor_id} — never calibrated"
+                text = f"{self.sensor_label(sensor_id)} — never calibrated"
             except CalibrationFileError:
-                text = f"{sensor_id} — stored calibration unreadable: calibrate again"
+                text = f"{self.sensor_label(sensor_id)} — stored calibration unreadable: calibrate again"
             self.sensor_list.blockSignals(True)
             item.setText(text)
             self.sensor_list.blockSignals(False)
@@ -279,7 +285,8 @@ class MagnetometerWizard(CalibrationDialog):
         self.procedure = procedure
         self.view_sensor.blockSignals(True)
         self.view_sensor.clear()
-        self.view_sensor.addItems(list(procedure.sensor_ids))
+        for sensor_id in procedure.sensor_ids:
+            self.view_sensor.addItem(self.sensor_label(sensor_id), sensor_id)
         self.view_sensor.blockSignals(False)
         self.view.reset()
         self.axis_widget.setVisible(procedure.protocol == "single_axis")
@@ -364,7 +371,7 @@ class MagnetometerWizard(CalibrationDialog):
         if not force and now - self._last_view < self.view_interval_ms:
             return
         self._last_view = now
-        sensor_id = self.view_sensor.currentText()
+        sensor_id = self.view_sensor.currentData()
         if sensor_id not in self.procedure.sensor_ids:
             return
         t, mag, _ = self.procedure.samples(sensor_id)
@@ -380,7 +387,7 @@ class MagnetometerWizard(CalibrationDialog):
         outcomes = [procedure.outcomes[s] for s in procedure.sensor_ids]
         failed = [o.sensor_id for o in outcomes if o.verdict == "fail"]
         if failed:
-            head = f"Calibration failed for {', '.join(failed)}: see the advice below and redo"
+            head = f"Calibration failed for {', '.join(self.sensor_label(s) for s in failed)}: see the advice below and redo"
         else:
             head = "All sensors calibrated: check the views and accept"
         self.result_title.setText(f"<h2>Result</h2><p>{head}</p>")
@@ -394,7 +401,7 @@ class MagnetometerWizard(CalibrationDialog):
         self._show_selected_result()
 
     def _fill_row(self, row: int, outcome: SensorOutcome) -> None:
-        cells = [outcome.sensor_id, VERDICT_WORDS[outcome.verdict]]
+        cells = [self.sensor_label(outcome.sensor_id), VERDICT_WORDS[outcome.verdict]]
         if outcome.result is not None:
             q = outcome.result.quality
             offset = outcome.result.calibration.offset_uT
@@ -421,7 +428,7 @@ class MagnetometerWizard(CalibrationDialog):
         row = rows[0].row() if rows else 0
         sensor_id = self.procedure.sensor_ids[row]
         outcome = self.procedure.outcomes[sensor_id]
-        html = [f"<h3>{sensor_id}: <span style='color:{VERDICT_COLOURS[outcome.verdict]}'>"
+        html = [f"<h3>{self.sensor_label(sensor_id)}: <span style='color:{VERDICT_COLOURS[outcome.verdict]}'>"
                 f"{VERDICT_WORDS[outcome.verdict]}</span></h3>"]
         if outcome.advice:
             html.append("<p><b>What to do:</b></p><ul>" + "".join(f"<li>{a}</li>" for a in outcome.advice) + "</ul>")
@@ -441,8 +448,8 @@ class MagnetometerWizard(CalibrationDialog):
         else:
             html.append("<p>No previous calibration of this sensor.</p>")
         self.result_details.setHtml("".join(html))
-        if self.view_sensor.currentText() != sensor_id:
-            self.view_sensor.setCurrentText(sensor_id)  # refreshes the views
+        if self.view_sensor.currentData() != sensor_id:
+            self.view_sensor.setCurrentIndex(self.view_sensor.findData(sensor_id))  # refreshes the views
         else:
             self._refresh_views(force=True)
 
