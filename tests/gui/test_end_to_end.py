@@ -35,6 +35,7 @@ def app_window(qtbot):
     clock = _fast_clock()
     window = MainWindow("simulated:demo", session_factory=lambda spec: open_live_session(spec, clock=clock))
     window.clock = clock
+    window.confirm_recording = lambda items: True  # recording without calibrations, knowingly
     window.show()
     window.start()
     qtbot.waitExposed(window)
@@ -224,6 +225,7 @@ def test_closing_while_recording_asks_first(app_window, qtbot, tmp_path, monkeyp
     assert window.isVisible() and window.live.recording  # "No": nothing happens
     live = window.live
     window.close()
-    assert not window.isVisible()
+    # the file is written while the window keeps running, a progress dialog showing; it closes then
+    qtbot.waitUntil(lambda: not window.isVisible(), timeout=30000)
     assert live.last_recording is not None and live.last_recording.session_path.exists()
     assert not live.last_recording.journal_path.exists()

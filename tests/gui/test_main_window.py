@@ -48,7 +48,7 @@ def test_menu_lists_only_working_items(window):
         "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "Recording &Folder…",
         "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
         "Front", "Side", "Top", "Follow", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
-        "Show World &Axes", "&Pause Plots\tSpace", "&About MimuCap",
+        "Show World &Axes", "&Pause Plots\tSpace", "&User Guide", "&About MimuCap",
     }
     assert expected <= texts
     assert texts - expected <= {"&Magnetometers…", "&Body…"}  # the wizards, when installed

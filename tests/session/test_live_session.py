@@ -362,3 +362,15 @@ def test_the_simulated_suit_shows_the_sensor_assignment():
     _run(session, now, 0.5)
     assert session.pose_source == POSE_UNASSIGNED
     assert session.frame()[0] == frame_id  # no new pose: the view says why (no sensor assigned)
+
+
+def test_the_simulated_subjects_activity_changes_are_not_markers():
+    """The walk scenario starts with a second of N-pose: its change to walking is the
+    simulator's business, not a marker the user placed."""
+    session, now = _session("walk")
+    markers = []
+    session.events.marker.connect(lambda *args: markers.append(args))
+    _run(session, now, 2.0)
+    assert session.simulator.current_activity() != "npose" and markers == []
+    session.add_marker("mine")
+    assert [label for _t, label, _recorded in markers] == ["mine"]

@@ -17,6 +17,7 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap import __version__
+from mimucap.acquisition.source_spec import ReplaySpec, parse_source_spec
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
@@ -41,6 +42,7 @@ from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
+from mimucap.session.recording_checklist import CheckItem, recording_checklist
 from mimucap.session.subject import default_recording_path
 
 log = logging.getLogger(__name__)
@@ -57,6 +59,10 @@ PANEL_INTERVAL_MS = 250
 SENSOR_DOCK_START_PX = 190
 #: A dock takes at most this share of a small window's height (Sensors) or width (Session).
 DOCK_MOST_SHARE = 0.3
+#: The checklist before recording is refreshed every this many panel refreshes (once a second).
+CHECKLIST_EVERY = 4
+#: The recording indicator: white on red, always in the status bar while recording.
+RECORDING_STYLE = "QLabel { background: #d62728; color: white; font-weight: bold; padding: 1px 8px; border-radius: 3px; }"
 #: What the 3D view says while it has no figure to show, by pose source.
 VIEW_HINTS = {
     POSE_NONE: "Waiting for data from the source…",
@@ -123,6 +129,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self._wizard: QtWidgets.QWidget | None = None
         self._source_problem = ""  # the last problem the source reported (logged when it changes)
         self.last_recording = None  # RecordingResult of the last recording saved
+        self._panel_refreshes = 0
+        self._closing_progress: QtWidgets.QProgressDialog | None = None
+        #: Asked before recording while an item of the checklist is not ok (the items not ok);
+        #: True records anyway. Tests and scripts may replace it.
+        self.confirm_recording: Callable[[list[CheckItem]], bool] = self._ask_to_record_anyway
 
         self.scene_view = SceneView(self)
         self.scene_view.drawing_moved_here.connect(
@@ -206,7 +217,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_assign = session_menu.addAction("&Assign Sensors…", self.assign_sensors)
         self.action_record = session_menu.addAction("Start &Recording", self.toggle_recording)
         self.action_record.setShortcut(QtGui.QKeySequence("Ctrl+R"))
-        self.action_marker = session_menu.addAction("Add &Marker", lambda: self.add_marker(self.session_panel.marker_label.text().strip()))
+        self.action_marker = session_menu.addAction("Add &Marker", self.session_panel.request_marker)
         self.action_marker.setShortcut(QtGui.QKeySequence("M"))
 
         view_menu = bar.addMenu("&View")
@@ -242,10 +253,17 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.action_bodycal = self.calibrate_menu.addAction("&Body…", lambda: self.open_wizard("body"))
 
         help_menu = bar.addMenu("&Help")
+        self.action_guide = help_menu.addAction("&User Guide", self.show_user_guide)
+        self.action_guide.setShortcut(QtGui.QKeySequence.HelpContents)
         self.action_about = help_menu.addAction("&About MimuCap", self.show_about)
 
     def _build_status_bar(self) -> None:
         status = self.statusBar()
+        self.recording_indicator = QtWidgets.QLabel("", self)
+        self.recording_indicator.setObjectName("recordingIndicator")
+        self.recording_indicator.setStyleSheet(RECORDING_STYLE)
+        self.recording_indicator.setVisible(False)
+        status.addPermanentWidget(self.recording_indicator)
         self.source_status = ElidedLabel("", self)
         self.pose_status = ElidedLabel("", self)
         self.rate_status = QtWidgets.QLabel(self)
@@ -275,7 +293,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._close_wizard("the source changed")
         self.live = session
         self.session_panel.markers_list.clear()  # the old source's markers, on its clock
-        remembered = remembered_assignment()
+        # A replayed recording keeps the placement stored in it (the source gives it); other
+        # sources take the assignment made last time.
+        replayed = isinstance(parse_source_spec(spec), ReplaySpec)
+        remembered = {} if replayed else remembered_assignment()
         for sensor_id, segment in remembered.items():
             if sensor_id in session.sensor_ids and segment in session.model.segment_names:
                 session.assign_sensor(sensor_id, segment)
@@ -373,7 +394,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self._tints = {r.segment: r.state for r in rows if r.segment is not None}
         self.plots.update_choices()
         if live.recording:
-            self.session_panel.show_info(live.recording_info())
+            info = live.recording_info()
+            self.session_panel.show_info(info)
+            self._show_elapsed(info.elapsed_s)
+        elif self._panel_refreshes % CHECKLIST_EVERY == 0:
+            self.session_panel.show_checklist(recording_checklist(live))
+        self._panel_refreshes += 1
         self.source_status.setText(f"Source: {live.label}")
         self.pose_status.setText(f"Pose: {live.pose_source}")
         problem = live.source_problem
@@ -463,6 +489,12 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.set_recording(False)
             return
         if on and not self.live.recording:
+            checklist = recording_checklist(self.live)
+            self.session_panel.show_checklist(checklist)
+            not_ok = [item for item in checklist if not item.ok]
+            if not_ok and not self.confirm_recording(not_ok):
+                self.session_panel.set_recording(False)
+                return
             try:
                 subject = self.session_panel.subject()
                 path = default_recording_path(self.recording_folder(), subject)
@@ -480,12 +512,36 @@ class MainWindow(QtWidgets.QMainWindow):
         elif not on and self.live.recording:
             self._finish_recording()
 
+    def _ask_to_record_anyway(self, items: list[CheckItem]) -> bool:
+        """Ask whether to record although ``items`` of the checklist are not ok."""
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Warning, "Before recording",
+                                    "Not everything is ready for a recording:", parent=self)
+        box.setInformativeText("\n".join(f"• {item.title}: {item.text}" for item in items)
+                               + "\n\nThe recording may not be usable for analysis. Record anyway?")
+        record = box.addButton("Record Anyway", QtWidgets.QMessageBox.AcceptRole)
+        box.addButton(QtWidgets.QMessageBox.Cancel)
+        box.setDefaultButton(QtWidgets.QMessageBox.Cancel)
+        box.exec_()
+        return box.clickedButton() is record
+
     def _show_recording(self, on: bool) -> None:
         """The window's controls while recording (``on``) or not: the Record button and menu
-        item, the subject fields, and Choose Source (no source change while recording)."""
+        item, the subject fields, Choose Source (no source change while recording), the red
+        indicator and the window title; the checklist is shown only before recording."""
         self.session_panel.set_recording(on)
         self.action_record.setText("Stop &Recording" if on else "Start &Recording")
         self.action_source.setEnabled(not on)
+        self.session_panel.checklist_box.setVisible(not on)
+        self.recording_indicator.setVisible(on)
+        self.setWindowTitle("● Recording — MimuCap" if on else "MimuCap")
+        if on:
+            self._show_elapsed(0.0)
+
+    def _show_elapsed(self, elapsed_s: float) -> None:
+        minutes, seconds = divmod(int(elapsed_s), 60)
+        hours, minutes = divmod(minutes, 60)
+        clock = f"{hours}:{minutes:02d}:{seconds:02d}" if hours else f"{minutes:02d}:{seconds:02d}"
+        self.recording_indicator.setText(f"● REC {clock}")
 
     def _finish_recording(self, wait: bool = False) -> None:
         """Stop recording at once; the session file is written in a background thread (the
@@ -495,15 +551,27 @@ class MainWindow(QtWidgets.QMainWindow):
         self._show_recording(False)
         message = f"Saving the session to {pending.session_path}…"
         self.session_panel.show_info(None, message)
+        self.session_panel.show_saving(True)
         self.statusBar().showMessage(message)
         task = BackgroundTask(lambda _progress: pending.save(), self)
+        task.setObjectName(pending.session_path.name)
         task.succeeded.connect(lambda result: self._recording_saved(live, result))
         task.failed.connect(lambda error: self._recording_not_saved(pending, error))
-        task.finished.connect(lambda: self.saving_tasks.remove(task) if task in self.saving_tasks else None)
+        task.finished.connect(lambda: self._saving_finished(task))
         self.saving_tasks.append(task)
         task.start()
         if wait:
             self.wait_for_saving()
+
+    def _saving_finished(self, task: BackgroundTask) -> None:
+        if task in self.saving_tasks:
+            self.saving_tasks.remove(task)
+        if not self.saving:
+            self.session_panel.show_saving(False)
+            if self._closing_progress is not None:  # the window was closed while saving: close now
+                self._closing_progress.close()
+                self._closing_progress = None
+                self.close()
 
     def wait_for_saving(self) -> None:
         """Block until every session file being written is written (their messages shown)."""
@@ -624,8 +692,35 @@ class MainWindow(QtWidgets.QMainWindow):
         about to change (nothing it had not applied yet is applied)."""
         wizard, self._wizard = self._wizard, None
         if wizard is not None and wizard.isVisible():
+            discard = getattr(wizard, "discard_assignment", None)
+            if callable(discard):  # its sensor mapping was for the session that goes away
+                discard()
             wizard.close()
             self.statusBar().showMessage(f"The calibration wizard was closed: {why}.", 8000)
+
+    def _show_closing_progress(self) -> None:
+        if self._closing_progress is not None:
+            return
+        names = ", ".join(str(task.objectName()) for task in self.saving_tasks if task.objectName())
+        dialog = QtWidgets.QProgressDialog(f"Writing the session file before closing…\n{names}".strip(),
+                                           "", 0, 0, self)
+        dialog.setObjectName("closingProgress")
+        dialog.setWindowTitle("MimuCap")
+        dialog.setCancelButton(None)  # the file must be written: the journal is converted whole
+        dialog.setWindowModality(QtCore.Qt.WindowModal)
+        dialog.setMinimumDuration(0)
+        dialog.show()
+        self._closing_progress = dialog
+        self.statusBar().showMessage("Writing the session file before closing…")
+
+    def show_user_guide(self) -> None:
+        """Open the user guide (shipped with the program, read offline) in its own window."""
+        from mimucap.gui.user_guide import UserGuideWindow
+
+        if getattr(self, "_guide", None) is None:
+            self._guide = UserGuideWindow(self)
+        self._guide.show()
+        self._guide.raise_()
 
     def show_about(self) -> None:
         QtWidgets.QMessageBox.about(self, "About MimuCap", ABOUT_TEXT.format(version=__version__))
@@ -665,12 +760,11 @@ class MainWindow(QtWidgets.QMainWindow):
                 return
             self._finish_recording()
         if self.saving:
-            self.statusBar().showMessage("Writing the session file before closing…")
-            QtWidgets.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
-            try:
-                self.wait_for_saving()
-            finally:
-                QtWidgets.QApplication.restoreOverrideCursor()
+            # The file is written in its thread while the window keeps running: it closes
+            # when the writing is done (:meth:`_saving_finished`), with a progress dialog until then.
+            event.ignore()
+            self._show_closing_progress()
+            return
         if self._warm_up is not None and self._warm_up.isRunning():
             self._warm_up.succeeded.disconnect()
             self._warm_up.failed.disconnect()

@@ -1,14 +1,21 @@
-"""The session panel: subject record, record start/stop with what is recorded where, markers.
+"""The session panel: subject record, the checklist before recording, record start/stop with
+what is recorded where (and a progress bar while the file is written), markers.
 
 It holds widgets only; the main window connects them to the live session.
 """
 
 from __future__ import annotations
 
+import html
+
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.session.live import RecordingInfo
+from mimucap.session.recording_checklist import CheckItem
 from mimucap.session.subject import DOMINANCE, Subject
+
+#: How a checklist item is marked: ok, or to look at.
+CHECK_MARKS = {True: ("✔", "#2ca02c"), False: ("⚠", "#c05800")}
 
 
 def _size(n_bytes: int) -> str:
@@ -49,6 +56,11 @@ class SessionPanel(QtWidgets.QWidget):
         form.addRow("Dominant side", self.dominance)
         form.addRow(self.notes)
 
+        self.checklist_box = QtWidgets.QGroupBox("Before recording", self)
+        self.checklist_box.setObjectName("checklistBox")
+        self.checklist_labels: dict[str, QtWidgets.QLabel] = {}
+        QtWidgets.QVBoxLayout(self.checklist_box).setSpacing(2)
+
         record_box = QtWidgets.QGroupBox("Recording", self)
         self.record_button = QtWidgets.QPushButton("● Record", record_box)
         self.record_button.setObjectName("recordButton")
@@ -62,7 +74,7 @@ class SessionPanel(QtWidgets.QWidget):
         self.record_status.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
         self.marker_label = QtWidgets.QLineEdit(record_box)
         self.marker_label.setObjectName("markerLabel")
-        self.marker_label.setPlaceholderText("marker label")
+        self.marker_label.setPlaceholderText("marker label (used once)")
         self.marker_button = QtWidgets.QPushButton("Add Marker (M)", record_box)
         self.marker_button.setObjectName("markerButton")
         self.marker_button.setFocusPolicy(QtCore.Qt.TabFocus)
@@ -71,9 +83,15 @@ class SessionPanel(QtWidgets.QWidget):
         self.markers_list = QtWidgets.QListWidget(record_box)
         self.markers_list.setObjectName("markersList")
         self.markers_list.setMaximumHeight(110)
+        self.saving_bar = QtWidgets.QProgressBar(record_box)
+        self.saving_bar.setObjectName("savingBar")
+        self.saving_bar.setRange(0, 0)  # busy: the file's conversion reports no fraction
+        self.saving_bar.setTextVisible(False)
+        self.saving_bar.setVisible(False)
         layout = QtWidgets.QVBoxLayout(record_box)
         layout.addWidget(self.record_button)
         layout.addWidget(self.record_status)
+        layout.addWidget(self.saving_bar)
         row = QtWidgets.QHBoxLayout()
         row.addWidget(self.marker_label, 1)
         row.addWidget(self.marker_button)
@@ -82,6 +100,7 @@ class SessionPanel(QtWidgets.QWidget):
 
         main = QtWidgets.QVBoxLayout(self)
         main.addWidget(subject_box)
+        main.addWidget(self.checklist_box)
         main.addWidget(record_box)
         main.addStretch(1)
 
@@ -107,7 +126,34 @@ class SessionPanel(QtWidgets.QWidget):
         self.set_subject_editable(not on)
 
     def request_marker(self) -> None:
-        self.marker_requested.emit(self.marker_label.text().strip())
+        """Ask for a marker with the typed label, then clear the field: a label is used once
+        (the next press without typing is a plain "marker")."""
+        label = self.marker_label.text().strip()
+        self.marker_label.clear()
+        self.marker_requested.emit(label)
+
+    def show_checklist(self, items: list[CheckItem]) -> None:
+        """Show the checklist before recording: one line per item, marked ✔ or ⚠."""
+        layout = self.checklist_box.layout()
+        for item in items:
+            label = self.checklist_labels.get(item.key)
+            if label is None:
+                label = QtWidgets.QLabel(self.checklist_box)
+                label.setObjectName(f"check_{item.key}")
+                label.setWordWrap(True)
+                label.setTextFormat(QtCore.Qt.RichText)
+                layout.addWidget(label)
+                self.checklist_labels[item.key] = label
+            mark, colour = CHECK_MARKS[item.ok]
+            text = (f"<span style='color:{colour}'>{mark}</span> <b>{html.escape(item.title)}</b>: "
+                    f"{html.escape(item.text)}")
+            if label.text() != text:
+                label.setText(text)
+            label.setProperty("ok", item.ok)
+
+    def show_saving(self, saving: bool) -> None:
+        """Show the busy bar while a stopped recording's file is written."""
+        self.saving_bar.setVisible(saving)
 
     def show_info(self, info: RecordingInfo | None, last_message: str = "") -> None:
         if info is None:

@@ -60,7 +60,6 @@ class SimulatorFeed:
         self._last_poll: float | None = None
         self._skipped_s = 0.0
         self._trackers = {sid: SensorStatsTracker(sid, name, STATS_WINDOW_S) for sid in self.simulator.sensor_ids}
-        self._markers: list[tuple[float, str]] = []
         #: truth of the newest simulated sample (segment orientations, root), or None
         self.last_truth: SuitTruth | None = None
 
@@ -116,13 +115,7 @@ class SimulatorFeed:
             blocks.append(out)
         if block.truth.t_s.shape[0]:
             self.last_truth = block.truth
-        self._markers.extend((self.host_time_of(t), label) for t, label in block.markers)
         return blocks
-
-    def take_markers(self) -> list[tuple[float, str]]:
-        """Activity changes since the last call: ``(host monotonic s, label)``."""
-        markers, self._markers = self._markers, []
-        return markers
 
     def stats(self) -> dict[str, SensorStats]:
         now = self._clock()
@@ -164,10 +157,11 @@ class SupervisorFeed:
         self.supervisor.start()
 
     def poll(self) -> list[SampleBlock]:
-        return self.supervisor.poll(0.0)
-
-    def take_markers(self) -> list[tuple[float, str]]:
-        return self.supervisor.take_markers()
+        blocks = self.supervisor.poll(0.0)
+        # A simulated worker sends its subject's activity changes as markers; live they are
+        # not the user's markers and are not shown (dropped here so they do not pile up).
+        self.supervisor.take_markers()
+        return blocks
 
     def stats(self) -> dict[str, SensorStats]:
         return self.supervisor.stats()

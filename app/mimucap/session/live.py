@@ -152,8 +152,8 @@ class LiveSession:
     Events (``self.events``): ``blocks(list[SampleBlock])`` raw data as it arrives;
     ``frame(frame_id)`` a new pose; ``calibration()`` a calibration was applied;
     ``recording(info_or_None)`` recording started/stopped; ``marker(t_s, label, recorded)``
-    (session time; ``recorded``: the marker is in the recording, as the user's markers are
-    while recording; the source's own, e.g. the simulator's activity changes, are shown only).
+    a marker the user placed (session time; ``recorded``: the marker is in the recording, as
+    markers are while recording; the simulated subject's activity changes are not markers).
     """
 
     def __init__(self, feed, label: str = "", model_name: str = "ten_segment", height_m: float = 1.75,
@@ -330,8 +330,6 @@ class LiveSession:
         if not self.started:
             return 0
         blocks = self.feed.poll()
-        for host_s, label in self.feed.take_markers():  # the source's own (simulated activities): shown only
-            self.events.marker.emit(host_s - self.t0_host_s, label, False)
         if self._recorder is not None:
             self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
         if not blocks:

@@ -12,7 +12,12 @@ Pages (:attr:`BodyCalibrationWizard.page_name`):
   agreement, stillness) and the verdict with its reasons. Accept applies the calibration to
   the live pipeline (``live_session.apply_body_calibration`` when the pipeline has it) and
   emits :attr:`BodyCalibrationWizard.calibration_accepted`.
-* ``"refused"``: why the capture was refused and Redo.
+* ``"refused"``: why the capture was refused, Change settings, Close and Redo.
+
+A sensor mapping changed on the setup page is never dropped silently: closing the wizard
+without accepting a calibration asks whether to keep it (applied to the live session as its
+sensor assignment) or discard it (:attr:`BodyCalibrationWizard.ask_about_assignment`);
+accepting a calibration applies the mapping with it.
 
 The logic is :class:`mimucap.session.bodycal_procedure.BodycalProcedure`, stepped by a
 ``QTimer``.
@@ -27,6 +32,7 @@ from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core import skeleton
 from mimucap.core.clinical_names import segment_name
+from mimucap.gui.assignment_dialog import remember_assignment
 from mimucap.core.bodycal import fill_missing_segments
 from mimucap.core.simulate import SuitSimulator
 from mimucap.gui.scene.view import SceneView
@@ -91,6 +97,11 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.settings = settings
         self.procedure: BodycalProcedure | None = None
         self.accepted_calibration = None
+        #: True once the mapping of the setup page was applied or discarded (asked at most once)
+        self.assignment_settled = False
+        #: Asked when the wizard closes with a changed mapping: returns "keep", "discard" or
+        #: "cancel" (stay open). Tests and scripts may replace it.
+        self.ask_about_assignment = self._ask_about_assignment
         self.setWindowTitle("Body calibration")
         self.resize(1180, 760)
 
@@ -227,7 +238,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         layout.addWidget(self.refusal_label)
         layout.addStretch(1)
         layout.addLayout(button_row(push_button("Change settings", self.back_to_setup), None,
-                                    push_button("Redo", self.redo)))
+                                    push_button("Close", self.reject), push_button("Redo", self.redo)))
         return page
 
     # -- state -------------------------------------------------------------------------------
@@ -282,8 +293,64 @@ class BodyCalibrationWizard(CalibrationDialog):
         if callable(apply):
             apply(calibration)
         self.accepted_calibration = calibration
+        self.assignment_settled = True  # the calibration carries the mapping
         self.calibration_accepted.emit(calibration)
         self.accept()
+
+    # -- the mapping made here: kept or discarded, never dropped silently --------------------
+    def assignment_changed(self) -> bool:
+        """Whether the setup page's mapping differs from the live session's assignment."""
+        return self.live_session is not None and self.mapping() != self.initial_mapping
+
+    def _ask_about_assignment(self) -> str:
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Question, "Sensor assignment",
+                                    "You changed which sensor is on which segment. Keep this assignment?",
+                                    parent=self)
+        box.setInformativeText("Keep: the live view and the next recording use it. Discard: the "
+                               "assignment stays as it was before the wizard.")
+        keep = box.addButton("Keep", QtWidgets.QMessageBox.AcceptRole)
+        discard = box.addButton("Discard", QtWidgets.QMessageBox.DestructiveRole)
+        box.addButton(QtWidgets.QMessageBox.Cancel)
+        box.setDefaultButton(keep)
+        box.exec_()
+        return {keep: "keep", discard: "discard"}.get(box.clickedButton(), "cancel")
+
+    def settle_assignment(self) -> bool:
+        """Ask what to do with a changed mapping and do it; False if the user chose to stay."""
+        if self.assignment_settled or not self.assignment_changed():
+            return True
+        answer = self.ask_about_assignment()
+        if answer == "cancel":
+            return False
+        if answer == "keep":
+            self.keep_assignment()
+        self.assignment_settled = True
+        return True
+
+    def keep_assignment(self) -> None:
+        """Apply the setup page's mapping to the live session as its sensor assignment."""
+        live = self.live_session
+        for segment, sensor_id in self.initial_mapping.items():
+            if self.mapping().get(segment) != sensor_id:
+                live.assign_sensor(sensor_id, None)
+        for segment, sensor_id in self.mapping().items():
+            live.assign_sensor(sensor_id, segment)
+        remember_assignment(live.sensor_segments)
+        self.assignment_settled = True
+
+    def discard_assignment(self) -> None:
+        """Drop the setup page's mapping without asking (the live session is going away)."""
+        self.assignment_settled = True
+
+    def reject(self) -> None:
+        if self.settle_assignment():
+            super().reject()
+
+    def closeEvent(self, event) -> None:  # noqa: N802 (Qt API)
+        if not self.settle_assignment():
+            event.ignore()
+            return
+        super().closeEvent(event)
 
     def _tick(self) -> None:
         if self.procedure is None:
