@@ -219,7 +219,7 @@ def test_plots_name_sensors_joints_and_axes_clinically(plots):
     plots.source.sensor_segments = {"S01": "pelvis", "S02": "thigh_r"}
     plots.update_choices()
     texts = [plots.sensor_combo.itemText(i) for i in range(plots.sensor_combo.count())]
-    assert texts == ["Pelvis sensor (S01)", "Right thigh sensor (S02)"]
+    assert texts == ["Pelvis (S01)", "Right thigh (S02)"]
     plots.sensor_combo.setCurrentIndex(1)
     assert plots.sensor_id == "S02"
     plots.refresh()

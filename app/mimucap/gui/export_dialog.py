@@ -18,6 +18,7 @@ from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.clinical_names import angle_label, angle_sign_text
 from mimucap.gui.background import BackgroundTask
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.session.export import (
     ExportRequest, ExportResult, angles_in_range, marker_range, run_export, summary_table, write_summary_csv,
 )
@@ -138,7 +139,7 @@ class ExportDialog(QtWidgets.QDialog):
         main.addWidget(self.message)
         main.addWidget(self.summary, 1)
         main.addLayout(buttons)
-        self.resize(620, 720)
+        fit_on_screen(self, 620, 720, parent)
         for widget in (self.range_all, self.range_time, self.range_markers):
             widget.toggled.connect(self.update_summary)
         # Editing a range's fields chooses that range (edits are never silently ignored).

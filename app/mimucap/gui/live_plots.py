@@ -23,7 +23,7 @@ import numpy as np
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.core.clinical_names import axis_short_name, joint_name, sensor_name, split_angle_column
+from mimucap.core.clinical_names import axis_short_name, joint_name, segment_name, sensor_name, split_angle_column
 from mimucap.gui.scrolling import scrolling
 from mimucap.session.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
 
@@ -139,14 +139,22 @@ class LivePlots(QtWidgets.QWidget):
         self.pause_button.setShortcut("Space")
         self.pause_button.toggled.connect(self._paused_changed)
 
-        bar = QtWidgets.QHBoxLayout()
-        for text, widget in (("Sensor", self.sensor_combo), ("Joints", self.joint_button), ("Window", self.window_combo)):
-            label = QtWidgets.QLabel(text, self)
-            label.setBuddy(widget)
-            bar.addWidget(label)
-            bar.addWidget(widget)
-        bar.addStretch(1)
-        bar.addWidget(self.pause_button)
+        # Two rows: the selectors keep their whole texts ("Right upper arm (S04)", "Right
+        # shoulder +2") in the narrow plot pane of a 1280-pixel window.
+        bar = QtWidgets.QVBoxLayout()
+        rows = (((("Sensor", self.sensor_combo),), self.pause_button),
+                ((("Joints", self.joint_button), ("Window", self.window_combo)), None))
+        for selectors, last in rows:
+            row = QtWidgets.QHBoxLayout()
+            for text, widget in selectors:
+                label = QtWidgets.QLabel(text, self)
+                label.setBuddy(widget)
+                row.addWidget(label)
+                row.addWidget(widget)
+            row.addStretch(1)
+            if last is not None:
+                row.addWidget(last)
+            bar.addLayout(row)
 
         self.layout_widget = pg.GraphicsLayoutWidget()
         # In a small window the plots keep a readable height and scroll.
@@ -336,7 +344,9 @@ class LivePlots(QtWidgets.QWidget):
             return
         current_sensor = self.sensor_id
         segments = getattr(self.source, "sensor_segments", None) or {}
-        entries = [(sensor_name(segments.get(sid), sid), sid) for sid in self.source.sensor_ids]
+        # "Pelvis (S01)" next to the word "Sensor"; the plot titles say "Pelvis sensor (S01)"
+        entries = [(f"{segment_name(segments[sid])} ({sid})" if segments.get(sid) else sid, sid)
+                   for sid in self.source.sensor_ids]
         shown = [(self.sensor_combo.itemText(i), self.sensor_combo.itemData(i)) for i in range(self.sensor_combo.count())]
         if shown != entries:
             self.sensor_combo.blockSignals(True)
@@ -422,7 +432,8 @@ class LivePlots(QtWidgets.QWidget):
         drew = False
         if sensor and sensor != self._titled_sensor:
             for key, title, _unit, _r in SENSOR_PLOTS:
-                self._set_title(key, f"{title}, {self.sensor_combo.currentText()}")
+                segment = (getattr(self.source, "sensor_segments", None) or {}).get(sensor)
+                self._set_title(key, f"{title}, {sensor_name(segment, sensor)}")
             self._titled_sensor = sensor
         if sensor:
             t, acc, gyr, mag = self.source.series(sensor, window)

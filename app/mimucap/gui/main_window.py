@@ -25,9 +25,10 @@ from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView, drawing_moved_message
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.scrolling import scrolling
 from mimucap.gui.sensor_panel import SensorPanel
-from mimucap.gui.session_panel import SessionPanel
+from mimucap.gui.session_panel import SessionPanel, display_path
 from mimucap.gui.settings import gui_settings
 from mimucap.gui.source_dialog import (
     DEFAULT_SPEC,
@@ -114,7 +115,7 @@ class MainWindow(QtWidgets.QMainWindow):
         super().__init__()
         self.setObjectName("mainWindow")
         self.setWindowTitle("MimuCap")
-        self.resize(1280, 800)
+        fit_on_screen(self, 1280, 800)
         self.model_name = last_skeleton_model()
         self.session_factory = session_factory or (
             lambda spec: open_live_session(spec, model_name=self.model_name))
@@ -508,7 +509,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.markers_list.clear()
             self._show_recording(True)
             self.session_panel.show_info(self.live.recording_info())
-            self.statusBar().showMessage(f"Recording to {path}")
+            self.statusBar().showMessage(f"Recording to {display_path(path)}")
         elif not on and self.live.recording:
             self._finish_recording()
 
@@ -549,7 +550,7 @@ class MainWindow(QtWidgets.QMainWindow):
         live = self.live
         pending = live.end_recording()
         self._show_recording(False)
-        message = f"Saving the session to {pending.session_path}…"
+        message = f"Saving the session to {display_path(pending.session_path)}…"
         self.session_panel.show_info(None, message)
         self.session_panel.show_saving(True)
         self.statusBar().showMessage(message)
@@ -589,7 +590,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.last_recording = result
         samples = sum(result.samples.values())
         if result.session_path is not None:
-            message = f"Saved {samples} samples to {result.session_path}"
+            message = f"Saved {samples} samples to {display_path(result.session_path)}"
             if result.message:
                 message += f" ({result.message})"
             if samples == 0:

@@ -20,6 +20,7 @@ from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView, drawing_moved_message
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
 
@@ -58,7 +59,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.path = Path(path)
         self.setObjectName("reviewWindow")
         self.setWindowTitle(f"MimuCap Review: {self.path.name}")
-        self.resize(1280, 800)
+        fit_on_screen(self, 1280, 800, parent)
         self.player: ReviewPlayer | None = None
         self.export_dialog: ExportDialog | None = None
         self.export_when_loaded = False

@@ -91,6 +91,8 @@ class SensorPanel(QtWidgets.QTableWidget):
         self.setSelectionMode(QtWidgets.QAbstractItemView.SingleSelection)
         self.horizontalHeader().setSectionResizeMode(QtWidgets.QHeaderView.Interactive)
         self.horizontalHeader().setStretchLastSection(True)
+        # One line of text a row (the style's default is half as tall again): more sensors in view.
+        self.verticalHeader().setDefaultSectionSize(self.fontMetrics().height() + 8)
         self._shown_ids: tuple[str, ...] = ()
 
     def show_rows(self, rows: Sequence[SensorRow]) -> None:

@@ -7,6 +7,7 @@ It holds widgets only; the main window connects them to the live session.
 from __future__ import annotations
 
 import html
+from pathlib import Path
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
@@ -16,6 +17,16 @@ from mimucap.session.subject import DOMINANCE, Subject
 
 #: How a checklist item is marked: ok, or to look at.
 CHECK_MARKS = {True: ("✔", "#2ca02c"), False: ("⚠", "#c05800")}
+
+
+def display_path(path) -> str:
+    """``path`` as a person reads it: the home folder written ``~`` (shorter, and the same on
+    every screenshot)."""
+    text = str(path)
+    home = str(Path.home())
+    if home not in ("", "/") and (text == home or text.startswith(home.rstrip("/") + "/")):
+        return "~" + text[len(home.rstrip("/")):]
+    return text
 
 
 def _size(n_bytes: int) -> str:
@@ -74,7 +85,8 @@ class SessionPanel(QtWidgets.QWidget):
         self.record_status.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
         self.marker_label = QtWidgets.QLineEdit(record_box)
         self.marker_label.setObjectName("markerLabel")
-        self.marker_label.setPlaceholderText("marker label (used once)")
+        self.marker_label.setPlaceholderText("marker label")
+        self.marker_label.setToolTip("The label of the next marker; it is used once, then the field empties.")
         self.marker_button = QtWidgets.QPushButton("Add Marker (M)", record_box)
         self.marker_button.setObjectName("markerButton")
         self.marker_button.setFocusPolicy(QtCore.Qt.TabFocus)
@@ -162,7 +174,7 @@ class SessionPanel(QtWidgets.QWidget):
         minutes, seconds = divmod(info.elapsed_s, 60.0)
         self.record_status.setText(
             f"Recording {int(minutes):02d}:{seconds:04.1f}, {_size(info.size_bytes)}, "
-            f"{info.markers} marker(s)\n→ {info.path}")
+            f"{info.markers} marker(s)\n→ {display_path(info.path)}")
 
     def add_marker_line(self, label: str, recording_t_s: float | None) -> None:
         """List a marker: at its time in the recording (s since the recording started, as

@@ -25,8 +25,8 @@ from mimucap.core.clinical_names import sensor_name
 MAX_DROP_FRACTION = 0.01
 #: A magnetometer calibration older than this (hours) is flagged.
 MAG_CAL_MAX_AGE_H = 24.0
-#: Sensors named in one line before "and N more".
-MAX_NAMED = 3
+#: Sensors named in one line before "and N more" (the line stays short in the session panel).
+MAX_NAMED = 2
 
 
 @dataclass(frozen=True)
@@ -40,8 +40,11 @@ class CheckItem:
     text: str
 
 
-def _names(sensors: list[tuple[str, str]]) -> str:
-    """"Pelvis sensor (S01), Left thigh sensor (S05) and 4 more"."""
+def _names(sensors: list[tuple[str, str]], total: int | None = None) -> str:
+    """"Pelvis sensor (S01), Left thigh sensor (S05) and 4 more"; "all 10" when every one of
+    ``total`` sensors is meant."""
+    if total is not None and len(sensors) == total and total > MAX_NAMED:
+        return f"all {total}"
     named = [sensor_name(segment, sid) for sid, segment in sensors[:MAX_NAMED]]
     more = len(sensors) - len(named)
     return ", ".join(named) + (f" and {more} more" if more > 0 else "")
@@ -107,11 +110,11 @@ def recording_checklist(live) -> list[CheckItem]:
             old.append((sid, seg))
     problems = []
     if uncalibrated:
-        problems.append(f"not calibrated: {_names(uncalibrated)}")
+        problems.append(f"not calibrated: {_names(uncalibrated, len(assigned))}")
     if failed:
         problems.append(f"verdict fail: {_names(failed)}")
     if old:
-        problems.append(f"older than {MAG_CAL_MAX_AGE_H:.0f} h: {_names(old)}")
+        problems.append(f"older than {MAG_CAL_MAX_AGE_H:.0f} h: {_names(old, len(assigned))}")
     if not assigned:
         mag_text, mag_ok = "no sensor assigned", False
     elif problems:

@@ -36,6 +36,7 @@ from mimucap.gui.assignment_dialog import remember_assignment
 from mimucap.core.bodycal import fill_missing_segments
 from mimucap.core.simulate import SuitSimulator
 from mimucap.gui.scene.view import SceneView
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.wizards.pictures import PictureWidget
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
 from mimucap.session.bodycal_procedure import ARMS, BodycalProcedure, BodycalProcedureSettings
@@ -103,7 +104,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         #: "cancel" (stay open). Tests and scripts may replace it.
         self.ask_about_assignment = self._ask_about_assignment
         self.setWindowTitle("Body calibration")
-        self.resize(1180, 760)
+        fit_on_screen(self, 1180, 760, parent)
 
         self.pages = QtWidgets.QStackedWidget()
         self.setup_page = self._build_setup(height_m)

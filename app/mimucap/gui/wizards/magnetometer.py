@@ -44,6 +44,7 @@ from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
 from mimucap.session.magcal_display import magcal_display
 from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget
 from mimucap.core.clinical_names import sensor_name
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
 
 PROTOCOL_LABELS = {
@@ -98,7 +99,7 @@ class MagnetometerWizard(CalibrationDialog):
         self.view_interval_ms = int(view_interval_ms)
         self._last_view = -1e9
         self.setWindowTitle("Magnetometer calibration")
-        self.resize(1280, 760)
+        fit_on_screen(self, 1280, 760, parent)
 
         self.pages = QtWidgets.QStackedWidget()
         self.setup_page = self._build_setup(preselected)
@@ -193,6 +194,7 @@ class MagnetometerWizard(CalibrationDialog):
             bar.setFormat(f"{axis}: %p%")
             colour = AXIS_COLOURS[axis].name()
             bar.setStyleSheet(f"QProgressBar::chunk {{ background: {colour}; }}")
+            bar.setAlignment(QtCore.Qt.AlignCenter)
             grid.addWidget(label, row, 0)
             grid.addWidget(bar, row, 1)
             self.axis_bars[axis] = bar
@@ -361,8 +363,16 @@ class MagnetometerWizard(CalibrationDialog):
                 bar.setValue(int(round(100 * status.axis_progress.get(axis, 0.0))))
             title = f"Turn about {status.axis_to_turn}" if status.axis_to_turn else "All axes done"
             self.recording_title.setText(f"<h2>{title}</h2>")
-        n = ", ".join(f"{s}: {c}" for s, c in status.samples.items())
-        self.recording_info.setText(f"{status.elapsed_s:.0f} s recorded — samples {n}")
+        # One short line whatever the number of sensors; each sensor's count in the tooltip.
+        counts = list(status.samples.values())
+        if not counts:
+            samples = "no samples yet"
+        elif min(counts) == max(counts):
+            samples = f"{counts[0]} samples per sensor"
+        else:
+            samples = f"{min(counts)} to {max(counts)} samples per sensor"
+        self.recording_info.setText(f"{status.elapsed_s:.0f} s recorded, {samples}")
+        self.recording_info.setToolTip("\n".join(f"{self.sensor_label(s)}: {c} samples" for s, c in status.samples.items()))
 
     def _refresh_views(self, force: bool = False) -> None:
         if self.procedure is None:
