@@ -69,6 +69,11 @@ def test_the_main_window_and_its_wizards_fit_each_screen(main_window, screen, qt
     qtbot.waitUntil(lambda: window.plots.refresh_count > 2, timeout=5000)
     _spin(qtbot)
     assert _problems(window) == []
+    # the plots' titles are whole: the stack is as wide as its widest title asks
+    window.plots.set_joints(["shoulder_r", "lumbar", "hip_l"])
+    _spin(qtbot)
+    stack = window.plots.layout_widget
+    assert stack.width() >= stack.ci.effectiveSizeHint(QtCore.Qt.MinimumSize).width()
     # the sensor table can be made tall enough to show every row
     table = window.sensor_panel
     rows_px = table.horizontalHeader().height() + sum(table.rowHeight(r) for r in range(table.rowCount()))

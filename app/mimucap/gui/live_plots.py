@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 import pyqtgraph as pg
-from PyQt5 import QtCore, QtWidgets
+from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.clinical_names import axis_short_name, joint_name, segment_name, sensor_name, split_angle_column
 from mimucap.gui.scrolling import scrolling
@@ -55,7 +55,30 @@ MAX_TICKS = 4
 #: Colour of the "no data" note in a plot's title.
 NO_DATA_COLOUR = "#888888"
 
+#: Font size of the plot titles.
+TITLE_SIZE = "9pt"
+#: Room beside a title in a plot (px): the left axis and the plot's margins.
+TITLE_MARGIN_PX = 48 + 24
+
 pg.setConfigOptions(antialias=False, background="w", foreground="k")
+
+
+def _title_html(title: str, names: str) -> str:
+    return f"<b>{title}</b>&nbsp;&nbsp;{names}"
+
+
+def _legend(names) -> str:
+    return " ".join(f'<span style="color:{pen}">&#9632;{name}</span>' for pen, name in zip(AXIS_PENS, names))
+
+
+def _html_width_px(html: str) -> float:
+    """Width (px) of one line of ``html`` in the plot titles' font."""
+    document = QtGui.QTextDocument()
+    font = document.defaultFont()
+    font.setPointSizeF(float(TITLE_SIZE.removesuffix("pt")))
+    document.setDefaultFont(font)
+    document.setHtml(f"<span style='white-space:nowrap'>{html}</span>")
+    return document.idealWidth()
 
 
 class _Curve(pg.PlotCurveItem):
@@ -248,8 +271,7 @@ class LivePlots(QtWidgets.QWidget):
         else:
             names = " ".join(f'<span style="color:{pen}">&#9632;{curve.opts["name"]}</span>'
                              for pen, curve in zip(AXIS_PENS, self.curves[key]))
-        self.plots[key].setTitle(f"<b>{title}</b>&nbsp;&nbsp;{names}", size="9pt")
-        self.plots[key].titleLabel.setMinimumWidth(0)  # a long title is cut, never widens the plot
+        self.plots[key].setTitle(_title_html(title, names), size=TITLE_SIZE)
 
     def title_text(self, key: str) -> str:
         """The title shown above plot ``key`` (``acc``, ``gyr``, ``mag`` or ``joint:<name>``)."""
@@ -302,7 +324,8 @@ class LivePlots(QtWidgets.QWidget):
         self._fix_x_range()
         self.refresh()
 
-    def _add_joint_plot(self, joint: str) -> None:
+    def _axis_names(self, joint: str) -> list[str]:
+        """The legend of ``joint``'s plot: its three axes' clinical names."""
         names = []
         columns = (self.source.joint_columns(joint) if self.source is not None
                    else [f"{joint}_{axis}_deg" for axis in ("flexion", "adduction", "rotation")])
@@ -311,7 +334,24 @@ class LivePlots(QtWidgets.QWidget):
                 names.append(axis_short_name(*split_angle_column(column)))
             except ValueError:  # a column named otherwise keeps its name
                 names.append(column.removesuffix("_deg").replace("_", " "))
-        self._add_plot(self._joint_key(joint), joint_name(joint), ANGLE_UNIT, ANGLE_MIN_RANGE, names)
+        return names
+
+    def _add_joint_plot(self, joint: str) -> None:
+        self._add_plot(self._joint_key(joint), joint_name(joint), ANGLE_UNIT, ANGLE_MIN_RANGE, self._axis_names(joint))
+
+    def _fit_titles(self) -> None:
+        """Keep the plots wide enough for the longest title any choice of the source can give
+        (every sensor, every joint): a title is never cut, and the pane does not change width
+        when another sensor or joint is chosen."""
+        titles = [_title_html(f"{title}, {self._sensor_title(sid)}", _legend(AXIS_NAMES))
+                  for sid in self.source.sensor_ids for _key, title, _unit, _range in SENSOR_PLOTS]
+        titles += [_title_html(joint_name(joint), _legend(self._axis_names(joint))) for joint in self.source.joint_names]
+        widest = max((_html_width_px(html) for html in titles), default=0.0)
+        self.scroll_area.setMinimumWidth(int(widest + TITLE_MARGIN_PX))
+
+    def _sensor_title(self, sensor_id: str) -> str:
+        segment = (getattr(self.source, "sensor_segments", None) or {}).get(sensor_id)
+        return sensor_name(segment, sensor_id)
 
     def _joint_toggled(self, joint: str, on: bool) -> None:
         joints = [j for j in self.selected_joints if j != joint]
@@ -358,6 +398,7 @@ class LivePlots(QtWidgets.QWidget):
                 self.sensor_combo.setCurrentIndex(index)
             self.sensor_combo.blockSignals(False)
             self._titled_sensor = ""  # the sensor's name may have changed with its segment
+            self._fit_titles()
         joints = list(self.source.joint_names)
         if list(self.joint_actions) != joints:
             self.joint_menu.clear()
@@ -371,6 +412,7 @@ class LivePlots(QtWidgets.QWidget):
             if not kept and joints:
                 kept = [DEFAULT_JOINT if DEFAULT_JOINT in joints else joints[0]]
             self.set_joints(kept)
+            self._fit_titles()
 
     def start(self) -> None:
         self._timer.start()
@@ -432,8 +474,7 @@ class LivePlots(QtWidgets.QWidget):
         drew = False
         if sensor and sensor != self._titled_sensor:
             for key, title, _unit, _r in SENSOR_PLOTS:
-                segment = (getattr(self.source, "sensor_segments", None) or {}).get(sensor)
-                self._set_title(key, f"{title}, {sensor_name(segment, sensor)}")
+                self._set_title(key, f"{title}, {self._sensor_title(sensor)}")
             self._titled_sensor = sensor
         if sensor:
             t, acc, gyr, mag = self.source.series(sensor, window)
