@@ -19,6 +19,7 @@ from PyQt5 import QtCore, QtWidgets
 from mimucap.core.clinical_names import angle_label, angle_sign_text
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.session_panel import display_path
 from mimucap.session.export import (
     ExportRequest, ExportResult, angles_in_range, marker_range, run_export, summary_table, write_summary_csv,
 )
@@ -87,7 +88,8 @@ class ExportDialog(QtWidgets.QDialog):
         self._file_boxes = (self.want_csv, self.want_mot, self.want_summary, self.want_sensors)
         for box in (self.want_csv, self.want_mot, self.want_summary):
             box.setChecked(True)
-        self.base_path = QtWidgets.QLineEdit(str(data.path.with_suffix("")) + "_angles", files_box)
+        # the home folder written "~" (expanded again by export_base_path)
+        self.base_path = QtWidgets.QLineEdit(display_path(data.path.with_suffix("")) + "_angles", files_box)
         self.base_path.setObjectName("exportBasePath")
         browse = QtWidgets.QPushButton("Browse…", files_box)
         browse.clicked.connect(self._browse)
