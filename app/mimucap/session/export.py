@@ -165,7 +165,7 @@ def run_export(data: ReviewData, request: ExportRequest,
     if request.sensors_csv:
         for sensor_id in data.session.sensors:
             jobs.append((sensor_id, lambda s=sensor_id: write_sensor_csv(base.with_name(f"{base.name}_{s}.csv"), data, s,
-                                                                        request.t_from_s, request.t_to_s, markers)))
+                                                                        request.t_from_s, request.t_to_s)))
     report(0.0)
     for done, (_name, job) in enumerate(jobs, start=1):
         result.files.append(job())
