@@ -3,7 +3,7 @@ parent, and texts cut or elided although their widget could show them whole."""
 
 from __future__ import annotations
 
-from PyQt5 import QtCore, QtWidgets
+from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.gui.elided_label import ElidedLabel
 
@@ -64,6 +64,20 @@ def cut_texts(window: QtWidgets.QWidget) -> list[str]:
             need = metrics.horizontalAdvance(widget.currentText())
             if need > field.width() + 1:
                 found.append(f"{_name(widget)} '{widget.currentText()}' needs {need} px, has {field.width()}")
+        elif isinstance(widget, QtWidgets.QTableWidget):
+            header = widget.horizontalHeader()
+            last = widget.columnCount() - 1
+            for column in range(widget.columnCount()):
+                if header.isSectionHidden(column) or (column == last and header.stretchLastSection()):
+                    continue
+                for row in range(widget.rowCount()):
+                    item = widget.item(row, column)
+                    if item is None or not item.text():
+                        continue
+                    need = item.font().pointSizeF() and QtGui.QFontMetrics(item.font()).horizontalAdvance(item.text()) + 8
+                    if need > widget.columnWidth(column) + 1:
+                        found.append(f"cell of {_name(widget)} '{item.text()}' needs {need} px, has "
+                                     f"{widget.columnWidth(column)}")
         elif isinstance(widget, QtWidgets.QHeaderView) and widget.orientation() == QtCore.Qt.Horizontal:
             model = widget.model()
             last = widget.count() - 1

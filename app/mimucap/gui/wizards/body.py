@@ -167,6 +167,7 @@ class BodyCalibrationWizard(CalibrationDialog):
             combo.setCurrentText(self.initial_mapping.get(segment, NO_SENSOR))
             self.mapping_table.setCellWidget(row, 1, combo)
             self.mapping_combos[segment] = combo
+        self.mapping_table.resizeColumnToContents(0)  # whole segment names ("Right upper arm")
         layout.addWidget(self.mapping_table, 1)
         self.setup_error = QtWidgets.QLabel("")
         self.setup_error.setWordWrap(True)
