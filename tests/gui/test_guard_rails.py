@@ -186,3 +186,15 @@ def test_the_body_wizards_mapping_is_kept_or_discarded_never_dropped_silently(qt
         assert live.sensor_segments == swapped and remembered_assignment() == swapped
     else:
         assert live.sensor_segments == worn and remembered_assignment() == {}
+
+
+def test_packets_of_no_known_sensor_are_counted_in_the_status_bar(live_window, monkeypatch):
+    window = live_window
+    assert not window.refused_status.isVisible()
+    monkeypatch.setattr(window.live.feed, "refused_without_sensor",
+                        lambda: ({"unknown_address": 340}, {"address 10.0.0.9": 340}), raising=False)
+    window.refresh_panels()
+    label = window.refused_status
+    assert label.isVisible() and label.text() == "340 packets refused from no known sensor"
+    assert "340 × a sender this source does not accept" in label.toolTip()
+    assert "address 10.0.0.9 (340)" in label.toolTip()

@@ -27,7 +27,7 @@ from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView, drawing_moved_message
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.scrolling import scrolling
-from mimucap.gui.sensor_panel import SensorPanel
+from mimucap.gui.sensor_panel import SensorPanel, rejections_tooltip
 from mimucap.gui.session_panel import SessionPanel, display_path
 from mimucap.gui.settings import gui_settings
 from mimucap.gui.source_dialog import (
@@ -267,6 +267,11 @@ class MainWindow(QtWidgets.QMainWindow):
         status.addPermanentWidget(self.recording_indicator)
         self.source_status = ElidedLabel("", self)
         self.pose_status = ElidedLabel("", self)
+        self.refused_status = QtWidgets.QLabel(self)
+        self.refused_status.setObjectName("refusedStatus")
+        self.refused_status.setStyleSheet("QLabel { color: #c05800; }")
+        self.refused_status.setVisible(False)
+        status.addPermanentWidget(self.refused_status)
         self.rate_status = QtWidgets.QLabel(self)
         self.cpu_status = QtWidgets.QLabel(self)
         self.fps_status = QtWidgets.QLabel(self)
@@ -414,6 +419,7 @@ class MainWindow(QtWidgets.QMainWindow):
                                      "(File → Choose Source…).")
         else:
             self.scene_view.set_hint(VIEW_HINTS.get(live.pose_source, ""))
+        self._show_refused_without_sensor(live)
         rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
         drops = sum(r.drops for r in rows)
         self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")
@@ -423,6 +429,20 @@ class MainWindow(QtWidgets.QMainWindow):
             self.fps_status.setText(f"{(len(times) - 1) / (times[-1] - times[0]):.0f} fps")
         else:
             self.fps_status.setText("– fps")
+
+    def _show_refused_without_sensor(self, live: LiveSession) -> None:
+        """Packets refused that belong to no sensor of the table (an unknown sender, a line too
+        damaged to name its sensor): counted in the status bar, the reasons and senders on hover."""
+        refused = getattr(live.feed, "refused_without_sensor", None)
+        counts, senders = refused() if callable(refused) else ({}, {})
+        total = sum(counts.values())
+        self.refused_status.setVisible(total > 0)
+        if total:
+            self.refused_status.setText(f"{total} packets refused from no known sensor")
+            tooltip = rejections_tooltip(counts)
+            if senders:
+                tooltip += "\nFrom: " + ", ".join(f"{sender} ({count})" for sender, count in senders.items())
+            self.refused_status.setToolTip(tooltip)
 
     # -- user actions: source, sensors, recording ------------------------------------------------
     def choose_source(self) -> None:

@@ -124,6 +124,10 @@ class SimulatorFeed:
     def status_text(self) -> str:
         return f"scenario {self.config.scenario}, activity {self.simulator.current_activity()}"
 
+    def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
+        """Nothing is refused by the simulated suit (see :meth:`SupervisorFeed.refused_without_sensor`)."""
+        return {}, {}
+
     def problem(self) -> str:
         """Why data may not be coming ("" : nothing known); the simulator always delivers."""
         return ""
@@ -165,6 +169,22 @@ class SupervisorFeed:
 
     def stats(self) -> dict[str, SensorStats]:
         return self.supervisor.stats()
+
+    def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
+        """Inputs the sources refused that belong to no known sensor: ``(reason → count,
+        unknown sender or sensor id → count)`` (e.g. packets from an address that is not part of
+        the session, or lines too damaged to name their sensor)."""
+        counts: dict[str, int] = {}
+        unknown: dict[str, int] = {}
+        for status in self.supervisor.sources().values():
+            for reason, count in status.rejections.items():
+                counts[reason] = counts.get(reason, 0) + count
+            for sender, count in status.unknown_sensors.items():
+                unknown[str(sender)] = unknown.get(str(sender), 0) + count
+        for stats in self.supervisor.stats().values():
+            for reason, count in stats.rejections.items():
+                counts[reason] = counts.get(reason, 0) - count
+        return {reason: count for reason, count in counts.items() if count > 0}, unknown
 
     def status_text(self) -> str:
         parts = []
