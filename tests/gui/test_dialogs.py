@@ -108,3 +108,12 @@ def test_sensor_panel_counts_refused_packets_with_the_reason_on_hover(qtbot):
     panel.show_rows([_row("S01"), replace(refused, rejections={"stale_sequence": 121})])
     assert panel.cell_text("S02", "Refused") == "121"
     assert "out of range" not in panel.item(panel.row_of("S02"), 4).toolTip()
+
+
+def test_paths_in_view_write_the_home_folder_as_a_tilde(monkeypatch, tmp_path):
+    from mimucap.gui.session_panel import display_path
+
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert display_path(tmp_path / "home" / "sessions" / "P001.h5") == "~/sessions/P001.h5"
+    assert display_path(tmp_path / "homework" / "P001.h5") == str(tmp_path / "homework" / "P001.h5")
+    assert display_path("/data/P001.h5") == "/data/P001.h5"

@@ -132,6 +132,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.last_recording = None  # RecordingResult of the last recording saved
         self._panel_refreshes = 0
         self._closing_progress: QtWidgets.QProgressDialog | None = None
+        self._guide: QtWidgets.QWidget | None = None  # Help → User Guide, made when first asked
         #: Asked before recording while an item of the checklist is not ok (the items not ok);
         #: True records anyway. Tests and scripts may replace it.
         self.confirm_recording: Callable[[list[CheckItem]], bool] = self._ask_to_record_anyway
@@ -738,7 +739,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Open the user guide (shipped with the program, read offline) in its own window."""
         from mimucap.gui.user_guide import UserGuideWindow
 
-        if getattr(self, "_guide", None) is None:
+        if self._guide is None:
             self._guide = UserGuideWindow(self)
         self._guide.show()
         self._guide.raise_()

@@ -21,6 +21,7 @@ from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions
 from mimucap.gui.scene.view import SceneView, drawing_moved_message
 from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.session_panel import display_path
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
 
@@ -160,7 +161,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
     # -- loading -----------------------------------------------------------------------------
     def load(self) -> None:
         """Load the session in the background; :attr:`loaded` is emitted when it is shown."""
-        self.statusBar().showMessage(f"Opening {self.path}…")
+        self.statusBar().showMessage(f"Opening {display_path(self.path)}…")
         self._task = BackgroundTask(lambda progress: load_review(self.path, progress), self)
         self._task.progress.connect(lambda f: self.progress.setValue(int(round(100 * f))))
         self._task.succeeded.connect(self._loaded)
@@ -185,7 +186,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
             self.timeline.addItem(line)
             self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker.label}")
         self.pose_status.setText(f"Pose: {data.pose_source}")
-        self.statusBar().showMessage(f"{self.path}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
+        self.statusBar().showMessage(f"{display_path(self.path)}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
                                      f"{len(data.markers)} markers", 8000)
         self.action_export.setEnabled(True)
         self.seek(data.start_s)
