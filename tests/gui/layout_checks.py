@@ -46,7 +46,16 @@ def cut_texts(window: QtWidgets.QWidget) -> list[str]:
             continue
         metrics = widget.fontMetrics()
         if isinstance(widget, ElidedLabel):
-            continue  # elided by design; its whole text is its tooltip
+            # elided by design when squeezed, never while its row has room for the whole text
+            need = metrics.horizontalAdvance(widget.text())
+            short = need - widget.contentsRect().width()
+            parent = widget.parentWidget()
+            if short > 1 and parent is not None:
+                used = sum(child.width() for child in parent.findChildren(QtWidgets.QWidget, options=QtCore.Qt.FindDirectChildrenOnly)
+                           if child.isVisible() and not child.isWindow())
+                if parent.contentsRect().width() - used >= short:
+                    found.append(f"{_name(widget)} '{widget.text()}' elided with {parent.contentsRect().width() - used} px free")
+            continue
         if isinstance(widget, QtWidgets.QLabel):
             if widget.wordWrap() or widget.textFormat() == QtCore.Qt.RichText or not widget.text():
                 continue

@@ -63,12 +63,20 @@ def main_window(qtbot, screen):
     window.deleteLater()
 
 
-def test_the_main_window_and_its_wizards_fit_each_screen(main_window, screen, qtbot):
+def test_the_main_window_and_its_wizards_fit_each_screen(main_window, screen, qtbot, tmp_path):
     window = main_window
     assert _inside(screen, window), (window.geometry(), screen)
     qtbot.waitUntil(lambda: window.plots.refresh_count > 2, timeout=5000)
     _spin(qtbot)
     assert _problems(window) == []
+    # recording: the REC indicator joins the status bar, nothing is pushed out or cut
+    window.recording_folder = lambda: tmp_path
+    window.confirm_recording = lambda items: True
+    window.action_record.trigger()
+    _spin(qtbot)
+    assert window.recording_indicator.isVisible() and _problems(window) == []
+    window.action_record.trigger()
+    window.wait_for_saving()
     # the plots' titles are whole: the stack is as wide as its widest title asks
     window.plots.set_joints(["shoulder_r", "lumbar", "hip_l"])
     _spin(qtbot)
