@@ -56,3 +56,10 @@ def test_a_column_that_is_not_a_joint_angle_is_refused_by_split():
     for column in ("knee_r_flexion", "flexion_deg", "knee_r_bend_deg"):
         with pytest.raises(ValueError, match="joint-angle column"):
             names.split_angle_column(column)
+
+
+def test_messages_get_sided_machine_names_in_words():
+    assert names.in_clinical_words("the right arm has no sensor in the mapping (map upper_arm_r)") == \
+        "the right arm has no sensor in the mapping (map right upper arm)"
+    assert names.in_clinical_words("knee_l and shank_r; pelvis; thigh_rx stays") == \
+        "left knee and right shank; pelvis; thigh_rx stays"

@@ -198,3 +198,15 @@ def test_packets_of_no_known_sensor_are_counted_in_the_status_bar(live_window, m
     assert label.isVisible() and label.text() == "340 packets refused from no known sensor"
     assert "340 × a sender this source does not accept" in label.toolTip()
     assert "address 10.0.0.9 (340)" in label.toolTip()
+
+
+def test_the_body_wizard_says_setup_problems_in_clinical_words(qtbot):
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=1))
+    wizard = BodyCalibrationWizard.for_simulator(simulator)
+    qtbot.addWidget(wizard)
+    wizard.set_arms("right")
+    for segment in ("upper_arm_r", "forearm_r"):  # no sensor on the right arm
+        wizard.mapping_combos[segment].setCurrentIndex(0)
+    wizard.start()
+    assert wizard.page_name == "setup"
+    assert "right upper arm" in wizard.setup_error.text() and "upper_arm_r" not in wizard.setup_error.text()

@@ -21,6 +21,7 @@ sequences name their own axes (:data:`mimucap.core.skeleton.JOINT_ANGLE_SIGNS_DO
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 #: Segments without a side, by machine name.
@@ -152,6 +153,20 @@ def angle_sign_text(column: str) -> str:
     except ValueError:
         return ""
     return axis_meaning(joint, axis).sign_text()
+
+
+_SIDED_TOKEN = re.compile(r"\b(" + "|".join(sorted({*_SIDED_SEGMENTS, *_SIDED_JOINTS}, key=len, reverse=True))
+                          + r")_([lr])\b")
+
+
+def in_clinical_words(text: str) -> str:
+    """``text`` (a message written for files and the command line) with the sided machine names
+    of segments and joints in words: "no sensor on upper_arm_r" → "no sensor on right upper arm"."""
+    def words(match: re.Match) -> str:
+        name = f"{match.group(1)}_{match.group(2)}"
+        readable = segment_name(name) if match.group(1) in _SIDED_SEGMENTS else joint_name(name)
+        return readable[:1].lower() + readable[1:]
+    return _SIDED_TOKEN.sub(words, text)
 
 
 def _spelled(name: str) -> str:

@@ -31,7 +31,7 @@ import numpy as np
 from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core import skeleton
-from mimucap.core.clinical_names import segment_name
+from mimucap.core.clinical_names import in_clinical_words, segment_name
 from mimucap.gui.assignment_dialog import remember_assignment
 from mimucap.core.bodycal import fill_missing_segments
 from mimucap.core.simulate import SuitSimulator
@@ -263,7 +263,7 @@ class BodyCalibrationWizard(CalibrationDialog):
             self.procedure = BodycalProcedure(self.feed, self.mapping(), arms=self.arms_combo.currentData(),
                                               height_m=self.height_spin.value(), settings=self.settings)
         except ValueError as error:
-            self.setup_error.setText(str(error))
+            self.setup_error.setText(in_clinical_words(str(error)))
             return
         self.setup_error.setText("")
         self.procedure.start()
@@ -372,6 +372,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         if status.phase == "refused":
             self.timer.stop()
             reason = procedure.refusal or ""
+            reason = in_clinical_words(reason)
             self.refusal_label.setText(reason[:1].upper() + reason[1:])
             self.pages.setCurrentWidget(self.refused_page)
             return
