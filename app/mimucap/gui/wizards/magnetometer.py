@@ -416,14 +416,17 @@ class MagnetometerWizard(CalibrationDialog):
             q = outcome.result.quality
             offset = outcome.result.calibration.offset_uT
             cells += [", ".join(f"{v:.1f}" for v in offset), f"{q.rms_residual_uT:.2f} µT",
-                      " / ".join(f"{c * 100:.0f}%" for c in q.axis_coverage)]
+                      "/".join(f"{c * 100:.0f}" for c in q.axis_coverage) + " %"]
         else:
             cells += ["—", "—", "—"]
         previous = outcome.previous
-        cells.append("none" if previous is None else
-                     f"{describe_age(previous.age_days)}: offset {', '.join(f'{v:.1f}' for v in previous.offset_uT)}")
+        # the age only: the previous offset is in the details below and in the tooltip
+        cells.append("none" if previous is None else describe_age(previous.age_days))
+        tooltip = "" if previous is None else f"previous offset {', '.join(f'{v:.1f}' for v in previous.offset_uT)} µT"
         for col, text in enumerate(cells):
             item = QtWidgets.QTableWidgetItem(text)
+            if col == len(cells) - 1 and tooltip:
+                item.setToolTip(tooltip)
             if col == 1:
                 item.setForeground(QtGui.QColor(VERDICT_COLOURS[outcome.verdict]))
                 font = item.font()
