@@ -1,16 +1,20 @@
 """``make screenshots``: PNGs of the main window live, the review window and the export dialog.
 
 Usage: ``python packaging/make_screenshots.py OUT_DIR`` (under a display; ``make screenshots``
-runs it under Xvfb). The VTK views are captured properly (their own image is painted into the
-window grab). The simulated suit walks; a 10-second session is recorded with two markers,
-reopened for review (play head on the second marker) and shown with its export dialog. The
-calibration wizards' pictures are added by ``packaging/wizard_screenshots.py`` when it exists,
-the library's by ``packaging/library_screenshots.py``.
+runs it under Xvfb). Every window is shown at its own default size (as a user first sees it on
+a screen that holds it), the subject id is fixed (P001) and the home folder is a scratch folder,
+so the paths in view read ``~/sessions/…`` on every run. The simulated suit (on a clock four
+times as fast as the wall's) has its magnetometers and body calibrated by the wizards'
+procedures, then walks; a session is recorded with two markers, reopened for review (play head
+on the second marker) and shown with its export dialog. The calibration wizards', the library's
+and the analysis' pictures are added by ``packaging/wizard_screenshots.py``,
+``library_screenshots.py`` and ``analysis_screenshots.py``.
 """
 
 from __future__ import annotations
 
 import importlib.util
+import os
 import sys
 import tempfile
 import time
@@ -28,65 +32,117 @@ def _wait(app: QtWidgets.QApplication, condition, timeout_s: float, what: str) -
 
 
 def make_screenshots(out_dir: Path) -> list[Path]:
-    from mimucap.gui.capture import save_window_png
-    from mimucap.gui.main_window import MainWindow
-    from mimucap.session.live import open_live_session
-
     out_dir.mkdir(parents=True, exist_ok=True)
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
     written: list[Path] = []
     with tempfile.TemporaryDirectory() as scratch:
-        window = MainWindow("simulated:walk", session_factory=lambda spec: open_live_session(spec))
-        window.recording_folder = lambda: Path(scratch)
-        window.show()
-        window.start()
-        window.set_camera_preset("front")
-        _wait(app, lambda: window.live.samples_received > 0, 20, "live data")
-        window.session_panel.subject_id.setText("P001")
-        window.session_panel.record_button.setChecked(True)
-        start = time.monotonic()
-        _wait(app, lambda: time.monotonic() - start > 3.0, 10, "recording")
-        window.add_marker("heel strike")
-        _wait(app, lambda: time.monotonic() - start > 6.0, 10, "recording")
-        window.plots.set_joints(["knee_r", "hip_r"])
-        window.add_marker("turn")
-        window.refresh_panels()
-        app.processEvents()
-        written.append(window.save_screenshot(out_dir / "main-window.png"))
-        _wait(app, lambda: time.monotonic() - start > 8.0, 10, "recording")
-        window.session_panel.record_button.setChecked(False)
-        window.wait_for_saving()
-        path = window.live.last_recording.session_path
-
-        review = window.open_review(path)
-        _wait(app, lambda: review.player is not None or review.load_error, 60, "the review")
-        review.seek_marker(1)
-        _wait(app, lambda: review.scene_view.frames_rendered > 0, 10, "the review's 3D view")
-        app.processEvents()
-        written.append(save_window_png(review, out_dir / "review.png"))
-        dialog = review.open_export()
-        dialog.range_markers.setChecked(True)
-        app.processEvents()
-        written.append(save_window_png(dialog, out_dir / "export-dialog.png"))
-        written.append(dialog.save_summary_png(out_dir / "export-summary.png"))
-        dialog.close()
-        review.close()
-        window.close()
-    wizard_script = Path(__file__).with_name("wizard_screenshots.py")
-    if wizard_script.exists():
-        spec = importlib.util.spec_from_file_location("wizard_screenshots", wizard_script)
+        home = os.environ.get("HOME")
+        os.environ["HOME"] = scratch  # no temporary path in view, and the user's settings untouched
+        folder = Path(scratch) / "sessions"
+        folder.mkdir()
+        try:
+            written += _main_and_review(app, out_dir, folder)
+        finally:
+            if home is None:
+                os.environ.pop("HOME", None)
+            else:
+                os.environ["HOME"] = home
+    for script, function in (("wizard_screenshots", "write_wizard_screenshots"),
+                             ("library_screenshots", "write_library_screenshots"),
+                             ("analysis_screenshots", "write_analysis_screenshots")):
+        spec = importlib.util.spec_from_file_location(script, Path(__file__).with_name(f"{script}.py"))
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
-        written.extend(module.write_wizard_screenshots(out_dir))
-    library_script = Path(__file__).with_name("library_screenshots.py")
-    spec = importlib.util.spec_from_file_location("library_screenshots", library_script)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    written.extend(module.write_library_screenshots(out_dir))
-    spec = importlib.util.spec_from_file_location("analysis_screenshots", Path(__file__).with_name("analysis_screenshots.py"))
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    written.extend(module.write_analysis_screenshots(out_dir))
+        written.extend(getattr(module, function)(out_dir))
+    return written
+
+
+#: Simulated seconds per wall-clock second while the screenshots are made.
+SPEED_UP = 4.0
+
+
+def _fast_clock():
+    start = time.monotonic()
+    return lambda: start + SPEED_UP * (time.monotonic() - start)
+
+
+def _calibrate(app: QtWidgets.QApplication, window, folder: Path) -> None:
+    """The magnetometer and body calibrations, as the wizards run them, on the window's live
+    session (the simulated subject does what they ask)."""
+    from mimucap.io.calibration_store import CalibrationStore
+    from mimucap.session.bodycal_procedure import BodycalProcedure
+    from mimucap.session.calibration_feed import LiveSessionFeed
+    from mimucap.session.instructions import RESUME
+    from mimucap.session.magcal_procedure import MagcalProcedure
+
+    live = window.live
+    feed = LiveSessionFeed(live)
+    try:
+        magcal = MagcalProcedure(feed, live.sensor_ids, store=CalibrationStore(folder / "calibrations"))
+        magcal.start()
+        _wait(app, lambda: magcal.step().phase != "recording", 120, "the magnetometer turns")
+        for sensor_id in magcal.accept():
+            live.apply_mag_calibration(magcal.outcomes[sensor_id].result.calibration, save=False)
+        mapping = {segment: sensor for sensor, segment in live.sensor_segments.items()}
+        body = BodycalProcedure(feed, mapping, height_m=live.height_m)
+        body.start()
+        _wait(app, lambda: body.step().phase not in ("npose", "tpose"), 60, "the body calibration")
+        if body.calibration is None:
+            raise RuntimeError(f"the body calibration was refused: {body.refusal}")
+        live.apply_body_calibration(body.calibration)
+    finally:
+        feed.instruct(RESUME)
+        feed.close()
+
+
+def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -> list[Path]:
+    from mimucap.gui.capture import save_window_png
+    from mimucap.gui.main_window import MainWindow
+    from mimucap.session.live import open_live_session
+
+    written: list[Path] = []
+    clock = _fast_clock()
+    window = MainWindow("simulated:walk", session_factory=lambda spec: open_live_session(spec, clock=clock))
+    window.recording_folder = lambda: folder
+    window.confirm_recording = lambda items: True  # the checklist shows what is missing
+    window.show()
+    window.start()
+    window.set_camera_preset("front")
+    _wait(app, lambda: window.live.samples_received > 0, 20, "live data")
+    _calibrate(app, window, folder)
+    start = time.monotonic()
+    _wait(app, lambda: time.monotonic() - start > 1.0, 10, "walking")
+    window.session_panel.subject_id.setText("P001")
+    window.session_panel.record_button.setChecked(True)
+    start = time.monotonic()
+    _wait(app, lambda: time.monotonic() - start > 3.0, 10, "recording")
+    window.session_panel.marker_label.setText("heel strike")  # typed, used once
+    window.session_panel.request_marker()
+    _wait(app, lambda: time.monotonic() - start > 6.0, 10, "recording")
+    window.plots.set_joints(["knee_r", "hip_r"])
+    window.add_marker("turn")
+    window.refresh_panels()
+    app.processEvents()
+    written.append(window.save_screenshot(out_dir / "main-window.png"))
+    _wait(app, lambda: time.monotonic() - start > 8.0, 10, "recording")
+    window.session_panel.record_button.setChecked(False)
+    window.wait_for_saving()
+    path = window.live.last_recording.session_path
+
+    review = window.open_review(path)
+    _wait(app, lambda: review.player is not None or review.load_error, 60, "the review")
+    review.seek_marker(1)
+    _wait(app, lambda: review.scene_view.frames_rendered > 0, 10, "the review's 3D view")
+    app.processEvents()
+    written.append(save_window_png(review, out_dir / "review.png"))
+    dialog = review.open_export()
+    dialog.range_markers.setChecked(True)
+    app.processEvents()
+    written.append(save_window_png(dialog, out_dir / "export-dialog.png"))
+    written.append(dialog.save_summary_png(out_dir / "export-summary.png"))
+    dialog.close()
+    review.close()
+    window.close()
     return written
 
 

@@ -67,7 +67,6 @@ def write_wizard_screenshots(out_dir: str | Path) -> list[Path]:
                               quality={"verdict": "good"}))
 
     mag = MagnetometerWizard.for_simulator(simulator, store=store, now=lambda: NOW, view_interval_ms=0)
-    mag.resize(1400, 820)
     mag.set_selected_sensors(["S01", "S02", "S03", "S04", "S05"])
     mag.show()
     _save(app, mag, out_dir, "magnetometer-1-setup", written)
@@ -106,7 +105,6 @@ def write_wizard_screenshots(out_dir: str | Path) -> list[Path]:
             MagCalibration(sensor_id, parameters.mag_b_uT, np.linalg.inv(parameters.mag_A), 50.0))
     for _ in range(30):
         body.feed.read()  # the orientation filters settle while the setup page is shown
-    body.resize(1300, 800)
     body.show()
     _save(app, body, out_dir, "body-1-setup", written)
     body.start()

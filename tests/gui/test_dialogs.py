@@ -58,7 +58,8 @@ def test_assignment_dialog_refuses_two_sensors_on_one_segment(qtbot):
     assert dialog.assignment() == {"1": "pelvis"}
     dialog.set_segment("2", "pelvis")
     dialog.accept()
-    assert "pelvis" in dialog.error_label.text() and remembered_assignment() == {}
+    assert "Pelvis is given to both 1 and 2" in dialog.error_label.text() and remembered_assignment() == {}
+    assert dialog.combos["1"].currentText() == "Pelvis"  # shown clinically, kept as "pelvis"
     dialog.set_segment("2", "thorax")
     dialog.accept()
     assert remembered_assignment() == {"1": "pelvis", "2": "thorax"}
@@ -80,5 +81,39 @@ def test_sensor_panel_shows_rows_and_flags_stale_ones(qtbot):
     assert panel.cell_text("S02", "State") == "STALE: no data"
     stale_colour = panel.item(panel.row_of("S02"), 0).background().color()
     assert stale_colour.red() > 200 and stale_colour.green() < 220
+    assert panel.cell_text("S01", "Segment") == "Pelvis"
     panel.show_rows([_row("S01")])
     assert panel.rowCount() == 1
+
+
+def test_sensor_panel_counts_refused_packets_with_the_reason_on_hover(qtbot):
+    """A sensor that is STALE while its packets keep arriving (refused as stale sequence
+    numbers after a restart, say) says so: the Refused column counts them, the tooltip says why."""
+    from dataclasses import replace
+
+    from mimucap.acquisition.rejections import Rejection
+    from mimucap.gui.sensor_panel import REJECTION_TEXT
+
+    assert set(REJECTION_TEXT) == set(Rejection)  # every reason has words
+    panel = SensorPanel()
+    qtbot.addWidget(panel)
+    refused = replace(_row("S02", stale=True, state="stale"), rejections={"stale_sequence": 120, "out_of_range": 3})
+    panel.show_rows([_row("S01"), refused])
+    assert panel.cell_text("S01", "Refused") == "0"
+    assert panel.cell_text("S02", "Refused") == "123"
+    assert panel.cell_text("S02", "State").startswith("STALE: packets arrive but are refused")
+    tooltip = panel.item(panel.row_of("S02"), 4).toolTip()
+    lines = tooltip.splitlines()
+    assert lines[1].startswith("120 × stale") and lines[2].startswith("3 × a value outside")
+    panel.show_rows([_row("S01"), replace(refused, rejections={"stale_sequence": 121})])
+    assert panel.cell_text("S02", "Refused") == "121"
+    assert "out of range" not in panel.item(panel.row_of("S02"), 4).toolTip()
+
+
+def test_paths_in_view_write_the_home_folder_as_a_tilde(monkeypatch, tmp_path):
+    from mimucap.gui.session_panel import display_path
+
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    assert display_path(tmp_path / "home" / "sessions" / "P001.h5") == "~/sessions/P001.h5"
+    assert display_path(tmp_path / "homework" / "P001.h5") == str(tmp_path / "homework" / "P001.h5")
+    assert display_path("/data/P001.h5") == "/data/P001.h5"

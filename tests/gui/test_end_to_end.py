@@ -53,6 +53,7 @@ def _window(qtbot, spec: str):
     clock = _fast_clock()
     window = MainWindow(spec, session_factory=lambda chosen: open_live_session(chosen, clock=clock))
     window.clock = clock
+    window.confirm_recording = lambda items: True  # recording without calibrations, knowingly
     window.show()
     window.start()
     qtbot.waitExposed(window)
@@ -150,6 +151,12 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     assert any("Result: reprocessed" in line for line in header)
     mot = read_angles_mot(tmp_path / "walk_angles.mot")
     assert np.allclose(mot.angles_deg["knee_r_flexion_deg"], table.angles_deg["knee_r_flexion_deg"], atol=1e-5)
+    summary = (tmp_path / "walk_angles_summary.csv").read_text().splitlines()
+    assert "column,label,min_deg,max_deg,rom_deg" in summary
+    assert "knee_r_flexion_deg,Right knee flexion (°)," in "\n".join(summary)
+    # the recording's markers are in both angle files' headers
+    for written in (table, mot):
+        assert [m.label for m in written.markers] == ["straight", "end of straight"]
     dialog.accept()
     review.close()
 
@@ -267,6 +274,7 @@ def test_closing_while_recording_asks_first(app_window, qtbot, tmp_path, monkeyp
     assert window.isVisible() and window.live.recording  # "No": nothing happens
     live = window.live
     window.close()
-    assert not window.isVisible()
+    # the file is written while the window keeps running, a progress dialog showing; it closes then
+    qtbot.waitUntil(lambda: not window.isVisible(), timeout=30000)
     assert live.last_recording is not None and live.last_recording.session_path.exists()
     assert not live.last_recording.journal_path.exists()

@@ -92,7 +92,7 @@ def test_default_joint_and_several_joints_each_with_its_plot(plots):
     plots.set_joints(["hip_r", "ankle_r", "elbow_l"])
     assert [j for j, a in plots.joint_actions.items() if a.isChecked()] == ["hip_r", "ankle_r", "elbow_l"]
     assert not plots.joint_actions["knee_r"].isEnabled()
-    assert plots.joint_button.text() == "hip_r +2"
+    assert plots.joint_button.text() == "Right hip +2"
     plots.joint_actions["ankle_r"].setChecked(False)  # as the user would, in the menu
     assert plots.selected_joints == ["hip_r", "elbow_l"]
     assert "joint:ankle_r" not in plots.plots and plots.joint_actions["knee_r"].isEnabled()
@@ -206,8 +206,25 @@ def test_a_plot_whose_window_holds_no_data_says_so_in_its_title(plots):
     source = NoGyroscope()
     plots.source = source
     plots.refresh()
-    assert "no data" in plots.title_text("gyr") and "Gyroscope S01" in plots.title_text("gyr")
+    assert "no data" in plots.title_text("gyr") and "Gyroscope, Sensor S01" in plots.title_text("gyr")
     assert "no data" not in plots.title_text("acc") and "&#9632;x" in plots.title_text("acc")
     source.sends_gyroscope = True
     plots.refresh()
     assert "no data" not in plots.title_text("gyr") and "&#9632;x" in plots.title_text("gyr")
+
+
+def test_plots_name_sensors_joints_and_axes_clinically(plots):
+    """Menus, selectors and titles read "Pelvis sensor (S01)", "Right knee", "flexion"; the
+    machine names stay the keys (the plotted sensor id, the joint keys)."""
+    plots.source.sensor_segments = {"S01": "pelvis", "S02": "thigh_r"}
+    plots.update_choices()
+    texts = [plots.sensor_combo.itemText(i) for i in range(plots.sensor_combo.count())]
+    assert texts == ["Pelvis (S01)", "Right thigh (S02)"]
+    plots.sensor_combo.setCurrentIndex(1)
+    assert plots.sensor_id == "S02"
+    plots.refresh()
+    assert "Accelerometer, Right thigh sensor (S02)" in plots.title_text("acc")
+    assert [a.text() for a in plots.joint_actions.values()] == ["Right hip", "Right knee", "Right ankle", "Left elbow"]
+    title = plots.title_text("joint:knee_r")
+    assert "Right knee" in title and "internal rotation" in title and "_" not in title
+    assert plots.plots["joint:knee_r"].getAxis("left").labelText == "°"

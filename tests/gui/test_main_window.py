@@ -52,7 +52,7 @@ def test_menu_lists_only_working_items(window):
         "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "&Library…", "Library &Folder…",
         "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
         "Front", "Side", "Top", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
-        "Show World &Axes", "Show Simulator &Truth", "&Pause Plots\tSpace", "&About MimuCap",
+        "Show World &Axes", "Show Simulator &Truth", "&Pause Plots\tSpace", "&User Guide", "&About MimuCap",
     }
     assert expected <= texts
     assert texts - expected <= {"&Magnetometers…", "&Body…", "&Range of Motion…"}  # the wizards, when installed
@@ -236,7 +236,7 @@ def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtb
         assert win.live.pose_source == POSE_UNASSIGNED
         win.plots.refresh()
         x, y = win.plots.curve_data("acc", 2)
-        newest = win.live.series(win.plots.sensor_combo.currentText(), 1.0)[0][-1]
+        newest = win.live.series(win.plots.sensor_id, 1.0)[0][-1]
         assert len(x) > 100 and x[-1] == pytest.approx(newest) and np.all(np.isfinite(y))
         assert "no data" in win.plots.title_text("gyr")
     finally:

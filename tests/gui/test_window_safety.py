@@ -16,6 +16,7 @@ from mimucap.io.session import session_from_simulation, write_session
 @pytest.fixture
 def window(qtbot, tmp_path, monkeypatch):
     win = MainWindow("simulated:demo")  # closed below, after any recording is stopped
+    win.confirm_recording = lambda items: True  # recording without calibrations, knowingly
     win.show()
     win.start()
     qtbot.waitExposed(win)

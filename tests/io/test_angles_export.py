@@ -78,3 +78,29 @@ def test_negative_zero_is_written_as_zero(tmp_path):
     path = tmp_path / "z.csv"
     ae.write_angles_csv(path, T[:1], {"knee_r_flexion_deg": np.array([-0.0])})
     assert path.read_text().splitlines()[-1] == "0.000000,0.000000"
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".mot"])
+def test_columns_keep_machine_names_and_gain_readable_labels_and_markers(tmp_path, suffix):
+    from mimucap.io.session import Marker
+
+    path = tmp_path / f"m{suffix}"
+    markers = [Marker(0.03, 'heel strike, "left"'), Marker(0.01, "start=go\tnow"), Marker(0.04, "Pause é")]
+    ae.write_angles(path, T, ANGLES, markers=markers)
+    table = ae.read_angles_csv(path) if suffix == ".csv" else ae.read_angles_mot(path)
+    assert list(table.angles_deg) == ["knee_r_flexion_deg", "hip_r_adduction_deg"]
+    assert table.labels == {"knee_r_flexion_deg": "Right knee flexion (°)",
+                            "hip_r_adduction_deg": "Right hip adduction (°)"}
+    assert [(m.t_s, m.label) for m in table.markers] == [
+        (0.01, "start=go\tnow"), (0.03, 'heel strike, "left"'), (0.04, "Pause é")]
+    assert any("+ flexion / − extension" in line for line in table.header)
+    if suffix == ".mot":  # OpenSim's key=value lines stay the four it expects
+        header = path.read_text(encoding="utf-8").split("endheader")[0].splitlines()
+        assert [h for h in header if "=" in h] == ["version=1", "nRows=5", "nColumns=3", "inDegrees=yes"]
+
+
+def test_a_damaged_marker_line_is_named(tmp_path):
+    path = tmp_path / "bad.csv"
+    path.write_text('# marker 1.0 "unterminated\nt_s,knee_r_flexion_deg\n0,1\n', encoding="utf-8")
+    with pytest.raises(ValueError, match="bad.csv: damaged marker line"):
+        ae.read_angles_csv(path)

@@ -160,6 +160,10 @@ def test_replay_through_acquisition_workers_is_fused_and_shown(tmp_path):
     path = tmp_path / "sim.h5"
     write_session(path, session_from_simulation(result, include_truth=False))
     session = open_live_session(f"replay:{path}@4")
+    # the replay keeps the placement stored in the recording; taken off here to see unassigned sensors first
+    assert session.sensor_segments == {sid: m.segment for sid, m in result.mounting.items()}
+    for sensor_id in list(session.sensor_segments):
+        session.assign_sensor(sensor_id, None)
     session.start()
     try:
         deadline = time.monotonic() + 30.0
@@ -368,4 +372,45 @@ def test_after_a_restart_the_magnetometer_calibrations_are_back_with_their_age(t
         _run(session, now, 0.3)
         row = {r.sensor_id: r for r in session.sensor_rows()}["S02"]
         assert row.mag_cal == "calibrated" and row.mag_cal_verdict == "good" and row.mag_cal_age_s > 86400
+        session.stop()
+
+
+def test_the_simulated_subjects_activity_changes_are_not_markers():
+    """The walk scenario starts with a second of N-pose: its change to walking is the
+    simulator's business, not a marker the user placed."""
+    session, now = _session("walk")
+    markers = []
+    session.events.marker.connect(lambda *args: markers.append(args))
+    _run(session, now, 2.0)
+    assert session.simulator.current_activity() != "npose" and markers == []
+    session.add_marker("mine")
+    assert [label for _t, label, _recorded in markers] == ["mine"]
+
+
+def test_packets_a_replay_refuses_reach_the_sensor_rows_by_sensor_and_reason(tmp_path):
+    """Rows with a NaN are refused, not replayed; the sensor panel's rows count them for their
+    sensor, by reason (values beyond the physical limits cannot even be written to a file)."""
+    from mimucap.io.session import SensorStream, Session
+
+    t = np.arange(200) / 100.0
+    gyr = np.zeros((200, 3))
+    bad = gyr.copy()
+    bad[[10, 20, 30], 0] = np.nan
+    sensors = {"A": SensorStream(sensor_id="A", t_s=t, seq=np.arange(200), gyr=gyr, acc=np.tile([0, 0, 9.81], (200, 1))),
+               "B": SensorStream(sensor_id="B", t_s=t, seq=np.arange(200), gyr=bad, acc=np.tile([0, 0, 9.81], (200, 1)))}
+    path = write_session(tmp_path / "bad.h5", Session(metadata={"source": "test"}, sensors=sensors))
+    session = open_live_session(f"replay:{path}@10")
+    session.start()
+    try:
+        deadline = time.monotonic() + 30.0
+        rows = {}
+        while time.monotonic() < deadline:
+            session.step()
+            rows = {row.sensor_id: row for row in session.sensor_rows()}
+            if "B" in rows and sum(rows["B"].rejections.values()) >= 3:
+                break
+            time.sleep(0.02)
+        assert rows["B"].rejections == {"non_finite": 3}
+        assert rows["A"].rejections == {}
+    finally:
         session.stop()

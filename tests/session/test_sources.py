@@ -84,3 +84,35 @@ def test_an_xsens_export_folder_replays_every_data_row(shared_data):
                           q_world_from_sensor=s.q_world_from_sensor[:200]) for s in loaded.streams)
     blocks, status = collect([ReplaySourceConfig(streams=short, speed=8.0)])
     assert sum(len(b) for b in blocks) == 8 * 200
+
+
+def test_a_replayed_session_keeps_the_sensor_placement_stored_in_it(tmp_path):
+    from mimucap.session.feeds import SupervisorFeed
+    from mimucap.session.live import LiveSession
+    from mimucap.session.sources import sensor_segments
+
+    t = np.arange(50) / 100.0
+    worn = {"A": "thigh_r", "B": "pelvis"}
+    sensors = {sid: SensorStream(sensor_id=sid, t_s=t, seq=np.arange(50), gyr=np.zeros((50, 3)), segment=segment)
+               for sid, segment in worn.items()}
+    sensors["C"] = SensorStream(sensor_id="C", t_s=t, seq=np.arange(50), gyr=np.zeros((50, 3)))  # worn nowhere
+    path = write_session(tmp_path / "placed.h5", Session(metadata={"source": "test"}, sensors=sensors))
+    assert load_replay(path).segments == worn
+    assert sensor_segments(source_configs(f"replay:{path}")) == worn
+    live = LiveSession(SupervisorFeed(f"replay:{path}"))  # not started: no worker runs
+    assert live.sensor_segments == worn
+
+
+def test_refusals_of_no_known_sensor_are_the_sources_less_the_sensors():
+    from types import SimpleNamespace
+
+    from mimucap.acquisition.stats import SensorStats
+    from mimucap.session.feeds import SupervisorFeed
+
+    feed = SupervisorFeed.__new__(SupervisorFeed)  # no worker: only the bookkeeping is tested
+    status = SimpleNamespace(rejections={"stale_sequence": 5, "unknown_address": 340, "bad_checksum": 2},
+                             unknown_sensors={"address 10.0.0.9": 340})
+    stats = {"1": SensorStats("1", "udp", 10, 0, 100.0, 0.0, 0.0, 0.0, {"stale_sequence": 5}),
+             "2": SensorStats("2", "udp", 10, 0, 100.0, 0.0, 0.0, 0.0, {"bad_checksum": 1})}
+    feed.supervisor = SimpleNamespace(sources=lambda: {"udp": status}, stats=lambda: stats)
+    assert feed.refused_without_sensor() == ({"unknown_address": 340, "bad_checksum": 1}, {"address 10.0.0.9": 340})

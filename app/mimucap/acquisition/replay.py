@@ -120,10 +120,16 @@ class ReplaySourceConfig:
     speed: float = 1.0              #: × real time
     block_interval_s: float = 0.01  #: s of host time between released blocks
     report_interval_s: float = 0.5
+    #: (sensor id, segment) pairs: where the recording says each sensor was worn
+    segments: tuple[tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         if not self.speed > 0:
             raise ValueError(f"replay speed must be > 0, got {self.speed}")
+
+    def sensor_segments(self) -> dict[str, str]:
+        """Sensor id → the segment it was worn on in the recording (those it names)."""
+        return dict(self.segments)
 
 
 class ReplayDriver:

@@ -6,6 +6,7 @@ from collections.abc import Mapping, Sequence
 
 from PyQt5 import QtWidgets
 
+from mimucap.core.clinical_names import segment_name
 from mimucap.gui.settings import load_json, save_json
 
 NOT_WORN = "(not worn)"
@@ -39,8 +40,10 @@ class AssignmentDialog(QtWidgets.QDialog):
             item = QtWidgets.QTableWidgetItem(sid)
             self.table.setItem(row, 0, item)
             combo = QtWidgets.QComboBox(self.table)
-            combo.addItems([NOT_WORN, *segments])
-            combo.setCurrentText(current.get(sid, NOT_WORN))
+            combo.addItem(NOT_WORN, None)
+            for segment in segments:  # shown by its clinical name, kept by its machine name
+                combo.addItem(segment_name(segment), segment)
+            combo.setCurrentIndex(max(combo.findData(current.get(sid)), 0))
             self.table.setCellWidget(row, 1, combo)
             self.combos[sid] = combo
         self.error_label = QtWidgets.QLabel(self)
@@ -56,17 +59,23 @@ class AssignmentDialog(QtWidgets.QDialog):
         self.resize(420, 460)
 
     def set_segment(self, sensor_id: str, segment: str | None) -> None:
-        self.combos[sensor_id].setCurrentText(segment or NOT_WORN)
+        """Choose ``segment`` (machine name; ``None``: not worn) for ``sensor_id``."""
+        combo = self.combos[sensor_id]
+        index = 0 if segment is None else combo.findData(segment)
+        if index < 0:
+            raise ValueError(f"sensor {sensor_id}: unknown segment {segment!r}")
+        combo.setCurrentIndex(index)
 
     def assignment(self) -> dict[str, str]:
-        return {sid: c.currentText() for sid, c in self.combos.items() if c.currentText() != NOT_WORN}
+        """Sensor id → segment (machine names) of the sensors worn."""
+        return {sid: c.currentData() for sid, c in self.combos.items() if c.currentData() is not None}
 
     def accept(self) -> None:
         chosen = self.assignment()
         taken: dict[str, str] = {}
         for sid, segment in chosen.items():
             if segment in taken:
-                self.error_label.setText(f"{segment} is given to both {taken[segment]} and {sid}")
+                self.error_label.setText(f"{segment_name(segment)} is given to both {taken[segment]} and {sid}")
                 return
             taken[segment] = sid
         remember_assignment(chosen)

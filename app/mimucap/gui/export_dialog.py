@@ -17,7 +17,10 @@ import pyqtgraph as pg
 import pyqtgraph.exporters  # noqa: F401  (registers ImageExporter)
 from PyQt5 import QtCore, QtWidgets
 
+from mimucap.core.clinical_names import angle_label, angle_sign_text
 from mimucap.gui.background import BackgroundTask
+from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.session_panel import display_path
 from mimucap.session.export import (
     ExportRequest, ExportResult, angles_in_range, marker_range, run_export, summary_table, write_summary_csv,
 )
@@ -62,6 +65,7 @@ class ExportDialog(QtWidgets.QDialog):
         for combo in (self.marker_a, self.marker_b):
             for marker in data.markers:
                 combo.addItem(f"{marker.label} ({marker.t_s:.2f} s)")
+                combo.setItemData(combo.count() - 1, marker.label, QtCore.Qt.ToolTipRole)
         if len(data.markers) >= 2:
             self.marker_b.setCurrentIndex(1)
         else:
@@ -90,7 +94,8 @@ class ExportDialog(QtWidgets.QDialog):
                             self.want_c3d, self.want_bvh, self.want_sto)
         for box in (self.want_csv, self.want_mot, self.want_summary):
             box.setChecked(True)
-        self.base_path = QtWidgets.QLineEdit(str(data.path.with_suffix("")) + "_angles", files_box)
+        # the home folder written "~" (expanded again by export_base_path)
+        self.base_path = QtWidgets.QLineEdit(display_path(data.path.with_suffix("")) + "_angles", files_box)
         self.base_path.setObjectName("exportBasePath")
         browse = QtWidgets.QPushButton("Browse…", files_box)
         browse.clicked.connect(self._browse)
@@ -110,12 +115,12 @@ class ExportDialog(QtWidgets.QDialog):
         self.message.setWordWrap(True)
         self.summary = QtWidgets.QTableWidget(0, 4, self)
         self.summary.setObjectName("summaryTable")
-        self.summary.setHorizontalHeaderLabels(["Joint angle", "Min (deg)", "Max (deg)", "Range of motion (deg)"])
+        self.summary.setHorizontalHeaderLabels(["Joint angle", "Min (°)", "Max (°)", "Range of motion (°)"])
         self.summary.verticalHeader().setVisible(False)
         self.summary.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
         header = self.summary.horizontalHeader()
         header.setSectionResizeMode(0, QtWidgets.QHeaderView.Stretch)
-        for column in (1, 2, 3):  # the headers are read whole ("Range of motion (deg)")
+        for column in (1, 2, 3):  # the headers are read whole ("Range of motion (°)")
             header.setSectionResizeMode(column, QtWidgets.QHeaderView.ResizeToContents)
 
         self.export_button = QtWidgets.QPushButton("Export", self)
@@ -142,7 +147,7 @@ class ExportDialog(QtWidgets.QDialog):
         main.addWidget(self.message)
         main.addWidget(self.summary, 1)
         main.addLayout(buttons)
-        self.resize(620, 820)
+        fit_on_screen(self, 620, 720, parent)
         for widget in (self.range_all, self.range_time, self.range_markers):
             widget.toggled.connect(self.update_summary)
         # Editing a range's fields chooses that range (edits are never silently ignored).
@@ -187,11 +192,15 @@ class ExportDialog(QtWidgets.QDialog):
         self.message.setText("")
         self.summary.setRowCount(len(rows))
         for r, row in enumerate(rows):
-            values = (row.column, _degrees(row.minimum_deg), _degrees(row.maximum_deg), _degrees(row.rom_deg))
+            values = (angle_label(row.column), _degrees(row.minimum_deg), _degrees(row.maximum_deg),
+                      _degrees(row.rom_deg))
             for c, text in enumerate(values):
                 item = QtWidgets.QTableWidgetItem(text)
                 if c:
                     item.setTextAlignment(QtCore.Qt.AlignRight | QtCore.Qt.AlignVCenter)
+                else:  # the file's column name and the sign, for whoever reads the files
+                    sign = angle_sign_text(row.column)
+                    item.setToolTip(f"{row.column} in the files" + (f"; {sign}" if sign else ""))
                 self.summary.setItem(r, c, item)
 
     def _update_buttons(self) -> None:
@@ -294,8 +303,8 @@ class ExportDialog(QtWidgets.QDialog):
             plot.setWindowFlags(QtCore.Qt.Window)  # its own size, not laid out in the dialog
             plot.setAttribute(QtCore.Qt.WA_DontShowOnScreen, True)
             left = plot.getAxis("left")
-            left.setWidth(190)
-            plot.setLabel("bottom", "joint angle, min to max (deg)")
+            left.setWidth(260)
+            plot.setLabel("bottom", "joint angle, min to max (°)")
             plot.showGrid(x=True, alpha=0.3)
             plot.invertY(True)
             self._chart = plot
@@ -315,7 +324,7 @@ class ExportDialog(QtWidgets.QDialog):
         ends = pg.ScatterPlotItem(np.concatenate([lows, highs]), np.concatenate([y, y]), symbol="s", size=6,
                                   brush="#1f3f66", pen=None)
         plot.addItem(ends)  # a joint that did not move still shows as a mark
-        plot.getAxis("left").setTicks([[(i, r.column.replace("_deg", "")) for i, r in zip(y, rows)]])
+        plot.getAxis("left").setTicks([[(i, angle_label(r.column)) for i, r in zip(y, rows)]])
         a, b = self.time_range()
         plot.setTitle(f"{self.data.path.name}: {a:.2f}–{b:.2f} s")
         plot.setYRange(-0.8, len(rows) - 0.2, padding=0)

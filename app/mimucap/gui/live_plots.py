@@ -4,7 +4,9 @@ and of the selected joints' three angles.
 The data comes from a *plot source* (the live session, or the review player), which offers
 ``sensor_ids``, ``joint_names``, ``joint_columns(joint)``, ``series(sensor_id, window_s)`` →
 ``(t_s, acc, gyr, mag_uT)`` and ``joint_series(joint, window_s)`` → ``(t_s, angles_deg (N,3))``,
-and ``cursor_s`` (the time the 3D view shows). Curves are created once per plot; one
+``cursor_s`` (the time the 3D view shows) and, when it knows them, ``sensor_segments`` (sensor
+id → segment). Sensors, joints and angle axes are shown by their clinical names
+(:mod:`mimucap.core.clinical_names`: "Pelvis sensor (S01)", "Right knee", "flexion"). Curves are created once per plot; one
 ``QTimer`` (:data:`REFRESH_HZ`) calls ``setData`` on them; nothing is plotted while paused.
 
 Live, the time axis is fixed and reads seconds before the pose shown (``-10 … 0``), so the
@@ -19,8 +21,9 @@ import time
 
 import numpy as np
 import pyqtgraph as pg
-from PyQt5 import QtCore, QtWidgets
+from PyQt5 import QtCore, QtGui, QtWidgets
 
+from mimucap.core.clinical_names import axis_short_name, joint_name, segment_name, sensor_name, split_angle_column
 from mimucap.gui.scrolling import scrolling
 from mimucap.session.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
 
@@ -39,7 +42,7 @@ SENSOR_PLOTS = (
     ("gyr", "Gyroscope", "rad/s", 0.5),
     ("mag", "Magnetometer", "µT", 10.0),
 )
-ANGLE_UNIT, ANGLE_MIN_RANGE = "deg", 10.0
+ANGLE_UNIT, ANGLE_MIN_RANGE = "°", 10.0
 #: Smallest height of one plot (px): below it the plots scroll instead of shrinking further.
 MIN_PLOT_HEIGHT_PX = 90
 #: Smallest distance between two labelled ticks of a vertical axis (px): fewer ticks on a
@@ -52,7 +55,30 @@ MAX_TICKS = 4
 #: Colour of the "no data" note in a plot's title.
 NO_DATA_COLOUR = "#888888"
 
+#: Font size of the plot titles.
+TITLE_SIZE = "9pt"
+#: Room beside a title in a plot (px): the left axis and the plot's margins.
+TITLE_MARGIN_PX = 48 + 24
+
 pg.setConfigOptions(antialias=False, background="w", foreground="k")
+
+
+def _title_html(title: str, names: str) -> str:
+    return f"<b>{title}</b>&nbsp;&nbsp;{names}"
+
+
+def _legend(names) -> str:
+    return " ".join(f'<span style="color:{pen}">&#9632;{name}</span>' for pen, name in zip(AXIS_PENS, names))
+
+
+def _html_width_px(html: str) -> float:
+    """Width (px) of one line of ``html`` in the plot titles' font."""
+    document = QtGui.QTextDocument()
+    font = document.defaultFont()
+    font.setPointSizeF(float(TITLE_SIZE.removesuffix("pt")))
+    document.setDefaultFont(font)
+    document.setHtml(f"<span style='white-space:nowrap'>{html}</span>")
+    return document.idealWidth()
 
 
 class _Curve(pg.PlotCurveItem):
@@ -116,12 +142,12 @@ class LivePlots(QtWidgets.QWidget):
         self.relative_time = bool(relative_time)
         self.sensor_combo = QtWidgets.QComboBox(self)
         self.sensor_combo.setObjectName("plotSensor")
-        self.sensor_combo.setSizeAdjustPolicy(QtWidgets.QComboBox.AdjustToMinimumContentsLengthWithIcon)
-        self.sensor_combo.setMinimumContentsLength(4)
+        self.sensor_combo.setSizeAdjustPolicy(QtWidgets.QComboBox.AdjustToContents)
         self.joint_button = QtWidgets.QToolButton(self)
         self.joint_button.setObjectName("plotJoints")
         self.joint_button.setPopupMode(QtWidgets.QToolButton.InstantPopup)
         self.joint_button.setMinimumWidth(72)
+        self.joint_button.setToolButtonStyle(QtCore.Qt.ToolButtonTextOnly)
         self.joint_menu = QtWidgets.QMenu(self.joint_button)
         self.joint_button.setMenu(self.joint_menu)
         self.joint_actions: dict[str, QtWidgets.QAction] = {}
@@ -136,14 +162,22 @@ class LivePlots(QtWidgets.QWidget):
         self.pause_button.setShortcut("Space")
         self.pause_button.toggled.connect(self._paused_changed)
 
-        bar = QtWidgets.QHBoxLayout()
-        for text, widget in (("Sensor", self.sensor_combo), ("Joints", self.joint_button), ("Window", self.window_combo)):
-            label = QtWidgets.QLabel(text, self)
-            label.setBuddy(widget)
-            bar.addWidget(label)
-            bar.addWidget(widget)
-        bar.addStretch(1)
-        bar.addWidget(self.pause_button)
+        # Two rows: the selectors keep their whole texts ("Right upper arm (S04)", "Right
+        # shoulder +2") in the narrow plot pane of a 1280-pixel window.
+        bar = QtWidgets.QVBoxLayout()
+        rows = (((("Sensor", self.sensor_combo),), self.pause_button),
+                ((("Joints", self.joint_button), ("Window", self.window_combo)), None))
+        for selectors, last in rows:
+            row = QtWidgets.QHBoxLayout()
+            for text, widget in selectors:
+                label = QtWidgets.QLabel(text, self)
+                label.setBuddy(widget)
+                row.addWidget(label)
+                row.addWidget(widget)
+            row.addStretch(1)
+            if last is not None:
+                row.addWidget(last)
+            bar.addLayout(row)
 
         self.layout_widget = pg.GraphicsLayoutWidget()
         # In a small window the plots keep a readable height and scroll.
@@ -242,8 +276,7 @@ class LivePlots(QtWidgets.QWidget):
         else:
             names = " ".join(f'<span style="color:{pen}">&#9632;{curve.opts["name"]}</span>'
                              for pen, curve in zip(AXIS_PENS, self.curves[key]))
-        self.plots[key].setTitle(f"<b>{title}</b>&nbsp;&nbsp;{names}", size="9pt")
-        self.plots[key].titleLabel.setMinimumWidth(0)  # a long title is cut, never widens the plot
+        self.plots[key].setTitle(_title_html(title, names), size=TITLE_SIZE)
 
     def title_text(self, key: str) -> str:
         """The title shown above plot ``key`` (``acc``, ``gyr``, ``mag`` or ``joint:<name>``)."""
@@ -290,25 +323,48 @@ class LivePlots(QtWidgets.QWidget):
             action.setChecked(joint in joints)
             action.setEnabled(joint in joints or len(joints) < MAX_JOINTS)
             action.blockSignals(False)
-        self.joint_button.setText(joints[0] + (f" +{len(joints) - 1}" if len(joints) > 1 else "") if joints else "(none)")
-        self.joint_button.setToolTip(f"Joints plotted (up to {MAX_JOINTS}): {', '.join(joints) or 'none'}")
+        first = joint_name(joints[0]) if joints else "(none)"
+        self.joint_button.setText(first + (f" +{len(joints) - 1}" if len(joints) > 1 else ""))
+        self.joint_button.setToolTip(f"Joints plotted (up to {MAX_JOINTS}): "
+                                     f"{', '.join(joint_name(j) for j in joints) or 'none'}")
         self._fix_x_range()
         self.refresh()
 
-    def _add_joint_plot(self, joint: str) -> None:
-        columns = self.source.joint_columns(joint) if self.source is not None else AXIS_NAMES
+    def _axis_names(self, joint: str) -> list[str]:
+        """The legend of ``joint``'s plot: its three axes' clinical names."""
         names = []
+        columns = (self.source.joint_columns(joint) if self.source is not None
+                   else [f"{joint}_{axis}_deg" for axis in ("flexion", "adduction", "rotation")])
         for column in columns:
-            label = column[len(joint) + 1:] if column.startswith(joint + "_") else column
-            names.append(label.removesuffix("_deg").replace("_", " "))
+            try:
+                names.append(axis_short_name(*split_angle_column(column)))
+            except ValueError:  # a column named otherwise keeps its name
+                names.append(column.removesuffix("_deg").replace("_", " "))
+        return names
+
+    def _add_joint_plot(self, joint: str) -> None:
         key = self._joint_key(joint)
-        self._add_plot(key, f"{joint} angles", ANGLE_UNIT, ANGLE_MIN_RANGE, names)
+        self._add_plot(key, joint_name(joint), ANGLE_UNIT, ANGLE_MIN_RANGE, self._axis_names(joint))
         truth = []
         for axis in range(3):
             curve = pg.PlotCurveItem(pen=pg.mkPen(AXIS_PENS[axis], width=1, style=QtCore.Qt.DashLine))
             self.plots[key].addItem(curve)
             truth.append(curve)
         self.truth_curves[key] = truth
+
+    def _fit_titles(self) -> None:
+        """Keep the plots wide enough for the longest title any choice of the source can give
+        (every sensor, every joint): a title is never cut, and the pane does not change width
+        when another sensor or joint is chosen."""
+        titles = [_title_html(f"{title}, {self._sensor_title(sid)}", _legend(AXIS_NAMES))
+                  for sid in self.source.sensor_ids for _key, title, _unit, _range in SENSOR_PLOTS]
+        titles += [_title_html(joint_name(joint), _legend(self._axis_names(joint))) for joint in self.source.joint_names]
+        widest = max((_html_width_px(html) for html in titles), default=0.0)
+        self.scroll_area.setMinimumWidth(int(widest + TITLE_MARGIN_PX))
+
+    def _sensor_title(self, sensor_id: str) -> str:
+        segment = (getattr(self.source, "sensor_segments", None) or {}).get(sensor_id)
+        return sensor_name(segment, sensor_id)
 
     def _joint_toggled(self, joint: str, on: bool) -> None:
         joints = [j for j in self.selected_joints if j != joint]
@@ -339,21 +395,29 @@ class LivePlots(QtWidgets.QWidget):
         """Refresh the sensor and joint lists from the source (keeps the selection)."""
         if self.source is None:
             return
-        current_sensor = self.sensor_combo.currentText()
-        sensors = list(self.source.sensor_ids)
-        if [self.sensor_combo.itemText(i) for i in range(self.sensor_combo.count())] != sensors:
+        current_sensor = self.sensor_id
+        segments = getattr(self.source, "sensor_segments", None) or {}
+        # "Pelvis (S01)" next to the word "Sensor"; the plot titles say "Pelvis sensor (S01)"
+        entries = [(f"{segment_name(segments[sid])} ({sid})" if segments.get(sid) else sid, sid)
+                   for sid in self.source.sensor_ids]
+        shown = [(self.sensor_combo.itemText(i), self.sensor_combo.itemData(i)) for i in range(self.sensor_combo.count())]
+        if shown != entries:
             self.sensor_combo.blockSignals(True)
             self.sensor_combo.clear()
-            self.sensor_combo.addItems(sensors)
-            if current_sensor in sensors:
-                self.sensor_combo.setCurrentText(current_sensor)
+            for text, sid in entries:
+                self.sensor_combo.addItem(text, sid)
+            index = self.sensor_combo.findData(current_sensor)
+            if index >= 0:
+                self.sensor_combo.setCurrentIndex(index)
             self.sensor_combo.blockSignals(False)
+            self._titled_sensor = ""  # the sensor's name may have changed with its segment
+            self._fit_titles()
         joints = list(self.source.joint_names)
         if list(self.joint_actions) != joints:
             self.joint_menu.clear()
             self.joint_actions = {}
             for joint in joints:
-                action = self.joint_menu.addAction(joint)
+                action = self.joint_menu.addAction(joint_name(joint))
                 action.setCheckable(True)
                 action.toggled.connect(lambda on, j=joint: self._joint_toggled(j, on))
                 self.joint_actions[joint] = action
@@ -361,12 +425,19 @@ class LivePlots(QtWidgets.QWidget):
             if not kept and joints:
                 kept = [DEFAULT_JOINT if DEFAULT_JOINT in joints else joints[0]]
             self.set_joints(kept)
+            self._fit_titles()
 
     def start(self) -> None:
         self._timer.start()
 
     def stop(self) -> None:
         self._timer.stop()
+
+    @property
+    def sensor_id(self) -> str:
+        """The id of the sensor plotted ("" when none)."""
+        data = self.sensor_combo.currentData()
+        return "" if data is None else str(data)
 
     @property
     def paused(self) -> bool:
@@ -412,11 +483,11 @@ class LivePlots(QtWidgets.QWidget):
         origin = cursor if self.relative_time and np.isfinite(cursor) else 0.0
         self._origin = origin
         now = time.perf_counter()
-        sensor = self.sensor_combo.currentText()
+        sensor = self.sensor_id
         drew = False
         if sensor and sensor != self._titled_sensor:
             for key, title, _unit, _r in SENSOR_PLOTS:
-                self._set_title(key, f"{title} {sensor}")
+                self._set_title(key, f"{title}, {self._sensor_title(sensor)}")
             self._titled_sensor = sensor
         if sensor:
             t, acc, gyr, mag = self.source.series(sensor, window)

@@ -17,6 +17,7 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap import __version__
+from mimucap.acquisition.source_spec import ReplaySpec, parse_source_spec
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
@@ -24,9 +25,10 @@ from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.scrolling import scrolling
-from mimucap.gui.sensor_panel import SensorPanel
-from mimucap.gui.session_panel import SessionPanel
+from mimucap.gui.sensor_panel import SensorPanel, rejections_tooltip
+from mimucap.gui.session_panel import SessionPanel, display_path
 from mimucap.gui.settings import gui_settings
 from mimucap.gui.source_dialog import (
     DEFAULT_SPEC,
@@ -45,6 +47,7 @@ from mimucap.core.pipeline import POSE_SENSOR_AXES
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
+from mimucap.session.recording_checklist import CheckItem, recording_checklist
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +63,10 @@ PANEL_INTERVAL_MS = 250
 SENSOR_DOCK_START_PX = 190
 #: A dock takes at most this share of a small window's height (Sensors) or width (Session).
 DOCK_MOST_SHARE = 0.3
+#: The checklist before recording is refreshed every this many panel refreshes (once a second).
+CHECKLIST_EVERY = 4
+#: The recording indicator: white on red, always in the status bar while recording.
+RECORDING_STYLE = "QLabel { background: #d62728; color: white; font-weight: bold; padding: 1px 8px; border-radius: 3px; }"
 #: What the 3D view says while it has no figure to show, by pose source.
 VIEW_HINTS = {
     POSE_NONE: "Waiting for data from the source…",
@@ -121,7 +128,7 @@ class MainWindow(QtWidgets.QMainWindow):
         super().__init__()
         self.setObjectName("mainWindow")
         self.setWindowTitle("MimuCap")
-        self.resize(1280, 800)
+        fit_on_screen(self, 1280, 800)
         self.model_name = last_skeleton_model()
         self.session_factory = session_factory or (
             lambda spec: open_live_session(spec, model_name=self.model_name))
@@ -138,6 +145,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self._source_problem = ""  # the last problem the source reported (logged when it changes)
         self._sensors_seen: set[str] = set()  # sensors the remembered assignment was offered to
         self.last_recording = None  # RecordingResult of the last recording saved
+        self._panel_refreshes = 0
+        self._closing_progress: QtWidgets.QProgressDialog | None = None
+        self._guide: QtWidgets.QWidget | None = None  # Help → User Guide, made when first asked
+        #: Asked before recording while an item of the checklist is not ok (the items not ok);
+        #: True records anyway. Tests and scripts may replace it.
+        self.confirm_recording: Callable[[list[CheckItem]], bool] = self._ask_to_record_anyway
 
         self.scene_view = SceneView(self)
         self.plots = LivePlots(self, relative_time=True)
@@ -221,7 +234,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_assign = session_menu.addAction("&Assign Sensors…", self.assign_sensors)
         self.action_record = session_menu.addAction("Start &Recording", self.toggle_recording)
         self.action_record.setShortcut(QtGui.QKeySequence("Ctrl+R"))
-        self.action_marker = session_menu.addAction("Add &Marker", lambda: self.add_marker(self.session_panel.marker_label.text().strip()))
+        self.action_marker = session_menu.addAction("Add &Marker", self.session_panel.request_marker)
         self.action_marker.setShortcut(QtGui.QKeySequence("M"))
 
         view_menu = bar.addMenu("&View")
@@ -260,12 +273,24 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.action_rom = bar.addMenu("&Assess").addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
 
         help_menu = bar.addMenu("&Help")
+        self.action_guide = help_menu.addAction("&User Guide", self.show_user_guide)
+        self.action_guide.setShortcut(QtGui.QKeySequence.HelpContents)
         self.action_about = help_menu.addAction("&About MimuCap", self.show_about)
 
     def _build_status_bar(self) -> None:
         status = self.statusBar()
+        self.recording_indicator = QtWidgets.QLabel("", self)
+        self.recording_indicator.setObjectName("recordingIndicator")
+        self.recording_indicator.setStyleSheet(RECORDING_STYLE)
+        self.recording_indicator.setVisible(False)
+        status.addPermanentWidget(self.recording_indicator)
         self.source_status = ElidedLabel("", self)
         self.pose_status = ElidedLabel("", self)
+        self.refused_status = QtWidgets.QLabel(self)
+        self.refused_status.setObjectName("refusedStatus")
+        self.refused_status.setStyleSheet("QLabel { color: #c05800; }")
+        self.refused_status.setVisible(False)
+        status.addPermanentWidget(self.refused_status)
         self.rate_status = QtWidgets.QLabel(self)
         self.cpu_status = QtWidgets.QLabel(self)
         self.fps_status = QtWidgets.QLabel(self)
@@ -295,7 +320,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self.live = session
         kept = self._keep_body_calibration(previous, session)
         self.session_panel.markers_list.clear()  # the old source's markers, on its clock
-        remembered = remembered_assignment()
+        # A replayed recording keeps the placement stored in it (the source gives it); other
+        # sources take the assignment made last time.
+        replayed = isinstance(parse_source_spec(spec), ReplaySpec)
+        remembered = {} if replayed else remembered_assignment()
         for sensor_id, segment in remembered.items():
             if sensor_id in session.sensor_ids and segment in session.model.segment_names:
                 session.assign_sensor(sensor_id, segment)
@@ -443,7 +471,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self._tints = {r.segment: r.state for r in rows if r.segment is not None}
         self.plots.update_choices()
         if live.recording:
-            self.session_panel.show_info(live.recording_info())
+            info = live.recording_info()
+            self.session_panel.show_info(info)
+            self._show_elapsed(info.elapsed_s)
+        elif self._panel_refreshes % CHECKLIST_EVERY == 0:
+            self.session_panel.show_checklist(recording_checklist(live))
+        self._panel_refreshes += 1
         self.source_status.setText(f"Source: {live.label}")
         self.pose_status.setText(f"Pose: {live.pose_source}" + self._accuracy_text(live))
         self.action_truth.setEnabled(live.has_truth)
@@ -458,6 +491,7 @@ class MainWindow(QtWidgets.QMainWindow):
                                      "(File → Choose Source…).")
         else:
             self.scene_view.set_hint(VIEW_HINTS.get(live.pose_source, ""))
+        self._show_refused_without_sensor(live)
         rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
         drops = sum(r.drops for r in rows)
         self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")
@@ -467,6 +501,20 @@ class MainWindow(QtWidgets.QMainWindow):
             self.fps_status.setText(f"{(len(times) - 1) / (times[-1] - times[0]):.0f} fps")
         else:
             self.fps_status.setText("– fps")
+
+    def _show_refused_without_sensor(self, live: LiveSession) -> None:
+        """Packets refused that belong to no sensor of the table (an unknown sender, a line too
+        damaged to name its sensor): counted in the status bar, the reasons and senders on hover."""
+        refused = getattr(live.feed, "refused_without_sensor", None)
+        counts, senders = refused() if callable(refused) else ({}, {})
+        total = sum(counts.values())
+        self.refused_status.setVisible(total > 0)
+        if total:
+            self.refused_status.setText(f"{total} packets refused from no known sensor")
+            tooltip = rejections_tooltip(counts)
+            if senders:
+                tooltip += "\nFrom: " + ", ".join(f"{sender} ({count})" for sender, count in senders.items())
+            self.refused_status.setToolTip(tooltip)
 
     # -- user actions: source, sensors, recording ------------------------------------------------
     def choose_source(self) -> None:
@@ -542,6 +590,12 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.set_recording(False)
             return
         if on and not self.live.recording:
+            checklist = recording_checklist(self.live)
+            self.session_panel.show_checklist(checklist)
+            not_ok = [item for item in checklist if not item.ok]
+            if not_ok and not self.confirm_recording(not_ok):
+                self.session_panel.set_recording(False)
+                return
             try:
                 subject = self.session_panel.subject()
                 condition, tags = self.session_panel.session_fields()
@@ -557,16 +611,40 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.markers_list.clear()
             self._show_recording(True)
             self.session_panel.show_info(self.live.recording_info())
-            self.statusBar().showMessage(f"Recording to {path}")
+            self.statusBar().showMessage(f"Recording to {display_path(path)}")
         elif not on and self.live.recording:
             self._finish_recording()
 
+    def _ask_to_record_anyway(self, items: list[CheckItem]) -> bool:
+        """Ask whether to record although ``items`` of the checklist are not ok."""
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Warning, "Before recording",
+                                    "Not everything is ready for a recording:", parent=self)
+        box.setInformativeText("\n".join(f"• {item.title}: {item.text}" for item in items)
+                               + "\n\nThe recording may not be usable for analysis. Record anyway?")
+        record = box.addButton("Record Anyway", QtWidgets.QMessageBox.AcceptRole)
+        box.addButton(QtWidgets.QMessageBox.Cancel)
+        box.setDefaultButton(QtWidgets.QMessageBox.Cancel)
+        box.exec_()
+        return box.clickedButton() is record
+
     def _show_recording(self, on: bool) -> None:
         """The window's controls while recording (``on``) or not: the Record button and menu
-        item, the subject fields, and Choose Source (no source change while recording)."""
+        item, the subject fields, Choose Source (no source change while recording), the red
+        indicator and the window title; the checklist is shown only before recording."""
         self.session_panel.set_recording(on)
         self.action_record.setText("Stop &Recording" if on else "Start &Recording")
         self.action_source.setEnabled(not on)
+        self.session_panel.checklist_box.setVisible(not on)
+        self.recording_indicator.setVisible(on)
+        self.setWindowTitle("● Recording — MimuCap" if on else "MimuCap")
+        if on:
+            self._show_elapsed(0.0)
+
+    def _show_elapsed(self, elapsed_s: float) -> None:
+        minutes, seconds = divmod(int(elapsed_s), 60)
+        hours, minutes = divmod(minutes, 60)
+        clock = f"{hours}:{minutes:02d}:{seconds:02d}" if hours else f"{minutes:02d}:{seconds:02d}"
+        self.recording_indicator.setText(f"● REC {clock}")
 
     def _finish_recording(self, wait: bool = False) -> None:
         """Stop recording at once; the session file is written in a background thread (the
@@ -574,17 +652,29 @@ class MainWindow(QtWidgets.QMainWindow):
         live = self.live
         pending = live.end_recording()
         self._show_recording(False)
-        message = f"Saving the session to {pending.session_path}…"
+        message = f"Saving the session to {display_path(pending.session_path)}…"
         self.session_panel.show_info(None, message)
+        self.session_panel.show_saving(True)
         self.statusBar().showMessage(message)
         task = BackgroundTask(lambda _progress: pending.save(), self)
+        task.setObjectName(pending.session_path.name)
         task.succeeded.connect(lambda result: self._recording_saved(live, result))
         task.failed.connect(lambda error: self._recording_not_saved(pending, error))
-        task.finished.connect(lambda: self.saving_tasks.remove(task) if task in self.saving_tasks else None)
+        task.finished.connect(lambda: self._saving_finished(task))
         self.saving_tasks.append(task)
         task.start()
         if wait:
             self.wait_for_saving()
+
+    def _saving_finished(self, task: BackgroundTask) -> None:
+        if task in self.saving_tasks:
+            self.saving_tasks.remove(task)
+        if not self.saving:
+            self.session_panel.show_saving(False)
+            if self._closing_progress is not None:  # the window was closed while saving: close now
+                self._closing_progress.close()
+                self._closing_progress = None
+                self.close()
 
     def wait_for_saving(self) -> None:
         """Block until every session file being written is written (their messages shown)."""
@@ -602,7 +692,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.last_recording = result
         samples = sum(result.samples.values())
         if result.session_path is not None:
-            message = f"Saved {samples} samples to {result.session_path}"
+            message = f"Saved {samples} samples to {display_path(result.session_path)}"
             if result.message:
                 message += f" ({result.message})"
             if samples == 0:
@@ -757,8 +847,35 @@ class MainWindow(QtWidgets.QMainWindow):
         about to change (nothing it had not applied yet is applied)."""
         wizard, self._wizard = self._wizard, None
         if wizard is not None and wizard.isVisible():
+            discard = getattr(wizard, "discard_assignment", None)
+            if callable(discard):  # its sensor mapping was for the session that goes away
+                discard()
             wizard.close()
             self.statusBar().showMessage(f"The calibration wizard was closed: {why}.", 8000)
+
+    def _show_closing_progress(self) -> None:
+        if self._closing_progress is not None:
+            return
+        names = ", ".join(str(task.objectName()) for task in self.saving_tasks if task.objectName())
+        dialog = QtWidgets.QProgressDialog(f"Writing the session file before closing…\n{names}".strip(),
+                                           "", 0, 0, self)
+        dialog.setObjectName("closingProgress")
+        dialog.setWindowTitle("MimuCap")
+        dialog.setCancelButton(None)  # the file must be written: the journal is converted whole
+        dialog.setWindowModality(QtCore.Qt.WindowModal)
+        dialog.setMinimumDuration(0)
+        dialog.show()
+        self._closing_progress = dialog
+        self.statusBar().showMessage("Writing the session file before closing…")
+
+    def show_user_guide(self) -> None:
+        """Open the user guide (shipped with the program, read offline) in its own window."""
+        from mimucap.gui.user_guide import UserGuideWindow
+
+        if self._guide is None:
+            self._guide = UserGuideWindow(self)
+        self._guide.show()
+        self._guide.raise_()
 
     def show_about(self) -> None:
         QtWidgets.QMessageBox.about(self, "About MimuCap", ABOUT_TEXT.format(version=__version__))
@@ -798,12 +915,11 @@ class MainWindow(QtWidgets.QMainWindow):
                 return
             self._finish_recording()
         if self.saving:
-            self.statusBar().showMessage("Writing the session file before closing…")
-            QtWidgets.QApplication.setOverrideCursor(QtCore.Qt.WaitCursor)
-            try:
-                self.wait_for_saving()
-            finally:
-                QtWidgets.QApplication.restoreOverrideCursor()
+            # The file is written in its thread while the window keeps running: it closes
+            # when the writing is done (:meth:`_saving_finished`), with a progress dialog until then.
+            event.ignore()
+            self._show_closing_progress()
+            return
         if self._warm_up is not None and self._warm_up.isRunning():
             self._warm_up.succeeded.disconnect()
             self._warm_up.failed.disconnect()

@@ -20,6 +20,8 @@ from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
+from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.session_panel import display_path
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.session.evaluation import angle_errors
@@ -80,7 +82,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.path = Path(path)
         self.setObjectName("reviewWindow")
         self.setWindowTitle(f"MimuCap Review: {self.path.name}")
-        self.resize(1280, 800)
+        fit_on_screen(self, 1280, 800, parent)
         self.player: ReviewPlayer | None = None
         self.export_dialog: ExportDialog | None = None
         self.analysis_window = None
@@ -195,7 +197,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
     # -- loading -----------------------------------------------------------------------------
     def load(self) -> None:
         """Load the session in the background; :attr:`loaded` is emitted when it is shown."""
-        self.statusBar().showMessage(f"Opening {self.path}…")
+        self.statusBar().showMessage(f"Opening {display_path(self.path)}…")
         result = self.result_combo.currentData()
         self._task = BackgroundTask(lambda progress: load_review(self.path, progress, result=result), self)
         self._task.progress.connect(lambda f: self.progress.setValue(int(round(100 * f))))
@@ -253,7 +255,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
             self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker.label}")
         self.pose_status.setText(f"Pose: {data.pose_source}; {RESULT_TITLES[data.result].lower()}"
                                  + accuracy_text(data))
-        message = (f"{self.path}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
+        message = (f"{display_path(self.path)}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
                    f"{len(data.markers)} markers")
         if data.missing:
             message += " — " + "; ".join(data.missing)

@@ -1,7 +1,13 @@
-"""The sensor panel: one row per sensor (id, segment, rate, drops, latency, battery, radio signal,
-magnetometer calibration, fusion flags), a stale sensor flagged in red. Orientation-only
-sensors (on-board fusion, e.g. SlimeVR trackers) read "on-board" under magnetometer calibration. Shows
-:class:`~mimucap.session.live.SensorRow` values as they are; computes nothing."""
+"""The sensor panel: one row per sensor (id, segment, rate, drops, packets refused, latency,
+battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red.
+Orientation-only sensors (on-board fusion, e.g. SlimeVR trackers) read "on-board" under
+magnetometer calibration. Shows :class:`~mimucap.session.live.SensorRow` values as they are;
+computes nothing.
+
+The "Refused" column counts the packets of a sensor that the source received and refused
+(stale sequence number, value out of range, bad checksum…); its tooltip lists them by reason,
+so that a sensor shown STALE while its packets still arrive explains itself.
+"""
 
 from __future__ import annotations
 
@@ -10,16 +16,52 @@ from collections.abc import Sequence
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
+from mimucap.acquisition.rejections import Rejection
+from mimucap.core.clinical_names import segment_name
 from mimucap.session.live import SensorRow
 
-COLUMNS = ("Sensor", "Segment", "Rate (Hz)", "Drops", "Latency p95 (ms)", "Battery (%)", "Signal (dBm)",
-           "Mag. calibration", "Fusion flags", "State")
+COLUMNS = ("Sensor", "Segment", "Rate (Hz)", "Drops", "Refused", "Latency p95 (ms)", "Battery (%)",
+           "Signal (dBm)", "Mag. calibration", "Fusion flags", "State")
+#: What each refusal reason means to the person looking at the panel.
+REJECTION_TEXT = {
+    Rejection.TOO_SHORT: "packet too short",
+    Rejection.OVERSIZED: "packet or line too long",
+    Rejection.BAD_MAGIC: "not a MimuCap packet",
+    Rejection.UNSUPPORTED_VERSION: "protocol version not supported (update the sensor's firmware)",
+    Rejection.UNKNOWN_TYPE: "unknown message type",
+    Rejection.UNKNOWN_FLAGS: "unknown payload flags",
+    Rejection.LENGTH_MISMATCH: "payload length does not match its flags",
+    Rejection.BAD_CHECKSUM: "checksum wrong (damaged in transit)",
+    Rejection.MALFORMED_LINE: "malformed text line",
+    Rejection.BAD_FIELD: "a field is not a number",
+    Rejection.NON_FINITE: "a value is NaN or infinite",
+    Rejection.OUT_OF_RANGE: "a value outside the sensor's physical range",
+    Rejection.UNKNOWN_SENSOR: "a sensor id this source does not expect",
+    Rejection.UNKNOWN_ADDRESS: "a sender this source does not accept",
+    Rejection.STALE_SEQUENCE: "stale: a repeated or older packet number (a sensor restarted, or packets arrive twice)",
+    Rejection.UNEXPECTED_MESSAGE: "a message not expected here",
+    Rejection.QUEUE_OVERFLOW: "the program could not keep up; the sample was discarded",
+    Rejection.UNDECODABLE: "the packet could not be decoded",
+}
+REFUSED_COLUMN = COLUMNS.index("Refused")
 STALE_BRUSH = QtGui.QBrush(QtGui.QColor(255, 205, 205))
 WARN_BRUSH = QtGui.QBrush(QtGui.QColor(255, 236, 200))
 
 
 def _number(value: float, digits: int = 0) -> str:
     return "–" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
+
+
+def rejections_tooltip(counts: dict[str, int]) -> str:
+    """The packets refused, one reason a line, most frequent first ("" when none)."""
+    lines = []
+    for reason, count in sorted(counts.items(), key=lambda item: (-item[1], item[0])):
+        try:
+            text = REJECTION_TEXT[Rejection(reason)]
+        except ValueError:
+            text = reason.replace("_", " ")
+        lines.append(f"{count} × {text}")
+    return "Packets refused:\n" + "\n".join(lines) if lines else "No packet of this sensor was refused."
 
 
 def _age(seconds: float) -> str:
@@ -51,6 +93,8 @@ class SensorPanel(QtWidgets.QTableWidget):
         self.setSelectionMode(QtWidgets.QAbstractItemView.SingleSelection)
         self.horizontalHeader().setSectionResizeMode(QtWidgets.QHeaderView.Interactive)
         self.horizontalHeader().setStretchLastSection(True)
+        # One line of text a row (the style's default is half as tall again): more sensors in view.
+        self.verticalHeader().setDefaultSectionSize(self.fontMetrics().height() + 8)
         self._shown_ids: tuple[str, ...] = ()
 
     def show_rows(self, rows: Sequence[SensorRow]) -> None:
@@ -59,7 +103,10 @@ class SensorPanel(QtWidgets.QTableWidget):
         if self.rowCount() != len(rows):
             self.setRowCount(len(rows))
         for r, row in enumerate(rows):
-            if row.stale:
+            refused = sum(row.rejections.values())
+            if row.stale and refused:
+                state = "STALE: packets arrive but are refused (see Refused)"
+            elif row.stale:
                 state = "STALE: no data"
             elif row.state == "mag_uncalibrated":
                 state = "magnetometer not calibrated"
@@ -68,8 +115,9 @@ class SensorPanel(QtWidgets.QTableWidget):
             else:
                 state = "ok"
             values = (
-                row.sensor_id, row.segment or "(not assigned)", _number(row.rate_hz, 1), str(row.drops),
-                _number(row.latency_ms, 1), _number(row.battery_pct), _number(row.signal_dbm),
+                row.sensor_id, segment_name(row.segment) if row.segment else "(not assigned)",
+                _number(row.rate_hz, 1), str(row.drops), str(refused), _number(row.latency_ms, 1),
+                _number(row.battery_pct), _number(row.signal_dbm),
                 row.mag_cal + (f" ({row.mag_cal_verdict})" if row.mag_cal_verdict else "") + _age(row.mag_cal_age_s),
                 ", ".join(row.flags) or "–", state,
             )
@@ -84,6 +132,10 @@ class SensorPanel(QtWidgets.QTableWidget):
                     refit = refit or self._too_narrow(c, text)
                 if item.background() != brush:
                     item.setBackground(brush)
+            refused_item = self.item(r, REFUSED_COLUMN)
+            tooltip = rejections_tooltip(dict(row.rejections))
+            if refused_item.toolTip() != tooltip:
+                refused_item.setToolTip(tooltip)
         if refit:
             self._shown_ids = ids
             self.resizeColumnsToContents()

@@ -1,14 +1,32 @@
-"""The session panel: subject record, record start/stop with what is recorded where, markers.
+"""The session panel: subject record, the checklist before recording, record start/stop with
+what is recorded where (and a progress bar while the file is written), markers.
 
 It holds widgets only; the main window connects them to the live session.
 """
 
 from __future__ import annotations
 
+import html
+from pathlib import Path
+
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.session.live import RecordingInfo
+from mimucap.session.recording_checklist import CheckItem
 from mimucap.session.subject import DOMINANCE, Subject
+
+#: How a checklist item is marked: ok, or to look at.
+CHECK_MARKS = {True: ("✔", "#2ca02c"), False: ("⚠", "#c05800")}
+
+
+def display_path(path) -> str:
+    """``path`` as a person reads it: the home folder written ``~`` (shorter, and the same on
+    every screenshot)."""
+    text = str(path)
+    home = str(Path.home())
+    if home not in ("", "/") and (text == home or text.startswith(home.rstrip("/") + "/")):
+        return "~" + text[len(home.rstrip("/")):]
+    return text
 
 
 def _size(n_bytes: int) -> str:
@@ -57,6 +75,11 @@ class SessionPanel(QtWidgets.QWidget):
         form.addRow("Condition", self.condition)
         form.addRow("Tags", self.tags)
 
+        self.checklist_box = QtWidgets.QGroupBox("Before recording", self)
+        self.checklist_box.setObjectName("checklistBox")
+        self.checklist_labels: dict[str, QtWidgets.QLabel] = {}
+        QtWidgets.QVBoxLayout(self.checklist_box).setSpacing(2)
+
         record_box = QtWidgets.QGroupBox("Recording", self)
         self.record_button = QtWidgets.QPushButton("● Record", record_box)
         self.record_button.setObjectName("recordButton")
@@ -71,6 +94,7 @@ class SessionPanel(QtWidgets.QWidget):
         self.marker_label = QtWidgets.QLineEdit(record_box)
         self.marker_label.setObjectName("markerLabel")
         self.marker_label.setPlaceholderText("marker label")
+        self.marker_label.setToolTip("The label of the next marker; it is used once, then the field empties.")
         self.marker_button = QtWidgets.QPushButton("Add Marker (M)", record_box)
         self.marker_button.setObjectName("markerButton")
         self.marker_button.setFocusPolicy(QtCore.Qt.TabFocus)
@@ -79,9 +103,15 @@ class SessionPanel(QtWidgets.QWidget):
         self.markers_list = QtWidgets.QListWidget(record_box)
         self.markers_list.setObjectName("markersList")
         self.markers_list.setMaximumHeight(110)
+        self.saving_bar = QtWidgets.QProgressBar(record_box)
+        self.saving_bar.setObjectName("savingBar")
+        self.saving_bar.setRange(0, 0)  # busy: the file's conversion reports no fraction
+        self.saving_bar.setTextVisible(False)
+        self.saving_bar.setVisible(False)
         layout = QtWidgets.QVBoxLayout(record_box)
         layout.addWidget(self.record_button)
         layout.addWidget(self.record_status)
+        layout.addWidget(self.saving_bar)
         row = QtWidgets.QHBoxLayout()
         row.addWidget(self.marker_label, 1)
         row.addWidget(self.marker_button)
@@ -90,6 +120,7 @@ class SessionPanel(QtWidgets.QWidget):
 
         main = QtWidgets.QVBoxLayout(self)
         main.addWidget(subject_box)
+        main.addWidget(self.checklist_box)
         main.addWidget(record_box)
         main.addStretch(1)
 
@@ -128,7 +159,34 @@ class SessionPanel(QtWidgets.QWidget):
         self.set_subject_editable(not on)
 
     def request_marker(self) -> None:
-        self.marker_requested.emit(self.marker_label.text().strip())
+        """Ask for a marker with the typed label, then clear the field: a label is used once
+        (the next press without typing is a plain "marker")."""
+        label = self.marker_label.text().strip()
+        self.marker_label.clear()
+        self.marker_requested.emit(label)
+
+    def show_checklist(self, items: list[CheckItem]) -> None:
+        """Show the checklist before recording: one line per item, marked ✔ or ⚠."""
+        layout = self.checklist_box.layout()
+        for item in items:
+            label = self.checklist_labels.get(item.key)
+            if label is None:
+                label = QtWidgets.QLabel(self.checklist_box)
+                label.setObjectName(f"check_{item.key}")
+                label.setWordWrap(True)
+                label.setTextFormat(QtCore.Qt.RichText)
+                layout.addWidget(label)
+                self.checklist_labels[item.key] = label
+            mark, colour = CHECK_MARKS[item.ok]
+            text = (f"<span style='color:{colour}'>{mark}</span> <b>{html.escape(item.title)}</b>: "
+                    f"{html.escape(item.text)}")
+            if label.text() != text:
+                label.setText(text)
+            label.setProperty("ok", item.ok)
+
+    def show_saving(self, saving: bool) -> None:
+        """Show the busy bar while a stopped recording's file is written."""
+        self.saving_bar.setVisible(saving)
 
     def show_info(self, info: RecordingInfo | None, last_message: str = "") -> None:
         if info is None:
@@ -137,7 +195,7 @@ class SessionPanel(QtWidgets.QWidget):
         minutes, seconds = divmod(info.elapsed_s, 60.0)
         self.record_status.setText(
             f"Recording {int(minutes):02d}:{seconds:04.1f}, {_size(info.size_bytes)}, "
-            f"{info.markers} marker(s)\n→ {info.path}")
+            f"{info.markers} marker(s)\n→ {display_path(info.path)}")
 
     def add_marker_line(self, label: str, recording_t_s: float | None) -> None:
         """List a marker: at its time in the recording (s since the recording started, as

@@ -5,36 +5,105 @@ Both hold ``t_s`` (N,) seconds and one column per joint and axis, named
 for their meaning, see :func:`mimucap.core.skeleton.joint_angle_columns`), in degrees.
 
 * CSV: ``#`` comment lines state the Euler sequence of every joint, the sign convention
-  (:data:`mimucap.core.skeleton.JOINT_ANGLE_SIGNS_DOC`), units and provenance; then the header
-  ``t_s,<columns>`` and one row per sample.
+  (:data:`mimucap.core.skeleton.JOINT_ANGLE_SIGNS_DOC`), units and provenance, every column's
+  readable label and sign (``column knee_r_flexion_deg: Right knee flexion (°); + flexion /
+  − extension``, from :mod:`mimucap.core.clinical_names`) and the markers of the record
+  (``marker 12.340000 "heel strike"``: time in s on the ``t_s`` axis, the label as a JSON
+  string); then the header ``t_s,<columns>`` and one row per sample.
 * ``.mot``: OpenSim's storage format: a name line, ``version=1``, ``nRows``, ``nColumns``
   (counting ``time``), ``inDegrees=yes``, free description lines, ``endheader``, then a
   tab-separated table whose first column is ``time``. Description lines carry no ``=``
-  (OpenSim reads ``key=value`` header lines as metadata). With ``opensim_names`` the columns are
-  named as the OpenSim model's coordinates instead (``hip_flexion_r``, ``knee_angle_r``,
-  ``lumbar_extension``…, with OpenSim's signs; the table is
-  :data:`mimucap.io.opensense.OPENSIM_COORDINATES`), so that OpenSim loads the file as a motion of
-  its Rajagopal or gait2392-style models.
+  (OpenSim reads ``key=value`` header lines as metadata); they hold the same column and marker
+  lines as the CSV. With ``opensim_names`` the columns are named as the OpenSim model's
+  coordinates instead (``hip_flexion_r``, ``knee_angle_r``, ``lumbar_extension``…, with OpenSim's
+  signs; the table is :data:`mimucap.io.opensense.OPENSIM_COORDINATES`), so that OpenSim loads the
+  file as a motion of its Rajagopal or gait2392-style models.
+
+Any later export format writes its markers with :func:`marker_lines` and reads them back with
+:func:`parse_marker_line`, so that a marker reads the same in every file.
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from mimucap.core.clinical_names import angle_label, angle_sign_text
 from mimucap.core.skeleton import JOINT_ANGLE_SIGNS_DOC
+from mimucap.io.session import Marker
+
+#: How a marker line starts in a header (after the comment sign of the format).
+MARKER_PREFIX = "marker "
+#: How a column's label line starts.
+COLUMN_PREFIX = "column "
 
 
 @dataclass(frozen=True)
 class AnglesTable:
-    """Joint angles read back from a file: ``t_s`` (N,), ``angles_deg`` column → (N,), header notes."""
+    """Joint angles read back from a file: ``t_s`` (N,), ``angles_deg`` column → (N,), header
+    notes, ``labels`` column → readable label, ``markers`` of the record (times in s on the
+    ``t_s`` axis)."""
 
     t_s: np.ndarray
     angles_deg: Mapping[str, np.ndarray]
     header: Sequence[str] = field(default_factory=tuple)
+    labels: Mapping[str, str] = field(default_factory=dict)
+    markers: Sequence[Marker] = field(default_factory=tuple)
+
+
+def marker_lines(markers: Sequence[Marker]) -> list[str]:
+    """Header lines for ``markers``: a count line, then ``marker <t_s> <label as JSON>`` each,
+    in time order. A JSON string keeps any label on one line (quotes, commas, tabs, non-ASCII);
+    ``=`` is written as ``\\u003d`` so that OpenSim never takes the line for ``key=value``."""
+    ordered = sorted(markers, key=lambda m: m.t_s)
+    lines = [f"Markers: {len(ordered)} (time in s on the table's time axis, then the label)"]
+    for marker in ordered:
+        if not np.isfinite(marker.t_s):
+            raise ValueError(f"marker {marker.label!r} has no finite time ({marker.t_s})")
+        label = json.dumps(str(marker.label), ensure_ascii=False).replace("=", "\\u003d")
+        lines.append(f"{MARKER_PREFIX}{marker.t_s:.6f} {label}")
+    return lines
+
+
+def parse_marker_line(line: str) -> Marker | None:
+    """The marker a header line written by :func:`marker_lines` holds (``None`` for another
+    line); ``ValueError`` for a marker line that is damaged."""
+    if not line.startswith(MARKER_PREFIX):
+        return None
+    time_text, _sep, label = line[len(MARKER_PREFIX):].partition(" ")
+    try:
+        return Marker(float(time_text), str(json.loads(label)))
+    except (ValueError, json.JSONDecodeError):
+        raise ValueError(f"damaged marker line {line!r}: expected 'marker <seconds> \"label\"'") from None
+
+
+def column_lines(columns: Sequence[str]) -> list[str]:
+    """``column <name>: <readable label>; <sign>`` for each column (no ``=``, no comma needed)."""
+    lines = []
+    for column in columns:
+        sign = angle_sign_text(column)
+        lines.append(f"{COLUMN_PREFIX}{column}: {angle_label(column)}" + (f"; {sign}" if sign else ""))
+    return lines
+
+
+def _read_header(header: Sequence[str], path: Path) -> tuple[dict[str, str], tuple[Marker, ...]]:
+    labels: dict[str, str] = {}
+    markers: list[Marker] = []
+    for line in header:
+        try:
+            marker = parse_marker_line(line)
+        except ValueError as error:
+            raise ValueError(f"{path}: {error}") from None
+        if marker is not None:
+            markers.append(marker)
+        elif line.startswith(COLUMN_PREFIX) and ": " in line:
+            name, _sep, rest = line[len(COLUMN_PREFIX):].partition(": ")
+            labels[name] = rest.split("; ", 1)[0]
+    return labels, tuple(markers)
 
 
 def sequence_description(shoulder_sequence: str) -> str:
@@ -62,11 +131,14 @@ def _check(t_s: np.ndarray, angles: Mapping[str, np.ndarray],
     return t, columns, data + 0.0  # no "-0.000000" in the files
 
 
-def _notes(shoulder_sequence: str, notes: Sequence[str]) -> list[str]:
+def _notes(shoulder_sequence: str, notes: Sequence[str], columns: Sequence[str],
+           markers: Sequence[Marker]) -> list[str]:
     lines = ["MimuCap joint angles", sequence_description(shoulder_sequence)]
     lines += JOINT_ANGLE_SIGNS_DOC.splitlines()
     lines += ["Units: t_s in seconds; every <joint>_<axis>_deg column in degrees"]
     lines += list(notes)
+    lines += ["Columns: machine name, readable label, sign"] + column_lines(columns)
+    lines += marker_lines(markers)
     return lines
 
 
@@ -76,11 +148,14 @@ def write_angles_csv(
     angles_deg: Mapping[str, np.ndarray],
     shoulder_sequence: str = "zxy",
     notes: Sequence[str] = (),
+    markers: Sequence[Marker] = (),
 ) -> None:
-    """Write joint angles (deg) as CSV with a commented header; ``notes`` are extra comment lines."""
+    """Write joint angles (deg) as CSV with a commented header; ``notes`` are extra comment
+    lines, ``markers`` (times in s on the ``t_s`` axis) go in the header's marker table."""
     t, columns, data = _check(t_s, angles_deg)
+    header = _notes(shoulder_sequence, notes, columns, markers)
     with Path(path).open("w", encoding="utf-8", newline="") as handle:
-        for line in _notes(shoulder_sequence, notes):
+        for line in header:
             handle.write(f"# {line}\n")
         handle.write(",".join(["t_s"] + columns) + "\n")
         for time, row in zip(t, data):
@@ -95,8 +170,10 @@ def write_angles_mot(
     notes: Sequence[str] = (),
     name: str = "mimucap_joint_angles",
     opensim_names: bool = False,
+    markers: Sequence[Marker] = (),
 ) -> None:
-    """Write joint angles (deg) as an OpenSim ``.mot`` motion with ``inDegrees=yes``.
+    """Write joint angles (deg) as an OpenSim ``.mot`` motion with ``inDegrees=yes``;
+    ``markers`` (times in s on the time axis) go in its description lines.
 
     ``opensim_names``: name the columns as OpenSim coordinates with OpenSim's signs (see the
     module doc; needs the shoulder's Z-X'-Y'' columns for ``arm_flex``/``arm_add``/``arm_rot``);
@@ -116,14 +193,17 @@ def write_angles_mot(
             + "; ".join(f"{c} = {'-' if OPENSIM_COORDINATES[c][1] < 0 else ''}{OPENSIM_COORDINATES[c][0]}"
                         for c in renamed)]
         t, columns, data = _check(t_s, renamed, unit_suffix=False)
+        labelled = [OPENSIM_COORDINATES[c][0] for c in columns]
     else:
         t, columns, data = _check(t_s, angles_deg)
+        labelled = columns
+    header = _notes(shoulder_sequence, notes, labelled, markers)
     with Path(path).open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"{name}\nversion=1\nnRows={t.size}\nnColumns={len(columns) + 1}\ninDegrees=yes\n\n")
         handle.write("Units are S.I. units (second, meters, Newtons, ...)\n")
         handle.write("If the header above contains a line with 'inDegrees', this indicates whether "
                      "rotational values are in degrees (yes) or radians (no).\n")
-        for line in _notes(shoulder_sequence, notes):
+        for line in header:
             handle.write(line.replace("=", ":") + "\n")
         handle.write("\nendheader\n")
         handle.write("\t".join(["time"] + columns) + "\n")
@@ -132,15 +212,15 @@ def write_angles_mot(
 
 
 def write_angles(path: str | Path, t_s, angles_deg, shoulder_sequence: str = "zxy", notes: Sequence[str] = (),
-                 opensim_names: bool = False) -> None:
+                 opensim_names: bool = False, markers: Sequence[Marker] = ()) -> None:
     """Write ``.csv`` or ``.mot`` by the file's suffix (``opensim_names`` only for ``.mot``)."""
     suffix = Path(path).suffix.lower()
     if opensim_names and suffix != ".mot":
         raise ValueError(f"{path}: OpenSim coordinate names are for .mot files")
     if suffix == ".csv":
-        write_angles_csv(path, t_s, angles_deg, shoulder_sequence, notes)
+        write_angles_csv(path, t_s, angles_deg, shoulder_sequence, notes, markers)
     elif suffix == ".mot":
-        write_angles_mot(path, t_s, angles_deg, shoulder_sequence, notes, opensim_names=opensim_names)
+        write_angles_mot(path, t_s, angles_deg, shoulder_sequence, notes, opensim_names=opensim_names, markers=markers)
     else:
         raise ValueError(f"{path}: joint angles are written as .csv or .mot, not {suffix or 'no suffix'!r}")
 
@@ -172,7 +252,9 @@ def read_angles_csv(path: str | Path) -> AnglesTable:
     if columns is None:
         raise ValueError(f"{path}: no header line")
     data = np.array(rows).reshape(len(rows), len(columns))
-    return AnglesTable(data[:, 0], {c: data[:, i] for i, c in enumerate(columns) if i > 0}, tuple(header))
+    labels, markers = _read_header(header, path)
+    return AnglesTable(data[:, 0], {c: data[:, i] for i, c in enumerate(columns) if i > 0}, tuple(header),
+                       labels, markers)
 
 
 def read_angles_mot(path: str | Path) -> AnglesTable:
@@ -203,4 +285,6 @@ def read_angles_mot(path: str | Path) -> AnglesTable:
     if "nColumns" in meta and int(meta["nColumns"]) != len(columns):
         raise ValueError(f"{path}: nColumns={meta['nColumns']} but {len(columns)} columns follow")
     scale = 1.0 if in_degrees else 180.0 / np.pi
-    return AnglesTable(data[:, 0], {c: data[:, i] * scale for i, c in enumerate(columns) if i > 0}, tuple(header))
+    labels, markers = _read_header(header, path)
+    return AnglesTable(data[:, 0], {c: data[:, i] * scale for i, c in enumerate(columns) if i > 0}, tuple(header),
+                       labels, markers)

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mimucap.io.angles_export import write_angles_csv, write_angles_mot
+from mimucap.core.clinical_names import angle_label
+from mimucap.io.angles_export import marker_lines, write_angles_csv, write_angles_mot
 from mimucap.io.session import Marker
 from mimucap.session.review import ReviewData
 
@@ -98,6 +99,12 @@ def angles_in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> tuple[n
     return data.t_s[keep], {c: v[keep] for c, v in data.angles_deg.items()}
 
 
+def markers_in_range(markers: Sequence[Marker], t_from_s: float, t_to_s: float) -> list[Marker]:
+    """The markers with ``t_from_s <= t_s <= t_to_s`` (s), in time order: every exported
+    file carries the markers of its range."""
+    return sorted((m for m in markers if t_from_s <= m.t_s <= t_to_s), key=lambda m: m.t_s)
+
+
 def summary_table(angles_deg: dict[str, np.ndarray]) -> list[SummaryRow]:
     """Min, max and range of motion of each column (deg), in column order."""
     rows = []
@@ -107,19 +114,26 @@ def summary_table(angles_deg: dict[str, np.ndarray]) -> list[SummaryRow]:
     return rows
 
 
-def write_summary_csv(path: str | Path, rows: Sequence[SummaryRow], t_from_s: float, t_to_s: float) -> Path:
+def write_summary_csv(path: str | Path, rows: Sequence[SummaryRow], t_from_s: float, t_to_s: float,
+                      markers: Sequence[Marker] = ()) -> Path:
+    """The summary as CSV: machine column name, readable label, min, max, range (deg); the
+    header names the range and lists ``markers``."""
     path = Path(path)
     with path.open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"# MimuCap joint angle summary from {t_from_s:.3f} s to {t_to_s:.3f} s; degrees\n")
+        for line in marker_lines(markers):
+            handle.write(f"# {line}\n")
         writer = csv.writer(handle)
-        writer.writerow(["column", "min_deg", "max_deg", "rom_deg"])
+        writer.writerow(["column", "label", "min_deg", "max_deg", "rom_deg"])
         for row in rows:
-            writer.writerow([row.column, f"{row.minimum_deg:.3f}", f"{row.maximum_deg:.3f}", f"{row.rom_deg:.3f}"])
+            writer.writerow([row.column, angle_label(row.column), f"{row.minimum_deg:.3f}", f"{row.maximum_deg:.3f}",
+                             f"{row.rom_deg:.3f}"])
     return path
 
 
 def write_sensor_csv(path: str | Path, data: ReviewData, sensor_id: str, t_from_s: float, t_to_s: float) -> Path:
-    """One sensor's raw channels and orientation in the range (absent channels are left out)."""
+    """One sensor's raw channels and orientation in the range (absent channels are left out);
+    the header lists the range's markers."""
     stream = data.session.sensors[sensor_id]
     keep = (stream.t_s >= t_from_s) & (stream.t_s <= t_to_s)
     columns: list[tuple[str, np.ndarray]] = [("t_s", stream.t_s[keep])]
@@ -133,6 +147,8 @@ def write_sensor_csv(path: str | Path, data: ReviewData, sensor_id: str, t_from_
     with path.open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"# MimuCap sensor {sensor_id} (segment {stream.segment or 'none'}); sensor frame; "
                      "q_world_from_sensor scalar first, world ENU\n")
+        for line in marker_lines(markers_in_range(data.markers, t_from_s, t_to_s)):
+            handle.write(f"# {line}\n")
         handle.write(",".join(name for name, _ in columns) + "\n")
         table = np.column_stack([v for _, v in columns])
         np.savetxt(handle, table, delimiter=",", fmt="%.6f")
@@ -150,14 +166,15 @@ def run_export(data: ReviewData, request: ExportRequest,
     notes = [f"Session {data.path.name}; {request.t_from_s:.3f}..{request.t_to_s:.3f} s",
              f"Result: {data.result_label}; pose from {data.pose_source}; computed from the sensors"]
     notes += [f"Note: {text}" for text in data.missing]
+    markers = markers_in_range(data.markers, request.t_from_s, request.t_to_s)
     jobs: list[tuple[str, Callable[[], Path]]] = []
     if request.angles_csv:
-        jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(p, t, angles, notes=notes))))
+        jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(p, t, angles, notes=notes, markers=markers))))
     if request.angles_mot:
-        jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(p, t, angles, notes=notes))))
+        jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(p, t, angles, notes=notes, markers=markers))))
     if request.summary_csv:
         jobs.append(("summary", lambda: write_summary_csv(base.with_name(base.name + "_summary.csv"), result.summary,
-                                                          request.t_from_s, request.t_to_s)))
+                                                          request.t_from_s, request.t_to_s, markers)))
     motion_files = ((request.opensim_mot, "opensim_mot", base.with_name(base.name + "_opensim.mot")),
                     (request.c3d, "c3d", base.with_suffix(".c3d")), (request.bvh, "bvh", base.with_suffix(".bvh")),
                     (request.opensense_sto, "sto", base.with_name(base.name + "_orientations.sto")))

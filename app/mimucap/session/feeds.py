@@ -49,9 +49,10 @@ class LiveSource(Protocol):
     def poll(self) -> list[SampleBlock]:
         """The sample blocks that arrived since the last call (never blocks)."""
 
-    def take_markers(self) -> list[tuple[float, str]]: ...
-
     def stats(self) -> dict[str, SensorStats]: ...
+
+    def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
+        """Refused inputs that belong to no known sensor: (reason → count, sender → count)."""
 
     def follow(self, instruction: Instruction) -> None:
         """A calibration procedure's instruction (the simulated subject does it)."""
@@ -92,7 +93,6 @@ class SimulatorFeed:
         self._start_host_s: float | None = None
         self._last_poll: float | None = None
         self._trackers = {sid: SensorStatsTracker(sid, name, STATS_WINDOW_S) for sid in self.simulator.sensor_ids}
-        self._markers: list[tuple[float, str]] = []
         #: truth of the newest simulated sample (segment orientations, root), or None
         self.last_truth: SuitTruth | None = None
 
@@ -152,13 +152,7 @@ class SimulatorFeed:
             blocks.append(out)
         if block.truth.t_s.shape[0]:
             self.last_truth = block.truth
-        self._markers.extend((self.host_time_of(t), label) for t, label in block.markers)
         return blocks
-
-    def take_markers(self) -> list[tuple[float, str]]:
-        """Activity changes since the last call: ``(host monotonic s, label)``."""
-        markers, self._markers = self._markers, []
-        return markers
 
     def follow(self, instruction: Instruction) -> None:
         """The simulated subject does what ``instruction`` asks; :data:`instructions.RESUME`
@@ -181,6 +175,10 @@ class SimulatorFeed:
 
     def status_text(self) -> str:
         return f"scenario {self.config.scenario}, activity {self.simulator.current_activity()}"
+
+    def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
+        """Nothing is refused by the simulated suit (see :meth:`SupervisorFeed.refused_without_sensor`)."""
+        return {}, {}
 
     def problem(self) -> str:
         """Why data may not be coming ("" : nothing known); the simulator always delivers."""
@@ -216,10 +214,11 @@ class SupervisorFeed:
         self.supervisor.start()
 
     def poll(self) -> list[SampleBlock]:
-        return self.supervisor.poll(0.0)
-
-    def take_markers(self) -> list[tuple[float, str]]:
-        return self.supervisor.take_markers()
+        blocks = self.supervisor.poll(0.0)
+        # A simulated worker sends its subject's activity changes as markers; live they are
+        # not the user's markers and are not shown (dropped here so they do not pile up).
+        self.supervisor.take_markers()
+        return blocks
 
     def follow(self, instruction: Instruction) -> None:
         """Real sensors are worn by a person, who reads the instruction on the screen."""
@@ -233,6 +232,22 @@ class SupervisorFeed:
         for status in self.supervisor.sources().values():
             out.update(status.signal_dbm)
         return out
+
+    def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
+        """Inputs the sources refused that belong to no known sensor: ``(reason → count,
+        unknown sender or sensor id → count)`` (e.g. packets from an address that is not part of
+        the session, or lines too damaged to name their sensor)."""
+        counts: dict[str, int] = {}
+        unknown: dict[str, int] = {}
+        for status in self.supervisor.sources().values():
+            for reason, count in status.rejections.items():
+                counts[reason] = counts.get(reason, 0) + count
+            for sender, count in status.unknown_sensors.items():
+                unknown[str(sender)] = unknown.get(str(sender), 0) + count
+        for stats in self.supervisor.stats().values():
+            for reason, count in stats.rejections.items():
+                counts[reason] = counts.get(reason, 0) - count
+        return {reason: count for reason, count in counts.items() if count > 0}, unknown
 
     def status_text(self) -> str:
         parts = []

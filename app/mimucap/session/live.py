@@ -100,7 +100,8 @@ class SensorRow:
     now (``"rest"``, ``"mag disturbed"``, ...); ``stale`` no sample for :data:`STALE_AFTER_S`;
     ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``);
     ``signal_dbm`` the strength of its radio link where the source reports one (SlimeVR), NaN
-    otherwise.
+    otherwise; ``rejections`` packets of this sensor the source refused, by reason
+    (:class:`~mimucap.acquisition.rejections.Rejection` value → count, since the source started).
     """
 
     sensor_id: str
@@ -117,6 +118,7 @@ class SensorRow:
     mag_cal_verdict: str = ""
     mag_field_warning: str = ""
     signal_dbm: float = float("nan")
+    rejections: Mapping[str, int] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -173,8 +175,8 @@ class LiveSession:
     ``processed(list[ProcessedBlock])`` the same data with the pipeline's orientations;
     ``frame(frame_id)`` a new pose; ``calibration()`` a calibration was applied;
     ``recording(info_or_None)`` recording started/stopped; ``marker(t_s, label, recorded)``
-    (session time; ``recorded``: the marker is in the recording, as the user's markers are
-    while recording; the source's own, e.g. the simulator's activity changes, are shown only).
+    a marker the user placed (session time; ``recorded``: the marker is in the recording, as
+    markers are while recording; the simulated subject's activity changes are not markers).
     """
 
     def __init__(self, feed, label: str = "", model_name: str = "ten_segment", height_m: float = 1.75,
@@ -411,7 +413,6 @@ class LiveSession:
         if not self.started:
             return 0
         blocks = self.feed.poll()
-        self.feed.take_markers()  # the source's own markers (the simulated activities) are not the user's
         if self._recorder is not None:
             self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
         self._note_truth()
@@ -636,7 +637,8 @@ class LiveSession:
                 latency_ms=float("nan") if st is None else 1000.0 * st.latency_p95_s,
                 battery_pct=float("nan") if state is None else state.battery_pct,
                 mag_cal=mag_cal, mag_cal_age_s=age, flags=flags, stale=stale, state=tint,
-                signal_dbm=signal.get(sid, float("nan"))))
+                signal_dbm=signal.get(sid, float("nan")),
+                rejections={} if st is None else dict(st.rejections)))
         return rows
 
     def series(self, sensor_id: str, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

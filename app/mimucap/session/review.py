@@ -243,6 +243,11 @@ class ReviewPlayer:
         return tuple(self.data.session.sensors)
 
     @property
+    def sensor_segments(self) -> dict[str, str]:
+        """Sensor id → the segment it was worn on in the recording."""
+        return {sid: s.segment for sid, s in self.data.session.sensors.items() if s.segment}
+
+    @property
     def joint_names(self) -> tuple[str, ...]:
         return tuple(self._columns)
 

@@ -51,6 +51,7 @@ class SourceOptions:
 class LoadedReplay:
     streams: tuple[ReplayStream, ...]
     skipped_rows: dict[str, int] = field(default_factory=dict)  #: sensor → rows refused before replay
+    segments: dict[str, str] = field(default_factory=dict)  #: sensor → segment it was worn on (sessions)
 
 
 def load_replay(path: str | Path) -> LoadedReplay:
@@ -84,8 +85,10 @@ def load_replay(path: str | Path) -> LoadedReplay:
 
 def _session_streams(path: Path) -> LoadedReplay:
     session = read_session(path, include_truth=False)
-    streams, skipped = [], {}
+    streams, skipped, segments = [], {}, {}
     for stream in session.sensors.values():
+        if stream.segment:
+            segments[stream.sensor_id] = stream.segment
         calibration = stream.extra.get("calibration_status")
         channels = {"acc": stream.acc, "gyr": stream.gyr, "mag_uT": stream.mag_uT,
                     "q_world_from_sensor": stream.q_world_from_sensor,
@@ -98,7 +101,7 @@ def _session_streams(path: Path) -> LoadedReplay:
         streams.append(replayed)
     if not streams:
         raise ValueError(f"replay file {path} holds no sensor streams")
-    return LoadedReplay(tuple(streams), skipped)
+    return LoadedReplay(tuple(streams), skipped, segments)
 
 
 def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOptions(),
@@ -115,7 +118,8 @@ def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOption
                                    intake=intake)]
     if isinstance(spec, ReplaySpec):
         loaded = load_replay(spec.path)
-        return [ReplaySourceConfig(name=name or "replay", streams=loaded.streams, speed=spec.speed)]
+        return [ReplaySourceConfig(name=name or "replay", streams=loaded.streams, speed=spec.speed,
+                                   segments=tuple(loaded.segments.items()))]
     if isinstance(spec, SlimeVrSpec):
         # SlimeVR trackers name their sensors by MAC (see acquisition.slimevr); wire ids do not apply
         return [SlimeVrSourceConfig(name=name or "slimevr", bind_address=spec.bind_address, port=spec.port)]
@@ -127,10 +131,11 @@ def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOption
 
 
 def sensor_segments(configs: list[SourceConfig]) -> dict[str, str]:
-    """Sensor id → segment, where the source knows it (the simulated suit)."""
+    """Sensor id → segment, where the source knows it: the simulated suit, a replayed session
+    (the placement stored in it)."""
     segments: dict[str, str] = {}
     for config in configs:
-        if isinstance(config, SimulatedSourceConfig):
+        if isinstance(config, (SimulatedSourceConfig, ReplaySourceConfig)):
             segments.update(config.sensor_segments())
     return segments
 

@@ -12,7 +12,12 @@ Pages (:attr:`BodyCalibrationWizard.page_name`):
   agreement, stillness) and the verdict with its reasons. Accept applies the calibration to
   the live pipeline (``live_session.apply_body_calibration`` when the pipeline has it) and
   emits :attr:`BodyCalibrationWizard.calibration_accepted`.
-* ``"refused"``: why the capture was refused and Redo.
+* ``"refused"``: why the capture was refused, Change settings, Close and Redo.
+
+A sensor mapping changed on the setup page is never dropped silently: closing the wizard
+without accepting a calibration asks whether to keep it (applied to the live session as its
+sensor assignment) or discard it (:attr:`BodyCalibrationWizard.ask_about_assignment`);
+accepting a calibration applies the mapping with it.
 
 The logic is :class:`mimucap.session.bodycal_procedure.BodycalProcedure`, stepped by a
 ``QTimer``.
@@ -26,9 +31,12 @@ import numpy as np
 from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core import skeleton
+from mimucap.core.clinical_names import in_clinical_words, segment_name
+from mimucap.gui.assignment_dialog import remember_assignment
 from mimucap.core.bodycal import fill_missing_segments
 from mimucap.core.simulate import SuitSimulator
 from mimucap.gui.scene.view import SceneView
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.wizards.pictures import PictureWidget
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
 from mimucap.session.bodycal_procedure import ARMS, BodycalProcedure, BodycalProcedureSettings
@@ -87,8 +95,13 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.settings = settings
         self.procedure: BodycalProcedure | None = None
         self.accepted_calibration = None
+        #: True once the mapping of the setup page was applied or discarded (asked at most once)
+        self.assignment_settled = False
+        #: Asked when the wizard closes with a changed mapping: returns "keep", "discard" or
+        #: "cancel" (stay open). Tests and scripts may replace it.
+        self.ask_about_assignment = self._ask_about_assignment
         self.setWindowTitle("Body calibration")
-        self.resize(1180, 760)
+        fit_on_screen(self, 1180, 760, parent)
 
         self.pages = QtWidgets.QStackedWidget()
         self.setup_page = self._build_setup(height_m)
@@ -145,12 +158,13 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.mapping_table.horizontalHeader().setStretchLastSection(True)
         self.mapping_combos: dict[str, QtWidgets.QComboBox] = {}
         for row, segment in enumerate(self.model.segment_names):
-            self.mapping_table.setItem(row, 0, QtWidgets.QTableWidgetItem(segment.replace("_", " ")))
+            self.mapping_table.setItem(row, 0, QtWidgets.QTableWidgetItem(segment_name(segment)))
             combo = QtWidgets.QComboBox()
             combo.addItems([NO_SENSOR, *self.feed.sensor_ids])
             combo.setCurrentText(self.initial_mapping.get(segment, NO_SENSOR))
             self.mapping_table.setCellWidget(row, 1, combo)
             self.mapping_combos[segment] = combo
+        self.mapping_table.resizeColumnToContents(0)  # whole segment names ("Right upper arm")
         layout.addWidget(self.mapping_table, 1)
         self.setup_error = QtWidgets.QLabel("")
         self.setup_error.setWordWrap(True)
@@ -223,7 +237,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         layout.addWidget(self.refusal_label)
         layout.addStretch(1)
         layout.addLayout(button_row(push_button("Change settings", self.back_to_setup), None,
-                                    push_button("Redo", self.redo)))
+                                    push_button("Close", self.reject), push_button("Redo", self.redo)))
         return page
 
     # -- state -------------------------------------------------------------------------------
@@ -246,7 +260,7 @@ class BodyCalibrationWizard(CalibrationDialog):
             self.procedure = BodycalProcedure(self.feed, self.mapping(), arms=self.arms_combo.currentData(),
                                               height_m=self.height_spin.value(), settings=self.settings)
         except ValueError as error:
-            self.setup_error.setText(str(error))
+            self.setup_error.setText(in_clinical_words(str(error)))
             return
         self.setup_error.setText("")
         self.procedure.start()
@@ -277,8 +291,64 @@ class BodyCalibrationWizard(CalibrationDialog):
         if callable(apply):
             apply(calibration)
         self.accepted_calibration = calibration
+        self.assignment_settled = True  # the calibration carries the mapping
         self.calibration_accepted.emit(calibration)
         self.accept()
+
+    # -- the mapping made here: kept or discarded, never dropped silently --------------------
+    def assignment_changed(self) -> bool:
+        """Whether the setup page's mapping differs from the live session's assignment."""
+        return self.live_session is not None and self.mapping() != self.initial_mapping
+
+    def _ask_about_assignment(self) -> str:
+        box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Question, "Sensor assignment",
+                                    "You changed which sensor is on which segment. Keep this assignment?",
+                                    parent=self)
+        box.setInformativeText("Keep: the live view and the next recording use it. Discard: the "
+                               "assignment stays as it was before the wizard.")
+        keep = box.addButton("Keep", QtWidgets.QMessageBox.AcceptRole)
+        discard = box.addButton("Discard", QtWidgets.QMessageBox.DestructiveRole)
+        box.addButton(QtWidgets.QMessageBox.Cancel)
+        box.setDefaultButton(keep)
+        box.exec_()
+        return {keep: "keep", discard: "discard"}.get(box.clickedButton(), "cancel")
+
+    def settle_assignment(self) -> bool:
+        """Ask what to do with a changed mapping and do it; False if the user chose to stay."""
+        if self.assignment_settled or not self.assignment_changed():
+            return True
+        answer = self.ask_about_assignment()
+        if answer == "cancel":
+            return False
+        if answer == "keep":
+            self.keep_assignment()
+        self.assignment_settled = True
+        return True
+
+    def keep_assignment(self) -> None:
+        """Apply the setup page's mapping to the live session as its sensor assignment."""
+        live = self.live_session
+        for segment, sensor_id in self.initial_mapping.items():
+            if self.mapping().get(segment) != sensor_id:
+                live.assign_sensor(sensor_id, None)
+        for segment, sensor_id in self.mapping().items():
+            live.assign_sensor(sensor_id, segment)
+        remember_assignment(live.sensor_segments)
+        self.assignment_settled = True
+
+    def discard_assignment(self) -> None:
+        """Drop the setup page's mapping without asking (the live session is going away)."""
+        self.assignment_settled = True
+
+    def reject(self) -> None:
+        if self.settle_assignment():
+            super().reject()
+
+    def closeEvent(self, event) -> None:  # noqa: N802 (Qt API)
+        if not self.settle_assignment():
+            event.ignore()
+            return
+        super().closeEvent(event)
 
     def _tick(self) -> None:
         if self.procedure is None:
@@ -298,6 +368,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         if status.phase == "refused":
             self.timer.stop()
             reason = procedure.refusal or ""
+            reason = in_clinical_words(reason)
             self.refusal_label.setText(reason[:1].upper() + reason[1:])
             self.pages.setCurrentWidget(self.refused_page)
             return

@@ -44,6 +44,8 @@ from mimucap.session.magcal_procedure import (
 from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
 from mimucap.session.magcal_display import magcal_display
 from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget
+from mimucap.core.clinical_names import sensor_name
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
 
 PROTOCOL_LABELS = {
@@ -98,7 +100,7 @@ class MagnetometerWizard(CalibrationDialog):
         self.view_interval_ms = int(view_interval_ms)
         self._last_view = -1e9
         self.setWindowTitle("Magnetometer calibration")
-        self.resize(1280, 760)
+        fit_on_screen(self, 1280, 760, parent)
 
         self.pages = QtWidgets.QStackedWidget()
         self.setup_page = self._build_setup(preselected)
@@ -110,7 +112,7 @@ class MagnetometerWizard(CalibrationDialog):
         self.view = EllipsoidView()
         self.plot = FieldMagnitudePlot()
         self.view_sensor = QtWidgets.QComboBox()
-        self.view_sensor.currentTextChanged.connect(lambda _: self._refresh_views(force=True))
+        self.view_sensor.currentIndexChanged.connect(lambda _: self._refresh_views(force=True))
         right = QtWidgets.QWidget()
         right_layout = QtWidgets.QVBoxLayout(right)
         row = QtWidgets.QHBoxLayout()
@@ -207,6 +209,7 @@ class MagnetometerWizard(CalibrationDialog):
             bar.setFormat(f"{axis}: %p%")
             colour = AXIS_COLOURS[axis].name()
             bar.setStyleSheet(f"QProgressBar::chunk {{ background: {colour}; }}")
+            bar.setAlignment(QtCore.Qt.AlignCenter)
             grid.addWidget(label, row, 0)
             grid.addWidget(bar, row, 1)
             self.axis_bars[axis] = bar
@@ -263,6 +266,11 @@ class MagnetometerWizard(CalibrationDialog):
     def set_protocol(self, protocol: str) -> None:
         self.protocol_buttons[protocol].setChecked(True)
 
+    def sensor_label(self, sensor_id: str) -> str:
+        """The sensor by the segment it is worn on, when the live session says: "Pelvis sensor (S01)"."""
+        segment = getattr(self.live_session, "sensor_segments", {}).get(sensor_id)
+        return sensor_name(segment, sensor_id) if segment else sensor_id
+
     def _update_previous(self) -> None:
         now = self._now()
         for i in range(self.sensor_list.count()):
@@ -270,12 +278,12 @@ class MagnetometerWizard(CalibrationDialog):
             sensor_id = item.data(QtCore.Qt.UserRole)
             try:
                 old = self.store.load(sensor_id)
-                text = (f"{sensor_id} — calibrated {describe_age(age_days_since(old.created_utc, now))} "
+                text = (f"{self.sensor_label(sensor_id)} — calibrated {describe_age(age_days_since(old.created_utc, now))} "
                         f"({old.quality.get('verdict', 'unknown')})")
             except FileNotFoundError:
-                text = f"{sensor_id} — never calibrated"
+                text = f"{self.sensor_label(sensor_id)} — never calibrated"
             except CalibrationFileError:
-                text = f"{sensor_id} — stored calibration unreadable: calibrate again"
+                text = f"{self.sensor_label(sensor_id)} — stored calibration unreadable: calibrate again"
             self.sensor_list.blockSignals(True)
             item.setText(text)
             self.sensor_list.blockSignals(False)
@@ -294,7 +302,8 @@ class MagnetometerWizard(CalibrationDialog):
         self.procedure = procedure
         self.view_sensor.blockSignals(True)
         self.view_sensor.clear()
-        self.view_sensor.addItems(list(procedure.sensor_ids))
+        for sensor_id in procedure.sensor_ids:
+            self.view_sensor.addItem(self.sensor_label(sensor_id), sensor_id)
         self.view_sensor.blockSignals(False)
         self.view.reset()
         self.axis_widget.setVisible(procedure.protocol == "single_axis")
@@ -369,8 +378,16 @@ class MagnetometerWizard(CalibrationDialog):
                 bar.setValue(int(round(100 * status.axis_progress.get(axis, 0.0))))
             title = f"Turn about {status.axis_to_turn}" if status.axis_to_turn else "All axes done"
             self.recording_title.setText(f"<h2>{title}</h2>")
-        n = ", ".join(f"{s}: {c}" for s, c in status.samples.items())
-        self.recording_info.setText(f"{status.elapsed_s:.0f} s recorded — samples {n}")
+        # One short line whatever the number of sensors; each sensor's count in the tooltip.
+        counts = list(status.samples.values())
+        if not counts:
+            samples = "no samples yet"
+        elif min(counts) == max(counts):
+            samples = f"{counts[0]} samples per sensor"
+        else:
+            samples = f"{min(counts)} to {max(counts)} samples per sensor"
+        self.recording_info.setText(f"{status.elapsed_s:.0f} s recorded, {samples}")
+        self.recording_info.setToolTip("\n".join(f"{self.sensor_label(s)}: {c} samples" for s, c in status.samples.items()))
 
     def _refresh_views(self, force: bool = False) -> None:
         if self.procedure is None:
@@ -379,7 +396,7 @@ class MagnetometerWizard(CalibrationDialog):
         if not force and now - self._last_view < self.view_interval_ms:
             return
         self._last_view = now
-        sensor_id = self.view_sensor.currentText()
+        sensor_id = self.view_sensor.currentData()
         if sensor_id not in self.procedure.sensor_ids:
             return
         t, mag, _ = self.procedure.samples(sensor_id)
@@ -395,7 +412,7 @@ class MagnetometerWizard(CalibrationDialog):
         outcomes = [procedure.outcomes[s] for s in procedure.sensor_ids]
         failed = [o.sensor_id for o in outcomes if o.verdict == "fail"]
         if failed:
-            head = f"Calibration failed for {', '.join(failed)}: see the advice below and redo"
+            head = f"Calibration failed for {', '.join(self.sensor_label(s) for s in failed)}: see the advice below and redo"
         else:
             head = "All sensors calibrated: check the views and accept"
         self.result_title.setText(f"<h2>Result</h2><p>{head}</p>")
@@ -409,19 +426,22 @@ class MagnetometerWizard(CalibrationDialog):
         self._show_selected_result()
 
     def _fill_row(self, row: int, outcome: SensorOutcome) -> None:
-        cells = [outcome.sensor_id, VERDICT_WORDS[outcome.verdict]]
+        cells = [self.sensor_label(outcome.sensor_id), VERDICT_WORDS[outcome.verdict]]
         if outcome.result is not None:
             q = outcome.result.quality
             offset = outcome.result.calibration.offset_uT
             cells += [", ".join(f"{v:.1f}" for v in offset), f"{q.rms_residual_uT:.2f} µT",
-                      " / ".join(f"{c * 100:.0f}%" for c in q.axis_coverage)]
+                      "/".join(f"{c * 100:.0f}" for c in q.axis_coverage) + " %"]
         else:
             cells += ["—", "—", "—"]
         previous = outcome.previous
-        cells.append("none" if previous is None else
-                     f"{describe_age(previous.age_days)}: offset {', '.join(f'{v:.1f}' for v in previous.offset_uT)}")
+        # the age only: the previous offset is in the details below and in the tooltip
+        cells.append("none" if previous is None else describe_age(previous.age_days))
+        tooltip = "" if previous is None else f"previous offset {', '.join(f'{v:.1f}' for v in previous.offset_uT)} µT"
         for col, text in enumerate(cells):
             item = QtWidgets.QTableWidgetItem(text)
+            if col == len(cells) - 1 and tooltip:
+                item.setToolTip(tooltip)
             if col == 1:
                 item.setForeground(QtGui.QColor(VERDICT_COLOURS[outcome.verdict]))
                 font = item.font()
@@ -436,7 +456,7 @@ class MagnetometerWizard(CalibrationDialog):
         row = rows[0].row() if rows else 0
         sensor_id = self.procedure.sensor_ids[row]
         outcome = self.procedure.outcomes[sensor_id]
-        html = [f"<h3>{sensor_id}: <span style='color:{VERDICT_COLOURS[outcome.verdict]}'>"
+        html = [f"<h3>{self.sensor_label(sensor_id)}: <span style='color:{VERDICT_COLOURS[outcome.verdict]}'>"
                 f"{VERDICT_WORDS[outcome.verdict]}</span></h3>"]
         if outcome.advice:
             html.append("<p><b>What to do:</b></p><ul>" + "".join(f"<li>{a}</li>" for a in outcome.advice) + "</ul>")
@@ -456,8 +476,8 @@ class MagnetometerWizard(CalibrationDialog):
         else:
             html.append("<p>No previous calibration of this sensor.</p>")
         self.result_details.setHtml("".join(html))
-        if self.view_sensor.currentText() != sensor_id:
-            self.view_sensor.setCurrentText(sensor_id)  # refreshes the views
+        if self.view_sensor.currentData() != sensor_id:
+            self.view_sensor.setCurrentIndex(self.view_sensor.findData(sensor_id))  # refreshes the views
         else:
             self._refresh_views(force=True)
 

@@ -1,0 +1,137 @@
+"""What to check before recording, from the live session's state (no Qt).
+
+:func:`recording_checklist` gives four items, each ``ok`` or not with a line of text:
+
+1. **Sensors streaming**: every sensor assigned to a segment has sent a sample within
+   :data:`~mimucap.session.live.STALE_AFTER_S` (and at least one sensor is assigned);
+2. **Drops**: no assigned sensor lost more than :data:`MAX_DROP_FRACTION` of its packets;
+3. **Magnetometers**: every assigned sensor's magnetometer is calibrated (or the device fuses
+   on board), with a verdict that is not "fail" and not older than :data:`MAG_CAL_MAX_AGE_H`
+   hours (the magnetic surroundings of a room change: furniture, equipment, another room);
+4. **Body calibration**: an N/T-pose calibration is applied, and its verdict is not "poor".
+
+The main window shows the list next to the Record button and asks for a confirmation before
+recording while an item is not ok.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from mimucap.core.clinical_names import sensor_name
+
+#: A sensor losing more than this fraction of its packets is flagged.
+MAX_DROP_FRACTION = 0.01
+#: A magnetometer calibration older than this (hours) is flagged.
+MAG_CAL_MAX_AGE_H = 24.0
+#: Sensors named in one line before "and N more" (the line stays short in the session panel).
+MAX_NAMED = 2
+
+
+@dataclass(frozen=True)
+class CheckItem:
+    """One line of the checklist: ``key`` (``streaming``, ``drops``, ``magnetometers``,
+    ``body``), ``title`` (what is checked), ``ok``, ``text`` (what was found)."""
+
+    key: str
+    title: str
+    ok: bool
+    text: str
+
+
+def _names(sensors: list[tuple[str, str]], total: int | None = None) -> str:
+    """"Pelvis sensor (S01), Left thigh sensor (S05) and 4 more"; "all 10" when every one of
+    ``total`` sensors is meant."""
+    if total is not None and len(sensors) == total and total > MAX_NAMED:
+        return f"all {total}"
+    named = [sensor_name(segment, sid) for sid, segment in sensors[:MAX_NAMED]]
+    more = len(sensors) - len(named)
+    return ", ".join(named) + (f" and {more} more" if more > 0 else "")
+
+
+def _age_text(age_s: float) -> str:
+    if not math.isfinite(age_s):
+        return "date unknown"
+    if age_s < 3600:
+        return f"{age_s / 60:.0f} min old"
+    if age_s < 2 * 86400:
+        return f"{age_s / 3600:.0f} h old"
+    return f"{age_s / 86400:.0f} days old"
+
+
+def recording_checklist(live) -> list[CheckItem]:
+    """The checklist of ``live`` (a :class:`~mimucap.session.live.LiveSession`) now."""
+    rows = live.sensor_rows()
+    stats = live.feed.stats()
+    assigned = [(row.sensor_id, row.segment) for row in rows if row.segment is not None]
+    by_id = {row.sensor_id: row for row in rows}
+    items = []
+
+    if not assigned:
+        items.append(CheckItem("streaming", "Sensors streaming", False,
+                               "no sensor is assigned to a segment (Session → Assign Sensors)"))
+    else:
+        silent = [(sid, seg) for sid, seg in assigned if by_id[sid].stale]
+        items.append(CheckItem(
+            "streaming", "Sensors streaming", not silent,
+            f"all {len(assigned)} assigned sensors send data" if not silent else
+            f"{len(silent)} of {len(assigned)} send nothing: {_names(silent)}"))
+
+    lossy = []
+    for sid, seg in assigned:
+        st = stats.get(sid)
+        if st is not None and st.drop_fraction > MAX_DROP_FRACTION:
+            lossy.append((sid, seg, st.drop_fraction))
+    lossy.sort(key=lambda item: -item[2])
+    total_drops = sum(by_id[sid].drops for sid, _seg in assigned)
+    items.append(CheckItem(
+        "drops", "Drops", not lossy,
+        (f"{total_drops} packets lost in all" if total_drops else "no packet lost") if not lossy else
+        "; ".join(f"{sensor_name(seg, sid)} lost {100 * fraction:.1f} %" for sid, seg, fraction in lossy[:MAX_NAMED])
+        + (f" and {len(lossy) - MAX_NAMED} more" if len(lossy) > MAX_NAMED else "")))
+
+    uncalibrated, failed, old, ages, verdicts = [], [], [], [], set()
+    for sid, seg in assigned:
+        row = by_id[sid]
+        if row.mag_cal == "on-board":
+            continue
+        calibration = live.mag_calibrations.get(sid)
+        if calibration is None:
+            uncalibrated.append((sid, seg))
+            continue
+        verdict = str(calibration.quality.get("verdict", "unknown"))
+        verdicts.add(verdict)
+        if verdict == "fail":
+            failed.append((sid, seg))
+        age = row.mag_cal_age_s
+        ages.append(age)
+        if not (age <= MAG_CAL_MAX_AGE_H * 3600.0):
+            old.append((sid, seg))
+    problems = []
+    if uncalibrated:
+        problems.append(f"not calibrated: {_names(uncalibrated, len(assigned))}")
+    if failed:
+        problems.append(f"verdict fail: {_names(failed)}")
+    if old:
+        problems.append(f"older than {MAG_CAL_MAX_AGE_H:.0f} h: {_names(old, len(assigned))}")
+    if not assigned:
+        mag_text, mag_ok = "no sensor assigned", False
+    elif problems:
+        mag_text, mag_ok = "; ".join(problems), False
+    elif ages:
+        finite = [a for a in ages if math.isfinite(a)]
+        oldest = _age_text(max(finite)) if finite else "date unknown"
+        mag_text = f"{len(ages)} calibrated, the oldest {oldest}; verdict {', '.join(sorted(verdicts))}"
+        mag_ok = True
+    else:
+        mag_text, mag_ok = "the sensors fuse on board", True
+    items.append(CheckItem("magnetometers", "Magnetometer calibration", mag_ok, mag_text))
+
+    body = live.body_calibration
+    if body is None:
+        items.append(CheckItem("body", "Body calibration", False, "not done (Calibrate → Body…)"))
+    else:
+        verdict = body.quality.verdict
+        items.append(CheckItem("body", "Body calibration", verdict != "poor", f"done, verdict {verdict}"))
+    return items
