@@ -49,6 +49,7 @@ def test_knee_and_hip_flexion_while_walking_match_the_truth(route, live, capsys)
     assert any(("as seen live" if live else "reprocessed") in line for line in header)
     table = read_angles_csv(out)
     recorded = read_session(session)
+    assert [m.label for m in table.markers] == [m.label for m in recorded.markers]  # the record's markers
     walks = phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1]))
     assert len(walks) >= 2
     for window in walks:

@@ -32,6 +32,7 @@ def app_window(qtbot, tmp_path, monkeypatch):
     clock = _fast_clock()
     window = MainWindow("simulated:walk", session_factory=lambda spec: open_live_session(spec, clock=clock))
     window.clock = clock
+    window.confirm_recording = lambda items: True  # recording without calibrations, knowingly
     window.show()
     window.start()
     qtbot.waitExposed(window)

@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"{args.calibration}: segment(s) {', '.join(unknown)} not in model {model.name}")
     result = RESULT_LIVE if args.live else RESULT_REPROCESSED
     if _is_session(args):
-        output, source_note = _session_output(args, model, calibration, result)
+        output, source_note, markers = _session_output(args, model, calibration, result)
     else:
         if args.live:
             raise ValueError(f"{args.input}: --live applies to MimuCap sessions (an orientation table has no filter to run)")
@@ -86,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
                              f"{', '.join(table.q_world_from_sensor)}")
         streams = {sid: _OrientationStream(table.t_s, q) for sid, q in table.q_world_from_sensor.items()}
         output = process_recording(streams, model, body_calibration=calibration, shoulder_sequence=args.shoulder)
+        markers = ()
         source_note = "orientations as the input gives them"
     angles = output.angles_deg
     ordered = {c: angles[c] for c in joint_angle_columns(model, args.shoulder) if c in angles}
@@ -100,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
         f"model: {model.name}",
         f"result: {source_note}; computed from the sensors",
     ]
-    write_angles(args.out, output.t_s, ordered, args.shoulder, notes)
+    write_angles(args.out, output.t_s, ordered, args.shoulder, notes, markers=markers)
     joints = [j for j in model.joint_names if any(c.startswith(j + "_") for c in ordered)]
     print(f"{len(output.t_s)} samples, {len(ordered)} angle columns ({', '.join(joints)}) written to {args.out}")
     return 0
@@ -113,7 +114,8 @@ def _is_session(args: argparse.Namespace) -> bool:
 
 
 def _session_output(args: argparse.Namespace, model, calibration, result: str):
-    """A session's joint angles through the processing path with ``calibration``."""
+    """A session's joint angles through the processing path with ``calibration``, the result's
+    name and the session's markers."""
     from mimucap.cli.bodycal import check_reader_options
     from mimucap.core.pipeline import RESULT_LABELS
     from mimucap.cli.session_input import magnetometer_calibrations
@@ -131,4 +133,4 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
         print(f"  {line}")
     output = process_session(session, result=result, mag_calibrations=mags, body_calibration=calibration,
                              model=model, shoulder_sequence=args.shoulder)
-    return output, RESULT_LABELS[result]
+    return output, RESULT_LABELS[result], session.markers
