@@ -99,7 +99,7 @@ def test_magnetometer_wizard_refuses_a_one_axis_capture(qtbot, magnetometer_wiza
     qtbot.mouseClick(wizard.finish_button, QtCore.Qt.LeftButton)
     assert wizard.page_name == "result"
     assert not wizard.accept_button.isEnabled()
-    assert "failed for S02, S03" in wizard.result_title.text()
+    assert "failed for Thorax sensor (S02), Left upper arm sensor (S03)" in wizard.result_title.text()
     details = wizard.result_details.toPlainText()
     assert "turn about y again" in details and "turn about z again" in details
     assert wizard.result_table.item(0, 1).text().startswith("Failed")

@@ -223,7 +223,7 @@ def write_motion_file(data: ReviewData, request: ExportRequest, fmt: str, path: 
     ``events`` ``(t_s, context, label)``. Returns the files written.
     """
     from mimucap.io import opensense
-    from mimucap.io.angles_export import write_angles
+    from mimucap.io.angles_export import marker_lines, write_angles
 
     path = Path(path)
     t_from, t_to = request.t_from_s, request.t_to_s
@@ -235,10 +235,11 @@ def write_motion_file(data: ReviewData, request: ExportRequest, fmt: str, path: 
     q_segments = {s: q[keep] for s, q in data.q_world_from_segment.items()}
     angles = {c: v[keep] for c, v in data.angles_deg.items()}
     root = None if data.root_position_m is None else data.root_position_m[keep]
-    markers = [(m.t_s, m.label) for m in data.markers if t_from <= m.t_s <= t_to]
+    in_range = [m for m in data.markers if t_from <= m.t_s <= t_to]
+    markers = [(m.t_s, m.label) for m in in_range]
     events = [e for e in events if t_from <= e[0] <= t_to]
-    notes = [f"Session {data.path.name}; pose from {data.pose_source}; {t_from:.3f}..{t_to:.3f} s"]
-    notes += [f"marker at {time:.3f} s: {label}" for time, label in markers]
+    notes = [f"Session {data.path.name}; {t_from:.3f}..{t_to:.3f} s",
+             f"Result: {data.result_label}; pose from {data.pose_source}; computed from the sensors"]
     notes += [f"event at {time:.3f} s: {context} {label}" for time, context, label in events]
     subject = (data.session.metadata.get("subject") or {}).get("id", "")
     if fmt == "c3d":
@@ -270,9 +271,10 @@ def write_motion_file(data: ReviewData, request: ExportRequest, fmt: str, path: 
         else:
             table = opensense.virtual_sensor_table(q_segments)
             header = opensense.VIRTUAL_SENSOR_NOTES
-        return [opensense.write_orientation_sto(path, t, table, list(header) + notes)]
+        return [opensense.write_orientation_sto(path, t, table, list(header) + notes + marker_lines(in_range))]
     if fmt in ("mot", "opensim_mot", "csv"):
-        write_angles(path, t, angles, notes=notes, opensim_names=opensim_names or fmt == "opensim_mot")
+        write_angles(path, t, angles, notes=notes, opensim_names=opensim_names or fmt == "opensim_mot",
+                     markers=in_range)
         return [path]
     raise ValueError(f"unknown export format {fmt!r}; use c3d, bvh, sto, mot or csv")
 

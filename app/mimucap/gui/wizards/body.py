@@ -76,6 +76,8 @@ class BodyCalibrationWizard(CalibrationDialog):
     ) -> None:
         super().__init__(parent)
         self.live_session = live_session if live_session is not None else getattr(feed, "live_session", None)
+        #: the assignment is the main window's to keep (a feed's own session is the wizard's alone)
+        self._shared_session = live_session is not None
         if feed is None:
             if live_session is None:
                 raise ValueError("the body calibration wizard needs a live session or a feed")
@@ -298,7 +300,7 @@ class BodyCalibrationWizard(CalibrationDialog):
     # -- the mapping made here: kept or discarded, never dropped silently --------------------
     def assignment_changed(self) -> bool:
         """Whether the setup page's mapping differs from the live session's assignment."""
-        return self.live_session is not None and self.mapping() != self.initial_mapping
+        return self._shared_session and self.mapping() != self.initial_mapping
 
     def _ask_about_assignment(self) -> str:
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Question, "Sensor assignment",
