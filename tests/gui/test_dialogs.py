@@ -76,7 +76,7 @@ def test_sensor_panel_shows_rows_and_flags_stale_ones(qtbot):
     assert panel.cell_text("S01", "Rate (Hz)") == "99.5"
     assert panel.cell_text("S01", "Latency p95 (ms)") == "4.2" or panel.cell_text("S01", "Latency p95 (ms)") == "4.3"
     assert panel.cell_text("S01", "Battery (%)") == "–"
-    assert panel.cell_text("S01", "Mag. calibration") == "calibrated (2 h ago)"
+    assert panel.cell_text("S01", "Mag. calibration") == "calibrated (2 hours ago)"
     assert panel.cell_text("S01", "Fusion flags") == "rest"
     assert panel.cell_text("S02", "State") == "STALE: no data"
     stale_colour = panel.item(panel.row_of("S02"), 0).background().color()

@@ -34,7 +34,7 @@ def test_a_ready_session_passes_every_item():
                                                _row("3", None, stale=True)], body=body)))
     assert all(item.ok for item in items.values()), items
     assert items["streaming"].text == "all 2 assigned sensors send data"  # an unassigned sensor does not count
-    assert items["magnetometers"].text == "2 calibrated, the oldest 2 h old; verdict good"
+    assert items["magnetometers"].text == "2 calibrated, the oldest 2 hours ago; verdict good"
     assert items["body"].text == "done, verdict good"
 
 

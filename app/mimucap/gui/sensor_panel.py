@@ -19,6 +19,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.acquisition.rejections import Rejection
 from mimucap.core.clinical_names import segment_name
 from mimucap.session.live import SensorRow
+from mimucap.session.magcal_procedure import describe_age
 
 COLUMNS = ("Sensor", "Segment", "Rate (Hz)", "Drops", "Refused", "Latency p95 (ms)", "Battery (%)",
            "Signal (dBm)", "Mag. calibration", "Fusion flags", "State")
@@ -65,13 +66,10 @@ def rejections_tooltip(counts: dict[str, int]) -> str:
 
 
 def _age(seconds: float) -> str:
+    """`` (3 hours ago)`` after the calibration state ("" when the date is unknown)."""
     if not math.isfinite(seconds):
         return ""
-    if seconds < 3600:
-        return f" ({seconds / 60:.0f} min ago)"
-    if seconds < 86400 * 2:
-        return f" ({seconds / 3600:.0f} h ago)"
-    return f" ({seconds / 86400:.0f} days ago)"
+    return f" ({describe_age(seconds / 86400.0)})"
 
 
 class SensorPanel(QtWidgets.QTableWidget):

@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 from mimucap.core.clinical_names import sensor_name
+from mimucap.session.magcal_procedure import describe_age
 
 #: A sensor losing more than this fraction of its packets is flagged.
 MAX_DROP_FRACTION = 0.01
@@ -51,13 +52,7 @@ def _names(sensors: list[tuple[str, str]], total: int | None = None) -> str:
 
 
 def _age_text(age_s: float) -> str:
-    if not math.isfinite(age_s):
-        return "date unknown"
-    if age_s < 3600:
-        return f"{age_s / 60:.0f} min old"
-    if age_s < 2 * 86400:
-        return f"{age_s / 3600:.0f} h old"
-    return f"{age_s / 86400:.0f} days old"
+    return describe_age(age_s / 86400.0 if math.isfinite(age_s) else None)
 
 
 def recording_checklist(live) -> list[CheckItem]:
