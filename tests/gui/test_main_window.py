@@ -36,7 +36,7 @@ def test_window_starts_and_renders_the_skeleton(window, qtbot):
     # Like any source, the simulated suit shows what its sensors give until it is calibrated,
     # and the view says so.
     qtbot.waitUntil(lambda: "sensor axes" in window.pose_status.text(), timeout=2000)
-    assert "vs. simulator truth" in window.pose_status.text()  # the on-screen accuracy check
+    assert "vs. truth" in window.pose_status.text()  # the on-screen accuracy check
     assert "simulated:demo" in window.source_status.text()
     assert window.scene_view.hint == VIEW_HINTS[POSE_SENSOR_AXES]
     # Every segment of the ten-sensor suit has a sensor: tinted "magnetometer not calibrated"

@@ -443,8 +443,7 @@ class MainWindow(QtWidgets.QMainWindow):
         flexion = [errors[c] for c in ACCURACY_COLUMNS if c in errors]
         if not flexion:
             return ""
-        return (f"; vs. simulator truth (last 5 s): hip/knee/elbow flexion RMS {sum(flexion) / len(flexion):.1f}°, "
-                f"worst {max(flexion):.1f}°")
+        return f"; vs. truth: flexion RMS {sum(flexion) / len(flexion):.1f}° (worst {max(flexion):.1f}°)"
 
     def _assign_remembered(self, live) -> None:
         """Wear each sensor that appeared since the last call (a worker source's sensors appear

@@ -68,7 +68,7 @@ def accuracy_text(data: ReviewData) -> str:
     flexion = [errors[c].rms_deg for c in ACCURACY_COLUMNS if c in errors]
     if not flexion:
         return ""
-    return f"; vs. simulator truth: hip/knee/elbow flexion RMS {sum(flexion) / len(flexion):.1f}° (worst {max(flexion):.1f}°)"
+    return f"; vs. truth: flexion RMS {sum(flexion) / len(flexion):.1f}° (worst {max(flexion):.1f}°)"
 
 
 class ReviewWindow(QtWidgets.QMainWindow):
