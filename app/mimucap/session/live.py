@@ -788,12 +788,17 @@ FIELD_MAGNITUDE_TOLERANCE = 0.15
 FIELD_DIP_TOLERANCE_DEG = 10.0
 #: Seconds of recent samples the field check looks at.
 FIELD_CHECK_WINDOW_S = 2.0
+#: A sample is still enough for the dip check when its specific force is within this of g
+#: (m/s²) and its angular rate below this (rad/s).
+FIELD_CHECK_STILL_ACC_M_S2 = 0.3
+FIELD_CHECK_STILL_GYR_RAD_S = 0.05
 
 
 def field_mismatch(calibration: MagCalibration, raw: RingBuffer) -> str:
     """Why the local field no longer matches ``calibration`` ("" when it does, or cannot be
     told): the median magnitude of the recent calibrated field (µT) against the calibration's,
-    and, while the sensor is still (specific force ≈ g), the dip against the calibration's."""
+    and, while the sensor is still (specific force ≈ g, no rotation), the dip against the
+    calibration's."""
     if not len(raw):
         return ""
     _t, rows = raw.since(raw.latest_t() - FIELD_CHECK_WINDOW_S)
@@ -808,7 +813,10 @@ def field_mismatch(calibration: MagCalibration, raw: RingBuffer) -> str:
                 "calibrate again here")
     dip_ref = calibration.quality.get("dip_mean_deg")
     acc_norm = np.linalg.norm(acc, axis=1)
-    still = finite & np.isfinite(acc_norm) & (np.abs(acc_norm - 9.81) < 0.5)
+    gyr_norm = np.linalg.norm(rows[:, 1], axis=1)
+    # Only a still sensor's specific force is gravity alone (a swinging limb's is not).
+    still = (finite & np.isfinite(acc_norm) & (np.abs(acc_norm - 9.81) < FIELD_CHECK_STILL_ACC_M_S2)
+             & np.isfinite(gyr_norm) & (gyr_norm < FIELD_CHECK_STILL_GYR_RAD_S))
     if dip_ref is None or not np.isfinite(dip_ref) or np.count_nonzero(still) < 10:
         return ""
     up = acc[still] / acc_norm[still, None]
