@@ -110,6 +110,7 @@ def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -
     window.set_camera_preset("front")
     _wait(app, lambda: window.live.samples_received > 0, 20, "live data")
     _calibrate(app, window, folder)
+    window.action_truth.setChecked(True)  # the simulator's truth beside the estimate
     start = time.monotonic()
     _wait(app, lambda: time.monotonic() - start > 1.0, 10, "walking")
     window.session_panel.subject_id.setText("P001")

@@ -244,12 +244,14 @@ def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtb
 
 
 def test_the_simulators_truth_is_a_ghost_beside_the_estimate(window, qtbot):
-    """On the simulated suit the true pose is drawn as a pale translucent second figure (an
-    accuracy check); the estimate stays the figure. View → Show Simulator Truth hides it."""
+    """On the simulated suit, View → Show Simulator Truth draws the true pose as a pale
+    translucent second figure and the true angles as dashed curves (an accuracy check); the
+    estimate stays the figure. Unticked, both are gone."""
     view = window.scene_view
+    qtbot.waitUntil(window.action_truth.isEnabled, timeout=15000)  # the panels' pace
+    assert not window.action_truth.isChecked() and not (view.ghost is not None and view.ghost.visible)
+    window.action_truth.setChecked(True)
     qtbot.waitUntil(lambda: view.ghost is not None and view.ghost.visible, timeout=15000)
-    qtbot.waitUntil(window.action_truth.isEnabled, timeout=2000)  # the panels' pace
-    assert window.action_truth.isChecked()
     assert view.ghost.actor.GetProperty().GetOpacity() < 0.5
     estimate = view.skeleton.vertices_of_segment("thigh_r")
     ghost = view.ghost.vertices_of_segment("thigh_r")

@@ -477,10 +477,15 @@ class SensorOrientations:
     onboard: bool
 
 
+#: Orientations a live sensor track keeps: a pose needs its sensors' last second or so
+#: (:data:`HOLD_BACK_LIMIT_S`), and each new block copies the track.
+TRACK_CAPACITY = 256
+
+
 class _Track:
     """Recent finite orientations of one sensor (bounded)."""
 
-    def __init__(self, capacity: int = 4096) -> None:
+    def __init__(self, capacity: int = TRACK_CAPACITY) -> None:
         self.t = np.empty(0)
         self.q = np.empty((0, 4))
         self.capacity = capacity
@@ -498,6 +503,13 @@ class _Track:
     @property
     def newest_t(self) -> float:
         return float(self.t[-1]) if len(self.t) else float("nan")
+
+    def at(self, t_s: float) -> np.ndarray:
+        """The orientation (4,) at instant ``t_s``, as :func:`orientation_at` gives it; a pose
+        at this sensor's newest sample (every sensor of a synchronous suit) is read directly."""
+        if len(self.t) and self.t[-1] <= t_s:
+            return self.q[-1]
+        return orientation_at(np.array([t_s]), self.t, self.q)[0]
 
 
 class LivePipeline:
@@ -584,7 +596,7 @@ class LivePipeline:
         if position < 0 or ref_t[position] <= self._last_pose_t:
             return None
         t_pose = float(ref_t[position])
-        at = {sid: orientation_at(np.array([t_pose]), track.t, track.q)[0] for sid, track in tracks.items()}
+        at = {sid: track.at(t_pose) for sid, track in tracks.items()}
         q_segments = segments_from_sensors(self.model, at, body_calibration, sensor_segments)
         if q_segments is None:
             return None

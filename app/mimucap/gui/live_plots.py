@@ -188,7 +188,7 @@ class LivePlots(QtWidgets.QWidget):
         self.truth_curves: dict[str, list[pg.PlotCurveItem]] = {}
         #: whether the joint plots draw the simulator's truth beside the estimate (when the
         #: source has one: ``truth_joint_series``)
-        self.show_truth = True
+        self.show_truth = False
         self.cursors: dict[str, pg.InfiniteLine] = {}
         self._ranges: dict[str, SteadyRange] = {}
         self._titles: dict[str, str] = {}     # each plot's title, without the curve names

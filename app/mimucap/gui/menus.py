@@ -28,10 +28,11 @@ def choice_actions(menu: QtWidgets.QMenu, names: Sequence[str], label: Callable[
 
 def truth_action(menu: QtWidgets.QMenu, toggled: Callable[[bool], None]) -> QtWidgets.QAction:
     """View → Show Simulator Truth: the simulated subject's true pose as a ghost figure and
-    dashed curves beside the estimate (checked; ``toggled(on)`` when changed)."""
+    dashed curves beside the estimate (off until asked: a second figure doubles the drawing
+    without a GPU; ``toggled(on)`` when changed)."""
     action = menu.addAction("Show Simulator &Truth")
     action.setCheckable(True)
-    action.setChecked(True)
+    action.setChecked(False)
     action.setToolTip("The simulated subject's true pose as a pale figure and dashed curves beside the "
                       "estimate (the simulated suit only): an accuracy check")
     action.toggled.connect(toggled)
