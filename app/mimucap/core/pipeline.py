@@ -33,6 +33,7 @@ in µT.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
@@ -509,7 +510,35 @@ class _Track:
         at this sensor's newest sample (every sensor of a synchronous suit) is read directly."""
         if len(self.t) and self.t[-1] <= t_s:
             return self.q[-1]
-        return orientation_at(np.array([t_s]), self.t, self.q)[0]
+        index = int(np.searchsorted(self.t, t_s, side="right")) - 1
+        if index < 0:
+            return np.full(4, np.nan)
+        if self.t[index] == t_s:
+            return self.q[index]
+        fraction = (t_s - self.t[index]) / (self.t[index + 1] - self.t[index])
+        return _slerp_one(self.q[index], self.q[index + 1], float(fraction))
+
+
+def _slerp_one(q0: np.ndarray, q1: np.ndarray, fraction: float) -> np.ndarray:
+    """Slerp of two unit quaternions (4,) in plain floats: the rotation of
+    :func:`mimucap.core.rotation.slerp` (to rounding) at a fraction of its cost, for the live
+    poses of sensors sampled at other instants than the reference sensor."""
+    a = [float(v) for v in q0]
+    b = [float(v) for v in q1]
+    dot = a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+    if dot < 0.0:  # the shorter way round
+        b = [-v for v in b]
+        dot = -dot
+    if dot > 0.9999995:
+        w0, w1 = 1.0 - fraction, fraction
+    else:
+        theta = math.acos(min(dot, 1.0))
+        sin_theta = math.sin(theta)
+        w0 = math.sin((1.0 - fraction) * theta) / sin_theta
+        w1 = math.sin(fraction * theta) / sin_theta
+    out = [w0 * x + w1 * y for x, y in zip(a, b)]
+    norm = math.sqrt(sum(v * v for v in out))
+    return np.array([v / norm for v in out])
 
 
 class LivePipeline:
