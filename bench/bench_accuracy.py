@@ -25,14 +25,13 @@ from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.core.simulate import SimulationConfig
 from mimucap.core.simulate_sensors import MagneticDisturbance
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.evaluation import angle_errors
+from mimucap.session.evaluation import FLEXION_COLUMNS, angle_errors
 from mimucap.session.feeds import SimulatorFeed
 from mimucap.session.guided_session import SteppedClock, run_guided_session
 from mimucap.session.live import LiveSession
 from mimucap.session.review import load_review
 
-FLEXION = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg",
-           "elbow_l_flexion_deg", "elbow_r_flexion_deg")
+FLEXION = FLEXION_COLUMNS
 
 
 #: The disturbance episode: a local field (world, µT) from this many seconds into the recording.

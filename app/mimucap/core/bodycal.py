@@ -714,13 +714,16 @@ def calibrate_heading(
 # --------------------------------------------------------------------------------------------
 
 def segment_orientations(
-    calibration: BodyCalibration, q_world_from_sensor: Mapping[str, ArrayLike], require_all: bool = True
+    calibration: BodyCalibration, q_world_from_sensor: Mapping[str, ArrayLike], require_all: bool = True,
+    allow_nan: bool = False,
 ) -> dict[str, FloatArray]:
     """``q_world_from_segment = q_world_from_sensor ⊗ q_sensor_from_segment`` for every calibrated
     segment (``(..., 4)``, following the sensors' shapes).
 
     A calibrated sensor missing from ``q_world_from_sensor`` raises ``ValueError``, or, with
-    ``require_all=False`` (live display while a sensor is silent), leaves its segment out.
+    ``require_all=False`` (live display while a sensor is silent), leaves its segment out. A NaN
+    quaternion raises ``ValueError`` naming its sensor, unless ``allow_nan`` (the processing
+    path, whose filters give NaN rows before their first orientation) passes it through.
     Sensors of one shape are turned in one vectorised product (the live display's case).
     """
     chosen: list[tuple[str, str, FloatArray]] = []  # (segment, sensor, q_world_from_sensor)
@@ -738,7 +741,7 @@ def segment_orientations(
     else:
         finite = [bool(np.all(np.isfinite(q))) for _seg, _sen, q in chosen]
     for (segment, sensor, _q), ok in zip(chosen, finite):
-        if not ok:
+        if not ok and not allow_nan:
             raise ValueError(f"sensor {sensor} (segment {segment}): NaN quaternion")
     if missing is not None:
         segment, sensor = missing

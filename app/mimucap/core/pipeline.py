@@ -311,51 +311,29 @@ def segments_from_sensors(model: skeleton.SkeletonModel, q_world_from_sensor: Ma
                           sensor_segments: Mapping[str, str]) -> dict[str, np.ndarray] | None:
     """Every segment's ``q_world_from_segment`` (..., 4) from its sensors' orientations at the
     same instants (step 4). Rows where a sensor has no orientation (NaN) leave its segment to
-    follow its parent; ``None`` when no assigned sensor has any orientation."""
-    found: dict[str, np.ndarray] = {}
+    follow its parent (a root without one faces north); ``None`` when no assigned sensor has
+    any orientation."""
     if body_calibration is not None:
-        present = {s: q for s, q in q_world_from_sensor.items() if s in body_calibration.sensors.values()}
-        turned = _segment_orientations_nan_safe(body_calibration, present)
-        found.update(turned)
+        found = bodycal.segment_orientations(body_calibration, q_world_from_sensor, require_all=False, allow_nan=True)
     else:
-        for sensor, segment in sensor_segments.items():
-            if sensor in q_world_from_sensor and segment in model.segment_names:
-                found[segment] = np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
+        found = {segment: np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
+                 for sensor, segment in sensor_segments.items()
+                 if sensor in q_world_from_sensor and segment in model.segment_names}
     if not found:
         return None
-    shape = next(iter(found.values())).shape
-    if model.root not in found:
-        found[model.root] = np.broadcast_to(skeleton.q_world_from_body_facing(0.0), shape).copy()
-    order = [(s.name, s.parent) for s in model.segments]
+    north = np.broadcast_to(skeleton.q_world_from_body_facing(0.0), next(iter(found.values())).shape).copy()
     result: dict[str, np.ndarray] = {}
-    for name, parent in order:
-        own = found.get(name)
+    for segment in model.segments:
+        fallback = north if segment.parent is None else result[segment.parent]
+        own = found.get(segment.name)
         if own is None:
-            result[name] = result[parent]
+            result[segment.name] = fallback
             continue
-        if parent is not None:
-            missing = ~np.isfinite(own).all(axis=-1)
-            if np.any(missing):
-                own = own.copy()
-                own[missing] = result[parent][missing]
-        else:
-            missing = ~np.isfinite(own).all(axis=-1)
-            if np.any(missing):
-                own = own.copy()
-                own[missing] = skeleton.q_world_from_body_facing(0.0)
-        result[name] = own
-    return result
-
-
-def _segment_orientations_nan_safe(calibration: bodycal.BodyCalibration,
-                                   q_world_from_sensor: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """:func:`bodycal.segment_orientations` that passes NaN rows through (a sensor without an
-    orientation yet) instead of refusing them."""
-    result = {}
-    for segment, sensor in calibration.sensors.items():
-        if sensor in q_world_from_sensor:
-            q = np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
-            result[segment] = rotation.multiply(q, rotation.conjugate(calibration.q_segment_from_sensor[segment]))
+        missing = ~np.isfinite(own).all(axis=-1)
+        if np.any(missing):
+            own = own.copy()
+            own[missing] = fallback[missing]
+        result[segment.name] = own
     return result
 
 
@@ -601,10 +579,6 @@ class LivePipeline:
     def latest_orientations(self) -> dict[str, np.ndarray]:
         """Sensor → its newest ``q_world_from_sensor`` (4,) (sensors with one only)."""
         return {sid: track.q[-1] for sid, track in self._tracks.items() if len(track.t)}
-
-    def newest_time(self) -> float:
-        times = [track.newest_t for track in self._tracks.values() if len(track.t)]
-        return max(times) if times else float("nan")
 
     def pose(self, body_calibration: bodycal.BodyCalibration | None,
              sensor_segments: Mapping[str, str]) -> tuple[float, dict[str, np.ndarray]] | None:

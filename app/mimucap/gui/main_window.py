@@ -44,6 +44,7 @@ from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
 from mimucap.core.pipeline import POSE_SENSOR_AXES
+from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
@@ -74,10 +75,6 @@ VIEW_HINTS = {
     POSE_SENSOR_AXES: "Not calibrated yet: each sensor's axes stand for its segment.\n"
                       "Calibrate the magnetometers, then the body (menu Calibrate).",
 }
-#: Joint angles the on-screen accuracy check sums up (simulated suit only).
-ACCURACY_COLUMNS = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg",
-                    "elbow_l_flexion_deg", "elbow_r_flexion_deg")
-
 ABOUT_TEXT = (
     "<h3>MimuCap {version}</h3>"
     "<p>Human motion capture with magnetic-inertial sensors: live skeleton, joint angles, "
@@ -434,17 +431,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self.scene_view.set_ghost_provider(live.truth_frame if wanted else None)
         self.plots.show_truth = self.action_truth.isChecked()
 
-    @staticmethod
-    def _accuracy_text(live: LiveSession) -> str:
-        """The running accuracy check against the simulator's truth ("" for other sources)."""
-        if not live.has_truth:
-            return ""
-        errors = live.truth_errors(5.0)
-        flexion = [errors[c] for c in ACCURACY_COLUMNS if c in errors]
-        if not flexion:
-            return ""
-        return f"; vs. truth: flexion RMS {sum(flexion) / len(flexion):.1f}° (worst {max(flexion):.1f}°)"
-
     def _assign_remembered(self, live) -> None:
         """Wear each sensor that appeared since the last call (a worker source's sensors appear
         with their first samples) on the segment remembered for it, unless that segment is taken."""
@@ -477,7 +463,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.show_checklist(recording_checklist(live))
         self._panel_refreshes += 1
         self.source_status.setText(f"Source: {live.label}")
-        self.pose_status.setText(f"Pose: {live.pose_source}" + self._accuracy_text(live))
+        self.pose_status.setText(f"Pose: {live.pose_source}" + accuracy_phrase(live.truth_errors(5.0)))
         self.action_truth.setEnabled(live.has_truth)
         problem = live.source_problem
         if problem != self._source_problem:

@@ -24,7 +24,7 @@ from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
-from mimucap.session.evaluation import angle_errors
+from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
 
 log = logging.getLogger(__name__)
@@ -53,24 +53,6 @@ class _JumpToClickStyle(QtWidgets.QProxyStyle):
 
 #: How the result choice names each result.
 RESULT_TITLES = {RESULT_REPROCESSED: "Reprocessed", RESULT_LIVE: "As seen live"}
-#: Columns the accuracy check sums up.
-ACCURACY_COLUMNS = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg",
-                    "elbow_l_flexion_deg", "elbow_r_flexion_deg")
-
-
-def accuracy_text(data: ReviewData) -> str:
-    """", error vs. simulator truth: …" for a simulated recording (evaluation of the estimate,
-    which never reads the truth), "" otherwise."""
-    truth = data.truth
-    if truth is None or not len(data.t_s):
-        return ""
-    errors = angle_errors(data.t_s, data.angles_deg, truth.t_s, truth.joint_angles_deg)
-    flexion = [errors[c].rms_deg for c in ACCURACY_COLUMNS if c in errors]
-    if not flexion:
-        return ""
-    return f"; vs. truth: flexion RMS {sum(flexion) / len(flexion):.1f}° (worst {max(flexion):.1f}°)"
-
-
 class ReviewWindow(QtWidgets.QMainWindow):
     """Review of session file ``path``; call :meth:`load` after ``show()``."""
 
@@ -254,7 +236,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
             self._marker_lines.append(line)
             self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker.label}")
         self.pose_status.setText(f"Pose: {data.pose_source}; {RESULT_TITLES[data.result].lower()}"
-                                 + accuracy_text(data))
+                                 + accuracy_phrase(data.truth_errors()))
         message = (f"{display_path(self.path)}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
                    f"{len(data.markers)} markers")
         if data.missing:

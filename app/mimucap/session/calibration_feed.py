@@ -71,14 +71,6 @@ class LiveSessionFeed:
     def time_s(self) -> float:
         return self._time_s
 
-    @property
-    def mag_calibrations(self) -> dict[str, MagCalibration]:
-        return self.live_session.mag_calibrations
-
-    def onboard_sensors(self) -> tuple[str, ...]:
-        """Sensors that fuse on board (nothing to calibrate: they calibrate themselves)."""
-        return self.live_session.onboard_sensors()
-
     def instruct(self, instruction: Instruction) -> None:
         self.live_session.instruct(instruction)
 
@@ -110,11 +102,11 @@ class LiveSessionFeed:
         self.live_session.events.processed.disconnect(self._on_processed)
 
 
-class _SteppedClock:
-    """A clock that moves only when told (simulated seconds)."""
+class SteppedClock:
+    """A monotonic clock (s) that moves only when told (``clock.now += step``)."""
 
-    def __init__(self) -> None:
-        self.now = 0.0
+    def __init__(self, start_s: float = 0.0) -> None:
+        self.now = float(start_s)
 
     def __call__(self) -> float:
         return self.now
@@ -134,7 +126,7 @@ class SimulatedSuitFeed(LiveSessionFeed):
 
         self.simulator = simulator
         self.step_s = float(step_s)
-        self._clock = _SteppedClock()
+        self._clock = SteppedClock()
         source = SimulatorFeed(simulator.config, clock=self._clock, simulator=simulator)
         live = LiveSession(source, "simulated", model_name=simulator.model.name,
                            height_m=simulator.config.height_m, clock=self._clock)

@@ -51,3 +51,18 @@ def angle_errors(t_s: np.ndarray, angles_deg: Mapping[str, np.ndarray], truth_t_
         errors[column] = AngleError(column, float(np.sqrt(np.mean(diff ** 2))), float(np.max(np.abs(diff))),
                                     float(np.mean(diff)), int(diff.size))
     return errors
+
+
+#: The joint angles the on-screen accuracy check and the benchmark sum up.
+FLEXION_COLUMNS = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg",
+                   "elbow_l_flexion_deg", "elbow_r_flexion_deg")
+
+
+def accuracy_phrase(rms_deg_by_column: Mapping[str, float]) -> str:
+    """What the status bar adds for a source with truth: ``"; vs. truth: flexion RMS m° (worst
+    w°)"`` over :data:`FLEXION_COLUMNS` (RMS errors in degrees, column → value); "" when none
+    of them is known."""
+    flexion = [rms_deg_by_column[c] for c in FLEXION_COLUMNS if c in rms_deg_by_column]
+    if not flexion:
+        return ""
+    return f"; vs. truth: flexion RMS {sum(flexion) / len(flexion):.1f}° (worst {max(flexion):.1f}°)"

@@ -17,20 +17,10 @@ from pathlib import Path
 from mimucap.core.bodycal import BodyCalibration
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.bodycal_procedure import BodycalProcedure
-from mimucap.session.calibration_feed import LiveSessionFeed
+from mimucap.session.calibration_feed import LiveSessionFeed, SteppedClock
 from mimucap.session.instructions import RESUME
 from mimucap.session.magcal_procedure import MagcalProcedure
 from mimucap.session.recording import RecordingResult
-
-
-class SteppedClock:
-    """A monotonic clock (s) that moves only when told."""
-
-    def __init__(self, start_s: float = 0.0) -> None:
-        self.now = float(start_s)
-
-    def __call__(self) -> float:
-        return self.now
 
 
 @dataclass

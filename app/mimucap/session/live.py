@@ -538,6 +538,8 @@ class LiveSession:
         from mimucap.session.evaluation import angle_errors
 
         errors: dict[str, float] = {}
+        if not self.has_truth:
+            return errors
         for joint, columns in self._joint_columns.items():
             t, estimate = self.joint_series(joint, window_s)
             t_true, true = self.truth_joint_series(joint, window_s + 1.0)

@@ -75,6 +75,17 @@ class ReviewData:
     def truth(self) -> SessionTruth | None:
         return self.session.truth
 
+    def truth_errors(self) -> dict[str, float]:
+        """RMS error (deg) of each joint-angle column against the simulator's truth over the
+        whole recording (empty without truth): the review's accuracy check."""
+        from mimucap.session.evaluation import angle_errors
+
+        truth = self.truth
+        if truth is None or not len(self.t_s):
+            return {}
+        found = angle_errors(self.t_s, self.angles_deg, truth.t_s, truth.joint_angles_deg)
+        return {column: error.rms_deg for column, error in found.items()}
+
     @property
     def markers(self) -> list[Marker]:
         return list(self.session.markers)
