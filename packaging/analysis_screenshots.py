@@ -76,6 +76,11 @@ class _PipelineLive:
     def joint_series(self, joint, window_s):
         return self.np.array([self.time_s]), self.np.array([[self._angles[c] for c in self.columns[joint]]])
 
+    def instruct(self, instruction) -> None:
+        from mimucap.session.feeds import simulated_subject_follows
+
+        simulated_subject_follows(self.simulator, instruction)
+
     def add_marker(self, label: str) -> float:
         self.markers.append(label)
         return self.time_s

@@ -44,6 +44,11 @@ class SimulatedLive:
         values = np.array([[self._angles[c] for c in self.columns[joint]]])
         return np.array([self.time_s]), values
 
+    def instruct(self, instruction) -> None:
+        from mimucap.session.feeds import simulated_subject_follows
+
+        simulated_subject_follows(self.simulator, instruction)
+
     def add_marker(self, label: str) -> float:
         self.markers.append(label)
         return self.time_s

@@ -19,8 +19,8 @@ samples carry ``q_world_from_sensor`` (the tracker's on-board fusion, world ENU,
 :func:`~mimucap.acquisition.slimevr_protocol.q_world_from_slimevr`) and, once the tracker has
 sent one, ``battery_pct``; no raw accelerometer, gyroscope or magnetometer. The acceleration
 packets carry a gravity-free linear acceleration whose axes the protocol does not fix, so they
-are validated and counted (``acceleration_packets`` in :attr:`SlimeVrDriver.counts`) but not
-passed on as ``acc`` (MimuCap's ``acc`` is specific force in the sensor frame).
+are decoded and checked but not passed on as ``acc`` (MimuCap's ``acc`` is specific force in
+the sensor frame).
 
 Times: the protocol carries no device clock. A sample's ``host_time_s`` is its arrival time less
 the tracker's one-way network delay (half the last ping round trip), so the latency statistics
@@ -102,7 +102,6 @@ class _Tracker:
     one_way_delay_s: float = 0.0
     ping_id: int | None = None
     ping_sent_s: float = 0.0
-    last_packet_s: float = 0.0
     sensors: dict[int, _Sensor] = field(default_factory=dict)
     signal_dbm: dict[int, float] = field(default_factory=dict)   #: sensor (255 = all) → dBm
 
@@ -120,7 +119,6 @@ class SlimeVrDriver:
         self.rejections = RejectionCounter()
         self.refused_trackers: dict[str, int] = {}        # "tracker MAC (build N)" → handshakes refused
         self.warning = ""
-        self.counts = {"acceleration_packets": 0, "ignored_packets": 0, "handshakes": 0}
         self._next_heartbeat_s = 0.0
         self._sensor_count = 0
         self._random = random.Random()
@@ -226,7 +224,6 @@ class SlimeVrDriver:
             if tracker.last_number is not None:
                 tracker.lost += datagram.number - tracker.last_number - 1
             tracker.last_number = datagram.number
-        tracker.last_packet_s = now
         for message in datagram.messages:
             self._message(tracker, message, address, now)
 
@@ -255,9 +252,7 @@ class SlimeVrDriver:
             tracker.build = handshake.build
             tracker.handshakes += 1
         tracker.last_number = None       # a handshake starts the packet numbers again
-        tracker.last_packet_s = now
         self._by_address[address] = tracker
-        self.counts["handshakes"] += 1
         self._send(proto.encode_handshake_reply(), address)
         self._next_heartbeat_s = 0.0     # a new tracker: heartbeat and ping it right away
 
@@ -289,24 +284,21 @@ class SlimeVrDriver:
                 tracker.ping_id = None
         elif isinstance(message, proto.FeatureFlags):
             self._send(proto.encode_feature_flags(), address)
-        elif isinstance(message, proto.Acceleration):
-            self.counts["acceleration_packets"] += 1
-        elif isinstance(message, (proto.Ignored, proto.Heartbeat)):
-            self.counts["ignored_packets"] += isinstance(message, proto.Ignored)
+        elif isinstance(message, (proto.Acceleration, proto.Ignored, proto.Heartbeat)):
+            pass             # read and checked; nothing MimuCap uses (see the module docstring)
         else:        # a handshake inside a bundle, or anything unforeseen
             self.rejections.add(Rejection.UNEXPECTED_MESSAGE)
 
     def _rotation(self, tracker: _Tracker, rotation: proto.Rotation, now: float) -> None:
         sensor = self._sensor(tracker, rotation.sensor)
-        if rotation.kind != proto.ROTATION_NORMAL:
-            self.counts["ignored_packets"] += 1       # magnetometer correction data: unused
+        if rotation.kind != proto.ROTATION_NORMAL:   # magnetometer correction data: unused
             return
         host_s = now - tracker.one_way_delay_s
         if host_s <= sensor.last_host_s:
             host_s = sensor.last_host_s + 1e-6
-        q = proto.q_world_from_slimevr(rotation.q_xyzw)
         sample = Sample(sensor_id=sensor.index, seq=sensor.rotations + tracker.lost, device_time_s=host_s,
-                        q_world_from_sensor=tuple(float(v) for v in q), battery_pct=tracker.battery_pct)
+                        q_world_from_sensor=proto.q_world_from_slimevr(rotation.q_xyzw),
+                        battery_pct=tracker.battery_pct)
         checked = validate_sample(sample, self.config.limits)
         if isinstance(checked, Rejection):
             self.rejections.add(checked)

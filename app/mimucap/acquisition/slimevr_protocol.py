@@ -47,8 +47,7 @@ Temperature (20), magnetometer accuracy (18), tap (13), error (14), user action 
 rotates the tracker's (mounting-corrected) sensor frame into the fusion's world frame, whose
 z axis points up; the SlimeVR server turns it into its y-up frame by a −90° rotation about x
 (``AXES_OFFSET`` in ``TrackersUDPServer.kt``). The wire frame is therefore already z-up like
-MimuCap's world ENU, and :data:`Q_WORLD_FROM_SLIMEVR` (the one rotation between them) is the
-identity; its heading is the tracker fusion's own (magnetic north only for magnetometer-aided
+MimuCap's world ENU: the rotation between them is the identity; its heading is the tracker fusion's own (magnetic north only for magnetometer-aided
 fusion). :func:`q_world_from_slimevr` applies it after reordering ``x, y, z, w`` into
 MimuCap's scalar-first ``[w, x, y, z]``.
 """
@@ -58,8 +57,6 @@ from __future__ import annotations
 import math
 import struct
 from dataclasses import dataclass
-
-import numpy as np
 
 from mimucap.acquisition.rejections import Rejection
 
@@ -96,9 +93,6 @@ HANDSHAKE_REPLY_TEXT = b"Hey OVR =D 5"
 SERVER_FEATURES = bytes([0b0000_0001])
 #: Largest datagram read (an Ethernet MTU less the IP and UDP headers).
 MAX_DATAGRAM_BYTES = 1472
-
-#: ``q_world_from_slimevr_wire``, scalar first: SlimeVR's wire frame is z-up like world ENU.
-Q_WORLD_FROM_SLIMEVR = np.array([1.0, 0.0, 0.0, 0.0])
 
 _HEADER = struct.Struct(">IQ")
 _HANDSHAKE_INTS = struct.Struct(">7i")
@@ -199,19 +193,11 @@ class Datagram:
     messages: tuple[Message | Rejection, ...]
 
 
-def q_world_from_slimevr(q_xyzw) -> np.ndarray:
-    """``q_world_from_sensor`` (scalar first, world ENU) of a wire quaternion ``x, y, z, w``.
-
-    ``q_xyzw`` has shape ``(..., 4)`` in SlimeVR's order (scalar last); the result is
-    ``Q_WORLD_FROM_SLIMEVR ⊗ q`` in MimuCap's order, shape ``(..., 4)``.
-    """
-    q = np.asarray(q_xyzw, dtype=np.float64)
-    wxyz = np.concatenate([q[..., 3:4], q[..., 0:3]], axis=-1)
-    w0, v0 = Q_WORLD_FROM_SLIMEVR[0], Q_WORLD_FROM_SLIMEVR[1:]
-    w1, v1 = wxyz[..., 0:1], wxyz[..., 1:4]
-    scalar = w0 * w1 - np.sum(v0 * v1, axis=-1, keepdims=True)
-    vector = w0 * v1 + w1 * v0 + np.cross(v0, v1)
-    return np.concatenate([scalar, vector], axis=-1)
+def q_world_from_slimevr(q_xyzw) -> tuple[float, float, float, float]:
+    """``q_world_from_sensor`` (scalar first, world ENU) of a wire quaternion ``x, y, z, w``:
+    the wire frame is already z-up like world ENU (module docstring), so only the order changes."""
+    x, y, z, w = (float(v) for v in q_xyzw)
+    return (w, x, y, z)
 
 
 # --------------------------------------------------------------------------- decoding

@@ -17,13 +17,15 @@ import ipaddress
 import re
 from dataclasses import dataclass
 
+from mimucap.acquisition.slimevr_protocol import DEFAULT_PORT
+
 VALID_FORMS = ("simulated[:SCENARIO]", "udp:BIND_ADDRESS:PORT", "serial:DEVICE[@BAUD]",
                "replay:FILE[@SPEED]", "slimevr[:[BIND_ADDRESS:]PORT]")
 DEFAULT_SCENARIO = "demo"
 DEFAULT_BAUD = 115200
 #: Where SlimeVR trackers look for their server (they broadcast to this port on the LAN).
 DEFAULT_SLIMEVR_ADDRESS = "0.0.0.0"
-DEFAULT_SLIMEVR_PORT = 6969
+DEFAULT_SLIMEVR_PORT = DEFAULT_PORT
 _SCENARIO_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*$")
 
 

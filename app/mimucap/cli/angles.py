@@ -116,13 +116,14 @@ def _is_session(args: argparse.Namespace) -> bool:
 def _session_output(args: argparse.Namespace, model, calibration, result: str):
     """A session's joint angles through the processing path with ``calibration``, the result's
     name and the session's markers."""
-    from mimucap.cli.bodycal import check_reader_options
+    from mimucap.cli.bodycal import _refuse_up_for_session, check_reader_options
     from mimucap.core.pipeline import RESULT_LABELS
     from mimucap.cli.session_input import magnetometer_calibrations
     from mimucap.io.session import read_session
     from mimucap.session.processing import process_session
 
     check_reader_options(args)
+    _refuse_up_for_session(args)
     session = read_session(args.input)
     missing = [sensor for sensor in calibration.sensors.values() if sensor not in session.sensors]
     if missing:

@@ -23,7 +23,6 @@ are listed in a ``.markers.csv`` file beside it.
 from __future__ import annotations
 
 import argparse
-import inspect
 from pathlib import Path
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
@@ -67,16 +66,12 @@ def review_for_export(session_path: str | Path, calibration_path: str | Path | N
     with the body calibration read from ``calibration_path`` in place of the stored one."""
     from mimucap.session import review
 
-    parameters = inspect.signature(review.load_review).parameters
-    options = {"result": "reprocessed"} if "result" in parameters else {}
     if calibration_path is None:
-        return review.load_review(session_path, **options)
+        return review.load_review(session_path)
     from mimucap.io.body_calibration_file import read_body_calibration
     from mimucap.session.recording import open_session
 
     calibration, _document = read_body_calibration(calibration_path)
-    if "calibration" in parameters:
-        return review.load_review(session_path, calibration=calibration, **options)
     session = open_session(session_path)
     session.calibrations = {**session.calibrations, "body": calibration.to_dict()}
     return review.build_review(session_path, session)

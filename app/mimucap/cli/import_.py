@@ -43,10 +43,11 @@ def run(args: argparse.Namespace) -> int:
         raise OSError(f"{args.out} exists: choose another --out (an import never replaces a session file)")
     from mimucap.io.imports import import_recording
 
+    from mimucap.io.session import session_duration_s
+
     session = import_recording(args.input, args.out)
-    path = args.out
     assigned = sorted({s.segment for s in session.sensors.values() if s.segment})
-    duration = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s.t_s)), default=0.0)
-    print(f"wrote {path}: {len(session.sensors)} sensors ({len(assigned)} on segments: {', '.join(assigned)}), "
+    duration = session_duration_s(session)
+    print(f"wrote {args.out}: {len(session.sensors)} sensors ({len(assigned)} on segments: {', '.join(assigned)}), "
           f"{duration:.2f} s, {'with' if 'body' in session.calibrations else 'without'} body calibration")
     return 0

@@ -499,7 +499,8 @@ class LivePlots(QtWidgets.QWidget):
             t, angles = self.source.joint_series(joint, window)
             self._show(self._joint_key(joint), t, angles, origin, now)
             drew = drew or len(t) > 0
-            self._show_truth(self._joint_key(joint), joint, truth_of, window, origin)
+            if truth_of is not None:
+                self._show_truth(self._joint_key(joint), joint, truth_of, window, origin)
         if np.isfinite(cursor):
             for line in self.cursors.values():
                 line.setValue(cursor - origin)
@@ -512,13 +513,20 @@ class LivePlots(QtWidgets.QWidget):
                 del self.refresh_times[:300]
             self.refreshed.emit(now)
 
+    def set_show_truth(self, on: bool) -> None:
+        """Draw the simulator's true angles beside the estimate (when the source has them) or
+        not (the dashed curves are cleared once)."""
+        self.show_truth = bool(on)
+        if not on:
+            for curves in self.truth_curves.values():
+                for curve in curves:
+                    curve.setData([], [])
+
     def _show_truth(self, key: str, joint: str, truth_of, window: float, origin: float) -> None:
-        """The simulator's true angles as dashed curves beside the estimate (cleared when the
-        source has no truth or it is not wanted)."""
-        curves = self.truth_curves.get(key, ())
-        t, angles = truth_of(joint, window) if truth_of is not None else (np.zeros(0), np.zeros((0, 3)))
+        """The simulator's true angles as dashed curves beside the estimate."""
+        t, angles = truth_of(joint, window)
         x, shown = peak_decimate(t - origin, angles, MAX_POINTS) if len(t) else (t, angles)
-        for axis, curve in enumerate(curves):
+        for axis, curve in enumerate(self.truth_curves.get(key, ())):
             curve.setData(x, shown[:, axis] if len(x) else x)
 
     def curve_data(self, key: str, axis: int) -> tuple[np.ndarray, np.ndarray]:

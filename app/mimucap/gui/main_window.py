@@ -44,7 +44,7 @@ from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
 from mimucap.core.pipeline import POSE_SENSOR_AXES
-from mimucap.session.evaluation import accuracy_phrase
+from mimucap.session.evaluation import FLEXION_COLUMNS, accuracy_phrase
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
@@ -429,7 +429,7 @@ class MainWindow(QtWidgets.QMainWindow):
         live = self.live
         wanted = live is not None and self.action_truth.isChecked()
         self.scene_view.set_ghost_provider(live.truth_frame if wanted else None)
-        self.plots.show_truth = self.action_truth.isChecked()
+        self.plots.set_show_truth(self.action_truth.isChecked())
 
     def _assign_remembered(self, live) -> None:
         """Wear each sensor that appeared since the last call (a worker source's sensors appear
@@ -463,7 +463,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.show_checklist(recording_checklist(live))
         self._panel_refreshes += 1
         self.source_status.setText(f"Source: {live.label}")
-        self.pose_status.setText(f"Pose: {live.pose_source}" + accuracy_phrase(live.truth_errors(5.0)))
+        self.pose_status.setText(f"Pose: {live.pose_source}" + accuracy_phrase(live.truth_errors(5.0, FLEXION_COLUMNS)))
         self.action_truth.setEnabled(live.has_truth)
         problem = live.source_problem
         if problem != self._source_problem:

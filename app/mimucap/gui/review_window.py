@@ -68,6 +68,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.player: ReviewPlayer | None = None
         self.export_dialog: ExportDialog | None = None
         self.analysis_window = None
+        self._cursor_to_keep: float | None = None  # the play head kept across a change of result
         self.export_when_loaded = False
         self.load_error: str | None = None
         self._task: BackgroundTask | None = None
@@ -210,8 +211,10 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.load()
 
     def _loaded(self, data: ReviewData) -> None:
-        keep = getattr(self, "_cursor_to_keep", None)
-        self._cursor_to_keep = None
+        keep, self._cursor_to_keep = self._cursor_to_keep, None
+        if self.analysis_window is not None:  # it analysed the other result
+            self.analysis_window.close()
+            self.analysis_window = None
         for line in self._marker_lines:
             self.timeline.removeItem(line)
         self._marker_lines.clear()
@@ -319,7 +322,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         player = self.player
         wanted = player is not None and self.action_truth.isChecked()
         self.scene_view.set_ghost_provider(player.truth_frame if wanted else None)
-        self.plots.show_truth = self.action_truth.isChecked()
+        self.plots.set_show_truth(self.action_truth.isChecked())
 
     def _body_mode_toggled(self, on: bool) -> None:
         if self.player is not None:

@@ -14,7 +14,7 @@ Two settings of the render window:
 * The finished frame is copied to the window's back buffer in colour only
   (``FrameBlitMode`` "blit to current", the default framebuffer being the one bound while VTK
   renders into its own window): VTK's default also copies the depth buffer to the window, which
-  nothing reads (on Mesa's software OpenGL that copy is 2-3 ms a frame; ``bench/bench_gui.py``).
+  nothing reads and which costs a whole-window copy per frame without a GPU.
 
 Text anchored in the scene is drawn by VTK text actors in the same frame (no Qt painting over
 a native OpenGL window, which would flicker). A native OpenGL window is not part of what

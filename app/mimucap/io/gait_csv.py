@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mimucap.core import rotation
 from mimucap.io.session import gyro_range_problem
 
 SIDES = {"left_sensor": "left", "right_sensor": "right"}
@@ -164,11 +165,11 @@ def read_gaitmap_reference(folder: str | Path, rate_hz: float = 204.8) -> list[R
 
 def _heel_axis_turn_deg(q0_xyzw: Sequence[float], q1_xyzw: Sequence[float]) -> float:
     """Horizontal turn (deg) of the marker frame's x axis (heel direction) between two
-    scalar-last quaternions that map lab vectors into the marker frame."""
+    scalar-last quaternions ``q_marker_from_lab`` (they map lab vectors into the marker frame)."""
     def x_axis_in_lab(q):
         x, y, z, w = q
-        # The rotation maps lab → marker; the marker x axis in lab is the first row of R.
-        return np.array([1 - 2 * (y * y + z * z), 2 * (x * y + w * z), 2 * (x * z - w * y)])
+        r_marker_from_lab = rotation.to_matrix([w, x, y, z])
+        return r_marker_from_lab[0]  # the marker's x axis in lab coordinates: R⁻¹ e_x = Rᵀ e_x
     a, b = x_axis_in_lab(q0_xyzw), x_axis_in_lab(q1_xyzw)
     angle = math.degrees(math.atan2(b[1], b[0]) - math.atan2(a[1], a[0]))
     return (angle + 180.0) % 360.0 - 180.0

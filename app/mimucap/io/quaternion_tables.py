@@ -700,25 +700,6 @@ def read_apdm_csv(path: str | Path) -> QuaternionTable:
 
 
 # --------------------------------------------------------------------------------------------
-# MimuCap sessions
-# --------------------------------------------------------------------------------------------
-
-def resample_slerp(t_src: np.ndarray, q_src: np.ndarray, t_dst: np.ndarray) -> np.ndarray:
-    """Quaternions (M, 4) at times ``t_dst`` (M,) by slerp between samples ``(t_src, q_src)``.
-
-    ``t_src`` (N,) strictly increasing; ``t_dst`` must lie within ``[t_src[0], t_src[-1]]``.
-    """
-    t_src = np.asarray(t_src, dtype=np.float64)
-    t_dst = np.asarray(t_dst, dtype=np.float64)
-    if t_src.size == 1:
-        return np.repeat(q_src[:1], t_dst.size, axis=0)
-    index = np.clip(np.searchsorted(t_src, t_dst, side="right") - 1, 0, t_src.size - 2)
-    span = t_src[index + 1] - t_src[index]
-    fraction = np.clip((t_dst - t_src[index]) / span, 0.0, 1.0)
-    return rotation.slerp(q_src[index], q_src[index + 1], fraction)
-
-
-# --------------------------------------------------------------------------------------------
 # Dispatcher
 # --------------------------------------------------------------------------------------------
 

@@ -17,7 +17,6 @@ ROM protocol markers are labelled ``rom:<movement>:<side>:start`` and ``...:end`
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,7 +27,7 @@ from mimucap.core import bodycal
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait import GaitAnalysis, GaitInput, analyse_gait
 from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves
-from mimucap.core.analysis.gait_parameters import LABELS, PARAMETERS, SYMMETRY_PARAMETERS
+from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS
 from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.sagittal import sagittal_rate_calibrated, sagittal_rate_dominant
 from mimucap.io.gait_csv import write_table
@@ -40,15 +39,8 @@ ROM_MARKER_PREFIX = "rom:"
 
 
 def body_calibration_of(review: ReviewData) -> bodycal.BodyCalibration | None:
-    """The body calibration the review applied (``review.body_calibration`` when the review
-    carries it, else the one stored with the session), or None."""
-    calibration = getattr(review, "body_calibration", None)
-    if calibration is not None:
-        return calibration
-    data = review.session.calibrations.get("body") or review.session.metadata.get("body_calibration")
-    if not data:
-        return None
-    return bodycal.BodyCalibration.from_dict(data, origin=f"{review.path}: body calibration")
+    """The body calibration the review's processing applied, or None."""
+    return review.body_calibration
 
 
 def _sensor_of_segment(review: ReviewData, calibration, segment: str) -> str | None:
@@ -250,10 +242,3 @@ def write_analysis_csv(folder: str | Path, analysis: SessionAnalysis) -> list[Pa
         written.append(write_table(base / "rom.csv", *rom_table(analysis.rom)))
     return written
 
-
-def parameter_label(name: str) -> str:
-    return LABELS.get(name, name)
-
-
-def finite(value: float) -> bool:
-    return value is not None and math.isfinite(value)

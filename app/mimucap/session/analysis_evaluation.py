@@ -167,13 +167,8 @@ def simulated_analysis(config: SimulationConfig, folder: str | Path,
             raise ValueError("the simulated evaluation needs sensors with on-board orientation (errors='bno055')")
         index = np.clip(np.searchsorted(stream.t_s, t), 0, len(stream.t_s) - 1)
         q[sensor_id] = stream.q_world_from_sensor[index]
-    mapping = {stream.segment: sensor_id for sensor_id, stream in session.sensors.items()
-               if stream.segment and stream.segment not in ()}
-    mapping = {segment: sensor_id for segment, sensor_id in sorted(mapping.items())}
-    unique = {}
-    for segment, sensor_id in mapping.items():
-        unique.setdefault(segment, sensor_id)
-    calibration = bodycal.calibrate_npose_tpose(t, q, unique, DEMO_NPOSE_S, DEMO_TPOSE_S)
+    mapping = {stream.segment: sensor_id for sensor_id, stream in session.sensors.items() if stream.segment}
+    calibration = bodycal.calibrate_npose_tpose(t, q, mapping, DEMO_NPOSE_S, DEMO_TPOSE_S)
     session.calibrations["body"] = calibration.to_dict()
     path = Path(folder) / f"simulated_{config.scenario}_{config.n_sensors}.h5"
     write_session(path, session)

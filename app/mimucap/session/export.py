@@ -196,13 +196,8 @@ def run_export(data: ReviewData, request: ExportRequest,
 def _segment_sensors(data: ReviewData) -> dict[str, str]:
     """Segment → the sensor id the pipeline took its orientation from: the body calibration's
     assignment where there is one, else each sensor's recorded segment (the first per segment)."""
-    calibration = getattr(data, "body_calibration", None)
-    if calibration is None and data.session.calibrations.get("body"):
-        from mimucap.core.bodycal import BodyCalibration
-
-        calibration = BodyCalibration.from_dict(data.session.calibrations["body"], f"{data.path}: body calibration")
-    if calibration is not None:
-        return dict(calibration.sensors)
+    if data.body_calibration is not None:
+        return dict(data.body_calibration.sensors)
     result: dict[str, str] = {}
     for sensor_id, stream in data.session.sensors.items():
         if stream.segment and stream.segment not in result:
@@ -223,7 +218,7 @@ def write_motion_file(data: ReviewData, request: ExportRequest, fmt: str, path: 
     ``events`` ``(t_s, context, label)``. Returns the files written.
     """
     from mimucap.io import opensense
-    from mimucap.io.angles_export import marker_lines, write_angles
+    from mimucap.io.angles_export import write_angles
 
     path = Path(path)
     t_from, t_to = request.t_from_s, request.t_to_s
@@ -235,7 +230,7 @@ def write_motion_file(data: ReviewData, request: ExportRequest, fmt: str, path: 
     q_segments = {s: q[keep] for s, q in data.q_world_from_segment.items()}
     angles = {c: v[keep] for c, v in data.angles_deg.items()}
     root = None if data.root_position_m is None else data.root_position_m[keep]
-    in_range = [m for m in data.markers if t_from <= m.t_s <= t_to]
+    in_range = markers_in_range(data.markers, t_from, t_to)
     markers = [(m.t_s, m.label) for m in in_range]
     events = [e for e in events if t_from <= e[0] <= t_to]
     notes = [f"Session {data.path.name}; {t_from:.3f}..{t_to:.3f} s",

@@ -155,19 +155,8 @@ class SimulatorFeed:
         return blocks
 
     def follow(self, instruction: Instruction) -> None:
-        """The simulated subject does what ``instruction`` asks; :data:`instructions.RESUME`
-        sends it back to its scenario."""
-        kind = instruction.kind
-        if kind == instructions.NPOSE:
-            self.simulator.set_activity("npose")
-        elif kind == instructions.TPOSE:
-            self.simulator.set_activity("tpose", arms=instruction.arms)
-        elif kind == instructions.TURN_SENSORS:
-            activity = {"single_axis": "mag_single_axis", "figure8": "mag_figure8", "free": "mag_tumble"}[instruction.protocol]
-            self.simulator.set_activity(activity, sensor_ids=list(instruction.sensor_ids),
-                                        turns=instructions.PROTOCOL_TURNS[instruction.protocol])
-        else:
-            self.simulator.resume_scenario()
+        """The simulated subject does what ``instruction`` asks (:func:`simulated_subject_follows`)."""
+        simulated_subject_follows(self.simulator, instruction)
 
     def stats(self) -> dict[str, SensorStats]:
         now = self._clock()
@@ -187,6 +176,26 @@ class SimulatorFeed:
     def stop(self) -> list[SampleBlock]:
         self._start_host_s = None
         return []
+
+
+def simulated_subject_follows(simulator: SuitSimulator, instruction: Instruction) -> None:
+    """The simulated subject of ``simulator`` does what ``instruction`` asks, as a person reads
+    it on the screen; :data:`instructions.RESUME` sends it back to its scenario."""
+    kind = instruction.kind
+    if kind == instructions.NPOSE:
+        simulator.set_activity("npose")
+    elif kind == instructions.TPOSE:
+        simulator.set_activity("tpose", arms=instruction.arms)
+    elif kind == instructions.TURN_SENSORS:
+        activity = {"single_axis": "mag_single_axis", "figure8": "mag_figure8", "free": "mag_tumble"}[instruction.protocol]
+        simulator.set_activity(activity, sensor_ids=list(instruction.sensor_ids),
+                               turns=instructions.PROTOCOL_TURNS[instruction.protocol])
+    elif kind == instructions.MOVE_JOINT:
+        from mimucap.session.rom_procedure import RomStep, simulated_activity
+
+        simulator.set_activity("rom", **simulated_activity(RomStep(instruction.movement, instruction.side)))
+    else:
+        simulator.resume_scenario()
 
 
 class SupervisorFeed:

@@ -16,8 +16,9 @@ from dataclasses import dataclass
 NPOSE = "npose"
 TPOSE = "tpose"
 TURN_SENSORS = "turn_sensors"
+MOVE_JOINT = "move_joint"
 RESUME_KIND = "resume"
-KINDS = (NPOSE, TPOSE, TURN_SENSORS, RESUME_KIND)
+KINDS = (NPOSE, TPOSE, TURN_SENSORS, MOVE_JOINT, RESUME_KIND)
 
 #: Magnetometer protocols and how often each one turns the bundle (see core.magcal_guidance).
 PROTOCOL_TURNS = {"single_axis": 1, "figure8": 3, "free": 2}
@@ -31,7 +32,8 @@ class Instruction:
 
     ``kind``: one of :data:`KINDS`; ``text``: the sentence the screen shows; ``arms``
     (``both``/``left``/``right``) for a T-pose; ``sensor_ids`` and ``protocol``
-    (``single_axis``, ``figure8``, ``free``) for turning sensors.
+    (``single_axis``, ``figure8``, ``free``) for turning sensors; ``movement`` (a key of
+    :data:`mimucap.core.analysis.rom.MOVEMENTS`) and ``side`` for a range-of-motion movement.
     """
 
     kind: str
@@ -39,6 +41,8 @@ class Instruction:
     arms: str = "both"
     sensor_ids: tuple[str, ...] = ()
     protocol: str = "single_axis"
+    movement: str = ""
+    side: str = ""
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -70,6 +74,12 @@ def turn_sensors(sensor_ids: Sequence[str], protocol: str = "single_axis") -> In
     if protocol not in texts:
         raise ValueError(f"unknown magnetometer protocol {protocol!r}; use one of {', '.join(texts)}")
     return Instruction(TURN_SENSORS, texts[protocol], sensor_ids=tuple(sensor_ids), protocol=protocol)
+
+
+def move_joint(movement: str, side: str, text: str) -> Instruction:
+    """Do range-of-motion ``movement`` on ``side`` (``left``, ``right`` or ``both``) as far as
+    it goes, repeatedly; ``text`` is the movement's instruction on the screen."""
+    return Instruction(MOVE_JOINT, text, movement=movement, side=side)
 
 
 def put_sensors_back() -> Instruction:

@@ -532,15 +532,20 @@ class LiveSession:
             return np.zeros(0), np.zeros((0, 3))
         return buffer.since(buffer.latest()[0] - window_s)
 
-    def truth_errors(self, window_s: float = 5.0) -> dict[str, float]:
-        """RMS error (deg) of each joint-angle column against the simulator's truth over the last
-        ``window_s`` seconds (empty for a source without truth): the on-screen accuracy check."""
+    def truth_errors(self, window_s: float = 5.0, columns=None) -> dict[str, float]:
+        """RMS error (deg) of each joint-angle column (or only of ``columns``) against the
+        simulator's truth over the last ``window_s`` seconds (empty for a source without truth):
+        the on-screen accuracy check."""
         from mimucap.session.evaluation import angle_errors
 
         errors: dict[str, float] = {}
         if not self.has_truth:
             return errors
-        for joint, columns in self._joint_columns.items():
+        wanted = None if columns is None else set(columns)
+        for joint, columns_of_joint in self._joint_columns.items():
+            if wanted is not None and wanted.isdisjoint(columns_of_joint):
+                continue
+            columns = columns_of_joint
             t, estimate = self.joint_series(joint, window_s)
             t_true, true = self.truth_joint_series(joint, window_s + 1.0)
             if not len(t) or len(t_true) < 2:

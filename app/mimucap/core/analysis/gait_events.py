@@ -15,8 +15,8 @@ then timed on a copy low-passed at ``event_lowpass_hz`` (zero phase, so no delay
   FC is the minimum of the sagittal rate in the push-off before the swing (the foot's fastest
   plantar-flexion as the toe leaves the ground); IC is the zero crossing from positive to
   negative that ends the swing: the forward rotation of the foot stops at heel contact and the
-  foot starts to roll down onto the ground. On the gaitmap reference these instants lie within
-  a few milliseconds of the optical events (``gait/README.md`` of the shared data).
+  foot starts to roll down onto the ground (``bench/bench_gait.py`` compares them with an
+  optical reference).
 * **Shank** (Salarian et al. 2004; Aminian et al. 2002; compared in Trojaniello et al. 2014,
   "Estimation of step-by-step spatio-temporal parameters of normal and impaired gait using
   shank-mounted magneto-inertial sensors", J. NeuroEng. Rehabil. 11:152): FC is the minimum

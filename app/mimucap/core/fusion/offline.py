@@ -133,11 +133,11 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
     out_b = np.empty((n_sensors, n, 3))
     flags = np.zeros((n_sensors, n), dtype=np.uint8)
     counters = []
+    if state is not None and n_sensors != 1:
+        raise ValueError("a prior state is given for one sensor at a time")
     for s in range(n_sensors):
         store = (np.empty((1, n, 4)), np.empty((1, n, 3)), np.empty((1, n, 6, 6)),
                  np.empty((1, n, 6, 6)), np.empty((1, n, 3, 3)))
-        if state is not None and n_sensors != 1:
-            raise ValueError("a prior state is given for one sensor at a time")
         ekf = OrientationEKF(params, algorithm=algorithm, use_mag=use_mag, state=state)
         forward = ekf.update_batch(t[s], gyr3[s], None if acc3 is None else acc3[s],
                                    None if mag3 is None else mag3[s], _store=store)

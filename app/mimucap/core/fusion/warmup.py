@@ -1,15 +1,15 @@
 """Compile the fusion kernels before they are needed.
 
-numba compiles each kernel on its first call: 15-20 s on the 2-core CI machine with an empty
-cache, about 10 ms once the compiled code is cached on disk (``cache=True``, under
-``__pycache__`` or numba's user cache directory). The first call of a fresh install would
-therefore stall whatever thread makes it. :func:`compile_kernels` makes those first calls on
+numba compiles each kernel on its first call, which takes seconds, unless the compiled code is
+already cached on disk (``cache=True``, under ``__pycache__`` or numba's user cache directory).
+The first call of a fresh install would therefore stall whatever thread makes it. :func:`compile_kernels` makes those first calls on
 a few samples of a resting sensor, so an application can run it off its GUI thread at start.
 
 ``python -m mimucap.core.fusion.warmup`` does it once, at installation (``make install``):
 numba writes the compiled code to its cache directory (``__pycache__`` beside the kernels'
 sources when writable, else the user's cache; ``NUMBA_CACHE_DIR`` overrides both), the same
-one the application reads later, so its first start loads the kernels in milliseconds.
+one the application reads later, so its first start loads the compiled kernels instead of
+compiling them.
 """
 
 from __future__ import annotations

@@ -5,8 +5,8 @@ The logic is :class:`mimucap.session.rom_procedure.RomProcedure`, fed by a ``QTi
 the live session's newest joint angles and segment orientations (it needs a body
 calibration). Each step's start and end are also set as markers on the live session
 (``rom:<movement>:<side>:start`` / ``:end``), so a recording running meanwhile holds them and
-its analysis finds the same movements. With the simulated suit, the simulated subject does
-each movement when it starts (``SuitSimulator.set_activity("rom", ...)``).
+its analysis finds the same movements. Each movement is an instruction to the live session
+(:mod:`mimucap.session.instructions`): the person reads it, the simulated subject does it.
 """
 
 from __future__ import annotations
@@ -18,7 +18,8 @@ from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.analysis import rom as rom_core
 from mimucap.gui.wizards.dialog import button_row, large_label, push_button
-from mimucap.session.rom_procedure import RomProcedure, simulated_activity
+from mimucap.session import instructions
+from mimucap.session.rom_procedure import RomProcedure
 
 TICK_MS = 40
 
@@ -110,20 +111,15 @@ class RomWizard(QtWidgets.QDialog):
     def _rest(self) -> None:
         """The simulated subject stands still again (once per step)."""
         self._subject_resting = True
-        if self._simulator() is not None:
-            self._simulator().set_activity("npose")
-
-    def _simulator(self):
-        return getattr(self.live, "simulator", None)
+        self.live.instruct(instructions.npose())
 
     # -- buttons ------------------------------------------------------------------------------
     def start_step(self) -> None:
         if getattr(self.live, "body_calibration", None) is None:
             return
         step = self.procedure.step
-        if self._simulator() is not None:
-            self._simulator().set_activity("rom", **simulated_activity(step))
-            self._subject_resting = False
+        self.live.instruct(instructions.move_joint(step.key, step.side, step.instruction))
+        self._subject_resting = False
         self.procedure.start_step(self.live.time_s)
         self._send_markers()
         self.refresh()
@@ -185,4 +181,5 @@ class RomWizard(QtWidgets.QDialog):
 
     def closeEvent(self, event) -> None:  # noqa: N802 (Qt API)
         self.timer.stop()
+        self.live.instruct(instructions.RESUME)
         super().closeEvent(event)
