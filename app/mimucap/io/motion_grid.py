@@ -12,24 +12,23 @@ from __future__ import annotations
 import numpy as np
 
 from mimucap.core import rotation
+from mimucap.core.analysis import signals
 
 
 def uniform_grid(t_s: np.ndarray) -> tuple[np.ndarray, float]:
-    """``(t_uniform (F,), rate_hz)`` from ``t_s[0]`` to ``t_s[-1]`` at the median step of ``t_s``."""
+    """``(t_uniform (F,), rate_hz)`` from ``t_s[0]`` to ``t_s[-1]`` at the median step of ``t_s``
+    (:func:`mimucap.core.analysis.signals.uniform_grid`), for poses at increasing times."""
     t = np.asarray(t_s, dtype=np.float64)
     if t.ndim != 1 or t.size < 2 or np.any(~np.isfinite(t)) or np.any(np.diff(t) <= 0.0):
         raise ValueError("a motion file needs at least two poses at strictly increasing times")
-    step = float(np.median(np.diff(t)))
-    count = int(np.floor((t[-1] - t[0]) / step + 1e-6)) + 1
-    return t[0] + step * np.arange(count), 1.0 / step
+    return signals.uniform_grid(t)
 
 
 def sample_series(t_src: np.ndarray, values: np.ndarray, t_dst: np.ndarray) -> np.ndarray:
     """``values`` (N, ...) at ``t_src`` (N,) linearly interpolated at ``t_dst`` (F,) → (F, ...)."""
     values = np.asarray(values, dtype=np.float64)
-    flat = values.reshape(len(values), -1)
-    out = np.column_stack([np.interp(t_dst, t_src, flat[:, k]) for k in range(flat.shape[1])])
-    return out.reshape((len(t_dst),) + values.shape[1:])
+    flat = signals.resample(t_src, values.reshape(len(values), -1), t_dst)
+    return flat.reshape((len(t_dst),) + values.shape[1:])
 
 
 def sample_orientations(t_src: np.ndarray, q: np.ndarray, t_dst: np.ndarray) -> np.ndarray:

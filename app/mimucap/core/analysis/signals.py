@@ -35,9 +35,10 @@ def check_finite(values: np.ndarray, what: str) -> np.ndarray:
 
 
 def uniform_grid(t_s: np.ndarray) -> tuple[np.ndarray, float]:
-    """A uniform time grid over ``t_s`` at its median sample interval; returns (grid, rate_hz)."""
+    """A uniform time grid over ``t_s`` at its median sample interval; returns (grid, rate_hz).
+    A span that is a whole number of intervals up to rounding keeps its last sample."""
     dt = float(np.median(np.diff(t_s)))
-    n = int(np.floor((t_s[-1] - t_s[0]) / dt + 1e-9)) + 1
+    n = int(np.floor((t_s[-1] - t_s[0]) / dt + 1e-6)) + 1
     return t_s[0] + dt * np.arange(n), 1.0 / dt
 
 
