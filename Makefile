@@ -22,10 +22,17 @@ $(PY):
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 
-# After installing, the fusion kernels are compiled into numba's on-disk cache (next to their
-# sources), where the application loads them at its first start instead of compiling them.
+# After installing, the fusion kernels are compiled ahead of time into an extension module
+# (app/mimucap/core/fusion/_compiled, not under version control), which processes load without
+# numba, and into numba's on-disk cache, the fallback; again whenever their sources change.
+KERNELS_STAMP := $(VENV)/.mimucap-kernels
+KERNEL_SOURCES := $(wildcard app/mimucap/core/fusion/*.py)
 $(STAMP): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e .
+	$(PY) -m mimucap.core.fusion.warmup
+	touch $@
+
+$(KERNELS_STAMP): $(STAMP) $(KERNEL_SOURCES)
 	$(PY) -m mimucap.core.fusion.warmup
 	touch $@
 
@@ -37,9 +44,9 @@ $(BENCH_STAMP): pyproject.toml $(STAMP)
 	$(PY) -m pip install --quiet -e ".[test,bench]"
 	touch $@
 
-install: $(STAMP)
+install: $(KERNELS_STAMP)
 
-run: $(STAMP)
+run: $(KERNELS_STAMP)
 	$(VENV)/bin/mimucap gui --source simulated
 
 debs:
@@ -53,13 +60,13 @@ debs:
 	  fi; \
 	fi
 
-test: debs $(TEST_STAMP)
+test: debs $(TEST_STAMP) $(KERNELS_STAMP)
 	QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider
 
-screenshots: debs $(STAMP)
+screenshots: debs $(KERNELS_STAMP)
 	QT_API=pyqt5 $(XVFB_RUN) $(PY) packaging/make_screenshots.py docs/screenshots
 
-bench: debs $(BENCH_STAMP)
+bench: debs $(BENCH_STAMP) $(KERNELS_STAMP)
 	@for script in bench/bench_*.py; do \
 	  echo "== $$script"; QT_API=pyqt5 $(XVFB_RUN) $(PY) $$script || exit 1; \
 	done
@@ -71,4 +78,4 @@ bundle: debs $(STAMP)
 	$(XVFB_RUN) $(VENV)/bin/pyinstaller packaging/mimucap.spec --noconfirm --distpath dist --workpath build/pyinstaller
 
 clean:
-	rm -rf $(VENV) build dist *.egg-info app/*.egg-info
+	rm -rf $(VENV) build dist *.egg-info app/*.egg-info app/mimucap/core/fusion/_compiled

@@ -121,8 +121,22 @@ def file_calls(path: Path) -> list[str]:
     return found
 
 
+#: The only file access core may make, and why: the fusion kernels' compiled code, built at
+#: installation and looked up by a fingerprint of their sources and of the CPU (the same kind of
+#: thing as numba's on-disk cache, which the kernels use too), never data.
+CORE_FILE_EXEMPTIONS = {
+    "core/fusion/aot.py": {"open", "read_bytes"},   # /proc/cpuinfo, the kernels' sources
+    "core/fusion/aot_build.py": {"mkdir", "unlink"},  # the compiled-module folder, older modules
+    "core/fusion/warmup.py": {"unlink"},              # a module that disagrees with the JIT kernels
+}
+
+
 def test_core_reads_and_writes_no_files() -> None:
-    offenders = {str(p.relative_to(PACKAGE_DIR)): file_calls(p) for p in layer_files("core")}
+    offenders = {}
+    for path in layer_files("core"):
+        name = str(path.relative_to(PACKAGE_DIR))
+        allowed = CORE_FILE_EXEMPTIONS.get(name, set())
+        offenders[name] = [call for call in file_calls(path) if call.split(" ")[0] not in allowed]
     assert {k: v for k, v in offenders.items() if v} == {}
     imports = {str(p.relative_to(PACKAGE_DIR)): sorted(n for n in imported_modules(p) if n.startswith("mimucap.resources"))
                for p in layer_files("core")}

@@ -3,9 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from numba.core.registry import CPUDispatcher
 
-from mimucap.core.fusion import OrientationEKF, fuse_offline, disturbance, kernels, offline, propagation, state
+from mimucap.core.fusion import OrientationEKF, aot, fuse_offline, disturbance, kernels, offline, propagation, state
 from mimucap.core.fusion.warmup import compile_kernels
 
 
@@ -17,6 +18,13 @@ def _compiled_signatures() -> dict[str, int]:
             if isinstance(value, CPUDispatcher):
                 found[f"{module.__name__}.{name}"] = len(value.signatures)
     return found
+
+
+@pytest.fixture(autouse=True)
+def jit_kernels():
+    """These tests are about numba's JIT kernels, whether or not a compiled module exists."""
+    with aot.kernels_in_use(aot.jit_kernels()):
+        yield
 
 
 def test_after_the_warm_up_real_calls_compile_nothing_more():

@@ -16,6 +16,11 @@ whether one is due.
 If the child fails, or ends without leaving a usable cache (a read-only install without a
 writable user cache, for example), the kernels are compiled in the calling thread, as before:
 slower for the GUI, never wrong. :class:`KernelPreparation` reports which way was taken.
+
+All of this concerns numba's JIT kernels only. After ``make install`` the kernels are normally
+compiled ahead of time (:mod:`mimucap.core.fusion.aot`): then :meth:`KernelPreparation.run`
+loads that module and returns at once, numba is not even imported, and the first start has
+nothing to compile.
 """
 
 from __future__ import annotations
@@ -26,8 +31,7 @@ import threading
 import time
 from dataclasses import dataclass
 
-from numba.core import event
-
+from mimucap.core.fusion.aot import fusion_kernels
 from mimucap.core.fusion.warmup import compile_kernels
 
 log = logging.getLogger(__name__)
@@ -40,8 +44,8 @@ CANCEL_POLL_S = 0.1
 
 @dataclass(frozen=True)
 class PreparationReport:
-    """How the kernels were made ready: ``cached`` they were all in numba's cache already (no
-    child was started); else ``child_exit_code`` of the compiling child (``None`` if it was
+    """How the kernels were made ready: ``ahead_of_time`` they came compiled at installation (no
+    child, no numba); ``cached`` they were all in numba's cache already (no child was started); else ``child_exit_code`` of the compiling child (``None`` if it was
     stopped), ``child_s`` its wall time (s); ``load_s`` the wall time (s) of the first calls
     in this process (milliseconds when they came from the cache)."""
 
@@ -49,6 +53,7 @@ class PreparationReport:
     child_s: float
     load_s: float
     cached: bool = False
+    ahead_of_time: bool = False
 
     @property
     def compiled_in_child(self) -> bool:
@@ -76,6 +81,8 @@ class KernelPreparation:
         if self._cancel.is_set():
             return None
         loading = time.monotonic()
+        if fusion_kernels().ahead_of_time:
+            return PreparationReport(None, 0.0, time.monotonic() - loading, cached=True, ahead_of_time=True)
         if load_cached_kernels():
             return PreparationReport(None, 0.0, time.monotonic() - loading, cached=True)
         started = time.monotonic()
@@ -124,19 +131,21 @@ class _CompilationRefused(Exception):
     """A kernel was about to be compiled where only loading it from the cache was allowed."""
 
 
-class _RefuseCompilation(event.Listener):
-    """numba event listener that stops, at its start, any compilation made by one thread
-    (numba's listeners hear every thread: another thread's compilations go on)."""
+def _refusing_listener(thread_id: int):
+    """A numba event listener that stops, at its start, any compilation made by the thread
+    ``thread_id`` (numba's listeners hear every thread: another thread's compilations go on).
+    Built on demand: numba is imported only when its JIT kernels are used."""
+    from numba.core import event
 
-    def __init__(self, thread_id: int) -> None:
-        self.thread_id = thread_id
+    class RefuseCompilation(event.Listener):
+        def on_start(self, compilation: event.Event) -> None:
+            if threading.get_ident() == thread_id:
+                raise _CompilationRefused(str(compilation.data.get("dispatcher")))
 
-    def on_start(self, compilation: event.Event) -> None:
-        if threading.get_ident() == self.thread_id:
-            raise _CompilationRefused(str(compilation.data.get("dispatcher")))
+        def on_end(self, compilation: event.Event) -> None:
+            pass
 
-    def on_end(self, compilation: event.Event) -> None:
-        pass
+    return event, RefuseCompilation()
 
 
 def load_cached_kernels() -> bool:
@@ -144,8 +153,9 @@ def load_cached_kernels() -> bool:
     numba's on-disk cache holds every kernel they need: ``True`` when all were loaded from it,
     ``False`` (at the first kernel missing from the cache, without compiling it) otherwise.
     Milliseconds either way."""
+    event, listener = _refusing_listener(threading.get_ident())
     try:
-        with event.install_listener("numba:compile", _RefuseCompilation(threading.get_ident())):
+        with event.install_listener("numba:compile", listener):
             compile_kernels()
     except _CompilationRefused:
         return False

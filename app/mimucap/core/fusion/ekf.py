@@ -12,7 +12,10 @@ absent). NaN or out-of-range samples are skipped and counted, never fed to the s
 
 :class:`OrientationEKF` keeps the state between calls: ``update`` takes one sample,
 ``update_batch`` a block, and feeding a recording in blocks gives exactly the result of one
-call (:func:`fuse`).
+call (:func:`fuse`). The loop over the samples is the compiled kernel
+:func:`~mimucap.core.fusion.kernels.ekf_sensors`, from the module compiled ahead of time or
+through numba's JIT (:mod:`mimucap.core.fusion.aot`); numba is imported only in the latter case,
+at the first call.
 """
 
 from __future__ import annotations
@@ -24,10 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from mimucap.core.fusion.algorithms import ALGORITHMS
-from mimucap.core.fusion.kernels import ekf_sensors
+from mimucap.core.fusion.aot import fusion_kernels
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams, pack_params
 from mimucap.core.fusion.state import FusionState, decode_flags
-
 
 
 @dataclass(frozen=True)
@@ -125,7 +127,7 @@ def _run_filter(packed: np.ndarray, state: FusionState, t, gyr, acc, mag,
     absent, st_q, st_b, st_pp, st_pu, st_a = _unused_outputs(s_count)
     if store is not None:
         st_q, st_b, st_pp, st_pu, st_a = store
-    ekf_sensors(packed, _kernel_array(t), gyr, absent if acc is None else acc,
+    fusion_kernels().ekf_sensors(packed, _kernel_array(t), gyr, absent if acc is None else acc,
                 absent if mag is None else mag, state.q_world_from_sensor, state.bias_rad_s,
                 state.cov, state.aux, out_q, out_b, out_f, store is not None, st_q, st_b, st_pp, st_pu, st_a)
     return out_q, out_b, out_f

@@ -5,34 +5,19 @@ and ``FLAG_*`` in :mod:`.state`) as compile-time constants. numba's on-disk cach
 the source file of each kernel only, so after an edit of those layouts a cached kernel would
 silently index the wrong entries. Each kernel module therefore compiles a function returning
 :data:`LAYOUT_FINGERPRINT` and calls :func:`refresh_if_stale` at import: on a mismatch its
-caches are emptied and the kernels compile afresh.
+caches are emptied and the kernels compile afresh. (The module compiled ahead of time carries
+the same fingerprint in its name: :mod:`.aot`.)
 """
 
 from __future__ import annotations
 
-import zlib
-
 from numba.core.registry import CPUDispatcher
 
-from mimucap.core.fusion import params, state
+from mimucap.core.fusion.aot import LAYOUT_FINGERPRINT
 
 #: numba options of every fusion kernel: compiled once and cached on disk; IEEE NaN/inf
 #: semantics are kept (no "nnan"/"ninf" fast-math), division follows numpy (no exceptions).
 JIT_OPTIONS = dict(cache=True, error_model="numpy", fastmath={"contract", "arcp", "reassoc", "nsz"})
-
-
-def _fingerprint() -> int:
-    items = sorted(
-        (name, value)
-        for module in (params, state)
-        for name, value in vars(module).items()
-        if name.startswith(("PI_", "AX_", "FLAG_", "AUX_")) and isinstance(value, int)
-    )
-    return zlib.crc32(repr(items).encode())
-
-
-#: Checksum of the settings and state layouts the kernels are compiled against.
-LAYOUT_FINGERPRINT = _fingerprint()
 
 
 def refresh_if_stale(namespace: dict, compiled_fingerprint: int) -> bool:

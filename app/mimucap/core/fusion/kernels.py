@@ -1,4 +1,8 @@
-"""Numba kernel of the error-state EKF: one sensor, a block of samples, state updated in place.
+"""Numba kernels of the error-state EKF (one sensor, a block of samples, state updated in
+place) and of its Rauch-Tung-Striebel backward pass (:mod:`.offline` describes it).
+
+These are the only compiled kernels of the fusion; :mod:`.aot` chooses whether a process runs
+them from the module compiled ahead of time at installation or through numba's JIT.
 
 Error state ``x = [δθ (rad, world frame), δb (rad/s, sensor frame)]`` with the true
 orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
@@ -483,6 +487,105 @@ def ekf_sensors(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
     for s in range(gyr.shape[0]):
         ekf_block(p, t[s], gyr[s], acc[s], mag[s], q[s], b[s], P[s], aux[s], out_q[s],
                   out_bias[s], out_flags[s], store, st_q[s], st_b[s], st_pp[s], st_pu[s], st_a[s])
+
+
+@njit(**JIT_OPTIONS)
+def _solve6(P, e, out):
+    """``out = P⁻¹ e`` for a symmetric positive definite 6×6 ``P`` (Cholesky); False if not PD."""
+    L = np.zeros((6, 6))
+    for i in range(6):
+        for j in range(i + 1):
+            s = P[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            if i == j:
+                if s <= 0.0:
+                    return False
+                L[i, i] = math.sqrt(s)
+            else:
+                L[i, j] = s / L[j, j]
+    y = np.empty(6)
+    for i in range(6):
+        s = e[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+    for i in range(5, -1, -1):
+        s = y[i]
+        for k in range(i + 1, 6):
+            s -= L[k, i] * out[k]
+        out[i] = s / L[i, i]
+    return True
+
+
+@njit(**JIT_OPTIONS)
+def rts_smooth(q_post, b_post, q_prior, b_prior, p_prior, p_post, a_blk, out_q, out_b):
+    """Backward RTS pass over one sensor's forward run stored by :func:`ekf_block`: ``q_post``
+    (N, 4), ``b_post`` (N, 3) the filtered state, ``q_prior`` / ``b_prior`` the predicted one,
+    ``p_prior`` / ``p_post`` (N, 6, 6) the covariances, ``a_blk`` (N, 3, 3) the transition blocks;
+    writes the smoothed ``out_q`` (N, 4) and ``out_b`` (N, 3) (:mod:`.offline`)."""
+    n = q_post.shape[0]
+    for i in range(4):
+        out_q[n - 1, i] = q_post[n - 1, i]
+    for i in range(3):
+        out_b[n - 1, i] = b_post[n - 1, i]
+    e = np.empty(6)
+    v = np.empty(6)
+    u = np.empty(6)
+    for k in range(n - 2, -1, -1):
+        if not (math.isfinite(q_post[k, 0]) and math.isfinite(out_q[k + 1, 0])
+                and math.isfinite(q_prior[k + 1, 0])):
+            for i in range(4):
+                out_q[k, i] = q_post[k, i]
+            for i in range(3):
+                out_b[k, i] = b_post[k, i]
+            continue
+        # e = x_{k+1|N} ⊖ x_{k+1|k}
+        sw, sx, sy, sz = out_q[k + 1, 0], out_q[k + 1, 1], out_q[k + 1, 2], out_q[k + 1, 3]
+        dw, dx_, dy_, dz_ = quat_multiply(sw, sx, sy, sz, q_prior[k + 1, 0], -q_prior[k + 1, 1],
+                                          -q_prior[k + 1, 2], -q_prior[k + 1, 3])
+        if dw < 0.0:
+            dw, dx_, dy_, dz_ = -dw, -dx_, -dy_, -dz_
+        nv = math.sqrt(dx_ * dx_ + dy_ * dy_ + dz_ * dz_)
+        scale = 2.0 * math.atan2(nv, dw) / nv if nv > 1e-12 else 2.0
+        e[0], e[1], e[2] = scale * dx_, scale * dy_, scale * dz_
+        for i in range(3):
+            e[3 + i] = out_b[k + 1, i] - b_prior[k + 1, i]
+        if not _solve6(p_prior[k + 1], e, v):
+            for i in range(4):
+                out_q[k, i] = q_post[k, i]
+            for i in range(3):
+                out_b[k, i] = b_post[k, i]
+            continue
+        # u = Φᵀ v = [v_θ ; Aᵀ v_θ + v_b]
+        for i in range(3):
+            u[i] = v[i]
+            u[3 + i] = (v[3 + i] + a_blk[k + 1, 0, i] * v[0] + a_blk[k + 1, 1, i] * v[1]
+                        + a_blk[k + 1, 2, i] * v[2])
+        P = p_post[k]
+        d0 = d1 = d2 = 0.0
+        for j in range(6):
+            d0 += P[0, j] * u[j]
+            d1 += P[1, j] * u[j]
+            d2 += P[2, j] * u[j]
+        ew, ex, ey, ez = exp_quat(d0, d1, d2)
+        w, x, y, z = quat_multiply(ew, ex, ey, ez, q_post[k, 0], q_post[k, 1], q_post[k, 2],
+                                   q_post[k, 3])
+        w, x, y, z = quat_normalise(w, x, y, z)
+        out_q[k, 0], out_q[k, 1], out_q[k, 2], out_q[k, 3] = w, x, y, z
+        for i in range(3):
+            s = 0.0
+            for j in range(6):
+                s += P[3 + i, j] * u[j]
+            out_b[k, i] = b_post[k, i] + s
+
+
+@njit(**JIT_OPTIONS)
+def rts_smooth_sensors(q_post, b_post, q_prior, b_prior, p_prior, p_post, a_blk, out_q, out_b):
+    """:func:`rts_smooth` for ``S`` sensors in one call: every array gains a leading sensor axis."""
+    for s in range(q_post.shape[0]):
+        rts_smooth(q_post[s], b_post[s], q_prior[s], b_prior[s], p_prior[s], p_post[s], a_blk[s],
+                   out_q[s], out_b[s])
 
 
 @njit(**JIT_OPTIONS)
