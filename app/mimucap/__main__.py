@@ -2,13 +2,17 @@
 
 In the PyInstaller bundle the acquisition worker processes (started with ``spawn``) run this
 same executable: ``freeze_support`` turns such a start into the worker instead of a second
-application. Outside a bundle it does nothing.
+application. Outside a bundle it would do nothing, so :mod:`multiprocessing` (tens of
+milliseconds of imports) is not loaded there.
 """
 
-import multiprocessing
+import sys
 
 from mimucap.cli import main
 
 if __name__ == "__main__":
-    multiprocessing.freeze_support()
+    if getattr(sys, "frozen", False):
+        import multiprocessing
+
+        multiprocessing.freeze_support()
     raise SystemExit(main())

@@ -61,7 +61,9 @@ class BroadTrial:
     @property
     def t_s(self) -> np.ndarray:
         """Sample times (s) from the constant sampling rate, starting at 0."""
-        return np.arange(self.n_samples) / self.sampling_rate_hz
+        t = np.arange(self.n_samples, dtype=np.float64)  # k / rate, divided in place: one array
+        t /= self.sampling_rate_hz
+        return t
 
     @property
     def category(self) -> str:
