@@ -15,6 +15,11 @@ With ``--installed`` a single start runs with numba's own cache location instead
 (``python -m mimucap.core.fusion.warmup``), it is the user's first start (target: live data
 within 10 s of the window opening).
 
+numba's cache matters only where the fusion kernels come from numba's JIT: after ``make
+install`` a process loads the module compiled ahead of time (:mod:`mimucap.core.fusion.aot`)
+and compiles nothing, cold or warm. ``MIMUCAP_FUSION_KERNELS=jit`` in the environment measures
+the JIT path (the fallback when that module is missing or stale).
+
 A 5 ms ``QTimer`` runs from the moment the window is shown; a pause is the time between two of
 its ticks. Printed per start: the time until the first sample (s), the three longest pauses
 (ms, with when they happened) and the share of the time spent in pauses longer than 50 ms.
