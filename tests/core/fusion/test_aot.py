@@ -274,3 +274,18 @@ def test_the_build_signatures_follow_the_entry_points():
     assert target_id("generic").startswith("generic:")
     with pytest.raises(ValueError, match="unknown target"):
         target_id("fastest")
+
+
+def test_the_generic_target_for_bundles_agrees_with_the_jit_kernels(tmp_path, jit):
+    """What the desktop bundle ships: compiled for any CPU of the architecture (no fused
+    multiply-add, so the last bits may differ from the JIT's)."""
+    from mimucap.core.fusion.aot_build import build
+
+    path = build("generic", tmp_path)
+    assert path.name.startswith(aot.module_name(aot.target_ids()[-1]))
+    generic = aot.load_ahead_of_time(tmp_path)
+    assert generic is not None and generic.origin == path.name
+    trial = read_broad(TRIAL)
+    assert_same(*both(generic, jit, lambda: fuse(trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT)))
+    t, gyr, acc, mag = _edge_recording()
+    assert_same(*both(generic, jit, lambda: fuse_offline(t, gyr, acc, mag)))

@@ -2,27 +2,30 @@
 else numba's JIT.
 
 The numba kernels of :mod:`.kernels` (the forward EKF :func:`~.kernels.ekf_sensors` and the
-Rauch-Tung-Striebel backward pass :func:`~.kernels.rts_smooth_sensors`) are also compiled ahead of time,
-at installation, into a Python extension module (:mod:`.aot_build`, numba's ``pycc``): the same
-source, the same dispatchers, the same compiler. A process that loads that module does not
-import numba at all, which saves about half a second per process (numba's import and the loading
-of its cached kernels), more than the filter needs for an hour of samples; and the GUI's first
-start has nothing to compile.
+Rauch-Tung-Striebel backward pass :func:`~.kernels.rts_smooth_sensors`) are also compiled ahead
+of time, at installation, into a Python extension module (:mod:`.aot_build`, numba's ``pycc``):
+the same source, the same dispatchers, the same compiler. A process that loads that module does
+not import numba at all, which saves about half a second per process (numba's import and the
+loading of its cached kernels), more than the filter needs for an hour of samples; and the
+GUI's first start has nothing to compile.
 
 **A stale module is never used.** The module's file name carries a fingerprint of everything
 its machine code was made from: the source text of the modules compiled into it
-(:data:`KERNEL_SOURCES`), the settings and state layouts the kernels read as constants
-(:data:`LAYOUT_FINGERPRINT`), and its target: ``host`` (the installing machine's CPU, identified
-by :func:`cpu_signature`; what a local install builds) or ``generic`` (any CPU of the
-architecture). After an edit of a kernel, a layout change or a move to another CPU, the name
-looked for is another one, so the old file is simply not found, and the kernels come from
-numba's JIT (:mod:`.kernels`, compiled once into numba's on-disk cache) until the next
-installation builds a current module. Where the sources cannot be read (a frozen bundle), no
-fingerprint can be checked and the JIT kernels serve.
+(:data:`KERNEL_SOURCES`), the exported signatures (:data:`ENTRY_POINTS`), the settings and
+state layouts the kernels read as constants (:data:`LAYOUT_FINGERPRINT`), and its target:
+``host`` (the installing machine's CPU, identified by :func:`cpu_signature`; what a local
+install builds) or ``generic`` (any CPU of the architecture). After an edit of a kernel, a
+layout change or a move to another CPU, the name looked for is another one, so the old file is
+simply not found, and the kernels come from numba's JIT (:mod:`.kernels`, compiled once into
+numba's on-disk cache) until the next installation builds a current module. Where the sources
+cannot be read, no fingerprint can be checked and the JIT kernels serve; the desktop bundle
+therefore ships the kernel sources beside its ``generic`` module (``packaging/mimucap.spec``).
 
-With the ``host`` target the module's results are bitwise those of the JIT kernels (both are
-compiled by LLVM for this CPU from the same source); the ``generic`` target may round
-differently in the last bits (no fused multiply-add).
+With the ``host`` target the module gives bitwise the orientations of the JIT kernels as
+numba's cache holds them (both are LLVM's code for this CPU from the same source; numba's JIT
+itself can round the last bits differently from one compilation to the next). The ``generic``
+target may differ in the last bits (no fused multiply-add). Installation checks the agreement
+(:mod:`.warmup`).
 
 The environment variable ``MIMUCAP_FUSION_KERNELS=jit`` makes a process use the JIT kernels
 even when a current module exists (comparisons, and tests of the JIT path).
@@ -141,7 +144,7 @@ def module_name(target_id: str) -> str:
     """Name of the compiled module for ``target_id`` and the current kernel sources and layouts
     (``OSError`` when a source cannot be read)."""
     data = b"".join(name.encode() + b"\0" + (PACKAGE_DIR / name).read_bytes() for name in KERNEL_SOURCES)
-    data += f"layout {LAYOUT_FINGERPRINT} target {target_id}".encode()
+    data += f"entry points {ENTRY_POINTS} layout {LAYOUT_FINGERPRINT} target {target_id}".encode()
     # two 32-bit checksums (zlib is loaded already; hashlib would add milliseconds to every start)
     return f"{MODULE_PREFIX}{zlib.crc32(data):08x}{zlib.adler32(data):08x}"
 
