@@ -25,10 +25,11 @@ $(PY):
 # After installing, the fusion kernels are compiled ahead of time into an extension module
 # (app/mimucap/core/fusion/_compiled, not under version control), which processes load without
 # numba, and into numba's on-disk cache, the fallback; again whenever their sources change.
+# numba's pycc, which builds that module, needs setuptools (not in Python 3.12+ venvs) and a C compiler.
 KERNELS_STAMP := $(VENV)/.mimucap-kernels
 KERNEL_SOURCES := $(wildcard app/mimucap/core/fusion/*.py)
 $(STAMP): pyproject.toml | $(PY)
-	$(PY) -m pip install --quiet -e .
+	$(PY) -m pip install --quiet -e . setuptools
 	$(PY) -m mimucap.core.fusion.warmup
 	touch $@
 

@@ -170,8 +170,9 @@ def checked(function: Callable, name: str) -> Callable:
                 if not isinstance(value, (bool, np.bool_)):
                     raise TypeError(f"{name}: argument {arg} must be a bool, got {type(value).__name__}")
                 continue
-            if not (isinstance(value, np.ndarray) and value.dtype == dtype and value.ndim == ndim
-                    and value.flags.c_contiguous and value.flags.writeable and value.flags.aligned):
+            flags = getattr(value, "flags", None) if isinstance(value, np.ndarray) else None
+            if not (flags is not None and value.dtype == dtype and value.ndim == ndim
+                    and flags.c_contiguous and flags.writeable and flags.aligned):
                 got = (f"{value.dtype} {value.shape}, flags C={value.flags.c_contiguous} "
                        f"W={value.flags.writeable}" if isinstance(value, np.ndarray) else type(value).__name__)
                 raise TypeError(f"{name}: argument {arg} must be a C-contiguous, writeable {dtype} array "
