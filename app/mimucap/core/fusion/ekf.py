@@ -127,9 +127,10 @@ def _run_filter(packed: np.ndarray, state: FusionState, t, gyr, acc, mag,
     absent, st_q, st_b, st_pp, st_pu, st_a = _unused_outputs(s_count)
     if store is not None:
         st_q, st_b, st_pp, st_pu, st_a = store
-    fusion_kernels().ekf_sensors(packed, _kernel_array(t), gyr, absent if acc is None else acc,
-                absent if mag is None else mag, state.q_world_from_sensor, state.bias_rad_s,
-                state.cov, state.aux, out_q, out_b, out_f, store is not None, st_q, st_b, st_pp, st_pu, st_a)
+    fusion_kernels().ekf_sensors(
+        packed, _kernel_array(t), gyr, absent if acc is None else acc, absent if mag is None else mag,
+        state.q_world_from_sensor, state.bias_rad_s, state.cov, state.aux, out_q, out_b, out_f,
+        store is not None, st_q, st_b, st_pp, st_pu, st_a)
     return out_q, out_b, out_f
 
 
