@@ -103,8 +103,8 @@ LAYOUT_FINGERPRINT = _layout_fingerprint()
 @dataclass(frozen=True)
 class FusionKernels:
     """The compiled entry points (signatures of :func:`~.kernels.ekf_sensors` and
-    :func:`~.kernels.rts_smooth_sensors`; every array C-contiguous, writeable float64, flags uint8) and
-    where they come from (``origin``: the module's file name, or ``"numba JIT"``)."""
+    :func:`~.kernels.rts_smooth_sensors`; every array C-contiguous, writeable float64, flags
+    uint8) and where they come from (``origin``: the module's file name, or ``"numba JIT"``)."""
 
     ekf_sensors: Callable
     rts_smooth_sensors: Callable
