@@ -30,7 +30,6 @@ KERNELS_STAMP := $(VENV)/.mimucap-kernels
 KERNEL_SOURCES := $(wildcard app/mimucap/core/fusion/*.py)
 $(STAMP): pyproject.toml | $(PY)
 	$(PY) -m pip install --quiet -e . setuptools
-	$(PY) -m mimucap.core.fusion.warmup
 	touch $@
 
 $(KERNELS_STAMP): $(STAMP) $(KERNEL_SOURCES)
