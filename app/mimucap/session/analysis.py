@@ -105,8 +105,7 @@ def rom_between(review: ReviewData, start_s: float, end_s: float,
     instants (e.g. two markers) of the review."""
     if not end_s > start_s:
         raise ValueError(f"the ROM window must end after it starts ({start_s:.2f} .. {end_s:.2f} s)")
-    t = np.asarray(review.t_s, dtype=float)
-    window = (t >= start_s) & (t <= end_s)
+    window = rom_core.window_mask(review.t_s, start_s, end_s)
     if np.count_nonzero(window) < 3:
         raise ValueError(f"no poses between {start_s:.2f} and {end_s:.2f} s")
     angles = {c: np.asarray(v)[window] for c, v in review.angles_deg.items()}

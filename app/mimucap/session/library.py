@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mimucap.core.range_of_motion import range_of_motion
+from mimucap.core.analysis.rom import range_of_motion
 from mimucap.io.library import Library, SessionEntry
 from mimucap.io.library_settings import configured_library_folder
 from mimucap.io.session import Marker
