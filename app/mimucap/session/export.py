@@ -76,12 +76,17 @@ class ExportResult:
     rows: int = 0
 
 
+def marker_at(markers: Sequence[Marker], index: int) -> Marker:
+    """Marker ``index`` of ``markers``; ``ValueError`` when there is no such marker."""
+    if not 0 <= index < len(markers):
+        raise ValueError(f"marker {index} does not exist (the session has {len(markers)})")
+    return markers[index]
+
+
 def marker_range(markers: Sequence[Marker], first: int, second: int) -> tuple[float, float]:
-    """The time span (s) between markers ``first`` and ``second`` (indices, either order)."""
-    for index in (first, second):
-        if not 0 <= index < len(markers):
-            raise ValueError(f"marker {index} does not exist (the session has {len(markers)})")
-    a, b = sorted((markers[first].t_s, markers[second].t_s))
+    """The time span (s) between markers ``first`` and ``second`` (indices, either order);
+    ``ValueError`` when one does not exist or both are at one time."""
+    a, b = sorted((marker_at(markers, first).t_s, marker_at(markers, second).t_s))
     if b <= a:
         names = (f"'{markers[first].label}'" if first == second else
                  f"'{markers[first].label}' and '{markers[second].label}'")
