@@ -199,6 +199,20 @@ class Session:
         return {sensor_id: stream.segment for sensor_id, stream in self.sensors.items()}
 
 
+@dataclass(frozen=True)
+class SessionSummary:
+    """What describes a session file without its samples (:func:`read_summary`): ``metadata``,
+    ``segments`` sensor id → segment (None when unassigned), ``duration_s`` the time span (s)
+    covered by the sensor streams (as :func:`session_duration_s`), ``markers`` and
+    ``calibrations`` (as in :class:`Session`)."""
+
+    metadata: dict[str, Any]
+    segments: dict[str, str | None]
+    duration_s: float
+    markers: list[Marker]
+    calibrations: dict[str, Any]
+
+
 def make_subject(
     subject_id: str = "", height_m: float = 1.75, dominance: str = "right", notes: str = ""
 ) -> dict[str, Any]:
@@ -612,23 +626,52 @@ class _Reader:
             if not isinstance(g, h5py.Group):
                 raise self.error(f"{g.name} should be a group")
             sensors[sensor_id] = self.sensor(g)
+        results = self.nested(self.group(self.h5, "results"))
+        truth = None
+        if include_truth and "truth" in self.h5:
+            truth = self.truth(self.group(self.h5, "truth"))
+        return Session(metadata=metadata, sensors=sensors, markers=self.markers(), truth=truth,
+                       calibrations=self.calibrations(), results=results)
+
+    def markers(self) -> list[Marker]:
         markers_group = self.group(self.h5, "markers")
         marker_t = self.array(markers_group, "t_s")
         labels = self.nested(markers_group).get("label")
         if labels is None or np.shape(labels) != marker_t.shape:
             raise self.error("/markers/label is missing or does not match /markers/t_s")
-        markers = [Marker(float(t), str(label)) for t, label in zip(marker_t, labels)]
+        return [Marker(float(t), str(label)) for t, label in zip(marker_t, labels)]
+
+    def calibrations(self) -> dict[str, Any]:
         calibrations = {}
         for name, item in self.group(self.h5, "calibrations").items():
             if not isinstance(item, h5py.Dataset):
                 raise self.error(f"{item.name} should be a JSON string dataset")
             calibrations[name] = self.json(self.text(item), item.name)
-        results = self.nested(self.group(self.h5, "results"))
-        truth = None
-        if include_truth and "truth" in self.h5:
-            truth = self.truth(self.group(self.h5, "truth"))
-        return Session(metadata=metadata, sensors=sensors, markers=markers, truth=truth,
-                       calibrations=calibrations, results=results)
+        return calibrations
+
+    def summary(self) -> SessionSummary:
+        """What describes the file, without its samples: of each sensor only the first and
+        last time stamp are read."""
+        metadata = self.check_header()
+        segments: dict[str, str | None] = {}
+        starts, ends = [], []
+        for sensor_id, g in self.group(self.h5, "sensors").items():
+            if not isinstance(g, h5py.Group):
+                raise self.error(f"{g.name} should be a group")
+            t_s = self._item(g, "t_s", h5py.Dataset, True)
+            if len(t_s.shape) != 1:
+                raise self.error(f"{g.name}/t_s must be one-dimensional, has shape {t_s.shape}")
+            n = t_s.shape[0]
+            if n:
+                try:
+                    starts.append(float(t_s[0]))
+                    ends.append(float(t_s[n - 1]))
+                except (OSError, ValueError, TypeError) as error:
+                    raise self.error(f"cannot read {t_s.name} ({error})") from error
+            segment = g.attrs.get("segment")
+            segments[sensor_id] = None if segment is None else str(segment)
+        duration_s = float(max(ends) - min(starts)) if starts else 0.0
+        return SessionSummary(metadata, segments, duration_s, self.markers(), self.calibrations())
 
 
 def _optional_float(value: Any) -> float | None:
@@ -657,6 +700,25 @@ def read_session(path: str | os.PathLike[str], include_truth: bool = True) -> Se
     h5 = _open(source)
     try:
         return _Reader(source, h5).session(include_truth)
+    except SessionFormatError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError) as error:
+        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
+    finally:
+        h5.close()
+
+
+def read_summary(path: str | os.PathLike[str]) -> SessionSummary:
+    """The :class:`SessionSummary` of the session file ``path``: its attributes, markers and
+    calibrations, and of the samples only each sensor's first and last time stamp (h5py reads
+    no more), so that listing many files costs little. Same errors as :func:`read_session` for
+    a foreign, truncated or newer-version file, bad metadata, markers or calibrations, or a
+    sensor without time stamps; the samples (their shapes and values) are checked when the
+    file is read whole."""
+    source = Path(path)
+    h5 = _open(source)
+    try:
+        return _Reader(source, h5).summary()
     except SessionFormatError:
         raise
     except (OSError, KeyError, ValueError, RuntimeError) as error:
@@ -779,6 +841,6 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
 __all__ = [
     "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
     "time_stamp_problem", "gyro_range_problem",
-    "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "make_subject",
-    "write_session", "read_session", "read_metadata", "update_metadata", "session_duration_s", "session_from_simulation",
+    "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "SessionSummary", "make_subject",
+    "write_session", "read_session", "read_metadata", "read_summary", "update_metadata", "session_duration_s", "session_from_simulation",
 ]
