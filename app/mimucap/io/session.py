@@ -23,11 +23,11 @@ from __future__ import annotations
 import json
 import os
 import uuid
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import h5py
 import numpy as np
@@ -689,6 +689,24 @@ def _open(path: Path) -> h5py.File:
         raise SessionFormatError(f"{path}: damaged or truncated HDF5 file ({error})") from error
 
 
+_T = TypeVar("_T")
+
+
+def _read(path: str | os.PathLike[str], read: Callable[[_Reader], _T]) -> _T:
+    """``read`` of a :class:`_Reader` on the open file ``path``; every surprise of the file a
+    :class:`SessionFormatError` naming it."""
+    source = Path(path)
+    h5 = _open(source)
+    try:
+        return read(_Reader(source, h5))
+    except SessionFormatError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError) as error:
+        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
+    finally:
+        h5.close()
+
+
 def read_session(path: str | os.PathLike[str], include_truth: bool = True) -> Session:
     """Read the session file ``path`` written by :func:`write_session`.
 
@@ -696,16 +714,7 @@ def read_session(path: str | os.PathLike[str], include_truth: bool = True) -> Se
     ``FileNotFoundError`` for a missing file and :class:`SessionFormatError` (naming the file
     and the problem) for a foreign, damaged, truncated or newer-version file.
     """
-    source = Path(path)
-    h5 = _open(source)
-    try:
-        return _Reader(source, h5).session(include_truth)
-    except SessionFormatError:
-        raise
-    except (OSError, KeyError, ValueError, RuntimeError) as error:
-        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
-    finally:
-        h5.close()
+    return _read(path, lambda reader: reader.session(include_truth))
 
 
 def read_summary(path: str | os.PathLike[str]) -> SessionSummary:
@@ -715,30 +724,12 @@ def read_summary(path: str | os.PathLike[str]) -> SessionSummary:
     a foreign, truncated or newer-version file, bad metadata, markers or calibrations, or a
     sensor without time stamps; the samples (their shapes and values) are checked when the
     file is read whole."""
-    source = Path(path)
-    h5 = _open(source)
-    try:
-        return _Reader(source, h5).summary()
-    except SessionFormatError:
-        raise
-    except (OSError, KeyError, ValueError, RuntimeError) as error:
-        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
-    finally:
-        h5.close()
+    return _read(path, _Reader.summary)
 
 
 def read_metadata(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Only the metadata of the session file ``path`` (fast; same errors as :func:`read_session`)."""
-    source = Path(path)
-    h5 = _open(source)
-    try:
-        return _Reader(source, h5).check_header()
-    except SessionFormatError:
-        raise
-    except (OSError, KeyError, ValueError, RuntimeError) as error:
-        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
-    finally:
-        h5.close()
+    return _read(path, _Reader.check_header)
 
 
 def update_metadata(path: str | os.PathLike[str], changes: Mapping[str, Any]) -> dict[str, Any]:
