@@ -13,6 +13,11 @@ samples, segment orientations and joint angles; nothing from the simulator's tru
 
 ROM protocol markers are labelled ``rom:<movement>:<side>:start`` and ``...:end`` (side
 ``left``, ``right`` or ``both``), see :mod:`mimucap.session.rom_procedure`.
+
+The tables as the Analysis window and the PDF report show them are built here once: the gait
+parameter rows (:func:`gait_parameter_rows`), the ROM rows (:func:`rom_rows`), each with its
+label, unit and values and :meth:`cells` for its text, and the cycle curves grouped by joint
+angle (:func:`curve_groups`); the CSV tables are the functions ending in ``_table``.
 """
 
 from __future__ import annotations
