@@ -164,3 +164,16 @@ def test_bad_shapes_and_zero_quaternions_are_refused():
         rot.normalize(np.zeros(4))
     with pytest.raises(ValueError, match="zero vector"):
         rot.from_axis_angle(np.zeros(3), 1.0)
+
+
+def test_heading_of_a_frames_x_axis_on_the_ground():
+    # ENU: the identity's x axis points east (90° clockwise from north); turned +90° about Up
+    # it points north, -90° south; pitched -90° about y it points up and has no heading.
+    q = np.stack([rot.identity(), rot.from_axis_angle([0, 0, 1], np.pi / 2),
+                  rot.from_axis_angle([0, 0, 1], -np.pi / 2), rot.from_axis_angle([0, 1, 0], -np.pi / 2)])
+    heading = rot.heading_rad(q)
+    np.testing.assert_allclose(heading[[0, 1, 3]], [-np.pi / 2, 0.0, 0.0], atol=1e-12)
+    assert abs(heading[2]) == pytest.approx(np.pi)  # south: +π or -π as rounding has it
+    # Pitching the axis up or down does not change its heading.
+    pitched = rot.multiply(rot.from_axis_angle([0, 0, 1], 0.3), rot.from_axis_angle([0, 1, 0], 0.8))
+    assert float(rot.heading_rad(pitched)) == pytest.approx(0.3 - np.pi / 2)

@@ -9,6 +9,8 @@ from PyQt5 import QtGui, QtWidgets
 from mimucap.core.pipeline import POSE_SENSOR_AXES
 from mimucap.gui.main_window import VIEW_HINTS, MainWindow
 
+from tests.gui.scene_projection import axis_label_positions
+
 
 def _menu_actions(win):
     actions = []
@@ -208,13 +210,13 @@ def test_closing_while_the_kernels_are_prepared_stops_the_preparation_and_waits_
 def test_world_axes_are_named_at_their_tips_and_the_names_hide_with_them(window, qtbot):
     view = window.scene_view
     window.camera_actions["front"].trigger()
-    qtbot.waitUntil(lambda: set(view.axis_label_positions()) == {"E", "N", "Up"}, timeout=5000)
-    labels = view.axis_label_positions()
+    qtbot.waitUntil(lambda: set(axis_label_positions(view)) == {"E", "N", "Up"}, timeout=5000)
+    labels = axis_label_positions(view)
     assert labels["Up"][1] < labels["E"][1]  # Up above E on the screen
     assert labels["E"][0] > labels["Up"][0]  # E (east) to the right in the front view
     assert all(label.GetVisibility() for label in view.stage.axis_labels)
     window.action_axes.setChecked(False)
-    qtbot.waitUntil(lambda: view.axis_label_positions() == {}, timeout=5000)
+    qtbot.waitUntil(lambda: axis_label_positions(view) == {}, timeout=5000)
     assert not any(label.GetVisibility() for label in view.stage.axis_labels)
 
 

@@ -9,9 +9,11 @@ import pytest
 from PyQt5 import QtCore, QtGui
 
 from mimucap.core import skeleton
-from mimucap.gui.scene.view import SceneView, world_to_display
+from mimucap.gui.scene.view import SceneView
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.figure import FigureBuilder
+
+from tests.gui.scene_projection import axis_label_positions, world_to_display
 
 HEIGHT_M = 1.75
 
@@ -172,7 +174,7 @@ def test_axis_names_are_drawn_at_their_anchors_and_hide_with_the_axes(qtbot):
     view.set_stage_visible(floor=False, axes=True)
     view.start(own_clock=False)
     view.render()
-    labels = view.axis_label_positions()
+    labels = axis_label_positions(view)
     assert set(labels) == {"E", "N", "Up"}
     assert labels["Up"][1] < labels["E"][1] and labels["E"][0] > labels["Up"][0]  # Up above, E right
     pixels = _rgb(view.grab_image())
@@ -180,7 +182,7 @@ def test_axis_names_are_drawn_at_their_anchors_and_hide_with_the_axes(qtbot):
         box = pixels[int(y) - 8:int(y) + 9, int(x) - 12:int(x) + 13]
         assert _near_white(box).sum() > 8, name  # the white letters, at their anchor
     view.set_stage_visible(floor=False, axes=False)
-    assert view.axis_label_positions() == {}
+    assert axis_label_positions(view) == {}
     pixels = _rgb(view.grab_image())
     assert not _near_white(pixels).any()  # no figure yet, no floor, no axes: nothing white
 

@@ -30,20 +30,20 @@ def test_axis_names_stand_beyond_the_tips_and_follow_the_world_matrix():
     turn[:3, :3] = [[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]  # 90° about Up
     turn[:3, 3] = (1.0, 2.0, 0.0)
     stage.set_world_matrix(turn)
-    labels = dict(zip(*stage.axis_label_points()))
+    labels = {label.GetInput(): label.GetPositionCoordinate().GetValue() for label in stage.axis_labels}
     origin = turn[:3, :3] @ np.array(AXES_ORIGIN_WORLD_M) + turn[:3, 3]
     reach = AXIS_LABEL_POSITION * AXES_LENGTH_M
     np.testing.assert_allclose(labels["E"], origin + turn[:3, :3] @ (reach, 0.0, 0.0), atol=1e-12)
     np.testing.assert_allclose(labels["N"], origin + turn[:3, :3] @ (0.0, reach, 0.0), atol=1e-12)
     np.testing.assert_allclose(labels["Up"], origin + (0.0, 0.0, reach), atol=1e-12)
     stage.set_visible(floor=True, axes=False)
-    assert stage.axis_label_points()[0] == ()
+    assert not any(label.GetVisibility() for label in stage.axis_labels)
 
 
-def test_world_to_display_matches_vtks_own_projection_for_any_camera():
+def test_the_scene_tests_projection_matches_vtks_own_for_any_camera():
     from vtkmodules.vtkRenderingCore import vtkRenderWindow
 
-    from mimucap.gui.scene.view import world_to_display
+    from tests.gui.scene_projection import world_to_display
 
     window = vtkRenderWindow()
     window.OffScreenRenderingOn()

@@ -26,7 +26,7 @@ from mimucap.core import rotation as rot
 from mimucap.core import skeleton
 from mimucap.io import opensense
 from mimucap.io.angles_export import read_angles_mot
-from mimucap.session.export import ExportRequest, write_motion_file
+from mimucap.session.export import write_motion_file
 from mimucap.session.review import load_review
 
 HERE = Path(__file__).resolve().parent
@@ -170,8 +170,7 @@ def read_c3d(path: Path):
 def test_c3d_read_by_the_other_library(review, tmp_path):
     pytest.importorskip("c3d", reason="the c3d package (test extra) reads the file back")
     path = tmp_path / "walk.c3d"
-    request = ExportRequest(tmp_path / "walk", review.start_s, review.end_s, c3d=True)
-    write_motion_file(review, request, "c3d", path, events=[(2.5, "Left", "Foot Strike"), (3.0, "Right", "Foot Off")])
+    write_motion_file(review, "c3d", path, events=[(2.5, "Left", "Foot Strike"), (3.0, "Right", "Foot Off")])
     labels, frames, (contexts, names, times), meta = read_c3d(path)
     assert meta["rate"] == pytest.approx(100.0) and meta["first_frame"] == 1
     assert meta["angle_units"] == "deg" and meta["subject"] == "simulated"
@@ -298,6 +297,9 @@ def test_export_command_refuses_unknown_suffix_and_misplaced_options(walk, tmp_p
     assert "cannot tell the format" in capsys.readouterr().err
     assert main(["export", str(walk), "--format", "c3d", "--opensim-names", "--out", str(tmp_path / "x.c3d")]) == 1
     assert "--opensim-names applies to --format mot" in capsys.readouterr().err
+    assert main(["export", str(walk), "--from", "3", "--to", "2", "--out", str(tmp_path / "x.c3d")]) == 1
+    assert "export range must have its end after its start, got 3.000..2.000 s" in capsys.readouterr().err
+    assert not (tmp_path / "x.c3d").exists()
     before = walk.read_bytes()
     assert main(["export", str(walk), "--format", "csv", "--out", str(walk)]) == 1
     assert "would overwrite the input" in capsys.readouterr().err and walk.read_bytes() == before

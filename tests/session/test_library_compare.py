@@ -31,6 +31,13 @@ def test_the_rom_table_has_both_sides_and_the_difference():
     # Between markers (in either order) the hip does not move.
     window = TimeWindow.between_markers(before.markers, 1, 0)
     assert (window.start_s, window.end_s) == (1.0, 4.0) and "start" in window.label
+    assert TimeWindow.between_markers(before.markers, None, 0).end_s == 1.0
+    assert TimeWindow.between_markers(before.markers, 1, None).start_s == 4.0
+    assert TimeWindow.between_markers(before.markers, None, None) == TimeWindow()
+    with pytest.raises(ValueError, match="two different markers"):
+        TimeWindow.between_markers(before.markers, 1, 1)
+    with pytest.raises(ValueError, match="marker 2 does not exist"):
+        TimeWindow.between_markers(before.markers, None, 2)
     rows = {row[0]: row for row in compare(_side("a.h5", 40.0, window=window), after)[0].rows}
     assert rows["hip_r_flexion"][3] == pytest.approx(0.0) and rows["hip_r_flexion"][7] == pytest.approx(20.0)
 
@@ -58,7 +65,7 @@ def test_two_recordings_of_the_simulated_suit_compare_as_the_simulator_moved():
 
     from mimucap.core import skeleton
     from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
-    from mimucap.core.range_of_motion import range_of_motion
+    from mimucap.core.analysis.rom import range_of_motion
     from mimucap.core.simulate import SimulationConfig
     from mimucap.io.session import read_session
     from mimucap.session.feeds import SimulatorFeed

@@ -56,3 +56,13 @@ def test_nothing_assigned_and_no_body_calibration():
     items = _by_key(recording_checklist(_live([_row("1", None)])))
     assert not items["streaming"].ok and "Assign Sensors" in items["streaming"].text
     assert not items["magnetometers"].ok and not items["body"].ok and "Calibrate → Body" in items["body"].text
+
+
+def test_long_lists_name_the_first_two_and_count_the_rest():
+    segments = ("pelvis", "thorax", "thigh_l", "thigh_r", "shank_l")
+    rows = [_row(str(k), segment, stale=k < 4, mag_cal="not calibrated", age_s=math.nan)
+            for k, segment in enumerate(segments)]
+    items = _by_key(recording_checklist(_live(rows, drops={str(k): 10 * (k + 1) for k in range(5)})))
+    assert items["streaming"].text == "4 of 5 send nothing: Pelvis sensor (0), Thorax sensor (1) and 2 more"
+    assert items["drops"].text == "Left shank sensor (4) lost 4.8 %; Right thigh sensor (3) lost 3.8 % and 2 more"  # 10 of 1010 is not over 1 %
+    assert items["magnetometers"].text == "not calibrated: all 5"

@@ -38,7 +38,6 @@ worker report (``signal_dbm``), not in the samples: it describes the radio link,
 from __future__ import annotations
 
 import random
-import select
 import socket
 import sys
 import time
@@ -46,13 +45,12 @@ from dataclasses import dataclass, field
 from threading import Event
 
 from mimucap.acquisition import slimevr_protocol as proto
+from mimucap.acquisition.datagram_socket import drain, open_datagram_socket
 from mimucap.acquisition.messages import STATE_RUNNING, BlocksMessage, WorkerReport
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import Rejection, RejectionCounter
 from mimucap.acquisition.samples import BlockBuilder, Sample, ValueLimits, DEFAULT_LIMITS, validate_sample
 
-#: Datagrams read per wake-up before timers and flushing get their turn.
-MAX_DRAIN = 512
 #: Trackers served at most (a flood of handshakes with made-up MACs cannot grow the memory).
 MAX_TRACKERS = 256
 #: Distinct refused trackers remembered by name; beyond this they are lumped together.
@@ -125,17 +123,11 @@ class SlimeVrDriver:
 
     # ----------------------------------------------------------------- socket
     def open(self) -> None:
-        family = socket.AF_INET6 if ":" in self.config.bind_address else socket.AF_INET
-        sock = socket.socket(family, socket.SOCK_DGRAM)
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, self.config.receive_buffer_bytes)
         try:
-            sock.bind((self.config.bind_address, self.config.port))
+            self.sock = open_datagram_socket(self.config.bind_address, self.config.port,
+                                             self.config.receive_buffer_bytes, "slimevr")
         except OSError as error:
-            sock.close()
-            raise OSError(f"slimevr:{self.config.bind_address}:{self.config.port}: cannot listen "
-                          f"({error.strerror or error}); is a SlimeVR server already running on this port?") from None
-        sock.setblocking(False)
-        self.sock = sock
+            raise OSError(f"{error}; is a SlimeVR server already running on this port?") from None
 
     def close(self) -> None:
         if self.sock is not None:
@@ -161,16 +153,8 @@ class SlimeVrDriver:
                 due = self._flush_due_in(now)
                 if due is not None:
                     timeout = min(timeout, max(due, 0.0))
-                readable, _, _ = select.select([sock], [], [], timeout)
-                if readable:
-                    for _ in range(MAX_DRAIN):
-                        try:
-                            data, address = sock.recvfrom(proto.MAX_DATAGRAM_BYTES + 1)
-                        except (BlockingIOError, InterruptedError):
-                            break
-                        except OSError:   # ICMP "port unreachable" of a tracker that went away
-                            continue
-                        self.handle_datagram(data, address, time.monotonic())
+                for data, address, received in drain(sock, proto.MAX_DATAGRAM_BYTES + 1, timeout):
+                    self.handle_datagram(data, address, received)
                 now = time.monotonic()
                 due = self._flush_due_in(now)
                 if due is not None and due <= 0:

@@ -10,13 +10,13 @@ buffer (``receive_buffer_bytes``), the block size and the supervisor queue.
 
 from __future__ import annotations
 
-import select
 import socket
 import time
 from dataclasses import dataclass, field
 from threading import Event
 
 from mimucap.acquisition import protocol_udp as proto
+from mimucap.acquisition.datagram_socket import drain, open_datagram_socket
 from mimucap.acquisition.intake import IntakeSettings, SampleIntake
 from mimucap.acquisition.messages import STATE_RUNNING
 from mimucap.acquisition.outbox import Outbox
@@ -25,8 +25,6 @@ from mimucap.acquisition.samples import DEFAULT_LIMITS, RefusedSample, Sample, V
 
 #: Outstanding sync requests remembered per node (older ones are forgotten).
 MAX_PENDING_SYNC = 16
-#: Datagrams read per wake-up before timers and flushing get their turn.
-MAX_DRAIN = 512
 
 
 @dataclass(frozen=True)
@@ -60,11 +58,8 @@ class UdpDriver:
         self.sock: socket.socket | None = None
 
     def open(self) -> None:
-        sock = socket.socket(socket.AF_INET6 if ":" in self.config.bind_address else socket.AF_INET,
-                             socket.SOCK_DGRAM)
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, self.config.receive_buffer_bytes)
-        sock.bind((self.config.bind_address, self.config.port))
-        self.sock = sock
+        self.sock = open_datagram_socket(self.config.bind_address, self.config.port,
+                                         self.config.receive_buffer_bytes, self.config.name)
 
     def close(self) -> None:
         if self.sock is not None:
@@ -74,16 +69,16 @@ class UdpDriver:
     def run(self, stop: Event) -> None:
         """Receive until ``stop`` is set.
 
-        Each wake-up drains the socket (up to ``MAX_DRAIN`` datagrams, each stamped with its
-        own receive time); pending samples are flushed as soon as the socket is empty (at
-        most every ``min_flush_spacing_s``) or, even in the middle of a long burst, when the
-        oldest is ``flush_interval_s`` old.
+        Each wake-up drains the socket (:func:`~mimucap.acquisition.datagram_socket.drain`:
+        a bounded number of datagrams, each stamped with its own receive time); pending
+        samples are flushed as soon as the socket is empty (at most every
+        ``min_flush_spacing_s``) or, even in the middle of a long burst, when the oldest is
+        ``flush_interval_s`` old.
         """
         if self.sock is None:
             self.open()
         sock = self.sock
         assert sock is not None
-        sock.setblocking(False)
         intake = self.intake
         self.outbox.send_report(intake.report(STATE_RUNNING))
         last_flush = 0.0
@@ -94,21 +89,12 @@ class UdpDriver:
                 due = intake.flush_due_in(now)
                 if due is not None:
                     timeout = min(timeout, max(due, 0.0))
-                readable, _, _ = select.select([sock], [], [], timeout)
-                if readable:
-                    for _ in range(MAX_DRAIN):
-                        try:
-                            data, address = sock.recvfrom(proto.MAX_PACKET_BYTES + 1)
-                        except (BlockingIOError, InterruptedError):
-                            break
-                        except OSError:   # e.g. ICMP "port unreachable" after a sync request
-                            continue
-                        received = time.monotonic()
-                        self.handle_datagram(data, address, received)
-                        due = intake.flush_due_in(received)
-                        if due is not None and due <= 0:    # a long burst: ship what waited
-                            intake.flush()
-                            last_flush = received
+                for data, address, received in drain(sock, proto.MAX_PACKET_BYTES + 1, timeout):
+                    self.handle_datagram(data, address, received)
+                    due = intake.flush_due_in(received)
+                    if due is not None and due <= 0:    # a long burst: ship what waited
+                        intake.flush()
+                        last_flush = received
                 now = time.monotonic()
                 due = intake.flush_due_in(now)
                 if due is not None and (due <= 0 or now - last_flush >= self.config.min_flush_spacing_s):

@@ -85,15 +85,10 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--raw-sensors applies to --format sto")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.session, args.calibration)
-    from mimucap.session.export import ExportRequest, write_motion_file
+    from mimucap.session.export import write_motion_file
 
     data = review_for_export(args.session, args.calibration)
-    t_from = data.start_s if args.t_from is None else args.t_from
-    t_to = data.end_s if args.t_to is None else args.t_to
-    chosen = {"c3d": "c3d", "bvh": "bvh", "sto": "opensense_sto", "mot": "angles_mot", "csv": "angles_csv"}[fmt]
-    request = ExportRequest(**{"base_path": Path(args.out).with_suffix(""), "t_from_s": t_from, "t_to_s": t_to,
-                               "angles_csv": False, "angles_mot": False, "summary_csv": False, chosen: True})
-    written = write_motion_file(data, request, fmt, Path(args.out), opensim_names=args.opensim_names,
+    written = write_motion_file(data, fmt, Path(args.out), args.t_from, args.t_to, opensim_names=args.opensim_names,
                                 raw_sensors=args.raw_sensors)
     print(f"{data.path.name} ({data.pose_source}): {len(written)} file(s) written: "
           + ", ".join(str(p) for p in written))

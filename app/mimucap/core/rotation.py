@@ -115,6 +115,15 @@ def rotate(q_a_from_b: ArrayLike, v_b: ArrayLike) -> FloatArray:
     return out
 
 
+def heading_rad(q_world_from_frame: ArrayLike) -> FloatArray:
+    """Heading ``(...)`` rad of a frame's x axis (a segment's anterior axis) projected on the
+    world's ground plane (world ENU): 0 towards north, positive counter-clockwise seen from
+    above, in [-π, π]; 0 where the x axis is vertical and has no heading."""
+    x_world = rotate(q_world_from_frame, np.array([1.0, 0.0, 0.0]))
+    east, north = x_world[..., 0], x_world[..., 1]
+    return np.where(np.hypot(east, north) < 1e-9, 0.0, np.arctan2(-east, north))
+
+
 def to_matrix(q: ArrayLike) -> FloatArray:
     """Rotation matrices ``R_A_from_B`` (``(..., 3, 3)``) of unit quaternions ``q_A_from_B``."""
     q = _as_quat(q)

@@ -19,27 +19,30 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.analysis import rom as rom_core
-from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand, split_column
-from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS
+from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.report import write_report
 from mimucap.io.normative_bands import read_normative_bands
-from mimucap.session.analysis import SessionAnalysis, analyse_review, rom_between, write_analysis_csv
+from mimucap.session.analysis import (
+    GAIT_PARAMETER_HEADER,
+    ROM_HEADER,
+    CurveGroup,
+    SessionAnalysis,
+    analyse_review,
+    curve_groups,
+    format_value,
+    gait_parameter_rows,
+    rom_between,
+    rom_rows,
+    write_analysis_csv,
+)
 from mimucap.session.review import ReviewData
 
 SIDE_PENS = {"left": (30, 100, 200), "right": (200, 50, 40)}
-
-
-def _fmt(value: float, digits: int = 2) -> str:
-    if value is None or not math.isfinite(value):
-        return "–"
-    text = f"{value:.{digits}f}"
-    return text[1:] if text.startswith("-") and float(text) == 0 else text
 
 
 def _fill_table(table: QtWidgets.QTableWidget, header: list[str], rows: list[list[str]]) -> None:
@@ -196,26 +199,18 @@ class AnalysisWindow(QtWidgets.QMainWindow):
             self.gait_summary.setText(
                 f"<b>{len(gait.analysed)}</b> straight strides analysed, {refused} refused; "
                 f"{len(gait.bouts)} walking bout(s); turns: {turns}.<br><small>{sources}</small>")
-            rows = []
-            for name, unit, label in PARAMETERS:
-                digits = 1 if unit in ("%", "steps/min") else 2
-                row = [f"{label} ({unit})"]
-                for side in ("left", "right", "both"):
-                    s = gait.parameters.get(name, side)
-                    row.append(f"{_fmt(s.mean, digits)} ± {_fmt(s.sd, digits)}")
-                row.append(_fmt(gait.parameters.get(name, "both").cv_percent, 1))
-                row.append(_fmt(gait.parameters.symmetry_percent[name], 1) if name in SYMMETRY_PARAMETERS else "")
-                rows.append(row)
-            _fill_table(self.parameters_table, ["Parameter", "Left", "Right", "Both", "CV %", "Symmetry %"], rows)
+            _fill_table(self.parameters_table, list(GAIT_PARAMETER_HEADER),
+                        [row.cells() for row in gait_parameter_rows(gait)])
             _fill_table(self.strides_table, ["Foot", "IC (s)", "FC (s)", "Next IC (s)", "Time (s)", "Length (m)",
                                              "Heading (°)", "Refused because"],
-                        [[s.side, _fmt(s.ic_s), _fmt(s.fc_s), _fmt(s.next_ic_s), _fmt(s.stride_time_s),
-                          _fmt(s.stride_length_m), _fmt(s.heading_change_deg, 0), s.refused_because or "analysed"]
+                        [[s.side, format_value(s.ic_s), format_value(s.fc_s), format_value(s.next_ic_s),
+                          format_value(s.stride_time_s), format_value(s.stride_length_m),
+                          format_value(s.heading_change_deg, 0), s.refused_because or "analysed"]
                          for s in gait.strides])
         self.curve_choice.blockSignals(True)
         self.curve_choice.clear()
-        for joint, axis in self._joint_axes():
-            self.curve_choice.addItem(f"{joint.replace('_', ' ')} {axis.replace('_', ' ')}", (joint, axis))
+        for group in curve_groups([analysis]):
+            self.curve_choice.addItem(group.label, group)
         self.curve_choice.blockSignals(False)
         knee = self.curve_choice.findText("knee flexion")
         self.curve_choice.setCurrentIndex(max(knee, 0))
@@ -223,7 +218,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         if analysis.rom:
             self.rom_label.setText("ROM protocol results (reference: healthy adults, "
                                    f"{rom_core.REFERENCE_SOURCE}; shoulder: humeral elevation in the movement's plane):")
-            _fill_table(self.rom_table, *self._rom_rows(analysis.rom))
+            _fill_table(self.rom_table, list(ROM_HEADER), [row.cells() for row in rom_rows(analysis.rom)])
         else:
             self.rom_label.setText("ROM protocol: this recording has no ROM protocol markers.")
         if len(self.data.markers) >= 2:
@@ -233,21 +228,12 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         self.statusBar().showMessage("Analysis done.", 5000)
         self.analysed.emit()
 
-    def _joint_axes(self) -> list[tuple[str, str]]:
-        pairs: list[tuple[str, str]] = []
-        for curve in (self.analysis.curves if self.analysis else {}).values():
-            joint, _, axis = split_column(curve.column)
-            if (joint, axis) not in pairs:
-                pairs.append((joint, axis))
-        return pairs
-
     def _show_curve(self) -> None:
         self.curve_plot.clear()
-        choice = self.curve_choice.currentData()
-        if self.analysis is None or choice is None:
+        group: CurveGroup | None = self.curve_choice.currentData()
+        if self.analysis is None or group is None:
             return
-        joint, axis = choice
-        band = self.bands.get((joint, axis))
+        band = self.bands.get((group.joint, group.axis))
         if band is not None:
             low, high = band.on_cycle()
             lower = pg.PlotDataItem(CYCLE_PERCENT, low, pen=pg.mkPen((150, 150, 150)))
@@ -255,10 +241,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
             self.curve_plot.addItem(lower)
             self.curve_plot.addItem(upper)
             self.curve_plot.addItem(pg.FillBetweenItem(lower, upper, brush=pg.mkBrush(150, 150, 150, 70)))
-        for curve in self.analysis.curves.values():
-            j, _, a = split_column(curve.column)
-            if (j, a) != (joint, axis):
-                continue
+        for curve in group.curves[0].values():
             colour = SIDE_PENS[curve.side]
             upper = pg.PlotDataItem(CYCLE_PERCENT, curve.mean_deg + curve.sd_deg, pen=pg.mkPen(colour + (60,)))
             lower = pg.PlotDataItem(CYCLE_PERCENT, curve.mean_deg - curve.sd_deg, pen=pg.mkPen(colour + (60,)))
@@ -271,18 +254,6 @@ class AnalysisWindow(QtWidgets.QMainWindow):
                 self.curve_plot.addItem(pg.InfiniteLine(curve.stance_percent, angle=90,
                                                         pen=pg.mkPen(colour, width=1, style=QtCore.Qt.DashLine)))
         self.curve_plot.setXRange(0, 100, padding=0.01)
-
-    @staticmethod
-    def _rom_rows(rom: dict) -> tuple[list[str], list[list[str]]]:
-        header = ["Movement", "Side", "Repetitions", "Active ROM (°)", "Peak (°)", "Peaks (°)", "L − R (°)",
-                  "Reference (°)", "% of reference"]
-        rows = []
-        for (key, side), r in rom.items():
-            rows.append([rom_core.movement(key).label, side, str(r.repetitions), _fmt(r.active_rom_deg, 1),
-                         _fmt(r.peak_deg, 1), " ".join(f"{p:.0f}" for p in r.peaks_deg),
-                         _fmt(rom_core.left_right_difference_deg(rom, key), 1) if side == "left" else "",
-                         _fmt(r.reference_deg, 0), _fmt(r.percent_of_reference, 0)])
-        return header, rows
 
     def compute_marker_rom(self) -> None:
         start, end = self.marker_from.currentData(), self.marker_to.currentData()
@@ -298,7 +269,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         found = {k: r for k, r in results.items() if r.repetitions}
         self.marker_message.setText(f"{start:.2f}–{end:.2f} s: {len(found)} movement(s) with at least one repetition "
                                     f"of 10° or more.")
-        _fill_table(self.marker_table, *self._rom_rows(found))
+        _fill_table(self.marker_table, list(ROM_HEADER), [row.cells() for row in rom_rows(found)])
 
     # -- files ---------------------------------------------------------------------------------
     def load_bands(self, path: str | Path) -> None:

@@ -67,17 +67,11 @@ class WindowPicker(QtWidgets.QGroupBox):
             combo.setCurrentIndex(max(combo.findData(value), 0) if value is not None else 0)
 
     def window(self) -> TimeWindow:
-        """The part chosen (``ValueError`` when it ends before it starts)."""
-        first, second = self.start.currentData(), self.end.currentData()
-        if first is None and second is None:
-            return TimeWindow()
-        start = None if first is None else self.markers[first]
-        end = None if second is None else self.markers[second]
-        if start is not None and end is not None and end.t_s < start.t_s:
-            raise ValueError(f"{self.title()}: the part ends at {end.label} ({end.t_s:.2f} s), before it starts "
-                             f"at {start.label} ({start.t_s:.2f} s)")
-        label = f"{'start' if start is None else start.label} → {'end' if end is None else end.label}"
-        return TimeWindow(None if start is None else start.t_s, None if end is None else end.t_s, label)
+        """The part chosen (``ValueError`` naming this session when the markers do not make one)."""
+        try:
+            return TimeWindow.between_markers(self.markers, self.start.currentData(), self.end.currentData())
+        except ValueError as error:
+            raise ValueError(f"{self.title()}: {error}") from None
 
 
 def _cell(value, signed: bool = False) -> QtWidgets.QTableWidgetItem:

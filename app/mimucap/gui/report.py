@@ -22,24 +22,23 @@ from pathlib import Path
 from PyQt5.QtCore import QMarginsF, QPointF, QRectF, Qt
 from PyQt5.QtGui import QColor, QFont, QPageLayout, QPageSize, QPainter, QPdfWriter, QPen, QPolygonF
 
-from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand, split_column
-from mimucap.core.analysis.gait_parameters import LABELS, PARAMETERS, SYMMETRY_PARAMETERS, UNITS
+from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.core.analysis import rom as rom_core
-from mimucap.session.analysis import SessionAnalysis
+from mimucap.session.analysis import (
+    GAIT_PARAMETER_HEADER,
+    ROM_HEADER,
+    TYPICAL_SOURCE,
+    SessionAnalysis,
+    body_calibration_of,
+    curve_groups,
+    format_value,
+    gait_parameter_rows,
+    rom_rows,
+)
 
 DPI = 150
 LEFT_COLOUR = QColor(30, 100, 200)
 RIGHT_COLOUR = QColor(200, 50, 40)
-#: Typical values of healthy adults walking at their own pace (Perry & Burnfield, "Gait
-#: Analysis: Normal and Pathological Function", 2nd ed., 2010: velocity 82 m/min, cadence 113
-#: steps/min, stride length 1.41 m, stance 60 %, swing 40 %, double support 2 × 10 %).
-TYPICAL_ADULT = {"cadence": 113.0, "stride_length": 1.41, "gait_speed": 1.37, "stance": 60.0, "swing": 40.0,
-                 "double_support": 20.0, "stride_time": 120.0 / 113.0, "step_time": 60.0 / 113.0}
-TYPICAL_SOURCE = "typical adult: Perry & Burnfield 2010"
-
-
-def _fmt(value: float, digits: int = 2) -> str:
-    return "–" if value is None or not math.isfinite(value) else f"{value:.{digits}f}"
 
 
 def _numeric(text: str) -> bool:
@@ -200,33 +199,10 @@ def _plot(doc: _Document, rect: QRectF, title: str, curves: list[tuple[object, Q
         p.drawPolyline(QPolygonF([QPointF(x_of(x), y_of(v)) for x, v in zip(CYCLE_PERCENT, curve.mean_deg)]))
 
 
-def _joint_axes(analyses: Sequence[SessionAnalysis]) -> list[tuple[str, str]]:
-    """(joint, axis) of every curve, in the model's joint order."""
-    seen: list[tuple[str, str]] = []
-    for analysis in analyses:
-        for curve in analysis.curves.values():
-            joint, _, axis = split_column(curve.column)
-            if (joint, axis) not in seen:
-                seen.append((joint, axis))
-    order = {j: i for i, j in enumerate(analyses[0].review.model.joint_names)}
-    return sorted(seen, key=lambda ja: (order.get(ja[0], order.get(f"{ja[0]}_r", 99)), ("flexion", "adduction", "rotation",
-                                                                                         "plane_of_elevation", "elevation").index(ja[1])
-                                        if ja[1] in ("flexion", "adduction", "rotation", "plane_of_elevation", "elevation") else 9))
-
-
-def _curves_of(analysis: SessionAnalysis, joint: str, axis: str) -> dict[str, object]:
-    found = {}
-    for curve in analysis.curves.values():
-        j, _, a = split_column(curve.column)
-        if (j, a) == (joint, axis):
-            found[curve.side] = curve
-    return found
-
-
 def _curve_pages(doc: _Document, analyses: Sequence[SessionAnalysis], bands: dict[tuple[str, str], NormativeBand],
                  labels: Sequence[str]) -> None:
-    pairs = _joint_axes(analyses)
-    if not pairs:
+    groups = curve_groups(analyses)
+    if not groups:
         doc.text("No gait-cycle curves (no straight-walking stride).", 9)
         return
     columns, plot_h = 3, 250.0
@@ -239,20 +215,20 @@ def _curve_pages(doc: _Document, analyses: Sequence[SessionAnalysis], bands: dic
     if bands:
         legend += "; grey: normative band (" + "; ".join(sorted({b.source for b in bands.values()})) + ")"
     doc.text(legend, 7.5, gap=6, colour=QColor(70, 70, 70))
-    for index, (joint, axis) in enumerate(pairs):
+    for index, group in enumerate(groups):
         column = index % columns
         if column == 0:
             doc.need(plot_h)
         rect = QRectF(column * plot_w, doc.y, plot_w - 10, plot_h - 10)
         curves, boundaries = [], []
-        for analysis, style in zip(analyses, styles):
+        for by_side, style in zip(group.curves, styles):
             for side, colour in (("left", LEFT_COLOUR), ("right", RIGHT_COLOUR)):
-                curve = _curves_of(analysis, joint, axis).get(side)
+                curve = by_side.get(side)
                 if curve is not None:
                     curves.append((curve, colour, style))
                     boundaries.append((curve.stance_percent, colour))
-        _plot(doc, rect, f"{joint.replace('_', ' ')} {axis.replace('_', ' ')} (deg)", curves, bands.get((joint, axis)), boundaries)
-        if column == columns - 1 or index == len(pairs) - 1:
+        _plot(doc, rect, f"{group.label} (deg)", curves, bands.get((group.joint, group.axis)), boundaries)
+        if column == columns - 1 or index == len(groups) - 1:
             doc.y += plot_h
 
 
@@ -268,7 +244,6 @@ def _header(doc: _Document, analysis: SessionAnalysis, title: str) -> None:
 
 
 def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
-    from mimucap.session.analysis import body_calibration_of
     review = analysis.review
     session = review.session
     doc.text("Sensors and calibration", 11, True, gap=4)
@@ -292,22 +267,6 @@ def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
     doc.text(f"Poses from: {review.pose_source}.", 8, gap=8)
 
 
-def _gait_rows(analysis: SessionAnalysis) -> list[list[str]]:
-    rows = []
-    gait = analysis.gait
-    for name, unit, label in PARAMETERS:
-        digits = 1 if unit in ("%", "steps/min") else 2
-        cells = [f"{label} ({unit})"]
-        for side in ("left", "right", "both"):
-            s = gait.parameters.get(name, side)
-            cells.append(f"{_fmt(s.mean, digits)} ± {_fmt(s.sd, digits)}")
-        cells.append(_fmt(gait.parameters.get(name, "both").cv_percent, 1))
-        cells.append(_fmt(gait.parameters.symmetry_percent.get(name, math.nan), 1) if name in SYMMETRY_PARAMETERS else "")
-        cells.append(_fmt(TYPICAL_ADULT.get(name, math.nan), digits))
-        rows.append(cells)
-    return rows
-
-
 def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
     doc.text("Gait", 11, True, gap=4)
     gait = analysis.gait
@@ -319,8 +278,8 @@ def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
     doc.text(f"{len(gait.analysed)} straight strides analysed (left {n['left']}, right {n['right']}), "
              f"{len(refused)} refused, {len(gait.bouts)} walking bout(s), {len(gait.turns)} turn(s). "
              + " ".join(f"{side.capitalize()}: {source}." for side, source in gait.sources.items()), 8)
-    doc.table(["Parameter", "Left mean ± SD", "Right mean ± SD", "Both mean ± SD", "CV %", "Symmetry %", "Typical adult"],
-              _gait_rows(analysis), [0.22, 0.14, 0.14, 0.14, 0.08, 0.11, 0.12])
+    doc.table(GAIT_PARAMETER_HEADER, [row.cells() for row in gait_parameter_rows(gait)],
+              [0.22, 0.14, 0.14, 0.14, 0.08, 0.11, 0.12])
     if refused:
         reasons: dict[str, int] = {}
         for s in refused:
@@ -330,24 +289,13 @@ def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
                  colour=QColor(70, 70, 70), gap=8)
 
 
-def _rom_rows(rom: dict) -> list[list[str]]:
-    rows = []
-    for (key, side), r in rom.items():
-        m = rom_core.movement(key)
-        difference = rom_core.left_right_difference_deg(rom, key)
-        rows.append([m.label, side, str(r.repetitions), _fmt(r.active_rom_deg, 1), _fmt(r.peak_deg, 1),
-                     _fmt(difference, 1) if side == "left" else "", _fmt(r.reference_deg, 0),
-                     _fmt(r.percent_of_reference, 0)])
-    return rows
-
-
 def _rom_section(doc: _Document, analysis: SessionAnalysis) -> None:
     doc.text("Range of motion", 11, True, gap=4)
     if not analysis.rom:
         doc.text("No ROM protocol in this recording.", 9, gap=8)
         return
-    doc.table(["Movement", "Side", "Reps", "Active ROM °", "Peak °", "L − R °", "Reference °", "% of ref."],
-              _rom_rows(analysis.rom), [0.22, 0.09, 0.07, 0.13, 0.11, 0.11, 0.13, 0.12])
+    doc.table(ROM_HEADER, [row.cells() for row in rom_rows(analysis.rom)],
+              [0.15, 0.06, 0.12, 0.13, 0.09, 0.1, 0.1, 0.12, 0.13])
     doc.text(f"Reference: active ROM of healthy adults, {rom_core.REFERENCE_SOURCE}. Shoulder: humeral elevation in the plane of the movement.",
              7.5, colour=QColor(70, 70, 70), gap=8)
 
@@ -403,13 +351,11 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
                      + "; ".join(f"{label}: {a.gait_problem}" for label, a in zip(labels, (before, after)) if a.gait is None), 9)
         else:
             rows = []
-            for name, unit, label in PARAMETERS:
-                digits = 1 if unit in ("%", "steps/min") else 2
-                for side in ("left", "right", "both"):
-                    b = before.gait.parameters.get(name, side).mean
-                    a = after.gait.parameters.get(name, side).mean
-                    rows.append([f"{label} ({unit})" if side == "left" else "", side, _fmt(b, digits), _fmt(a, digits),
-                                 _fmt(a - b, digits)])
+            for b_row, a_row in zip(gait_parameter_rows(before.gait), gait_parameter_rows(after.gait)):
+                d = a_row.digits
+                for index, (b, a) in enumerate(zip(b_row.summaries, a_row.summaries)):
+                    rows.append([a_row.title if index == 0 else "", a.side, format_value(b.mean, d),
+                                 format_value(a.mean, d), format_value(a.mean - b.mean, d)])
             doc.table(["Parameter", "Side", "Before", "After", "After − before"], rows, [0.3, 0.1, 0.16, 0.16, 0.18])
         doc.text("Range of motion (active ROM, degrees)", 11, True, gap=4)
         keys = list(dict.fromkeys(list(before.rom) + list(after.rom)))
@@ -420,8 +366,8 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
                 a = after.rom.get((key, side))
                 bv = b.active_rom_deg if b else math.nan
                 av = a.active_rom_deg if a else math.nan
-                rows.append([rom_core.movement(key).label, side, _fmt(bv, 1), _fmt(av, 1), _fmt(av - bv, 1),
-                             _fmt(rom_core.movement(key).reference_deg, 0)])
+                rows.append([rom_core.movement(key).label, side, format_value(bv, 1), format_value(av, 1), format_value(av - bv, 1),
+                             format_value(rom_core.movement(key).reference_deg, 0)])
             doc.table(["Movement", "Side", "Before", "After", "After − before", "Reference"], rows,
                       [0.26, 0.1, 0.14, 0.14, 0.18, 0.14])
         else:

@@ -27,8 +27,10 @@ Safety of the index:
 * the index schema version is SQLite's ``PRAGMA user_version``; an index written by a newer
   MimuCap is refused (:class:`LibraryVersionError`) and never changed, not even by a rebuild.
 
-A file that cannot be read is listed with ``status = "damaged"`` and the reason; it never hides
-the other sessions.
+A scan reads what describes each new or changed file (:func:`mimucap.io.session.read_summary`:
+attributes, markers, calibrations and each sensor's first and last time stamp), not its samples. A file that cannot be read so is listed with ``status = "damaged"``
+and the reason; it never hides the other sessions. Sample values are checked when a file is
+opened for review or export.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from typing import Any
 
 from mimucap import __version__
 from mimucap.io.session import (
-    SessionFormatError, read_metadata, read_session, session_duration_s, update_metadata,
+    SessionFormatError, read_metadata, read_summary, update_metadata,
 )
 
 #: The index's file name inside the library folder.
@@ -339,7 +341,7 @@ def read_entry(root: str | os.PathLike[str], relative: str) -> SessionEntry:
                                      f"interrupted; `mimucap recover {relative[:-len('.journal')]}` rebuilds it)"),
                             **signature)
     try:
-        session = read_session(path, include_truth=False)
+        summary = read_summary(path)
     except (SessionFormatError, OSError, ValueError) as error:
         try:
             subject = _subject_of(read_metadata(path)).get("id", "")
@@ -348,7 +350,7 @@ def read_entry(root: str | os.PathLike[str], relative: str) -> SessionEntry:
         reason = str(error).removeprefix(f"{path}: ")
         return SessionEntry(path=relative, subject_id=str(subject or _guess_subject(relative)), **_named(relative),
                             status=STATUS_DAMAGED, problem=reason, **signature)
-    metadata = session.metadata
+    metadata = summary.metadata
     subject = _subject_of(metadata)
     fields = metadata.get(METADATA_KEY) if isinstance(metadata.get(METADATA_KEY), Mapping) else {}
     try:
@@ -359,10 +361,10 @@ def read_entry(root: str | os.PathLike[str], relative: str) -> SessionEntry:
     return SessionEntry(
         path=relative, subject_id=str(subject.get("id") or _guess_subject(relative)),
         recorded_utc=_recorded_utc(metadata), condition=str(fields.get("condition") or ""), tags=tags,
-        trial=str(fields.get("trial") or ""), duration_s=session_duration_s(session),
-        sensors={sid: stream.segment for sid, stream in sorted(session.sensors.items())},
-        verdicts=_verdicts(metadata, session.calibrations),
-        markers=tuple((float(m.t_s), m.label) for m in session.markers),
+        trial=str(fields.get("trial") or ""), duration_s=summary.duration_s,
+        sensors=dict(sorted(summary.segments.items())),
+        verdicts=_verdicts(metadata, summary.calibrations),
+        markers=tuple((float(m.t_s), m.label) for m in summary.markers),
         height_m=None if height is None else float(height), dominance=str(subject.get("dominance") or ""),
         notes=str(subject.get("notes") or ""), **signature)
 

@@ -23,11 +23,11 @@ from __future__ import annotations
 import json
 import os
 import uuid
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import h5py
 import numpy as np
@@ -197,6 +197,20 @@ class Session:
     def sensor_segments(self) -> dict[str, str | None]:
         """Sensor id → segment name (``None`` when unassigned)."""
         return {sensor_id: stream.segment for sensor_id, stream in self.sensors.items()}
+
+
+@dataclass(frozen=True)
+class SessionSummary:
+    """What describes a session file without its samples (:func:`read_summary`): ``metadata``,
+    ``segments`` sensor id → segment (None when unassigned), ``duration_s`` the time span (s)
+    covered by the sensor streams (as :func:`session_duration_s`), ``markers`` and
+    ``calibrations`` (as in :class:`Session`)."""
+
+    metadata: dict[str, Any]
+    segments: dict[str, str | None]
+    duration_s: float
+    markers: list[Marker]
+    calibrations: dict[str, Any]
 
 
 def make_subject(
@@ -612,23 +626,52 @@ class _Reader:
             if not isinstance(g, h5py.Group):
                 raise self.error(f"{g.name} should be a group")
             sensors[sensor_id] = self.sensor(g)
+        results = self.nested(self.group(self.h5, "results"))
+        truth = None
+        if include_truth and "truth" in self.h5:
+            truth = self.truth(self.group(self.h5, "truth"))
+        return Session(metadata=metadata, sensors=sensors, markers=self.markers(), truth=truth,
+                       calibrations=self.calibrations(), results=results)
+
+    def markers(self) -> list[Marker]:
         markers_group = self.group(self.h5, "markers")
         marker_t = self.array(markers_group, "t_s")
         labels = self.nested(markers_group).get("label")
         if labels is None or np.shape(labels) != marker_t.shape:
             raise self.error("/markers/label is missing or does not match /markers/t_s")
-        markers = [Marker(float(t), str(label)) for t, label in zip(marker_t, labels)]
+        return [Marker(float(t), str(label)) for t, label in zip(marker_t, labels)]
+
+    def calibrations(self) -> dict[str, Any]:
         calibrations = {}
         for name, item in self.group(self.h5, "calibrations").items():
             if not isinstance(item, h5py.Dataset):
                 raise self.error(f"{item.name} should be a JSON string dataset")
             calibrations[name] = self.json(self.text(item), item.name)
-        results = self.nested(self.group(self.h5, "results"))
-        truth = None
-        if include_truth and "truth" in self.h5:
-            truth = self.truth(self.group(self.h5, "truth"))
-        return Session(metadata=metadata, sensors=sensors, markers=markers, truth=truth,
-                       calibrations=calibrations, results=results)
+        return calibrations
+
+    def summary(self) -> SessionSummary:
+        """What describes the file, without its samples: of each sensor only the first and
+        last time stamp are read."""
+        metadata = self.check_header()
+        segments: dict[str, str | None] = {}
+        starts, ends = [], []
+        for sensor_id, g in self.group(self.h5, "sensors").items():
+            if not isinstance(g, h5py.Group):
+                raise self.error(f"{g.name} should be a group")
+            t_s = self._item(g, "t_s", h5py.Dataset, True)
+            if len(t_s.shape) != 1:
+                raise self.error(f"{g.name}/t_s must be one-dimensional, has shape {t_s.shape}")
+            n = t_s.shape[0]
+            if n:
+                try:
+                    starts.append(float(t_s[0]))
+                    ends.append(float(t_s[n - 1]))
+                except (OSError, ValueError, TypeError) as error:
+                    raise self.error(f"cannot read {t_s.name} ({error})") from error
+            segment = g.attrs.get("segment")
+            segments[sensor_id] = None if segment is None else str(segment)
+        duration_s = float(max(ends) - min(starts)) if starts else 0.0
+        return SessionSummary(metadata, segments, duration_s, self.markers(), self.calibrations())
 
 
 def _optional_float(value: Any) -> float | None:
@@ -646,6 +689,24 @@ def _open(path: Path) -> h5py.File:
         raise SessionFormatError(f"{path}: damaged or truncated HDF5 file ({error})") from error
 
 
+_T = TypeVar("_T")
+
+
+def _read(path: str | os.PathLike[str], read: Callable[[_Reader], _T]) -> _T:
+    """``read`` of a :class:`_Reader` on the open file ``path``; every surprise of the file a
+    :class:`SessionFormatError` naming it."""
+    source = Path(path)
+    h5 = _open(source)
+    try:
+        return read(_Reader(source, h5))
+    except SessionFormatError:
+        raise
+    except (OSError, KeyError, ValueError, RuntimeError) as error:
+        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
+    finally:
+        h5.close()
+
+
 def read_session(path: str | os.PathLike[str], include_truth: bool = True) -> Session:
     """Read the session file ``path`` written by :func:`write_session`.
 
@@ -653,30 +714,22 @@ def read_session(path: str | os.PathLike[str], include_truth: bool = True) -> Se
     ``FileNotFoundError`` for a missing file and :class:`SessionFormatError` (naming the file
     and the problem) for a foreign, damaged, truncated or newer-version file.
     """
-    source = Path(path)
-    h5 = _open(source)
-    try:
-        return _Reader(source, h5).session(include_truth)
-    except SessionFormatError:
-        raise
-    except (OSError, KeyError, ValueError, RuntimeError) as error:
-        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
-    finally:
-        h5.close()
+    return _read(path, lambda reader: reader.session(include_truth))
+
+
+def read_summary(path: str | os.PathLike[str]) -> SessionSummary:
+    """The :class:`SessionSummary` of the session file ``path``: its attributes, markers and
+    calibrations, and of the samples only each sensor's first and last time stamp (h5py reads
+    no more), so that listing many files costs little. Same errors as :func:`read_session` for
+    a foreign, truncated or newer-version file, bad metadata, markers or calibrations, or a
+    sensor without time stamps; the samples (their shapes and values) are checked when the
+    file is read whole."""
+    return _read(path, _Reader.summary)
 
 
 def read_metadata(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Only the metadata of the session file ``path`` (fast; same errors as :func:`read_session`)."""
-    source = Path(path)
-    h5 = _open(source)
-    try:
-        return _Reader(source, h5).check_header()
-    except SessionFormatError:
-        raise
-    except (OSError, KeyError, ValueError, RuntimeError) as error:
-        raise SessionFormatError(f"{source}: damaged session file ({error})") from error
-    finally:
-        h5.close()
+    return _read(path, _Reader.check_header)
 
 
 def update_metadata(path: str | os.PathLike[str], changes: Mapping[str, Any]) -> dict[str, Any]:
@@ -779,6 +832,6 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
 __all__ = [
     "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
     "time_stamp_problem", "gyro_range_problem",
-    "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "make_subject",
-    "write_session", "read_session", "read_metadata", "update_metadata", "session_duration_s", "session_from_simulation",
+    "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "SessionSummary", "make_subject",
+    "write_session", "read_session", "read_metadata", "read_summary", "update_metadata", "session_duration_s", "session_from_simulation",
 ]

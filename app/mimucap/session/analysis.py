@@ -13,11 +13,17 @@ samples, segment orientations and joint angles; nothing from the simulator's tru
 
 ROM protocol markers are labelled ``rom:<movement>:<side>:start`` and ``...:end`` (side
 ``left``, ``right`` or ``both``), see :mod:`mimucap.session.rom_procedure`.
+
+The tables as the Analysis window and the PDF report show them are built here once: the gait
+parameter rows (:func:`gait_parameter_rows`), the ROM rows (:func:`rom_rows`), each with its
+label, unit and values and :meth:`cells` for its text, and the cycle curves grouped by joint
+angle (:func:`curve_groups`); the CSV tables are the functions ending in ``_table``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,8 +32,8 @@ import numpy as np
 from mimucap.core import bodycal
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait import GaitAnalysis, GaitInput, analyse_gait
-from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves
-from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS
+from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves, split_column
+from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS, ParameterSummary
 from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.sagittal import sagittal_rate_calibrated, sagittal_rate_dominant
 from mimucap.io.gait_csv import write_table
@@ -104,8 +110,7 @@ def rom_between(review: ReviewData, start_s: float, end_s: float,
     instants (e.g. two markers) of the review."""
     if not end_s > start_s:
         raise ValueError(f"the ROM window must end after it starts ({start_s:.2f} .. {end_s:.2f} s)")
-    t = np.asarray(review.t_s, dtype=float)
-    window = (t >= start_s) & (t <= end_s)
+    window = rom_core.window_mask(review.t_s, start_s, end_s)
     if np.count_nonzero(window) < 3:
         raise ValueError(f"no poses between {start_s:.2f} and {end_s:.2f} s")
     angles = {c: np.asarray(v)[window] for c, v in review.angles_deg.items()}
@@ -172,7 +177,136 @@ def analyse_review(review: ReviewData, progress: Callable[[float], None] | None 
     return SessionAnalysis(review, gait, problem, curves, rom, source)
 
 
-# -- tables ------------------------------------------------------------------------------------
+# -- tables as shown (the Analysis window and the PDF report) -------------------------------------
+#: Typical values of healthy adults walking at their own pace (Perry & Burnfield, "Gait
+#: Analysis: Normal and Pathological Function", 2nd ed., 2010: velocity 82 m/min, cadence 113
+#: steps/min, stride length 1.41 m, stance 60 %, swing 40 %, double support 2 × 10 %).
+TYPICAL_ADULT = {"cadence": 113.0, "stride_length": 1.41, "gait_speed": 1.37, "stance": 60.0, "swing": 40.0,
+                 "double_support": 20.0, "stride_time": 120.0 / 113.0, "step_time": 60.0 / 113.0}
+TYPICAL_SOURCE = "typical adult: Perry & Burnfield 2010"
+SHOWN_SIDES = ("left", "right", "both")
+GAIT_PARAMETER_HEADER = ("Parameter (mean ± SD)", "Left", "Right", "Both", "CV %", "Symmetry %", "Typical adult")
+ROM_HEADER = ("Movement", "Side", "Repetitions", "Active ROM (°)", "Peak (°)", "Peaks (°)", "L − R (°)",
+              "Reference (°)", "% of reference")
+#: Order of a joint's angle axes in lists and plots.
+AXIS_ORDER = ("flexion", "adduction", "rotation", "plane_of_elevation", "elevation")
+
+
+def format_value(value: float | None, digits: int = 2) -> str:
+    """``value`` with ``digits`` decimals, ``–`` when None or NaN; a small negative value
+    that rounds to zero shows as zero (``-0.00`` would suggest a sign the figure does not have)."""
+    if value is None or not math.isfinite(value):
+        return "–"
+    text = f"{value:.{digits}f}"
+    return text[1:] if text.startswith("-") and float(text) == 0 else text
+
+
+def parameter_digits(unit: str) -> int:
+    """Decimals shown for a gait parameter of ``unit`` (percentages and cadence: 1, else 2)."""
+    return 1 if unit in ("%", "steps/min") else 2
+
+
+@dataclass(frozen=True)
+class GaitParameterRow:
+    """One gait parameter as shown: ``summaries`` left, right, both; ``symmetry_percent`` and
+    ``typical_adult`` (:data:`TYPICAL_ADULT`) NaN where not given."""
+
+    name: str
+    label: str
+    unit: str
+    summaries: tuple[ParameterSummary, ParameterSummary, ParameterSummary]
+    symmetry_percent: float
+    typical_adult: float
+
+    @property
+    def digits(self) -> int:
+        return parameter_digits(self.unit)
+
+    @property
+    def title(self) -> str:
+        return f"{self.label} ({self.unit})"
+
+    def cells(self) -> list[str]:
+        """The row's text under :data:`GAIT_PARAMETER_HEADER`."""
+        d = self.digits
+        both = self.summaries[2]
+        return ([self.title] + [f"{format_value(s.mean, d)} ± {format_value(s.sd, d)}" for s in self.summaries]
+                + [format_value(both.cv_percent, 1),
+                   format_value(self.symmetry_percent, 1) if self.name in SYMMETRY_PARAMETERS else "",
+                   format_value(self.typical_adult, d)])
+
+
+def gait_parameter_rows(gait: GaitAnalysis) -> list[GaitParameterRow]:
+    """Every parameter of :data:`~mimucap.core.analysis.gait_parameters.PARAMETERS` of ``gait``."""
+    return [GaitParameterRow(name, label, unit, tuple(gait.parameters.get(name, side) for side in SHOWN_SIDES),
+                             gait.parameters.symmetry_percent.get(name, math.nan),
+                             TYPICAL_ADULT.get(name, math.nan))
+            for name, unit, label in PARAMETERS]
+
+
+@dataclass(frozen=True)
+class RomRow:
+    """One ROM result as shown; ``left_minus_right_deg`` on the left side's row only (None on
+    the others: the difference belongs to the pair, shown once)."""
+
+    key: str
+    label: str
+    side: str
+    result: rom_core.RomResult
+    left_minus_right_deg: float | None
+
+    def cells(self) -> list[str]:
+        """The row's text under :data:`ROM_HEADER` (degrees)."""
+        r = self.result
+        return [self.label, self.side, str(r.repetitions), format_value(r.active_rom_deg, 1),
+                format_value(r.peak_deg, 1), " ".join(f"{p:.0f}" for p in r.peaks_deg),
+                "" if self.left_minus_right_deg is None else format_value(self.left_minus_right_deg, 1),
+                format_value(r.reference_deg, 0), format_value(r.percent_of_reference, 0)]
+
+
+def rom_rows(rom: dict[tuple[str, str], rom_core.RomResult]) -> list[RomRow]:
+    """The rows of ``rom`` (keyed (movement, side)) in its order."""
+    return [RomRow(key, rom_core.movement(key).label, side, r,
+                   rom_core.left_right_difference_deg(rom, key) if side == "left" else None)
+            for (key, side), r in rom.items()]
+
+
+@dataclass(frozen=True)
+class CurveGroup:
+    """One joint angle over the gait cycle: ``joint`` and ``axis`` (as split from the column
+    name), ``curves`` one side → :class:`CycleCurve` mapping per analysis compared."""
+
+    joint: str
+    axis: str
+    curves: tuple[dict[str, CycleCurve], ...]
+
+    @property
+    def label(self) -> str:
+        return f"{self.joint.replace('_', ' ')} {self.axis.replace('_', ' ')}"
+
+
+def curve_groups(analyses: Sequence[SessionAnalysis]) -> list[CurveGroup]:
+    """The cycle curves of ``analyses`` (one, or before and after) grouped by joint angle, in
+    the first review's model joint order, then :data:`AXIS_ORDER`."""
+    found: dict[tuple[str, str], list[dict[str, CycleCurve]]] = {}
+    for index, analysis in enumerate(analyses):
+        for curve in analysis.curves.values():
+            joint, _, axis = split_column(curve.column)
+            per_analysis = found.setdefault((joint, axis), [{} for _ in analyses])
+            per_analysis[index][curve.side] = curve
+    if not found:
+        return []
+    order = {name: index for index, name in enumerate(analyses[0].review.model.joint_names)}
+
+    def rank(pair: tuple[str, str]) -> tuple[int, int]:
+        joint, axis = pair
+        joint_rank = min((order[n] for n in (joint, f"{joint}_l", f"{joint}_r") if n in order), default=len(order))
+        return joint_rank, AXIS_ORDER.index(axis) if axis in AXIS_ORDER else len(AXIS_ORDER)
+
+    return [CurveGroup(joint, axis, tuple(found[(joint, axis)])) for joint, axis in sorted(found, key=rank)]
+
+
+# -- tables (CSV) --------------------------------------------------------------------------------
 def strides_table(gait: GaitAnalysis) -> tuple[list[str], list[list[object]]]:
     header = ["foot", "ic_s", "fc_s", "next_ic_s", "stride_time_s", "stride_length_m", "straight",
               "heading_change_deg", "analysed", "refused_because"]

@@ -24,6 +24,12 @@ from mimucap.io.session import Marker
 from mimucap.session.review import ReviewData
 
 
+def check_export_range(t_from_s: float, t_to_s: float) -> None:
+    """``ValueError`` unless ``t_from_s`` .. ``t_to_s`` (s) is finite and ends after it starts."""
+    if not (np.isfinite(t_from_s) and np.isfinite(t_to_s)) or t_to_s <= t_from_s:
+        raise ValueError(f"export range must have its end after its start, got {t_from_s:.3f}..{t_to_s:.3f} s")
+
+
 @dataclass(frozen=True)
 class ExportRequest:
     """What to export.
@@ -51,8 +57,7 @@ class ExportRequest:
     events: tuple[tuple[float, str, str], ...] = ()
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.t_from_s) and np.isfinite(self.t_to_s)) or self.t_to_s <= self.t_from_s:
-            raise ValueError(f"export range must have its end after its start, got {self.t_from_s:.3f}..{self.t_to_s:.3f} s")
+        check_export_range(self.t_from_s, self.t_to_s)
         if not (self.angles_csv or self.angles_mot or self.sensors_csv or self.summary_csv or self.opensim_mot
                 or self.c3d or self.bvh or self.opensense_sto):
             raise ValueError("choose at least one file to export")
@@ -76,12 +81,17 @@ class ExportResult:
     rows: int = 0
 
 
+def marker_at(markers: Sequence[Marker], index: int) -> Marker:
+    """Marker ``index`` of ``markers``; ``ValueError`` when there is no such marker."""
+    if not 0 <= index < len(markers):
+        raise ValueError(f"marker {index} does not exist (the session has {len(markers)})")
+    return markers[index]
+
+
 def marker_range(markers: Sequence[Marker], first: int, second: int) -> tuple[float, float]:
-    """The time span (s) between markers ``first`` and ``second`` (indices, either order)."""
-    for index in (first, second):
-        if not 0 <= index < len(markers):
-            raise ValueError(f"marker {index} does not exist (the session has {len(markers)})")
-    a, b = sorted((markers[first].t_s, markers[second].t_s))
+    """The time span (s) between markers ``first`` and ``second`` (indices, either order);
+    ``ValueError`` when one does not exist or both are at one time."""
+    a, b = sorted((marker_at(markers, first).t_s, marker_at(markers, second).t_s))
     if b <= a:
         names = (f"'{markers[first].label}'" if first == second else
                  f"'{markers[first].label}' and '{markers[second].label}'")
@@ -180,7 +190,8 @@ def run_export(data: ReviewData, request: ExportRequest,
                     (request.opensense_sto, "sto", base.with_name(base.name + "_orientations.sto")))
     for wanted, fmt, path in motion_files:
         if wanted:
-            jobs.append((fmt, lambda f=fmt, p=path: write_motion_file(data, request, f, p, events=request.events)))
+            jobs.append((fmt, lambda f=fmt, p=path: write_motion_file(data, f, p, request.t_from_s, request.t_to_s,
+                                                                      events=request.events)))
     if request.sensors_csv:
         for sensor_id in data.session.sensors:
             jobs.append((sensor_id, lambda s=sensor_id: write_sensor_csv(base.with_name(f"{base.name}_{s}.csv"), data, s,
@@ -205,10 +216,11 @@ def _segment_sensors(data: ReviewData) -> dict[str, str]:
     return result
 
 
-def write_motion_file(data: ReviewData, request: ExportRequest, fmt: str, path: Path,
-                      opensim_names: bool = False, raw_sensors: bool = False,
+def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | None = None,
+                      t_to_s: float | None = None, opensim_names: bool = False, raw_sensors: bool = False,
                       events: Sequence[tuple[float, str, str]] = ()) -> list[Path]:
-    """Write the motion of ``data`` in ``request``'s range as ``fmt`` to ``path``.
+    """Write the motion of ``data`` from ``t_from_s`` to ``t_to_s`` (s; None: the recording's
+    start or end) as ``fmt`` to ``path``.
 
     ``fmt``: ``"c3d"``, ``"bvh"``, ``"sto"`` (OpenSense orientations; ``raw_sensors`` for the
     sensors' own instead of segment-aligned virtual sensors), ``"mot"`` (``opensim_names``: OpenSim
@@ -221,7 +233,9 @@ def write_motion_file(data: ReviewData, request: ExportRequest, fmt: str, path: 
     from mimucap.io.angles_export import write_angles
 
     path = Path(path)
-    t_from, t_to = request.t_from_s, request.t_to_s
+    t_from = data.start_s if t_from_s is None else t_from_s
+    t_to = data.end_s if t_to_s is None else t_to_s
+    check_export_range(t_from, t_to)
     keep = (data.t_s >= t_from) & (data.t_s <= t_to)
     if np.count_nonzero(keep) < 2:
         raise ValueError(f"fewer than two poses between {t_from:.3f} and {t_to:.3f} s (the recording spans "

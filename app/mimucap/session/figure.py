@@ -98,18 +98,6 @@ def plain_world_matrix() -> NDArray[np.float64]:
     return matrix
 
 
-def heading_rad(q_world_from_segment: NDArray[np.float64]) -> float:
-    """Heading of a segment's anterior (x) axis, radians CCW from north (see module doc).
-
-    Args:
-        q_world_from_segment: ``(4,)`` scalar-first unit quaternion.
-    """
-    x_world = rotation.rotate(q_world_from_segment, np.array([1.0, 0.0, 0.0]))
-    if np.hypot(x_world[0], x_world[1]) < 1e-9:
-        return 0.0
-    return float(np.arctan2(-x_world[0], x_world[1]))
-
-
 def _rz(angle: float) -> NDArray[np.float64]:
     c, s = np.cos(angle), np.sin(angle)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
@@ -253,7 +241,7 @@ class FigureBuilder:
         if mode not in DISPLAY_MODES:
             raise ValueError(f"display mode must be one of {DISPLAY_MODES}, got {mode!r}")
         if mode == "body":
-            return float(np.pi - heading_rad(np.asarray(q_world_from_pelvis, dtype=float)))
+            return float(np.pi - rotation.heading_rad(np.asarray(q_world_from_pelvis, dtype=float)))
         if heading_ref_rad is None:
             return 0.0
         return float(np.pi - heading_ref_rad)

@@ -16,10 +16,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mimucap.core.range_of_motion import range_of_motion
+from mimucap.core.analysis.rom import range_of_motion
 from mimucap.io.library import Library, SessionEntry
 from mimucap.io.library_settings import configured_library_folder
 from mimucap.io.session import Marker
+from mimucap.session.export import marker_at, marker_range
 
 
 def open_library(folder: str | os.PathLike[str] | None = None, default: str | os.PathLike[str] | None = None) -> Library:
@@ -38,13 +39,25 @@ class TimeWindow:
     label: str = "whole recording"
 
     @classmethod
-    def between_markers(cls, markers: Sequence[Marker], first: int, second: int) -> "TimeWindow":
-        """The window from marker ``first`` to marker ``second`` (indexes into ``markers``,
-        in either order); ``IndexError`` when one does not exist."""
-        a, b = markers[first], markers[second]
-        if b.t_s < a.t_s:
-            a, b = b, a
-        return cls(float(a.t_s), float(b.t_s), f"{a.label} ({a.t_s:.2f} s) → {b.label} ({b.t_s:.2f} s)")
+    def between_markers(cls, markers: Sequence[Marker], first: int | None, second: int | None) -> "TimeWindow":
+        """The window from marker ``first`` to marker ``second`` (indexes into ``markers``, in
+        either order, by the export's rule :func:`mimucap.session.export.marker_range`); None
+        stands for the recording's start (``first``) or end (``second``). ``ValueError`` when a
+        marker does not exist or the two are at one time."""
+        if first is None and second is None:
+            return cls()
+        if first is None or second is None:
+            marker = marker_at(markers, second if first is None else first)
+            if first is None:
+                return cls(None, float(marker.t_s), f"start → {_named(marker)}")
+            return cls(float(marker.t_s), None, f"{_named(marker)} → end")
+        start_s, end_s = marker_range(markers, first, second)
+        a, b = sorted((markers[first], markers[second]), key=lambda m: m.t_s)
+        return cls(start_s, end_s, f"{_named(a)} → {_named(b)}")
+
+
+def _named(marker: Marker) -> str:
+    return f"{marker.label} ({marker.t_s:.2f} s)"
 
 
 @dataclass

@@ -61,7 +61,7 @@ from mimucap.core.simulate import SimulationConfig, SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
-from mimucap.session.figure import FigureBuilder, FigureGeometry, heading_rad
+from mimucap.session.figure import FigureBuilder, FigureGeometry
 from mimucap.session.instructions import Instruction
 from mimucap.session.processing import recording_record
 from mimucap.session.recording import Recorder, RecordingResult
@@ -786,7 +786,7 @@ class RecordingToSave:
 
 def bodycal_heading(calibration: bodycal.BodyCalibration) -> float:
     """Heading (rad, CCW from north) the subject faced in the calibration's N-pose."""
-    return heading_rad(np.asarray(calibration.q_world_from_body, dtype=float))
+    return float(rotation.heading_rad(np.asarray(calibration.q_world_from_body, dtype=float)))
 
 
 #: The local field's magnitude may differ this much (fraction) from the calibration's, its dip

@@ -41,14 +41,18 @@ class CheckItem:
     text: str
 
 
+def _first_few(texts: list[str], separator: str = ", ") -> str:
+    """The first :data:`MAX_NAMED` of ``texts`` and how many more: "a, b and 4 more"."""
+    more = len(texts) - MAX_NAMED
+    return separator.join(texts[:MAX_NAMED]) + (f" and {more} more" if more > 0 else "")
+
+
 def _names(sensors: list[tuple[str, str]], total: int | None = None) -> str:
     """"Pelvis sensor (S01), Left thigh sensor (S05) and 4 more"; "all 10" when every one of
     ``total`` sensors is meant."""
     if total is not None and len(sensors) == total and total > MAX_NAMED:
         return f"all {total}"
-    named = [sensor_name(segment, sid) for sid, segment in sensors[:MAX_NAMED]]
-    more = len(sensors) - len(named)
-    return ", ".join(named) + (f" and {more} more" if more > 0 else "")
+    return _first_few([sensor_name(segment, sid) for sid, segment in sensors])
 
 
 def _age_text(age_s: float) -> str:
@@ -83,8 +87,7 @@ def recording_checklist(live) -> list[CheckItem]:
     items.append(CheckItem(
         "drops", "Drops", not lossy,
         (f"{total_drops} packets lost in all" if total_drops else "no packet lost") if not lossy else
-        "; ".join(f"{sensor_name(seg, sid)} lost {100 * fraction:.1f} %" for sid, seg, fraction in lossy[:MAX_NAMED])
-        + (f" and {len(lossy) - MAX_NAMED} more" if len(lossy) > MAX_NAMED else "")))
+        _first_few([f"{sensor_name(seg, sid)} lost {100 * fraction:.1f} %" for sid, seg, fraction in lossy], "; ")))
 
     uncalibrated, failed, old, ages, verdicts = [], [], [], [], set()
     for sid, seg in assigned:

@@ -32,7 +32,7 @@ from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.locomotion import root_positions
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
-from mimucap.session.figure import FigureBuilder, FigureGeometry, heading_rad
+from mimucap.session.figure import FigureBuilder, FigureGeometry
 from mimucap.session.processing import process_session, recorded_processing, session_model
 from mimucap.session.recording import open_session
 
@@ -114,7 +114,7 @@ def build_review(path: str | Path, session: Session, progress: Callable[[float],
         raise ValueError(f"{path}: nothing to review ({reasons})")
     heading_ref = None
     if recorded.body_calibration is not None:
-        heading_ref = heading_rad(np.asarray(recorded.body_calibration.q_world_from_body, dtype=float))
+        heading_ref = float(rotation.heading_rad(np.asarray(recorded.body_calibration.q_world_from_body, dtype=float)))
     report(1.0)
     q_stacked = np.stack([output.q_world_from_segment[name] for name in model.segment_names])
     root = root_positions(model, height, q_stacked)

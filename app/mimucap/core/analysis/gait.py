@@ -17,10 +17,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from mimucap.core import rotation as rot
 from mimucap.core.analysis.foot import foot_strides
 from mimucap.core.analysis.gait_events import DEFAULT_EVENT_SETTINGS, EventSettings, SwingEvents, detect_swing_events
 from mimucap.core.analysis.gait_parameters import GaitParameters, gait_parameters
-from mimucap.core.analysis.leg_model import LegChain, heading_rad
+from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.turns import find_turns
 from mimucap.core.analysis.strides import (
     DEFAULT_STRIDE_SETTINGS,
@@ -108,7 +109,7 @@ def analyse_gait(inputs: list[GaitInput], legs: LegChain | None = None,
     strides.sort(key=lambda s: (s.ic_s, s.side))
     found_turns = None
     if legs is not None and legs.t_s.shape[0] >= 10:
-        found_turns = find_turns(legs.t_s, heading_rad(legs.q_pelvis))
+        found_turns = find_turns(legs.t_s, np.unwrap(rot.heading_rad(legs.q_pelvis)))
     strides = classify(strides, stride_settings, found_turns)
     strides, bouts, turns = bouts_and_turns(strides, stride_settings, found_turns)
     return GaitAnalysis(strides, bouts, turns, gait_parameters(strides), events, sources)

@@ -31,13 +31,6 @@ from mimucap.core import rotation as rot
 from mimucap.core import skeleton
 
 
-def heading_rad(q_world_from_segment: np.ndarray) -> np.ndarray:
-    """Heading (T,) rad of a segment's forward (x) axis projected on the ground (ENU, 0 =
-    north, positive counter-clockwise from above), unwrapped."""
-    x_world = rot.rotate(np.asarray(q_world_from_segment, dtype=np.float64), np.array([1.0, 0.0, 0.0]))
-    return np.unwrap(np.arctan2(-x_world[..., 0], x_world[..., 1]))
-
-
 @dataclass(frozen=True)
 class LegChain:
     """Both ankles relative to the pelvis root (the mid-point of the hip joint centres) on one
@@ -97,5 +90,5 @@ class LegChain:
     def heading_change_deg(self, t0: float, t1: float) -> float:
         """Change of the pelvis heading (deg) from ``t0`` to ``t1``."""
         a, b = (int(np.clip(np.searchsorted(self.t_s, t), 0, self.t_s.shape[0] - 1)) for t in (t0, t1))
-        psi = heading_rad(self.q_pelvis[a:b + 1])
+        psi = np.unwrap(rot.heading_rad(self.q_pelvis[a:b + 1]))
         return float(np.degrees(psi[-1] - psi[0])) if psi.size else float("nan")

@@ -28,7 +28,9 @@ time). Walking bouts are runs of strides of either foot without a pause between 
 from __future__ import annotations
 
 import math
+from bisect import bisect_left, bisect_right
 from dataclasses import dataclass, replace
+from itertools import accumulate
 
 import numpy as np
 
@@ -112,21 +114,23 @@ def classify(strides: list[Stride], settings: StrideSettings = DEFAULT_STRIDE_SE
              turns: list[Interval] | None = None) -> list[Stride]:
     """The strides (of one or both feet) with ``straight``, ``analysed`` and
     ``refused_because`` set (module doc). ``turns`` found beforehand from a continuous heading
-    (:mod:`.turns`): a stride more than half inside one is a turning stride too."""
+    (:mod:`.turns`): a stride more than half inside one is a turning stride too.
+
+    Each foot's initial contacts are sorted once and searched by bisection, and the turns are
+    indexed by start (:class:`_TurnIndex`), so that n strides take O(n log n) time."""
     medians = {}
+    contacts: dict[str, tuple[list[float], list[Stride]]] = {}
     for side in SIDES:
         times = [s.stride_time_s for s in strides
                  if s.side == side and settings.min_stride_s <= s.stride_time_s <= settings.max_stride_s]
         medians[side] = float(np.median(times)) if times else math.nan
+        own = sorted((s for s in strides if s.side == side), key=lambda s: s.ic_s)
+        contacts[side] = ([s.ic_s for s in own], own)
+    turn_index = _TurnIndex(turns or [])
     result = []
     for s in strides:
-        later = [o.ic_s for o in strides if o.side == s.side and o.ic_s >= s.next_ic_s - 1e-9]
-        ends_walk = not later or min(later) - s.next_ic_s > 1e-6 or not any(
-            o.side == s.side and abs(o.ic_s - s.next_ic_s) < 1e-6 and o.stride_time_s <= settings.max_stride_s
-            for o in strides)
         reason = ""
         straight = not (math.isfinite(s.heading_change_deg) and abs(s.heading_change_deg) > settings.max_heading_change_deg)
-        within = [t for t in turns or () if _overlap(s.ic_s, s.next_ic_s, t) > 0.5]
         if not settings.min_stride_s <= s.stride_time_s <= settings.max_stride_s:
             reason = (f"{s.stride_time_s:.2f} s between initial contacts is not one stride "
                       f"({settings.min_stride_s:g}-{settings.max_stride_s:g} s): a pause or a swing not seen")
@@ -135,17 +139,54 @@ def classify(strides: list[Stride], settings: StrideSettings = DEFAULT_STRIDE_SE
         elif s.stride_time_s > settings.max_time_ratio * medians[s.side]:
             reason = (f"irregular: {s.stride_time_s:.2f} s, more than {settings.max_time_ratio:g} × the median "
                       f"stride time {medians[s.side]:.2f} s (a swing not seen, e.g. turning on the spot)")
-        elif ends_walk:
+        elif _ends_walk(s, *contacts[s.side], settings):
             reason = "ends the walk: the foot comes to rest after it (gait termination)"
         elif not straight:
             reason = (f"turning: heading changed by {s.heading_change_deg:+.0f}° "
                       f"(straight walking: at most {settings.max_heading_change_deg:g}°)")
-        elif within:
+        elif within := turn_index.mostly_inside(s.ic_s, s.next_ic_s):
             straight = False
-            reason = (f"turning: inside the turn of {within[0].angle_deg:+.0f}° at "
-                      f"{within[0].start_s:.1f}-{within[0].end_s:.1f} s")
+            reason = (f"turning: inside the turn of {within.angle_deg:+.0f}° at "
+                      f"{within.start_s:.1f}-{within.end_s:.1f} s")
         result.append(replace(s, straight=straight, analysed=not reason, refused_because=reason))
     return result
+
+
+def _ends_walk(stride: Stride, ics: list[float], own: list[Stride], settings: StrideSettings) -> bool:
+    """True when the foot does not start another stride (of at most ``max_stride_s``) where
+    ``stride`` ends; ``own`` the foot's strides sorted by initial contact, ``ics`` theirs."""
+    end = stride.next_ic_s
+    first_later = bisect_left(ics, end - 1e-9)   # the foot's next initial contact
+    if first_later == len(ics) or ics[first_later] - end > 1e-6:
+        return True
+    # The strides starting at this one's end (within 1 µs): one, or a few at most.
+    around = own[bisect_left(ics, end - 2e-6):bisect_right(ics, end + 2e-6)]
+    return not any(abs(o.ic_s - end) < 1e-6 and o.stride_time_s <= settings.max_stride_s for o in around)
+
+
+class _TurnIndex:
+    """Turns sorted by start with the latest end reached so far, to find the turns holding an
+    instant without looking at every turn."""
+
+    def __init__(self, turns: list[Interval]) -> None:
+        self.turns = turns
+        self.order = sorted(range(len(turns)), key=lambda i: turns[i].start_s)
+        self.starts = [turns[i].start_s for i in self.order]
+        self.reach = list(accumulate((turns[i].end_s for i in self.order), max))
+
+    def mostly_inside(self, start_s: float, end_s: float) -> Interval | None:
+        """The first turn (in the given order) holding more than half of ``start_s .. end_s``.
+        Such a turn holds the middle of the span (else less than half of it would be inside),
+        so only the turns around the middle are looked at."""
+        middle, tolerance = 0.5 * (start_s + end_s), 1e-6
+        k = bisect_right(self.starts, middle + tolerance)
+        found = []
+        while k > 0 and self.reach[k - 1] >= middle - tolerance:
+            k -= 1
+            turn = self.turns[self.order[k]]
+            if _overlap(start_s, end_s, turn) > 0.5:
+                found.append(self.order[k])
+        return self.turns[min(found)] if found else None
 
 
 def _overlap(start_s: float, end_s: float, turn: Interval) -> float:
@@ -175,23 +216,40 @@ def bouts_and_turns(strides: list[Stride], settings: StrideSettings = DEFAULT_ST
     overlapping each), else the runs of turning strides, whose angle is the summed heading
     change of the turning strides of the foot that turned most within it (deg, positive
     counter-clockwise from above)."""
-    walking = [s for s in strides if settings.min_stride_s <= s.stride_time_s <= settings.max_stride_s]
+    def is_walking(s: Stride) -> bool:
+        return settings.min_stride_s <= s.stride_time_s <= settings.max_stride_s
+
+    walking = [s for s in strides if is_walking(s)]
     bouts = _merge([(s.ic_s, s.next_ic_s, 1, math.nan) for s in walking])
-    numbered = []
-    for s in strides:
-        index = next((i for i, b in enumerate(bouts) if b.start_s <= s.ic_s and s.next_ic_s <= b.end_s), -1)
-        numbered.append(replace(s, bout=index if s in walking else -1))
+    bout_of = _Holding(bouts)
+    numbered = [replace(s, bout=bout_of(s) if is_walking(s) else -1) for s in strides]
     if turns is not None:
-        counted = [replace(t, n_strides=sum(1 for s in walking if _overlap(s.ic_s, s.next_ic_s, t) > 0.0))
+        # A walking stride overlapping a turn starts less than max_stride_s before its start.
+        by_ic = sorted(walking, key=lambda s: s.ic_s)
+        ics = [s.ic_s for s in by_ic]
+        counted = [replace(t, n_strides=sum(1 for s in by_ic[bisect_left(ics, t.start_s - settings.max_stride_s - 1e-6):
+                                                              bisect_right(ics, t.end_s)]
+                                            if _overlap(s.ic_s, s.next_ic_s, t) > 0.0))
                    for t in turns]
         return numbered, bouts, counted
     turning = [s for s in walking if not s.straight]
     spans = _merge([(s.ic_s, s.next_ic_s, 1, math.nan) for s in turning])
-    turns = []
-    for span in spans:
-        per_side = {side: sum(s.heading_change_deg for s in turning
-                              if s.side == side and span.start_s <= s.ic_s and s.next_ic_s <= span.end_s)
-                    for side in SIDES}
-        angle = max(per_side.values(), key=abs)
-        turns.append(replace(span, angle_deg=float(angle)))
+    span_of = _Holding(spans)
+    per_span: list[dict[str, float]] = [{side: 0 for side in SIDES} for _ in spans]
+    for s in turning:   # each turning stride lies in the span it was merged into
+        per_span[span_of(s)][s.side] += s.heading_change_deg
+    turns = [replace(span, angle_deg=float(max(per_side.values(), key=abs))) for span, per_side in zip(spans, per_span)]
     return numbered, bouts, turns
+
+
+class _Holding:
+    """Index of the interval of ``intervals`` (merged: in time order, disjoint) that holds a
+    whole stride, -1 when none does (by bisection)."""
+
+    def __init__(self, intervals: list[Interval]) -> None:
+        self.intervals = intervals
+        self.starts = [i.start_s for i in intervals]
+
+    def __call__(self, stride: Stride) -> int:
+        k = bisect_right(self.starts, stride.ic_s) - 1
+        return k if k >= 0 and stride.next_ic_s <= self.intervals[k].end_s else -1

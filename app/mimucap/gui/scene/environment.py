@@ -9,9 +9,9 @@ in and out beside the figure. The world
 axes (E, N, Up; 0.5 m, standing at :data:`AXES_ORIGIN_WORLD_M`) are built in **world**
 coordinates (ENU, metres) and placed in the scene by the frame's
 ``FigureGeometry.world_matrix``, so they turn with the display mode like the figure does.
-The axes' names are VTK text actors anchored just beyond each arrow's tip
-(:meth:`Stage.axis_label_points`): each name is rasterised once into a texture, and only its
-place on screen is computed per frame.
+The axes' names are VTK text actors (:attr:`Stage.axis_labels`) anchored just beyond each
+arrow's tip: each name is rasterised once into a texture, and only its place on screen is
+computed per frame.
 """
 
 from __future__ import annotations
@@ -234,7 +234,6 @@ class Stage:
 
         self._placed: np.ndarray | None = None  # the last world matrix applied
         self._floor_centre = (0.0, 0.0)  # world E, N of the floor grid's centre (m)
-        self._label_points = np.zeros((len(AXIS_NAMES), 3))  # where the axes' names stand (scene, m)
         self.floor_matrix = vtkMatrix4x4()  # places both grids
         self.axes_matrix = vtkMatrix4x4()
         # Keep the sources referenced: an output port does not keep its producer alive.
@@ -276,24 +275,16 @@ class Stage:
         self.floor_matrix.DeepCopy(_placed_at(matrix, (centre[0], centre[1], 0.0)).ravel())
         axes = _placed_at(matrix, AXES_ORIGIN_WORLD_M)
         self.axes_matrix.DeepCopy(axes.ravel())
-        self._label_points = (AXIS_LABEL_POSITION * AXES_LENGTH_M) * axes[:3, :3].T + axes[:3, 3]
+        label_points = (AXIS_LABEL_POSITION * AXES_LENGTH_M) * axes[:3, :3].T + axes[:3, 3]  # scene, m
         for actor in (self.grid, self.fine_grid, self.axes):
             actor.Modified()
-        for label, point in zip(self.axis_labels, self._label_points.tolist()):
+        for label, point in zip(self.axis_labels, label_points.tolist()):
             label.GetPositionCoordinate().SetValue(*point)
 
     @property
     def floor_centre(self) -> tuple[float, float]:
         """World E, N (m) of the centre of the floor grid."""
         return self._floor_centre
-
-    def axis_label_points(self) -> tuple[tuple[str, ...], np.ndarray]:
-        """The names of the world axes shown and where they stand, ``(n, 3)`` (scene frame,
-        metres; row i is name i), just beyond each arrow's tip (computed when the world matrix
-        changes, read on every frame). No names while the axes are hidden."""
-        if not self.axes.GetVisibility():
-            return (), np.zeros((0, 3))
-        return AXIS_NAMES, self._label_points
 
     def set_visible(self, floor: bool, axes: bool) -> None:
         """Show or hide the floor grid and the world axes."""

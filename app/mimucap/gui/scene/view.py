@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping
 import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
 from vtkmodules.vtkCommonCore import vtkCommand
-from vtkmodules.vtkRenderingCore import vtkRenderer, vtkTextActor
+from vtkmodules.vtkRenderingCore import vtkTextActor
 
 from mimucap.gui.scene.environment import Stage, scene_renderer
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
@@ -36,26 +36,6 @@ HINT_FONT_SIZE, HINT_LINE_CHARACTERS = 15, 52
 
 #: Called every tick; returns ``(frame_id, geometry)`` for the newest frame or ``None``.
 FrameProvider = Callable[[], "tuple[object, FigureGeometry] | None"]
-
-
-def world_to_display(renderer: vtkRenderer, points: np.ndarray) -> np.ndarray:
-    """What ``renderer.WorldToDisplay()`` gives for each of ``points`` ``(n, 3)`` (scene frame,
-    metres), in one product: ``(n, 3)`` display x, y (pixels from the window's bottom left)
-    and depth (0 at the near plane, 1 at the far one; outside that range the point is not
-    drawn). VTK's own call makes three Python round trips per point."""
-    window = renderer.GetRenderWindow()
-    width, height = window.GetSize()
-    camera = renderer.GetActiveCamera()
-    composite = camera.GetCompositeProjectionTransformMatrix(renderer.GetTiledAspectRatio(), 0.0, 1.0)
-    matrix = np.asarray(composite.GetData()).reshape(4, 4)  # row-major
-    view = np.c_[points, np.ones(len(points))] @ matrix.T
-    view = view[:, :3] / view[:, 3:]
-    left, bottom, right, top = renderer.GetViewport()
-    display = np.empty_like(view)
-    display[:, 0] = (view[:, 0] + 1.0) * (width * (right - left)) / 2.0 + width * left
-    display[:, 1] = (view[:, 1] + 1.0) * (height * (top - bottom)) / 2.0 + height * bottom
-    display[:, 2] = view[:, 2]
-    return display
 
 
 def _hint_actor() -> vtkTextActor:
@@ -220,20 +200,6 @@ class SceneView(QtWidgets.QWidget):
     def last_geometry(self) -> FigureGeometry | None:
         """The geometry currently shown (``None`` before the first frame)."""
         return self._last_geometry
-
-    def axis_label_positions(self) -> dict[str, tuple[float, float]]:
-        """Where the world axes' names stand in the picture: name → (x, y) device pixels from
-        the top left; none while the axes are hidden, nor those behind the camera or outside
-        the picture."""
-        names, points = self.stage.axis_label_points()
-        if not names:
-            return {}
-        width, height = self.render_window.GetSize()
-        shown = {}
-        for name, (x, y, depth) in zip(names, world_to_display(self.renderer, points).tolist()):
-            if 0.0 < depth < 1.0 and 0.0 <= x < width and 0.0 <= y < height:
-                shown[name] = (x, height - y)
-        return shown
 
     # -- render loop -----------------------------------------------------------------------
     def start(self, own_clock: bool = True) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.core.range_of_motion import range_of_motion, window_mask
+from mimucap.core.analysis.rom import range_of_motion, window_mask
 
 
 def test_rom_is_max_minus_min_in_the_window_without_gaps():
