@@ -28,7 +28,7 @@ def test_messages_of_one_worker_join_into_one_block_per_channel_set_in_row_order
     assert with_mag["thigh_r"].seq.tolist() == [1, 2, 3]
     assert with_mag["shank_r"].seq.tolist() == [1]
     np.testing.assert_allclose(with_mag["thigh_r"].gyr[:, 0], [0.001, 0.002, 0.003])
-    np.testing.assert_allclose(with_mag["pelvis"].host_time_s, [100.01, 100.02, 100.03])
+    np.testing.assert_allclose(with_mag["pelvis"].t_s, [100.01, 100.02, 100.03])
     (without_mag,) = joined[1].unpack()
     assert without_mag.sensor_id == "pelvis" and without_mag.seq.tolist() == [4] and without_mag.mag_uT is None
 
