@@ -114,6 +114,25 @@ def test_units_are_attributes(tmp_path: Path) -> None:
         assert h5["truth/joint_angles_deg/hip_r_flexion_deg"].attrs["unit"] == "deg"
 
 
+def test_battery_and_calibration_status_keep_the_file_s_own_form(tmp_path: Path) -> None:
+    """In memory the battery is in percent and the calibration status a channel; the file keeps
+    the fraction and ``extra/calibration_status`` it always had, so older files read alike."""
+    n = 4
+    status = np.tile(np.array([3, 2, 1, 0], dtype=np.int8), (n, 1))
+    samples = SensorSamples("S01", np.arange(n) / 100.0, np.arange(n), gyr=np.zeros((n, 3)),
+                            battery_pct=np.array([100.0, 90.0, 80.0, 50.0]), calibration=status)
+    path = write_session(tmp_path / "b.h5", Session(sensors={"S01": samples}))
+    with h5py.File(path, "r") as h5:
+        np.testing.assert_array_equal(h5["sensors/S01/battery"][()], [1.0, 0.9, 0.8, 0.5])
+        assert h5["sensors/S01/battery"].attrs["unit"] == "1 (fraction 0..1)"
+        assert h5["sensors/S01/extra/calibration_status"].dtype == np.int8
+        np.testing.assert_array_equal(h5["sensors/S01/extra/calibration_status"][()], status)
+    back = read_session(path).sensors["S01"]
+    np.testing.assert_allclose(back.battery_pct, [100.0, 90.0, 80.0, 50.0], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(back.calibration, status)
+    assert back.extra == {} and back.calibration.dtype == np.int8
+
+
 def test_same_session_gives_identical_bytes(tmp_path: Path) -> None:
     first = write_session(tmp_path / "1.h5", _session(np.random.default_rng(3)))
     second = write_session(tmp_path / "2.h5", _session(np.random.default_rng(3)))
