@@ -53,7 +53,7 @@ def test_every_channel_and_clock_lands_in_its_field_of_the_unpacked_samples():
                         calibration=(3, 2, 1, 0), battery_pct=42.0)
         builder.add("S03", seq, sample, 10.0 + seq, 20.0 + seq)
     (samples,) = builder.take()[0].unpack()
-    assert (samples.sensor_id, samples.source, samples.segment, samples.extra) == ("S03", "udp", None, {})
+    assert (samples.sensor_id, samples.source, samples.segment, samples.extra) == ("S03", "udp", None, None)
     assert samples.seq.tolist() == [5, 6] and samples.t_s.tolist() == [15.0, 16.0]
     assert samples.device_time_s.tolist() == [7.0, 8.0] and samples.receive_time_s.tolist() == [25.0, 26.0]
     for name, row in (("acc", [1, 2, 3]), ("gyr", [4, 5, 6]), ("mag_uT", [7, 8, 9]),

@@ -130,7 +130,7 @@ def test_battery_and_calibration_status_keep_the_file_s_own_form(tmp_path: Path)
     back = read_session(path).sensors["S01"]
     np.testing.assert_allclose(back.battery_pct, [100.0, 90.0, 80.0, 50.0], rtol=0, atol=1e-12)
     np.testing.assert_array_equal(back.calibration, status)
-    assert back.extra == {} and back.calibration.dtype == np.int8
+    assert back.extra is None and back.calibration.dtype == np.int8
 
 
 def test_same_session_gives_identical_bytes(tmp_path: Path) -> None:

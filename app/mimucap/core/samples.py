@@ -31,7 +31,7 @@ one sensor, :meth:`SensorSamples.rows` selects rows.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -64,7 +64,7 @@ class SensorSamples:
     ``receive_time_s`` (N,). ``source`` names the source that delivered the samples ("" when
     none did, e.g. a file), ``segment`` the body segment the sensor is worn on (``None`` if
     unassigned), ``extra`` further per-sample arrays of a recording (name → array with N
-    rows; the name carries its unit).
+    rows; the name carries its unit), ``None`` when there are none.
     """
 
     sensor_id: str
@@ -80,7 +80,8 @@ class SensorSamples:
     receive_time_s: np.ndarray | None = None
     source: str = ""
     segment: str | None = None
-    extra: dict[str, np.ndarray] = field(default_factory=dict)
+    # None rather than an empty dict: a default factory would double the cost of building one
+    extra: dict[str, np.ndarray] | None = None
 
     def __len__(self) -> int:
         return int(self.t_s.shape[0])
@@ -126,21 +127,22 @@ class SensorSamples:
                 raise ValueError(f"sensor {sensor}: {name} must have shape {(n,) + trailing}, got {array.shape}")
             rows[name] = array
         extra = {}
-        for name, value in self.extra.items():
+        for name, value in (self.extra or {}).items():
             _check_name(name, f"sensor {sensor} extra channel")
             array = np.asarray(value)
             if array.ndim == 0 or array.shape[0] != n:
                 raise ValueError(f"sensor {sensor}: extra channel {name} must have {n} rows, got {array.shape}")
             extra[name] = array
         return SensorSamples(sensor, t_s, seq.astype(np.int64, copy=False), **rows, source=self.source,
-                             segment=self.segment, extra=extra)
+                             segment=self.segment, extra=extra or None)
 
     def rows(self, index: slice | np.ndarray) -> SensorSamples:
         """The rows ``index`` selects (a slice, a boolean mask or integer indices), every
         per-sample array alike; the rest is kept."""
         picked = [None if (value := getattr(self, name)) is None else value[index] for name in ROW_SHAPES]
+        extra = None if self.extra is None else {name: value[index] for name, value in self.extra.items()}
         return SensorSamples(self.sensor_id, self.t_s[index], self.seq[index], *picked, self.source,
-                             self.segment, {name: value[index] for name, value in self.extra.items()})
+                             self.segment, extra)
 
     def with_times(self, t_s: np.ndarray) -> SensorSamples:
         """The same samples stamped ``t_s`` (N,) s (e.g. session seconds instead of the host's
@@ -166,18 +168,20 @@ def concatenate_samples(parts: Sequence[SensorSamples],
     first = parts[0]
     if len(parts) == 1:
         return first
-    strangers = sorted({p.sensor_id for p in parts} - {first.sensor_id})
-    if strangers:
-        raise ValueError(f"cannot join the samples of sensor {first.sensor_id} with those of {', '.join(strangers)}")
+    sensor = first.sensor_id
+    if any(p.sensor_id != sensor for p in parts):
+        strangers = sorted({p.sensor_id for p in parts} - {sensor})
+        raise ValueError(f"cannot join the samples of sensor {sensor} with those of {', '.join(strangers)}")
     joined = []
     for name in ROW_SHAPES:
         arrays = [getattr(p, name) for p in parts]
-        if all(a is not None for a in arrays):
+        absent = sum(a is None for a in arrays)
+        if not absent:
             joined.append(np.concatenate(arrays))
-        elif all(a is None for a in arrays):
+        elif absent == len(arrays):
             joined.append(None)
         elif missing == "refuse":
-            raise ValueError(f"sensor {first.sensor_id}: {name} is present in some of the samples to join "
+            raise ValueError(f"sensor {sensor}: {name} is present in some of the samples to join "
                              f"and absent in others")
         elif missing == "drop":
             joined.append(None)
@@ -188,11 +192,14 @@ def concatenate_samples(parts: Sequence[SensorSamples],
                                           else np.asarray(a, dtype=dtype) for p, a in zip(parts, arrays)]))
         else:
             raise ValueError(f"missing must be 'refuse', 'drop' or 'fill', got {missing!r}")
-    names = [set(p.extra) for p in parts]
-    common = set.intersection(*names)
-    if missing == "refuse" and any(n != common for n in names):
-        raise ValueError(f"sensor {first.sensor_id}: the samples to join have different extra channels")
-    extra = {name: np.concatenate([p.extra[name] for p in parts]) for name in first.extra if name in common}
+    extra = None
+    if any(p.extra for p in parts):
+        names = [set(p.extra or ()) for p in parts]
+        common = set.intersection(*names)
+        if missing == "refuse" and any(n != common for n in names):
+            raise ValueError(f"sensor {sensor}: the samples to join have different extra channels")
+        extra = {name: np.concatenate([p.extra[name] for p in parts]) for name in first.extra or () if name in common}
+        extra = extra or None
     return SensorSamples(first.sensor_id, np.concatenate([p.t_s for p in parts]),
                          np.concatenate([p.seq for p in parts]), *joined, first.source, first.segment, extra)
 

@@ -292,7 +292,7 @@ def _write_sensor(group: h5py.Group, stream: SensorSamples) -> None:
         value = getattr(stream, _FIELD_OF_DATASET.get(name, name))
         if value is not None:
             _dataset(g, name, value / _PERCENT_PER_FRACTION if name == "battery" else value, unit)
-    extras = dict(stream.extra)
+    extras = dict(stream.extra or {})
     if stream.calibration is not None:
         if CALIBRATION_STATUS in extras:
             raise ValueError(f"sensor {stream.sensor_id}: the extra channel {CALIBRATION_STATUS} would hide "
