@@ -37,7 +37,7 @@ import h5py
 import numpy as np
 
 from mimucap import __version__
-from mimucap.core.samples import CALIBRATION_DTYPE, SensorSamples
+from mimucap.core.samples import SensorSamples
 from mimucap.core.sensor_limits import GYR_MAX_RAD_S
 
 #: Value of the root attribute ``format``.

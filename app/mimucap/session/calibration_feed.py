@@ -82,7 +82,7 @@ class LiveSessionFeed:
                 continue
             q = None if item.orientation is None else item.orientation.q_world_from_sensor
             parts.setdefault(item.sensor_id, []).append(
-                replace(item.block.with_times(item.t_s), q_world_from_sensor=q))
+                replace(item.block, t_s=item.t_s, q_world_from_sensor=q))
             newest = float(item.t_s[-1])
             self._time_s = max(newest, self._time_s) if math.isfinite(self._time_s) else newest
         return {sensor_id: concatenate_samples(samples, missing="drop") for sensor_id, samples in parts.items()}
