@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.core.samples import SensorSamples, concatenate_samples
+from mimucap.core.samples import SensorSamples, concatenate_samples, join_per_sensor
 
 
 def _part(first: int, n: int, *, mag: bool = True, calibration: bool = False, sensor: str = "S01") -> SensorSamples:
@@ -38,6 +38,14 @@ def test_a_channel_some_parts_lack_is_refused_dropped_or_filled_never_zeroed():
         concatenate_samples([_part(0, 2), _part(2, 2, sensor="S02")])
     with pytest.raises(ValueError, match="no samples"):
         concatenate_samples([])
+
+
+def test_one_poll_joins_each_sensor_s_blocks_of_one_channel_set():
+    poll = [_part(0, 1), _part(0, 2, sensor="S02"), _part(1, 1), _part(3, 0), _part(2, 2, mag=False), _part(2, 1, sensor="S02")]
+    joined = join_per_sensor(poll)
+    assert [(s.sensor_id, s.seq.tolist(), s.mag_uT is not None) for s in joined] == [
+        ("S01", [0, 1], True), ("S02", [0, 1, 2], True), ("S01", [2, 3], False)]
+    assert join_per_sensor([]) == []
 
 
 def test_rows_select_every_per_sample_array_alike():

@@ -25,12 +25,13 @@ Construction checks nothing (a source builds thousands of records per second);
 :meth:`SensorSamples.checked` is the validating constructor for data from outside (files,
 imports): it converts the arrays to their dtypes and refuses a wrong shape with a
 ``ValueError`` naming the sensor. :func:`concatenate_samples` joins consecutive records of
-one sensor, :meth:`SensorSamples.rows` selects rows.
+one sensor, :func:`join_per_sensor` those of one poll per sensor, :meth:`SensorSamples.rows`
+selects rows.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -204,10 +205,24 @@ def concatenate_samples(parts: Sequence[SensorSamples],
                          np.concatenate([p.seq for p in parts]), *joined, first.source, first.segment, extra)
 
 
+def join_per_sensor(blocks: Iterable[SensorSamples]) -> list[SensorSamples]:
+    """Blocks of many sensors (e.g. one poll of a source) with each sensor's blocks that carry
+    the same channels joined into one (:func:`concatenate_samples`), in order of first
+    appearance; empty blocks are left out. Wireless nodes deliver a sample or two at a time,
+    and what follows (filters, buffers, statistics, the journal) costs the same per call
+    whatever a block's length."""
+    groups: dict[tuple, list[SensorSamples]] = {}
+    for block in blocks:
+        if len(block):
+            groups.setdefault((block.sensor_id, block.channels()), []).append(block)
+    return [concatenate_samples(parts) for parts in groups.values()]
+
+
 def _check_name(name: Any, what: str) -> None:
     """Refuse a name that cannot name a sensor or a channel (in files, menus, calibrations)."""
     if not isinstance(name, str) or not name or "/" in name or name in (".", ".."):
         raise ValueError(f"{what} {name!r} is not usable as a name (non-empty, no '/')")
 
 
-__all__ = ["CHANNELS", "CLOCKS", "ROW_SHAPES", "CALIBRATION_DTYPE", "SensorSamples", "concatenate_samples"]
+__all__ = ["CHANNELS", "CLOCKS", "ROW_SHAPES", "CALIBRATION_DTYPE", "SensorSamples", "concatenate_samples",
+           "join_per_sensor"]

@@ -56,7 +56,7 @@ from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
     POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorOrientations,
 )
-from mimucap.core.samples import SensorSamples, concatenate_samples
+from mimucap.core.samples import SensorSamples, join_per_sensor
 from mimucap.core.simulate import SimulationConfig, SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.events import EmitterGroup
@@ -420,7 +420,7 @@ class LiveSession:
             return 0
         self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
         self.events.blocks.emit(blocks)
-        merged = _merged_per_sensor(blocks)
+        merged = join_per_sensor(blocks)
         new_sensors = [b.sensor_id for b in merged if b.sensor_id not in self._sensors]
         if new_sensors:
             self._load_stored_calibrations(new_sensors)
@@ -751,17 +751,6 @@ class LiveSession:
         result = self.end_recording().save()
         self.last_recording = result
         return result
-
-
-def _merged_per_sensor(blocks: list[SensorSamples]) -> list[SensorSamples]:
-    """The blocks of one poll with each sensor's consecutive blocks (same channels) joined:
-    wireless nodes arrive a sample or two at a time, and the filter, buffers and statistics
-    cost the same per call whatever the block's length."""
-    groups: dict[tuple, list[SensorSamples]] = {}
-    for block in blocks:
-        if len(block):
-            groups.setdefault((block.sensor_id, block.channels()), []).append(block)
-    return [concatenate_samples(parts) for parts in groups.values()]
 
 
 @dataclass

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from mimucap.acquisition.block_codec import decode_arrays, decode_block, encode_arrays, encode_block
-from mimucap.core.samples import SensorSamples, concatenate_samples
+from mimucap.core.samples import SensorSamples, concatenate_samples, join_per_sensor
 from mimucap.io.journal import JournalContents, JournalWriter, iter_journal
 from mimucap.io.session import Marker, Session, SessionTruth, read_session, write_session
 
@@ -155,15 +155,10 @@ class Recorder:
 
         Blocks of the same sensor and channels within one call are merged into one record.
         """
-        groups: dict[tuple, list[SensorSamples]] = {}
-        for block in blocks:
-            if len(block):
-                groups.setdefault((block.sensor_id, block.channels()), []).append(block)
-        for (sensor_id, _channels), parts in groups.items():
-            merged = concatenate_samples(parts)
+        for merged in join_per_sensor(blocks):
             if not self._append(KIND_BLOCK, encode_block(merged)):
                 return False
-            self.samples[sensor_id] = self.samples.get(sensor_id, 0) + len(merged)
+            self.samples[merged.sensor_id] = self.samples.get(merged.sensor_id, 0) + len(merged)
         return self.tick()
 
     def add_marker(self, label: str, host_s: float | None = None) -> bool:
