@@ -8,11 +8,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mimucap.acquisition.block_codec import decode_block, encode_block
-from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
 from mimucap.acquisition.source_spec import parse_source_spec
+from mimucap.core.samples import SensorSamples, concatenate_samples
 
 
-def make_block(n: int, full: bool = True, first: int = 0) -> SampleBlock:
+def make_block(n: int, full: bool = True, first: int = 0) -> SensorSamples:
     seq = np.arange(first, first + n, dtype=np.int64)
     t = 100.0 + seq * 0.01
     extra = {}
@@ -20,7 +20,8 @@ def make_block(n: int, full: bool = True, first: int = 0) -> SampleBlock:
         extra = dict(acc=np.random.default_rng(n).normal(size=(n, 3)), mag_uT=np.ones((n, 3)),
                      q_world_from_sensor=np.tile([1.0, 0, 0, 0], (n, 1)),
                      calibration=np.full((n, 4), 3, dtype=np.int8), battery_pct=np.full(n, 55.0))
-    return SampleBlock("src", "S01", seq, t + 3.0, t, t + 0.001, gyr=np.zeros((n, 3)), **extra)
+    return SensorSamples("S01", t, seq, device_time_s=t + 3.0, receive_time_s=t + 0.001, source="src",
+                         gyr=np.zeros((n, 3)), **extra)
 
 
 @pytest.mark.parametrize("n, full", [(0, True), (1, False), (17, True)])
@@ -28,16 +29,16 @@ def test_blocks_round_trip_exactly(n, full):
     block = make_block(n, full)
     decoded = decode_block(encode_block(block))
     assert decoded.sensor_id == "S01" and decoded.source == "src" and decoded.channels() == block.channels()
-    for name in ("seq", "device_time_s", "host_time_s", "receive_time_s") + block.channels():
+    for name in ("seq", "device_time_s", "t_s", "receive_time_s") + block.channels():
         np.testing.assert_array_equal(getattr(decoded, name), getattr(block, name))
         assert getattr(decoded, name).dtype == getattr(block, name).dtype
 
 
 def test_concatenation_keeps_order_and_refuses_mixed_channels():
-    joined = concatenate_blocks([make_block(3), make_block(4, first=3)])
+    joined = concatenate_samples([make_block(3), make_block(4, first=3)])
     np.testing.assert_array_equal(joined.seq, np.arange(7))
     with pytest.raises(ValueError):
-        concatenate_blocks([make_block(3), make_block(3, full=False, first=3)])
+        concatenate_samples([make_block(3), make_block(3, full=False, first=3)])
 
 
 @settings(max_examples=300, deadline=None)
@@ -52,7 +53,7 @@ def test_decoding_damaged_records_gives_a_block_or_value_error(n, flips, cut):
         block = decode_block(data)
     except ValueError:
         return
-    assert len(block.seq) == len(block.host_time_s)
+    assert len(block.seq) == len(block.t_s)
 
 
 @settings(max_examples=500, deadline=None)

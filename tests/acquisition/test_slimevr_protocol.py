@@ -140,7 +140,7 @@ def test_lost_packets_are_drops_of_the_trackers_sensors_and_old_numbers_are_refu
     driver.handle_datagram(rotation_packet(7, 0, (0, 0, 0, 1)), TRACKER, 10.13)
     (block,) = blocks_of(driver)["024D43000007-0"]
     # the round trip 10.11 → 10.12 s: half of it is the network delay taken off the arrival
-    assert block.host_time_s[-1] == pytest.approx(10.13 - 0.005)
+    assert block.t_s[-1] == pytest.approx(10.13 - 0.005)
     assert list(block.seq) == [0, 1, 5, 6, 7]  # three numbers missing: three drops
     assert driver.report("running").rejections == {"stale_sequence": 1}
     # the tracker reboots: a new handshake starts its numbers at 0 again, without false drops

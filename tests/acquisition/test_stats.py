@@ -8,9 +8,9 @@ import threading
 import numpy as np
 import pytest
 
-from mimucap.acquisition.replay import ReplayDriver, ReplaySourceConfig, ReplayStream
-from mimucap.acquisition.samples import SampleBlock
+from mimucap.acquisition.replay import ReplayDriver, ReplaySourceConfig, replayable
 from mimucap.acquisition.stats import SensorStatsTracker, _RecentValues, percentiles_linear
+from mimucap.core.samples import SensorSamples
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 10, 101, 4096])
@@ -38,11 +38,11 @@ def test_recent_values_keep_the_newest_in_order(capacity):
         assert recent.values().tolist() == expected and len(recent) == len(expected)
 
 
-def _block(first_seq: int, host_time_s: np.ndarray) -> SampleBlock:
+def _block(first_seq: int, host_time_s: np.ndarray) -> SensorSamples:
     n = len(host_time_s)
-    return SampleBlock(source="test", sensor_id="S01", seq=np.arange(first_seq, first_seq + n, dtype=np.int64),
-                       device_time_s=host_time_s.copy(), host_time_s=host_time_s, receive_time_s=np.zeros(n),
-                       acc=np.zeros((n, 3)), gyr=np.zeros((n, 3)), mag_uT=None, q_world_from_sensor=None)
+    return SensorSamples(source="test", sensor_id="S01", seq=np.arange(first_seq, first_seq + n, dtype=np.int64),
+                         device_time_s=host_time_s.copy(), t_s=host_time_s, receive_time_s=np.zeros(n),
+                         acc=np.zeros((n, 3)), gyr=np.zeros((n, 3)), mag_uT=None, q_world_from_sensor=None)
 
 
 @pytest.mark.parametrize("ordered", [True, False])
@@ -107,8 +107,8 @@ def test_a_replayed_stream_refuses_invalid_rows_and_reports_them_not_as_gaps():
     acc[20, 0] = 500.0           # 1 out of range between released rows
     acc[47:] = np.inf            # 3 refused after the last released row
     seq = np.arange(n) + np.where(np.arange(n) >= 30, 2, 0)   # 2 packets really lost
-    stream = ReplayStream.from_recording("S07", np.arange(n) / 100.0, seq, {"acc": acc})
-    assert stream.n_refused == 8 and len(stream.t_s) == n - 8 and np.isfinite(stream.acc).all()
+    stream, refused = replayable(SensorSamples("S07", np.arange(n) / 100.0, seq, acc=acc))
+    assert len(refused) == 8 and len(stream.t_s) == n - 8 and np.isfinite(stream.acc).all()
     blocks, reports = [], []
 
     class Outbox:
@@ -123,7 +123,8 @@ def test_a_replayed_stream_refuses_invalid_rows_and_reports_them_not_as_gaps():
         def report_due(self, now_s):
             return False
 
-    driver = ReplayDriver(ReplaySourceConfig(name="replay", streams=(stream,), speed=100.0), Outbox())
+    driver = ReplayDriver(ReplaySourceConfig(name="replay", streams=(stream,), refused=(("S07", refused),), speed=100.0),
+                          Outbox())
     driver.run(threading.Event())
     report = reports[-1]
     assert report.state == "finished" and report.rejections == {"non_finite": 7, "out_of_range": 1}

@@ -129,11 +129,12 @@ def test_heading_mode_on_the_opensense_walk(shared_data, tmp_path, capsys):
 
 
 def test_mapping_defaults_to_the_session_segments(tmp_path, suit):
-    from mimucap.io.session import SensorStream, Session, write_session
+    from mimucap.core.samples import SensorSamples
+    from mimucap.io.session import Session, write_session
 
     t, sensors, mapping, mountings, _ = suit
     pairs = dict(item.split("=") for item in mapping.split(","))
-    session = Session(sensors={s: SensorStream(s, t, np.arange(t.size), q_world_from_sensor=q, segment=pairs[s])
+    session = Session(sensors={s: SensorSamples(s, t, np.arange(t.size), q_world_from_sensor=q, segment=pairs[s])
                                for s, q in sensors.items()})
     path = tmp_path / "suit.h5"
     write_session(path, session)
@@ -292,11 +293,12 @@ def test_xsens_reader_options_are_refused_for_inputs_they_do_not_apply_to(suit, 
                                                                         shared_data):
     """Was: --sensor-names, --trial and --rate were used for Xsens exports and silently ignored
     for every other input (a session, a CSV, a BROAD trial...)."""
-    from mimucap.io.session import SensorStream, Session, write_session
+    from mimucap.core.samples import SensorSamples
+    from mimucap.io.session import Session, write_session
 
     t, sensors, mapping, *_ = suit
     session = write_session(tmp_path / "suit.h5", Session(sensors={
-        s: SensorStream(s, t, np.arange(t.size), q_world_from_sensor=q) for s, q in sensors.items()}))
+        s: SensorSamples(s, t, np.arange(t.size), q_world_from_sensor=q) for s, q in sensors.items()}))
     opensense = shared_data / "body" / "opensense_example"
     xml = str(opensense / "myIMUMappings.xml")
     xsens_file = opensense / "xsens_format_variants" / "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt"
@@ -361,7 +363,8 @@ def test_session_streams_are_put_on_one_time_axis_through_the_processing_path(tm
     """The commands' view of a session: every sensor's orientation (on-board, or fused by the
     pipeline) at the instants of the best-sampled sensor where all have one."""
     from mimucap.cli.session_input import orientation_table
-    from mimucap.io.session import SensorStream, Session
+    from mimucap.core.samples import SensorSamples
+    from mimucap.io.session import Session
 
     t_a = np.arange(0.0, 2.0, 0.01)
     t_b = np.arange(0.003, 2.0, 0.02)
@@ -370,10 +373,10 @@ def test_session_streams_are_put_on_one_time_axis_through_the_processing_path(tm
     q_true = rot.from_axis_angle([1.0, 0, 0], np.radians(30.0))  # F rests tilted 30° about x
     acc = np.broadcast_to(rot.rotate(rot.conjugate(q_true), [0, 0, 9.81]), (t_a.size, 3)).copy()
     session = Session(sensors={
-        "A": SensorStream("A", t_a, np.arange(t_a.size), q_world_from_sensor=turn_a, segment="pelvis"),
-        "B": SensorStream("B", t_b, np.arange(t_b.size), q_world_from_sensor=turn_b, segment="thorax"),
-        "F": SensorStream("F", t_a, np.arange(t_a.size), acc=acc, gyr=np.zeros((t_a.size, 3))),
-        "M": SensorStream("M", t_a, np.arange(t_a.size), mag_uT=np.ones((t_a.size, 3))),
+        "A": SensorSamples("A", t_a, np.arange(t_a.size), q_world_from_sensor=turn_a, segment="pelvis"),
+        "B": SensorSamples("B", t_b, np.arange(t_b.size), q_world_from_sensor=turn_b, segment="thorax"),
+        "F": SensorSamples("F", t_a, np.arange(t_a.size), acc=acc, gyr=np.zeros((t_a.size, 3))),
+        "M": SensorSamples("M", t_a, np.arange(t_a.size), mag_uT=np.ones((t_a.size, 3))),
     })
     table = orientation_table(session, "s.h5", {})
     assert table.t_s[0] >= 0.003 and table.t_s[-1] <= t_b[-1]

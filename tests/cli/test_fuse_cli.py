@@ -13,7 +13,8 @@ from mimucap.cli import main
 from mimucap.core import rotation as rot
 from mimucap.core.fusion.evaluation import orientation_errors
 from mimucap.io.broad import read_broad
-from mimucap.io.session import Session, SensorStream, write_session
+from mimucap.core.samples import SensorSamples
+from mimucap.io.session import Session, write_session
 
 BROAD_DIR = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
 TRIAL = BROAD_DIR / "26_disturbed_phone_vibration_A.hdf5"
@@ -57,9 +58,9 @@ def _session(path: Path) -> Path:
     acc = rot.rotate(rot.conjugate(q), [0, 0, 9.81])
     mag = rot.rotate(rot.conjugate(q), [0, 20, -40])
     sensors = {
-        "S01": SensorStream("S01", t, np.arange(n), acc=acc, gyr=gyr, mag_uT=mag),
-        "S02": SensorStream("S02", t, np.arange(n), acc=acc, gyr=gyr, mag_uT=None),
-        "S03": SensorStream("S03", t, np.arange(n), acc=acc, gyr=None, mag_uT=mag),
+        "S01": SensorSamples("S01", t, np.arange(n), acc=acc, gyr=gyr, mag_uT=mag),
+        "S02": SensorSamples("S02", t, np.arange(n), acc=acc, gyr=gyr, mag_uT=None),
+        "S03": SensorSamples("S03", t, np.arange(n), acc=acc, gyr=None, mag_uT=mag),
     }
     return write_session(path, Session(metadata={}, sensors=sensors))
 
@@ -96,8 +97,8 @@ def test_fuse_refuses_input_that_gives_no_orientation_and_counts_invalid_rows(tm
     dead = np.zeros((n, 3))                      # a dead accelerometer: no gravity, no orientation
     bad_mag = mag.copy()
     bad_mag[50:60] = np.nan
-    sensors = {"S01": SensorStream("S01", t, np.arange(n), acc=acc, gyr=gyr, mag_uT=bad_mag),
-               "S02": SensorStream("S02", t, np.arange(n), acc=dead, gyr=gyr, mag_uT=mag)}
+    sensors = {"S01": SensorSamples("S01", t, np.arange(n), acc=acc, gyr=gyr, mag_uT=bad_mag),
+               "S02": SensorSamples("S02", t, np.arange(n), acc=dead, gyr=gyr, mag_uT=mag)}
     path = write_session(tmp_path / "rec.h5", Session(metadata={}, sensors=sensors))
     out = tmp_path / "q.csv"
     assert main(["fuse", str(path), "--out", str(out)]) == 1
@@ -107,7 +108,7 @@ def test_fuse_refuses_input_that_gives_no_orientation_and_counts_invalid_rows(tm
     assert main(["fuse", str(path), "--sensor", "S01", "--out", str(out)]) == 0
     assert "magnetometer rejected 0 and missing or invalid 10" in capsys.readouterr().out
 
-    empty = {"S01": SensorStream("S01", np.zeros(0), np.zeros(0, int), acc=np.zeros((0, 3)), gyr=np.zeros((0, 3)),
+    empty = {"S01": SensorSamples("S01", np.zeros(0), np.zeros(0, int), acc=np.zeros((0, 3)), gyr=np.zeros((0, 3)),
                                  mag_uT=np.zeros((0, 3)))}
     path = write_session(tmp_path / "empty.h5", Session(metadata={}, sensors=empty))
     assert main(["fuse", str(path), "--out", str(out)]) == 1

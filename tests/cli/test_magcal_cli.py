@@ -175,12 +175,13 @@ def test_study_plot_writes_a_png_with_every_panel(tmp_path: Path, capsys) -> Non
 
 def test_fit_one_sensor_of_a_session(tmp_path: Path, capsys) -> None:
     from mimucap.core.simulate import calibration_motion
-    from mimucap.io.session import Session, SensorStream, write_session
+    from mimucap.core.samples import SensorSamples
+    from mimucap.io.session import Session, write_session
 
     motions = {sid: calibration_motion("single_axis", 1, seed=seed, errors="mpu9250", sensor_id=sid)
                for sid, seed in (("S01", 1), ("S02", 2))}
     session = Session(metadata={"source": "test"}, sensors={
-        sid: SensorStream(sid, m.t_s, np.arange(len(m.t_s)), acc=m.acc, gyr=m.gyr, mag_uT=m.mag_uT)
+        sid: SensorSamples(sid, m.t_s, np.arange(len(m.t_s)), acc=m.acc, gyr=m.gyr, mag_uT=m.mag_uT)
         for sid, m in motions.items()
     })
     path = write_session(tmp_path / "calibration.h5", session)

@@ -208,7 +208,8 @@ def test_replayed_invalid_samples_are_rejections_with_their_reason_not_drops(tmp
     """Was: the 20 NaN accelerometer rows of a replayed session were counted as ``drops``
     (packet loss) and no rejection was reported; a live source refuses such samples as
     ``non_finite`` / ``out_of_range``."""
-    from mimucap.io.session import SensorStream, Session, write_session
+    from mimucap.core.samples import SensorSamples
+    from mimucap.io.session import Session, write_session
 
     n = 400
     t = np.arange(n) / 100.0
@@ -223,7 +224,7 @@ def test_replayed_invalid_samples_are_rejections_with_their_reason_not_drops(tmp
             gyr[200, 1] = np.inf           # one infinite value
             mag[250] = [6000.0, 0.0, 0.0]  # beyond the magnetometer limit (5000 µT)
             acc[395:] = np.nan             # 5 NaN rows at the very end (no sample follows them)
-        streams[sid] = SensorStream(sid, t, seq, acc=acc, gyr=gyr, mag_uT=mag)
+        streams[sid] = SensorSamples(sid, t, seq, acc=acc, gyr=gyr, mag_uT=mag)
     source = write_session(tmp_path / "in.h5", Session(metadata={}, sensors=streams))
     out = tmp_path / "out.h5"
     assert main(["record", "--source", f"replay:{source}@8", "--duration", "60", "--out", str(out), "--quiet"]) == 0

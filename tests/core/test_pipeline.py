@@ -11,9 +11,10 @@ from mimucap.core import rotation, skeleton
 from mimucap.core.fusion import OrientationEKF
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
-    RESULT_LIVE, RESULT_REPROCESSED, ChainInput, LivePipeline, SensorBlock, SensorChain, orientation_at,
+    RESULT_LIVE, RESULT_REPROCESSED, ChainInput, LivePipeline, SensorChain, orientation_at,
     process_recording, run_chains, sensor_orientation, state_from_dict, state_to_dict,
 )
+from mimucap.core.samples import SensorSamples
 
 
 def _block(rng, n, t0, mag=True):
@@ -65,9 +66,9 @@ def test_a_filter_state_survives_its_json_form_and_a_malformed_one_is_named():
         state_from_dict({"q_world_from_sensor": [1, 0, 0]}, "S07")
 
 
-class _Stream:
-    def __init__(self, t, acc, gyr, mag):
-        self.t_s, self.acc, self.gyr, self.mag_uT, self.q_world_from_sensor = t, acc, gyr, mag, None
+def _samples(sid, t, acc, gyr, mag):
+    """A sensor's raw samples at times ``t``."""
+    return SensorSamples(sid, t, np.arange(len(t)), acc, gyr, mag)
 
 
 def _suit_recording(seconds=6.0, seed=2):
@@ -98,14 +99,15 @@ def test_blocks_fed_live_give_the_recording_processed_as_seen_live():
         blocks = []
         for sid, samples in result.samples.items():
             sl = slice(start, min(start + 7, n))
-            blocks.append(SensorBlock(sid, samples.t_s[sl], samples.acc[sl], samples.gyr[sl], samples.mag_uT[sl]))
+            blocks.append(SensorSamples(sid, samples.t_s[sl], samples.seq[sl], samples.acc[sl], samples.gyr[sl],
+                                        samples.mag_uT[sl]))
         live.feed(blocks)
         pose = live.pose(None, segments)
         if pose is not None and start >= split:
             poses.append(pose)
     for sid, samples in result.samples.items():
         k = slice(split - split % 7 + (7 if split % 7 else 0), None)
-        streams[sid] = _Stream(samples.t_s[k], samples.acc[k], samples.gyr[k], samples.mag_uT[k])
+        streams[sid] = _samples(sid, samples.t_s[k], samples.acc[k], samples.gyr[k], samples.mag_uT[k])
     initial = {sid: state_from_dict(state, sid) for sid, state in states.items()}
     out = process_recording(streams, model, result=RESULT_LIVE, mag_calibrations={"S01": calibration},
                             sensor_segments=segments, initial_states=initial)
@@ -126,6 +128,6 @@ def test_blocks_fed_live_give_the_recording_processed_as_seen_live():
 def test_a_sensor_without_gyroscope_or_orientation_is_named():
     with pytest.raises(ValueError, match="S04"):
         sensor_orientation(np.arange(3.0), None, np.zeros((3, 3)), None, None, sensor_id="S04")
-    out = process_recording({"S04": _Stream(np.arange(3.0), np.zeros((3, 3)), None, None)},
+    out = process_recording({"S04": _samples("S04", np.arange(3.0), np.zeros((3, 3)), None, None)},
                             skeleton.load_model("ten_segment"), sensor_segments={"S04": "pelvis"})
     assert out.problems and "S04" in out.problems[0] and len(out.t_s) == 0

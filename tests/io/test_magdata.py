@@ -15,7 +15,8 @@ from mimucap.io.magdata import (
     read_xsens,
     to_microtesla,
 )
-from mimucap.io.session import Session, SensorStream, write_session
+from mimucap.core.samples import SensorSamples
+from mimucap.io.session import Session, write_session
 
 SAMPLES = np.array([[12.5, -3.25, 40.0], [11.0, -4.0, 41.5], [-0.5, 2e-3, 1e2]])
 
@@ -164,9 +165,9 @@ def test_session_files(tmp_path: Path) -> None:
     session = Session(
         metadata={"source": "test"},
         sensors={
-            "S01": SensorStream("S01", t, np.arange(n), acc=np.tile([0, 0, 9.81], (n, 1)), mag_uT=mag),
-            "S02": SensorStream("S02", t, np.arange(n), mag_uT=mag + 1.0),
-            "S03": SensorStream("S03", t, np.arange(n), gyr=np.zeros((n, 3))),
+            "S01": SensorSamples("S01", t, np.arange(n), acc=np.tile([0, 0, 9.81], (n, 1)), mag_uT=mag),
+            "S02": SensorSamples("S02", t, np.arange(n), mag_uT=mag + 1.0),
+            "S03": SensorSamples("S03", t, np.arange(n), gyr=np.zeros((n, 3))),
         },
     )
     path = write_session(tmp_path / "take.h5", session)

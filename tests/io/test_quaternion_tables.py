@@ -343,11 +343,12 @@ def test_an_up_axis_for_a_z_up_input_is_refused_not_ignored(tmp_path, variants):
 def test_a_session_is_refused_its_orientations_come_from_the_processing_path(tmp_path):
     """A reader never fuses: a session's raw samples go through core.pipeline (the commands
     read sessions that way, tests/cli)."""
-    from mimucap.io.session import SensorStream, Session, write_session
+    from mimucap.core.samples import SensorSamples
+    from mimucap.io.session import Session, write_session
 
     t = np.arange(0.0, 1.0, 0.01)
     session = tmp_path / "s.h5"
-    write_session(session, Session(sensors={"A": SensorStream("A", t, np.arange(t.size),
+    write_session(session, Session(sensors={"A": SensorSamples("A", t, np.arange(t.size),
                                                               q_world_from_sensor=rot.identity((t.size,)))}))
     with pytest.raises(ValueError, match="s.h5: MimuCap sessions hold raw samples.*processing path"):
         qt.read_quaternion_table(session)

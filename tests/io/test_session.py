@@ -8,11 +8,11 @@ import h5py
 import numpy as np
 import pytest
 
+from mimucap.core.samples import SensorSamples
 from mimucap.core.sensor_limits import GYR_MAX_RAD_S
 from mimucap.io.session import (
     SESSION_FORMAT_VERSION,
     Marker,
-    SensorStream,
     SensorTruth,
     Session,
     SessionFormatError,
@@ -27,15 +27,15 @@ from mimucap.io.session import (
 
 def _session(rng: np.random.Generator, n: int = 500) -> Session:
     t = np.arange(n) / 100.0
-    s01 = SensorStream(
+    s01 = SensorSamples(
         "S01", t, np.arange(n), acc=rng.normal(size=(n, 3)), gyr=rng.normal(size=(n, 3)),
         mag_uT=rng.normal(size=(n, 3)) * 40, segment="pelvis", device_time_s=t * 1.0001 + 3.0,
         extra={"temperature_degC": rng.normal(size=n)},
     )
     q = rng.normal(size=(n - 2, 4))
     q /= np.linalg.norm(q, axis=1, keepdims=True)
-    s02 = SensorStream("S02", t[:-2], np.delete(np.arange(n), [10, 11]), q_world_from_sensor=q,
-                       battery=np.linspace(1, 0.9, n - 2))
+    s02 = SensorSamples("S02", t[:-2], np.delete(np.arange(n), [10, 11]), q_world_from_sensor=q,
+                       battery_pct=np.linspace(100, 90, n - 2))
     truth = SessionTruth(
         t_s=t,
         q_world_from_segment={"pelvis": np.tile([1.0, 0, 0, 0], (n, 1))},
@@ -74,7 +74,7 @@ def test_round_trip_keeps_everything(tmp_path: Path) -> None:
     assert set(back.sensors) == {"S01", "S02"}
     for sensor_id, stream in session.sensors.items():
         other = back.sensors[sensor_id]
-        for name in ("t_s", "seq", "acc", "gyr", "mag_uT", "q_world_from_sensor", "battery", "device_time_s"):
+        for name in ("t_s", "seq", "acc", "gyr", "mag_uT", "q_world_from_sensor", "battery_pct", "device_time_s"):
             a, b = getattr(stream, name), getattr(other, name)
             assert (a is None) == (b is None), name
             if a is not None:
@@ -112,6 +112,25 @@ def test_units_are_attributes(tmp_path: Path) -> None:
         assert h5["sensors/S01/gyr"].attrs["unit"] == "rad/s"
         assert h5["sensors/S01/mag_uT"].attrs["unit"] == "uT"
         assert h5["truth/joint_angles_deg/hip_r_flexion_deg"].attrs["unit"] == "deg"
+
+
+def test_battery_and_calibration_status_keep_the_file_s_own_form(tmp_path: Path) -> None:
+    """In memory the battery is in percent and the calibration status a channel; the file keeps
+    the fraction and ``extra/calibration_status`` it always had, so older files read alike."""
+    n = 4
+    status = np.tile(np.array([3, 2, 1, 0], dtype=np.int8), (n, 1))
+    samples = SensorSamples("S01", np.arange(n) / 100.0, np.arange(n), gyr=np.zeros((n, 3)),
+                            battery_pct=np.array([100.0, 90.0, 80.0, 50.0]), calibration=status)
+    path = write_session(tmp_path / "b.h5", Session(sensors={"S01": samples}))
+    with h5py.File(path, "r") as h5:
+        np.testing.assert_array_equal(h5["sensors/S01/battery"][()], [1.0, 0.9, 0.8, 0.5])
+        assert h5["sensors/S01/battery"].attrs["unit"] == "1 (fraction 0..1)"
+        assert h5["sensors/S01/extra/calibration_status"].dtype == np.int8
+        np.testing.assert_array_equal(h5["sensors/S01/extra/calibration_status"][()], status)
+    back = read_session(path).sensors["S01"]
+    np.testing.assert_allclose(back.battery_pct, [100.0, 90.0, 80.0, 50.0], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(back.calibration, status)
+    assert back.extra is None and back.calibration.dtype == np.int8
 
 
 def test_same_session_gives_identical_bytes(tmp_path: Path) -> None:
@@ -175,9 +194,9 @@ def test_newer_version_and_missing_parts_are_named(tmp_path: Path) -> None:
 
 def test_bad_streams_and_subjects_are_rejected(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="sensor S03: acc must have shape"):
-        SensorStream("S03", np.zeros(4), np.arange(4), acc=np.zeros((4, 2)))
+        SensorSamples.checked("S03", np.zeros(4), np.arange(4), acc=np.zeros((4, 2)))
     with pytest.raises(ValueError, match="seq must be an integer array"):
-        SensorStream("S03", np.zeros(4), np.zeros(4))
+        SensorSamples.checked("S03", np.zeros(4), np.zeros(4))
     with pytest.raises(ValueError, match="height"):
         make_subject("x", 3.2)
     with pytest.raises(ValueError, match="not JSON-serialisable"):

@@ -248,21 +248,12 @@ def test_joint_series_and_frames_follow_every_pose(n_sensors):
 def test_small_blocks_give_the_same_session_as_whole_ones():
     """Wireless nodes deliver a sample or two at a time; the pipeline joins each sensor's
     blocks of one poll, and the buffers and orientations are those of whole blocks."""
-    import dataclasses
-
-    from mimucap.acquisition.samples import SampleBlock
     from mimucap.core.simulate import SimulationConfig
     from mimucap.session.feeds import SimulatorFeed
     from mimucap.session.live import LiveSession
 
     def one_sample_blocks(blocks):
-        pieces = []
-        for block in blocks:
-            for i in range(len(block)):
-                fields = {f.name: getattr(block, f.name) for f in dataclasses.fields(SampleBlock)}
-                pieces.append(SampleBlock(**{k: (v[i:i + 1] if isinstance(v, np.ndarray) else v)
-                                             for k, v in fields.items()}))
-        return pieces
+        return [block.rows(slice(i, i + 1)) for block in blocks for i in range(len(block))]
 
     sessions = []
     for split in (False, True):
@@ -390,14 +381,15 @@ def test_the_simulated_subjects_activity_changes_are_not_markers():
 def test_packets_a_replay_refuses_reach_the_sensor_rows_by_sensor_and_reason(tmp_path):
     """Rows with a NaN are refused, not replayed; the sensor panel's rows count them for their
     sensor, by reason (values beyond the physical limits cannot even be written to a file)."""
-    from mimucap.io.session import SensorStream, Session
+    from mimucap.core.samples import SensorSamples
+    from mimucap.io.session import Session
 
     t = np.arange(200) / 100.0
     gyr = np.zeros((200, 3))
     bad = gyr.copy()
     bad[[10, 20, 30], 0] = np.nan
-    sensors = {"A": SensorStream(sensor_id="A", t_s=t, seq=np.arange(200), gyr=gyr, acc=np.tile([0, 0, 9.81], (200, 1))),
-               "B": SensorStream(sensor_id="B", t_s=t, seq=np.arange(200), gyr=bad, acc=np.tile([0, 0, 9.81], (200, 1)))}
+    sensors = {"A": SensorSamples(sensor_id="A", t_s=t, seq=np.arange(200), gyr=gyr, acc=np.tile([0, 0, 9.81], (200, 1))),
+               "B": SensorSamples(sensor_id="B", t_s=t, seq=np.arange(200), gyr=bad, acc=np.tile([0, 0, 9.81], (200, 1)))}
     path = write_session(tmp_path / "bad.h5", Session(metadata={"source": "test"}, sensors=sensors))
     session = open_live_session(f"replay:{path}@10")
     session.start()

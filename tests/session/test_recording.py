@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from mimucap.acquisition.samples import SampleBlock
+from mimucap.core.samples import SensorSamples
 from mimucap.io.journal import read_journal
 from mimucap.io.session import read_session
 from mimucap.session.recording import Recorder, RecorderSettings, journal_path_for, open_session, recover
@@ -18,7 +18,7 @@ from mimucap.session.recording import Recorder, RecorderSettings, journal_path_f
 T0 = 1000.0
 
 
-def block(sensor: str, first: int, n: int, rate: float = 100.0, full: bool = True) -> SampleBlock:
+def block(sensor: str, first: int, n: int, rate: float = 100.0, full: bool = True) -> SensorSamples:
     seq = np.arange(first, first + n, dtype=np.int64)
     host = T0 + seq / rate
     channels = {"gyr": np.column_stack([seq * 0.001, -seq * 0.001, np.ones(n)])}
@@ -27,7 +27,8 @@ def block(sensor: str, first: int, n: int, rate: float = 100.0, full: bool = Tru
                         q_world_from_sensor=np.tile([1.0, 0.0, 0.0, 0.0], (n, 1)),
                         calibration=np.tile(np.array([3, 3, 2, 1], dtype=np.int8), (n, 1)),
                         battery_pct=np.full(n, 80.0))
-    return SampleBlock("test", sensor, seq, host + 5.0, host, host + 0.002, **channels)
+    return SensorSamples(sensor, host, seq, device_time_s=host + 5.0, receive_time_s=host + 0.002, source="test",
+                         **channels)
 
 
 def test_blocks_become_a_session_and_the_journal_goes_away(tmp_path):
@@ -49,9 +50,9 @@ def test_blocks_become_a_session_and_the_journal_goes_away(tmp_path):
     np.testing.assert_array_equal(one.seq, np.arange(100))
     np.testing.assert_allclose(one.t_s, np.arange(100) / 100.0, atol=1e-12)
     np.testing.assert_allclose(one.device_time_s, T0 + 5.0 + np.arange(100) / 100.0)
-    np.testing.assert_allclose(one.battery, 0.8)
-    np.testing.assert_array_equal(one.extra["calibration_status"][0], [3, 3, 2, 1])
-    assert two.acc is None and two.mag_uT is None and two.battery is None  # absent, not zero-filled
+    np.testing.assert_allclose(one.battery_pct, 80.0)
+    np.testing.assert_array_equal(one.calibration[0], [3, 3, 2, 1])
+    assert two.acc is None and two.mag_uT is None and two.battery_pct is None  # absent, not zero-filled
     np.testing.assert_array_equal(two.seq, np.r_[np.arange(30), np.arange(31, 51)])
     assert session.markers[0].label == "jump" and session.markers[0].t_s == pytest.approx(0.25)
 

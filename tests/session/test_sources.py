@@ -11,7 +11,8 @@ from mimucap.acquisition.replay import ReplaySourceConfig
 from mimucap.acquisition.simulated import SimulatedSourceConfig
 from mimucap.acquisition.supervisor import Supervisor
 from mimucap.acquisition.udp import UdpSourceConfig
-from mimucap.io.session import SensorStream, Session, write_session
+from mimucap.core.samples import SensorSamples
+from mimucap.io.session import Session, write_session
 from mimucap.session.sources import SourceOptions, load_replay, parse_sensor_ids, source_configs
 
 
@@ -45,10 +46,10 @@ def test_specs_map_to_configs_with_session_options():
 def test_a_session_file_replays_sample_for_sample(tmp_path):
     t = np.arange(300) / 100.0
     rng = np.random.default_rng(0)
-    streams = {sid: SensorStream(sensor_id=sid, t_s=t, seq=np.arange(300), acc=rng.normal(size=(300, 3)),
-                                 gyr=rng.normal(size=(300, 3)), battery=np.full(300, 0.5))
+    streams = {sid: SensorSamples(sensor_id=sid, t_s=t, seq=np.arange(300), acc=rng.normal(size=(300, 3)),
+                                 gyr=rng.normal(size=(300, 3)), battery_pct=np.full(300, 50.0))
                for sid in ("A", "B")}
-    holey = SensorStream(sensor_id="C", t_s=t[:10], seq=np.arange(10), gyr=np.ones((10, 3)))
+    holey = SensorSamples(sensor_id="C", t_s=t[:10], seq=np.arange(10), gyr=np.ones((10, 3)))
     holey.gyr[3] = np.nan                                      # e.g. a channel missing for a while
     path = write_session(tmp_path / "in.h5", Session(metadata={"source": "test"},
                                                      sensors={**streams, "C": holey}))
@@ -64,7 +65,7 @@ def test_a_session_file_replays_sample_for_sample(tmp_path):
         np.testing.assert_array_equal(np.concatenate([b.seq for b in mine]), stream.seq)
         np.testing.assert_array_equal(np.concatenate([b.acc for b in mine]), stream.acc)
         np.testing.assert_array_equal(np.concatenate([b.battery_pct for b in mine]), 50.0)
-        host = np.concatenate([b.host_time_s for b in mine])
+        host = np.concatenate([b.t_s for b in mine])
         np.testing.assert_allclose(np.diff(host), 0.01 / 10.0, atol=1e-9)   # 10 × real time
 
 
@@ -93,9 +94,9 @@ def test_a_replayed_session_keeps_the_sensor_placement_stored_in_it(tmp_path):
 
     t = np.arange(50) / 100.0
     worn = {"A": "thigh_r", "B": "pelvis"}
-    sensors = {sid: SensorStream(sensor_id=sid, t_s=t, seq=np.arange(50), gyr=np.zeros((50, 3)), segment=segment)
+    sensors = {sid: SensorSamples(sensor_id=sid, t_s=t, seq=np.arange(50), gyr=np.zeros((50, 3)), segment=segment)
                for sid, segment in worn.items()}
-    sensors["C"] = SensorStream(sensor_id="C", t_s=t, seq=np.arange(50), gyr=np.zeros((50, 3)))  # worn nowhere
+    sensors["C"] = SensorSamples(sensor_id="C", t_s=t, seq=np.arange(50), gyr=np.zeros((50, 3)))  # worn nowhere
     path = write_session(tmp_path / "placed.h5", Session(metadata={"source": "test"}, sensors=sensors))
     assert load_replay(path).segments == worn
     assert sensor_segments(source_configs(f"replay:{path}")) == worn

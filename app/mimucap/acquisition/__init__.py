@@ -2,7 +2,7 @@
 
 May import ``core`` only (never ``io``, ``session`` or ``gui``). Modules, one concept each:
 
-* ``samples`` (Sample, SampleBlock, validation), ``rejections`` (named, counted refusals)
+* ``samples`` (Sample, its validation, packed blocks of them), ``rejections`` (named, counted refusals)
 * ``protocol_udp``, ``protocol_serial`` (total parsers and encoders), ``block_codec`` (journal records)
 * ``timesync`` (node clock offset and drift), ``intake`` (per-sample session checks and mapping)
 * ``udp``, ``serial_port``, ``simulated``, ``replay`` (drivers), ``worker`` (process entry point),

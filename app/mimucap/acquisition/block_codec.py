@@ -1,11 +1,13 @@
-"""Bytes for a :class:`~mimucap.acquisition.samples.SampleBlock` (used by the recorder's journal),
+"""Bytes for a block of :class:`~mimucap.core.samples.SensorSamples` from a source (used by the
+recorder's journal),
 on a general layout of named arrays that other journal records share (:func:`encode_arrays`).
 
 Layout: u32 length of a UTF-8 JSON header, the header (the record's own fields, ``"n"`` the
 row count, and ``"arrays": [[name, dtype, trailing shape], ...]``), then each array's
 little-endian bytes in header order; every array has ``n`` rows. A sample block's own fields
-are ``"source"`` and ``"sensor_id"``. :func:`decode_arrays` checks every size and refuses
-anything inconsistent with ``ValueError``.
+are ``"source"`` and ``"sensor_id"``; its arrays ``seq``, ``device_time_s``, ``host_time_s`` (the
+record's ``t_s``: the host's monotonic clock), ``receive_time_s`` and the channels present.
+:func:`decode_arrays` checks every size and refuses anything inconsistent with ``ValueError``.
 """
 
 from __future__ import annotations
@@ -17,10 +19,12 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.acquisition.samples import CHANNELS, SampleBlock
+from mimucap.core.samples import CHANNELS, SensorSamples
 
 _LENGTH = struct.Struct("<I")
 _TIME_ARRAYS = ("seq", "device_time_s", "host_time_s", "receive_time_s")
+#: A record's field behind each journal array name that differs from it.
+_FIELDS = {"host_time_s": "t_s"}
 _DTYPES = {"int64": "<i8", "float64": "<f8", "int8": "i1"}
 
 
@@ -82,11 +86,12 @@ def _decode_arrays(data: bytes, what: str) -> tuple[dict[str, Any], dict[str, np
     return header, values
 
 
-def encode_block(block: SampleBlock) -> bytes:
-    """The record of ``block``: times int64/float64, channels float64, calibration int8."""
+def encode_block(block: SensorSamples) -> bytes:
+    """The record of ``block`` (from a source: every clock present): times int64/float64,
+    channels float64, calibration int8."""
     arrays = []
     for name in _TIME_ARRAYS + CHANNELS:
-        value = getattr(block, name)
+        value = getattr(block, _FIELDS.get(name, name))
         if value is not None:
             value = np.asarray(value)
             dtype = "int8" if name == "calibration" else "int64" if value.dtype.kind == "i" else "float64"
@@ -94,11 +99,12 @@ def encode_block(block: SampleBlock) -> bytes:
     return encode_arrays({"source": block.source, "sensor_id": block.sensor_id}, len(block), arrays)
 
 
-def decode_block(data: bytes) -> SampleBlock:
+def decode_block(data: bytes) -> SensorSamples:
     """The block encoded in ``data``; ``ValueError`` if the bytes are inconsistent."""
     header, values = decode_arrays(data, "sample block record")
     unknown = [name for name in values if name not in _TIME_ARRAYS + CHANNELS]
     if unknown or "sensor_id" not in header or any(name not in values for name in _TIME_ARRAYS):
         raise ValueError(f"sample block record has unknown arrays {unknown}, or lacks its sensor id or a "
                          f"time array")
-    return SampleBlock(source=str(header.get("source", "")), sensor_id=str(header["sensor_id"]), **values)
+    return SensorSamples(source=str(header.get("source", "")), sensor_id=str(header["sensor_id"]),
+                         **{_FIELDS.get(name, name): value for name, value in values.items()})

@@ -9,8 +9,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from mimucap.acquisition.samples import PackedBlock, SampleBlock
+from mimucap.acquisition.samples import PackedBlock
 from mimucap.acquisition.timesync import ClockEstimate
+from mimucap.core.samples import SensorSamples
 
 #: Worker states as reported to the supervisor.
 STATE_STARTING = "starting"
@@ -26,7 +27,7 @@ class BlocksMessage:
     """Samples of one source: per-sensor blocks or packed multi-sensor blocks."""
 
     source: str
-    blocks: tuple[SampleBlock | PackedBlock, ...]
+    blocks: tuple[SensorSamples | PackedBlock, ...]
     markers: tuple[tuple[float, str], ...] = ()   #: (host monotonic s, label), e.g. activity changes
     #: sensor → refused samples in its sequence gaps so far (cumulative, as in
     #: :attr:`WorkerReport.refused_in_gaps`), sent with the blocks whose gaps they explain so
@@ -40,9 +41,9 @@ class BlocksMessage:
     def sample_count(self) -> int:
         return sum(len(block) for block in self.blocks)
 
-    def unpacked(self) -> list[SampleBlock]:
-        """One :class:`SampleBlock` per sensor and run."""
-        out: list[SampleBlock] = []
+    def unpacked(self) -> list[SensorSamples]:
+        """One :class:`~mimucap.core.samples.SensorSamples` per sensor and run."""
+        out: list[SensorSamples] = []
         for block in self.blocks:
             out.extend(block.unpack() if isinstance(block, PackedBlock) else (block,))
         return out

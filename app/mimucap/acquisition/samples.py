@@ -1,4 +1,5 @@
-"""One measurement of one sensor (:class:`Sample`), its validation, and blocks of them.
+"""One measurement of one sensor (:class:`Sample`), its validation, and its packing into
+blocks (:class:`PackedBlock`, unpacked into :class:`~mimucap.core.samples.SensorSamples`).
 
 Units and frames (``shared/docs/conventions.md``): ``acc`` specific force in m/s², ``gyr``
 angular rate in rad/s, ``mag_uT`` magnetic field in µT, all in the *sensor* frame;
@@ -6,10 +7,11 @@ angular rate in rad/s, ``mag_uT`` magnetic field in µT, all in the *sensor* fra
 world = ENU. ``calibration`` is the BNO055-style calibration status ``(system, gyr, acc, mag)``
 each 0..3. ``battery_pct`` is the remaining charge in percent (0..100).
 
-Time: ``device_time_s`` is the node's own clock (seconds, arbitrary origin); ``host_time_s`` is
-the host's monotonic clock (``time.monotonic()``, seconds) after clock mapping (see
-:mod:`mimucap.acquisition.timesync`); ``receive_time_s`` is the host's monotonic clock when the
-sample reached the host. A missing channel is ``None`` — never zero-filled.
+Time: ``device_time_s`` is the node's own clock (seconds, arbitrary origin); a packed block's
+``host_time_s`` (an unpacked record's ``t_s``) is the host's monotonic clock
+(``time.monotonic()``, seconds) after clock mapping (see :mod:`mimucap.acquisition.timesync`);
+``receive_time_s`` is the host's monotonic clock when the sample reached the host. A missing
+channel is ``None`` — never zero-filled.
 """
 
 from __future__ import annotations
@@ -21,13 +23,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from mimucap.acquisition.rejections import Rejection
+from mimucap.core.samples import CHANNELS, SensorSamples
 from mimucap.core.sensor_limits import ACC_MAX_M_S2, GYR_MAX_RAD_S, MAG_MAX_UT
 
 Vec3 = tuple[float, float, float]
 Quat = tuple[float, float, float, float]
-
-#: Channel names in their wire order (the order of the UDP payload flags).
-CHANNELS = ("acc", "gyr", "mag_uT", "q_world_from_sensor", "calibration", "battery_pct")
 
 
 @dataclass(frozen=True)
@@ -130,7 +130,7 @@ def refused_rows(channels: dict[str, np.ndarray], limits: ValueLimits = DEFAULT_
     """Why :func:`validate_sample` would refuse each row of columnar ``channels``.
 
     ``channels`` maps channel names of :data:`CHANNELS` to ``(N, ...)`` arrays in the units of
-    :class:`SampleBlock` (absent channels are left out). Returns an ``(N,)`` array of
+    :class:`~mimucap.core.samples.SensorSamples` (absent channels are left out). Returns an ``(N,)`` array of
     :class:`~mimucap.acquisition.rejections.Rejection` values (``"non_finite"``,
     ``"out_of_range"``), ``""`` for a row that would be accepted; each row gets the first
     reason :func:`validate_sample` would find. The device clock is not checked: a recorded
@@ -168,54 +168,6 @@ def refused_rows(channels: dict[str, np.ndarray], limits: ValueLimits = DEFAULT_
     return reasons
 
 
-@dataclass(eq=False, slots=True)
-class SampleBlock:
-    """Consecutive samples of one sensor, columnar (``N`` samples, time-ordered).
-
-    Treat it as read-only (it is not frozen only because frozen construction is too slow
-    for thousands of blocks per second).
-
-    ``sensor_id`` is the session-wide sensor name (a string). Channel arrays are ``None``
-    when the sensor does not send that channel; shapes: ``acc``/``gyr``/``mag_uT`` ``(N, 3)``,
-    ``q_world_from_sensor`` ``(N, 4)``, ``calibration`` ``(N, 4)`` int8, ``battery_pct`` ``(N,)``.
-    ``seq`` is the unwrapped sequence number (int64, gaps are drops).
-    """
-
-    source: str
-    sensor_id: str
-    seq: np.ndarray
-    device_time_s: np.ndarray
-    host_time_s: np.ndarray
-    receive_time_s: np.ndarray
-    acc: np.ndarray | None = None
-    gyr: np.ndarray | None = None
-    mag_uT: np.ndarray | None = None
-    q_world_from_sensor: np.ndarray | None = None
-    calibration: np.ndarray | None = None
-    battery_pct: np.ndarray | None = None
-
-    def __len__(self) -> int:
-        return int(self.seq.shape[0])
-
-    def channels(self) -> tuple[str, ...]:
-        """Names of the channels present, in wire order."""
-        return tuple(name for name in CHANNELS if getattr(self, name) is not None)
-
-
-def concatenate_blocks(blocks: Sequence[SampleBlock]) -> SampleBlock:
-    """One block from consecutive blocks of the same sensor with the same channels."""
-    first = blocks[0]
-    if len(blocks) == 1:
-        return first
-    channels = first.channels()
-    if any(b.sensor_id != first.sensor_id or b.channels() != channels for b in blocks):
-        raise ValueError("concatenate_blocks needs blocks of one sensor with the same channels")
-    join = lambda name: np.concatenate([getattr(b, name) for b in blocks])  # noqa: E731
-    return SampleBlock(first.source, first.sensor_id, join("seq"), join("device_time_s"),
-                       join("host_time_s"), join("receive_time_s"),
-                       **{name: join(name) for name in channels})
-
-
 _CHANNEL_DTYPES = {
     "acc": np.float64, "gyr": np.float64, "mag_uT": np.float64,
     "q_world_from_sensor": np.float64, "calibration": np.int8, "battery_pct": np.float64,
@@ -227,7 +179,8 @@ class PackedBlock:
     """Samples of several sensors in one set of columns (the worker → supervisor transport).
 
     Packing many sensors into a few arrays keeps the per-message cost independent of the
-    number of sensors; :meth:`unpack` splits it into one :class:`SampleBlock` per sensor.
+    number of sensors; :meth:`unpack` splits it into one
+    :class:`~mimucap.core.samples.SensorSamples` per sensor.
     ``sensor_index`` (N,) indexes ``sensor_ids``; every row has the same ``channels``.
     """
 
@@ -243,8 +196,9 @@ class PackedBlock:
     def __len__(self) -> int:
         return int(self.seq.shape[0])
 
-    def unpack(self) -> list[SampleBlock]:
-        """One block per sensor, in order of first appearance; rows keep their order."""
+    def unpack(self) -> list[SensorSamples]:
+        """One record per sensor, in order of first appearance; rows keep their order; ``t_s``
+        is the host time."""
         order = np.argsort(self.sensor_index, kind="stable")
         index = self.sensor_index[order]
         starts = np.flatnonzero(np.r_[True, index[1:] != index[:-1]])
@@ -255,10 +209,12 @@ class PackedBlock:
         present = [None if values is None else values[order] for values in present]
         names, source = self.sensor_ids, self.source
         blocks = []
+        # positional arguments: the field order of SensorSamples (t_s, seq, CHANNELS, clocks)
         for start, end, sensor in zip(starts.tolist(), ends.tolist(), index[starts].tolist()):
-            blocks.append(SampleBlock(
-                source, names[sensor], seq[start:end], device[start:end], host[start:end],
-                receive[start:end], *[None if v is None else v[start:end] for v in present]))
+            blocks.append(SensorSamples(
+                names[sensor], host[start:end], seq[start:end],
+                *[None if v is None else v[start:end] for v in present],
+                device[start:end], receive[start:end], source))
         return blocks
 
 

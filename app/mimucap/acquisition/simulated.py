@@ -17,7 +17,7 @@ import numpy as np
 
 from mimucap.acquisition.messages import STATE_RUNNING, BlocksMessage, WorkerReport
 from mimucap.acquisition.outbox import Outbox
-from mimucap.acquisition.samples import SampleBlock
+from mimucap.core.samples import SensorSamples
 from mimucap.core.simulate import SENSOR_PLACEMENTS, SimulationConfig, SuitSimulator
 
 DEFAULT_SENSORS = 10
@@ -76,11 +76,10 @@ class SimulatedDriver:
             for sensor_id, samples in block.samples.items():
                 if len(samples.t_s) == 0:
                     continue
-                blocks.append(SampleBlock(
-                    source=self.config.name, sensor_id=sensor_id, seq=samples.seq.astype(np.int64),
-                    device_time_s=samples.device_time_s, host_time_s=start + samples.t_s,
-                    receive_time_s=np.full(len(samples.t_s), now), acc=samples.acc, gyr=samples.gyr,
-                    mag_uT=samples.mag_uT, q_world_from_sensor=samples.q_world_from_sensor))
+                blocks.append(SensorSamples(
+                    sensor_id, start + samples.t_s, samples.seq.astype(np.int64), samples.acc, samples.gyr,
+                    samples.mag_uT, samples.q_world_from_sensor, device_time_s=samples.device_time_s,
+                    receive_time_s=np.full(len(samples.t_s), now), source=self.config.name))
             markers = tuple((start + t, label) for t, label in block.markers)
             if blocks or markers:
                 self.sent += sum(len(b) for b in blocks)

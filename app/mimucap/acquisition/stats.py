@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mimucap.acquisition.samples import SampleBlock
+from mimucap.core.samples import SensorSamples
 
 #: After this long (s) without an arrival, a sensor's rate is taken over the time up to now
 #: (it falls), not up to its last arrival.
@@ -141,7 +141,7 @@ class SensorStatsTracker:
         self.rejections: dict[str, int] = {}
         self.refused_in_gaps = 0  # samples the source refused within the sequence gaps (not drops)
 
-    def add_block(self, block: SampleBlock, arrival_s: float) -> None:
+    def add_block(self, block: SensorSamples, arrival_s: float) -> None:
         n = len(block)
         if n == 0:
             return
@@ -159,7 +159,7 @@ class SensorStatsTracker:
         self.last_seen_s = arrival_s
         while self._arrivals and self._arrivals[0][0] < arrival_s - self.window_s:
             self._arrivals.popleft()
-        self._latencies.extend(np.asarray(arrival_s - block.host_time_s, dtype=np.float64).ravel())
+        self._latencies.extend(np.asarray(arrival_s - block.t_s, dtype=np.float64).ravel())
 
     def latencies_s(self) -> np.ndarray:
         """The most recent latencies (s), oldest first."""

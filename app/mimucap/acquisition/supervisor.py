@@ -21,10 +21,11 @@ from mimucap.acquisition.messages import (
     STATE_FAILED, STATE_FINISHED, STATE_STARTING, STATE_STOPPED, BlocksMessage, WorkerReport,
 )
 from mimucap.acquisition.rejections import RejectionCounter
-from mimucap.acquisition.samples import PackedBlock, SampleBlock, join_packed_blocks
+from mimucap.acquisition.samples import PackedBlock, join_packed_blocks
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.timesync import ClockEstimate
 from mimucap.acquisition.worker import SourceConfig, run_worker
+from mimucap.core.samples import SensorSamples
 
 
 @dataclass(frozen=True)
@@ -107,13 +108,13 @@ class Supervisor:
         worker.status.state = STATE_STARTING
         worker.status.exit_code = None
 
-    def stop(self) -> list[SampleBlock]:
+    def stop(self) -> list[SensorSamples]:
         """Ask every worker to stop, wait for them and return the blocks still in flight."""
         self._stopping = True
         for worker in self._workers.values():
             if worker.stop_event is not None:
                 worker.stop_event.set()
-        blocks: list[SampleBlock] = []
+        blocks: list[SensorSamples] = []
         deadline = time.monotonic() + self.settings.stop_timeout_s
         while time.monotonic() < deadline and any(
                 w.process is not None and w.process.is_alive() for w in self._workers.values()):
@@ -144,19 +145,19 @@ class Supervisor:
         self.stop()
 
     # -------------------------------------------------------------- data
-    def poll(self, timeout_s: float = 0.05) -> list[SampleBlock]:
+    def poll(self, timeout_s: float = 0.05) -> list[SensorSamples]:
         """Blocks that arrived (waits up to ``timeout_s`` for the first message)."""
         blocks = self._drain(timeout_s)
         if not self._stopping:
             self._watch()
         return blocks
 
-    def _drain(self, timeout_s: float) -> list[SampleBlock]:
+    def _drain(self, timeout_s: float) -> list[SensorSamples]:
         """Everything in the queue now (waiting up to ``timeout_s`` for a first message): the
         packed blocks of all the messages are joined before unpacking, so that each sensor
         yields one block per poll (its statistics and the pipeline then work per poll, not
         per message)."""
-        blocks: list[SampleBlock] = []
+        blocks: list[SensorSamples] = []
         packed: list[PackedBlock] = []
         reports: list[WorkerReport] = []
         refused_in_gaps: dict[str, int] = {}
@@ -186,7 +187,7 @@ class Supervisor:
             self._apply_report(report)
         return blocks
 
-    def _tracker(self, block: SampleBlock) -> SensorStatsTracker:
+    def _tracker(self, block: SensorSamples) -> SensorStatsTracker:
         tracker = self._trackers.get(block.sensor_id)
         if tracker is None:
             tracker = self._trackers[block.sensor_id] = SensorStatsTracker(

@@ -41,16 +41,11 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-class _OrientationStream:
-    """An orientation table's column as a stream of on-board orientations."""
-
-    def __init__(self, t_s, q) -> None:
-        self.t_s, self.q_world_from_sensor = t_s, q
-        self.acc = self.gyr = self.mag_uT = None
-
-
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED, process_recording
+    from mimucap.core.samples import SensorSamples
     from mimucap.core.skeleton import joint_angle_columns
     from mimucap.io.angles_export import write_angles
     from mimucap.io.body_calibration_file import read_body_calibration
@@ -84,7 +79,9 @@ def run(args: argparse.Namespace) -> int:
         if missing:
             raise ValueError(f"{args.input}: calibrated sensor(s) {', '.join(missing)} missing from the data; it has: "
                              f"{', '.join(table.q_world_from_sensor)}")
-        streams = {sid: _OrientationStream(table.t_s, q) for sid, q in table.q_world_from_sensor.items()}
+        # each column: a sensor's orientations, as a device fusing on board sends them
+        streams = {sid: SensorSamples(sid, table.t_s, np.arange(len(table.t_s)), q_world_from_sensor=q)
+                   for sid, q in table.q_world_from_sensor.items()}
         output = process_recording(streams, model, body_calibration=calibration, shoulder_sequence=args.shoulder)
         markers = ()
         source_note = "orientations as the input gives them"

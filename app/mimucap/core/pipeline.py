@@ -44,6 +44,7 @@ import numpy as np
 from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.fusion import DEFAULT_FUSION_PARAMS, FusionParams, FusionState, OrientationEKF, update_together
 from mimucap.core.magcal import MagCalibration
+from mimucap.core.samples import SensorSamples
 
 RESULT_LIVE = "live"
 RESULT_REPROCESSED = "reprocessed"
@@ -359,7 +360,7 @@ class PipelineOutput:
     problems: list[str] = field(default_factory=list)
 
 
-def process_recording(streams: Mapping[str, Any], model: skeleton.SkeletonModel, *,
+def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.SkeletonModel, *,
                       result: str = RESULT_REPROCESSED,
                       mag_calibrations: Mapping[str, MagCalibration] | None = None,
                       body_calibration: bodycal.BodyCalibration | None = None,
@@ -370,9 +371,9 @@ def process_recording(streams: Mapping[str, Any], model: skeleton.SkeletonModel,
                       shoulder_sequence: str = "zxy") -> PipelineOutput:
     """Run a whole recording through the processing path (see the module docstring).
 
-    ``streams``: sensor id → an object with ``t_s`` (N,) s and ``acc``, ``gyr``, ``mag_uT``
-    (raw µT), ``q_world_from_sensor`` arrays or None (a recorded
-    :class:`~mimucap.io.session.SensorStream`). ``sensor_segments``: sensor → segment, used
+    ``streams``: sensor id → its samples (``t_s`` (N,) s; ``acc``, ``gyr``, ``mag_uT`` raw µT,
+    ``q_world_from_sensor`` the device's own orientation, arrays or None; the other fields are
+    not used). ``sensor_segments``: sensor → segment, used
     without a body calibration. ``initial_states`` (the live filter's state at the start) and
     ``time_offset_s`` continue the live filter: it runs on ``t_s + time_offset_s``, the clock the
     live view ran it on (both results start from that prior). A sensor that can give no
@@ -428,23 +429,9 @@ def measured_joint_angles(model: skeleton.SkeletonModel, angles_deg: Mapping[str
 # --------------------------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class SensorBlock:
-    """One sensor's samples as the processing path takes them (arrays of N rows, sensor frame):
-    ``t_s`` (N,) s, ``acc`` m/s², ``gyr`` rad/s, ``mag_uT`` raw µT, ``q_world_from_sensor`` the
-    device's own orientation (or, in a calibration feed's hands, the pipeline's); absent channels
-    None, never zero-filled. :meth:`LivePipeline.feed` takes them, calibration feeds hand them out."""
-
-    sensor_id: str
-    t_s: np.ndarray
-    acc: np.ndarray | None
-    gyr: np.ndarray | None
-    mag_uT: np.ndarray | None
-    q_world_from_sensor: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
 class SensorOrientations:
-    """What the pipeline made of one :class:`SensorBlock`: ``t_s`` (N,), ``q_world_from_sensor``
+    """What the pipeline made of one sensor's :class:`~mimucap.core.samples.SensorSamples`:
+    ``t_s`` (N,), ``q_world_from_sensor``
     (N, 4) (NaN rows before the filter has an orientation), ``mag_uT`` (N, 3) the calibrated
     field or None, ``flags`` (N,) filter flags (zeros for an on-board orientation)."""
 
@@ -551,8 +538,10 @@ class LivePipeline:
         """Sensor → its filter state now (JSON-ready), for the sensors whose filter runs."""
         return {sid: snap for sid, chain in self.chains.items() if (snap := chain.state_snapshot()) is not None}
 
-    def feed(self, blocks: Sequence[SensorBlock]) -> list[SensorOrientations]:
-        """Calibrate and fuse new samples; returns their orientations, in the blocks' order."""
+    def feed(self, blocks: Sequence[SensorSamples]) -> list[SensorOrientations]:
+        """Calibrate and fuse new samples (``t_s`` on the pipeline's clock, raw ``mag_uT``; a
+        ``q_world_from_sensor`` is the device's own orientation and is taken as it is); returns
+        their orientations, in the blocks' order."""
         results: list[SensorOrientations | None] = [None] * len(blocks)
         inputs: list[ChainInput] = []
         slots: list[tuple[int, np.ndarray | None]] = []

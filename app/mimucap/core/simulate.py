@@ -40,6 +40,7 @@ import numpy as np
 
 from mimucap.core import rotation as rot
 from mimucap.core import skeleton
+from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate_calibration import PROTOCOLS, CalibrationMotion, calibration_motion
 from mimucap.core.simulate_motion import (
     ACTIVITY_NAMES,
@@ -185,34 +186,6 @@ class SensorMounting:
 
 
 @dataclass
-class SensorSamples:
-    """Samples a unit delivered (dropped ones removed): ``t_s`` (N,) host time, ``seq`` (N,)
-    sample numbers, ``acc`` (N,3) m/s², ``gyr`` (N,3) rad/s, ``mag_uT`` (N,3) µT,
-    ``q_world_from_sensor`` (N,4) on-board orientation or None, ``device_time_s`` (N,)."""
-
-    sensor_id: str
-    segment: str
-    t_s: np.ndarray
-    seq: np.ndarray
-    acc: np.ndarray
-    gyr: np.ndarray
-    mag_uT: np.ndarray
-    q_world_from_sensor: np.ndarray | None
-    device_time_s: np.ndarray
-
-    @staticmethod
-    def concatenate(parts: list[SensorSamples]) -> SensorSamples:
-        first = parts[0]
-        cat = lambda name: np.concatenate([getattr(p, name) for p in parts])  # noqa: E731
-        return SensorSamples(
-            sensor_id=first.sensor_id, segment=first.segment, t_s=cat("t_s"), seq=cat("seq"), acc=cat("acc"),
-            gyr=cat("gyr"), mag_uT=cat("mag_uT"),
-            q_world_from_sensor=None if first.q_world_from_sensor is None else cat("q_world_from_sensor"),
-            device_time_s=cat("device_time_s"),
-        )
-
-
-@dataclass
 class SuitTruth:
     """Ground truth at every simulated sample (dropped or not), ``t_s`` (T,).
 
@@ -258,7 +231,12 @@ class SuitTruth:
 class SuitBlock:
     """One interval of simulation: ``samples`` per sensor id, ``truth``, and ``markers``
     ``(t_s, label)`` for activities starting in the interval (labels of :mod:`mimucap.core.phases`:
-    "magnetometer turns", "N-pose", "T-pose", "walk", ...)."""
+    "magnetometer turns", "N-pose", "T-pose", "walk", ...).
+
+    A unit's :class:`~mimucap.core.samples.SensorSamples` are those it delivered (dropped ones
+    removed): ``t_s`` the true time, ``seq`` the sample numbers, ``acc``, ``gyr``, ``mag_uT``,
+    ``q_world_from_sensor`` when the units fuse on board (else None), ``device_time_s`` the
+    unit's clock, ``segment`` the segment it is worn on."""
 
     samples: dict[str, SensorSamples]
     truth: SuitTruth
@@ -270,7 +248,7 @@ class SuitBlock:
         if not blocks:
             raise ValueError("nothing to concatenate")
         return SuitBlock(
-            samples={k: SensorSamples.concatenate([b.samples[k] for b in blocks]) for k in blocks[0].samples},
+            samples={k: concatenate_samples([b.samples[k] for b in blocks]) for k in blocks[0].samples},
             truth=SuitTruth.concatenate([b.truth for b in blocks]),
             markers=[m for b in blocks for m in b.markers],
         )
@@ -539,10 +517,9 @@ class SuitSimulator:
         for i, sid in enumerate(self.sensor_ids):
             keep = meas.keep[:, i]
             samples[sid] = SensorSamples(
-                sensor_id=sid, segment=self.mounting[sid].segment, t_s=t[keep], seq=seq[keep],
-                acc=meas.acc[keep, i], gyr=meas.gyr[keep, i], mag_uT=meas.mag_uT[keep, i],
+                sid, t[keep], seq[keep], meas.acc[keep, i], meas.gyr[keep, i], meas.mag_uT[keep, i],
                 q_world_from_sensor=None if meas.q_world_from_sensor is None else meas.q_world_from_sensor[keep, i],
-                device_time_s=meas.device_time_s[keep, i],
+                device_time_s=meas.device_time_s[keep, i], segment=self.mounting[sid].segment,
             )
         angles = {}
         for joint in self.model.joint_names:
@@ -573,12 +550,7 @@ def _slice_block(block: SuitBlock, block_start: int, k0: int, k1: int, dt: float
     samples = {}
     for sid, s in block.samples.items():
         i0, i1 = np.searchsorted(s.seq, [k0, k1])
-        samples[sid] = SensorSamples(
-            sensor_id=sid, segment=s.segment, t_s=s.t_s[i0:i1], seq=s.seq[i0:i1], acc=s.acc[i0:i1],
-            gyr=s.gyr[i0:i1], mag_uT=s.mag_uT[i0:i1],
-            q_world_from_sensor=None if s.q_world_from_sensor is None else s.q_world_from_sensor[i0:i1],
-            device_time_s=s.device_time_s[i0:i1],
-        )
+        samples[sid] = s.rows(slice(i0, i1))
     tr = block.truth
     cut = lambda d: {k: v[a:b] for k, v in d.items()}  # noqa: E731
     truth = SuitTruth(
@@ -612,7 +584,7 @@ def simulate_session(config: SimulationConfig = SimulationConfig()) -> Simulatio
 
 __all__ = [
     "ACTIVITY_NAMES", "BLEND_S", "SCENARIOS", "SENSOR_PLACEMENTS", "MAX_SENSORS", "SimulationConfig",
-    "SimulationResult", "SuitSimulator", "SuitBlock", "SuitTruth", "SensorSamples", "SensorMounting",
+    "SimulationResult", "SuitSimulator", "SuitBlock", "SuitTruth", "SensorMounting",
     "simulate_session", "PROTOCOLS", "CalibrationMotion", "calibration_motion", "ERROR_PRESETS",
     "GRAVITY_MPS2", "IDEAL_SENSOR", "EarthField", "MagneticDisturbance", "SensorErrorModel", "error_model",
 ]

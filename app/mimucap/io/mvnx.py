@@ -378,7 +378,8 @@ def session_from_mvnx(recording: MvnxRecording):
       calibration poses, for comparison and reports.
     """
     from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
-    from mimucap.io.session import Session, SensorStream, make_subject
+    from mimucap.core.samples import SensorSamples
+    from mimucap.io.session import Session, make_subject
 
     t = recording.t_s
     segments = recording.q_world_from_segment()
@@ -400,8 +401,8 @@ def session_from_mvnx(recording: MvnxRecording):
             acc = rotation.rotate(rotation.conjugate(q_global), specific_global)
         extra = {"mag_au": recording.mag_au[label]} if label in recording.mag_au else {}
         segment = _sensor_segment(label)
-        sensors[label] = SensorStream(sensor_id=label, t_s=t, seq=np.arange(len(t)), acc=acc,
-                                      q_world_from_sensor=q_world, segment=segment, extra=extra)
+        sensors[label] = SensorSamples.checked(label, t, np.arange(len(t)), acc=acc, q_world_from_sensor=q_world,
+                                               segment=segment, extra=extra)
         if segment is not None and segment in segments:
             mapping[segment] = label
             relative = rotation.multiply(rotation.conjugate(segments[segment]), q_world)

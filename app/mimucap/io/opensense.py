@@ -211,18 +211,19 @@ RAW_SENSOR_NOTES = (
 
 
 def session_from_sto(path: str | Path):
-    """A :class:`mimucap.io.session.Session` of an OpenSense orientation table: one sensor stream
-    per column (``q_world_from_sensor`` as the table holds it; OpenSense readers keep the vendor's
+    """A :class:`mimucap.io.session.Session` of an OpenSense orientation table: one sensor's
+    samples per column (``q_world_from_sensor`` as the table holds it; OpenSense readers keep the vendor's
     z-up world, read as ENU), assigned to our segment when named ``<body>_imu``; no body
     calibration, no raw channels."""
     from mimucap.io.quaternion_tables import read_opensim_sto
-    from mimucap.io.session import Session, SensorStream
+    from mimucap.core.samples import SensorSamples
+    from mimucap.io.session import Session
 
     table = read_opensim_sto(path)
     sensors = {}
     for label, q in table.q_world_from_sensor.items():
-        sensors[label] = SensorStream(sensor_id=label, t_s=table.t_s - table.t_s[0], seq=np.arange(len(table.t_s)),
-                                      q_world_from_sensor=q, segment=segment_of_label(label))
+        sensors[label] = SensorSamples.checked(label, table.t_s - table.t_s[0], np.arange(len(table.t_s)),
+                                               q_world_from_sensor=q, segment=segment_of_label(label))
     segments = [s.segment for s in sensors.values() if s.segment]
     metadata = {
         "source": {"kind": "opensense-sto", "file": Path(path).name, "start_s": float(table.t_s[0])},

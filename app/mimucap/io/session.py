@@ -1,6 +1,7 @@
 """MimuCap session files: HDF5, versioned, read back by this module only.
 
-A session holds what was recorded (per-sensor raw streams), what is known about it (metadata,
+A session holds what was recorded (each sensor's raw samples, a
+:class:`~mimucap.core.samples.SensorSamples`), what is known about it (metadata,
 markers, optional ground truth of a simulation) and what was computed from it (calibrations
 and results). The layout is documented in ``docs/session-format.md``; this module is its
 only reader and writer.
@@ -9,7 +10,10 @@ Frames and units follow ``shared/docs/conventions.md``: ``acc`` in m/s² (specif
 sensor frame), ``gyr`` in rad/s (sensor frame), ``mag_uT`` in µT (sensor frame),
 ``q_world_from_sensor`` scalar-first Hamilton quaternions (world = ENU), times ``t_s`` in
 seconds on the host clock since session start. Every dataset carries its unit as the HDF5
-attribute ``unit``.
+attribute ``unit``. Two channels are stored in the file's own form: the record's
+``battery_pct`` (percent) as the dataset ``battery`` (a fraction 0..1), its ``calibration``
+status as the extra channel ``calibration_status`` (N, 4) int8; a record's ``source`` and
+``receive_time_s`` are not stored.
 
 A file that is not a MimuCap session, is truncated or damaged, or was written by a newer
 format version raises :class:`SessionFormatError` naming the file and what is wrong. So does
@@ -33,6 +37,7 @@ import h5py
 import numpy as np
 
 from mimucap import __version__
+from mimucap.core.samples import SensorSamples
 from mimucap.core.sensor_limits import GYR_MAX_RAD_S
 
 #: Value of the root attribute ``format``.
@@ -40,7 +45,7 @@ SESSION_FORMAT = "mimucap-session"
 #: The version this module writes; files with a higher ``format_version`` are refused.
 SESSION_FORMAT_VERSION = 1
 
-#: Optional per-sensor channels: name → (trailing shape, unit). ``t_s`` and ``seq`` are required.
+#: Optional per-sensor datasets: name → (trailing shape, unit). ``t_s`` and ``seq`` are required.
 SENSOR_CHANNELS: dict[str, tuple[tuple[int, ...], str]] = {
     "acc": ((3,), "m/s^2"),
     "gyr": ((3,), "rad/s"),
@@ -49,6 +54,13 @@ SENSOR_CHANNELS: dict[str, tuple[tuple[int, ...], str]] = {
     "battery": ((), "1 (fraction 0..1)"),
     "device_time_s": ((), "s (device clock)"),
 }
+
+#: Dataset → the :class:`~mimucap.core.samples.SensorSamples` field it holds, where they differ.
+_FIELD_OF_DATASET = {"battery": "battery_pct"}
+#: A stored fraction × this = the record's percent.
+_PERCENT_PER_FRACTION = 100.0
+#: The extra channel that holds the record's ``calibration`` status.
+CALIBRATION_STATUS = "calibration_status"
 
 _COMPRESS_MIN_ELEMENTS = 4096
 
@@ -60,67 +72,6 @@ _AXES = "xyz"
 
 class SessionFormatError(ValueError):
     """A file is not a readable MimuCap session (foreign, damaged, truncated or too new)."""
-
-
-@dataclass
-class SensorStream:
-    """The samples one sensor delivered, in arrival order.
-
-    ``t_s`` (N,) float64 host time (s); ``seq`` (N,) int64 device sequence numbers (gaps are
-    dropped packets). Channels are ``None`` when the device does not send them (never
-    zero-filled): ``acc`` (N,3) m/s², ``gyr`` (N,3) rad/s, ``mag_uT`` (N,3) µT, all in the
-    sensor frame; ``q_world_from_sensor`` (N,4) on-board orientation; ``battery`` (N,)
-    fraction; ``device_time_s`` (N,) the device's own clock in seconds. ``segment`` names the
-    body segment the sensor is worn on (``None`` if unassigned). ``extra`` holds further
-    per-sample channels (name → array with N rows; the name should carry its unit).
-    """
-
-    sensor_id: str
-    t_s: np.ndarray
-    seq: np.ndarray
-    acc: np.ndarray | None = None
-    gyr: np.ndarray | None = None
-    mag_uT: np.ndarray | None = None
-    q_world_from_sensor: np.ndarray | None = None
-    segment: str | None = None
-    battery: np.ndarray | None = None
-    device_time_s: np.ndarray | None = None
-    extra: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        _check_name(self.sensor_id, "sensor id")
-        self.t_s = np.asarray(self.t_s, dtype=np.float64)
-        if self.t_s.ndim != 1:
-            raise ValueError(f"sensor {self.sensor_id}: t_s must have shape (N,), got {self.t_s.shape}")
-        n = self.t_s.shape[0]
-        self.seq = np.asarray(self.seq)
-        if self.seq.shape != (n,) or not np.issubdtype(self.seq.dtype, np.integer):
-            raise ValueError(
-                f"sensor {self.sensor_id}: seq must be an integer array of shape ({n},), "
-                f"got {self.seq.dtype} {self.seq.shape}"
-            )
-        self.seq = self.seq.astype(np.int64)
-        for name, (trailing, _unit) in SENSOR_CHANNELS.items():
-            value = getattr(self, name)
-            if value is None:
-                continue
-            array = np.asarray(value, dtype=np.float64)
-            if array.shape != (n,) + trailing:
-                raise ValueError(
-                    f"sensor {self.sensor_id}: {name} must have shape {(n,) + trailing}, got {array.shape}"
-                )
-            setattr(self, name, array)
-        for name, value in self.extra.items():
-            _check_name(name, f"sensor {self.sensor_id} extra channel")
-            array = np.asarray(value)
-            if array.ndim == 0 or array.shape[0] != n:
-                raise ValueError(
-                    f"sensor {self.sensor_id}: extra channel {name} must have {n} rows, got {array.shape}"
-                )
-            self.extra[name] = array
-
-    def __len__(self) -> int:
-        return int(self.t_s.shape[0])
 
 
 @dataclass(frozen=True)
@@ -181,14 +132,15 @@ class SessionTruth:
 class Session:
     """One recording: ``metadata`` (JSON-serialisable dict, see ``docs/session-format.md``:
     ``source``, ``created_utc``, ``mimucap_version``, ``subject`` with ``id``, ``height_m``,
-    ``dominance``, ``notes``), ``sensors`` (id → :class:`SensorStream`), ``markers``,
+    ``dominance``, ``notes``), ``sensors`` (id → :class:`~mimucap.core.samples.SensorSamples`,
+    ``t_s`` since the session start), ``markers``,
     ``truth`` (simulations only), ``calibrations`` (name → JSON-serialisable value, e.g.
     ``"magnetometer"`` → {sensor id → calibration dict}, ``"body"`` → dict) and ``results``
     (nested dict of name → array, number, string or dict).
     """
 
     metadata: dict[str, Any] = field(default_factory=dict)
-    sensors: dict[str, SensorStream] = field(default_factory=dict)
+    sensors: dict[str, SensorSamples] = field(default_factory=dict)
     markers: list[Marker] = field(default_factory=list)
     truth: SessionTruth | None = None
     calibrations: dict[str, Any] = field(default_factory=dict)
@@ -342,7 +294,8 @@ def _write_nested(group: h5py.Group, values: Mapping[str, Any], what: str) -> No
             _dataset(group, name, array)
 
 
-def _write_sensor(group: h5py.Group, stream: SensorStream) -> None:
+def _write_sensor(group: h5py.Group, stream: SensorSamples) -> None:
+    """Write one sensor's samples (already :meth:`~mimucap.core.samples.SensorSamples.validated`)."""
     g = _group(group, stream.sensor_id)
     g.attrs["sensor_id"] = stream.sensor_id
     if stream.segment is not None:
@@ -350,12 +303,18 @@ def _write_sensor(group: h5py.Group, stream: SensorStream) -> None:
     _dataset(g, "t_s", stream.t_s, "s")
     _dataset(g, "seq", stream.seq, "1")
     for name, (_trailing, unit) in SENSOR_CHANNELS.items():
-        value = getattr(stream, name)
+        value = getattr(stream, _FIELD_OF_DATASET.get(name, name))
         if value is not None:
-            _dataset(g, name, value, unit)
-    if stream.extra:
+            _dataset(g, name, value / _PERCENT_PER_FRACTION if name == "battery" else value, unit)
+    extras = dict(stream.extra or {})
+    if stream.calibration is not None:
+        if CALIBRATION_STATUS in extras:
+            raise ValueError(f"sensor {stream.sensor_id}: the extra channel {CALIBRATION_STATUS} would hide "
+                             f"the calibration channel")
+        extras = {CALIBRATION_STATUS: stream.calibration, **extras}
+    if extras:
         extra = _group(g, "extra")
-        for name, value in stream.extra.items():
+        for name, value in extras.items():
             _dataset(extra, name, value)
 
 
@@ -418,9 +377,10 @@ def write_session(path: str | os.PathLike[str], session: Session) -> Path:
     metadata.setdefault("mimucap_version", __version__)
     metadata_json = _json(metadata, "session metadata")
     calibrations_json = {name: _json(value, f"calibration {name!r}") for name, value in session.calibrations.items()}
-    for sensor_id, stream in session.sensors.items():
+    sensors = [stream.validated() for stream in session.sensors.values()]
+    for sensor_id, stream in zip(session.sensors, sensors):
         if sensor_id != stream.sensor_id:
-            raise ValueError(f"session sensors: key {sensor_id!r} holds the stream of {stream.sensor_id!r}")
+            raise ValueError(f"session sensors: key {sensor_id!r} holds the samples of {stream.sensor_id!r}")
     directory = target.parent if str(target.parent) else Path(".")
     if not directory.is_dir():
         raise OSError(f"cannot write session {target}: folder {directory} does not exist")
@@ -432,9 +392,9 @@ def write_session(path: str | os.PathLike[str], session: Session) -> Path:
             h5.attrs["created_utc"] = str(metadata["created_utc"])
             h5.attrs["mimucap_version"] = str(metadata["mimucap_version"])
             h5.attrs["metadata_json"] = metadata_json
-            sensors = _group(h5, "sensors")
-            for stream in session.sensors.values():
-                _write_sensor(sensors, stream)
+            sensors_group = _group(h5, "sensors")
+            for stream in sensors:
+                _write_sensor(sensors_group, stream)
             markers = _group(h5, "markers")
             _dataset(markers, "t_s", np.array([m.t_s for m in session.markers], dtype=np.float64), "s")
             _dataset(markers, "label", np.array([m.label for m in session.markers], dtype=object))
@@ -538,7 +498,7 @@ class _Reader:
             raise self.error("metadata_json must hold a JSON object")
         return metadata
 
-    def sensor(self, g: h5py.Group) -> SensorStream:
+    def sensor(self, g: h5py.Group) -> SensorSamples:
         sensor_id = g.name.rsplit("/", 1)[-1]
         t_s = self.array(g, "t_s")
         if t_s.ndim != 1:
@@ -550,20 +510,26 @@ class _Reader:
             value = self.array(g, name, rows=n, required=False)
             if value is not None and value.shape[1:] != trailing:
                 raise self.error(f"{g.name}/{name} has shape {value.shape}, expected {(n,) + trailing}")
-            channels[name] = value
+            channels[_FIELD_OF_DATASET.get(name, name)] = value
+        if channels["battery_pct"] is not None:
+            channels["battery_pct"] = channels["battery_pct"] * _PERCENT_PER_FRACTION
         extra = {}
         extra_group = self.group(g, "extra", required=False)
         if extra_group is not None:
             for name in extra_group:
                 extra[name] = self.array(extra_group, name, rows=n, dtype=None)
+        calibration = extra.pop(CALIBRATION_STATUS, None)
+        if calibration is not None and (calibration.shape[1:] != (4,) or calibration.dtype.kind not in "iu"):
+            raise self.error(f"{g.name}/extra/{CALIBRATION_STATUS} has shape {calibration.shape} of "
+                             f"{calibration.dtype}, expected ({n}, 4) integers")
         problem = time_stamp_problem(t_s)
         if problem is None and channels["gyr"] is not None:
             problem = gyro_range_problem(channels["gyr"])
         if problem is not None:
             raise self.error(f"sensor {sensor_id}: {problem}")
         segment = g.attrs.get("segment")
-        return SensorStream(
-            sensor_id=sensor_id, t_s=t_s, seq=seq, segment=None if segment is None else str(segment),
+        return SensorSamples.checked(
+            sensor_id, t_s, seq, calibration=calibration, segment=None if segment is None else str(segment),
             extra=extra, **channels,
         )
 
@@ -769,7 +735,7 @@ def session_duration_s(session: Session) -> float:
 def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, include_truth: bool = True) -> Session:
     """A :class:`Session` holding a :class:`mimucap.core.simulate.SimulationResult`.
 
-    Sensor streams keep the simulated samples (dropped packets absent); ``metadata["source"]``
+    Sensors keep the simulated samples (dropped packets absent); ``metadata["source"]``
     records the scenario, seed, rate, sensor count, model, error model and earth field so the
     file says how to reproduce it; markers are the activity changes; ``truth`` (unless
     ``include_truth`` is False) holds segment and sensor orientations, mounting, magnetometer
@@ -779,13 +745,7 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
 
     config = result.config
     errors = config.error_settings()
-    sensors = {
-        sid: SensorStream(
-            sensor_id=sid, t_s=s.t_s, seq=s.seq, acc=s.acc, gyr=s.gyr, mag_uT=s.mag_uT,
-            q_world_from_sensor=s.q_world_from_sensor, segment=s.segment, device_time_s=s.device_time_s,
-        )
-        for sid, s in result.samples.items()
-    }
+    sensors = {sid: s.validated() for sid, s in result.samples.items()}
     source = {
         "kind": "simulated", "scenario": config.scenario, "scenario_params": dict(config.scenario_params),
         "duration_s": config.duration_s, "n_sensors": config.n_sensors, "rate_hz": config.rate_hz,
@@ -832,6 +792,7 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
 __all__ = [
     "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
     "time_stamp_problem", "gyro_range_problem",
-    "SensorStream", "Marker", "SensorTruth", "SessionTruth", "Session", "SessionSummary", "make_subject",
-    "write_session", "read_session", "read_metadata", "read_summary", "update_metadata", "session_duration_s", "session_from_simulation",
+    "CALIBRATION_STATUS", "Marker", "SensorTruth", "SessionTruth", "Session", "SessionSummary", "make_subject",
+    "write_session", "read_session", "read_metadata", "read_summary", "update_metadata", "session_duration_s",
+    "session_from_simulation",
 ]

@@ -4,10 +4,9 @@ A calibration procedure pulls samples from a *feed* and tells the subject what t
 asks for. A feed has:
 
 * ``sensor_ids`` (tuple of str), ``time_s`` (s, time of the newest sample delivered);
-* ``read() -> dict[str, SensorBlock]``: the samples that arrived since the last call
-  (:class:`mimucap.core.pipeline.SensorBlock`, the pipeline's own record of a sensor's samples:
-  raw magnetometer), with ``q_world_from_sensor`` the orientation the live session's processing
-  path gave them;
+* ``read() -> dict[str, SensorSamples]``: the samples that arrived since the last call
+  (:class:`mimucap.core.samples.SensorSamples`, ``t_s`` in session seconds, raw magnetometer),
+  with ``q_world_from_sensor`` the orientation the live session's processing path gave them;
 * ``instruct(instruction)``: what the subject is asked to do
   (:mod:`mimucap.session.instructions`); the source decides who follows it (a person reads the
   screen; the simulated subject does it). No procedure asks which one it is.
@@ -25,12 +24,11 @@ rad/s, ``mag_uT`` µT (raw: a new magnetometer calibration needs raw samples),
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any, Protocol
 
-import numpy as np
-
 from mimucap.core.magcal import MagCalibration
-from mimucap.core.pipeline import SensorBlock
+from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate import SuitSimulator
 from mimucap.session.instructions import Instruction
 
@@ -43,7 +41,7 @@ class CalibrationFeed(Protocol):
     @property
     def time_s(self) -> float: ...
 
-    def read(self) -> dict[str, SensorBlock]: ...
+    def read(self) -> dict[str, SensorSamples]: ...
 
     def instruct(self, instruction: Instruction) -> None: ...
 
@@ -53,7 +51,7 @@ class LiveSessionFeed:
 
     Subscribes to ``live_session.events.processed`` (each sensor's new samples and the
     orientations the session's pipeline gave them) and hands them out per sensor on
-    :meth:`read`. Times are session seconds (``host_time_s − live_session.t0_host_s``).
+    :meth:`read`. Times are session seconds (a block's host ``t_s`` − ``live_session.t0_host_s``).
     Instructions go to ``live_session.instruct``. Call :meth:`close` when the wizard closes.
     """
 
@@ -74,28 +72,20 @@ class LiveSessionFeed:
     def instruct(self, instruction: Instruction) -> None:
         self.live_session.instruct(instruction)
 
-    def read(self) -> dict[str, SensorBlock]:
+    def read(self) -> dict[str, SensorSamples]:
         """The samples that arrived since the last call, per sensor (a channel is None when
         any of the sensor's blocks lacks it)."""
         items, self._pending = self._pending, []
-        parts: dict[str, list[SensorBlock]] = {}
+        parts: dict[str, list[SensorSamples]] = {}
         for item in items:
             if len(item.t_s) == 0:
                 continue
-            block = item.block
             q = None if item.orientation is None else item.orientation.q_world_from_sensor
             parts.setdefault(item.sensor_id, []).append(
-                SensorBlock(item.sensor_id, item.t_s, block.acc, block.gyr, block.mag_uT, q))
+                replace(item.block, t_s=item.t_s, q_world_from_sensor=q))
             newest = float(item.t_s[-1])
             self._time_s = max(newest, self._time_s) if math.isfinite(self._time_s) else newest
-
-        def joined(samples: list[SensorBlock], name: str) -> np.ndarray | None:
-            arrays = [getattr(s, name) for s in samples]
-            return None if any(a is None for a in arrays) else np.concatenate(arrays)
-
-        return {sensor_id: SensorBlock(sensor_id, joined(samples, "t_s"), joined(samples, "acc"), joined(samples, "gyr"),
-                                       joined(samples, "mag_uT"), joined(samples, "q_world_from_sensor"))
-                for sensor_id, samples in parts.items()}
+        return {sensor_id: concatenate_samples(samples, missing="drop") for sensor_id, samples in parts.items()}
 
     def close(self) -> None:
         """Stop listening to the live session."""
@@ -139,7 +129,7 @@ class SimulatedSuitFeed(LiveSessionFeed):
             raise ValueError(f"sensor {calibration.sensor_id} is not in this suit")
         self.live_session.apply_mag_calibration(calibration, save=False)
 
-    def read(self) -> dict[str, SensorBlock]:
+    def read(self) -> dict[str, SensorSamples]:
         """Advance the simulation by ``step_s`` and return each sensor's new samples."""
         self._clock.now += self.step_s
         self.live_session.step()

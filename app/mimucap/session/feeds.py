@@ -1,6 +1,6 @@
 """Where live sample blocks come from: the simulated suit in process, or acquisition workers.
 
-A feed hands out :class:`~mimucap.acquisition.samples.SampleBlock` lists on the host's
+A feed hands out lists of :class:`~mimucap.core.samples.SensorSamples` on the host's
 monotonic clock (``time.monotonic()``, s) and per-sensor statistics. Both feeds give the
 same blocks, so the rest of the live pipeline (fusion, calibration, recording) does not care
 which one runs:
@@ -23,9 +23,9 @@ from typing import Protocol
 import numpy as np
 
 from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_FAILED
-from mimucap.acquisition.samples import SampleBlock
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.supervisor import Supervisor
+from mimucap.core.samples import SensorSamples
 from mimucap.core.simulate import SENSOR_PLACEMENTS, SimulationConfig, SuitSimulator, SuitTruth
 from mimucap.session import instructions
 from mimucap.session.instructions import Instruction
@@ -46,7 +46,7 @@ class LiveSource(Protocol):
 
     def start(self) -> None: ...
 
-    def poll(self) -> list[SampleBlock]:
+    def poll(self) -> list[SensorSamples]:
         """The sample blocks that arrived since the last call (never blocks)."""
 
     def stats(self) -> dict[str, SensorStats]: ...
@@ -61,7 +61,7 @@ class LiveSource(Protocol):
 
     def problem(self) -> str: ...
 
-    def stop(self) -> list[SampleBlock]: ...
+    def stop(self) -> list[SensorSamples]: ...
 
 
 #: Longest clock gap (s) the simulator catches up in one poll: after a longer stall the
@@ -113,7 +113,7 @@ class SimulatorFeed:
         """Host monotonic time (s) of simulated time ``t_sim_s`` (s, a number or an array)."""
         return self._start_host_s + t_sim_s
 
-    def poll(self) -> list[SampleBlock]:
+    def poll(self) -> list[SensorSamples]:
         """Blocks of every sample simulated since the last poll (one block per sensor)."""
         if self._start_host_s is None:
             raise ValueError("the simulated source is not started")
@@ -129,7 +129,7 @@ class SimulatorFeed:
         target_sim_s = now - self._start_host_s
         return self.advance_to(target_sim_s, now)
 
-    def advance_to(self, target_sim_s: float, arrival_s: float | None = None) -> list[SampleBlock]:
+    def advance_to(self, target_sim_s: float, arrival_s: float | None = None) -> list[SensorSamples]:
         """Simulate up to simulated time ``target_sim_s`` (s) and return the new blocks."""
         rate = self.simulator.rate_hz
         due = int(np.floor(target_sim_s * rate + 1e-9)) + 1
@@ -143,11 +143,10 @@ class SimulatorFeed:
             if len(samples.t_s) == 0:
                 continue
             host = self.host_time_of(samples.t_s)
-            out = SampleBlock(
-                source=self.name, sensor_id=sensor_id, seq=samples.seq.astype(np.int64),
-                device_time_s=samples.device_time_s, host_time_s=host,
-                receive_time_s=np.full(len(samples.t_s), arrival), acc=samples.acc, gyr=samples.gyr,
-                mag_uT=samples.mag_uT, q_world_from_sensor=samples.q_world_from_sensor)
+            out = SensorSamples(
+                sensor_id, host, samples.seq.astype(np.int64), samples.acc, samples.gyr, samples.mag_uT,
+                samples.q_world_from_sensor, device_time_s=samples.device_time_s,
+                receive_time_s=np.full(len(samples.t_s), arrival), source=self.name)
             self._trackers[sensor_id].add_block(out, arrival)
             blocks.append(out)
         if block.truth.t_s.shape[0]:
@@ -173,7 +172,7 @@ class SimulatorFeed:
         """Why data may not be coming ("" : nothing known); the simulator always delivers."""
         return ""
 
-    def stop(self) -> list[SampleBlock]:
+    def stop(self) -> list[SensorSamples]:
         self._start_host_s = None
         return []
 
@@ -222,7 +221,7 @@ class SupervisorFeed:
     def start(self) -> None:
         self.supervisor.start()
 
-    def poll(self) -> list[SampleBlock]:
+    def poll(self) -> list[SensorSamples]:
         blocks = self.supervisor.poll(0.0)
         # A simulated worker sends its subject's activity changes as markers; live they are
         # not the user's markers and are not shown (dropped here so they do not pile up).
@@ -279,5 +278,5 @@ class SupervisorFeed:
                 parts.append(f"{name}: {status.warning}")
         return "; ".join(parts)
 
-    def stop(self) -> list[SampleBlock]:
+    def stop(self) -> list[SensorSamples]:
         return self.supervisor.stop()

@@ -48,15 +48,15 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
 from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.fusion import FLAG_NAMES
 from mimucap.core.locomotion import RootTracker
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
-    POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorBlock, SensorOrientations,
+    POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorOrientations,
 )
+from mimucap.core.samples import SensorSamples, join_per_sensor
 from mimucap.core.simulate import SimulationConfig, SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.events import EmitterGroup
@@ -147,13 +147,13 @@ class _SensorState:
 @dataclass(frozen=True)
 class ProcessedBlock:
     """One sensor's new samples as the pipeline took them: ``t_s`` (N,) session seconds,
-    ``block`` the raw :class:`~mimucap.acquisition.samples.SampleBlock` (uncalibrated
+    ``block`` the raw :class:`~mimucap.core.samples.SensorSamples` (host times, uncalibrated
     magnetometer), ``orientation`` the pipeline's output (``None`` for a sensor without an
     orientation: no gyroscope and no on-board fusion)."""
 
     sensor_id: str
     t_s: np.ndarray
-    block: SampleBlock
+    block: SensorSamples
     orientation: SensorOrientations | None
 
 
@@ -171,7 +171,7 @@ class LiveSession:
             the source brings, saved when the wizard makes one); ``None`` keeps them in memory.
         settings: the processing path's settings (stored with every recording).
 
-    Events (``self.events``): ``blocks(list[SampleBlock])`` raw data as it arrives;
+    Events (``self.events``): ``blocks(list[SensorSamples])`` raw data as it arrives;
     ``processed(list[ProcessedBlock])`` the same data with the pipeline's orientations;
     ``frame(frame_id)`` a new pose; ``calibration()`` a calibration was applied;
     ``recording(info_or_None)`` recording started/stopped; ``marker(t_s, label, recorded)``
@@ -420,13 +420,12 @@ class LiveSession:
             return 0
         self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
         self.events.blocks.emit(blocks)
-        merged = _merged_per_sensor(blocks)
+        merged = join_per_sensor(blocks)
         new_sensors = [b.sensor_id for b in merged if b.sensor_id not in self._sensors]
         if new_sensors:
             self._load_stored_calibrations(new_sensors)
-        times = [block.host_time_s - self.t0_host_s for block in merged]
-        outputs = self.pipeline.feed([SensorBlock(b.sensor_id, t, b.acc, b.gyr, b.mag_uT, b.q_world_from_sensor)
-                                      for b, t in zip(merged, times)])
+        times = [block.t_s - self.t0_host_s for block in merged]
+        outputs = self.pipeline.feed([b.with_times(t) for b, t in zip(merged, times)])
         by_sensor = {out.sensor_id: out for out in outputs}
         processed = []
         count = 0
@@ -439,7 +438,7 @@ class LiveSession:
         self._update_pose()
         return count
 
-    def _buffer(self, block: SampleBlock, t: np.ndarray, mag_calibrated: np.ndarray | None) -> int:
+    def _buffer(self, block: SensorSamples, t: np.ndarray, mag_calibrated: np.ndarray | None) -> int:
         """Keep ``block`` for the plots (the calibrated field when there is one)."""
         n = len(block)
         state = self._sensors.get(block.sensor_id)
@@ -752,17 +751,6 @@ class LiveSession:
         result = self.end_recording().save()
         self.last_recording = result
         return result
-
-
-def _merged_per_sensor(blocks: list[SampleBlock]) -> list[SampleBlock]:
-    """The blocks of one poll with each sensor's consecutive blocks (same channels) joined:
-    wireless nodes arrive a sample or two at a time, and the filter, buffers and statistics
-    cost the same per call whatever the block's length."""
-    groups: dict[tuple, list[SampleBlock]] = {}
-    for block in blocks:
-        if len(block):
-            groups.setdefault((block.sensor_id, block.channels()), []).append(block)
-    return [concatenate_blocks(parts) for parts in groups.values()]
 
 
 @dataclass

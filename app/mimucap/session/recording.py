@@ -17,10 +17,10 @@ recovered recording keeps it too.
 A write error (disk full, storage removed) stops the recording with a message naming the
 file and what to do; whatever reached the disk stays readable through :func:`recover`.
 
-Times: blocks carry host monotonic times (``time.monotonic()``, s); the session stores
-``t_s = host_time_s − start_host_s`` (s since the recording started). ``battery`` is stored
-as a fraction (wire percent / 100) and the calibration status as the extra channel
-``calibration_status`` (N, 4) int8 (system, gyr, acc, mag; 0..3).
+Times: blocks carry host monotonic times ``t_s`` (``time.monotonic()``, s); the session's
+samples count from the start of the recording (``t_s − start_host_s``). The session file
+keeps the battery charge as a fraction and the calibration status (system, gyr, acc, mag;
+0..3) as the extra channel ``calibration_status`` (see :mod:`mimucap.io.session`).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ import math
 import os
 import time
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -39,9 +39,9 @@ from typing import Any
 import numpy as np
 
 from mimucap.acquisition.block_codec import decode_arrays, decode_block, encode_arrays, encode_block
-from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
+from mimucap.core.samples import SensorSamples, concatenate_samples, join_per_sensor
 from mimucap.io.journal import JournalContents, JournalWriter, iter_journal
-from mimucap.io.session import Marker, SensorStream, Session, SessionTruth, read_session, write_session
+from mimucap.io.session import Marker, Session, SessionTruth, read_session, write_session
 
 JOURNAL_SUFFIX = ".journal"
 #: A damaged journal is kept under its name plus this after recovery (nothing is thrown away).
@@ -150,20 +150,15 @@ class Recorder:
                         f"before the error is kept in the journal: free space or reconnect the "
                         f"storage, then run `mimucap recover {self.out_path}`")
 
-    def add_blocks(self, blocks: Iterable[SampleBlock]) -> bool:
+    def add_blocks(self, blocks: Iterable[SensorSamples]) -> bool:
         """Append blocks to the journal; ``False`` once the recording has failed.
 
         Blocks of the same sensor and channels within one call are merged into one record.
         """
-        groups: dict[tuple, list[SampleBlock]] = {}
-        for block in blocks:
-            if len(block):
-                groups.setdefault((block.sensor_id, block.channels()), []).append(block)
-        for (sensor_id, _channels), parts in groups.items():
-            merged = concatenate_blocks(parts)
+        for merged in join_per_sensor(blocks):
             if not self._append(KIND_BLOCK, encode_block(merged)):
                 return False
-            self.samples[sensor_id] = self.samples.get(sensor_id, 0) + len(merged)
+            self.samples[merged.sensor_id] = self.samples.get(merged.sensor_id, 0) + len(merged)
         return self.tick()
 
     def add_marker(self, label: str, host_s: float | None = None) -> bool:
@@ -248,7 +243,7 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
     status: Any = None
     end: dict[str, Any] | None = None
     markers: list[Any] = []
-    per_sensor: dict[str, list[SampleBlock]] = {}
+    per_sensor: dict[str, list[SensorSamples]] = {}
     truth_parts: list[_TruthPart] = []
     for index, (kind, payload) in enumerate(iter_journal(journal_path, contents)):
         try:
@@ -288,7 +283,7 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
     metadata["recording"] = recording
     if status is not None:
         metadata["acquisition"] = status
-    sensors = {sensor_id: _stream(sensor_id, blocks, t0, segments.get(sensor_id))
+    sensors = {sensor_id: _recorded(blocks, t0, segments.get(sensor_id))
                for sensor_id, blocks in sorted(per_sensor.items())}
     session = Session(metadata=metadata, sensors=sensors,
                       markers=[Marker(t, label) for t, label in markers],
@@ -368,39 +363,25 @@ def _joined_truth(parts: list[_TruthPart], t0: float) -> SessionTruth | None:
     )
 
 
-def _start_from_samples(per_sensor: Mapping[str, list[SampleBlock]]) -> dict[str, Any] | None:
+def _start_from_samples(per_sensor: Mapping[str, list[SensorSamples]]) -> dict[str, Any] | None:
     """A stand-in for a damaged start record: time zero at the first sample (host monotonic
     s), no metadata (source, subject and sensor segments are lost with the record); ``None``
     when there is no sample either."""
-    first = min((float(np.min(b.host_time_s)) for blocks in per_sensor.values() for b in blocks if len(b)),
+    first = min((float(np.min(b.t_s)) for blocks in per_sensor.values() for b in blocks if len(b)),
                 default=None)
     if first is None:
         return None
     return {"metadata": {}, "start_host_s": first, "started_utc": None, "flush_interval_s": None, "lost": True}
 
 
-def _stream(sensor_id: str, blocks: list[SampleBlock], t0: float, segment: str | None) -> SensorStream:
-    def joined(name: str, width: tuple[int, ...], dtype=np.float64):
-        present = [getattr(b, name) is not None for b in blocks]
-        if not any(present):
-            return None
-        parts = [np.asarray(getattr(b, name), dtype=dtype) if getattr(b, name) is not None
-                 else np.full((len(b),) + width, np.nan if dtype == np.float64 else -1, dtype=dtype)
-                 for b in blocks]
-        return np.concatenate(parts)[order]
-
-    host = np.concatenate([b.host_time_s for b in blocks])
-    order = np.argsort(host, kind="stable")
-    battery = joined("battery_pct", ())
-    calibration = joined("calibration", (4,), np.int8)
-    extra = {} if calibration is None else {"calibration_status": calibration}
-    return SensorStream(
-        sensor_id=sensor_id, t_s=host[order] - t0,
-        seq=np.concatenate([b.seq for b in blocks])[order],
-        acc=joined("acc", (3,)), gyr=joined("gyr", (3,)), mag_uT=joined("mag_uT", (3,)),
-        q_world_from_sensor=joined("q_world_from_sensor", (4,)), segment=segment,
-        battery=None if battery is None else battery / 100.0,
-        device_time_s=joined("device_time_s", ()), extra=extra)
+def _recorded(blocks: list[SensorSamples], t0: float, segment: str | None) -> SensorSamples:
+    """One sensor's journaled blocks as the session keeps them: rows in host-time order, ``t_s``
+    since the recording started (host monotonic ``t0`` s), a channel that some blocks lacked
+    NaN (−1 for the calibration status) in their rows: every sample is kept, and what it did
+    not send stays recognisable."""
+    joined = concatenate_samples(blocks, missing="fill")
+    joined = joined.rows(np.argsort(joined.t_s, kind="stable"))
+    return replace(joined, t_s=joined.t_s - t0, receive_time_s=None, source="", segment=segment)
 
 
 def damage_report(contents: JournalContents) -> str:

@@ -9,7 +9,7 @@ Replayed Xsens exports carry ``acc`` (m/s²), ``gyr`` (rad/s) and ``q_world_from
 (ENU); their magnetometer is in arbitrary units (normalised to the local field), not µT, so
 it is not replayed. Rows that a live source would refuse — a missing (NaN) or infinite value,
 a value beyond the physical limits, in either kind of file — are not replayed
-(:meth:`~mimucap.acquisition.replay.ReplayStream.from_recording`), so no NaN reaches the
+(:func:`~mimucap.acquisition.replay.replayable`), so no NaN reaches the
 pipeline: they are counted in :attr:`LoadedReplay.skipped_rows` and reported by the replay
 source as rejections with their reason (``non_finite``, ``out_of_range``), not as drops.
 """
@@ -23,7 +23,7 @@ import h5py
 import numpy as np
 
 from mimucap.acquisition.intake import IntakeSettings
-from mimucap.acquisition.replay import ReplaySourceConfig, ReplayStream
+from mimucap.acquisition.replay import RefusedRows, ReplaySourceConfig, replayable
 from mimucap.acquisition.serial_port import SerialSourceConfig
 from mimucap.acquisition.source_spec import (
     ReplaySpec, SerialSpec, SimulatedSpec, SlimeVrSpec, SourceSpec, UdpSpec, parse_source_spec,
@@ -32,6 +32,7 @@ from mimucap.acquisition.simulated import SimulatedSourceConfig
 from mimucap.acquisition.slimevr import SlimeVrSourceConfig
 from mimucap.acquisition.udp import UdpSourceConfig
 from mimucap.acquisition.worker import SourceConfig
+from mimucap.core.samples import SensorSamples
 from mimucap.io.quaternion_tables import SESSION_SUFFIXES, read_xsens_file
 from mimucap.io.session import read_session
 
@@ -49,9 +50,25 @@ class SourceOptions:
 
 @dataclass
 class LoadedReplay:
-    streams: tuple[ReplayStream, ...]
-    skipped_rows: dict[str, int] = field(default_factory=dict)  #: sensor → rows refused before replay
-    segments: dict[str, str] = field(default_factory=dict)  #: sensor → segment it was worn on (sessions)
+    """What a replay plays: each sensor's replayable samples (``segment`` where a session names
+    it) and the rows refused before replay (sensor → :class:`RefusedRows`, sensors with some)."""
+
+    streams: tuple[SensorSamples, ...]
+    refused: dict[str, RefusedRows] = field(default_factory=dict)
+
+    @property
+    def skipped_rows(self) -> dict[str, int]:
+        """Sensor → rows refused before replay (0 for a sensor with none)."""
+        return {s.sensor_id: len(self.refused.get(s.sensor_id) or ()) for s in self.streams}
+
+    @property
+    def segments(self) -> dict[str, str]:
+        """Sensor → the segment it was worn on (sessions name it)."""
+        return {s.sensor_id: s.segment for s in self.streams if s.segment}
+
+    def config(self, name: str, speed: float) -> ReplaySourceConfig:
+        """The replay worker's config."""
+        return ReplaySourceConfig(name=name, streams=self.streams, refused=tuple(self.refused.items()), speed=speed)
 
 
 def load_replay(path: str | Path) -> LoadedReplay:
@@ -68,40 +85,35 @@ def load_replay(path: str | Path) -> LoadedReplay:
     files = sorted(path.glob("*.txt")) if path.is_dir() else [path]
     if not files:
         raise ValueError(f"replay folder {path} holds no Xsens .txt exports")
-    streams, skipped = [], {}
+    recordings = []
     for file in files:
         recording = read_xsens_file(file)
-        channels = {"acc": recording.acc, "gyr": recording.gyr,
-                    "q_world_from_sensor": recording.q_world_from_sensor}
-        channels = {k: v for k, v in channels.items() if v is not None}
-        if not channels:
+        samples = SensorSamples(recording.device_id, recording.t_s, recording.packet_counter.astype(np.int64),
+                                acc=recording.acc, gyr=recording.gyr,
+                                q_world_from_sensor=recording.q_world_from_sensor)
+        if not samples.channels():
             raise ValueError(f"{file}: no accelerometer, gyroscope or orientation columns to replay")
-        stream = ReplayStream.from_recording(recording.device_id, recording.t_s,
-                                             recording.packet_counter.astype(np.int64), channels)
-        skipped[stream.sensor_id] = stream.n_refused
-        streams.append(stream)
-    return LoadedReplay(tuple(streams), skipped)
+        recordings.append(samples)
+    return _replayed(recordings)
 
 
 def _session_streams(path: Path) -> LoadedReplay:
     session = read_session(path, include_truth=False)
-    streams, skipped, segments = [], {}, {}
-    for stream in session.sensors.values():
-        if stream.segment:
-            segments[stream.sensor_id] = stream.segment
-        calibration = stream.extra.get("calibration_status")
-        channels = {"acc": stream.acc, "gyr": stream.gyr, "mag_uT": stream.mag_uT,
-                    "q_world_from_sensor": stream.q_world_from_sensor,
-                    "calibration": None if calibration is None else np.asarray(calibration, dtype=np.int8),
-                    "battery_pct": None if stream.battery is None else stream.battery * 100.0}
-        channels = {k: v for k, v in channels.items() if v is not None}
-        # a NaN row (e.g. a channel missing for a while) is refused, as a live source refuses it
-        replayed = ReplayStream.from_recording(stream.sensor_id, stream.t_s, stream.seq, channels)
-        skipped[stream.sensor_id] = replayed.n_refused
-        streams.append(replayed)
-    if not streams:
+    if not session.sensors:
         raise ValueError(f"replay file {path} holds no sensor streams")
-    return LoadedReplay(tuple(streams), skipped, segments)
+    # a NaN row (e.g. a channel missing for a while) is refused, as a live source refuses it
+    return _replayed(list(session.sensors.values()))
+
+
+def _replayed(recordings: list[SensorSamples]) -> LoadedReplay:
+    """Each recording's replayable rows, and those refused (see :func:`replayable`)."""
+    streams, refused = [], {}
+    for samples in recordings:
+        stream, rows = replayable(samples)
+        streams.append(stream)
+        if rows is not None:
+            refused[stream.sensor_id] = rows
+    return LoadedReplay(tuple(streams), refused)
 
 
 def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOptions(),
@@ -117,9 +129,7 @@ def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOption
         return [SerialSourceConfig(name=name or "serial", device=spec.device, baud=spec.baud,
                                    intake=intake)]
     if isinstance(spec, ReplaySpec):
-        loaded = load_replay(spec.path)
-        return [ReplaySourceConfig(name=name or "replay", streams=loaded.streams, speed=spec.speed,
-                                   segments=tuple(loaded.segments.items()))]
+        return [load_replay(spec.path).config(name or "replay", spec.speed)]
     if isinstance(spec, SlimeVrSpec):
         # SlimeVR trackers name their sensors by MAC (see acquisition.slimevr); wire ids do not apply
         return [SlimeVrSourceConfig(name=name or "slimevr", bind_address=spec.bind_address, port=spec.port)]
