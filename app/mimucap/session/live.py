@@ -1,7 +1,7 @@
 """The live session the main window shows: sensor blocks in, skeleton, plots and files out (no Qt).
 
-:class:`LiveSession` is driven by the GUI's timers, in one thread: :meth:`LiveSession.step`
-takes whatever the source (a feed of :mod:`mimucap.session.feeds`) delivered since the last
+:class:`LiveSession` is driven by one clock, in one thread (the GUI's pump, a test's loop):
+:meth:`LiveSession.step` takes whatever the source (a feed of :mod:`mimucap.session.feeds`) delivered since the last
 call and runs it through the one processing path of :mod:`mimucap.core.pipeline`
 (:class:`~mimucap.core.pipeline.LivePipeline`): magnetometer calibration, orientation filter
 (``q_world_from_sensor``, world ENU, scalar first; the device's own when it fuses on board),
@@ -13,7 +13,10 @@ needed to compute the same numbers again (:mod:`mimucap.session.processing`).
 
 The session is a composition of parts with small interfaces: the *source* (``feed``: ``poll``,
 ``stats``, ``follow(instruction)``), the *pipeline* (``pipeline``), the *pose* (the newest
-pose, its figure and the joint-angle history) and the *recorder*. Magnetometer calibrations are
+pose, its figure and the joint-angle history), the *recorder* and the *status*
+(:class:`~mimucap.session.live_status.StatusPublisher`: what the panels show, at a steady rate).
+It tells what changed through its events (:class:`LiveSession`, napari style): widgets
+subscribe to them and never ask the session on a timer of their own. Magnetometer calibrations are
 data that persist: they are loaded from the calibration store for every sensor the source
 brings, and a calibration made in the wizard is saved there. The simulated suit's ground truth
 is kept beside the data for evaluation only (:meth:`LiveSession.truth_pose`, the recording's
@@ -63,6 +66,7 @@ from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
 from mimucap.session.figure import FigureBuilder, FigureGeometry, heading_rad
 from mimucap.session.instructions import Instruction
+from mimucap.session.live_status import StatusPublisher
 from mimucap.session.processing import recording_record
 from mimucap.session.recording import Recorder, RecordingResult
 from mimucap.session.ring_buffer import RingBuffer
@@ -171,12 +175,49 @@ class LiveSession:
             the source brings, saved when the wizard makes one); ``None`` keeps them in memory.
         settings: the processing path's settings (stored with every recording).
 
-    Events (``self.events``): ``blocks(list[SampleBlock])`` raw data as it arrives;
-    ``processed(list[ProcessedBlock])`` the same data with the pipeline's orientations;
-    ``frame(frame_id)`` a new pose; ``calibration()`` a calibration was applied;
-    ``recording(info_or_None)`` recording started/stopped; ``marker(t_s, label, recorded)``
-    a marker the user placed (session time; ``recorded``: the marker is in the recording, as
-    markers are while recording; the simulated subject's activity changes are not markers).
+    Events (``self.events``, :class:`~mimucap.session.events.EmitterGroup`), emitted in the
+    thread that calls :meth:`step` (rates for the GUI's pump at 62.5 Hz); times ``t_s`` are
+    session seconds:
+
+    * data, from every :meth:`step` that took samples in:
+
+      - ``blocks(list[SampleBlock])``: the raw blocks as they arrived;
+      - ``processed(list[ProcessedBlock])``: the same data with the pipeline's orientations;
+      - ``data(cursor_s)``: new samples (and angles) for the plots, up to :attr:`cursor_s`;
+      - ``frame(frame_id, geometry)``: a new pose, as :meth:`frame` gives it (at most one a
+        step; again, with a new ``frame_id``, after the display mode or the height changed);
+        its :class:`~mimucap.session.figure.FigureGeometry` is built only while someone listens;
+      - ``truth_frame(frame_id, geometry_or_None)``: after each ``frame`` while someone listens,
+        the simulator's true pose (:meth:`truth_frame`; evaluation only);
+      - ``sensors(sensor_ids)``: the tuple of known sensors grew (a worker source's sensors
+        appear with their first samples);
+
+    * state changes, when they happen:
+
+      - ``pose_source(text)``: what drives the figure (:attr:`pose_source`) changed;
+      - ``assignment(sensor_segments)``: a sensor was worn on another segment (a copy of
+        :attr:`sensor_segments`);
+      - ``calibration()``: a magnetometer or body calibration was applied or cleared;
+      - ``recording(info_or_None)``: recording started (:class:`RecordingInfo`) or stopped;
+      - ``recording_failed(text)``: the recording could not be written (a full disk...): why;
+        once per recording, which the caller should then end (:meth:`end_recording`);
+      - ``marker(t_s, label, recorded)``: a marker the user placed (``recorded``: it is in the
+        recording, as markers are while recording; the simulated subject's activity changes are
+        not markers);
+      - ``truth_available(bool)``: the source's truth became known (:attr:`has_truth`);
+
+    * the status, at :data:`~mimucap.session.live_status.STATUS_RATE_HZ` (4 Hz) and at once
+      after a change it shows (:meth:`publish_status` publishes it now):
+
+      - ``status(list[SensorRow])``: the sensor table (rates and drops over the last 2 s);
+      - ``checklist(list[CheckItem])``: the checklist before recording (not while recording);
+      - ``recording_progress(RecordingInfo)``: while recording (elapsed s, bytes, markers);
+      - ``source_problem(text)``: why the source may send nothing ("" : nothing known), when it
+        changed;
+      - ``refused(reasons, senders)``: packets refused from no known sensor (reason → count,
+        sender → count), when they changed;
+      - ``truth_errors(column → RMS deg)``: the running flexion error against the simulator's
+        truth over 5 s (sources with truth, while someone listens).
     """
 
     def __init__(self, feed, label: str = "", model_name: str = "ten_segment", height_m: float = 1.75,
@@ -187,7 +228,10 @@ class LiveSession:
         self.model = skeleton.load_model(model_name)
         self.height_m = float(height_m)
         self.builder = FigureBuilder(self.model, self.height_m)
-        self.events = EmitterGroup("blocks", "processed", "frame", "calibration", "recording", "marker")
+        self.events = EmitterGroup("blocks", "processed", "data", "frame", "truth_frame", "sensors",
+                                   "pose_source", "assignment", "calibration", "recording", "marker",
+                                   "recording_failed", "truth_available", "status", "checklist", "recording_progress",
+                                   "source_problem", "refused", "truth_errors")
         self.pipeline = LivePipeline(self.model, settings)
         #: where the figure stands, from its feet's contact with the floor
         self._root_tracker = RootTracker(self.model, self.height_m)
@@ -225,11 +269,15 @@ class LiveSession:
         #: the simulator's true joint angles (deg) of the last seconds, for the accuracy check
         self._truth_angles = {j: RingBuffer(int(MAX_WINDOW_S * BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
         self._recording_markers = 0
+        self._failure_told = False
         self.last_recording: RecordingResult | None = None
         self.samples_received = 0
         self.last_arrival_s = float("nan")   #: host time the newest block arrived (latency bench)
         self.started = False
+        self._known_ids: tuple[str, ...] = ()
         self._load_stored_calibrations(self.feed.sensor_ids)
+        #: the status part: publishes what the panels show (see :mod:`mimucap.session.live_status`)
+        self.status = StatusPublisher(self, self.events, clock)
 
     def _group_columns(self) -> dict[str, tuple[str, str, str]]:
         columns = skeleton.joint_angle_columns(self.model)
@@ -328,6 +376,7 @@ class LiveSession:
         self.builder.display_alpha(mode, rotation.identity(), 0.0)  # validates
         self.display_mode = mode
         self._geometry = None
+        self._emit_frame()
 
     def set_height(self, height_m: float) -> None:
         """The subject's height (m): rescales the figure."""
@@ -336,6 +385,7 @@ class LiveSession:
         self.builder = builder
         self._root_tracker = RootTracker(self.model, self.height_m)
         self._geometry = None
+        self._emit_frame()
 
     def assign_sensor(self, sensor_id: str, segment: str | None) -> None:
         """Wear ``sensor_id`` on ``segment`` (``None`` unassigns); a segment holds one sensor."""
@@ -344,10 +394,14 @@ class LiveSession:
         for other, seg in list(self.sensor_segments.items()):
             if seg == segment and other != sensor_id:
                 del self.sensor_segments[other]
+        before = dict(self.sensor_segments)
         if segment is None:
             self.sensor_segments.pop(sensor_id, None)
         else:
             self.sensor_segments[sensor_id] = segment
+        if self.sensor_segments != before:
+            self.status.mark_due()
+            self.events.assignment.emit(dict(self.sensor_segments))
 
     # -- calibrations ------------------------------------------------------------------------
     @property
@@ -382,6 +436,7 @@ class LiveSession:
         self.calibration_problems.pop(calibration.sensor_id, None)
         if save and self.calibration_store is not None:
             self.calibration_store.save(calibration)
+        self.status.mark_due()
         self.events.calibration.emit()
 
     def apply_body_calibration(self, calibration: bodycal.BodyCalibration) -> None:
@@ -396,6 +451,7 @@ class LiveSession:
         self.pipeline.forget_poses()
         self._root_tracker.reset()
         self._geometry = None
+        self.status.mark_due()
         self.events.calibration.emit()
 
     def clear_body_calibration(self) -> None:
@@ -404,6 +460,7 @@ class LiveSession:
         self.pipeline.forget_poses()
         self._root_tracker.reset()
         self._geometry = None
+        self.status.mark_due()
         self.events.calibration.emit()
 
     # -- driving -----------------------------------------------------------------------------
@@ -415,8 +472,12 @@ class LiveSession:
         blocks = self.feed.poll()
         if self._recorder is not None:
             self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
+            if self._recorder.failure and not self._failure_told:
+                self._failure_told = True
+                self.events.recording_failed.emit(self._recorder.failure)
         self._note_truth()
         if not blocks:
+            self.status.tick()
             return 0
         self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
         self.events.blocks.emit(blocks)
@@ -424,6 +485,7 @@ class LiveSession:
         new_sensors = [b.sensor_id for b in merged if b.sensor_id not in self._sensors]
         if new_sensors:
             self._load_stored_calibrations(new_sensors)
+            self.status.mark_due()
         times = [block.host_time_s - self.t0_host_s for block in merged]
         outputs = self.pipeline.feed([SensorBlock(b.sensor_id, t, b.acc, b.gyr, b.mag_uT, b.q_world_from_sensor)
                                       for b, t in zip(merged, times)])
@@ -436,8 +498,23 @@ class LiveSession:
             processed.append(ProcessedBlock(block.sensor_id, t, block, orientation))
         self.events.processed.emit(processed)
         self.samples_received += count
+        known = self.sensor_ids
+        if known != self._known_ids:
+            self._known_ids = known
+            self.events.sensors.emit(known)
         self._update_pose()
+        self.events.data.emit(self.cursor_s)
+        self.status.tick()
         return count
+
+    def publish_status(self) -> None:
+        """Emit the status events now, each of them (``status``, ``checklist`` or
+        ``recording_progress``, ``source_problem``, ``refused``, ``truth_errors``) and
+        ``pose_source``: for widgets that have just subscribed; :meth:`step` publishes the
+        status at its own rate."""
+        self.status.forget()
+        self.events.pose_source.emit(self._pose_source)
+        self.status.publish()
 
     def _buffer(self, block: SampleBlock, t: np.ndarray, mag_calibrated: np.ndarray | None) -> int:
         """Keep ``block`` for the plots (the calibrated field when there is one)."""
@@ -460,10 +537,10 @@ class LiveSession:
         pose = self.pipeline.pose(self.body_calibration, self.sensor_segments)
         if pose is None:
             if self._q_world_from_segment is None or not self._assigned_sensors_seen():
-                self._pose_source = POSE_UNASSIGNED if self._sensors else POSE_NONE
+                self._set_pose_source(POSE_UNASSIGNED if self._sensors else POSE_NONE)
             return
         t_pose, q_segments = pose
-        self._pose_source = POSE_BODY_CALIBRATION if self.body_calibration is not None else POSE_SENSOR_AXES
+        self._set_pose_source(POSE_BODY_CALIBRATION if self.body_calibration is not None else POSE_SENSOR_AXES)
         missing = [name for name in self.model.segment_names if name not in q_segments]
         if missing:
             raise ValueError(f"the {self.pose_source} pose lacks segments of the {self.model.name} model: "
@@ -473,12 +550,29 @@ class LiveSession:
         self._q_stacked = q_stacked
         self._root_m = self._root_tracker.update(q_stacked)
         self._t_s = t_pose
-        self._frame_id += 1
-        self._geometry = None
         self._pending_angles.append((t_pose, q_stacked))
         if len(self._pending_angles) > self._angle_t.capacity:
             del self._pending_angles[: len(self._pending_angles) - self._angle_t.capacity]
-        self.events.frame.emit(self._frame_id)
+        self._emit_frame()
+
+    def _set_pose_source(self, source: str) -> None:
+        if source != self._pose_source:
+            self._pose_source = source
+            self.events.pose_source.emit(source)
+
+    def _emit_frame(self) -> None:
+        """Emit ``frame`` (and ``truth_frame``) with the newest pose's figure, built only when
+        someone listens (a new ``frame_id`` for a new pose, display mode or height)."""
+        if self._q_world_from_segment is None:
+            return
+        self._frame_id += 1
+        self._geometry = None
+        self._truth_geometry = None
+        if self.events.frame.callbacks:
+            self.events.frame.emit(*self.frame())
+        if self.events.truth_frame.callbacks:
+            truth = self.truth_frame()
+            self.events.truth_frame.emit(*(truth if truth is not None else (None, None)))
 
     def _assigned_sensors_seen(self) -> bool:
         segments = (self.body_calibration.sensors.values() if self.body_calibration is not None
@@ -505,7 +599,10 @@ class LiveSession:
         truth = getattr(self.feed, "last_truth", None)
         if truth is None or truth is self._journaled_truth:
             return
+        first = self._truth_pose is None
         self._truth_pose = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
+        if first:
+            self.events.truth_available.emit(True)
         t = self.feed.host_time_of(truth.t_s) - self.t0_host_s
         for joint, columns in self._joint_columns.items():
             if all(c in truth.joint_angles_deg for c in columns):
@@ -702,8 +799,10 @@ class LiveSession:
         recorder = Recorder(path, metadata)
         recorder.start(start_host_s)
         self._recorder = recorder
+        self._failure_told = False
         self._journaled_truth = None
         self._recording_markers = 0
+        self.status.mark_due()
         self.events.recording.emit(self.recording_info())
 
     def add_marker(self, label: str) -> float:
@@ -744,6 +843,7 @@ class LiveSession:
                   for sid, s in self.feed.stats().items()}
         recorder.close(status)
         pending = RecordingToSave(recorder=recorder)
+        self.status.mark_due()
         self.events.recording.emit(None)
         return pending
 
