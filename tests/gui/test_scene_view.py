@@ -246,12 +246,15 @@ def test_the_view_draws_the_frames_its_model_emits_and_nothing_without_them(qtbo
     frames = view.frames_rendered
     qtbot.wait(150)
     assert view.frames_rendered == frames  # no event, no picture
-    for frame_id in range(5):  # one pipeline step's burst: one picture, of the newest frame
+    fake.emit(0, geometry)  # drawn at once: a frame is the last event of a change
+    assert view.frames_rendered == frames + 1 and view.shown_frame_id == 0
+    for frame_id in range(1, 5):  # within the frame interval: one picture, of the newest frame
         fake.emit(frame_id, geometry)
-    qtbot.waitUntil(lambda: view.shown_frame_id == 4, timeout=1000)
     assert view.frames_rendered == frames + 1
+    qtbot.waitUntil(lambda: view.shown_frame_id == 4, timeout=1000)
+    assert view.frames_rendered == frames + 2
     fake.events.status.emit([SimpleNamespace(segment="pelvis", state="stale")])
-    qtbot.waitUntil(lambda: view.frames_rendered == frames + 2, timeout=1000)  # the tint changed
+    qtbot.waitUntil(lambda: view.frames_rendered == frames + 3, timeout=1000)  # the tint changed
     assert fake.frames_asked == 1
 
 

@@ -12,7 +12,7 @@ data, or the play head moved) and, when the choices can change, ``sensors`` and
 
 The plots subscribe to the source's events (:meth:`LivePlots.set_source`) and never ask it on a
 timer: a ``data`` event marks them out of date and asks for one redraw, which a single-shot
-timer runs at most :data:`REFRESH_HZ` times a second (the events of the 62.5 Hz pipeline in
+timer runs about :data:`REFRESH_HZ` times a second (the events of the 62.5 Hz pipeline in
 between are coalesced; a screen shows no more). Curves are created once per plot and only get
 ``setData``; nothing is plotted while paused (the events are ignored; the newest window is drawn
 on resuming).
@@ -25,7 +25,6 @@ pyqtgraph's auto-range, which re-laid out every axis on every refresh (``bench/b
 
 from __future__ import annotations
 
-import math
 import time
 
 import numpy as np
@@ -34,10 +33,14 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.clinical_names import axis_short_name, joint_name, segment_name, sensor_name, split_angle_column
 from mimucap.gui.scrolling import scrolling
+from mimucap.gui.throttle import RepaintThrottle
 from mimucap.session.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
 
-#: Most plot refreshes a second (Hz).
+#: Plot refreshes a second (Hz): at most this, less :data:`REFRESH_SLACK`.
 REFRESH_HZ = 30.0
+#: Share of the refresh interval the schedule may run ahead (:class:`~mimucap.gui.throttle.RepaintThrottle`):
+#: the data events arrive on the 16 ms pump and Qt's timers round to milliseconds.
+REFRESH_SLACK = 0.1
 #: Selectable scrolling window lengths (s).
 WINDOW_CHOICES_S = (5.0, 10.0, 20.0, 30.0)
 #: At most this many joints are plotted at once (one plot each).
@@ -220,7 +223,7 @@ class LivePlots(QtWidgets.QWidget):
         self._redraw_timer.setSingleShot(True)
         self._redraw_timer.setTimerType(QtCore.Qt.PreciseTimer)
         self._redraw_timer.timeout.connect(self._redraw)
-        self._last_refresh_s = float("-inf")
+        self._throttle = RepaintThrottle(REFRESH_HZ, REFRESH_SLACK)
         self.refresh_count = 0
         self._titled_sensor = ""
         self._origin = 0.0  # source time at x = 0 in the last refresh (s)
@@ -430,11 +433,10 @@ class LivePlots(QtWidgets.QWidget):
         """New data (or a moved play head): one redraw soon, none while paused."""
         if self.paused or self.source is None or self._redraw_timer.isActive():
             return
-        wait_s = self._last_refresh_s + 1.0 / REFRESH_HZ - time.perf_counter()
-        self._redraw_timer.start(int(math.ceil(1000.0 * wait_s)) if wait_s > 0 else 0)
+        self._redraw_timer.start(RepaintThrottle.timer_ms(self._throttle.wait_s(time.perf_counter())))
 
     def _redraw(self) -> None:
-        self._last_refresh_s = time.perf_counter()
+        self._throttle.painted(time.perf_counter())
         self.refresh()
 
     def update_choices(self) -> None:

@@ -184,11 +184,13 @@ class LiveSession:
       - ``blocks(list[SampleBlock])``: the raw blocks as they arrived;
       - ``processed(list[ProcessedBlock])``: the same data with the pipeline's orientations;
       - ``data(cursor_s)``: new samples (and angles) for the plots, up to :attr:`cursor_s`;
+      - ``truth_frame(frame_id, geometry_or_None)``: with each new pose while someone listens,
+        the simulator's true pose (:meth:`truth_frame`; evaluation only), just before ``frame``;
       - ``frame(frame_id, geometry)``: a new pose, as :meth:`frame` gives it (at most one a
-        step; again, with a new ``frame_id``, after the display mode or the height changed);
-        its :class:`~mimucap.session.figure.FigureGeometry` is built only while someone listens;
-      - ``truth_frame(frame_id, geometry_or_None)``: after each ``frame`` while someone listens,
-        the simulator's true pose (:meth:`truth_frame`; evaluation only);
+        step, the step's last event, so that a view can draw all the step changed in one
+        picture at once; again, with a new ``frame_id``, after the display mode or the height
+        changed); its :class:`~mimucap.session.figure.FigureGeometry` is built only while
+        someone listens;
       - ``sensors(sensor_ids)``: the tuple of known sensors grew (a worker source's sensors
         appear with their first samples);
 
@@ -502,9 +504,11 @@ class LiveSession:
         if known != self._known_ids:
             self._known_ids = known
             self.events.sensors.emit(known)
-        self._update_pose()
+        posed = self._update_pose()
         self.events.data.emit(self.cursor_s)
         self.status.tick()
+        if posed:  # last: a view may draw everything this step changed in one picture at once
+            self._emit_frame()
         return count
 
     def publish_status(self) -> None:
@@ -533,12 +537,13 @@ class LiveSession:
             state.battery_pct = float(block.battery_pct[-1])
         return n
 
-    def _update_pose(self) -> None:
+    def _update_pose(self) -> bool:
+        """Take the pipeline's newest pose; returns whether there is a new one."""
         pose = self.pipeline.pose(self.body_calibration, self.sensor_segments)
         if pose is None:
             if self._q_world_from_segment is None or not self._assigned_sensors_seen():
                 self._set_pose_source(POSE_UNASSIGNED if self._sensors else POSE_NONE)
-            return
+            return False
         t_pose, q_segments = pose
         self._set_pose_source(POSE_BODY_CALIBRATION if self.body_calibration is not None else POSE_SENSOR_AXES)
         missing = [name for name in self.model.segment_names if name not in q_segments]
@@ -553,7 +558,7 @@ class LiveSession:
         self._pending_angles.append((t_pose, q_stacked))
         if len(self._pending_angles) > self._angle_t.capacity:
             del self._pending_angles[: len(self._pending_angles) - self._angle_t.capacity]
-        self._emit_frame()
+        return True
 
     def _set_pose_source(self, source: str) -> None:
         if source != self._pose_source:
@@ -561,18 +566,18 @@ class LiveSession:
             self.events.pose_source.emit(source)
 
     def _emit_frame(self) -> None:
-        """Emit ``frame`` (and ``truth_frame``) with the newest pose's figure, built only when
+        """Emit ``truth_frame`` and then ``frame`` with the newest pose's figure, built only when
         someone listens (a new ``frame_id`` for a new pose, display mode or height)."""
         if self._q_world_from_segment is None:
             return
         self._frame_id += 1
         self._geometry = None
         self._truth_geometry = None
-        if self.events.frame.callbacks:
-            self.events.frame.emit(*self.frame())
         if self.events.truth_frame.callbacks:
             truth = self.truth_frame()
             self.events.truth_frame.emit(*(truth if truth is not None else (None, None)))
+        if self.events.frame.callbacks:
+            self.events.frame.emit(*self.frame())
 
     def _assigned_sensors_seen(self) -> bool:
         segments = (self.body_calibration.sensors.values() if self.body_calibration is not None

@@ -139,8 +139,9 @@ class ReviewPlayer:
     :meth:`advance` from the review's play clock, :meth:`set_display_mode`):
     ``data(cursor_s)`` the play head moved (s of the recording; the plots' windows end there);
     ``frame(frame_id, geometry)`` the pose shown changed (another pose instant or display mode;
-    built only while someone listens); ``truth_frame(frame_id, geometry_or_None)`` after each
-    ``frame`` while someone listens, the simulator's true pose there (evaluation only).
+    built only while someone listens; the last event of a move); ``truth_frame(frame_id,
+    geometry_or_None)`` just before each ``frame`` while someone listens, the simulator's true
+    pose there (evaluation only).
     """
 
     def __init__(self, data: ReviewData) -> None:
@@ -187,11 +188,11 @@ class ReviewPlayer:
         if frame_id == self._shown_frame_id:
             return
         self._shown_frame_id = frame_id
-        if self.events.frame.callbacks:
-            self.events.frame.emit(*self.frame())
         if self.events.truth_frame.callbacks:
             truth = self.truth_frame()
             self.events.truth_frame.emit(*(truth if truth is not None else (None, None)))
+        if self.events.frame.callbacks:
+            self.events.frame.emit(*self.frame())
 
     def publish(self) -> None:
         """Emit the events for the play head where it is (for listeners that just subscribed)."""

@@ -5,10 +5,12 @@ interactor; no double inheritance). It subscribes to a model's events (:meth:`Sc
 the live session or the review player, ``frame(frame_id, geometry)`` with the newest
 :class:`~mimucap.session.figure.FigureGeometry`, ``truth_frame`` for the ghost figure,
 ``status`` for the segments' tints) and keeps no copy of the model's data. Whatever changes
-(a frame, a tint, the camera, the hint) marks the picture dirty and asks for one render, which a
-single-shot timer runs when the event loop is free again: the events of one pipeline step give
-one picture, at most one per frame interval (:attr:`SceneView.target_fps`, less
-:data:`FRAME_INTERVAL_SLACK` for the timers' jitter); frames that arrive faster are coalesced.
+(a tint, the camera, the hint) marks the picture dirty and asks for one render when the event
+loop is free again; a new frame (a model's last event of a step) is drawn at once with all that
+came before it: the events of one pipeline step give one picture. At most one picture is drawn
+per frame interval (:attr:`SceneView.target_fps`, less :data:`FRAME_INTERVAL_SLACK` for the
+timers' jitter): what arrives sooner waits for a single-shot timer, and frames that arrive
+faster are coalesced.
 Mouse orbit/zoom is VTK's trackball camera style. The camera follows the subject along the
 floor in every preset (:mod:`mimucap.session.camera`). After :meth:`SceneView.shutdown`
 (called on close) nothing renders again.
@@ -16,7 +18,6 @@ floor in every preset (:mod:`mimucap.session.camera`). After :meth:`SceneView.sh
 
 from __future__ import annotations
 
-import math
 import textwrap
 import time
 from collections.abc import Mapping
@@ -28,6 +29,7 @@ from vtkmodules.vtkRenderingCore import vtkRenderer, vtkTextActor
 
 from mimucap.gui.scene.environment import Stage, scene_renderer
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
+from mimucap.gui.throttle import RepaintThrottle
 from mimucap.gui.vtk_widget import VtkWidget
 from mimucap.session.camera import CAMERA_PRESETS, camera_preset, follow_shift
 from mimucap.session.figure import FigureBuilder, FigureGeometry, plain_world_matrix
@@ -41,6 +43,8 @@ HINT_FONT_SIZE, HINT_LINE_CHARACTERS = 15, 52
 #: clock (62.5 Hz) and Qt's millisecond timers jitter around a 60 Hz interval, and holding a
 #: frame back for a fraction of a millisecond would add a whole interval of delay now and then.
 FRAME_INTERVAL_SLACK = 0.1
+#: The event a view posts itself to render when the event loop is free.
+_RENDER_EVENT = QtCore.QEvent.Type(QtCore.QEvent.registerEventType())
 
 
 def world_to_display(renderer: vtkRenderer, points: np.ndarray) -> np.ndarray:
@@ -139,10 +143,12 @@ class SceneView(QtWidgets.QWidget):
         self.frames_rendered = 0
         self.shown_frame_id: object = None
         self.render_times: list[float] = []  # perf_counter() of recent frames shown (bounded)
-        self._last_render_s = float("-inf")
+        self._throttle = RepaintThrottle(self.target_fps, FRAME_INTERVAL_SLACK)
 
-        # One render when the event loop is free again, no sooner than a frame interval after
-        # the last one: what changed meanwhile is drawn in one picture.
+        # One render when the event loop is free again (a posted event of high priority: before
+        # the plots' repaints queued meanwhile), or, within a frame interval of the last one,
+        # when the interval is over (a timer): what changed meanwhile is drawn in one picture.
+        self._render_posted = False
         self._render_timer = QtCore.QTimer(self)
         self._render_timer.setSingleShot(True)
         self._render_timer.setTimerType(QtCore.Qt.PreciseTimer)
@@ -223,10 +229,15 @@ class SceneView(QtWidgets.QWidget):
             self.show_ghost(*(truth if truth is not None else (None, None)))
 
     def show_frame(self, frame_id: object, geometry: FigureGeometry) -> None:
-        """Show the figure's pose ``geometry`` (drawn with the next render; a frame that arrives
-        before it replaces this one)."""
+        """Show the figure's pose ``geometry``: drawn at once, with whatever else arrived since the
+        last picture, when a frame interval has passed since it (a model emits ``frame`` last
+        among the events of a change, which keeps the time from a sample to the screen short);
+        else when the interval is over, replaced by any frame that arrives meanwhile."""
         self._pending_frame = (frame_id, geometry)
-        self._schedule()
+        if self._wait_s() > 0:
+            self._schedule()
+        else:
+            self.render_pending()
 
     def show_ghost(self, frame_id: object, geometry: FigureGeometry | None) -> None:
         """Show the ghost figure at ``geometry`` (``None`` hides it), with the next render."""
@@ -244,11 +255,27 @@ class SceneView(QtWidgets.QWidget):
 
     def _schedule(self) -> None:
         """Ask for one render when the event loop is free, a frame interval after the last one."""
-        if not self._alive or not self._running or self._render_timer.isActive():
+        if not self._alive or not self._running or self._render_posted or self._render_timer.isActive():
             return
-        interval_s = (1.0 - FRAME_INTERVAL_SLACK) / self.target_fps
-        wait_s = self._last_render_s + interval_s - time.perf_counter()
-        self._render_timer.start(int(math.ceil(1000.0 * wait_s)) if wait_s > 0 else 0)
+        wait_s = self._wait_s()
+        if wait_s > 0:
+            self._render_timer.start(RepaintThrottle.timer_ms(wait_s))
+        else:
+            self._render_posted = True
+            QtCore.QCoreApplication.postEvent(self, QtCore.QEvent(_RENDER_EVENT), QtCore.Qt.HighEventPriority)
+
+    def _wait_s(self) -> float:
+        """How long (s) until the next picture is due (≤ 0: now)."""
+        if self._throttle.rate_hz != self.target_fps:
+            self._throttle = RepaintThrottle(self.target_fps, FRAME_INTERVAL_SLACK)
+        return self._throttle.wait_s(time.perf_counter())
+
+    def customEvent(self, event: QtCore.QEvent) -> None:  # noqa: N802 (Qt API)
+        if event.type() == _RENDER_EVENT:
+            self._render_posted = False
+            self.render_pending()
+        else:
+            super().customEvent(event)
 
     @property
     def camera_preset(self) -> str:
@@ -409,11 +436,13 @@ class SceneView(QtWidgets.QWidget):
         if not self._alive or not self.isVisible():
             return
         self._dirty = False
+        # the schedule counts from a render's start: a slow frame (a software rasteriser) must
+        # not lengthen the next interval by its own duration
+        self._throttle.painted(time.perf_counter())
         self.vtk_widget.render()
         self.frames_rendered += 1
         self.shown_frame_id = self._last_frame_id
         now = time.perf_counter()
-        self._last_render_s = now
         self.render_times.append(now)
         if len(self.render_times) > 600:
             del self.render_times[:300]
