@@ -12,9 +12,12 @@ one batch when the plots ask (:meth:`LiveSession.joint_series`), and the recorde
 needed to compute the same numbers again (:mod:`mimucap.session.processing`).
 
 The session is a composition of parts with small interfaces: the *source* (``feed``: ``poll``,
-``stats``, ``follow(instruction)``), the *pipeline* (``pipeline``), the *pose* (the newest
-pose, its figure and the joint-angle history), the *recorder* and the *status*
-(:class:`~mimucap.session.live_status.StatusPublisher`: what the panels show, at a steady rate).
+``stats``, ``follow(instruction)``), the *pipeline* (``pipeline``,
+:class:`~mimucap.core.pipeline.LivePipeline`), the *pose* (``pose``,
+:class:`~mimucap.session.live_pose.LivePose`: the newest pose, where the figure stands, its
+picture and the joint-angle history), the *recorder* (:class:`~mimucap.session.recording.Recorder`,
+while recording) and the *status* (``status``,
+:class:`~mimucap.session.live_status.StatusPublisher`: what the panels show, at a steady rate).
 It tells what changed through its events (:class:`LiveSession`, napari style): widgets
 subscribe to them and never ask the session on a timer of their own. Magnetometer calibrations are
 data that persist: they are loaded from the calibration store for every sensor the source
@@ -53,9 +56,8 @@ import numpy as np
 
 from mimucap.acquisition.samples import SampleBlock, concatenate_blocks
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
-from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core import bodycal, skeleton
 from mimucap.core.fusion import FLAG_NAMES
-from mimucap.core.locomotion import RootTracker
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
     POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorBlock, SensorOrientations,
@@ -66,6 +68,7 @@ from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
 from mimucap.session.figure import FigureBuilder, FigureGeometry, heading_rad
 from mimucap.session.instructions import Instruction
+from mimucap.session.live_pose import LivePose, joint_column_groups
 from mimucap.session.live_status import StatusPublisher
 from mimucap.session.processing import recording_record
 from mimucap.session.recording import Recorder, RecordingResult
@@ -228,41 +231,26 @@ class LiveSession:
         self.feed = feed
         self.label = label or getattr(feed, "name", "source")
         self.model = skeleton.load_model(model_name)
-        self.height_m = float(height_m)
-        self.builder = FigureBuilder(self.model, self.height_m)
+        #: the pose part: the newest pose, its figure, the joint-angle history
+        self.pose = LivePose(self.model, height_m, MAX_WINDOW_S, ANGLE_BUFFER_RATE_HZ)
         self.events = EmitterGroup("blocks", "processed", "data", "frame", "truth_frame", "sensors",
                                    "pose_source", "assignment", "calibration", "recording", "marker",
                                    "recording_failed", "truth_available", "status", "checklist", "recording_progress",
                                    "source_problem", "refused", "truth_errors")
         self.pipeline = LivePipeline(self.model, settings)
-        #: where the figure stands, from its feet's contact with the floor
-        self._root_tracker = RootTracker(self.model, self.height_m)
         self.calibration_store = calibration_store
         #: sensor → why its stored magnetometer calibration could not be loaded
         self.calibration_problems: dict[str, str] = {}
         self._clock = clock
         self.t0_host_s: float | None = None
-        self.display_mode = "world"
         #: sensor id → segment, as the source names it (a replayed recording's placement, the
         #: simulated suit's labels); the user's assignment changes it
         self.sensor_segments: dict[str, str] = dict(feed.sensor_segments())
         self.body_calibration: bodycal.BodyCalibration | None = None
         self._capacity = int(MAX_WINDOW_S * BUFFER_RATE_HZ)
         self._sensors: dict[str, _SensorState] = {}
-        self._joint_columns = self._group_columns()
-        #: joint → its row in :func:`skeleton.joint_angles_deg_stacked` output (model joint order)
-        self._joint_row = {joint: self.model.joint_names.index(joint) for joint in self._joint_columns}
-        self._angles = {j: RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
-        self._angle_t = RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ))
-        #: poses since the last joint-angle update: (t_s, (S, 4) orientations in model order)
-        self._pending_angles: list[tuple[float, np.ndarray]] = []
-        self._q_world_from_segment: dict[str, np.ndarray] | None = None
-        self._q_stacked: np.ndarray | None = None   # the same (S, 4), segments in model order
-        self._root_m: np.ndarray | None = None
+        self._joint_columns = joint_column_groups(self.model)
         self._pose_source = POSE_NONE
-        self._t_s = float("nan")
-        self._frame_id = 0
-        self._geometry: tuple[object, FigureGeometry] | None = None
         self._recorder: Recorder | None = None
         self._journaled_truth: SuitTruth | None = None   # the simulator truth block last recorded
         #: newest pose of the simulator's truth (segment → (4,)), for evaluation only
@@ -280,13 +268,6 @@ class LiveSession:
         self._load_stored_calibrations(self.feed.sensor_ids)
         #: the status part: publishes what the panels show (see :mod:`mimucap.session.live_status`)
         self.status = StatusPublisher(self, self.events, clock)
-
-    def _group_columns(self) -> dict[str, tuple[str, str, str]]:
-        columns = skeleton.joint_angle_columns(self.model)
-        grouped: dict[str, list[str]] = {}
-        for joint in self.model.joint_names:
-            grouped[joint] = [c for c in columns if c.startswith(joint + "_")][:3]
-        return {j: tuple(c) for j, c in grouped.items() if len(c) == 3}
 
     # -- source ----------------------------------------------------------------------------
     @property
@@ -335,7 +316,7 @@ class LiveSession:
     @property
     def time_s(self) -> float:
         """Session time (s) of the newest pose (NaN before the first)."""
-        return self._t_s
+        return self.pose.time_s
 
     @property
     def cursor_s(self) -> float:
@@ -344,20 +325,34 @@ class LiveSession:
         plots still scroll with the raw data. NaN before any data."""
         if self._pose_source in (POSE_NONE, POSE_UNASSIGNED):
             return self._newest_time()
-        return self._t_s
+        return self.pose.time_s
 
     @property
     def q_world_from_segment(self) -> dict[str, np.ndarray] | None:
         """Newest segment orientations, segment → ``(4,)`` (world ENU, scalar first)."""
-        return self._q_world_from_segment
+        return self.pose.q_world_from_segment
 
     @property
     def joint_names(self) -> tuple[str, ...]:
-        return tuple(self._joint_columns)
+        return self.pose.joint_names
 
     def joint_columns(self, joint: str) -> tuple[str, str, str]:
         """The three angle column names of ``joint`` (meaning and ``_deg`` unit in the name)."""
-        return self._joint_columns[joint]
+        return self.pose.joint_columns(joint)
+
+    @property
+    def height_m(self) -> float:
+        """The subject's height (m)."""
+        return self.pose.height_m
+
+    @property
+    def builder(self) -> FigureBuilder:
+        """What makes the figure of a pose (the model at the subject's height)."""
+        return self.pose.builder
+
+    @property
+    def display_mode(self) -> str:
+        return self.pose.display_mode
 
     def latest_orientations(self) -> dict[str, np.ndarray]:
         """Sensor id → newest ``q_world_from_sensor`` (4,) (sensors with an estimate only)."""
@@ -375,18 +370,12 @@ class LiveSession:
 
     def set_display_mode(self, mode: str) -> None:
         """``"world"`` or ``"body"`` (see :mod:`mimucap.session.figure`)."""
-        self.builder.display_alpha(mode, rotation.identity(), 0.0)  # validates
-        self.display_mode = mode
-        self._geometry = None
+        self.pose.set_display_mode(mode)
         self._emit_frame()
 
     def set_height(self, height_m: float) -> None:
         """The subject's height (m): rescales the figure."""
-        builder = FigureBuilder(self.model, float(height_m))  # validates
-        self.height_m = float(height_m)
-        self.builder = builder
-        self._root_tracker = RootTracker(self.model, self.height_m)
-        self._geometry = None
+        self.pose.set_height(height_m)
         self._emit_frame()
 
     def assign_sensor(self, sensor_id: str, segment: str | None) -> None:
@@ -451,8 +440,7 @@ class LiveSession:
         for segment, sensor in calibration.sensors.items():
             self.assign_sensor(sensor, segment)
         self.pipeline.forget_poses()
-        self._root_tracker.reset()
-        self._geometry = None
+        self.pose.reset()
         self.status.mark_due()
         self.events.calibration.emit()
 
@@ -460,8 +448,7 @@ class LiveSession:
         self._refuse_while_recording("clearing the body calibration")
         self.body_calibration = None
         self.pipeline.forget_poses()
-        self._root_tracker.reset()
-        self._geometry = None
+        self.pose.reset()
         self.status.mark_due()
         self.events.calibration.emit()
 
@@ -541,23 +528,15 @@ class LiveSession:
         """Take the pipeline's newest pose; returns whether there is a new one."""
         pose = self.pipeline.pose(self.body_calibration, self.sensor_segments)
         if pose is None:
-            if self._q_world_from_segment is None or not self._assigned_sensors_seen():
+            if self.pose.q_world_from_segment is None or not self._assigned_sensors_seen():
                 self._set_pose_source(POSE_UNASSIGNED if self._sensors else POSE_NONE)
             return False
         t_pose, q_segments = pose
         self._set_pose_source(POSE_BODY_CALIBRATION if self.body_calibration is not None else POSE_SENSOR_AXES)
-        missing = [name for name in self.model.segment_names if name not in q_segments]
-        if missing:
-            raise ValueError(f"the {self.pose_source} pose lacks segments of the {self.model.name} model: "
-                             f"{', '.join(missing)}; choose the model the source was made for")
-        q_stacked = np.array([q_segments[name] for name in self.model.segment_names], dtype=float)
-        self._q_world_from_segment = q_segments
-        self._q_stacked = q_stacked
-        self._root_m = self._root_tracker.update(q_stacked)
-        self._t_s = t_pose
-        self._pending_angles.append((t_pose, q_stacked))
-        if len(self._pending_angles) > self._angle_t.capacity:
-            del self._pending_angles[: len(self._pending_angles) - self._angle_t.capacity]
+        try:
+            self.pose.take(t_pose, q_segments)
+        except ValueError as error:
+            raise ValueError(f"{self.pose_source}: {error}") from None
         return True
 
     def _set_pose_source(self, source: str) -> None:
@@ -568,10 +547,8 @@ class LiveSession:
     def _emit_frame(self) -> None:
         """Emit ``truth_frame`` and then ``frame`` with the newest pose's figure, built only when
         someone listens (a new ``frame_id`` for a new pose, display mode or height)."""
-        if self._q_world_from_segment is None:
+        if self.pose.q_world_from_segment is None:
             return
-        self._frame_id += 1
-        self._geometry = None
         self._truth_geometry = None
         if self.events.truth_frame.callbacks:
             truth = self.truth_frame()
@@ -583,19 +560,6 @@ class LiveSession:
         segments = (self.body_calibration.sensors.values() if self.body_calibration is not None
                     else self.sensor_segments)
         return any(sid in self._sensors for sid in segments)
-
-    def _flush_angles(self) -> None:
-        """Joint angles of the poses since the last call, computed in one vectorised batch
-        (the plots ask at 30 Hz; poses arrive at up to 100 Hz)."""
-        if not self._pending_angles:
-            return
-        pending, self._pending_angles = self._pending_angles, []
-        t = np.array([p[0] for p in pending])
-        q = np.array([p[1] for p in pending]).transpose(1, 0, 2)  # (S, P, 4), segments in model order
-        angles = skeleton.joint_angles_deg_stacked(self.model, q)  # (J, P, 3) in column order
-        self._angle_t.append(t, t)
-        for joint, row in self._joint_row.items():
-            self._angles[joint].append(t, angles[row])
 
     # -- the simulator's truth (evaluation only) -----------------------------------------------
     def _note_truth(self) -> None:
@@ -668,39 +632,28 @@ class LiveSession:
     def frame(self) -> tuple[object, FigureGeometry] | None:
         """``(frame_id, geometry)`` of the newest pose, or None before the first one.
 
-        ``frame_id`` changes with every new pose and with the display mode.
+        ``frame_id`` changes with every new pose, display mode and height.
         """
-        if self._q_world_from_segment is None:
-            return None
-        frame_id = (self._frame_id, self.display_mode)
-        if self._geometry is None or self._geometry[0] != frame_id:
-            q = self._q_stacked
-            heading_ref = None
-            if self.body_calibration is not None:
-                heading_ref = bodycal_heading(self.body_calibration)
-            proximal, distal = skeleton.forward_kinematics_stacked(self.model, q, self.height_m, self._root_m)
-            geometry = self.builder.build_arrays(proximal, distal, q, mode=self.display_mode,
-                                                 heading_ref_rad=heading_ref)
-            self._geometry = (frame_id, geometry)
-        return self._geometry
+        return self.pose.frame(self._heading_ref())
 
     def truth_frame(self) -> tuple[object, FigureGeometry] | None:
         """``(frame_id, geometry)`` of the simulator's true pose, standing where the estimate
         stands (the ghost figure of the on-screen accuracy check); ``None`` for a source without
         truth or before the first estimated pose. Evaluation only: never the figure itself."""
         truth = self._truth_pose
-        if truth is None or self._q_world_from_segment is None:
+        if truth is None:
             return None
-        if any(name not in truth for name in self.model.segment_names):
-            return None
-        frame_id = ("truth", self._frame_id, self.display_mode)
+        frame_id = ("truth", self.pose.frame_id, self.pose.display_mode)
         if self._truth_geometry is None or self._truth_geometry[0] != frame_id:
-            q = np.array([truth[name] for name in self.model.segment_names], dtype=float)
-            heading_ref = None if self.body_calibration is None else bodycal_heading(self.body_calibration)
-            proximal, distal = skeleton.forward_kinematics_stacked(self.model, q, self.height_m, self._root_m)
-            geometry = self.builder.build_arrays(proximal, distal, q, mode=self.display_mode, heading_ref_rad=heading_ref)
+            geometry = self.pose.figure_of(truth, self._heading_ref())
+            if geometry is None:
+                return None
             self._truth_geometry = (frame_id, geometry)
         return self._truth_geometry
+
+    def _heading_ref(self) -> float | None:
+        """The heading the body display mode turns to face the camera: the N-pose's."""
+        return None if self.body_calibration is None else bodycal_heading(self.body_calibration)
 
     # -- views for the panel and the plots -----------------------------------------------------
     def segment_states(self) -> dict[str, str]:
@@ -763,11 +716,7 @@ class LiveSession:
     def joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Last ``window_s`` seconds of ``joint``'s angles: ``t_s`` (N,), ``angles_deg`` (N,3)
         in the order of :meth:`joint_columns`."""
-        self._flush_angles()
-        buffer = self._angles[joint]
-        if not len(buffer):
-            return np.zeros(0), np.zeros((0, 3))
-        return buffer.since(buffer.latest()[0] - window_s)
+        return self.pose.joint_series(joint, window_s)
 
     # -- recording ---------------------------------------------------------------------------
     @property
