@@ -94,3 +94,27 @@ def test_changing_the_source_or_closing_leaves_no_subscription_behind(qtbot):
     qtbot.waitUntil(lambda: window.scene_view.frames_rendered > frames + 2, timeout=15000)
     window.close()
     assert _subscribed(second) == {}
+
+
+def test_the_review_follows_its_player_and_lets_it_go(qtbot, calibrated_walk):
+    from mimucap.gui.review_window import ReviewWindow
+
+    review = ReviewWindow(calibrated_walk)
+    qtbot.addWidget(review)
+    review.show()
+    with qtbot.waitSignal(review.loaded, timeout=30000):
+        review.load()
+    player = review.player
+    assert _subscribed(player) == {"data": 1, "frame": 1}
+    qtbot.waitUntil(lambda: not review.plots._redraw_timer.isActive(), timeout=2000)
+    plots, frames = review.plots.refresh_count, review.scene_view.frames_rendered
+    qtbot.wait(200)  # paused: the play head stays, nothing is drawn
+    assert (review.plots.refresh_count, review.scene_view.frames_rendered) == (plots, frames)
+    review.seek(4.0)
+    qtbot.waitUntil(lambda: review.plots.refresh_count == plots + 1, timeout=2000)
+    assert review.plots.curve_data("acc", 0)[0][-1] == pytest.approx(4.0, abs=0.02)
+    qtbot.waitUntil(lambda: review.scene_view.frames_rendered > frames, timeout=2000)
+    review.action_truth.setChecked(True)
+    assert _subscribed(player) == {"data": 1, "frame": 1, "truth_frame": 1}
+    review.close()
+    assert _subscribed(player) == {}
