@@ -171,7 +171,10 @@ def run(window: MainWindow, prepare=None, excluded: set[int] = frozenset()) -> d
         if live.time_s == live.time_s:
             data_time.setdefault(frame_id, live.t0_host_s + live.time_s)
 
+    # Noted before the 3D view takes the frame (it may draw it at once, inside the event).
+    live.events.frame.disconnect(view.show_frame)
     live.events.frame.connect(note_its_time)
+    live.events.frame.connect(view.show_frame)
     _run_event_loop(0.5)
     processes = application_processes(set(excluded))
     x_server = x_server_pid()
