@@ -420,9 +420,13 @@ class LivePlots(QtWidgets.QWidget):
         names = source.events.names
         for name, callback in (("data", self._data_changed), ("sensors", self._choices_changed),
                                ("assignment", self._choices_changed)):
-            if name in names:
-                emitter = getattr(source.events, name)
-                emitter.connect(callback) if on else emitter.disconnect(callback)
+            if name not in names:
+                continue
+            emitter = getattr(source.events, name)
+            if on:
+                emitter.connect(callback)
+            else:
+                emitter.disconnect(callback)
 
     def _choices_changed(self, *_args) -> None:
         """The source's sensors or their segments changed: the selectors and titles follow."""
