@@ -17,7 +17,8 @@ from mimucap.session.live_status import STATUS_RATE_HZ, StatusPublisher
 def _session(**config) -> tuple[LiveSession, list[float]]:
     now = [50.0]
     clock = lambda: now[0]  # noqa: E731
-    session = LiveSession(SimulatorFeed(SimulationConfig(scenario="walk", **config), clock=clock), clock=clock)
+    session = LiveSession(SimulatorFeed(SimulationConfig(scenario="walk", **config), clock=clock), clock=clock,
+                          status_clock=clock)
     return session, now
 
 

@@ -177,6 +177,8 @@ class LiveSession:
         calibration_store: where magnetometer calibrations are kept (loaded for every sensor
             the source brings, saved when the wizard makes one); ``None`` keeps them in memory.
         settings: the processing path's settings (stored with every recording).
+        status_clock: the clock (s) the status is published on: the wall's, since people read
+            it, even when the data runs on a faster simulated ``clock`` (a test's).
 
     Events (``self.events``, :class:`~mimucap.session.events.EmitterGroup`), emitted in the
     thread that calls :meth:`step` (rates for the GUI's pump at 62.5 Hz); times ``t_s`` are
@@ -211,8 +213,9 @@ class LiveSession:
         not markers);
       - ``truth_available(bool)``: the source's truth became known (:attr:`has_truth`);
 
-    * the status, at :data:`~mimucap.session.live_status.STATUS_RATE_HZ` (4 Hz) and at once
-      after a change it shows (:meth:`publish_status` publishes it now):
+    * the status, at :data:`~mimucap.session.live_status.STATUS_RATE_HZ` (4 Hz on
+      ``status_clock``) and at once after a change it shows (:meth:`publish_status` publishes it
+      now):
 
       - ``status(list[SensorRow])``: the sensor table (rates and drops over the last 2 s);
       - ``checklist(list[CheckItem])``: the checklist before recording (not while recording);
@@ -227,7 +230,8 @@ class LiveSession:
 
     def __init__(self, feed, label: str = "", model_name: str = "ten_segment", height_m: float = 1.75,
                  clock: Callable[[], float] = time.monotonic, calibration_store: CalibrationStore | None = None,
-                 settings: PipelineSettings = PipelineSettings()) -> None:
+                 settings: PipelineSettings = PipelineSettings(),
+                 status_clock: Callable[[], float] = time.monotonic) -> None:
         self.feed = feed
         self.label = label or getattr(feed, "name", "source")
         self.model = skeleton.load_model(model_name)
@@ -267,7 +271,7 @@ class LiveSession:
         self._known_ids: tuple[str, ...] = ()
         self._load_stored_calibrations(self.feed.sensor_ids)
         #: the status part: publishes what the panels show (see :mod:`mimucap.session.live_status`)
-        self.status = StatusPublisher(self, self.events, clock)
+        self.status = StatusPublisher(self, self.events, status_clock)
 
     # -- source ----------------------------------------------------------------------------
     @property

@@ -40,7 +40,7 @@ class StatusPublisher:
     Args:
         session: the :class:`~mimucap.session.live.LiveSession` (see the module doc).
         events: the session's events.
-        clock: monotonic clock (s), the session's.
+        clock: monotonic clock (s) of the publications (the wall's: people read the status).
         rate_hz: publications per second.
         truth_columns: the joint-angle columns of the running error against the simulator's
             truth (flexion: the accuracy check the status bar shows).
@@ -81,13 +81,15 @@ class StatusPublisher:
         self._last_s = self._clock() if now is None else now
         self._due = False
         session, events = self._session, self._events
-        rows = session.sensor_rows()
-        events.status.emit(rows)
         info = session.recording_info()
+        checklist = info is None and bool(events.checklist.callbacks)
+        if events.status.callbacks or checklist:  # the rows are the costly part: only when read
+            rows = session.sensor_rows()
+            events.status.emit(rows)
+            if checklist:
+                events.checklist.emit(recording_checklist(session, rows))
         if info is not None:
             events.recording_progress.emit(info)
-        elif events.checklist.callbacks:
-            events.checklist.emit(recording_checklist(session, rows))
         problem = session.source_problem
         if problem != self._problem:
             self._problem = problem
