@@ -40,7 +40,7 @@ from mimucap.session.plot_scaling import MAX_POINTS, SteadyRange, column_bounds,
 REFRESH_HZ = 30.0
 #: Share of the refresh interval the schedule may run ahead (:class:`~mimucap.gui.throttle.RepaintThrottle`):
 #: the data events arrive on the 16 ms pump and Qt's timers round to milliseconds.
-REFRESH_SLACK = 0.1
+REFRESH_SLACK = 0.05
 #: Selectable scrolling window lengths (s).
 WINDOW_CHOICES_S = (5.0, 10.0, 20.0, 30.0)
 #: At most this many joints are plotted at once (one plot each).
