@@ -167,13 +167,14 @@ def run(window: MainWindow, prepare=None, excluded: set[int] = frozenset()) -> d
         _run_event_loop(WARMUP_S)
     live = window.live
 
-    def frame_with_its_time():
-        frame = live.frame()
-        if frame is not None and live.time_s == live.time_s:
-            data_time.setdefault(frame[0], live.t0_host_s + live.time_s)
-        return frame
+    def note_its_time(frame_id, _geometry) -> None:
+        if live.time_s == live.time_s:
+            data_time.setdefault(frame_id, live.t0_host_s + live.time_s)
 
-    view.set_frame_provider(frame_with_its_time)
+    # Noted before the 3D view takes the frame (it may draw it at once, inside the event).
+    live.events.frame.disconnect(view.show_frame)
+    live.events.frame.connect(note_its_time)
+    live.events.frame.connect(view.show_frame)
     _run_event_loop(0.5)
     processes = application_processes(set(excluded))
     x_server = x_server_pid()

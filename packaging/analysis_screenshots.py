@@ -40,7 +40,9 @@ class _PipelineLive:
 
         from mimucap.core import bodycal
         from mimucap.core.simulate import SimulationConfig, SuitSimulator
+        from mimucap.session.events import EmitterGroup
 
+        self.events = EmitterGroup("frame", "calibration")  # driven by hand: wizard.tick() per pose
         self.np, self.bodycal = np, bodycal
         self.simulator = SuitSimulator(SimulationConfig(scenario="bodycal", n_sensors=10, errors="bno055", seed=6))
         self.model = self.simulator.model
@@ -95,7 +97,6 @@ def write_rom_wizard_screenshot(out_dir: Path) -> list[Path]:
     live = _PipelineLive()
     steps = (RomStep("shoulder_flexion", "right"), RomStep("knee_flexion", "left"))
     wizard = RomWizard(None, live, procedure=RomProcedure(steps, repeats=3))
-    wizard.timer.stop()
     wizard.show()
     wizard.start_button.click()
     while wizard.procedure.state != "step_done":

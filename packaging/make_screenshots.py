@@ -122,7 +122,7 @@ def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -
     _wait(app, lambda: time.monotonic() - start > 6.0, 10, "recording")
     window.plots.set_joints(["knee_r", "hip_r"])
     window.add_marker("turn")
-    window.refresh_panels()
+    window.live.publish_status()
     app.processEvents()
     written.append(window.save_screenshot(out_dir / "main-window.png"))
     _wait(app, lambda: time.monotonic() - start > 8.0, 10, "recording")

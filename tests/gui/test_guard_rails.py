@@ -29,7 +29,7 @@ def live_window(qtbot, tmp_path, monkeypatch):
     qtbot.waitExposed(window)
     monkeypatch.setattr(window, "recording_folder", lambda: tmp_path)
     qtbot.waitUntil(lambda: window.live.samples_received > 100, timeout=15000)
-    window.refresh_panels()
+    window.live.publish_status()
     yield window
     if window.live is not None and window.live.recording:
         window.toggle_recording()
@@ -109,7 +109,7 @@ def test_refused_packets_reach_the_sensor_panel(live_window, monkeypatch):
         found[first] = type(found[first])(**{**found[first].__dict__, "rejections": {"stale_sequence": 7}})
         return found
     monkeypatch.setattr(feed, "stats", stats)
-    window.refresh_panels()
+    window.live.publish_status()
     first = window.live.sensor_ids[0]
     panel = window.sensor_panel
     assert panel.cell_text(first, "Refused") == "7"
@@ -193,7 +193,7 @@ def test_packets_of_no_known_sensor_are_counted_in_the_status_bar(live_window, m
     assert not window.refused_status.isVisible()
     monkeypatch.setattr(window.live.feed, "refused_without_sensor",
                         lambda: ({"unknown_address": 340}, {"address 10.0.0.9": 340}), raising=False)
-    window.refresh_panels()
+    window.live.publish_status()
     label = window.refused_status
     assert label.isVisible() and label.text() == "340 packets refused from no known sensor"
     assert "340 × a sender this source does not accept" in label.toolTip()

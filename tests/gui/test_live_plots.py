@@ -1,13 +1,16 @@
-"""The live plots: what the curves show (time base, decimation), steady vertical ranges, and
-the selection of several joints."""
+"""The live plots: what the curves show (time base, decimation), steady vertical ranges, the
+selection of several joints, and the source's events that make them redraw (and nothing else)."""
 
 from __future__ import annotations
+
+import time
 
 import numpy as np
 import pytest
 
-from mimucap.gui.live_plots import MAX_JOINTS, LivePlots
+from mimucap.gui.live_plots import MAX_JOINTS, REFRESH_HZ, REFRESH_SLACK, LivePlots
 from mimucap.session import plot_scaling
+from mimucap.session.events import EmitterGroup
 
 
 class FakeSource:
@@ -19,6 +22,7 @@ class FakeSource:
         self.cursor_s = self.t[-1] if cursor_s is None else cursor_s
         self.sensor_ids = ("S01", "S02")
         self.joint_names = ("hip_r", "knee_r", "ankle_r", "elbow_l")
+        self.events = EmitterGroup("data", "sensors")
 
     def joint_columns(self, joint):
         return tuple(f"{joint}_{name}_deg" for name in ("flexion", "adduction", "rotation"))
@@ -228,3 +232,68 @@ def test_plots_name_sensors_joints_and_axes_clinically(plots):
     title = plots.title_text("joint:knee_r")
     assert "Right knee" in title and "internal rotation" in title and "_" not in title
     assert plots.plots["joint:knee_r"].getAxis("left").labelText == "°"
+
+
+def _settled(plots, qtbot) -> int:
+    """The plots' refresh count once the redraw they asked for is done."""
+    qtbot.waitUntil(lambda: not plots._redraw_timer.isActive(), timeout=1000)
+    return plots.refresh_count
+
+
+def test_the_plots_redraw_on_the_data_event_and_not_without_it(plots, qtbot):
+    base = _settled(plots, qtbot)  # the new source's window is drawn
+    assert base >= 1
+    source = plots.source
+    qtbot.wait(150)
+    assert plots.refresh_count == base  # nothing new, nothing drawn
+    source.cursor_s = 20.0
+    source.events.data.emit(source.cursor_s)
+    qtbot.waitUntil(lambda: plots.refresh_count == base + 1, timeout=1000)
+    assert plots.curve_data("acc", 0)[0][-1] == pytest.approx(20.0)
+
+
+def test_data_events_faster_than_the_screen_are_coalesced(plots, qtbot):
+    base = _settled(plots, qtbot)
+    source = plots.source
+    start = time.perf_counter()
+    while time.perf_counter() - start < 0.5:  # an event every 2 ms
+        source.events.data.emit(source.cursor_s)
+        qtbot.wait(2)
+    qtbot.wait(60)
+    drawn = plots.refresh_count - base
+    assert 5 <= drawn <= (time.perf_counter() - start) * REFRESH_HZ / (1.0 - REFRESH_SLACK) + 2, drawn
+
+
+def test_nothing_is_drawn_while_paused_and_the_newest_window_on_resuming(plots, qtbot):
+    base = _settled(plots, qtbot)
+    source = plots.source
+    plots.pause_button.setChecked(True)
+    source.cursor_s = 25.0
+    for _ in range(5):
+        source.events.data.emit(source.cursor_s)
+        qtbot.wait(40)
+    assert plots.refresh_count == base
+    plots.pause_button.setChecked(False)
+    qtbot.waitUntil(lambda: plots.refresh_count == base + 1, timeout=1000)
+    assert plots.curve_data("acc", 0)[0][-1] == pytest.approx(25.0)
+
+
+def test_the_plots_let_their_source_go(plots, qtbot):
+    old = plots.source
+    assert old.events.data.callbacks and old.events.sensors.callbacks
+    new = FakeSource()
+    plots.set_source(new)
+    assert not old.events.data.callbacks and not old.events.sensors.callbacks
+    assert new.events.data.callbacks
+    plots.set_source(None)
+    assert not new.events.data.callbacks and not new.events.sensors.callbacks
+    new.events.data.emit(1.0)  # nothing left to draw it
+    qtbot.wait(60)
+
+
+def test_the_sensor_choice_follows_the_sensors_event(plots, qtbot):
+    source = plots.source
+    source.sensor_ids = ("S01", "S02", "S03")
+    assert plots.sensor_combo.count() == 2  # not asked again
+    source.events.sensors.emit(source.sensor_ids)
+    assert plots.sensor_combo.count() == 3

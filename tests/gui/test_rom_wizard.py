@@ -10,13 +10,16 @@ import numpy as np
 from mimucap.core import skeleton
 from mimucap.core.simulate import SimulationConfig, SuitSimulator
 from mimucap.gui.wizards.rom import RomWizard
+from mimucap.session.events import EmitterGroup
 from mimucap.session.rom_procedure import RomProcedure, RomStep
 
 
 class SimulatedLive:
-    """The parts of LiveSession the wizard reads, one simulator step (0.04 s) per call."""
+    """The parts of LiveSession the wizard reads, one simulator step (0.04 s) per call, each told
+    by a ``frame`` event."""
 
     def __init__(self) -> None:
+        self.events = EmitterGroup("frame", "calibration")
         self.simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=1))
         self.model = self.simulator.model
         self.body_calibration = object()
@@ -32,6 +35,7 @@ class SimulatedLive:
         self.time_s = float(block.truth.t_s[-1])
         self.q_world_from_segment = {s: q[-1] for s, q in block.truth.q_world_from_segment.items()}
         self._angles = skeleton.joint_angles_deg(self.model, self.q_world_from_segment)
+        self.events.frame.emit(self.time_s, None)
 
     @property
     def joint_names(self):
@@ -59,7 +63,6 @@ def test_rom_wizard_guides_one_movement(qtbot):
     live.advance()
     wizard = RomWizard(None, live, procedure=RomProcedure((RomStep("elbow_flexion", "right"),), repeats=2))
     qtbot.addWidget(wizard)
-    wizard.timer.stop()  # driven by hand below, one simulator step per tick
     wizard.show()
     assert wizard.step_label.text() == "Elbow flexion, right"
     assert wizard.start_button.isEnabled() and not wizard.next_button.isEnabled()
@@ -67,8 +70,7 @@ def test_rom_wizard_guides_one_movement(qtbot):
     assert live.markers == ["rom:elbow_flexion:right:start"]
     largest = 0.0
     for _ in range(400):
-        live.advance()
-        wizard.tick()
+        live.advance()  # the wizard takes the pose from the event
         if wizard.angle.text() != "–":
             largest = max(largest, float(wizard.angle.text().rstrip("°")))
         if wizard.procedure.state == "step_done":
@@ -87,9 +89,14 @@ def test_rom_wizard_waits_for_a_body_calibration(qtbot):
     live.body_calibration = None
     wizard = RomWizard(None, live)
     qtbot.addWidget(wizard)
-    wizard.tick()
+    live.advance()
     assert "Calibrate the body first" in wizard.instruction.text()
     assert not wizard.start_button.isEnabled()
+    live.body_calibration = object()
+    live.events.calibration.emit()  # the wizard follows the session's calibration
+    assert wizard.start_button.isEnabled()
+    wizard.close()
+    assert not live.events.frame.callbacks and not live.events.calibration.callbacks
 
 
 def test_the_assess_menu_opens_the_wizard_on_the_live_session(window, qtbot):

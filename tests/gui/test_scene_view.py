@@ -1,16 +1,21 @@
 """The skeleton's 3D view: the camera keeps a walking subject framed in every preset, a T pose
 fits the view of the main window at its default size, the axis names and the hint are drawn in
-the picture, and nothing renders after close."""
+the picture; it draws what its model's events bring (coalesced to the screen's rate), nothing
+without them, lets its model go, and renders nothing after close."""
 
 from __future__ import annotations
+
+import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from PyQt5 import QtCore, QtGui
 
 from mimucap.core import skeleton
-from mimucap.gui.scene.view import SceneView
+from mimucap.gui.scene.view import FRAME_INTERVAL_SLACK, SceneView
 from mimucap.session.camera import CAMERA_PRESETS
+from mimucap.session.events import EmitterGroup
 from mimucap.session.figure import FigureBuilder
 
 from tests.gui.scene_projection import axis_label_positions, world_to_display
@@ -92,18 +97,16 @@ def test_the_camera_follows_a_subject_that_walks_10_m(qtbot, preset):
     view = _show(qtbot, 480, 520)
     view.set_figure(builder)
     view.set_camera_preset(preset)
-    walk = {"east_m": 0.0, "north_m": 0.0}
-    step = {"id": 0}
-    view.set_frame_provider(lambda: (step["id"], _walked(model, builder, pose, **walk)))
-    view.start(own_clock=False)
-    view.tick()
+    view.start()
+    view.show_frame(0, _walked(model, builder, pose, 0.0, 0.0))
+    view.render_pending()
     width, height = view.render_window.GetSize()
     centre = np.array([width / 2.0, height / 2.0])
     frames = view.frames_rendered
     for index in range(1, 41):  # 10 m north-east, away from the front camera, 0.25 m a frame
-        walk["east_m"], walk["north_m"] = 0.25 * index * np.array([0.6, 0.8])
-        step["id"] = index
-        view.tick()
+        east_m, north_m = 0.25 * index * np.array([0.6, 0.8])
+        view.show_frame(index, _walked(model, builder, pose, east_m, north_m))
+        view.render_pending()
         pelvis = world_to_display(view.renderer, view.last_geometry.root_scene_m[None, :])[0]
         # The pelvis stays near the middle of the picture, and the whole figure in it.
         assert np.all(np.abs(pelvis[:2] - centre) < 0.25 * np.array([width, height])), (index, pelvis)
@@ -117,16 +120,15 @@ def test_the_camera_keeps_the_users_turn_and_zoom_while_following(qtbot):
     pose = standing_pose(model, arms_out=False)
     view = _show(qtbot, 480, 520)
     view.set_figure(builder)
-    walk = {"east_m": 0.0}
-    view.set_frame_provider(lambda: (walk["east_m"], _walked(model, builder, pose, walk["east_m"], 0.0)))
-    view.start(own_clock=False)
-    view.tick()
+    view.start()
+    view.show_frame(0.0, _walked(model, builder, pose, 0.0, 0.0))
+    view.render_pending()
     camera = view.renderer.GetActiveCamera()
     camera.Azimuth(40.0)  # as a mouse drag would
     camera.Zoom(1.3)
     offset = np.array(camera.GetPosition()) - camera.GetFocalPoint()
-    walk["east_m"] = 3.0
-    view.tick()
+    view.show_frame(3.0, _walked(model, builder, pose, 3.0, 0.0))
+    view.render_pending()
     np.testing.assert_allclose(np.array(camera.GetPosition()) - camera.GetFocalPoint(), offset, atol=1e-9)
     np.testing.assert_allclose(camera.GetFocalPoint()[0] - view.last_geometry.root_scene_m[0], 0.0, atol=1e-9)
 
@@ -147,11 +149,11 @@ def test_a_t_pose_fits_the_3d_view_of_the_main_window_at_its_default_size(qtbot)
     geometry = _walked(model, builder, t_pose, 0.0, 0.0)
     centres = geometry.joint_matrices[:, :3, 3]
     assert np.ptp(centres[:, 0]) > 0.8 * HEIGHT_M  # arms out: about as wide as tall
-    view.set_frame_provider(lambda: ("t", geometry))
-    view.start(own_clock=False)
+    view.show_frame("t", geometry)
+    view.start()
     for preset in CAMERA_PRESETS:
         view.set_camera_preset(preset)
-        view.tick()
+        view.render_pending()
         assert _in_picture(view, _figure_points(view), margin_px=5.0).all(), preset
 
 
@@ -172,7 +174,7 @@ def test_axis_names_are_drawn_at_their_anchors_and_hide_with_the_axes(qtbot):
     view = _show(qtbot, 400, 400)
     view.set_figure(builder)
     view.set_stage_visible(floor=False, axes=True)
-    view.start(own_clock=False)
+    view.start()
     view.render()
     labels = axis_label_positions(view)
     assert set(labels) == {"E", "N", "Up"}
@@ -190,12 +192,13 @@ def test_axis_names_are_drawn_at_their_anchors_and_hide_with_the_axes(qtbot):
 def test_the_hint_is_boxed_in_the_middle_of_the_picture_until_cleared(qtbot):
     view = _show(qtbot, 400, 300)
     view.set_stage_visible(floor=False, axes=False)
-    view.start(own_clock=False)
+    view.start()
     view.render()
     plain = _rgb(view.grab_image())
     frames = view.frames_rendered
     view.set_hint("Waiting for data from the source: nothing has arrived for a while, so no figure is shown.")
-    assert view.frames_rendered == frames + 1  # drawn at once: its owner ticks only on data
+    # drawn by itself once the event loop runs: nothing else may come to ask for a picture
+    qtbot.waitUntil(lambda: view.frames_rendered == frames + 1, timeout=1000)
     pixels = _rgb(view.grab_image())
     rows, columns = np.nonzero(np.any(pixels != plain, axis=2))
     assert len(rows) > 500
@@ -206,32 +209,107 @@ def test_the_hint_is_boxed_in_the_middle_of_the_picture_until_cleared(qtbot):
     np.testing.assert_array_equal(_rgb(view.grab_image()), plain)
 
 
-def test_after_close_nothing_renders(qtbot):
+class FakeModel:
+    """A model as the view sees one: ``frame``, ``truth_frame`` and ``status`` events, and the
+    newest frame on request (``None`` until one is emitted)."""
+
+    def __init__(self) -> None:
+        self.events = EmitterGroup("frame", "truth_frame", "status")
+        self.newest = None
+        self.frames_asked = 0
+
+    def frame(self):
+        self.frames_asked += 1
+        return self.newest
+
+    def truth_frame(self):
+        return None
+
+    def emit(self, frame_id, geometry) -> None:
+        self.newest = (frame_id, geometry)
+        self.events.frame.emit(frame_id, geometry)
+
+
+def _followed_model(qtbot, size=(300, 300)):
     model, builder = _figure()
-    pose = standing_pose(model, arms_out=False)
-    view = _show(qtbot, 300, 300)
+    geometry = _walked(model, builder, standing_pose(model, arms_out=False), 0.0, 0.0)
+    view = _show(qtbot, *size)
     view.set_figure(builder)
-    counter = {"id": 0}
+    fake = FakeModel()
+    view.set_model(fake)
+    view.start()
+    qtbot.waitUntil(lambda: view.frames_rendered >= 1, timeout=2000)  # the floor, before any frame
+    return view, fake, geometry
 
-    def provider():
-        counter["id"] += 1
-        return counter["id"], _walked(model, builder, pose, 0.0, 0.0)
 
-    view.set_frame_provider(provider)
-    view.start()  # its own clock
-    qtbot.waitUntil(lambda: view.frames_rendered >= 3, timeout=5000)
+def test_the_view_draws_the_frames_its_model_emits_and_nothing_without_them(qtbot):
+    view, fake, geometry = _followed_model(qtbot)
+    assert fake.frames_asked == 1  # read once on subscribing, never again
+    frames = view.frames_rendered
+    qtbot.wait(150)
+    assert view.frames_rendered == frames  # no event, no picture
+    fake.emit(0, geometry)  # drawn at once: a frame is the last event of a change
+    assert view.frames_rendered == frames + 1 and view.shown_frame_id == 0
+    for frame_id in range(1, 5):  # within the frame interval: one picture, of the newest frame
+        fake.emit(frame_id, geometry)
+    assert view.frames_rendered == frames + 1
+    qtbot.waitUntil(lambda: view.shown_frame_id == 4, timeout=1000)
+    assert view.frames_rendered == frames + 2
+    fake.events.status.emit([SimpleNamespace(segment="pelvis", state="stale")])
+    qtbot.waitUntil(lambda: view.frames_rendered == frames + 3, timeout=1000)  # the tint changed
+    assert fake.frames_asked == 1
+
+
+def test_frames_faster_than_the_screen_are_coalesced(qtbot):
+    view, fake, geometry = _followed_model(qtbot)
+    view.target_fps = 60.0
+    frames = view.frames_rendered
+    start = time.perf_counter()
+    frame_id = 0
+    while time.perf_counter() - start < 0.5:  # a frame every 2 ms: 250 in half a second
+        frame_id += 1
+        fake.emit(frame_id, geometry)
+        qtbot.wait(2)
+    qtbot.waitUntil(lambda: view.shown_frame_id == frame_id, timeout=1000)
+    elapsed = time.perf_counter() - start
+    drawn = view.frames_rendered - frames
+    assert 5 <= drawn <= elapsed * 60.0 / (1.0 - FRAME_INTERVAL_SLACK) + 2, (drawn, frame_id)
+
+
+def test_the_view_lets_its_model_go_when_given_another_or_closed(qtbot):
+    view, fake, geometry = _followed_model(qtbot)
+    view.set_ghost_visible(True)
+    assert fake.events.truth_frame.callbacks
+    other = FakeModel()
+    view.set_model(other)
+    assert not any(getattr(fake.events, name).callbacks for name in fake.events.names)
+    assert other.events.frame.callbacks and other.events.truth_frame.callbacks  # the ghost follows
+    frames = view.frames_rendered
+    fake.emit(99, geometry)  # the old model's frames are not drawn
+    qtbot.wait(100)
+    assert view.frames_rendered == frames and view.shown_frame_id != 99
+    view.close()
+    assert not any(getattr(other.events, name).callbacks for name in other.events.names)
+
+
+def test_after_close_nothing_renders(qtbot):
+    view, fake, geometry = _followed_model(qtbot)
+    for frame_id in range(3):
+        fake.emit(frame_id, geometry)
+    qtbot.waitUntil(lambda: view.shown_frame_id == 2, timeout=2000)
     drawn = []
     view.vtk_widget.rendered.connect(lambda: drawn.append(1))
     view.close()
     assert not view.alive and view.vtk_widget.finalized
     frames = view.frames_rendered
     view.start()
-    view.tick()
+    view.show_frame(7, geometry)
+    view.render_pending()
     view.render()
     view.set_hint("closed")
     view.vtk_widget.repaint()
     QtCore.QCoreApplication.processEvents()
-    assert not view.running and not view._timer.isActive()  # no clock left to tick it
+    assert not view.running and not view._render_timer.isActive()  # nothing left to render it
     assert view.frames_rendered == frames and not drawn
     with pytest.raises(RuntimeError, match="closed"):
         view.grab_image()

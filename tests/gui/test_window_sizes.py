@@ -57,7 +57,7 @@ def main_window(qtbot, screen):
     window.start()
     qtbot.waitExposed(window)
     qtbot.waitUntil(lambda: window.live.samples_received > 50, timeout=15000)
-    window.refresh_panels()
+    window.live.publish_status()
     yield window
     window.close()
     window.deleteLater()

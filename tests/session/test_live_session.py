@@ -233,7 +233,7 @@ def test_joint_series_and_frames_follow_every_pose(n_sensors):
         if tick % 7 == 0:
             _, geometry = session.frame()
             expected = session.builder.build(
-                skeleton.forward_kinematics(session.model, poses[-1], session.height_m, session._root_m))  # root: simulator truth
+                skeleton.forward_kinematics(session.model, poses[-1], session.height_m, session.pose.root_m))  # root: where it stands
             np.testing.assert_allclose(geometry.segment_matrices, expected.segment_matrices, rtol=0, atol=1e-12)
             np.testing.assert_allclose(geometry.joint_matrices, expected.joint_matrices, rtol=0, atol=1e-12)
     model = session.model

@@ -4,10 +4,18 @@ and of the selected joints' three angles.
 The data comes from a *plot source* (the live session, or the review player), which offers
 ``sensor_ids``, ``joint_names``, ``joint_columns(joint)``, ``series(sensor_id, window_s)`` →
 ``(t_s, acc, gyr, mag_uT)`` and ``joint_series(joint, window_s)`` → ``(t_s, angles_deg (N,3))``,
-``cursor_s`` (the time the 3D view shows) and, when it knows them, ``sensor_segments`` (sensor
-id → segment). Sensors, joints and angle axes are shown by their clinical names
-(:mod:`mimucap.core.clinical_names`: "Pelvis sensor (S01)", "Right knee", "flexion"). Curves are created once per plot; one
-``QTimer`` (:data:`REFRESH_HZ`) calls ``setData`` on them; nothing is plotted while paused.
+``cursor_s`` (the time the 3D view shows), when it knows them, ``sensor_segments`` (sensor
+id → segment), and ``events`` (:class:`~mimucap.session.events.EmitterGroup`): ``data`` (new
+data, or the play head moved) and, when the choices can change, ``sensors`` and
+``assignment``. Sensors, joints and angle axes are shown by their clinical names
+(:mod:`mimucap.core.clinical_names`: "Pelvis sensor (S01)", "Right knee", "flexion").
+
+The plots subscribe to the source's events (:meth:`LivePlots.set_source`) and never ask it on a
+timer: a ``data`` event marks them out of date and asks for one redraw, which a single-shot
+timer runs about :data:`REFRESH_HZ` times a second (the events of the 62.5 Hz pipeline in
+between are coalesced; a screen shows no more). Curves are created once per plot and only get
+``setData``; nothing is plotted while paused (the events are ignored; the newest window is drawn
+on resuming).
 
 Live, the time axis is fixed and reads seconds before the pose shown (``-10 … 0``), so the
 axes and grid never need redrawing; in review it reads session time around the play head.
@@ -25,10 +33,14 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.clinical_names import axis_short_name, joint_name, segment_name, sensor_name, split_angle_column
 from mimucap.gui.scrolling import scrolling
+from mimucap.gui.throttle import RepaintThrottle
 from mimucap.session.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
 
-#: Plot refresh rate (Hz).
+#: Plot refreshes a second (Hz): at most this, less :data:`REFRESH_SLACK`.
 REFRESH_HZ = 30.0
+#: Share of the refresh interval the schedule may run ahead (:class:`~mimucap.gui.throttle.RepaintThrottle`):
+#: the data events arrive on the 16 ms pump and Qt's timers round to milliseconds.
+REFRESH_SLACK = 0.05
 #: Selectable scrolling window lengths (s).
 WINDOW_CHOICES_S = (5.0, 10.0, 20.0, 30.0)
 #: At most this many joints are plotted at once (one plot each).
@@ -204,9 +216,14 @@ class LivePlots(QtWidgets.QWidget):
         layout.addWidget(self.scroll_area, 1)
 
         self.window_combo.currentIndexChanged.connect(self._fix_x_range)
-        self._timer = QtCore.QTimer(self)
-        self._timer.setInterval(int(round(1000.0 / REFRESH_HZ)))
-        self._timer.timeout.connect(self.refresh)
+        self.window_combo.currentIndexChanged.connect(self._data_changed)
+        self.sensor_combo.currentIndexChanged.connect(self._data_changed)
+        # One redraw for the data events that arrived since the last one, at most REFRESH_HZ.
+        self._redraw_timer = QtCore.QTimer(self)
+        self._redraw_timer.setSingleShot(True)
+        self._redraw_timer.setTimerType(QtCore.Qt.PreciseTimer)
+        self._redraw_timer.timeout.connect(self._redraw)
+        self._throttle = RepaintThrottle(REFRESH_HZ, REFRESH_SLACK)
         self.refresh_count = 0
         self._titled_sensor = ""
         self._origin = 0.0  # source time at x = 0 in the last refresh (s)
@@ -374,9 +391,12 @@ class LivePlots(QtWidgets.QWidget):
 
     # -- wiring ------------------------------------------------------------------------------
     def set_source(self, source) -> None:
-        """Show data of ``source`` (a live session or a review player); nothing of the
-        previous source stays on screen."""
-        self.source = source
+        """Show data of ``source`` (a live session or a review player; ``None``: none), following
+        its events; the previous source is let go (unsubscribed) and nothing of it stays on screen."""
+        previous, self.source = self.source, source
+        if previous is not None:
+            self._subscribe(previous, False)
+        self._redraw_timer.stop()
         empty = np.zeros(0)
         for key, title, _unit, _min_range in SENSOR_PLOTS:
             for curve in self.curves[key]:
@@ -389,7 +409,39 @@ class LivePlots(QtWidgets.QWidget):
         self.selected_joints = []
         self.joint_menu.clear()
         self.joint_actions = {}
+        if source is None:
+            return
+        self._subscribe(source, True)
         self.update_choices()
+        self._data_changed()
+
+    def _subscribe(self, source, on: bool) -> None:
+        """Connect to (``on``) or disconnect from ``source``'s events."""
+        names = source.events.names
+        for name, callback in (("data", self._data_changed), ("sensors", self._choices_changed),
+                               ("assignment", self._choices_changed)):
+            if name not in names:
+                continue
+            emitter = getattr(source.events, name)
+            if on:
+                emitter.connect(callback)
+            else:
+                emitter.disconnect(callback)
+
+    def _choices_changed(self, *_args) -> None:
+        """The source's sensors or their segments changed: the selectors and titles follow."""
+        self.update_choices()
+        self._data_changed()
+
+    def _data_changed(self, *_args) -> None:
+        """New data (or a moved play head): one redraw soon, none while paused."""
+        if self.paused or self.source is None or self._redraw_timer.isActive():
+            return
+        self._redraw_timer.start(RepaintThrottle.timer_ms(self._throttle.wait_s(time.perf_counter())))
+
+    def _redraw(self) -> None:
+        self._throttle.painted(time.perf_counter())
+        self.refresh()
 
     def update_choices(self) -> None:
         """Refresh the sensor and joint lists from the source (keeps the selection)."""
@@ -427,12 +479,6 @@ class LivePlots(QtWidgets.QWidget):
             self.set_joints(kept)
             self._fit_titles()
 
-    def start(self) -> None:
-        self._timer.start()
-
-    def stop(self) -> None:
-        self._timer.stop()
-
     @property
     def sensor_id(self) -> str:
         """The id of the sensor plotted ("" when none)."""
@@ -445,6 +491,10 @@ class LivePlots(QtWidgets.QWidget):
 
     def _paused_changed(self, paused: bool) -> None:
         self.pause_button.setText("Resume" if paused else "Pause")
+        if paused:
+            self._redraw_timer.stop()
+        else:
+            self._data_changed()
 
     @property
     def window_s(self) -> float:
@@ -521,6 +571,7 @@ class LivePlots(QtWidgets.QWidget):
             for curves in self.truth_curves.values():
                 for curve in curves:
                     curve.setData([], [])
+        self._data_changed()
 
     def _show_truth(self, key: str, joint: str, truth_of, window: float, origin: float) -> None:
         """The simulator's true angles as dashed curves beside the estimate."""

@@ -2,10 +2,14 @@
 :class:`~mimucap.session.live.LiveSession`.
 
 The window holds no data: it shows what the live session has and forwards what the user
-asks. Timers: the frame clock (:data:`PUMP_INTERVAL_MS`) runs the session's pipeline and,
-right after it, lets the 3D view render the newest pose (so a sample reaches the screen in
-one tick); the plots refresh at 30 Hz; the panels at :data:`PANEL_INTERVAL_MS` (a stale
-sensor shows within a second).
+asks. One timer moves time forward: the pump (:data:`PUMP_INTERVAL_MS`) runs the session's
+pipeline (:meth:`~mimucap.session.live.LiveSession.step`). Nothing polls the session: each
+widget subscribes to the session's events when the session is set (the 3D view to ``frame``,
+the plots to ``data``, the sensor panel to ``status``, the session panel to ``checklist``,
+``recording_progress`` and ``marker``, the status bar here to ``status``, ``pose_source``,
+``source_problem``, ``refused``, ``truth_errors``) and lets it go when the source changes or
+the window closes. The 3D view and the plots coalesce the events into at most one picture per
+frame interval (60 and 30 a second); the session publishes its status 4 times a second.
 """
 
 from __future__ import annotations
@@ -44,7 +48,7 @@ from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
 from mimucap.core.pipeline import POSE_SENSOR_AXES
-from mimucap.session.evaluation import FLEXION_COLUMNS, accuracy_phrase
+from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
@@ -58,14 +62,10 @@ _kernels_ready = False
 #: The frame clock (ms): the live pipeline is pumped and the 3D view rendered 62.5 times a
 #: second, so a sample waits at most one tick before it is drawn.
 PUMP_INTERVAL_MS = 16
-#: How often the sensor panel, tints and status bar are refreshed (ms).
-PANEL_INTERVAL_MS = 250
 #: The Sensors dock's height when the window opens (px).
 SENSOR_DOCK_START_PX = 190
 #: A dock takes at most this share of a small window's height (Sensors) or width (Session).
 DOCK_MOST_SHARE = 0.3
-#: The checklist before recording is refreshed every this many panel refreshes (once a second).
-CHECKLIST_EVERY = 4
 #: The recording indicator: white on red, always in the status bar while recording.
 RECORDING_STYLE = "QLabel { background: #d62728; color: white; font-weight: bold; padding: 1px 8px; border-radius: 3px; }"
 #: What the 3D view says while it has no figure to show, by pose source.
@@ -139,10 +139,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self._warm_up: BackgroundTask | None = None
         self._preparation: KernelPreparation | None = None
         self._wizard: QtWidgets.QWidget | None = None
-        self._source_problem = ""  # the last problem the source reported (logged when it changes)
+        self._source_problem = ""  # the last problem the source reported (from its event)
+        self._pose_source = ""     # what drives the figure (from its event)
+        self._accuracy = ""        # the running error against the simulator's truth, as a phrase
         self._sensors_seen: set[str] = set()  # sensors the remembered assignment was offered to
         self.last_recording = None  # RecordingResult of the last recording saved
-        self._panel_refreshes = 0
         self._closing_progress: QtWidgets.QProgressDialog | None = None
         self._guide: QtWidgets.QWidget | None = None  # Help → User Guide, made when first asked
         #: Asked before recording while an item of the checklist is not ok (the items not ok);
@@ -184,11 +185,13 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pump.setTimerType(QtCore.Qt.PreciseTimer)
         self._pump.setInterval(PUMP_INTERVAL_MS)
         self._pump.timeout.connect(self._pump_pipeline)
-        self._panel_timer = QtCore.QTimer(self)
-        self._panel_timer.setInterval(PANEL_INTERVAL_MS)
-        self._panel_timer.timeout.connect(self.refresh_panels)
-        self._tints: dict[str, str] = {}
-        self.scene_view.set_tint_provider(lambda: self._tints)
+        #: the window's own subscriptions to the live session's events (event name → callback)
+        self._subscriptions = {
+            "status": self._status_changed, "pose_source": self._pose_source_changed,
+            "source_problem": self._source_problem_changed, "refused": self._show_refused_without_sensor,
+            "truth_errors": self._truth_errors_changed, "truth_available": self.action_truth.setEnabled,
+            "sensors": self._assign_remembered, "recording_progress": self._recording_progress,
+            "recording_failed": self._recording_failed}
         self.source_error: str | None = None
         if not self.open_source(source or last_source_spec(), interactive=False) and source is None:
             error = self.source_error  # a remembered source that went away: say so over the fallback
@@ -316,7 +319,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self._close_wizard("the source changed")
         self.live = session
         kept = self._keep_body_calibration(previous, session)
-        self.session_panel.markers_list.clear()  # the old source's markers, on its clock
         # A replayed recording keeps the placement stored in it (the source gives it); other
         # sources take the assignment made last time.
         replayed = isinstance(parse_source_spec(spec), ReplaySpec)
@@ -327,14 +329,10 @@ class MainWindow(QtWidgets.QMainWindow):
         self._sensors_seen = set(session.sensor_ids)   # later ones: _assign_remembered
         session.set_height(self.session_panel.height.value())
         session.set_display_mode(next(k for k, a in self.display_actions.items() if a.isChecked()))
-        session.events.marker.connect(self._on_marker)
         self.scene_view.set_figure(session.builder)
-        self.scene_view.set_frame_provider(session.frame)
-        self._update_ghost()
-        self.plots.set_source(session)
+        self._connect_live(session)
         if self.isVisible():
             self.start()
-        self.refresh_panels()
         if kept:
             self.statusBar().showMessage(kept, 10000)
         return True
@@ -358,10 +356,36 @@ class MainWindow(QtWidgets.QMainWindow):
             return True
         return False
 
+    def _connect_live(self, session: LiveSession) -> None:
+        """Every widget follows ``session``'s events (the previous session's are let go), and the
+        session publishes its state once for them."""
+        self.scene_view.set_model(session)
+        self.plots.set_source(session)
+        self.sensor_panel.set_session(session)
+        self.session_panel.set_session(session)
+        self.source_status.setText(f"Source: {session.label}")
+        self.action_truth.setEnabled(session.has_truth)
+        self._accuracy = ""
+        for name, callback in self._subscriptions.items():
+            getattr(session.events, name).connect(callback)
+        self._update_ghost()
+        session.publish_status()
+
+    def _disconnect_live(self) -> None:
+        """Every widget lets the live session go (no subscription of this window stays on it)."""
+        live = self.live
+        self.scene_view.set_model(None)
+        self.plots.set_source(None)
+        self.sensor_panel.set_session(None)
+        self.session_panel.set_session(None)
+        if live is not None:
+            for name, callback in self._subscriptions.items():
+                getattr(live.events, name).disconnect(callback)
+
     def _stop_live(self) -> None:
         if self.live is None:
             return
-        self.live.events.marker.disconnect(self._on_marker)
+        self._disconnect_live()
         try:
             self.live.stop()
         except Exception:  # a source failing to stop must not keep the window from closing
@@ -405,37 +429,43 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.live is not None and not self.live.started:
             self.live.start()
         self._pump.start()
-        self._panel_timer.start()
-        self.plots.start()
-        self.scene_view.start(own_clock=False)
+        self.scene_view.start()
 
     def _pump_pipeline(self) -> None:
+        """The clock of the live view: the session takes in what arrived and tells its
+        subscribers what changed."""
         if self.live is None:
             return
         try:
             self.live.step()
-            self.scene_view.tick()
         except Exception as error:  # shown, logged; the pump stops instead of looping on an error
             log.exception("live pipeline failed")
             self._pump.stop()
             self.statusBar().showMessage(f"Live data stopped: {error}. Choose the source again (File → Choose Source).")
-        failure = self.live.recording_failure if self.live is not None else None
-        if failure:
+
+    def _recording_failed(self, message: str) -> None:
+        """The recording could not be written: end it and say why, once the session's step is
+        over (a dialog's event loop must not run the pump inside the step)."""
+        QtCore.QTimer.singleShot(0, lambda: self._end_failed_recording(message))
+
+    def _end_failed_recording(self, message: str) -> None:
+        if self.live is not None and self.live.recording:
             self._finish_recording()
-            QtWidgets.QMessageBox.critical(self, "Recording stopped", failure)
+        QtWidgets.QMessageBox.critical(self, "Recording stopped", message)
 
     def _update_ghost(self) -> None:
-        """Show the simulator's truth as a ghost figure when asked (sources without truth give none)."""
-        live = self.live
-        wanted = live is not None and self.action_truth.isChecked()
-        self.scene_view.set_ghost_provider(live.truth_frame if wanted else None)
+        """Show the simulator's truth as a ghost figure and dashed curves when asked (sources
+        without truth give none)."""
+        self.scene_view.set_ghost_visible(self.action_truth.isChecked())
         self.plots.set_show_truth(self.action_truth.isChecked())
 
-    def _assign_remembered(self, live) -> None:
+    def _assign_remembered(self, sensor_ids) -> None:
         """Wear each sensor that appeared since the last call (a worker source's sensors appear
-        with their first samples) on the segment remembered for it, unless that segment is taken."""
-        new = [sid for sid in live.sensor_ids if sid not in self._sensors_seen]
-        if not new:
+        with their first samples: the session's ``sensors`` event) on the segment remembered
+        for it, unless that segment is taken."""
+        live = self.live
+        new = [sid for sid in sensor_ids if sid not in self._sensors_seen]
+        if live is None or not new:
             return
         self._sensors_seen.update(new)
         remembered = remembered_assignment()
@@ -445,38 +475,10 @@ class MainWindow(QtWidgets.QMainWindow):
                     and segment not in live.sensor_segments.values()):
                 live.assign_sensor(sensor_id, segment)
 
-    def refresh_panels(self) -> None:
-        """Sensor panel, tints, recording status and status bar from the live session."""
-        live = self.live
-        if live is None:
-            return
-        self._assign_remembered(live)
-        rows = live.sensor_rows()
-        self.sensor_panel.show_rows(rows)
-        self._tints = {r.segment: r.state for r in rows if r.segment is not None}
-        self.plots.update_choices()
-        if live.recording:
-            info = live.recording_info()
-            self.session_panel.show_info(info)
-            self._show_elapsed(info.elapsed_s)
-        elif self._panel_refreshes % CHECKLIST_EVERY == 0:
-            self.session_panel.show_checklist(recording_checklist(live))
-        self._panel_refreshes += 1
-        self.source_status.setText(f"Source: {live.label}")
-        self.pose_status.setText(f"Pose: {live.pose_source}" + accuracy_phrase(live.truth_errors(5.0, FLEXION_COLUMNS)))
-        self.action_truth.setEnabled(live.has_truth)
-        problem = live.source_problem
-        if problem != self._source_problem:
-            self._source_problem = problem
-            if problem:
-                log.warning("source %s: %s", live.label, problem)
-        if problem and live.pose_source == POSE_NONE:
-            self.scene_view.set_hint(f"No data from the source.\n{problem}\n\n"
-                                     "Check the device and its connection, or choose another source "
-                                     "(File → Choose Source…).")
-        else:
-            self.scene_view.set_hint(VIEW_HINTS.get(live.pose_source, ""))
-        self._show_refused_without_sensor(live)
+    # -- the status bar, from the session's events ---------------------------------------------
+    def _status_changed(self, rows) -> None:
+        """The session's status (4 Hz): sensors, rates and drops; the process's CPU and the 3D
+        view's frame rate are sampled with it."""
         rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
         drops = sum(r.drops for r in rows)
         self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")
@@ -487,11 +489,39 @@ class MainWindow(QtWidgets.QMainWindow):
         else:
             self.fps_status.setText("– fps")
 
-    def _show_refused_without_sensor(self, live: LiveSession) -> None:
+    def _pose_source_changed(self, pose_source: str) -> None:
+        self._pose_source = pose_source
+        self._show_pose_status()
+        self._update_hint()
+
+    def _truth_errors_changed(self, errors) -> None:
+        self._accuracy = accuracy_phrase(errors)
+        self._show_pose_status()
+
+    def _show_pose_status(self) -> None:
+        self.pose_status.setText(f"Pose: {self._pose_source}{self._accuracy}")
+
+    def _source_problem_changed(self, problem: str) -> None:
+        self._source_problem = problem
+        if problem and self.live is not None:
+            log.warning("source %s: %s", self.live.label, problem)
+        self._update_hint()
+
+    def _update_hint(self) -> None:
+        """What the 3D view says while it has no figure: why, and what to do."""
+        if self._source_problem and self._pose_source == POSE_NONE:
+            self.scene_view.set_hint(f"No data from the source.\n{self._source_problem}\n\n"
+                                     "Check the device and its connection, or choose another source "
+                                     "(File → Choose Source…).")
+        else:
+            self.scene_view.set_hint(VIEW_HINTS.get(self._pose_source, ""))
+
+    def _recording_progress(self, info) -> None:
+        self._show_elapsed(info.elapsed_s)
+
+    def _show_refused_without_sensor(self, counts: dict[str, int], senders: dict[str, int]) -> None:
         """Packets refused that belong to no sensor of the table (an unknown sender, a line too
         damaged to name its sensor): counted in the status bar, the reasons and senders on hover."""
-        refused = getattr(live.feed, "refused_without_sensor", None)
-        counts, senders = refused() if callable(refused) else ({}, {})
         total = sum(counts.values())
         self.refused_status.setVisible(total > 0)
         if total:
@@ -530,7 +560,6 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.live.assign_sensor(sensor_id, None)
         for sensor_id, segment in assignment.items():
             self.live.assign_sensor(sensor_id, segment)
-        self.refresh_panels()
 
     @staticmethod
     def library_folder() -> Path:
@@ -707,11 +736,6 @@ class MainWindow(QtWidgets.QMainWindow):
             self.live.add_marker(label or "marker")
         except OSError as error:
             QtWidgets.QMessageBox.critical(self, "Marker", str(error))
-
-    def _on_marker(self, t_s: float, label: str, recorded: bool) -> None:
-        started_s = self.live.recording_started_s if self.live is not None else None
-        in_recording = recorded and started_s is not None
-        self.session_panel.add_marker_line(label, t_s - started_s if in_recording else None)
 
     def _height_changed(self, value: float) -> None:
         if self.live is not None and not self.live.recording:
@@ -911,8 +935,6 @@ class MainWindow(QtWidgets.QMainWindow):
             self._preparation.cancel()  # stops the compiling child; what it cached is kept
             self._warm_up.wait()
         self._pump.stop()
-        self._panel_timer.stop()
-        self.plots.stop()
         self.scene_view.shutdown()
         self._stop_live()
         for window in list(self.review_windows):

@@ -2,7 +2,9 @@
 timeline with the markers, play/pause, speed, and the export dialog.
 
 The session is loaded and its poses computed off the GUI thread
-(:func:`mimucap.session.review.load_review` in a :class:`BackgroundTask`), with progress.
+(:func:`mimucap.session.review.load_review` in a :class:`BackgroundTask`), with progress. The
+play timer is the review's clock: it moves the player's play head, and the 3D view and the
+plots follow the player's events (``frame``, ``data``).
 """
 
 from __future__ import annotations
@@ -222,10 +224,10 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.player = ReviewPlayer(data)
         self.progress.hide()
         self.scene_view.set_figure(self.player.builder)
-        self.scene_view.set_frame_provider(self.player.frame)
+        self.scene_view.set_model(self.player)
         self._update_ghost()
         self.action_truth.setEnabled(data.truth is not None)
-        self.scene_view.set_tint_provider(lambda: {s: "ok" for s in data.model.segment_names})
+        self.scene_view.set_tints({s: "ok" for s in data.model.segment_names})
         self.plots.set_source(self.player)
         self.slider.setRange(int(round(data.start_s * SLIDER_STEPS_PER_S)), int(round(data.end_s * SLIDER_STEPS_PER_S)))
         self.timeline.setXRange(data.start_s, data.end_s, padding=0.01)
@@ -249,7 +251,6 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.action_analysis.setEnabled(True)
         self.seek(data.start_s if keep is None else keep)
         self.scene_view.start()
-        self.plots.start()
         self._timer.start()
         self.loaded.emit()
         if self.export_when_loaded:
@@ -283,7 +284,6 @@ class ReviewWindow(QtWidgets.QMainWindow):
             widget.setValue(value)
             widget.blockSignals(False)
         self.time_label.setText(f"{t:7.2f} / {self.player.data.end_s:.2f} s")
-        self.plots.refresh()
 
     def _slider_moved(self, value: int) -> None:
         self.seek(value / SLIDER_STEPS_PER_S)
@@ -319,9 +319,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
 
     def _update_ghost(self) -> None:
         """Show the simulator's truth as a ghost figure when asked and the recording has it."""
-        player = self.player
-        wanted = player is not None and self.action_truth.isChecked()
-        self.scene_view.set_ghost_provider(player.truth_frame if wanted else None)
+        self.scene_view.set_ghost_visible(self.action_truth.isChecked())
         self.plots.set_show_truth(self.action_truth.isChecked())
 
     def _body_mode_toggled(self, on: bool) -> None:
@@ -364,7 +362,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         if self.export_dialog is not None and self.export_dialog.busy:
             self.export_dialog._task.wait(30000)
         self._timer.stop()
-        self.plots.stop()
+        self.plots.set_source(None)
         self.scene_view.shutdown()
         super().closeEvent(event)
         self.closed.emit()

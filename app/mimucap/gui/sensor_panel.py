@@ -1,8 +1,8 @@
 """The sensor panel: one row per sensor (id, segment, rate, drops, packets refused, latency,
 battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red.
 Orientation-only sensors (on-board fusion, e.g. SlimeVR trackers) read "on-board" under
-magnetometer calibration. Shows :class:`~mimucap.session.live.SensorRow` values as they are;
-computes nothing.
+magnetometer calibration. Shows :class:`~mimucap.session.live.SensorRow` values as they are,
+from the live session's ``status`` event (:meth:`SensorPanel.set_session`); computes nothing.
 
 The "Refused" column counts the packets of a sensor that the source received and refused
 (stale sequence number, value out of range, bad checksum…); its tooltip lists them by reason,
@@ -73,7 +73,8 @@ def _age(seconds: float) -> str:
 
 
 class SensorPanel(QtWidgets.QTableWidget):
-    """Table of sensors; :meth:`show_rows` replaces its contents.
+    """Table of sensors; :meth:`show_rows` replaces its contents, called by the ``status`` event
+    of the session it follows (:meth:`set_session`).
 
     Only cells whose text or colour changed are touched, and the columns are fitted to their
     contents only when the set of sensors changes: with "resize to contents" on every change
@@ -94,6 +95,18 @@ class SensorPanel(QtWidgets.QTableWidget):
         # One line of text a row (the style's default is half as tall again): more sensors in view.
         self.verticalHeader().setDefaultSectionSize(self.fontMetrics().height() + 8)
         self._shown_ids: tuple[str, ...] = ()
+        self._session = None
+
+    def set_session(self, session) -> None:
+        """Show the sensors of ``session`` (its ``status`` events; ``None``: none, emptied); the
+        previous session is let go (unsubscribed)."""
+        if self._session is not None:
+            self._session.events.status.disconnect(self.show_rows)
+        self._session = session
+        if session is None:
+            self.setRowCount(0)
+            return
+        session.events.status.connect(self.show_rows)
 
     def show_rows(self, rows: Sequence[SensorRow]) -> None:
         ids = tuple(row.sensor_id for row in rows)

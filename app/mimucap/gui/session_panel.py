@@ -1,7 +1,8 @@
 """The session panel: subject record, the checklist before recording, record start/stop with
 what is recorded where (and a progress bar while the file is written), markers.
 
-It holds widgets only; the main window connects them to the live session.
+It follows the live session's events (:meth:`SessionPanel.set_session`): ``checklist``,
+``recording_progress`` and ``marker``; the main window handles its buttons' signals.
 """
 
 from __future__ import annotations
@@ -123,6 +124,28 @@ class SessionPanel(QtWidgets.QWidget):
         main.addWidget(self.checklist_box)
         main.addWidget(record_box)
         main.addStretch(1)
+        self._session = None
+
+    def set_session(self, session) -> None:
+        """Follow ``session``'s checklist, recording progress and markers (``None``: none); the
+        previous session is let go (unsubscribed) and its markers leave the list (they were
+        on its clock)."""
+        previous, self._session = self._session, session
+        callbacks = (("checklist", self.show_checklist), ("recording_progress", self.show_info),
+                     ("marker", self._marker_placed))
+        if previous is not None:
+            for name, callback in callbacks:
+                getattr(previous.events, name).disconnect(callback)
+        self.markers_list.clear()
+        if session is not None:
+            for name, callback in callbacks:
+                getattr(session.events, name).connect(callback)
+
+    def _marker_placed(self, t_s: float, label: str, recorded: bool) -> None:
+        """List a marker the session placed, at its time in the recording when recorded."""
+        started_s = self._session.recording_started_s if self._session is not None else None
+        in_recording = recorded and started_s is not None
+        self.add_marker_line(label, t_s - started_s if in_recording else None)
 
     def subject(self) -> Subject:
         """The subject the fields describe (``ValueError`` naming the bad field)."""

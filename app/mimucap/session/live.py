@@ -1,7 +1,7 @@
 """The live session the main window shows: sensor blocks in, skeleton, plots and files out (no Qt).
 
-:class:`LiveSession` is driven by the GUI's timers, in one thread: :meth:`LiveSession.step`
-takes whatever the source (a feed of :mod:`mimucap.session.feeds`) delivered since the last
+:class:`LiveSession` is driven by one clock, in one thread (the GUI's pump, a test's loop):
+:meth:`LiveSession.step` takes whatever the source (a feed of :mod:`mimucap.session.feeds`) delivered since the last
 call and runs it through the one processing path of :mod:`mimucap.core.pipeline`
 (:class:`~mimucap.core.pipeline.LivePipeline`): magnetometer calibration, orientation filter
 (``q_world_from_sensor``, world ENU, scalar first; the device's own when it fuses on board),
@@ -12,8 +12,14 @@ one batch when the plots ask (:meth:`LiveSession.joint_series`), and the recorde
 needed to compute the same numbers again (:mod:`mimucap.session.processing`).
 
 The session is a composition of parts with small interfaces: the *source* (``feed``: ``poll``,
-``stats``, ``follow(instruction)``), the *pipeline* (``pipeline``), the *pose* (the newest
-pose, its figure and the joint-angle history) and the *recorder*. Magnetometer calibrations are
+``stats``, ``follow(instruction)``), the *pipeline* (``pipeline``,
+:class:`~mimucap.core.pipeline.LivePipeline`), the *pose* (``pose``,
+:class:`~mimucap.session.live_pose.LivePose`: the newest pose, where the figure stands, its
+picture and the joint-angle history), the *recorder* (:class:`~mimucap.session.recording.Recorder`,
+while recording) and the *status* (``status``,
+:class:`~mimucap.session.live_status.StatusPublisher`: what the panels show, at a steady rate).
+It tells what changed through its events (:class:`LiveSession`, napari style): widgets
+subscribe to them and never ask the session on a timer of their own. Magnetometer calibrations are
 data that persist: they are loaded from the calibration store for every sensor the source
 brings, and a calibration made in the wizard is saved there. The simulated suit's ground truth
 is kept beside the data for evaluation only (:meth:`LiveSession.truth_pose`, the recording's
@@ -51,7 +57,6 @@ import numpy as np
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
 from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.fusion import FLAG_NAMES
-from mimucap.core.locomotion import RootTracker
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
     POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorOrientations,
@@ -63,6 +68,8 @@ from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
 from mimucap.session.figure import FigureBuilder, FigureGeometry
 from mimucap.session.instructions import Instruction
+from mimucap.session.live_pose import LivePose, joint_column_groups
+from mimucap.session.live_status import StatusPublisher
 from mimucap.session.processing import recording_record
 from mimucap.session.recording import Recorder, RecordingResult
 from mimucap.session.ring_buffer import RingBuffer
@@ -170,53 +177,84 @@ class LiveSession:
         calibration_store: where magnetometer calibrations are kept (loaded for every sensor
             the source brings, saved when the wizard makes one); ``None`` keeps them in memory.
         settings: the processing path's settings (stored with every recording).
+        status_clock: the clock (s) the status is published on: the wall's, since people read
+            it, even when the data runs on a faster simulated ``clock`` (a test's).
 
-    Events (``self.events``): ``blocks(list[SensorSamples])`` raw data as it arrives;
-    ``processed(list[ProcessedBlock])`` the same data with the pipeline's orientations;
-    ``frame(frame_id)`` a new pose; ``calibration()`` a calibration was applied;
-    ``recording(info_or_None)`` recording started/stopped; ``marker(t_s, label, recorded)``
-    a marker the user placed (session time; ``recorded``: the marker is in the recording, as
-    markers are while recording; the simulated subject's activity changes are not markers).
+    Events (``self.events``, :class:`~mimucap.session.events.EmitterGroup`), emitted in the
+    thread that calls :meth:`step` (rates for the GUI's pump at 62.5 Hz); times ``t_s`` are
+    session seconds:
+
+    * data, from every :meth:`step` that took samples in:
+
+      - ``blocks(list[SensorSamples])``: the raw blocks as they arrived;
+      - ``processed(list[ProcessedBlock])``: the same data with the pipeline's orientations;
+      - ``data(cursor_s)``: new samples (and angles) for the plots, up to :attr:`cursor_s`;
+      - ``truth_frame(frame_id, geometry_or_None)``: with each new pose while someone listens,
+        the simulator's true pose (:meth:`truth_frame`; evaluation only), just before ``frame``;
+      - ``frame(frame_id, geometry)``: a new pose, as :meth:`frame` gives it (at most one a
+        step, the step's last event, so that a view can draw all the step changed in one
+        picture at once; again, with a new ``frame_id``, after the display mode or the height
+        changed); its :class:`~mimucap.session.figure.FigureGeometry` is built only while
+        someone listens;
+      - ``sensors(sensor_ids)``: the tuple of known sensors grew (a worker source's sensors
+        appear with their first samples);
+
+    * state changes, when they happen:
+
+      - ``pose_source(text)``: what drives the figure (:attr:`pose_source`) changed;
+      - ``assignment(sensor_segments)``: a sensor was worn on another segment (a copy of
+        :attr:`sensor_segments`);
+      - ``calibration()``: a magnetometer or body calibration was applied or cleared;
+      - ``recording(info_or_None)``: recording started (:class:`RecordingInfo`) or stopped;
+      - ``recording_failed(text)``: the recording could not be written (a full disk...): why;
+        once per recording, which the caller should then end (:meth:`end_recording`);
+      - ``marker(t_s, label, recorded)``: a marker the user placed (``recorded``: it is in the
+        recording, as markers are while recording; the simulated subject's activity changes are
+        not markers);
+      - ``truth_available(bool)``: the source's truth became known (:attr:`has_truth`);
+
+    * the status, at :data:`~mimucap.session.live_status.STATUS_RATE_HZ` (4 Hz on
+      ``status_clock``) and at once after a change it shows (:meth:`publish_status` publishes it
+      now):
+
+      - ``status(list[SensorRow])``: the sensor table (rates and drops over the last 2 s);
+      - ``checklist(list[CheckItem])``: the checklist before recording (not while recording);
+      - ``recording_progress(RecordingInfo)``: while recording (elapsed s, bytes, markers);
+      - ``source_problem(text)``: why the source may send nothing ("" : nothing known), when it
+        changed;
+      - ``refused(reasons, senders)``: packets refused from no known sensor (reason → count,
+        sender → count), when they changed;
+      - ``truth_errors(column → RMS deg)``: the running flexion error against the simulator's
+        truth over 5 s (sources with truth, while someone listens).
     """
 
     def __init__(self, feed, label: str = "", model_name: str = "ten_segment", height_m: float = 1.75,
                  clock: Callable[[], float] = time.monotonic, calibration_store: CalibrationStore | None = None,
-                 settings: PipelineSettings = PipelineSettings()) -> None:
+                 settings: PipelineSettings = PipelineSettings(),
+                 status_clock: Callable[[], float] = time.monotonic) -> None:
         self.feed = feed
         self.label = label or getattr(feed, "name", "source")
         self.model = skeleton.load_model(model_name)
-        self.height_m = float(height_m)
-        self.builder = FigureBuilder(self.model, self.height_m)
-        self.events = EmitterGroup("blocks", "processed", "frame", "calibration", "recording", "marker")
+        #: the pose part: the newest pose, its figure, the joint-angle history
+        self.pose = LivePose(self.model, height_m, MAX_WINDOW_S, ANGLE_BUFFER_RATE_HZ)
+        self.events = EmitterGroup("blocks", "processed", "data", "frame", "truth_frame", "sensors",
+                                   "pose_source", "assignment", "calibration", "recording", "marker",
+                                   "recording_failed", "truth_available", "status", "checklist", "recording_progress",
+                                   "source_problem", "refused", "truth_errors")
         self.pipeline = LivePipeline(self.model, settings)
-        #: where the figure stands, from its feet's contact with the floor
-        self._root_tracker = RootTracker(self.model, self.height_m)
         self.calibration_store = calibration_store
         #: sensor → why its stored magnetometer calibration could not be loaded
         self.calibration_problems: dict[str, str] = {}
         self._clock = clock
         self.t0_host_s: float | None = None
-        self.display_mode = "world"
         #: sensor id → segment, as the source names it (a replayed recording's placement, the
         #: simulated suit's labels); the user's assignment changes it
         self.sensor_segments: dict[str, str] = dict(feed.sensor_segments())
         self.body_calibration: bodycal.BodyCalibration | None = None
         self._capacity = int(MAX_WINDOW_S * BUFFER_RATE_HZ)
         self._sensors: dict[str, _SensorState] = {}
-        self._joint_columns = self._group_columns()
-        #: joint → its row in :func:`skeleton.joint_angles_deg_stacked` output (model joint order)
-        self._joint_row = {joint: self.model.joint_names.index(joint) for joint in self._joint_columns}
-        self._angles = {j: RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
-        self._angle_t = RingBuffer(int(MAX_WINDOW_S * ANGLE_BUFFER_RATE_HZ))
-        #: poses since the last joint-angle update: (t_s, (S, 4) orientations in model order)
-        self._pending_angles: list[tuple[float, np.ndarray]] = []
-        self._q_world_from_segment: dict[str, np.ndarray] | None = None
-        self._q_stacked: np.ndarray | None = None   # the same (S, 4), segments in model order
-        self._root_m: np.ndarray | None = None
+        self._joint_columns = joint_column_groups(self.model)
         self._pose_source = POSE_NONE
-        self._t_s = float("nan")
-        self._frame_id = 0
-        self._geometry: tuple[object, FigureGeometry] | None = None
         self._recorder: Recorder | None = None
         self._journaled_truth: SuitTruth | None = None   # the simulator truth block last recorded
         #: newest pose of the simulator's truth (segment → (4,)), for evaluation only
@@ -225,18 +263,15 @@ class LiveSession:
         #: the simulator's true joint angles (deg) of the last seconds, for the accuracy check
         self._truth_angles = {j: RingBuffer(int(MAX_WINDOW_S * BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
         self._recording_markers = 0
+        self._failure_told = False
         self.last_recording: RecordingResult | None = None
         self.samples_received = 0
         self.last_arrival_s = float("nan")   #: host time the newest block arrived (latency bench)
         self.started = False
+        self._known_ids: tuple[str, ...] = ()
         self._load_stored_calibrations(self.feed.sensor_ids)
-
-    def _group_columns(self) -> dict[str, tuple[str, str, str]]:
-        columns = skeleton.joint_angle_columns(self.model)
-        grouped: dict[str, list[str]] = {}
-        for joint in self.model.joint_names:
-            grouped[joint] = [c for c in columns if c.startswith(joint + "_")][:3]
-        return {j: tuple(c) for j, c in grouped.items() if len(c) == 3}
+        #: the status part: publishes what the panels show (see :mod:`mimucap.session.live_status`)
+        self.status = StatusPublisher(self, self.events, status_clock)
 
     # -- source ----------------------------------------------------------------------------
     @property
@@ -285,7 +320,7 @@ class LiveSession:
     @property
     def time_s(self) -> float:
         """Session time (s) of the newest pose (NaN before the first)."""
-        return self._t_s
+        return self.pose.time_s
 
     @property
     def cursor_s(self) -> float:
@@ -294,20 +329,34 @@ class LiveSession:
         plots still scroll with the raw data. NaN before any data."""
         if self._pose_source in (POSE_NONE, POSE_UNASSIGNED):
             return self._newest_time()
-        return self._t_s
+        return self.pose.time_s
 
     @property
     def q_world_from_segment(self) -> dict[str, np.ndarray] | None:
         """Newest segment orientations, segment → ``(4,)`` (world ENU, scalar first)."""
-        return self._q_world_from_segment
+        return self.pose.q_world_from_segment
 
     @property
     def joint_names(self) -> tuple[str, ...]:
-        return tuple(self._joint_columns)
+        return self.pose.joint_names
 
     def joint_columns(self, joint: str) -> tuple[str, str, str]:
         """The three angle column names of ``joint`` (meaning and ``_deg`` unit in the name)."""
-        return self._joint_columns[joint]
+        return self.pose.joint_columns(joint)
+
+    @property
+    def height_m(self) -> float:
+        """The subject's height (m)."""
+        return self.pose.height_m
+
+    @property
+    def builder(self) -> FigureBuilder:
+        """What makes the figure of a pose (the model at the subject's height)."""
+        return self.pose.builder
+
+    @property
+    def display_mode(self) -> str:
+        return self.pose.display_mode
 
     def latest_orientations(self) -> dict[str, np.ndarray]:
         """Sensor id → newest ``q_world_from_sensor`` (4,) (sensors with an estimate only)."""
@@ -325,17 +374,13 @@ class LiveSession:
 
     def set_display_mode(self, mode: str) -> None:
         """``"world"`` or ``"body"`` (see :mod:`mimucap.session.figure`)."""
-        self.builder.display_alpha(mode, rotation.identity(), 0.0)  # validates
-        self.display_mode = mode
-        self._geometry = None
+        self.pose.set_display_mode(mode)
+        self._emit_frame()
 
     def set_height(self, height_m: float) -> None:
         """The subject's height (m): rescales the figure."""
-        builder = FigureBuilder(self.model, float(height_m))  # validates
-        self.height_m = float(height_m)
-        self.builder = builder
-        self._root_tracker = RootTracker(self.model, self.height_m)
-        self._geometry = None
+        self.pose.set_height(height_m)
+        self._emit_frame()
 
     def assign_sensor(self, sensor_id: str, segment: str | None) -> None:
         """Wear ``sensor_id`` on ``segment`` (``None`` unassigns); a segment holds one sensor."""
@@ -344,10 +389,14 @@ class LiveSession:
         for other, seg in list(self.sensor_segments.items()):
             if seg == segment and other != sensor_id:
                 del self.sensor_segments[other]
+        before = dict(self.sensor_segments)
         if segment is None:
             self.sensor_segments.pop(sensor_id, None)
         else:
             self.sensor_segments[sensor_id] = segment
+        if self.sensor_segments != before:
+            self.status.mark_due()
+            self.events.assignment.emit(dict(self.sensor_segments))
 
     # -- calibrations ------------------------------------------------------------------------
     @property
@@ -382,6 +431,7 @@ class LiveSession:
         self.calibration_problems.pop(calibration.sensor_id, None)
         if save and self.calibration_store is not None:
             self.calibration_store.save(calibration)
+        self.status.mark_due()
         self.events.calibration.emit()
 
     def apply_body_calibration(self, calibration: bodycal.BodyCalibration) -> None:
@@ -394,16 +444,16 @@ class LiveSession:
         for segment, sensor in calibration.sensors.items():
             self.assign_sensor(sensor, segment)
         self.pipeline.forget_poses()
-        self._root_tracker.reset()
-        self._geometry = None
+        self.pose.reset()
+        self.status.mark_due()
         self.events.calibration.emit()
 
     def clear_body_calibration(self) -> None:
         self._refuse_while_recording("clearing the body calibration")
         self.body_calibration = None
         self.pipeline.forget_poses()
-        self._root_tracker.reset()
-        self._geometry = None
+        self.pose.reset()
+        self.status.mark_due()
         self.events.calibration.emit()
 
     # -- driving -----------------------------------------------------------------------------
@@ -415,8 +465,12 @@ class LiveSession:
         blocks = self.feed.poll()
         if self._recorder is not None:
             self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
+            if self._recorder.failure and not self._failure_told:
+                self._failure_told = True
+                self.events.recording_failed.emit(self._recorder.failure)
         self._note_truth()
         if not blocks:
+            self.status.tick()
             return 0
         self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
         self.events.blocks.emit(blocks)
@@ -424,6 +478,7 @@ class LiveSession:
         new_sensors = [b.sensor_id for b in merged if b.sensor_id not in self._sensors]
         if new_sensors:
             self._load_stored_calibrations(new_sensors)
+            self.status.mark_due()
         times = [block.t_s - self.t0_host_s for block in merged]
         outputs = self.pipeline.feed([b.with_times(t) for b, t in zip(merged, times)])
         by_sensor = {out.sensor_id: out for out in outputs}
@@ -435,8 +490,25 @@ class LiveSession:
             processed.append(ProcessedBlock(block.sensor_id, t, block, orientation))
         self.events.processed.emit(processed)
         self.samples_received += count
-        self._update_pose()
+        known = self.sensor_ids
+        if known != self._known_ids:
+            self._known_ids = known
+            self.events.sensors.emit(known)
+        posed = self._update_pose()
+        self.events.data.emit(self.cursor_s)
+        self.status.tick()
+        if posed:  # last: a view may draw everything this step changed in one picture at once
+            self._emit_frame()
         return count
+
+    def publish_status(self) -> None:
+        """Emit the status events now, each of them (``status``, ``checklist`` or
+        ``recording_progress``, ``source_problem``, ``refused``, ``truth_errors``) and
+        ``pose_source``: for widgets that have just subscribed; :meth:`step` publishes the
+        status at its own rate."""
+        self.status.forget()
+        self.events.pose_source.emit(self._pose_source)
+        self.status.publish()
 
     def _buffer(self, block: SensorSamples, t: np.ndarray, mag_calibrated: np.ndarray | None) -> int:
         """Keep ``block`` for the plots (the calibrated field when there is one)."""
@@ -455,47 +527,42 @@ class LiveSession:
             state.battery_pct = float(block.battery_pct[-1])
         return n
 
-    def _update_pose(self) -> None:
+    def _update_pose(self) -> bool:
+        """Take the pipeline's newest pose; returns whether there is a new one."""
         pose = self.pipeline.pose(self.body_calibration, self.sensor_segments)
         if pose is None:
-            if self._q_world_from_segment is None or not self._assigned_sensors_seen():
-                self._pose_source = POSE_UNASSIGNED if self._sensors else POSE_NONE
-            return
+            if self.pose.q_world_from_segment is None or not self._assigned_sensors_seen():
+                self._set_pose_source(POSE_UNASSIGNED if self._sensors else POSE_NONE)
+            return False
         t_pose, q_segments = pose
-        self._pose_source = POSE_BODY_CALIBRATION if self.body_calibration is not None else POSE_SENSOR_AXES
-        missing = [name for name in self.model.segment_names if name not in q_segments]
-        if missing:
-            raise ValueError(f"the {self.pose_source} pose lacks segments of the {self.model.name} model: "
-                             f"{', '.join(missing)}; choose the model the source was made for")
-        q_stacked = np.array([q_segments[name] for name in self.model.segment_names], dtype=float)
-        self._q_world_from_segment = q_segments
-        self._q_stacked = q_stacked
-        self._root_m = self._root_tracker.update(q_stacked)
-        self._t_s = t_pose
-        self._frame_id += 1
-        self._geometry = None
-        self._pending_angles.append((t_pose, q_stacked))
-        if len(self._pending_angles) > self._angle_t.capacity:
-            del self._pending_angles[: len(self._pending_angles) - self._angle_t.capacity]
-        self.events.frame.emit(self._frame_id)
+        self._set_pose_source(POSE_BODY_CALIBRATION if self.body_calibration is not None else POSE_SENSOR_AXES)
+        try:
+            self.pose.take(t_pose, q_segments)
+        except ValueError as error:
+            raise ValueError(f"{self.pose_source}: {error}") from None
+        return True
+
+    def _set_pose_source(self, source: str) -> None:
+        if source != self._pose_source:
+            self._pose_source = source
+            self.events.pose_source.emit(source)
+
+    def _emit_frame(self) -> None:
+        """Emit ``truth_frame`` and then ``frame`` with the newest pose's figure, built only when
+        someone listens (a new ``frame_id`` for a new pose, display mode or height)."""
+        if self.pose.q_world_from_segment is None:
+            return
+        self._truth_geometry = None
+        if self.events.truth_frame.callbacks:
+            truth = self.truth_frame()
+            self.events.truth_frame.emit(*(truth if truth is not None else (None, None)))
+        if self.events.frame.callbacks:
+            self.events.frame.emit(*self.frame())
 
     def _assigned_sensors_seen(self) -> bool:
         segments = (self.body_calibration.sensors.values() if self.body_calibration is not None
                     else self.sensor_segments)
         return any(sid in self._sensors for sid in segments)
-
-    def _flush_angles(self) -> None:
-        """Joint angles of the poses since the last call, computed in one vectorised batch
-        (the plots ask at 30 Hz; poses arrive at up to 100 Hz)."""
-        if not self._pending_angles:
-            return
-        pending, self._pending_angles = self._pending_angles, []
-        t = np.array([p[0] for p in pending])
-        q = np.array([p[1] for p in pending]).transpose(1, 0, 2)  # (S, P, 4), segments in model order
-        angles = skeleton.joint_angles_deg_stacked(self.model, q)  # (J, P, 3) in column order
-        self._angle_t.append(t, t)
-        for joint, row in self._joint_row.items():
-            self._angles[joint].append(t, angles[row])
 
     # -- the simulator's truth (evaluation only) -----------------------------------------------
     def _note_truth(self) -> None:
@@ -504,7 +571,10 @@ class LiveSession:
         truth = getattr(self.feed, "last_truth", None)
         if truth is None or truth is self._journaled_truth:
             return
+        first = self._truth_pose is None
         self._truth_pose = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
+        if first:
+            self.events.truth_available.emit(True)
         t = self.feed.host_time_of(truth.t_s) - self.t0_host_s
         for joint, columns in self._joint_columns.items():
             if all(c in truth.joint_angles_deg for c in columns):
@@ -565,39 +635,28 @@ class LiveSession:
     def frame(self) -> tuple[object, FigureGeometry] | None:
         """``(frame_id, geometry)`` of the newest pose, or None before the first one.
 
-        ``frame_id`` changes with every new pose and with the display mode.
+        ``frame_id`` changes with every new pose, display mode and height.
         """
-        if self._q_world_from_segment is None:
-            return None
-        frame_id = (self._frame_id, self.display_mode)
-        if self._geometry is None or self._geometry[0] != frame_id:
-            q = self._q_stacked
-            heading_ref = None
-            if self.body_calibration is not None:
-                heading_ref = bodycal_heading(self.body_calibration)
-            proximal, distal = skeleton.forward_kinematics_stacked(self.model, q, self.height_m, self._root_m)
-            geometry = self.builder.build_arrays(proximal, distal, q, mode=self.display_mode,
-                                                 heading_ref_rad=heading_ref)
-            self._geometry = (frame_id, geometry)
-        return self._geometry
+        return self.pose.frame(self._heading_ref())
 
     def truth_frame(self) -> tuple[object, FigureGeometry] | None:
         """``(frame_id, geometry)`` of the simulator's true pose, standing where the estimate
         stands (the ghost figure of the on-screen accuracy check); ``None`` for a source without
         truth or before the first estimated pose. Evaluation only: never the figure itself."""
         truth = self._truth_pose
-        if truth is None or self._q_world_from_segment is None:
+        if truth is None:
             return None
-        if any(name not in truth for name in self.model.segment_names):
-            return None
-        frame_id = ("truth", self._frame_id, self.display_mode)
+        frame_id = ("truth", self.pose.frame_id, self.pose.display_mode)
         if self._truth_geometry is None or self._truth_geometry[0] != frame_id:
-            q = np.array([truth[name] for name in self.model.segment_names], dtype=float)
-            heading_ref = None if self.body_calibration is None else bodycal_heading(self.body_calibration)
-            proximal, distal = skeleton.forward_kinematics_stacked(self.model, q, self.height_m, self._root_m)
-            geometry = self.builder.build_arrays(proximal, distal, q, mode=self.display_mode, heading_ref_rad=heading_ref)
+            geometry = self.pose.figure_of(truth, self._heading_ref())
+            if geometry is None:
+                return None
             self._truth_geometry = (frame_id, geometry)
         return self._truth_geometry
+
+    def _heading_ref(self) -> float | None:
+        """The heading the body display mode turns to face the camera: the N-pose's."""
+        return None if self.body_calibration is None else bodycal_heading(self.body_calibration)
 
     # -- views for the panel and the plots -----------------------------------------------------
     def segment_states(self) -> dict[str, str]:
@@ -660,11 +719,7 @@ class LiveSession:
     def joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Last ``window_s`` seconds of ``joint``'s angles: ``t_s`` (N,), ``angles_deg`` (N,3)
         in the order of :meth:`joint_columns`."""
-        self._flush_angles()
-        buffer = self._angles[joint]
-        if not len(buffer):
-            return np.zeros(0), np.zeros((0, 3))
-        return buffer.since(buffer.latest()[0] - window_s)
+        return self.pose.joint_series(joint, window_s)
 
     # -- recording ---------------------------------------------------------------------------
     @property
@@ -701,8 +756,10 @@ class LiveSession:
         recorder = Recorder(path, metadata)
         recorder.start(start_host_s)
         self._recorder = recorder
+        self._failure_told = False
         self._journaled_truth = None
         self._recording_markers = 0
+        self.status.mark_due()
         self.events.recording.emit(self.recording_info())
 
     def add_marker(self, label: str) -> float:
@@ -743,6 +800,7 @@ class LiveSession:
                   for sid, s in self.feed.stats().items()}
         recorder.close(status)
         pending = RecordingToSave(recorder=recorder)
+        self.status.mark_due()
         self.events.recording.emit(None)
         return pending
 

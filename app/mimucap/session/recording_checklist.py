@@ -10,8 +10,9 @@
    hours (the magnetic surroundings of a room change: furniture, equipment, another room);
 4. **Body calibration**: an N/T-pose calibration is applied, and its verdict is not "poor".
 
-The main window shows the list next to the Record button and asks for a confirmation before
-recording while an item is not ok.
+The live session publishes the list with its status (event ``checklist``); the main window
+shows it next to the Record button and asks for a confirmation before recording while an item
+is not ok.
 """
 
 from __future__ import annotations
@@ -59,9 +60,10 @@ def _age_text(age_s: float) -> str:
     return describe_age(age_s / 86400.0 if math.isfinite(age_s) else None)
 
 
-def recording_checklist(live) -> list[CheckItem]:
-    """The checklist of ``live`` (a :class:`~mimucap.session.live.LiveSession`) now."""
-    rows = live.sensor_rows()
+def recording_checklist(live, rows=None) -> list[CheckItem]:
+    """The checklist of ``live`` (a :class:`~mimucap.session.live.LiveSession`) now; ``rows``:
+    its :meth:`~mimucap.session.live.LiveSession.sensor_rows` when the caller has them already."""
+    rows = live.sensor_rows() if rows is None else rows
     stats = live.feed.stats()
     assigned = [(row.sensor_id, row.segment) for row in rows if row.segment is not None]
     by_id = {row.sensor_id: row for row in rows}

@@ -16,8 +16,8 @@ A simulated recording's ground truth is kept beside them (``truth``) for the on-
 comparison only; it never replaces the estimate.
 
 :class:`ReviewPlayer` holds the play head (``cursor_s``), play/pause, speed and the display
-mode; it offers the same plot-source methods as the live session, with windows that end
-at the play head.
+mode; it offers the same plot-source methods and events (``data``, ``frame``, ``truth_frame``)
+as the live session, with windows that end at the play head.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.locomotion import root_positions
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
+from mimucap.session.events import EmitterGroup
 from mimucap.session.figure import FigureBuilder, FigureGeometry
 from mimucap.session.processing import process_session, recorded_processing, session_model
 from mimucap.session.recording import open_session
@@ -132,10 +133,21 @@ def load_review(path: str | Path, progress: Callable[[float], None] | None = Non
 
 
 class ReviewPlayer:
-    """Play head over a :class:`ReviewData` (see the module doc)."""
+    """Play head over a :class:`ReviewData` (see the module doc).
+
+    Events (``self.events``), emitted by whoever moves the play head (:meth:`seek`,
+    :meth:`advance` from the review's play clock, :meth:`set_display_mode`):
+    ``data(cursor_s)`` the play head moved (s of the recording; the plots' windows end there);
+    ``frame(frame_id, geometry)`` the pose shown changed (another pose instant or display mode;
+    built only while someone listens; the last event of a move); ``truth_frame(frame_id,
+    geometry_or_None)`` just before each ``frame`` while someone listens, the simulator's true
+    pose there (evaluation only).
+    """
 
     def __init__(self, data: ReviewData) -> None:
         self.data = data
+        self.events = EmitterGroup("data", "frame", "truth_frame")
+        self._shown_frame_id: object = None
         self.model = data.model
         self.height_m = data.height_m
         self.builder = FigureBuilder(data.model, data.height_m)
@@ -164,7 +176,28 @@ class ReviewPlayer:
     def seek(self, t_s: float) -> float:
         """Move the play head to ``t_s`` (clamped to the recording); returns where it is."""
         self._cursor = float(min(max(t_s, self.data.start_s), self.data.end_s))
+        self._moved()
         return self._cursor
+
+    def _moved(self) -> None:
+        """Tell the listeners the play head moved, and the new pose when it changed."""
+        self.events.data.emit(self._cursor)
+        if not len(self.data.t_s):
+            return
+        frame_id = (self.index(), self.display_mode)
+        if frame_id == self._shown_frame_id:
+            return
+        self._shown_frame_id = frame_id
+        if self.events.truth_frame.callbacks:
+            truth = self.truth_frame()
+            self.events.truth_frame.emit(*(truth if truth is not None else (None, None)))
+        if self.events.frame.callbacks:
+            self.events.frame.emit(*self.frame())
+
+    def publish(self) -> None:
+        """Emit the events for the play head where it is (for listeners that just subscribed)."""
+        self._shown_frame_id = None
+        self._moved()
 
     def seek_marker(self, index: int) -> float:
         """Move the play head to marker ``index`` (in the session's order)."""
@@ -180,7 +213,7 @@ class ReviewPlayer:
 
     def play(self) -> None:
         if self._cursor >= self.data.end_s:
-            self._cursor = self.data.start_s
+            self.seek(self.data.start_s)
         self.playing = True
 
     def pause(self) -> None:
@@ -203,6 +236,7 @@ class ReviewPlayer:
         self.builder.display_alpha(mode, rotation.identity(), 0.0)
         self.display_mode = mode
         self._geometry = None
+        self._moved()
 
     def frame(self) -> tuple[object, FigureGeometry] | None:
         if not len(self.data.t_s):

@@ -1,22 +1,26 @@
-"""The 3D view widget: a VTK render window in the GUI process, and a frame clock.
+"""The 3D view widget: a VTK render window in the GUI process that draws the poses it is told of.
 
 The widget *has* a :class:`~mimucap.gui.vtk_widget.VtkWidget` (VTK's Qt render window
-interactor; no double inheritance). Each :meth:`SceneView.tick` asks the frame provider for
-the newest :class:`~mimucap.session.figure.FigureGeometry` and renders once, only when
-something changed (new frame, tint, camera, hint). Ticks come either from the view's own
-``QTimer`` at :attr:`SceneView.target_fps` (``start()``), or from the owner right after it has
-taken in new data (``start(own_clock=False)``; the main window does so, which keeps the time
-from a sample's arrival to the screen short: one render per data tick). Mouse orbit/zoom is
-VTK's trackball camera style. The camera follows the subject along the floor in every preset
-(:mod:`mimucap.session.camera`). After :meth:`SceneView.shutdown` (called on close) nothing
-renders again.
+interactor; no double inheritance). It subscribes to a model's events (:meth:`SceneView.set_model`:
+the live session or the review player, ``frame(frame_id, geometry)`` with the newest
+:class:`~mimucap.session.figure.FigureGeometry`, ``truth_frame`` for the ghost figure,
+``status`` for the segments' tints) and keeps no copy of the model's data. Whatever changes
+(a tint, the camera, the hint) marks the picture dirty and asks for one render when the event
+loop is free again; a new frame (a model's last event of a step) is drawn at once with all that
+came before it: the events of one pipeline step give one picture. At most one picture is drawn
+per frame interval (:attr:`SceneView.target_fps`, less :data:`FRAME_INTERVAL_SLACK` for the
+timers' jitter): what arrives sooner waits for a single-shot timer, and frames that arrive
+faster are coalesced.
+Mouse orbit/zoom is VTK's trackball camera style. The camera follows the subject along the
+floor in every preset (:mod:`mimucap.session.camera`). After :meth:`SceneView.shutdown`
+(called on close) nothing renders again.
 """
 
 from __future__ import annotations
 
 import textwrap
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 
 import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
@@ -25,6 +29,7 @@ from vtkmodules.vtkRenderingCore import vtkTextActor
 
 from mimucap.gui.scene.environment import Stage, scene_renderer
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
+from mimucap.gui.throttle import RepaintThrottle
 from mimucap.gui.vtk_widget import VtkWidget
 from mimucap.session.camera import CAMERA_PRESETS, camera_preset, follow_shift
 from mimucap.session.figure import FigureBuilder, FigureGeometry, plain_world_matrix
@@ -34,8 +39,12 @@ CLIPPING_FAR_M = 45.0
 #: The hint's text: size (points at 72 dots per inch), characters per line at most.
 HINT_FONT_SIZE, HINT_LINE_CHARACTERS = 15, 52
 
-#: Called every tick; returns ``(frame_id, geometry)`` for the newest frame or ``None``.
-FrameProvider = Callable[[], "tuple[object, FigureGeometry] | None"]
+#: Share of the frame interval (1 / ``target_fps``) two renders may come closer than: the data
+#: clock (62.5 Hz) and Qt's millisecond timers jitter around a 60 Hz interval, and holding a
+#: frame back for a fraction of a millisecond would add a whole interval of delay now and then.
+FRAME_INTERVAL_SLACK = 0.1
+#: The event a view posts itself to render when the event loop is free.
+_RENDER_EVENT = QtCore.QEvent.Type(QtCore.QEvent.registerEventType())
 
 
 def _hint_actor() -> vtkTextActor:
@@ -61,8 +70,9 @@ class SceneView(QtWidgets.QWidget):
 
     Attributes:
         frames_rendered: frames drawn by :meth:`render` so far.
-        shown_frame_id: the frame id (from the frame provider) of the picture on screen.
+        shown_frame_id: the frame id (of the model's ``frame`` event) of the picture on screen.
         hint: the text said in the middle of the view (``""``: none; :meth:`set_hint`).
+        target_fps: most pictures a second (the screen's rate).
 
     Signals:
         frame_rendered(float): emitted when a new picture is shown, with ``time.perf_counter()``.
@@ -91,9 +101,12 @@ class SceneView(QtWidgets.QWidget):
         self.render_window.AddObserver(vtkCommand.StartEvent, self._set_clipping_range)
         self.interactor = self.vtk_widget.interactor
 
-        self._provider: FrameProvider | None = None
-        self._tint_provider: Callable[[], Mapping[str, str]] | None = None
-        self._ghost_provider: FrameProvider | None = None
+        self._model = None
+        self._ghost_wanted = False
+        self._pending_frame: tuple[object, FigureGeometry] | None = None
+        self._pending_ghost: tuple[object, FigureGeometry | None] | None = None
+        self._pending_tints: Mapping[str, str] | None = None
+        self._tints: Mapping[str, str] = {}  # the last tints asked for (a new figure takes them)
         self._ghost_frame_id: object = None
         self._builder: FigureBuilder | None = None
         self.skeleton: SkeletonActor | None = None
@@ -110,11 +123,16 @@ class SceneView(QtWidgets.QWidget):
         self.frames_rendered = 0
         self.shown_frame_id: object = None
         self.render_times: list[float] = []  # perf_counter() of recent frames shown (bounded)
+        self._throttle = RepaintThrottle(self.target_fps, FRAME_INTERVAL_SLACK)
 
-        self._timer = QtCore.QTimer(self)
-        self._timer.setTimerType(QtCore.Qt.PreciseTimer)
-        self._timer.setInterval(max(1, int(round(1000.0 / self.target_fps))))
-        self._timer.timeout.connect(self.tick)
+        # One render when the event loop is free again (a posted event of high priority: before
+        # the plots' repaints queued meanwhile), or, within a frame interval of the last one,
+        # when the interval is over (a timer): what changed meanwhile is drawn in one picture.
+        self._render_posted = False
+        self._render_timer = QtCore.QTimer(self)
+        self._render_timer.setSingleShot(True)
+        self._render_timer.setTimerType(QtCore.Qt.PreciseTimer)
+        self._render_timer.timeout.connect(self.render_pending)
 
     # -- configuration -------------------------------------------------------------------
     def set_figure(self, builder: FigureBuilder) -> None:
@@ -130,32 +148,114 @@ class SceneView(QtWidgets.QWidget):
         self._ghost_frame_id = None
         self._last_frame_id = None
         self._last_geometry = None
+        self._pending_tints = self._tints
         # Until the first frame, look at the floor where the subject will stand; the preset is
         # applied again around the figure's root when it arrives.
         self.stage.set_world_matrix(plain_world_matrix())
         self._apply_camera(np.zeros(3))
         self._camera_pending = True
         self._dirty = True
+        self._schedule()
 
-    def set_frame_provider(self, provider: FrameProvider | None) -> None:
-        """Where each tick gets the newest frame (``None`` freezes the view)."""
-        self._provider = provider
+    # -- the model's events -------------------------------------------------------------
+    @property
+    def model(self):
+        """The model whose events the view follows (``None``: none)."""
+        return self._model
+
+    def set_model(self, model) -> None:
+        """Follow ``model`` (the live session or a review player: ``events.frame``, its
+        ``frame()`` now; ``events.status`` for the tints when it has one), or nothing
+        (``None``); the previous model is let go (unsubscribed). The ghost figure follows the
+        new model when :meth:`set_ghost_visible` asked for it."""
+        previous, self._model = self._model, None
+        if previous is not None:
+            previous.events.frame.disconnect(self.show_frame)
+            previous.events.truth_frame.disconnect(self.show_ghost)
+            if "status" in previous.events.names:
+                previous.events.status.disconnect(self._status_changed)
         self._last_frame_id = None
-        self._dirty = True
+        self._pending_frame = None
+        self._pending_ghost = None
+        if model is None:
+            return
+        self._model = model
+        model.events.frame.connect(self.show_frame)
+        if "status" in model.events.names:
+            model.events.status.connect(self._status_changed)
+        frame = model.frame()
+        if frame is not None:
+            self.show_frame(*frame)
+        self.set_ghost_visible(self._ghost_wanted)
 
-    def set_ghost_provider(self, provider: FrameProvider | None) -> None:
-        """Where each tick gets the ghost figure's frame (the simulator's truth, drawn
-        translucent beside the estimate); ``None`` (or a provider giving ``None``) hides it."""
-        self._ghost_provider = provider
-        self._ghost_frame_id = None
-        if provider is None and self.ghost is not None and self.ghost.visible:
-            self.ghost.hide()
-        self._dirty = True
+    def set_ghost_visible(self, on: bool) -> None:
+        """Draw the model's ``truth_frame`` (the simulator's truth) as a translucent ghost
+        figure beside the estimate, or not (a second figure doubles the drawing without a GPU,
+        so the view subscribes to it only while asked)."""
+        self._ghost_wanted = bool(on)
+        model = self._model
+        if not on:
+            if model is not None:
+                model.events.truth_frame.disconnect(self.show_ghost)
+            self._pending_ghost = None
+            self._ghost_frame_id = None
+            if self.ghost is not None and self.ghost.visible:
+                self.ghost.hide()  # at once (the picture follows with the next render)
+                self._dirty = True
+                self._schedule()
+        elif model is not None:
+            model.events.truth_frame.connect(self.show_ghost)
+            truth = model.truth_frame()
+            self.show_ghost(*(truth if truth is not None else (None, None)))
 
-    def set_tint_provider(self, provider: Callable[[], Mapping[str, str]] | None) -> None:
-        """Where each tick gets segment → sensor state names for tinting."""
-        self._tint_provider = provider
-        self._dirty = True
+    def show_frame(self, frame_id: object, geometry: FigureGeometry) -> None:
+        """Show the figure's pose ``geometry``: drawn at once, with whatever else arrived since the
+        last picture, when a frame interval has passed since it (a model emits ``frame`` last
+        among the events of a change, which keeps the time from a sample to the screen short);
+        else when the interval is over, replaced by any frame that arrives meanwhile."""
+        self._pending_frame = (frame_id, geometry)
+        if self._wait_s() > 0:
+            self._schedule()
+        else:
+            self.render_pending()
+
+    def show_ghost(self, frame_id: object, geometry: FigureGeometry | None) -> None:
+        """Show the ghost figure at ``geometry`` (``None`` hides it), with the next render."""
+        self._pending_ghost = (frame_id, geometry)
+        self._schedule()
+
+    def set_tints(self, tints: Mapping[str, str]) -> None:
+        """Tint each segment by its sensor's state (segment → ``ok``, ``mag_uncalibrated``,
+        ``stale``), with the next render."""
+        self._tints = self._pending_tints = dict(tints)
+        self._schedule()
+
+    def _status_changed(self, rows) -> None:
+        self.set_tints({row.segment: row.state for row in rows if row.segment is not None})
+
+    def _schedule(self) -> None:
+        """Ask for one render when the event loop is free, a frame interval after the last one."""
+        if not self._alive or not self._running or self._render_posted or self._render_timer.isActive():
+            return
+        wait_s = self._wait_s()
+        if wait_s > 0:
+            self._render_timer.start(RepaintThrottle.timer_ms(wait_s))
+        else:
+            self._render_posted = True
+            QtCore.QCoreApplication.postEvent(self, QtCore.QEvent(_RENDER_EVENT), QtCore.Qt.HighEventPriority)
+
+    def _wait_s(self) -> float:
+        """How long (s) until the next picture is due (≤ 0: now)."""
+        if self._throttle.rate_hz != self.target_fps:
+            self._throttle = RepaintThrottle(self.target_fps, FRAME_INTERVAL_SLACK)
+        return self._throttle.wait_s(time.perf_counter())
+
+    def customEvent(self, event: QtCore.QEvent) -> None:  # noqa: N802 (Qt API)
+        if event.type() == _RENDER_EVENT:
+            self._render_posted = False
+            self.render_pending()
+        else:
+            super().customEvent(event)
 
     @property
     def camera_preset(self) -> str:
@@ -169,10 +269,12 @@ class SceneView(QtWidgets.QWidget):
         self._camera_preset = name
         self._camera_pending = True
         self._dirty = True
+        self._schedule()
 
     def set_stage_visible(self, floor: bool, axes: bool) -> None:
         self.stage.set_visible(floor, axes)
         self._dirty = True
+        self._schedule()
 
     def set_hint(self, text: str) -> None:
         """Say ``text`` in the middle of the view (``""``: nothing), e.g. why it shows no figure;
@@ -188,8 +290,7 @@ class SceneView(QtWidgets.QWidget):
         self._hint_actor.SetInput("\n".join(f" {line} " for line in lines))
         self._hint_actor.SetVisibility(bool(text))
         self._dirty = True
-        if self._running and not self._timer.isActive():
-            self.render()  # ticked by its owner, who may have nothing new to show for a while
+        self._schedule()
 
     @property
     def alive(self) -> bool:
@@ -201,20 +302,18 @@ class SceneView(QtWidgets.QWidget):
         """The geometry currently shown (``None`` before the first frame)."""
         return self._last_geometry
 
-    # -- render loop -----------------------------------------------------------------------
-    def start(self, own_clock: bool = True) -> None:
-        """Start rendering (idempotent): ticked by the view's own timer, or, with
-        ``own_clock=False``, by the owner calling :meth:`tick` whenever new data came in."""
+    # -- rendering -------------------------------------------------------------------------
+    def start(self) -> None:
+        """Render from now on whenever something changes (idempotent; the first picture at once)."""
         if not self._alive:
             return
         self._running = True
-        if own_clock and not self._timer.isActive():
-            self._timer.start()
-        elif not own_clock:
-            self._timer.stop()
+        self._dirty = True
+        self._schedule()
 
     def stop(self) -> None:
-        self._timer.stop()
+        """Render no more until :meth:`start` (what changes meanwhile is drawn then)."""
+        self._render_timer.stop()
         self._running = False
 
     @property
@@ -250,31 +349,39 @@ class SceneView(QtWidgets.QWidget):
         camera.SetViewUp(*pose.view_up)
         camera.SetViewAngle(pose.view_angle_deg)
 
-    def tick(self) -> None:
-        """Take the newest frame, tints and camera; render if anything changed."""
-        if not self._alive or not self._running or self.skeleton is None:
+    def render_pending(self) -> None:
+        """Apply what arrived since the last picture (the newest frame, ghost, tints; the camera
+        following the figure) and render if anything changed. The render timer calls it; a
+        caller that needs the picture now (a screenshot, a test) may too."""
+        self._render_timer.stop()
+        if not self._alive or not self._running:
             return
-        if self._provider is not None:
-            frame = self._provider()
-            if frame is not None:
-                frame_id, geometry = frame
-                if frame_id != self._last_frame_id:
-                    self._last_frame_id = frame_id
-                    self._last_geometry = geometry
-                    self.skeleton.update(geometry)
-                    self.stage.set_world_matrix(geometry.world_matrix, geometry.root_world_m)
-                    self._dirty = True
-        if self._ghost_provider is not None and self.ghost is not None:
-            ghost = self._ghost_provider()
-            if ghost is None:
+        if self.skeleton is None:  # no figure yet: the floor and the hint only
+            if self._dirty:
+                self.render()
+            return
+        frame, self._pending_frame = self._pending_frame, None
+        if frame is not None and frame[0] != self._last_frame_id:
+            frame_id, geometry = frame
+            self._last_frame_id = frame_id
+            self._last_geometry = geometry
+            self.skeleton.update(geometry)
+            self.stage.set_world_matrix(geometry.world_matrix, geometry.root_world_m)
+            self._dirty = True
+        ghost, self._pending_ghost = self._pending_ghost, None
+        if ghost is not None and self.ghost is not None:
+            ghost_id, geometry = ghost
+            if geometry is None:
+                self._ghost_frame_id = None
                 if self.ghost.visible:
                     self.ghost.hide()
                     self._dirty = True
-            elif ghost[0] != self._ghost_frame_id:
-                self._ghost_frame_id = ghost[0]
-                self.ghost.update(ghost[1])
+            elif ghost_id != self._ghost_frame_id:
+                self._ghost_frame_id = ghost_id
+                self.ghost.update(geometry)
                 self._dirty = True
-        if self._tint_provider is not None and self.skeleton.set_tints(self._tint_provider()):
+        tints, self._pending_tints = self._pending_tints, None
+        if tints is not None and self.skeleton.set_tints(tints):
             self._dirty = True
         if self._last_geometry is not None:
             root = self._last_geometry.root_scene_m
@@ -295,6 +402,9 @@ class SceneView(QtWidgets.QWidget):
         if not self._alive or not self.isVisible():
             return
         self._dirty = False
+        # the schedule counts from a render's start: a slow frame (a software rasteriser) must
+        # not lengthen the next interval by its own duration
+        self._throttle.painted(time.perf_counter())
         self.vtk_widget.render()
         self.frames_rendered += 1
         self.shown_frame_id = self._last_frame_id
@@ -308,11 +418,10 @@ class SceneView(QtWidgets.QWidget):
         """Stop rendering for good and release the OpenGL context."""
         if not self._alive:
             return
-        self._timer.stop()
+        self._render_timer.stop()
         self._alive = False
         self._running = False
-        self._provider = None
-        self._tint_provider = None
+        self.set_model(None)
         self.vtk_widget.Finalize()
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)

@@ -435,10 +435,10 @@ class BodyCalibrationWizard(CalibrationDialog):
         builder = FigureBuilder(self.model, height)
         geometry = builder.build(poses, mode="body")
         self.scene.set_figure(builder)
-        self.scene.set_frame_provider(lambda: ("calibrated", geometry))
-        self.scene.set_tint_provider(lambda: {s: "ok" for s in self.procedure.mapping})
+        self.scene.show_frame("calibrated", geometry)
+        self.scene.set_tints({s: "ok" for s in self.procedure.mapping})
         self.scene.start()
-        self.scene.tick()
+        self.scene.render_pending()
 
     def vtk_view(self):
         return self.scene

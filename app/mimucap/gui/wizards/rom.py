@@ -1,9 +1,9 @@
 """The guided range-of-motion wizard: one movement after the other, the active joint angle in
 large digits, each repetition's peak captured, repeats averaged, and the results table.
 
-The logic is :class:`mimucap.session.rom_procedure.RomProcedure`, fed by a ``QTimer`` with
-the live session's newest joint angles and segment orientations (it needs a body
-calibration). Each step's start and end are also set as markers on the live session
+The logic is :class:`mimucap.session.rom_procedure.RomProcedure`, fed with every new pose of
+the live session (its ``frame`` event: the newest joint angles and segment orientations; it
+needs a body calibration, and follows the ``calibration`` event). Each step's start and end are also set as markers on the live session
 (``rom:<movement>:<side>:start`` / ``:end``), so a recording running meanwhile holds them and
 its analysis finds the same movements. Each movement is an instruction to the live session
 (:mod:`mimucap.session.instructions`): the person reads it, the simulated subject does it.
@@ -20,8 +20,6 @@ from mimucap.core.analysis import rom as rom_core
 from mimucap.gui.wizards.dialog import button_row, large_label, push_button
 from mimucap.session import instructions
 from mimucap.session.rom_procedure import RomProcedure
-
-TICK_MS = 40
 
 
 class RomWizard(QtWidgets.QDialog):
@@ -65,11 +63,12 @@ class RomWizard(QtWidgets.QDialog):
         layout.addLayout(button_row(self.start_button, self.done_button, self.skip_button, self.next_button, None,
                                     self.close_button))
         layout.addWidget(self.results, 1)
-        self.timer = QtCore.QTimer(self)
-        self.timer.setInterval(TICK_MS)
-        self.timer.timeout.connect(self.tick)
-        self.timer.start()
+        live_session.events.frame.connect(self._pose_arrived)
+        live_session.events.calibration.connect(self.refresh)
         self.refresh()
+
+    def _pose_arrived(self, _frame_id, _geometry) -> None:
+        self.tick()
 
     # -- the live pose ------------------------------------------------------------------------
     def _pose(self) -> tuple[float, dict, dict] | None:
@@ -87,7 +86,7 @@ class RomWizard(QtWidgets.QDialog):
         return t, angles, {s: np.asarray(q, dtype=float)[None, :] for s, q in segments.items()}
 
     def tick(self) -> None:
-        """Feed the newest pose to the procedure and show its state."""
+        """Feed the newest pose to the procedure and show its state (on every new pose)."""
         if getattr(self.live, "body_calibration", None) is None:
             self.refresh()
             return
@@ -180,6 +179,7 @@ class RomWizard(QtWidgets.QDialog):
             self.results.resizeColumnsToContents()
 
     def closeEvent(self, event) -> None:  # noqa: N802 (Qt API)
-        self.timer.stop()
+        self.live.events.frame.disconnect(self._pose_arrived)
+        self.live.events.calibration.disconnect(self.refresh)
         self.live.instruct(instructions.RESUME)
         super().closeEvent(event)
