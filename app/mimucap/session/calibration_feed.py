@@ -8,6 +8,10 @@ asks for. A feed has:
   (:class:`mimucap.core.pipeline.SensorBlock`, the pipeline's own record of a sensor's samples:
   raw magnetometer), with ``q_world_from_sensor`` the orientation the live session's processing
   path gave them;
+* ``static_orientation(sensor_id, acc, mag_raw_uT)``: ``q_world_from_sensor`` (4,) of a still
+  window from its mean specific force and magnetic field, the field corrected as the
+  pipeline corrects it (:func:`mimucap.core.bodycal.static_alignment`), or None for a sensor
+  whose orientation does not come from the pipeline's filter with a calibrated magnetometer;
 * ``instruct(instruction)``: what the subject is asked to do
   (:mod:`mimucap.session.instructions`); the source decides who follows it (a person reads the
   screen; the simulated subject does it). No procedure asks which one it is.
@@ -29,6 +33,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from mimucap.core.bodycal import static_alignment
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import SensorBlock
 from mimucap.core.simulate import SuitSimulator
@@ -44,6 +49,8 @@ class CalibrationFeed(Protocol):
     def time_s(self) -> float: ...
 
     def read(self) -> dict[str, SensorBlock]: ...
+
+    def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None: ...
 
     def instruct(self, instruction: Instruction) -> None: ...
 
@@ -73,6 +80,17 @@ class LiveSessionFeed:
 
     def instruct(self, instruction: Instruction) -> None:
         self.live_session.instruct(instruction)
+
+    def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None:
+        """``q_world_from_sensor`` (4,) of ``sensor_id`` held still over the samples ``acc`` (K, 3)
+        m/s² and ``mag_raw_uT`` (K, 3) raw µT, with the magnetometer calibration and declination
+        the live session's pipeline uses; None when the sensor has no magnetometer calibration
+        (its raw field is not what the filter will settle on) or sends its own orientation."""
+        chain = self.live_session.pipeline.chains.get(sensor_id)
+        if chain is None or chain.onboard or chain.mag_calibration is None:
+            return None
+        return static_alignment(acc, chain.calibrated_mag(np.asarray(mag_raw_uT, dtype=np.float64)),
+                                chain.settings.fusion.declination_rad)
 
     def read(self) -> dict[str, SensorBlock]:
         """The samples that arrived since the last call, per sensor (a channel is None when

@@ -38,15 +38,10 @@ class FusionParams:
     gyr_noise_rad_s_sqrt_hz: float = 0.15 * DEG
     #: Gyroscope bias random walk (rad/s/√s): bias process noise ``σ²·dt``.
     bias_walk_rad_s_sqrt_s: float = 0.0005 * DEG
-    #: Initial standard deviations of tilt, heading (rad) and gyro bias (rad/s). The bias
-    #: prior covers the zero-rate offset of an uncalibrated MEMS gyroscope of the BNO055 /
-    #: MPU-9250 class, a few °/s (the simulated default unit draws 0.5-2 °/s): with a prior of
-    #: 0.5 °/s such a bias was a 4σ event, which the filter blamed on the heading instead, whose
-    #: error then took tens of seconds to decay. No effect on the BROAD trials (their bias
-    #: is small).
+    #: Initial standard deviations of tilt, heading (rad) and gyro bias (rad/s).
     init_tilt_std_rad: float = 5.0 * DEG
     init_heading_std_rad: float = 20.0 * DEG
-    init_bias_std_rad_s: float = 2.0 * DEG
+    init_bias_std_rad_s: float = 0.5 * DEG
     #: Largest bias magnitude the filter accepts (rad/s); the estimate is clipped to it.
     bias_max_rad_s: float = 5.0 * DEG
 
