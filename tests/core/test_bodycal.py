@@ -300,6 +300,10 @@ def test_static_alignment_gives_the_orientation_of_a_sensor_at_rest():
         assert deg_between(bc.static_alignment(acc, mag, np.radians(10.0)), turned) < 0.3
     with pytest.raises(ValueError, match="vertical"):
         bc.static_alignment(np.tile([0.0, 0.0, 9.81], (5, 1)), np.tile([0.0, 0.0, -45.0], (5, 1)))
+    # a magnet near the sensor: the field's magnitude is off the calibration's
+    assert deg_between(bc.static_alignment(acc, mag, field_uT=46.5), q_true) < 0.3
+    with pytest.raises(ValueError, match="disturbed"):
+        bc.static_alignment(acc, mag * 1.3, field_uT=46.5)
     with pytest.raises(ValueError, match="non-finite"):
         bc.static_alignment(np.full((3, 3), np.nan), np.ones((3, 3)))
     with pytest.raises(ValueError, match="windows"):

@@ -164,7 +164,7 @@ def static_npose_orientations(session, mag_calibration_files, mapping: dict[str,
     from mimucap.session.processing import recorded_processing
 
     mags, _lines = magnetometer_calibrations(session, mag_calibration_files)
-    declination = recorded_processing(session).settings.fusion.declination_rad
+    fusion = recorded_processing(session).settings.fusion
     found = {}
     for sensor_id in mapping.values():
         stream = session.sensors[sensor_id]
@@ -178,9 +178,10 @@ def static_npose_orientations(session, mag_calibration_files, mapping: dict[str,
             continue
         try:
             found[sensor_id] = bodycal.static_alignment(acc[good], mags[sensor_id].apply(mag[good], sensor_id),
-                                                        declination)
+                                                        fusion.declination_rad, mags[sensor_id].field_uT,
+                                                        fusion.mag_norm_tol)
         except ValueError:
-            continue  # a vertical field gives no north: the orientation track stays
+            continue  # a vertical or disturbed field: the orientation track stays
     if found:
         print(f"  N-pose orientations from the still sensors' accelerometer and calibrated magnetometer: "
               f"{', '.join(sorted(found))}")

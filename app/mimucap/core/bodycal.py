@@ -327,13 +327,17 @@ def tilt_from_horizontal_deg(v_world: ArrayLike, up_world: ArrayLike) -> FloatAr
     return np.degrees(np.arcsin(np.clip(np.abs(np.sum(v * up_world, axis=-1)), 0.0, 1.0)))
 
 
-def static_alignment(acc_m_s2: ArrayLike, mag_uT: ArrayLike, declination_rad: float = 0.0) -> FloatArray:
+def static_alignment(acc_m_s2: ArrayLike, mag_uT: ArrayLike, declination_rad: float = 0.0,
+                     field_uT: float | None = None, field_tolerance: float = 0.15) -> FloatArray:
     """``q_world_from_sensor`` (4,) of a sensor at rest (world ENU: y magnetic north, or true
     north turned by ``declination_rad``, positive when magnetic north lies east of true north,
     as the orientation filter uses it) from its samples over a still window: ``acc_m_s2``
     (K, 3) specific force (its mean points up) and ``mag_uT`` (K, 3) calibrated magnetic field,
     both in the sensor frame. East is ``m × up``, north ``up × east`` (the TRIAD construction).
-    ``ValueError`` when the window is empty or not finite, or the field is (nearly) vertical."""
+    ``ValueError`` when the window is empty or not finite, the field is (nearly) vertical, or,
+    given the undisturbed ``field_uT`` (µT, e.g. the magnetometer calibration's), the mean
+    field's magnitude differs from it by more than the fraction ``field_tolerance`` (a local
+    disturbance, which the orientation filter would reject as well)."""
     acc = np.asarray(acc_m_s2, dtype=np.float64)
     mag = np.asarray(mag_uT, dtype=np.float64)
     if acc.ndim != 2 or acc.shape[1] != 3 or mag.shape != acc.shape or acc.shape[0] == 0:
@@ -342,6 +346,10 @@ def static_alignment(acc_m_s2: ArrayLike, mag_uT: ArrayLike, declination_rad: fl
     if not (np.all(np.isfinite(acc)) and np.all(np.isfinite(mag))):
         raise ValueError("static alignment: the window holds non-finite samples")
     up = _unit(acc.mean(axis=0), "mean specific force")
+    magnitude = float(np.linalg.norm(mag.mean(axis=0)))
+    if field_uT is not None and abs(magnitude - field_uT) > field_tolerance * field_uT:
+        raise ValueError(f"static alignment: the field is disturbed ({magnitude:.1f} µT where "
+                         f"{field_uT:.1f} µT is expected)")
     east = np.cross(mag.mean(axis=0), up)
     norm = float(np.linalg.norm(east))
     if norm < 1e-3 * max(float(np.linalg.norm(mag.mean(axis=0))), 1e-9):

@@ -324,7 +324,7 @@ class BodycalProcedure:
                     try:
                         static = self.feed.static_orientation(sensor_id, acc, mag)
                     except ValueError:
-                        static = None  # a vertical field gives no north: the filter's mean stays
+                        static = None  # a vertical or disturbed field: the filter's mean stays
                     if static is not None:
                         self.npose_static[sensor_id] = static
             self._fields = {s: _Fields() for s in self._sensors}

@@ -85,12 +85,15 @@ class LiveSessionFeed:
         """``q_world_from_sensor`` (4,) of ``sensor_id`` held still over the samples ``acc`` (K, 3)
         m/s² and ``mag_raw_uT`` (K, 3) raw µT, with the magnetometer calibration and declination
         the live session's pipeline uses; None when the sensor has no magnetometer calibration
-        (its raw field is not what the filter will settle on) or sends its own orientation."""
+        (its raw field is not what the filter will settle on) or sends its own orientation.
+        ``ValueError`` when the field is vertical or disturbed (its magnitude off the
+        calibration's by more than the filter's tolerance)."""
         chain = self.live_session.pipeline.chains.get(sensor_id)
         if chain is None or chain.onboard or chain.mag_calibration is None:
             return None
+        fusion = chain.settings.fusion
         return static_alignment(acc, chain.calibrated_mag(np.asarray(mag_raw_uT, dtype=np.float64)),
-                                chain.settings.fusion.declination_rad)
+                                fusion.declination_rad, chain.mag_calibration.field_uT, fusion.mag_norm_tol)
 
     def read(self) -> dict[str, SensorBlock]:
         """The samples that arrived since the last call, per sensor (a channel is None when
