@@ -93,8 +93,8 @@ def _calibrate(window, qtbot) -> None:
     qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
     assert set(live.mag_calibrations) == set(live.sensor_ids)
     wizard.close()
-    # The sensors are strapped back on (half a minute in a clinic): the filters, restarted
-    # with the new magnetometer calibrations, settle meanwhile.
+    # The sensors are strapped back on (half a minute in a clinic): the filters, learning the
+    # heading from the newly calibrated magnetometers, settle meanwhile.
     settled = window.clock() + 20.0
     qtbot.waitUntil(lambda: window.clock() > settled, timeout=20000)
     window.action_bodycal.trigger()

@@ -155,7 +155,7 @@ class SimulatedSuitFeed(LiveSessionFeed):
         super().__init__(live)
 
     def set_magnetometer_calibration(self, calibration: MagCalibration) -> None:
-        """Use ``calibration`` for its sensor (its filter restarts, as in the main window)."""
+        """Use ``calibration`` for its sensor (its filter learns the heading anew, as in the main window)."""
         if calibration.sensor_id not in self.sensor_ids:
             raise ValueError(f"sensor {calibration.sensor_id} is not in this suit")
         self.live_session.apply_mag_calibration(calibration, save=False)
