@@ -59,6 +59,17 @@ def test_knee_and_hip_flexion_while_walking_match_the_truth(route, live, capsys)
             assert errors[column].rms_deg < 3.0, (window, column, errors[column])
 
 
+
+def test_the_npose_orientations_come_from_the_still_calibrated_sensors(route):
+    """Every sensor has a stored magnetometer calibration: its N-pose orientation is the static
+    alignment of its accelerometer and calibrated field, within a few degrees of the smoothed
+    filter's (what the calibration file records per sensor)."""
+    _folder, _session, calibration = route
+    document = json.loads(calibration.read_text())
+    differences = document["npose_track_vs_given_deg"]
+    assert set(differences) == {entry["sensor"] for entry in document["segments"].values()}
+    assert max(differences.values()) < 5.0, differences
+
 def test_a_poor_calibration_is_refused_unless_accepted(route, tmp_path, capsys):
     folder, session, calibration = route
     document = json.loads(calibration.read_text())

@@ -283,6 +283,54 @@ FORWARD_90 = rot.from_axis_angle(EZ, np.radians(90.0))   # distal end (−y) swi
 BACKWARD_60 = rot.from_axis_angle(EZ, np.radians(-60.0))  # distal end swings backwards
 
 
+
+def test_static_alignment_gives_the_orientation_of_a_sensor_at_rest():
+    """Mean specific force and calibrated field of a still sensor → its orientation in ENU with
+    magnetic north along +y (turned to true north by a declination)."""
+    rng = np.random.default_rng(8)
+    field = np.array([0.0, 22.0, -41.0])  # north and down, µT
+    for _ in range(5):
+        q_true = rot.normalize(rng.normal(size=4))
+        acc = rot.rotate(rot.conjugate(q_true), np.array([0.0, 0.0, 9.81])) + rng.normal(0, 0.02, (200, 3))
+        mag = rot.rotate(rot.conjugate(q_true), field) + rng.normal(0, 0.3, (200, 3))
+        assert deg_between(bc.static_alignment(acc, mag), q_true) < 0.3
+        # magnetic north 10° east of true north: the sensor's true heading is 10° less than its
+        # magnetic one, i.e. turned clockwise (negative about up)
+        turned = rot.multiply(rot.from_axis_angle(EZ, np.radians(-10.0)), q_true)
+        assert deg_between(bc.static_alignment(acc, mag, np.radians(10.0)), turned) < 0.3
+    with pytest.raises(ValueError, match="vertical"):
+        bc.static_alignment(np.tile([0.0, 0.0, 9.81], (5, 1)), np.tile([0.0, 0.0, -45.0], (5, 1)))
+    # a magnet near the sensor: the field's magnitude is off the calibration's
+    assert deg_between(bc.static_alignment(acc, mag, field_uT=46.5), q_true) < 0.3
+    with pytest.raises(ValueError, match="disturbed"):
+        bc.static_alignment(acc, mag * 1.3, field_uT=46.5)
+    with pytest.raises(ValueError, match="non-finite"):
+        bc.static_alignment(np.full((3, 3), np.nan), np.ones((3, 3)))
+    with pytest.raises(ValueError, match="windows"):
+        bc.static_alignment(np.zeros((0, 3)), np.zeros((0, 3)))
+
+
+def test_given_npose_orientations_replace_the_tracked_ones_in_the_segment_rotations(recording):
+    """A sensor whose tracked N-pose orientation carries a heading error (a filter still
+    settling) gets its segment rotation from the orientation given for it; the other sensors
+    and the body frame are those of the tracks."""
+    t, q, mapping, _ = recording
+    plain = bc.calibrate_npose_tpose(t, q, mapping, N_POSE, T_POSE)
+    sensor = mapping["forearm_l"]
+    window = (t >= N_POSE[0]) & (t <= N_POSE[1])
+    off = rot.multiply(rot.from_axis_angle(EZ, np.radians(5.0)), q[sensor])  # 5° heading error in the track
+    tracked = bc.calibrate_npose_tpose(t, {**q, sensor: off}, mapping, N_POSE, T_POSE)
+    given = bc.calibrate_npose_tpose(t, {**q, sensor: off}, mapping, N_POSE, T_POSE,
+                                     npose_orientations={sensor: rot.average(q[sensor][window])})
+    assert deg_between(tracked.q_segment_from_sensor["forearm_l"], plain.q_segment_from_sensor["forearm_l"]) > 4.5
+    assert deg_between(given.q_segment_from_sensor["forearm_l"], plain.q_segment_from_sensor["forearm_l"]) < 1e-6
+    for segment in mapping:
+        if segment != "forearm_l":
+            assert deg_between(given.q_segment_from_sensor[segment], plain.q_segment_from_sensor[segment]) < 1e-6
+    assert given.details["npose_track_vs_given_deg"][sensor] == pytest.approx(5.0, abs=0.01)
+    with pytest.raises(ValueError, match=f"N-pose orientation of sensor {sensor}"):
+        bc.calibrate_npose_tpose(t, q, mapping, N_POSE, T_POSE, npose_orientations={sensor: [1.0, 0.0, 0.0]})
+
 def test_hip_flexion_is_positive_with_the_thigh_forward():
     angles = calibrated_pose({"thigh_r": FORWARD_90, "thigh_l": FORWARD_90})
     assert angles["hip_r_flexion_deg"] == pytest.approx(90.0, abs=0.01)

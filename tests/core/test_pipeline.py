@@ -71,6 +71,26 @@ def _samples(sid, t, acc, gyr, mag):
     return SensorSamples(sid, t, np.arange(len(t)), acc, gyr, mag)
 
 
+def test_a_new_magnetometer_calibration_keeps_the_running_filter_and_learns_its_field_anew():
+    """The filter goes on from its orientation and gyro bias (a new one would re-align on one
+    accelerometer sample and forget the bias); only the heading and the field it learned start
+    over."""
+    rng = np.random.default_rng(5)
+    chain = SensorChain("S01")
+    t, gyr, acc, mag = _block(rng, 200, 0.0)
+    chain.filter_for(True).update_batch(t, gyr, acc, chain.calibrated_mag(mag))
+    ekf = chain.ekf
+    q, bias = ekf.state.q_world_from_sensor.copy(), ekf.state.bias_rad_s.copy()
+    assert ekf.state.magnetic_reference(0) is not None
+    chain.set_mag_calibration(MagCalibration("S01", np.array([3.0, -2.0, 1.0]), np.eye(3), 45.0))
+    assert chain.ekf is ekf
+    assert np.array_equal(ekf.state.q_world_from_sensor, q) and np.array_equal(ekf.state.bias_rad_s, bias)
+    assert ekf.state.magnetic_reference(0) is None
+    assert np.degrees(ekf.state.attitude_std_rad(0)[2]) > 90.0
+    with pytest.raises(ValueError, match="S02"):
+        chain.set_mag_calibration(MagCalibration("S02", np.zeros(3), np.eye(3), 45.0))
+
+
 def _suit_recording(seconds=6.0, seed=2):
     from mimucap.core.simulate import SimulationConfig, simulate_session
 

@@ -100,6 +100,9 @@ class _StubbornSubject:
     def read(self):
         return self._feed.read()
 
+    def static_orientation(self, sensor_id, acc, mag_raw_uT):
+        return self._feed.static_orientation(sensor_id, acc, mag_raw_uT)
+
     def instruct(self, instruction):
         if instruction.kind != "tpose":
             self._feed.instruct(instruction)

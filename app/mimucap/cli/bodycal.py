@@ -151,6 +151,43 @@ def _refuse_up_for_session(args: argparse.Namespace) -> None:
         raise ValueError(f"{args.input}: up axis {args.up} cannot apply: MimuCap sessions are z up")
 
 
+def static_npose_orientations(session, mag_calibration_files, mapping: dict[str, str],
+                              npose: tuple[float, float]) -> dict:
+    """Sensor → ``q_world_from_sensor`` (4,) of the N-pose window from its mean accelerometer and
+    calibrated magnetometer samples (:func:`mimucap.core.bodycal.static_alignment`, the filter's
+    world frame and declination), for the mapped sensors fused with a magnetometer calibration
+    (what their filters converge to, whatever transient the filter's estimate still carries);
+    the others keep their orientation tracks."""
+    import numpy as np
+
+    from mimucap.core import bodycal
+    from mimucap.session.processing import recorded_processing
+
+    mags, _lines = magnetometer_calibrations(session, mag_calibration_files)
+    fusion = recorded_processing(session).settings.fusion
+    found = {}
+    for sensor_id in mapping.values():
+        stream = session.sensors[sensor_id]
+        if (sensor_id not in mags or stream.q_world_from_sensor is not None or stream.acc is None
+                or stream.mag_uT is None):
+            continue
+        inside = (stream.t_s >= npose[0]) & (stream.t_s <= npose[1])
+        acc, mag = stream.acc[inside], stream.mag_uT[inside]
+        good = np.all(np.isfinite(acc), axis=1) & np.all(np.isfinite(mag), axis=1)
+        if not np.any(good):
+            continue
+        try:
+            found[sensor_id] = bodycal.static_alignment(acc[good], mags[sensor_id].apply(mag[good], sensor_id),
+                                                        fusion.declination_rad, mags[sensor_id].field_uT,
+                                                        fusion.mag_norm_tol)
+        except ValueError:
+            continue  # a vertical or disturbed field: the orientation track stays
+    if found:
+        print(f"  N-pose orientations from the still sensors' accelerometer and calibrated magnetometer: "
+              f"{', '.join(sorted(found))}")
+    return found
+
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "bodycal",
@@ -203,10 +240,11 @@ def run(args: argparse.Namespace) -> int:
     if tpose is not None:
         if npose is None:
             raise ValueError("--tpose needs --npose T0:T1 as well")
+        static = {} if session is None else static_npose_orientations(session, args.mag_calibration, mapping, npose)
         calibration = bodycal.calibrate_npose_tpose(
             table.t_s, table.q_world_from_sensor, mapping, npose, tpose,
             up_world=table.up_world, arms=args.arms,
-            settings=bodycal.BodyCalSettings(forward_from=args.forward_from),
+            settings=bodycal.BodyCalSettings(forward_from=args.forward_from), npose_orientations=static,
         )
     elif args.heading_from:
         sensor, sep, axis = args.heading_from.rpartition(":")

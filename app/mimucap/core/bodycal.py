@@ -31,7 +31,13 @@ Two ways to find the body's forward axis (seed equations 3.1–3.7):
 
 Then, per segment (seed 3.8–3.10), with the N-pose averaged over its window:
 ``q_segment_from_sensor = q_segment_from_body(N) ⊗ q_body_from_world ⊗ q_world_from_sensor(N)``,
-where ``q_segment_from_body(N)`` is the identity for a true N-pose. Live (3.11):
+where ``q_segment_from_body(N)`` is the identity for a true N-pose. ``q_world_from_sensor(N)``
+may be given per sensor (``npose_orientations``) instead of the mean of the filter's estimate:
+:func:`static_alignment` of the still window's mean specific force and calibrated magnetic field
+is what the orientation filter converges to, whereas its estimate at that moment may still carry
+a transient (a filter that learns the heading after a new magnetometer calibration settles over
+tens of seconds to a fraction of a degree; an error left in ``q_world_from_sensor(N)`` stays in
+the segment's rotation about its long axis for the whole recording). Live (3.11):
 ``q_world_from_segment(t) = q_world_from_sensor(t) ⊗ q_sensor_from_segment``.
 
 The display modes of seed section 4.3 (equations 4.2–4.3) are drawn by
@@ -321,6 +327,41 @@ def tilt_from_horizontal_deg(v_world: ArrayLike, up_world: ArrayLike) -> FloatAr
     return np.degrees(np.arcsin(np.clip(np.abs(np.sum(v * up_world, axis=-1)), 0.0, 1.0)))
 
 
+def static_alignment(acc_m_s2: ArrayLike, mag_uT: ArrayLike, declination_rad: float = 0.0,
+                     field_uT: float | None = None, field_tolerance: float = 0.15) -> FloatArray:
+    """``q_world_from_sensor`` (4,) of a sensor at rest (world ENU: y magnetic north, or true
+    north turned by ``declination_rad``, positive when magnetic north lies east of true north,
+    as the orientation filter uses it) from its samples over a still window: ``acc_m_s2``
+    (K, 3) specific force (its mean points up) and ``mag_uT`` (K, 3) calibrated magnetic field,
+    both in the sensor frame. East is ``m × up``, north ``up × east`` (the TRIAD construction).
+    ``ValueError`` when the window is empty or not finite, the field is (nearly) vertical, or,
+    given the undisturbed ``field_uT`` (µT, e.g. the magnetometer calibration's), the mean
+    field's magnitude differs from it by more than the fraction ``field_tolerance`` (a local
+    disturbance, which the orientation filter would reject as well)."""
+    acc = np.asarray(acc_m_s2, dtype=np.float64)
+    mag = np.asarray(mag_uT, dtype=np.float64)
+    if acc.ndim != 2 or acc.shape[1] != 3 or mag.shape != acc.shape or acc.shape[0] == 0:
+        raise ValueError(f"static alignment needs (K, 3) accelerometer and magnetometer windows, got "
+                         f"{acc.shape} and {mag.shape}")
+    if not (np.all(np.isfinite(acc)) and np.all(np.isfinite(mag))):
+        raise ValueError("static alignment: the window holds non-finite samples")
+    up = _unit(acc.mean(axis=0), "mean specific force")
+    magnitude = float(np.linalg.norm(mag.mean(axis=0)))
+    if field_uT is not None and abs(magnitude - field_uT) > field_tolerance * field_uT:
+        raise ValueError(f"static alignment: the field is disturbed ({magnitude:.1f} µT where "
+                         f"{field_uT:.1f} µT is expected)")
+    east = np.cross(mag.mean(axis=0), up)
+    norm = float(np.linalg.norm(east))
+    if norm < 1e-3 * max(float(np.linalg.norm(mag.mean(axis=0))), 1e-9):
+        raise ValueError("static alignment: the magnetic field is vertical (no horizontal part gives north)")
+    east /= norm
+    north = np.cross(up, east)
+    q = rot.from_matrix(np.stack([east, north, up]))
+    if declination_rad:
+        q = rot.multiply(rot.from_axis_angle([0.0, 0.0, 1.0], -float(declination_rad)), q)
+    return rot.canonical(q)
+
+
 def q_world_from_body_from_forward(forward_world: ArrayLike, up_world: ArrayLike) -> FloatArray:
     """``q_world_from_body`` (4,) with x = horizontal part of ``forward``, y = up, z = x × y."""
     up = _unit(up_world, "up_world")
@@ -570,6 +611,7 @@ def calibrate_npose_tpose(
     arms: str = "auto",
     settings: BodyCalSettings = DEFAULT_SETTINGS,
     q_segment_from_body_npose: Mapping[str, ArrayLike] | None = None,
+    npose_orientations: Mapping[str, ArrayLike] | None = None,
 ) -> BodyCalibration:
     """N-pose / T-pose calibration of a recording.
 
@@ -578,7 +620,10 @@ def calibrate_npose_tpose(
     after the N-pose; ``up_world`` the world's up direction; ``arms`` ``"auto"`` (every arm
     with a sensor that was raised), ``"left"``, ``"right"`` or ``"both"``.
     ``q_segment_from_body_npose`` (optional, segment → (4,)) for a calibration pose in which
-    some segment is not parallel to the body. Raises :class:`CalibrationRefused` (a
+    some segment is not parallel to the body. ``npose_orientations`` (optional, sensor id →
+    ``q_world_from_sensor`` (4,)) replaces a sensor's mean N-pose orientation in its segment's
+    rotation (e.g. :func:`static_alignment` of the N-pose window); the stillness checks and the
+    arm movement use the orientation tracks. Raises :class:`CalibrationRefused` (a
     ``ValueError``) when a pose was not still, no arm was raised or the arms disagree.
     """
     t = np.asarray(t_s, dtype=np.float64)
@@ -652,8 +697,14 @@ def calibrate_npose_tpose(
     q_world_from_body = q_world_from_body_from_forward(forward, up)
     verdict, problems = _verdict(checks)
     quality = CalibrationQuality("npose_tpose", tuple(stillness), tuple(fits), disagreement, None, verdict, problems)
-    segments = _segment_rotations(q_world_from_body, means, mapping, q_segment_from_body_npose)
+    given = {sensor: _unit_quaternion(q, f"N-pose orientation of sensor {sensor}")
+             for sensor, q in (npose_orientations or {}).items() if sensor in means}
+    segments = _segment_rotations(q_world_from_body, {**means, **given}, mapping, q_segment_from_body_npose)
     details = {"npose_s": [float(npose_s[0]), float(npose_s[1])], "tpose_s": [float(tpose_s[0]), float(tpose_s[1])]}
+    if given:
+        # how far each sensor's tracked orientation still was from the one used (deg)
+        details["npose_track_vs_given_deg"] = {
+            sensor: float(np.degrees(rot.angle_between(means[sensor], q))) for sensor, q in sorted(given.items())}
     return BodyCalibration(q_world_from_body, up, dict(mapping), segments, quality, details)
 
 

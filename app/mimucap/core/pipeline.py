@@ -126,8 +126,12 @@ class SensorChain:
     """Magnetometer calibration and orientation filter of one sensor, fed block by block.
 
     The filter is created on the first block with a gyroscope (using the magnetometer if that
-    block has one); a new magnetometer calibration restarts it (its heading would otherwise
-    converge slowly from the one the uncorrected field gave).
+    block has one). A new magnetometer calibration keeps the running filter's orientation and
+    gyro bias but reopens their uncertainty, with the heading unknown
+    (:meth:`~mimucap.core.fusion.OrientationEKF.magnetometer_changed`): the corrected field then
+    sets the heading within a second, where a new filter, aligned on one accelerometer sample
+    of a sensor that is being strapped back on and with its gyro bias forgotten, took tens of
+    seconds to settle (and a body calibration made meanwhile kept its heading error).
     """
 
     def __init__(self, sensor_id: str, mag_calibration: MagCalibration | None = None,
@@ -143,7 +147,8 @@ class SensorChain:
             raise ValueError(f"the magnetometer calibration of sensor {calibration.sensor_id} cannot be "
                              f"used for sensor {self.sensor_id}")
         self.mag_calibration = calibration
-        self.ekf = None
+        if self.ekf is not None and self.ekf.use_mag:
+            self.ekf.magnetometer_changed()
 
     def calibrated_mag(self, mag_raw_uT: np.ndarray | None) -> np.ndarray | None:
         """``mag_raw_uT`` (N, 3) corrected by this sensor's calibration (raw when it has none)."""
@@ -530,7 +535,8 @@ class LivePipeline:
         return chain
 
     def set_mag_calibration(self, calibration: MagCalibration) -> None:
-        """Use ``calibration`` for its sensor from now on (its filter restarts)."""
+        """Use ``calibration`` for its sensor from now on (its filter learns the heading anew:
+        :meth:`SensorChain.set_mag_calibration`)."""
         self.mag_calibrations[calibration.sensor_id] = calibration
         self.chain(calibration.sensor_id).set_mag_calibration(calibration)
 

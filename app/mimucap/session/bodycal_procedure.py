@@ -15,7 +15,11 @@ call per timer tick, or a loop in tests). It pulls sensor orientations
    captures a still window the same way.
 
 Then :func:`mimucap.core.bodycal.calibrate_npose_tpose` computes the sensor-to-segment
-rotations from the two windows and the arm movement in between (phase ``"result"``), or
+rotations from the two windows and the arm movement in between (phase ``"result"``), each
+sensor's N-pose orientation taken from the still window's mean accelerometer and calibrated
+magnetometer where the feed can give it (``feed.static_orientation``: what the orientation
+filter converges to, free of the transient its heading may still carry shortly after a new
+magnetometer calibration), or
 refuses (phase ``"refused"`` with the reason). A pose that is not held still within
 ``pose_timeout_s`` is refused as well ("the subject kept moving in the N-pose"). Each page's
 instruction goes to the feed (:mod:`mimucap.session.instructions`): the person reads it, and the
@@ -123,6 +127,30 @@ class _Track:
         return q[np.searchsorted(t, t0):]
 
 
+class _Fields:
+    """Growing accelerometer and raw magnetometer samples of one sensor: t (N,), acc and mag
+    (N, 3), rows with both channels finite."""
+
+    def __init__(self) -> None:
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def add(self, t: np.ndarray, acc: np.ndarray | None, mag: np.ndarray | None) -> None:
+        if acc is None or mag is None:
+            return
+        good = np.isfinite(t) & np.all(np.isfinite(acc), axis=1) & np.all(np.isfinite(mag), axis=1)
+        if np.any(good):
+            self.parts.append((t[good], acc[good], mag[good]))
+
+    def window(self, start_s: float, end_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """acc and mag (K, 3) of the samples within ``[start_s, end_s]``."""
+        if not self.parts:
+            return np.zeros((0, 3)), np.zeros((0, 3))
+        t = np.concatenate([p[0] for p in self.parts])
+        inside = (t >= start_s) & (t <= end_s)
+        return (np.concatenate([p[1] for p in self.parts])[inside],
+                np.concatenate([p[2] for p in self.parts])[inside])
+
+
 def _spread_deg(q: np.ndarray) -> float:
     """Largest angle (deg) of the rows of ``q`` (K, 4) from their mean (0 for < 2 rows)."""
     if q.shape[0] < 2:
@@ -171,6 +199,8 @@ class BodycalProcedure:
 
     def _reset(self) -> None:
         self._tracks = {s: _Track() for s in self._sensors}
+        self._fields = {s: _Fields() for s in self._sensors}
+        self.npose_static: dict[str, np.ndarray] = {}
         self._now: float | None = None
         self._page_start: float | None = None
         self._window_start: float | None = None
@@ -213,6 +243,8 @@ class BodycalProcedure:
             for sensor_id, block in self.feed.read().items():
                 if sensor_id in self._tracks and block.q_world_from_sensor is not None and block.t_s.shape[0]:
                     self._tracks[sensor_id].add(block.t_s, block.q_world_from_sensor)
+                    if self.phase == "npose":
+                        self._fields[sensor_id].add(block.t_s, block.acc, block.mag_uT)
                     self._now = max(self._now if self._now is not None else -math.inf, float(block.t_s[-1]))
             if self._now is not None:
                 if self._page_start is None:
@@ -287,6 +319,15 @@ class BodycalProcedure:
                 t, q = track.arrays()
                 part = q[(t >= window[0]) & (t <= window[1])]
                 self.npose_mean[sensor_id] = rot.average(part)
+                acc, mag = self._fields[sensor_id].window(*window)
+                if acc.shape[0]:
+                    try:
+                        static = self.feed.static_orientation(sensor_id, acc, mag)
+                    except ValueError:
+                        static = None  # a vertical or disturbed field: the filter's mean stays
+                    if static is not None:
+                        self.npose_static[sensor_id] = static
+            self._fields = {s: _Fields() for s in self._sensors}
             self._enter("tpose")
         else:
             self._compute()
@@ -315,7 +356,7 @@ class BodycalProcedure:
         try:
             self.calibration = calibrate_npose_tpose(
                 t, q, self.mapping, self.windows["npose"], self.windows["tpose"],
-                arms=self.arms, settings=self.settings.engine,
+                arms=self.arms, settings=self.settings.engine, npose_orientations=self.npose_static,
             )
         except CalibrationRefused as refusal:
             self._refuse(refusal.reason)

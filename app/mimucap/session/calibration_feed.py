@@ -7,6 +7,10 @@ asks for. A feed has:
 * ``read() -> dict[str, SensorSamples]``: the samples that arrived since the last call
   (:class:`mimucap.core.samples.SensorSamples`, ``t_s`` in session seconds, raw magnetometer),
   with ``q_world_from_sensor`` the orientation the live session's processing path gave them;
+* ``static_orientation(sensor_id, acc, mag_raw_uT)``: ``q_world_from_sensor`` (4,) of a still
+  window from its mean specific force and magnetic field, the field corrected as the
+  pipeline corrects it (:func:`mimucap.core.bodycal.static_alignment`), or None for a sensor
+  whose orientation does not come from the pipeline's filter with a calibrated magnetometer;
 * ``instruct(instruction)``: what the subject is asked to do
   (:mod:`mimucap.session.instructions`); the source decides who follows it (a person reads the
   screen; the simulated subject does it). No procedure asks which one it is.
@@ -27,6 +31,9 @@ import math
 from dataclasses import replace
 from typing import Any, Protocol
 
+import numpy as np
+
+from mimucap.core.bodycal import static_alignment
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate import SuitSimulator
@@ -42,6 +49,8 @@ class CalibrationFeed(Protocol):
     def time_s(self) -> float: ...
 
     def read(self) -> dict[str, SensorSamples]: ...
+
+    def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None: ...
 
     def instruct(self, instruction: Instruction) -> None: ...
 
@@ -71,6 +80,20 @@ class LiveSessionFeed:
 
     def instruct(self, instruction: Instruction) -> None:
         self.live_session.instruct(instruction)
+
+    def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None:
+        """``q_world_from_sensor`` (4,) of ``sensor_id`` held still over the samples ``acc`` (K, 3)
+        m/s² and ``mag_raw_uT`` (K, 3) raw µT, with the magnetometer calibration and declination
+        the live session's pipeline uses; None when the sensor has no magnetometer calibration
+        (its raw field is not what the filter will settle on) or sends its own orientation.
+        ``ValueError`` when the field is vertical or disturbed (its magnitude off the
+        calibration's by more than the filter's tolerance)."""
+        chain = self.live_session.pipeline.chains.get(sensor_id)
+        if chain is None or chain.onboard or chain.mag_calibration is None:
+            return None
+        fusion = chain.settings.fusion
+        return static_alignment(acc, chain.calibrated_mag(np.asarray(mag_raw_uT, dtype=np.float64)),
+                                fusion.declination_rad, chain.mag_calibration.field_uT, fusion.mag_norm_tol)
 
     def read(self) -> dict[str, SensorSamples]:
         """The samples that arrived since the last call, per sensor (a channel is None when
@@ -124,7 +147,7 @@ class SimulatedSuitFeed(LiveSessionFeed):
         super().__init__(live)
 
     def set_magnetometer_calibration(self, calibration: MagCalibration) -> None:
-        """Use ``calibration`` for its sensor (its filter restarts, as in the main window)."""
+        """Use ``calibration`` for its sensor (its filter learns the heading anew, as in the main window)."""
         if calibration.sensor_id not in self.sensor_ids:
             raise ValueError(f"sensor {calibration.sensor_id} is not in this suit")
         self.live_session.apply_mag_calibration(calibration, save=False)

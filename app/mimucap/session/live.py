@@ -424,8 +424,9 @@ class LiveSession:
                              "it started with")
 
     def apply_mag_calibration(self, calibration: MagCalibration, save: bool = True) -> None:
-        """Use ``calibration`` for its sensor from now on (its filter restarts) and keep it in
-        the calibration store (``save``) for the next start."""
+        """Use ``calibration`` for its sensor from now on (its filter learns the heading anew,
+        :meth:`mimucap.core.pipeline.SensorChain.set_mag_calibration`) and keep it in the
+        calibration store (``save``) for the next start."""
         self._refuse_while_recording("changing a magnetometer calibration")
         self.pipeline.set_mag_calibration(calibration)
         self.calibration_problems.pop(calibration.sensor_id, None)

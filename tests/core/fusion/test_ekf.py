@@ -235,6 +235,43 @@ def test_state_getters_report_initialisation_attitude_uncertainty_and_learned_fi
     assert dip_rad == pytest.approx(np.arctan2(40.0, 20.0), abs=np.radians(3.0))  # positive downwards
 
 
+
+def test_a_new_magnetometer_calibration_keeps_tilt_and_bias_and_learns_the_heading_anew(recording_factory):
+    rec = recording_factory(duration_s=30.0, bias_dps=(1.5, -1.0, 0.8), seed=5)
+    # Before the calibration: a hard-iron offset nobody corrected (the heading it gives is
+    # wrong by tens of degrees, by an amount that changes as the sensor turns).
+    raw = rec.mag + np.array([25.0, -15.0, 10.0])
+    split = 1500
+    ekf = OrientationEKF()
+    ekf.update_batch(rec.t_s[:split], rec.gyr[:split], rec.acc[:split], raw[:split])
+    q_before, bias_before = ekf.state.q_world_from_sensor.copy(), ekf.state.bias_rad_s.copy()
+    _, heading_before, _ = error_angles_rad(q_before[0], rec.q_true[split - 1])
+    assert np.degrees(abs(heading_before)) > 10.0
+    ekf.magnetometer_changed()
+    # the estimates stay; their uncertainty is the initial one, the heading's unknown
+    assert np.array_equal(ekf.state.q_world_from_sensor, q_before)
+    assert np.array_equal(ekf.state.bias_rad_s, bias_before)
+    assert ekf.state.magnetic_reference(0) is None
+    std = ekf.state.attitude_std_rad(0)
+    assert std[:2] == pytest.approx([DEFAULT_FUSION_PARAMS.init_tilt_std_rad] * 2)
+    assert std[2] == pytest.approx(np.pi / np.sqrt(3.0))
+    after = ekf.update_batch(rec.t_s[split:], rec.gyr[split:], rec.acc[split:], rec.mag[split:])
+    _, heading, incl = error_angles_rad(after.q_world_from_sensor, rec.q_true[split:])
+    assert not after.flag_masks()["mag_rejected"].any()  # the new field's reference is learned anew
+    assert rms_deg(heading[200:]) < 1.0                   # within 2 s of the calibration
+    assert rms_deg(incl) < 1.0
+    # the bias learned before is kept (not restarted from zero)
+    assert np.degrees(np.abs(after.bias_rad_s[0] - rec.bias)).max() < 0.3
+
+
+def test_a_new_magnetometer_calibration_leaves_a_filter_without_orientation_as_it_is():
+    ekf = OrientationEKF()
+    before = ekf.state.copy()
+    ekf.magnetometer_changed()
+    for name in ("q_world_from_sensor", "bias_rad_s", "cov", "aux"):
+        assert np.array_equal(getattr(ekf.state, name), getattr(before, name))
+
+
 def _unusable_rows(recording):
     """The recording with NaN, infinite, zero and out-of-range accelerometer and magnetometer
     rows in every phase of the filter, and the rows that must be counted for each channel."""

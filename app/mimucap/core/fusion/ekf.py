@@ -21,6 +21,7 @@ at the first call.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -29,8 +30,11 @@ import numpy as np
 from mimucap.core.fusion.algorithms import ALGORITHMS
 from mimucap.core.fusion.aot import fusion_kernels
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams, pack_params
-from mimucap.core.fusion.state import FusionState, decode_flags
+from mimucap.core.fusion.state import AX_INIT, AX_MAG_CAND_T, AX_MAG_REF_OK, FusionState, decode_flags
 
+#: Standard deviation (rad) of a heading about which nothing is known: that of an angle
+#: uniformly distributed over the circle, π/√3 (104°).
+UNKNOWN_HEADING_STD_RAD = math.pi / math.sqrt(3.0)
 
 @dataclass(frozen=True)
 class FusionResult:
@@ -167,6 +171,36 @@ class OrientationEKF:
 
     def counters(self, sensor: int = 0) -> dict[str, int]:
         return self.state.counters(sensor)
+
+    def magnetometer_changed(self) -> None:
+        """The magnetometer samples fed from now on are corrected differently (a new hard- and
+        soft-iron calibration): the heading estimated so far carries no information about the
+        heading the corrected field will give, and the gyro bias and tilt may carry the
+        imprint of the old field's orientation-dependent heading errors (fed to the bias
+        through the heading updates, and from the bias into the tilt).
+
+        Keeps the orientation and bias estimates as they are and gives the error state its
+        initial uncertainty again (tilt ``init_tilt_std_rad``, bias ``init_bias_std_rad_s``,
+        no correlations), the heading that of an unknown angle
+        (:data:`UNKNOWN_HEADING_STD_RAD`: the first corrected samples set it), and forgets the
+        learned field reference (norm and dip; the first new sample seeds it). Unlike a new
+        filter, this neither re-aligns the tilt on one accelerometer sample (wherever the
+        sensor is moving at that instant: a calibration is typically applied while the sensor
+        is being strapped back on) nor forgets the gyro bias, so the estimate settles within
+        seconds instead of tens of seconds. A filter without an orientation yet is left as it
+        is (its first samples align it).
+        """
+        p = self.params
+        for s in range(self.n_sensors):
+            if self.state.aux[s, AX_INIT] <= 0.0:
+                continue
+            cov = np.zeros((6, 6))
+            cov[0, 0] = cov[1, 1] = p.init_tilt_std_rad ** 2
+            cov[2, 2] = UNKNOWN_HEADING_STD_RAD ** 2
+            cov[3, 3] = cov[4, 4] = cov[5, 5] = p.init_bias_std_rad_s ** 2
+            self.state.cov[s] = cov
+            self.state.aux[s, AX_MAG_REF_OK] = 0.0
+            self.state.aux[s, AX_MAG_CAND_T] = 0.0
 
     def update_batch(self, t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
                      _store: tuple | None = None) -> FusionResult:
