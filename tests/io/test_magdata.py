@@ -92,18 +92,18 @@ def test_sunsided_recording_with_companion_in_project_conventions(shared_data: P
     # README: "X forward, Y left, Z up ... should give a negative accelerometer reading on Z".
     level = read_mag_files([base / "unmoved-with-x-pointing-forward"])[0]
     assert level.unit == "gauss" and level.mag.shape[1] == 3
-    acc = level.imu.acc_mps2
+    acc = level.imu.acc
     np.testing.assert_allclose(np.median(acc, axis=0), [0, 0, 9.81], atol=0.6)  # specific force: up
     x_up = read_mag_files([base / "unmoved-with-z-pointing-front-and-x-up" / "mag_hmc5883l.csv.gz"])[0]
-    np.testing.assert_allclose(np.median(x_up.imu.acc_mps2, axis=0), [9.81, 0, 0], atol=0.6)
+    np.testing.assert_allclose(np.median(x_up.imu.acc, axis=0), [9.81, 0, 0], atol=0.6)
     # Counter-clockwise turns about z (seen from above) are positive rotations about +z.
     turn = read_mag_files([base / "rotate-ccw-around-z-pointing-up"])[0]
     dt = np.diff(turn.imu.t_s)
-    swept = np.degrees(np.sum(turn.imu.gyr_rad_s[1:] * dt[:, None], axis=0))
+    swept = np.degrees(np.sum(turn.imu.gyr[1:] * dt[:, None], axis=0))
     assert swept[2] > 300 and abs(swept[0]) < 150 and abs(swept[1]) < 150
     turn_x = read_mag_files([base / "rotate-ccw-around-x-pointing-forward"])[0]
     dt = np.diff(turn_x.imu.t_s)
-    assert np.degrees(np.sum(turn_x.imu.gyr_rad_s[1:, 0] * dt)) > 300  # x flipped back to ccw-positive
+    assert np.degrees(np.sum(turn_x.imu.gyr[1:, 0] * dt)) > 300  # x flipped back to ccw-positive
     interpolated = turn.acc_at_mag_times()
     assert interpolated.shape == turn.mag.shape
     assert np.all(np.isfinite(interpolated[5:-5]))
@@ -113,9 +113,9 @@ def test_sunsided_set1_accelerometer_convention(shared_data: Path) -> None:
     # Set 1 README: the accelerometer gives the up vector, with its x axis sign flipped.
     base = shared_data / "mag" / "sunsided_hmc5883l" / "set-1"
     level = read_mag_files([base / "unmoved-x-pointing-forward"])[0]
-    np.testing.assert_allclose(np.median(level.imu.acc_mps2, axis=0), [0, 0, 9.81], atol=0.8)
+    np.testing.assert_allclose(np.median(level.imu.acc, axis=0), [0, 0, 9.81], atol=0.8)
     x_up = read_mag_files([base / "unmoved-x-pointing-up"])[0]
-    np.testing.assert_allclose(np.median(x_up.imu.acc_mps2, axis=0), [9.81, 0, 0], atol=0.8)
+    np.testing.assert_allclose(np.median(x_up.imu.acc, axis=0), [9.81, 0, 0], atol=0.8)
     # Set 1 mounts the magnetometer differently: its accelerometer is not in the mag frame.
     assert not level.imu_in_mag_frame and level.acc_at_mag_times() is None
 
@@ -128,7 +128,7 @@ def test_xsens_export_with_magnetometer(shared_data: Path) -> None:
     assert recording.mag.shape == (3369, 3)
     np.testing.assert_allclose(recording.mag[0], [-0.045410, -0.266113, 0.897217])
     assert recording.t_s[1] - recording.t_s[0] == pytest.approx(0.01)  # 100 Hz update rate header
-    norms = np.linalg.norm(recording.imu.acc_mps2, axis=1)
+    norms = np.linalg.norm(recording.imu.acc, axis=1)
     assert np.median(norms) == pytest.approx(9.81, abs=0.5)
     # Xsens normalises the magnetometer to the local field: magnitudes near 1 a.u.
     assert 0.5 < np.median(np.linalg.norm(recording.mag, axis=1)) < 1.5

@@ -243,7 +243,7 @@ def session_turn_recordings(path: Path, sensor: str | None) -> tuple[dict[str, M
     import numpy as np
 
     from mimucap.core import phases
-    from mimucap.io.magdata import ImuStream, MagRecording
+    from mimucap.io.magdata import MagRecording
     from mimucap.io.session import read_session
 
     session = read_session(path, include_truth=False)
@@ -267,7 +267,7 @@ def session_turn_recordings(path: Path, sensor: str | None) -> tuple[dict[str, M
         pick = (lambda a: None if a is None else np.asarray(a, dtype=np.float64)[keep])  # noqa: E731
         recordings[sid] = MagRecording(
             source=f"{path}#{sid}", sensor_id=sid, mag=pick(stream.mag_uT), unit="uT", t_s=t[keep],
-            imu=ImuStream(t_s=t[keep], acc_mps2=pick(stream.acc), gyr_rad_s=pick(stream.gyr)))
+            imu=stream.rows(keep))
     if not recordings:
         raise ValueError(f"{path}: no sensor with a magnetometer in this session "
                          f"(sensors: {', '.join(session.sensors) or 'none'})")

@@ -12,7 +12,8 @@ Formats (``read_mag_files(..., fmt=...)``; ``"auto"`` picks by content):
     magnetometer columns sets the unit. The sunsided/sensor-fusion recordings
     (``mag_hmc5883l.csv.gz``: ``t_s,mx_gauss,my_gauss,mz_gauss``) are read this way, and their
     companion ``imu_mpu6050.csv.gz`` (``t_s,ax,ay,az,gx,gy,gz`` in g and °/s) next to them is
-    attached as :class:`ImuStream`, converted to this project's conventions following the
+    attached as a :class:`~mimucap.core.samples.SensorSamples` record (``acc`` m/s², ``gyr``
+    rad/s), converted to this project's conventions following the
     upstream READMEs: set 2 (the default) records the accelerometer as the *gravity*
     direction (−1 g on z when z points up), so specific force = −a; set 1 records the up
     direction with the x axis flipped; in both sets the gyroscope x axis is flipped. In set 2
@@ -48,6 +49,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from mimucap.core.samples import SensorSamples
 from mimucap.io.input_names import FORMATS, MAG_UNITS
 
 FloatArray = NDArray[np.float64]
@@ -59,22 +61,13 @@ SUNSIDED_IMU_FILE = "imu_mpu6050.csv.gz"
 
 
 @dataclass(frozen=True)
-class ImuStream:
-    """Companion inertial samples: ``t_s`` (M,) s; ``acc_mps2`` (M, 3) specific force, m/s²;
-    ``gyr_rad_s`` (M, 3) rad/s; sensor frame; either channel may be ``None``."""
-
-    t_s: FloatArray
-    acc_mps2: FloatArray | None
-    gyr_rad_s: FloatArray | None
-
-
-@dataclass(frozen=True)
 class MagRecording:
     """Magnetometer samples of one sensor from one file.
 
     source: file (and sensor) they came from. sensor_id: ``None`` if the file does not say.
     mag: (N, 3) samples in ``unit`` ("uT", "gauss", "counts", or ``None`` if the file does not
-    state it), sensor frame. t_s: (N,) s or ``None``. imu: companion inertial samples or ``None``.
+    state it), sensor frame. t_s: (N,) s or ``None``. imu: companion inertial samples (``acc``
+    m/s², ``gyr`` rad/s, sensor frame; either may be ``None``) or ``None``.
     imu_in_mag_frame: whether the inertial samples share the magnetometer's axes.
     """
 
@@ -83,21 +76,21 @@ class MagRecording:
     mag: FloatArray
     unit: str | None
     t_s: FloatArray | None = None
-    imu: ImuStream | None = None
+    imu: SensorSamples | None = None
     imu_in_mag_frame: bool = True
 
     def acc_at_mag_times(self) -> FloatArray | None:
         """Accelerometer samples (N, 3, m/s²) linearly interpolated at the magnetometer times
         (NaN outside the accelerometer's time span), or ``None`` if not available or not in
         the magnetometer's frame."""
-        if self.imu is None or self.imu.acc_mps2 is None or self.t_s is None or not self.imu_in_mag_frame:
+        if self.imu is None or self.imu.acc is None or self.t_s is None or not self.imu_in_mag_frame:
             return None
         if len(self.imu.t_s) == len(self.t_s) and np.array_equal(self.imu.t_s, self.t_s):
-            return self.imu.acc_mps2
+            return self.imu.acc
         order = np.argsort(self.imu.t_s, kind="stable")
         t = self.imu.t_s[order]
         return np.column_stack(
-            [np.interp(self.t_s, t, self.imu.acc_mps2[order, i], left=np.nan, right=np.nan) for i in range(3)]
+            [np.interp(self.t_s, t, self.imu.acc[order, i], left=np.nan, right=np.nan) for i in range(3)]
         )
 
 
@@ -261,7 +254,7 @@ def _sunsided_set(path: Path) -> str:
     return "set-1" if "set-1" in path.parts else "set-2"
 
 
-def read_sunsided_imu(path: str | Path, variant: str = "auto") -> ImuStream:
+def read_sunsided_imu(path: str | Path, variant: str = "auto") -> SensorSamples:
     """The MPU-6050 companion file ``t_s,ax,ay,az,gx,gy,gz`` (g, °/s) in project conventions.
 
     variant: ``"set-1"``, ``"set-2"`` or ``"auto"`` (from a ``set-1`` folder in the path, else
@@ -289,7 +282,7 @@ def read_sunsided_imu(path: str | Path, variant: str = "auto") -> ImuStream:
         acc = -acc_g * STANDARD_GRAVITY_MPS2
     else:
         acc = acc_g * np.array([-1.0, 1.0, 1.0]) * STANDARD_GRAVITY_MPS2
-    return ImuStream(t_s=data[:, 0], acc_mps2=acc, gyr_rad_s=np.deg2rad(gyr_dps))
+    return SensorSamples("mpu6050", data[:, 0], np.arange(len(data)), acc=acc, gyr=np.deg2rad(gyr_dps))
 
 
 def read_xsens(path: str | Path) -> MagRecording:
@@ -308,7 +301,8 @@ def read_xsens(path: str | Path) -> MagRecording:
     t_s = recording.t_s
     imu = None
     if recording.acc is not None or recording.gyr is not None:
-        imu = ImuStream(t_s=t_s, acc_mps2=recording.acc, gyr_rad_s=recording.gyr)
+        imu = SensorSamples(recording.device_id or path.stem, t_s, np.arange(len(t_s)), acc=recording.acc,
+                            gyr=recording.gyr)
     return MagRecording(source=str(path), sensor_id=recording.device_id, mag=recording.mag_au, unit="counts",
                         t_s=t_s, imu=imu)
 
@@ -327,10 +321,9 @@ def read_session_mag(path: str | Path, sensor_id: str | None = None) -> list[Mag
             if sensor_id is not None:
                 raise ValueError(f"{path}: sensor {sid} has no magnetometer samples")
             continue
-        imu = ImuStream(t_s=stream.t_s, acc_mps2=stream.acc, gyr_rad_s=stream.gyr)
         recordings.append(
             MagRecording(source=f"{path}#{sid}", sensor_id=sid, mag=np.asarray(stream.mag_uT, dtype=np.float64),
-                         unit="uT", t_s=np.asarray(stream.t_s, dtype=np.float64), imu=imu)
+                         unit="uT", t_s=np.asarray(stream.t_s, dtype=np.float64), imu=stream)
         )
     if not recordings:
         present = ", ".join(session.sensors) or "none"
