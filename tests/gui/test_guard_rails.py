@@ -122,7 +122,13 @@ def test_closing_while_the_file_is_written_shows_progress_and_keeps_the_window_a
     window = live_window
     release = threading.Event()
     real_save = RecordingToSave.save
-    monkeypatch.setattr(RecordingToSave, "save", lambda pending: release.wait(20) and real_save(pending))
+    fractions = []
+
+    def save(pending, progress=None):
+        release.wait(20)
+        return real_save(pending, lambda fraction: (fractions.append(fraction), progress(fraction)))
+
+    monkeypatch.setattr(RecordingToSave, "save", save)
     monkeypatch.setattr(QtWidgets.QMessageBox, "question", lambda *a, **k: QtWidgets.QMessageBox.Yes)
     window.action_record.trigger()
     qtbot.waitUntil(lambda: bool(window.live.recording_info().samples), timeout=10000)
@@ -130,13 +136,14 @@ def test_closing_while_the_file_is_written_shows_progress_and_keeps_the_window_a
     window.close()
     assert window.isVisible() and not live.recording and window.saving
     progress = window.findChild(QtWidgets.QProgressDialog, "closingProgress")
-    assert progress is not None and progress.isVisible() and progress.maximum() == 0  # busy
+    assert progress is not None and progress.isVisible() and progress.maximum() == 100  # one file: a percentage
     assert window.session_panel.saving_bar.isVisible()
     frames = window.scene_view.frames_rendered
     qtbot.waitUntil(lambda: window.scene_view.frames_rendered > frames + 5, timeout=5000)  # still responding
     release.set()
     qtbot.waitUntil(lambda: not window.isVisible(), timeout=30000)
     assert live.last_recording is not None and live.last_recording.session_path.exists()
+    assert fractions and fractions[-1] == 1.0
 
 
 class _Live:

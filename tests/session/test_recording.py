@@ -57,6 +57,27 @@ def test_blocks_become_a_session_and_the_journal_goes_away(tmp_path):
     assert session.markers[0].label == "jump" and session.markers[0].t_s == pytest.approx(0.25)
 
 
+def test_writing_the_session_reports_its_progress_up_to_the_whole(tmp_path):
+    """Reading the journal and writing the file report fractions that only grow and end at 1,
+    through the journal's records (several reports) and the sensors written."""
+    from mimucap.session.recording import PROGRESS_EVERY_RECORDS, READING_SHARE
+
+    out = tmp_path / "s.h5"
+    recorder = Recorder(out, {}, RecorderSettings(fsync=False))
+    recorder.start(start_host_s=T0)
+    blocks = 3 * PROGRESS_EVERY_RECORDS // 2
+    for k in range(blocks):
+        recorder.add_blocks([block("1", 2 * k, 2), block("2", 2 * k, 2, full=False)])
+    recorder.close()
+    fractions: list[float] = []
+    result = recorder.write_session(fractions.append)
+    assert result.complete and len(read_session(out).sensors["1"]) == 2 * blocks
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    reading = [f for f in fractions if f < READING_SHARE]
+    assert len(reading) >= 3 and reading[0] < 0.01  # a report every PROGRESS_EVERY_RECORDS records
+    assert len([f for f in fractions if f > READING_SHARE]) == 2  # one per sensor written
+
+
 def test_a_crash_is_recovered_up_to_the_last_flush(tmp_path):
     out = tmp_path / "crash.h5"
     recorder = Recorder(out, {"source": "simulated:demo"}, RecorderSettings(flush_interval_s=0.1))

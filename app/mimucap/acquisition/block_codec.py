@@ -13,8 +13,10 @@ record's ``t_s``: the host's monotonic clock), ``receive_time_s`` and the channe
 from __future__ import annotations
 
 import json
+import math
 import struct
 from collections.abc import Iterable, Mapping
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -26,6 +28,7 @@ _TIME_ARRAYS = ("seq", "device_time_s", "host_time_s", "receive_time_s")
 #: A record's field behind each journal array name that differs from it.
 _FIELDS = {"host_time_s": "t_s"}
 _DTYPES = {"int64": "<i8", "float64": "<f8", "int8": "i1"}
+_ITEM_BYTES = {name: np.dtype(code).itemsize for name, code in _DTYPES.items()}
 
 
 def encode_arrays(fields: Mapping[str, Any], n: int, arrays: Iterable[tuple[str, np.ndarray]]) -> bytes:
@@ -59,31 +62,40 @@ def _decode_arrays(data: bytes, what: str) -> tuple[dict[str, Any], dict[str, np
     if len(data) < _LENGTH.size:
         raise ValueError(f"{what} is shorter than its header")
     (length,) = _LENGTH.unpack_from(data)
+    header, layout = _layout(bytes(data[_LENGTH.size:_LENGTH.size + length]), what)
+    position = _LENGTH.size + length
+    if position + sum(size for _name, _code, _shape, _count, size in layout) != len(data):
+        raise ValueError(f"{what} holds the wrong number of values for {header['n']} rows")
+    values: dict[str, np.ndarray] = {}
+    for name, code, shape, count, size in layout:
+        values[name] = np.frombuffer(data, dtype=code, count=count, offset=position).reshape(shape).copy()
+        position += size
+    return dict(header), values
+
+
+@lru_cache(maxsize=4096)
+def _layout(header_bytes: bytes, what: str) -> tuple[dict[str, Any], tuple[tuple[str, str, tuple, int, int], ...]]:
+    """The parsed header and its arrays' ``(name, dtype code, shape, count, bytes)``: one
+    sensor's blocks of one size share a header, so a journal's few distinct headers are parsed
+    once each (a journal holds hundreds of thousands of records)."""
     try:
-        header = json.loads(data[_LENGTH.size:_LENGTH.size + length].decode("utf-8"))
+        header = json.loads(header_bytes.decode("utf-8"))
         n = int(header["n"])
         entries = header["arrays"]
     except (UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError, ValueError) as error:
         raise ValueError(f"{what} has a bad header: {error}") from None
     if n < 0 or not isinstance(entries, list):
         raise ValueError(f"{what} has a bad header")
-    position = _LENGTH.size + length
-    values: dict[str, np.ndarray] = {}
+    layout = []
     for name, dtype, tail in entries:
         if dtype not in _DTYPES:
             raise ValueError(f"{what} has an array {name!r} of unknown type {dtype!r}")
         shape = (n, *[int(v) for v in tail])
         if any(v < 0 for v in shape):
             raise ValueError(f"{what} has a negative shape for {name!r}")
-        count = int(np.prod(shape))
-        size = count * np.dtype(_DTYPES[dtype]).itemsize
-        if position + size > len(data):
-            break
-        values[name] = np.frombuffer(data, dtype=_DTYPES[dtype], count=count, offset=position).reshape(shape).copy()
-        position += size
-    if position != len(data) or len(values) != len(entries):
-        raise ValueError(f"{what} holds the wrong number of values for {n} rows")
-    return header, values
+        count = math.prod(shape)
+        layout.append((name, _DTYPES[dtype], shape, count, count * _ITEM_BYTES[dtype]))
+    return header, tuple(layout)
 
 
 def encode_block(block: SensorSamples) -> bytes:

@@ -670,7 +670,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session_panel.show_info(None, message)
         self.session_panel.show_saving(True)
         self.statusBar().showMessage(message)
-        task = BackgroundTask(lambda _progress: pending.save(), self)
+        task = BackgroundTask(pending.save, self)
+        task.progress.connect(self.session_panel.show_saving_progress)
         task.setObjectName(pending.session_path.name)
         task.succeeded.connect(lambda result: self._recording_saved(live, result))
         task.failed.connect(lambda error: self._recording_not_saved(pending, error))
@@ -866,8 +867,12 @@ class MainWindow(QtWidgets.QMainWindow):
         if self._closing_progress is not None:
             return
         names = ", ".join(str(task.objectName()) for task in self.saving_tasks if task.objectName())
+        # A fraction only when one file is written (several would make the bar jump between them)
+        single = len(self.saving_tasks) == 1
         dialog = QtWidgets.QProgressDialog(f"Writing the session file before closing…\n{names}".strip(),
-                                           "", 0, 0, self)
+                                           "", 0, 100 if single else 0, self)
+        if single:
+            self.saving_tasks[0].progress.connect(lambda fraction: dialog.setValue(int(round(100.0 * fraction))))
         dialog.setObjectName("closingProgress")
         dialog.setWindowTitle("MimuCap")
         dialog.setCancelButton(None)  # the file must be written: the journal is converted whole

@@ -106,8 +106,8 @@ class SessionPanel(QtWidgets.QWidget):
         self.markers_list.setMaximumHeight(110)
         self.saving_bar = QtWidgets.QProgressBar(record_box)
         self.saving_bar.setObjectName("savingBar")
-        self.saving_bar.setRange(0, 0)  # busy: the file's conversion reports no fraction
-        self.saving_bar.setTextVisible(False)
+        self.saving_bar.setRange(0, 100)
+        self.saving_bar.setFormat("Saving %p %")
         self.saving_bar.setVisible(False)
         layout = QtWidgets.QVBoxLayout(record_box)
         layout.addWidget(self.record_button)
@@ -208,8 +208,13 @@ class SessionPanel(QtWidgets.QWidget):
             label.setProperty("ok", item.ok)
 
     def show_saving(self, saving: bool) -> None:
-        """Show the busy bar while a stopped recording's file is written."""
+        """Show the progress bar (from 0) while a stopped recording's file is written."""
+        self.saving_bar.setValue(0)
         self.saving_bar.setVisible(saving)
+
+    def show_saving_progress(self, fraction: float) -> None:
+        """How much of the session file is written (``fraction`` 0..1)."""
+        self.saving_bar.setValue(int(round(100.0 * min(max(fraction, 0.0), 1.0))))
 
     def show_info(self, info: RecordingInfo | None, last_message: str = "") -> None:
         if info is None:

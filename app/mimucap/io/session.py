@@ -363,8 +363,10 @@ def _write_truth(group: h5py.Group, truth: SessionTruth) -> None:
         _write_nested(_group(g, "extra"), truth.extra, "truth/extra")
 
 
-def write_session(path: str | os.PathLike[str], session: Session) -> Path:
-    """Write ``session`` to the HDF5 file ``path`` (replaced atomically) and return the path.
+def write_session(path: str | os.PathLike[str], session: Session,
+                  progress: Callable[[float], None] | None = None) -> Path:
+    """Write ``session`` to the HDF5 file ``path`` (replaced atomically) and return the path;
+    ``progress`` (optional) is called with the fraction of the sensors written (0..1).
 
     ``metadata`` gains ``created_utc`` (ISO 8601) and ``mimucap_version`` when missing. The
     file is first written beside the target and then renamed, so a crash never leaves a
@@ -393,8 +395,10 @@ def write_session(path: str | os.PathLike[str], session: Session) -> Path:
             h5.attrs["mimucap_version"] = str(metadata["mimucap_version"])
             h5.attrs["metadata_json"] = metadata_json
             sensors_group = _group(h5, "sensors")
-            for stream in sensors:
+            for index, stream in enumerate(sensors):
                 _write_sensor(sensors_group, stream)
+                if progress is not None:
+                    progress((index + 1) / len(sensors))
             markers = _group(h5, "markers")
             _dataset(markers, "t_s", np.array([m.t_s for m in session.markers], dtype=np.float64), "s")
             _dataset(markers, "label", np.array([m.label for m in session.markers], dtype=object))

@@ -826,9 +826,10 @@ class RecordingToSave:
     def session_path(self) -> Path:
         return self.recorder.out_path
 
-    def save(self) -> RecordingResult:
-        """Write the session file and remove the journal."""
-        return self.recorder.write_session()
+    def save(self, progress: Callable[[float], None] | None = None) -> RecordingResult:
+        """Write the session file and remove the journal (``progress``: called with the
+        fraction done, 0..1, in the thread that saves)."""
+        return self.recorder.write_session(progress)
 
 
 def bodycal_heading(calibration: bodycal.BodyCalibration) -> float:

@@ -30,7 +30,7 @@ import json
 import math
 import os
 import time
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
@@ -212,14 +212,15 @@ class Recorder:
         self._journal = None
         self._closed = True
 
-    def write_session(self) -> RecordingResult:
+    def write_session(self, progress: Callable[[float], None] | None = None) -> RecordingResult:
         """Turn the closed journal into the session file and remove the journal (slow for
-        long recordings; may run in any thread). On a write error the journal is kept and
-        the result's ``message`` says how to recover it."""
+        long recordings; may run in any thread; ``progress`` is called with the fraction done,
+        0..1). On a write error the journal is kept and the result's ``message`` says how to
+        recover it."""
         if not self._closed:
             raise ValueError("close the recording before writing its session file")
         try:
-            result = _convert(self.journal_path, self.out_path)
+            result = _convert(self.journal_path, self.out_path, progress)
         except OSError as error:
             message = self.failure or (f"recording kept in {self.journal_path}: the session file "
                                        f"could not be written ({_describe_os_error(error)})")
@@ -235,8 +236,17 @@ class Recorder:
 
 # ------------------------------------------------------------------ journal → session
 
-def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session, JournalContents]:
-    """Rebuild the session from every intact record of a recorder journal."""
+#: Journal records read between two progress reports of :func:`session_from_journal`.
+PROGRESS_EVERY_RECORDS = 4096
+#: Share of a conversion's time its reading of the journal takes (the rest writes the file):
+#: how :func:`_convert` divides its progress.
+READING_SHARE = 0.8
+
+
+def session_from_journal(journal_path: str | os.PathLike[str],
+                         progress: Callable[[float], None] | None = None) -> tuple[Session, JournalContents]:
+    """Rebuild the session from every intact record of a recorder journal. ``progress``
+    (optional) is called with the fraction (0..1) of the journal's bytes read so far."""
     journal_path = Path(journal_path)
     contents = JournalContents(journal_path)
     start: dict[str, Any] | None = None
@@ -246,6 +256,8 @@ def session_from_journal(journal_path: str | os.PathLike[str]) -> tuple[Session,
     per_sensor: dict[str, list[SensorSamples]] = {}
     truth_parts: list[_TruthPart] = []
     for index, (kind, payload) in enumerate(iter_journal(journal_path, contents)):
+        if progress is not None and index % PROGRESS_EVERY_RECORDS == 0 and contents.file_bytes:
+            progress(contents.valid_bytes / contents.file_bytes)
         try:
             if kind == KIND_START:
                 start = json.loads(payload)
@@ -395,12 +407,15 @@ def damage_report(contents: JournalContents) -> str:
     return "; ".join(parts)
 
 
-def _convert(journal_path: Path, session_path: Path) -> RecordingResult:
+def _convert(journal_path: Path, session_path: Path,
+             progress: Callable[[float], None] | None = None) -> RecordingResult:
     """Write the session of ``journal_path`` to ``session_path``; the journal is then removed,
     unless some of its bytes could not be read (damage or a torn tail): then nothing is thrown
-    away, the journal is kept as ``<journal>.damaged``."""
-    session, contents = session_from_journal(journal_path)
-    write_session(session_path, session)
+    away, the journal is kept as ``<journal>.damaged``. ``progress`` (optional) is called with
+    the fraction (0..1) of the conversion done."""
+    report = progress or (lambda _fraction: None)
+    session, contents = session_from_journal(journal_path, lambda f: report(READING_SHARE * f))
+    write_session(session_path, session, lambda f: report(READING_SHARE + (1.0 - READING_SHARE) * f))
     message = ""
     if contents.damaged:
         kept = journal_path.with_name(journal_path.name + DAMAGED_SUFFIX)
