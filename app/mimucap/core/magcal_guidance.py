@@ -30,6 +30,10 @@ How (settings in :class:`GuidanceSettings`):
   (rate × dt, signed by the ``i`` component), not just its ``i`` component: a person turns
   about roughly the axis, and a full turn about an axis 25° off still carries the field round
   a whole cone for the ellipsoid fit, where its ``i`` component would count only 326°.
+* A turn starts and ends slowly. Once a sample reaches ``min_rate_dps``, the slow samples
+  about the same axis just before it (down to ``still_rate_dps``, below which the sensor may
+  be still) count too, and so do those after it until the rate falls that low again: a
+  smooth full turn in 15 s would otherwise lose 15° at each end and never reach 330°.
 * The swept angle of an axis is the range (max − min) of the running angle about it: turning
   back and forth over the same sector does not count twice, and a full circle in either
   direction counts once.
@@ -160,6 +164,12 @@ class SingleAxisGuide:
         self._horizontal_s = [0.0, 0.0, 0.0]
         self._acc_seen = False
         self._current = -1
+        # A turn in progress (axis of the last sample at or above min_rate, until the rate falls
+        # to where the sensor may be still) and the slow motion about one axis that may be the
+        # start of the next turn (axis, angle in rad).
+        self._turn_axis = -1
+        self._ramp_axis = -1
+        self._ramp_angle = 0.0
         self._current_t = -math.inf
         self._current_horizontal: bool | None = None
 
@@ -202,6 +212,7 @@ class SingleAxisGuide:
             dt = tk - last
             if not 0.0 < dt <= s.max_gap_s:
                 self._window_reset()
+                self._turn_axis = self._ramp_axis = -1
                 continue
             wx, wy, wz = gx - bias[0], gy - bias[1], gz - bias[2]
             rate = math.sqrt(wx * wx + wy * wy + wz * wz)
@@ -211,16 +222,28 @@ class SingleAxisGuide:
                     self._window_close(still_var)
             else:
                 self._window_reset()
-            if rate < min_rate:
-                continue
             w = (wx, wy, wz)
             axis = max(range(3), key=lambda i: abs(w[i]))
-            if abs(w[axis]) < s.dominance * rate:
+            if rate < still_rate or abs(w[axis]) < s.dominance * rate:
+                # The sensor may be still, or turns about no one axis: a turn is over.
+                self._turn_axis = self._ramp_axis = -1
                 continue
-            angle = self._angle[axis] + math.copysign(rate, w[axis]) * dt
-            self._angle[axis] = angle
-            self._low[axis] = min(self._low[axis], angle)
-            self._high[axis] = max(self._high[axis], angle)
+            step = math.copysign(rate, w[axis]) * dt
+            if rate < min_rate:
+                # A turn's slow start or end: counted once the turn about this axis is under
+                # way (the end) or gets under way (the start, held back until then).
+                if self._ramp_axis != axis:
+                    self._ramp_axis, self._ramp_angle = axis, 0.0
+                if self._turn_axis == axis:
+                    self._add_angle(axis, step)
+                else:
+                    self._ramp_angle += step
+                continue
+            if self._ramp_axis == axis and self._turn_axis != axis:
+                self._add_angle(axis, self._ramp_angle)
+            self._ramp_axis, self._ramp_angle = axis, 0.0
+            self._turn_axis = axis
+            self._add_angle(axis, step)
             self._turning_s[axis] += dt
             self._current = axis
             self._current_t = tk
@@ -233,14 +256,25 @@ class SingleAxisGuide:
                 self._current_horizontal = None
         return self.state
 
+    def _add_angle(self, axis: int, step: float) -> float:
+        """Advance the running angle (rad) about ``axis`` by ``step``; returns it."""
+        angle = self._angle[axis] + step
+        self._angle[axis] = angle
+        self._low[axis] = min(self._low[axis], angle)
+        self._high[axis] = max(self._high[axis], angle)
+        return angle
+
     def _window_reset(self) -> None:
         """Start a new stillness window (sums of the bias-corrected rates, rad/s)."""
         self._window_s = 0.0
         self._window_n = 0
         self._window_sum = [0.0, 0.0, 0.0]
         self._window_sq = [0.0, 0.0, 0.0]
+        self._window_half = None  # (count, sums) of the first half of the window
 
     def _window_add(self, dt: float, wx: float, wy: float, wz: float) -> None:
+        if self._window_half is None and self._window_s >= 0.5 * self.settings.still_min_s:
+            self._window_half = (self._window_n, list(self._window_sum))
         self._window_s += dt
         self._window_n += 1
         for i, w in enumerate((wx, wy, wz)):
@@ -249,12 +283,22 @@ class SingleAxisGuide:
 
     def _window_close(self, still_var: float) -> None:
         """A full window: if every axis varied no more than noise, move the bias towards the
-        window's mean rate (first-order filter, time constant ``bias_time_constant_s``)."""
+        window's mean rate (first-order filter, time constant ``bias_time_constant_s``).
+
+        Varied no more than noise: the standard deviation is below ``still_std_dps`` and the
+        means of the window's two halves differ by less than half of it. The second test
+        catches the start of a slow turn, whose rate climbs too smoothly for the first (over
+        0.5 s a ramp of 2 °/s² has a standard deviation of 0.29 °/s, but halves 0.5 °/s apart).
+        """
         n = self._window_n
         means = [v / n for v in self._window_sum]
         # The sums are of rates already corrected by the current bias, so the means are small
         # and the variance from sums loses no precision worth speaking of.
         still = all(self._window_sq[i] / n - means[i] * means[i] <= still_var for i in range(3))
+        if still and self._window_half is not None and 0 < self._window_half[0] < n:
+            n1, sums1 = self._window_half
+            limit = 0.5 * math.sqrt(still_var)
+            still = all(abs((self._window_sum[i] - sums1[i]) / (n - n1) - sums1[i] / n1) <= limit for i in range(3))
         if still:
             gain = min(1.0, self._window_s / self.settings.bias_time_constant_s)
             for i in range(3):
