@@ -16,7 +16,7 @@ How (settings in :class:`GuidanceSettings`):
   sunsided MPU-6050), which would otherwise add tens of degrees per turn. Stillness is judged
   on whole windows of ``still_min_s``: every sample's ``|ω − bias|`` below ``still_rate_dps``
   (and ``|acc|`` near gravity) *and* each axis's standard deviation over the window below
-  ``still_std_dps``. The second test matters for a sensor held in the hand: between turns the
+  ``still_std_dps``, with the means of its two halves within half of that. The second test matters for a sensor held in the hand: between turns the
   hand sways it by a few degrees at a few °/s, slowly enough to pass the rate test, and a
   turn starts with a slow ramp; a reading that only holds a bias is constant up to the
   sensor's noise (0.13 °/s per axis on that MPU-6050), the sway and the ramp are not (a
@@ -66,7 +66,8 @@ class GuidanceSettings:
         between rotation axis and sensor axis) [0.85, i.e. within 32°].
     still_rate_dps: below this bias-corrected rate the sensor may be still [8 °/s].
     still_std_dps: a still window's gyroscope standard deviation, per axis, stays below this
-        (a few times a MEMS gyro's noise, well below a hand's sway) [0.5 °/s].
+        (a few times a MEMS gyro's noise, well below a hand's sway), and the means of its
+        halves differ by less than half of it [0.5 °/s].
     still_min_s: length of the still windows that update the bias [0.5 s].
     bias_time_constant_s: time constant of the bias filter while still [1.0 s].
     still_acc_tolerance: with an accelerometer, stillness also needs ``|acc|`` within this
@@ -256,13 +257,12 @@ class SingleAxisGuide:
                 self._current_horizontal = None
         return self.state
 
-    def _add_angle(self, axis: int, step: float) -> float:
-        """Advance the running angle (rad) about ``axis`` by ``step``; returns it."""
+    def _add_angle(self, axis: int, step: float) -> None:
+        """Advance the running angle (rad) about ``axis`` by ``step`` and its range."""
         angle = self._angle[axis] + step
         self._angle[axis] = angle
         self._low[axis] = min(self._low[axis], angle)
         self._high[axis] = max(self._high[axis], angle)
-        return angle
 
     def _window_reset(self) -> None:
         """Start a new stillness window (sums of the bias-corrected rates, rad/s)."""
