@@ -165,8 +165,8 @@ def test_units_without_accelerometer_are_calibrated_without_the_dip_figure(tmp_p
 
 def test_hand_sway_between_turns_does_not_cost_a_sensor_its_turn(tmp_path) -> None:
     # Seed 4: between the turns the hand sways the bundle at a few °/s. Learnt as gyroscope
-    # bias, that sway was subtracted through S04's y turn, which then measured 328° of the
-    # 330° needed, so S04 failed although every sensor was turned one full turn.
+    # bias, that sway would be subtracted through S04's y turn, which would measure 328° of
+    # the 330° needed and fail S04 although every sensor was turned one full turn.
     _, feed = make_feed(seed=4)
     procedure = MagcalProcedure(feed, feed.sensor_ids, store=CalibrationStore(tmp_path), now=lambda: NOW)
     procedure.start()
