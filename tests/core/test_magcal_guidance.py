@@ -75,6 +75,52 @@ def test_gyro_bias_is_learned_while_still() -> None:
     assert unlearned.axis("x").swept_deg == 0.0  # 4.5 °/s bias is below the turning threshold
 
 
+
+def min_jerk_turn_rate(t: np.ndarray, start_s: float, duration_s: float, angle_deg: float = 360.0) -> np.ndarray:
+    """Rate (°/s) of a smooth turn (minimum-jerk profile), as a hand turns a sensor."""
+    s = np.clip((t - start_s) / duration_s, 0.0, 1.0)
+    return angle_deg / duration_s * 30.0 * s**2 * (1.0 - s) ** 2
+
+
+def test_hand_sway_and_the_start_of_a_turn_are_not_learnt_as_bias() -> None:
+    # Still on a table for 3 s (the bias is learnt), then held in the hand: a slow sway of a
+    # few °/s for 1.5 s (below the 8 °/s stillness rate, but not constant as a bias is), then
+    # one full turn about y in 5 s. The sway and the turn's slow start must not move the bias.
+    rate_hz, bias = 100.0, np.radians([0.5, -1.0, 0.3])
+    t = np.arange(0, 14, 1 / rate_hz)
+    rng = np.random.default_rng(7)
+    omega_dps = rng.normal(scale=0.1, size=(len(t), 3))  # MEMS noise
+    sway = (t >= 3.0) & (t < 4.5)
+    omega_dps[sway, 1] += 5.0 * np.sin(2 * np.pi * 0.4 * (t[sway] - 3.0))
+    omega_dps[sway, 0] += 3.0 * np.sin(2 * np.pi * 0.7 * (t[sway] - 3.0))
+    omega_dps[:, 1] += min_jerk_turn_rate(t, 4.5, 5.0)
+    acc = np.tile([0.0, 0.0, 9.81], (len(t), 1))
+    state = guide_single_axis(t, np.radians(omega_dps) + bias, acc)
+    np.testing.assert_allclose(state.gyro_bias_rad_s, bias, atol=np.radians(0.1))
+    # 360° less the slow ends below 8 °/s, where the sensor may be still (about 1° each).
+    assert state.axis("y").swept_deg == pytest.approx(358.0, abs=2.0)
+    assert state.axis("y").done
+
+
+@pytest.mark.parametrize("duration_s", [5.0, 15.0])
+def test_a_full_turn_about_roughly_the_axis_is_done_and_three_quarters_is_not(duration_s: float) -> None:
+    # One full turn about an axis 25° from x (in the x-z plane): a full turn for the person and
+    # for the field, which circles a cone; 0.75 turn about x itself is clearly short. A slow
+    # turn (15 s) spends seconds below the 15 °/s turning rate at each end.
+    rate_hz, bias = 100.0, np.radians([1.0, -0.5, 0.5])
+    t = np.arange(0, duration_s + 3, 1 / rate_hz)
+    noise = np.radians(np.random.default_rng(3).normal(scale=0.1, size=(len(t), 3)))
+    tilt = np.radians(25.0)
+    axis = np.array([np.cos(tilt), 0.0, np.sin(tilt)])
+    omega = np.radians(min_jerk_turn_rate(t, 1.0, duration_s))[:, None] * axis
+    full = guide_single_axis(t, omega + bias + noise)
+    assert full.axis("x").done and full.axis("x").swept_deg == pytest.approx(360.0, abs=12.0)
+    assert full.axis("z").swept_deg == 0.0
+    three_quarters = np.radians(min_jerk_turn_rate(t, 1.0, duration_s, 270.0))[:, None] * [1.0, 0.0, 0.0]
+    short = guide_single_axis(t, three_quarters + bias + noise)
+    assert not short.axis("x").done and short.axis("x").swept_deg < 280.0
+    assert short.message == "turn the sensor one full turn about its x axis"
+
 def test_messages_follow_progress() -> None:
     t = np.arange(0, 8, 0.01)
     omega = np.zeros((len(t), 3))
