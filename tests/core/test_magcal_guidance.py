@@ -158,7 +158,7 @@ def test_real_named_turns(shared_data, name: str, axis: str, horizontal: bool) -
     # up: vertical); each holds about two counter-clockwise turns.
     recording = read_mag_files([shared_data / "mag" / "sunsided_hmc5883l" / "set-2" / name])[0]
     imu = recording.imu
-    state = guide_single_axis(imu.t_s, imu.gyr_rad_s, imu.acc_mps2)
+    state = guide_single_axis(imu.t_s, imu.gyr, imu.acc)
     turned = state.axis(axis)
     assert turned.done and turned.swept_deg >= 330
     for other in state.axes:
@@ -170,5 +170,5 @@ def test_real_named_turns(shared_data, name: str, axis: str, horizontal: bool) -
 
 def test_real_full_sphere_completes_every_axis(shared_data) -> None:
     recording = read_mag_files([shared_data / "mag" / "sunsided_hmc5883l" / "set-2" / "full-sphere"])[0]
-    state = guide_single_axis(recording.imu.t_s, recording.imu.gyr_rad_s, recording.imu.acc_mps2)
+    state = guide_single_axis(recording.imu.t_s, recording.imu.gyr, recording.imu.acc)
     assert state.done

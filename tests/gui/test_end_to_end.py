@@ -240,10 +240,10 @@ def test_the_session_file_is_written_off_the_gui_thread(app_window, qtbot, tmp_p
     real_save = RecordingToSave.save
     save_threads = []
 
-    def slow_save(pending):
+    def slow_save(pending, progress=None):
         save_threads.append(threading.current_thread())
         assert release.wait(20)
-        return real_save(pending)
+        return real_save(pending, progress)
 
     monkeypatch.setattr(RecordingToSave, "save", slow_save)
     window.action_record.trigger()
