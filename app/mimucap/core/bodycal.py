@@ -346,13 +346,14 @@ def static_alignment(acc_m_s2: ArrayLike, mag_uT: ArrayLike, declination_rad: fl
     if not (np.all(np.isfinite(acc)) and np.all(np.isfinite(mag))):
         raise ValueError("static alignment: the window holds non-finite samples")
     up = _unit(acc.mean(axis=0), "mean specific force")
-    magnitude = float(np.linalg.norm(mag.mean(axis=0)))
+    field = mag.mean(axis=0)
+    magnitude = float(np.linalg.norm(field))
     if field_uT is not None and abs(magnitude - field_uT) > field_tolerance * field_uT:
         raise ValueError(f"static alignment: the field is disturbed ({magnitude:.1f} µT where "
                          f"{field_uT:.1f} µT is expected)")
-    east = np.cross(mag.mean(axis=0), up)
+    east = np.cross(field, up)
     norm = float(np.linalg.norm(east))
-    if norm < 1e-3 * max(float(np.linalg.norm(mag.mean(axis=0))), 1e-9):
+    if norm < 1e-3 * max(magnitude, 1e-9):
         raise ValueError("static alignment: the magnetic field is vertical (no horizontal part gives north)")
     east /= norm
     north = np.cross(up, east)
