@@ -191,13 +191,11 @@ class OrientationEKF:
         is (its first samples align it).
         """
         p = self.params
+        cov = np.diag([p.init_tilt_std_rad ** 2, p.init_tilt_std_rad ** 2, UNKNOWN_HEADING_STD_RAD ** 2]
+                      + [p.init_bias_std_rad_s ** 2] * 3)
         for s in range(self.n_sensors):
             if self.state.aux[s, AX_INIT] <= 0.0:
                 continue
-            cov = np.zeros((6, 6))
-            cov[0, 0] = cov[1, 1] = p.init_tilt_std_rad ** 2
-            cov[2, 2] = UNKNOWN_HEADING_STD_RAD ** 2
-            cov[3, 3] = cov[4, 4] = cov[5, 5] = p.init_bias_std_rad_s ** 2
             self.state.cov[s] = cov
             self.state.aux[s, AX_MAG_REF_OK] = 0.0
             self.state.aux[s, AX_MAG_CAND_T] = 0.0
