@@ -16,14 +16,15 @@ How (settings in :class:`GuidanceSettings`):
   sunsided MPU-6050), which would otherwise add tens of degrees per turn. Stillness is judged
   on whole windows of ``still_min_s``: every sample's ``|ω − bias|`` below ``still_rate_dps``
   (and ``|acc|`` near gravity) *and* each axis's standard deviation over the window below
-  ``still_std_dps``, with the means of its two halves within half of that. The second test matters for a sensor held in the hand: between turns the
-  hand sways it by a few degrees at a few °/s, slowly enough to pass the rate test, and a
-  turn starts with a slow ramp; a reading that only holds a bias is constant up to the
-  sensor's noise (0.13 °/s per axis on that MPU-6050), the sway and the ramp are not (a
-  moving-variance stillness test, as compared by Skog, Händel, Nilsson and Rantakokko,
-  "Zero-velocity detection—An algorithm evaluation"). A bias learnt from a sway of 4 °/s
-  would be subtracted through the next 5-s turn and lose 20° of it. Only a window found
-  still moves the estimate, by its mean, so the start of a turn never does.
+  ``still_std_dps``, with the means of its two halves within half of that. The second test
+  matters for a sensor held in the hand: between turns the hand sways it by a few degrees at a
+  few °/s, slowly enough to pass the rate test, and a turn starts with a slow ramp; a reading
+  that only holds a bias is constant up to the sensor's noise (0.13 °/s per axis on that
+  MPU-6050), the sway and the ramp are not (a moving-variance stillness test, as compared by
+  Skog, Händel, Nilsson and Rantakokko, "Zero-velocity detection—An algorithm evaluation"). A
+  bias learnt from a sway of 4 °/s would be subtracted through the next 5-s turn and lose 20°
+  of it. Only a window found still moves the estimate, by its mean, so the start of a turn
+  never does.
 * A sample counts as a turn about axis ``i`` when the bias-corrected rate is at least
   ``min_rate_dps`` and its ``i`` component carries at least ``dominance`` of it (the rotation
   axis is within ``acos(dominance)`` of the sensor axis). It adds the whole angle turned
