@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.core import rotation as rot
-from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
+from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED, orientation_at
 from mimucap.core.simulate import SimulationConfig
 from mimucap.core.simulate_sensors import MagneticDisturbance
 from mimucap.io.calibration_store import CalibrationStore
@@ -34,9 +34,6 @@ from mimucap.session.feeds import SimulatorFeed
 from mimucap.session.guided_session import SteppedClock, run_guided_session
 from mimucap.session.live import LiveSession
 from mimucap.session.review import load_review
-
-FLEXION = FLEXION_COLUMNS
-
 
 #: The disturbance episode: a local field (world, µT) from this many seconds into the recording.
 DISTURBANCE_FIELD_UT = (40.0, -25.0, 10.0)
@@ -77,15 +74,15 @@ def run_case(scenario: str, seconds: float, seed: int, folder: Path,
 
 def joint_rotation_errors(data, span_s: tuple[float, float]) -> dict[str, float]:
     """Joint → RMS (deg) over ``span_s`` of the angle between the estimated and the true
-    ``q_prox_from_dist`` (the truth's segment orientations interpolated onto the estimate's
-    instants, component-wise and normalised: they are 10 ms apart)."""
+    ``q_prox_from_dist`` (the truth's segment orientations at the estimate's instants, as the
+    pipeline forms a pose: :func:`mimucap.core.pipeline.orientation_at`)."""
     truth = data.truth
     keep = (data.t_s >= span_s[0]) & (data.t_s <= span_s[1])
     t = data.t_s[keep]
 
     def true_at(segment: str) -> np.ndarray:
-        q = _continuous(np.asarray(truth.q_world_from_segment[segment], dtype=np.float64))
-        return rot.normalize(np.stack([np.interp(t, truth.t_s, q[:, k]) for k in range(4)], axis=-1))
+        return orientation_at(t, np.asarray(truth.t_s, dtype=np.float64),
+                              np.asarray(truth.q_world_from_segment[segment], dtype=np.float64))
 
     found = {}
     for joint in data.model.joints:
@@ -101,14 +98,6 @@ def joint_rotation_errors(data, span_s: tuple[float, float]) -> dict[str, float]
     return found
 
 
-def _continuous(q: np.ndarray) -> np.ndarray:
-    """``q`` (T, 4) with signs flipped so that neighbours lie on the same hemisphere (a
-    component-wise interpolation between q and −q would pass through zero)."""
-    flips = np.concatenate([[1.0], np.sign(np.sum(q[:-1] * q[1:], axis=1))])
-    flips[flips == 0.0] = 1.0
-    return q * np.cumprod(flips)[:, None]
-
-
 def report(label: str, case: dict) -> None:
     print(f"== {label}: body calibration {case['body_verdict']}, failed magnetometers "
           f"{', '.join(case['mag_failed']) or 'none'}; {case['elapsed_s']:.1f} s to run")
@@ -120,7 +109,7 @@ def report(label: str, case: dict) -> None:
     print("   joint rotation error RMS ° (live/reprocessed; any angle sequence): "
           + ", ".join(f"{joint} {rot_live[joint]:.2f}/{rot_smooth[joint]:.2f}" for joint in rot_smooth))
     for name, errors in (("live", live), ("reprocessed", smooth)):
-        flex = [errors[c].rms_deg for c in FLEXION if c in errors]
+        flex = [errors[c].rms_deg for c in FLEXION_COLUMNS if c in errors]
         print(f"   {name}: hip/knee/elbow flexion RMS mean {np.mean(flex):.2f}°, worst {np.max(flex):.2f}°; "
               f"worst column {max(e.rms_deg for e in errors.values()):.2f}°")
 
