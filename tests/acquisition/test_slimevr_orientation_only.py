@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 from PyQt5 import QtCore
 
-from mimucap.core import rotation as rot
 from mimucap.core.simulate import SimulationConfig
 from mimucap.core.simulate_sensors import error_model
 from mimucap.gui.sensor_panel import SensorPanel
@@ -23,6 +22,7 @@ from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.feeds import SimulatorFeed
 from mimucap.session.live import LiveSession
+from tests.gui.body_wizard_runs import FakeClock, mounting_errors_deg, run_on_live
 
 pytestmark = pytest.mark.gui
 ONBOARD = replace(error_model("default"), onboard_orientation=True, onboard_error_deg=0.3)
@@ -38,14 +38,6 @@ class OrientationOnlyFeed(SimulatorFeed):
 
     def signal_dbm(self) -> dict[str, float]:
         return {sid: -55.0 for sid in self.sensor_ids}
-
-
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
 
 
 def _live(scenario: str) -> tuple[LiveSession, FakeClock]:
@@ -85,23 +77,11 @@ def test_the_body_calibration_works_from_their_quaternions(qtbot):
     wizard = BodyCalibrationWizard(None, live, tick_ms=1)
     qtbot.addWidget(wizard)
     wizard.show()
-    stepper = QtCore.QTimer()
-
-    def step() -> None:
-        clock.now += 0.1
-        live.step()
-
-    stepper.timeout.connect(step)
-    stepper.start(1)
-    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
-    qtbot.waitUntil(lambda: wizard.page_name in ("result", "refused"), timeout=30000)
-    stepper.stop()
+    run_on_live(qtbot, wizard, live, clock)
     assert wizard.page_name == "result", wizard.refusal_label.text()
     calibration = wizard.procedure.calibration
     simulator = live.simulator
-    errors = [float(np.degrees(rot.angle_between(calibration.q_segment_from_sensor[seg],
-                                                 simulator.mounting[sid].q_segment_from_sensor)))
-              for seg, sid in calibration.sensors.items()]
+    errors = mounting_errors_deg(calibration, simulator)
     assert len(errors) == 10 and max(errors) < 1.0
     qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
     assert live.body_calibration is calibration

@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 from PyQt5 import QtCore
 
-from mimucap.core import rotation as rot
 from mimucap.core.simulate import SimulationConfig, SuitSimulator
 from mimucap.core.simulate_sensors import error_model
 from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
@@ -25,6 +24,7 @@ from mimucap.session.bodycal_procedure import BodycalProcedureSettings
 from mimucap.session.calibration_feed import SimulatedSuitFeed
 from mimucap.session.feeds import SimulatorFeed as LiveSimulatorFeed
 from mimucap.session.live import LiveSession
+from tests.gui.body_wizard_runs import FakeClock, mounting_errors_deg, run_on_live
 
 NOW = dt.datetime(2026, 11, 21, 7, 0, tzinfo=dt.timezone.utc)
 ONBOARD = replace(error_model("default"), onboard_orientation=True, onboard_error_deg=0.3)
@@ -139,9 +139,7 @@ def test_body_wizard_matches_the_true_mountings_and_applies_the_result(qtbot) ->
     qtbot.waitUntil(lambda: wizard.pose_picture.description == "T-pose (right arm)", timeout=10000)
     qtbot.waitUntil(lambda: wizard.page_name == "result", timeout=20000)
     calibration = wizard.procedure.calibration
-    errors = [float(np.degrees(rot.angle_between(calibration.q_segment_from_sensor[seg],
-                                                 simulator.mounting[sid].q_segment_from_sensor)))
-              for seg, sid in calibration.sensors.items()]
+    errors = mounting_errors_deg(calibration, simulator)
     assert len(errors) == 10 and max(errors) < 1.0
     assert "good" in wizard.verdict_label.text()
     assert wizard.figures_table.rowCount() >= 4
@@ -170,14 +168,6 @@ def test_body_wizard_refuses_a_subject_moving_during_the_npose(qtbot) -> None:
     assert wizard.procedure.calibration is None
 
 
-class FakeClock:
-    def __init__(self) -> None:
-        self.now = 100.0
-
-    def __call__(self) -> float:
-        return self.now
-
-
 def test_body_wizard_on_the_main_windows_live_session(qtbot, tmp_path) -> None:
     """Opened as the main window does, ``(parent, live_session)``: the wizard reads the
     session's blocks while the session is stepped (here by a timer on a fake clock that runs
@@ -196,23 +186,11 @@ def test_body_wizard_on_the_main_windows_live_session(qtbot, tmp_path) -> None:
     assert wizard.height_spin.value() == pytest.approx(live.height_m)
     assert wizard.mapping()["upper_arm_r"] == "S04"
     wizard.show()
-    stepper = QtCore.QTimer()
-
-    def step() -> None:
-        clock.now += 0.1
-        live.step()
-
-    stepper.timeout.connect(step)
-    stepper.start(1)
-    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
-    qtbot.waitUntil(lambda: wizard.page_name in ("result", "refused"), timeout=30000)
-    stepper.stop()
+    run_on_live(qtbot, wizard, live, clock)
     assert wizard.page_name == "result", wizard.refusal_label.text()
     simulator = live.simulator
     calibration = wizard.procedure.calibration
-    errors = [float(np.degrees(rot.angle_between(calibration.q_segment_from_sensor[seg],
-                                                 simulator.mounting[sid].q_segment_from_sensor)))
-              for seg, sid in calibration.sensors.items()]
+    errors = mounting_errors_deg(calibration, simulator)
     assert max(errors) < 1.0
     qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
     assert live.body_calibration is calibration

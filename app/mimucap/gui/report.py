@@ -35,6 +35,7 @@ from mimucap.session.analysis import (
     gait_parameter_rows,
     rom_rows,
 )
+from mimucap.session.plot_scaling import nice_ticks
 
 DPI = 150
 LEFT_COLOUR = QColor(30, 100, 200)
@@ -123,18 +124,6 @@ class _Document:
         self.painter.end()
 
 
-def _ticks(lo: float, hi: float) -> list[float]:
-    """Round tick values (1, 2 or 5 × 10^k apart, 3 to 6 of them) within ``lo .. hi``."""
-    span = hi - lo
-    step = 10.0 ** math.floor(math.log10(span / 3.0))
-    for factor in (1.0, 2.0, 5.0, 10.0):
-        if span / (step * factor) <= 6:
-            step *= factor
-            break
-    first = math.ceil(lo / step) * step
-    return [round(first + k * step, 6) for k in range(int((hi - first) / step) + 1)]
-
-
 def _plot(doc: _Document, rect: QRectF, title: str, curves: list[tuple[object, QColor, Qt.PenStyle]],
           band: NormativeBand | None, boundaries: list[tuple[float, QColor]]) -> None:
     """One gait-cycle plot: x 0-100 %, y degrees; each curve a CycleCurve drawn mean ± SD."""
@@ -162,7 +151,7 @@ def _plot(doc: _Document, rect: QRectF, title: str, curves: list[tuple[object, Q
     p.drawRect(area)
     doc.font(6.5)
     p.setPen(QColor(60, 60, 60))
-    for deg in _ticks(lo, hi):
+    for deg, _label in nice_ticks(lo, hi, wanted=6):  # 3 to 6 round values
         p.drawText(QRectF(rect.left(), y_of(deg) - 8, 40, 16), int(Qt.AlignRight | Qt.AlignVCenter),
                    f"{deg:g}°".replace("-0°", "0°"))
         p.setPen(QPen(QColor(225, 225, 225), 1))

@@ -69,14 +69,7 @@ class SourceDialog(QtWidgets.QDialog):
         self.scenario.addItems([s for s in SCENARIOS if not s.startswith("mag_")])
         form = QtWidgets.QFormLayout(sim)
         form.addRow("Scenario", self.scenario)
-        udp = QtWidgets.QWidget()
-        self.udp_address = QtWidgets.QLineEdit("0.0.0.0", udp)
-        self.udp_port = QtWidgets.QSpinBox(udp)
-        self.udp_port.setRange(1, 65535)
-        self.udp_port.setValue(5555)
-        form = QtWidgets.QFormLayout(udp)
-        form.addRow("Listen on address", self.udp_address)
-        form.addRow("Port", self.udp_port)
+        udp, self.udp_address, self.udp_port = self._listen_page(5555)
         serial = QtWidgets.QWidget()
         self.serial_device = QtWidgets.QLineEdit("/dev/ttyUSB0", serial)
         self.serial_baud = QtWidgets.QComboBox(serial)
@@ -99,15 +92,8 @@ class SourceDialog(QtWidgets.QDialog):
         form = QtWidgets.QFormLayout(replay)
         form.addRow("File", row)
         form.addRow("Speed", self.replay_speed)
-        slime = QtWidgets.QWidget()
-        self.slimevr_address = QtWidgets.QLineEdit("0.0.0.0", slime)
-        self.slimevr_port = QtWidgets.QSpinBox(slime)
-        self.slimevr_port.setRange(1, 65535)
-        self.slimevr_port.setValue(6969)
-        form = QtWidgets.QFormLayout(slime)
-        form.addRow("Listen on address", self.slimevr_address)
-        form.addRow("Port", self.slimevr_port)
-        form.addRow(QtWidgets.QLabel("Close the SlimeVR server first: the trackers talk to one server.", slime))
+        slime, self.slimevr_address, self.slimevr_port = self._listen_page(6969)
+        slime.layout().addRow(QtWidgets.QLabel("Close the SlimeVR server first: the trackers talk to one server.", slime))
         for page in (sim, udp, serial, replay, slime):
             self.stack.addWidget(page)
 
@@ -136,6 +122,19 @@ class SourceDialog(QtWidgets.QDialog):
         self.spec = ""
         self.model_name = ""
         self.set_spec(spec or last_source_spec())
+
+    @staticmethod
+    def _listen_page(default_port: int) -> tuple[QtWidgets.QWidget, QtWidgets.QLineEdit, QtWidgets.QSpinBox]:
+        """A page asking which address and port a network source listens on (UDP, SlimeVR)."""
+        page = QtWidgets.QWidget()
+        address = QtWidgets.QLineEdit("0.0.0.0", page)
+        port = QtWidgets.QSpinBox(page)
+        port.setRange(1, 65535)
+        port.setValue(default_port)
+        form = QtWidgets.QFormLayout(page)
+        form.addRow("Listen on address", address)
+        form.addRow("Port", port)
+        return page, address, port
 
     def _browse(self) -> None:
         path, _ = QtWidgets.QFileDialog.getOpenFileName(self, "Replay File", "", "Sessions (*.h5);;Xsens exports (*.txt);;All files (*)")
