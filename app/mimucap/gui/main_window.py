@@ -395,11 +395,10 @@ class MainWindow(QtWidgets.QMainWindow):
     def start(self) -> None:
         """Start the source, pumping, rendering and refreshing (call after ``show()``).
 
-        The first time in a process, the fusion kernels are prepared first, by a background
-        thread that has them compiled in a child process and then loads them from numba's
-        cache (:mod:`mimucap.session.kernel_preparation`: seconds on a fresh install,
-        milliseconds later), so that the GUI thread never compiles them on the first sample
-        and the compiler never holds it up."""
+        The first time in a process, the fusion kernels are made ready first, by a background
+        thread (:mod:`mimucap.session.kernel_preparation`): the module compiled ahead of time at
+        installation when it is current, else numba's cache, filled by a child process when it
+        lacks them; so the GUI thread never compiles them on the first sample."""
         global _kernels_ready
         if not _kernels_ready:
             if self._warm_up is None:

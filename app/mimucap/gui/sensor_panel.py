@@ -77,9 +77,9 @@ class SensorPanel(QtWidgets.QTableWidget):
     of the session it follows (:meth:`set_session`).
 
     Only cells whose text or colour changed are touched, and the columns are fitted to their
-    contents only when the set of sensors changes: with "resize to contents" on every change
-    each ``setText`` re-measured the whole table (0.6 ms a cell, 25 ms a refresh with 17
-    sensors; ``bench/bench_gui.py``).
+    contents only when the set of sensors changes: with "resize to contents" each ``setText``
+    makes Qt measure every cell of the table again, which would cost a whole frame per status
+    update with many sensors.
     """
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:

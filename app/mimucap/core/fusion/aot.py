@@ -5,9 +5,9 @@ The numba kernels of :mod:`.kernels` (the forward EKF :func:`~.kernels.ekf_senso
 Rauch-Tung-Striebel backward pass :func:`~.kernels.rts_smooth_sensors`) are also compiled ahead
 of time, at installation, into a Python extension module (:mod:`.aot_build`, numba's ``pycc``):
 the same source, the same dispatchers, the same compiler. A process that loads that module does
-not import numba at all, which saves about half a second per process (numba's import and the
-loading of its cached kernels), more than the filter needs for an hour of samples; and the
-GUI's first start has nothing to compile.
+not import numba at all: numba's import and the loading of its cached kernels are a fixed cost
+in every process, larger than the filter's own work on a long recording; and the GUI's first
+start has nothing to compile.
 
 **A stale module is never used.** The module's file name carries a fingerprint of everything
 its machine code was made from: the source text of the modules compiled into it
@@ -145,7 +145,7 @@ def module_name(target_id: str) -> str:
     (``OSError`` when a source cannot be read)."""
     data = b"".join(name.encode() + b"\0" + (PACKAGE_DIR / name).read_bytes() for name in KERNEL_SOURCES)
     data += f"entry points {ENTRY_POINTS} layout {LAYOUT_FINGERPRINT} target {target_id}".encode()
-    # two 32-bit checksums (zlib is loaded already; hashlib would add milliseconds to every start)
+    # two 32-bit checksums (zlib is loaded already; hashlib would be one more import at every start)
     return f"{MODULE_PREFIX}{zlib.crc32(data):08x}{zlib.adler32(data):08x}"
 
 
