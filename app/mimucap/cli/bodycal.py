@@ -120,7 +120,9 @@ EXIT_POOR = 3
 
 def read_input(args: argparse.Namespace):
     """The orientation table of ``args.input`` with the reader options checked first (a
-    session's through the processing path); the session too, or None."""
+    session's through the processing path); the session too, or None; and the magnetometer
+    calibrations applied (sensor → calibration, :func:`magnetometer_calibrations`; empty for a
+    table)."""
     from mimucap.io.quaternion_tables import read_quaternion_table
 
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
@@ -134,12 +136,12 @@ def read_input(args: argparse.Namespace):
         mags, lines = magnetometer_calibrations(session, args.mag_calibration)
         for line in lines:
             print(f"  {line}")
-        return orientation_table(session, str(args.input), mags), session
+        return orientation_table(session, str(args.input), mags), session, mags
     if args.mag_calibration:
         raise ValueError(f"{args.input}: --mag-calibration applies to MimuCap sessions (raw magnetometer "
                          "samples), not to orientation tables")
     return read_quaternion_table(args.input, up_axis=args.up, sensor_names=args.sensor_names,
-                                 trial_prefix=args.trial, rate_hz=args.rate), None
+                                 trial_prefix=args.trial, rate_hz=args.rate), None, {}
 
 
 def _refuse_up_for_session(args: argparse.Namespace) -> None:
@@ -151,19 +153,19 @@ def _refuse_up_for_session(args: argparse.Namespace) -> None:
         raise ValueError(f"{args.input}: up axis {args.up} cannot apply: MimuCap sessions are z up")
 
 
-def static_npose_orientations(session, mag_calibration_files, mapping: dict[str, str],
+def static_npose_orientations(session, mags: dict, mapping: dict[str, str],
                               npose: tuple[float, float]) -> dict:
     """Sensor → ``q_world_from_sensor`` (4,) of the N-pose window from its mean accelerometer and
     calibrated magnetometer samples (:func:`mimucap.core.bodycal.static_alignment`, the filter's
     world frame and declination), for the mapped sensors fused with a magnetometer calibration
     (what their filters converge to, whatever transient the filter's estimate still carries);
-    the others keep their orientation tracks."""
+    the others keep their orientation tracks. ``mags``: sensor → the magnetometer calibration
+    the processing path applied (:func:`read_input`)."""
     import numpy as np
 
     from mimucap.core import bodycal
     from mimucap.session.processing import recorded_processing
 
-    mags, _lines = magnetometer_calibrations(session, mag_calibration_files)
     fusion = recorded_processing(session).settings.fusion
     found = {}
     for sensor_id in mapping.values():
@@ -221,7 +223,7 @@ def run(args: argparse.Namespace) -> int:
 
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)
-    table, session = read_input(args)
+    table, session, mags = read_input(args)
     mapping = parse_mapping(args.mapping)
     if not mapping:
         if not table.segment_hints:
@@ -240,7 +242,7 @@ def run(args: argparse.Namespace) -> int:
     if tpose is not None:
         if npose is None:
             raise ValueError("--tpose needs --npose T0:T1 as well")
-        static = {} if session is None else static_npose_orientations(session, args.mag_calibration, mapping, npose)
+        static = {} if session is None else static_npose_orientations(session, mags, mapping, npose)
         calibration = bodycal.calibrate_npose_tpose(
             table.t_s, table.q_world_from_sensor, mapping, npose, tpose,
             up_world=table.up_world, arms=args.arms,

@@ -264,10 +264,10 @@ def session_turn_recordings(path: Path, sensor: str | None) -> tuple[dict[str, M
         keep = np.zeros(t.shape, dtype=bool) if windows else np.ones(t.shape, dtype=bool)
         for start_s, stop_s in windows:
             keep |= (t >= start_s) & (t < stop_s)
-        pick = (lambda a: None if a is None else np.asarray(a, dtype=np.float64)[keep])  # noqa: E731
+        picked = stream.rows(keep)   # one selection: the magnetometer rows and their companions
         recordings[sid] = MagRecording(
-            source=f"{path}#{sid}", sensor_id=sid, mag=pick(stream.mag_uT), unit="uT", t_s=t[keep],
-            imu=stream.rows(keep))
+            source=f"{path}#{sid}", sensor_id=sid, mag=np.asarray(picked.mag_uT, dtype=np.float64), unit="uT",
+            t_s=np.asarray(picked.t_s, dtype=np.float64), imu=picked)
     if not recordings:
         raise ValueError(f"{path}: no sensor with a magnetometer in this session "
                          f"(sensors: {', '.join(session.sensors) or 'none'})")

@@ -14,6 +14,8 @@ MIMUCAP_SESSION = "MimuCap sessions"
 BROAD_TRIAL = "BROAD trials"
 APDM_CSV = "APDM CSV files"
 QUATERNION_CSV = "quaternion CSV files"
+#: Suffixes that mark a file as a MimuCap session, whatever its first bytes.
+SESSION_SUFFIXES = (".h5", ".hdf5", ".mimucap")
 
 #: Units of magnetometer samples (:mod:`mimucap.io.magdata`).
 MAG_UNITS = ("uT", "gauss", "counts")

@@ -50,13 +50,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mimucap.core.samples import SensorSamples
-from mimucap.io.input_names import FORMATS, MAG_UNITS
+from mimucap.io.input_names import FORMATS, MAG_UNITS, SESSION_SUFFIXES
 
 FloatArray = NDArray[np.float64]
 
 UT_PER_GAUSS = 100.0
 STANDARD_GRAVITY_MPS2 = 9.80665
-SESSION_SUFFIXES = (".h5", ".hdf5", ".mimucap")
 SUNSIDED_IMU_FILE = "imu_mpu6050.csv.gz"
 
 

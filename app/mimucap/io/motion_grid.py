@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mimucap.core import rotation
 from mimucap.core.analysis import signals
+from mimucap.core.pipeline import orientation_at
 
 
 def uniform_grid(t_s: np.ndarray) -> tuple[np.ndarray, float]:
@@ -32,10 +32,8 @@ def sample_series(t_src: np.ndarray, values: np.ndarray, t_dst: np.ndarray) -> n
 
 
 def sample_orientations(t_src: np.ndarray, q: np.ndarray, t_dst: np.ndarray) -> np.ndarray:
-    """Unit quaternions ``q`` (N, 4) at ``t_src`` (N,) slerped at ``t_dst`` (F,) → (F, 4)."""
-    t_src = np.asarray(t_src, dtype=np.float64)
-    q = np.asarray(q, dtype=np.float64)
-    index = np.clip(np.searchsorted(t_src, t_dst, side="right") - 1, 0, len(t_src) - 2)
-    span = t_src[index + 1] - t_src[index]
-    fraction = np.clip((np.asarray(t_dst) - t_src[index]) / span, 0.0, 1.0)
-    return rotation.slerp(q[index], q[index + 1], fraction)
+    """Unit quaternions ``q`` (N, 4) at ``t_src`` (N,) slerped at ``t_dst`` (F,) → (F, 4), as
+    :func:`mimucap.core.pipeline.orientation_at` samples an orientation track (the grid of
+    :func:`uniform_grid` lies within ``t_src``'s span)."""
+    return orientation_at(np.asarray(t_dst, dtype=np.float64), np.asarray(t_src, dtype=np.float64),
+                          np.asarray(q, dtype=np.float64))

@@ -55,7 +55,8 @@ import numpy as np
 
 from mimucap.core import rotation
 from mimucap.io.input_names import (
-    APDM_CSV, BROAD_TRIAL, MIMUCAP_SESSION, OPENSIM_STO, QUATERNION_CSV, XSENS_FILE, XSENS_FOLDER,
+    APDM_CSV, BROAD_TRIAL, MIMUCAP_SESSION, OPENSIM_STO, QUATERNION_CSV, SESSION_SUFFIXES, XSENS_FILE,
+    XSENS_FOLDER,
 )
 
 #: A quaternion whose norm is outside ``1 ± QUATERNION_NORM_TOLERANCE`` is rejected as corrupt.
@@ -69,8 +70,6 @@ _AXES = {
     "y": (0.0, 1.0, 0.0), "+y": (0.0, 1.0, 0.0), "-y": (0.0, -1.0, 0.0),
     "z": (0.0, 0.0, 1.0), "+z": (0.0, 0.0, 1.0), "-z": (0.0, 0.0, -1.0),
 }
-
-SESSION_SUFFIXES = (".h5", ".hdf5", ".mimucap")
 
 
 def axis_vector(spec: str) -> np.ndarray:

@@ -33,7 +33,8 @@ from mimucap.acquisition.slimevr import SlimeVrSourceConfig
 from mimucap.acquisition.udp import UdpSourceConfig
 from mimucap.acquisition.worker import SourceConfig
 from mimucap.core.samples import SensorSamples
-from mimucap.io.quaternion_tables import SESSION_SUFFIXES, read_xsens_file
+from mimucap.io.input_names import SESSION_SUFFIXES
+from mimucap.io.quaternion_tables import read_xsens_file
 from mimucap.io.session import read_session
 
 
