@@ -38,9 +38,9 @@ if TYPE_CHECKING:
     from mimucap.core.simulate import MagneticDisturbance
 
 #: Most sensor samples (duration × rate × sensors) one simulation may hold: the simulation, its
-#: truth and the session written from it take about 0.7 kB of memory per sensor sample (measured:
-#: 17 sensors at 100 Hz, 60 s → 256 MB and 240 s → 473 MB peak), so this is about 4 GB, e.g.
-#: 10 sensors at 100 Hz for 100 minutes.
+#: truth and the session written from it hold every sample several times over (raw channels,
+#: the truth's per-sensor orientations, positions and fields, the file's buffers), so this bound
+#: keeps a simulation within a few gigabytes of memory, e.g. 10 sensors at 100 Hz for 100 minutes.
 MAX_SENSOR_SAMPLES = 6_000_000
 
 
