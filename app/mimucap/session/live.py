@@ -66,7 +66,7 @@ from mimucap.core.simulate import SimulationConfig, SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
-from mimucap.session.figure import FigureBuilder, FigureGeometry
+from mimucap.session.figure import FigureBuilder, FigureGeometry, emit_pose_figures
 from mimucap.session.instructions import Instruction
 from mimucap.session.live_pose import LivePose, joint_column_groups
 from mimucap.session.live_status import StatusPublisher
@@ -554,11 +554,7 @@ class LiveSession:
         if self.pose.q_world_from_segment is None:
             return
         self._truth_geometry = None
-        if self.events.truth_frame.callbacks:
-            truth = self.truth_frame()
-            self.events.truth_frame.emit(*(truth if truth is not None else (None, None)))
-        if self.events.frame.callbacks:
-            self.events.frame.emit(*self.frame())
+        emit_pose_figures(self)
 
     def _assigned_sensors_seen(self) -> bool:
         segments = (self.body_calibration.sensors.values() if self.body_calibration is not None

@@ -33,7 +33,7 @@ from mimucap.core.locomotion import root_positions
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.events import EmitterGroup
-from mimucap.session.figure import FigureBuilder, FigureGeometry
+from mimucap.session.figure import FigureBuilder, FigureGeometry, emit_pose_figures
 from mimucap.session.processing import process_session, recorded_processing, session_model
 from mimucap.session.recording import open_session
 
@@ -188,11 +188,7 @@ class ReviewPlayer:
         if frame_id == self._shown_frame_id:
             return
         self._shown_frame_id = frame_id
-        if self.events.truth_frame.callbacks:
-            truth = self.truth_frame()
-            self.events.truth_frame.emit(*(truth if truth is not None else (None, None)))
-        if self.events.frame.callbacks:
-            self.events.frame.emit(*self.frame())
+        emit_pose_figures(self)
 
     def publish(self) -> None:
         """Emit the events for the play head where it is (for listeners that just subscribed)."""
