@@ -34,6 +34,7 @@ from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESUL
 from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.events import EmitterGroup
 from mimucap.session.figure import FigureBuilder, FigureGeometry, emit_pose_figures
+from mimucap.session.live_pose import joint_column_groups
 from mimucap.session.processing import process_session, recorded_processing, session_model
 from mimucap.session.recording import open_session
 
@@ -157,12 +158,8 @@ class ReviewPlayer:
         self._cursor = data.start_s
         self._geometry: tuple[object, FigureGeometry] | None = None
         self._truth_geometry: tuple[object, FigureGeometry] | None = None
-        self._columns = {}
-        columns = skeleton.joint_angle_columns(self.model)
-        for joint in self.model.joint_names:
-            cols = tuple(c for c in columns if c.startswith(joint + "_"))[:3]
-            if len(cols) == 3 and all(c in data.angles_deg for c in cols):
-                self._columns[joint] = cols
+        self._columns = {joint: cols for joint, cols in joint_column_groups(self.model).items()
+                         if all(c in data.angles_deg for c in cols)}
 
     # -- play head ---------------------------------------------------------------------------
     @property
