@@ -70,7 +70,7 @@ from mimucap.session.figure import FigureBuilder, FigureGeometry, emit_pose_figu
 from mimucap.session.instructions import Instruction
 from mimucap.session.live_pose import LivePose, joint_column_groups
 from mimucap.session.live_status import StatusPublisher
-from mimucap.session.processing import recording_record
+from mimucap.session.processing import check_body_calibration_fits, recording_record
 from mimucap.session.recording import Recorder, RecordingResult
 from mimucap.session.ring_buffer import RingBuffer
 from mimucap.session.sources import SourceOptions
@@ -438,20 +438,19 @@ class LiveSession:
     def apply_body_calibration(self, calibration: bodycal.BodyCalibration) -> None:
         """Drive the figure through ``calibration`` (sensor → segment rotations) from now on."""
         self._refuse_while_recording("applying a body calibration")
-        unknown = [s for s in calibration.segments if s not in self.model.segment_names]
-        if unknown:
-            raise ValueError(f"the body calibration has segments the {self.model.name} model lacks: {', '.join(unknown)}")
+        check_body_calibration_fits(calibration, self.model)
         self.body_calibration = calibration
         for segment, sensor in calibration.sensors.items():
             self.assign_sensor(sensor, segment)
-        self.pipeline.forget_poses()
-        self.pose.reset()
-        self.status.mark_due()
-        self.events.calibration.emit()
+        self._body_calibration_changed()
 
     def clear_body_calibration(self) -> None:
         self._refuse_while_recording("clearing the body calibration")
         self.body_calibration = None
+        self._body_calibration_changed()
+
+    def _body_calibration_changed(self) -> None:
+        """The figure is driven anew: the poses made and where the figure stands are forgotten."""
         self.pipeline.forget_poses()
         self.pose.reset()
         self.status.mark_due()
@@ -465,7 +464,10 @@ class LiveSession:
             return 0
         blocks = self.feed.poll()
         if self._recorder is not None:
-            self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
+            if blocks:
+                self._recorder.add_blocks(blocks)
+            else:
+                self._recorder.tick()
             if self._recorder.failure and not self._failure_told:
                 self._failure_told = True
                 self.events.recording_failed.emit(self._recorder.failure)
