@@ -64,6 +64,7 @@ from mimucap.core.pipeline import (
 from mimucap.core.samples import SensorSamples, join_per_sensor
 from mimucap.core.simulate import SimulationConfig, SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
+from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
 from mimucap.session.figure import FigureBuilder, FigureGeometry, emit_pose_figures
@@ -604,21 +605,18 @@ class LiveSession:
         """RMS error (deg) of each joint-angle column (or only of ``columns``) against the
         simulator's truth over the last ``window_s`` seconds (empty for a source without truth):
         the on-screen accuracy check."""
-        from mimucap.session.evaluation import angle_errors
-
         errors: dict[str, float] = {}
         if not self.has_truth:
             return errors
         wanted = None if columns is None else set(columns)
-        for joint, columns_of_joint in self._joint_columns.items():
-            if wanted is not None and wanted.isdisjoint(columns_of_joint):
+        for joint, joint_columns in self._joint_columns.items():
+            if wanted is not None and wanted.isdisjoint(joint_columns):
                 continue
-            columns = columns_of_joint
             t, estimate = self.joint_series(joint, window_s)
             t_true, true = self.truth_joint_series(joint, window_s + 1.0)
             if not len(t) or len(t_true) < 2:
                 continue
-            found = angle_errors(t, dict(zip(columns, estimate.T)), t_true, dict(zip(columns, true.T)))
+            found = angle_errors(t, dict(zip(joint_columns, estimate.T)), t_true, dict(zip(joint_columns, true.T)))
             errors.update({column: error.rms_deg for column, error in found.items()})
         return errors
 

@@ -32,6 +32,7 @@ from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.locomotion import root_positions
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
+from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
 from mimucap.session.figure import FigureBuilder, FigureGeometry, emit_pose_figures
 from mimucap.session.live_pose import joint_column_groups
@@ -80,8 +81,6 @@ class ReviewData:
     def truth_errors(self) -> dict[str, float]:
         """RMS error (deg) of each joint-angle column against the simulator's truth over the
         whole recording (empty without truth): the review's accuracy check."""
-        from mimucap.session.evaluation import angle_errors
-
         truth = self.truth
         if truth is None or not len(self.t_s):
             return {}
