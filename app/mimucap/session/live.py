@@ -464,9 +464,10 @@ class LiveSession:
         if not self.started:
             return 0
         blocks = self.feed.poll()
+        merged = join_per_sensor(blocks)  # once: the recorder and the pipeline take the same records
         if self._recorder is not None:
             if blocks:
-                self._recorder.add_blocks(blocks)
+                self._recorder.add_blocks(merged)
             else:
                 self._recorder.tick()
             if self._recorder.failure and not self._failure_told:
@@ -478,7 +479,6 @@ class LiveSession:
             return 0
         self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
         self.events.blocks.emit(blocks)
-        merged = join_per_sensor(blocks)
         new_sensors = [b.sensor_id for b in merged if b.sensor_id not in self._sensors]
         if new_sensors:
             self._load_stored_calibrations(new_sensors)
