@@ -352,3 +352,10 @@ def emit_pose_figures(source) -> None:
         events.truth_frame.emit(*(truth if truth is not None else (None, None)))
     if events.frame.callbacks:
         events.frame.emit(*source.frame())
+
+
+def bodycal_heading(calibration) -> float:
+    """Heading (rad, CCW from north) the subject faced in a body calibration's N-pose
+    (:class:`~mimucap.core.bodycal.BodyCalibration`): the ``heading_ref_rad`` the body display
+    mode turns to face the camera, live and in review alike."""
+    return float(rotation.heading_rad(np.asarray(calibration.q_world_from_body, dtype=float)))

@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
-from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core import bodycal, skeleton
 from mimucap.core.fusion import FLAG_NAMES
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
@@ -67,7 +67,7 @@ from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
-from mimucap.session.figure import FigureBuilder, FigureGeometry, emit_pose_figures
+from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
 from mimucap.session.instructions import Instruction
 from mimucap.session.live_pose import LivePose, joint_column_groups
 from mimucap.session.live_status import StatusPublisher
@@ -826,11 +826,6 @@ class RecordingToSave:
         """Write the session file and remove the journal (``progress``: called with the
         fraction done, 0..1, in the thread that saves)."""
         return self.recorder.write_session(progress)
-
-
-def bodycal_heading(calibration: bodycal.BodyCalibration) -> float:
-    """Heading (rad, CCW from north) the subject faced in the calibration's N-pose."""
-    return float(rotation.heading_rad(np.asarray(calibration.q_world_from_body, dtype=float)))
 
 
 #: The local field's magnitude may differ this much (fraction) from the calibration's, its dip

@@ -34,7 +34,7 @@ from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESUL
 from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
-from mimucap.session.figure import FigureBuilder, FigureGeometry, emit_pose_figures
+from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
 from mimucap.session.live_pose import joint_column_groups
 from mimucap.session.processing import process_session, recorded_processing, session_model
 from mimucap.session.recording import open_session
@@ -113,9 +113,7 @@ def build_review(path: str | Path, session: Session, progress: Callable[[float],
     if not len(output.t_s):
         reasons = "; ".join(output.problems) or "no sensor is assigned to a segment and none is calibrated"
         raise ValueError(f"{path}: nothing to review ({reasons})")
-    heading_ref = None
-    if recorded.body_calibration is not None:
-        heading_ref = float(rotation.heading_rad(np.asarray(recorded.body_calibration.q_world_from_body, dtype=float)))
+    heading_ref = None if recorded.body_calibration is None else bodycal_heading(recorded.body_calibration)
     report(1.0)
     q_stacked = np.stack([output.q_world_from_segment[name] for name in model.segment_names])
     root = root_positions(model, height, q_stacked)
