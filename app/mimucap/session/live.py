@@ -664,7 +664,7 @@ class LiveSession:
         """One :class:`SensorRow` per known sensor, in the source's order."""
         now = self._clock()
         stats = self.feed.stats()
-        signal = self.feed.signal_dbm() if hasattr(self.feed, "signal_dbm") else {}
+        signal = self.feed.signal_dbm()
         rows = []
         for sid in self.sensor_ids:
             st = stats.get(sid)
