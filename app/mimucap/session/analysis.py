@@ -170,9 +170,7 @@ def analyse_review(review: ReviewData, progress: Callable[[float], None] | None 
         curves = cycle_curves(review.t_s, review.angles_deg, gait.strides)
     report(0.8)
     rom = rom_of_protocol(review)
-    source = "ROM protocol"
-    if not rom:
-        source = ""
+    source = "ROM protocol" if rom else ""
     report(1.0)
     return SessionAnalysis(review, gait, problem, curves, rom, source)
 

@@ -51,6 +51,9 @@ class LiveSource(Protocol):
 
     def stats(self) -> dict[str, SensorStats]: ...
 
+    def signal_dbm(self) -> dict[str, float]:
+        """Sensor id → strength of its radio link (dBm), for the sensors whose source reports it."""
+
     def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
         """Refused inputs that belong to no known sensor: (reason → count, sender → count)."""
 
@@ -167,6 +170,10 @@ class SimulatorFeed:
     def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
         """Nothing is refused by the simulated suit (see :meth:`SupervisorFeed.refused_without_sensor`)."""
         return {}, {}
+
+    def signal_dbm(self) -> dict[str, float]:
+        """The simulated suit has no radio link (see :meth:`SupervisorFeed.signal_dbm`)."""
+        return {}
 
     def problem(self) -> str:
         """Why data may not be coming ("" : nothing known); the simulator always delivers."""

@@ -340,3 +340,22 @@ class FigureBuilder:
             world_matrix=world_matrix,
             heading_alpha_rad=alpha,
         )
+
+
+def emit_pose_figures(source) -> None:
+    """Emit ``source``'s ``truth_frame`` (``(None, None)`` without a true pose) and then its
+    ``frame`` event, each built only when someone listens; the live and review sessions share it
+    so both keep the same order and the same empty truth."""
+    events = source.events
+    if events.truth_frame.callbacks:
+        truth = source.truth_frame()
+        events.truth_frame.emit(*(truth if truth is not None else (None, None)))
+    if events.frame.callbacks:
+        events.frame.emit(*source.frame())
+
+
+def bodycal_heading(calibration) -> float:
+    """Heading (rad, CCW from north) the subject faced in a body calibration's N-pose
+    (:class:`~mimucap.core.bodycal.BodyCalibration`): the ``heading_ref_rad`` the body display
+    mode turns to face the camera, live and in review alike."""
+    return float(rotation.heading_rad(np.asarray(calibration.q_world_from_body, dtype=float)))

@@ -55,7 +55,7 @@ from typing import Any
 import numpy as np
 
 from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
-from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core import bodycal, skeleton
 from mimucap.core.fusion import FLAG_NAMES
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
@@ -64,13 +64,14 @@ from mimucap.core.pipeline import (
 from mimucap.core.samples import SensorSamples, join_per_sensor
 from mimucap.core.simulate import SimulationConfig, SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
+from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
-from mimucap.session.figure import FigureBuilder, FigureGeometry
+from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
 from mimucap.session.instructions import Instruction
 from mimucap.session.live_pose import LivePose, joint_column_groups
 from mimucap.session.live_status import StatusPublisher
-from mimucap.session.processing import recording_record
+from mimucap.session.processing import check_body_calibration_fits, recording_record
 from mimucap.session.recording import Recorder, RecordingResult
 from mimucap.session.ring_buffer import RingBuffer
 from mimucap.session.sources import SourceOptions
@@ -438,20 +439,19 @@ class LiveSession:
     def apply_body_calibration(self, calibration: bodycal.BodyCalibration) -> None:
         """Drive the figure through ``calibration`` (sensor → segment rotations) from now on."""
         self._refuse_while_recording("applying a body calibration")
-        unknown = [s for s in calibration.segments if s not in self.model.segment_names]
-        if unknown:
-            raise ValueError(f"the body calibration has segments the {self.model.name} model lacks: {', '.join(unknown)}")
+        check_body_calibration_fits(calibration, self.model)
         self.body_calibration = calibration
         for segment, sensor in calibration.sensors.items():
             self.assign_sensor(sensor, segment)
-        self.pipeline.forget_poses()
-        self.pose.reset()
-        self.status.mark_due()
-        self.events.calibration.emit()
+        self._body_calibration_changed()
 
     def clear_body_calibration(self) -> None:
         self._refuse_while_recording("clearing the body calibration")
         self.body_calibration = None
+        self._body_calibration_changed()
+
+    def _body_calibration_changed(self) -> None:
+        """The figure is driven anew: the poses made and where the figure stands are forgotten."""
         self.pipeline.forget_poses()
         self.pose.reset()
         self.status.mark_due()
@@ -464,8 +464,12 @@ class LiveSession:
         if not self.started:
             return 0
         blocks = self.feed.poll()
+        merged = join_per_sensor(blocks)  # once: the recorder and the pipeline take the same records
         if self._recorder is not None:
-            self._recorder.add_blocks(blocks) if blocks else self._recorder.tick()
+            if blocks:
+                self._recorder.add_blocks(merged)
+            else:
+                self._recorder.tick()
             if self._recorder.failure and not self._failure_told:
                 self._failure_told = True
                 self.events.recording_failed.emit(self._recorder.failure)
@@ -475,7 +479,6 @@ class LiveSession:
             return 0
         self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
         self.events.blocks.emit(blocks)
-        merged = join_per_sensor(blocks)
         new_sensors = [b.sensor_id for b in merged if b.sensor_id not in self._sensors]
         if new_sensors:
             self._load_stored_calibrations(new_sensors)
@@ -554,11 +557,7 @@ class LiveSession:
         if self.pose.q_world_from_segment is None:
             return
         self._truth_geometry = None
-        if self.events.truth_frame.callbacks:
-            truth = self.truth_frame()
-            self.events.truth_frame.emit(*(truth if truth is not None else (None, None)))
-        if self.events.frame.callbacks:
-            self.events.frame.emit(*self.frame())
+        emit_pose_figures(self)
 
     def _assigned_sensors_seen(self) -> bool:
         segments = (self.body_calibration.sensors.values() if self.body_calibration is not None
@@ -606,21 +605,18 @@ class LiveSession:
         """RMS error (deg) of each joint-angle column (or only of ``columns``) against the
         simulator's truth over the last ``window_s`` seconds (empty for a source without truth):
         the on-screen accuracy check."""
-        from mimucap.session.evaluation import angle_errors
-
         errors: dict[str, float] = {}
         if not self.has_truth:
             return errors
         wanted = None if columns is None else set(columns)
-        for joint, columns_of_joint in self._joint_columns.items():
-            if wanted is not None and wanted.isdisjoint(columns_of_joint):
+        for joint, joint_columns in self._joint_columns.items():
+            if wanted is not None and wanted.isdisjoint(joint_columns):
                 continue
-            columns = columns_of_joint
             t, estimate = self.joint_series(joint, window_s)
             t_true, true = self.truth_joint_series(joint, window_s + 1.0)
             if not len(t) or len(t_true) < 2:
                 continue
-            found = angle_errors(t, dict(zip(columns, estimate.T)), t_true, dict(zip(columns, true.T)))
+            found = angle_errors(t, dict(zip(joint_columns, estimate.T)), t_true, dict(zip(joint_columns, true.T)))
             errors.update({column: error.rms_deg for column, error in found.items()})
         return errors
 
@@ -668,7 +664,7 @@ class LiveSession:
         """One :class:`SensorRow` per known sensor, in the source's order."""
         now = self._clock()
         stats = self.feed.stats()
-        signal = self.feed.signal_dbm() if hasattr(self.feed, "signal_dbm") else {}
+        signal = self.feed.signal_dbm()
         rows = []
         for sid in self.sensor_ids:
             st = stats.get(sid)
@@ -830,11 +826,6 @@ class RecordingToSave:
         """Write the session file and remove the journal (``progress``: called with the
         fraction done, 0..1, in the thread that saves)."""
         return self.recorder.write_session(progress)
-
-
-def bodycal_heading(calibration: bodycal.BodyCalibration) -> float:
-    """Heading (rad, CCW from north) the subject faced in the calibration's N-pose."""
-    return float(rotation.heading_rad(np.asarray(calibration.q_world_from_body, dtype=float)))
 
 
 #: The local field's magnitude may differ this much (fraction) from the calibration's, its dip

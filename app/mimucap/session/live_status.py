@@ -94,9 +94,7 @@ class StatusPublisher:
         if problem != self._problem:
             self._problem = problem
             events.source_problem.emit(problem)
-        # a source that cannot tell senders apart (a test's stand-in) refuses nothing of its own
-        refused_of = getattr(session.feed, "refused_without_sensor", None)
-        refused = refused_of() if callable(refused_of) else ({}, {})
+        refused = session.feed.refused_without_sensor()
         key = (tuple(sorted(refused[0].items())), tuple(sorted(refused[1].items())))
         if key != self._refused:
             self._refused = key

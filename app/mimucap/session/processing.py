@@ -109,6 +109,14 @@ def session_model(session: Session) -> tuple[skeleton.SkeletonModel, float]:
     return model, height
 
 
+def check_body_calibration_fits(calibration: bodycal.BodyCalibration, model: skeleton.SkeletonModel) -> None:
+    """``ValueError`` naming the segments of ``calibration`` that ``model`` lacks (the live
+    session and the reprocessing refuse such a calibration alike)."""
+    unknown = [s for s in calibration.segments if s not in model.segment_names]
+    if unknown:
+        raise ValueError(f"the body calibration has segments the {model.name} model lacks: {', '.join(unknown)}")
+
+
 def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
                     recorded: RecordedProcessing | None = None,
                     mag_calibrations: Mapping[str, MagCalibration] | None = None,
@@ -129,9 +137,7 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
     if model is None:
         model = session_model(session)[0]
     if body is not None:
-        unknown = [s for s in body.sensors if s not in model.segment_names]
-        if unknown:
-            raise ValueError(f"the body calibration has segments the {model.name} model lacks: {', '.join(unknown)}")
+        check_body_calibration_fits(body, model)
     return process_recording(
         session.sensors, model, result=result, mag_calibrations=mags, body_calibration=body,
         sensor_segments=recorded.sensor_segments, settings=recorded.settings,

@@ -32,8 +32,10 @@ from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.locomotion import root_positions
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
+from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
-from mimucap.session.figure import FigureBuilder, FigureGeometry
+from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
+from mimucap.session.live_pose import joint_column_groups
 from mimucap.session.processing import process_session, recorded_processing, session_model
 from mimucap.session.recording import open_session
 
@@ -79,8 +81,6 @@ class ReviewData:
     def truth_errors(self) -> dict[str, float]:
         """RMS error (deg) of each joint-angle column against the simulator's truth over the
         whole recording (empty without truth): the review's accuracy check."""
-        from mimucap.session.evaluation import angle_errors
-
         truth = self.truth
         if truth is None or not len(self.t_s):
             return {}
@@ -113,9 +113,7 @@ def build_review(path: str | Path, session: Session, progress: Callable[[float],
     if not len(output.t_s):
         reasons = "; ".join(output.problems) or "no sensor is assigned to a segment and none is calibrated"
         raise ValueError(f"{path}: nothing to review ({reasons})")
-    heading_ref = None
-    if recorded.body_calibration is not None:
-        heading_ref = float(rotation.heading_rad(np.asarray(recorded.body_calibration.q_world_from_body, dtype=float)))
+    heading_ref = None if recorded.body_calibration is None else bodycal_heading(recorded.body_calibration)
     report(1.0)
     q_stacked = np.stack([output.q_world_from_segment[name] for name in model.segment_names])
     root = root_positions(model, height, q_stacked)
@@ -157,12 +155,8 @@ class ReviewPlayer:
         self._cursor = data.start_s
         self._geometry: tuple[object, FigureGeometry] | None = None
         self._truth_geometry: tuple[object, FigureGeometry] | None = None
-        self._columns = {}
-        columns = skeleton.joint_angle_columns(self.model)
-        for joint in self.model.joint_names:
-            cols = tuple(c for c in columns if c.startswith(joint + "_"))[:3]
-            if len(cols) == 3 and all(c in data.angles_deg for c in cols):
-                self._columns[joint] = cols
+        self._columns = {joint: cols for joint, cols in joint_column_groups(self.model).items()
+                         if all(c in data.angles_deg for c in cols)}
 
     # -- play head ---------------------------------------------------------------------------
     @property
@@ -188,11 +182,7 @@ class ReviewPlayer:
         if frame_id == self._shown_frame_id:
             return
         self._shown_frame_id = frame_id
-        if self.events.truth_frame.callbacks:
-            truth = self.truth_frame()
-            self.events.truth_frame.emit(*(truth if truth is not None else (None, None)))
-        if self.events.frame.callbacks:
-            self.events.frame.emit(*self.frame())
+        emit_pose_figures(self)
 
     def publish(self) -> None:
         """Emit the events for the play head where it is (for listeners that just subscribed)."""
