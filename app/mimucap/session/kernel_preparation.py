@@ -1,26 +1,23 @@
 """Prepare the fusion kernels for this process without holding up its other threads.
 
-On a fresh install numba compiles the fusion kernels on their first call (15-20 s on the
-2-core CI machine, :mod:`mimucap.core.fusion.warmup`). Compiled in a thread of the GUI
-process, that work holds Python's global interpreter lock in long stretches: the window froze
-for 1.3-1.5 s at a time, twice, during a cold start (``bench/bench_cold_start.py``). So
-:func:`prepare_fusion_kernels` compiles them in a child process (started with ``spawn``, like
-the acquisition workers), which leaves the compiled code in numba's on-disk cache
-(``cache=True``; the same cache directory for both processes, since it is chosen from the
-kernels' source files and the environment). This process then loads them from that cache,
-which takes milliseconds. When the cache holds them
-already (every start but the first), no child is started: :func:`load_cached_kernels` makes
-the warm-up's calls while refusing any compilation in its thread, which tells in milliseconds
-whether one is due.
+After ``make install`` the kernels are compiled ahead of time (:mod:`mimucap.core.fusion.aot`):
+then :meth:`KernelPreparation.run` loads that module and returns at once, numba is not even
+imported, and the first start has nothing to compile. The rest concerns numba's JIT kernels,
+the fallback when that module is missing or stale.
+
+numba compiles a kernel on its first call, which takes seconds. In a thread of the GUI process
+that work holds Python's global interpreter lock in long stretches and freezes the window
+(``bench/bench_cold_start.py`` shows it). So :func:`prepare_fusion_kernels` compiles them in a
+child process (started with ``spawn``, like the acquisition workers), which leaves the compiled
+code in numba's on-disk cache (``cache=True``; the same cache directory for both processes,
+since it is chosen from the kernels' source files and the environment); this process then
+loads them from that cache. When the cache holds them already (every start but the first), no
+child is started: :func:`load_cached_kernels` makes the warm-up's calls while refusing any
+compilation in its thread, which tells at once whether one is due.
 
 If the child fails, or ends without leaving a usable cache (a read-only install without a
-writable user cache, for example), the kernels are compiled in the calling thread, as before:
-slower for the GUI, never wrong. :class:`KernelPreparation` reports which way was taken.
-
-All of this concerns numba's JIT kernels only. After ``make install`` the kernels are normally
-compiled ahead of time (:mod:`mimucap.core.fusion.aot`): then :meth:`KernelPreparation.run`
-loads that module and returns at once, numba is not even imported, and the first start has
-nothing to compile.
+writable user cache, for example), the kernels are compiled in the calling thread: slower for
+the GUI, never wrong. :class:`KernelPreparation` reports which way was taken.
 """
 
 from __future__ import annotations

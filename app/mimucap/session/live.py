@@ -82,7 +82,8 @@ STALE_AFTER_S = 1.0
 MAX_WINDOW_S = 30.0
 #: Samples per second the ring buffers are sized for (larger rates keep a shorter history).
 BUFFER_RATE_HZ = 200.0
-#: Joint-angle history rate bound: one pose per pipeline step (the GUI pumps at 100 Hz).
+#: Joint-angle history rate bound: one pose per pipeline step (the GUI pumps at 62.5 Hz; other
+#: drivers, e.g. a test's stepped clock, may step faster).
 ANGLE_BUFFER_RATE_HZ = 120.0
 
 #: Where a recording's ground truth came from (stored with it, for evaluation).
