@@ -6,20 +6,68 @@ from pathlib import Path
 
 import pytest
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
+from tests.external_data import DATA_SETS, DEFAULT_ROOT_TEXT, REPO_ROOT, data_required, data_root, is_present
+
+#: The reason text of a test skipped for want of a data set starts with this.
+MISSING_DATA = "needs the external data set"
 
 
-def shared_data_dir() -> Path:
-    """``<repo>/../shared/data``: real recordings with their own licences (never copied in)."""
-    path = (REPO_ROOT / ".." / "shared" / "data").resolve()
-    if not path.is_dir():
-        raise FileNotFoundError(f"shared data not found at {path}: the tests need ../shared beside the repository")
-    return path
+def pytest_configure(config) -> None:
+    config.addinivalue_line("markers", "data(*names): reads these external data sets (tests/external_data.py)")
+
+
+def pytest_collection_modifyitems(config, items) -> None:
+    """Skip (or, where the data are required, refuse to run) tests whose data set is missing."""
+    missing_sets: dict[str, int] = {}
+    for item in items:
+        names = [name for marker in item.iter_markers("data") for name in marker.args]
+        unknown = [name for name in names if name not in DATA_SETS]
+        if unknown:
+            raise pytest.UsageError(f"{item.nodeid}: unknown data set {', '.join(unknown)}")
+        if "shared_data" in getattr(item, "fixturenames", ()) and not names:
+            raise pytest.UsageError(f"{item.nodeid} reads external data: mark it with @pytest.mark.data(\"<set>\")")
+        missing = [name for name in names if not is_present(name)]
+        for name in missing:
+            missing_sets[name] = missing_sets.get(name, 0) + 1
+        if missing:
+            titles = ", ".join(f"{DATA_SETS[n].title} ({n})" for n in missing)
+            item.add_marker(pytest.mark.skip(reason=f"{MISSING_DATA}: {titles}, not found in {data_root()}"))
+    if missing_sets and data_required():
+        listed = "; ".join(f"{DATA_SETS[n].title}: {data_root() / DATA_SETS[n].folder} ({count} tests)"
+                           for n, count in sorted(missing_sets.items()))
+        raise pytest.UsageError(f"MIMUCAP_REQUIRE_TEST_DATA is set but data sets are missing: {listed}")
+
+
+def _skip_reason(report) -> str:
+    return report.longrepr[2] if isinstance(report.longrepr, tuple) else str(report.longrepr)
+
+
+def pytest_terminal_summary(terminalreporter, config) -> None:
+    """Count the tests skipped for want of external recordings, per data set (said last)."""
+    skipped = [report for report in terminalreporter.stats.get("skipped", [])
+               if MISSING_DATA in _skip_reason(report)]
+    counts = {name: sum(1 for report in skipped if f"({name})" in _skip_reason(report)) for name in DATA_SETS}
+    listed = ", ".join(f"{DATA_SETS[n].title} {c}" for n, c in sorted(counts.items()) if c)
+    config.stash[_DATA_LINE] = (
+        f"{len(skipped)} tests skipped for want of external recordings ({listed}); put the data sets in "
+        f"MIMUCAP_TEST_DATA (default {DEFAULT_ROOT_TEXT}; README, 'Test data')") if skipped else ""
+
+
+def pytest_unconfigure(config) -> None:
+    """The data line is the run's last line, after pytest's own counts."""
+    line = config.stash.get(_DATA_LINE, "")
+    reporter = config.pluginmanager.get_plugin("terminalreporter")
+    if line and reporter is not None:
+        reporter.write_line(line)
+
+
+_DATA_LINE = pytest.StashKey[str]()
 
 
 @pytest.fixture
 def shared_data() -> Path:
-    return shared_data_dir()
+    """The external data root (tests that use it carry ``@pytest.mark.data``)."""
+    return data_root()
 
 
 @pytest.fixture(autouse=True)

@@ -1,4 +1,4 @@
-"""The layering rule of ``shared/docs/architecture.md``, made executable.
+"""The layering rule of ``docs/architecture.md``, made executable.
 
 ``gui → session → (acquisition | io) → core``: arrows point down only; acquisition and io do
 not import each other; core imports no Qt, VTK, pyqtgraph, serial, socket, multiprocessing or

@@ -1,7 +1,7 @@
 """MimuCap: human motion capture with magnetic-inertial measurement units.
 
 Layers (imports point downwards only): ``gui`` → ``session`` → (``acquisition`` | ``io``) → ``core``.
-See ``docs/`` and ``../shared/docs/conventions.md`` for frames, units and quaternion order
+See ``docs/`` and ``docs/conventions.md`` for frames, units and quaternion order
 (Hamilton, scalar first ``[w, x, y, z]``).
 """
 

@@ -107,6 +107,7 @@ def test_json_output_and_the_isb_shoulder_columns(suit, suit_csv, tmp_path, caps
     assert np.median(table.angles_deg["shoulder_l_elevation_deg"][t_pose]) == pytest.approx(90.0, abs=0.5)
 
 
+@pytest.mark.data("opensense")
 def test_heading_mode_on_the_opensense_walk(shared_data, tmp_path, capsys):
     folder = shared_data / "body" / "opensense_example"
     mapping = ("pelvis_imu=pelvis,torso_imu=thorax,femur_r_imu=thigh_r,femur_l_imu=thigh_l,tibia_r_imu=shank_r,"
@@ -270,6 +271,7 @@ def test_a_calibration_file_with_a_bad_cell_or_a_shared_sensor_is_refused_naming
     assert not (tmp_path / "a.csv").exists()
 
 
+@pytest.mark.data("opensense")
 def test_reader_options_are_checked_not_replaced_or_ignored(suit, suit_csv, tmp_path, capsys, shared_data):
     xsens = (shared_data / "body" / "opensense_example" / "xsens_format_variants"
              / "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt")
@@ -289,6 +291,7 @@ def test_reader_options_are_checked_not_replaced_or_ignored(suit, suit_csv, tmp_
     assert main(["bodycal", str(xsens), *heading, "--up", "z", "--out", str(tmp_path / "c.json")]) == 0
 
 
+@pytest.mark.data("broad", "opensense")
 def test_xsens_reader_options_are_refused_for_inputs_they_do_not_apply_to(suit, suit_csv, tmp_path, capsys,
                                                                         shared_data):
     """Was: --sensor-names, --trial and --rate were used for Xsens exports and silently ignored

@@ -15,11 +15,13 @@ from mimucap.core.fusion.evaluation import orientation_errors
 from mimucap.io.broad import read_broad
 from mimucap.core.samples import SensorSamples
 from mimucap.io.session import Session, write_session
+from tests.external_data import data_path
 
-BROAD_DIR = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD_DIR = data_path("broad")
 TRIAL = BROAD_DIR / "26_disturbed_phone_vibration_A.hdf5"
 
 
+@pytest.mark.data("broad")
 def test_fuse_broad_trial_to_csv(tmp_path, capsys):
     out = tmp_path / "q.csv"
     assert main(["fuse", str(TRIAL), "--out", str(out)]) == 0
@@ -35,6 +37,7 @@ def test_fuse_broad_trial_to_csv(tmp_path, capsys):
     assert "samples" in capsys.readouterr().out
 
 
+@pytest.mark.data("broad")
 @pytest.mark.parametrize("suffix", [".npy", ".h5"])
 def test_fuse_other_formats_and_options(tmp_path, suffix):
     out = tmp_path / f"q{suffix}"
@@ -115,6 +118,7 @@ def test_fuse_refuses_input_that_gives_no_orientation_and_counts_invalid_rows(tm
     assert "empty.h5: sensor S01: no samples (0 rows): nothing to fuse" in capsys.readouterr().err
 
 
+@pytest.mark.data("broad")
 def test_fuse_names_the_dataset_a_broad_trial_lacks(tmp_path, capsys):
     """Was: "not a MimuCap session (no 'format' attribute; foreign HDF5 file?)" for a BROAD
     trial without ``imu_mag``: the BROAD layout was recognised only when complete."""
@@ -142,6 +146,7 @@ def test_fuse_names_the_dataset_a_broad_trial_lacks(tmp_path, capsys):
     assert "foreign.h5: not a MimuCap session (no 'format' attribute; foreign HDF5 file?)" in capsys.readouterr().err
 
 
+@pytest.mark.data("broad")
 def test_fuse_no_mag_reads_a_broad_trial_without_a_magnetometer(tmp_path, capsys):
     """Was: ``--no-mag`` on a BROAD trial without ``imu_mag`` was refused for the missing
     dataset the option says not to use. It now gives the same orientation as ``--no-mag`` on
@@ -163,6 +168,7 @@ def test_fuse_no_mag_reads_a_broad_trial_without_a_magnetometer(tmp_path, capsys
     np.testing.assert_array_equal(outputs[0], outputs[1])
 
 
+@pytest.mark.data("broad")
 def test_bench_orientation_json(tmp_path, capsys):
     folder = tmp_path / "broad"
     folder.mkdir()
@@ -197,6 +203,7 @@ def _broad_slice(source: Path, target: Path, rows: int, nan_acc: bool = False) -
     return target
 
 
+@pytest.mark.data("broad")
 def test_bench_skips_a_trial_with_nothing_to_evaluate_and_names_it(tmp_path, capsys):
     folder = tmp_path / "broad"
     folder.mkdir()

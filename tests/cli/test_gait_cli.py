@@ -8,10 +8,12 @@ import pytest
 
 from mimucap.cli import main
 from mimucap.io.gait_csv import read_foot_imu_csv, read_table
+from tests.external_data import data_path
 
-GAITMAP = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "gait" / "gaitmap_example"
+GAITMAP = data_path("gaitmap")
 
 
+@pytest.mark.data("gaitmap")
 def test_gait_csv_writes_strides_and_parameters(tmp_path, capsys):
     out = tmp_path / "gait"
     assert main(["gait", str(GAITMAP / "imu_sample.csv"), "--rate", "204.8", "--out", str(out)]) == 0

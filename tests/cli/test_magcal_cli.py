@@ -56,6 +56,7 @@ def test_counts_without_scale_is_an_error(tmp_path: Path, capsys) -> None:
     assert "--scale-to-uT" in capsys.readouterr().err
 
 
+@pytest.mark.data("mag-hmc5883l")
 def test_fit_real_recordings_and_save(shared_data: Path, capsys) -> None:
     folder = shared_data.joinpath(*SET2)
     full = run_json(capsys, str(folder / "full-sphere" / "mag_hmc5883l.csv.gz"))
@@ -128,6 +129,7 @@ def test_study_prints_both_tables(capsys) -> None:
     assert float(single_once[3]) < float(figure8_five[3])  # radii RMSE
 
 
+@pytest.mark.data("mag-hmc5883l")
 def test_study_on_a_folder_of_real_recordings(shared_data: Path, tmp_path: Path, capsys) -> None:
     folder = shared_data.joinpath(*SET2)
     study = tmp_path / "study"
@@ -196,6 +198,7 @@ def test_fit_one_sensor_of_a_session(tmp_path: Path, capsys) -> None:
     assert "dip" in capsys.readouterr().out  # the session's accelerometer gives the dip figure
 
 
+@pytest.mark.data("mag-hmc5883l")
 def test_a_failed_fit_is_not_saved_over_a_good_one(shared_data: Path, capsys) -> None:
     folder = shared_data.joinpath(*SET2)
     turns = [str(folder / f"rotate-ccw-around-{name}" / "mag_hmc5883l.csv.gz")

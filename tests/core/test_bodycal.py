@@ -608,6 +608,7 @@ def facing_calibrations(opensense):
     return result
 
 
+@pytest.mark.data("opensense")
 def test_opensense_facing_x_and_negx_agree(facing_calibrations):
     """OpenSense's own test of these two trials allows 10° between the resulting IK angles.
 
@@ -636,6 +637,7 @@ def knee_cycles(knee_deg):
     return peaks, np.array(cycles)
 
 
+@pytest.mark.data("opensense")
 def test_opensense_walking_knee_flexion_has_the_shape_of_normal_gait(opensense):
     """Calibrated on the first (standing) frame with heading from the pelvis sensor's +z.
 

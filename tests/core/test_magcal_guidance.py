@@ -153,6 +153,7 @@ def test_invalid_input_is_refused() -> None:
         ("rotate-ccw-around-z-pointing-up", "z", False),
     ],
 )
+@pytest.mark.data("mag-hmc5883l")
 def test_real_named_turns(shared_data, name: str, axis: str, horizontal: bool) -> None:
     # The recording's name states the turned axis and where it points (forward/left: level;
     # up: vertical); each holds about two counter-clockwise turns.
@@ -168,6 +169,7 @@ def test_real_named_turns(shared_data, name: str, axis: str, horizontal: bool) -
     assert not state.done and state.message.startswith(f"{axis} done, now turn about")
 
 
+@pytest.mark.data("mag-hmc5883l")
 def test_real_full_sphere_completes_every_axis(shared_data) -> None:
     recording = read_mag_files([shared_data / "mag" / "sunsided_hmc5883l" / "set-2" / "full-sphere"])[0]
     state = guide_single_axis(recording.imu.t_s, recording.imu.gyr, recording.imu.acc)

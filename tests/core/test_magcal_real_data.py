@@ -27,6 +27,7 @@ def set2(shared_data, name: str):
     return to_microtesla(recording.mag, recording.unit, None), recording
 
 
+@pytest.mark.data("mag-hmc5883l")
 def test_full_sphere_fits_below_one_percent(shared_data) -> None:
     mag, recording = set2(shared_data, "full-sphere")
     result = calibrate(mag, "hmc5883l", acc=recording.acc_at_mag_times())
@@ -38,6 +39,7 @@ def test_full_sphere_fits_below_one_percent(shared_data) -> None:
     assert 50.0 < quality.dip_mean_deg < 75.0
 
 
+@pytest.mark.data("mag-hmc5883l")
 @pytest.mark.parametrize("method", ["ellipsoid", "quadric"])
 def test_three_single_axis_turns_find_the_full_sphere_centre(shared_data, method: str) -> None:
     settings = FitSettings(method=method)
@@ -49,6 +51,7 @@ def test_three_single_axis_turns_find_the_full_sphere_centre(shared_data, method
     assert result.quality.verdict == "good", result.quality.reasons
 
 
+@pytest.mark.data("mag-hmc5883l")
 @pytest.mark.parametrize("name", ROTATIONS + ("rotate-ccw-around-x-pointing-up", "pan-along-z-pointing-up"))
 def test_one_rotation_alone_is_refused_or_fails(shared_data, name: str) -> None:
     mag, _ = set2(shared_data, name)
@@ -61,6 +64,7 @@ def test_one_rotation_alone_is_refused_or_fails(shared_data, name: str) -> None:
         assert any("coverage too low" in reason for reason in result.quality.reasons)
 
 
+@pytest.mark.data("mag-mpu9250")
 def test_mpu9250_recording_fits_plausibly(shared_data) -> None:
     recording = read_mag_files([shared_data / "mag" / "jremington_mpu9250" / "mag.txt"])[0]
     mag = to_microtesla(recording.mag, "counts", 0.6)  # AK8963 14-bit: 0.6 µT/LSB (data sheet)
@@ -73,6 +77,7 @@ def test_mpu9250_recording_fits_plausibly(shared_data) -> None:
     assert result.fit.ellipsoid.radii_ratio < 1.2
 
 
+@pytest.mark.data("mag-ellipsoid")
 def test_ellipsoid_fit_example_fits_plausibly(shared_data) -> None:
     recording = read_mag_files([shared_data / "mag" / "bazhin_ellipsoid_fit" / "mag_out.txt"])[0]
     fit = fit_ellipsoid(recording.mag)  # counts of an unnamed sensor: judge relative figures only

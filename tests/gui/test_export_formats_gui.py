@@ -36,6 +36,7 @@ def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path):
     assert "Exported" in dialog.message.text()
 
 
+@pytest.mark.data("mvnx")
 def test_open_imports_an_mvnx_file_and_reviews_it(qtbot, tmp_path, monkeypatch, shared_data):
     from mimucap.gui.main_window import MainWindow
 

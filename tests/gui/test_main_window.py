@@ -220,6 +220,7 @@ def test_world_axes_are_named_at_their_tips_and_the_names_hide_with_them(window,
     assert not any(label.GetVisibility() for label in view.stage.axis_labels)
 
 
+@pytest.mark.data("opensense")
 def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtbot, shared_data):
     """Xsens exports replayed (accelerations and on-board orientations, no segment known): the
     3D view explains that no sensor is assigned yet, the accelerometer plot shows the newest

@@ -10,10 +10,12 @@ import pytest
 
 from mimucap.io.broad import is_broad_file, list_broad_trials, read_broad
 from mimucap.core.sensor_limits import GYR_MAX_RAD_S
+from tests.external_data import data_path
 
-BROAD_DIR = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "broad"
+BROAD_DIR = data_path("broad")
 
 
+@pytest.mark.data("broad")
 def test_reads_a_real_trial():
     trial = read_broad(BROAD_DIR / "24_disturbed_tapping_A.hdf5")
     assert trial.name == "24_disturbed_tapping_A"
@@ -30,6 +32,7 @@ def test_reads_a_real_trial():
     assert trial.t_s[1] == pytest.approx(1 / trial.sampling_rate_hz)
 
 
+@pytest.mark.data("broad")
 def test_lists_the_trials_and_their_categories():
     files = list_broad_trials(BROAD_DIR)
     assert len(files) == 14
@@ -70,6 +73,7 @@ def test_clear_errors(tmp_path):
         list_broad_trials(_empty(tmp_path))
 
 
+@pytest.mark.data("broad")
 def test_a_trial_without_an_imu_dataset_is_told_from_a_foreign_file(tmp_path):
     """Was: a BROAD trial lacking ``imu_mag`` was not recognised at all, so ``mimucap fuse``
     called it a foreign HDF5 file ("not a MimuCap session")."""
@@ -103,12 +107,14 @@ def _empty(tmp_path: Path) -> Path:
     return folder
 
 
+@pytest.mark.data("broad")
 def test_every_real_trial_is_within_the_gyroscope_bound():
     for path in list_broad_trials(BROAD_DIR):
         trial = read_broad(path)
         assert np.nanmax(np.abs(trial.gyr_rad_s)) < GYR_MAX_RAD_S, path.name
 
 
+@pytest.mark.data("broad")
 def test_a_gyroscope_in_degrees_per_second_is_refused(tmp_path):
     with h5py.File(BROAD_DIR / "06_undisturbed_fast_rotation_A.hdf5", "r") as source:
         gyr, acc, mag = (source[name][:20000] for name in ("imu_gyr", "imu_acc", "imu_mag"))

@@ -69,6 +69,7 @@ def truth_segment_on(t_s: np.ndarray, review, segment: str) -> np.ndarray:
 @pytest.mark.slow
 @pytest.mark.skipif(importlib.util.find_spec("opensim") is None,
                     reason="opensim (OpenSim 4.6, test extra) is not installed: pip install opensim")
+@pytest.mark.data("opensense")
 def test_opensense_placer_and_ik_follow_the_walk(walk, review, shared_data, tmp_path, capsys):
     table = tmp_path / "walk.sto"
     # The N-pose second (IMUPlacer's calibration frame) and three seconds of walking.

@@ -87,6 +87,7 @@ def test_units() -> None:
         to_microtesla(SAMPLES, "mG", None)
 
 
+@pytest.mark.data("mag-hmc5883l")
 def test_sunsided_recording_with_companion_in_project_conventions(shared_data: Path) -> None:
     base = shared_data / "mag" / "sunsided_hmc5883l" / "set-2"
     # README: "X forward, Y left, Z up ... should give a negative accelerometer reading on Z".
@@ -109,6 +110,7 @@ def test_sunsided_recording_with_companion_in_project_conventions(shared_data: P
     assert np.all(np.isfinite(interpolated[5:-5]))
 
 
+@pytest.mark.data("mag-hmc5883l")
 def test_sunsided_set1_accelerometer_convention(shared_data: Path) -> None:
     # Set 1 README: the accelerometer gives the up vector, with its x axis sign flipped.
     base = shared_data / "mag" / "sunsided_hmc5883l" / "set-1"
@@ -120,6 +122,7 @@ def test_sunsided_set1_accelerometer_convention(shared_data: Path) -> None:
     assert not level.imu_in_mag_frame and level.acc_at_mag_times() is None
 
 
+@pytest.mark.data("opensense")
 def test_xsens_export_with_magnetometer(shared_data: Path) -> None:
     path = shared_data / "body" / "opensense_example" / "xsens_format_variants" / "MT_012005D6_031-000_00B421AF.txt"
     assert detect_format(path) == "xsens"
@@ -134,6 +137,7 @@ def test_xsens_export_with_magnetometer(shared_data: Path) -> None:
     assert 0.5 < np.median(np.linalg.norm(recording.mag, axis=1)) < 1.5
 
 
+@pytest.mark.data("opensense")
 def test_xsens_new_header_and_missing_columns(shared_data: Path) -> None:
     folder = shared_data / "body" / "opensense_example" / "xsens_format_variants"
     recording = read_xsens(folder / "MT_01200454_000-000_00B40DE4.txt")

@@ -24,9 +24,9 @@ AXES = ("flexion", "adduction", "rotation")
 
 @pytest.fixture(scope="module")
 def sample() -> Path:
-    from tests.conftest import shared_data_dir
+    from tests.external_data import data_path
 
-    return shared_data_dir() / "body" / "mvnx_sample" / "test_mocap.mvnx"
+    return data_path("mvnx", "test_mocap.mvnx")
 
 
 @pytest.fixture(scope="module")
@@ -39,6 +39,7 @@ def per_joint(model, q_world_from_segment) -> dict[str, np.ndarray]:
     return {j: np.column_stack([angles[f"{j}_{a}_deg"] for a in AXES]) for j in mvnx.XSENS_JOINTS}
 
 
+@pytest.mark.data("mvnx")
 def test_reads_the_sample_as_its_header_describes_it(recording):
     assert recording.version == 4 and recording.frame_rate_hz == 60.0 and recording.configuration == "UpperBody"
     assert len(recording.segments) == 23 and len(recording.sensors) == 11 and len(recording.joints) == 22
@@ -54,6 +55,7 @@ def test_reads_the_sample_as_its_header_describes_it(recording):
     assert np.median(np.linalg.norm(recording.free_acc_mps2["Pelvis"], axis=1)) < 1.0
 
 
+@pytest.mark.data("mvnx")
 def test_our_joint_angles_match_xsens_where_the_definitions_match(recording):
     model = skeleton.load_model("fifteen_segment")
     ours = per_joint(model, recording.q_world_from_segment())
@@ -71,6 +73,7 @@ def test_our_joint_angles_match_xsens_where_the_definitions_match(recording):
     assert np.ptp(ours["elbow_r"][:, 0]) > 1.0 and np.ptp(ours["shoulder_l"][:, 2]) > 5.0  # they moved
 
 
+@pytest.mark.data("mvnx")
 def test_imported_session_is_reviewed_from_its_sensors(sample, recording, tmp_path):
     out = tmp_path / "imported.h5"
     assert main(["import", str(sample), "--out", str(out)]) == 0
@@ -96,6 +99,7 @@ def test_imported_session_is_reviewed_from_its_sensors(sample, recording, tmp_pa
     assert main(["export", str(out), "--out", str(c3d_file)]) == 0 and c3d_file.stat().st_size > 10_000
 
 
+@pytest.mark.data("mvnx")
 def test_version_3_layout_is_read(sample, tmp_path):
     text = sample.read_text(encoding="utf-8")
     text = text.replace('version="4"', 'version="3"', 1).replace(' xmlns="http://www.xsens.com/mvn/mvnx"', "")
@@ -109,6 +113,7 @@ def test_version_3_layout_is_read(sample, tmp_path):
     assert np.allclose(old.joint_angle_deg["jRightElbow"], mvnx.read_mvnx(sample).joint_angle_deg["jRightElbow"])
 
 
+@pytest.mark.data("mvnx")
 def test_bad_files_are_refused_with_a_reason(sample, tmp_path):
     text = sample.read_text(encoding="utf-8")
     newer = tmp_path / "v5.mvnx"
@@ -131,6 +136,7 @@ def test_bad_files_are_refused_with_a_reason(sample, tmp_path):
         session_from_file(tmp_path / "x.bvh")
 
 
+@pytest.mark.data("opensense")
 def test_opensense_table_imports_with_segments(shared_data, tmp_path):
     table = shared_data / "body" / "opensense_example" / "test_resources" / "MT_012005D6_009-quaternions_calibration_trial_Facing_X.sto"
     out = tmp_path / "table.h5"
@@ -145,6 +151,7 @@ def test_opensense_table_imports_with_segments(shared_data, tmp_path):
     assert len(data.t_s) > 10
 
 
+@pytest.mark.data("mvnx")
 def test_export_applies_the_calibration_given(sample, tmp_path):
     """``mimucap export --calibration`` replaces the stored body calibration: a forearm calibration
     turned by 20° about the flexion axis moves the elbow's flexion by 20°."""
@@ -168,6 +175,7 @@ def test_export_applies_the_calibration_given(sample, tmp_path):
     assert np.abs(np.abs(shift) - 20.0).max() < 1.0
 
 
+@pytest.mark.data("mvnx")
 def test_a_file_without_sensor_data_stands_its_segments_for_sensors(sample, tmp_path):
     text = sample.read_text(encoding="utf-8")
     for tag in ("sensorFreeAcceleration", "sensorMagneticField", "sensorOrientation"):

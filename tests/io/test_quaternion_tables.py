@@ -44,6 +44,7 @@ STILL_FILES = [
 ]
 
 
+@pytest.mark.data("opensense")
 @pytest.mark.parametrize("name", STILL_FILES)
 def test_resting_sensor_reads_gravity_up_in_every_layout(variants, name):
     rec = qt.read_xsens_file(variants / name)
@@ -54,6 +55,7 @@ def test_resting_sensor_reads_gravity_up_in_every_layout(variants, name):
     assert rec.coordinate_system == "ENU"
 
 
+@pytest.mark.data("opensense")
 def test_moving_and_long_recordings_read_gravity_up_on_average(variants, opensense):
     moving = world_acc(qt.read_xsens_file(variants / "MT_01200454_000-000_00B40DE4.txt"))
     assert np.all(moving[:, 2] > 8.5) and np.all(np.abs(moving[:, :2]) < 1.5)
@@ -63,6 +65,7 @@ def test_moving_and_long_recordings_read_gravity_up_on_average(variants, opensen
         np.testing.assert_allclose(acc.mean(axis=0), [0.0, 0.0, G], atol=0.2, err_msg=path.name)
 
 
+@pytest.mark.data("opensense")
 def test_quaternion_matrix_and_euler_columns_agree(variants):
     """The ALL file exports Quat, Roll/Pitch/Yaw and Mat of the same samples."""
     path = variants / "MT2022_ACC_GYRO_ROT_ALL_TAB_NAN_00B42D4B.txt"
@@ -90,6 +93,7 @@ def test_quaternion_matrix_and_euler_columns_agree(variants):
     assert np.degrees(rot.angle_between(q_euler, q_quat)).max() < 0.01
 
 
+@pytest.mark.data("opensense")
 def test_nan_and_empty_fields_are_kept_as_missing(variants):
     rec = qt.read_xsens_file(variants / "MT2022_ACC_GYRO_ROT_ALL_TAB_NAN_00B42D4B.txt")
     assert np.isnan(rec.acc[0, 0]) and np.isfinite(rec.acc[1:]).all()
@@ -98,6 +102,7 @@ def test_nan_and_empty_fields_are_kept_as_missing(variants):
     assert space.acc[0] == pytest.approx([0.074225, -0.040975, 9.922524])
 
 
+@pytest.mark.data("opensense")
 def test_rates_time_and_lost_packets(variants):
     old = qt.read_xsens_file(variants / "MT_012005D6-000_sit_to_stand-000_00B421ED.txt")
     assert old.rate_hz == 40.0 and old.rate_from_header
@@ -111,6 +116,7 @@ def test_rates_time_and_lost_packets(variants):
     assert mag.mag_au.shape == (mag.packet_counter.size, 3)
 
 
+@pytest.mark.data("opensense")
 def test_export_without_orientation_is_named(variants):
     rec = qt.read_xsens_file(variants / "MT2022_ACC_00B42D4B.txt")
     assert rec.q_world_from_sensor is None and rec.acc.shape == (5, 3)
@@ -118,6 +124,7 @@ def test_export_without_orientation_is_named(variants):
         qt.read_quaternion_table(variants / "MT2022_ACC_00B42D4B.txt")
 
 
+@pytest.mark.data("opensense")
 def test_every_file_in_the_variants_folder_is_read(variants):
     for path in sorted(variants.iterdir()):
         if path.name == "MT2022_ACC_00B42D4B.txt":
@@ -179,6 +186,7 @@ def test_bad_rotation_matrix_is_named(tmp_path):
         qt.read_xsens_file(path)
 
 
+@pytest.mark.data("opensense")
 def test_folder_with_opensense_mapping(opensense):
     table = qt.read_quaternion_table(opensense / "IMUData", sensor_names=opensense / "myIMUMappings.xml")
     assert set(table.sensor_ids) == {"torso_imu", "pelvis_imu", "tibia_r_imu", "femur_r_imu", "tibia_l_imu",
@@ -192,6 +200,7 @@ def test_folder_with_opensense_mapping(opensense):
     assert "00B42279" in by_id.sensor_ids
 
 
+@pytest.mark.data("opensense")
 def test_mapping_errors(opensense, variants, tmp_path):
     mapping = qt.read_xsens_mapping(opensense / "myIMUMappings.xml")
     assert mapping.trial_prefix == "MT_012005D6_009-001" and mapping.names["00B42279"] == "pelvis_imu"
@@ -219,6 +228,7 @@ def test_mapping_errors(opensense, variants, tmp_path):
 # OpenSim .sto and APDM
 # --------------------------------------------------------------------------------------------
 
+@pytest.mark.data("opensense")
 def test_sto_tables_are_the_xsens_enu_world(opensense):
     """The facing −X calibration trial begins in the pose the Xsens ENU exports of the walking
     trial (IMUData) begin with: the .sto keeps the vendor's z-up world."""
@@ -237,6 +247,7 @@ def test_sto_tables_are_the_xsens_enu_world(opensense):
     assert declared.up_world.tolist() == [0.0, 1.0, 0.0]
 
 
+@pytest.mark.data("opensense")
 def test_relative_sensor_headings_differ_between_the_facing_trials(opensense):
     """A fact of the data behind test_bodycal's facing-trial figures: the tibia sensors'
     headings relative to the pelvis sensor differ by about 22° between the two trials."""
@@ -269,6 +280,7 @@ def test_sto_errors(tmp_path):
         qt.read_opensim_sto(path)
 
 
+@pytest.mark.data("opensense")
 def test_apdm_orientations_rotate_gravity_up(variants):
     path = variants / "apdm_format7.csv"
     table = qt.read_quaternion_table(path)
@@ -331,6 +343,7 @@ def test_a_declared_up_axis_that_is_not_an_axis_names_file_and_line(tmp_path):
     assert qt.read_quaternion_table(path, up_axis="y").up_world.tolist() == [0.0, 1.0, 0.0]  # the override wins
 
 
+@pytest.mark.data("opensense")
 def test_an_up_axis_for_a_z_up_input_is_refused_not_ignored(tmp_path, variants):
     xsens = variants / "MT2022_ACC_GYRO_ROT_EULER_TAB_00B42D4F.txt"
     apdm = variants / "apdm_format7.csv"
@@ -354,6 +367,7 @@ def test_a_session_is_refused_its_orientations_come_from_the_processing_path(tmp
         qt.read_quaternion_table(session)
 
 
+@pytest.mark.data("opensense")
 @pytest.mark.parametrize("rate", [0.0, -100.0, float("nan"), float("inf")])
 def test_a_given_xsens_rate_must_be_positive(variants, rate):
     """Was: 0 fell back to the 100-Hz default, NaN gave "time must be finite"."""

@@ -21,17 +21,19 @@ from mimucap.session.analysis_evaluation import (
     straight_reference,
     walk_windows,
 )
+from tests.external_data import data_path
 
 
 @pytest.fixture(scope="module")
 def gaitmap_result():
-    folder = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "gait" / "gaitmap_example"
+    folder = data_path("gaitmap")
     feet = read_foot_imu_csv(folder / "imu_sample.csv", 204.8, "deg/s")
     gait = analyse_gait([GaitInput(side, "foot", side, imu.t_s, imu.sagittal_rate, imu.acc, imu.gyr)
                          for side, imu in feet.items()])
     return gait, read_gaitmap_reference(folder)
 
 
+@pytest.mark.data("gaitmap")
 def test_gaitmap_events_and_stride_lengths_meet_the_goals(gaitmap_result):
     gait, reference = gaitmap_result
     straight = straight_reference(reference)
@@ -43,6 +45,7 @@ def test_gaitmap_events_and_stride_lengths_meet_the_goals(gaitmap_result):
     assert figures["length_mae_cm"] <= 5.0
 
 
+@pytest.mark.data("gaitmap")
 def test_gaitmap_turns_are_refused_and_found(gaitmap_result):
     gait, reference = gaitmap_result
     turning_reference = [r for r in reference if abs(r.heading_change_deg) > 45.0]
@@ -56,6 +59,7 @@ def test_gaitmap_turns_are_refused_and_found(gaitmap_result):
     assert all(s.refused_because for s in gait.strides if not s.analysed)
 
 
+@pytest.mark.data("gaitmap")
 def test_gaitmap_stride_time_agrees_with_the_optical_reference(gaitmap_result):
     gait, reference = gaitmap_result
     straight = straight_reference(reference)
@@ -94,12 +98,13 @@ def test_simulated_suit_events_and_stride_lengths(tmp_path, n_sensors, ic_ms, le
     assert {r["foot"] for r in rows} == {"left", "right"}
 
 
+@pytest.mark.data("gaitmap")
 def test_gaitmap_without_known_axes_uses_the_dominant_gyroscope_axis():
     """A sensor without body calibration: the sagittal axis is found from the gyroscope
     alone (its dominant axis), and the goals still hold on the real data."""
     from mimucap.core.analysis.sagittal import dominant_axis, sagittal_rate_dominant
 
-    folder = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "gait" / "gaitmap_example"
+    folder = data_path("gaitmap")
     feet = read_foot_imu_csv(folder / "imu_sample.csv", 204.8, "deg/s")
     for imu in feet.values():
         assert dominant_axis(imu.gyr) @ np.array([0.0, -1.0, 0.0]) > 0.85  # the foot's mediolateral axis

@@ -69,6 +69,7 @@ def test_a_session_file_replays_sample_for_sample(tmp_path):
         np.testing.assert_allclose(np.diff(host), 0.01 / 10.0, atol=1e-9)   # 10 × real time
 
 
+@pytest.mark.data("opensense")
 def test_an_xsens_export_folder_replays_every_data_row(shared_data):
     folder = shared_data / "body" / "opensense_example" / "IMUData"
     loaded = load_replay(folder)

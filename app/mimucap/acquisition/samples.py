@@ -1,7 +1,7 @@
 """One measurement of one sensor (:class:`Sample`), its validation, and its packing into
 blocks (:class:`PackedBlock`, unpacked into :class:`~mimucap.core.samples.SensorSamples`).
 
-Units and frames (``shared/docs/conventions.md``): ``acc`` specific force in m/s², ``gyr``
+Units and frames (``docs/conventions.md``): ``acc`` specific force in m/s², ``gyr``
 angular rate in rad/s, ``mag_uT`` magnetic field in µT, all in the *sensor* frame;
 ``q_world_from_sensor`` the on-board orientation, Hamilton, scalar first ``[w, x, y, z]``,
 world = ENU. ``calibration`` is the BNO055-style calibration status ``(system, gyr, acc, mag)``

@@ -1,4 +1,5 @@
-"""``mimucap bench orientation DIR [--algorithm A ...] [--json]``: the seed's Table 2 on BROAD.
+"""``mimucap bench orientation DIR [--algorithm A ...] [--json]``: the propagation comparison of
+Zhang, Gao, Zhou ("Head attitude sensing algorithm based on IMU in VR device") on BROAD.
 
 Runs the orientation algorithms on every BROAD trial in DIR and prints, per trial, per
 category (undisturbed, tapping, vibration, magnets) and as the mean over trials, the total /
@@ -43,7 +44,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=lambda args: (parser.print_help(), 2)[1])
     sub = parser.add_subparsers(dest="bench_command", metavar="BENCH")
     orientation = sub.add_parser(
-        "orientation", help="orientation RMSE on BROAD trials (seed Table 2)",
+        "orientation", help="orientation RMSE on BROAD trials",
         description="Total/heading/inclination RMSE (deg) of the orientation algorithms on "
                     "every BROAD trial in DIR, with VQF as reference if installed.")
     orientation.add_argument("directory", type=Path, help="folder with BROAD *.hdf5 trials")

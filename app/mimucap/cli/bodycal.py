@@ -206,7 +206,7 @@ def register(subparsers) -> None:
     parser.add_argument("--arms", choices=("auto", "left", "right", "both"), default="auto",
                         help="arms raised in the T-pose (default: every arm sensor that turned)")
     parser.add_argument("--forward-from", choices=("swing", "rotation_axis"), default="swing",
-                        help="forward estimate of the N/T-pose: the arm's swing (default) or its rotation axis (seed)")
+                        help="forward estimate of the N/T-pose: the arm's swing (default) or its rotation axis (Podoprosvetov et al.)")
     parser.add_argument("--model", default="auto", help=f"skeleton model: auto, {', '.join(MODEL_NAMES)} or a JSON file")
     parser.add_argument("--accept-poor", action="store_true",
                         help="exit 0 even when the calibration's verdict is poor")

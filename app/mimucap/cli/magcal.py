@@ -22,7 +22,8 @@ object per sensor and line, with a ``sensor`` key besides the keys above when th
 several; ``--save`` stores every usable fit. The exit status is 1 if a sensor's fit was
 refused, else :data:`FAIL_EXIT_STATUS` if one failed its checks, else 0.
 
-``mimucap magcal study [--trials N] [--seed K] [--folder DIR] [--plot OUT.png]`` prints the seed's Tables 1–2
+``mimucap magcal study [--trials N] [--seed K] [--folder DIR] [--plot OUT.png]`` prints the Tables 1–2
+of Choe et al., "Study of calibration method of low-cost MEMS magnetometer"
 (centre and radii RMSE against a reference fit, protocol durations). Without ``--folder`` the
 trials are simulated (MPU-9250-like noise, 49.3 µT field). With ``--folder`` the trials are
 real recordings: ``DIR/reference/`` holds the dense reference recording (all files fitted
@@ -82,7 +83,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     fit.set_defaults(func=run_fit)
 
     study = actions.add_parser(
-        "study", help="compare rotation protocols (seed Tables 1-2)",
+        "study", help="compare rotation protocols (Choe et al., Tables 1-2)",
         formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Fit repeated trials of each rotation protocol and print the RMSE of the fitted centre\n"

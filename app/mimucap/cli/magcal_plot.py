@@ -1,4 +1,5 @@
-"""PNG figure of the protocol study: one panel per protocol, like the seed's figures.
+"""PNG figure of the protocol study: one panel per protocol, like the figures of Choe
+et al., "Study of calibration method of low-cost MEMS magnetometer".
 
 Each panel shows, in the sensor frame (µT), the raw samples of the protocol's first
 accepted trial (dots), the ellipsoid fitted to them (dark wireframe) and the reference

@@ -1,12 +1,13 @@
 """Body calibration: sensor-to-segment rotations from an N-pose (and a T-pose), live mapping.
 
-Frames (``shared/docs/conventions.md``): ``world`` is the frame the sensors' orientations are
+Frames (``docs/conventions.md``): ``world`` is the frame the sensors' orientations are
 expressed in (ENU for MimuCap; any frame works if its **up** unit vector ``up_world`` is
 given); ``body`` has x forward, y up, z right (``z = x × y``); every ``segment`` frame is
 parallel to ``body`` in the N-pose. Quaternions are scalar-first Hamilton ``(..., 4)``;
 ``q_A_from_B`` maps coordinates in B to coordinates in A.
 
-Two ways to find the body's forward axis (seed equations 3.1–3.7):
+Two ways to find the body's forward axis (Podoprosvetov, Aliseychik, Orlov, Rebrik,
+"Calibration algorithm for MIMU sensors group", equations 3.1–3.7):
 
 * **N-pose / T-pose.** The arm sensor's orientation change from the N-pose,
   ``q_delta(t) = q_world_from_arm(t) ⊗ q_world_from_arm(N)⁻¹``, is a rotation expressed in the
@@ -14,7 +15,7 @@ Two ways to find the body's forward axis (seed equations 3.1–3.7):
   (right arm: +z_body; left arm: −z_body). A rotation about +x_body takes +y to +z, hence −y
   to −z: the **left** arm turns by +90° about forward and the **right** arm by −90°.
   Two estimators use the whole N→T movement (see :class:`ArmAxisFit`):
-  the seed's *rotation axis* (principal axis of the rotation vectors ``log(q_delta(t))``,
+  the *rotation axis* of Podoprosvetov et al. (principal axis of the rotation vectors ``log(q_delta(t))``,
   least squares through the origin; forward is ``+axis`` for the left arm and ``−axis`` for
   the right; its vertical component removed) and, by default, the *swing* of the arm's long
   axis ``d(t) = q_delta(t) · (−up)``, whose principal horizontal direction is the arm's side
@@ -29,7 +30,7 @@ Two ways to find the body's forward axis (seed equations 3.1–3.7):
   axis (e.g. the pelvis sensor's +z) points forward in the calibration pose; its horizontal
   projection is ``x_body``.
 
-Then, per segment (seed 3.8–3.10), with the N-pose averaged over its window:
+Then, per segment (Podoprosvetov et al., 3.8–3.10), with the N-pose averaged over its window:
 ``q_segment_from_sensor = q_segment_from_body(N) ⊗ q_body_from_world ⊗ q_world_from_sensor(N)``,
 where ``q_segment_from_body(N)`` is the identity for a true N-pose. ``q_world_from_sensor(N)``
 may be given per sensor (``npose_orientations``) instead of the mean of the filter's estimate:
@@ -96,7 +97,7 @@ class BodyCalSettings:
     estimates: good ≤ 10, acceptable ≤ 20, refused above ``lr_refuse_deg`` (45: such axes
     cannot be averaged). ``forward_from`` (``"swing"``): which estimator of
     :class:`ArmAxisFit` gives the forward axis, ``"swing"`` (the arm's long axis; default) or
-    ``"rotation_axis"`` (the seed's). Residual of the estimator in use (swing: the arm's RMS
+    ``"rotation_axis"`` (Podoprosvetov et al.'s). Residual of the estimator in use (swing: the arm's RMS
     angle from its raise plane; rotation axis: RMS distance of the rotation vectors from the
     axis): good ≤ 5, acceptable ≤ 10. Raw rotation-axis tilt from horizontal (the arm turned
     about its own long axis while raised): good ≤ 15; above, acceptable with the swing
@@ -159,7 +160,7 @@ class ArmAxisFit:
     the body; the principal horizontal direction of these vectors is the lateral axis, and
     forward is perpendicular to it. Turning the arm about its own long axis does not move
     ``d``, so this estimate ignores humeral rotation (palms turned forward or down).
-    *Rotation axis* (the seed's): principal axis of the rotation vectors ``log(q_delta(t))``,
+    *Rotation axis* (Podoprosvetov et al.'s): principal axis of the rotation vectors ``log(q_delta(t))``,
     vertical part removed. An arm turned about its own axis while raised tilts this axis and
     turns its horizontal part (30° of such rotation: about 14°).
 
@@ -487,7 +488,7 @@ def fit_arm_axis(
     lateral, swing_residual = fit_swing_direction(d, up, d_t)
     right = lateral if side == "right" else -lateral
     swing_forward = np.cross(up, right)
-    # Rotation axis (seed).
+    # Rotation axis (Podoprosvetov et al.).
     rotvecs = rot.to_rotvec(q_delta)
     moved = np.linalg.norm(rotvecs, axis=1) >= np.radians(settings.movement_min_deg)
     rotvecs = np.vstack((rotvecs[moved], r_t[None, :]))

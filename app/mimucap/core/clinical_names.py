@@ -9,14 +9,17 @@ a readable header comes from this one table:
 * column ``knee_r_flexion_deg`` → "Right knee flexion (°)", and its sign in words
   ("+ flexion / − extension").
 
-The axis meanings follow the project conventions (ISB joint coordinate systems: Wu et al.,
-"ISB recommendation on definitions of joint coordinate systems of various joints for the
-reporting of human joint motion", parts I (2002) and II (2005); Grood & Suntay, "A joint
-coordinate system for the clinical description of three-dimensional motions: application to
-the knee", 1983): about z flexion/extension (dorsiflexion at the ankle), about the floating x
-ab/adduction (lateral bending for the spine and the neck), about y internal/external rotation
-(axial rotation for the spine and the neck); the shoulder's X-Z'-Y'' and Y-X'-Y''
-sequences name their own axes (:data:`mimucap.core.skeleton.JOINT_ANGLE_SIGNS_DOC`).
+The axis meanings are the table "Clinical name of every axis" of ``docs/conventions.md``
+(ISB joint coordinate systems: Wu et al., "ISB recommendation on definitions of joint coordinate
+systems of various joints for the reporting of human joint motion", parts I (2002) and II
+(2005); Grood & Suntay, "A joint coordinate system for the clinical description of
+three-dimensional motions: application to the knee", 1983): about z flexion/extension
+(dorsiflexion at the ankle); about the floating x ab/adduction, which is varus/valgus at the
+knee, the carrying angle at the elbow, ulnar/radial deviation at the wrist, inversion/eversion
+at the ankle and lateral bending for the spine and the neck; about y internal/external
+rotation, which is pronation/supination at the elbow and axial rotation for the wrist, the
+spine and the neck. The shoulder's X-Z'-Y'' and Y-X'-Y'' sequences name their own axes
+(:data:`mimucap.core.skeleton.JOINT_ANGLE_SIGNS_DOC`).
 """
 
 from __future__ import annotations
@@ -44,6 +47,8 @@ class AxisMeaning:
 
     name: str
     negative: str
+    #: A few words for a plot legend and a label ("varus/valgus"); the name itself when empty.
+    short: str = ""
 
     def sign_text(self) -> str:
         """"+ flexion / − extension", or the name alone for an angle without a negative side."""
@@ -55,17 +60,21 @@ _AXES = {
     ("*", "flexion"): AxisMeaning("flexion", "extension"),
     ("*", "adduction"): AxisMeaning("adduction", "abduction"),
     ("*", "rotation"): AxisMeaning("internal rotation", "external rotation"),
+    ("knee", "adduction"): AxisMeaning("varus", "valgus", "varus/valgus"),
+    ("elbow", "adduction"): AxisMeaning("varus", "valgus", "carrying angle"),
+    ("elbow", "rotation"): AxisMeaning("pronation", "supination", "pronation/supination"),
+    ("wrist", "adduction"): AxisMeaning("ulnar deviation", "radial deviation", "ulnar/radial deviation"),
+    ("wrist", "rotation"): AxisMeaning("axial rotation (towards pronation)", "", "axial rotation"),
     ("ankle", "flexion"): AxisMeaning("dorsiflexion", "plantarflexion"),
-    ("lumbar", "adduction"): AxisMeaning("lateral bending right", "lateral bending left"),
-    ("lumbar", "rotation"): AxisMeaning("axial rotation left", "axial rotation right"),
-    ("neck", "adduction"): AxisMeaning("lateral bending right", "lateral bending left"),
-    ("neck", "rotation"): AxisMeaning("axial rotation left", "axial rotation right"),
-    ("shoulder", "plane_of_elevation"): AxisMeaning("plane of elevation (0° abduction, 90° forward flexion)", ""),
+    ("ankle", "adduction"): AxisMeaning("inversion", "eversion", "inversion/eversion"),
+    ("lumbar", "adduction"): AxisMeaning("lateral bending right", "lateral bending left", "lateral bending"),
+    ("lumbar", "rotation"): AxisMeaning("axial rotation left", "axial rotation right", "axial rotation"),
+    ("neck", "adduction"): AxisMeaning("lateral bending right", "lateral bending left", "lateral bending"),
+    ("neck", "rotation"): AxisMeaning("axial rotation left", "axial rotation right", "axial rotation"),
+    ("shoulder", "plane_of_elevation"): AxisMeaning("plane of elevation (0° abduction, 90° forward flexion)", "",
+                                                    "plane of elevation"),
     ("shoulder", "elevation"): AxisMeaning("elevation", ""),
 }
-#: Short names for plot legends (the axis meaning without its direction words).
-_SHORT = {"lateral bending right": "lateral bending", "axial rotation left": "axial rotation",
-          "plane of elevation (0° abduction, 90° forward flexion)": "plane of elevation"}
 #: Axis names as they end a column (longest first: ``plane_of_elevation`` before ``elevation``).
 _AXIS_NAMES = ("plane_of_elevation", "elevation", "adduction", "flexion", "rotation")
 
@@ -130,8 +139,8 @@ def axis_meaning(joint: str, axis: str) -> AxisMeaning:
 
 def axis_short_name(joint: str, axis: str) -> str:
     """The axis meaning in a few words, for a plot legend ("flexion", "lateral bending")."""
-    name = axis_meaning(joint, axis).name
-    return _SHORT.get(name, name)
+    meaning = axis_meaning(joint, axis)
+    return meaning.short or meaning.name
 
 
 def angle_label(column: str) -> str:

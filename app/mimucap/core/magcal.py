@@ -1,6 +1,6 @@
 """The magnetometer calibration of one sensor: model, application and the one-call calibration.
 
-Model (``shared/docs/conventions.md``): ``mag_raw = A · mag_true + b + noise``. A
+Model (``docs/conventions.md``): ``mag_raw = A · mag_true + b + noise``. A
 :class:`MagCalibration` holds the hard-iron offset ``b`` (``offset_uT``, (3,), µT, sensor
 frame) and the soft-iron correction ``A⁻¹`` (``soft_iron``, (3, 3), the symmetric square root),
 and is applied as ``mag_cal = soft_iron @ (mag_raw − offset_uT)``. It carries the sensor id

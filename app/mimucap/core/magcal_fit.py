@@ -1,6 +1,6 @@
 """Ellipsoid fit of raw magnetometer samples: hard-iron offset and soft-iron correction.
 
-Model (``shared/docs/conventions.md``): ``mag_raw = A · mag_true + b + noise`` with
+Model (``docs/conventions.md``): ``mag_raw = A · mag_true + b + noise`` with
 ``|mag_true| = field_uT`` in every orientation, so the raw samples lie on the ellipsoid
 ``(h − b)ᵀ Q (h − b) = 1`` with ``Q = A⁻ᵀ A⁻¹ / field²``. The fit returns
 
@@ -20,7 +20,8 @@ matter), with the design matrix rows ``[x², y², z², 2yz, 2xz, 2xy, 2x, 2y, 2z
   fitting", minimising the algebraic residual under ``k·J − I² = 1`` with ``k = 4``, solved
   as a reduced 6×6 eigenproblem; the result is an ellipsoid whenever its shortest radius is
   at least half its longest one, which every real magnetometer satisfies;
-* ``"quadric"``: the seed's general least-squares quadric (the constant term fixed to −1,
+* ``"quadric"``: the general least-squares quadric of Choe et al.
+  ("Study of calibration method of low-cost MEMS magnetometer") (the constant term fixed to −1,
   a linear least-squares problem); it may return a non-ellipsoid, which is then refused.
 
 Robustness (:class:`FitSettings`): rows with NaN or ±inf are dropped and counted; exact

@@ -1,6 +1,7 @@
 """Online guidance for the single-axis magnetometer-calibration protocol.
 
-The seed's best protocol turns the sensor one full turn about each of its three axes. A
+The best protocol of Choe, Zhao, Qiu, So ("Study of calibration method of low-cost MEMS
+magnetometer") turns the sensor one full turn about each of its three axes. A
 :class:`SingleAxisGuide` is fed blocks of gyroscope samples (rad/s, sensor frame, with their
 times ``t_s`` in s) and optionally accelerometer samples (specific force, m/s², sensor frame:
 it points up at rest). It tells which sensor axis is being turned, how many degrees have

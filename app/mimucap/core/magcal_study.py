@@ -1,16 +1,17 @@
-"""The rotation-protocol study (seed sections 2–3): which hand motion calibrates best?
+"""The rotation-protocol study (sections 2–3 of Choe, Zhao, Qiu,
+So, "Study of calibration method of low-cost MEMS magnetometer"): which hand motion calibrates best?
 
-Design, as in the seed: one magnetometer with fixed hard and soft iron; every protocol is
+Design, as in that study: one magnetometer with fixed hard and soft iron; every protocol is
 repeated over several trials; each trial is fitted; the fitted ellipsoid centre and radii
 are compared with a *reference fit* of the same sensor from a long, dense recording; the
 root-mean-square error over trials (and over the three components) is reported per
 protocol, together with the time the protocol takes. Protocols: figure-8 with 1–5 gestures
-(seed Table 1) and the single-axis protocol with 1–3 turns about each sensor axis
-(seed Table 2).
+(Choe et al.'s Table 1) and the single-axis protocol with 1–3 turns about each sensor axis
+(their Table 2).
 
 * :func:`evaluate_protocols` does the comparison for any trials (simulated or real).
 * :func:`simulate_study` builds the trials with :func:`mimucap.core.simulate.calibration_motion`:
-  MPU-9250-like errors (AK8963: 0.6 µT noise, 0.15 µT/LSB) in a 49.3 µT field (the seed's),
+  MPU-9250-like errors (AK8963: 0.6 µT noise, 0.15 µT/LSB) in a 49.3 µT field (the study's),
   the reference being a 50-s tumbling recording of the same sensor.
 * :func:`format_tables` prints the two tables.
 
@@ -31,8 +32,8 @@ from mimucap.core.simulate import EarthField, calibration_motion, error_model
 
 FloatArray = NDArray[np.float64]
 
-#: The seed's field strength (µT).
-SEED_FIELD_UT = 49.3
+#: The field strength of Choe et al.'s study (µT).
+STUDY_FIELD_UT = 49.3
 
 
 @dataclass(frozen=True)
@@ -48,7 +49,7 @@ class StudyProtocol:
         return f"{self.protocol}-{self.turns}"
 
 
-#: The seed's protocols: figure-8 ×1..5 (Table 1) and single-axis ×1..3 (Table 2).
+#: The study's protocols: figure-8 ×1..5 (Table 1) and single-axis ×1..3 (Table 2).
 STUDY_PROTOCOLS: tuple[StudyProtocol, ...] = tuple(
     [StudyProtocol("figure8", n) for n in range(1, 6)] + [StudyProtocol("single_axis", n) for n in range(1, 4)]
 )
@@ -180,7 +181,7 @@ class StudySettings:
     """Settings of :func:`simulate_study` (defaults in brackets).
 
     trials: trials per protocol [10]. seed: draws the sensor and every trial [0].
-    field_uT: field magnitude [49.3, the seed's]. dip_deg: field inclination [60].
+    field_uT: field magnitude [49.3, as in the study]. dip_deg: field inclination [60].
     errors: sensor error preset of :mod:`mimucap.core.simulate` (``ERROR_PRESETS``) ["mpu9250"].
     rate_hz: sample rate [100]. reference_periods: 10-s tumbling periods of the reference
     recording [5]. protocols: the protocols compared [:data:`STUDY_PROTOCOLS`].
@@ -188,7 +189,7 @@ class StudySettings:
 
     trials: int = 10
     seed: int = 0
-    field_uT: float = SEED_FIELD_UT
+    field_uT: float = STUDY_FIELD_UT
     dip_deg: float = 60.0
     errors: str = "mpu9250"
     rate_hz: float = 100.0
@@ -243,7 +244,7 @@ _TABLE_TITLES = {
 
 
 def format_tables(result: StudyResult) -> str:
-    """The study as plain-text tables (one per protocol family), like the seed's Tables 1–2."""
+    """The study as plain-text tables (one per protocol family), like the study's Tables 1–2."""
     lines = [f"Rotation-protocol study: {result.description}".rstrip(": ")]
     centre = ", ".join(f"{v:.2f}" for v in result.reference_centre_uT)
     radii = ", ".join(f"{v:.2f}" for v in result.reference_radii_uT)

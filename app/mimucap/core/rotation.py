@@ -1,6 +1,6 @@
 """Quaternions, rotation matrices, rotation vectors and Euler sequences.
 
-Conventions (``shared/docs/conventions.md``):
+Conventions (``docs/conventions.md``):
 
 * Hamilton quaternions, **scalar first** ``[w, x, y, z]``, float64 arrays of shape ``(..., 4)``,
   vectorised over every leading axis (inputs broadcast against each other).

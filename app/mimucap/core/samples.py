@@ -4,7 +4,7 @@ The same record carries a sensor's samples from a source (a block of a few sampl
 per second), through the pipeline and the calibration procedures, into a recording and back
 out of a session file or the simulator. Its columns have ``N`` rows, time-ordered.
 
-Units and frames (``shared/docs/conventions.md``): ``acc`` specific force in m/s², ``gyr``
+Units and frames (``docs/conventions.md``): ``acc`` specific force in m/s², ``gyr``
 angular rate in rad/s, ``mag_uT`` magnetic field in µT, all in the *sensor* frame;
 ``q_world_from_sensor`` an orientation of the sensor, Hamilton, scalar first ``[w, x, y, z]``,
 world = ENU (the device's own when it fuses on board); ``calibration`` the BNO055-style

@@ -1,6 +1,7 @@
 """Magnetometer-calibration motions of one hand-held sensor, with ground truth.
 
-Protocols (the seed's single-axis protocol and two common alternatives):
+Protocols (the single-axis protocol of Choe, Zhao, Qiu, So, "Study of calibration method of low-cost
+MEMS magnetometer", and two common alternatives):
 
 * ``"single_axis"``: the sensor is turned ``turns`` full turns about its x axis, then its y
   axis, then its z axis; before each, the hand re-grasps it so that the axis to be turned is

@@ -1,6 +1,6 @@
 """Skeleton models, forward kinematics and joint angles.
 
-Frames (``shared/docs/conventions.md``):
+Frames (``docs/conventions.md``):
 
 * ``world``: ENU, x east, y north, z up.
 * ``body``: x forward, y up, z right (``z = x × y``).

@@ -71,7 +71,7 @@ def _document(name: str, description: str, segments: list[dict]) -> dict:
 BUILT_IN_MODELS: dict[str, dict] = {
     "ten_segment": _document(
         "ten_segment",
-        "The seed's ten segments: pelvis (lumbar), thorax (upper spine and shoulder girdle), upper "
+        "The ten segments of Podoprosvetov et al., \"Calibration algorithm for MIMU sensors group\": pelvis (lumbar), thorax (upper spine and shoulder girdle), upper "
         "arms, forearms, thighs, shanks; spherical joints.",
         TEN_SEGMENTS),
     "fifteen_segment": _document(

@@ -6,7 +6,7 @@ markers, optional ground truth of a simulation) and what was computed from it (c
 and results). The layout is documented in ``docs/session-format.md``; this module is its
 only reader and writer.
 
-Frames and units follow ``shared/docs/conventions.md``: ``acc`` in m/s² (specific force,
+Frames and units follow ``docs/conventions.md``: ``acc`` in m/s² (specific force,
 sensor frame), ``gyr`` in rad/s (sensor frame), ``mag_uT`` in µT (sensor frame),
 ``q_world_from_sensor`` scalar-first Hamilton quaternions (world = ENU), times ``t_s`` in
 seconds on the host clock since session start. Every dataset carries its unit as the HDF5

@@ -39,7 +39,7 @@ from mimucap.core import rotation
 
 DISPLAY_MODES = ("world", "body")
 
-#: R_scene_from_world (conventions.md, seed equation 4.1).
+#: R_scene_from_world (docs/conventions.md; Podoprosvetov et al., "Calibration algorithm for MIMU sensors group", equation 4.1).
 R_SCENE_FROM_WORLD = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]])
 
 #: Shortest connector drawn between a joint and its parent's long axis, metres.

@@ -7,7 +7,8 @@ complete, fits every selected sensor (:func:`mimucap.core.magcal.calibrate`).
 
 Protocols (:data:`PROTOCOLS`):
 
-* ``"single_axis"`` (default, the seed's best): one full turn about each sensor axis. Every
+* ``"single_axis"`` (default; the best protocol of Choe et al., "Study of calibration method of
+  low-cost MEMS magnetometer"): one full turn about each sensor axis. Every
   selected sensor has its own :class:`~mimucap.core.magcal_guidance.SingleAxisGuide`; the
   progress of an axis is the smallest over the sensors (they are held together, so they agree
   up to how they sit in the hand); the axis asked for is the first one not yet done (x, y,

@@ -18,8 +18,9 @@ from mimucap.core.fusion.ekf import OrientationEKF, fuse, update_together
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.params import FusionParams
 from mimucap.io.broad import read_broad
+from tests.external_data import data_path
 
-BROAD_DIR = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
+BROAD_DIR = data_path("broad")
 #: A trial with a magnet moved near the sensor: magnetometer rejection, rest, motion.
 TRIAL = BROAD_DIR / "28_disturbed_stationary_magnet_A.hdf5"
 #: Largest difference of a quaternion component between the two kinds of kernels. With the
@@ -73,6 +74,7 @@ def assert_same(one, other) -> None:
     assert list(one.counters) == list(other.counters)
 
 
+@pytest.mark.data("broad")
 @pytest.mark.parametrize("use_mag", [True, False])
 def test_compiled_and_jit_kernels_agree_on_a_real_broad_trial(compiled, jit, use_mag):
     trial = read_broad(TRIAL)
@@ -249,6 +251,7 @@ print(json.dumps({"code": code, "origin": aot.fusion_kernels().origin, "ahead_of
 """
 
 
+@pytest.mark.data("broad")
 def test_fuse_and_the_first_start_do_not_import_numba_with_compiled_kernels(compiled_dir, compiled, jit, tmp_path):
     out = tmp_path / "q.npy"
     env = {key: value for key, value in os.environ.items() if key != aot.KERNELS_ENV}
@@ -276,6 +279,7 @@ def test_the_build_signatures_follow_the_entry_points():
         target_id("fastest")
 
 
+@pytest.mark.data("broad")
 def test_the_generic_target_for_bundles_agrees_with_the_jit_kernels(tmp_path, jit):
     """What the desktop bundle ships: compiled for any CPU of the architecture (no fused
     multiply-add, so the last bits may differ from the JIT's)."""

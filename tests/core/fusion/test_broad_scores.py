@@ -19,8 +19,9 @@ from mimucap.core.fusion.ekf import fuse
 from mimucap.core.fusion.evaluation import orientation_errors
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.io.broad import read_broad
+from tests.external_data import data_path
 
-BROAD_DIR = Path(__file__).resolve().parents[3] / ".." / "shared" / "data" / "broad"
+BROAD_DIR = data_path("broad")
 
 VQF_ONLINE_TOTAL_DEG = {
     "24_disturbed_tapping_A": 1.55,
@@ -35,6 +36,7 @@ def trials():
     return [read_broad(BROAD_DIR / f"{name}.hdf5") for name in VQF_ONLINE_TOTAL_DEG]
 
 
+@pytest.mark.data("broad")
 @pytest.mark.parametrize("offline", [False, True], ids=["online", "offline"])
 def test_beats_reference_filters_on_broad(trials, offline):
     estimator = fuse_offline if offline else fuse

@@ -8,9 +8,10 @@ Error state ``x = [δθ (rad, world frame), δb (rad/s, sensor frame)]`` with th
 orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
 
 * Propagation: ``q ← q ⊗ Δq(ω − b)`` (:mod:`propagation`), and for the error state
-  ``Φ = [[I, −R·dt], [0, I]]`` with ``R = R_world_from_sensor``. This is the seed's
+  ``Φ = [[I, −R·dt], [0, I]]`` with ``R = R_world_from_sensor``. This is the
   ``Fc = [[−[ω×], −I], [0, 0]]`` written for the world-frame error ``δθ_w = R·δθ_sensor``
-  (the ``−[ω×]`` term vanishes in that frame); process noise ``Q = diag(σ_g²·dt·I,
+  of Zhang, Gao, Zhou, "Head attitude sensing algorithm based on IMU in VR
+  device" (the ``−[ω×]`` term vanishes in that frame); process noise ``Q = diag(σ_g²·dt·I,
   σ_bw²·dt·I)``.
 * Gravity: the specific force rotated into the world, ``R·a``, is low-passed (time constant
   ``acc_lowpass_tau_s``; the low-pass state turns with every attitude correction) so that

@@ -1,8 +1,9 @@
 """Settings of the orientation fusion filter: one frozen dataclass, units beside every field.
 
 The defaults (:data:`DEFAULT_FUSION_PARAMS`) are one parameter set for every sensor and
-every recording; they were chosen once on the public BROAD trials (``shared/data/broad``)
-and are not tuned per trial. A numba kernel cannot read a dataclass, so :func:`pack_params`
+every recording; they were chosen once on the public BROAD trials (Laidig, Caruso, Cereatti,
+Seel, "BROAD - A Benchmark for Robust Inertial Orientation Estimation") and are not tuned per
+trial. A numba kernel cannot read a dataclass, so :func:`pack_params`
 flattens the settings into a float64 vector whose layout is given by the ``PI_*`` indices.
 
 Noise figures are standard deviations. "Per sample" figures are measurement noises applied

@@ -9,11 +9,12 @@ Sample conventions (one step goes from ``t_{k-1}`` to ``t_k``, ``dt = t_k − t_
 * ``exact``: ``Δq = exp(Δθ_k)`` with the angle increment ``Δθ_k = ω_k·dt`` (the rate sample
   ``ω_k`` is the mean rate over the interval ending at ``t_k``). Exact for a rotation about a
   fixed axis; it ignores the non-commutativity (coning) inside the interval.
-* ``taylor3`` (seed equation 7, the standard coning-corrected form): the rotation vector
+* ``taylor3`` (Zhang, Gao, Zhou, "Head attitude sensing algorithm based on IMU in VR
+  device", equation 7; the standard coning-corrected form): the rotation vector
   ``φ = Δθ_k + (1/12)·Δθ_{k-1} × Δθ_k`` from two successive increments, and
   ``Δq = [1 − |φ|²/8, φ/2·(1 − |φ|²/24)]`` (third-order Taylor series of the exponential),
   then normalised.
-* ``rk4`` (seed equations 5–6): classical Runge-Kutta on ``q̇ = ½ q ⊗ [0, ω(t)]`` with
+* ``rk4`` (Zhang et al., equations 5–6): classical Runge-Kutta on ``q̇ = ½ q ⊗ [0, ω(t)]`` with
   ``ω(t_{k-1}) = ω_{k-1}``, ``ω(t_k) = ω_k`` and their mean at the midpoint (rate samples taken
   as instantaneous), then normalised.
 
