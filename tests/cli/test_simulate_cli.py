@@ -108,7 +108,7 @@ def test_bad_arguments_give_one_line(tmp_path: Path, capsys) -> None:
 
 
 def test_memory_exhaustion_and_a_closed_pipe_are_not_tracebacks(tmp_path: Path, monkeypatch, capsys) -> None:
-    import mimucap.core.simulate as simulate_command  # the command imports it when it runs
+    import mimucap.core.simulate.suit as simulate_command  # the command imports it when it runs
 
     def exhausted(config):
         raise MemoryError

@@ -1,4 +1,4 @@
-"""Simulated driver: the simulated suit (:class:`mimucap.core.simulate.SuitSimulator`) in real time.
+"""Simulated driver: the simulated suit (:class:`mimucap.core.simulate.suit.SuitSimulator`) in real time.
 
 Runs inside a worker process like a device driver. Every ``block_interval_s`` it advances
 the simulator to the time elapsed since the start and sends the new samples as blocks: the
@@ -18,7 +18,8 @@ import numpy as np
 from mimucap.acquisition.messages import STATE_RUNNING, BlocksMessage, WorkerReport
 from mimucap.acquisition.outbox import Outbox
 from mimucap.core.samples import SensorSamples
-from mimucap.core.simulate import SENSOR_PLACEMENTS, SimulationConfig, SuitSimulator
+from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
 
 DEFAULT_SENSORS = 10
 DEFAULT_RATE_HZ = 100.0

@@ -32,10 +32,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mimucap.cli import check_output_path
-from mimucap.core.simulate_names import ERROR_PRESET_NAMES, SCENARIOS
+from mimucap.core.simulate.names import ERROR_PRESET_NAMES, SCENARIOS
 
 if TYPE_CHECKING:
-    from mimucap.core.simulate import MagneticDisturbance
+    from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 
 #: Most sensor samples (duration × rate × sensors) one simulation may hold: the simulation, its
 #: truth and the session written from it hold every sample several times over (raw channels,
@@ -73,7 +73,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def parse_disturbance(text: str) -> MagneticDisturbance:
     """``"BX,BY,BZ,START,END"`` (µT, µT, µT, s, s) → a :class:`MagneticDisturbance` for all sensors."""
-    from mimucap.core.simulate import MagneticDisturbance
+    from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 
     parts = text.split(",")
     try:
@@ -101,7 +101,9 @@ def check_size(duration_s: float, rate_hz: float, n_sensors: int) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write the file and print one summary line; bad arguments raise ValueError."""
-    from mimucap.core.simulate import SimulationConfig, error_model, simulate_session
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.sensor_errors import error_model
+    from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.session import session_from_simulation, write_session
 
     if Path(args.out).suffix.lower() not in (".h5", ".hdf5"):

@@ -12,7 +12,7 @@ from __future__ import annotations
 from PyQt5 import QtWidgets
 
 from mimucap.acquisition.source_spec import parse_source_spec
-from mimucap.core.simulate import SCENARIOS
+from mimucap.core.simulate.names import SCENARIOS
 from mimucap.gui.settings import gui_settings
 
 KINDS = ("simulated", "udp", "serial", "replay", "slimevr")

@@ -737,7 +737,7 @@ def session_duration_s(session: Session) -> float:
 
 
 def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, include_truth: bool = True) -> Session:
-    """A :class:`Session` holding a :class:`mimucap.core.simulate.SimulationResult`.
+    """A :class:`Session` holding a :class:`mimucap.core.simulate.suit.SimulationResult`.
 
     Sensors keep the simulated samples (dropped packets absent); ``metadata["source"]``
     records the scenario, seed, rate, sensor count, model, error model and earth field so the

@@ -62,7 +62,8 @@ from mimucap.core.pipeline import (
     POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorOrientations,
 )
 from mimucap.core.samples import SensorSamples, join_per_sensor
-from mimucap.core.simulate import SimulationConfig, SuitTruth
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.truth import SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
@@ -278,7 +279,7 @@ class LiveSession:
     # -- source ----------------------------------------------------------------------------
     @property
     def simulator(self):
-        """The in-process :class:`~mimucap.core.simulate.SuitSimulator`, or ``None`` (for the
+        """The in-process :class:`~mimucap.core.simulate.suit.SuitSimulator`, or ``None`` (for the
         evaluation of its truth; the pipeline and the procedures never ask for it)."""
         return getattr(self.feed, "simulator", None)
 

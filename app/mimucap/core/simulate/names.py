@@ -1,10 +1,10 @@
 """Names of the simulator's activities, scenarios and sensor error presets, importable
 without numpy (the command line lists them in ``--help``)."""
 
-#: Activities the simulated subject can perform (:func:`mimucap.core.simulate_motion.make_activity`).
+#: Activities the simulated subject can perform (:func:`mimucap.core.simulate.scenarios.make_activity`).
 ACTIVITY_NAMES = ("npose", "tpose", "walk", "turn", "arm_raise", "squat", "rom", "mag_single_axis", "mag_figure8",
                   "mag_tumble")
-#: Scenarios of :class:`mimucap.core.simulate.SimulationConfig`: every activity, ``demo`` and ``bodycal``.
+#: Scenarios of :class:`mimucap.core.simulate.config.SimulationConfig`: every activity, ``demo`` and ``bodycal``.
 SCENARIOS = ACTIVITY_NAMES + ("demo", "bodycal")
-#: Presets of :func:`mimucap.core.simulate_sensors.error_model` (the keys of ``ERROR_PRESETS``).
+#: Presets of :func:`mimucap.core.simulate.sensor_errors.error_model` (the keys of ``ERROR_PRESETS``).
 ERROR_PRESET_NAMES = ("default", "ideal", "mpu9250", "bno055")
