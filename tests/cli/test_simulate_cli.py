@@ -84,6 +84,23 @@ def test_disturbance_reaches_the_file(tmp_path: Path, capsys) -> None:
     assert session.metadata["source"]["disturbances"][0]["field_uT"] == [30.0, 0.0, -10.0]
 
 
+def test_the_room_reaches_the_file(tmp_path: Path, capsys) -> None:
+    """``--room clinic``: each unit measures the room's field where it is (the shank more than the
+    pelvis), and the file says which room it was."""
+    out = tmp_path / "clinic.h5"
+    assert main(["simulate", "--scenario", "walk", "--duration", "5", "--seed", "1", "--room", "clinic",
+                 "--out", str(out)]) == 0
+    assert "room clinic" in capsys.readouterr().out
+    session = read_session(out)
+    assert session.metadata["source"]["room"] == "clinic" and session.truth.attributes["room"] == "clinic"
+    deviation = {sid: np.linalg.norm(s.field_world_uT - session.truth.field_world_uT, axis=1).mean()
+                 for sid, s in session.truth.sensors.items()}
+    assert deviation["S09"] > 1.5 * deviation["S01"] > 0.0
+    assert main(["simulate", "--room", "kitchen", "--out", str(tmp_path / "x.h5")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == "mimucap simulate: error: unknown room 'kitchen'; use one of clean, clinic, treadmill"
+
+
 def test_bad_arguments_give_one_line(tmp_path: Path, capsys) -> None:
     assert main(["simulate", "--scenario", "jog", "--out", str(tmp_path / "x.h5")]) == 1
     err = capsys.readouterr().err.strip()

@@ -35,6 +35,7 @@ class SimulatedSourceConfig:
     rate_hz: float | None = None
     seed: int = 0
     errors: str = "default"            #: the simulator's error-model preset
+    room: str = "clean"                #: the simulator's room (:mod:`mimucap.core.simulate.rooms`)
     duration_s: float | None = None    #: end by itself after this long (``None``: until stopped)
     block_interval_s: float = 0.04     #: s of host time between blocks
     report_interval_s: float = 0.5
@@ -46,7 +47,7 @@ class SimulatedSourceConfig:
         return SimulationConfig(scenario=self.scenario, duration_s=0.0,
                                 n_sensors=self.n_sensors or DEFAULT_SENSORS,
                                 rate_hz=self.rate_hz or DEFAULT_RATE_HZ, seed=self.seed,
-                                errors=self.errors)
+                                errors=self.errors, room=self.room)
 
     def sensor_segments(self) -> dict[str, str]:
         """Sensor id → the segment it is worn on."""
@@ -66,7 +67,7 @@ class SimulatedDriver:
 
     def run(self, stop: Event) -> None:
         start = time.monotonic()
-        self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}"))
+        self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}, room {self.config.room}"))
         end = None if self.config.duration_s is None else start + self.config.duration_s
         while not stop.is_set():
             now = time.monotonic()
@@ -88,5 +89,5 @@ class SimulatedDriver:
             if end is not None and now >= end:
                 return
             if self.outbox.report_due(now):
-                self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}"))
+                self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}, room {self.config.room}"))
             stop.wait(self.config.block_interval_s)

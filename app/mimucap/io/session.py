@@ -756,7 +756,7 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
         "seed": config.seed, "model": result.model_name, "height_m": result.height_m,
         "errors": asdict(errors), "earth_field": asdict(config.earth_field),
         "disturbances": [asdict(d) for d in config.disturbances], "random_mounting": config.random_mounting,
-        "magcal_turns": config.magcal_turns,
+        "magcal_turns": config.magcal_turns, "room": config.room,
     }
     metadata = {
         "source": source,
@@ -785,7 +785,8 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
             sensors=sensor_truth, field_world_uT=np.asarray(result.field_world_uT),
             extra={"root_position_m": tr.root_position_m, "mag_axis_turned": tr.mag_axis_turned,
                    "foot_contact": tr.foot_contact},
-            attributes={"joint_angle_sequence": "ZXY", "model": result.model_name, "height_m": result.height_m},
+            attributes={"joint_angle_sequence": "ZXY", "model": result.model_name, "height_m": result.height_m,
+                        "room": config.room},
         )
     return Session(
         metadata=metadata, sensors=sensors, markers=[Marker(float(t), label) for t, label in result.markers],

@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
+from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
 from mimucap.core import bodycal, skeleton
 from mimucap.core.fusion import FLAG_NAMES
 from mimucap.core.magcal import MagCalibration
@@ -892,7 +892,7 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
                       calibration_store: CalibrationStore | None = None) -> LiveSession:
     """A live session (not started) for source ``spec``.
 
-    ``simulated[:SCENARIO]`` runs the simulated suit (``n_sensors`` at ``rate_hz``) in process
+    ``simulated[:SCENARIO][@ROOM]`` runs the simulated suit (``n_sensors`` at ``rate_hz``) in process
     (wizards can direct it) unless ``in_process_simulator`` is False; everything else
     (``udp:``, ``serial:``, ``replay:``) runs in acquisition workers.
 
@@ -911,9 +911,9 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
     if isinstance(parsed, SimulatedSpec) and in_process_simulator:
         if n_sensors is None:
             n_sensors = 17 if model_name == "fifteen_segment" else 10
-        config = SimulationConfig(scenario=parsed.scenario, n_sensors=n_sensors, rate_hz=rate_hz)
+        config = SimulationConfig(scenario=parsed.scenario, n_sensors=n_sensors, rate_hz=rate_hz, room=parsed.room)
         feed = SimulatorFeed(config, clock=clock)
-        return LiveSession(feed, f"simulated:{parsed.scenario}", model_name=config.model_name,
+        return LiveSession(feed, format_source_spec(parsed), model_name=config.model_name,
                            height_m=config.height_m, clock=clock, calibration_store=store)
     options = SourceOptions() if n_sensors is None else SourceOptions(sensor_count=n_sensors)
     feed = SupervisorFeed(spec, options)

@@ -20,7 +20,7 @@ import numpy as np
 
 from mimucap.core import skeleton
 from mimucap.core.simulate.magnetic_field import EarthField, MagneticDisturbance
-from mimucap.core.simulate.names import SCENARIOS
+from mimucap.core.simulate.names import ROOM_NAMES, SCENARIOS
 from mimucap.core.simulate.scenarios import scenario_activities
 from mimucap.core.simulate.sensor_errors import SensorErrorModel, error_model
 
@@ -64,7 +64,10 @@ class SimulationConfig:
     model name (default by ``n_sensors``); ``random_mounting`` False mounts every unit aligned
     with its segment; ``magcal_turns`` True begins the scenario with the magnetometer turns of
     every unit held together (:func:`mimucap.core.simulate.scenarios.magcal_turns`), as a session
-    that carries its own calibration does.
+    that carries its own calibration does; ``room`` the room preset
+    (:mod:`mimucap.core.simulate.rooms`: ``clean``, the earth field alone; ``clinic``, a
+    reinforced floor and a steel bed beside the walkway; ``treadmill``, walking on a treadmill),
+    whose field each unit measures at its own position.
     """
 
     scenario: str = "demo"
@@ -81,8 +84,11 @@ class SimulationConfig:
     scenario_params: Mapping[str, Any] = field(default_factory=dict)
     random_mounting: bool = True
     magcal_turns: bool = False
+    room: str = "clean"
 
     def __post_init__(self) -> None:
+        if self.room not in ROOM_NAMES:
+            raise ValueError(f"unknown room {self.room!r}; use one of {', '.join(ROOM_NAMES)}")
         if self.scenario not in SCENARIOS:
             raise ValueError(f"unknown scenario {self.scenario!r}; use one of {', '.join(SCENARIOS)}")
         if int(self.n_sensors) != self.n_sensors or not 1 <= self.n_sensors <= MAX_SENSORS:

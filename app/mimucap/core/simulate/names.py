@@ -8,3 +8,5 @@ ACTIVITY_NAMES = ("npose", "tpose", "walk", "turn", "arm_raise", "squat", "rom",
 SCENARIOS = ACTIVITY_NAMES + ("demo", "bodycal")
 #: Presets of :func:`mimucap.core.simulate.sensor_errors.error_model` (the keys of ``ERROR_PRESETS``).
 ERROR_PRESET_NAMES = ("default", "ideal", "mpu9250", "bno055")
+#: Rooms of :data:`mimucap.core.simulate.rooms.ROOMS` (``clean``: the earth field alone).
+ROOM_NAMES = ("clean", "clinic", "treadmill")

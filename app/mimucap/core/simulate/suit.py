@@ -34,6 +34,7 @@ from mimucap.core import skeleton
 from mimucap.core.samples import SensorSamples
 from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SensorMounting, SimulationConfig
 from mimucap.core.simulate.names import SCENARIOS
+from mimucap.core.simulate.rooms import room
 from mimucap.core.simulate.magnetic_field import disturbed_field
 from mimucap.core.simulate.scenarios import scenario_activities
 from mimucap.core.simulate.schedule import Schedule
@@ -102,6 +103,7 @@ class SuitSimulator:
         if missing:
             raise ValueError(f"model {self.model.name!r} has no segment(s) {', '.join(missing)} for {config.n_sensors} sensors")
         self.field_world_uT = config.earth_field.field_world_uT()
+        self.room = room(config.room)
         seed = int(config.seed) & 0xFFFFFFFF
         self.parameters = {
             sid: draw_sensor_parameters(seed, index, sid, self.errors) for index, sid in enumerate(self.sensor_ids)
@@ -146,7 +148,8 @@ class SuitSimulator:
         activities = scenario_activities(name, params, sensor_ids=self.sensor_ids,
                                          seed=self._seed + 7919 * self._switches, with_magcal_turns=with_magcal_turns)
         legs = (self._lengths["thigh_r"], self._lengths["shank_r"])
-        return (a.fit_legs(legs) if isinstance(a, Walk) else a for a in activities)
+        belt = self.room.treadmill
+        return (a.fit_legs(legs).on_treadmill(belt) if isinstance(a, Walk) else a for a in activities)
 
     @property
     def time_s(self) -> float:
@@ -312,6 +315,8 @@ class SuitSimulator:
             disturbed_field(self.field_world_uT, self.config.disturbances, sid, t, p_now[:, i])
             for i, sid in enumerate(self.sensor_ids)
         ], axis=1)
+        if not self.room.is_clean:
+            fields = fields + self.room.field_uT(p_now)
         noise = stack_noise([source.block(k0, n) for source in self._noise])
         meas = measure(self._stack, self.errors, noise, t, q_now, q_prev, acc_world, fields, self.dt)
         samples = {}

@@ -70,7 +70,18 @@ class Walk(Activity):
             raise ValueError(f"walking speed must be in 0.3..2.5 m/s, got {speed_mps}")
         self.duration_s, self.speed = duration_s, float(speed_mps)
         self.turn_rate = math.radians(turn_rate_dps)
+        self.treadmill = False
         self.fit_legs(leg_lengths_m)
+
+    def on_treadmill(self, treadmill: bool = True) -> Walk:
+        """Walk on a treadmill belt (``treadmill`` True) or over ground; returns self.
+
+        On the belt the subject stays in place: the belt carries the stance foot back at the
+        mean walking speed, so the root keeps only its fluctuation about the mean progression
+        (the body's motion differs from walking over ground by a constant velocity, which no
+        inertial sensor can tell apart)."""
+        self.treadmill = bool(treadmill)
+        return self
 
     def fit_legs(self, leg_lengths_m: tuple[float, float]) -> Walk:
         """Use the subject's (thigh, shank) lengths in m for the progression; returns self."""
@@ -145,6 +156,8 @@ class Walk(Activity):
         phase = (tau / self.stride_s) % 1.0
         heading = start.heading_rad + self.turn_rate * tau
         distance = self._distance(tau)
+        if self.treadmill:
+            distance = distance - self.speed * tau
         if self.turn_rate == 0.0:
             forward = np.array([-math.sin(start.heading_rad), math.cos(start.heading_rad)])
             xy = np.asarray(start.xy_m) + distance[:, None] * forward
