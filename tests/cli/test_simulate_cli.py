@@ -101,6 +101,22 @@ def test_the_room_reaches_the_file(tmp_path: Path, capsys) -> None:
     assert err == "mimucap simulate: error: unknown room 'kitchen'; use one of clean, clinic, treadmill"
 
 
+def test_a_clinical_test_writes_its_true_results_into_the_truth_group(tmp_path: Path, capsys) -> None:
+    import h5py
+
+    out = tmp_path / "tug.h5"
+    assert main(["simulate", "--scenario", "tug", "--duration", "60", "--sensors", "2", "--seed", "4",
+                 "--magcal-turns", "--out", str(out)]) == 0
+    session = read_session(out)
+    protocol = session.truth.protocol
+    assert protocol["test"] == "tug" and set(protocol) >= {"total_s", "sit_to_stand_s", "walk_out_s", "turn_s",
+                                                           "walk_back_s", "turn_to_sit_s"}
+    with h5py.File(out, "r") as h5:
+        assert "protocol_json" in h5["truth"].attrs
+    assert [m.label for m in session.markers][:4] == ["magnetometer turns", "N-pose", "T-pose", "N-pose"]
+    assert read_session(out, include_truth=False).truth is None
+
+
 def test_bad_arguments_give_one_line(tmp_path: Path, capsys) -> None:
     assert main(["simulate", "--scenario", "jog", "--out", str(tmp_path / "x.h5")]) == 1
     err = capsys.readouterr().err.strip()

@@ -8,7 +8,9 @@ Scenarios: ``demo`` (magnetometer turns, then N-pose, T-pose, walking, turning, 
 raises, looping from the N-pose),
 ``bodycal`` (N-pose 3 s, T-pose 3 s, N-pose), or one activity (``npose``, ``tpose``,
 ``walk``, ``turn``, ``arm_raise``, ``squat``, ``mag_single_axis``, ``mag_figure8``,
-``mag_tumble``). Sensors: 1..17 (10: the ten-segment suit; 17: the fifteen-segment suit
+``mag_tumble``), or a clinical test (``tug``, ``walk10m``, ``walk2min``, ``walk6min``,
+``chair_stand``; :mod:`mimucap.core.simulate.clinical_tests`: the truth holds its true results
+in the truth group's ``protocol_json``). Sensors: 1..17 (10: the ten-segment suit; 17: the fifteen-segment suit
 with second units on thorax and pelvis). ``--disturbance`` adds a magnetic field (world ENU,
 µT) to every sensor from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. ``--room``
 puts the subject in a room whose field changes with position, measured by each unit where it

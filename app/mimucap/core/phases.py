@@ -25,6 +25,10 @@ WALK = "walk"
 TURN = "turn"
 SQUAT = "squat"
 ARM_RAISE = "arm raise"
+#: Phases of the clinical tests (Timed Up and Go, the chair stand): seated, rising, sitting down.
+SITTING = "sitting"
+SIT_TO_STAND = "sit-to-stand"
+STAND_TO_SIT = "stand-to-sit"
 
 
 def _pairs(markers: Iterable) -> list[tuple[float, str]]:

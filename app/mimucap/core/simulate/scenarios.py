@@ -16,6 +16,7 @@ from mimucap.core.simulate.activities import (
     TPose,
     Turn,
 )
+from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS, clinical_test_activities
 from mimucap.core.simulate.names import ACTIVITY_NAMES
 from mimucap.core.simulate.walking import Walk
 
@@ -98,6 +99,8 @@ def _scenario(name: str, params: dict | None, sensor_ids: tuple[str, ...], seed:
         if params:
             raise ValueError("the demo scenario takes no parameters")
         return _demo_loop()
+    if name in CLINICAL_TESTS:
+        return iter(clinical_test_activities(name, params, seed))
     if name == "bodycal":
         try:
             tpose = TPose(3.0, **(params or {}))

@@ -32,6 +32,7 @@ import numpy as np
 from mimucap.core import rotation as rot
 from mimucap.core import skeleton
 from mimucap.core.samples import SensorSamples
+from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS, protocol_truth
 from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SensorMounting, SimulationConfig
 from mimucap.core.simulate.names import SCENARIOS
 from mimucap.core.simulate.rooms import room
@@ -62,7 +63,8 @@ class SimulationResult:
     """A whole simulation: ``config``, ``samples``/``truth``/``markers`` as in :class:`SuitBlock`,
     true unit ``parameters`` (gyro bias, scale, magnetometer ``mag_A``/``mag_b_uT``, clock) and
     ``mounting`` per sensor id, the undisturbed ``field_world_uT`` (3,), the skeleton
-    ``model_name`` and ``height_m``."""
+    ``model_name`` and ``height_m``, and for a clinical test scenario its true results
+    ``protocol`` (:func:`mimucap.core.simulate.clinical_tests.protocol_truth`; None otherwise)."""
 
     config: SimulationConfig
     samples: dict[str, SensorSamples]
@@ -73,6 +75,7 @@ class SimulationResult:
     field_world_uT: np.ndarray
     model_name: str
     height_m: float
+    protocol: dict[str, Any] | None = None
 
 
 def _softmin(a: np.ndarray, b: np.ndarray, scale: float) -> np.ndarray:
@@ -131,6 +134,12 @@ class SuitSimulator:
         self._lengths = skeleton.segment_lengths(self.model, config.height_m)
         self.schedule = Schedule(self._activities(config.scenario, dict(config.scenario_params),
                                                   with_magcal_turns=config.magcal_turns))
+        #: The true results of a clinical test scenario (:func:`~.clinical_tests.protocol_truth`), else None.
+        self.protocol: dict[str, Any] | None = None
+        if config.scenario in CLINICAL_TESTS:
+            planned = list(self._activities(config.scenario, dict(config.scenario_params),
+                                            with_magcal_turns=config.magcal_turns))
+            self.protocol = protocol_truth(config.scenario, planned, dict(config.scenario_params))
         neutral = skeleton.forward_kinematics(
             self.model, {name: skeleton.q_world_from_body_facing(0.0) for name in self.model.segment_names},
             config.height_m,
@@ -367,4 +376,5 @@ def simulate_session(config: SimulationConfig = SimulationConfig()) -> Simulatio
         config=config, samples=block.samples, truth=block.truth, markers=block.markers,
         parameters=dict(simulator.parameters), mounting=dict(simulator.mounting),
         field_world_uT=simulator.field_world_uT, model_name=simulator.model.name, height_m=config.height_m,
+        protocol=simulator.protocol,
     )

@@ -120,6 +120,11 @@ class Walk(Activity):
         periodic = (np.cos(angle) * np.real(self._integral)).sum(axis=1) - (np.sin(angle) * np.imag(self._integral)).sum(axis=1)
         return self.stride_m * cycles + periodic - self._offset
 
+    def distance_m(self, tau_s: float) -> float:
+        """Forward distance (m) the body covers ``tau_s`` seconds into the walk (after the
+        one-second blend in from standing, exactly; over ground)."""
+        return float(self._distance(np.array([float(tau_s)]))[0])
+
     @staticmethod
     def leg(phase: np.ndarray) -> dict[str, np.ndarray]:
         """Hip, knee and ankle angles (n,3) deg of one leg at its own gait ``phase``."""
