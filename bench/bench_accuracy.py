@@ -26,8 +26,8 @@ import numpy as np
 
 from mimucap.core import rotation as rot
 from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED, orientation_at
-from mimucap.core.simulate import SimulationConfig
-from mimucap.core.simulate_sensors import MagneticDisturbance
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.evaluation import FLEXION_COLUMNS, angle_errors
 from mimucap.session.feeds import SimulatorFeed

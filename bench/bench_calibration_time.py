@@ -18,7 +18,8 @@ import time
 import numpy as np
 
 from mimucap.core import rotation as rot
-from mimucap.core.simulate import SimulationConfig, SuitSimulator
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.bodycal_procedure import BodycalProcedure
 from mimucap.session.calibration_feed import SimulatedSuitFeed

@@ -166,8 +166,9 @@ def pure_python_seconds(n: int, repeat: int) -> float:
 
 
 def simulated_accuracy() -> None:
-    from mimucap.core.simulate import SimulationConfig, simulate_session
-    from mimucap.core.simulate_sensors import MagneticDisturbance
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.suit import simulate_session
+    from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 
     episode = (MagneticDisturbance((30.0, 0.0, -15.0), 25.0, 40.0),)
     cases = [("walk", "walk", ()), ("turn", "turn", ()), ("demo", "demo", ()),

@@ -23,7 +23,7 @@ import tempfile
 from pathlib import Path
 
 from mimucap.core.analysis.gait import GaitInput, analyse_gait
-from mimucap.core.simulate import SimulationConfig
+from mimucap.core.simulate.config import SimulationConfig
 from mimucap.io.gait_csv import read_foot_imu_csv, read_gaitmap_reference
 from mimucap.session.analysis_evaluation import (
     compare,

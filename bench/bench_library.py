@@ -29,7 +29,8 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=30.0, help="seconds per session")
     args = parser.parse_args()
 
-    from mimucap.core.simulate import SimulationConfig, simulate_session
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.library import Library, library_fields
     from mimucap.io.session import make_subject, read_session, session_from_simulation, write_session
 

@@ -22,7 +22,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from mimucap.core.simulate import SimulationConfig
+from mimucap.core.simulate.config import SimulationConfig
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.calibration_feed import LiveSessionFeed, SteppedClock
 from mimucap.session.feeds import SimulatorFeed

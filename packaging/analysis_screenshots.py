@@ -39,7 +39,8 @@ class _PipelineLive:
         import numpy as np
 
         from mimucap.core import bodycal
-        from mimucap.core.simulate import SimulationConfig, SuitSimulator
+        from mimucap.core.simulate.config import SimulationConfig
+        from mimucap.core.simulate.suit import SuitSimulator
         from mimucap.session.events import EmitterGroup
 
         self.events = EmitterGroup("frame", "calibration")  # driven by hand: wizard.tick() per pose
@@ -120,7 +121,7 @@ def write_rom_wizard_screenshot(out_dir: Path) -> list[Path]:
 
 
 def write_analysis_screenshots(out_dir: Path) -> list[Path]:
-    from mimucap.core.simulate import SimulationConfig
+    from mimucap.core.simulate.config import SimulationConfig
     from mimucap.gui.capture import save_window_png
     from mimucap.gui.review_window import ReviewWindow
     from mimucap.session.analysis_evaluation import simulated_analysis

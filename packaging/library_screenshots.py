@@ -44,7 +44,8 @@ def _wait(app: QtWidgets.QApplication, condition, timeout_s: float, what: str) -
 
 def make_library(folder: Path) -> None:
     """Simulated squats and walks as library sessions in ``folder`` (and one damaged file)."""
-    from mimucap.core.simulate import SimulationConfig, simulate_session
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.library import library_fields
     from mimucap.io.session import Marker, make_subject, session_from_simulation, write_session
 

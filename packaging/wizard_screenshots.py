@@ -22,7 +22,8 @@ import numpy as np
 from PyQt5 import QtWidgets
 
 from mimucap.core.magcal import MagCalibration
-from mimucap.core.simulate import SimulationConfig, SuitSimulator
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.wizards.body import BodyCalibrationWizard
 from mimucap.gui.wizards.magnetometer import MagnetometerWizard
 from mimucap.gui.capture import grab_window

@@ -85,7 +85,7 @@ def record_calibrated_session(path: Path, scenario: str = "walk", seconds: float
     sensor errors: magnetometer turns, N/T-pose body calibration (both stored in the session),
     then, ``settle_s`` after the subject went back to ``scenario`` (whose lead-in is a second of
     N-pose), ``seconds`` of it. Its truth is kept for evaluation only."""
-    from mimucap.core.simulate import SimulationConfig
+    from mimucap.core.simulate.config import SimulationConfig
     from mimucap.io.calibration_store import CalibrationStore
     from mimucap.session.feeds import SimulatorFeed
     from mimucap.session.guided_session import SteppedClock, run_guided_session

@@ -176,7 +176,7 @@ def test_study_plot_writes_a_png_with_every_panel(tmp_path: Path, capsys) -> Non
 
 
 def test_fit_one_sensor_of_a_session(tmp_path: Path, capsys) -> None:
-    from mimucap.core.simulate import calibration_motion
+    from mimucap.core.simulate.hand_held import calibration_motion
     from mimucap.core.samples import SensorSamples
     from mimucap.io.session import Session, write_session
 

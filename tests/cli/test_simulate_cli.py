@@ -84,6 +84,39 @@ def test_disturbance_reaches_the_file(tmp_path: Path, capsys) -> None:
     assert session.metadata["source"]["disturbances"][0]["field_uT"] == [30.0, 0.0, -10.0]
 
 
+def test_the_room_reaches_the_file(tmp_path: Path, capsys) -> None:
+    """``--room clinic``: each unit measures the room's field where it is (the shank more than the
+    pelvis), and the file says which room it was."""
+    out = tmp_path / "clinic.h5"
+    assert main(["simulate", "--scenario", "walk", "--duration", "5", "--seed", "1", "--room", "clinic",
+                 "--out", str(out)]) == 0
+    assert "room clinic" in capsys.readouterr().out
+    session = read_session(out)
+    assert session.metadata["source"]["room"] == "clinic" and session.truth.attributes["room"] == "clinic"
+    deviation = {sid: np.linalg.norm(s.field_world_uT - session.truth.field_world_uT, axis=1).mean()
+                 for sid, s in session.truth.sensors.items()}
+    assert deviation["S09"] > 1.5 * deviation["S01"] > 0.0
+    assert main(["simulate", "--room", "kitchen", "--out", str(tmp_path / "x.h5")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err == "mimucap simulate: error: unknown room 'kitchen'; use one of clean, clinic, treadmill"
+
+
+def test_a_clinical_test_writes_its_true_results_into_the_truth_group(tmp_path: Path, capsys) -> None:
+    import h5py
+
+    out = tmp_path / "tug.h5"
+    assert main(["simulate", "--scenario", "tug", "--duration", "60", "--sensors", "2", "--seed", "4",
+                 "--magcal-turns", "--out", str(out)]) == 0
+    session = read_session(out)
+    protocol = session.truth.protocol
+    assert protocol["test"] == "tug" and set(protocol) >= {"total_s", "sit_to_stand_s", "walk_out_s", "turn_s",
+                                                           "walk_back_s", "turn_to_sit_s"}
+    with h5py.File(out, "r") as h5:
+        assert "protocol_json" in h5["truth"].attrs
+    assert [m.label for m in session.markers][:4] == ["magnetometer turns", "N-pose", "T-pose", "N-pose"]
+    assert read_session(out, include_truth=False).truth is None
+
+
 def test_bad_arguments_give_one_line(tmp_path: Path, capsys) -> None:
     assert main(["simulate", "--scenario", "jog", "--out", str(tmp_path / "x.h5")]) == 1
     err = capsys.readouterr().err.strip()
@@ -108,7 +141,7 @@ def test_bad_arguments_give_one_line(tmp_path: Path, capsys) -> None:
 
 
 def test_memory_exhaustion_and_a_closed_pipe_are_not_tracebacks(tmp_path: Path, monkeypatch, capsys) -> None:
-    import mimucap.core.simulate as simulate_command  # the command imports it when it runs
+    import mimucap.core.simulate.suit as simulate_command  # the command imports it when it runs
 
     def exhausted(config):
         raise MemoryError

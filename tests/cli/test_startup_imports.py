@@ -56,7 +56,7 @@ def test_the_probe_sees_a_heavy_import() -> None:
 
 
 def test_the_names_listed_in_help_are_those_the_modules_accept() -> None:
-    from mimucap.core.simulate_names import ERROR_PRESET_NAMES
-    from mimucap.core.simulate_sensors import ERROR_PRESETS
+    from mimucap.core.simulate.names import ERROR_PRESET_NAMES
+    from mimucap.core.simulate.sensor_errors import ERROR_PRESETS
 
     assert ERROR_PRESET_NAMES == tuple(ERROR_PRESETS)

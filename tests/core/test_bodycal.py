@@ -223,12 +223,14 @@ def test_heading_mode_refuses_a_vertical_axis():
 
 @pytest.mark.parametrize("turn_deg", [0.0, 135.0, -100.0])
 def test_the_suit_simulator_subject_calibrated_at_any_heading(turn_deg):
-    """mimucap.core.simulate: 15 units with random mountings; the subject turns on the spot,
+    """The simulated suit: 15 units with random mountings; the subject turns on the spot,
     stands in N-pose (with quiet-standing sway), raises both arms to 88°, then walks.
     Noise-free orientations (the simulator's truth)."""
-    from mimucap.core import simulate as sim
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.suit import SuitSimulator
+    from mimucap.core.simulate.truth import SuitBlock
 
-    simulator = sim.SuitSimulator(sim.SimulationConfig(scenario="npose", n_sensors=15, seed=9, errors="ideal"))
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=15, seed=9, errors="ideal"))
     blocks = []
     if turn_deg:
         simulator.set_activity("turn", angle_deg=turn_deg, turns=1, turn_s=2.0, pause_s=0.5)
@@ -239,7 +241,7 @@ def test_the_suit_simulator_subject_calibrated_at_any_heading(turn_deg):
     blocks.append(simulator.advance(4.0))
     simulator.set_activity("walk")
     blocks.append(simulator.advance(5.0))
-    truth = sim.SuitBlock.concatenate(blocks).truth
+    truth = SuitBlock.concatenate(blocks).truth
     t, sensors = truth.t_s, truth.q_world_from_sensor
     mapping = {simulator.mounting[sid].segment: sid for sid in sensors}
     cal = bc.calibrate_npose_tpose(t, sensors, mapping, (4.0, 5.9), (8.5, 9.9))

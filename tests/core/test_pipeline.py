@@ -92,7 +92,8 @@ def test_a_new_magnetometer_calibration_keeps_the_running_filter_and_learns_its_
 
 
 def _suit_recording(seconds=6.0, seed=2):
-    from mimucap.core.simulate import SimulationConfig, simulate_session
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.suit import simulate_session
 
     result = simulate_session(SimulationConfig(scenario="walk", duration_s=seconds, seed=seed, n_sensors=10))
     return result
@@ -102,7 +103,7 @@ def test_blocks_fed_live_give_the_recording_processed_as_seen_live():
     """The live pipeline fed a recording in blocks, from a filter state taken mid-way (as a
     recording that starts after the live view), and the batch path from that state give the
     same sensor orientations and joint angles at the live poses' instants."""
-    from mimucap.core.simulate import SENSOR_PLACEMENTS
+    from mimucap.core.simulate.config import SENSOR_PLACEMENTS
 
     result = _suit_recording()
     model = skeleton.load_model("ten_segment")

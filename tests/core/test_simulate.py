@@ -9,16 +9,12 @@ import pytest
 
 from mimucap.core import rotation as rot
 from mimucap.core import skeleton
-from mimucap.core.simulate import (
-    IDEAL_SENSOR,
-    MagneticDisturbance,
-    SensorErrorModel,
-    SimulationConfig,
-    SuitBlock,
-    SuitSimulator,
-    simulate_session,
-)
-from mimucap.core.simulate_motion import Walk, stance_weight_right
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.magnetic_field import MagneticDisturbance
+from mimucap.core.simulate.sensor_errors import IDEAL_SENSOR, SensorErrorModel
+from mimucap.core.simulate.suit import SuitSimulator, simulate_session
+from mimucap.core.simulate.truth import SuitBlock
+from mimucap.core.simulate.walking import Walk, stance_weight_right
 
 NO_GYRO_ERRORS = dataclasses.replace(
     SensorErrorModel(), gyr_bias_dps=(0.0, 0.0), gyr_bias_walk_dps_per_sqrt_s=0.0, gyr_noise_dps=0.0, gyr_scale_error=0.0

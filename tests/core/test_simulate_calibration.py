@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation as rot
-from mimucap.core.simulate_calibration import calibration_motion
-from mimucap.core.simulate_sensors import IDEAL_SENSOR, SensorErrorModel
+from mimucap.core.simulate.hand_held import calibration_motion
+from mimucap.core.simulate.sensor_errors import IDEAL_SENSOR, SensorErrorModel
 
 NO_GYRO_ERRORS = dataclasses.replace(
     SensorErrorModel(), gyr_bias_dps=(0.0, 0.0), gyr_bias_walk_dps_per_sqrt_s=0.0, gyr_noise_dps=0.0, gyr_scale_error=0.0

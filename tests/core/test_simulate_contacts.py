@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from mimucap.core import skeleton
-from mimucap.core.simulate import SimulationConfig, simulate_session
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import simulate_session
 
 
 def test_walking_contacts_match_the_feet_motion():

@@ -8,15 +8,13 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation as rot
-from mimucap.core.simulate_sensors import (
+from mimucap.core.simulate.magnetic_field import EarthField, MagneticDisturbance, disturbed_field
+from mimucap.core.simulate.sensor_errors import (
     GRAVITY_MPS2,
     IDEAL_SENSOR,
     NOISE_CHUNK,
-    EarthField,
-    MagneticDisturbance,
     SensorErrorModel,
     SensorNoise,
-    disturbed_field,
     draw_sensor_parameters,
     error_model,
     measure,

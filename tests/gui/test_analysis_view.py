@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 from PyQt5 import QtWidgets
 
-from mimucap.core.simulate import SimulationConfig
+from mimucap.core.simulate.config import SimulationConfig
 from mimucap.gui.review_window import ReviewWindow
 from mimucap.session.analysis_evaluation import simulated_analysis
 

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from PyQt5 import QtWidgets
 
-from mimucap.core.simulate import SimulationConfig, simulate_session
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import simulate_session
 from mimucap.io.session import session_from_simulation, write_session
 
 

@@ -9,7 +9,8 @@ import threading
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.core.simulate import SimulationConfig, SuitSimulator
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.assignment_dialog import remembered_assignment
 from mimucap.gui.wizards import BodyCalibrationWizard
 from mimucap.session.calibration_feed import SimulatedSuitFeed

@@ -12,7 +12,7 @@ import pytest
 from PyQt5.QtGui import QImage
 
 from mimucap.cli import main
-from mimucap.core.simulate import SimulationConfig
+from mimucap.core.simulate.config import SimulationConfig
 from mimucap.gui.report import write_comparison_report, write_report
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.analysis_evaluation import simulated_analysis

@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from mimucap.core import skeleton
-from mimucap.core.simulate import SimulationConfig, SuitSimulator
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.wizards.rom import RomWizard
 from mimucap.session.events import EmitterGroup
 from mimucap.session.rom_procedure import RomProcedure, RomStep

@@ -7,7 +7,8 @@ from __future__ import annotations
 import pytest
 from PyQt5 import QtCore, QtWidgets, sip
 
-from mimucap.core.simulate import SimulationConfig, simulate_session
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import simulate_session
 from mimucap.gui.main_window import MainWindow
 from mimucap.gui.source_dialog import SourceDialog, last_skeleton_model, last_source_spec
 from mimucap.io.session import session_from_simulation, write_session

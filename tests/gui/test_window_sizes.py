@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.core.simulate import SimulationConfig, simulate_session
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import simulate_session
 from mimucap.gui.main_window import MainWindow
 from mimucap.gui.screen_fit import FRAME_PX
 from mimucap.io.session import session_from_simulation, write_session

@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 from PyQt5 import QtCore
 
-from mimucap.core.simulate import SimulationConfig, SuitSimulator
-from mimucap.core.simulate_sensors import error_model
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
+from mimucap.core.simulate.sensor_errors import error_model
 from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
 from mimucap.gui.capture import grab_window
 from mimucap.io.calibration_store import CalibrationStore

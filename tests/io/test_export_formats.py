@@ -109,7 +109,8 @@ def test_sto_columns_are_opensim_bodies_and_raw_sensors_carry_the_mounting(walk,
     assert re.search(r'marker 0\.0\d+ "N-pose"', header), header
     # A raw sensor turned back by its true mounting is its segment. Inclination only: the heading
     # of a sensor fused without a magnetometer calibration is the pipeline's business, not the file's.
-    from mimucap.core.simulate import SimulationConfig, SuitSimulator
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.suit import SuitSimulator
 
     mounting = SuitSimulator(SimulationConfig(seed=4, n_sensors=17)).mounting  # the walk's true mounting
     for label in ("femur_r_imu", "tibia_l_imu", "torso_imu"):

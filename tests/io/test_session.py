@@ -206,7 +206,8 @@ def test_bad_streams_and_subjects_are_rejected(tmp_path: Path) -> None:
 
 
 def test_simulated_session_round_trip(tmp_path: Path) -> None:
-    from mimucap.core.simulate import SimulationConfig, simulate_session
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.session import session_from_simulation
 
     result = simulate_session(SimulationConfig(scenario="bodycal", duration_s=3.0, n_sensors=10, seed=2, drop_probability=0.05))
@@ -268,7 +269,8 @@ def test_time_stamps_must_be_finite_and_increasing(tmp_path: Path, change, messa
 
 
 def test_a_gyroscope_in_degrees_per_second_is_refused(tmp_path: Path) -> None:
-    from mimucap.core.simulate import SimulationConfig, simulate_session
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.session import session_from_simulation
 
     result = simulate_session(SimulationConfig(scenario="walk", duration_s=4.0, n_sensors=10, seed=1))

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation as rot
-from mimucap.core.simulate import SimulationConfig, SuitSimulator
-from mimucap.core.simulate_sensors import error_model
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
+from mimucap.core.simulate.sensor_errors import error_model
 from mimucap.session.bodycal_procedure import BodycalProcedure, BodycalProcedureSettings
 from mimucap.session.calibration_feed import SimulatedSuitFeed
 

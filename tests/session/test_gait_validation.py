@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mimucap.core.analysis.gait import GaitInput, analyse_gait
-from mimucap.core.simulate import SimulationConfig
+from mimucap.core.simulate.config import SimulationConfig
 from mimucap.io.gait_csv import read_foot_imu_csv, read_gaitmap_reference
 from mimucap.session.analysis import write_analysis_csv
 from mimucap.io.gait_csv import read_table

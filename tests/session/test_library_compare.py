@@ -66,7 +66,7 @@ def test_two_recordings_of_the_simulated_suit_compare_as_the_simulator_moved():
     from mimucap.core import skeleton
     from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
     from mimucap.core.analysis.rom import range_of_motion
-    from mimucap.core.simulate import SimulationConfig
+    from mimucap.core.simulate.config import SimulationConfig
     from mimucap.io.session import read_session
     from mimucap.session.feeds import SimulatorFeed
     from mimucap.session.live import LiveSession

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.core.simulate import SimulationConfig
+from mimucap.core.simulate.config import SimulationConfig
 from mimucap.session.camera import camera_preset, follow_shift
 from mimucap.session.feeds import SimulatorFeed
 from mimucap.session.live import LiveSession, open_live_session

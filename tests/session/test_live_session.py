@@ -9,7 +9,8 @@ import pytest
 
 from mimucap.core import rotation
 from mimucap.core.magcal import MagCalibration
-from mimucap.core.simulate import SimulationConfig, simulate_session
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import simulate_session
 from mimucap.io.session import read_session, session_from_simulation, write_session
 from mimucap.session.export import ExportRequest, marker_range, run_export, summary_table
 from mimucap.session.feeds import SimulatorFeed
@@ -248,7 +249,7 @@ def test_joint_series_and_frames_follow_every_pose(n_sensors):
 def test_small_blocks_give_the_same_session_as_whole_ones():
     """Wireless nodes deliver a sample or two at a time; the pipeline joins each sensor's
     blocks of one poll, and the buffers and orientations are those of whole blocks."""
-    from mimucap.core.simulate import SimulationConfig
+    from mimucap.core.simulate.config import SimulationConfig
     from mimucap.session.feeds import SimulatorFeed
     from mimucap.session.live import LiveSession
 

@@ -10,7 +10,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from mimucap.core.simulate import SimulationConfig, SuitSimulator
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.calibration_feed import SimulatedSuitFeed
 from mimucap.session.magcal_procedure import MagcalProcedure, MagcalProcedureSettings, describe_age

@@ -1,6 +1,6 @@
-"""The emulators' default motion: the simulated suit (:mod:`mimucap.core.simulate`).
+"""The emulators' default motion: the simulated suit (:mod:`mimucap.core.simulate.suit`).
 
-Wraps :class:`~mimucap.core.simulate.SuitSimulator` as a
+Wraps :class:`~mimucap.core.simulate.suit.SuitSimulator` as a
 :class:`~mimucap.acquisition.emulate_common.MotionSource`. The emulators inject their own
 loss and clock errors, so the simulator's own sample drops are switched off. A suit has at
 most 17 units; more emulated nodes repeat them (node ``i`` sends unit ``i mod 17``).
@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mimucap.core.simulate import MAX_SENSORS, SimulationConfig, SuitSimulator
+from mimucap.core.simulate.config import MAX_SENSORS, SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
 
 
 class SimulatorMotion:

@@ -1,4 +1,4 @@
-"""Simulated driver: the simulated suit (:class:`mimucap.core.simulate.SuitSimulator`) in real time.
+"""Simulated driver: the simulated suit (:class:`mimucap.core.simulate.suit.SuitSimulator`) in real time.
 
 Runs inside a worker process like a device driver. Every ``block_interval_s`` it advances
 the simulator to the time elapsed since the start and sends the new samples as blocks: the
@@ -18,7 +18,8 @@ import numpy as np
 from mimucap.acquisition.messages import STATE_RUNNING, BlocksMessage, WorkerReport
 from mimucap.acquisition.outbox import Outbox
 from mimucap.core.samples import SensorSamples
-from mimucap.core.simulate import SENSOR_PLACEMENTS, SimulationConfig, SuitSimulator
+from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
 
 DEFAULT_SENSORS = 10
 DEFAULT_RATE_HZ = 100.0
@@ -34,6 +35,7 @@ class SimulatedSourceConfig:
     rate_hz: float | None = None
     seed: int = 0
     errors: str = "default"            #: the simulator's error-model preset
+    room: str = "clean"                #: the simulator's room (:mod:`mimucap.core.simulate.rooms`)
     duration_s: float | None = None    #: end by itself after this long (``None``: until stopped)
     block_interval_s: float = 0.04     #: s of host time between blocks
     report_interval_s: float = 0.5
@@ -45,7 +47,7 @@ class SimulatedSourceConfig:
         return SimulationConfig(scenario=self.scenario, duration_s=0.0,
                                 n_sensors=self.n_sensors or DEFAULT_SENSORS,
                                 rate_hz=self.rate_hz or DEFAULT_RATE_HZ, seed=self.seed,
-                                errors=self.errors)
+                                errors=self.errors, room=self.room)
 
     def sensor_segments(self) -> dict[str, str]:
         """Sensor id → the segment it is worn on."""
@@ -65,7 +67,7 @@ class SimulatedDriver:
 
     def run(self, stop: Event) -> None:
         start = time.monotonic()
-        self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}"))
+        self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}, room {self.config.room}"))
         end = None if self.config.duration_s is None else start + self.config.duration_s
         while not stop.is_set():
             now = time.monotonic()
@@ -87,5 +89,5 @@ class SimulatedDriver:
             if end is not None and now >= end:
                 return
             if self.outbox.report_due(now):
-                self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}"))
+                self.outbox.send_report(self.report(STATE_RUNNING, f"scenario {self.config.scenario}, room {self.config.room}"))
             stop.wait(self.config.block_interval_s)

@@ -2,7 +2,8 @@
 
 Valid forms (see :data:`VALID_FORMS`)::
 
-    simulated[:SCENARIO]      the simulated suit in real time (default scenario "demo")
+    simulated[:SCENARIO][@ROOM]  the simulated suit in real time (default scenario "demo", room
+                              "clean"; e.g. simulated:demo@clinic)
     udp:BIND_ADDRESS:PORT     wireless nodes speaking the UDP protocol, e.g. udp:0.0.0.0:5555
     serial:DEVICE[@BAUD]      a serial board or radio receiver, e.g. serial:/dev/ttyUSB0@115200
     replay:FILE[@SPEED]       a session file or Xsens export, SPEED × real time (default 1)
@@ -19,9 +20,11 @@ from dataclasses import dataclass
 
 from mimucap.acquisition.slimevr_protocol import DEFAULT_PORT
 
-VALID_FORMS = ("simulated[:SCENARIO]", "udp:BIND_ADDRESS:PORT", "serial:DEVICE[@BAUD]",
+VALID_FORMS = ("simulated[:SCENARIO][@ROOM]", "udp:BIND_ADDRESS:PORT", "serial:DEVICE[@BAUD]",
                "replay:FILE[@SPEED]", "slimevr[:[BIND_ADDRESS:]PORT]")
 DEFAULT_SCENARIO = "demo"
+#: The simulated suit's room when the spec names none (the earth field alone).
+DEFAULT_ROOM = "clean"
 DEFAULT_BAUD = 115200
 #: Where SlimeVR trackers look for their server (they broadcast to this port on the LAN).
 DEFAULT_SLIMEVR_ADDRESS = "0.0.0.0"
@@ -32,6 +35,7 @@ _SCENARIO_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_\-]*$")
 @dataclass(frozen=True)
 class SimulatedSpec:
     scenario: str = DEFAULT_SCENARIO
+    room: str = DEFAULT_ROOM
 
 
 @dataclass(frozen=True)
@@ -86,11 +90,15 @@ def parse_source_spec(spec: str) -> SourceSpec:
     if not isinstance(spec, str) or not spec.strip():
         raise _error(str(spec), "empty")
     kind, _, rest = spec.strip().partition(":")
-    if kind == "simulated":
-        scenario = rest or DEFAULT_SCENARIO
+    text = spec.strip()
+    if text == "simulated" or text.startswith(("simulated:", "simulated@")):
+        scenario, sep, room = text[len("simulated"):].removeprefix(":").partition("@")
+        scenario = scenario or DEFAULT_SCENARIO
         if not _SCENARIO_RE.match(scenario):
             raise _error(spec, f"bad scenario name {scenario!r}")
-        return SimulatedSpec(scenario)
+        if sep and not _SCENARIO_RE.match(room):
+            raise _error(spec, f"bad room name {room!r}")
+        return SimulatedSpec(scenario, room if sep else DEFAULT_ROOM)
     if kind == "udp":
         address, sep, port_text = rest.rpartition(":")
         if not sep or not address:
@@ -130,7 +138,8 @@ def parse_source_spec(spec: str) -> SourceSpec:
 def format_source_spec(spec: SourceSpec) -> str:
     """The spec string of ``spec`` (``parse_source_spec(format_source_spec(s)) == s``)."""
     if isinstance(spec, SimulatedSpec):
-        return f"simulated:{spec.scenario}"
+        room = "" if spec.room == DEFAULT_ROOM else f"@{spec.room}"
+        return f"simulated:{spec.scenario}{room}"
     if isinstance(spec, UdpSpec):
         address = f"[{spec.bind_address}]" if ":" in spec.bind_address else spec.bind_address
         return f"udp:{address}:{spec.port}"

@@ -16,7 +16,7 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--source", default=None,
-        help="live source: simulated[:SCENARIO] (default: the last one chosen, first simulated:demo), udp:ADDR:PORT, serial:DEVICE[@BAUD], replay:FILE[@SPEED]",
+        help="live source: simulated[:SCENARIO][@ROOM] (default: the last one chosen, first simulated:demo), udp:ADDR:PORT, serial:DEVICE[@BAUD], replay:FILE[@SPEED]",
     )
     parser.add_argument("--screenshot", metavar="PATH", default=None, help="write the window to this PNG and exit")
     parser.add_argument("--after", metavar="SECONDS", type=float, default=3.0,

@@ -3,7 +3,7 @@
     mimucap record --source SPEC --duration S --out SESSION.h5 [--sensors 1-10] [--allow IP ...]
     mimucap record --source SPEC --duration S --subject ID [--library DIR] [--condition TEXT] [--tags A,B]
 
-SPEC is one of ``simulated[:SCENARIO]``, ``udp:BIND_ADDRESS:PORT``, ``serial:DEVICE[@BAUD]``,
+SPEC is one of ``simulated[:SCENARIO][@ROOM]``, ``udp:BIND_ADDRESS:PORT``, ``serial:DEVICE[@BAUD]``,
 ``replay:FILE[@SPEED]``. Samples are journaled to ``SESSION.h5.journal`` as they arrive
 (flushed at least every second) and turned into the session file at the end. Ctrl+C or
 SIGTERM end the recording early and still write the file. The exit code is 1 when the

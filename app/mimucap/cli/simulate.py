@@ -2,15 +2,21 @@
 
 ``mimucap simulate --scenario NAME --duration S --sensors N --seed K --out FILE.h5
 [--rate HZ] [--drops P] [--no-truth] [--errors PRESET] [--height M] [--onboard]
-[--disturbance BX,BY,BZ,START,END ...] [--[no-]magcal-turns]``
+[--disturbance BX,BY,BZ,START,END ...] [--room clean|clinic|treadmill] [--[no-]magcal-turns]``
 
 Scenarios: ``demo`` (magnetometer turns, then N-pose, T-pose, walking, turning, squats, arm
 raises, looping from the N-pose),
 ``bodycal`` (N-pose 3 s, T-pose 3 s, N-pose), or one activity (``npose``, ``tpose``,
 ``walk``, ``turn``, ``arm_raise``, ``squat``, ``mag_single_axis``, ``mag_figure8``,
-``mag_tumble``). Sensors: 1..17 (10: the ten-segment suit; 17: the fifteen-segment suit
+``mag_tumble``), or a clinical test (``tug``, ``walk10m``, ``walk2min``, ``walk6min``,
+``chair_stand``; :mod:`mimucap.core.simulate.clinical_tests`: the truth holds its true results
+in the truth group's ``protocol_json``). Sensors: 1..17 (10: the ten-segment suit; 17: the fifteen-segment suit
 with second units on thorax and pelvis). ``--disturbance`` adds a magnetic field (world ENU,
-µT) to every sensor from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. The file (format in ``docs/session-format.md``)
+µT) to every sensor from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. ``--room``
+puts the subject in a room whose field changes with position, measured by each unit where it
+is (:mod:`mimucap.core.simulate.rooms`): ``clean`` (default, the earth field alone), ``clinic``
+(a reinforced floor, strongest at the feet, and a steel bed beside the walkway, passed on the
+way out and back) or ``treadmill`` (the walking happens on a treadmill). The file (format in ``docs/session-format.md``)
 holds the raw streams, a marker at the start of each phase ("magnetometer turns", "N-pose",
 "T-pose", "walk", ...; :mod:`mimucap.core.phases`) and, unless ``--no-truth``, the ground truth.
 The demo begins with the magnetometer turns: every unit is taken off the body, the units are
@@ -32,10 +38,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mimucap.cli import check_output_path
-from mimucap.core.simulate_names import ERROR_PRESET_NAMES, SCENARIOS
+from mimucap.core.simulate.names import ERROR_PRESET_NAMES, ROOM_NAMES, SCENARIOS
 
 if TYPE_CHECKING:
-    from mimucap.core.simulate import MagneticDisturbance
+    from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 
 #: Most sensor samples (duration × rate × sensors) one simulation may hold: the simulation, its
 #: truth and the session written from it hold every sample several times over (raw channels,
@@ -66,6 +72,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--height", type=float, default=1.75, metavar="M", help="subject height in metres (default 1.75)")
     parser.add_argument("--magcal-turns", action=argparse.BooleanOptionalAction, default=None,
                         help="begin with the magnetometer turns of all units (default: for the demo only)")
+    parser.add_argument("--room", default="clean", metavar="ROOM",
+                        help=f"room whose magnetic field varies with position: {', '.join(ROOM_NAMES)} (default clean: "
+                             f"the earth field alone; clinic: reinforced floor, steel bed beside the walkway; "
+                             f"treadmill: walking on a treadmill)")
     parser.add_argument("--disturbance", action="append", default=[], metavar="BX,BY,BZ,START,END",
                         help="add a field (world ENU, µT) to all sensors from START to END s; repeatable")
     parser.set_defaults(func=run)
@@ -73,7 +83,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def parse_disturbance(text: str) -> MagneticDisturbance:
     """``"BX,BY,BZ,START,END"`` (µT, µT, µT, s, s) → a :class:`MagneticDisturbance` for all sensors."""
-    from mimucap.core.simulate import MagneticDisturbance
+    from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 
     parts = text.split(",")
     try:
@@ -101,7 +111,9 @@ def check_size(duration_s: float, rate_hz: float, n_sensors: int) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Simulate, write the file and print one summary line; bad arguments raise ValueError."""
-    from mimucap.core.simulate import SimulationConfig, error_model, simulate_session
+    from mimucap.core.simulate.config import SimulationConfig
+    from mimucap.core.simulate.sensor_errors import error_model
+    from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.session import session_from_simulation, write_session
 
     if Path(args.out).suffix.lower() not in (".h5", ".hdf5"):
@@ -115,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed, errors=errors, drop_probability=args.drops, height_m=args.height,
         disturbances=tuple(parse_disturbance(text) for text in args.disturbance),
         magcal_turns=(args.scenario == "demo") if args.magcal_turns is None else args.magcal_turns,
+        room=args.room,
     )
     check_size(config.duration_s, config.rate_hz, config.n_sensors)
     result = simulate_session(config)
@@ -124,6 +137,6 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"wrote {path}: scenario {config.scenario}, {config.n_sensors} sensors on {result.model_name}, "
         f"{config.duration_s:g} s at {config.rate_hz:g} Hz, {kept} samples ({total - kept} dropped), "
-        f"seed {config.seed}, {'no truth' if args.no_truth else 'with truth'}"
+        f"seed {config.seed}, room {config.room}, {'no truth' if args.no_truth else 'with truth'}"
     )
     return 0

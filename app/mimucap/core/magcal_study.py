@@ -28,7 +28,9 @@ from numpy.typing import NDArray
 
 from mimucap.core.magcal_fit import Ellipsoid, FitRefused, FitSettings, fit_ellipsoid
 from mimucap.core.magcal_quality import assess_quality
-from mimucap.core.simulate import EarthField, calibration_motion, error_model
+from mimucap.core.simulate.hand_held import calibration_motion
+from mimucap.core.simulate.magnetic_field import EarthField
+from mimucap.core.simulate.sensor_errors import error_model
 
 FloatArray = NDArray[np.float64]
 
@@ -182,7 +184,7 @@ class StudySettings:
 
     trials: trials per protocol [10]. seed: draws the sensor and every trial [0].
     field_uT: field magnitude [49.3, as in the study]. dip_deg: field inclination [60].
-    errors: sensor error preset of :mod:`mimucap.core.simulate` (``ERROR_PRESETS``) ["mpu9250"].
+    errors: sensor error preset of :mod:`mimucap.core.simulate.sensor_errors` (``ERROR_PRESETS``) ["mpu9250"].
     rate_hz: sample rate [100]. reference_periods: 10-s tumbling periods of the reference
     recording [5]. protocols: the protocols compared [:data:`STUDY_PROTOCOLS`].
     """

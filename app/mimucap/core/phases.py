@@ -3,7 +3,7 @@
 A session that carries its own calibration holds a marker at the start of each phase: the
 magnetometer turns (one turn about each sensor axis, the single-axis protocol of Choe, Zhao,
 Qiu and So, "Study of calibration method of low-cost MEMS magnetometer"), the N-pose, the
-T-pose, then the movements. The simulated suit writes them (:mod:`mimucap.core.simulate_motion`);
+T-pose, then the movements. The simulated suit writes them (:mod:`mimucap.core.simulate.scenarios`);
 a person marks them in the same words. A phase lasts from its marker to the next marker, or
 to the end of the recording.
 
@@ -25,6 +25,10 @@ WALK = "walk"
 TURN = "turn"
 SQUAT = "squat"
 ARM_RAISE = "arm raise"
+#: Phases of the clinical tests (Timed Up and Go, the chair stand): seated, rising, sitting down.
+SITTING = "sitting"
+SIT_TO_STAND = "sit-to-stand"
+STAND_TO_SIT = "stand-to-sit"
 
 
 def _pairs(markers: Iterable) -> list[tuple[float, str]]:

@@ -1,6 +1,6 @@
 """The source dialog: simulated suit (default), UDP, serial port, replay file or SlimeVR trackers.
 
-It builds a source spec string (``simulated:demo``, ``udp:0.0.0.0:5555``,
+It builds a source spec string (``simulated:demo``, ``simulated:demo@clinic``, ``udp:0.0.0.0:5555``,
 ``serial:/dev/ttyUSB0@115200``, ``replay:FILE@SPEED``, ``slimevr:0.0.0.0:6969``), checks it with the acquisition
 layer's parser, asks which skeleton the sensors drive (ten segments, or fifteen with head,
 hands and feet). :func:`remember_source` keeps both in the GUI settings once the main window
@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from PyQt5 import QtWidgets
 
-from mimucap.acquisition.source_spec import parse_source_spec
-from mimucap.core.simulate import SCENARIOS
+from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
+from mimucap.core.simulate.names import ROOM_NAMES, SCENARIOS
 from mimucap.gui.settings import gui_settings
 
 KINDS = ("simulated", "udp", "serial", "replay", "slimevr")
@@ -67,8 +67,13 @@ class SourceDialog(QtWidgets.QDialog):
         sim = QtWidgets.QWidget()
         self.scenario = QtWidgets.QComboBox(sim)
         self.scenario.addItems([s for s in SCENARIOS if not s.startswith("mag_")])
+        self.room = QtWidgets.QComboBox(sim)
+        self.room.addItems(ROOM_NAMES)
+        self.room.setToolTip("clean: the earth field alone; clinic: a reinforced floor and a steel bed beside "
+                             "the walkway; treadmill: walking on a treadmill")
         form = QtWidgets.QFormLayout(sim)
         form.addRow("Scenario", self.scenario)
+        form.addRow("Room", self.room)
         udp, self.udp_address, self.udp_port = self._listen_page(5555)
         serial = QtWidgets.QWidget()
         self.serial_device = QtWidgets.QLineEdit("/dev/ttyUSB0", serial)
@@ -147,11 +152,12 @@ class SourceDialog(QtWidgets.QDialog):
             parsed = parse_source_spec(spec)
         except ValueError:
             spec, parsed = DEFAULT_SPEC, parse_source_spec(DEFAULT_SPEC)
-        kind = spec.split(":", 1)[0]
+        kind = "simulated" if isinstance(parsed, SimulatedSpec) else spec.split(":", 1)[0]
         self.kind_buttons[kind].setChecked(True)
         self.stack.setCurrentIndex(KINDS.index(kind))
         if kind == "simulated":
             self.scenario.setCurrentText(parsed.scenario)
+            self.room.setCurrentText(parsed.room)
         elif kind == "udp":
             self.udp_address.setText(parsed.bind_address)
             self.udp_port.setValue(parsed.port)
@@ -172,7 +178,7 @@ class SourceDialog(QtWidgets.QDialog):
         """The spec the controls describe (not yet validated)."""
         kind = self.current_kind()
         if kind == "simulated":
-            return f"simulated:{self.scenario.currentText()}"
+            return format_source_spec(SimulatedSpec(self.scenario.currentText(), self.room.currentText()))
         if kind == "udp":
             return f"udp:{self.udp_address.text().strip()}:{self.udp_port.value()}"
         if kind == "serial":

@@ -116,7 +116,8 @@ class SessionTruth:
     ``q_world_from_segment`` segment name → (T,4); ``joint_angles_deg`` column name (as in
     ``skeleton.joint_angle_columns``) → (T,) degrees; ``sensors`` sensor id → :class:`SensorTruth`;
     ``field_world_uT`` (3,) undisturbed earth field (ENU, µT); ``extra`` name → array with T rows
-    (e.g. ``mag_axis_turned``) or any array; ``attributes`` JSON-serialisable notes.
+    (e.g. ``mag_axis_turned``) or any array; ``attributes`` JSON-serialisable notes;
+    ``protocol`` the true results of a clinical test (written as the attribute ``protocol_json``).
     """
 
     t_s: np.ndarray
@@ -126,6 +127,7 @@ class SessionTruth:
     field_world_uT: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     attributes: dict[str, Any] = field(default_factory=dict)
+    protocol: dict[str, Any] | None = None
 
 
 @dataclass
@@ -332,6 +334,8 @@ _SENSOR_TRUTH_FIELDS: dict[str, str] = {
 def _write_truth(group: h5py.Group, truth: SessionTruth) -> None:
     g = _group(group, "truth")
     g.attrs["attributes_json"] = _json(truth.attributes, "truth attributes")
+    if truth.protocol is not None:
+        g.attrs["protocol_json"] = _json(truth.protocol, "truth protocol")
     _dataset(g, "t_s", np.asarray(truth.t_s, dtype=np.float64), "s")
     if truth.field_world_uT is not None:
         _dataset(g, "field_world_uT", np.asarray(truth.field_world_uT, dtype=np.float64), "uT")
@@ -582,10 +586,12 @@ class _Reader:
             )
         extra_group = self.group(g, "extra", required=False)
         attributes = self.json(str(g.attrs.get("attributes_json", "{}")), "truth attributes_json")
+        protocol = g.attrs.get("protocol_json")
         return SessionTruth(
             t_s=t_s, q_world_from_segment=segments, joint_angles_deg=angles, sensors=sensors,
             field_world_uT=field_world, extra={} if extra_group is None else self.nested(extra_group),
             attributes=attributes,
+            protocol=None if protocol is None else self.json(str(protocol), "truth protocol_json"),
         )
 
     def session(self, include_truth: bool) -> Session:
@@ -737,7 +743,7 @@ def session_duration_s(session: Session) -> float:
 
 
 def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, include_truth: bool = True) -> Session:
-    """A :class:`Session` holding a :class:`mimucap.core.simulate.SimulationResult`.
+    """A :class:`Session` holding a :class:`mimucap.core.simulate.suit.SimulationResult`.
 
     Sensors keep the simulated samples (dropped packets absent); ``metadata["source"]``
     records the scenario, seed, rate, sensor count, model, error model and earth field so the
@@ -756,7 +762,7 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
         "seed": config.seed, "model": result.model_name, "height_m": result.height_m,
         "errors": asdict(errors), "earth_field": asdict(config.earth_field),
         "disturbances": [asdict(d) for d in config.disturbances], "random_mounting": config.random_mounting,
-        "magcal_turns": config.magcal_turns,
+        "magcal_turns": config.magcal_turns, "room": config.room,
     }
     metadata = {
         "source": source,
@@ -785,7 +791,9 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
             sensors=sensor_truth, field_world_uT=np.asarray(result.field_world_uT),
             extra={"root_position_m": tr.root_position_m, "mag_axis_turned": tr.mag_axis_turned,
                    "foot_contact": tr.foot_contact},
-            attributes={"joint_angle_sequence": "ZXY", "model": result.model_name, "height_m": result.height_m},
+            attributes={"joint_angle_sequence": "ZXY", "model": result.model_name, "height_m": result.height_m,
+                        "room": config.room},
+            protocol=getattr(result, "protocol", None),
         )
     return Session(
         metadata=metadata, sensors=sensors, markers=[Marker(float(t), label) for t, label in result.markers],

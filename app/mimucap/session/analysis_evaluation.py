@@ -27,7 +27,8 @@ import numpy as np
 
 from mimucap.core import bodycal, skeleton
 from mimucap.core.analysis.strides import Stride
-from mimucap.core.simulate import SimulationConfig, SimulationResult, simulate_session
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import SimulationResult, simulate_session
 from mimucap.io.gait_csv import ReferenceStride
 from mimucap.io.session import Marker, session_from_simulation, write_session
 from mimucap.session.analysis import SessionAnalysis, analyse_review

@@ -36,7 +36,7 @@ import numpy as np
 from mimucap.core.bodycal import static_alignment
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples, concatenate_samples
-from mimucap.core.simulate import SuitSimulator
+from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.session.instructions import Instruction
 
 

@@ -5,7 +5,7 @@ monotonic clock (``time.monotonic()``, s) and per-sensor statistics. Both feeds 
 same blocks, so the rest of the live pipeline (fusion, calibration, recording) does not care
 which one runs:
 
-* :class:`SimulatorFeed` runs :class:`~mimucap.core.simulate.SuitSimulator` in this process,
+* :class:`SimulatorFeed` runs :class:`~mimucap.core.simulate.suit.SuitSimulator` in this process,
   advanced by the clock each :meth:`poll` (like the simulated acquisition driver); its
   subject follows the calibration procedures' instructions (:meth:`SimulatorFeed.follow`) and
   its true state (``feed.last_truth``) is kept for evaluation only;
@@ -26,7 +26,9 @@ from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_FAILED
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.supervisor import Supervisor
 from mimucap.core.samples import SensorSamples
-from mimucap.core.simulate import SENSOR_PLACEMENTS, SimulationConfig, SuitSimulator, SuitTruth
+from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SimulationConfig
+from mimucap.core.simulate.suit import SuitSimulator
+from mimucap.core.simulate.truth import SuitTruth
 from mimucap.session import instructions
 from mimucap.session.instructions import Instruction
 from mimucap.session.sources import SourceOptions, sensor_segments, source_configs

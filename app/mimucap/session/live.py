@@ -54,7 +54,7 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.acquisition.source_spec import SimulatedSpec, parse_source_spec
+from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
 from mimucap.core import bodycal, skeleton
 from mimucap.core.fusion import FLAG_NAMES
 from mimucap.core.magcal import MagCalibration
@@ -62,7 +62,8 @@ from mimucap.core.pipeline import (
     POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorOrientations,
 )
 from mimucap.core.samples import SensorSamples, join_per_sensor
-from mimucap.core.simulate import SimulationConfig, SuitTruth
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.truth import SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
@@ -278,7 +279,7 @@ class LiveSession:
     # -- source ----------------------------------------------------------------------------
     @property
     def simulator(self):
-        """The in-process :class:`~mimucap.core.simulate.SuitSimulator`, or ``None`` (for the
+        """The in-process :class:`~mimucap.core.simulate.suit.SuitSimulator`, or ``None`` (for the
         evaluation of its truth; the pipeline and the procedures never ask for it)."""
         return getattr(self.feed, "simulator", None)
 
@@ -891,7 +892,7 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
                       calibration_store: CalibrationStore | None = None) -> LiveSession:
     """A live session (not started) for source ``spec``.
 
-    ``simulated[:SCENARIO]`` runs the simulated suit (``n_sensors`` at ``rate_hz``) in process
+    ``simulated[:SCENARIO][@ROOM]`` runs the simulated suit (``n_sensors`` at ``rate_hz``) in process
     (wizards can direct it) unless ``in_process_simulator`` is False; everything else
     (``udp:``, ``serial:``, ``replay:``) runs in acquisition workers.
 
@@ -910,9 +911,9 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
     if isinstance(parsed, SimulatedSpec) and in_process_simulator:
         if n_sensors is None:
             n_sensors = 17 if model_name == "fifteen_segment" else 10
-        config = SimulationConfig(scenario=parsed.scenario, n_sensors=n_sensors, rate_hz=rate_hz)
+        config = SimulationConfig(scenario=parsed.scenario, n_sensors=n_sensors, rate_hz=rate_hz, room=parsed.room)
         feed = SimulatorFeed(config, clock=clock)
-        return LiveSession(feed, f"simulated:{parsed.scenario}", model_name=config.model_name,
+        return LiveSession(feed, format_source_spec(parsed), model_name=config.model_name,
                            height_m=config.height_m, clock=clock, calibration_store=store)
     options = SourceOptions() if n_sensors is None else SourceOptions(sensor_count=n_sensors)
     feed = SupervisorFeed(spec, options)

@@ -135,7 +135,7 @@ def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOption
         # SlimeVR trackers name their sensors by MAC (see acquisition.slimevr); wire ids do not apply
         return [SlimeVrSourceConfig(name=name or "slimevr", bind_address=spec.bind_address, port=spec.port)]
     if isinstance(spec, SimulatedSpec):
-        return [SimulatedSourceConfig(name=name or "simulated", scenario=spec.scenario,
+        return [SimulatedSourceConfig(name=name or "simulated", scenario=spec.scenario, room=spec.room,
                                       n_sensors=options.sensor_count, rate_hz=options.rate_hz,
                                       seed=options.seed)]
     raise TypeError(f"not a source spec: {spec!r}")

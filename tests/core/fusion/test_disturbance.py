@@ -12,8 +12,9 @@ from mimucap.core import rotation as rot
 from mimucap.core.fusion.ekf import fuse
 from mimucap.core.fusion.evaluation import error_angles_rad
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS
-from mimucap.core.simulate import SimulationConfig, simulate_session
-from mimucap.core.simulate_sensors import MagneticDisturbance
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import simulate_session
+from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 
 EPISODE_S = (25.0, 40.0)
 NO_GATE = replace(DEFAULT_FUSION_PARAMS, mag_norm_tol=100.0, mag_dip_tol_rad=4.0)

@@ -34,7 +34,7 @@ from mimucap.core import skeleton
 from mimucap.core.clinical_names import in_clinical_words, segment_name
 from mimucap.gui.assignment_dialog import remember_assignment
 from mimucap.core.bodycal import fill_missing_segments
-from mimucap.core.simulate import SuitSimulator
+from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.wizards.pictures import PictureWidget

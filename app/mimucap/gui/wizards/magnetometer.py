@@ -28,7 +28,7 @@ import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.magcal_guidance import AXIS_NAMES
-from mimucap.core.simulate import SuitSimulator
+from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session

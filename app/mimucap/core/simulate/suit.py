@@ -1,23 +1,15 @@
 """Simulated sensor suit with ground truth: a skeleton moved through scripted activities,
 measured by sensors with a realistic error model.
 
-* :class:`SimulationConfig` (frozen): scenario, duration, number of sensors, rate, seed,
-  error model, earth field, disturbances, subject height.
 * :func:`simulate_session` runs a whole scenario at once and returns a
   :class:`SimulationResult` (measurements, truth, true parameters).
 * :class:`SuitSimulator` streams the same simulation block by block (``advance``); blocks
   concatenate to exactly the batch result, and ``set_activity`` makes the subject do what a
   wizard asks (blended in over 0.5 s).
-* :func:`calibration_motion` (from :mod:`mimucap.core.simulate_calibration`) simulates one
-  hand-held sensor doing a magnetometer-calibration motion.
 
-Sensors: ``S01``..``S10`` on the ten segments of ``ten_segment`` (pelvis, thorax,
-upper_arm_l/r, forearm_l/r, thigh_l/r, shank_l/r); ``S11``..``S15`` add head, hand_l/r and
-foot_l/r (``fifteen_segment``); ``S16`` is a second unit on the thorax (upper back) and
-``S17`` a second unit on the pelvis (right side), for redundancy checks. ``n_sensors`` ≤ 10
-uses the ten-segment model, more the fifteen-segment one (17: the full suit). Each unit sits
-on the skin of its segment (see :data:`SENSOR_PLACEMENTS`) with a uniformly random but known
-mounting rotation ``q_segment_from_sensor``.
+:class:`~mimucap.core.simulate.config.SimulationConfig` holds the settings; the samples and
+truth come as :class:`~mimucap.core.simulate.truth.SuitBlock`. A hand-held sensor's
+magnetometer-calibration motion alone is :func:`mimucap.core.simulate.hand_held.calibration_motion`.
 
 Frames: world ENU (z up), segment frames ISB (x anterior, y superior, z right), sensor
 frames the device axes; quaternions scalar-first Hamilton, ``q_A_from_B``. Units: s, m,
@@ -32,64 +24,33 @@ point by a central second difference of its true position, plus gravity 9.81 m/s
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from mimucap.core import rotation as rot
 from mimucap.core import skeleton
-from mimucap.core.samples import SensorSamples, concatenate_samples
-from mimucap.core.simulate_calibration import PROTOCOLS, CalibrationMotion, calibration_motion
-from mimucap.core.simulate_motion import (
-    ACTIVITY_NAMES,
-    BLEND_S,
-    SCENARIOS,
-    Schedule,
-    Walk,
-    scenario_activities,
-)
-from mimucap.core.simulate_sensors import (
+from mimucap.core.samples import SensorSamples
+from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS, protocol_truth
+from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SensorMounting, SimulationConfig
+from mimucap.core.simulate.names import SCENARIOS
+from mimucap.core.simulate.rooms import room
+from mimucap.core.simulate.magnetic_field import disturbed_field
+from mimucap.core.simulate.scenarios import scenario_activities
+from mimucap.core.simulate.schedule import Schedule
+from mimucap.core.simulate.sensor_errors import (
     ACC_DIFF_STEP_S,
-    ERROR_PRESETS,
-    GRAVITY_MPS2,
-    IDEAL_SENSOR,
-    EarthField,
-    MagneticDisturbance,
-    SensorErrorModel,
     SensorNoise,
     SensorParameters,
-    disturbed_field,
     draw_sensor_parameters,
-    error_model,
     measure,
     stack_noise,
     stack_parameters,
 )
+from mimucap.core.simulate.truth import SuitBlock, SuitTruth, slice_block
+from mimucap.core.simulate.walking import Walk
 
-#: Where each unit is worn: (sensor id, segment, position along the segment as a fraction of
-#: its length from the proximal joint, outward surface normal in the segment frame).
-SENSOR_PLACEMENTS: tuple[tuple[str, str, float, tuple[float, float, float]], ...] = (
-    ("S01", "pelvis", 0.5, (-1.0, 0.0, 0.0)),       # sacrum
-    ("S02", "thorax", 0.6, (1.0, 0.0, 0.0)),        # sternum
-    ("S03", "upper_arm_l", 0.5, (0.0, 0.0, -1.0)),  # lateral upper arm
-    ("S04", "upper_arm_r", 0.5, (0.0, 0.0, 1.0)),
-    ("S05", "forearm_l", 0.7, (0.0, 0.0, -1.0)),    # lateral forearm near the wrist
-    ("S06", "forearm_r", 0.7, (0.0, 0.0, 1.0)),
-    ("S07", "thigh_l", 0.5, (0.0, 0.0, -1.0)),      # lateral thigh
-    ("S08", "thigh_r", 0.5, (0.0, 0.0, 1.0)),
-    ("S09", "shank_l", 0.4, (0.0, 0.0, -1.0)),      # lateral shank
-    ("S10", "shank_r", 0.4, (0.0, 0.0, 1.0)),
-    ("S11", "head", 0.6, (-1.0, 0.0, 0.0)),         # back of the head
-    ("S12", "hand_l", 0.3, (0.0, 0.0, -1.0)),       # back of the hand (palms face in at N-pose)
-    ("S13", "hand_r", 0.3, (0.0, 0.0, 1.0)),
-    ("S14", "foot_l", 0.5, (0.0, 1.0, 0.0)),        # top of the foot
-    ("S15", "foot_r", 0.5, (0.0, 1.0, 0.0)),
-    ("S16", "thorax", 0.7, (-1.0, 0.0, 0.0)),       # upper back (second thorax unit)
-    ("S17", "pelvis", 0.5, (0.0, 0.0, 1.0)),        # right side of the pelvis (second pelvis unit)
-)
-MAX_SENSORS = len(SENSOR_PLACEMENTS)
 #: Scale (m) of the smooth minimum that keeps the lower ankle on the ground.
 GROUND_SOFTNESS_M = 0.02
 _STREAM_MOUNTING = 505
@@ -97,169 +58,13 @@ _STREAM_MOUNTING = 505
 BATCH_CHUNK_S = 10.0
 
 
-@dataclass(frozen=True)
-class SimulationConfig:
-    """Settings of one simulation (defaults give the ten-sensor demo at 100 Hz).
-
-    ``scenario``: one of :data:`SCENARIOS` (``demo`` loops N-pose, T-pose, walking, turning,
-    squats and arm raises; ``bodycal`` N-pose 3 s, T-pose 3 s, N-pose; an activity name runs
-    that activity); ``scenario_params`` keyword parameters of that activity (e.g.
-    ``{"arms": "right"}`` for ``tpose``, ``{"sensor_ids": ["S01", "S02"]}`` for
-    ``mag_single_axis``); ``duration_s`` for :func:`simulate_session`; ``n_sensors`` 1..17;
-    ``rate_hz`` 10..1000; ``seed`` makes everything reproducible; ``errors`` a
-    :class:`SensorErrorModel` or preset name (``default``, ``ideal``, ``mpu9250``, ``bno055``);
-    ``drop_probability`` overrides the error model's when not None; ``earth_field``;
-    ``disturbances`` local field episodes; ``height_m`` subject height; ``model`` skeleton
-    model name (default by ``n_sensors``); ``random_mounting`` False mounts every unit aligned
-    with its segment; ``magcal_turns`` True begins the scenario with the magnetometer turns of
-    every unit held together (:func:`mimucap.core.simulate_motion.magcal_turns`), as a session
-    that carries its own calibration does.
-    """
-
-    scenario: str = "demo"
-    duration_s: float = 30.0
-    n_sensors: int = 10
-    rate_hz: float = 100.0
-    seed: int = 0
-    errors: SensorErrorModel | str = "default"
-    drop_probability: float | None = None
-    earth_field: EarthField = EarthField()
-    disturbances: tuple[MagneticDisturbance, ...] = ()
-    height_m: float = 1.75
-    model: str | None = None
-    scenario_params: Mapping[str, Any] = field(default_factory=dict)
-    random_mounting: bool = True
-    magcal_turns: bool = False
-
-    def __post_init__(self) -> None:
-        if self.scenario not in SCENARIOS:
-            raise ValueError(f"unknown scenario {self.scenario!r}; use one of {', '.join(SCENARIOS)}")
-        if int(self.n_sensors) != self.n_sensors or not 1 <= self.n_sensors <= MAX_SENSORS:
-            raise ValueError(
-                f"number of sensors must be 1..{MAX_SENSORS} (10: ten-segment suit, 15: fifteen-segment suit, "
-                f"16/17: plus second units on thorax and pelvis), got {self.n_sensors}"
-            )
-        if not 10.0 <= self.rate_hz <= 1000.0:
-            raise ValueError(f"sample rate must be 10..1000 Hz, got {self.rate_hz}")
-        if not math.isfinite(self.duration_s) or self.duration_s < 0:
-            raise ValueError(f"duration must be >= 0 s, got {self.duration_s}")
-        if not 0.5 <= self.height_m <= 2.5:
-            raise ValueError(f"subject height must be 0.5..2.5 m, got {self.height_m}")
-        if self.model is not None and self.model not in skeleton.MODEL_NAMES:
-            raise ValueError(f"unknown skeleton model {self.model!r}; use one of {', '.join(skeleton.MODEL_NAMES)}")
-        error_model(self.errors)
-        # Build the scenario's activities once: unknown or bad parameters fail here.
-        scenario_activities(self.scenario, dict(self.scenario_params), sensor_ids=self.sensor_ids)
-        unknown = [s for s in self.scenario_params.get("sensor_ids", ()) if s not in self.sensor_ids]
-        if unknown:
-            raise ValueError(f"unknown sensor id(s) {', '.join(unknown)}; the suit has {', '.join(self.sensor_ids)}")
-        if self.drop_probability is not None and not 0.0 <= self.drop_probability < 0.9:
-            raise ValueError(f"drop probability must be in [0, 0.9), got {self.drop_probability}")
-
-    @property
-    def model_name(self) -> str:
-        if self.model is not None:
-            return self.model
-        return "ten_segment" if self.n_sensors <= 10 else "fifteen_segment"
-
-    @property
-    def sensor_ids(self) -> tuple[str, ...]:
-        return tuple(p[0] for p in SENSOR_PLACEMENTS[: self.n_sensors])
-
-    def error_settings(self) -> SensorErrorModel:
-        """The resolved error model (with ``drop_probability`` applied)."""
-        model = error_model(self.errors)
-        if self.drop_probability is not None:
-            model = replace(model, drop_probability=float(self.drop_probability))
-        return model
-
-
-@dataclass(frozen=True)
-class SensorMounting:
-    """How a unit is worn: ``segment``, ``q_segment_from_sensor`` (4,), ``position_in_segment_m``
-    (3,) from the segment's proximal joint in the segment frame."""
-
-    sensor_id: str
-    segment: str
-    q_segment_from_sensor: np.ndarray
-    position_in_segment_m: np.ndarray
-
-
-@dataclass
-class SuitTruth:
-    """Ground truth at every simulated sample (dropped or not), ``t_s`` (T,).
-
-    ``q_world_from_segment`` segment → (T,4); ``joint_angles_deg`` column
-    (``<joint>_<flexion|adduction|rotation>_deg``) → (T,); ``root_position_m`` (T,3) pelvis
-    root; per sensor id: ``q_world_from_sensor`` (T,4), ``position_m`` (T,3) world,
-    ``gyr_bias_rad_s`` (T,3), ``field_world_uT`` (T,3); ``mag_axis_turned`` (T,) bundle axis
-    0/1/2 turned during a hand-held magnetometer calibration, −1 otherwise; ``held`` sensor id →
-    (T,) weight of being held in the hands (1) rather than worn (0); ``foot_contact`` (T,2)
-    whether the left and right foot are on the ground (1) or in the air (0), blended like the
-    poses (gait-event truth: a contact begins where it rises through 0.5).
-    """
-
-    t_s: np.ndarray
-    q_world_from_segment: dict[str, np.ndarray]
-    joint_angles_deg: dict[str, np.ndarray]
-    root_position_m: np.ndarray
-    q_world_from_sensor: dict[str, np.ndarray]
-    position_m: dict[str, np.ndarray]
-    gyr_bias_rad_s: dict[str, np.ndarray]
-    field_world_uT: dict[str, np.ndarray]
-    mag_axis_turned: np.ndarray
-    held: dict[str, np.ndarray]
-    foot_contact: np.ndarray
-
-    @staticmethod
-    def concatenate(parts: list[SuitTruth]) -> SuitTruth:
-        def cat_dict(name: str) -> dict[str, np.ndarray]:
-            return {k: np.concatenate([getattr(p, name)[k] for p in parts]) for k in getattr(parts[0], name)}
-
-        return SuitTruth(
-            t_s=np.concatenate([p.t_s for p in parts]),
-            q_world_from_segment=cat_dict("q_world_from_segment"), joint_angles_deg=cat_dict("joint_angles_deg"),
-            root_position_m=np.concatenate([p.root_position_m for p in parts]),
-            q_world_from_sensor=cat_dict("q_world_from_sensor"), position_m=cat_dict("position_m"),
-            gyr_bias_rad_s=cat_dict("gyr_bias_rad_s"), field_world_uT=cat_dict("field_world_uT"),
-            mag_axis_turned=np.concatenate([p.mag_axis_turned for p in parts]), held=cat_dict("held"),
-            foot_contact=np.concatenate([p.foot_contact for p in parts]),
-        )
-
-
-@dataclass
-class SuitBlock:
-    """One interval of simulation: ``samples`` per sensor id, ``truth``, and ``markers``
-    ``(t_s, label)`` for activities starting in the interval (labels of :mod:`mimucap.core.phases`:
-    "magnetometer turns", "N-pose", "T-pose", "walk", ...).
-
-    A unit's :class:`~mimucap.core.samples.SensorSamples` are those it delivered (dropped ones
-    removed): ``t_s`` the true time, ``seq`` the sample numbers, ``acc``, ``gyr``, ``mag_uT``,
-    ``q_world_from_sensor`` when the units fuse on board (else None), ``device_time_s`` the
-    unit's clock, ``segment`` the segment it is worn on."""
-
-    samples: dict[str, SensorSamples]
-    truth: SuitTruth
-    markers: list[tuple[float, str]]
-
-    @staticmethod
-    def concatenate(blocks: list[SuitBlock]) -> SuitBlock:
-        """Join consecutive blocks into one."""
-        if not blocks:
-            raise ValueError("nothing to concatenate")
-        return SuitBlock(
-            samples={k: concatenate_samples([b.samples[k] for b in blocks]) for k in blocks[0].samples},
-            truth=SuitTruth.concatenate([b.truth for b in blocks]),
-            markers=[m for b in blocks for m in b.markers],
-        )
-
-
 @dataclass
 class SimulationResult:
     """A whole simulation: ``config``, ``samples``/``truth``/``markers`` as in :class:`SuitBlock`,
     true unit ``parameters`` (gyro bias, scale, magnetometer ``mag_A``/``mag_b_uT``, clock) and
     ``mounting`` per sensor id, the undisturbed ``field_world_uT`` (3,), the skeleton
-    ``model_name`` and ``height_m``."""
+    ``model_name`` and ``height_m``, and for a clinical test scenario its true results
+    ``protocol`` (:func:`mimucap.core.simulate.clinical_tests.protocol_truth`; None otherwise)."""
 
     config: SimulationConfig
     samples: dict[str, SensorSamples]
@@ -270,6 +75,7 @@ class SimulationResult:
     field_world_uT: np.ndarray
     model_name: str
     height_m: float
+    protocol: dict[str, Any] | None = None
 
 
 def _softmin(a: np.ndarray, b: np.ndarray, scale: float) -> np.ndarray:
@@ -300,6 +106,7 @@ class SuitSimulator:
         if missing:
             raise ValueError(f"model {self.model.name!r} has no segment(s) {', '.join(missing)} for {config.n_sensors} sensors")
         self.field_world_uT = config.earth_field.field_world_uT()
+        self.room = room(config.room)
         seed = int(config.seed) & 0xFFFFFFFF
         self.parameters = {
             sid: draw_sensor_parameters(seed, index, sid, self.errors) for index, sid in enumerate(self.sensor_ids)
@@ -327,6 +134,12 @@ class SuitSimulator:
         self._lengths = skeleton.segment_lengths(self.model, config.height_m)
         self.schedule = Schedule(self._activities(config.scenario, dict(config.scenario_params),
                                                   with_magcal_turns=config.magcal_turns))
+        #: The true results of a clinical test scenario (:func:`~.clinical_tests.protocol_truth`), else None.
+        self.protocol: dict[str, Any] | None = None
+        if config.scenario in CLINICAL_TESTS:
+            planned = list(self._activities(config.scenario, dict(config.scenario_params),
+                                            with_magcal_turns=config.magcal_turns))
+            self.protocol = protocol_truth(config.scenario, planned, dict(config.scenario_params))
         neutral = skeleton.forward_kinematics(
             self.model, {name: skeleton.q_world_from_body_facing(0.0) for name in self.model.segment_names},
             config.height_m,
@@ -344,7 +157,8 @@ class SuitSimulator:
         activities = scenario_activities(name, params, sensor_ids=self.sensor_ids,
                                          seed=self._seed + 7919 * self._switches, with_magcal_turns=with_magcal_turns)
         legs = (self._lengths["thigh_r"], self._lengths["shank_r"])
-        return (a.fit_legs(legs) if isinstance(a, Walk) else a for a in activities)
+        belt = self.room.treadmill
+        return (a.fit_legs(legs).on_treadmill(belt) if isinstance(a, Walk) else a for a in activities)
 
     @property
     def time_s(self) -> float:
@@ -485,13 +299,13 @@ class SuitSimulator:
             chunk = max(n, int(math.ceil(self.lookahead_s * self.rate_hz)))
             if self._cache is not None and self._cache_start <= k0 < self._cache_end:
                 # Keep the part not yet delivered and compute the rest.
-                head = _slice_block(self._cache, self._cache_start, k0, self._cache_end, self.dt)
+                head = slice_block(self._cache, self._cache_start, k0, self._cache_end, self.dt)
                 tail = self._simulate(self._cache_end, k0 + chunk - self._cache_end)
                 self._cache = SuitBlock.concatenate([head, tail])
             else:
                 self._cache = self._simulate(k0, chunk)
             self._cache_start, self._cache_end = k0, k0 + chunk
-        block = _slice_block(self._cache, self._cache_start, k0, needed_end, self.dt)
+        block = slice_block(self._cache, self._cache_start, k0, needed_end, self.dt)
         self.schedule.forget_before(k0 * self.dt - 1.0)
         self._next_sample = needed_end
         self._target_time_s = max(self._target_time_s, self._next_sample * self.dt)
@@ -510,6 +324,8 @@ class SuitSimulator:
             disturbed_field(self.field_world_uT, self.config.disturbances, sid, t, p_now[:, i])
             for i, sid in enumerate(self.sensor_ids)
         ], axis=1)
+        if not self.room.is_clean:
+            fields = fields + self.room.field_uT(p_now)
         noise = stack_noise([source.block(k0, n) for source in self._noise])
         meas = measure(self._stack, self.errors, noise, t, q_now, q_prev, acc_world, fields, self.dt)
         samples = {}
@@ -544,25 +360,6 @@ class SuitSimulator:
         return SuitBlock(samples=samples, truth=truth, markers=markers)
 
 
-def _slice_block(block: SuitBlock, block_start: int, k0: int, k1: int, dt: float) -> SuitBlock:
-    """Samples ``k0 .. k1-1`` of ``block``, whose first truth row is sample ``block_start``."""
-    a, b = k0 - block_start, k1 - block_start
-    samples = {}
-    for sid, s in block.samples.items():
-        i0, i1 = np.searchsorted(s.seq, [k0, k1])
-        samples[sid] = s.rows(slice(i0, i1))
-    tr = block.truth
-    cut = lambda d: {k: v[a:b] for k, v in d.items()}  # noqa: E731
-    truth = SuitTruth(
-        t_s=tr.t_s[a:b], q_world_from_segment=cut(tr.q_world_from_segment), joint_angles_deg=cut(tr.joint_angles_deg),
-        root_position_m=tr.root_position_m[a:b], q_world_from_sensor=cut(tr.q_world_from_sensor),
-        position_m=cut(tr.position_m), gyr_bias_rad_s=cut(tr.gyr_bias_rad_s), field_world_uT=cut(tr.field_world_uT),
-        mag_axis_turned=tr.mag_axis_turned[a:b], held=cut(tr.held), foot_contact=tr.foot_contact[a:b],
-    )
-    markers = [(t, label) for t, label in block.markers if k0 * dt <= t < k1 * dt]
-    return SuitBlock(samples=samples, truth=truth, markers=markers)
-
-
 def simulate_session(config: SimulationConfig = SimulationConfig()) -> SimulationResult:
     """Run ``config.scenario`` for ``config.duration_s`` seconds and return everything."""
     simulator = SuitSimulator(config, lookahead_s=0.0)
@@ -579,12 +376,5 @@ def simulate_session(config: SimulationConfig = SimulationConfig()) -> Simulatio
         config=config, samples=block.samples, truth=block.truth, markers=block.markers,
         parameters=dict(simulator.parameters), mounting=dict(simulator.mounting),
         field_world_uT=simulator.field_world_uT, model_name=simulator.model.name, height_m=config.height_m,
+        protocol=simulator.protocol,
     )
-
-
-__all__ = [
-    "ACTIVITY_NAMES", "BLEND_S", "SCENARIOS", "SENSOR_PLACEMENTS", "MAX_SENSORS", "SimulationConfig",
-    "SimulationResult", "SuitSimulator", "SuitBlock", "SuitTruth", "SensorMounting",
-    "simulate_session", "PROTOCOLS", "CalibrationMotion", "calibration_motion", "ERROR_PRESETS",
-    "GRAVITY_MPS2", "IDEAL_SENSOR", "EarthField", "MagneticDisturbance", "SensorErrorModel", "error_model",
-]

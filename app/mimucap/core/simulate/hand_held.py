@@ -1,7 +1,7 @@
 """Magnetometer-calibration motions of one hand-held sensor, with ground truth.
 
-Protocols (the single-axis protocol of Choe, Zhao, Qiu, So, "Study of calibration method of low-cost
-MEMS magnetometer", and two common alternatives):
+Protocols (the single-axis protocol of Choe, Zhao, Qiu and So, "Study of calibration method
+of low-cost MEMS magnetometer", and two common alternatives):
 
 * ``"single_axis"``: the sensor is turned ``turns`` full turns about its x axis, then its y
   axis, then its z axis; before each, the hand re-grasps it so that the axis to be turned is
@@ -16,7 +16,7 @@ MEMS magnetometer", and two common alternatives):
 
 Frames: world ENU, ``q_world_from_sensor`` scalar-first. Units: s, m/s², rad/s, µT.
 The returned :class:`CalibrationMotion` holds the raw measurements (error model of
-:mod:`mimucap.core.simulate_sensors`), the true orientation, the true hard/soft iron and the
+:mod:`mimucap.core.simulate.sensor_errors`), the true orientation, the true hard/soft iron and the
 field, and which sensor axis is being turned at each sample (single-axis protocol).
 """
 
@@ -27,15 +27,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from mimucap.core import rotation as rot
-from mimucap.core.simulate_sensors import (
-    EarthField,
+from mimucap.core.simulate.magnetic_field import EarthField
+from mimucap.core.simulate.minimum_jerk import minimum_jerk
+from mimucap.core.simulate.sensor_errors import (
     SensorErrorModel,
     SensorNoise,
     SensorParameters,
     draw_sensor_parameters,
     error_model,
     measure,
-    minimum_jerk,
     sample_kinematics,
 )
 
