@@ -26,6 +26,19 @@ def free_udp_port() -> int:
         return sock.getsockname()[1]
 
 
+def wait_until_bound(port: int, timeout_s: float = 60.0) -> None:
+    """Until a socket is bound to UDP ``port`` (read from ``/proc/net/udp``, so that the test never
+    holds the port itself while the worker binds it)."""
+    suffix = f":{port:04X}"
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        lines = Path("/proc/net/udp").read_text().splitlines()[1:]
+        if any(line.split()[1].endswith(suffix) for line in lines if len(line.split()) > 1):
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"nothing bound UDP port {port} within {timeout_s:.0f} s")
+
+
 def children_of(pid: int) -> list[int]:
     found = []
     for entry in Path("/proc").iterdir():
@@ -92,7 +105,7 @@ def test_emulated_udp_nodes_recorded_with_loss_reported_as_drops(tmp_path):
     record = subprocess.Popen(MIMUCAP + ["record", "--source", f"udp:127.0.0.1:{port}", "--duration", "5",
                                          "--out", str(out), "--sensors", "1-3", "--quiet"],
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    time.sleep(1.0)   # let the worker bind the port
+    wait_until_bound(port)   # the worker has bound the port: nothing the emulator sends is lost before
     emulate = subprocess.run(MIMUCAP + ["emulate", "udp", "--sensors", "4", "--rate", "100", "--target",
                                         f"127.0.0.1:{port}", "--loss", "0.1", "--duration", "2.5",
                                         "--drift", "100", "--offset-ms", "40"],

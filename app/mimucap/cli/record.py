@@ -6,7 +6,9 @@
 SPEC is one of ``simulated[:SCENARIO][@ROOM]``, ``udp:BIND_ADDRESS:PORT``, ``serial:DEVICE[@BAUD]``,
 ``replay:FILE[@SPEED]``. Samples are journaled to ``SESSION.h5.journal`` as they arrive
 (flushed at least every second) and turned into the session file at the end. Ctrl+C or
-SIGTERM end the recording early and still write the file. The exit code is 1 when the
+SIGTERM end the recording early and still write the file. The duration counts from the moment
+every source is up (its worker started, its port bound or its device opened; at most
+:data:`STARTUP_LIMIT_S` after the start), so that a slow start does not shorten the recording. The exit code is 1 when the
 recording ended by an error (the message says how to recover the journal), and when it
 received no sample at all (the message gives the source's last complaint, e.g. a device that
 cannot be opened; the empty session file is still written). Options that do not apply to the
@@ -144,10 +146,13 @@ def run(args: argparse.Namespace) -> int:
     last_troubles = ""  # the sources' last complaint (e.g. a device that cannot be opened)
     try:
         supervisor.start()
-        end = time.monotonic() + args.duration
-        next_line = time.monotonic() + 1.0
+        started = time.monotonic()
+        end = math.inf  # set when the sources are up: --duration seconds of data, however slow the start
+        next_line = started + 1.0
         while True:
             now = time.monotonic()
+            if end == math.inf and (_sources_up(supervisor) or now - started >= STARTUP_LIMIT_S):
+                end = now + args.duration
             if now >= end:
                 break
             if stop.requested:
@@ -157,7 +162,7 @@ def run(args: argparse.Namespace) -> int:
                 failed = any(s.state == "failed" for s in supervisor.sources().values())
                 reason = "source failed" if failed else "source finished"
                 break
-            blocks = supervisor.poll(min(0.05, end - now))
+            blocks = supervisor.poll(min(0.05, end - now))  # 0.05 s while the sources start
             for host_s, label in supervisor.take_markers():
                 recorder.add_marker(label, host_s)
             if not recorder.add_blocks(blocks):
@@ -230,6 +235,18 @@ def library_recording(args: argparse.Namespace):
     path = library.recording_path(args.subject, args.trial)
     fields = library_fields(args.condition, args.tags.split(","), args.trial or path.stem.rsplit("_", 1)[-1])
     return library, path, {"subject": subject, "library": fields}
+
+
+#: How long (s) the sources may take to start (worker processes spawned, a port bound, a device
+#: opened) before the recording's duration starts counting anyway.
+STARTUP_LIMIT_S = 10.0
+
+
+def _sources_up(supervisor) -> bool:
+    """Every source has left its start-up (running, or already finished, failed or disconnected)."""
+    from mimucap.acquisition.messages import STATE_STARTING
+
+    return all(status.state != STATE_STARTING for status in supervisor.sources().values())
 
 
 def _reason_text(reason: str) -> str:
