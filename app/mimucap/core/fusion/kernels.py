@@ -35,11 +35,13 @@ import math
 import numpy as np
 from numba import njit
 
-from mimucap.core.fusion.disturbance import acc_noise_var, lowpass_gain, mag_accept, rest_update
+from mimucap.core.fusion.disturbance import (
+    acc_noise_var, heading_noise_var, lowpass_gain, mag_accept, rest_update,
+)
 from mimucap.core.fusion.jit import JIT_OPTIONS, LAYOUT_FINGERPRINT, refresh_if_stale
 from mimucap.core.fusion.params import (
     PI_ACC_LP_TAU, PI_ACC_RANGE, PI_BIAS_MAX, PI_BIAS_WALK, PI_GAP_RATE, PI_GYR_NOISE, PI_GYR_RANGE,
-    PI_DECLINATION, PI_HEADING_NOISE, PI_INIT_BIAS, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
+    PI_GYR_SCALE_NOISE, PI_DECLINATION, PI_INIT_BIAS, PI_MAG_DELAY, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
     PI_METHOD, PI_REST_BIAS_NOISE, PI_USE_ACC, PI_USE_MAG, PI_CORRECT,
 )
 from mimucap.core.fusion.propagation import (
@@ -60,6 +62,23 @@ def _vector_sample(values, k, range2):
     x, y, z = values[k, 0], values[k, 1], values[k, 2]
     n2 = x * x + y * y + z * z
     return x, y, z, n2, n2 > 1e-6 and n2 <= range2
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _turn_by_rate(x, y, z, wx, wy, wz, delay):
+    """A world-fixed vector seen by the sensor ``delay`` (s) ago, ``(x, y, z)`` in the sensor
+    frame, as the sensor sees it now after turning at the body rate ``w`` (rad/s):
+    the rotation by ``r = −w·delay`` (Rodrigues' formula)."""
+    rx, ry, rz = -wx * delay, -wy * delay, -wz * delay
+    th2 = rx * rx + ry * ry + rz * rz
+    if th2 < 1e-8:
+        a, b = 1.0 - th2 / 6.0, 0.5 - th2 / 24.0
+    else:
+        th = math.sqrt(th2)
+        a, b = math.sin(th) / th, (1.0 - math.cos(th)) / th2
+    cx, cy, cz = ry * z - rz * y, rz * x - rx * z, rx * y - ry * x
+    ccx, ccy, ccz = ry * cz - rz * cy, rz * cx - rx * cz, rx * cy - ry * cx
+    return x + a * cx + b * ccx, y + a * cy + b * ccy, z + a * cz + b * ccz
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -247,9 +266,10 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
     acc_range2 = p[PI_ACC_RANGE] ** 2
     mag_range2 = p[PI_MAG_RANGE] ** 2
     q_gyr = p[PI_GYR_NOISE] ** 2
+    q_scale = p[PI_GYR_SCALE_NOISE] ** 2
+    mag_delay = p[PI_MAG_DELAY]
     q_bias = p[PI_BIAS_WALK] ** 2
     bias_max = p[PI_BIAS_MAX]
-    var_heading = p[PI_HEADING_NOISE] ** 2
     declination = p[PI_DECLINATION]
     var_rest = p[PI_REST_BIAS_NOISE] ** 2
     R = np.empty((3, 3))
@@ -398,7 +418,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                         P[i, j] = 0.5 * (T[i, j] + T[j, i])
                         P[i, 3 + j] = M[i, j]
                         P[3 + j, i] = M[i, j]
-                v = q_gyr * dt
+                v = (q_gyr + q_scale * (wx * wx + wy * wy + wz * wz)) * dt
                 vb = q_bias * dt
                 for i in range(3):
                     P[i, i] += v
@@ -438,6 +458,8 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     updated = True
             # heading
             if mag_ok:
+                if mag_delay > 0.0:
+                    mx, my, mz = _turn_by_rate(mx, my, mz, wx, wy, wz, mag_delay)
                 mwx = R[0, 0] * mx + R[0, 1] * my + R[0, 2] * mz
                 mwy = R[1, 0] * mx + R[1, 1] * my + R[1, 2] * mz
                 mwz = R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz
@@ -450,7 +472,8 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                         psi -= 2.0 * math.pi
                     elif psi < -math.pi:
                         psi += 2.0 * math.pi
-                    _heading_update(P, dx, c, psi, var_heading)
+                    _heading_update(P, dx, c, psi,
+                                    heading_noise_var(p, aux, nm, math.atan2(-mwz, hnorm), hnorm))
                     updated = True
                 else:
                     flags |= FLAG_MAG_REJECTED
