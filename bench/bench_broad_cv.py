@@ -45,8 +45,8 @@ from mimucap.io.broad import BroadTrial, list_broad_trials, read_broad
 
 #: The settings cross-validated and the values tried.
 GRID: dict[str, tuple[float, ...]] = {
-    "heading_field_error_gain": (0.0, 2.0, 4.0, 6.0, 8.0),
-    "gyr_scale_noise_sqrt_s": (0.0, 0.0005, 0.001, 0.0015),
+    "heading_field_error_gain": (0.0, 1.0, 2.0, 3.0, 4.0),
+    "gyr_scale_noise_sqrt_s": (0.0, 0.00025, 0.0005, 0.00075),
 }
 
 #: Categories of the trial names, first match wins.

@@ -11,7 +11,7 @@ orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
   ``Φ = [[I, −R·dt], [0, I]]`` with ``R = R_world_from_sensor``. This is the seed's
   ``Fc = [[−[ω×], −I], [0, 0]]`` written for the world-frame error ``δθ_w = R·δθ_sensor``
   (the ``−[ω×]`` term vanishes in that frame); process noise ``Q = diag(σ_g²·dt·I,
-  σ_bw²·dt·I)``.
+  σ_bw²·dt·I)`` plus the scale-factor term ``k²·‖ω‖²·dt`` on the attitude.
 * Gravity: the specific force rotated into the world, ``R·a``, is low-passed (time constant
   ``acc_lowpass_tau_s``; the low-pass state turns with every attitude correction) so that
   linear accelerations average out; its direction ``u ≈ e_z + e_z × δθ`` gives
@@ -19,7 +19,8 @@ orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
 * Heading: the tilt-compensated magnetometer ``m_w = R·m`` has the heading residual
   ``atan2(m_w,x, m_w,y) − declination = δθ_z`` (north along +y). Its Kalman gain rows of the tilt
   states are set to zero (Joseph-form covariance update), so the magnetometer corrects the
-  heading and the bias, never the tilt.
+  heading and the bias, never the tilt. Its noise grows with the field's distance from the
+  learned reference (:func:`~.disturbance.heading_noise_var`).
 * Rest: zero-rate update of the bias, measurement ``ω_raw = b``.
 * All updates of one sample share one linearisation point (sequential scalar updates of the
   error state), which is then injected once: ``q ← exp(δθ) ⊗ q``, ``b ← b + δb``.
@@ -41,7 +42,7 @@ from mimucap.core.fusion.disturbance import (
 from mimucap.core.fusion.jit import JIT_OPTIONS, LAYOUT_FINGERPRINT, refresh_if_stale
 from mimucap.core.fusion.params import (
     PI_ACC_LP_TAU, PI_ACC_RANGE, PI_BIAS_MAX, PI_BIAS_WALK, PI_GAP_RATE, PI_GYR_NOISE, PI_GYR_RANGE,
-    PI_GYR_SCALE_NOISE, PI_DECLINATION, PI_INIT_BIAS, PI_MAG_DELAY, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
+    PI_GYR_SCALE_NOISE, PI_DECLINATION, PI_INIT_BIAS, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
     PI_METHOD, PI_REST_BIAS_NOISE, PI_USE_ACC, PI_USE_MAG, PI_CORRECT,
 )
 from mimucap.core.fusion.propagation import (
@@ -62,23 +63,6 @@ def _vector_sample(values, k, range2):
     x, y, z = values[k, 0], values[k, 1], values[k, 2]
     n2 = x * x + y * y + z * z
     return x, y, z, n2, n2 > 1e-6 and n2 <= range2
-
-
-@njit(inline="always", **JIT_OPTIONS)
-def _turn_by_rate(x, y, z, wx, wy, wz, delay):
-    """A world-fixed vector seen by the sensor ``delay`` (s) ago, ``(x, y, z)`` in the sensor
-    frame, as the sensor sees it now after turning at the body rate ``w`` (rad/s):
-    the rotation by ``r = −w·delay`` (Rodrigues' formula)."""
-    rx, ry, rz = -wx * delay, -wy * delay, -wz * delay
-    th2 = rx * rx + ry * ry + rz * rz
-    if th2 < 1e-8:
-        a, b = 1.0 - th2 / 6.0, 0.5 - th2 / 24.0
-    else:
-        th = math.sqrt(th2)
-        a, b = math.sin(th) / th, (1.0 - math.cos(th)) / th2
-    cx, cy, cz = ry * z - rz * y, rz * x - rx * z, rx * y - ry * x
-    ccx, ccy, ccz = ry * cz - rz * cy, rz * cx - rx * cz, rx * cy - ry * cx
-    return x + a * cx + b * ccx, y + a * cy + b * ccy, z + a * cz + b * ccz
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -267,7 +251,6 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
     mag_range2 = p[PI_MAG_RANGE] ** 2
     q_gyr = p[PI_GYR_NOISE] ** 2
     q_scale = p[PI_GYR_SCALE_NOISE] ** 2
-    mag_delay = p[PI_MAG_DELAY]
     q_bias = p[PI_BIAS_WALK] ** 2
     bias_max = p[PI_BIAS_MAX]
     declination = p[PI_DECLINATION]
@@ -458,8 +441,6 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     updated = True
             # heading
             if mag_ok:
-                if mag_delay > 0.0:
-                    mx, my, mz = _turn_by_rate(mx, my, mz, wx, wy, wz, mag_delay)
                 mwx = R[0, 0] * mx + R[0, 1] * my + R[0, 2] * mz
                 mwy = R[1, 0] * mx + R[1, 1] * my + R[1, 2] * mz
                 mwz = R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz

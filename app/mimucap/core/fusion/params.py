@@ -1,8 +1,9 @@
 """Settings of the orientation fusion filter: one frozen dataclass, units beside every field.
 
 The defaults (:data:`DEFAULT_FUSION_PARAMS`) are one parameter set for every sensor and
-every recording; they were chosen once on the public BROAD trials (``shared/data/broad``)
-and are not tuned per trial. A numba kernel cannot read a dataclass, so :func:`pack_params`
+every recording, not tuned per trial. The two noise terms that grow with the data
+(``gyr_scale_noise_sqrt_s``, ``heading_field_error_gain``) are cross-validated on the BROAD
+trials leaving one trial out (``bench/bench_broad_cv.py``). A numba kernel cannot read a dataclass, so :func:`pack_params`
 flattens the settings into a float64 vector whose layout is given by the ``PI_*`` indices.
 
 Noise figures are standard deviations. "Per sample" figures are measurement noises applied
@@ -34,16 +35,14 @@ class FusionParams:
     #: Gyroscope propagation: ``"taylor3"`` (coning-corrected two-sample increments and a
     #: third-order exponential), ``"rk4"`` or ``"exact"`` (exponential map of one increment).
     propagation: str = "taylor3"
-    #: Gyroscope white-noise density (rad/s/√Hz): attitude process noise ``σ²·dt``. A MEMS
-    #: gyroscope's figure (its datasheet's rate noise density, or the rest samples' noise:
-    #: ``bench/bench_broad_cv.py`` measures it on BROAD's sensor).
-    gyr_noise_rad_s_sqrt_hz: float = 0.01 * DEG
+    #: Gyroscope white-noise density (rad/s/√Hz): attitude process noise ``σ²·dt``.
+    gyr_noise_rad_s_sqrt_hz: float = 0.15 * DEG
     #: Gyroscope scale-factor and axis-misalignment noise (√s): attitude process noise
     #: ``(k·‖ω‖)²·dt`` on top of the white noise. A gyroscope whose scale or axes are off by a
     #: fraction ``ε`` turns the estimate by ``ε`` times every angle turned, so the uncertainty
     #: grows with the rotation, not with the time: after a fast turn the magnetometer and the
     #: accelerometer get the weight to pull the estimate back. 0 switches it off.
-    gyr_scale_noise_sqrt_s: float = 0.001
+    gyr_scale_noise_sqrt_s: float = 0.0005
     #: Gyroscope bias random walk (rad/s/√s): bias process noise ``σ²·dt``.
     bias_walk_rad_s_sqrt_s: float = 0.0005 * DEG
     #: Initial standard deviations of tilt, heading (rad) and gyro bias (rad/s).
@@ -79,12 +78,7 @@ class FusionParams:
     #: bound of the disturbance) may turn the horizontal field by up to ``e/‖m_h‖`` (rad),
     #: ``m_h`` its horizontal part; the heading noise standard deviation grows by this
     #: factor times that angle (root sum of squares). 0 switches it off.
-    heading_field_error_gain: float = 4.0
-    #: Delay (s) of the magnetometer samples behind the gyroscope's (a sensor's internal
-    #: filtering and sampling): each field sample is turned forward by the rotation the
-    #: gyroscope measured over that time before it is compared with the estimate, so fast
-    #: turns do not read as heading errors or disturbances. 0 uses the samples as they are.
-    mag_delay_s: float = 0.0
+    heading_field_error_gain: float = 2.0
     #: Magnetic declination (rad, positive when magnetic north lies east of true north): the
     #: world y axis is true north with it, magnetic north with the default 0.
     declination_rad: float = 0.0
@@ -153,11 +147,11 @@ DEFAULT_FUSION_PARAMS = FusionParams()
 (
     PI_METHOD, PI_GYR_NOISE, PI_GYR_SCALE_NOISE, PI_BIAS_WALK, PI_INIT_TILT, PI_INIT_HEADING, PI_INIT_BIAS,
     PI_BIAS_MAX, PI_GRAVITY, PI_ACC_LP_TAU, PI_ACC_NOISE, PI_ACC_DEV_GAIN, PI_ACC_RATE_GAIN, PI_ACC_REJECT,
-    PI_HEADING_NOISE, PI_HEADING_FIELD_GAIN, PI_MAG_DELAY, PI_DECLINATION, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD, PI_MAG_NEW_MIN_RATE,
+    PI_HEADING_NOISE, PI_HEADING_FIELD_GAIN, PI_DECLINATION, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD, PI_MAG_NEW_MIN_RATE,
     PI_REST_GYR_DEV, PI_REST_ACC_DEV, PI_REST_TAU, PI_REST_MAX_RATE, PI_REST_TIME,
     PI_REST_BIAS_NOISE, PI_MAX_GAP, PI_GAP_RATE, PI_GYR_RANGE, PI_ACC_RANGE, PI_MAG_RANGE,
     PI_USE_ACC, PI_USE_MAG, PI_CORRECT, PI_COUNT,
-) = range(39)
+) = range(38)
 
 
 def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = True,
@@ -185,7 +179,6 @@ def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = T
     p[PI_ACC_REJECT] = params.acc_reject_m_s2
     p[PI_HEADING_NOISE] = params.heading_noise_rad
     p[PI_HEADING_FIELD_GAIN] = params.heading_field_error_gain
-    p[PI_MAG_DELAY] = params.mag_delay_s
     p[PI_DECLINATION] = params.declination_rad
     p[PI_MAG_NORM_TOL] = params.mag_norm_tol
     p[PI_MAG_DIP_TOL] = params.mag_dip_tol_rad
