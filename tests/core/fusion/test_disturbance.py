@@ -17,7 +17,9 @@ from mimucap.core.simulate.suit import simulate_session
 from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 
 EPISODE_S = (25.0, 40.0)
-NO_GATE = replace(DEFAULT_FUSION_PARAMS, mag_norm_tol=100.0, mag_dip_tol_rad=4.0)
+#: Every field sample accepted at full weight: no gate, no heading noise from the field's quality.
+NO_GATE = replace(DEFAULT_FUSION_PARAMS, mag_norm_tol=100.0, mag_dip_tol_rad=4.0,
+                  heading_field_error_gain=0.0)
 
 
 def rms_deg(x: np.ndarray) -> float:
@@ -72,6 +74,18 @@ def test_magnetic_episode_is_rejected(disturbed):
         assert rms_deg(heading[episode]) < 3.0, sensor_id
         # without rejection the same episode pulls the heading far off: the test is not empty
         assert rms_deg(heading_open[episode]) > 10.0, sensor_id
+
+
+def test_field_quality_weighs_accepted_disturbed_samples(disturbed):
+    """With the gate open, the heading noise that grows with the field's distance from its
+    reference still keeps a disturbance from pulling the heading as far as full weight does."""
+    for sensor_id, (t, gyr, acc, mag, q_true) in disturbed.items():
+        episode = (t > EPISODE_S[0] + 1.0) & (t < EPISODE_S[1] - 1.0)
+        weighted = fuse(t, gyr, acc, mag, params=replace(NO_GATE, heading_field_error_gain=2.0))
+        full = fuse(t, gyr, acc, mag, params=NO_GATE)
+        _, heading_weighted, _ = error_angles_rad(weighted.q_world_from_sensor, q_true)
+        _, heading_full, _ = error_angles_rad(full.q_world_from_sensor, q_true)
+        assert rms_deg(heading_weighted[episode]) < 0.5 * rms_deg(heading_full[episode]), sensor_id
 
 
 def test_magnetometer_never_tilts(disturbed, clean):

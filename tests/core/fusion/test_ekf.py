@@ -321,3 +321,25 @@ def test_unusable_acc_and_mag_rows_are_counted_with_their_own_reason(recording, 
         if correcting:
             diff = rot.angle_between(result.q_world_from_sensor[-1], recording.q_true[-1])
             assert np.degrees(diff) < 3.0, name
+
+
+def test_attitude_uncertainty_grows_with_the_angle_turned():
+    """Without corrections the attitude variance grows by ``(σ_g² + k²·‖ω‖²)·dt`` a sample:
+    white noise with the time, the scale-factor noise with the rate (a turn at 2 rad/s
+    ends more uncertain than the same time at rest)."""
+    params = replace(DEFAULT_FUSION_PARAMS, gyr_noise_rad_s_sqrt_hz=0.002, gyr_scale_noise_sqrt_s=0.001,
+                     init_bias_std_rad_s=1e-9, bias_walk_rad_s_sqrt_s=0.0)  # no bias uncertainty
+    dt, n = 0.01, 201
+    t = np.arange(n) * dt
+    variances = {}
+    for rate in (0.0, 2.0):
+        gyr = np.zeros((n, 3))
+        gyr[:, 2] = rate
+        ekf = OrientationEKF(params, algorithm="ekf-taylor3", use_mag=False)
+        ekf.update_batch(t, gyr)  # no accelerometer: starts at the identity, nothing corrects
+        variances[rate] = ekf.state.attitude_std_rad()[0] ** 2
+    init = DEFAULT_FUSION_PARAMS.init_tilt_std_rad ** 2
+    duration = t[-1]
+    assert variances[0.0] - init == pytest.approx(params.gyr_noise_rad_s_sqrt_hz ** 2 * duration, rel=1e-3)
+    expected_extra = params.gyr_scale_noise_sqrt_s ** 2 * 2.0 ** 2 * duration
+    assert variances[2.0] - variances[0.0] == pytest.approx(expected_extra, rel=1e-3)

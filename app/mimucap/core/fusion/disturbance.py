@@ -33,7 +33,8 @@ from numba import njit
 
 from mimucap.core.fusion.jit import JIT_OPTIONS, LAYOUT_FINGERPRINT, refresh_if_stale
 from mimucap.core.fusion.params import (
-    PI_ACC_DEV_GAIN, PI_ACC_NOISE, PI_ACC_RATE_GAIN, PI_ACC_REJECT, PI_GRAVITY,
+    PI_ACC_DEV_GAIN, PI_ACC_NOISE, PI_ACC_RATE_GAIN, PI_ACC_REJECT, PI_GRAVITY, PI_HEADING_FIELD_GAIN,
+    PI_HEADING_NOISE,
     PI_MAG_DIP_TOL, PI_MAG_NEW_FIELD, PI_MAG_NEW_MIN_RATE, PI_MAG_SETTLE, PI_MAG_NORM_TOL, PI_MAG_REF_TAU, PI_REST_ACC_DEV,
     PI_REST_GYR_DEV, PI_REST_MAX_RATE, PI_REST_TAU, PI_REST_TIME,
 )
@@ -164,6 +165,26 @@ def mag_accept(p, aux, norm_uT, dip_rad, dt, rate):
         aux[AX_MAG_GOOD_T] = p[PI_MAG_SETTLE]
         return True
     return False
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def heading_noise_var(p, aux, norm_uT, dip_rad, horizontal_uT):
+    """Variance (rad²) of the heading measured from an accepted field sample.
+
+    ``norm_uT`` and ``dip_rad`` as for :func:`mag_accept`, ``horizontal_uT`` the norm of the
+    field's horizontal part. The sample's distance from the reference,
+    ``e = √(Δ‖m‖² + (‖m_ref‖·Δdip)²)`` (µT), is the least disturbance that explains it; the same
+    disturbance turned horizontally would move the heading by ``e/‖m_h‖`` (rad).
+    """
+    var = p[PI_HEADING_NOISE] ** 2
+    gain = p[PI_HEADING_FIELD_GAIN]
+    if gain > 0.0 and aux[AX_MAG_REF_OK] > 0.0:
+        ref_n = aux[AX_MAG_NORM_REF]
+        dn = norm_uT - ref_n
+        dd = ref_n * (dip_rad - aux[AX_MAG_DIP_REF])
+        angle = gain * math.sqrt(dn * dn + dd * dd) / horizontal_uT
+        var += angle * angle
+    return var
 
 
 @njit(**JIT_OPTIONS)

@@ -12,7 +12,7 @@ orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
   ``Fc = [[−[ω×], −I], [0, 0]]`` written for the world-frame error ``δθ_w = R·δθ_sensor``
   of Zhang, Gao, Zhou, "Head attitude sensing algorithm based on IMU in VR
   device" (the ``−[ω×]`` term vanishes in that frame); process noise ``Q = diag(σ_g²·dt·I,
-  σ_bw²·dt·I)``.
+  σ_bw²·dt·I)`` plus the scale-factor term ``k²·‖ω‖²·dt`` on the attitude.
 * Gravity: the specific force rotated into the world, ``R·a``, is low-passed (time constant
   ``acc_lowpass_tau_s``; the low-pass state turns with every attitude correction) so that
   linear accelerations average out; its direction ``u ≈ e_z + e_z × δθ`` gives
@@ -20,7 +20,8 @@ orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
 * Heading: the tilt-compensated magnetometer ``m_w = R·m`` has the heading residual
   ``atan2(m_w,x, m_w,y) − declination = δθ_z`` (north along +y). Its Kalman gain rows of the tilt
   states are set to zero (Joseph-form covariance update), so the magnetometer corrects the
-  heading and the bias, never the tilt.
+  heading and the bias, never the tilt. Its noise grows with the field's distance from the
+  learned reference (:func:`~.disturbance.heading_noise_var`).
 * Rest: zero-rate update of the bias, measurement ``ω_raw = b``.
 * All updates of one sample share one linearisation point (sequential scalar updates of the
   error state), which is then injected once: ``q ← exp(δθ) ⊗ q``, ``b ← b + δb``.
@@ -36,11 +37,13 @@ import math
 import numpy as np
 from numba import njit
 
-from mimucap.core.fusion.disturbance import acc_noise_var, lowpass_gain, mag_accept, rest_update
+from mimucap.core.fusion.disturbance import (
+    acc_noise_var, heading_noise_var, lowpass_gain, mag_accept, rest_update,
+)
 from mimucap.core.fusion.jit import JIT_OPTIONS, LAYOUT_FINGERPRINT, refresh_if_stale
 from mimucap.core.fusion.params import (
     PI_ACC_LP_TAU, PI_ACC_RANGE, PI_BIAS_MAX, PI_BIAS_WALK, PI_GAP_RATE, PI_GYR_NOISE, PI_GYR_RANGE,
-    PI_DECLINATION, PI_HEADING_NOISE, PI_INIT_BIAS, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
+    PI_GYR_SCALE_NOISE, PI_DECLINATION, PI_INIT_BIAS, PI_INIT_HEADING, PI_INIT_TILT, PI_MAG_RANGE, PI_MAX_GAP,
     PI_METHOD, PI_REST_BIAS_NOISE, PI_USE_ACC, PI_USE_MAG, PI_CORRECT,
 )
 from mimucap.core.fusion.propagation import (
@@ -248,9 +251,9 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
     acc_range2 = p[PI_ACC_RANGE] ** 2
     mag_range2 = p[PI_MAG_RANGE] ** 2
     q_gyr = p[PI_GYR_NOISE] ** 2
+    q_scale = p[PI_GYR_SCALE_NOISE] ** 2
     q_bias = p[PI_BIAS_WALK] ** 2
     bias_max = p[PI_BIAS_MAX]
-    var_heading = p[PI_HEADING_NOISE] ** 2
     declination = p[PI_DECLINATION]
     var_rest = p[PI_REST_BIAS_NOISE] ** 2
     R = np.empty((3, 3))
@@ -399,7 +402,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                         P[i, j] = 0.5 * (T[i, j] + T[j, i])
                         P[i, 3 + j] = M[i, j]
                         P[3 + j, i] = M[i, j]
-                v = q_gyr * dt
+                v = (q_gyr + q_scale * (wx * wx + wy * wy + wz * wz)) * dt
                 vb = q_bias * dt
                 for i in range(3):
                     P[i, i] += v
@@ -451,7 +454,8 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                         psi -= 2.0 * math.pi
                     elif psi < -math.pi:
                         psi += 2.0 * math.pi
-                    _heading_update(P, dx, c, psi, var_heading)
+                    _heading_update(P, dx, c, psi,
+                                    heading_noise_var(p, aux, nm, math.atan2(-mwz, hnorm), hnorm))
                     updated = True
                 else:
                     flags |= FLAG_MAG_REJECTED

@@ -1,9 +1,11 @@
 """Settings of the orientation fusion filter: one frozen dataclass, units beside every field.
 
 The defaults (:data:`DEFAULT_FUSION_PARAMS`) are one parameter set for every sensor and
-every recording; they were chosen once on the public BROAD trials (Laidig, Caruso, Cereatti,
-Seel, "BROAD - A Benchmark for Robust Inertial Orientation Estimation") and are not tuned per
-trial. A numba kernel cannot read a dataclass, so :func:`pack_params`
+every recording, not tuned per trial. The two noise terms that grow with the data
+(``gyr_scale_noise_sqrt_s``, ``heading_field_error_gain``) are cross-validated on the public
+BROAD trials (Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial
+Orientation Estimation") leaving one trial out (``bench/bench_broad_cv.py``). A numba kernel
+cannot read a dataclass, so :func:`pack_params`
 flattens the settings into a float64 vector whose layout is given by the ``PI_*`` indices.
 
 Noise figures are standard deviations. "Per sample" figures are measurement noises applied
@@ -37,6 +39,12 @@ class FusionParams:
     propagation: str = "taylor3"
     #: Gyroscope white-noise density (rad/s/√Hz): attitude process noise ``σ²·dt``.
     gyr_noise_rad_s_sqrt_hz: float = 0.15 * DEG
+    #: Gyroscope scale-factor and axis-misalignment noise (√s): attitude process noise
+    #: ``(k·‖ω‖)²·dt`` on top of the white noise. A gyroscope whose scale or axes are off by a
+    #: fraction ``ε`` turns the estimate by ``ε`` times every angle turned, so the uncertainty
+    #: grows with the rotation, not with the time: after a fast turn the magnetometer and the
+    #: accelerometer get the weight to pull the estimate back. 0 switches it off.
+    gyr_scale_noise_sqrt_s: float = 0.0005
     #: Gyroscope bias random walk (rad/s/√s): bias process noise ``σ²·dt``.
     bias_walk_rad_s_sqrt_s: float = 0.0005 * DEG
     #: Initial standard deviations of tilt, heading (rad) and gyro bias (rad/s).
@@ -67,6 +75,12 @@ class FusionParams:
 
     #: Heading measurement noise per sample (rad) of the tilt-compensated magnetometer.
     heading_noise_rad: float = 30.0 * DEG
+    #: Extra heading noise from the field's quality (dimensionless): a sample whose field
+    #: differs from the reference by ``e`` (µT; from the norm and dip deviations, a lower
+    #: bound of the disturbance) may turn the horizontal field by up to ``e/‖m_h‖`` (rad),
+    #: ``m_h`` its horizontal part; the heading noise standard deviation grows by this
+    #: factor times that angle (root sum of squares). 0 switches it off.
+    heading_field_error_gain: float = 2.0
     #: Magnetic declination (rad, positive when magnetic north lies east of true north): the
     #: world y axis is true north with it, magnetic north with the default 0.
     declination_rad: float = 0.0
@@ -133,13 +147,13 @@ DEFAULT_FUSION_PARAMS = FusionParams()
 
 # Layout of the packed parameter vector read by the numba kernels.
 (
-    PI_METHOD, PI_GYR_NOISE, PI_BIAS_WALK, PI_INIT_TILT, PI_INIT_HEADING, PI_INIT_BIAS,
+    PI_METHOD, PI_GYR_NOISE, PI_GYR_SCALE_NOISE, PI_BIAS_WALK, PI_INIT_TILT, PI_INIT_HEADING, PI_INIT_BIAS,
     PI_BIAS_MAX, PI_GRAVITY, PI_ACC_LP_TAU, PI_ACC_NOISE, PI_ACC_DEV_GAIN, PI_ACC_RATE_GAIN, PI_ACC_REJECT,
-    PI_HEADING_NOISE, PI_DECLINATION, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD, PI_MAG_NEW_MIN_RATE,
+    PI_HEADING_NOISE, PI_HEADING_FIELD_GAIN, PI_DECLINATION, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD, PI_MAG_NEW_MIN_RATE,
     PI_REST_GYR_DEV, PI_REST_ACC_DEV, PI_REST_TAU, PI_REST_MAX_RATE, PI_REST_TIME,
     PI_REST_BIAS_NOISE, PI_MAX_GAP, PI_GAP_RATE, PI_GYR_RANGE, PI_ACC_RANGE, PI_MAG_RANGE,
     PI_USE_ACC, PI_USE_MAG, PI_CORRECT, PI_COUNT,
-) = range(36)
+) = range(38)
 
 
 def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = True,
@@ -153,6 +167,7 @@ def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = T
     p = np.zeros(PI_COUNT)
     p[PI_METHOD] = PROPAGATION_METHODS[params.propagation]
     p[PI_GYR_NOISE] = params.gyr_noise_rad_s_sqrt_hz
+    p[PI_GYR_SCALE_NOISE] = params.gyr_scale_noise_sqrt_s
     p[PI_BIAS_WALK] = params.bias_walk_rad_s_sqrt_s
     p[PI_INIT_TILT] = params.init_tilt_std_rad
     p[PI_INIT_HEADING] = params.init_heading_std_rad
@@ -165,6 +180,7 @@ def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = T
     p[PI_ACC_RATE_GAIN] = params.acc_rate_gain_m_s2_per_rad_s
     p[PI_ACC_REJECT] = params.acc_reject_m_s2
     p[PI_HEADING_NOISE] = params.heading_noise_rad
+    p[PI_HEADING_FIELD_GAIN] = params.heading_field_error_gain
     p[PI_DECLINATION] = params.declination_rad
     p[PI_MAG_NORM_TOL] = params.mag_norm_tol
     p[PI_MAG_DIP_TOL] = params.mag_dip_tol_rad
