@@ -11,12 +11,13 @@ accelerometers; development and validation in transtibial amputees and controls"
 in the sagittal plane (antero-posterior and vertical components, :mod:`.sagittal`), whose
 change does not depend on how the sensor is turned within that plane:
 
-* it *exists* when the acceleration changes by at least ``min_change_m_s2`` within
+* it *begins* where the acceleration first changes by at least ``min_change_m_s2`` within
   ``span_s``. Free limb movement cannot do that: the foot's swing accelerations of a few g vary
   at the stride's harmonics (below about 10 Hz), which changes them by less than 1 g in 10 ms;
-* it is *timed* at its half-rise: the first sample interval whose change reaches half of the
-  largest one in the search window, at that interval's midpoint (the contact happened between
-  its two samples; a later, larger impact such as the forefoot landing does not move it).
+* it is *timed* at its half-rise: from the last sample before it, the acceleration's change
+  grows to the impact's height within two spans; the first sample interval in which it passes
+  half of that height holds the contact, which is put at the interval's midpoint. Only this
+  first impact counts: a later one in the window (the forefoot landing) does not move it.
 
 Times in seconds on a uniform grid; acceleration (N, 2) m/s².
 """
@@ -39,8 +40,11 @@ def impact_time(t_s: np.ndarray, acc_sagittal: np.ndarray, first: int, last: int
         return math.nan
     window = acc_sagittal[first:last + 1]
     change = np.linalg.norm(window[span:] - window[:-span], axis=1)
-    if not float(change.max()) >= min_change_m_s2:
+    begins = np.flatnonzero(change >= min_change_m_s2)
+    if not begins.size:
         return math.nan
-    step = np.linalg.norm(np.diff(window, axis=0), axis=1)
-    k = int(np.argmax(step >= 0.5 * float(step.max())))
-    return float(0.5 * (t_s[first + k] + t_s[first + k + 1]))
+    k = first + int(begins[0])
+    rise = acc_sagittal[k:min(k + 2 * span, acc_sagittal.shape[0] - 1) + 1]
+    height = np.linalg.norm(rise - rise[0], axis=1)
+    j = k + int(np.argmax(height >= 0.5 * float(height.max())))
+    return float(0.5 * (t_s[j - 1] + t_s[j]))
