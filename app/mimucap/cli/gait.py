@@ -5,8 +5,10 @@
 INPUT is a MimuCap session (``.h5``: foot sensors where the fifteen-segment suit has them,
 shank sensors otherwise; processed as the review does) or a CSV of foot-worn IMUs in the
 gaitmap layout (first column sample numbers; two header rows: sensor ``left_sensor`` /
-``right_sensor``, channel ``acc_x`` … ``gyr_z``; axes x forward, y left, z up; ``--rate`` the
-sample rate, ``--gyr-unit`` the gyroscope unit, default deg/s). Writes ``DIR/strides.csv``
+``right_sensor``, channel ``acc_x`` … ``gyr_z``; ``--rate`` the sample rate, ``--gyr-unit`` the
+gyroscope unit, default deg/s). The sensors' sagittal axes are found in their own samples
+(:func:`mimucap.core.analysis.sagittal.axes_from_data`), so a sensor mounted in any
+orientation is analysed alike. Writes ``DIR/strides.csv``
 (``foot, ic_s, fc_s, next_ic_s, stride_time_s, stride_length_m, straight, heading_change_deg,
 analysed, refused_because``), ``DIR/parameters.csv`` (``parameter, unit, side, n, mean, sd,
 cv_percent``) and ``DIR/bouts_turns.csv``; for a session also the gait-cycle curves and ROM
@@ -40,6 +42,7 @@ def _is_csv(path: Path) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     from mimucap.core.analysis.gait import GaitInput, analyse_gait
+    from mimucap.core.analysis.sagittal import axes_from_data
     from mimucap.io.gait_csv import read_foot_imu_csv
     from mimucap.session.analysis import analyse_review, write_analysis_csv, write_gait_csv
     from mimucap.session.review import load_review
@@ -54,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
         if args.rate is None:
             raise ValueError(f"{source}: a CSV input needs its sample rate (--rate HZ)")
         feet = read_foot_imu_csv(source, args.rate, args.gyr_unit)
-        inputs = [GaitInput(side, "foot", f"{side}_sensor", imu.t_s, imu.sagittal_rate, imu.acc, imu.gyr)
+        inputs = [GaitInput.from_axes(side, "foot", f"{side}_sensor", imu.t_s, imu.acc, imu.gyr,
+                                      axes_from_data(imu.acc, imu.gyr, args.rate))
                   for side, imu in feet.items()]
         gait = analyse_gait(inputs)
         out.mkdir(parents=True, exist_ok=True)

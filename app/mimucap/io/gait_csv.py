@@ -7,7 +7,8 @@ two header rows: row 1 the sensor (``left_sensor``, ``right_sensor``), row 2 the
 (``acc_x acc_y acc_z`` m/s², ``gyr_x gyr_y gyr_z`` in °/s or rad/s). Axes are gaitmap's foot
 sensor frame: x to the shoe tip, y to the subject's left (both feet), z up in flat-foot stance;
 the sagittal (flexion-axis) rate, positive as the foot swings forward (dorsiflexion), is
-therefore ``−gyr_y`` for both feet. Time = sample number / rate.
+therefore ``−gyr_y`` for both feet when the file keeps to that frame (``mimucap gait`` does not
+rely on it: it finds each sensor's axes in its samples). Time = sample number / rate.
 
 **Tables** are plain CSV with one header row; empty cells are values that could not be
 estimated; booleans are ``true``/``false``.

@@ -6,8 +6,9 @@ their inputs out of :class:`~mimucap.session.review.ReviewData` (the processed r
 samples, segment orientations and joint angles; nothing from the simulator's truth):
 
 * per side the foot sensor (``foot_l``/``foot_r``) if there is one, else the shank sensor;
-  its sagittal rate from the body calibration's mounting rotation, or without a calibration
-  from the dominant gyroscope axis (:mod:`mimucap.core.analysis.sagittal`);
+  its sagittal axes (flexion and antero-posterior) from the body calibration's mounting
+  rotation, or without a calibration found in its own samples
+  (:mod:`mimucap.core.analysis.sagittal`);
 * the thighs, shanks and pelvis for the leg model and the heading, only when the segment
   orientations come from a body calibration (sensor axes alone are not the segments).
 
@@ -35,7 +36,7 @@ from mimucap.core.analysis.gait import GaitAnalysis, GaitInput, analyse_gait
 from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves, split_column
 from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS, ParameterSummary
 from mimucap.core.analysis.leg_model import LegChain
-from mimucap.core.analysis.sagittal import sagittal_rate_calibrated, sagittal_rate_dominant
+from mimucap.core.analysis.sagittal import axes_calibrated, axes_from_data, sagittal_rate_dominant
 from mimucap.io.gait_csv import write_table
 from mimucap.io.session import Marker
 from mimucap.session.review import ReviewData
@@ -72,10 +73,16 @@ def gait_inputs(review: ReviewData) -> tuple[list[GaitInput], LegChain | None]:
             if placement == "foot" and stream.acc is None:
                 continue
             if calibration is not None and segment in calibration.q_segment_from_sensor:
-                rate = sagittal_rate_calibrated(stream.gyr, calibration.q_segment_from_sensor[segment])
-            else:
-                rate = sagittal_rate_dominant(stream.gyr)
-            inputs.append(GaitInput(side, placement, sensor_id, stream.t_s, rate, stream.acc, stream.gyr))
+                axes = axes_calibrated(calibration.q_segment_from_sensor[segment])
+            elif stream.acc is not None:
+                axes = axes_from_data(stream.acc, stream.gyr, 1.0 / float(np.median(np.diff(stream.t_s))))
+            else:   # a shank sensor without accelerometer: the flexion axis from the rotation alone
+                inputs.append(GaitInput(side, placement, sensor_id, stream.t_s, sagittal_rate_dominant(stream.gyr),
+                                        None, stream.gyr))
+                break
+            sagittal_acc = axes.acceleration(stream.acc) if stream.acc is not None else None
+            inputs.append(GaitInput(side, placement, sensor_id, stream.t_s, axes.rate(stream.gyr), stream.acc,
+                                    stream.gyr, sagittal_acc))
             break
     legs = None
     q = review.q_world_from_segment

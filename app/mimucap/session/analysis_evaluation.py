@@ -8,6 +8,13 @@ strides are *missed*, unmatched detected strides inside the reference's walking 
 *extra*. Errors: detected minus reference (IC: the contact ending the stride; FC: the
 toe-off; stride length: m).
 
+The gaitmap walk is also evaluated as other sensors would have recorded it
+(:data:`GAITMAP_VARIANTS`): resampled to another rate (band-limited polyphase resampling of the
+raw samples) and/or with the sensor turned on the foot (a fixed rotation of the raw
+accelerometer and gyroscope samples about the foot's mediolateral and vertical axes); the
+reference events and heel positions stay as measured, and the analysis finds the sensor's axes
+in its samples (:func:`mimucap.core.analysis.sagittal.axes_from_data`).
+
 The simulated suit runs the real pipeline: the session is written *without* its truth, the
 body calibration is computed from the simulated N-pose/T-pose by
 :func:`mimucap.core.bodycal.calibrate_npose_tpose` on the sensors' own orientation output, and
@@ -21,15 +28,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
 
-from mimucap.core import bodycal, skeleton
+from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core.analysis.gait import GaitAnalysis, GaitInput, analyse_gait
+from mimucap.core.analysis.sagittal import axes_from_data
 from mimucap.core.analysis.strides import Stride
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SimulationResult, simulate_session
-from mimucap.io.gait_csv import ReferenceStride
+from mimucap.io.gait_csv import FootImu, ReferenceStride, read_foot_imu_csv, read_gaitmap_reference
 from mimucap.io.session import Marker, session_from_simulation, write_session
 from mimucap.session.analysis import SessionAnalysis, analyse_review
 from mimucap.session.review import load_review
@@ -102,6 +112,73 @@ def compare(detected: list[Stride], reference: list[ReferenceStride], tolerance_
 def straight_reference(reference: list[ReferenceStride], max_turn_deg: float = 45.0) -> list[ReferenceStride]:
     """The reference strides whose own (optical) heading change is at most ``max_turn_deg``."""
     return [r for r in reference if not (abs(r.heading_change_deg) > max_turn_deg)]
+
+
+# -- the gaitmap walk as other sensors would record it ---------------------------------------
+#: Sample rate (Hz) of the gaitmap example's IMU file.
+GAITMAP_RATE_HZ = 204.8
+
+
+@dataclass(frozen=True)
+class ImuVariant:
+    """A way of recording the gaitmap walk: ``rate_hz`` the sample rate (None: as recorded),
+    ``turn_ml_deg`` and ``turn_vertical_deg`` how far the sensor is turned on the foot about
+    the foot's mediolateral axis (pitch) and then about the vertical (yaw), in degrees."""
+
+    name: str
+    rate_hz: float | None = None
+    turn_ml_deg: float = 0.0
+    turn_vertical_deg: float = 0.0
+
+
+GAITMAP_VARIANTS = (
+    ImuVariant("as recorded (204.8 Hz)"),
+    ImuVariant("resampled to 102.4 Hz", rate_hz=102.4),
+    ImuVariant("resampled to 100 Hz", rate_hz=100.0),
+    ImuVariant("turned +20° ML, +10° vertical", turn_ml_deg=20.0, turn_vertical_deg=10.0),
+    ImuVariant("turned -30° ML, -15° vertical", turn_ml_deg=-30.0, turn_vertical_deg=-15.0),
+    ImuVariant("turned +45° ML, -20° vertical", turn_ml_deg=45.0, turn_vertical_deg=-20.0),
+    ImuVariant("turned -45° ML, +20° vertical", turn_ml_deg=-45.0, turn_vertical_deg=20.0),
+    ImuVariant("102.4 Hz, turned +40° ML", rate_hz=102.4, turn_ml_deg=40.0),
+    ImuVariant("100 Hz, turned -40° ML, +15° vertical", rate_hz=100.0, turn_ml_deg=-40.0, turn_vertical_deg=15.0),
+)
+
+
+def imu_variant(imu: FootImu, rate_hz: float, variant: ImuVariant) -> FootImu:
+    """The samples of ``imu`` (recorded at ``rate_hz``, gaitmap foot sensor frame: y to the
+    left, z up) as ``variant`` records them. Turning: ``v_turned = q_sensor_from_turned⁻¹ v``
+    with ``q_sensor_from_turned`` = yaw about z after pitch about y. Resampling: polyphase
+    with scipy's anti-aliasing FIR (``resample_poly``), the rate ratio as a fraction."""
+    from scipy.signal import resample_poly
+
+    q_sensor_from_turned = rotation.multiply(
+        rotation.from_axis_angle(np.array([0.0, 0.0, 1.0]), math.radians(variant.turn_vertical_deg)),
+        rotation.from_axis_angle(np.array([0.0, 1.0, 0.0]), math.radians(variant.turn_ml_deg)))
+    q_turned_from_sensor = rotation.conjugate(q_sensor_from_turned)
+    acc, gyr = rotation.rotate(q_turned_from_sensor, imu.acc), rotation.rotate(q_turned_from_sensor, imu.gyr)
+    t_s = imu.t_s
+    if variant.rate_hz is not None and variant.rate_hz != rate_hz:
+        ratio = Fraction(variant.rate_hz / rate_hz).limit_denominator(1000)
+        if abs(float(ratio) * rate_hz - variant.rate_hz) > 1e-6 * variant.rate_hz:
+            raise ValueError(f"cannot resample {rate_hz} Hz to {variant.rate_hz} Hz by a ratio of small integers")
+        acc = resample_poly(acc, ratio.numerator, ratio.denominator, axis=0)
+        gyr = resample_poly(gyr, ratio.numerator, ratio.denominator, axis=0)
+        t_s = imu.t_s[0] + np.arange(acc.shape[0]) / variant.rate_hz
+    return FootImu(imu.side, t_s, acc, gyr)
+
+
+def gaitmap_variant_analysis(folder: str | Path, variant: ImuVariant) -> tuple[GaitAnalysis, list[ReferenceStride]]:
+    """The gaitmap walk recorded as ``variant`` and analysed as ``mimucap gait`` does (the
+    sensors' axes found in their samples), with the reference strides."""
+    base = Path(folder)
+    feet = read_foot_imu_csv(base / "imu_sample.csv", GAITMAP_RATE_HZ, "deg/s")
+    inputs = []
+    for side, recorded in feet.items():
+        imu = imu_variant(recorded, GAITMAP_RATE_HZ, variant)
+        rate_hz = variant.rate_hz or GAITMAP_RATE_HZ
+        inputs.append(GaitInput.from_axes(side, "foot", side, imu.t_s, imu.acc, imu.gyr,
+                                          axes_from_data(imu.acc, imu.gyr, rate_hz)))
+    return analyse_gait(inputs), read_gaitmap_reference(base)
 
 
 # -- the simulated suit ----------------------------------------------------------------------

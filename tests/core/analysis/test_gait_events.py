@@ -147,3 +147,78 @@ def test_turns_are_found_in_a_continuous_heading_and_stride_sway_is_not_one():
     strides = classify([Stride("left", 12.5, 13.1, 13.6, 1.0, 10.0), Stride("left", 13.6, 14.2, 14.7, 1.0, 10.0),
                         Stride("left", 14.7, 15.3, 15.8, 1.0, 10.0)], turns=found)
     assert "inside the turn" in strides[0].refused_because
+
+
+# -- the heel strike's impact ----------------------------------------------------------------
+def impact_acceleration(t, impacts, size=60.0):
+    """A smooth swing-like sagittal acceleration (N, 2) m/s² (antero-posterior, vertical) with
+    an impact at each of ``impacts``: the vertical acceleration jumps by ``size`` within 2 ms
+    and decays over 10 ms, the antero-posterior one by half of it, backwards."""
+    acc = np.stack((15.0 * np.sin(2 * np.pi * t / 1.1), 9.81 + 8.0 * np.cos(2 * np.pi * t / 1.1)), axis=-1)
+    for t0 in impacts:
+        after = t - t0
+        shape = np.where(after >= 0, np.clip(after / 0.002, 0, 1) * np.exp(-np.clip(after - 0.002, 0, None) / 0.01), 0.0)
+        acc += size * shape[:, None] * np.array([-0.5, 1.0])
+    return acc
+
+
+@pytest.mark.parametrize("rate", [100.0, 102.4, 204.8, 1000.0])
+def test_the_impact_is_timed_within_a_sample_at_any_rate(rate):
+    from mimucap.core.analysis.heel_strike import impact_time
+
+    t = np.arange(0, 3, 1 / rate)
+    onset = 1.2345
+    acc = impact_acceleration(t, [onset])
+    found = impact_time(t, acc, int(1.0 * rate), int(1.5 * rate), rate, 2 * 9.81, 0.01)
+    tolerance = 1.0 / rate + 0.001   # a sample interval, and half of the impact's rise
+    assert abs(found - onset) <= tolerance
+    # A later, larger impact in the window (the forefoot landing) does not move it.
+    acc_two = impact_acceleration(t, [onset]) + impact_acceleration(t, [onset + 0.08], size=200.0) - impact_acceleration(t, [])
+    assert abs(impact_time(t, acc_two, int(1.0 * rate), int(1.5 * rate), rate, 2 * 9.81, 0.01) - onset) <= tolerance
+    # Smooth limb movement alone is no impact.
+    assert math.isnan(impact_time(t, impact_acceleration(t, []), int(1.0 * rate), int(1.5 * rate), rate, 2 * 9.81, 0.01))
+
+
+def test_initial_contact_is_the_impact_where_the_acceleration_shows_one():
+    t = np.arange(0, 12, 1 / RATE)
+    ics = 1.5 + 1.1 * np.arange(1, 9)
+    fcs = ics - 0.42
+    rate = foot_like_rate(ics, fcs, t)
+    strikes = ics + 0.06   # the heel lands after the foot's highest pitch (a flat approach)
+    events = detect_swing_events(t, rate, "foot", sagittal_acc=impact_acceleration(t, strikes))
+    np.testing.assert_allclose(events.t_ic_s, strikes, atol=1.0 / RATE)
+    assert events.ic_at_impact.all()
+    np.testing.assert_allclose(events.t_fc_s, fcs, atol=0.006)
+    # Without an impact the end of the forward rotation stays the contact.
+    smooth = detect_swing_events(t, rate, "foot", sagittal_acc=impact_acceleration(t, []))
+    np.testing.assert_allclose(smooth.t_ic_s, ics, atol=0.006)
+    assert not smooth.ic_at_impact.any()
+    with pytest.raises(ValueError, match="sagittal acceleration"):
+        detect_swing_events(t, rate, "foot", sagittal_acc=np.zeros((t.size, 3)))
+
+
+def test_sagittal_axes_are_found_in_the_samples_of_a_turned_sensor():
+    """A foot sensor turned by an unknown mounting: the flexion axis is the dominant rotation,
+    the vertical is gravity while the foot is quietest, the anterior axis completes them."""
+    from mimucap.core.analysis.sagittal import axes_calibrated, axes_from_data
+
+    t = np.arange(0, 10, 1 / RATE)
+    ics = 1.0 + 1.1 * np.arange(1, 8)
+    rate = foot_like_rate(ics, ics - 0.42, t)
+    # Foot frame: x anterior, y up, z right (ISB); the foot pitches about z. At rest the
+    # accelerometer reads gravity alone, in motion also the swing's acceleration.
+    moving = np.abs(rate) > 0.05
+    acc_foot = np.stack((6.0 * np.sin(2 * np.pi * t / 1.1) * moving, 9.81 + 4.0 * np.cos(2 * np.pi * t / 0.55) * moving,
+                         np.zeros_like(t)), axis=-1)
+    gyr_foot = np.stack((np.zeros_like(t), np.zeros_like(t), rate), axis=-1)
+    q_foot_from_sensor = rot.from_axis_angle(np.array([0.2, 0.9, -0.4]) / np.linalg.norm([0.2, 0.9, -0.4]), 2.2)
+    q_sensor_from_foot = rot.conjugate(q_foot_from_sensor)
+    acc, gyr = rot.rotate(q_sensor_from_foot, acc_foot), rot.rotate(q_sensor_from_foot, gyr_foot)
+    found = axes_from_data(acc, gyr, RATE)
+    known = axes_calibrated(q_foot_from_sensor)
+    assert found.mediolateral @ known.mediolateral > np.cos(np.radians(2.0))
+    assert found.anterior @ known.anterior > np.cos(np.radians(5.0))
+    np.testing.assert_allclose(known.rate(gyr), rate, atol=1e-9)
+    np.testing.assert_allclose(known.acceleration(acc), acc_foot[:, :2], atol=1e-9)
+    with pytest.raises(ValueError, match="gravity is missing"):
+        axes_from_data(np.zeros_like(acc), gyr, RATE)

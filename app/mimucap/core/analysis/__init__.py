@@ -3,8 +3,12 @@
 One concept per module:
 
 * :mod:`.signals` uniform resampling, zero-phase low-pass filtering, sub-sample event times;
-* :mod:`.sagittal` the sagittal (flexion-axis) angular velocity of a shank or foot sensor;
-* :mod:`.gait_events` initial and final contact of each foot from that angular velocity;
+* :mod:`.sagittal` the sagittal axes of a shank or foot sensor (from the body calibration, or
+  found in its samples), its angular velocity about the flexion axis and its acceleration in
+  the sagittal plane;
+* :mod:`.heel_strike` the heel strike's impact in that acceleration;
+* :mod:`.gait_events` initial and final contact of each foot from that angular velocity and
+  the impact;
 * :mod:`.zupt` stride length and heading change of a foot sensor by zero-velocity-update
   integration;
 * :mod:`.leg_model` stride length from thigh and shank orientations (double-pendulum leg model);

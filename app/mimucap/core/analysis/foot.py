@@ -2,8 +2,9 @@
 stride's length and heading change by zero-velocity-update integration (:mod:`.zupt`).
 
 Inputs: ``t_s`` (N,) s, ``acc`` (N, 3) m/s² and ``gyr`` (N, 3) rad/s in the sensor frame,
-``sagittal_rate`` (N,) rad/s (see :mod:`.sagittal`). Irregular sampling is resampled to the
-median interval first.
+``sagittal_rate`` (N,) rad/s and, where known, ``sagittal_acc`` (N, 2) m/s² (antero-posterior
+and vertical; see :mod:`.sagittal`). Irregular sampling is resampled to the median interval
+first.
 """
 
 from __future__ import annotations
@@ -25,14 +26,15 @@ LAST_REST_SEARCH_S = 1.0
 
 
 def foot_strides(side: str, t_s: np.ndarray, acc: np.ndarray, gyr: np.ndarray, sagittal_rate: np.ndarray,
-                 settings: EventSettings = DEFAULT_EVENT_SETTINGS) -> tuple[list[Stride], SwingEvents]:
+                 settings: EventSettings = DEFAULT_EVENT_SETTINGS,
+                 sagittal_acc: np.ndarray | None = None) -> tuple[list[Stride], SwingEvents]:
     """Candidate strides of one foot with length and heading change, and its swing events."""
     t = check_time(t_s, f"{side} foot sensor")
     acc = check_finite(acc, f"{side} foot accelerometer")
     gyr = check_finite(gyr, f"{side} foot gyroscope")
     if acc.shape != (t.shape[0], 3) or gyr.shape != (t.shape[0], 3):
         raise ValueError(f"{side} foot sensor: acc and gyr must have shape ({t.shape[0]}, 3), got {acc.shape}, {gyr.shape}")
-    events = detect_swing_events(t, sagittal_rate, "foot", settings)
+    events = detect_swing_events(t, sagittal_rate, "foot", settings, sagittal_acc)
     strides = pair_strides(side, events.t_ic_s, events.t_fc_s)
     if not strides:
         return strides, events

@@ -22,6 +22,7 @@ from mimucap.core.analysis.foot import foot_strides
 from mimucap.core.analysis.gait_events import DEFAULT_EVENT_SETTINGS, EventSettings, SwingEvents, detect_swing_events
 from mimucap.core.analysis.gait_parameters import GaitParameters, gait_parameters
 from mimucap.core.analysis.leg_model import LegChain
+from mimucap.core.analysis.sagittal import SagittalAxes
 from mimucap.core.analysis.turns import find_turns
 from mimucap.core.analysis.strides import (
     DEFAULT_STRIDE_SETTINGS,
@@ -44,7 +45,9 @@ LENGTH_METHODS = {
 class GaitInput:
     """One foot's sensor: ``side`` left/right, ``placement`` foot/shank, ``sensor_id``,
     ``t_s`` (N,) s, ``sagittal_rate`` (N,) rad/s; a foot sensor also needs ``acc`` (N, 3)
-    m/s² and ``gyr`` (N, 3) rad/s in its own frame."""
+    m/s² and ``gyr`` (N, 3) rad/s in its own frame. ``sagittal_acc`` (N, 2) m/s², the
+    antero-posterior and vertical acceleration (:mod:`.sagittal`), times the initial contacts
+    at the heel strike's impact; without it they come from the angular rate alone."""
 
     side: str
     placement: str
@@ -53,6 +56,14 @@ class GaitInput:
     sagittal_rate: np.ndarray
     acc: np.ndarray | None = None
     gyr: np.ndarray | None = None
+    sagittal_acc: np.ndarray | None = None
+
+    @classmethod
+    def from_axes(cls, side: str, placement: str, sensor_id: str, t_s: np.ndarray, acc: np.ndarray,
+                  gyr: np.ndarray, axes: SagittalAxes) -> GaitInput:
+        """The input of a sensor whose sagittal ``axes`` are known (from the body calibration,
+        or found in the recording: :func:`.sagittal.axes_from_data`)."""
+        return cls(side, placement, sensor_id, t_s, axes.rate(gyr), acc, gyr, axes.acceleration(acc))
 
 
 @dataclass
@@ -91,10 +102,11 @@ def analyse_gait(inputs: list[GaitInput], legs: LegChain | None = None,
             if item.acc is None or item.gyr is None:
                 raise ValueError(f"foot sensor {item.sensor_id}: needs accelerometer and gyroscope samples")
             found, events[item.side] = foot_strides(item.side, item.t_s, item.acc, item.gyr, item.sagittal_rate,
-                                                    event_settings)
+                                                    event_settings, item.sagittal_acc)
             sources[item.side] = f"foot sensor {item.sensor_id}; stride length: {LENGTH_METHODS['foot']}"
         elif item.placement == "shank":
-            events[item.side] = detect_swing_events(item.t_s, item.sagittal_rate, "shank", event_settings)
+            events[item.side] = detect_swing_events(item.t_s, item.sagittal_rate, "shank", event_settings,
+                                                    item.sagittal_acc)
             found = pair_strides(item.side, events[item.side].t_ic_s, events[item.side].t_fc_s)
             shank_items.append(item.side)
             if legs is not None:

@@ -1,6 +1,6 @@
-"""Initial contact (IC) and final contact (FC, toe-off) of one foot from the sagittal angular
-velocity of a sensor on the foot or on the shank (see :mod:`.sagittal`; rad/s, positive when
-the distal end swings forward).
+"""Initial contact (IC) and final contact (FC, toe-off) of one foot from a sensor on the foot
+or on the shank: its sagittal angular velocity (see :mod:`.sagittal`; rad/s, positive when the
+distal end swings forward) and, where given, its acceleration in the sagittal plane.
 
 Both placements share the swing: a long positive excursion of the sagittal rate whose peak
 (mid-swing) exceeds ``min_swing_peak_rad_s`` and whose angle exceeds ``min_swing_angle_rad``,
@@ -10,30 +10,43 @@ et al. 2004, "Gait assessment in Parkinson's disease: toward an ambulatory syste
 long-term monitoring", IEEE TBME 51:1434-1443: mid-swing peaks above 50 °/s). The events are
 then timed on a copy low-passed at ``event_lowpass_hz`` (zero phase, so no delay):
 
-* **Foot** (after Rampp et al. 2015, "Inertial sensor-based stride parameter calculation from
-  gait sequences in geriatric patients", IEEE TBME 62:1089-1097, and the gaitmap definitions):
-  FC is the minimum of the sagittal rate in the push-off before the swing (the foot's fastest
-  plantar-flexion as the toe leaves the ground); IC is the zero crossing from positive to
-  negative that ends the swing: the forward rotation of the foot stops at heel contact and the
-  foot starts to roll down onto the ground (``bench/bench_gait.py`` compares them with an
-  optical reference).
+* **Initial contact is the heel strike itself**: the impact in the sagittal-plane
+  acceleration (:mod:`.heel_strike`) after the swing, searched from ``heel_strike_window_s[0]``
+  before to ``heel_strike_window_s[1]`` after the end of the swing's forward rotation (the
+  + → − zero crossing of the rate). The foot's forward rotation ends in terminal swing, at or
+  before the heel strikes (Perry & Burnfield, "Gait Analysis: Normal and Pathological
+  Function", 2010: terminal swing is the last 13 % of the cycle, 0.14 s at 1.1 s per stride):
+  where the foot reaches its highest pitch well before the heel lands (a flat, slow approach)
+  the crossing is up to that much early, and the impact is not (after Rampp et al. 2015,
+  "Inertial sensor-based stride parameter calculation from gait sequences in geriatric
+  patients", IEEE TBME 62:1089-1097: the angular-rate minimum after the swing, refined where
+  the acceleration shows the foot stopped by the ground). Without an acceleration, or where
+  it shows no impact (a soft landing, a smooth synthetic signal), the placement's angular-rate
+  rule below gives the contact.
+* **Foot** (Rampp et al. 2015 and the gaitmap definitions): FC is the minimum of the sagittal
+  rate in the push-off before the swing (the foot's fastest plantar-flexion as the toe leaves
+  the ground); the angular-rate IC is the zero crossing that ends the swing: the forward
+  rotation of the foot stops and the foot starts to roll down onto the ground.
 * **Shank** (Salarian et al. 2004; Aminian et al. 2002; compared in Trojaniello et al. 2014,
   "Estimation of step-by-step spatio-temporal parameters of normal and impaired gait using
   shank-mounted magneto-inertial sensors", J. NeuroEng. Rehabil. 11:152): FC is the minimum
-  of the rate before the swing (push-off), IC the first local minimum after the swing's zero
-  crossing when it is sharp (the shank is stopped and thrown back at heel strike); where no
-  such impact follows within ``shank_ic_window_s`` (a smooth signal), the zero crossing itself,
-  the instant the shank's forward swing ends.
+  of the rate before the swing (push-off); the angular-rate IC is the first local minimum
+  after the swing's zero crossing when it is sharp (the shank is stopped and thrown back at
+  heel strike); where no such impact follows within ``shank_ic_window_s`` (a smooth signal),
+  the zero crossing itself, the instant the shank's forward swing ends.
 
-Times in seconds on the signal's own clock; events that cannot be timed are NaN.
+Every threshold is in physical units (s, rad/s, m/s²), so that the rules hold at any sampling
+rate; times in seconds on the signal's own clock; events that cannot be timed are NaN.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from mimucap.core.analysis.heel_strike import impact_time
 from mimucap.core.analysis.signals import (
     check_finite,
     check_time,
@@ -58,7 +71,11 @@ class EventSettings:
     ``event_lowpass_hz`` cut-off of the copy that times events; ``fc_window_s`` how far
     before a swing the push-off minimum is searched (s); ``shank_ic_window_s`` how far after
     the end of a swing the shank's heel-strike minimum is searched (s);
-    ``shank_impact_rad_s`` how sharply the rate must climb out of it to count as an impact.
+    ``shank_impact_rad_s`` how sharply the rate must climb out of it to count as an impact;
+    ``heel_strike_window_s`` (before, after) the end of the forward rotation, where the
+    heel strike's impact is looked for (s); ``impact_min_m_s2`` and ``impact_span_s`` the
+    least change of the sagittal acceleration within that time that is an impact (2 g in 10 ms:
+    twice what free limb movement can do, :mod:`.heel_strike`).
     """
 
     min_swing_peak_rad_s: float = 1.0
@@ -70,14 +87,20 @@ class EventSettings:
     fc_window_s: float = 0.35
     shank_ic_window_s: float = 0.06
     shank_impact_rad_s: float = 0.35
+    heel_strike_window_s: tuple[float, float] = (0.03, 0.15)
+    impact_min_m_s2: float = 2.0 * 9.81
+    impact_span_s: float = 0.01
 
     def __post_init__(self) -> None:
         for name in ("min_swing_peak_rad_s", "min_swing_angle_rad", "min_swing_s", "max_swing_s",
                      "swing_lowpass_hz", "event_lowpass_hz", "fc_window_s", "shank_ic_window_s",
-                     "shank_impact_rad_s"):
+                     "shank_impact_rad_s", "impact_min_m_s2", "impact_span_s"):
             value = getattr(self, name)
             if not np.isfinite(value) or value <= 0:
                 raise ValueError(f"event setting {name} must be a positive number, got {value}")
+        before, after = self.heel_strike_window_s
+        if not (np.isfinite(before) and np.isfinite(after) and before >= 0 and after > 0):
+            raise ValueError(f"heel_strike_window_s must be (before >= 0, after > 0) s, got {self.heel_strike_window_s}")
         if self.max_swing_s <= self.min_swing_s:
             raise ValueError("max_swing_s must exceed min_swing_s")
 
@@ -89,13 +112,16 @@ DEFAULT_EVENT_SETTINGS = EventSettings()
 class SwingEvents:
     """The swings of one foot, in time order: ``t_fc_s`` (K,) final contact before each swing,
     ``t_ic_s`` (K,) initial contact ending it, ``t_mid_swing_s`` (K,) its peak (s; NaN where an
-    event could not be timed); ``placement`` foot or shank; ``rate_hz`` the analysis rate."""
+    event could not be timed); ``ic_at_impact`` (K,) True where the initial contact is the
+    heel strike's impact, False where the angular-rate rule gave it; ``placement`` foot or
+    shank; ``rate_hz`` the analysis rate."""
 
     placement: str
     t_fc_s: np.ndarray
     t_ic_s: np.ndarray
     t_mid_swing_s: np.ndarray
     rate_hz: float
+    ic_at_impact: np.ndarray
 
     def __len__(self) -> int:
         return int(self.t_ic_s.shape[0])
@@ -109,25 +135,36 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
 
 
 def detect_swing_events(t_s: np.ndarray, sagittal_rate: np.ndarray, placement: str,
-                        settings: EventSettings = DEFAULT_EVENT_SETTINGS) -> SwingEvents:
+                        settings: EventSettings = DEFAULT_EVENT_SETTINGS,
+                        sagittal_acc: np.ndarray | None = None) -> SwingEvents:
     """Swings with their FC and IC from the sagittal rate (N,) rad/s at times ``t_s`` (N,) s
-    of a ``placement`` ("foot" or "shank") sensor; see the module doc. Irregular sampling
-    (dropped samples) is resampled to the median interval first."""
+    of a ``placement`` ("foot" or "shank") sensor, and its sagittal-plane acceleration (N, 2)
+    m/s² when given (:meth:`.sagittal.SagittalAxes.acceleration`); see the module doc.
+    Irregular sampling (dropped samples) is resampled to the median interval first."""
     if placement not in PLACEMENTS:
         raise ValueError(f"sensor placement must be one of {', '.join(PLACEMENTS)}, got {placement!r}")
     t = check_time(t_s, f"{placement} sensor")
     rate = check_finite(sagittal_rate, f"{placement} sagittal angular velocity")
     if rate.shape != t.shape:
         raise ValueError(f"{placement} sensor: {rate.shape[0]} rate samples for {t.shape[0]} time stamps")
+    acc = None
+    if sagittal_acc is not None:
+        acc = check_finite(sagittal_acc, f"{placement} sagittal acceleration")
+        if acc.shape != (t.shape[0], 2):
+            raise ValueError(f"{placement} sensor: sagittal acceleration must have shape ({t.shape[0]}, 2), got {acc.shape}")
     grid, rate_hz = uniform_grid(t)
     signal = resample(t, rate, grid)
+    if acc is not None:
+        acc = resample(t, acc, grid)
     slow = lowpass(signal, rate_hz, settings.swing_lowpass_hz)
     fast = lowpass(signal, rate_hz, settings.event_lowpass_hz)
     dt = 1.0 / rate_hz
     n = grid.shape[0]
     fc_window = max(int(round(settings.fc_window_s * rate_hz)), 2)
     ic_window = max(int(round(settings.shank_ic_window_s * rate_hz)), 2)
-    t_fc, t_ic, t_mid = [], [], []
+    strike_before = int(round(settings.heel_strike_window_s[0] * rate_hz))
+    strike_after = max(int(round(settings.heel_strike_window_s[1] * rate_hz)), 1)
+    t_fc, t_ic, t_mid, at_impact = [], [], [], []
     previous_ic_index = 0
     for start, end in _runs(slow > 0.0):
         segment = slow[start:end]
@@ -157,6 +194,10 @@ def detect_swing_events(t_s: np.ndarray, sagittal_rate: np.ndarray, placement: s
                     if np.max(fast[i:min(i + ic_window, n)]) - fast[i] >= settings.shank_impact_rad_s:
                         ic = extremum_time(grid, fast, i)
                     break
+        impact = math.nan
+        if acc is not None:
+            impact = impact_time(grid, acc, fall - strike_before, fall + strike_after, rate_hz,
+                                 settings.impact_min_m_s2, settings.impact_span_s)
         low = max(rise - fc_window, previous_ic_index)
         if rise - low >= 2:
             index = low + int(np.argmin(fast[low:rise + 1]))
@@ -164,8 +205,9 @@ def detect_swing_events(t_s: np.ndarray, sagittal_rate: np.ndarray, placement: s
         else:
             fc = float("nan")
         t_fc.append(fc)
-        t_ic.append(ic)
+        t_ic.append(impact if math.isfinite(impact) else ic)
+        at_impact.append(math.isfinite(impact))
         t_mid.append(extremum_time(grid, slow, peak))
         previous_ic_index = fall + 1
     return SwingEvents(placement, np.asarray(t_fc, dtype=float), np.asarray(t_ic, dtype=float),
-                       np.asarray(t_mid, dtype=float), float(rate_hz))
+                       np.asarray(t_mid, dtype=float), float(rate_hz), np.asarray(at_impact, dtype=bool))
