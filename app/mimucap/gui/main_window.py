@@ -292,6 +292,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self.refused_status.setVisible(False)
         status.addPermanentWidget(self.refused_status)
         self.rate_status = QtWidgets.QLabel(self)
+        # Wide enough for the usual figures, so that a rate going from 99 to 101 Hz does not
+        # need room the status bar has already given away.
+        self.rate_status.setMinimumWidth(self.rate_status.fontMetrics().horizontalAdvance("17 sensors, 888 Hz, 888 drops"))
         self.cpu_status = QtWidgets.QLabel(self)
         self.fps_status = QtWidgets.QLabel(self)
         for label in (self.source_status, self.pose_status, self.rate_status, self.cpu_status, self.fps_status):
