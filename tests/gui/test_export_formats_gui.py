@@ -9,19 +9,14 @@ import numpy as np
 import pytest
 from PyQt5 import QtWidgets
 
-from mimucap.core.simulate.config import SimulationConfig
-from mimucap.core.simulate.suit import simulate_session
-from mimucap.io.session import session_from_simulation, write_session
 
-
-def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path):
+def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path, calibrated_walk):
     from mimucap.gui.export_dialog import ExportDialog
     from mimucap.io.angles_export import read_angles_mot
     from mimucap.session.review import load_review
 
-    path = write_session(tmp_path / "walk.h5", session_from_simulation(simulate_session(
-        SimulationConfig(scenario="walk", duration_s=3.0, n_sensors=10, seed=2))))
-    dialog = ExportDialog(None, load_review(path))
+    # A calibrated walk: joint angles mean something only with a body calibration.
+    dialog = ExportDialog(None, load_review(calibrated_walk))
     qtbot.addWidget(dialog)
     for box in (dialog.want_csv, dialog.want_mot, dialog.want_summary):
         box.setChecked(False)
