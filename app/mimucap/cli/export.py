@@ -61,22 +61,6 @@ def choose_format(out: str, given: str | None) -> str:
     return suffix
 
 
-def review_for_export(session_path: str | Path, calibration_path: str | Path | None = None):
-    """The pipeline's result for ``session_path`` (:func:`mimucap.session.review.load_review`),
-    with the body calibration read from ``calibration_path`` in place of the stored one."""
-    from mimucap.session import review
-
-    if calibration_path is None:
-        return review.load_review(session_path)
-    from mimucap.io.body_calibration_file import read_body_calibration
-    from mimucap.session.recording import open_session
-
-    calibration, _document = read_body_calibration(calibration_path)
-    session = open_session(session_path)
-    session.calibrations = {**session.calibrations, "body": calibration.to_dict()}
-    return review.build_review(session_path, session)
-
-
 def run(args: argparse.Namespace) -> int:
     fmt = choose_format(args.out, args.format)
     if args.opensim_names and fmt != "mot":
@@ -86,8 +70,9 @@ def run(args: argparse.Namespace) -> int:
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.session, args.calibration)
     from mimucap.session.export import write_motion_file
+    from mimucap.session.review import load_review
 
-    data = review_for_export(args.session, args.calibration)
+    data = load_review(args.session, calibration_file=args.calibration)
     written = write_motion_file(data, fmt, Path(args.out), args.t_from, args.t_to, opensim_names=args.opensim_names,
                                 raw_sensors=args.raw_sensors)
     print(f"{data.path.name} ({data.pose_source}): {len(written)} file(s) written: "

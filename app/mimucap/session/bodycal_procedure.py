@@ -47,7 +47,10 @@ from mimucap.core.bodycal import (
     CalibrationRefused,
     calibrate_npose_tpose,
     check_mapping,
+    segment_orientations,
 )
+from mimucap.core.pipeline import segments_from_sensors
+from mimucap.core.skeleton import SkeletonModel
 from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed
 from mimucap.session.instructions import Instruction
@@ -380,14 +383,16 @@ class BodycalProcedure:
                     self._message = self.instruction(pose)
         return BodycalStatus(self.phase, pose, meter, still, capturing, countdown, self._message, self._restarts)
 
-    def npose_segment_orientations(self) -> dict[str, np.ndarray]:
+    def npose_segment_orientations(self, model: SkeletonModel | None = None) -> dict[str, np.ndarray]:
         """The calibrated N-pose: segment → ``q_world_from_segment`` (4,) from the N-pose means
-        and the result (only in phase ``"result"``)."""
+        and the result, by the pipeline's own step (:func:`mimucap.core.pipeline.segments_from_sensors`);
+        every segment of ``model`` (those without a sensor follow their parent), or the
+        calibrated segments without one. Only in phase ``"result"``."""
         if self.calibration is None:
             raise ValueError("no body calibration result yet")
-        cal = self.calibration
-        return {seg: rot.multiply(self.npose_mean[sid], rot.conjugate(cal.q_segment_from_sensor[seg]))
-                for seg, sid in cal.sensors.items()}
+        if model is None:
+            return segment_orientations(self.calibration, self.npose_mean)
+        return segments_from_sensors(model, self.npose_mean, self.calibration, {}) or {}
 
     def quality_figures(self) -> list[tuple[str, str]]:
         """(label, value) pairs for the result page: arm raise/rotation angles, axis tilt,
