@@ -322,3 +322,50 @@ def test_writers_refuse_bad_input_naming_what_is_wrong(review, tmp_path):
     with pytest.raises(ValueError, match="context must be Left, Right or General"):
         write_c3d(tmp_path / "x.c3d", review.model, review.height_m, review.t_s, review.q_world_from_segment,
                   review.angles_deg, events=[(1.0, "left", "Foot Strike")])
+
+
+# --------------------------------------------------------------------------------------------
+# Segment orientations of a session calibrated in the window (issue 31, point 1)
+# --------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("fmt", ["c3d", "bvh", "sto"])
+def test_exported_segment_headings_of_a_window_calibration_follow_the_truth(walk, review, tmp_path, fmt, capsys):
+    """The export of a session whose body calibration was made live (stored in the session),
+    read back by another program's reader: every segment's heading within 3° of the simulator's
+    in the N-pose (mean) and while walking (RMS), as for the command-line route
+    (``tests/cli/test_session_route.py``)."""
+    from tests.io.exported_segments import bvh_segments, c3d_segments, heading_figures, sto_segments
+
+    path = tmp_path / f"walk.{fmt}"
+    assert main(["export", str(walk), "--format", fmt, "--out", str(path)]) == 0
+    t, segments = {"c3d": lambda: c3d_segments(path, review.markers), "bvh": lambda: bvh_segments(path, review.markers),
+                   "sto": lambda: sto_segments(path)}[fmt]()
+    figures = heading_figures(t, segments, review.truth, still=[(0.1, 0.9)], moving=[(1.5, review.end_s)])
+    assert len(figures) >= 14  # every segment (the head has no OpenSense body)
+    with capsys.disabled():
+        print(f"\nwindow route, {fmt}: worst segment heading error N-pose {max(f[0] for f in figures.values()):.2f}°, "
+              f"walking RMS {max(f[1] for f in figures.values()):.2f}°")
+    for segment, (npose_deg, walking_deg) in figures.items():
+        assert npose_deg < 3.0 and walking_deg < 3.0, (segment, npose_deg, walking_deg)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(importlib.util.find_spec("opensim") is None,
+                    reason="opensim (OpenSim 4.6, test extra) is not installed: pip install opensim")
+def test_opensense_calibrates_on_the_calibration_table_of_a_window_calibration(walk, review, shared_data, tmp_path,
+                                                                              capsys):
+    """A table of walking alone (it does not begin in the N-pose) and its calibration table:
+    OpenSense's knee flexion within 3° RMS of the simulator's."""
+    table = tmp_path / "walking.sto"
+    assert main(["export", str(walk), "--format", "sto", "--from", "1.5", "--out", str(table)]) == 0
+    calibration = tmp_path / "walking_calibration.sto"
+    header = table.read_text().split("endheader")[0]
+    assert "calibrate on walking_calibration.sto" in header
+    model = shared_data / "body" / "opensense_example" / "Rajagopal_2015.osim"
+    from tests.io.exported_segments import opensense_knee_errors
+
+    errors = opensense_knee_errors(table, calibration, model, tmp_path / "ik", lambda t, c: truth_on(t, review, c))
+    with capsys.disabled():
+        print("\nOpenSense IK (calibration table) vs truth while walking, window route, RMS deg: "
+              + ", ".join(f"{k} {v:.2f}" for k, v in errors.items()))
+    assert max(errors.values()) < 3.0, errors

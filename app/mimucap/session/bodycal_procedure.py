@@ -20,7 +20,9 @@ sensor's N-pose orientation taken from the still window's mean accelerometer and
 magnetometer where the feed can give it (``feed.static_orientation``: what the orientation
 filter converges to, free of the transient its heading may still carry shortly after a new
 magnetometer calibration), or
-refuses (phase ``"refused"`` with the reason). A pose that is not held still within
+refuses (phase ``"refused"`` with the reason). The result carries the magnetometer calibrations
+the feed's pipeline applied (``feed.magnetometer_calibrations()``), with which its rotations
+hold (:mod:`mimucap.session.calibrations`). A pose that is not held still within
 ``pose_timeout_s`` is refused as well ("the subject kept moving in the N-pose"). Each page's
 instruction goes to the feed (:mod:`mimucap.session.instructions`): the person reads it, and the
 simulated subject of the simulated suit does it.
@@ -53,6 +55,7 @@ from mimucap.core.pipeline import segments_from_sensors
 from mimucap.core.skeleton import SkeletonModel
 from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed
+from mimucap.session.calibrations import with_magnetometers
 from mimucap.session.instructions import Instruction
 
 PHASES = ("ready", "npose", "tpose", "result", "refused")
@@ -357,13 +360,16 @@ class BodycalProcedure:
     def _compute(self) -> None:
         t, q = self._common_time_base()
         try:
-            self.calibration = calibrate_npose_tpose(
+            calibration = calibrate_npose_tpose(
                 t, q, self.mapping, self.windows["npose"], self.windows["tpose"],
                 arms=self.arms, settings=self.settings.engine, npose_orientations=self.npose_static,
             )
         except CalibrationRefused as refusal:
             self._refuse(refusal.reason)
             return
+        # It holds with the magnetometer calibrations its orientations were computed with.
+        self.calibration = with_magnetometers(calibration, self.feed.magnetometer_calibrations(),
+                                              origin="made live (N-pose and T-pose)")
         self.phase = "result"
         self._message = f"Calibration {self.calibration.quality.verdict}: check the figure and accept"
         self.feed.instruct(instructions.npose())

@@ -64,7 +64,6 @@ from mimucap.core.pipeline import (
 from mimucap.core.samples import SensorSamples, join_per_sensor
 from mimucap.core.simulate import SimulationConfig, SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
-from mimucap.session.calibrations import MAGNETOMETER_DETAIL, with_magnetometers
 from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
@@ -439,13 +438,9 @@ class LiveSession:
         self.events.calibration.emit()
 
     def apply_body_calibration(self, calibration: bodycal.BodyCalibration) -> None:
-        """Drive the figure through ``calibration`` (sensor → segment rotations) from now on.
-        A calibration made here carries the magnetometer calibrations in use now, with which its
-        N-pose orientations were computed (:func:`mimucap.session.calibrations.with_magnetometers`)."""
+        """Drive the figure through ``calibration`` (sensor → segment rotations) from now on."""
         self._refuse_while_recording("applying a body calibration")
         check_body_calibration_fits(calibration, self.model)
-        if MAGNETOMETER_DETAIL not in calibration.details:
-            calibration = with_magnetometers(calibration, self.mag_calibrations, origin="made live (N-pose and T-pose)")
         self.body_calibration = calibration
         for segment, sensor in calibration.sensors.items():
             self.assign_sensor(sensor, segment)
