@@ -158,3 +158,84 @@ def test_opensense_on_the_route_with_its_calibration_table(route, shared_data, t
         print("\nOpenSense IK (calibration table) vs truth while walking, command-line route, RMS deg: "
               + ", ".join(f"{k} {v:.2f}" for k, v in errors.items()))
     assert max(errors.values()) < 3.0, errors
+
+
+# --------------------------------------------------------------------------------------------
+# No analysis without a body calibration (issue 31, point 4)
+# --------------------------------------------------------------------------------------------
+
+def route_reference(recorded):
+    """The simulator's strides of the route's steady walking (contacts and stride lengths from
+    the stored truth, :func:`mimucap.session.analysis_evaluation.simulated_reference`)."""
+    from types import SimpleNamespace
+
+    from mimucap.session.analysis_evaluation import simulated_reference
+
+    truth = recorded.truth
+    suit = SimpleNamespace(t_s=truth.t_s, q_world_from_segment=truth.q_world_from_segment,
+                           root_position_m=truth.extra["root_position_m"], foot_contact=truth.extra["foot_contact"])
+    return simulated_reference(SimpleNamespace(truth=suit, markers=[(m.t_s, m.label) for m in recorded.markers],
+                                               model_name=recorded.metadata["skeleton_model"],
+                                               height_m=recorded.metadata["height_m"]))
+
+
+def test_gait_and_report_refuse_a_session_without_a_body_calibration(route, tmp_path, capsys):
+    folder, session, calibration = route
+    capsys.readouterr()
+    assert main(["gait", str(session), "--out", str(tmp_path / "gait")]) == 1
+    said = capsys.readouterr().err
+    assert "no body calibration" in said and "--calibration CAL.json" in said
+    assert not (tmp_path / "gait").exists()
+    assert main(["report", str(session), "--out", str(tmp_path / "report.pdf")]) == 1
+    said = capsys.readouterr().err
+    assert "no body calibration" in said and "--calibration CAL.json" in said
+    assert not (tmp_path / "report.pdf").exists()
+    # The temporal parameters alone, when asked for, labelled so in every table.
+    from mimucap.io.gait_csv import read_table
+
+    assert main(["gait", str(session), "--temporal-only", "--out", str(tmp_path / "temporal")]) == 0
+    assert "temporal gait parameters only" in capsys.readouterr().out
+    for name in ("strides.csv", "parameters.csv", "bouts_turns.csv"):
+        header = [line for line in (tmp_path / "temporal" / name).read_text().splitlines() if line.startswith("#")]
+        assert any(line.startswith("# Analysis: no body calibration") for line in header), name
+        assert any(line.startswith("# Body calibration: none") for line in header), name
+    rows = {(r["parameter"], r["side"]): r for r in read_table(tmp_path / "temporal" / "parameters.csv")}
+    assert 100.0 < float(rows[("cadence", "both")]["mean"]) < 125.0
+    assert rows[("stride_length", "both")]["mean"] == "" and rows[("gait_speed", "both")]["mean"] == ""
+    assert [r for r in read_table(tmp_path / "temporal" / "bouts_turns.csv") if r["kind"] == "turn"] == []
+    assert not (tmp_path / "temporal" / "gait_cycle_curves.csv").exists()
+
+
+def test_gait_and_report_with_the_calibration_find_the_turns_and_stride_lengths(route, tmp_path, capsys):
+    """With ``--calibration`` the route's three turns (marked ``turn``) are found, none while the
+    sensors were turned in the hands, and the stride lengths follow the simulator's."""
+    from mimucap.io.gait_csv import read_table
+    from mimucap.session.analysis_evaluation import compare
+
+    folder, session, calibration = route
+    out = tmp_path / "gait"
+    assert main(["gait", str(session), "--calibration", str(calibration), "--out", str(out)]) == 0
+    recorded = read_session(session)
+    end_s = float(recorded.truth.t_s[-1])
+    marked = phases.phase_windows(recorded.markers, phases.TURN, end_s)
+    turns = [(float(r["start_s"]), float(r["end_s"]), float(r["angle_deg"]))
+             for r in read_table(out / "bouts_turns.csv") if r["kind"] == "turn"]
+    assert len(turns) == len(marked) == 3, turns
+    for (start, end, angle), (a, b) in zip(turns, marked):
+        assert a - 1.0 < start < b and 150.0 < abs(angle) < 210.0, (start, end, angle, a, b)
+    strides = read_table(out / "strides.csv")
+    lengths = [float(s["stride_length_m"]) for s in strides if s["analysed"] == "true"]
+    assert len(lengths) >= 20 and all(np.isfinite(lengths))
+    from mimucap.session.analysis import analyse_review
+    from mimucap.session.review import load_review
+
+    analysis = analyse_review(load_review(session, calibration_file=calibration))
+    figures = compare(analysis.gait.strides, route_reference(recorded)).summary()
+    with capsys.disabled():
+        print(f"\ncommand-line route with --calibration: {len(turns)} turns "
+              f"({', '.join(f'{t[2]:+.0f}° at {t[0]:.1f} s' for t in turns)}), stride length error "
+              f"{figures['length_mean_cm']:+.1f} ± {figures['length_sd_cm']:.1f} cm over {figures['n_reference']} strides")
+    assert figures["missed"] == 0 and figures["length_mae_cm"] < 5.0, figures
+    pdf = tmp_path / "report.pdf"
+    assert main(["report", str(session), "--calibration", str(calibration), "--out", str(pdf)]) == 0
+    assert pdf.read_bytes().startswith(b"%PDF")

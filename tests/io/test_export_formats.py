@@ -369,3 +369,45 @@ def test_opensense_calibrates_on_the_calibration_table_of_a_window_calibration(w
         print("\nOpenSense IK (calibration table) vs truth while walking, window route, RMS deg: "
               + ", ".join(f"{k} {v:.2f}" for k, v in errors.items()))
     assert max(errors.values()) < 3.0, errors
+
+
+# --------------------------------------------------------------------------------------------
+# Every output says what it holds (issue 31, point 5)
+# --------------------------------------------------------------------------------------------
+
+def test_every_file_says_what_it_holds(walk, review, tmp_path):
+    """One record (result, body calibration, magnetometer calibrations, skeleton model, software,
+    source file) in every file an export and the analysis write: the header lines of the text
+    files, the BVH's sidecar, the C3D's parameters (read by the ``c3d`` package)."""
+    from mimucap.session.analysis import analyse_review, write_analysis_csv
+    from mimucap.session.export import ExportRequest, run_export
+
+    record = review.provenance
+    assert record.result.startswith("reprocessed")
+    assert record.body_calibration.startswith("N-pose/T-pose, verdict ") and "made live" in record.body_calibration
+    assert "made 20" in record.body_calibration  # when (ISO date)
+    # a verdict and an age per sensor (the wizard's calibrations, made just before recording)
+    assert all(re.search(r"^S\d\d(, S\d\d)*: (good|warn), made within a minute of the recording$", text)
+               for text in record.magnetometer), record.magnetometer
+    assert sum(text.count("S") for text in record.magnetometer) == 17
+    assert record.skeleton_model.startswith("fifteen_segment (15 segments)")
+    assert record.software.startswith("MimuCap ") and record.source_file == "walk.h5"
+    lines = record.lines()
+    exported = run_export(review, ExportRequest(tmp_path / "all", review.start_s, review.end_s, sensors_csv=True,
+                                                opensim_mot=True, c3d=True, bvh=True, opensense_sto=True))
+    tables = write_analysis_csv(tmp_path / "tables", analyse_review(review))
+    names = sorted(p.name for p in exported.files + tables)
+    assert {"all.csv", "all.mot", "all_summary.csv", "all_S01.csv", "all_opensim.mot", "all_markers.csv",
+            "all_orientations.sto", "all_orientations_calibration.sto", "strides.csv", "parameters.csv"} <= set(names)
+    for path in exported.files + tables:
+        if path.suffix == ".c3d" or path.suffix == ".bvh":
+            continue
+        text = path.read_text(encoding="utf-8")
+        for line in lines:
+            assert line in text or line.replace("=", ":") in text, (path.name, line)
+    import c3d
+
+    with (tmp_path / "all.c3d").open("rb") as handle:
+        group = c3d.Reader(handle).get("MIMUCAP")
+        found = {name: [s.strip() for s in group.get(name).string_array] for name in record.parameters()}
+    assert found == record.parameters()

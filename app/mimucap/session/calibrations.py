@@ -92,7 +92,8 @@ class AppliedCalibrations:
 
     ``body`` the body calibration or None, ``body_origin`` where it came from ('' without one);
     ``magnetometer`` sensor → calibration applied, ``magnetometer_origin`` sensor → where it
-    came from; ``raw_field`` sensors with a magnetometer fused with their raw field; ``notes``
+    came from; ``raw_field`` sensors with a magnetometer fused with their raw field; ``onboard``
+    sensors whose device sends its own orientation (its fusion handles its magnetometer); ``notes``
     sentences about choices a reader should know (a body calibration made with another
     magnetometer calibration than the recording applied live, ...).
     """
@@ -102,12 +103,14 @@ class AppliedCalibrations:
     magnetometer: Mapping[str, MagCalibration] = field(default_factory=dict)
     magnetometer_origin: Mapping[str, str] = field(default_factory=dict)
     raw_field: tuple[str, ...] = ()
+    onboard: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
 
     def lines(self) -> list[str]:
         """One line per sensor with a magnetometer: where its calibration came from."""
         found = [f"magnetometer {sid}: {self.magnetometer_origin[sid]}" for sid in self.magnetometer]
         found += [f"magnetometer {sid}: not calibrated (raw field used)" for sid in self.raw_field]
+        found += [f"magnetometer {sid}: the device fuses on board" for sid in self.onboard]
         return found
 
 
@@ -169,8 +172,12 @@ def applied_calibrations(session: Session, *, body: bodycal.BodyCalibration | No
     chosen: dict[str, MagCalibration] = {}
     origins: dict[str, str] = {}
     raw: list[str] = []
+    onboard: list[str] = []
     notes: list[str] = []
     for sensor_id, stream in session.sensors.items():
+        if stream.q_world_from_sensor is not None:
+            onboard.append(sensor_id)  # the pipeline takes the device's orientation as it is
+            continue
         if stream.mag_uT is None:
             continue
         if sensor_id in files:
@@ -204,4 +211,4 @@ def applied_calibrations(session: Session, *, body: bodycal.BodyCalibration | No
         else:
             raw.append(sensor_id)
     return AppliedCalibrations(body, body_origin if body is not None else "", chosen, origins, tuple(raw),
-                               tuple(notes))
+                               tuple(onboard), tuple(notes))

@@ -9,7 +9,7 @@ Every file, report and picture MimuCap writes carries one :class:`Provenance` re
   a ``CAL.json`` file, imported), or none, and what that leaves meaningless;
 * **magnetometer calibrations**: per sensor its verdict and its age at the recording's start
   (ISO dates are compared, so the figure is the same whenever the file is written), or that the
-  raw field was used, or that none was needed (orientations fused on board); sensors that read
+  raw field was used, or that the device fuses its orientation on board; sensors that read
   alike share a sentence;
 * **skeleton model** (and the subject's height), **software** version (and the one that
   recorded), **source file**.
@@ -111,8 +111,10 @@ def _magnetometer(calibrations: AppliedCalibrations, recorded: datetime | None) 
         said.setdefault(f"{verdict}, made {describe_offset(_hours_between(made, recorded))}", []).append(sensor_id)
     for sensor_id in calibrations.raw_field:
         said.setdefault("none (raw field used)", []).append(sensor_id)
+    for sensor_id in calibrations.onboard:
+        said.setdefault("none applied (the device fuses its orientation on board)", []).append(sensor_id)
     found = tuple(f"{', '.join(sensors)}: {text}" for text, sensors in said.items())
-    return found or ("none needed (orientations fused on board)",)
+    return found or ("none (no sensor has a magnetometer)",)
 
 
 def _body(calibrations: AppliedCalibrations) -> str:
