@@ -69,15 +69,9 @@ def pdf_text(path) -> str:
     return text.replace("\ufb01", "fi").replace("\ufb02", "fl")  # the font's ligatures
 
 
-@pytest.mark.parametrize("result", ["reprocessed", "live"])
-def test_the_windows_report_and_the_command_agree_for_the_same_result(qtbot, session_file, tmp_path, result):
-    """The report and the tables made in the window while review shows a result, and ``mimucap
-    report`` of the same file for the same result: the same text and the same numbers, each
-    saying which result it holds on its first page."""
-    from mimucap.cli import main
-    from mimucap.session.analysis import write_analysis_csv
-
-    review = ReviewWindow(session_file)
+def analysed_in_review(qtbot, path, result: str = "reprocessed"):
+    """The review window of ``path`` showing ``result``, and its Analysis window once analysed."""
+    review = ReviewWindow(path)
     qtbot.addWidget(review)
     review.result_combo.setCurrentIndex(review.result_combo.findData(result))
     review.show()
@@ -86,6 +80,18 @@ def test_the_windows_report_and_the_command_agree_for_the_same_result(qtbot, ses
     window = review.open_analysis()
     with qtbot.waitSignal(window.analysed, timeout=30000):
         pass
+    return review, window
+
+
+@pytest.mark.parametrize("result", ["reprocessed", "live"])
+def test_the_windows_report_and_the_command_agree_for_the_same_result(qtbot, session_file, tmp_path, result):
+    """The report and the tables made in the window while review shows a result, and ``mimucap
+    report`` of the same file for the same result: the same text and the same numbers, each
+    saying which result it holds on its first page."""
+    from mimucap.cli import main
+    from mimucap.session.analysis import write_analysis_csv
+
+    review, window = analysed_in_review(qtbot, session_file, result)
     window.write_report(tmp_path / "window.pdf")
     window_tables = write_analysis_csv(tmp_path / "window", window.analysis)
     review.close()
@@ -114,14 +120,7 @@ def uncalibrated_file(tmp_path_factory):
 
 
 def test_without_a_body_calibration_the_window_gives_temporal_parameters_only(qtbot, uncalibrated_file, tmp_path):
-    review = ReviewWindow(uncalibrated_file)
-    qtbot.addWidget(review)
-    review.show()
-    with qtbot.waitSignal(review.loaded, timeout=30000):
-        review.load()
-    window = review.open_analysis()
-    with qtbot.waitSignal(window.analysed, timeout=30000):
-        pass
+    review, window = analysed_in_review(qtbot, uncalibrated_file)
     assert not window.analysis.calibrated
     assert window.limits_label.isVisible() and "no body calibration" in window.limits_label.text()
     assert "straight strides analysed" in window.gait_summary.text()
