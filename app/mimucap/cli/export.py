@@ -5,19 +5,23 @@
 
 The motion is the pipeline's result for the session (segment orientations and joint angles, as
 the review shows them), computed with the session's stored calibrations, or with the body
-calibration of ``--calibration``. The format follows ``--format``, else the suffix of ``--out``:
+calibration of ``--calibration`` and the magnetometer calibrations it was made with
+(:func:`mimucap.session.calibrations.applied_calibrations`). The format follows ``--format``,
+else the suffix of ``--out``:
 
 * ``c3d``: joint angles (``LKneeAngles``… X/Y/Z = flexion/adduction/rotation, degrees), segment
   orientations, joint centres, the markers as events (Visual3D, Mokka, Vicon Nexus, OpenSim);
 * ``bvh``: the skeleton's hierarchy and motion (Blender, MotionBuilder, game engines);
 * ``sto``: an OpenSense orientation table, one virtual IMU per segment (``--raw-sensors``: the
-  sensors' own orientations) for OpenSim's IMUPlacer and IMUInverseKinematicsTool;
+  sensors' own orientations) for OpenSim's IMUPlacer and IMUInverseKinematicsTool, and beside
+  it ``<name>_calibration.sto``, the body calibration's N-pose for IMUPlacer;
 * ``mot``: joint angles as an OpenSim motion (``--opensim-names``: as OpenSim coordinates);
 * ``csv``: joint angles with a header naming sequences, signs and units.
 
 ``--from``/``--to`` (seconds) keep a part of the recording. The markers go into every format that
 has a place for them: C3D events, ``.mot``/``.csv``/``.sto`` header lines; BVH has none, so they
-are listed in a ``.markers.csv`` file beside it.
+are listed in a ``<name>_markers.csv`` file beside it. Every file says what it holds (result,
+calibrations, model, software, source file: :mod:`mimucap.session.provenance`).
 """
 
 from __future__ import annotations
