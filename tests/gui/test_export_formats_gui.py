@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from PyQt5 import QtWidgets
+from PyQt5 import QtGui, QtWidgets
 
 
 def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path, calibrated_walk):
@@ -50,3 +50,24 @@ def test_open_imports_an_mvnx_file_and_reviews_it(qtbot, tmp_path, monkeypatch, 
     assert review.player.pose_source == "body calibration"
     review.close()
     window.close()
+
+
+def test_the_summary_chart_and_table_say_what_they_hold(qtbot, tmp_path, calibrated_walk):
+    """The summary PNG's caption and the summary CSV's header carry the result's record (result,
+    body and magnetometer calibrations, model, software, file), as every export does."""
+    from mimucap.gui.export_dialog import ExportDialog
+    from mimucap.session.review import load_review
+
+    data = load_review(calibrated_walk)
+    dialog = ExportDialog(None, data)
+    qtbot.addWidget(dialog)
+    assert not dialog.calibration_note.isVisible()
+    png = dialog.save_summary_png(tmp_path / "summary.png")
+    lines = data.provenance.lines()
+    assert dialog.summary_caption.splitlines() == lines
+    assert lines[0].startswith("Result: reprocessed") and lines[1].startswith("Body calibration: N-pose/T-pose")
+    image = QtGui.QImage(str(png))
+    assert image.height() > 90 + 24 * dialog.summary.rowCount()  # the caption is drawn below the bars
+    header = [line[2:] for line in dialog.save_summary_csv(tmp_path / "summary.csv").read_text().splitlines()
+              if line.startswith("# ")]
+    assert all(line in header for line in lines)

@@ -260,6 +260,11 @@ def run(args: argparse.Namespace) -> int:
         )
     else:
         raise ValueError("give --tpose T2:T3 (N/T-pose calibration) or --heading-from SENSOR:AXIS")
+    from mimucap.session.calibrations import with_magnetometers
+
+    # the magnetometer calibrations its N-pose orientations were computed with go with it
+    calibration = with_magnetometers(calibration, mags if session is not None else None,
+                                     origin=f"mimucap bodycal of {args.input}")
     extra = {"model": model.name, "input": str(args.input), "world_frame": table.world_frame}
     document = write_body_calibration(args.out, calibration, extra)
     if args.json:

@@ -2,18 +2,16 @@
 
 ``bodycal`` and ``angles`` read a session's raw samples and run them through
 :func:`mimucap.session.processing.process_session` (magnetometer calibration, orientation
-filter, body calibration, joint angles), exactly as review and export do. The magnetometer
-calibrations applied are, for each sensor, the first found of: a ``--mag-calibration`` file,
-the calibration the session recorded, the user's calibration store (where ``mimucap magcal fit
---save`` and the wizard keep them). The N-pose and T-pose windows come from the session's
-markers when none are given.
+filter, body calibration, joint angles), exactly as review and export do, with the
+calibrations :func:`mimucap.session.calibrations.applied_calibrations` chooses (per sensor: a
+``--mag-calibration`` file, the one the body calibration was made with, the one the session
+recorded, the user's calibration store for a session that does not record its live
+processing). The N-pose and T-pose windows come from the session's markers when none are given.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 
 #: Seconds after a pose's marker before the pose can be held (the subject gets into it).
 POSE_SETTLE_S = 1.0
@@ -35,41 +33,13 @@ def is_session(path) -> bool:
 
 
 def magnetometer_calibrations(session, files) -> tuple[dict, list[str]]:
-    """Sensor → the calibration to apply (see the module docstring) and one line per sensor
-    saying where its calibration came from."""
-    from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore, calibration_from_json
-    from mimucap.session.processing import recorded_processing
+    """Sensor → the magnetometer calibration to apply (the choice of
+    :func:`mimucap.session.calibrations.applied_calibrations`, with the files given) and one line
+    per sensor saying where its calibration came from."""
+    from mimucap.session.calibrations import applied_calibrations
 
-    chosen: dict = {}
-    origin: dict[str, str] = {}
-    for name in files or []:
-        path = Path(name)
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as error:
-            raise ValueError(f"--mag-calibration {path}: cannot read it ({error})") from None
-        calibration = calibration_from_json(data, str(path))
-        if calibration.sensor_id not in session.sensors:
-            raise ValueError(f"--mag-calibration {path}: sensor {calibration.sensor_id} is not in the session "
-                             f"(it has {', '.join(session.sensors)})")
-        chosen[calibration.sensor_id] = calibration
-        origin[calibration.sensor_id] = str(path)
-    recorded = recorded_processing(session).mag_calibrations
-    store = CalibrationStore()
-    stored = set(store.sensor_ids())
-    for sensor_id, stream in session.sensors.items():
-        if sensor_id in chosen or stream.mag_uT is None:
-            continue
-        if sensor_id in recorded:
-            chosen[sensor_id], origin[sensor_id] = recorded[sensor_id], "recorded with the session"
-        elif sensor_id in stored:
-            try:
-                chosen[sensor_id], origin[sensor_id] = store.load(sensor_id), f"stored ({store.path_for(sensor_id)})"
-            except CalibrationFileError as error:
-                raise ValueError(str(error)) from None
-    lines = [f"magnetometer {sid}: {origin.get(sid, 'not calibrated (raw field used)')}"
-             for sid, stream in session.sensors.items() if stream.mag_uT is not None]
-    return chosen, lines
+    applied = applied_calibrations(session, mag_files=files or (), stored_body=False)
+    return dict(applied.magnetometer), applied.lines()
 
 
 def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -102,15 +72,18 @@ def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float
 
 
 def orientation_table(session, source: str, mag_calibrations: dict):
-    """Every sensor's orientation (reprocessed) on the reference sensor's instants where every
-    sensor has one, as a :class:`~mimucap.io.quaternion_tables.QuaternionTable` (world ENU)."""
+    """Every sensor's orientation (reprocessed, with ``mag_calibrations``: sensor → the
+    magnetometer calibration applied) on the reference sensor's instants where every sensor has
+    one, as a :class:`~mimucap.io.quaternion_tables.QuaternionTable` (world ENU)."""
     import numpy as np
 
     from mimucap.core.pipeline import RESULT_REPROCESSED, finite_track, orientation_at
     from mimucap.io.quaternion_tables import QuaternionTable
+    from mimucap.session.calibrations import AppliedCalibrations
     from mimucap.session.processing import process_session
 
-    output = process_session(session, result=RESULT_REPROCESSED, mag_calibrations=mag_calibrations)
+    output = process_session(session, result=RESULT_REPROCESSED,
+                             calibrations=AppliedCalibrations(magnetometer=dict(mag_calibrations)))
     for problem in output.problems:
         print(f"  {problem}")
     tracks = {sid: finite_track(session.sensors[sid].t_s, q) for sid, q in output.q_world_from_sensor.items()}

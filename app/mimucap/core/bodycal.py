@@ -233,7 +233,9 @@ class BodyCalibration:
     """A body calibration.
 
     ``q_world_from_body`` (4,); ``up_world`` (3,) the world's up unit vector;
-    ``sensors`` segment → sensor id; ``q_segment_from_sensor`` segment → (4,).
+    ``sensors`` segment → sensor id; ``q_segment_from_sensor`` segment → (4,); ``details``
+    further JSON-ready entries written beside them (pose windows, where and when it was made,
+    the magnetometer calibrations its N-pose orientations were computed with), kept on reading.
     """
 
     q_world_from_body: FloatArray
@@ -267,7 +269,8 @@ class BodyCalibration:
 
     @classmethod
     def from_dict(cls, data: Mapping, origin: str = "calibration") -> "BodyCalibration":
-        """Inverse of :meth:`to_dict` (quality figures are kept as the verdict and problems)."""
+        """Inverse of :meth:`to_dict` (quality figures are kept as the verdict and problems;
+        every other entry as ``details``)."""
         if not isinstance(data, Mapping) or data.get("format") != "mimucap-body-calibration":
             raise ValueError(f"{origin}: not a MimuCap body calibration (format 'mimucap-body-calibration')")
         if data.get("format_version") != 1:
@@ -292,7 +295,13 @@ class BodyCalibration:
             raise ValueError(f"{origin}: malformed body calibration ({error!r})") from None
         if not sensors:
             raise ValueError(f"{origin}: the calibration has no segments")
-        return cls(q_body, up, sensors, q_seg, quality)
+        details = {key: value for key, value in data.items() if key not in _DOCUMENT_KEYS}
+        return cls(q_body, up, sensors, q_seg, quality, details)
+
+
+#: The entries :meth:`BodyCalibration.to_dict` writes itself (the others are ``details``).
+_DOCUMENT_KEYS = ("format", "format_version", "method", "q_world_from_body", "up_world", "segments", "quality",
+                  "verdict")
 
 
 def _unit_quaternion(value: object, what: str) -> FloatArray:

@@ -10,6 +10,10 @@
 * **Report…** writes the PDF report (:mod:`mimucap.gui.report`); **Save tables…** writes every
   analysis table as CSV.
 
+Without a body calibration the gait tab shows the temporal parameters alone, and the curves,
+the ROM tab and the report are disabled, each saying why
+(:data:`mimucap.session.analysis.NEEDS_BODY_CALIBRATION`).
+
 The analysis runs off the GUI thread (:func:`mimucap.session.analysis.analyse_review`); this
 window only shows it.
 """
@@ -86,6 +90,11 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         # -- gait tab ------------------------------------------------------------------------
         self.gait_summary = QtWidgets.QLabel("Analysing…", self.gait_tab)
         self.gait_summary.setWordWrap(True)
+        self.limits_label = QtWidgets.QLabel(self)
+        self.limits_label.setObjectName("analysisLimits")
+        self.limits_label.setWordWrap(True)
+        self.limits_label.setStyleSheet("color: #b00020; font-weight: bold")
+        self.limits_label.hide()
         self.parameters_table = QtWidgets.QTableWidget(self.gait_tab)
         self.parameters_table.setObjectName("parametersTable")
         self.strides_table = QtWidgets.QTableWidget(self.gait_tab)
@@ -168,6 +177,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         bottom.addWidget(self.report_button)
         central = QtWidgets.QWidget(self)
         layout = QtWidgets.QVBoxLayout(central)
+        layout.addWidget(self.limits_label)
         layout.addWidget(self.tabs, 1)
         layout.addLayout(bottom)
         self.setCentralWidget(central)
@@ -221,12 +231,28 @@ class AnalysisWindow(QtWidgets.QMainWindow):
             _fill_table(self.rom_table, list(ROM_HEADER), [row.cells() for row in rom_rows(analysis.rom)])
         else:
             self.rom_label.setText("ROM protocol: this recording has no ROM protocol markers.")
-        if len(self.data.markers) >= 2:
+        if len(self.data.markers) >= 2 and analysis.calibrated:
             self.compute_marker_rom()
         for button in (self.report_button, self.csv_button):
             button.setEnabled(True)
+        self._show_limits(analysis)
         self.statusBar().showMessage("Analysis done.", 5000)
         self.analysed.emit()
+
+    def _show_limits(self, analysis: SessionAnalysis) -> None:
+        """Disable what the analysis cannot give (without a body calibration), saying why."""
+        reason = analysis.limits
+        self.limits_label.setText(f"Temporal gait parameters only: {reason}. Calibrate the body (or give the "
+                                  "session a body calibration) for the rest." if reason else "")
+        self.limits_label.setVisible(bool(reason))
+        for widget in (self.curve_choice, self.band_button, self.curve_plot, self.report_button, self.marker_button):
+            if reason:
+                widget.setEnabled(False)
+            widget.setToolTip(reason)
+        self.tabs.setTabEnabled(self.tabs.indexOf(self.rom_tab), not reason)
+        self.tabs.setTabToolTip(self.tabs.indexOf(self.rom_tab), reason)
+        if reason:
+            self.rom_label.setText(f"ROM: {reason}.")
 
     def _show_curve(self) -> None:
         self.curve_plot.clear()

@@ -2,9 +2,10 @@
 further dependency). Needs a ``QGuiApplication`` (the command line makes one on the offscreen
 platform).
 
-A report of one session (:func:`write_report`): subject id, recording date and length,
-sensors and calibration quality, the gait table beside typical adult values, the gait-cycle
-curves of every joint angle (left and right mean ± SD, stance/swing boundary, a normative band
+A report of one session (:func:`write_report`): subject id, recording date and length, what
+the report holds (result, body and magnetometer calibrations, model, software, file: the
+record every output carries, :mod:`mimucap.session.provenance`), sensors, the gait table
+beside typical adult values, the gait-cycle curves of every joint angle (left and right mean ± SD, stance/swing boundary, a normative band
 where one is given), the ROM table beside the reference values, the markers and the notes.
 A comparison report (:func:`write_comparison_report`) puts two sessions of one subject
 (before / after) side by side with the differences.
@@ -233,27 +234,28 @@ def _header(doc: _Document, analysis: SessionAnalysis, title: str) -> None:
 
 
 def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
+    """What the report holds (:attr:`~mimucap.session.review.ReviewData.provenance`, as every
+    file says it), the sensors and the body calibration's remarks."""
     review = analysis.review
     session = review.session
-    doc.text("Sensors and calibration", 11, True, gap=4)
+    doc.text("What this report holds", 11, True, gap=4)
+    for label, text in review.provenance.items():
+        doc.text(f"{label}: {text}.", 8, gap=2)
+    for note in review.missing:
+        doc.text(f"Note: {note}.", 8, gap=2)
+    doc.text("Sensors", 11, True, gap=4)
     sensors = ", ".join(f"{sid} ({s.segment or 'unassigned'})" for sid, s in session.sensors.items())
     doc.text(f"{len(session.sensors)} sensors: {sensors}", 8)
     calibration = body_calibration_of(review)
-    if calibration is None:
-        doc.text("Body calibration: none (segments shown in sensor axes; spatial results not available).", 8)
-    else:
-        problems = "; ".join(calibration.quality.problems) or "no problems"
-        doc.text(f"Body calibration: {calibration.quality.method or 'stored'}, verdict {calibration.quality.verdict} ({problems}).", 8)
-    mag = session.calibrations.get("magnetometer") or {}
-    if mag:
-        verdicts = ", ".join(f"{sid}: {(entry or {}).get('verdict', (entry or {}).get('quality', {}).get('verdict', '?'))}"
-                             for sid, entry in mag.items())
-        doc.text(f"Magnetometer calibrations: {verdicts}.", 8)
-    elif session.metadata.get("mag_calibrated_sensors"):
-        doc.text("Magnetometer calibrated (live): " + ", ".join(session.metadata["mag_calibrated_sensors"]) + ".", 8)
-    else:
-        doc.text("Magnetometer calibrations: none recorded.", 8)
+    if calibration is not None:
+        doc.text("Body calibration remarks: " + ("; ".join(calibration.quality.problems) or "none") + ".", 8)
     doc.text(f"Poses from: {review.pose_source}.", 8, gap=8)
+
+
+def check_reportable(analysis: SessionAnalysis) -> None:
+    """``ValueError`` when ``analysis`` lacks what a report needs (a body calibration)."""
+    if not analysis.calibrated:
+        raise ValueError(f"{analysis.review.path.name}: no report: {analysis.limits}")
 
 
 def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
@@ -303,7 +305,9 @@ def _markers_and_notes(doc: _Document, analysis: SessionAnalysis, notes: str) ->
 
 def write_report(path: str | Path, analysis: SessionAnalysis, bands: dict[tuple[str, str], NormativeBand] | None = None,
                  notes: str = "") -> Path:
-    """Write the report of one session to ``path`` (PDF); returns the path."""
+    """Write the report of one session to ``path`` (PDF); returns the path. ``ValueError``
+    for an analysis without a body calibration (:func:`check_reportable`)."""
+    check_reportable(analysis)
     target = Path(path)
     doc = _Document(target, "MimuCap clinical report")
     try:
@@ -322,7 +326,14 @@ def write_report(path: str | Path, analysis: SessionAnalysis, bands: dict[tuple[
 
 def write_comparison_report(path: str | Path, before: SessionAnalysis, after: SessionAnalysis,
                             bands: dict[tuple[str, str], NormativeBand] | None = None, notes: str = "") -> Path:
-    """Write a before/after report of two sessions to ``path`` (PDF); returns the path."""
+    """Write a before/after report of two sessions to ``path`` (PDF); returns the path.
+    ``ValueError`` when either analysis lacks a body calibration or the two hold different
+    results (as seen live / reprocessed)."""
+    for analysis in (before, after):
+        check_reportable(analysis)
+    if before.review.result != after.review.result:
+        raise ValueError(f"{before.review.path.name} is {before.review.result_label}, {after.review.path.name} "
+                         f"{after.review.result_label}: compare results of one kind")
     target = Path(path)
     doc = _Document(target, "MimuCap comparison report")
     labels = (f"before ({before.review.path.name})", f"after ({after.review.path.name})")
@@ -330,6 +341,10 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
         _header(doc, after, "MimuCap comparison report")
         doc.text(f"Before: {before.review.path.name}, recorded {before.review.session.metadata.get('created_utc') or 'not recorded'}. "
                  f"After: {after.review.path.name}, recorded {after.review.session.metadata.get('created_utc') or 'not recorded'}.", 9)
+        for label, analysis in (("Before", before), ("After", after)):
+            doc.text(f"What the {label.lower()} session's figures hold", 10, True, gap=3)
+            for item, text in analysis.review.provenance.items():
+                doc.text(f"{item}: {text}.", 7.5, gap=1)
         ids = {str(((a.review.session.metadata.get('subject') or {}).get('id')) or '') for a in (before, after)}
         if len(ids) > 1:
             doc.text(f"Warning: the two sessions name different subjects ({', '.join(sorted(ids))}).", 9, True,

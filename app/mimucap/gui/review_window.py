@@ -26,6 +26,7 @@ from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
+from mimucap.session.analysis import NEEDS_BODY_CALIBRATION
 from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
 
@@ -249,6 +250,9 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.statusBar().showMessage(message, 15000)
         self.action_export.setEnabled(True)
         self.action_analysis.setEnabled(True)
+        # Without a body calibration the analysis gives the temporal gait parameters alone.
+        self.action_analysis.setStatusTip("" if data.body_calibration is not None else
+                                          f"Analysis: {NEEDS_BODY_CALIBRATION}")
         self.seek(data.start_s if keep is None else keep)
         self.scene_view.start()
         self._timer.start()

@@ -287,7 +287,9 @@ def _verdicts(metadata: Mapping[str, Any], calibrations: Mapping[str, Any]) -> d
     return verdicts
 
 
-def _recorded_utc(metadata: Mapping[str, Any]) -> str:
+def recorded_utc(metadata: Mapping[str, Any]) -> str:
+    """When a session was recorded (ISO 8601): the recording's start, else the file's creation;
+    '' when unknown."""
     recording = metadata.get("recording")
     started = recording.get("started_utc") if isinstance(recording, Mapping) else None
     return str(started or metadata.get("created_utc") or "")
@@ -360,7 +362,7 @@ def read_entry(root: str | os.PathLike[str], relative: str) -> SessionEntry:
     height = subject.get("height_m", metadata.get("height_m"))
     return SessionEntry(
         path=relative, subject_id=str(subject.get("id") or _guess_subject(relative)),
-        recorded_utc=_recorded_utc(metadata), condition=str(fields.get("condition") or ""), tags=tags,
+        recorded_utc=recorded_utc(metadata), condition=str(fields.get("condition") or ""), tags=tags,
         trial=str(fields.get("trial") or ""), duration_s=summary.duration_s,
         sensors=dict(sorted(summary.segments.items())),
         verdicts=_verdicts(metadata, summary.calibrations),
@@ -760,4 +762,5 @@ __all__ = [
     "INDEX_NAME", "TRASH_NAME", "SCHEMA_VERSION", "BUSY_TIMEOUT_S", "METADATA_KEY", "STATUS_OK", "STATUS_DAMAGED",
     "LibraryError", "LibraryVersionError", "SessionEntry", "SubjectEntry", "ScanReport", "Library",
     "read_entry", "recording_path", "library_fields", "check_tags", "check_trial_name", "session_file_name", "parse_utc",
+    "recorded_utc",
 ]

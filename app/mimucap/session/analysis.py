@@ -10,7 +10,14 @@ samples, segment orientations and joint angles; nothing from the simulator's tru
   rotation, or without a calibration found in its own samples
   (:mod:`mimucap.core.analysis.sagittal`);
 * the thighs, shanks and pelvis for the leg model and the heading, only when the segment
-  orientations come from a body calibration (sensor axes alone are not the segments).
+  orientations come from a body calibration (sensor axes alone are not the segments);
+* nothing from the phases in which the sensors were in the hands (the magnetometer turns),
+  :func:`while_worn`.
+
+Joint-angle curves, range of motion, turns and spatial gait parameters (stride length, gait
+speed) need a body calibration: without one the segment "orientations" are the sensors' own
+axes. A review without one is analysed for the temporal parameters alone, labelled so
+(:data:`NEEDS_BODY_CALIBRATION`, :attr:`SessionAnalysis.limits`).
 
 ROM protocol markers are labelled ``rom:<movement>:<side>:start`` and ``...:end`` (side
 ``left``, ``right`` or ``both``), see :mod:`mimucap.session.rom_procedure`.
@@ -25,16 +32,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from mimucap.core import bodycal
+from mimucap.core import bodycal, phases
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait import GaitAnalysis, GaitInput, analyse_gait
 from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves, split_column
-from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS, ParameterSummary
+from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS, ParameterSummary, gait_parameters
 from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.sagittal import axes_calibrated, axes_from_data, sagittal_rate_dominant
 from mimucap.io.gait_csv import write_table
@@ -144,11 +151,52 @@ def rom_of_protocol(review: ReviewData) -> dict[tuple[str, str], rom_core.RomRes
     return results
 
 
+#: Why an analysis without a body calibration gives the temporal gait parameters alone.
+NEEDS_BODY_CALIBRATION = ("no body calibration: joint-angle curves, range of motion, turns and spatial gait "
+                          "parameters (stride length, gait speed) need one; temporal gait parameters only")
+
+
+#: Phases in which the sensors are in the hands, not on their segments (the magnetometer calibrations).
+UNWORN_PHASES = (phases.MAG_TURNS, phases.MAG_FIGURE8, phases.MAG_TUMBLE)
+
+
+def unworn_windows(review: ReviewData) -> list[tuple[float, float]]:
+    """The time windows (s) in which the review's markers say the sensors were not worn."""
+    return sorted(w for phase in UNWORN_PHASES for w in phases.phase_windows(review.markers, phase, review.end_s))
+
+
+def while_worn(gait: GaitAnalysis, windows: Sequence[tuple[float, float]]) -> GaitAnalysis:
+    """``gait`` without the strides, bouts and turns that overlap ``windows`` (s) in which the sensors
+    were not worn (turning a sensor in the hand is no turn of the walker), its parameters
+    recomputed."""
+    if not windows:
+        return gait
+
+    def outside(start: float, end: float) -> bool:
+        return not any(start < b and end > a for a, b in windows)
+
+    strides = [s for s in gait.strides if outside(s.ic_s, s.next_ic_s)]
+    bouts = [b for b in gait.bouts if outside(b.start_s, b.end_s)]
+    turns = [t for t in gait.turns if outside(t.start_s, t.end_s)]
+    return replace(gait, strides=strides, bouts=bouts, turns=turns, parameters=gait_parameters(strides))
+
+
+def temporal_only(gait: GaitAnalysis) -> GaitAnalysis:
+    """``gait`` without what needs a body calibration: stride lengths and heading changes
+    left out (NaN), no turns, the parameters of the same strides recomputed (stride length and
+    gait speed then have no value)."""
+    strides = [replace(s, stride_length_m=math.nan, heading_change_deg=math.nan) for s in gait.strides]
+    sources = {side: text.split(";")[0] + "; temporal parameters only (no body calibration)"
+               for side, text in gait.sources.items()}
+    return replace(gait, strides=strides, turns=[], parameters=gait_parameters(strides), sources=sources)
+
+
 @dataclass
 class SessionAnalysis:
     """The analysis of one session: ``gait`` (None with ``gait_problem`` saying why),
     ``curves`` joint-angle cycle curves, ``rom`` results keyed (movement, side) with
-    ``rom_source`` saying where they come from."""
+    ``rom_source`` saying where they come from; ``limits`` what it leaves out and why ('' for a
+    full analysis, :data:`NEEDS_BODY_CALIBRATION` without a body calibration)."""
 
     review: ReviewData
     gait: GaitAnalysis | None
@@ -156,30 +204,47 @@ class SessionAnalysis:
     curves: dict[str, CycleCurve] = field(default_factory=dict)
     rom: dict[tuple[str, str], rom_core.RomResult] = field(default_factory=dict)
     rom_source: str = ""
+    limits: str = ""
+
+    @property
+    def calibrated(self) -> bool:
+        """Whether the review had a body calibration (a full analysis)."""
+        return self.review.body_calibration is not None
 
 
 def analyse_review(review: ReviewData, progress: Callable[[float], None] | None = None) -> SessionAnalysis:
-    """Gait, cycle curves and ROM of a review (module doc)."""
+    """Gait, cycle curves and ROM of a review (module doc); without a body calibration, the
+    temporal gait parameters alone (:func:`temporal_only`)."""
     report = progress or (lambda fraction: None)
+    calibrated = review.body_calibration is not None
     gait, problem, curves = None, "", {}
     inputs, legs = gait_inputs(review)
     if not inputs:
         problem = "no foot or shank sensor with a gyroscope"
     else:
         try:
-            gait = analyse_gait(inputs, legs)
+            gait = while_worn(analyse_gait(inputs, legs), unworn_windows(review))
         except ValueError as error:
             problem = str(error)
+        if gait is not None and not calibrated:
+            gait = temporal_only(gait)
         if gait is not None and not gait.analysed:
             problem = "no straight-walking stride found"
     report(0.6)
-    if gait is not None and gait.analysed and len(review.t_s) > 1:
+    if calibrated and gait is not None and gait.analysed and len(review.t_s) > 1:
         curves = cycle_curves(review.t_s, review.angles_deg, gait.strides)
     report(0.8)
-    rom = rom_of_protocol(review)
+    rom = rom_of_protocol(review) if calibrated else {}
     source = "ROM protocol" if rom else ""
     report(1.0)
-    return SessionAnalysis(review, gait, problem, curves, rom, source)
+    return SessionAnalysis(review, gait, problem, curves, rom, source, "" if calibrated else NEEDS_BODY_CALIBRATION)
+
+
+def table_notes(analysis: SessionAnalysis) -> list[str]:
+    """The header lines of an analysis table: what the result holds
+    (:attr:`~mimucap.session.review.ReviewData.provenance`) and what the analysis leaves out."""
+    notes = analysis.review.provenance.lines()
+    return notes + ([f"Analysis: {analysis.limits}"] if analysis.limits else [])
 
 
 # -- tables as shown (the Analysis window and the PDF report) -------------------------------------
@@ -360,24 +425,27 @@ def bouts_table(gait: GaitAnalysis) -> tuple[list[str], list[list[object]]]:
     return header, rows
 
 
-def write_gait_csv(folder: str | Path, gait: GaitAnalysis) -> list[Path]:
-    """``strides.csv``, ``parameters.csv`` and ``bouts_turns.csv`` in ``folder``."""
+def write_gait_csv(folder: str | Path, gait: GaitAnalysis, notes: Sequence[str] = ()) -> list[Path]:
+    """``strides.csv``, ``parameters.csv`` and ``bouts_turns.csv`` in ``folder``, each headed
+    by ``notes`` (``#`` lines: what the input holds)."""
     base = Path(folder)
-    return [write_table(base / "strides.csv", *strides_table(gait)),
-            write_table(base / "parameters.csv", *parameters_table(gait)),
-            write_table(base / "bouts_turns.csv", *bouts_table(gait))]
+    return [write_table(base / "strides.csv", *strides_table(gait), notes=notes),
+            write_table(base / "parameters.csv", *parameters_table(gait), notes=notes),
+            write_table(base / "bouts_turns.csv", *bouts_table(gait), notes=notes)]
 
 
 def write_analysis_csv(folder: str | Path, analysis: SessionAnalysis) -> list[Path]:
-    """Every table of ``analysis`` as one CSV in ``folder`` (created if needed)."""
+    """Every table of ``analysis`` as one CSV in ``folder`` (created if needed), each headed by
+    :func:`table_notes`."""
     base = Path(folder)
     base.mkdir(parents=True, exist_ok=True)
+    notes = table_notes(analysis)
     written = []
     if analysis.gait is not None:
-        written += write_gait_csv(base, analysis.gait)
+        written += write_gait_csv(base, analysis.gait, notes)
     if analysis.curves:
-        written.append(write_table(base / "gait_cycle_curves.csv", *curves_table(analysis.curves)))
+        written.append(write_table(base / "gait_cycle_curves.csv", *curves_table(analysis.curves), notes=notes))
     if analysis.rom:
-        written.append(write_table(base / "rom.csv", *rom_table(analysis.rom)))
+        written.append(write_table(base / "rom.csv", *rom_table(analysis.rom), notes=notes))
     return written
 

@@ -20,7 +20,9 @@ sensor's N-pose orientation taken from the still window's mean accelerometer and
 magnetometer where the feed can give it (``feed.static_orientation``: what the orientation
 filter converges to, free of the transient its heading may still carry shortly after a new
 magnetometer calibration), or
-refuses (phase ``"refused"`` with the reason). A pose that is not held still within
+refuses (phase ``"refused"`` with the reason). The result carries the magnetometer calibrations
+the feed's pipeline applied (``feed.magnetometer_calibrations()``), with which its rotations
+hold (:mod:`mimucap.session.calibrations`). A pose that is not held still within
 ``pose_timeout_s`` is refused as well ("the subject kept moving in the N-pose"). Each page's
 instruction goes to the feed (:mod:`mimucap.session.instructions`): the person reads it, and the
 simulated subject of the simulated suit does it.
@@ -47,9 +49,13 @@ from mimucap.core.bodycal import (
     CalibrationRefused,
     calibrate_npose_tpose,
     check_mapping,
+    segment_orientations,
 )
+from mimucap.core.pipeline import segments_from_sensors
+from mimucap.core.skeleton import SkeletonModel
 from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed
+from mimucap.session.calibrations import with_magnetometers
 from mimucap.session.instructions import Instruction
 
 PHASES = ("ready", "npose", "tpose", "result", "refused")
@@ -354,13 +360,16 @@ class BodycalProcedure:
     def _compute(self) -> None:
         t, q = self._common_time_base()
         try:
-            self.calibration = calibrate_npose_tpose(
+            calibration = calibrate_npose_tpose(
                 t, q, self.mapping, self.windows["npose"], self.windows["tpose"],
                 arms=self.arms, settings=self.settings.engine, npose_orientations=self.npose_static,
             )
         except CalibrationRefused as refusal:
             self._refuse(refusal.reason)
             return
+        # It holds with the magnetometer calibrations its orientations were computed with.
+        self.calibration = with_magnetometers(calibration, self.feed.magnetometer_calibrations(),
+                                              origin="made live (N-pose and T-pose)")
         self.phase = "result"
         self._message = f"Calibration {self.calibration.quality.verdict}: check the figure and accept"
         self.feed.instruct(instructions.npose())
@@ -380,14 +389,16 @@ class BodycalProcedure:
                     self._message = self.instruction(pose)
         return BodycalStatus(self.phase, pose, meter, still, capturing, countdown, self._message, self._restarts)
 
-    def npose_segment_orientations(self) -> dict[str, np.ndarray]:
+    def npose_segment_orientations(self, model: SkeletonModel | None = None) -> dict[str, np.ndarray]:
         """The calibrated N-pose: segment → ``q_world_from_segment`` (4,) from the N-pose means
-        and the result (only in phase ``"result"``)."""
+        and the result, by the pipeline's own step (:func:`mimucap.core.pipeline.segments_from_sensors`);
+        every segment of ``model`` (those without a sensor follow their parent), or the
+        calibrated segments without one. Only in phase ``"result"``."""
         if self.calibration is None:
             raise ValueError("no body calibration result yet")
-        cal = self.calibration
-        return {seg: rot.multiply(self.npose_mean[sid], rot.conjugate(cal.q_segment_from_sensor[seg]))
-                for seg, sid in cal.sensors.items()}
+        if model is None:
+            return segment_orientations(self.calibration, self.npose_mean)
+        return segments_from_sensors(model, self.npose_mean, self.calibration, {}) or {}
 
     def quality_figures(self) -> list[tuple[str, str]]:
         """(label, value) pairs for the result page: arm raise/rotation angles, axis tilt,

@@ -11,6 +11,8 @@ asks for. A feed has:
   window from its mean specific force and magnetic field, the field corrected as the
   pipeline corrects it (:func:`mimucap.core.bodycal.static_alignment`), or None for a sensor
   whose orientation does not come from the pipeline's filter with a calibrated magnetometer;
+* ``magnetometer_calibrations()``: sensor → the magnetometer calibration the pipeline applies
+  now (those a body calibration made from these orientations holds with);
 * ``instruct(instruction)``: what the subject is asked to do
   (:mod:`mimucap.session.instructions`); the source decides who follows it (a person reads the
   screen; the simulated subject does it). No procedure asks which one it is.
@@ -51,6 +53,8 @@ class CalibrationFeed(Protocol):
     def read(self) -> dict[str, SensorSamples]: ...
 
     def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None: ...
+
+    def magnetometer_calibrations(self) -> dict[str, MagCalibration]: ...
 
     def instruct(self, instruction: Instruction) -> None: ...
 
@@ -94,6 +98,10 @@ class LiveSessionFeed:
         fusion = chain.settings.fusion
         return static_alignment(acc, chain.calibrated_mag(np.asarray(mag_raw_uT, dtype=np.float64)),
                                 fusion.declination_rad, chain.mag_calibration.field_uT, fusion.mag_norm_tol)
+
+    def magnetometer_calibrations(self) -> dict[str, MagCalibration]:
+        """Sensor → the magnetometer calibration the live session's pipeline applies now."""
+        return dict(self.live_session.mag_calibrations)
 
     def read(self) -> dict[str, SensorSamples]:
         """The samples that arrived since the last call, per sensor (a channel is None when

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mimucap.core import rotation
 from mimucap.core.clinical_names import angle_label
 from mimucap.io.angles_export import marker_lines, write_angles_csv, write_angles_mot
 from mimucap.io.session import Marker
@@ -125,13 +126,14 @@ def summary_table(angles_deg: dict[str, np.ndarray]) -> list[SummaryRow]:
 
 
 def write_summary_csv(path: str | Path, rows: Sequence[SummaryRow], t_from_s: float, t_to_s: float,
-                      markers: Sequence[Marker] = ()) -> Path:
+                      markers: Sequence[Marker] = (), notes: Sequence[str] = ()) -> Path:
     """The summary as CSV: machine column name, readable label, min, max, range (deg); the
-    header names the range and lists ``markers``."""
+    header names the range, says what the result holds (``notes``, e.g.
+    :meth:`~mimucap.session.provenance.Provenance.lines`) and lists ``markers``."""
     path = Path(path)
     with path.open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"# MimuCap joint angle summary from {t_from_s:.3f} s to {t_to_s:.3f} s; degrees\n")
-        for line in marker_lines(markers):
+        for line in list(notes) + marker_lines(markers):
             handle.write(f"# {line}\n")
         writer = csv.writer(handle)
         writer.writerow(["column", "label", "min_deg", "max_deg", "rom_deg"])
@@ -157,7 +159,7 @@ def write_sensor_csv(path: str | Path, data: ReviewData, sensor_id: str, t_from_
     with path.open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"# MimuCap sensor {sensor_id} (segment {stream.segment or 'none'}); sensor frame; "
                      "q_world_from_sensor scalar first, world ENU\n")
-        for line in marker_lines(markers_in_range(data.markers, t_from_s, t_to_s)):
+        for line in data.provenance.lines() + marker_lines(markers_in_range(data.markers, t_from_s, t_to_s)):
             handle.write(f"# {line}\n")
         handle.write(",".join(name for name, _ in columns) + "\n")
         table = np.column_stack([v for _, v in columns])
@@ -173,9 +175,7 @@ def run_export(data: ReviewData, request: ExportRequest,
     result = ExportResult(rows=len(t), summary=summary_table(angles))
     base = Path(request.base_path)
     base.parent.mkdir(parents=True, exist_ok=True)
-    notes = [f"Session {data.path.name}; {request.t_from_s:.3f}..{request.t_to_s:.3f} s",
-             f"Result: {data.result_label}; pose from {data.pose_source}; computed from the sensors"]
-    notes += [f"Note: {text}" for text in data.missing]
+    notes = export_notes(data, request.t_from_s, request.t_to_s)
     markers = markers_in_range(data.markers, request.t_from_s, request.t_to_s)
     jobs: list[tuple[str, Callable[[], Path]]] = []
     if request.angles_csv:
@@ -184,7 +184,8 @@ def run_export(data: ReviewData, request: ExportRequest,
         jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(p, t, angles, notes=notes, markers=markers))))
     if request.summary_csv:
         jobs.append(("summary", lambda: write_summary_csv(base.with_name(base.name + "_summary.csv"), result.summary,
-                                                          request.t_from_s, request.t_to_s, markers)))
+                                                          request.t_from_s, request.t_to_s, markers,
+                                                          data.provenance.lines())))
     motion_files = ((request.opensim_mot, "opensim_mot", base.with_name(base.name + "_opensim.mot")),
                     (request.c3d, "c3d", base.with_suffix(".c3d")), (request.bvh, "bvh", base.with_suffix(".bvh")),
                     (request.opensense_sto, "sto", base.with_name(base.name + "_orientations.sto")))
@@ -204,6 +205,15 @@ def run_export(data: ReviewData, request: ExportRequest,
     return result
 
 
+def export_notes(data: ReviewData, t_from_s: float, t_to_s: float) -> list[str]:
+    """The header lines of an exported file: the session and range, where the poses come
+    from, what the result holds (:attr:`ReviewData.provenance`) and what the recording lacks."""
+    notes = [f"Session {data.path.name}; {t_from_s:.3f}..{t_to_s:.3f} s",
+             f"Result: {data.result_label}; pose from {data.pose_source}; computed from the sensors"]
+    notes += data.provenance.lines()[1:]  # the result is said above
+    return notes + [f"Note: {text}" for text in data.missing]
+
+
 def _segment_sensors(data: ReviewData) -> dict[str, str]:
     """Segment → the sensor id the pipeline took its orientation from: the body calibration's
     assignment where there is one, else each sensor's recorded segment (the first per segment)."""
@@ -216,6 +226,27 @@ def _segment_sensors(data: ReviewData) -> dict[str, str]:
     return result
 
 
+def calibration_pose_table(data: ReviewData, raw_sensors: bool = False
+                           ) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+    """The N-pose the body calibration measured, as OpenSense's calibration table: ``(t_s (1,),
+    <body>_imu → (1, 4))`` (None without a body calibration). Every segment frame is parallel
+    to the body frame in the calibrated N-pose, so each virtual sensor is ``q_world_from_body``;
+    a raw sensor is ``q_world_from_body ⊗ q_segment_from_sensor`` (its orientation then). Its
+    time is 0: the N-pose may lie outside the recording (made live before it)."""
+    from mimucap.io import opensense
+
+    body = data.body_calibration
+    if body is None:
+        return None
+    segments = [s for s in data.model.segment_names if s in opensense.OPENSIM_BODIES]
+    if raw_sensors:
+        q = {s: rotation.multiply(body.q_world_from_body, body.q_segment_from_sensor[s]) for s in segments
+             if s in body.q_segment_from_sensor}
+    else:
+        q = {s: body.q_world_from_body for s in segments if s in data.q_world_from_segment}
+    return np.zeros(1), {opensense.imu_label(s): np.asarray(v, dtype=np.float64)[None] for s, v in q.items()}
+
+
 def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | None = None,
                       t_to_s: float | None = None, opensim_names: bool = False, raw_sensors: bool = False,
                       events: Sequence[tuple[float, str, str]] = ()) -> list[Path]:
@@ -226,8 +257,12 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
     sensors' own instead of segment-aligned virtual sensors), ``"mot"`` (``opensim_names``: OpenSim
     coordinates), ``"opensim_mot"`` (the same as ``"mot"`` with ``opensim_names``) or ``"csv"``.
     The markers in the range go with it (C3D events; header lines of ``.mot``/``.csv``/``.sto``;
-    a ``<name>_markers.csv`` beside a BVH file, which has no place for them), and so do the gait
-    ``events`` ``(t_s, context, label)``. Returns the files written.
+    the sidecar ``<name>_markers.csv`` beside a BVH file, which has no place for them), and so do
+    the gait ``events`` ``(t_s, context, label)``. What the result holds
+    (:attr:`ReviewData.provenance`) goes into every file: C3D parameters (group ``MIMUCAP``),
+    header lines, the BVH sidecar's ``#`` lines. An OpenSense table comes with
+    ``<name>_calibration.sto``, the N-pose of the body calibration for ``IMUPlacer``
+    (:func:`calibration_pose_table`). Returns the files written.
     """
     from mimucap.io import opensense
     from mimucap.io.angles_export import write_angles
@@ -247,29 +282,30 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
     in_range = markers_in_range(data.markers, t_from, t_to)
     markers = [(m.t_s, m.label) for m in in_range]
     events = [e for e in events if t_from <= e[0] <= t_to]
-    notes = [f"Session {data.path.name}; {t_from:.3f}..{t_to:.3f} s",
-             f"Result: {data.result_label}; pose from {data.pose_source}; computed from the sensors"]
+    notes = export_notes(data, t_from, t_to)
     notes += [f"event at {time:.3f} s: {context} {label}" for time, context, label in events]
     subject = (data.session.metadata.get("subject") or {}).get("id", "")
     if fmt == "c3d":
         from mimucap.io.c3d_export import write_c3d
 
-        return [write_c3d(path, data.model, data.height_m, t, q_segments, angles, root, markers, events, subject)]
+        return [write_c3d(path, data.model, data.height_m, t, q_segments, angles, root, markers, events, subject,
+                          provenance=data.provenance.parameters())]
     if fmt == "bvh":
         from mimucap.io.bvh import write_bvh
 
         written = [write_bvh(path, data.model, data.height_m, t, q_segments, root)]
-        if markers or events:
-            side = path.with_name(path.stem + "_markers.csv")
-            with side.open("w", encoding="utf-8", newline="") as handle:
-                handle.write(f"# markers and events of {path.name}; t_s seconds from the first BVH frame\n")
-                writer = csv.writer(handle)
-                writer.writerow(["t_s", "context", "label"])
-                for time, label in markers:
-                    writer.writerow([f"{time - t[0]:.6f}", "General", label])
-                for time, context, label in events:
-                    writer.writerow([f"{time - t[0]:.6f}", context, label])
-            written.append(side)
+        side = path.with_name(path.stem + "_markers.csv")  # BVH has no place for text
+        with side.open("w", encoding="utf-8", newline="") as handle:
+            handle.write(f"# markers and events of {path.name}; t_s seconds from the first BVH frame\n")
+            for note in notes:
+                handle.write(f"# {note}\n")
+            writer = csv.writer(handle)
+            writer.writerow(["t_s", "context", "label"])
+            for time, label in markers:
+                writer.writerow([f"{time - t[0]:.6f}", "General", label])
+            for time, context, label in events:
+                writer.writerow([f"{time - t[0]:.6f}", context, label])
+        written.append(side)
         return written
     if fmt == "sto":
         if raw_sensors:
@@ -280,7 +316,18 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
         else:
             table = opensense.virtual_sensor_table(q_segments)
             header = opensense.VIRTUAL_SENSOR_NOTES
-        return [opensense.write_orientation_sto(path, t, table, list(header) + notes + marker_lines(in_range))]
+        written = []
+        pose = calibration_pose_table(data, raw_sensors)
+        if pose is not None:
+            pose_path = path.with_name(path.stem + opensense.CALIBRATION_SUFFIX)
+            t_pose, pose_table = pose
+            written.append(opensense.write_orientation_sto(
+                pose_path, t_pose, pose_table, [opensense.CALIBRATION_TABLE_NOTE.format(table=path.name)] + notes))
+            header = (opensense.placer_note(pose_path.name),) + tuple(header)
+        else:
+            header = (opensense.NO_CALIBRATION_TABLE_NOTE,) + tuple(header)
+        table_path = opensense.write_orientation_sto(path, t, table, list(header) + notes + marker_lines(in_range))
+        return [table_path] + written
     if fmt in ("mot", "opensim_mot", "csv"):
         write_angles(path, t, angles, notes=notes, opensim_names=opensim_names or fmt == "opensim_mot",
                      markers=in_range)

@@ -3,7 +3,8 @@
 :func:`load_review` opens a session file (recovering an interrupted recording first, via
 :func:`mimucap.session.recording.open_session`) and runs it, once, through the one processing
 path (:func:`mimucap.session.processing.process_session`) with the calibrations the recording
-stores. Two results exist: *as seen live* (:data:`~mimucap.core.pipeline.RESULT_LIVE`, the
+stores, or a body calibration file given in place of its own
+(:func:`mimucap.session.calibrations.applied_calibrations`, the choice every consumer makes). Two results exist: *as seen live* (:data:`~mimucap.core.pipeline.RESULT_LIVE`, the
 forward filter continuing from the state the live view had, which reproduces what was shown)
 and *reprocessed* (:data:`~mimucap.core.pipeline.RESULT_REPROCESSED`, smoothed with past and
 future data; the default). The review holds:
@@ -22,7 +23,7 @@ as the live session, with windows that end at the play head.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,11 +33,13 @@ from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.locomotion import root_positions
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
+from mimucap.session.calibrations import AppliedCalibrations, applied_calibrations
 from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
 from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
 from mimucap.session.live_pose import joint_column_groups
 from mimucap.session.processing import process_session, recorded_processing, session_model
+from mimucap.session.provenance import Provenance, provenance
 from mimucap.session.recording import open_session
 
 __all__ = ["POSE_BODY_CALIBRATION", "POSE_SENSOR_AXES", "ReviewData", "ReviewPlayer", "SPEEDS", "build_review",
@@ -67,8 +70,19 @@ class ReviewData:
     heading_ref_rad: float | None
     q_world_from_sensor: dict[str, np.ndarray]       #: sensor → (N, 4) on that sensor's t_s
     result: str = RESULT_REPROCESSED
-    body_calibration: bodycal.BodyCalibration | None = None
+    calibrations: AppliedCalibrations = field(default_factory=AppliedCalibrations)
     missing: list[str] = field(default_factory=list)
+
+    @property
+    def body_calibration(self) -> bodycal.BodyCalibration | None:
+        """The body calibration the processing applied, or None."""
+        return self.calibrations.body
+
+    @property
+    def provenance(self) -> Provenance:
+        """What this result holds, as every output says it (:mod:`mimucap.session.provenance`)."""
+        return provenance(source_file=self.path.name, result=self.result, calibrations=self.calibrations,
+                          model=self.model, height_m=self.height_m, metadata=self.session.metadata)
 
     @property
     def result_label(self) -> str:
@@ -101,33 +115,48 @@ class ReviewData:
 
 
 def build_review(path: str | Path, session: Session, progress: Callable[[float], None] | None = None,
-                 result: str = RESULT_REPROCESSED) -> ReviewData:
-    """Compute the review of ``session`` (read from ``path``) as ``result``;
-    ``progress(fraction)`` is called as the work advances."""
+                 result: str = RESULT_REPROCESSED, calibrations: AppliedCalibrations | None = None) -> ReviewData:
+    """Compute the review of ``session`` (read from ``path``) as ``result`` with
+    ``calibrations`` (the session's own choice,
+    :func:`mimucap.session.calibrations.applied_calibrations`, when None); ``progress(fraction)``
+    is called as the work advances."""
     report = progress or (lambda fraction: None)
     model, height = session_model(session)
     report(0.1)
     recorded = recorded_processing(session, origin=str(path))
-    output = process_session(session, result=result, recorded=recorded, model=model)
+    if calibrations is None:
+        calibrations = applied_calibrations(session, origin=str(path))
+    output = process_session(session, result=result, calibrations=calibrations, recorded=recorded, model=model)
     report(0.9)
     if not len(output.t_s):
         reasons = "; ".join(output.problems) or "no sensor is assigned to a segment and none is calibrated"
         raise ValueError(f"{path}: nothing to review ({reasons})")
-    heading_ref = None if recorded.body_calibration is None else bodycal_heading(recorded.body_calibration)
+    body = calibrations.body
+    heading_ref = None if body is None else bodycal_heading(body)
     report(1.0)
     q_stacked = np.stack([output.q_world_from_segment[name] for name in model.segment_names])
     root = root_positions(model, height, q_stacked)
     return ReviewData(Path(path), session, model, height, output.t_s, output.q_world_from_segment, root,
                       output.angles_deg, output.pose_source, heading_ref, output.q_world_from_sensor,
-                      result=output.result, body_calibration=recorded.body_calibration,
-                      missing=list(recorded.missing) + list(output.problems))
+                      result=output.result, calibrations=calibrations,
+                      missing=list(recorded.missing) + list(calibrations.notes) + list(output.problems))
 
 
 def load_review(path: str | Path, progress: Callable[[float], None] | None = None,
-                result: str = RESULT_REPROCESSED) -> ReviewData:
-    """Open session file ``path`` (recovering it first if needed) and build its review."""
+                result: str = RESULT_REPROCESSED, calibration_file: str | Path | None = None,
+                mag_files: Sequence[str | Path] = ()) -> ReviewData:
+    """Open session file ``path`` (recovering it first if needed) and build its review, with
+    the body calibration of ``calibration_file`` (a ``CAL.json`` of ``mimucap bodycal``) in
+    place of the stored one when given, and the magnetometer calibration files ``mag_files``."""
     session = open_session(path)
-    return build_review(path, session, progress, result)
+    body = None
+    if calibration_file is not None:
+        from mimucap.io.body_calibration_file import read_body_calibration
+
+        body, _document = read_body_calibration(calibration_file)
+    calibrations = applied_calibrations(session, body=body, body_origin=str(calibration_file or ""),
+                                        mag_files=mag_files, origin=str(path))
+    return build_review(path, session, progress, result, calibrations)
 
 
 class ReviewPlayer:
