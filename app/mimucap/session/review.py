@@ -22,14 +22,15 @@ as the live session, with windows that end at the play head.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.locomotion import root_positions
+from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.evaluation import angle_errors
@@ -101,14 +102,20 @@ class ReviewData:
 
 
 def build_review(path: str | Path, session: Session, progress: Callable[[float], None] | None = None,
-                 result: str = RESULT_REPROCESSED) -> ReviewData:
+                 result: str = RESULT_REPROCESSED, body_calibration: bodycal.BodyCalibration | None = None,
+                 mag_calibrations: Mapping[str, MagCalibration] | None = None) -> ReviewData:
     """Compute the review of ``session`` (read from ``path``) as ``result``;
-    ``progress(fraction)`` is called as the work advances."""
+    ``progress(fraction)`` is called as the work advances. ``body_calibration`` and
+    ``mag_calibrations`` (sensor by sensor) replace those the recording stores (a calibration
+    file given on the command line)."""
     report = progress or (lambda fraction: None)
     model, height = session_model(session)
     report(0.1)
     recorded = recorded_processing(session, origin=str(path))
-    output = process_session(session, result=result, recorded=recorded, model=model)
+    if body_calibration is not None:
+        recorded = replace(recorded, body_calibration=body_calibration)
+    output = process_session(session, result=result, recorded=recorded, model=model,
+                             mag_calibrations=mag_calibrations)
     report(0.9)
     if not len(output.t_s):
         reasons = "; ".join(output.problems) or "no sensor is assigned to a segment and none is calibrated"
