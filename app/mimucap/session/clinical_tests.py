@@ -47,6 +47,7 @@ from mimucap.core.bodycal import BodyCalibration
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import RESULT_REPROCESSED
 from mimucap.io.clinical_norms import read_norms, reference_for
+from mimucap.io.session import Session
 from mimucap.session.analysis import gait_inputs
 from mimucap.session.recording import open_session
 from mimucap.session.review import ReviewData, build_review
@@ -109,11 +110,13 @@ def require_body_calibration(calibration: BodyCalibration | None, source: str) -
 def run_clinical_test(path: str | Path, test: str, *, body_calibration: BodyCalibration | None = None,
                       mag_calibrations: Mapping[str, MagCalibration] | None = None,
                       result: str = RESULT_REPROCESSED, walkway_m: float | None = None,
-                      progress: Callable[[float], None] | None = None) -> ClinicalTestResult:
-    """Open session ``path``, process it (with ``body_calibration`` and ``mag_calibrations``
-    replacing the recorded ones where given) and compute ``test`` (:func:`clinical_test`)."""
+                      progress: Callable[[float], None] | None = None,
+                      session: Session | None = None) -> ClinicalTestResult:
+    """Open session ``path`` (unless its ``session`` is given), process it (with
+    ``body_calibration`` and ``mag_calibrations`` replacing the recorded ones where given) and
+    compute ``test`` (:func:`clinical_test`)."""
     check_test(test)
-    session = open_session(path)
+    session = open_session(path) if session is None else session
     review = build_review(path, session, progress, result=result, body_calibration=body_calibration,
                           mag_calibrations=mag_calibrations)
     return clinical_test(review, test, walkway_m=walkway_m)
