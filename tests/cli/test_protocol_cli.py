@@ -18,7 +18,7 @@ import pytest
 
 from mimucap.cli import main
 from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS
-from mimucap.io.session import read_session, write_session
+from mimucap.io.session import Marker, read_session, write_session
 
 #: Seconds to simulate per scenario: the magnetometer turns, the poses, the test and a margin.
 DURATION_S = {"tug": 62.0, "walk10m": 55.0, "chair_stand": 80.0, "walk2min": 170.0, "walk6min": 410.0}
@@ -73,6 +73,21 @@ def check_against_truth(scenario: str, seed: int, folder: Path) -> None:
     assert found["result"] == "reprocessed" and str(calibration) in found["calibration"]
     assert found["source_file"] == str(session) and found["software_version"]
     assert found["started_by"].startswith("sensors")
+    if test == "tug" and seed == 1:
+        check_manual_markers(session, calibration, data, truth, folder)
+
+
+def check_manual_markers(session: Path, calibration: Path, data: Path, truth: dict, folder: Path) -> None:
+    """The user's "test start" and "test stop" markers override the sensors' start and end."""
+    copy = read_session(session)
+    start, stop = truth["start_s"] - 0.5, truth["start_s"] + truth["total_s"] + 0.4
+    copy.markers = [Marker(start, "test start"), Marker(stop, "test stop")]
+    marked = folder / "tug_marked.h5"
+    write_session(marked, copy)
+    found = protocol(marked, calibration, data, "tug", folder / "tug_marked.json")
+    assert found["started_by"] == "marker 'test start'"
+    assert found["total_s"] == pytest.approx(stop - start, abs=1e-9)
+    assert found["sit_to_stand_s"] == pytest.approx(truth["sit_to_stand_s"] + 0.5, abs=TIME_TOLERANCE_S)
 
 
 @pytest.mark.slow
