@@ -138,6 +138,7 @@ def test_exported_segment_headings_follow_the_truth_in_the_n_pose_and_walking(ro
 @pytest.mark.slow
 @pytest.mark.skipif(importlib.util.find_spec("opensim") is None,
                     reason="opensim (OpenSim 4.6, test extra) is not installed: pip install opensim")
+@pytest.mark.data("opensense")
 def test_opensense_on_the_route_with_its_calibration_table(route, shared_data, tmp_path, capsys):
     """The route's first walk exported as an OpenSense table (``--calibration CAL.json``) with its
     calibration table, OpenSim 4.6's IMUPlacer on the calibration table and IMU inverse

@@ -354,6 +354,7 @@ def test_exported_segment_headings_of_a_window_calibration_follow_the_truth(walk
 @pytest.mark.slow
 @pytest.mark.skipif(importlib.util.find_spec("opensim") is None,
                     reason="opensim (OpenSim 4.6, test extra) is not installed: pip install opensim")
+@pytest.mark.data("opensense")
 def test_opensense_calibrates_on_the_calibration_table_of_a_window_calibration(walk, review, shared_data, tmp_path,
                                                                               capsys):
     """A table of walking alone (it does not begin in the N-pose) and its calibration table:

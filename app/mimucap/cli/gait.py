@@ -53,15 +53,13 @@ def session_review(session: Path, calibration: Path | None, live: bool, allow_un
     or ``calibration``; ``ValueError`` naming ``--calibration`` when it has none and
     ``allow_uncalibrated`` is False (``what`` names what needs it)."""
     from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
-    from mimucap.session.review import load_review
+    from mimucap.session.review import load_review, require_body_calibration
 
     if calibration is not None and not calibration.is_file():
         raise OSError(f"{calibration}: no such file")
     review = load_review(session, result=RESULT_LIVE if live else RESULT_REPROCESSED, calibration_file=calibration)
-    if review.body_calibration is None and not allow_uncalibrated:
-        raise ValueError(f"{session}: the session stores no body calibration, and {what} needs one (joint angles, "
-                         "range of motion, turns and stride length mean nothing without it): give --calibration "
-                         "CAL.json (made by mimucap bodycal)")
+    if not allow_uncalibrated:
+        require_body_calibration(review, what)
     return review
 
 

@@ -29,6 +29,9 @@ ARM_RAISE = "arm raise"
 SITTING = "sitting"
 SIT_TO_STAND = "sit-to-stand"
 STAND_TO_SIT = "stand-to-sit"
+#: The user's own start and stop of a clinical test (they override what the sensors show).
+TEST_START = "test start"
+TEST_STOP = "test stop"
 
 
 def _pairs(markers: Iterable) -> list[tuple[float, str]]:

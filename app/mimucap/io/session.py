@@ -167,16 +167,37 @@ class SessionSummary:
     calibrations: dict[str, Any]
 
 
+#: The sexes a subject record may name (the clinical norms differ by sex); "" when not given.
+SEXES = ("female", "male", "")
+
+
 def make_subject(
-    subject_id: str = "", height_m: float = 1.75, dominance: str = "right", notes: str = ""
+    subject_id: str = "", height_m: float = 1.75, dominance: str = "right", notes: str = "",
+    age_years: float | None = None, sex: str = "", weight_kg: float | None = None,
 ) -> dict[str, Any]:
     """A subject record for ``metadata["subject"]``; ``dominance`` is ``"right"``, ``"left"``
-    or ``"unknown"``; ``height_m`` must lie in (0.5, 2.5) m."""
+    or ``"unknown"``; ``height_m`` must lie in (0.5, 2.5) m. Optional, for the clinical tests'
+    reference values: ``age_years`` (0-120), ``sex`` one of :data:`SEXES`, ``weight_kg``
+    (10-400); a value not given is left out of the record."""
     if not 0.5 < float(height_m) < 2.5:
         raise ValueError(f"subject height {height_m} m is outside 0.5..2.5 m")
     if dominance not in ("right", "left", "unknown"):
         raise ValueError(f"subject dominance must be right, left or unknown, got {dominance!r}")
-    return {"id": str(subject_id), "height_m": float(height_m), "dominance": dominance, "notes": str(notes)}
+    record: dict[str, Any] = {"id": str(subject_id), "height_m": float(height_m), "dominance": dominance,
+                              "notes": str(notes)}
+    if age_years is not None:
+        if not 0.0 <= float(age_years) <= 120.0:
+            raise ValueError(f"subject age {age_years} years is outside 0..120")
+        record["age_years"] = float(age_years)
+    if sex not in SEXES:
+        raise ValueError(f"subject sex must be female or male (or empty), got {sex!r}")
+    if sex:
+        record["sex"] = sex
+    if weight_kg is not None:
+        if not 10.0 <= float(weight_kg) <= 400.0:
+            raise ValueError(f"subject weight {weight_kg} kg is outside 10..400 kg")
+        record["weight_kg"] = float(weight_kg)
+    return record
 
 
 # --------------------------------------------------------------------------------------------
@@ -804,7 +825,7 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
 __all__ = [
     "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
     "time_stamp_problem", "gyro_range_problem",
-    "CALIBRATION_STATUS", "Marker", "SensorTruth", "SessionTruth", "Session", "SessionSummary", "make_subject",
+    "CALIBRATION_STATUS", "SEXES", "Marker", "SensorTruth", "SessionTruth", "Session", "SessionSummary", "make_subject",
     "write_session", "read_session", "read_metadata", "read_summary", "update_metadata", "session_duration_s",
     "session_from_simulation",
 ]

@@ -31,6 +31,7 @@ import numpy as np
 
 from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.locomotion import root_positions
+from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.calibrations import AppliedCalibrations, applied_calibrations
@@ -43,6 +44,7 @@ from mimucap.session.provenance import Provenance, provenance
 from mimucap.session.recording import open_session
 
 __all__ = ["POSE_BODY_CALIBRATION", "POSE_SENSOR_AXES", "ReviewData", "ReviewPlayer", "SPEEDS", "build_review",
+           "require_body_calibration",
            "load_review"]
 
 #: Playback speeds offered (× real time).
@@ -157,6 +159,16 @@ def load_review(path: str | Path, progress: Callable[[float], None] | None = Non
     calibrations = applied_calibrations(session, body=body, body_origin=str(calibration_file or ""),
                                         mag_files=mag_files, origin=str(path))
     return build_review(path, session, progress, result, calibrations)
+
+
+def require_body_calibration(review: ReviewData, what: str) -> None:
+    """``ValueError`` naming ``--calibration`` when ``review`` has no body calibration: without
+    one the sensors' axes stand for the segments, and ``what`` (e.g. "a report") would be
+    computed from numbers that mean nothing."""
+    if review.body_calibration is None:
+        raise ValueError(f"{review.path}: the session stores no body calibration, and {what} needs one (joint "
+                         "angles, range of motion, turns and stride length mean nothing without it): give "
+                         "--calibration CAL.json (made by mimucap bodycal)")
 
 
 class ReviewPlayer:
