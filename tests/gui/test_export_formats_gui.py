@@ -26,7 +26,8 @@ def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path, calib
     dialog.start_export()
     qtbot.waitUntil(lambda: dialog.result is not None, timeout=30000)
     names = sorted(p.name for p in dialog.result.files)
-    assert names == ["out.bvh", "out.c3d", "out_markers.csv", "out_opensim.mot", "out_orientations.sto"]
+    assert names == ["out.bvh", "out.c3d", "out_markers.csv", "out_opensim.mot", "out_orientations.sto",
+                     "out_orientations_calibration.sto"]
     mot = read_angles_mot(tmp_path / "out_opensim.mot")
     assert "knee_angle_r" in mot.angles_deg and np.ptp(mot.angles_deg["knee_angle_r"]) > 20.0
     assert "Exported" in dialog.message.text()

@@ -95,6 +95,7 @@ class ClinicalTestResult:
                    details=_json_clean(self.details), reference=self.reference,
                    reference_note=self.reference_note or None, subject=self.subject, result=self.result)
         if self.provenance is not None:
+            out["calibration"] = self.provenance.body_calibration
             out["provenance"] = dict(self.provenance.items())
             out["software_version"] = __version__
             out["source_file"] = self.provenance.source_file
