@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mimucap import __version__
-from mimucap.core import bodycal, skeleton
+from mimucap.core import bodycal, phases, skeleton
 from mimucap.core.fusion import FusionState
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
@@ -127,7 +127,8 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
 
     The session's own calibrations are used unless others are given (``mag_calibrations``
     replaces them sensor by sensor; ``body_calibration`` replaces the stored one). The
-    simulator's truth, when the session holds it, is never read.
+    simulator's truth, when the session holds it, is never read. The phases its markers name
+    as magnetometer calibration (:func:`off_body_windows`) make every joint angle there doubtful.
     """
     check_result(result)
     recorded = recorded if recorded is not None else recorded_processing(session)
@@ -142,4 +143,14 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
         session.sensors, model, result=result, mag_calibrations=mags, body_calibration=body,
         sensor_segments=recorded.sensor_segments, settings=recorded.settings,
         initial_states=recorded.initial_states, time_offset_s=recorded.time_offset_s,
-        shoulder_sequence=shoulder_sequence)
+        shoulder_sequence=shoulder_sequence, off_body_s=off_body_windows(session))
+
+
+#: Phases in which the sensors are turned in the hand, off the body.
+OFF_BODY_PHASES = (phases.MAG_TURNS, phases.MAG_FIGURE8, phases.MAG_TUMBLE)
+
+
+def off_body_windows(session: Session) -> list[tuple[float, float]]:
+    """The time windows (s) its markers name as a magnetometer calibration phase."""
+    end = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s.t_s)), default=0.0)
+    return [window for phase in OFF_BODY_PHASES for window in phases.phase_windows(session.markers, phase, end + 1.0)]
