@@ -10,7 +10,8 @@ q_sensor_from_segment`` at the reference sensor's instants, and the joint angles
 whose two segments have sensors; conventions: ISB Z-X'-Y'', left mirrored, zero in the
 calibrated N-pose). A session is reprocessed (filter smoothed with past and future data) unless
 ``--live`` asks for the forward filter as the live view ran it. A calibration whose verdict is
-poor is refused unless ``--accept-poor``.
+poor is refused unless ``--accept-poor``. Each joint's ``<joint>_ok`` column says where its
+angles are trustworthy (1) or doubtful (0); the header lists the doubtful spans and why.
 """
 
 from __future__ import annotations
@@ -98,10 +99,29 @@ def run(args: argparse.Namespace) -> int:
         f"model: {model.name}",
         f"result: {source_note}; computed from the sensors",
     ]
-    write_angles(args.out, output.t_s, ordered, args.shoulder, notes, markers=markers)
+    write_angles(args.out, output.t_s, ordered, args.shoulder, notes, markers=markers,
+                 joint_doubt=output.joint_doubt)
     joints = [j for j in model.joint_names if any(c.startswith(j + "_") for c in ordered)]
     print(f"{len(output.t_s)} samples, {len(ordered)} angle columns ({', '.join(joints)}) written to {args.out}")
+    for line in doubt_summary(output.t_s, output.joint_doubt):
+        print(f"  {line}")
     return 0
+
+
+def doubt_summary(t_s, joint_doubt) -> list[str]:
+    """One line per joint whose angles are doubtful somewhere: the share of samples and every
+    reason in words."""
+    import numpy as np
+
+    from mimucap.core.doubt import describe
+
+    lines = []
+    for joint, reasons in joint_doubt.items():
+        doubtful = np.asarray(reasons) != 0
+        if np.any(doubtful):
+            why = describe(int(np.bitwise_or.reduce(np.asarray(reasons)[doubtful])))
+            lines.append(f"{joint}: doubtful in {100.0 * np.mean(doubtful):.1f} % of the samples ({why})")
+    return lines
 
 
 def _is_session(args: argparse.Namespace) -> bool:

@@ -54,6 +54,7 @@ Times are seconds, angles radians, fields µT, quaternions ``[w, x, y, z]`` worl
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -88,23 +89,24 @@ OFF_BODY = 1 << 12
 BODY_CALIBRATION_DOUBTFUL = 1 << 13
 SINGULAR = 1 << 14
 
-#: Reason bit → (short name for files, words for people).
+#: Reason bit → (short name for files, words for people), in the order people read them: what
+#: to act on first.
 REASONS: dict[int, tuple[str, str]] = {
-    NO_ORIENTATION: ("no_orientation", "no orientation yet"),
-    SETTLING: ("settling", "orientation still settling"),
+    MAG_UNCALIBRATED: ("mag_uncalibrated", "magnetometer not calibrated"),
+    ONBOARD_UNCALIBRATED: ("onboard_uncalibrated", "the sensor's own calibration is incomplete"),
+    NO_BODY_CALIBRATION: ("no_body_calibration", "no body calibration"),
+    BODY_CALIBRATION_POOR: ("body_calibration_poor", "the body calibration's verdict is poor"),
+    BODY_CALIBRATION_DOUBTFUL: ("body_calibration_doubtful",
+                                "the body calibration was made from doubtful orientations"),
+    OFF_BODY: ("off_body", "sensors off the body (magnetometer calibration)"),
+    FIELD_MISMATCH: ("field_mismatch", "heading taken from a magnetic field that differs from the calibrated one"),
     MAG_REJECTED: ("mag_rejected", "magnetometer rejected as disturbed for longer than the gyroscope can bridge"),
     MAG_MISSING: ("mag_missing", "magnetometer samples missing for longer than the gyroscope can bridge"),
     NO_MAGNETOMETER: ("no_magnetometer", "no magnetometer: heading from the gyroscope alone"),
-    FIELD_MISMATCH: ("field_mismatch", "heading taken from a magnetic field that differs from the calibrated one"),
     LOST_SAMPLES: ("lost_samples", "samples lost"),
-    MAG_UNCALIBRATED: ("mag_uncalibrated", "magnetometer not calibrated"),
-    ONBOARD_UNCALIBRATED: ("onboard_uncalibrated", "the sensor's own calibration is incomplete"),
     ACC_REJECTED: ("acc_rejected", "accelerometer rejected (strong accelerations)"),
-    NO_BODY_CALIBRATION: ("no_body_calibration", "no body calibration"),
-    BODY_CALIBRATION_POOR: ("body_calibration_poor", "the body calibration's verdict is poor"),
-    OFF_BODY: ("off_body", "sensors off the body (magnetometer calibration)"),
-    BODY_CALIBRATION_DOUBTFUL: ("body_calibration_doubtful",
-                                "the body calibration was made from doubtful orientations"),
+    NO_ORIENTATION: ("no_orientation", "no orientation yet"),
+    SETTLING: ("settling", "orientation still settling"),
     SINGULAR: ("singular", "near the angle sequence's singularity (gimbal lock)"),
 }
 
@@ -182,19 +184,37 @@ def calibrated_dip_rad(calibration: MagCalibration) -> float | None:
 # The filter's heading channel in its steady state
 # --------------------------------------------------------------------------------------------
 
+@functools.lru_cache(maxsize=32)
 def _heading_loop(fusion: FusionParams, dt_s: float) -> tuple[np.ndarray, np.ndarray]:
     """Steady state of the filter's heading and the gyro bias about the vertical: the prior
     covariance ``P`` (2, 2) (rad², rad²/s, rad²/s²) of ``[heading, bias]`` and the closed-loop
     transition (2, 2) with one heading measurement (noise ``heading_noise_rad``) per sample
-    of ``dt_s``; the filter's process noise is the gyro noise density and bias random walk."""
-    from scipy.linalg import solve_discrete_are
+    of ``dt_s``; the filter's process noise is the gyro noise density and bias random walk.
 
+    ``P`` solves the filter's discrete algebraic Riccati equation, by the structure-preserving
+    doubling algorithm (Chu, Fan, Lin, Wang, "Structure-preserving algorithms for periodic
+    discrete-time algebraic Riccati equations", 2004): quadratic convergence, a few dozen 2 × 2
+    steps. ``ValueError`` when it does not converge (e.g. no bias random walk: the bias is then
+    known ever better, and the steady state is a limit never reached)."""
     transition = np.array([[1.0, -dt_s], [0.0, 1.0]])
-    noise = np.diag([fusion.gyr_noise_rad_s_sqrt_hz ** 2 * dt_s, fusion.bias_walk_rad_s_sqrt_s ** 2 * dt_s])
     measured = np.array([[1.0, 0.0]])
-    prior = solve_discrete_are(transition.T, measured.T, noise, np.array([[fusion.heading_noise_rad ** 2]]))
-    gain = prior @ measured.T / (prior[0, 0] + fusion.heading_noise_rad ** 2)
-    return prior, (np.eye(2) - gain @ measured) @ transition
+    variance = fusion.heading_noise_rad ** 2
+    a = transition.T
+    g = measured.T @ measured / variance
+    h = np.diag([fusion.gyr_noise_rad_s_sqrt_hz ** 2 * dt_s, fusion.bias_walk_rad_s_sqrt_s ** 2 * dt_s])
+    identity = np.eye(2)
+    for _ in range(200):
+        inverse = np.linalg.inv(identity + g @ h)
+        a, g, h_next = a @ inverse @ a, g + a @ inverse @ g @ a.T, h + a.T @ h @ inverse @ a
+        converged = np.allclose(h_next, h, rtol=1e-12, atol=0.0)
+        h = h_next
+        if converged:
+            break
+    else:
+        raise ValueError("the heading filter's Riccati equation does not converge")
+    prior = 0.5 * (h + h.T)
+    gain = prior @ measured.T / (prior[0, 0] + variance)
+    return prior, (identity - gain @ measured) @ transition
 
 
 def bridge_time_s(fusion: FusionParams, dt_s: float,
@@ -501,6 +521,25 @@ def joint_reasons(joints: Iterable, sensor_of_segment: Mapping[str, str],
             continue
         out[joint.name] = np.asarray(shared, dtype=DOUBT_DTYPE) | sensor_reasons[sensors[0]] | sensor_reasons[sensors[1]]
     return out
+
+
+def spans(t_s: np.ndarray, reasons: np.ndarray, join_s: float = 1.0) -> list[tuple[float, float, int]]:
+    """The spans ``(start_s, end_s, reasons)`` where ``reasons`` (N,) are set, on the time axis
+    ``t_s`` (N,) s; spans closer than ``join_s`` (s) are joined, their reasons combined."""
+    reasons = np.asarray(reasons)
+    doubtful = reasons != 0
+    if not np.any(doubtful):
+        return []
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], doubtful.astype(np.int8), [0]])))
+    found: list[tuple[float, float, int]] = []
+    for begin, end in zip(edges[::2], edges[1::2]):
+        bits = int(np.bitwise_or.reduce(reasons[begin:end]))
+        start, stop = float(t_s[begin]), float(t_s[end - 1])
+        if found and start - found[-1][1] < join_s:
+            found[-1] = (found[-1][0], stop, found[-1][2] | bits)
+        else:
+            found.append((start, stop, bits))
+    return found
 
 
 def off_body(t_s: np.ndarray, windows: Iterable[tuple[float, float]], gyr_rad_s: np.ndarray | None,
