@@ -467,17 +467,17 @@ class SensorDoubt:
         if len(times) < 2:
             return pull
         interval = np.diff(times)
-        gap = interval > self.fusion.max_gap_s
-        if numbers is not None:
-            gap |= np.diff(numbers) > 1
+        # a filter integrates nothing across an interval beyond max_gap_s; a device fusing on
+        # board has integrated it (only its dropped samples are missing here)
+        beyond = np.zeros(len(interval), dtype=bool) if self.onboard else interval > self.fusion.max_gap_s
+        gap = beyond | (np.diff(numbers) > 1) if numbers is not None else beyond
         if not np.any(gap):
             return pull
         if rates is not None:
             lost = 0.5 * np.linalg.norm(np.diff(rates, axis=0), axis=1) * interval
         else:  # an on-board orientation without rates: half the rotation between the two ends
             lost = 0.5 * np.nan_to_num(rotation.angle_between(orientations[:-1], orientations[1:]), nan=math.pi)
-        lost = np.where(interval > self.fusion.max_gap_s,
-                        np.maximum(lost, self.fusion.gap_attitude_rate_rad_s * interval), lost)
+        lost = np.where(beyond, np.maximum(lost, self.fusion.gap_attitude_rate_rad_s * interval), lost)
         pull[rows] = np.where(gap, np.minimum(lost, math.pi), 0.0)
         return pull
 
