@@ -70,8 +70,9 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise ValueError(f"{args.calibration}: segment(s) {', '.join(unknown)} not in model {model.name}")
     result = RESULT_LIVE if args.live else RESULT_REPROCESSED
+    trust = []
     if _is_session(args):
-        output, source_note, markers = _session_output(args, model, calibration, result)
+        output, source_note, markers, trust = _session_output(args, model, calibration, result)
     else:
         if args.live:
             raise ValueError(f"{args.input}: --live applies to MimuCap sessions (an orientation table has no filter to run)")
@@ -98,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
         f"calibration: {args.calibration} (method {calibration.quality.method}, verdict {calibration.quality.verdict})",
         f"model: {model.name}",
         f"result: {source_note}; computed from the sensors",
-    ]
+    ] + trust
     write_angles(args.out, output.t_s, ordered, args.shoulder, notes, markers=markers,
                  joint_doubt=output.joint_doubt)
     joints = [j for j in model.joint_names if any(c.startswith(j + "_") for c in ordered)]
@@ -132,12 +133,15 @@ def _is_session(args: argparse.Namespace) -> bool:
 
 def _session_output(args: argparse.Namespace, model, calibration, result: str):
     """A session's joint angles through the processing path with ``calibration``, the result's
-    name and the session's markers."""
+    name, the session's markers and a note on how long the gyroscope bridges a magnetometer."""
+    import numpy as np
+
     from mimucap.cli.bodycal import _refuse_up_for_session, check_reader_options
+    from mimucap.core.doubt import bridge_note
     from mimucap.core.pipeline import RESULT_LABELS
     from mimucap.cli.session_input import magnetometer_calibrations
     from mimucap.io.session import read_session
-    from mimucap.session.processing import process_session
+    from mimucap.session.processing import process_session, recorded_processing
 
     check_reader_options(args)
     _refuse_up_for_session(args)
@@ -149,6 +153,11 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
     mags, lines = magnetometer_calibrations(session, args.mag_calibration)
     for line in lines:
         print(f"  {line}")
-    output = process_session(session, result=result, mag_calibrations=mags, body_calibration=calibration,
-                             model=model, shoulder_sequence=args.shoulder)
-    return output, RESULT_LABELS[result], session.markers
+    recorded = recorded_processing(session, origin=str(args.input))
+    output = process_session(session, result=result, recorded=recorded, mag_calibrations=mags,
+                             body_calibration=calibration, model=model, shoulder_sequence=args.shoulder)
+    trust = []
+    if output.reference_sensor is not None and len(output.t_s) > 1:
+        step = float(np.median(np.diff(session.sensors[output.reference_sensor].t_s)))
+        trust.append(f"trust: {bridge_note(recorded.settings.fusion, step)}")
+    return output, RESULT_LABELS[result], session.markers, trust

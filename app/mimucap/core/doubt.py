@@ -110,7 +110,23 @@ REASONS: dict[int, tuple[str, str]] = {
     SINGULAR: ("singular", "near the angle sequence's singularity (gimbal lock)"),
 }
 
-_ATTITUDE_CAUSES = MAG_REJECTED | MAG_MISSING | NO_MAGNETOMETER | ACC_REJECTED | SETTLING
+
+
+def _cause_table(has_mag: bool) -> np.ndarray:
+    """Filter flags (uint8) → the reason of a large attitude uncertainty at that sample: what
+    the filter lacks there (a table: one lookup per block instead of a test per reason)."""
+    table = np.full(256, SETTLING, dtype=DOUBT_DTYPE)
+    for value in range(256):
+        if value & FLAG_ACC_REJECTED:
+            table[value] = ACC_REJECTED
+        if not has_mag:
+            table[value] = NO_MAGNETOMETER
+        elif value & FLAG_MAG_REJECTED:
+            table[value] = MAG_REJECTED
+        elif value & FLAG_MAG_MISSING:
+            table[value] = MAG_MISSING
+    return table
+
 #: Status 0 of these on-board calibration columns (system, gyr, acc, mag) makes a device's
 #: orientation doubtful: the system has not found north, or the gyroscope or magnetometer is
 #: not calibrated. The accelerometer's takes long to reach and the fusion does not wait for it.
@@ -156,20 +172,20 @@ def describe(reasons: int) -> str:
     return "; ".join(words for bit, (_name, words) in REASONS.items() if reasons & bit)
 
 
-def field_deviation(mag_world_uT: np.ndarray, field_uT: float, dip_rad: float | None) -> np.ndarray:
-    """The smallest disturbance (µT) that turns a field of magnitude ``field_uT`` and dip
-    ``dip_rad`` (positive downwards; None: magnitude only) into the measured field
-    ``mag_world_uT`` (N, 3) (world frame), as a fraction of ``field_uT``: ``|B' − B| / |B|``
-    with both in the same vertical plane. (N,); NaN where the field is missing.
+def field_deviation(mag_world_uT: np.ndarray, field_uT, horizontal_uT, downward_uT) -> np.ndarray:
+    """The smallest disturbance that turns the calibrated field into the measured one
+    ``mag_world_uT`` (N, 3) (world frame, µT), as a fraction of the calibrated magnitude
+    ``field_uT``: ``|B' − B| / |B|`` with both in the same vertical plane, that is
+    ``√(|B'|² + |B|² − 2 (h' h + v' v))`` with ``h``, ``v`` the horizontal and downward
+    components (``horizontal_uT``, ``downward_uT``; NaN when the calibration measured no dip:
+    the magnitudes alone are compared). Scalars or (N,) arrays; returns (N,).
     """
     mag_world = np.asarray(mag_world_uT, dtype=np.float64)
-    norm = np.linalg.norm(mag_world, axis=-1)
-    if dip_rad is None:
-        return np.abs(norm - field_uT) / field_uT
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dip = np.arcsin(np.clip(-mag_world[..., 2] / norm, -1.0, 1.0))
-    squared = norm ** 2 + field_uT ** 2 - 2.0 * norm * field_uT * np.cos(dip - dip_rad)
-    return np.sqrt(np.clip(squared, 0.0, None)) / field_uT
+    squared = np.einsum("ij,ij->i", mag_world, mag_world)
+    cross = np.hypot(mag_world[:, 0], mag_world[:, 1]) * horizontal_uT - mag_world[:, 2] * downward_uT
+    with np.errstate(invalid="ignore"):
+        vector = np.sqrt(np.clip(squared + np.square(field_uT) - 2.0 * cross, 0.0, None))
+    return np.where(np.isfinite(horizontal_uT), vector, np.abs(np.sqrt(squared) - field_uT)) / field_uT
 
 
 def calibrated_dip_rad(calibration: MagCalibration) -> float | None:
@@ -248,6 +264,16 @@ def bridge_time_s(fusion: FusionParams, dt_s: float,
     return low
 
 
+def bridge_note(fusion: FusionParams, dt_s: float, settings: DoubtSettings = DEFAULT_DOUBT_SETTINGS) -> str:
+    """How long the gyroscope bridges a lost magnetometer (:func:`bridge_time_s`), in words."""
+    bridge = bridge_time_s(fusion, dt_s, settings)
+    limit = f"{math.degrees(settings.attitude_budget_rad):.0f}°"
+    if not math.isfinite(bridge):
+        return f"the gyroscope alone keeps a settled heading within {limit} indefinitely (no gyro bias random walk)"
+    return (f"the gyroscope alone keeps a settled heading within {limit} for about {bridge:.0f} s "
+            f"(the filter's settings at {1.0 / dt_s:.0f} Hz)")
+
+
 def smoother_memory_s(fusion: FusionParams, dt_s: float) -> float:
     """The time constant (s) over which the smoother carries a heading drift back as gyro
     bias: the slow mode of the steady-state heading-and-bias loop (:func:`_heading_loop`);
@@ -307,6 +333,8 @@ class DoubtTerms:
         budget = settings.attitude_budget_rad
         total = self.attitude + self.field + self.lost
         doubtful = total > budget
+        if not doubtful.any():  # the usual case, cheaply (a live block is a few samples)
+            return self.standing.astype(DOUBT_DTYPE, copy=True)
         terms = ((self.field, FIELD_MISMATCH), (self.lost, LOST_SAMPLES), (self.attitude, self.cause))
         with np.errstate(invalid="ignore"):
             deciding = [doubtful & ((total - value <= budget) | ~np.isfinite(value)) for value, _bit in terms]
@@ -371,16 +399,23 @@ class SensorDoubt:
         self.fusion = fusion
         self.settings = settings
         self.onboard = onboard
-        self.mag_calibration = mag_calibration
         self._field = 0.0
         self._lost = 0.0
         self._last: tuple | None = None  # time, seq, rate, orientation of the last sample used
+        self.set_mag_calibration(mag_calibration)
 
     def set_mag_calibration(self, calibration: MagCalibration | None) -> None:
         """Use ``calibration`` from now on; the filter learns its heading anew from it, which
         its covariance shows (an earlier foreign field is forgotten)."""
         self.mag_calibration = calibration
         self._field = 0.0
+        # the calibrated field: magnitude, horizontal and downward components (µT; NaN unknown)
+        self._reference = (math.nan,) * 3
+        if calibration is not None:
+            dip = calibrated_dip_rad(calibration)
+            magnitude = calibration.field_uT
+            self._reference = ((magnitude, math.nan, math.nan) if dip is None else
+                               (magnitude, magnitude * math.cos(dip), magnitude * math.sin(dip)))
 
     def update(self, t_s: np.ndarray, seq: np.ndarray | None, gyr_rad_s: np.ndarray | None,
                mag_uT: np.ndarray | None, q_world_from_sensor: np.ndarray, flags: np.ndarray,
@@ -393,52 +428,26 @@ class SensorDoubt:
         the block (error state ``[δθ_world, δb]``; None for an on-board orientation);
         ``status`` (N, 4) an on-board calibration status (system, gyr, acc, mag), or None.
         """
-        t = np.asarray(t_s, dtype=np.float64)
-        n = len(t)
-        flags = np.asarray(flags)
-        q = np.asarray(q_world_from_sensor, dtype=np.float64)
-        oriented = np.isfinite(q).all(axis=1) & ((flags & FLAG_UNINITIALISED) == 0)
-        standing = np.where(oriented, 0, NO_ORIENTATION).astype(DOUBT_DTYPE)
-        cause = np.full(n, SETTLING, dtype=DOUBT_DTYPE)
-        gain = np.zeros(n)
-        field_pull = np.zeros(n)
-        foreign = np.zeros(n, dtype=bool)
-        if self.onboard:
-            attitude = np.zeros(n)
-            if status is not None:
-                columns = np.asarray(status)[:, _ONBOARD_COLUMNS]
-                standing |= np.where((columns == 0).any(axis=1), ONBOARD_UNCALIBRATED, 0).astype(DOUBT_DTYPE)
+        block = DoubtBlock(t_s, seq, gyr_rad_s, mag_uT, q_world_from_sensor, flags, cov, status)
+        return update_together([self], [block])
+
+    def _scalars(self, block: "DoubtBlock") -> tuple:
+        """What holds for the whole block: the attitude term (rad), the heading gain, whether
+        the magnetometer is used (1/0), the calibrated field (magnitude, horizontal and downward
+        components, µT; NaN unknown), the field tolerance, the declination (rad) and the block's
+        standing reasons."""
+        has_mag = block.mag_uT is not None and not self.onboard
+        if self.onboard or block.cov is None:
+            attitude = gain = 0.0
         else:
-            variance = np.zeros(3) if cov is None else np.clip(np.diag(np.asarray(cov))[:3], 0.0, None)
-            attitude = np.full(n, self.settings.sigmas * math.sqrt(float(variance.max())))
-            cause = np.where(flags & FLAG_ACC_REJECTED, ACC_REJECTED, cause)
-            if mag_uT is None:
-                cause[:] = NO_MAGNETOMETER
-            else:
-                cause = np.where(flags & FLAG_MAG_MISSING, MAG_MISSING, cause)
-                cause = np.where(flags & FLAG_MAG_REJECTED, MAG_REJECTED, cause)
-                accepted = oriented & ((flags & (FLAG_MAG_REJECTED | FLAG_MAG_MISSING | FLAG_SKIPPED)) == 0)
-                heading_variance = float(variance[2])
-                gain = np.where(accepted, heading_variance / (heading_variance + self.fusion.heading_noise_rad ** 2), 0.0)
-                if self.mag_calibration is None:
-                    standing |= MAG_UNCALIBRATED
-                elif np.any(accepted):
-                    field_world = rotation.rotate(q[accepted], np.asarray(mag_uT, dtype=np.float64)[accepted])
-                    deviation = field_deviation(field_world, self.mag_calibration.field_uT,
-                                                calibrated_dip_rad(self.mag_calibration))
-                    foreign[accepted] = deviation > self.settings.field_tolerance
-                    residual = np.abs(_wrapped(np.arctan2(field_world[:, 0], field_world[:, 1])
-                                               - self.fusion.declination_rad))
-                    field_pull[accepted] = np.where(foreign[accepted], gain[accepted] * residual, 0.0)
-            cause = cause.astype(DOUBT_DTYPE)
-        attitude = np.where(oriented, attitude, np.inf)
-        lost_pull = self._lost_pull(t, seq, gyr_rad_s, q, flags)
-        calibrated_field = 1.0 - np.where(foreign, 0.0, gain)
-        field = _recursion(calibrated_field, field_pull, self._field)
-        lost = _recursion(np.zeros(n) if self.onboard else 1.0 - gain, lost_pull, self._lost)
-        if n:
-            self._field, self._lost = float(field[-1]), float(lost[-1])
-        return DoubtTerms(t, attitude, field, lost, field_pull, lost_pull, gain, foreign, standing, cause)
+            cov = block.cov
+            tilt_x, tilt_y, heading = max(float(cov[0, 0]), 0.0), max(float(cov[1, 1]), 0.0), max(float(cov[2, 2]), 0.0)
+            attitude = self.settings.sigmas * math.sqrt(max(tilt_x, tilt_y, heading))
+            gain = heading / (heading + self.fusion.heading_noise_rad ** 2)
+        reference = self._reference if has_mag else (math.nan,) * 3
+        standing = MAG_UNCALIBRATED if has_mag and self.mag_calibration is None else 0
+        return (attitude, gain, float(has_mag), *reference, self.settings.field_tolerance, self.fusion.declination_rad,
+                float(standing))
 
     def _lost_pull(self, t: np.ndarray, seq: np.ndarray | None, gyr: np.ndarray | None, q: np.ndarray,
                    flags: np.ndarray) -> np.ndarray:
@@ -480,6 +489,117 @@ class SensorDoubt:
         lost = np.where(beyond, np.maximum(lost, self.fusion.gap_attitude_rate_rad_s * interval), lost)
         pull[rows] = np.where(gap, np.minimum(lost, math.pi), 0.0)
         return pull
+
+
+@dataclass
+class DoubtBlock:
+    """One block of one sensor for :func:`update_together` (fields as the arguments of
+    :meth:`SensorDoubt.update`)."""
+
+    t_s: np.ndarray
+    seq: np.ndarray | None
+    gyr_rad_s: np.ndarray | None
+    mag_uT: np.ndarray | None
+    q_world_from_sensor: np.ndarray
+    flags: np.ndarray
+    cov: np.ndarray | None = None
+    status: np.ndarray | None = None
+
+
+#: Filter flags → the cause of a large attitude term, without and with a magnetometer (2, 256).
+_CAUSE_TABLE = np.stack([_cause_table(False), _cause_table(True)])
+
+
+def update_together(doubts: Sequence[SensorDoubt], blocks: Sequence[DoubtBlock]) -> DoubtTerms:
+    """The terms of a block of each sensor, rows in the blocks' order: what
+    :meth:`SensorDoubt.update` gives for each, with the per-sample work done once over all of
+    them (a live view fuses 17 sensors 60 times a second, a few samples each). A sensor may
+    have several blocks, in time order."""
+    lengths = [len(block.t_s) for block in blocks]
+    total = sum(lengths)
+    t = np.concatenate([np.asarray(block.t_s, dtype=np.float64) for block in blocks]) if blocks else np.zeros(0)
+    flags = np.concatenate([np.asarray(block.flags, dtype=np.uint8) for block in blocks]) if blocks else np.zeros(0, np.uint8)
+    q = (np.concatenate([np.asarray(block.q_world_from_sensor, dtype=np.float64).reshape(-1, 4) for block in blocks])
+         if blocks else np.zeros((0, 4)))
+    # one row of block-wide values per sample (columns of SensorDoubt._scalars)
+    per_row = np.repeat(np.array([doubt._scalars(block) for doubt, block in zip(doubts, blocks)]).reshape(-1, 9),
+                        lengths, axis=0)
+    oriented = np.isfinite(q).all(axis=1) & ((flags & FLAG_UNINITIALISED) == 0)
+    standing = np.where(oriented, 0, NO_ORIENTATION).astype(DOUBT_DTYPE) | per_row[:, 8].astype(DOUBT_DTYPE)
+    with_mag = per_row[:, 2] > 0
+    cause = _CAUSE_TABLE[with_mag.astype(np.intp), flags]
+    used = oriented & with_mag & ((flags & (FLAG_MAG_REJECTED | FLAG_MAG_MISSING | FLAG_SKIPPED)) == 0)
+    gain = np.where(used, per_row[:, 1], 0.0)
+    foreign = np.zeros(total, dtype=bool)
+    field_pull = np.zeros(total)
+    checked = used & np.isfinite(per_row[:, 3])
+    if checked.any():
+        mag = np.concatenate([np.full((n, 3), np.nan) if block.mag_uT is None else np.asarray(block.mag_uT, dtype=np.float64)
+                              for n, block in zip(lengths, blocks)])
+        field_world = rotation.rotate(q[checked], mag[checked])
+        values = per_row[checked]
+        deviation = field_deviation(field_world, values[:, 3], values[:, 4], values[:, 5])
+        foreign[checked] = deviation > values[:, 6]
+        residual = np.abs(_wrapped(np.arctan2(field_world[:, 0], field_world[:, 1]) - values[:, 7]))
+        field_pull[checked] = np.where(foreign[checked], gain[checked] * residual, 0.0)
+    attitude = np.where(oriented, per_row[:, 0], np.inf)
+    gapped = _gapped_blocks(doubts, blocks, lengths, t, flags)
+    pulled = np.bincount(np.repeat(np.arange(len(blocks)), lengths), weights=field_pull, minlength=len(blocks)) > 0
+    field = np.zeros(total)
+    lost = np.zeros(total)
+    lost_pull = np.zeros(total)
+    start = 0
+    for index, (doubt, block, n) in enumerate(zip(doubts, blocks, lengths)):
+        rows = slice(start, start + n)
+        start += n
+        if not n:
+            continue
+        if doubt.onboard and block.status is not None:
+            unknown = (np.asarray(block.status)[:, _ONBOARD_COLUMNS] == 0).any(axis=1)
+            standing[rows] |= np.where(unknown, ONBOARD_UNCALIBRATED, 0).astype(DOUBT_DTYPE)
+        if gapped[index]:
+            lost_pull[rows] = doubt._lost_pull(t[rows], block.seq, block.gyr_rad_s, q[rows], flags[rows])
+        else:  # the usual case: the block continues the last without a dropped or skipped sample
+            doubt._last = (float(t[start - 1]), None if block.seq is None else int(block.seq[-1]),
+                           None if block.gyr_rad_s is None else block.gyr_rad_s[-1], q[start - 1])
+        if doubt._field or pulled[index]:
+            field[rows] = _recursion(1.0 - np.where(foreign[rows], 0.0, gain[rows]), field_pull[rows], doubt._field)
+            doubt._field = float(field[start - 1])
+        if doubt._lost or gapped[index]:
+            decay = np.zeros(n) if doubt.onboard else 1.0 - gain[rows]
+            lost[rows] = _recursion(decay, lost_pull[rows], doubt._lost)
+            doubt._lost = float(lost[start - 1])
+    return DoubtTerms(t, attitude, field, lost, field_pull, lost_pull, gain, foreign, standing, cause)
+
+
+def _gapped_blocks(doubts: Sequence[SensorDoubt], blocks: Sequence[DoubtBlock], lengths: Sequence[int],
+                   t: np.ndarray, flags: np.ndarray) -> np.ndarray:
+    """Per block, whether it may hold a step across dropped samples (a sequence gap, an interval
+    beyond the filter's ``max_gap_s`` from the sample before, a skipped sample, no sequence
+    numbers or no sample before): those go through :meth:`SensorDoubt._lost_pull`."""
+    count = len(blocks)
+    if not count:
+        return np.zeros(0, dtype=bool)
+    first = np.cumsum([0] + list(lengths[:-1]))
+    before_t = np.empty(len(t))
+    before_t[1:] = t[:-1]
+    before_seq = np.zeros(len(t), dtype=np.int64)
+    seq = np.concatenate([np.full(n, -2, np.int64) if block.seq is None else np.asarray(block.seq, dtype=np.int64)
+                          for n, block in zip(lengths, blocks)])
+    before_seq[1:] = seq[:-1]
+    unknown = np.zeros(count, dtype=bool)
+    limit = np.repeat([math.inf if doubt.onboard else doubt.fusion.max_gap_s for doubt in doubts], lengths)
+    for index, (doubt, block, n) in enumerate(zip(doubts, blocks, lengths)):
+        if not n:
+            continue
+        last = doubt._last
+        if last is None or last[1] is None or block.seq is None:
+            unknown[index] = True
+        else:
+            before_t[first[index]], before_seq[first[index]] = last[0], last[1]
+    odd = (seq - before_seq != 1) | (t - before_t > limit) | ((flags & FLAG_SKIPPED) != 0)
+    rows_of = np.repeat(np.arange(count), lengths)
+    return unknown | (np.bincount(rows_of, weights=odd, minlength=count) > 0)
 
 
 # --------------------------------------------------------------------------------------------

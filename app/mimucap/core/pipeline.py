@@ -666,24 +666,40 @@ class LivePipeline:
         their orientations, in the blocks' order."""
         results: list[SensorOrientations | None] = [None] * len(blocks)
         inputs: list[ChainInput] = []
-        slots: list[tuple[int, np.ndarray | None]] = []
+        fused_at: list[int] = []
+        onboard_at: list[int] = []
+        calibrated: dict[int, np.ndarray | None] = {}
         for index, block in enumerate(blocks):
             chain = self.chain(block.sensor_id)
-            mag = chain.calibrated_mag(block.mag_uT)
+            calibrated[index] = chain.calibrated_mag(block.mag_uT)
             if block.q_world_from_sensor is not None:
                 chain.onboard = True
-                q = np.asarray(block.q_world_from_sensor, dtype=np.float64)
-                flags = np.zeros(len(block.t_s), dtype=np.uint8)
-                terms = chain.doubt_terms(block.t_s, block.seq, block.gyr, None, q, flags, block.calibration)
-                results[index] = SensorOrientations(block.sensor_id, block.t_s, q, mag, flags, True, terms.reasons())
+                onboard_at.append(index)
             elif block.gyr is not None:
-                inputs.append(ChainInput(chain, block.t_s, block.gyr, block.acc, mag))
-                slots.append((index, mag))
-        for (index, mag), item, out in zip(slots, inputs, run_chains(inputs)):
+                inputs.append(ChainInput(chain, block.t_s, block.gyr, block.acc, calibrated[index]))
+                fused_at.append(index)
+        orientation: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        for index in onboard_at:
+            orientation[index] = (np.asarray(blocks[index].q_world_from_sensor, dtype=np.float64),
+                                  np.zeros(len(blocks[index].t_s), dtype=np.uint8))
+        for index, out in zip(fused_at, run_chains(inputs)):
+            orientation[index] = (out.q_world_from_sensor, out.flags)
+        order = onboard_at + fused_at
+        chains = [self.chains[blocks[index].sensor_id] for index in order]
+        doubt_blocks = [doubt.DoubtBlock(blocks[index].t_s, blocks[index].seq, blocks[index].gyr,
+                                         None if chain.onboard else calibrated[index], *orientation[index],
+                                         None if chain.onboard else chain.ekf.state.cov[0],
+                                         blocks[index].calibration if chain.onboard else None)
+                        for index, chain in zip(order, chains)]
+        reasons = doubt.update_together([chain.doubt() for chain in chains], doubt_blocks).reasons()
+        start = 0
+        for index, chain in zip(order, chains):
             block = blocks[index]
-            terms = item.chain.doubt_terms(out.t_s, block.seq, block.gyr, mag, out.q_world_from_sensor, out.flags)
-            results[index] = SensorOrientations(out.sensor_id, out.t_s, out.q_world_from_sensor, mag, out.flags, False,
-                                                terms.reasons())
+            q, flags = orientation[index]
+            n = len(block.t_s)
+            results[index] = SensorOrientations(block.sensor_id, block.t_s, q, calibrated[index], flags, chain.onboard,
+                                                reasons[start:start + n])
+            start += n
         done = [r for r in results if r is not None]
         for item in done:
             self._tracks.setdefault(item.sensor_id, _Track()).add(item.t_s, item.q_world_from_sensor)
