@@ -20,7 +20,9 @@ sensor's N-pose orientation taken from the still window's mean accelerometer and
 magnetometer where the feed can give it (``feed.static_orientation``: what the orientation
 filter converges to, free of the transient its heading may still carry shortly after a new
 magnetometer calibration), or
-refuses (phase ``"refused"`` with the reason). A pose that is not held still within
+refuses (phase ``"refused"`` with the reason); sensors whose orientation the pipeline doubted
+between the N-pose and the end of the T-pose are recorded in the calibration
+(:func:`~mimucap.core.bodycal.with_doubtful_sensors`: its joint angles are then doubtful). A pose that is not held still within
 ``pose_timeout_s`` is refused as well ("the subject kept moving in the N-pose"). Each page's
 instruction goes to the feed (:mod:`mimucap.session.instructions`): the person reads it, and the
 simulated subject of the simulated suit does it.
@@ -47,9 +49,11 @@ from mimucap.core.bodycal import (
     CalibrationRefused,
     calibrate_npose_tpose,
     check_mapping,
+    with_doubtful_sensors,
 )
+from mimucap.core.doubt import describe
 from mimucap.session import instructions
-from mimucap.session.calibration_feed import CalibrationFeed
+from mimucap.session.calibration_feed import DOUBT_EXTRA, CalibrationFeed
 from mimucap.session.instructions import Instruction
 
 PHASES = ("ready", "npose", "tpose", "result", "refused")
@@ -103,17 +107,30 @@ class BodycalStatus:
 
 
 class _Track:
-    """Growing orientation samples of one sensor: t (N,), q (N, 4)."""
+    """Growing orientation samples of one sensor: t (N,), q (N, 4), and the times (s) and
+    reasons of the samples whose orientation the pipeline doubted (:mod:`mimucap.core.doubt`)."""
 
     def __init__(self) -> None:
         self.t_parts: list[np.ndarray] = []
         self.q_parts: list[np.ndarray] = []
+        self.doubtful: list[tuple[np.ndarray, np.ndarray]] = []
 
-    def add(self, t: np.ndarray, q: np.ndarray) -> None:
+    def add(self, t: np.ndarray, q: np.ndarray, reasons: np.ndarray | None = None) -> None:
         good = np.isfinite(t) & np.all(np.isfinite(q), axis=1)
         if np.any(good):
             self.t_parts.append(t[good])
             self.q_parts.append(q[good])
+        if reasons is not None and np.any(reasons):
+            self.doubtful.append((t[reasons != 0], reasons[reasons != 0]))
+
+    def doubt_between(self, start_s: float, end_s: float) -> int:
+        """The reasons of the samples from ``start_s`` to ``end_s`` (s), combined (0: none)."""
+        found = 0
+        for t, reasons in self.doubtful:
+            inside = (t >= start_s) & (t <= end_s)
+            if np.any(inside):
+                found |= int(np.bitwise_or.reduce(reasons[inside]))
+        return found
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if not self.t_parts:
@@ -242,7 +259,8 @@ class BodycalProcedure:
         if self.phase in ("npose", "tpose"):
             for sensor_id, block in self.feed.read().items():
                 if sensor_id in self._tracks and block.q_world_from_sensor is not None and block.t_s.shape[0]:
-                    self._tracks[sensor_id].add(block.t_s, block.q_world_from_sensor)
+                    reasons = (block.extra or {}).get(DOUBT_EXTRA)
+                    self._tracks[sensor_id].add(block.t_s, block.q_world_from_sensor, reasons)
                     if self.phase == "npose":
                         self._fields[sensor_id].add(block.t_s, block.acc, block.mag_uT)
                     self._now = max(self._now if self._now is not None else -math.inf, float(block.t_s[-1]))
@@ -361,6 +379,10 @@ class BodycalProcedure:
         except CalibrationRefused as refusal:
             self._refuse(refusal.reason)
             return
+        start, end = self.windows["npose"][0], self.windows["tpose"][1]
+        doubtful = {sensor_id: describe(bits) for sensor_id in self.mapping.values()
+                    if sensor_id in self._tracks and (bits := self._tracks[sensor_id].doubt_between(start, end))}
+        self.calibration = with_doubtful_sensors(self.calibration, doubtful)
         self.phase = "result"
         self._message = f"Calibration {self.calibration.quality.verdict}: check the figure and accept"
         self.feed.instruct(instructions.npose())
