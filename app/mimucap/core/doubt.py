@@ -111,7 +111,6 @@ REASONS: dict[int, tuple[str, str]] = {
 }
 
 
-
 def _cause_table(has_mag: bool) -> np.ndarray:
     """Filter flags (uint8) → the reason of a large attitude uncertainty at that sample: what
     the filter lacks there (a table: one lookup per block instead of a test per reason)."""
@@ -126,6 +125,7 @@ def _cause_table(has_mag: bool) -> np.ndarray:
         elif value & FLAG_MAG_MISSING:
             table[value] = MAG_MISSING
     return table
+
 
 #: Status 0 of these on-board calibration columns (system, gyr, acc, mag) makes a device's
 #: orientation doubtful: the system has not found north, or the gyroscope or magnetometer is
