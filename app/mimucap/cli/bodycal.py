@@ -190,6 +190,27 @@ def static_npose_orientations(session, mags: dict, mapping: dict[str, str],
     return found
 
 
+def pose_doubts(table, mapping: dict[str, str], npose: tuple[float, float] | None,
+                tpose: tuple[float, float] | None) -> dict[str, str]:
+    """Mapped sensor → why its orientation was doubtful (words) somewhere from the N-pose's start
+    to the T-pose's end (the N-pose alone without a T-pose), for the sensors the processing path
+    doubted there (:attr:`~mimucap.io.quaternion_tables.QuaternionTable.doubt`)."""
+    import numpy as np
+
+    from mimucap.core.doubt import describe
+
+    if npose is None or not table.doubt:
+        return {}
+    end = (tpose or npose)[1]
+    inside = (table.t_s >= npose[0]) & (table.t_s <= end)
+    found = {}
+    for sensor in mapping.values():
+        reasons = int(np.bitwise_or.reduce(table.doubt[sensor][inside])) if sensor in table.doubt and np.any(inside) else 0
+        if reasons:
+            found[sensor] = describe(reasons)
+    return found
+
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "bodycal",
@@ -262,6 +283,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("give --tpose T2:T3 (N/T-pose calibration) or --heading-from SENSOR:AXIS")
     from mimucap.session.calibrations import with_magnetometers
 
+    calibration = bodycal.with_doubtful_sensors(calibration, pose_doubts(table, mapping, npose, tpose))
     # the magnetometer calibrations its N-pose orientations were computed with go with it
     calibration = with_magnetometers(calibration, mags if session is not None else None,
                                      origin=f"mimucap bodycal of {args.input}")

@@ -74,9 +74,11 @@ def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float
 def orientation_table(session, source: str, mag_calibrations: dict):
     """Every sensor's orientation (reprocessed, with ``mag_calibrations``: sensor → the
     magnetometer calibration applied) on the reference sensor's instants where every sensor has
-    one, as a :class:`~mimucap.io.quaternion_tables.QuaternionTable` (world ENU)."""
+    one, as a :class:`~mimucap.io.quaternion_tables.QuaternionTable` (world ENU), with the
+    reasons each may be wrong."""
     import numpy as np
 
+    from mimucap.core.doubt import at_instants
     from mimucap.core.pipeline import RESULT_REPROCESSED, finite_track, orientation_at
     from mimucap.io.quaternion_tables import QuaternionTable
     from mimucap.session.calibrations import AppliedCalibrations
@@ -97,4 +99,6 @@ def orientation_table(session, source: str, mag_calibrations: dict):
     t_common = t_ref[(t_ref >= start) & (t_ref <= stop)]
     quats = {sid: orientation_at(t_common, t, q) for sid, (t, q) in tracks.items()}
     hints = {sid: s.segment for sid, s in session.sensors.items() if s.segment}
-    return QuaternionTable(t_common, quats, np.array([0.0, 0.0, 1.0]), "ENU", source, hints)
+    hold_s = float(np.max(np.diff(t_ref))) if len(t_ref) > 1 else 0.0
+    doubts = {sid: at_instants(t_common, session.sensors[sid].t_s, output.doubt[sid], hold_s) for sid in tracks}
+    return QuaternionTable(t_common, quats, np.array([0.0, 0.0, 1.0]), "ENU", source, hints, doubts)

@@ -32,6 +32,7 @@ from mimucap.gui.background import BackgroundTask
 from mimucap.gui.report import write_report
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.analysis import (
+    DOUBT_HEADER,
     GAIT_PARAMETER_HEADER,
     ROM_HEADER,
     CurveGroup,
@@ -84,8 +85,17 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         self.tabs = QtWidgets.QTabWidget(self)
         self.gait_tab = QtWidgets.QWidget(self)
         self.rom_tab = QtWidgets.QWidget(self)
+        self.doubt_tab = QtWidgets.QWidget(self)
         self.tabs.addTab(self.gait_tab, "Gait")
         self.tabs.addTab(self.rom_tab, "ROM")
+        self.tabs.addTab(self.doubt_tab, "Doubtful data")
+        self.doubt_label = QtWidgets.QLabel("Analysing…", self.doubt_tab)
+        self.doubt_label.setWordWrap(True)
+        self.doubt_table = QtWidgets.QTableWidget(self.doubt_tab)
+        self.doubt_table.setObjectName("doubtTable")
+        doubt_layout = QtWidgets.QVBoxLayout(self.doubt_tab)
+        doubt_layout.addWidget(self.doubt_label)
+        doubt_layout.addWidget(self.doubt_table, 1)
 
         # -- gait tab ------------------------------------------------------------------------
         self.gait_summary = QtWidgets.QLabel("Analysing…", self.gait_tab)
@@ -233,6 +243,12 @@ class AnalysisWindow(QtWidgets.QMainWindow):
             self.rom_label.setText("ROM protocol: this recording has no ROM protocol markers.")
         if len(self.data.markers) >= 2 and analysis.calibrated:
             self.compute_marker_rom()
+        if analysis.doubt:
+            self.doubt_label.setText("The joint angles below may be wrong where marked (the orientation of a sensor "
+                                     "they use, or the body calibration, is doubtful); the results include them.")
+        else:
+            self.doubt_label.setText("Every joint angle passed the checks: none is marked doubtful.")
+        _fill_table(self.doubt_table, list(DOUBT_HEADER), [row.cells() for row in analysis.doubt])
         for button in (self.report_button, self.csv_button):
             button.setEnabled(True)
         self._show_limits(analysis)

@@ -26,7 +26,8 @@ from mimucap.gui.background import BackgroundTask
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
 from mimucap.session.export import (
-    ExportRequest, ExportResult, angles_in_range, marker_range, run_export, summary_table, write_summary_csv,
+    ExportRequest, ExportResult, angles_in_range, doubt_in_range, marker_range, run_export, summary_table,
+    write_summary_csv,
 )
 from mimucap.session.provenance import WITHOUT_BODY_CALIBRATION
 from mimucap.session.review import ReviewData
@@ -189,7 +190,7 @@ class ExportDialog(QtWidgets.QDialog):
     def summary_rows(self):
         a, b = self.time_range()
         _t, angles = angles_in_range(self.data, a, b)
-        return summary_table(angles)
+        return summary_table(angles, doubt_in_range(self.data, a, b))
 
     def update_summary(self) -> None:
         try:

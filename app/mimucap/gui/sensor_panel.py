@@ -1,5 +1,6 @@
 """The sensor panel: one row per sensor (id, segment, rate, drops, packets refused, latency,
-battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red.
+battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red,
+a sensor whose orientation is doubtful in orange with the reasons in its State column.
 Orientation-only sensors (on-board fusion, e.g. SlimeVR trackers) read "on-board" under
 magnetometer calibration. Shows :class:`~mimucap.session.live.SensorRow` values as they are,
 from the live session's ``status`` event (:meth:`SensorPanel.set_session`); computes nothing.
@@ -119,6 +120,8 @@ class SensorPanel(QtWidgets.QTableWidget):
                 state = "STALE: packets arrive but are refused (see Refused)"
             elif row.stale:
                 state = "STALE: no data"
+            elif row.doubt:
+                state = f"orientation doubtful: {row.doubt}"
             elif row.state == "mag_uncalibrated":
                 state = "magnetometer not calibrated"
             elif row.mag_field_warning:
@@ -132,7 +135,8 @@ class SensorPanel(QtWidgets.QTableWidget):
                 row.mag_cal + (f" ({row.mag_cal_verdict})" if row.mag_cal_verdict else "") + _age(row.mag_cal_age_s),
                 ", ".join(row.flags) or "–", state,
             )
-            brush = STALE_BRUSH if row.stale else WARN_BRUSH if row.state != "ok" or row.mag_field_warning else QtGui.QBrush()
+            brush = (STALE_BRUSH if row.stale else WARN_BRUSH if row.state != "ok" or row.mag_field_warning or row.doubt
+                     else QtGui.QBrush())
             for c, text in enumerate(values):
                 item = self.item(r, c)
                 if item is None:

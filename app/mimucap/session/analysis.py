@@ -26,6 +26,10 @@ The tables as the Analysis window and the PDF report show them are built here on
 parameter rows (:func:`gait_parameter_rows`), the ROM rows (:func:`rom_rows`), each with its
 label, unit and values and :meth:`cells` for its text, and the cycle curves grouped by joint
 angle (:func:`curve_groups`); the CSV tables are the functions ending in ``_table``.
+
+Doubtful data is marked, not hidden (:mod:`mimucap.core.doubt`): the joints whose angles are
+doubtful somewhere, when and why (:func:`doubt_rows`), the strides of each cycle curve that
+hold doubtful samples, and the share of each ROM window that is doubtful.
 """
 
 from __future__ import annotations
@@ -37,13 +41,14 @@ from pathlib import Path
 
 import numpy as np
 
-from mimucap.core import bodycal, phases
+from mimucap.core import bodycal, doubt, phases
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait import GaitAnalysis, GaitInput, analyse_gait
 from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves, split_column
 from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS, ParameterSummary, gait_parameters
 from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.sagittal import axes_calibrated, axes_from_data, sagittal_rate_dominant
+from mimucap.core.clinical_names import joint_name
 from mimucap.io.gait_csv import write_table
 from mimucap.io.session import Marker
 from mimucap.session.review import ReviewData
@@ -156,13 +161,9 @@ NEEDS_BODY_CALIBRATION = ("no body calibration: joint-angle curves, range of mot
                           "parameters (stride length, gait speed) need one; temporal gait parameters only")
 
 
-#: Phases in which the sensors are in the hands, not on their segments (the magnetometer calibrations).
-UNWORN_PHASES = (phases.MAG_TURNS, phases.MAG_FIGURE8, phases.MAG_TUMBLE)
-
-
 def unworn_windows(review: ReviewData) -> list[tuple[float, float]]:
     """The time windows (s) in which the review's markers say the sensors were not worn."""
-    return sorted(w for phase in UNWORN_PHASES for w in phases.phase_windows(review.markers, phase, review.end_s))
+    return phases.off_body_windows(review.markers, review.end_s)
 
 
 def while_worn(gait: GaitAnalysis, windows: Sequence[tuple[float, float]]) -> GaitAnalysis:
@@ -191,12 +192,87 @@ def temporal_only(gait: GaitAnalysis) -> GaitAnalysis:
     return replace(gait, strides=strides, turns=[], parameters=gait_parameters(strides), sources=sources)
 
 
+def rom_doubt(review: ReviewData) -> dict[tuple[str, str], float]:
+    """The share of each ROM protocol window (keyed (movement, side)) in which the movement's
+    joint angles are doubtful."""
+    found = {}
+    for key, side, start, end in rom_markers(review.markers):
+        m = rom_core.movement(key)
+        joint = m.joint if m.joint in ("lumbar", "neck") else f"{m.joint}_{side[0]}"
+        reasons = review.joint_doubt.get(joint)
+        window = rom_core.window_mask(review.t_s, start, end)
+        if reasons is not None and np.any(window):
+            found[(key, side)] = float(np.mean(reasons[window] != 0))
+    return found
+
+
+@dataclass(frozen=True)
+class DoubtRow:
+    """A joint whose angles are doubtful somewhere in the review: the ``fraction`` of its
+    poses, the ``spans`` ``(start_s, end_s, reasons)`` (reason bits of :mod:`mimucap.core.doubt`)."""
+
+    joint: str
+    fraction: float
+    spans: tuple[tuple[float, float, int], ...]
+
+    #: Spans shown in a table cell (the rest are counted).
+    SHOWN_SPANS = 4
+
+    def cells(self) -> list[str]:
+        """The row's text under :data:`DOUBT_HEADER`."""
+        shown = ", ".join(f"{a:.1f}–{b:.1f}" for a, b, _r in self.spans[:self.SHOWN_SPANS])
+        if len(self.spans) > self.SHOWN_SPANS:
+            shown += f" and {len(self.spans) - self.SHOWN_SPANS} more"
+        reasons = int(np.bitwise_or.reduce([r for _a, _b, r in self.spans])) if self.spans else 0
+        return [joint_name(self.joint), f"{100.0 * self.fraction:.1f}", shown, doubt.describe(reasons)]
+
+
+DOUBT_HEADER = ("Joint", "Doubtful %", "When (s)", "Why")
+
+
+def doubt_rows(review: ReviewData) -> list[DoubtRow]:
+    """The joints whose angles are doubtful somewhere, in the model's joint order."""
+    rows = []
+    for joint in review.model.joint_names:
+        reasons = review.joint_doubt.get(joint)
+        if reasons is None or not np.any(reasons):
+            continue
+        rows.append(DoubtRow(joint, float(np.mean(reasons != 0)), tuple(doubt.spans(review.t_s, reasons))))
+    return rows
+
+
+def doubtful_strides(review: ReviewData, curves: dict[str, CycleCurve], strides) -> dict[str, int]:
+    """Curve key → how many of the strides it averages hold a doubtful sample of its joint."""
+    found = {}
+    for key, curve in curves.items():
+        joint = next((j for j in review.joint_doubt if curve.column.startswith(j + "_")), None)
+        if joint is None:
+            continue
+        reasons = review.joint_doubt[joint]
+        count = 0
+        for stride in strides:
+            if stride.side != curve.side or not stride.analysed:
+                continue
+            inside = (review.t_s >= stride.ic_s) & (review.t_s <= stride.next_ic_s)
+            count += int(np.any(reasons[inside] != 0))
+        found[key] = count
+    return found
+
+
+def curve_doubt_of(analysis: "SessionAnalysis", curve: CycleCurve) -> int:
+    """How many strides of ``curve`` (one of ``analysis.curves``) hold doubtful samples."""
+    sided = split_column(curve.column)[1] is not None
+    return analysis.curve_doubt.get(curve.column if sided else f"{curve.column}@{curve.side}", 0)
+
+
 @dataclass
 class SessionAnalysis:
     """The analysis of one session: ``gait`` (None with ``gait_problem`` saying why),
     ``curves`` joint-angle cycle curves, ``rom`` results keyed (movement, side) with
     ``rom_source`` saying where they come from; ``limits`` what it leaves out and why ('' for a
-    full analysis, :data:`NEEDS_BODY_CALIBRATION` without a body calibration)."""
+    full analysis, :data:`NEEDS_BODY_CALIBRATION` without a body calibration); ``doubt`` the
+    joints doubtful somewhere, ``curve_doubt`` curve key → its strides holding doubtful samples,
+    ``rom_doubt`` (movement, side) → the doubtful share of its window."""
 
     review: ReviewData
     gait: GaitAnalysis | None
@@ -205,6 +281,9 @@ class SessionAnalysis:
     rom: dict[tuple[str, str], rom_core.RomResult] = field(default_factory=dict)
     rom_source: str = ""
     limits: str = ""
+    doubt: list[DoubtRow] = field(default_factory=list)
+    curve_doubt: dict[str, int] = field(default_factory=dict)
+    rom_doubt: dict[tuple[str, str], float] = field(default_factory=dict)
 
     @property
     def calibrated(self) -> bool:
@@ -231,13 +310,16 @@ def analyse_review(review: ReviewData, progress: Callable[[float], None] | None 
         if gait is not None and not gait.analysed:
             problem = "no straight-walking stride found"
     report(0.6)
+    curve_doubt = {}
     if calibrated and gait is not None and gait.analysed and len(review.t_s) > 1:
         curves = cycle_curves(review.t_s, review.angles_deg, gait.strides)
+        curve_doubt = doubtful_strides(review, curves, gait.strides)
     report(0.8)
     rom = rom_of_protocol(review) if calibrated else {}
     source = "ROM protocol" if rom else ""
     report(1.0)
-    return SessionAnalysis(review, gait, problem, curves, rom, source, "" if calibrated else NEEDS_BODY_CALIBRATION)
+    return SessionAnalysis(review, gait, problem, curves, rom, source, "" if calibrated else NEEDS_BODY_CALIBRATION,
+                           doubt_rows(review), curve_doubt, rom_doubt(review))
 
 
 def table_notes(analysis: SessionAnalysis) -> list[str]:

@@ -6,7 +6,8 @@ asks for. A feed has:
 * ``sensor_ids`` (tuple of str), ``time_s`` (s, time of the newest sample delivered);
 * ``read() -> dict[str, SensorSamples]``: the samples that arrived since the last call
   (:class:`mimucap.core.samples.SensorSamples`, ``t_s`` in session seconds, raw magnetometer),
-  with ``q_world_from_sensor`` the orientation the live session's processing path gave them;
+  with ``q_world_from_sensor`` the orientation the live session's processing path gave them
+  and, in ``extra[DOUBT_EXTRA]`` (N,), the reasons it may be wrong (:mod:`mimucap.core.doubt`);
 * ``static_orientation(sensor_id, acc, mag_raw_uT)``: ``q_world_from_sensor`` (4,) of a still
   window from its mean specific force and magnetic field, the field corrected as the
   pipeline corrects it (:func:`mimucap.core.bodycal.static_alignment`), or None for a sensor
@@ -40,6 +41,10 @@ from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.session.instructions import Instruction
+
+#: The per-sample extra of a calibration feed's samples that holds the reasons their
+#: orientation may be wrong (``uint16`` bits of :mod:`mimucap.core.doubt`).
+DOUBT_EXTRA = "doubt"
 
 
 class CalibrationFeed(Protocol):
@@ -112,8 +117,11 @@ class LiveSessionFeed:
             if len(item.t_s) == 0:
                 continue
             q = None if item.orientation is None else item.orientation.q_world_from_sensor
+            extra = item.block.extra
+            if item.orientation is not None:
+                extra = {**(extra or {}), DOUBT_EXTRA: item.orientation.doubt}
             parts.setdefault(item.sensor_id, []).append(
-                replace(item.block, t_s=item.t_s, q_world_from_sensor=q))
+                replace(item.block, t_s=item.t_s, q_world_from_sensor=q, extra=extra))
             newest = float(item.t_s[-1])
             self._time_s = max(newest, self._time_s) if math.isfinite(self._time_s) else newest
         return {sensor_id: concatenate_samples(samples, missing="drop") for sensor_id, samples in parts.items()}

@@ -67,12 +67,14 @@ class ExportRequest:
 @dataclass(frozen=True)
 class SummaryRow:
     """One joint-angle column over the exported range: ``minimum_deg``, ``maximum_deg``,
-    ``rom_deg`` (range of motion = max − min), all degrees."""
+    ``rom_deg`` (range of motion = max − min), all degrees; ``doubtful_fraction`` the share of
+    its samples where the joint's angles are doubtful (:mod:`mimucap.core.doubt`)."""
 
     column: str
     minimum_deg: float
     maximum_deg: float
     rom_deg: float
+    doubtful_fraction: float = 0.0
 
 
 @dataclass
@@ -103,11 +105,23 @@ def marker_range(markers: Sequence[Marker], first: int, second: int) -> tuple[fl
 
 def angles_in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Pose times (s) and joint angle columns (deg) with ``t_from_s <= t <= t_to_s``."""
+    keep = _in_range(data, t_from_s, t_to_s)
+    return data.t_s[keep], {c: v[keep] for c, v in data.angles_deg.items()}
+
+
+def doubt_in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> dict[str, np.ndarray]:
+    """Joint → the reasons (:mod:`mimucap.core.doubt`) its angles may be wrong, at the poses of
+    :func:`angles_in_range`."""
+    keep = _in_range(data, t_from_s, t_to_s)
+    return {joint: reasons[keep] for joint, reasons in data.joint_doubt.items()}
+
+
+def _in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> np.ndarray:
     keep = (data.t_s >= t_from_s) & (data.t_s <= t_to_s)
     if not np.any(keep):
         raise ValueError(f"no poses between {t_from_s:.3f} and {t_to_s:.3f} s (the recording spans "
                          f"{data.start_s:.3f}..{data.end_s:.3f} s)")
-    return data.t_s[keep], {c: v[keep] for c, v in data.angles_deg.items()}
+    return keep
 
 
 def markers_in_range(markers: Sequence[Marker], t_from_s: float, t_to_s: float) -> list[Marker]:
@@ -116,12 +130,16 @@ def markers_in_range(markers: Sequence[Marker], t_from_s: float, t_to_s: float) 
     return sorted((m for m in markers if t_from_s <= m.t_s <= t_to_s), key=lambda m: m.t_s)
 
 
-def summary_table(angles_deg: dict[str, np.ndarray]) -> list[SummaryRow]:
-    """Min, max and range of motion of each column (deg), in column order."""
+def summary_table(angles_deg: dict[str, np.ndarray],
+                  joint_doubt: dict[str, np.ndarray] | None = None) -> list[SummaryRow]:
+    """Min, max and range of motion of each column (deg), in column order, with the share of
+    doubtful samples of its joint (``joint_doubt`` joint → reasons, on the same samples)."""
     rows = []
     for column, values in angles_deg.items():
         low, high = float(np.min(values)), float(np.max(values))
-        rows.append(SummaryRow(column, low, high, high - low))
+        reasons = next((r for joint, r in (joint_doubt or {}).items() if column.startswith(joint + "_")), None)
+        doubtful = 0.0 if reasons is None or not len(reasons) else float(np.mean(np.asarray(reasons) != 0))
+        rows.append(SummaryRow(column, low, high, high - low, doubtful))
     return rows
 
 
@@ -135,11 +153,13 @@ def write_summary_csv(path: str | Path, rows: Sequence[SummaryRow], t_from_s: fl
         handle.write(f"# MimuCap joint angle summary from {t_from_s:.3f} s to {t_to_s:.3f} s; degrees\n")
         for line in list(notes) + marker_lines(markers):
             handle.write(f"# {line}\n")
+        handle.write("# doubtful_pct: share of the range's samples where the joint's angles may be wrong "
+                     "(see the joint-angle file's <joint>_ok column); min, max and range include them\n")
         writer = csv.writer(handle)
-        writer.writerow(["column", "label", "min_deg", "max_deg", "rom_deg"])
+        writer.writerow(["column", "label", "min_deg", "max_deg", "rom_deg", "doubtful_pct"])
         for row in rows:
             writer.writerow([row.column, angle_label(row.column), f"{row.minimum_deg:.3f}", f"{row.maximum_deg:.3f}",
-                             f"{row.rom_deg:.3f}"])
+                             f"{row.rom_deg:.3f}", f"{100.0 * row.doubtful_fraction:.1f}"])
     return path
 
 
@@ -172,16 +192,19 @@ def run_export(data: ReviewData, request: ExportRequest,
     """Write the files of ``request``; ``progress(fraction)`` after each file."""
     report = progress or (lambda fraction: None)
     t, angles = angles_in_range(data, request.t_from_s, request.t_to_s)
-    result = ExportResult(rows=len(t), summary=summary_table(angles))
+    doubt = doubt_in_range(data, request.t_from_s, request.t_to_s)
+    result = ExportResult(rows=len(t), summary=summary_table(angles, doubt))
     base = Path(request.base_path)
     base.parent.mkdir(parents=True, exist_ok=True)
     notes = export_notes(data, request.t_from_s, request.t_to_s)
     markers = markers_in_range(data.markers, request.t_from_s, request.t_to_s)
     jobs: list[tuple[str, Callable[[], Path]]] = []
     if request.angles_csv:
-        jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(p, t, angles, notes=notes, markers=markers))))
+        jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(
+            p, t, angles, notes=notes, markers=markers, joint_doubt=doubt))))
     if request.angles_mot:
-        jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(p, t, angles, notes=notes, markers=markers))))
+        jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(
+            p, t, angles, notes=notes, markers=markers, joint_doubt=doubt))))
     if request.summary_csv:
         jobs.append(("summary", lambda: write_summary_csv(base.with_name(base.name + "_summary.csv"), result.summary,
                                                           request.t_from_s, request.t_to_s, markers,
@@ -278,6 +301,7 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
     t = data.t_s[keep]
     q_segments = {s: q[keep] for s, q in data.q_world_from_segment.items()}
     angles = {c: v[keep] for c, v in data.angles_deg.items()}
+    doubt = {joint: reasons[keep] for joint, reasons in data.joint_doubt.items()}
     root = None if data.root_position_m is None else data.root_position_m[keep]
     in_range = markers_in_range(data.markers, t_from, t_to)
     markers = [(m.t_s, m.label) for m in in_range]
@@ -330,7 +354,7 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
         return [table_path] + written
     if fmt in ("mot", "opensim_mot", "csv"):
         write_angles(path, t, angles, notes=notes, opensim_names=opensim_names or fmt == "opensim_mot",
-                     markers=in_range)
+                     markers=in_range, joint_doubt=doubt)
         return [path]
     raise ValueError(f"unknown export format {fmt!r}; use c3d, bvh, sto, mot or csv")
 

@@ -55,7 +55,8 @@ from typing import Any
 import numpy as np
 
 from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
-from mimucap.core import bodycal, skeleton
+from mimucap.core import bodycal, doubt, skeleton
+from mimucap.core.clinical_names import segment_name
 from mimucap.core.fusion import FLAG_NAMES
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
@@ -111,7 +112,9 @@ class SensorRow:
     ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``);
     ``signal_dbm`` the strength of its radio link where the source reports one (SlimeVR), NaN
     otherwise; ``rejections`` packets of this sensor the source refused, by reason
-    (:class:`~mimucap.acquisition.rejections.Rejection` value → count, since the source started).
+    (:class:`~mimucap.acquisition.rejections.Rejection` value → count, since the source started);
+    ``doubt`` why its newest orientation may be wrong, in words ("" when it is trustworthy;
+    :mod:`mimucap.core.doubt`).
     """
 
     sensor_id: str
@@ -129,6 +132,19 @@ class SensorRow:
     mag_field_warning: str = ""
     signal_dbm: float = float("nan")
     rejections: Mapping[str, int] = field(default_factory=dict)
+    doubt: str = ""
+
+
+def doubt_warning(rows) -> str:
+    """What the status bar says while sensors' orientations are doubtful: why, and the sensors
+    (segment and id) for each reason ("" when every orientation is trustworthy)."""
+    sensors_of: dict[str, list[str]] = {}
+    for row in rows:
+        if row.doubt and not row.stale:
+            where = f"{segment_name(row.segment)} ({row.sensor_id})" if row.segment else row.sensor_id
+            sensors_of.setdefault(row.doubt, []).append(where)
+    parts = [f"{why}: {', '.join(sensors)}" for why, sensors in sensors_of.items()]
+    return ("Orientation doubtful — " + "; ".join(parts)) if parts else ""
 
 
 @dataclass(frozen=True)
@@ -686,6 +702,7 @@ class LiveSession:
             if chain is not None and chain.ekf is not None:
                 value = self.pipeline.flags.get(sid, 0)
                 flags = tuple(label for key, label in FLAG_LABELS.items() if value & FLAG_NAMES[key])
+            why = doubt.describe(self.pipeline.doubts.get(sid, 0)) if chain is not None else ""
             if stale:
                 tint = "stale"
             elif mag_cal == "not calibrated":
@@ -702,7 +719,7 @@ class LiveSession:
                 battery_pct=float("nan") if state is None else state.battery_pct,
                 mag_cal=mag_cal, mag_cal_age_s=age, flags=flags, stale=stale, state=tint,
                 signal_dbm=signal.get(sid, float("nan")),
-                rejections={} if st is None else dict(st.rejections)))
+                rejections={} if st is None else dict(st.rejections), doubt=why))
         return rows
 
     def series(self, sensor_id: str, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

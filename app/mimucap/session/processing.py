@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mimucap import __version__
-from mimucap.core import bodycal, skeleton
+from mimucap.core import bodycal, phases, skeleton
 from mimucap.core.fusion import FusionState
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
@@ -127,7 +127,8 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
     """Either result of ``session`` through the processing path, with ``calibrations``
     (:func:`mimucap.session.calibrations.applied_calibrations` of the session when None: the
     one choice of body and magnetometer calibrations every consumer makes). The simulator's
-    truth, when the session holds it, is never read."""
+    truth, when the session holds it, is never read. The phases its markers name as
+    magnetometer calibration (:func:`off_body_windows`) make every joint angle there doubtful."""
     check_result(result)
     recorded = recorded if recorded is not None else recorded_processing(session)
     if calibrations is None:
@@ -141,4 +142,11 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
         session.sensors, model, result=result, mag_calibrations=calibrations.magnetometer, body_calibration=body,
         sensor_segments=recorded.sensor_segments, settings=recorded.settings,
         initial_states=recorded.initial_states, time_offset_s=recorded.time_offset_s,
-        shoulder_sequence=shoulder_sequence)
+        shoulder_sequence=shoulder_sequence, off_body_s=off_body_windows(session))
+
+
+def off_body_windows(session: Session) -> list[tuple[float, float]]:
+    """The time windows (s) its markers name as a magnetometer calibration phase
+    (:func:`mimucap.core.phases.off_body_windows`)."""
+    end = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s.t_s)), default=0.0)
+    return phases.off_body_windows(session.markers, end + 1.0)

@@ -11,7 +11,8 @@ future data; the default). The review holds:
 
 * segment orientations ``q_world_from_segment`` (T, 4) (world ENU, scalar first) on the pose
   instants ``t_s`` (T,) (seconds since the recording started);
-* joint angles (deg) of every joint, :func:`mimucap.core.skeleton.joint_angles_deg`.
+* joint angles (deg) of every joint, :func:`mimucap.core.skeleton.joint_angles_deg`, and
+  where each may be wrong (:mod:`mimucap.core.doubt`).
 
 A simulated recording's ground truth is kept beside them (``truth``) for the on-screen
 comparison only; it never replaces the estimate.
@@ -29,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core import bodycal, doubt, rotation, skeleton
+from mimucap.core.clinical_names import joint_name
 from mimucap.core.locomotion import root_positions
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
@@ -74,6 +76,8 @@ class ReviewData:
     result: str = RESULT_REPROCESSED
     calibrations: AppliedCalibrations = field(default_factory=AppliedCalibrations)
     missing: list[str] = field(default_factory=list)
+    #: joint → (T,) the reasons its angles may be wrong (``uint16`` bits of :mod:`mimucap.core.doubt`)
+    joint_doubt: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def body_calibration(self) -> bodycal.BodyCalibration | None:
@@ -141,7 +145,8 @@ def build_review(path: str | Path, session: Session, progress: Callable[[float],
     return ReviewData(Path(path), session, model, height, output.t_s, output.q_world_from_segment, root,
                       output.angles_deg, output.pose_source, heading_ref, output.q_world_from_sensor,
                       result=output.result, calibrations=calibrations,
-                      missing=list(recorded.missing) + list(calibrations.notes) + list(output.problems))
+                      missing=list(recorded.missing) + list(calibrations.notes) + list(output.problems),
+                      joint_doubt=output.joint_doubt)
 
 
 def load_review(path: str | Path, progress: Callable[[float], None] | None = None,
@@ -198,6 +203,7 @@ class ReviewPlayer:
         self._truth_geometry: tuple[object, FigureGeometry] | None = None
         self._columns = {joint: cols for joint, cols in joint_column_groups(self.model).items()
                          if all(c in data.angles_deg for c in cols)}
+        self._doubt_spans: dict[str, list[tuple[float, float, int]]] = {}  # joint → spans, found once
 
     # -- play head ---------------------------------------------------------------------------
     @property
@@ -343,3 +349,34 @@ class ReviewPlayer:
         a, b = np.searchsorted(t, [self._cursor - window_s, self._cursor], side="right")
         columns = self._columns[joint]
         return t[a:b], np.stack([self.data.angles_deg[c][a:b] for c in columns], axis=-1)
+
+    def doubt_spans(self, joint: str, window_s: float) -> list[tuple[float, float]]:
+        """The spans ``(start_s, end_s)`` in the window ending at the play head where
+        ``joint``'s angles are doubtful (:mod:`mimucap.core.doubt`): the plots shade them."""
+        return [(max(a, self._cursor - window_s), min(b, self._cursor))
+                for a, b, _r in self._spans(joint) if b >= self._cursor - window_s and a <= self._cursor]
+
+    def _spans(self, joint: str) -> list[tuple[float, float, int]]:
+        if joint not in self._doubt_spans:
+            reasons = self.data.joint_doubt.get(joint)
+            self._doubt_spans[joint] = [] if reasons is None else doubt.spans(self.data.t_s, reasons, join_s=0.0)
+        return self._doubt_spans[joint]
+
+    def doubtful_spans(self) -> list[tuple[float, float]]:
+        """The spans ``(start_s, end_s)`` of the whole recording where any joint's angles are
+        doubtful (the timeline shades them)."""
+        if not self.data.joint_doubt or not len(self.data.t_s):
+            return []
+        any_joint = np.logical_or.reduce([np.asarray(r) != 0 for r in self.data.joint_doubt.values()])
+        return [(a, b) for a, b, _r in doubt.spans(self.data.t_s, any_joint.astype(np.uint16), join_s=0.0)]
+
+    def doubt_here(self) -> str:
+        """Which joints' angles are doubtful at the play head, and why, in words ("" when none)."""
+        if not len(self.data.t_s):
+            return ""
+        i = self.index()
+        by_reason: dict[int, list[str]] = {}
+        for joint, reasons in self.data.joint_doubt.items():
+            if reasons[i]:
+                by_reason.setdefault(int(reasons[i]), []).append(joint_name(joint))
+        return "; ".join(f"{', '.join(joints)}: {doubt.describe(bits)}" for bits, joints in by_reason.items())
