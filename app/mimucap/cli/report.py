@@ -17,7 +17,6 @@ drawn with Qt on the offscreen platform (no display needed).
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
@@ -64,12 +63,13 @@ def run(args: argparse.Namespace) -> int:
     if args.before:
         before = analyse_review(session_review(args.before, args.before_calibration, args.live, False,
                                                "a report (--before-calibration for the earlier session)"))
-    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     from PyQt5.QtGui import QGuiApplication
 
     from mimucap.gui.report import write_comparison_report, write_report
 
-    app = QGuiApplication.instance() or QGuiApplication(["mimucap-report"])
+    # The PDF needs no screen: Qt's offscreen platform, asked for on the command line of the
+    # application object rather than in the environment (which child processes would inherit).
+    app = QGuiApplication.instance() or QGuiApplication(["mimucap-report", "-platform", "offscreen"])
     if before is None:
         write_report(args.out, analysis, bands, args.notes)
     else:
