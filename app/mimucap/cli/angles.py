@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         if args.live:
             raise ValueError(f"{args.input}: --live applies to MimuCap sessions (an orientation table has no filter to run)")
-        table, _session, _mags = read_input(args)
+        table, _session, _mags = read_input(args, "angles")
         missing = [sensor for sensor in calibration.sensors.values() if sensor not in table.q_world_from_sensor]
         if missing:
             raise ValueError(f"{args.input}: calibrated sensor(s) {', '.join(missing)} missing from the data; it has: "
@@ -115,7 +115,7 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
     name and the session's markers."""
     from mimucap.cli.bodycal import _refuse_up_for_session, check_reader_options
     from mimucap.core.pipeline import RESULT_LABELS
-    from mimucap.cli.session_input import magnetometer_calibrations
+    from mimucap.cli.session_input import magnetometer_calibrations, warn_about_magnetometers
     from mimucap.io.session import read_session
     from mimucap.session.processing import process_session
 
@@ -126,9 +126,10 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
     if missing:
         raise ValueError(f"{args.input}: calibrated sensor(s) {', '.join(missing)} missing from the data; it has: "
                          f"{', '.join(session.sensors)}")
-    mags, lines = magnetometer_calibrations(session, args.mag_calibration)
-    for line in lines:
+    mags = magnetometer_calibrations(session, args.mag_calibration)
+    for line in mags.lines:
         print(f"  {line}")
-    output = process_session(session, result=result, mag_calibrations=mags, body_calibration=calibration,
+    warn_about_magnetometers("angles", session, mags)
+    output = process_session(session, result=result, mag_calibrations=mags.calibrations, body_calibration=calibration,
                              model=model, shoulder_sequence=args.shoulder)
     return output, RESULT_LABELS[result], session.markers

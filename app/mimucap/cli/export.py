@@ -87,7 +87,10 @@ def run(args: argparse.Namespace) -> int:
     refuse_to_overwrite_input(args.out, args.session, args.calibration)
     from mimucap.session.export import write_motion_file
 
+    from mimucap.cli.session_input import warn_about_recorded_magnetometers
+
     data = review_for_export(args.session, args.calibration)
+    warn_about_recorded_magnetometers("export", data.session)
     written = write_motion_file(data, fmt, Path(args.out), args.t_from, args.t_to, opensim_names=args.opensim_names,
                                 raw_sensors=args.raw_sensors)
     print(f"{data.path.name} ({data.pose_source}): {len(written)} file(s) written: "

@@ -62,7 +62,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         if args.rate is not None:
             raise ValueError("--rate applies to CSV input only (a session carries its time stamps)")
-        analysis = analyse_review(load_review(source))
+        from mimucap.cli.session_input import warn_about_recorded_magnetometers
+
+        review = load_review(source)
+        warn_about_recorded_magnetometers("gait", review.session)
+        analysis = analyse_review(review)
         if analysis.gait is None:
             raise ValueError(f"{source}: no gait analysis: {analysis.gait_problem}")
         gait = analysis.gait

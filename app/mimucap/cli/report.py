@@ -47,8 +47,16 @@ def run(args: argparse.Namespace) -> int:
         if path is not None and not path.is_file():
             raise OSError(f"{path}: no such file")
     bands = read_normative_bands(args.bands) if args.bands else {}
-    analysis = analyse_review(load_review(args.session))
-    before = analyse_review(load_review(args.before)) if args.before else None
+    from mimucap.cli.session_input import warn_about_recorded_magnetometers
+
+    review = load_review(args.session)
+    warn_about_recorded_magnetometers("report", review.session)
+    analysis = analyse_review(review)
+    before = None
+    if args.before:
+        earlier = load_review(args.before)
+        warn_about_recorded_magnetometers("report", earlier.session, str(args.before))
+        before = analyse_review(earlier)
     os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
     from PyQt5.QtGui import QGuiApplication
 

@@ -5,7 +5,12 @@
 filter, body calibration, joint angles), exactly as review and export do. The magnetometer
 calibrations applied are, for each sensor, the first found of: a ``--mag-calibration`` file,
 the calibration the session recorded, the user's calibration store (where ``mimucap magcal fit
---save`` and the wizard keep them). The N-pose and T-pose windows come from the session's
+--save`` and the wizard keep them), which gives a sensor only its own device's calibration
+(:meth:`~mimucap.io.calibration_store.CalibrationStore.lookup`; the device the session says the
+sensor was). Each calibration applied is judged as the live view judges it
+(:mod:`mimucap.session.calibration_readiness`: verdict, device, the recording's local field, age)
+and one that is not good is named with its figures (:func:`warn_about_magnetometers`), as is a
+stored calibration that is not used. The N-pose and T-pose windows come from the session's
 markers when none are given.
 """
 
@@ -13,6 +18,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
+from dataclasses import dataclass, field
 from pathlib import Path
 
 #: Seconds after a pose's marker before the pose can be held (the subject gets into it).
@@ -34,13 +41,30 @@ def is_session(path) -> bool:
     return orientation_input_kind(path) == MIMUCAP_SESSION
 
 
-def magnetometer_calibrations(session, files) -> tuple[dict, list[str]]:
-    """Sensor → the calibration to apply (see the module docstring) and one line per sensor
-    saying where its calibration came from."""
+@dataclass
+class ChosenMagnetometers:
+    """The magnetometer calibrations a command applies to a session: ``calibrations`` sensor →
+    calibration; ``lines`` one per sensor with a magnetometer, saying where its calibration came
+    from and its standing; ``standings`` sensor → :class:`~mimucap.core.magcal_standing.Standing`;
+    ``notes`` sensor → why a stored calibration was not used."""
+
+    calibrations: dict = field(default_factory=dict)
+    lines: list[str] = field(default_factory=list)
+    standings: dict = field(default_factory=dict)
+    notes: dict[str, str] = field(default_factory=dict)
+
+    def not_good(self) -> list[str]:
+        """Sensors whose applied calibration is not good."""
+        return [sid for sid, standing in self.standings.items() if not standing.good]
+
+
+def magnetometer_calibrations(session, files) -> ChosenMagnetometers:
+    """The calibration each sensor gets (see the module docstring), with a line per sensor."""
     from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore, calibration_from_json
+    from mimucap.session.calibration_readiness import session_standings
     from mimucap.session.processing import recorded_processing
 
-    chosen: dict = {}
+    chosen = ChosenMagnetometers()
     origin: dict[str, str] = {}
     for name in files or []:
         path = Path(name)
@@ -52,24 +76,74 @@ def magnetometer_calibrations(session, files) -> tuple[dict, list[str]]:
         if calibration.sensor_id not in session.sensors:
             raise ValueError(f"--mag-calibration {path}: sensor {calibration.sensor_id} is not in the session "
                              f"(it has {', '.join(session.sensors)})")
-        chosen[calibration.sensor_id] = calibration
+        chosen.calibrations[calibration.sensor_id] = calibration
         origin[calibration.sensor_id] = str(path)
     recorded = recorded_processing(session).mag_calibrations
+    devices = session.devices()
     store = CalibrationStore()
-    stored = set(store.sensor_ids())
     for sensor_id, stream in session.sensors.items():
-        if sensor_id in chosen or stream.mag_uT is None:
+        if sensor_id in chosen.calibrations or stream.mag_uT is None:
             continue
         if sensor_id in recorded:
-            chosen[sensor_id], origin[sensor_id] = recorded[sensor_id], "recorded with the session"
-        elif sensor_id in stored:
-            try:
-                chosen[sensor_id], origin[sensor_id] = store.load(sensor_id), f"stored ({store.path_for(sensor_id)})"
-            except CalibrationFileError as error:
-                raise ValueError(str(error)) from None
-    lines = [f"magnetometer {sid}: {origin.get(sid, 'not calibrated (raw field used)')}"
-             for sid, stream in session.sensors.items() if stream.mag_uT is not None]
-    return chosen, lines
+            chosen.calibrations[sensor_id], origin[sensor_id] = recorded[sensor_id], "recorded with the session"
+            continue
+        try:
+            found = store.lookup(sensor_id, devices[sensor_id])
+        except CalibrationFileError as error:
+            raise ValueError(str(error)) from None
+        if found.calibration is not None:
+            chosen.calibrations[sensor_id] = found.calibration
+            origin[sensor_id] = f"stored ({store.path_for(sensor_id, found.calibration.device_id)})"
+        elif found.note:
+            chosen.notes[sensor_id] = found.note
+    chosen.standings = session_standings(session, chosen.calibrations)
+    for sid, stream in session.sensors.items():
+        if stream.mag_uT is None:
+            continue
+        if sid in chosen.calibrations:
+            chosen.lines.append(f"magnetometer {sid}: {origin[sid]}; {chosen.standings[sid].summary()}")
+        else:
+            note = chosen.notes.get(sid)
+            chosen.lines.append(f"magnetometer {sid}: not calibrated (raw field used)" + (f": {note}" if note else ""))
+    return chosen
+
+
+def warn_about_magnetometers(command: str, session, chosen: ChosenMagnetometers, origin: str = "") -> list[str]:
+    """Print on stderr a warning naming each sensor whose applied calibration is not good (with
+    its figures) or whose stored calibration was not used, and return the sensors not good.
+    ``origin``: the session's file, named when a command reads several."""
+    from mimucap.core.clinical_names import sensor_name
+
+    def name(sid: str) -> str:
+        return sensor_name(session.sensors[sid].segment, sid)
+
+    head = f"mimucap {command}: warning: " + (f"{origin}: " if origin else "")
+    for sid in chosen.not_good():
+        print(f"{head}the magnetometer calibration of {name(sid)} is "
+              f"{chosen.standings[sid].summary()}; calibrate it again where the recording is made",
+              file=sys.stderr)
+    for sid, note in chosen.notes.items():
+        print(f"{head}{name(sid)} is not calibrated: {note}", file=sys.stderr)
+    return chosen.not_good()
+
+
+def warn_about_recorded_magnetometers(command: str, session, origin: str = "") -> list[str]:
+    """For a command that processes a session with the calibrations it recorded (``export``,
+    ``gait``, ``report``): warn (stderr) about each recorded calibration that is not good, and
+    name the sensors whose magnetometer the recording holds no calibration for; returns the
+    sensors not good."""
+    from mimucap.session.calibration_readiness import session_standings
+    from mimucap.session.processing import recorded_processing
+
+    recorded = recorded_processing(session).mag_calibrations
+    chosen = ChosenMagnetometers(calibrations=dict(recorded), standings=session_standings(session, recorded))
+    raw = [sid for sid, stream in session.sensors.items()
+           if stream.mag_uT is not None and stream.q_world_from_sensor is None and sid not in recorded]
+    if raw:
+        more = f" and {len(raw) - 3} more" if len(raw) > 3 else ""
+        print(f"mimucap {command}: warning: {origin + ': ' if origin else ''}the recording holds no magnetometer "
+              f"calibration for {', '.join(raw[:3])}{more}: their raw field is used", file=sys.stderr)
+    return warn_about_magnetometers(command, session, chosen, origin)
 
 
 def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float], tuple[float, float]]:

@@ -17,7 +17,13 @@ foot_l/r (``fifteen_segment``); ``S16`` is a second unit on the thorax (upper ba
 ``S17`` a second unit on the pelvis (right side), for redundancy checks. ``n_sensors`` ≤ 10
 uses the ten-segment model, more the fifteen-segment one (17: the full suit). Each unit sits
 on the skin of its segment (see :data:`SENSOR_PLACEMENTS`) with a uniformly random but known
-mounting rotation ``q_segment_from_sensor``.
+mounting rotation ``q_segment_from_sensor``. The suit comes assigned one sensor per segment
+(:func:`default_assignment`): the second units are worn but drive no segment.
+
+Each unit is a device of its own (:mod:`mimucap.core.device_identity`): its error parameters
+are drawn from the seed and the error model, so :func:`suit_fingerprint` of those two names the
+suit, and ``sim:<fingerprint>/<sensor id>`` the unit. Another seed is another suit with units
+numbered alike; the same session file read twice is the same suit.
 
 Frames: world ENU (z up), segment frames ISB (x anterior, y superior, z right), sensor
 frames the device axes; quaternions scalar-first Hamilton, ``q_A_from_B``. Units: s, m,
@@ -31,15 +37,18 @@ point by a central second difference of its true position, plus gravity 9.81 m/s
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from mimucap.core import rotation as rot
 from mimucap.core import skeleton
+from mimucap.core.device_identity import simulated_device_id
 from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate_calibration import PROTOCOLS, CalibrationMotion, calibration_motion
 from mimucap.core.simulate_motion import (
@@ -90,6 +99,31 @@ SENSOR_PLACEMENTS: tuple[tuple[str, str, float, tuple[float, float, float]], ...
     ("S17", "pelvis", 0.5, (0.0, 0.0, 1.0)),        # right side of the pelvis (second pelvis unit)
 )
 MAX_SENSORS = len(SENSOR_PLACEMENTS)
+#: Error-model fields that describe the link, not the unit: they leave the suit the same.
+_LINK_SETTINGS = ("drop_probability",)
+
+
+def default_assignment(sensor_ids: Iterable[str]) -> dict[str, str]:
+    """Sensor id → segment as the suit comes assigned: one sensor per segment, the first unit
+    worn on it (:data:`SENSOR_PLACEMENTS` order); a second unit on a segment (``S16`` on the
+    thorax, ``S17`` on the pelvis) is worn but assigned to none (assign it by hand to drive its
+    segment instead)."""
+    wanted = set(sensor_ids)
+    assignment: dict[str, str] = {}
+    for sensor_id, segment, _along, _normal in SENSOR_PLACEMENTS:
+        if sensor_id in wanted and segment not in assignment.values():
+            assignment[sensor_id] = segment
+    return assignment
+
+
+def suit_fingerprint(seed: int, errors: SensorErrorModel | str) -> str:
+    """Eight hex digits naming the suit whose units ``seed`` and ``errors`` draw (the link's
+    settings, e.g. the drop probability, do not change the units)."""
+    model = asdict(error_model(errors))
+    for name in _LINK_SETTINGS:
+        model.pop(name, None)
+    text = json.dumps({"seed": int(seed) & 0xFFFFFFFF, "errors": model}, sort_keys=True)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:8]
 #: Scale (m) of the smooth minimum that keeps the lower ankle on the ground.
 GROUND_SOFTNESS_M = 0.02
 _STREAM_MOUNTING = 505
@@ -166,6 +200,11 @@ class SimulationConfig:
     def sensor_ids(self) -> tuple[str, ...]:
         return tuple(p[0] for p in SENSOR_PLACEMENTS[: self.n_sensors])
 
+    def device_ids(self) -> dict[str, str]:
+        """Sensor id → device id of each unit (see the module docstring)."""
+        suit = suit_fingerprint(self.seed, self.errors)
+        return {sid: simulated_device_id(suit, sid) for sid in self.sensor_ids}
+
     def error_settings(self) -> SensorErrorModel:
         """The resolved error model (with ``drop_probability`` applied)."""
         model = error_model(self.errors)
@@ -236,7 +275,8 @@ class SuitBlock:
     A unit's :class:`~mimucap.core.samples.SensorSamples` are those it delivered (dropped ones
     removed): ``t_s`` the true time, ``seq`` the sample numbers, ``acc``, ``gyr``, ``mag_uT``,
     ``q_world_from_sensor`` when the units fuse on board (else None), ``device_time_s`` the
-    unit's clock, ``segment`` the segment it is worn on."""
+    unit's clock, ``segment`` the segment it drives (:func:`default_assignment`; ``None`` for a
+    second unit on a segment, whose placement is in ``mounting``)."""
 
     samples: dict[str, SensorSamples]
     truth: SuitTruth
@@ -318,6 +358,10 @@ class SuitSimulator:
             misalign.append(rot.from_rotvec(rng.normal(size=3) * math.radians(1.5)))
             offsets.append(np.array([0.0, 0.0, 0.015 * index]))
         self._segments_of_sensors = [self.mounting[s].segment for s in self.sensor_ids]
+        #: sensor → the segment it drives as the suit comes (:func:`default_assignment`)
+        self.assignment = default_assignment(self.sensor_ids)
+        #: sensor → its device id (:meth:`SimulationConfig.device_ids`)
+        self.device_ids = config.device_ids()
         self._q_segment_from_sensor = np.stack([self.mounting[s].q_segment_from_sensor for s in self.sensor_ids])
         self._position_in_segment = np.stack([self.mounting[s].position_in_segment_m for s in self.sensor_ids])
         self._q_bundle_from_sensor = np.stack(misalign)
@@ -519,7 +563,7 @@ class SuitSimulator:
             samples[sid] = SensorSamples(
                 sid, t[keep], seq[keep], meas.acc[keep, i], meas.gyr[keep, i], meas.mag_uT[keep, i],
                 q_world_from_sensor=None if meas.q_world_from_sensor is None else meas.q_world_from_sensor[keep, i],
-                device_time_s=meas.device_time_s[keep, i], segment=self.mounting[sid].segment,
+                device_time_s=meas.device_time_s[keep, i], segment=self.assignment.get(sid),
             )
         angles = {}
         for joint in self.model.joint_names:
@@ -584,7 +628,8 @@ def simulate_session(config: SimulationConfig = SimulationConfig()) -> Simulatio
 
 __all__ = [
     "ACTIVITY_NAMES", "BLEND_S", "SCENARIOS", "SENSOR_PLACEMENTS", "MAX_SENSORS", "SimulationConfig",
-    "SimulationResult", "SuitSimulator", "SuitBlock", "SuitTruth", "SensorMounting",
+    "SimulationResult", "SuitSimulator", "SuitBlock", "SuitTruth", "SensorMounting", "default_assignment",
+    "suit_fingerprint",
     "simulate_session", "PROTOCOLS", "CalibrationMotion", "calibration_motion", "ERROR_PRESETS",
     "GRAVITY_MPS2", "IDEAL_SENSOR", "EarthField", "MagneticDisturbance", "SensorErrorModel", "error_model",
 ]

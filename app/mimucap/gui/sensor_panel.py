@@ -1,5 +1,7 @@
 """The sensor panel: one row per sensor (id, segment, rate, drops, packets refused, latency,
-battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red.
+battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red,
+a magnetometer calibration that is not good (its standing: another device's, a local field that
+no longer fits, too old; or a stored one not used) named in the State column.
 Orientation-only sensors (on-board fusion, e.g. SlimeVR trackers) read "on-board" under
 magnetometer calibration. Shows :class:`~mimucap.session.live.SensorRow` values as they are,
 from the live session's ``status`` event (:meth:`SensorPanel.set_session`); computes nothing.
@@ -120,9 +122,11 @@ class SensorPanel(QtWidgets.QTableWidget):
             elif row.stale:
                 state = "STALE: no data"
             elif row.state == "mag_uncalibrated":
-                state = "magnetometer not calibrated"
+                state = "magnetometer not calibrated" + (f": {row.mag_cal_note}" if row.mag_cal_note else "")
             elif row.mag_field_warning:
                 state = row.mag_field_warning
+            elif row.mag_standing is not None and not row.mag_standing.good:
+                state = f"magnetometer calibration {row.mag_standing.summary()}"
             else:
                 state = "ok"
             values = (
@@ -132,7 +136,8 @@ class SensorPanel(QtWidgets.QTableWidget):
                 row.mag_cal + (f" ({row.mag_cal_verdict})" if row.mag_cal_verdict else "") + _age(row.mag_cal_age_s),
                 ", ".join(row.flags) or "–", state,
             )
-            brush = STALE_BRUSH if row.stale else WARN_BRUSH if row.state != "ok" or row.mag_field_warning else QtGui.QBrush()
+            doubtful = row.mag_standing is not None and not row.mag_standing.good
+            brush = STALE_BRUSH if row.stale else WARN_BRUSH if row.state != "ok" or doubtful else QtGui.QBrush()
             for c, text in enumerate(values):
                 item = self.item(r, c)
                 if item is None:

@@ -11,6 +11,8 @@ asks for. A feed has:
   window from its mean specific force and magnetic field, the field corrected as the
   pipeline corrects it (:func:`mimucap.core.bodycal.static_alignment`), or None for a sensor
   whose orientation does not come from the pipeline's filter with a calibrated magnetometer;
+* ``device(sensor_id)``: what the source says of the sensor's device
+  (:class:`~mimucap.core.device_identity.SensorDevice`): a calibration is made for it;
 * ``instruct(instruction)``: what the subject is asked to do
   (:mod:`mimucap.session.instructions`); the source decides who follows it (a person reads the
   screen; the simulated subject does it). No procedure asks which one it is.
@@ -34,6 +36,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from mimucap.core.bodycal import static_alignment
+from mimucap.core.device_identity import SensorDevice
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate import SuitSimulator
@@ -51,6 +54,8 @@ class CalibrationFeed(Protocol):
     def read(self) -> dict[str, SensorSamples]: ...
 
     def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None: ...
+
+    def device(self, sensor_id: str) -> SensorDevice: ...
 
     def instruct(self, instruction: Instruction) -> None: ...
 
@@ -80,6 +85,10 @@ class LiveSessionFeed:
 
     def instruct(self, instruction: Instruction) -> None:
         self.live_session.instruct(instruction)
+
+    def device(self, sensor_id: str) -> SensorDevice:
+        """What the live session's source says of ``sensor_id``'s device."""
+        return self.live_session.device_of(sensor_id)
 
     def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None:
         """``q_world_from_sensor`` (4,) of ``sensor_id`` held still over the samples ``acc`` (K, 3)
