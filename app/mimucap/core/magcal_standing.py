@@ -175,11 +175,11 @@ def calibration_standing(calibration, sensor_id: str, *, device: SensorDevice | 
         if made_on is not None and device.device_id is not None and made_on != device.device_id:
             problems.append(Problem("device", f"made on {describe_device(made_on)}, this sensor is "
                                               f"{describe_device(device.device_id)}"))
+        elif device.device_id is None:
+            warnings.append(Problem("device", f"device not verified: {device.missing}"))
         elif made_on is None:
             warnings.append(Problem("device", "device not verified: the calibration does not say which device it "
                                               "was made on"))
-        elif device.device_id is None:
-            warnings.append(Problem("device", f"device not verified: {device.missing}"))
     if field is not None:
         reference = float(calibration.field_uT)
         if abs(field.magnitude_uT / reference - 1.0) > FIELD_MAGNITUDE_TOLERANCE:
