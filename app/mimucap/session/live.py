@@ -112,7 +112,8 @@ class SensorRow:
     (magnitude, dip) no longer matches the calibration's (""); ``mag_standing`` the
     calibration's standing (:func:`~mimucap.core.magcal_standing.calibration_standing`: verdict,
     device, local field, age; ``None`` without a calibration); ``mag_cal_note`` why a
-    calibration stored under its id is not used (another device's, a damaged file; "");
+    calibration stored under its id is not used (another device's, a damaged file:
+    ``mag_cal_unreadable``; "");
     ``device`` what the source says of its device (:class:`~mimucap.core.device_identity.SensorDevice`);
     ``local_field`` the field it measures now, corrected by its calibration (``None`` without a
     calibration or enough samples); ``has_magnetometer`` whether it sends a magnetic field;
@@ -141,6 +142,7 @@ class SensorRow:
     rejections: Mapping[str, int] = field(default_factory=dict)
     mag_standing: Standing | None = None
     mag_cal_note: str = ""
+    mag_cal_unreadable: bool = False
     device: SensorDevice | None = None
     local_field: LocalField | None = None
     has_magnetometer: bool = False
@@ -268,6 +270,8 @@ class LiveSession:
         self.devices: dict[str, SensorDevice] = dict(feed.devices())
         #: sensors whose calibration in use was loaded from the store (a change of device drops it)
         self._stored_calibrations: set[str] = set()
+        #: sensors of :attr:`calibration_problems` whose stored file could not be read
+        self._unreadable: set[str] = set()
         self._clock = clock
         self.t0_host_s: float | None = None
         #: sensor id → segment, as the source names it (a replayed recording's placement, the
@@ -446,6 +450,7 @@ class LiveSession:
                 found = self.calibration_store.lookup(sensor_id, device)
             except (CalibrationFileError, OSError, ValueError) as error:
                 self.calibration_problems[sensor_id] = str(error)
+                self._unreadable.add(sensor_id)
                 continue
             if found.calibration is not None:
                 self.pipeline.set_mag_calibration(found.calibration)
@@ -471,6 +476,7 @@ class LiveSession:
                 self.pipeline.clear_mag_calibration(sensor_id)
                 self._stored_calibrations.discard(sensor_id)
             self.calibration_problems.pop(sensor_id, None)
+            self._unreadable.discard(sensor_id)
         self._load_stored_calibrations(changed)
         self.status.mark_due()
         self.events.calibration.emit()
@@ -495,6 +501,7 @@ class LiveSession:
         self.pipeline.set_mag_calibration(calibration)
         self._stored_calibrations.discard(calibration.sensor_id)
         self.calibration_problems.pop(calibration.sensor_id, None)
+        self._unreadable.discard(calibration.sensor_id)
         if save and self.calibration_store is not None:
             self.calibration_store.save(calibration)
         self.status.mark_due()
@@ -761,6 +768,7 @@ class LiveSession:
             row = SensorRow(
                 mag_cal_verdict=verdict, device=device, local_field=here,
                 mag_cal_note="" if calibration is not None else self.calibration_problems.get(sid, ""),
+                mag_cal_unreadable=calibration is None and sid in self._unreadable,
                 has_magnetometer=state is not None and state.has_mag,
                 sensor_id=sid, segment=self.sensor_segments.get(sid),
                 rate_hz=float("nan") if st is None else st.rate_hz, drops=0 if st is None else st.drops,

@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 
 from mimucap.core.clinical_names import sensor_name
-from mimucap.core.magcal_standing import MAX_AGE_H, NOT_GOOD, calibration_standing
+from mimucap.core.magcal_standing import MAX_AGE_H, calibration_standing
 from mimucap.session.magcal_procedure import describe_age
 
 #: A sensor losing more than this fraction of its packets is flagged.
@@ -98,7 +98,7 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
         (f"{total_drops} packets lost in all" if total_drops else "no packet lost") if not lossy else
         _first_few([f"{sensor_name(seg, sid)} lost {100 * fraction:.1f} %" for sid, seg, fraction in lossy], "; ")))
 
-    uncalibrated, not_used, ages, verdicts, unverified = [], [], [], set(), []
+    uncalibrated, not_used, unreadable, ages, verdicts, unverified = [], [], [], [], set(), []
     groups: dict[str, list[str]] = {kind: [] for kind in PROBLEM_GROUPS}
     for sid, seg in assigned:
         row = by_id[sid]
@@ -106,7 +106,8 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
             continue
         calibration = live.mag_calibrations.get(sid)
         if calibration is None:
-            (not_used if row.mag_cal_note else uncalibrated).append((sid, seg))
+            group = unreadable if row.mag_cal_unreadable else not_used if row.mag_cal_note else uncalibrated
+            group.append((sid, seg))
             continue
         standing = sensor_standing(calibration, row)
         verdicts.add(standing.verdict)
@@ -124,6 +125,8 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
         problems.append(f"not calibrated: {_names(uncalibrated, len(assigned))}")
     if not_used:
         problems.append(f"not calibrated, the stored calibration is another device's: {_names(not_used)}")
+    if unreadable:
+        problems.append(f"not calibrated, the stored calibration is unreadable: {_names(unreadable)}")
     for kind, label in PROBLEM_GROUPS.items():
         if groups[kind]:
             problems.append(f"{label}: " + _first_few(groups[kind], "; " if kind == "field" else ", "))
@@ -177,7 +180,3 @@ def magnetometer_readiness(live, rows=None) -> dict[str, dict]:
                                     "problems": [row.mag_cal_note] if row.mag_cal_note else []}
     return found
 
-
-def not_good(readiness: dict[str, dict]) -> dict[str, dict]:
-    """The entries of :func:`magnetometer_readiness` that are not good (or not calibrated)."""
-    return {sid: entry for sid, entry in readiness.items() if entry.get("level") in (NOT_GOOD, "not calibrated")}
