@@ -43,6 +43,8 @@ def test_a_calibration_that_no_longer_fits_is_named_by_the_table_the_checklist_a
         window.live.publish_status()
         state = window.sensor_panel.cell_text("S01", "State")
         local, when = map(int, re.fullmatch(FIGURES + ": calibrate again here", state).groups())
+        s01 = window.sensor_panel.item(window.sensor_panel.row_of("S01"), 0).toolTip()
+        assert s01.startswith("Device: simulated unit S01 of suit ")
         assert abs(when - 60) <= 4 and abs(local - 49.3 * when / 60.0) <= 2   # through the calibration
         label = window.session_panel.checklist_labels["magnetometers"]
         qtbot.waitUntil(lambda: "the local field no longer fits" in label.text(), timeout=3000)

@@ -146,3 +146,58 @@ def test_a_calibration_made_here_is_made_for_the_sensors_device(calibrated):
     assert session.mag_calibrations["S02"].device_id == config.device_ids()["S02"]
     with pytest.raises(ValueError, match="was made on simulated unit S02 of suit .*: calibrate it here"):
         session.apply_mag_calibration(calibrated.load("S02"), save=False)     # made on the seed-5 suit
+
+
+def test_udp_nodes_get_their_devices_calibrations_and_older_nodes_keep_theirs_unverified(tmp_path):
+    """Over loopback UDP: node 1 says hello, so it takes the calibration stored for its MAC (and
+    not the one stored under its id for another device); node 2 is older (no hello): once the
+    source says so it takes the calibration stored under its id, and its standing says the device
+    is not verified, and why."""
+    import threading
+    import time
+
+    import numpy as np
+
+    from mimucap.acquisition.emulate_common import EmulatorSettings, node_mac
+    from mimucap.acquisition.emulate_udp import UdpEmulator
+    from mimucap.acquisition.hello import NO_HELLO
+    from mimucap.core.device_identity import mac_device_id
+    from mimucap.core.magcal import MagCalibration
+    from mimucap.session.live import open_live_session
+    from tests.acquisition.conftest import SyntheticMotion
+    from tests.acquisition.test_udp_loopback import free_udp_port
+
+    from datetime import datetime, timezone
+
+    made = datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+    def calibration(sensor_id, device_id):   # the synthetic nodes' field: 20 µT north, 40 µT down
+        return MagCalibration(sensor_id, np.zeros(3), np.eye(3), 44.7, created_utc=made,
+                              quality={"verdict": "good"}, device_id=device_id)
+
+    store = CalibrationStore(tmp_path / "store")
+    node1 = mac_device_id(node_mac(0, 1))
+    store.save(calibration("1", node1))
+    store.save(calibration("1", "mac:0200000000AA"))          # another node once numbered 1
+    store.save(calibration("2", None))                        # made for node 2, which has no hello
+    port = free_udp_port()
+    live = open_live_session(f"udp:127.0.0.1:{port}", calibration_store=store)
+    live.start()
+    new, old = (EmulatorSettings(n_sensors=1, first_sensor_id=k, duration_s=8.0, hello=k == 1) for k in (1, 2))
+    try:
+        time.sleep(1.0)   # the worker binds its port
+        for settings in (new, old):
+            emulator = UdpEmulator(settings, ("127.0.0.1", port), SyntheticMotion(1, 100.0))
+            threading.Thread(target=emulator.run, daemon=True).start()
+        deadline = time.monotonic() + 20.0
+        while time.monotonic() < deadline and set(live.mag_calibrations) != {"1", "2"}:
+            live.step()
+            time.sleep(0.02)
+        assert set(live.mag_calibrations) == {"1", "2"}, (live.devices, live.calibration_problems)
+        assert live.mag_calibrations["1"].device_id == node1 and live.mag_calibrations["2"].device_id is None
+        rows = {row.sensor_id: row for row in live.sensor_rows()}
+        assert rows["1"].mag_standing.warnings == ()
+        assert rows["2"].device.missing == NO_HELLO
+        assert rows["2"].mag_standing.summary() == f"warn: device not verified: {NO_HELLO}"
+    finally:
+        live.stop()

@@ -72,25 +72,27 @@ def local_field(acc: np.ndarray | None, gyr: np.ndarray | None, mag_calibrated_u
     no dip) and ``mag_calibrated_uT`` (N, 3) µT; ``None`` with fewer than
     :data:`MIN_FIELD_SAMPLES` finite field samples. NaN rows are left out."""
     mag = np.asarray(mag_calibrated_uT, dtype=np.float64).reshape(-1, 3)
-    finite = np.isfinite(mag).all(axis=1)
-    if np.count_nonzero(finite) < MIN_FIELD_SAMPLES:
+    # the live view asks for every sensor a few times a second: plain ufuncs, no norm() calls
+    norm = np.sqrt(np.einsum("ij,ij->i", mag, mag))
+    finite = np.isfinite(norm)
+    count = int(np.count_nonzero(finite))
+    if count < MIN_FIELD_SAMPLES:
         return None
-    norm = np.linalg.norm(mag, axis=1)
     magnitude = float(np.median(norm[finite]))
     dip = None
     if acc is not None and gyr is not None:
         acc = np.asarray(acc, dtype=np.float64).reshape(-1, 3)
-        acc_norm = np.linalg.norm(acc, axis=1)
-        gyr_norm = np.linalg.norm(np.asarray(gyr, dtype=np.float64).reshape(-1, 3), axis=1)
+        gyr = np.asarray(gyr, dtype=np.float64).reshape(-1, 3)
+        acc_norm = np.sqrt(np.einsum("ij,ij->i", acc, acc))
+        gyr_norm2 = np.einsum("ij,ij->i", gyr, gyr)
         # Only a still sensor's specific force is gravity alone (a swinging limb's is not).
         with np.errstate(invalid="ignore"):
-            still = (finite & np.isfinite(acc_norm) & (np.abs(acc_norm - GRAVITY_M_S2) < STILL_ACC_M_S2)
-                     & np.isfinite(gyr_norm) & (gyr_norm < STILL_GYR_RAD_S) & (norm > 0))
+            still = (finite & (np.abs(acc_norm - GRAVITY_M_S2) < STILL_ACC_M_S2)
+                     & (gyr_norm2 < STILL_GYR_RAD_S ** 2) & (norm > 0))
         if np.count_nonzero(still) >= MIN_FIELD_SAMPLES:
-            up = acc[still] / acc_norm[still, None]
-            m = mag[still] / norm[still, None]
-            dip = float(np.degrees(np.median(-np.arcsin(np.clip(np.sum(up * m, axis=1), -1.0, 1.0)))))
-    return LocalField(magnitude, dip, int(np.count_nonzero(finite)))
+            cosine = np.einsum("ij,ij->i", acc[still], mag[still]) / (acc_norm[still] * norm[still])
+            dip = float(np.degrees(np.median(-np.arcsin(np.clip(cosine, -1.0, 1.0)))))
+    return LocalField(magnitude, dip, count)
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,8 @@
 """The sensor panel: one row per sensor (id, segment, rate, drops, packets refused, latency,
 battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red,
 a magnetometer calibration that is not good (its standing: another device's, a local field that
-no longer fits, too old; or a stored one not used) named in the State column.
+no longer fits, too old; or a stored one not used) named in the State column, the device each
+sensor is in the tooltip of its id.
 Orientation-only sensors (on-board fusion, e.g. SlimeVR trackers) read "on-board" under
 magnetometer calibration. Shows :class:`~mimucap.session.live.SensorRow` values as they are,
 from the live session's ``status`` event (:meth:`SensorPanel.set_session`); computes nothing.
@@ -65,6 +66,15 @@ def rejections_tooltip(counts: dict[str, int]) -> str:
             text = reason.replace("_", " ")
         lines.append(f"{count} × {text}")
     return "Packets refused:\n" + "\n".join(lines) if lines else "No packet of this sensor was refused."
+
+
+def device_tooltip(row: SensorRow) -> str:
+    """Which device the sensor is (its calibrations are kept for it), or why that is not known."""
+    if row.device is None or not row.device.settled:
+        return "Device: not told yet by the source."
+    if row.device.known:
+        return f"Device: {row.device.describe()} (its magnetometer calibration is kept for this device)."
+    return f"Device not known: {row.device.missing}. A calibration made for it cannot be checked against the device."
 
 
 def _age(seconds: float) -> str:
@@ -152,6 +162,10 @@ class SensorPanel(QtWidgets.QTableWidget):
             tooltip = rejections_tooltip(dict(row.rejections))
             if refused_item.toolTip() != tooltip:
                 refused_item.setToolTip(tooltip)
+            sensor_item = self.item(r, 0)
+            device = device_tooltip(row)
+            if sensor_item.toolTip() != device:
+                sensor_item.setToolTip(device)
         if refit:
             self._shown_ids = ids
             self.resizeColumnsToContents()
