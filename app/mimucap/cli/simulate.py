@@ -9,7 +9,8 @@ raises, looping from the N-pose),
 ``bodycal`` (N-pose 3 s, T-pose 3 s, N-pose), or one activity (``npose``, ``tpose``,
 ``walk``, ``turn``, ``arm_raise``, ``squat``, ``mag_single_axis``, ``mag_figure8``,
 ``mag_tumble``). Sensors: 1..17 (10: the ten-segment suit; 17: the fifteen-segment suit
-with second units on thorax and pelvis). ``--disturbance`` adds a magnetic field (world ENU,
+with second units on thorax and pelvis, worn but assigned to no segment: each segment carries
+one sensor). The file names each unit's device (the suit's seed and error model, and the unit). ``--disturbance`` adds a magnetic field (world ENU,
 µT) to every sensor from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. The file (format in ``docs/session-format.md``)
 holds the raw streams, a marker at the start of each phase ("magnetometer turns", "N-pose",
 "T-pose", "walk", ...; :mod:`mimucap.core.phases`) and, unless ``--no-truth``, the ground truth.
