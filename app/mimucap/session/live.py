@@ -20,8 +20,12 @@ while recording) and the *status* (``status``,
 :class:`~mimucap.session.live_status.StatusPublisher`: what the panels show, at a steady rate).
 It tells what changed through its events (:class:`LiveSession`, napari style): widgets
 subscribe to them and never ask the session on a timer of their own. Magnetometer calibrations are
-data that persist: they are loaded from the calibration store for every sensor the source
-brings, and a calibration made in the wizard is saved there. The simulated suit's ground truth
+data that persist, kept per device: each sensor the source brings gets the calibration stored for
+the device the source says it is (and no other: another suit numbered alike takes none, and the
+sensor says why), and a calibration made in the wizard is saved there for that device. Each
+calibration's standing (:func:`~mimucap.core.magcal_standing.calibration_standing`: verdict,
+device, the local field of the last seconds, age) is in the sensor rows, the checklist and what
+a recording stores (``magnetometer_readiness``). The simulated suit's ground truth
 is kept beside the data for evaluation only (:meth:`LiveSession.truth_pose`, the recording's
 truth); it never drives the figure.
 
