@@ -237,6 +237,17 @@ struct LineWriter {
     std::snprintf(buffer, sizeof buffer, "%llu", value);
     text(buffer);
   }
+  // Closes the line with its checksum (XOR of every byte after the "$") and "*HH\r\n";
+  // returns its length, or 0 if anything did not fit.
+  size_t finish() {
+    if (!ok) return 0;
+    uint8_t checksum = 0;
+    for (size_t i = 1; i < length; ++i) checksum ^= uint8_t(out[i]);
+    char tail[8];
+    std::snprintf(tail, sizeof tail, "*%02X\r\n", checksum);
+    text(tail);
+    return ok ? length : 0;
+  }
 };
 
 }  // namespace detail
@@ -266,12 +277,7 @@ inline size_t encode_line(const Sample& s, char* out, size_t capacity) {
   }
   if (s.has_battery) { w.text(",B"); w.number(s.battery_pct); }
   if (!w.ok || w.length > kMaxLineBytes - 3) return 0;
-  uint8_t checksum = 0;
-  for (size_t i = 1; i < w.length; ++i) checksum ^= uint8_t(out[i]);
-  char tail[8];
-  std::snprintf(tail, sizeof tail, "*%02X\r\n", checksum);
-  w.text(tail);
-  return w.ok ? w.length : 0;
+  return w.finish();
 }
 
 // The serial hello line ("$MIMUH,<sensor_id>,<MAC as 12 hex digits>*HH\r\n") written to `out`
@@ -284,13 +290,7 @@ inline size_t encode_hello_line(uint16_t sensor_id, const uint8_t mac[kMacBytes]
   char hex[2 * kMacBytes + 2];
   std::snprintf(hex, sizeof hex, ",%02X%02X%02X%02X%02X%02X", mac[0], mac[1], mac[2], mac[3], mac[4], mac[5]);
   w.text(hex);
-  if (!w.ok) return 0;
-  uint8_t checksum = 0;
-  for (size_t i = 1; i < w.length; ++i) checksum ^= uint8_t(out[i]);
-  char tail[8];
-  std::snprintf(tail, sizeof tail, "*%02X\r\n", checksum);
-  w.text(tail);
-  return w.ok ? w.length : 0;
+  return w.finish();
 }
 
 }  // namespace mimucap
