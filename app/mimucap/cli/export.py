@@ -76,7 +76,10 @@ def run(args: argparse.Namespace) -> int:
     from mimucap.session.export import write_motion_file
     from mimucap.session.review import load_review
 
+    from mimucap.cli.session_input import warn_about_magnetometers
+
     data = load_review(args.session, calibration_file=args.calibration)
+    warn_about_magnetometers("export", data.session, data.calibrations)
     written = write_motion_file(data, fmt, Path(args.out), args.t_from, args.t_to, opensim_names=args.opensim_names,
                                 raw_sensors=args.raw_sensors)
     print(f"{data.path.name} ({data.pose_source}): {len(written)} file(s) written: "
