@@ -197,6 +197,7 @@ def test_missing_paths(tmp_path: Path) -> None:
         read_mag_files([tmp_path], fmt="matlab")
 
 
+@pytest.mark.data("opensense")
 def test_an_xsens_export_names_its_device_and_a_fit_of_it_says_so(shared_data: Path, capsys) -> None:
     """The export's DeviceId is the device a calibration of it belongs to (``xsens:<id>``)."""
     from mimucap.cli import main
