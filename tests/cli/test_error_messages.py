@@ -60,3 +60,13 @@ def test_an_os_error_without_a_sentence_of_ours_is_put_in_words(monkeypatch, tmp
     parser_args = ["fuse", str(tmp_path / "locked.h5"), "--out", str(tmp_path / "o.csv")]
     assert main(parser_args) != 0
     assert f"{tmp_path / 'locked.h5'}: permission denied" in _one_sentence(capsys)
+
+
+@pytest.mark.parametrize("fmt", ["csv", "mot", "c3d", "bvh", "sto"])
+def test_export_of_angles_or_segments_needs_a_body_calibration(session, tmp_path, capsys, fmt):
+    assert main(["export", str(session), "--format", fmt, "--out", str(tmp_path / f"out.{fmt}")]) == 1
+    assert "--calibration CAL.json" in _one_sentence(capsys)
+
+
+def test_the_sensors_own_orientations_export_without_a_body_calibration(session, tmp_path):
+    assert main(["export", str(session), "--format", "sto", "--raw-sensors", "--out", str(tmp_path / "raw.sto")]) == 0
