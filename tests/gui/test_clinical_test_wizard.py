@@ -91,3 +91,12 @@ def test_a_guided_timed_up_and_go_records_measures_and_reports(calibrated_window
         pytest.approx([result.values["total_s"]])
     report = wizard.write_report(tmp_path / "tug.pdf")
     assert report.stat().st_size > 5000
+    # The session's full report has the test's page (the same result, the reference).
+    from mimucap.cli import main
+
+    full = tmp_path / "full.pdf"
+    assert main(["report", str(wizard.session_path), "--out", str(full)]) == 0
+    import subprocess
+
+    text = subprocess.run(["pdftotext", str(full), "-"], capture_output=True, text=True, check=True).stdout
+    assert "Timed Up and Go" in text and f"{result.values['total_s']:.1f} s" in text and "Bohannon" in text
