@@ -15,6 +15,7 @@ from pathlib import Path
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
+from mimucap.core.wording import plural
 from mimucap.gui.background import BackgroundTask
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
@@ -326,7 +327,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
                 self._fill([], [])
             damaged = sum(not e.ok for e in self.entries.values())
             self.statusBar().showMessage(
-                f"{len(self.subjects)} subjects, {len(self.entries)} sessions"
+                f"{plural(len(self.subjects), 'subject')}, {plural(len(self.entries), 'session')}"
                 + (f", {damaged} damaged (see Status)" if damaged else "")
                 + (f"; {len(report.added)} new, {len(report.removed)} gone since the last scan"
                    if report is not None and (report.added or report.removed) else ""))
@@ -538,7 +539,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         if confirm:
             names = "\n".join(e.file_name for e in selected[:10]) + ("\n…" if len(selected) > 10 else "")
             answer = QtWidgets.QMessageBox.question(
-                self, "Move to Trash", f"Move {len(selected)} session file(s) to {self.library.trash}?\n\n{names}\n\n"
+                self, "Move to Trash", f"Move {plural(len(selected), 'session file')} to {self.library.trash}?\n\n{names}\n\n"
                 "They stay there until you delete them yourself.")
             if answer != QtWidgets.QMessageBox.Yes:
                 return []

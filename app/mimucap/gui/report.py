@@ -30,6 +30,8 @@ from PyQt5.QtGui import QColor, QFont, QPageLayout, QPageSize, QPainter, QPdfWri
 
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.core.analysis import rom as rom_core
+from mimucap.core.clinical_names import segment_name
+from mimucap.core.wording import plural
 from mimucap.session.analysis import (
     GAIT_PARAMETER_HEADER,
     ROM_HEADER,
@@ -237,20 +239,32 @@ def _curve_pages(doc: _Document, analyses: Sequence[SessionAnalysis], bands: dic
                         where = f"{label} " if len(analyses) > 1 else ""
                         doubtful.append(f"{where}{side} {count}/{curve.n_strides}")
         note = ("doubtful strides: " + ", ".join(doubtful)) if doubtful else ""
-        _plot(doc, rect, f"{group.label} (deg)", curves, bands.get((group.joint, group.axis)), boundaries, note)
+        _plot(doc, rect, f"{group.label} (°)", curves, bands.get((group.joint, group.axis)), boundaries, note)
         if column == columns - 1 or index == len(groups) - 1:
             doc.y += plot_h
 
 
 def _header(doc: _Document, analysis: SessionAnalysis, title: str) -> None:
+    """Title, the subject (id, height, dominant side, age, sex, weight as recorded), the session
+    (local date and time, length, condition, trial, file)."""
     review = analysis.review
     meta = review.session.metadata
-    subject = meta.get("subject") or {}
+    subject = dict(meta.get("subject") or {})
     doc.text(title, 16, True, gap=8)
-    created = str(meta.get("created_utc") or "not recorded")
+    line = _subject_line(subject)
+    if subject.get("dominance"):
+        line += f", {subject['dominance']}-side dominant"
+    doc.text(line, 10, gap=2)
+    library = meta.get("library") or {}
+    created = local_time_text(str(meta.get("created_utc") or ""))
     duration = review.end_s - review.start_s
-    doc.text(f"Subject: {subject.get('id') or 'not recorded'}    Recorded: {created}    "
-             f"Length: {duration:.1f} s    File: {review.path.name}", 9)
+    session = [f"Recorded {created}", f"length {duration:.1f} s"]
+    if library.get("condition"):
+        session.append(f"condition: {library['condition']}")
+    if library.get("trial"):
+        session.append(f"trial {library['trial']}")
+    session.append(f"file {review.path.name}")
+    doc.text(", ".join(session), 9)
 
 
 def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
@@ -264,8 +278,9 @@ def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
     for note in review.missing:
         doc.text(f"Note: {note}.", 8, gap=2)
     doc.text("Sensors", 11, True, gap=4)
-    sensors = ", ".join(f"{sid} ({s.segment or 'unassigned'})" for sid, s in session.sensors.items())
-    doc.text(f"{len(session.sensors)} sensors: {sensors}", 8)
+    sensors = ", ".join(f"{sid} ({segment_name(s.segment) if s.segment else 'not worn'})"
+                        for sid, s in session.sensors.items())
+    doc.text(f"{plural(len(session.sensors), 'sensor')}: {sensors}", 8)
     calibration = body_calibration_of(review)
     if calibration is not None:
         doc.text("Body calibration remarks: " + ("; ".join(calibration.quality.problems) or "none") + ".", 8)
@@ -299,8 +314,8 @@ def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
         return
     refused = [s for s in gait.strides if not s.analysed]
     n = {side: sum(1 for s in gait.analysed if s.side == side) for side in ("left", "right")}
-    doc.text(f"{len(gait.analysed)} straight strides analysed (left {n['left']}, right {n['right']}), "
-             f"{len(refused)} refused, {len(gait.bouts)} walking bout(s), {len(gait.turns)} turn(s). "
+    doc.text(f"{plural(len(gait.analysed), 'straight stride')} analysed (left {n['left']}, right {n['right']}), "
+             f"{len(refused)} refused, {plural(len(gait.bouts), 'walking bout')}, {plural(len(gait.turns), 'turn')}. "
              + " ".join(f"{side.capitalize()}: {source}." for side, source in gait.sources.items()), 8)
     doc.table(GAIT_PARAMETER_HEADER, [row.cells() for row in gait_parameter_rows(gait)],
               [0.22, 0.14, 0.14, 0.14, 0.08, 0.11, 0.12])
