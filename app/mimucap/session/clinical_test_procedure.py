@@ -42,7 +42,7 @@ from mimucap.session.clinical_tests import TEN_METRE_WALKWAY_M, TEST_NAMES, WALK
 #: Session metadata key of a guided test's settings.
 METADATA_KEY = "clinical_test"
 #: Marker at the start signal ("Go!"): when the subject was told to start.
-GO_SIGNAL = "go signal"
+GO_SIGNAL = phases.GO_SIGNAL
 #: Seconds counted down before the start signal.
 COUNTDOWN_S = 3.0
 #: Seconds recorded after a timed test's time is up.

@@ -156,11 +156,15 @@ def clinical_test(review: ReviewData, test: str, walkway_m: float | None = None)
 
 # -- the tests ------------------------------------------------------------------------------------
 def _marker_window(review: ReviewData) -> tuple[tuple[float, float] | None, tuple[float | None, float | None]]:
-    """The window between the user's start and stop markers (None without them) and the
-    overriding start and stop times."""
+    """The window between the user's start and stop markers (None without them; from a guided
+    test's start signal on when it has one) and the overriding start and stop times."""
     starts = [m.t_s for m in review.markers if phases.is_phase(m.label, phases.TEST_START)]
     if not starts:
-        return None, (None, None)
+        # A guided test's start signal: the test is searched from there on (a subject still
+        # walking to the start line before it is not doing the test), its start still found
+        # from the sensors.
+        signals = [m.t_s for m in review.markers if phases.is_phase(m.label, phases.GO_SIGNAL)]
+        return (None if not signals else (min(signals) - _MARKER_SLACK_S, math.inf)), (None, None)
     start = min(starts)
     stops = [m.t_s for m in review.markers if phases.is_phase(m.label, phases.TEST_STOP) and m.t_s > start]
     stop = min(stops) if stops else None
