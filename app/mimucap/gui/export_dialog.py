@@ -183,6 +183,12 @@ class ExportDialog(QtWidgets.QDialog):
             box.toggled.connect(self._update_buttons)
         self.update_summary()
 
+    def set_data(self, data: ReviewData) -> None:
+        """Another result of the same session (as seen live / reprocessed): the summary follows,
+        the user's choices (range, files, where) stay."""
+        self.data = data
+        self.update_summary()
+
     # -- range and summary -------------------------------------------------------------------
     def time_range(self) -> tuple[float, float]:
         """The chosen range (s); ``ValueError`` when it is empty."""

@@ -17,6 +17,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.wording import plural
 from mimucap.gui.background import BackgroundTask
+from mimucap.gui.menus import closes_with_keys
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
 from mimucap.session.library import COMPARISON_NEEDS_CALIBRATION
@@ -122,6 +123,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
                  new_session: Callable[[str, float | None, str, str], None] | None = None,
                  parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
+        closes_with_keys(self)
         self.setObjectName("libraryWindow")
         self.resize(1200, 640)
         self._open_review = open_review

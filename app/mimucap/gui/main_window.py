@@ -77,6 +77,9 @@ VIEW_HINTS = {
     POSE_SENSOR_AXES: "Not calibrated yet: each sensor's axes stand for its segment.\n"
                       "Calibrate the magnetometers, then the body (menu Calibrate).",
 }
+#: The 3D view's hint once the magnetometers are calibrated: the body is next.
+BODY_NEXT_HINT = ("Magnetometers calibrated.\nNext: calibrate the body (Calibrate → Body…): the subject stands "
+                  "in the N-pose, then raises both arms sideways.")
 ABOUT_TEXT = (
     "<h3>MimuCap {version}</h3>"
     "<p>Human motion capture with magnetic-inertial sensors: live skeleton, joint angles, "
@@ -198,7 +201,7 @@ class MainWindow(QtWidgets.QMainWindow):
             "source_problem": self._source_problem_changed, "refused": self._show_refused_without_sensor,
             "truth_errors": self._truth_errors_changed, "truth_available": self.action_truth.setEnabled,
             "sensors": self._assign_remembered, "recording_progress": self._recording_progress,
-            "recording_failed": self._recording_failed}
+            "recording_failed": self._recording_failed, "calibration": lambda *_: self._update_hint()}
         self.source_error: str | None = None
         if not self.open_source(source or last_source_spec(), interactive=False) and source is None:
             error = self.source_error  # a remembered source that went away: say so over the fallback
@@ -535,8 +538,17 @@ class MainWindow(QtWidgets.QMainWindow):
             self.scene_view.set_hint(f"No data from the source.\n{self._source_problem}\n\n"
                                      "Check the device and its connection, or choose another source "
                                      "(File → Choose Source…).")
+        elif self._pose_source == POSE_SENSOR_AXES and self.live is not None and self._magnetometers_done():
+            self.scene_view.set_hint(BODY_NEXT_HINT)
         else:
             self.scene_view.set_hint(VIEW_HINTS.get(self._pose_source, ""))
+
+    def _magnetometers_done(self) -> bool:
+        """Every sensor that needs a magnetometer calibration has one (sensors fusing on board,
+        or sending their own orientation, need none)."""
+        live = self.live
+        needing = set(live.sensor_ids) - set(live.onboard_sensors()) - set(live.orientation_only_sensors())
+        return bool(needing) and needing <= set(live.mag_calibrations)
 
     def _recording_progress(self, info) -> None:
         self._show_elapsed(info.elapsed_s)

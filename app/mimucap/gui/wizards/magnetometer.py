@@ -369,6 +369,8 @@ class MagnetometerWizard(CalibrationDialog):
         self.result_title.setText(f"<h2>Result</h2><p>{text}</p>")
         self.accept_button.setEnabled(False)
         self._update_previous()
+        if not failed:  # nothing left to redo: the wizard's work is done
+            self.accept()
         return stored
 
     # -- showing -----------------------------------------------------------------------------
