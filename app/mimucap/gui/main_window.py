@@ -49,7 +49,7 @@ from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
-from mimucap.core.pipeline import POSE_SENSOR_AXES
+from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
 from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, doubt_warning, open_live_session
 from mimucap.io.library import library_fields, recording_path
@@ -516,11 +516,15 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _pose_source_changed(self, pose_source: str) -> None:
         self._pose_source = pose_source
+        if pose_source != POSE_BODY_CALIBRATION:
+            self._accuracy = ""
         self._show_pose_status()
         self._update_hint()
 
     def _truth_errors_changed(self, errors) -> None:
-        self._accuracy = accuracy_phrase(errors)
+        # Without a body calibration there is nothing to judge: the sensors' axes stand for the
+        # segments, and an error against the truth of 100° says nothing but "not calibrated".
+        self._accuracy = accuracy_phrase(errors) if self._pose_source == POSE_BODY_CALIBRATION else ""
         self._show_pose_status()
 
     def _show_pose_status(self) -> None:

@@ -262,7 +262,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
             self._marker_lines.append(line)
             self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker.label}")
         self.pose_status.setText(f"Pose: {data.pose_source}; {RESULT_TITLES[data.result].lower()}"
-                                 + accuracy_phrase(data.truth_errors()))
+                                 + (accuracy_phrase(data.truth_errors()) if data.body_calibration is not None else ""))
         message = (f"{display_path(self.path)}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
                    f"{len(data.markers)} markers")
         if data.missing:
