@@ -16,6 +16,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.core.pipeline import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.menus import closes_with_keys
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.library import Library, SessionEntry
 from mimucap.session.library import ComparedSession, ComparisonTable, TimeWindow, compare, comparison_csv
 from mimucap.session.review import load_review
@@ -125,7 +126,7 @@ class CompareWindow(QtWidgets.QMainWindow):
         closes_with_keys(self)
         self.setObjectName("compareWindow")
         self.setWindowTitle(f"MimuCap Compare: {first.subject_id}: {first.file_name} / {second.file_name}")
-        self.resize(1100, 720)
+        fit_on_screen(self, 1100, 720, parent)
         self.library = library
         self.entries = (first, second)
         self.reviews = None
