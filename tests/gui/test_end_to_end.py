@@ -117,7 +117,7 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     blind_data = load_review(blind)
     run_export(blind_data, ExportRequest(tmp_path / "blind", blind_data.start_s, blind_data.end_s,
                                          angles_mot=False, summary_csv=False))
-    blind_table = read_angles_csv(tmp_path / "blind.csv")
+    blind_table = read_angles_csv(tmp_path / "blind_joint_angles.csv")
     assert blind_table.angles_deg.keys() == table.angles_deg.keys()
     for column, values in table.angles_deg.items():
         assert np.array_equal(blind_table.angles_deg[column], values), column

@@ -60,7 +60,7 @@ def test_menu_lists_only_working_items(window):
         "Show World &Axes", "Show Simulator &Truth", "&Pause Plots\tSpace", "&User Guide", "&About MimuCap",
     }
     assert expected <= texts
-    assert texts - expected <= {"&Magnetometers…", "&Body…", "&Range of Motion…"}  # the wizards, when installed
+    assert texts - expected <= {"&Magnetometers…", "&Body…", "&Range of Motion…", "&Clinical Test…"}  # the wizards
 
 
 def test_screenshot_and_quit_from_the_file_menu(window, qtbot, tmp_path, monkeypatch):
