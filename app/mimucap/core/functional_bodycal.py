@@ -79,7 +79,7 @@ from mimucap.core.bodycal import (
 FloatArray = NDArray[np.float64]
 
 METHOD = "functional"
-STILL_POSE = "still standing"
+STILL_POSE = "quiet standing"
 #: What a segment's heading came from when no hinge gave it.
 WALKING_DIRECTION = "walking direction"
 
@@ -391,6 +391,25 @@ def _segment_rotation(x_sensor: FloatArray | None, y_sensor: FloatArray, z_senso
         z = np.cross(x, y_sensor)
     r_sensor_from_segment = np.column_stack((x, y_sensor, z))
     return rot.canonical(rot.from_matrix(r_sensor_from_segment.T))
+
+
+def first_still_window(t_s: ArrayLike, q_world_from_sensor: Mapping[str, ArrayLike], duration_s: float = 1.0,
+                       limit_deg: float = DEFAULT_FUNCTIONAL_SETTINGS.stillness_good_deg) -> tuple[float, float]:
+    """The first window ``(start, end)`` (s) of ``duration_s`` in which every sensor's
+    orientation (N, 4) at the instants ``t_s`` (N,) stays within ``limit_deg`` of its mean, by
+    steps of a tenth of the duration. ``ValueError`` when there is none."""
+    t = np.asarray(t_s, dtype=np.float64)
+    tracks = [np.asarray(q, dtype=np.float64) for q in q_world_from_sensor.values()]
+    starts = np.arange(t[0], t[-1] - duration_s + 1e-9, duration_s / 10.0) if t[-1] - t[0] >= duration_s else []
+    for start in starts:
+        window = slice(int(np.searchsorted(t, start)), int(np.searchsorted(t, start + duration_s, side="right")))
+        for q in tracks:
+            part = q[window]
+            if not np.all(np.isfinite(part)) or np.degrees(rot.angle_between(rot.average(part), part)).max() > limit_deg:
+                break
+        else:
+            return float(t[window.start]), float(t[window.stop - 1])
+    raise ValueError(f"no {duration_s:g} s in which every sensor stayed within {limit_deg:g}° (standing still)")
 
 
 # --------------------------------------------------------------------------------------------
