@@ -38,8 +38,8 @@ def hinge_motion(seed=1, n=800, secondary_deg=0.0):
 @pytest.mark.parametrize("seed", [1, 2, 3])
 def test_both_estimators_recover_the_axes_of_a_hinge(seed):
     t, q1, q2, j1, j2, _ = hinge_motion(seed)
-    a1, a2 = ha.fit_hinge_from_orientations(q1, q2)
-    assert deg(a1, j1) < 1e-6 and deg(a2, j2) < 1e-6
+    a1, a2, offset = ha.fit_hinge_from_orientations(q1, q2)
+    assert deg(a1, j1) < 1e-6 and deg(a2, j2) < 1e-6 and abs(offset) < 1e-9
     # the same direction in the world at every instant (the singular vectors come signed)
     assert np.all(np.sum(rot.rotate(q1, a1) * rot.rotate(q2, a2), axis=1) > 0.999999)
     index, w1 = ha.angular_rates(t, q1)
@@ -55,12 +55,25 @@ def test_secondary_rotation_in_step_with_flexion_pulls_the_rate_constraint_not_t
     constraint keeps the distal axis but tilts the proximal one by several degrees (the thigh's
     on the simulated walk, hinge_axis module docstring)."""
     t, q1, q2, j1, j2, _ = hinge_motion(4, secondary_deg=5.0)
-    a1, a2 = ha.fit_hinge_from_orientations(q1, q2)
+    a1, a2, _ = ha.fit_hinge_from_orientations(q1, q2)
     assert deg(a1, j1) < 0.5 and deg(a2, j2) < 0.5
     _, w1 = ha.angular_rates(t, q1)
     _, w2 = ha.angular_rates(t, q2)
     b1, b2 = ha.fit_hinge_from_rates(w1, w2)
     assert deg(b2, j2) < 0.5 and deg(b1, j1) > 5.0
+
+
+@pytest.mark.parametrize(("offset_deg", "up"), [(7.0, EZ), (-40.0, EZ), (25.0, EY)])
+def test_a_heading_disagreement_between_the_sensors_is_found_and_left_out(offset_deg, up):
+    """The second sensor's heading is off by a constant turn about the world's up (its own
+    magnetometer, its own filter): the axes are found as if it were not, and the turn with them."""
+    t, q1, q2, j1, j2, _ = hinge_motion(7)
+    turned = rot.multiply(rot.from_axis_angle(up, np.radians(offset_deg)), q2)
+    a1, a2, offset = ha.fit_hinge_from_orientations(q1, turned, up)
+    assert deg(a1, j1) < 1e-6 and deg(a2, j2) < 1e-6
+    assert np.degrees(offset) == pytest.approx(-offset_deg, abs=1e-6)
+    world1, world2 = rot.rotate(q1, j1), rot.rotate(turned, j2)
+    assert np.degrees(ha.heading_offset_rad(world1, world2, up)) == pytest.approx(-offset_deg, abs=1e-6)
 
 
 def test_angular_rates_of_a_steady_turn():

@@ -150,8 +150,10 @@ class FunctionalSettings:
     mapped; tilt of a knee or elbow axis from horizontal when standing ``tilt_good_deg`` (15) /
     ``tilt_acceptable_deg`` (30); angle between the left and right knee (or elbow) axes when
     standing ``left_right_good_deg`` (10) / ``left_right_acceptable_deg``
-    (20). ``hinge_from``: ``"orientations"`` (default) or ``"rates"``, the estimator of
-    :mod:`mimucap.core.hinge_axis`.
+    (20); heading disagreement of a knee's (or elbow's) two sensors ``heading_offset_good_deg``
+    (5) / ``heading_offset_acceptable_deg`` (10): it is left out of the axes, but the joint's
+    axial rotation, computed later from the same sensors, carries it. ``hinge_from``:
+    ``"orientations"`` (default) or ``"rates"``, the estimator of :mod:`mimucap.core.hinge_axis`.
     """
 
     stillness_limit_deg: float = 3.0
@@ -168,6 +170,8 @@ class FunctionalSettings:
     tilt_acceptable_deg: float = 30.0
     left_right_good_deg: float = 10.0
     left_right_acceptable_deg: float = 20.0
+    heading_offset_good_deg: float = 5.0
+    heading_offset_acceptable_deg: float = 10.0
     hinge_from: str = "orientations"
 
     def __post_init__(self) -> None:
@@ -190,12 +194,14 @@ class HingeAxisFit:
 
     ``j_proximal_sensor`` and ``j_distal_sensor`` (3,) the unit axis in each sensor's frame
     across the segment's long axis (the segment's lateral axis), pointing to the body's right
-    once signed (``signed``); ``flexion_low_deg`` and
+    once signed (``signed``); ``heading_offset_deg`` the turn about the vertical that best
+    reconciles the two sensors' headings with a hinge (their filters' heading disagreement,
+    left out of the fit); ``flexion_low_deg`` and
     ``flexion_high_deg`` the 2.5th and 97.5th percentiles of the flexion during the movement,
     counted from the still window; ``residual_deg`` the RMS angle between the two sensors'
-    axes in the world; ``halves_deg`` the larger angle between either sensor's axis fitted on
-    the first and on the second half of the movement (their parts across the segment's long
-    axis); ``tilt_deg`` the larger tilt of the axis from horizontal when standing; ``used``
+    axes in the world (the offset removed); ``halves_deg`` the larger angle between either sensor's axis fitted on
+    the first and on the second half of the joint's turning during the movement (their parts
+    across the segment's long axis); ``tilt_deg`` the larger tilt of the axis from horizontal when standing; ``used``
     whether its axis defines its segments, ``note`` why not; ``n_samples`` samples fitted.
     """
 
@@ -204,6 +210,7 @@ class HingeAxisFit:
     distal_sensor: str
     j_proximal_sensor: FloatArray
     j_distal_sensor: FloatArray
+    heading_offset_deg: float
     flexion_low_deg: float
     flexion_high_deg: float
     residual_deg: float
@@ -221,6 +228,7 @@ class HingeAxisFit:
     def to_dict(self) -> dict:
         return {"joint": self.joint, "proximal_sensor": self.proximal_sensor, "distal_sensor": self.distal_sensor,
                 "j_proximal_sensor": self.j_proximal_sensor.tolist(), "j_distal_sensor": self.j_distal_sensor.tolist(),
+                "heading_offset_deg": self.heading_offset_deg,
                 "flexion_low_deg": self.flexion_low_deg, "flexion_high_deg": self.flexion_high_deg,
                 "residual_deg": self.residual_deg, "halves_deg": self.halves_deg, "tilt_deg": self.tilt_deg,
                 "used": self.used, "note": self.note, "n_samples": self.n_samples}
@@ -293,13 +301,18 @@ def _angle_deg(a: FloatArray, b: FloatArray, signed: bool = True) -> float:
     return float(np.degrees(np.arccos(np.clip(cos if signed else abs(cos), -1.0, 1.0))))
 
 
-def _fit_axes(q1: FloatArray, q2: FloatArray, t: FloatArray, estimator: str) -> tuple[FloatArray, FloatArray]:
+def _fit_axes(q1: FloatArray, q2: FloatArray, t: FloatArray, estimator: str, up_world: FloatArray
+              ) -> tuple[FloatArray, FloatArray, float]:
+    """The hinge axes (signed alike) and the second sensor's heading offset (rad)."""
     if estimator == "orientations":
-        return hinge_axis.fit_hinge_from_orientations(q1, q2)
+        return hinge_axis.fit_hinge_from_orientations(q1, q2, up_world)
     index1, rates1 = hinge_axis.angular_rates(t, q1)
     index2, rates2 = hinge_axis.angular_rates(t, q2)
-    common, at1, at2 = np.intersect1d(index1, index2, return_indices=True)
-    return hinge_axis.fit_hinge_from_rates(rates1[at1], rates2[at2])
+    _, at1, at2 = np.intersect1d(index1, index2, return_indices=True)
+    j1, j2 = hinge_axis.fit_hinge_from_rates(rates1[at1], rates2[at2])
+    j2, _ = hinge_axis.consistent_signs(j1, j2, q1, q2)
+    finite = np.all(np.isfinite(q1), axis=1) & np.all(np.isfinite(q2), axis=1)
+    return j1, j2, hinge_axis.heading_offset_rad(rot.rotate(q1[finite], j1), rot.rotate(q2[finite], j2), up_world)
 
 
 def fit_hinge(hinge: Hinge, sensors: tuple[str, str], t_s: FloatArray, tracks: tuple[FloatArray, FloatArray],
@@ -309,17 +322,20 @@ def fit_hinge(hinge: Hinge, sensors: tuple[str, str], t_s: FloatArray, tracks: t
     instants ``t_s`` (N,); ``still`` their mean orientations (4,) standing; ``up_sensor`` the
     up direction (3,) in each sensor's frame standing. A one-sided joint's axes are signed by
     its excursion; the others' are returned unsigned (``signed`` False)."""
-    q1, q2 = tracks
-    raw1, raw2 = _fit_axes(q1, q2, t_s, settings.hinge_from)
-    raw2, _ = hinge_axis.consistent_signs(raw1, raw2, q1, q2)
+    q1 = tracks[0]
+    raw1, raw2, offset = _fit_axes(tracks[0], tracks[1], t_s, settings.hinge_from, up_world)
+    # The second sensor's orientations with the two sensors' heading disagreement removed.
+    turn = rot.from_axis_angle(up_world, offset)
+    q2 = rot.multiply(turn, tracks[1])
+    still2 = rot.multiply(turn, still[1])
     tilt = max(float(np.degrees(np.arcsin(min(1.0, abs(float(np.dot(rot.rotate(q, j), up_world)))))))
                for q, j in ((still[0], raw1), (still[1], raw2)))
     # The segments' lateral axes: the parts of the hinge axis across their long axes.
     j1, j2 = across(raw1, up_sensor[0]), across(raw2, up_sensor[1])
     j2, residual = hinge_axis.consistent_signs(j1, j2, q1, q2)
-    reference = rot.multiply(rot.conjugate(still[0]), still[1])
-    flexion = hinge.flexion_sign * np.degrees(hinge_axis.hinge_angle_rad(j1, q1, q2, reference))
-    flexion = flexion[np.isfinite(flexion)]
+    reference = rot.multiply(rot.conjugate(still[0]), still2)
+    flexion_track = hinge.flexion_sign * np.degrees(hinge_axis.hinge_angle_rad(j1, q1, q2, reference))
+    flexion = flexion_track[np.isfinite(flexion_track)]
     low, high = (float(v) for v in np.percentile(flexion, [2.5, 97.5]))
     note, signed = "", False
     if hinge.one_sided:
@@ -331,18 +347,20 @@ def fit_hinge(hinge: Hinge, sensors: tuple[str, str], t_s: FloatArray, tracks: t
                     "told from extension")
     if not note and high - low < settings.min_excursion_deg:
         note = f"it moved only {high - low:.0f}° (at least {settings.min_excursion_deg:g}° needed)"
-    half = q1.shape[0] // 2
+    # The two halves of the joint's turning (not of the time: the joint may rest in between).
+    turned = np.concatenate(([0.0], np.cumsum(np.abs(np.diff(np.nan_to_num(flexion_track))))))
+    half = int(np.searchsorted(turned, 0.5 * turned[-1]))
     halves = 0.0
-    if half >= hinge_axis.MIN_SAMPLES:
-        first = _fit_axes(q1[:half], q2[:half], t_s[:half], settings.hinge_from)
-        second = _fit_axes(q1[half:], q2[half:], t_s[half:], settings.hinge_from)
+    if min(half, q1.shape[0] - half) >= hinge_axis.MIN_SAMPLES:
+        first = _fit_axes(q1[:half], tracks[1][:half], t_s[:half], settings.hinge_from, up_world)
+        second = _fit_axes(q1[half:], tracks[1][half:], t_s[half:], settings.hinge_from, up_world)
         for k in (0, 1):
             halves = max(halves, _angle_deg(across(first[k], up_sensor[k]), across(second[k], up_sensor[k]),
                                             signed=False))
     if not note and not hinge.one_sided and halves > settings.halves_acceptable_deg:
         note = f"the axes of the movement's two halves differ by {halves:.0f}°"
-    return HingeAxisFit(hinge.joint, sensors[0], sensors[1], j1, j2, low, high, residual, halves, tilt,
-                        used=not note, signed=signed, note=note, n_samples=int(q1.shape[0]))
+    return HingeAxisFit(hinge.joint, sensors[0], sensors[1], j1, j2, float(np.degrees(offset)), low, high, residual,
+                        halves, tilt, used=not note, signed=signed, note=note, n_samples=int(q1.shape[0]))
 
 
 def walking_direction(tracks: Sequence[FloatArray], z_sensor: Sequence[FloatArray], up_world: FloatArray
@@ -581,6 +599,9 @@ def _checks(fits: Mapping[str, HingeAxisFit], forwards: Sequence[ForwardAxisFit]
         if hinge.one_sided:
             checks.append((grade(fit.tilt_deg, s.tilt_good_deg, s.tilt_acceptable_deg),
                            f"the {name} axis is tilted {fit.tilt_deg:.0f}° from horizontal when standing"))
+            checks.append((grade(abs(fit.heading_offset_deg), s.heading_offset_good_deg, s.heading_offset_acceptable_deg),
+                           f"the {name}'s two sensors disagree on their heading by {abs(fit.heading_offset_deg):.0f}° "
+                           "(check their magnetometer calibrations): its rotation angle will carry it"))
     for kind, angle in left_right.items():
         checks.append((grade(angle, s.left_right_good_deg, s.left_right_acceptable_deg),
                        f"the left and right {kind} axes differ by {angle:.0f}° when standing"))

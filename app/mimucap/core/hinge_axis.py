@@ -5,33 +5,40 @@ A hinge turns the two segments relative to each other about one axis, fixed in b
 ``j1`` (3,) that axis in the first sensor's frame and ``j2`` (3,) in the second's, the axis has
 one direction in the world whichever way the joint is bent,
 
-    ``R_world_from_1(t) · j1 = R_world_from_2(t) · j2``  for every ``t``
+    ``R_world_from_1(t) · j1 = R_up(δ) · R_world_from_2(t) · j2``  for every ``t``
 
 (the hinge constraint Laidig, Lehmann, Bégin and Seel exploit in "Exploiting kinematic
 constraints to compensate magnetometer disturbances when calculating joint angles of
-approximate hinge joints", 2017). Two estimators:
+approximate hinge joints", 2017), where ``R_up(δ)`` turns by ``δ`` about the vertical: each
+sensor's heading comes from its own magnetometer and filter, so two sensors' headings disagree
+by a degree or more (much more in a disturbed room), an offset that barely changes over a
+movement of seconds. Laidig, Weygers, Seel et al. estimate such an offset together with the
+joint axes in "Self-calibrating magnetometer-free inertial motion tracking of 2-DoF joints"
+(Sensors 22, 2022); left in, it tilts the axes by about ``δ`` over the flexion excursion. Two
+estimators:
 
 * :func:`fit_hinge_from_orientations` (the default of :mod:`mimucap.core.functional_bodycal`):
-  least squares on that constraint, ``min Σ |R1(t) j1 − R2(t) j2|²`` over unit vectors, which is
-  ``max j1ᵀ M j2`` with ``M = Σ R_1_from_2(t)``: ``j1`` and ``j2`` are the first left and right
-  singular vectors of ``M`` (closed form). It uses the sensors' relative orientation, heading
-  included.
+  least squares on that constraint, ``min Σ |R1(t) j1 − R_up(δ) R2(t) j2|²`` over unit axes and
+  ``δ``: for a given ``δ`` it is ``max j1ᵀ M j2`` with ``M = Σ R_1_from_world(t) R_up(δ)
+  R_world_from_2(t)``, so ``j1`` and ``j2`` are the first left and right singular vectors of
+  ``M``, and ``δ`` maximises ``M``'s largest singular value (a search over one angle). The
+  offset is observable because the segments swing about a horizontal axis: the vertical then
+  moves through both sensor frames.
 * :func:`fit_hinge_from_rates`: Seel, Raisch and Schauer, "IMU-based joint angle measurement for
   gait analysis" (Sensors 14, 2014), section 3.1: the angular rates ``ω1``, ``ω2`` (rad/s, each
   in its sensor frame) differ by a rotation about the axis alone, so their parts perpendicular
   to it have equal length, ``|ω1 × j1| − |ω2 × j2| = 0``; Gauss-Newton least squares, each
-  unit axis moved in its tangent plane. It needs no heading (a magnetometer-free estimate), but
-  a joint that also turns about other axes in step with its flexion (the knee's axial
-  rotation while walking) pulls the axis of a segment that turns mostly about the hinge axis
-  itself (the thigh) far off: on the simulated walk about 9° for the thigh, with true rates
-  (``bench/bench_functional_calibration.py``), against 1-2° for the orientation estimator.
+  unit axis moved in its tangent plane. It needs no heading at all, but a joint that also
+  turns about other axes in step with its flexion (the knee's axial rotation while walking)
+  pulls the axis of a segment that turns mostly about the hinge axis itself (the thigh) off,
+  towards its long axis (``bench/bench_functional_calibration.py`` compares both).
 
 The signs: the constraint fixes neither; :func:`consistent_signs` turns ``j2`` to point the
 way ``j1`` does, and the joint's physics (the knee flexes one way) gives the sign of both
 (:mod:`mimucap.core.functional_bodycal`).
 
 Frames: each axis in its own sensor's frame; rates rad/s; quaternions scalar-first Hamilton
-``q_world_from_sensor``, ``(N, 4)``.
+``q_world_from_sensor``, ``(N, 4)``; ``up_world`` (3,) the world's up unit vector.
 """
 
 from __future__ import annotations
@@ -50,6 +57,9 @@ MAX_ITERATIONS = 100
 _TINY_RATE = 1e-9
 #: Fewest samples a fit accepts.
 MIN_SAMPLES = 20
+#: The largest heading offset sought (deg). An axis that stays horizontal cannot tell ``δ`` from
+#: ``δ + 180°`` with ``j2`` reversed; two sensors' filters disagree far less than 90°.
+MAX_HEADING_OFFSET_DEG = 90.0
 
 ESTIMATORS = ("orientations", "rates")
 
@@ -81,19 +91,59 @@ def angular_rates(t_s: ArrayLike, q_world_from_sensor: ArrayLike) -> tuple[Float
     return index, rates
 
 
-def fit_hinge_from_orientations(q_world_from_sensor1: ArrayLike, q_world_from_sensor2: ArrayLike
-                                ) -> tuple[FloatArray, FloatArray]:
-    """``(j1, j2)``, the hinge axis (3,) in each sensor's frame, from orientation tracks
-    ``(N, 4)`` at the same instants (non-finite rows left out; at least
-    :data:`MIN_SAMPLES`): the first singular vectors of ``Σ R_1_from_2(t)`` (module docstring),
-    pointing the same way (``j1ᵀ M j2 > 0``)."""
+def heading_offset_rad(v1_world: ArrayLike, v2_world: ArrayLike, up_world: ArrayLike) -> float:
+    """The turn ``δ`` (rad) about ``up_world`` (3,) that best carries the directions
+    ``v2_world`` onto ``v1_world`` ((N, 3) each): ``max Σ v1 · R_up(δ) v2``, in closed form from
+    their horizontal parts, ``atan2(Σ up · (v2 × v1), Σ v1_h · v2_h)``."""
+    up = np.asarray(up_world, dtype=np.float64)
+    a = np.asarray(v1_world, dtype=np.float64)
+    b = np.asarray(v2_world, dtype=np.float64)
+    a_h = a - np.outer(a @ up, up)
+    b_h = b - np.outer(b @ up, up)
+    return float(np.arctan2(np.sum(np.cross(b_h, a_h) @ up), np.sum(a_h * b_h)))
+
+
+def fit_hinge_from_orientations(q_world_from_sensor1: ArrayLike, q_world_from_sensor2: ArrayLike,
+                                up_world: ArrayLike = (0.0, 0.0, 1.0)) -> tuple[FloatArray, FloatArray, float]:
+    """``(j1, j2, δ)``: the hinge axis (3,) in each sensor's frame, pointing the same way, and the
+    heading offset ``δ`` (rad, within ±:data:`MAX_HEADING_OFFSET_DEG`) of the second sensor about
+    ``up_world``, from
+    orientation tracks ``(N, 4)`` at the same instants (non-finite rows left out; at least
+    :data:`MIN_SAMPLES`): least squares on the hinge constraint (module docstring).
+
+    For a given ``δ`` the best axes give ``Σ (R1 j1)·(R_up(δ) R2 j2) = σ1(M(δ))``, the largest
+    singular value of ``M(δ) = Σ R_1_from_world R_up(δ) R_world_from_2``, and
+    ``R_up(δ) = P + cos δ (I − P) + sin δ [up]×`` (``P = up upᵀ``) makes ``M`` a combination of
+    three sums computed once. ``σ1`` is maximised over ``δ`` on a 1° grid, then by Brent's
+    method within a degree of the best grid point; the axes are ``M``'s first singular
+    vectors there."""
+    from scipy.optimize import minimize_scalar
+
     a, b = _tracks(q_world_from_sensor1, q_world_from_sensor2)
+    up = np.asarray(up_world, dtype=np.float64)
     finite = np.all(np.isfinite(a), axis=1) & np.all(np.isfinite(b), axis=1)
     if int(finite.sum()) < MIN_SAMPLES:
         raise ValueError(f"a hinge fit needs at least {MIN_SAMPLES} samples, got {int(finite.sum())}")
-    r_1_from_2 = rot.to_matrix(rot.multiply(rot.conjugate(a[finite]), b[finite]))
-    u, _s, vt = np.linalg.svd(r_1_from_2.sum(axis=0))
-    return u[:, 0], vt[0]
+    r1 = rot.to_matrix(a[finite])
+    r2 = rot.to_matrix(b[finite])
+    along = np.outer(up, up)
+    cross = np.array([[0.0, -up[2], up[1]], [up[2], 0.0, -up[0]], [-up[1], up[0], 0.0]])
+    parts = [np.einsum("nji,jk,nkl->il", r1, part, r2) for part in (along, np.eye(3) - along, cross)]
+
+    def matrix(delta: float) -> FloatArray:
+        return parts[0] + np.cos(delta) * parts[1] + np.sin(delta) * parts[2]
+
+    def largest(delta: float) -> float:
+        return float(np.linalg.svd(matrix(delta), compute_uv=False)[0])
+
+    grid = np.radians(np.arange(-MAX_HEADING_OFFSET_DEG, MAX_HEADING_OFFSET_DEG + 0.5, 1.0))
+    best = float(grid[int(np.argmax([largest(d) for d in grid]))])
+    step = np.radians(1.0)
+    found = minimize_scalar(lambda d: -largest(d), bounds=(best - step, best + step), method="bounded",
+                            options={"xatol": STEP_TOLERANCE_RAD})
+    delta = float(found.x) if -found.fun >= largest(best) else best
+    u, _s, vt = np.linalg.svd(matrix(delta))
+    return u[:, 0], vt[0], delta
 
 
 def _tangent_basis(j: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -176,11 +226,11 @@ def consistent_signs(j1_sensor: ArrayLike, j2_sensor: ArrayLike, q_world_from_se
     """``j2`` turned to point the way ``j1`` does, and the RMS angle (deg) between the two in the
     world.
 
-    For a hinge ``R_world_from_1(t)·j1 = R_world_from_2(t)·j2`` at every instant; the sign of
-    ``j2`` is the one that makes them agree on average over the orientations given ((N, 4)
-    each, same instants; non-finite rows left out). The RMS angle between them measures how
-    well the movement and the orientations (their relative heading included) agree with a
-    hinge."""
+    For a hinge ``R_world_from_1(t)·j1 = R_world_from_2(t)·j2`` at every instant (the second
+    sensor's orientations already turned by any heading offset); the sign of ``j2`` is the one
+    that makes them agree on average over the orientations given ((N, 4) each, same instants;
+    non-finite rows left out). The RMS angle between them measures how well the movement
+    agrees with a hinge."""
     a = rot.rotate(np.asarray(q_world_from_sensor1, dtype=np.float64), np.asarray(j1_sensor, dtype=np.float64))
     j2 = np.asarray(j2_sensor, dtype=np.float64)
     b = rot.rotate(np.asarray(q_world_from_sensor2, dtype=np.float64), j2)
