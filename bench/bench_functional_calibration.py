@@ -20,7 +20,8 @@ and against OpenSense.
    and ``knee_angle`` the Rajagopal knee's one coordinate, both zero in the calibration pose
    and positive in flexion, as our hip and knee flexion; no offset is removed. RMS difference,
    Pearson r and mean difference per column, over the whole recording and over the example's
-   IK range (7.25-15 s).
+   IK range (7.25-15 s); the same for our heading-mode calibration (first row, pelvis sensor's
+   z forward, what OpenSense's placer assumes) as a reference.
 
 Run: ``.venv/bin/python bench/bench_functional_calibration.py [--seeds 0-3] [--no-opensense]``.
 """
@@ -135,16 +136,23 @@ def opensense(folder: Path, data: Path) -> None:
     print(printed.getvalue().rstrip())
     assert code == 0
     assert quiet(["angles", str(imu), *names, "--calibration", str(calibration), "--out", str(angles)]) == 0
-    ours = read_angles_csv(angles)
-    print("\n== OpenSense walk: our functional calibration vs OpenSense's IMUPlacer + IMU IK")
-    for label, (start, stop) in (("whole recording", (0.0, np.inf)), ("the example's IK range 7.25-15 s", (7.25, 15.0))):
-        keep = (ik.t_s >= start) & (ik.t_s <= stop)
-        print(f"  {label} ({int(keep.sum())} rows):")
-        for column, theirs in OPENSENSE_PAIRS:
-            a = np.interp(ik.t_s[keep], ours.t_s, ours.angles_deg[column])
-            b = ik.angles_deg[theirs][keep]
-            print(f"    {column:20s} vs {theirs:14s} RMS {np.sqrt(np.mean((a - b) ** 2)):5.2f}°  "
-                  f"r {np.corrcoef(a, b)[0, 1]:.4f}  mean difference {np.mean(a - b):+5.2f}°")
+    ours = {"functional": read_angles_csv(angles)}
+    heading = folder / "HEADING.json"
+    assert quiet(["bodycal", str(imu), *names, "--mapping", OPENSENSE_MAPPING, "--heading-from", "pelvis_imu:z",
+                  "--out", str(heading)]) == 0
+    assert quiet(["angles", str(imu), *names, "--calibration", str(heading), "--out", str(angles)]) == 0
+    ours["heading mode (pelvis_imu:z, first row)"] = read_angles_csv(angles)
+    for method, table in ours.items():
+        print(f"\n== OpenSense walk: our {method} calibration vs OpenSense's IMUPlacer + IMU IK")
+        for label, (start, stop) in (("whole recording", (0.0, np.inf)),
+                                     ("the example's IK range 7.25-15 s", (7.25, 15.0))):
+            keep = (ik.t_s >= start) & (ik.t_s <= stop)
+            print(f"  {label} ({int(keep.sum())} rows):")
+            for column, theirs in OPENSENSE_PAIRS:
+                a = np.interp(ik.t_s[keep], table.t_s, table.angles_deg[column])
+                b = ik.angles_deg[theirs][keep]
+                print(f"    {column:20s} vs {theirs:14s} RMS {np.sqrt(np.mean((a - b) ** 2)):5.2f}°  "
+                      f"r {np.corrcoef(a, b)[0, 1]:.4f}  mean difference {np.mean(a - b):+5.2f}°")
 
 
 def parse_seeds(text: str) -> list[int]:

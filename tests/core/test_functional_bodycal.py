@@ -111,7 +111,7 @@ def test_feet_take_the_ankle_axis_signed_by_the_shank():
 def test_without_legs_the_elbows_give_the_forward_direction():
     """Seated, only the arms move: the elbows flex from hanging."""
     mountings = random_mountings(TEN, 9)
-    t, sensors, mapping, _, angles = walking_recording(np.radians(200.0), mountings)
+    t, sensors, mapping, _, _ = walking_recording(np.radians(200.0), mountings)
     upper = {s: mapping[s] for s in ("thorax", "upper_arm_l", "upper_arm_r", "forearm_l", "forearm_r")}
     cal = fb.calibrate_functional(t, sensors, upper, STILL, MOVEMENT)
     assert cal.quality.walking_direction_from == ("elbow_l", "elbow_r")

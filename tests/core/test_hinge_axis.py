@@ -67,7 +67,7 @@ def test_secondary_rotation_in_step_with_flexion_pulls_the_rate_constraint_not_t
 def test_a_heading_disagreement_between_the_sensors_is_found_and_left_out(offset_deg, up):
     """The second sensor's heading is off by a constant turn about the world's up (its own
     magnetometer, its own filter): the axes are found as if it were not, and the turn with them."""
-    t, q1, q2, j1, j2, _ = hinge_motion(7)
+    _, q1, q2, j1, j2, _ = hinge_motion(7)
     turned = rot.multiply(rot.from_axis_angle(up, np.radians(offset_deg)), q2)
     a1, a2, offset = ha.fit_hinge_from_orientations(q1, turned, up)
     assert deg(a1, j1) < 1e-6 and deg(a2, j2) < 1e-6
@@ -87,7 +87,7 @@ def test_angular_rates_of_a_steady_turn():
 
 
 def test_consistent_signs_and_the_hinge_angle():
-    t, q1, q2, j1, j2, flexion = hinge_motion(5)
+    _, q1, q2, j1, j2, flexion = hinge_motion(5)
     turned, residual = ha.consistent_signs(j1, -j2, q1, q2)
     np.testing.assert_allclose(turned, j2, atol=1e-12)
     assert residual < 1e-6

@@ -128,13 +128,18 @@ class BodyCalSettings:
     forward_from: str = "swing"
 
     def __post_init__(self) -> None:
-        if self.forward_from not in ("swing", "rotation_axis"):
-            raise ValueError(f"BodyCalSettings.forward_from must be 'swing' or 'rotation_axis', got {self.forward_from!r}")
-        for name, value in self.__dict__.items():
-            if name == "forward_from":
-                continue
-            if not np.isfinite(value) or value < 0.0:
-                raise ValueError(f"BodyCalSettings.{name} must be a finite non-negative angle, got {value}")
+        check_settings(self, "forward_from", ("swing", "rotation_axis"))
+
+
+def check_settings(settings: object, choice: str, options: Sequence[str]) -> None:
+    """``ValueError`` naming the field of a settings dataclass whose ``choice`` field is not one
+    of ``options`` or whose other fields (angles, limits) are not finite and non-negative."""
+    kind = type(settings).__name__
+    if getattr(settings, choice) not in options:
+        raise ValueError(f"{kind}.{choice} must be one of {', '.join(options)}, got {getattr(settings, choice)!r}")
+    for name, value in settings.__dict__.items():
+        if name != choice and (not np.isfinite(value) or value < 0.0):
+            raise ValueError(f"{kind}.{name} must be a finite non-negative number, got {value}")
 
 
 DEFAULT_SETTINGS = BodyCalSettings()
@@ -282,14 +287,14 @@ class BodyCalibration:
         if data.get("format_version") != 1:
             raise ValueError(f"{origin}: unsupported body calibration version {data.get('format_version')!r}")
         try:
-            q_body = _unit_quaternion(data["q_world_from_body"], f"{origin}: q_world_from_body")
+            q_body = unit_quaternion(data["q_world_from_body"], f"{origin}: q_world_from_body")
             up = np.asarray(data["up_world"], dtype=np.float64)
             if up.shape != (3,) or not np.isclose(np.linalg.norm(up), 1.0, atol=1e-6):
                 raise ValueError(f"{origin}: up_world must be a unit 3-vector")
             sensors, q_seg = {}, {}
             for seg, entry in data["segments"].items():
                 sensors[seg] = str(entry["sensor"])
-                q_seg[seg] = _unit_quaternion(entry["q_segment_from_sensor"], f"{origin}: segment {seg}")
+                q_seg[seg] = unit_quaternion(entry["q_segment_from_sensor"], f"{origin}: segment {seg}")
             quality_data = data.get("quality", {})
             quality = CalibrationQuality(
                 method=str(data.get("method", quality_data.get("method", ""))),
@@ -330,7 +335,9 @@ def with_doubtful_sensors(calibration: BodyCalibration, reasons: Mapping[str, st
     return replace(calibration, quality=quality)
 
 
-def _unit_quaternion(value: object, what: str) -> FloatArray:
+def unit_quaternion(value: object, what: str) -> FloatArray:
+    """``value`` as a unit quaternion (4,); ``ValueError`` naming ``what`` unless it is four
+    finite numbers of norm 1 (within 1e-3)."""
     q = np.asarray(value, dtype=np.float64)
     if q.shape != (4,) or not np.all(np.isfinite(q)) or abs(np.linalg.norm(q) - 1.0) > 1e-3:
         raise ValueError(f"{what}: expected a unit quaternion [w, x, y, z], got {value!r}")
@@ -740,7 +747,7 @@ def calibrate_npose_tpose(
     q_world_from_body = q_world_from_body_from_forward(forward, up)
     verdict, problems = verdict_of(checks)
     quality = CalibrationQuality("npose_tpose", tuple(stillness), tuple(fits), disagreement, None, verdict, problems)
-    given = {sensor: _unit_quaternion(q, f"N-pose orientation of sensor {sensor}")
+    given = {sensor: unit_quaternion(q, f"N-pose orientation of sensor {sensor}")
              for sensor, q in (npose_orientations or {}).items() if sensor in means}
     segments = _segment_rotations(q_world_from_body, {**means, **given}, mapping, q_segment_from_body_npose)
     details = {"npose_s": [float(npose_s[0]), float(npose_s[1])], "tpose_s": [float(tpose_s[0]), float(tpose_s[1])]}

@@ -17,7 +17,8 @@ The segment frame in its sensor's coordinates, ``R_sensor_from_segment = [x_s y_
   the hand) found from the movement (:mod:`mimucap.core.hinge_axis`; Seel, Raisch, Schauer,
   "IMU-based joint angle measurement for gait analysis", 2014; Laidig, Lehmann, Bégin, Seel,
   "Exploiting kinematic constraints to compensate magnetometer disturbances when calculating
-  joint angles of approximate hinge joints", 2017), made perpendicular to ``y_s``. Its sign is
+  joint angles of approximate hinge joints", 2017), with the two sensors' heading disagreement
+  left out of the fit, made perpendicular to ``y_s``. Its sign is
   physical: a knee flexes one way only (the distal segment turns backwards about the
   right-pointing axis), an elbow the other way; the ankle's and wrist's axes point the way
   their proximal segment's does (those joints move both ways from standing).
@@ -44,10 +45,10 @@ zero by construction as after an N-pose.
 How well the movement defined each axis (:class:`FunctionalQuality`, graded into the verdict
 with words naming the axis): per hinge, the flexion excursion (the axis is defined by the
 turning about it), how far the two sensors' axes stayed from one direction in the world (the
-joint moved as a hinge), the angle between the axes fitted on each half of the movement
-(repeatability), the axis' tilt from horizontal when standing, and the angle between the left
-and right axes when standing; per walking-direction segment, its spread and the angle between
-the two halves' estimates.
+joint moved as a hinge), the angle between the axes fitted on each half of the joint's turning
+(repeatability), the axis' tilt from horizontal when standing, the two sensors' heading
+disagreement, and the angle between the left and right axes when standing; per
+walking-direction segment, its spread and the angle between the two halves' estimates.
 """
 
 from __future__ import annotations
@@ -64,13 +65,15 @@ from mimucap.core.bodycal import (
     BodyCalibration,
     CalibrationQuality,
     CalibrationRefused,
-    _unit_quaternion,
+    unit_quaternion,
     check_mapping,
+    check_settings,
     grade,
     horizontal,
     pose_window,
     q_world_from_body_from_forward,
     stillness_checks,
+    unit_quaternion,
     unit_vector,
     verdict_of,
     window_means,
@@ -175,14 +178,7 @@ class FunctionalSettings:
     hinge_from: str = "orientations"
 
     def __post_init__(self) -> None:
-        if self.hinge_from not in hinge_axis.ESTIMATORS:
-            raise ValueError(f"FunctionalSettings.hinge_from must be one of {', '.join(hinge_axis.ESTIMATORS)}, "
-                             f"got {self.hinge_from!r}")
-        for name, value in self.__dict__.items():
-            if name == "hinge_from":
-                continue
-            if not np.isfinite(value) or value < 0.0:
-                raise ValueError(f"FunctionalSettings.{name} must be a finite non-negative number, got {value}")
+        check_settings(self, "hinge_from", hinge_axis.ESTIMATORS)
 
 
 DEFAULT_FUNCTIONAL_SETTINGS = FunctionalSettings()
@@ -469,7 +465,7 @@ def calibrate_functional(
     sensors = list(dict.fromkeys(mapping.values()))
     means, stillness = window_means(q_world_from_sensor, sensors, still, STILL_POSE)
     checks = stillness_checks(stillness, settings.stillness_limit_deg, settings.stillness_good_deg)
-    given = {sensor: _unit_quaternion(q, f"still orientation of sensor {sensor}")
+    given = {sensor: unit_quaternion(q, f"still orientation of sensor {sensor}")
              for sensor, q in (still_orientations or {}).items() if sensor in means}
     q_still = {**means, **given}
     up_sensor = {segment: rot.rotate(rot.conjugate(q_still[sensor]), up) for segment, sensor in mapping.items()}
