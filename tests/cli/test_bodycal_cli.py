@@ -475,3 +475,24 @@ def test_options_of_another_method_are_refused(suit, suit_csv, tmp_path, capsys,
     err = run_error(["bodycal", str(suit_csv), "--mapping", suit[2], *extra, "--out", str(tmp_path / "c.json")], capsys)
     assert message in err
     assert not (tmp_path / "c.json").exists()
+
+
+def test_a_poor_functional_calibration_is_written_and_exits_3(tmp_path, capsys):
+    """Standing 0-1 s, then knees that bend only 10°: their axes are weakly defined."""
+    rng = np.random.default_rng(21)
+    t = np.arange(0.0, 6.0, 0.01)
+    bend = 10.0 * (t > 1.0) * 0.5 * (1 - np.cos(2 * np.pi * t / 1.1))
+    angles = {f"knee_{side}": np.column_stack((bend, np.zeros_like(t), np.zeros_like(t))) for side in "lr"}
+    legs = ("pelvis", "thigh_l", "thigh_r", "shank_l", "shank_r")
+    q_body = np.broadcast_to(sk.q_world_from_body_facing(0.7), (t.size, 4))
+    segments = sk.segment_orientations_from_joint_angles(TEN, q_body, angles)
+    sensors = {f"imu{i}": rot.multiply(segments[s], rot.normalize(rng.normal(size=4))) for i, s in enumerate(legs)}
+    path = tmp_path / "legs.csv"
+    write_quaternion_csv(path, QuaternionTable(t, sensors, source="legs"))
+    argv = ["bodycal", str(path), "--mapping", ",".join(f"imu{i}={s}" for i, s in enumerate(legs)),
+            "--method", "functional", "--out", str(tmp_path / "c.json")]
+    assert main(argv) == 3
+    err = capsys.readouterr().err
+    assert "verdict is poor (the knee (left) moved only 10°" in err and "redo the movement" in err
+    assert (tmp_path / "c.json").exists()
+    assert main(argv + ["--accept-poor"]) == 0

@@ -196,3 +196,23 @@ def test_settings_are_checked():
         fb.FunctionalSettings(hinge_from="magic")
     with pytest.raises(ValueError, match="halves_good_deg must be a finite non-negative"):
         fb.FunctionalSettings(halves_good_deg=-1.0)
+
+
+def test_elbow_flexions_with_the_upper_arms_still():
+    """Seated, upper arms hanging still, the elbows flexed to 90° a few times: the sensors'
+    heading disagreement cannot be seen (the upper arm keeps its orientation), so their
+    headings are taken as they are, and the axes come out exact."""
+    mountings = random_mountings(TEN, 17)
+    t = np.arange(0.0, 8.0, 0.01)
+    flexion = 45.0 * (1 - np.cos(2 * np.pi * np.clip(t - 1.0, 0.0, None) / 1.5))
+    angles = {f"elbow_{s}": np.column_stack((flexion, np.zeros_like(t), np.zeros_like(t))) for s in "lr"}
+    q_body = np.broadcast_to(sk.q_world_from_body_facing(2.0), (t.size, 4))
+    segments = sk.segment_orientations_from_joint_angles(TEN, q_body, angles)
+    upper = ("thorax", "upper_arm_l", "upper_arm_r", "forearm_l", "forearm_r")
+    sensors = {s: rot.multiply(segments[s], mountings[s]) for s in upper}
+    cal = fb.calibrate_functional(t, sensors, {s: s for s in upper}, STILL, (1.0, 7.99))
+    assert cal.quality.verdict == "good", cal.quality.problems
+    elbow = next(h for h in cal.quality.hinges if h.joint == "elbow_r")
+    assert elbow.heading_offset_deg is None and elbow.flexion_high_deg > 85.0
+    for segment in upper:
+        assert deg_between(cal.q_segment_from_sensor[segment], mountings[segment]) < 0.05, segment

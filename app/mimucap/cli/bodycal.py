@@ -417,8 +417,9 @@ def _print_summary(args, calibration) -> None:
         state = "used" if hinge.used else f"not used: {hinge.note}"
         print(f"  {hinge.joint} axis ({hinge.proximal_sensor}, {hinge.distal_sensor}): flexion "
               f"{hinge.flexion_low_deg:.0f} to {hinge.flexion_high_deg:.0f}°, sensors' axes {hinge.residual_deg:.1f}° "
-              f"RMS apart, halves {hinge.halves_deg:.1f}° apart, tilt {hinge.tilt_deg:.0f}°, headings "
-              f"{hinge.heading_offset_deg:+.1f}° apart; {state}")
+              f"RMS apart, halves {hinge.halves_deg:.1f}° apart, tilt {hinge.tilt_deg:.0f}°, "
+              + ("headings taken as they are (a segment hardly swung)" if hinge.heading_offset_deg is None else
+                 f"headings {hinge.heading_offset_deg:+.1f}° apart") + f"; {state}")
     for forward in getattr(quality, "forwards", ()):
         print(f"  {forward.segment} ({forward.sensor}) faces the walking direction: spread {forward.spread_deg:.1f}°, "
               f"halves {forward.halves_deg:.1f}° apart")

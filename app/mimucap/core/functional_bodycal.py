@@ -155,7 +155,10 @@ class FunctionalSettings:
     standing ``left_right_good_deg`` (10) / ``left_right_acceptable_deg``
     (20); heading disagreement of a knee's (or elbow's) two sensors ``heading_offset_good_deg``
     (5) / ``heading_offset_acceptable_deg`` (10): it is left out of the axes, but the joint's
-    axial rotation, computed later from the same sensors, carries it. ``hinge_from``:
+    axial rotation, computed later from the same sensors, carries it; that disagreement is sought
+    only when both segments' long axes swung at least ``min_swing_deg`` (10) from vertical (a
+    segment that keeps its orientation would take up any heading turn of the other in its
+    axis). ``hinge_from``:
     ``"orientations"`` (default) or ``"rates"``, the estimator of :mod:`mimucap.core.hinge_axis`.
     """
 
@@ -175,6 +178,7 @@ class FunctionalSettings:
     left_right_acceptable_deg: float = 20.0
     heading_offset_good_deg: float = 5.0
     heading_offset_acceptable_deg: float = 10.0
+    min_swing_deg: float = 10.0
     hinge_from: str = "orientations"
 
     def __post_init__(self) -> None:
@@ -192,7 +196,8 @@ class HingeAxisFit:
     across the segment's long axis (the segment's lateral axis), pointing to the body's right
     once signed (``signed``); ``heading_offset_deg`` the turn about the vertical that best
     reconciles the two sensors' headings with a hinge (their filters' heading disagreement,
-    left out of the fit); ``flexion_low_deg`` and
+    left out of the fit), None when a segment hardly swung and the headings were taken as they
+    are; ``flexion_low_deg`` and
     ``flexion_high_deg`` the 2.5th and 97.5th percentiles of the flexion during the movement,
     counted from the still window; ``residual_deg`` the RMS angle between the two sensors'
     axes in the world (the offset removed); ``halves_deg`` the larger angle between either sensor's axis fitted on
@@ -206,7 +211,7 @@ class HingeAxisFit:
     distal_sensor: str
     j_proximal_sensor: FloatArray
     j_distal_sensor: FloatArray
-    heading_offset_deg: float
+    heading_offset_deg: float | None
     flexion_low_deg: float
     flexion_high_deg: float
     residual_deg: float
@@ -297,18 +302,29 @@ def _angle_deg(a: FloatArray, b: FloatArray, signed: bool = True) -> float:
     return float(np.degrees(np.arccos(np.clip(cos if signed else abs(cos), -1.0, 1.0))))
 
 
-def _fit_axes(q1: FloatArray, q2: FloatArray, t: FloatArray, estimator: str, up_world: FloatArray
-              ) -> tuple[FloatArray, FloatArray, float]:
-    """The hinge axes (signed alike) and the second sensor's heading offset (rad)."""
+def _fit_axes(q1: FloatArray, q2: FloatArray, t: FloatArray, estimator: str, up_world: FloatArray,
+              find_offset: bool) -> tuple[FloatArray, FloatArray, float]:
+    """The hinge axes (signed alike) and the second sensor's heading offset (rad; 0 unless
+    ``find_offset``)."""
     if estimator == "orientations":
-        return hinge_axis.fit_hinge_from_orientations(q1, q2, up_world)
+        return hinge_axis.fit_hinge_from_orientations(q1, q2, up_world, find_offset)
     index1, rates1 = hinge_axis.angular_rates(t, q1)
     index2, rates2 = hinge_axis.angular_rates(t, q2)
     _, at1, at2 = np.intersect1d(index1, index2, return_indices=True)
     j1, j2 = hinge_axis.fit_hinge_from_rates(rates1[at1], rates2[at2])
     j2, _ = hinge_axis.consistent_signs(j1, j2, q1, q2)
+    if not find_offset:
+        return j1, j2, 0.0
     finite = np.all(np.isfinite(q1), axis=1) & np.all(np.isfinite(q2), axis=1)
     return j1, j2, hinge_axis.heading_offset_rad(rot.rotate(q1[finite], j1), rot.rotate(q2[finite], j2), up_world)
+
+
+def swing_deg(track: FloatArray, up_sensor: FloatArray, up_world: FloatArray) -> float:
+    """How far (deg) a segment's long axis ``up_sensor`` (3,), vertical standing, tilted while
+    its sensor turned as ``track`` (N, 4): the 97.5th percentile of its angle from vertical."""
+    tilted = rot.rotate(track, up_sensor) @ up_world
+    tilted = tilted[np.isfinite(tilted)]
+    return float(np.percentile(np.degrees(np.arccos(np.clip(tilted, -1.0, 1.0))), 97.5)) if tilted.size else 0.0
 
 
 def fit_hinge(hinge: Hinge, sensors: tuple[str, str], t_s: FloatArray, tracks: tuple[FloatArray, FloatArray],
@@ -316,10 +332,14 @@ def fit_hinge(hinge: Hinge, sensors: tuple[str, str], t_s: FloatArray, tracks: t
               up_world: FloatArray, settings: FunctionalSettings) -> HingeAxisFit:
     """Fit ``hinge`` on the movement: ``tracks`` the two sensors' orientations (N, 4) at the
     instants ``t_s`` (N,); ``still`` their mean orientations (4,) standing; ``up_sensor`` the
-    up direction (3,) in each sensor's frame standing. A one-sided joint's axes are signed by
-    its excursion; the others' are returned unsigned (``signed`` False)."""
+    up direction (3,) in each sensor's frame standing. The sensors' heading offset is found only
+    when both segments swung by ``settings.min_swing_deg`` (it is not observable otherwise). A
+    one-sided joint's axes are signed by its excursion; the others' are returned unsigned
+    (``signed`` False)."""
     q1 = tracks[0]
-    raw1, raw2, offset = _fit_axes(tracks[0], tracks[1], t_s, settings.hinge_from, up_world)
+    swing = min(swing_deg(track, up, up_world) for track, up in zip(tracks, up_sensor))
+    find_offset = swing >= settings.min_swing_deg
+    raw1, raw2, offset = _fit_axes(tracks[0], tracks[1], t_s, settings.hinge_from, up_world, find_offset)
     # The second sensor's orientations with the two sensors' heading disagreement removed.
     turn = rot.from_axis_angle(up_world, offset)
     q2 = rot.multiply(turn, tracks[1])
@@ -328,17 +348,20 @@ def fit_hinge(hinge: Hinge, sensors: tuple[str, str], t_s: FloatArray, tracks: t
                for q, j in ((still[0], raw1), (still[1], raw2)))
     # The segments' lateral axes: the parts of the hinge axis across their long axes.
     j1, j2 = across(raw1, up_sensor[0]), across(raw2, up_sensor[1])
+    note, signed = "", False
+    if not (np.all(np.isfinite(j1)) and np.all(np.isfinite(j2))):
+        j1, j2 = raw1, raw2
+        note = f"its axis lies along a segment's long axis ({tilt:.0f}° from horizontal when standing)"
     j2, residual = hinge_axis.consistent_signs(j1, j2, q1, q2)
     reference = rot.multiply(rot.conjugate(still[0]), still2)
     flexion_track = hinge.flexion_sign * np.degrees(hinge_axis.hinge_angle_rad(j1, q1, q2, reference))
     flexion = flexion_track[np.isfinite(flexion_track)]
     low, high = (float(v) for v in np.percentile(flexion, [2.5, 97.5]))
-    note, signed = "", False
     if hinge.one_sided:
         if -low > high:  # it bent the other way: the axis points left
             j1, j2, low, high = -j1, -j2, -high, -low
         signed = True
-        if -low > settings.max_backward_share * high:
+        if not note and -low > settings.max_backward_share * high:
             note = (f"it turned {high:.0f}° one way and {-low:.0f}° the other from standing: flexion cannot be "
                     "told from extension")
     if not note and high - low < settings.min_excursion_deg:
@@ -348,15 +371,16 @@ def fit_hinge(hinge: Hinge, sensors: tuple[str, str], t_s: FloatArray, tracks: t
     half = int(np.searchsorted(turned, 0.5 * turned[-1]))
     halves = 0.0
     if min(half, q1.shape[0] - half) >= hinge_axis.MIN_SAMPLES:
-        first = _fit_axes(q1[:half], tracks[1][:half], t_s[:half], settings.hinge_from, up_world)
-        second = _fit_axes(q1[half:], tracks[1][half:], t_s[half:], settings.hinge_from, up_world)
+        first = _fit_axes(q1[:half], tracks[1][:half], t_s[:half], settings.hinge_from, up_world, find_offset)
+        second = _fit_axes(q1[half:], tracks[1][half:], t_s[half:], settings.hinge_from, up_world, find_offset)
         for k in (0, 1):
-            halves = max(halves, _angle_deg(across(first[k], up_sensor[k]), across(second[k], up_sensor[k]),
-                                            signed=False))
+            a, b = across(first[k], up_sensor[k]), across(second[k], up_sensor[k])
+            halves = max(halves, _angle_deg(a, b, signed=False) if np.all(np.isfinite(a + b)) else 90.0)
     if not note and not hinge.one_sided and halves > settings.halves_acceptable_deg:
         note = f"the axes of the movement's two halves differ by {halves:.0f}°"
-    return HingeAxisFit(hinge.joint, sensors[0], sensors[1], j1, j2, float(np.degrees(offset)), low, high, residual,
-                        halves, tilt, used=not note, signed=signed, note=note, n_samples=int(q1.shape[0]))
+    return HingeAxisFit(hinge.joint, sensors[0], sensors[1], j1, j2, float(np.degrees(offset)) if find_offset else None,
+                        low, high, residual, halves, tilt, used=not note, signed=signed, note=note,
+                        n_samples=int(q1.shape[0]))
 
 
 def walking_direction(tracks: Sequence[FloatArray], z_sensor: Sequence[FloatArray], up_world: FloatArray
@@ -595,9 +619,11 @@ def _checks(fits: Mapping[str, HingeAxisFit], forwards: Sequence[ForwardAxisFit]
         if hinge.one_sided:
             checks.append((grade(fit.tilt_deg, s.tilt_good_deg, s.tilt_acceptable_deg),
                            f"the {name} axis is tilted {fit.tilt_deg:.0f}° from horizontal when standing"))
-            checks.append((grade(abs(fit.heading_offset_deg), s.heading_offset_good_deg, s.heading_offset_acceptable_deg),
-                           f"the {name}'s two sensors disagree on their heading by {abs(fit.heading_offset_deg):.0f}° "
-                           "(check their magnetometer calibrations): its rotation angle will carry it"))
+            if fit.heading_offset_deg is not None:
+                offset = abs(fit.heading_offset_deg)
+                checks.append((grade(offset, s.heading_offset_good_deg, s.heading_offset_acceptable_deg),
+                               f"the {name}'s two sensors disagree on their heading by {offset:.0f}° (check their "
+                               "magnetometer calibrations): its rotation angle will carry it"))
     for kind, angle in left_right.items():
         checks.append((grade(angle, s.left_right_good_deg, s.left_right_acceptable_deg),
                        f"the left and right {kind} axes differ by {angle:.0f}° when standing"))

@@ -104,12 +104,16 @@ def heading_offset_rad(v1_world: ArrayLike, v2_world: ArrayLike, up_world: Array
 
 
 def fit_hinge_from_orientations(q_world_from_sensor1: ArrayLike, q_world_from_sensor2: ArrayLike,
-                                up_world: ArrayLike = (0.0, 0.0, 1.0)) -> tuple[FloatArray, FloatArray, float]:
+                                up_world: ArrayLike = (0.0, 0.0, 1.0), find_offset: bool = True
+                                ) -> tuple[FloatArray, FloatArray, float]:
     """``(j1, j2, δ)``: the hinge axis (3,) in each sensor's frame, pointing the same way, and the
     heading offset ``δ`` (rad, within ±:data:`MAX_HEADING_OFFSET_DEG`) of the second sensor about
-    ``up_world``, from
-    orientation tracks ``(N, 4)`` at the same instants (non-finite rows left out; at least
-    :data:`MIN_SAMPLES`): least squares on the hinge constraint (module docstring).
+    ``up_world``, from orientation tracks ``(N, 4)`` at the same instants (non-finite rows left
+    out; at least :data:`MIN_SAMPLES`): least squares on the hinge constraint (module
+    docstring). With ``find_offset`` False, ``δ = 0``: the sensors' headings are trusted (the
+    offset is not observable when one segment keeps its orientation, as a still upper arm while
+    the elbow flexes: a turn of the other sensor's heading is then taken up by the still one's
+    axis).
 
     For a given ``δ`` the best axes give ``Σ (R1 j1)·(R_up(δ) R2 j2) = σ1(M(δ))``, the largest
     singular value of ``M(δ) = Σ R_1_from_world R_up(δ) R_world_from_2``, and
@@ -136,12 +140,14 @@ def fit_hinge_from_orientations(q_world_from_sensor1: ArrayLike, q_world_from_se
     def largest(delta: float) -> float:
         return float(np.linalg.svd(matrix(delta), compute_uv=False)[0])
 
-    grid = np.radians(np.arange(-MAX_HEADING_OFFSET_DEG, MAX_HEADING_OFFSET_DEG + 0.5, 1.0))
-    best = float(grid[int(np.argmax([largest(d) for d in grid]))])
-    step = np.radians(1.0)
-    found = minimize_scalar(lambda d: -largest(d), bounds=(best - step, best + step), method="bounded",
-                            options={"xatol": STEP_TOLERANCE_RAD})
-    delta = float(found.x) if -found.fun >= largest(best) else best
+    delta = 0.0
+    if find_offset:
+        grid = np.radians(np.arange(-MAX_HEADING_OFFSET_DEG, MAX_HEADING_OFFSET_DEG + 0.5, 1.0))
+        best = float(grid[int(np.argmax([largest(d) for d in grid]))])
+        step = np.radians(1.0)
+        found = minimize_scalar(lambda d: -largest(d), bounds=(best - step, best + step), method="bounded",
+                                options={"xatol": STEP_TOLERANCE_RAD})
+        delta = float(found.x) if -found.fun >= largest(best) else best
     u, _s, vt = np.linalg.svd(matrix(delta))
     return u[:, 0], vt[0], delta
 
