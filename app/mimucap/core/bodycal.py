@@ -349,6 +349,7 @@ def unit_quaternion(value: object, what: str) -> FloatArray:
 # --------------------------------------------------------------------------------------------
 
 def unit_vector(v: ArrayLike, what: str) -> FloatArray:
+    """``v`` (3,) normalised; ``ValueError`` naming ``what`` for a zero or non-finite vector."""
     v = np.asarray(v, dtype=np.float64)
     n = np.linalg.norm(v)
     if v.shape != (3,) or not np.isfinite(n) or n < 1e-12:
