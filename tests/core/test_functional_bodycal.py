@@ -128,8 +128,13 @@ def test_a_knee_that_did_not_bend_is_named_and_its_segments_face_the_walking_dir
     assert not knee.used and "moved only" in knee.note
     assert cal.quality.axis_sources["thigh_r"] == fb.WALKING_DIRECTION
     assert cal.quality.walking_direction_from == ("elbow_l", "elbow_r")
-    assert any("the knee (right) axis is not defined by the movement" in p and "thigh_r, shank_r face the walking "
-               "direction" in p for p in cal.quality.problems)
+    assert any("Right knee axis not defined by the movement" in p and "the right thigh and right shank face the "
+               "walking direction" in p for p in cal.quality.problems)
+    # its verdict says so, axis by axis
+    axes = {axis.axis: axis for axis in cal.quality.axes}
+    assert axes["knee_r"].verdict == fb.NOT_DEFINED and "it moved only" in axes["knee_r"].words
+    assert axes["thigh_r"].verdict == "good" and axes["thigh_r"].words.startswith("Right thigh faces the walking")
+    assert axes["elbow_l"].verdict == "good" and axes["elbow_l"].segments == ("upper_arm_l", "forearm_l")
 
 
 def test_the_verdict_names_a_weakly_defined_axis():
@@ -137,7 +142,11 @@ def test_the_verdict_names_a_weakly_defined_axis():
     t, sensors, mapping, _, _ = walking_recording(0.0, mountings, knee_peak_deg=14.0)
     cal = fb.calibrate_functional(t, sensors, mapping, STILL, MOVEMENT)
     assert cal.quality.verdict == "acceptable"
-    assert any(p.startswith("the knee (left) moved only 14°") for p in cal.quality.problems), cal.quality.problems
+    assert any(p.startswith("the left knee moved only 14°") for p in cal.quality.problems), cal.quality.problems
+    knee = next(axis for axis in cal.quality.axes if axis.axis == "knee_l")
+    assert knee.verdict == "acceptable" and knee.words.startswith("Left knee axis acceptable: it bent")
+    assert "the left knee moved only 14°: its axis is weakly defined" in knee.words
+    assert next(axis for axis in cal.quality.axes if axis.axis == "elbow_l").verdict == "good"
 
 
 def test_nothing_bent_is_refused_naming_the_joints():

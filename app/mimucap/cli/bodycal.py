@@ -413,6 +413,11 @@ def _print_summary(args, calibration) -> None:
         print(f"  left/right axis disagreement {quality.left_right_disagreement_deg:.1f}°")
     if quality.heading_axis_tilt_deg is not None:
         print(f"  heading axis tilt {quality.heading_axis_tilt_deg:.1f}°")
+    axes = getattr(quality, "axes", ())
+    if axes:
+        print("  how well the movement defined each axis:")
+        for axis in axes:
+            print(f"    {axis.words}")
     for hinge in getattr(quality, "hinges", ()):
         state = "used" if hinge.used else f"not used: {hinge.note}"
         print(f"  {hinge.joint} axis ({hinge.proximal_sensor}, {hinge.distal_sensor}): flexion "
@@ -421,8 +426,7 @@ def _print_summary(args, calibration) -> None:
               + ("headings taken as they are (a segment hardly swung)" if hinge.heading_offset_deg is None else
                  f"headings {hinge.heading_offset_deg:+.1f}° apart") + f"; {state}")
     for forward in getattr(quality, "forwards", ()):
-        print(f"  {forward.segment} ({forward.sensor}) faces the walking direction: spread {forward.spread_deg:.1f}°, "
-              f"halves {forward.halves_deg:.1f}° apart")
+        print(f"  {forward.segment} ({forward.sensor}) faces the walking direction: spread {forward.spread_deg:.1f}°")
     for kind, angle in getattr(quality, "left_right_deg", {}).items():
         print(f"  left and right {kind} axes {angle:.1f}° apart when standing")
     worst = max(quality.stillness, key=lambda s: s.max_deviation_deg)

@@ -61,11 +61,12 @@ from numpy.typing import ArrayLike, NDArray
 
 from mimucap.core import hinge_axis
 from mimucap.core import rotation as rot
+from mimucap.core.clinical_names import joint_name, segment_name
 from mimucap.core.bodycal import (
     BodyCalibration,
     CalibrationQuality,
+    VERDICTS,
     CalibrationRefused,
-    unit_quaternion,
     check_mapping,
     check_settings,
     grade,
@@ -257,6 +258,29 @@ class ForwardAxisFit:
 
 
 @dataclass(frozen=True)
+class AxisVerdict:
+    """How well the movement defined one axis, for the person who calibrates.
+
+    ``axis``: the hinge joint whose flexion axis it is (``knee_l``), or the segment whose
+    anterior axis is the walking direction (``pelvis``); ``segments`` the segments it gives
+    their frame; ``verdict`` good, acceptable or poor (the worst of its checks; "not defined"
+    when the movement did not define it and its segments took the walking direction); ``words``
+    a sentence in clinical words (joints and segments by name, figures in degrees)."""
+
+    axis: str
+    segments: tuple[str, ...]
+    verdict: str
+    words: str
+
+    def to_dict(self) -> dict:
+        return {"axis": self.axis, "segments": list(self.segments), "verdict": self.verdict, "words": self.words}
+
+
+#: The verdict of an axis that the movement did not define (its segments face the walking direction).
+NOT_DEFINED = "not defined"
+
+
+@dataclass(frozen=True)
 class FunctionalQuality(CalibrationQuality):
     """:class:`~mimucap.core.bodycal.CalibrationQuality` of a functional calibration, with
     ``hinges`` (every hinge fitted), ``forwards`` (every segment faced to the walking
@@ -270,10 +294,12 @@ class FunctionalQuality(CalibrationQuality):
     axis_sources: Mapping[str, str] = field(default_factory=dict)
     walking_direction_from: tuple[str, ...] = ()
     left_right_deg: Mapping[str, float] = field(default_factory=dict)
+    axes: tuple[AxisVerdict, ...] = ()
 
     def to_dict(self) -> dict:
         document = super().to_dict()
         document.update({
+            "axes": [axis.to_dict() for axis in self.axes],
             "hinges": [fit.to_dict() for fit in self.hinges],
             "forwards": [fit.to_dict() for fit in self.forwards],
             "axis_sources": dict(self.axis_sources),
@@ -565,7 +591,11 @@ def calibrate_functional(
         if all(fit is not None and fit.used for fit in pair):
             world = [rot.rotate(q_still[fit.proximal_sensor], fit.j_proximal_sensor) for fit in pair]
             left_right[kind] = _angle_deg(world[0], world[1])
-    checks += _checks(fits, forwards, left_right, mapping, settings)
+    axes = axis_verdicts(fits, forwards, mapping, settings)
+    checks += [check for axis in axes.values() for check in axis[1]]
+    checks += [(grade(angle, settings.left_right_good_deg, settings.left_right_acceptable_deg),
+                f"the left and right {kind} axes differ by {angle:.0f}° when standing")
+               for kind, angle in left_right.items()]
 
     # The body's heading standing: the pelvis's, else the segments' mean.
     heading_from = ["pelvis"] if "pelvis" in mapping else list(mapping)
@@ -575,7 +605,8 @@ def calibrate_functional(
     verdict, problems = verdict_of(checks)
     quality = FunctionalQuality(METHOD, tuple(stillness), verdict=verdict, problems=problems,
                                 hinges=tuple(fits.values()), forwards=tuple(forwards), axis_sources=sources,
-                                walking_direction_from=direction_from, left_right_deg=left_right)
+                                walking_direction_from=direction_from, left_right_deg=left_right,
+                                axes=tuple(verdict for verdict, _ in axes.values()))
     details = {"still_s": [float(still_s[0]), float(still_s[1])],
                "movement_s": [float(movement_s[0]), float(movement_s[1])], "hinge_from": settings.hinge_from}
     if given:
@@ -594,41 +625,56 @@ def _hinge_notes(fits: Mapping[str, HingeAxisFit], joints: Sequence[str]) -> str
     return f"({'; '.join(notes)})" if notes else "(no knee or elbow has sensors on both its segments)"
 
 
-def _checks(fits: Mapping[str, HingeAxisFit], forwards: Sequence[ForwardAxisFit], left_right: Mapping[str, float],
-            mapping: Mapping[str, str], settings: FunctionalSettings) -> list[tuple[int, str]]:
+def axis_verdicts(fits: Mapping[str, HingeAxisFit], forwards: Sequence[ForwardAxisFit], mapping: Mapping[str, str],
+                  settings: FunctionalSettings) -> dict[str, tuple[AxisVerdict, list[tuple[int, str]]]]:
+    """Every axis (hinge joint, or segment faced to the walking direction) → its
+    :class:`AxisVerdict` and its graded checks ``(grade, words)`` (those of the verdict)."""
     s = settings
-    checks: list[tuple[int, str]] = []
+    found: dict[str, tuple[AxisVerdict, list[tuple[int, str]]]] = {}
     for fit in fits.values():
-        name = fit.joint.replace("_l", " (left)").replace("_r", " (right)")
+        name = joint_name(fit.joint)
         hinge = next(h for h in HINGES if h.joint == fit.joint)
+        owned = tuple(seg for seg in (hinge.proximal, hinge.distal)
+                      if AXIS_OWNER.get(seg, ("", ""))[0] == fit.joint and seg in mapping)
         if not fit.used:
-            owned = [seg for seg in (hinge.proximal, hinge.distal)
-                     if AXIS_OWNER.get(seg, ("", ""))[0] == fit.joint and seg in mapping]
             level = 1 if hinge.one_sided else 0
-            checks.append((level, f"the {name} axis is not defined by the movement ({fit.note}); "
-                                  f"{', '.join(owned)} face the walking direction instead"))
+            instead = " and ".join(segment_name(seg).lower() for seg in owned)
+            words = (f"{name} axis not defined by the movement ({fit.note})"
+                     + (f"; the {instead} face the walking direction instead" if owned else ""))
+            found[fit.joint] = (AxisVerdict(fit.joint, (), NOT_DEFINED, words), [(level, words)])
             continue
-        checks.append((grade(-fit.excursion_deg, -s.excursion_good_deg, -s.excursion_acceptable_deg),
-                       f"the {name} moved only {fit.excursion_deg:.0f}°: its axis is weakly defined "
-                       f"(at least {s.excursion_good_deg:g}° wanted)"))
-        checks.append((grade(fit.residual_deg, s.residual_good_deg, s.residual_acceptable_deg),
-                       f"the {name} did not move as a hinge: its axis wandered {fit.residual_deg:.1f}° RMS between "
-                       "its two sensors"))
-        checks.append((grade(fit.halves_deg, s.halves_good_deg, s.halves_acceptable_deg),
-                       f"the {name} axis differs by {fit.halves_deg:.1f}° between the two halves of the movement"))
+        lower = name.lower()
+        checks = [
+            (grade(-fit.excursion_deg, -s.excursion_good_deg, -s.excursion_acceptable_deg),
+             f"the {lower} moved only {fit.excursion_deg:.0f}°: its axis is weakly defined "
+             f"(at least {s.excursion_good_deg:g}° wanted)"),
+            (grade(fit.residual_deg, s.residual_good_deg, s.residual_acceptable_deg),
+             f"the {lower} did not move as a hinge: its axis wandered {fit.residual_deg:.1f}° RMS between its two "
+             "sensors"),
+            (grade(fit.halves_deg, s.halves_good_deg, s.halves_acceptable_deg),
+             f"the {lower} axis differs by {fit.halves_deg:.1f}° between the two halves of the movement"),
+        ]
         if hinge.one_sided:
             checks.append((grade(fit.tilt_deg, s.tilt_good_deg, s.tilt_acceptable_deg),
-                           f"the {name} axis is tilted {fit.tilt_deg:.0f}° from horizontal when standing"))
+                           f"the {lower} axis is tilted {fit.tilt_deg:.0f}° from horizontal when standing"))
             if fit.heading_offset_deg is not None:
                 offset = abs(fit.heading_offset_deg)
                 checks.append((grade(offset, s.heading_offset_good_deg, s.heading_offset_acceptable_deg),
-                               f"the {name}'s two sensors disagree on their heading by {offset:.0f}° (check their "
+                               f"the {lower}'s two sensors disagree on their heading by {offset:.0f}° (check their "
                                "magnetometer calibrations): its rotation angle will carry it"))
-    for kind, angle in left_right.items():
-        checks.append((grade(angle, s.left_right_good_deg, s.left_right_acceptable_deg),
-                       f"the left and right {kind} axes differ by {angle:.0f}° when standing"))
+        verdict, problems = verdict_of(checks)
+        words = (f"{name} axis {verdict}: it bent {fit.flexion_low_deg:.0f}° to {fit.flexion_high_deg:.0f}°, the two "
+                 f"halves of the movement found it within {fit.halves_deg:.1f}° of each other, and it moved as a "
+                 f"hinge within {fit.residual_deg:.0f}° RMS")
+        if problems:
+            words += f" ({'; '.join(problems)})"
+        found[fit.joint] = (AxisVerdict(fit.joint, owned, verdict, words), checks)
     for fit in forwards:
-        checks.append((grade(fit.halves_deg, s.halves_good_deg, s.halves_acceptable_deg),
-                       f"the {fit.segment}'s forward direction differs by {fit.halves_deg:.1f}° between the two halves "
-                       "of the movement"))
-    return checks
+        level = grade(fit.halves_deg, s.halves_good_deg, s.halves_acceptable_deg)
+        name = segment_name(fit.segment)
+        check = (f"the {name.lower()}'s forward direction differs by {fit.halves_deg:.1f}° between the two halves of "
+                 "the movement")
+        words = (f"{name} faces the walking direction, {VERDICTS[level]}: the two halves of the movement found it "
+                 f"within {fit.halves_deg:.1f}° of each other")
+        found[fit.segment] = (AxisVerdict(fit.segment, (fit.segment,), VERDICTS[level], words), [(level, check)])
+    return found
