@@ -417,12 +417,12 @@ def test_functional_calibration_of_a_session_takes_its_windows_from_the_markers(
     assert "verdict good" in out and "pelvis (S01) faces the walking direction" in out
     # the verdict says how well the movement defined each axis, on screen and in the file
     assert "how well the movement defined each axis:\n    Left knee axis good: it bent" in out
-    assert "    Pelvis faces the walking direction, good: the two halves of the movement found it within" in out
+    assert "    Pelvis forward direction good: it faces the walking direction; the two halves of the movement found it within" in out
     document = json.loads(cal.read_text())
     axes = {axis["axis"]: axis for axis in document["quality"]["axes"]}
     assert axes["knee_r"]["verdict"] == "good" and axes["knee_r"]["segments"] == ["thigh_r", "shank_r"]
     assert axes["knee_r"]["words"].startswith("Right knee axis good: it bent")
-    assert axes["thorax"]["verdict"] == "good" and axes["thorax"]["words"].startswith("Thorax faces the walking")
+    assert axes["thorax"]["verdict"] == "good" and axes["thorax"]["words"].startswith("Thorax forward direction good")
     assert document["method"] == "functional" and document["still_s"] == [7.0, 7.7]
     assert document["movement_s"] == [8.0, 16.0] and "tpose_s" not in document
     session = read_session(walking_session)

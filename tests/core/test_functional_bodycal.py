@@ -128,12 +128,12 @@ def test_a_knee_that_did_not_bend_is_named_and_its_segments_face_the_walking_dir
     assert not knee.used and "moved only" in knee.note
     assert cal.quality.axis_sources["thigh_r"] == fb.WALKING_DIRECTION
     assert cal.quality.walking_direction_from == ("elbow_l", "elbow_r")
-    assert any("Right knee axis not defined by the movement" in p and "the right thigh and right shank face the "
+    assert any("Right knee axis not defined by the movement: it moved only" in p and "the right thigh and right shank face the "
                "walking direction" in p for p in cal.quality.problems)
     # its verdict says so, axis by axis
     axes = {axis.axis: axis for axis in cal.quality.axes}
     assert axes["knee_r"].verdict == fb.NOT_DEFINED and "it moved only" in axes["knee_r"].words
-    assert axes["thigh_r"].verdict == "good" and axes["thigh_r"].words.startswith("Right thigh faces the walking")
+    assert axes["thigh_r"].verdict == "good" and axes["thigh_r"].words.startswith("Right thigh forward direction good: it faces the walking")
     assert axes["elbow_l"].verdict == "good" and axes["elbow_l"].segments == ("upper_arm_l", "forearm_l")
 
 

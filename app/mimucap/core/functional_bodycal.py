@@ -263,21 +263,27 @@ class AxisVerdict:
 
     ``axis``: the hinge joint whose flexion axis it is (``knee_l``), or the segment whose
     anterior axis is the walking direction (``pelvis``); ``segments`` the segments it gives
-    their frame; ``verdict`` good, acceptable or poor (the worst of its checks; "not defined"
-    when the movement did not define it and its segments took the walking direction); ``words``
-    a sentence in clinical words (joints and segments by name, figures in degrees)."""
+    their frame; ``verdict`` good, acceptable or poor (the worst of its checks; :data:`NOT_DEFINED`
+    when the movement did not define it and its segments took the walking direction); ``name``
+    what a person calls it ("Left knee axis", "Pelvis forward direction"); ``detail`` why, in
+    clinical words (what the movement showed, figures in degrees); ``words`` the whole sentence."""
 
     axis: str
     segments: tuple[str, ...]
     verdict: str
-    words: str
+    name: str
+    detail: str
+
+    @property
+    def words(self) -> str:
+        return f"{self.name} {self.verdict}: {self.detail}"
 
     def to_dict(self) -> dict:
         return {"axis": self.axis, "segments": list(self.segments), "verdict": self.verdict, "words": self.words}
 
 
 #: The verdict of an axis that the movement did not define (its segments face the walking direction).
-NOT_DEFINED = "not defined"
+NOT_DEFINED = "not defined by the movement"
 
 
 @dataclass(frozen=True)
@@ -639,9 +645,9 @@ def axis_verdicts(fits: Mapping[str, HingeAxisFit], forwards: Sequence[ForwardAx
         if not fit.used:
             level = 1 if hinge.one_sided else 0
             instead = " and ".join(segment_name(seg).lower() for seg in owned)
-            words = (f"{name} axis not defined by the movement ({fit.note})"
-                     + (f"; the {instead} face the walking direction instead" if owned else ""))
-            found[fit.joint] = (AxisVerdict(fit.joint, (), NOT_DEFINED, words), [(level, words)])
+            verdict = AxisVerdict(fit.joint, (), NOT_DEFINED, f"{name} axis", fit.note
+                                  + (f"; the {instead} face the walking direction instead" if owned else ""))
+            found[fit.joint] = (verdict, [(level, verdict.words)])
             continue
         lower = name.lower()
         checks = [
@@ -663,18 +669,19 @@ def axis_verdicts(fits: Mapping[str, HingeAxisFit], forwards: Sequence[ForwardAx
                                f"the {lower}'s two sensors disagree on their heading by {offset:.0f}° (check their "
                                "magnetometer calibrations): its rotation angle will carry it"))
         verdict, problems = verdict_of(checks)
-        words = (f"{name} axis {verdict}: it bent {fit.flexion_low_deg:.0f}° to {fit.flexion_high_deg:.0f}°, the two "
-                 f"halves of the movement found it within {fit.halves_deg:.1f}° of each other, and it moved as a "
-                 f"hinge within {fit.residual_deg:.0f}° RMS")
+        detail = (f"it bent {fit.flexion_low_deg:.0f}° to {fit.flexion_high_deg:.0f}°, the two halves of the movement "
+                  f"found it within {fit.halves_deg:.1f}° of each other, and it moved as a hinge within "
+                  f"{fit.residual_deg:.0f}° RMS")
         if problems:
-            words += f" ({'; '.join(problems)})"
-        found[fit.joint] = (AxisVerdict(fit.joint, owned, verdict, words), checks)
+            detail += f" ({'; '.join(problems)})"
+        found[fit.joint] = (AxisVerdict(fit.joint, owned, verdict, f"{name} axis", detail), checks)
     for fit in forwards:
         level = grade(fit.halves_deg, s.halves_good_deg, s.halves_acceptable_deg)
         name = segment_name(fit.segment)
         check = (f"the {name.lower()}'s forward direction differs by {fit.halves_deg:.1f}° between the two halves of "
                  "the movement")
-        words = (f"{name} faces the walking direction, {VERDICTS[level]}: the two halves of the movement found it "
-                 f"within {fit.halves_deg:.1f}° of each other")
-        found[fit.segment] = (AxisVerdict(fit.segment, (fit.segment,), VERDICTS[level], words), [(level, check)])
+        detail = (f"it faces the walking direction; the two halves of the movement found it within "
+                  f"{fit.halves_deg:.1f}° of each other")
+        found[fit.segment] = (AxisVerdict(fit.segment, (fit.segment,), VERDICTS[level], f"{name} forward direction",
+                                          detail), [(level, check)])
     return found

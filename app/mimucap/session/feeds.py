@@ -198,6 +198,8 @@ def simulated_subject_follows(simulator: SuitSimulator, instruction: Instruction
         activity = {"single_axis": "mag_single_axis", "figure8": "mag_figure8", "free": "mag_tumble"}[instruction.protocol]
         simulator.set_activity(activity, sensor_ids=list(instruction.sensor_ids),
                                turns=instructions.PROTOCOL_TURNS[instruction.protocol])
+    elif kind == instructions.WALK:
+        simulator.set_activity("walk")
     elif kind == instructions.MOVE_JOINT:
         from mimucap.session.rom_procedure import RomStep, simulated_activity
 
