@@ -138,6 +138,7 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
     import numpy as np
 
     from mimucap.cli.bodycal import _refuse_up_for_session, check_reader_options
+    from mimucap.cli.session_input import warn_about_magnetometers
     from mimucap.core.doubt import bridge_note
     from mimucap.io.session import read_session
     from mimucap.session.calibrations import applied_calibrations
@@ -155,6 +156,7 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
                                    mag_files=args.mag_calibration or (), origin=str(args.input))
     for line in applied.lines() + list(applied.notes):
         print(f"  {line}")
+    warn_about_magnetometers("angles", session, applied)
     output = process_session(session, result=result, calibrations=applied, model=model,
                              shoulder_sequence=args.shoulder)
     record = provenance(source_file=Path(args.input).name, result=result, calibrations=applied, model=model,

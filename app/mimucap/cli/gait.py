@@ -100,8 +100,11 @@ def run(args: argparse.Namespace) -> int:
     else:
         if args.rate is not None:
             raise ValueError("--rate applies to CSV input only (a session carries its time stamps)")
-        analysis = analyse_review(session_review(source, args.calibration, args.live, args.temporal_only,
-                                                 "the gait analysis"))
+        from mimucap.cli.session_input import warn_about_magnetometers
+
+        review = session_review(source, args.calibration, args.live, args.temporal_only, "the gait analysis")
+        warn_about_magnetometers("gait", review.session, review.calibrations)
+        analysis = analyse_review(review)
         if analysis.gait is None:
             raise ValueError(f"{source}: no gait analysis: {analysis.gait_problem}")
         gait = analysis.gait

@@ -17,7 +17,6 @@ drawn with Qt on the offscreen platform (no display needed).
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
@@ -59,17 +58,24 @@ def run(args: argparse.Namespace) -> int:
         if path is not None and not path.is_file():
             raise OSError(f"{path}: no such file")
     bands = read_normative_bands(args.bands) if args.bands else {}
-    analysis = analyse_review(session_review(args.session, args.calibration, args.live, False, "a report"))
+    from mimucap.cli.session_input import warn_about_magnetometers
+
+    review = session_review(args.session, args.calibration, args.live, False, "a report")
+    warn_about_magnetometers("report", review.session, review.calibrations)
+    analysis = analyse_review(review)
     before = None
     if args.before:
-        before = analyse_review(session_review(args.before, args.before_calibration, args.live, False,
-                                               "a report (--before-calibration for the earlier session)"))
-    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+        earlier = session_review(args.before, args.before_calibration, args.live, False,
+                                 "a report (--before-calibration for the earlier session)")
+        warn_about_magnetometers("report", earlier.session, earlier.calibrations, str(args.before))
+        before = analyse_review(earlier)
     from PyQt5.QtGui import QGuiApplication
 
     from mimucap.gui.report import write_comparison_report, write_report
 
-    app = QGuiApplication.instance() or QGuiApplication(["mimucap-report"])
+    # The PDF needs no screen: Qt's offscreen platform, asked for on the command line of the
+    # application object rather than in the environment (which child processes would inherit).
+    app = QGuiApplication.instance() or QGuiApplication(["mimucap-report", "-platform", "offscreen"])
     if before is None:
         write_report(args.out, analysis, bands, args.notes)
     else:

@@ -6,13 +6,17 @@ filter, body calibration, joint angles), exactly as review and export do, with t
 calibrations :func:`mimucap.session.calibrations.applied_calibrations` chooses (per sensor: a
 ``--mag-calibration`` file, the one the body calibration was made with, the one the session
 recorded, the user's calibration store for a session that does not record its live
-processing). The N-pose and T-pose windows (or, for a functional calibration, the still and
-walking windows) come from the session's markers when none are given.
+processing, which gives a sensor only its own device's calibration). Each calibration applied
+is judged as the live view judges it (verdict, device, the recording's local field, age), and
+one that is not good is named with its figures (:func:`warn_about_magnetometers`), as is a
+stored calibration that is not used. The N-pose and T-pose windows (or, for a functional
+calibration, the still and walking windows) come from the session's markers when none are given.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 
 #: Seconds after a pose's marker before the pose can be held (the subject gets into it).
 POSE_SETTLE_S = 1.0
@@ -33,14 +37,40 @@ def is_session(path) -> bool:
     return orientation_input_kind(path) == MIMUCAP_SESSION
 
 
-def magnetometer_calibrations(session, files) -> tuple[dict, list[str]]:
-    """Sensor → the magnetometer calibration to apply (the choice of
-    :func:`mimucap.session.calibrations.applied_calibrations`, with the files given) and one line
-    per sensor saying where its calibration came from."""
+def magnetometer_calibrations(session, files):
+    """The magnetometer calibrations to apply to ``session`` without its body calibration
+    (:func:`mimucap.session.calibrations.applied_calibrations` with the files given): an
+    :class:`~mimucap.session.calibrations.AppliedCalibrations` whose ``lines()`` say, per
+    sensor, where its calibration came from and how it stands."""
     from mimucap.session.calibrations import applied_calibrations
 
-    applied = applied_calibrations(session, mag_files=files or (), stored_body=False)
-    return dict(applied.magnetometer), applied.lines()
+    return applied_calibrations(session, mag_files=files or (), stored_body=False)
+
+
+def warn_about_magnetometers(command: str, session, applied, origin: str = "") -> list[str]:
+    """Print on stderr a warning naming each sensor whose applied calibration is not good for
+    this recording (with its figures), whose stored calibration was not used, or whose raw field
+    is used, and return the sensors not good. ``applied``: the
+    :class:`~mimucap.session.calibrations.AppliedCalibrations`; ``origin``: the session's file,
+    named when a command reads several."""
+    from mimucap.core.clinical_names import sensor_name
+
+    def name(sid: str) -> str:
+        return sensor_name(session.sensors[sid].segment, sid)
+
+    head = f"mimucap {command}: warning: " + (f"{origin}: " if origin else "")
+    for sid in applied.not_good():
+        print(f"{head}the magnetometer calibration of {name(sid)} is "
+              f"{applied.standings[sid].summary()}; calibrate it again where the recording is made",
+              file=sys.stderr)
+    for sid, note in applied.store_notes.items():
+        print(f"{head}{name(sid)} is not calibrated: {note}", file=sys.stderr)
+    raw = [sid for sid in applied.raw_field if sid not in applied.store_notes]
+    if raw:
+        more = f" and {len(raw) - 3} more" if len(raw) > 3 else ""
+        print(f"{head}the recording holds no magnetometer calibration for {', '.join(raw[:3])}{more}: their raw "
+              "field is used", file=sys.stderr)
+    return applied.not_good()
 
 
 def held_window(window: tuple[float, float], name: str) -> tuple[float, float]:

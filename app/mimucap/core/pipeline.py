@@ -365,12 +365,24 @@ def reference_sensor(model: skeleton.SkeletonModel, segment_of_sensor: Mapping[s
     return None
 
 
+def one_sensor_per_segment(sensor_segments: Mapping[str, str | None]) -> dict[str, str]:
+    """``sensor_segments`` (sensor id → segment) with each segment carried by one sensor, the
+    first in the mapping's order (a recording made when two sensors could share a segment, e.g.
+    the simulated suit's second pelvis unit, keeps its first); unassigned sensors are left out."""
+    kept: dict[str, str] = {}
+    for sensor, segment in sensor_segments.items():
+        if segment is not None and segment not in kept.values():
+            kept[sensor] = segment
+    return kept
+
+
 def assignment_of(body_calibration: bodycal.BodyCalibration | None,
                   sensor_segments: Mapping[str, str]) -> dict[str, str]:
-    """Sensor id → segment as the pose uses it: the body calibration's when there is one."""
+    """Sensor id → segment as the pose uses it: the body calibration's when there is one, else
+    ``sensor_segments`` with one sensor per segment (:func:`one_sensor_per_segment`)."""
     if body_calibration is not None:
         return {sensor: segment for segment, sensor in body_calibration.sensors.items()}
-    return dict(sensor_segments)
+    return one_sensor_per_segment(sensor_segments)
 
 
 def segments_from_sensors(model: skeleton.SkeletonModel, q_world_from_sensor: Mapping[str, np.ndarray],
@@ -384,7 +396,7 @@ def segments_from_sensors(model: skeleton.SkeletonModel, q_world_from_sensor: Ma
         found = bodycal.segment_orientations(body_calibration, q_world_from_sensor, require_all=False, allow_nan=True)
     else:
         found = {segment: np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
-                 for sensor, segment in sensor_segments.items()
+                 for sensor, segment in one_sensor_per_segment(sensor_segments).items()
                  if sensor in q_world_from_sensor and segment in model.segment_names}
     if not found:
         return None
@@ -655,6 +667,13 @@ class LivePipeline:
         :meth:`SensorChain.set_mag_calibration`)."""
         self.mag_calibrations[calibration.sensor_id] = calibration
         self.chain(calibration.sensor_id).set_mag_calibration(calibration)
+
+    def clear_mag_calibration(self, sensor_id: str) -> None:
+        """Use ``sensor_id``'s raw magnetometer from now on (its calibration was for another
+        device); its filter learns the heading anew."""
+        self.mag_calibrations.pop(sensor_id, None)
+        if sensor_id in self.chains:
+            self.chains[sensor_id].set_mag_calibration(None)
 
     def filter_states(self) -> dict[str, dict[str, list]]:
         """Sensor → its filter state now (JSON-ready), for the sensors whose filter runs."""

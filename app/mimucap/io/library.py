@@ -277,11 +277,21 @@ def _verdicts(metadata: Mapping[str, Any], calibrations: Mapping[str, Any]) -> d
         verdict = body.get("verdict") or (body.get("quality") or {}).get("verdict")
         verdicts["body"] = str(verdict or "applied")
     magnetometers = calibrations.get("magnetometer")
+    # what the recording judged of its calibrations when it started (their standing: verdict,
+    # device, local field, age), else their fits' verdicts
+    readiness = metadata.get("magnetometer_readiness")
+    readiness = readiness if isinstance(readiness, Mapping) else {}
     if isinstance(magnetometers, Mapping):
         for sensor_id, calibration in sorted(magnetometers.items()):
             quality = calibration.get("quality") if isinstance(calibration, Mapping) else None
             verdict = quality.get("verdict") if isinstance(quality, Mapping) else None
+            standing = readiness.get(sensor_id)
+            if isinstance(standing, Mapping) and standing.get("level"):
+                verdict = standing["level"]
             verdicts[f"magnetometer {sensor_id}"] = str(verdict or "applied")
+    for sensor_id, standing in sorted(readiness.items()):
+        if isinstance(standing, Mapping) and standing.get("level") == "not calibrated":
+            verdicts.setdefault(f"magnetometer {sensor_id}", "not calibrated")
     for sensor_id in metadata.get("mag_calibrated_sensors") or ():
         verdicts.setdefault(f"magnetometer {sensor_id}", "applied")
     return verdicts

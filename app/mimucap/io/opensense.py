@@ -249,5 +249,7 @@ def session_from_sto(path: str | Path):
         "source": {"kind": "opensense-sto", "file": Path(path).name, "start_s": float(table.t_s[0])},
         "skeleton_model": "fifteen_segment" if any(s.startswith(("hand", "foot")) for s in segments) else "ten_segment",
         "sensor_segments": {label: s.segment for label, s in sensors.items()},
+        "devices": {label: {"device_id": None, "missing": "an OpenSense table names its sensors by body, not by device"}
+                    for label in sensors},
     }
     return Session(metadata=metadata, sensors=sensors)

@@ -14,6 +14,8 @@ asks for. A feed has:
   whose orientation does not come from the pipeline's filter with a calibrated magnetometer;
 * ``magnetometer_calibrations()``: sensor → the magnetometer calibration the pipeline applies
   now (those a body calibration made from these orientations holds with);
+* ``device(sensor_id)``: what the source says of the sensor's device
+  (:class:`~mimucap.core.device_identity.SensorDevice`): a calibration is made for it;
 * ``instruct(instruction)``: what the subject is asked to do
   (:mod:`mimucap.session.instructions`); the source decides who follows it (a person reads the
   screen; the simulated subject does it). No procedure asks which one it is.
@@ -37,6 +39,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from mimucap.core.bodycal import static_alignment
+from mimucap.core.device_identity import SensorDevice
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate.suit import SuitSimulator
@@ -60,6 +63,8 @@ class CalibrationFeed(Protocol):
     def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None: ...
 
     def magnetometer_calibrations(self) -> dict[str, MagCalibration]: ...
+
+    def device(self, sensor_id: str) -> SensorDevice: ...
 
     def instruct(self, instruction: Instruction) -> None: ...
 
@@ -89,6 +94,10 @@ class LiveSessionFeed:
 
     def instruct(self, instruction: Instruction) -> None:
         self.live_session.instruct(instruction)
+
+    def device(self, sensor_id: str) -> SensorDevice:
+        """What the live session's source says of ``sensor_id``'s device."""
+        return self.live_session.device_of(sensor_id)
 
     def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None:
         """``q_world_from_sensor`` (4,) of ``sensor_id`` held still over the samples ``acc`` (K, 3)

@@ -17,8 +17,14 @@ for the review, the exports, the analysis and every command alike:
   (``--mag-calibration``), the one the body calibration was made with, the one the recording
   applied live, and, for a session that does not record its live processing (``mimucap
   simulate``, an import, an older file), the user's calibration store (where ``mimucap magcal
-  fit --save`` and the wizard keep them). A recording made in the window says exactly what
-  its live view applied, so today's store never changes it.
+  fit --save`` and the wizard keep them), which gives a sensor only its own device's
+  calibration (:meth:`~mimucap.io.calibration_store.CalibrationStore.lookup`, the device the
+  session says the sensor was). A recording made in the window says exactly what its live view
+  applied, so today's store never changes it.
+
+Each calibration applied is judged as the live view judges it
+(:mod:`mimucap.session.calibration_readiness`: verdict, device, the recording's local field,
+age), so that a command can name one that is not good with its figures.
 
 Every choice is said (:attr:`AppliedCalibrations.magnetometer_origin`, ``notes``) so that the
 files and the screen can tell what they hold (:mod:`mimucap.session.provenance`).
@@ -26,7 +32,6 @@ files and the screen can tell what they hold (:mod:`mimucap.session.provenance`)
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
@@ -34,10 +39,13 @@ from pathlib import Path
 
 from mimucap.core import bodycal
 from mimucap.core.magcal import MagCalibration
+from mimucap.core.magcal_standing import Standing
 from mimucap.io.calibration_store import (
     CalibrationFileError, CalibrationStore, calibration_from_json, calibration_to_json,
 )
+from mimucap.io.json_document import read_json_document
 from mimucap.io.session import Session
+from mimucap.session.calibration_readiness import session_standings
 
 #: Where a body calibration keeps the magnetometer calibrations it was made with, and when it was made.
 MAGNETOMETER_DETAIL = "magnetometer"
@@ -95,7 +103,10 @@ class AppliedCalibrations:
     came from; ``raw_field`` sensors with a magnetometer fused with their raw field; ``onboard``
     sensors whose device sends its own orientation (its fusion handles its magnetometer); ``notes``
     sentences about choices a reader should know (a body calibration made with another
-    magnetometer calibration than the recording applied live, ...).
+    magnetometer calibration than the recording applied live, ...); ``standings`` sensor → how
+    its calibration stands against the recording (:class:`~mimucap.core.magcal_standing.Standing`);
+    ``store_notes`` sensor → why a calibration stored under its label was not used (another
+    device's, or a device that cannot be checked).
     """
 
     body: bodycal.BodyCalibration | None = None
@@ -105,13 +116,23 @@ class AppliedCalibrations:
     raw_field: tuple[str, ...] = ()
     onboard: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
+    standings: Mapping[str, Standing] = field(default_factory=dict)
+    store_notes: Mapping[str, str] = field(default_factory=dict)
 
     def lines(self) -> list[str]:
-        """One line per sensor with a magnetometer: where its calibration came from."""
-        found = [f"magnetometer {sid}: {self.magnetometer_origin[sid]}" for sid in self.magnetometer]
-        found += [f"magnetometer {sid}: not calibrated (raw field used)" for sid in self.raw_field]
+        """One line per sensor with a magnetometer: where its calibration came from and how it
+        stands against the recording."""
+        found = [f"magnetometer {sid}: {self.magnetometer_origin[sid]}"
+                 + (f"; {self.standings[sid].summary()}" if sid in self.standings else "") for sid in self.magnetometer]
+        found += [f"magnetometer {sid}: not calibrated (raw field used)"
+                  + (f": {self.store_notes[sid]}" if sid in self.store_notes else "") for sid in self.raw_field]
         found += [f"magnetometer {sid}: the device fuses on board" for sid in self.onboard]
         return found
+
+    def not_good(self) -> list[str]:
+        """Sensors whose applied magnetometer calibration is not good for this recording (its
+        verdict, device, local field or age: :mod:`mimucap.session.calibration_readiness`)."""
+        return [sid for sid, standing in self.standings.items() if not standing.good]
 
 
 def stored_body_calibration(session: Session, origin: str) -> bodycal.BodyCalibration | None:
@@ -129,10 +150,7 @@ def read_magnetometer_files(paths: Sequence[str | Path], session: Session) -> di
     found: dict[str, tuple[MagCalibration, str]] = {}
     for name in paths:
         path = Path(name)
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as error:
-            raise ValueError(f"--mag-calibration {path}: cannot read it ({error})") from None
+        data = read_json_document(path, "magnetometer calibration (--mag-calibration)")
         calibration = calibration_from_json(data, str(path))
         if calibration.sensor_id not in session.sensors:
             raise ValueError(f"--mag-calibration {path}: sensor {calibration.sensor_id} is not in the session "
@@ -168,7 +186,8 @@ def applied_calibrations(session: Session, *, body: bodycal.BodyCalibration | No
     files = read_magnetometer_files(mag_files, session)
     recorded_live = isinstance(session.metadata.get("pipeline"), Mapping)
     store = store if store is not None else (None if recorded_live else CalibrationStore())
-    stored = set(store.sensor_ids()) if store is not None else set()
+    devices = session.devices()
+    store_notes: dict[str, str] = {}
     chosen: dict[str, MagCalibration] = {}
     origins: dict[str, str] = {}
     raw: list[str] = []
@@ -186,11 +205,15 @@ def applied_calibrations(session: Session, *, body: bodycal.BodyCalibration | No
         usual: tuple[MagCalibration, str] | None = None
         if sensor_id in recorded.mag_calibrations:
             usual = (recorded.mag_calibrations[sensor_id], "recorded with the session")
-        elif sensor_id in stored:
+        elif store is not None:
             try:
-                usual = (store.load(sensor_id), f"stored ({store.path_for(sensor_id)})")
+                found = store.lookup(sensor_id, devices[sensor_id])  # only this device's own calibration
             except CalibrationFileError as error:
                 raise ValueError(str(error)) from None
+            if found.calibration is not None:
+                usual = (found.calibration, f"stored ({store.path_for(sensor_id, found.calibration.device_id)})")
+            elif found.note:
+                store_notes[sensor_id] = found.note
         if sensor_id in made_with and sensor_id not in own:
             raw.append(sensor_id)  # made with this sensor's raw field
             if usual is not None:
@@ -211,4 +234,4 @@ def applied_calibrations(session: Session, *, body: bodycal.BodyCalibration | No
         else:
             raw.append(sensor_id)
     return AppliedCalibrations(body, body_origin if body is not None else "", chosen, origins, tuple(raw),
-                               tuple(onboard), tuple(notes))
+                               tuple(onboard), tuple(notes), session_standings(session, chosen), store_notes)

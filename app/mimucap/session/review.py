@@ -33,7 +33,6 @@ import numpy as np
 from mimucap.core import bodycal, doubt, rotation, skeleton
 from mimucap.core.clinical_names import joint_name
 from mimucap.core.locomotion import root_positions
-from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.calibrations import AppliedCalibrations, applied_calibrations
