@@ -180,7 +180,7 @@ def test_body_wizard_without_a_tpose_calibrates_from_a_walk(qtbot) -> None:
 
 def test_body_wizard_without_a_tpose_refuses_a_subject_who_did_not_walk(qtbot) -> None:
     """A subject who stays standing: no joint bent, so no axis and no forward direction."""
-    simulator, wizard = body_wizard(qtbot, seed=7, settings=BodycalProcedureSettings(movement_s=4.0))
+    _, wizard = body_wizard(qtbot, seed=7, settings=BodycalProcedureSettings(movement_s=4.0))
     wizard.set_method("functional")
     wizard.feed.instruct = lambda instruction: None  # the subject ignores the instructions
     qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)

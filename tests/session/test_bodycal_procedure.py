@@ -137,7 +137,7 @@ def test_bad_arguments_are_refused() -> None:
 def test_the_functional_method_stands_then_walks_and_needs_no_arm_raised() -> None:
     """No T-pose: the still page, then a walk of ``movement_s`` counted down (the simulated
     subject walks as it is told), then every segment within 2.5° of its true mounting."""
-    simulator, feed, procedure = make(4, method="functional", settings=BodycalProcedureSettings(movement_s=8.0))
+    simulator, _, procedure = make(4, method="functional", settings=BodycalProcedureSettings(movement_s=8.0))
     procedure.start()
     statuses = []
     while procedure.phase in ("npose", "movement"):

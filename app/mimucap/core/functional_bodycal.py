@@ -61,11 +61,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from mimucap.core import hinge_axis
 from mimucap.core import rotation as rot
-from mimucap.core.clinical_names import joint_name, segment_name
 from mimucap.core.bodycal import (
+    VERDICTS,
     BodyCalibration,
     CalibrationQuality,
-    VERDICTS,
     CalibrationRefused,
     check_mapping,
     check_settings,
@@ -79,6 +78,7 @@ from mimucap.core.bodycal import (
     verdict_of,
     window_means,
 )
+from mimucap.core.clinical_names import joint_name, segment_name
 
 FloatArray = NDArray[np.float64]
 
@@ -652,11 +652,11 @@ def axis_verdicts(fits: Mapping[str, HingeAxisFit], forwards: Sequence[ForwardAx
         lower = name.lower()
         checks = [
             (grade(-fit.excursion_deg, -s.excursion_good_deg, -s.excursion_acceptable_deg),
-             f"the {lower} moved only {fit.excursion_deg:.0f}°: its axis is weakly defined "
-             f"(at least {s.excursion_good_deg:g}° wanted)"),
+             (f"the {lower} moved only {fit.excursion_deg:.0f}°: its axis is weakly defined "
+              f"(at least {s.excursion_good_deg:g}° wanted)")),
             (grade(fit.residual_deg, s.residual_good_deg, s.residual_acceptable_deg),
-             f"the {lower} did not move as a hinge: its axis wandered {fit.residual_deg:.1f}° RMS between its two "
-             "sensors"),
+             (f"the {lower} did not move as a hinge: its axis wandered {fit.residual_deg:.1f}° RMS between its "
+              "two sensors")),
             (grade(fit.halves_deg, s.halves_good_deg, s.halves_acceptable_deg),
              f"the {lower} axis differs by {fit.halves_deg:.1f}° between the two halves of the movement"),
         ]
@@ -666,8 +666,8 @@ def axis_verdicts(fits: Mapping[str, HingeAxisFit], forwards: Sequence[ForwardAx
             if fit.heading_offset_deg is not None:
                 offset = abs(fit.heading_offset_deg)
                 checks.append((grade(offset, s.heading_offset_good_deg, s.heading_offset_acceptable_deg),
-                               f"the {lower}'s two sensors disagree on their heading by {offset:.0f}° (check their "
-                               "magnetometer calibrations): its rotation angle will carry it"))
+                               (f"the {lower}'s two sensors disagree on their heading by {offset:.0f}° (check "
+                                "their magnetometer calibrations): its rotation angle will carry it")))
         verdict, problems = verdict_of(checks)
         detail = (f"it bent {fit.flexion_low_deg:.0f}° to {fit.flexion_high_deg:.0f}°, the two halves of the movement "
                   f"found it within {fit.halves_deg:.1f}° of each other, and it moved as a hinge within "
