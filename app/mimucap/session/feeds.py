@@ -211,6 +211,13 @@ def simulated_subject_follows(simulator: SuitSimulator, instruction: Instruction
                                turns=instructions.PROTOCOL_TURNS[instruction.protocol])
     elif kind == instructions.WALK:
         simulator.set_activity("walk")
+    elif kind in (instructions.PREPARE_TEST, instructions.PERFORM_TEST):
+        from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS
+
+        scenario = {test: name for name, test in CLINICAL_TESTS.items()}[instruction.test]
+        part = "prepare" if kind == instructions.PREPARE_TEST else "perform"
+        walkway = {"walkway_m": instruction.walkway_m} if instruction.walkway_m > 0 else {}
+        simulator.set_activity(scenario, part=part, **walkway)
     elif kind == instructions.MOVE_JOINT:
         from mimucap.session.rom_procedure import RomStep, simulated_activity
 
