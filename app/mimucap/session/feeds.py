@@ -209,6 +209,8 @@ def simulated_subject_follows(simulator: SuitSimulator, instruction: Instruction
         activity = {"single_axis": "mag_single_axis", "figure8": "mag_figure8", "free": "mag_tumble"}[instruction.protocol]
         simulator.set_activity(activity, sensor_ids=list(instruction.sensor_ids),
                                turns=instructions.PROTOCOL_TURNS[instruction.protocol])
+    elif kind == instructions.WALK:
+        simulator.set_activity("walk")
     elif kind in (instructions.PREPARE_TEST, instructions.PERFORM_TEST):
         from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS
 

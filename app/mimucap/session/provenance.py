@@ -33,7 +33,7 @@ from mimucap.session.calibrations import AppliedCalibrations, body_created_utc
 
 #: How each body calibration method is named.
 METHOD_NAMES = {"npose_tpose": "N-pose/T-pose", "heading": "heading from a sensor axis",
-                "xsens-mvn": "Xsens MVN calibration"}
+                "functional": "functional (standing still, then walking)", "xsens-mvn": "Xsens MVN calibration"}
 #: What a result without a body calibration cannot give.
 WITHOUT_BODY_CALIBRATION = ("none: the segments follow the sensors' own axes, so joint angles, range of motion "
                             "and spatial gait parameters mean nothing")
