@@ -4,7 +4,7 @@
 [--heading-from SENSOR:AXIS] [--mag-calibration FILE] [--accept-poor] --out CAL.json [--json]``
 
 INPUT is a MimuCap session or any orientation table
-:func:`mimucap.io.quaternion_tables.read_quaternion_table` reads (quaternion CSV, OpenSim
+:func:`mimucap.io.orientation_inputs.read_quaternion_table` reads (quaternion CSV, OpenSim
 ``.sto``, Xsens export file or folder, APDM CSV). A session's raw samples go through the
 processing path (its magnetometer calibrations, or the stored ones, or ``--mag-calibration``;
 the orientation filter, reprocessed), and its N-pose and T-pose markers give the windows when
@@ -105,7 +105,7 @@ OPTION_INPUTS = {
 def check_reader_options(args: argparse.Namespace) -> None:
     """``ValueError`` for a reader option given with an input it does not apply to (e.g.
     ``--trial`` with a MimuCap session), which the reader would otherwise ignore silently."""
-    from mimucap.io.quaternion_tables import orientation_input_kind
+    from mimucap.io.orientation_inputs import orientation_input_kind
 
     given = {"--sensor-names": args.sensor_names, "--trial": args.trial, "--rate": args.rate}
     if all(value is None for value in given.values()):
@@ -125,7 +125,7 @@ def read_input(args: argparse.Namespace, command: str = "bodycal"):
     session's through the processing path); the session too, or None; and the magnetometer
     calibrations applied (:func:`magnetometer_calibrations`; none for a table), each not good
     one named on stderr by ``mimucap COMMAND``."""
-    from mimucap.io.quaternion_tables import read_quaternion_table
+    from mimucap.io.orientation_inputs import read_quaternion_table
     from mimucap.session.calibrations import AppliedCalibrations
 
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
@@ -151,7 +151,7 @@ def read_input(args: argparse.Namespace, command: str = "bodycal"):
 def _refuse_up_for_session(args: argparse.Namespace) -> None:
     import numpy as np
 
-    from mimucap.io.quaternion_tables import axis_vector
+    from mimucap.io.orientation_tables import axis_vector
 
     if args.up is not None and not np.allclose(axis_vector(args.up), (0.0, 0.0, 1.0)):
         raise ValueError(f"{args.input}: up axis {args.up} cannot apply: MimuCap sessions are z up")
@@ -198,10 +198,10 @@ def pose_doubts(table, mapping: dict[str, str], npose: tuple[float, float] | Non
                 tpose: tuple[float, float] | None) -> dict[str, str]:
     """Mapped sensor → why its orientation was doubtful (words) somewhere from the N-pose's start
     to the T-pose's end (the N-pose alone without a T-pose), for the sensors the processing path
-    doubted there (:attr:`~mimucap.io.quaternion_tables.QuaternionTable.doubt`)."""
+    doubted there (:attr:`~mimucap.io.orientation_tables.QuaternionTable.doubt`)."""
     import numpy as np
 
-    from mimucap.core.doubt import describe
+    from mimucap.core.pipeline.doubt_reasons import describe
 
     if npose is None or not table.doubt:
         return {}
@@ -245,7 +245,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from mimucap.core import bodycal
     from mimucap.io.body_calibration_file import write_body_calibration
-    from mimucap.io.quaternion_tables import axis_vector
+    from mimucap.io.orientation_tables import axis_vector
 
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)
@@ -254,7 +254,7 @@ def run(args: argparse.Namespace) -> int:
     if not mapping:
         if not table.segment_hints:
             raise ValueError("--mapping SENSOR=SEGMENT[,...] is required (the input names no segments)")
-        from mimucap.core.pipeline import one_sensor_per_segment
+        from mimucap.core.pipeline.segments import one_sensor_per_segment
 
         mapping = {segment: sensor for sensor, segment in one_sensor_per_segment(table.segment_hints).items()}
     model = choose_model(args.model, mapping)

@@ -25,9 +25,9 @@ from mimucap.core.clinical_names import angle_label, angle_sign_text
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
+from mimucap.io.angles_export import write_summary_csv
 from mimucap.session.export import (
     ExportRequest, ExportResult, angles_in_range, doubt_in_range, marker_range, run_export, summary_table,
-    write_summary_csv,
 )
 from mimucap.session.provenance import WITHOUT_BODY_CALIBRATION
 from mimucap.session.review import ReviewData

@@ -17,7 +17,7 @@ from mimucap.core.fusion import aot, kernel_selection
 from mimucap.core.fusion.ekf import OrientationEKF, fuse, update_together
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.params import FusionParams
-from mimucap.io.broad import read_broad
+from mimucap.io.broad_trials import read_broad
 from tests.external_data import data_path
 
 BROAD_DIR = data_path("broad")
