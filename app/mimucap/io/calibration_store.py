@@ -58,6 +58,7 @@ import numpy as np
 from mimucap.core import bodycal
 from mimucap.core.device_identity import SensorDevice, check_device_id, describe_device
 from mimucap.core.magcal.model import MagCalibration
+from mimucap.io.json_document import read_json_document
 
 CALIBRATION_FORMAT = "mimucap-magcal"
 CALIBRATION_FORMAT_VERSION = 2
@@ -329,15 +330,12 @@ def calibrations_from_json(section: Any, origin: str, what: str = "magnetometer 
             for sensor_id, data in section.items()}
 
 
-def read_calibration_file(path: str | os.PathLike[str], what: str = "") -> MagCalibration:
+def read_calibration_file(path: str | os.PathLike[str], option: str = "") -> MagCalibration:
     """The calibration in the JSON file ``path`` (any sensor's); ``ValueError`` naming the file
-    (after ``what``, e.g. the option that gave it) when it cannot be read or is not one."""
-    name = f"{what} {path}".strip()
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as error:
-        raise ValueError(f"{name}: cannot read it ({error})") from None
-    return calibration_from_json(data, str(path))
+    (and ``option``, the command-line option that gave it) and what it is when it cannot be read
+    or is not one (:func:`~mimucap.io.json_document.read_json_document`)."""
+    what = f"magnetometer calibration ({option})" if option else "magnetometer calibration"
+    return calibration_from_json(read_json_document(path, what), str(path))
 
 
 def session_calibrations(mag_calibrations: Mapping[str, MagCalibration],
