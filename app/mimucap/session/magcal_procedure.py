@@ -40,10 +40,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from mimucap.core.magcal.calibrate import CalibrationResult, calibrate
-from mimucap.core.magcal.fit import FitRefused, FitSettings
-from mimucap.core.magcal.fit import EllipsoidFit, fit_ellipsoid
+from mimucap.core.magcal.fit import EllipsoidFit, FitRefused, FitSettings, fit_ellipsoid
 from mimucap.core.magcal.guidance import AXIS_NAMES, GuidanceSettings, GuidanceState, SingleAxisGuide
 from mimucap.core.magcal.quality import QualityThresholds
+from mimucap.core.wording import plural
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed
@@ -184,10 +184,10 @@ def describe_age(age_days: float | None) -> str:
         return "date unknown"
     hours = age_days * 24.0
     if hours < 1.0:
-        return "just now" if hours < 1.0 / 60.0 else f"{hours * 60.0:.0f} minutes ago"
+        return "just now" if hours < 1.0 / 60.0 else f"{plural(round(hours * 60.0), 'minute')} ago"
     if age_days < 2.0:
-        return f"{hours:.0f} hours ago"
-    return f"{age_days:.0f} days ago"
+        return f"{plural(round(hours), 'hour')} ago"
+    return f"{plural(round(age_days), 'day')} ago"
 
 
 def _strip_severity(reason: str) -> str:
