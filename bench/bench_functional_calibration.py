@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.cli import main
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core import rotation as rot
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session
@@ -88,7 +88,7 @@ def simulated_seed(folder: Path, seed: int) -> dict:
                           "--out", str(out)] + extra) == 0
             table = read_angles_csv(out)
             walks = [(start + 1.0, stop) for start, stop in
-                     phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1]))]
+                     phase_markers.phase_windows(recorded.markers, phase_markers.WALK, float(table.t_s[-1]))]
             entry[kind] = pooled_rms_deg(table.t_s, table.angles_deg, recorded.truth.t_s,
                                          recorded.truth.joint_angles_deg, walks, COLUMNS)
         results[label] = entry
@@ -115,7 +115,7 @@ def print_simulated(by_seed: dict[int, dict]) -> None:
 
 def opensense(folder: Path, data: Path) -> None:
     from mimucap.io.opensense import write_orientation_sto
-    from mimucap.io.quaternion_tables import read_quaternion_table
+    from mimucap.io.orientation_inputs import read_quaternion_table
 
     imu = data / "IMUData"
     names = ["--sensor-names", str(data / "myIMUMappings.xml")]

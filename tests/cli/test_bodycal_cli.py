@@ -11,7 +11,7 @@ from mimucap.cli import main
 from mimucap.core import rotation as rot
 from mimucap.core import skeleton as sk
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
-from mimucap.io.quaternion_tables import QuaternionTable, write_quaternion_csv
+from mimucap.io.orientation_tables import QuaternionTable, write_quaternion_csv
 
 TEN = sk.load_model("ten_segment")
 EX, EY, EZ = np.eye(3)
@@ -130,7 +130,7 @@ def test_heading_mode_on_the_opensense_walk(shared_data, tmp_path, capsys):
 
 
 def test_mapping_defaults_to_the_session_segments(tmp_path, suit):
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session, write_session
 
     t, sensors, mapping, mountings, _ = suit
@@ -296,7 +296,7 @@ def test_xsens_reader_options_are_refused_for_inputs_they_do_not_apply_to(suit, 
                                                                         shared_data):
     """Was: --sensor-names, --trial and --rate were used for Xsens exports and silently ignored
     for every other input (a session, a CSV, a BROAD trial...)."""
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session, write_session
 
     t, sensors, mapping, *_ = suit
@@ -366,7 +366,7 @@ def test_session_streams_are_put_on_one_time_axis_through_the_processing_path(tm
     """The commands' view of a session: every sensor's orientation (on-board, or fused by the
     pipeline) at the instants of the best-sampled sensor where all have one."""
     from mimucap.cli.session_input import orientation_table
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session
 
     t_a = np.arange(0.0, 2.0, 0.01)

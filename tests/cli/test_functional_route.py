@@ -10,7 +10,7 @@ import json
 import pytest
 
 from mimucap.cli import main
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
 from mimucap.session.evaluation import pooled_rms_deg
@@ -41,7 +41,7 @@ def test_every_knee_and_hip_column_while_walking(seed, tmp_path, monkeypatch, ca
     table = read_angles_csv(out)
     recorded = read_session(session)
     walks = [(start + 1.0, stop) for start, stop in
-             phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1]))]
+             phase_markers.phase_windows(recorded.markers, phase_markers.WALK, float(table.t_s[-1]))]
     assert len(walks) >= 3
     rms = pooled_rms_deg(table.t_s, table.angles_deg, recorded.truth.t_s, recorded.truth.joint_angles_deg, walks,
                          COLUMNS)

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.core.pipeline import RESULT_LIVE
+from mimucap.core.pipeline.settings import RESULT_LIVE
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session, write_session
 from mimucap.session.evaluation import angle_errors

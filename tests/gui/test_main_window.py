@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from PyQt5 import QtGui, QtWidgets
 
-from mimucap.core.pipeline import POSE_SENSOR_AXES
+from mimucap.core.pipeline.recording import POSE_SENSOR_AXES
 from mimucap.gui.main_window import VIEW_HINTS, MainWindow
 
 from tests.gui.scene_projection import axis_label_positions

@@ -42,7 +42,7 @@ IK_RANGE_S = (7.25, 15.0)
 @pytest.mark.data("opensense")
 def test_hip_and_knee_flexion_follow_opensense_ik(shared_data, tmp_path, capsys):
     from mimucap.io.opensense import write_orientation_sto
-    from mimucap.io.quaternion_tables import read_quaternion_table
+    from mimucap.io.orientation_inputs import read_quaternion_table
 
     folder = shared_data / "body" / "opensense_example"
     names = ["--sensor-names", str(folder / "myIMUMappings.xml")]

@@ -5,7 +5,7 @@
 [--hinge-from orientations|rates] [--mag-calibration FILE] [--accept-poor] --out CAL.json [--json]``
 
 INPUT is a MimuCap session or any orientation table
-:func:`mimucap.io.quaternion_tables.read_quaternion_table` reads (quaternion CSV, OpenSim
+:func:`mimucap.io.orientation_inputs.read_quaternion_table` reads (quaternion CSV, OpenSim
 ``.sto``, Xsens export file or folder, APDM CSV). A session's raw samples go through the
 processing path (its magnetometer calibrations, or the stored ones, or ``--mag-calibration``;
 the orientation filter, reprocessed). Three methods:
@@ -116,7 +116,7 @@ OPTION_INPUTS = {
 def check_reader_options(args: argparse.Namespace) -> None:
     """``ValueError`` for a reader option given with an input it does not apply to (e.g.
     ``--trial`` with a MimuCap session), which the reader would otherwise ignore silently."""
-    from mimucap.io.quaternion_tables import orientation_input_kind
+    from mimucap.io.orientation_inputs import orientation_input_kind
 
     given = {"--sensor-names": args.sensor_names, "--trial": args.trial, "--rate": args.rate}
     if all(value is None for value in given.values()):
@@ -136,7 +136,7 @@ def read_input(args: argparse.Namespace):
     session's through the processing path); the session too, or None; and the magnetometer
     calibrations applied (:func:`magnetometer_calibrations`; none for a table; judged on the
     calibration's windows by :func:`judged_on_the_windows` once they are known)."""
-    from mimucap.io.quaternion_tables import read_quaternion_table
+    from mimucap.io.orientation_inputs import read_quaternion_table
     from mimucap.session.calibrations import AppliedCalibrations
 
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
@@ -173,7 +173,7 @@ def judged_on_the_windows(session, mags, windows):
 def _refuse_up_for_session(args: argparse.Namespace) -> None:
     import numpy as np
 
-    from mimucap.io.quaternion_tables import axis_vector
+    from mimucap.io.orientation_tables import axis_vector
 
     if args.up is not None and not np.allclose(axis_vector(args.up), (0.0, 0.0, 1.0)):
         raise ValueError(f"{args.input}: up axis {args.up} cannot apply: MimuCap sessions are z up")
@@ -220,10 +220,10 @@ def pose_doubts(table, mapping: dict[str, str], windows) -> dict[str, str]:
     """Mapped sensor → why its orientation was doubtful (words) somewhere in the calibration's
     ``windows`` (``(start, end)`` s each; for the N/T-pose, from the N-pose's start to the
     T-pose's end), for the sensors the processing path doubted there
-    (:attr:`~mimucap.io.quaternion_tables.QuaternionTable.doubt`)."""
+    (:attr:`~mimucap.io.orientation_tables.QuaternionTable.doubt`)."""
     import numpy as np
 
-    from mimucap.core.doubt import describe
+    from mimucap.core.pipeline.doubt_reasons import describe
 
     if not windows or not table.doubt:
         return {}
@@ -319,7 +319,7 @@ def run(args: argparse.Namespace) -> int:
     if not mapping:
         if not table.segment_hints:
             raise ValueError("--mapping SENSOR=SEGMENT[,...] is required (the input names no segments)")
-        from mimucap.core.pipeline import one_sensor_per_segment
+        from mimucap.core.pipeline.segments import one_sensor_per_segment
 
         mapping = {segment: sensor for sensor, segment in one_sensor_per_segment(table.segment_hints).items()}
     model = choose_model(args.model, mapping)
@@ -362,7 +362,7 @@ def run(args: argparse.Namespace) -> int:
 def _posed(args, method: str, table, session, mags, mapping):
     """The N/T-pose or heading calibration and its windows (for the doubt check)."""
     from mimucap.core import bodycal
-    from mimucap.io.quaternion_tables import axis_vector
+    from mimucap.io.orientation_tables import axis_vector
 
     npose = parse_window(args.npose, "--npose") if args.npose else None
     tpose = parse_window(args.tpose, "--tpose") if args.tpose else None

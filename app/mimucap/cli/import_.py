@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     refuse_to_overwrite_input(args.out, args.input)
     if Path(args.out).exists():  # it may be a recording: never replaced by an import
         raise OSError(f"{args.out} exists: choose another --out (an import never replaces a session file)")
-    from mimucap.io.imports import import_recording
+    from mimucap.io.recording_import import import_recording
 
     from mimucap.io.session import session_duration_s
 

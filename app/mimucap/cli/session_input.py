@@ -32,7 +32,7 @@ def add_session_options(parser: argparse.ArgumentParser) -> None:
 
 
 def is_session(path) -> bool:
-    from mimucap.io.quaternion_tables import MIMUCAP_SESSION, orientation_input_kind
+    from mimucap.io.orientation_inputs import MIMUCAP_SESSION, orientation_input_kind
 
     return orientation_input_kind(path) == MIMUCAP_SESSION
 
@@ -91,16 +91,16 @@ def _marker_labels(markers) -> str:
 
 def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float], tuple[float, float]]:
     """The N-pose and T-pose windows (s) from the session's phase markers
-    (:mod:`mimucap.core.phases`): each pose's :func:`held_window`. The last N-pose before the
+    (:mod:`mimucap.core.phase_markers`): each pose's :func:`held_window`. The last N-pose before the
     first T-pose after it is used. ``ValueError`` when the markers do not name both poses."""
-    from mimucap.core import phases
+    from mimucap.core import phase_markers
 
-    npose_all = phases.phase_windows(markers, phases.NPOSE, end_s)
-    tpose_all = phases.phase_windows(markers, phases.TPOSE, end_s)
+    npose_all = phase_markers.phase_windows(markers, phase_markers.NPOSE, end_s)
+    tpose_all = phase_markers.phase_windows(markers, phase_markers.TPOSE, end_s)
     pairs = [(n, t) for t in tpose_all for n in npose_all if n[1] <= t[0]]
     if not pairs:
-        raise ValueError(f"no '{phases.NPOSE}' marker followed by a '{phases.TPOSE}' marker in the session "
-                         f"(markers: {_marker_labels(markers)}); give --npose and --tpose")
+        raise ValueError(f"no '{phase_markers.NPOSE}' marker followed by a '{phase_markers.TPOSE}' marker in the "
+                         f"session (markers: {_marker_labels(markers)}); give --npose and --tpose")
     # The first T-pose, and the N-pose just before it.
     npose, tpose = min(pairs, key=lambda pair: (pair[1][0], -pair[0][0]))
     return held_window(npose, "N-pose"), held_window(tpose, "T-pose")
@@ -111,10 +111,10 @@ def functional_windows_from_markers(markers, end_s: float) -> tuple[tuple[float,
     session's phase markers: the :func:`held_window` of the last N-pose before the first walk
     after an N-pose, and that walk's phase (to the next marker). None when the markers name no
     N-pose followed by a walk (the T-pose is not used)."""
-    from mimucap.core import phases
+    from mimucap.core import phase_markers
 
-    npose_all = phases.phase_windows(markers, phases.NPOSE, end_s)
-    walks = phases.phase_windows(markers, phases.WALK, end_s)
+    npose_all = phase_markers.phase_windows(markers, phase_markers.NPOSE, end_s)
+    walks = phase_markers.phase_windows(markers, phase_markers.WALK, end_s)
     pairs = [(n, w) for w in walks for n in npose_all if n[1] <= w[0]]
     if not pairs:
         return None
@@ -125,13 +125,14 @@ def functional_windows_from_markers(markers, end_s: float) -> tuple[tuple[float,
 def orientation_table(session, source: str, mag_calibrations: dict):
     """Every sensor's orientation (reprocessed, with ``mag_calibrations``: sensor → the
     magnetometer calibration applied) on the reference sensor's instants where every sensor has
-    one, as a :class:`~mimucap.io.quaternion_tables.QuaternionTable` (world ENU), with the
+    one, as a :class:`~mimucap.io.orientation_tables.QuaternionTable` (world ENU), with the
     reasons each may be wrong."""
     import numpy as np
 
-    from mimucap.core.doubt import at_instants
-    from mimucap.core.pipeline import RESULT_REPROCESSED, finite_track, orientation_at
-    from mimucap.io.quaternion_tables import QuaternionTable
+    from mimucap.core.pipeline.instants import finite_track, orientation_at
+    from mimucap.core.pipeline.joint_angles import at_instants
+    from mimucap.core.pipeline.settings import RESULT_REPROCESSED
+    from mimucap.io.orientation_tables import QuaternionTable
     from mimucap.session.calibrations import AppliedCalibrations
     from mimucap.session.processing import process_session
 

@@ -199,7 +199,7 @@ class CalibrationQuality:
     """Quality figures and the verdict (``good``, ``acceptable`` or ``poor``) with reasons.
 
     ``doubtful_sensors``: the sensors whose orientation was doubtful during the poses
-    (:mod:`mimucap.core.doubt`; :func:`with_doubtful_sensors`).
+    (:mod:`mimucap.core.pipeline.doubt_reasons`; :func:`with_doubtful_sensors`).
     """
 
     method: str
@@ -318,7 +318,7 @@ _DOCUMENT_KEYS = ("format", "format_version", "method", "q_world_from_body", "up
 
 def with_doubtful_sensors(calibration: BodyCalibration, reasons: Mapping[str, str]) -> BodyCalibration:
     """``calibration`` made from orientations that were doubtful during its poses (``reasons``
-    sensor → why, in words; :mod:`mimucap.core.doubt`): the sensors are recorded, the reason
+    sensor → why, in words; :mod:`mimucap.core.pipeline.doubt_reasons`): the sensors are recorded, the reason
     joins the problems and a good verdict becomes acceptable (every joint angle computed with
     it is then doubtful). Unchanged when ``reasons`` is empty."""
     if not reasons:

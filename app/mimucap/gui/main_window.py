@@ -44,12 +44,12 @@ from mimucap.gui.source_dialog import (
     remember_source,
 )
 from mimucap.io.calibration_store import user_data_dir
-from mimucap.io.imports import IMPORT_SUFFIXES, import_recording
+from mimucap.io.recording_import import IMPORT_SUFFIXES, import_recording
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
-from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
+from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
 from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, doubt_warning, open_live_session
 from mimucap.io.library import library_fields, recording_path

@@ -61,9 +61,9 @@ from mimucap.core.bodycal import (
     segment_orientations,
     with_doubtful_sensors,
 )
-from mimucap.core.doubt import describe
 from mimucap.core.functional_bodycal import calibrate_functional
-from mimucap.core.pipeline import segments_from_sensors
+from mimucap.core.pipeline.doubt_reasons import describe
+from mimucap.core.pipeline.segments import segments_from_sensors
 from mimucap.core.skeleton import SkeletonModel
 from mimucap.session import instructions
 from mimucap.session.calibration_feed import DOUBT_EXTRA, CalibrationFeed
@@ -127,7 +127,7 @@ class BodycalStatus:
 
 class _Track:
     """Growing orientation samples of one sensor: t (N,), q (N, 4), and the times (s) and
-    reasons of the samples whose orientation the pipeline doubted (:mod:`mimucap.core.doubt`)."""
+    reasons of the samples whose orientation the pipeline doubted (:mod:`mimucap.core.pipeline.doubt_reasons`)."""
 
     def __init__(self) -> None:
         self.t_parts: list[np.ndarray] = []
@@ -452,7 +452,7 @@ class BodycalProcedure:
 
     def npose_segment_orientations(self, model: SkeletonModel | None = None) -> dict[str, np.ndarray]:
         """The calibrated N-pose: segment → ``q_world_from_segment`` (4,) from the N-pose means
-        and the result, by the pipeline's own step (:func:`mimucap.core.pipeline.segments_from_sensors`);
+        and the result, by the pipeline's own step (:func:`mimucap.core.pipeline.segments.segments_from_sensors`);
         every segment of ``model`` (those without a sensor follow their parent), or the
         calibrated segments without one. Only in phase ``"result"``."""
         if self.calibration is None:

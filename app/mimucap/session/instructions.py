@@ -23,7 +23,7 @@ WALK = "walk"
 RESUME_KIND = "resume"
 KINDS = (NPOSE, TPOSE, TURN_SENSORS, MOVE_JOINT, PREPARE_TEST, PERFORM_TEST, WALK, RESUME_KIND)
 
-#: Magnetometer protocols and how often each one turns the bundle (see core.magcal_guidance).
+#: Magnetometer protocols and how often each one turns the bundle (see core.magcal.guidance).
 PROTOCOL_TURNS = {"single_axis": 1, "figure8": 3, "free": 2}
 
 _ARMS_TEXT = {"both": "both arms", "right": "the right arm", "left": "the left arm"}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.core.samples import SensorSamples, concatenate_samples, join_per_sensor
+from mimucap.core.sensor_samples import SensorSamples, concatenate_samples, join_per_sensor
 
 
 def _part(first: int, n: int, *, mag: bool = True, calibration: bool = False, sensor: str = "S01") -> SensorSamples:

@@ -7,9 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mimucap.acquisition.block_codec import decode_block, encode_block
 from mimucap.acquisition.source_spec import parse_source_spec
-from mimucap.core.samples import SensorSamples, concatenate_samples
+from mimucap.core.sensor_samples import SensorSamples, concatenate_samples
+from mimucap.io.journal.records import decode_block, encode_block
 
 
 def make_block(n: int, full: bool = True, first: int = 0) -> SensorSamples:

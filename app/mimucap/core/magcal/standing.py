@@ -156,7 +156,7 @@ def age_s_at(created_utc: str, at: datetime) -> float | None:
 
 def calibration_standing(calibration, sensor_id: str, *, device: SensorDevice | None = None,
                          field: LocalField | None = None, age_s: float | None = None) -> Standing:
-    """The standing of ``calibration`` (a :class:`~mimucap.core.magcal.MagCalibration`) applied
+    """The standing of ``calibration`` (a :class:`~mimucap.core.magcal.model.MagCalibration`) applied
     to sensor ``sensor_id``.
 
     ``device``: what the source says the sensor is (``None`` or not settled: the device is not

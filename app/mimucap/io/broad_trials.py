@@ -22,6 +22,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.session import gyro_range_problem
 
 #: The IMU datasets a trial must hold, the magnetometer's only when it is used.
@@ -64,6 +65,12 @@ class BroadTrial:
         t = np.arange(self.n_samples, dtype=np.float64)  # k / rate, divided in place: one array
         t /= self.sampling_rate_hz
         return t
+
+    def samples(self, with_mag: bool = True) -> SensorSamples:
+        """The trial's IMU channels as one sensor's samples, named after the trial (the
+        magnetometer as the data set calibrated it, µT, unless ``with_mag`` is False)."""
+        return SensorSamples(self.name, self.t_s, np.arange(self.n_samples), acc=self.acc_m_s2, gyr=self.gyr_rad_s,
+                             mag_uT=self.mag_uT if with_mag else None)
 
     @property
     def category(self) -> str:

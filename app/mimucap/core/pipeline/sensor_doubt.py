@@ -1,5 +1,4 @@
-"""Why an orientation may be wrong: per sensor and sample, and for the joint angles built on it
-(no I/O, no Qt).
+"""Why a sensor's orientation may be wrong, per sample: the chain's doubt (no I/O, no Qt).
 
 A sensor's attitude error is bounded by the sum of three terms (radians), each from what the
 orientation filter (the error-state Kalman filter of Zhang, Gao, Zhou, "Head attitude sensing
@@ -42,13 +41,9 @@ and the smoother explains a drift as gyro bias, which it carries back over the b
 correlation time (:func:`smoother_memory_s`, the slow time constant of the filter's
 heading-and-bias loop); a step lost with samples reaches back as it decays forward.
 
-Joint angles inherit the reasons of the sensors of their two segments, at the pose instants
-(:func:`at_instants`), plus those of the body calibration (none, a poor verdict, or made from
-doubtful orientations); a recording's magnetometer turns take the sensors off the body
-(:func:`off_body`), and near its Euler sequence's singularity a joint's first and third
-angles amplify any error (:func:`singular`).
-
-Reasons are bits of a ``uint16`` (:data:`REASONS` names them for people and for files).
+:class:`SensorDoubt` is kept by the sensor's chain (:mod:`.chain`) and fed every block the
+filter fuses, live and in a recording's processing alike. Joint angles inherit these reasons
+(:mod:`.joint_angles`). The reasons are bits of :mod:`.doubt_reasons`.
 Times are seconds, angles radians, fields µT, quaternions ``[w, x, y, z]`` world ENU.
 """
 
@@ -56,7 +51,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import accumulate
 
@@ -67,48 +62,11 @@ from mimucap.core.fusion.params import FusionParams
 from mimucap.core.fusion.state import (
     FLAG_ACC_REJECTED, FLAG_MAG_MISSING, FLAG_MAG_REJECTED, FLAG_SKIPPED, FLAG_UNINITIALISED,
 )
-from mimucap.core.magcal import MagCalibration
-
-DOUBT_DTYPE = np.uint16
-
-# Reasons of one sensor's orientation
-NO_ORIENTATION = 1 << 0
-SETTLING = 1 << 1
-MAG_REJECTED = 1 << 2
-MAG_MISSING = 1 << 3
-NO_MAGNETOMETER = 1 << 4
-FIELD_MISMATCH = 1 << 5
-LOST_SAMPLES = 1 << 6
-MAG_UNCALIBRATED = 1 << 7
-ONBOARD_UNCALIBRATED = 1 << 8
-ACC_REJECTED = 1 << 9
-# Reasons of a joint angle beyond its sensors'
-NO_BODY_CALIBRATION = 1 << 10
-BODY_CALIBRATION_POOR = 1 << 11
-OFF_BODY = 1 << 12
-BODY_CALIBRATION_DOUBTFUL = 1 << 13
-SINGULAR = 1 << 14
-
-#: Reason bit → (short name for files, words for people), in the order people read them: what
-#: to act on first.
-REASONS: dict[int, tuple[str, str]] = {
-    MAG_UNCALIBRATED: ("mag_uncalibrated", "magnetometer not calibrated"),
-    ONBOARD_UNCALIBRATED: ("onboard_uncalibrated", "the sensor's own calibration is incomplete"),
-    NO_BODY_CALIBRATION: ("no_body_calibration", "no body calibration"),
-    BODY_CALIBRATION_POOR: ("body_calibration_poor", "the body calibration's verdict is poor"),
-    BODY_CALIBRATION_DOUBTFUL: ("body_calibration_doubtful",
-                                "the body calibration was made from doubtful orientations"),
-    OFF_BODY: ("off_body", "sensors off the body (magnetometer calibration)"),
-    FIELD_MISMATCH: ("field_mismatch", "heading taken from a magnetic field that differs from the calibrated one"),
-    MAG_REJECTED: ("mag_rejected", "magnetometer rejected as disturbed for longer than the gyroscope can bridge"),
-    MAG_MISSING: ("mag_missing", "magnetometer samples missing for longer than the gyroscope can bridge"),
-    NO_MAGNETOMETER: ("no_magnetometer", "no magnetometer: heading from the gyroscope alone"),
-    LOST_SAMPLES: ("lost_samples", "samples lost"),
-    ACC_REJECTED: ("acc_rejected", "accelerometer rejected (strong accelerations)"),
-    NO_ORIENTATION: ("no_orientation", "no orientation yet"),
-    SETTLING: ("settling", "orientation still settling"),
-    SINGULAR: ("singular", "near the angle sequence's singularity (gimbal lock)"),
-}
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.pipeline.doubt_reasons import (
+    ACC_REJECTED, DOUBT_DTYPE, FIELD_MISMATCH, LOST_SAMPLES, MAG_MISSING, MAG_REJECTED, MAG_UNCALIBRATED,
+    NO_MAGNETOMETER, NO_ORIENTATION, ONBOARD_UNCALIBRATED, SETTLING,
+)
 
 
 def _cause_table(has_mag: bool) -> np.ndarray:
@@ -160,16 +118,6 @@ class DoubtSettings:
 
 
 DEFAULT_DOUBT_SETTINGS = DoubtSettings()
-
-
-def reason_names(reasons: int) -> list[str]:
-    """The short names (:data:`REASONS`) of the bits set in ``reasons``."""
-    return [name for bit, (name, _words) in REASONS.items() if reasons & bit]
-
-
-def describe(reasons: int) -> str:
-    """The reasons set in ``reasons`` in words, joined by "; " ("" when there are none)."""
-    return "; ".join(words for bit, (_name, words) in REASONS.items() if reasons & bit)
 
 
 def field_deviation(mag_world_uT: np.ndarray, field_uT, horizontal_uT, downward_uT) -> np.ndarray:
@@ -600,96 +548,3 @@ def _gapped_blocks(doubts: Sequence[SensorDoubt], blocks: Sequence[DoubtBlock], 
     odd = (seq - before_seq != 1) | (t - before_t > limit) | ((flags & FLAG_SKIPPED) != 0)
     rows_of = np.repeat(np.arange(count), lengths)
     return unknown | (np.bincount(rows_of, weights=odd, minlength=count) > 0)
-
-
-# --------------------------------------------------------------------------------------------
-# Pose instants and joints
-# --------------------------------------------------------------------------------------------
-
-def at_instants(t_query: np.ndarray, t_s: np.ndarray, reasons: np.ndarray, hold_s: float) -> np.ndarray:
-    """A sensor's reasons at the instants ``t_query`` (M,) from its samples ``(t_s (N,),
-    reasons (N,))``: those of the sample at or before each instant and of the one after (an
-    orientation between two samples is interpolated from both); before the first sample
-    :data:`NO_ORIENTATION`; more than ``hold_s`` after the last (an orientation held, not
-    measured) :data:`LOST_SAMPLES`. (M,) ``uint16``."""
-    t_query = np.asarray(t_query, dtype=np.float64)
-    out = np.zeros(t_query.shape, dtype=DOUBT_DTYPE)
-    if not len(t_s):
-        out[:] = NO_ORIENTATION
-        return out
-    reasons = np.asarray(reasons, dtype=DOUBT_DTYPE)
-    before = np.searchsorted(t_s, t_query, side="right") - 1
-    after = np.searchsorted(t_s, t_query, side="left")
-    known = before >= 0
-    out[known] = reasons[before[known]]
-    inside = after < len(t_s)
-    out[inside] |= reasons[after[inside]]
-    out[~known] |= NO_ORIENTATION
-    out[t_query > t_s[-1] + hold_s] |= LOST_SAMPLES
-    return out
-
-
-def joint_reasons(joints: Iterable, sensor_of_segment: Mapping[str, str],
-                  sensor_reasons: Mapping[str, np.ndarray], shared: np.ndarray) -> dict[str, np.ndarray]:
-    """Joint name → its reasons (T,) at the pose instants: those of the sensors of its two
-    segments (``sensor_reasons`` sensor → (T,)) and ``shared`` (T,) (the body calibration's and
-    the recording's). Joints whose segments do not both carry a sensor are left out."""
-    out = {}
-    for joint in joints:
-        sensors = [sensor_of_segment.get(joint.proximal), sensor_of_segment.get(joint.distal)]
-        if any(sensor is None or sensor not in sensor_reasons for sensor in sensors):
-            continue
-        out[joint.name] = np.asarray(shared, dtype=DOUBT_DTYPE) | sensor_reasons[sensors[0]] | sensor_reasons[sensors[1]]
-    return out
-
-
-def spans(t_s: np.ndarray, reasons: np.ndarray, join_s: float = 1.0) -> list[tuple[float, float, int]]:
-    """The spans ``(start_s, end_s, reasons)`` where ``reasons`` (N,) are set, on the time axis
-    ``t_s`` (N,) s; spans closer than ``join_s`` (s) are joined, their reasons combined."""
-    reasons = np.asarray(reasons)
-    doubtful = reasons != 0
-    if not np.any(doubtful):
-        return []
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], doubtful.astype(np.int8), [0]])))
-    found: list[tuple[float, float, int]] = []
-    for begin, end in zip(edges[::2], edges[1::2]):
-        bits = int(np.bitwise_or.reduce(reasons[begin:end]))
-        start, stop = float(t_s[begin]), float(t_s[end - 1])
-        if found and start - found[-1][1] < join_s:
-            found[-1] = (found[-1][0], stop, found[-1][2] | bits)
-        else:
-            found.append((start, stop, bits))
-    return found
-
-
-def off_body(t_s: np.ndarray, windows: Iterable[tuple[float, float]], gyr_rad_s: np.ndarray | None,
-             still_rate_rad_s: float, still_time_s: float) -> np.ndarray:
-    """:data:`OFF_BODY` (N,) ``uint16`` at a sensor's samples ``t_s`` (N,) inside any of
-    ``windows`` (start, end) s, in which the sensors are turned in the hand, and after each
-    until the sensor has turned slower than ``still_rate_rad_s`` for ``still_time_s`` (its
-    rates ``gyr_rad_s`` (N, 3); None: until the window's end): a sensor is strapped back on
-    after the turns, and where it sits is known once the subject stands still."""
-    t_s = np.asarray(t_s, dtype=np.float64)
-    out = np.zeros(t_s.shape, dtype=DOUBT_DTYPE)
-    still_since = None
-    if gyr_rad_s is not None:
-        moving = ~(np.linalg.norm(np.asarray(gyr_rad_s, dtype=np.float64), axis=1) < still_rate_rad_s)
-        still_since = t_s - np.maximum.accumulate(np.where(moving, t_s, -np.inf))
-    for start, end in windows:
-        stop = end
-        if still_since is not None:
-            settled = np.flatnonzero((t_s >= end) & (still_since >= still_time_s))
-            stop = float(t_s[settled[0]]) if len(settled) else math.inf
-        out[(t_s >= start) & (t_s < stop)] = OFF_BODY
-    return out
-
-
-def singular(middle_deg: np.ndarray, proper: bool) -> np.ndarray:
-    """:data:`SINGULAR` (T,) ``uint16`` where a joint's middle Euler angle ``middle_deg`` (T,)
-    is within 30° of its sequence's singularity (±90° for Tait-Bryan sequences such as Z-X'-Y'',
-    0° and 180° for a ``proper`` one such as Y-X'-Y''): there the first and third angles change
-    at least twice as fast as the rotation itself (``1 / cos`` or ``1 / sin`` of the middle
-    angle), so a degree of attitude error becomes several in them (gimbal lock)."""
-    middle = np.radians(np.asarray(middle_deg, dtype=np.float64))
-    conditioning = np.abs(np.sin(middle)) if proper else np.abs(np.cos(middle))
-    return np.where(conditioning < 0.5, SINGULAR, 0).astype(DOUBT_DTYPE)

@@ -1,4 +1,4 @@
-"""The magnetometer calibration of one sensor: model, application and the one-call calibration.
+"""The magnetometer calibration of one sensor: the model and its application.
 
 Model (``docs/conventions.md``): ``mag_raw = A · mag_true + b + noise``. A
 :class:`MagCalibration` holds the hard-iron offset ``b`` (``offset_uT``, (3,), µT, sensor
@@ -8,9 +8,6 @@ it belongs to and refuses to be applied to another one, the device it was made o
 (:mod:`mimucap.core.device_identity`; ``None`` when the source did not say), the creation date (ISO 8601 UTC,
 supplied by the caller: the core reads no clock), the protocol used, the sample count and
 its quality figures.
-
-:func:`calibrate` runs the fit (:mod:`mimucap.core.magcal_fit`) and the quality assessment
-(:mod:`mimucap.core.magcal_quality`) and returns both with the calibration record.
 """
 
 from __future__ import annotations
@@ -21,23 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mimucap.core.device_identity import check_device_id
-from mimucap.core.magcal_fit import (
-    EllipsoidFit,
-    FitRefused,
-    FitSettings,
-    apply_correction,
-    fit_ellipsoid,
-)
-from mimucap.core.magcal_quality import Quality, QualityThresholds, assess_quality
-
-__all__ = [
-    "CalibrationResult",
-    "FitRefused",
-    "FitSettings",
-    "MagCalibration",
-    "QualityThresholds",
-    "calibrate",
-]
+from mimucap.core.magcal.fit import apply_correction
 
 FloatArray = NDArray[np.float64]
 
@@ -93,46 +74,3 @@ class MagCalibration:
                 f"to sensor {sensor_id!r}: calibrate that sensor"
             )
         return apply_correction(mag_raw, self.offset_uT, self.soft_iron)
-
-
-@dataclass(frozen=True)
-class CalibrationResult:
-    """What :func:`calibrate` returns: the fit, its quality and the calibration record."""
-
-    fit: EllipsoidFit
-    quality: Quality
-    calibration: MagCalibration
-
-
-def calibrate(
-    mag_raw: ArrayLike,
-    sensor_id: str,
-    acc: ArrayLike | None = None,
-    settings: FitSettings = FitSettings(),
-    thresholds: QualityThresholds = QualityThresholds(),
-    protocol: str = "",
-    created_utc: str = "",
-    device_id: str | None = None,
-) -> CalibrationResult:
-    """Fit and assess a magnetometer calibration for ``sensor_id``.
-
-    mag_raw: (N, 3) raw samples, µT, sensor frame. acc: optional (N, 3) specific force, m/s²,
-    sampled at the same instants (enables the dip-scatter figure). device_id: the device the
-    samples came from (None when not known). Raises
-    :class:`~mimucap.core.magcal_fit.FitRefused` (a ``ValueError``) when no trustworthy
-    ellipsoid can be fitted; otherwise the verdict of the result may still be "fail".
-    """
-    fit = fit_ellipsoid(mag_raw, settings)
-    quality = assess_quality(fit, mag_raw, acc, thresholds)
-    calibration = MagCalibration(
-        sensor_id=sensor_id,
-        offset_uT=fit.offset_uT,
-        soft_iron=fit.soft_iron,
-        field_uT=fit.field_uT,
-        created_utc=created_utc,
-        protocol=protocol,
-        samples_used=fit.samples_used,
-        quality=quality.as_dict(),
-        device_id=device_id,
-    )
-    return CalibrationResult(fit=fit, quality=quality, calibration=calibration)

@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from mimucap.io.broad import is_broad_file, list_broad_trials, read_broad
+from mimucap.io.broad_trials import is_broad_file, list_broad_trials, read_broad
 from mimucap.core.sensor_limits import GYR_MAX_RAD_S
 from tests.external_data import data_path
 

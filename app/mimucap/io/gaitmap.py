@@ -1,5 +1,5 @@
-"""Gait files: foot-worn IMU samples in the layout of the gaitmap example data, its optical
-reference (for evaluation), and the CSV tables gait analysis writes.
+"""Gait files in the layout of the gaitmap example data: foot-worn IMU samples, and their optical
+reference (for evaluation).
 
 **Foot IMU CSV** (the gaitmap layout, Küderle et al. 2024, "Gaitmap — an open ecosystem for
 IMU-based human gait analysis", IEEE OJEMB 5:163-172): a first column of sample numbers, then
@@ -9,17 +9,13 @@ sensor frame: x to the shoe tip, y to the subject's left (both feet), z up in fl
 the sagittal (flexion-axis) rate, positive as the foot swings forward (dorsiflexion), is
 therefore ``−gyr_y`` for both feet when the file keeps to that frame (``mimucap gait`` does not
 rely on it: it finds each sensor's axes in its samples). Time = sample number / rate.
-
-**Tables** are CSV with one header row, after ``#`` lines saying what the input holds (result,
-calibrations, software, source file); empty cells are values that could not be estimated;
-booleans are ``true``/``false``.
 """
 
 from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -175,35 +171,3 @@ def _heel_axis_turn_deg(q0_xyzw: Sequence[float], q1_xyzw: Sequence[float]) -> f
     a, b = x_axis_in_lab(q0_xyzw), x_axis_in_lab(q1_xyzw)
     angle = math.degrees(math.atan2(b[1], b[0]) - math.atan2(a[1], a[0]))
     return (angle + 180.0) % 360.0 - 180.0
-
-
-def format_cell(value: object) -> str:
-    """A table cell: empty for None/NaN, ``true``/``false``, numbers with up to 6 significant
-    decimals."""
-    if value is None:
-        return ""
-    if isinstance(value, (bool, np.bool_)):
-        return "true" if value else "false"
-    if isinstance(value, (float, np.floating)):
-        return "" if not math.isfinite(float(value)) else f"{float(value):.6g}"
-    return str(value)
-
-
-def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[object]],
-                notes: Sequence[str] = ()) -> Path:
-    """Write one CSV table (module doc), ``notes`` as ``#`` lines above it; returns the path."""
-    target = Path(path)
-    with open(target, "w", newline="", encoding="utf-8") as handle:
-        for note in notes:
-            handle.write("# " + " ".join(str(note).split()) + "\n")
-        writer = csv.writer(handle)
-        writer.writerow(list(header))
-        for row in rows:
-            writer.writerow([format_cell(v) for v in row])
-    return target
-
-
-def read_table(path: str | Path) -> list[dict[str, str]]:
-    """Rows of a CSV table as header → text (its ``#`` lines skipped)."""
-    with open(path, newline="", encoding="utf-8") as handle:
-        return list(csv.DictReader(line for line in handle if not line.startswith("#")))

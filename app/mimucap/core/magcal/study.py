@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from mimucap.core.magcal_fit import Ellipsoid, FitRefused, FitSettings, fit_ellipsoid
-from mimucap.core.magcal_quality import assess_quality
+from mimucap.core.magcal.fit import Ellipsoid, FitRefused, FitSettings, fit_ellipsoid
+from mimucap.core.magcal.quality import assess_quality
 from mimucap.core.simulate.hand_held import calibration_motion
 from mimucap.core.simulate.magnetic_field import EarthField
 from mimucap.core.simulate.sensor_errors import error_model

@@ -1,13 +1,10 @@
-"""Bytes for a block of :class:`~mimucap.core.samples.SensorSamples` from a source (used by the
-recorder's journal),
-on a general layout of named arrays that other journal records share (:func:`encode_arrays`).
+"""The payload layout of the journal's array records: a few named arrays of ``n`` rows each.
 
 Layout: u32 length of a UTF-8 JSON header, the header (the record's own fields, ``"n"`` the
 row count, and ``"arrays": [[name, dtype, trailing shape], ...]``), then each array's
-little-endian bytes in header order; every array has ``n`` rows. A sample block's own fields
-are ``"source"`` and ``"sensor_id"``; its arrays ``seq``, ``device_time_s``, ``host_time_s`` (the
-record's ``t_s``: the host's monotonic clock), ``receive_time_s`` and the channels present.
-:func:`decode_arrays` checks every size and refuses anything inconsistent with ``ValueError``.
+little-endian bytes in header order; every array has ``n`` rows. Sample blocks and the
+simulator's truth are such records (:mod:`.records`). :func:`decode_arrays` checks every size
+and refuses anything inconsistent with ``ValueError``.
 """
 
 from __future__ import annotations
@@ -21,14 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.core.samples import CHANNELS, SensorSamples
-
 _LENGTH = struct.Struct("<I")
-_TIME_ARRAYS = ("seq", "device_time_s", "host_time_s", "receive_time_s")
-#: A record's field behind each journal array name that differs from it.
-_FIELDS = {"host_time_s": "t_s"}
-_DTYPES = {"int64": "<i8", "float64": "<f8", "int8": "i1"}
-_ITEM_BYTES = {name: np.dtype(code).itemsize for name, code in _DTYPES.items()}
+#: The array types a record may hold: name → little-endian code.
+DTYPES = {"int64": "<i8", "float64": "<f8", "int8": "i1"}
+_ITEM_BYTES = {name: np.dtype(code).itemsize for name, code in DTYPES.items()}
 
 
 def encode_arrays(fields: Mapping[str, Any], n: int, arrays: Iterable[tuple[str, np.ndarray]]) -> bytes:
@@ -37,9 +30,9 @@ def encode_arrays(fields: Mapping[str, Any], n: int, arrays: Iterable[tuple[str,
     entries, blobs = [], []
     for name, array in arrays:
         dtype = np.asarray(array).dtype.name
-        if dtype not in _DTYPES:
+        if dtype not in DTYPES:
             raise ValueError(f"array {name!r}: dtype {dtype} cannot be journaled")
-        array = np.ascontiguousarray(array, dtype=_DTYPES[dtype])
+        array = np.ascontiguousarray(array, dtype=DTYPES[dtype])
         if array.shape[:1] != (n,):
             raise ValueError(f"array {name!r} has {array.shape[:1]} rows, not {n}")
         entries.append([name, dtype, list(array.shape[1:])])
@@ -88,35 +81,11 @@ def _layout(header_bytes: bytes, what: str) -> tuple[dict[str, Any], tuple[tuple
         raise ValueError(f"{what} has a bad header")
     layout = []
     for name, dtype, tail in entries:
-        if dtype not in _DTYPES:
+        if dtype not in DTYPES:
             raise ValueError(f"{what} has an array {name!r} of unknown type {dtype!r}")
         shape = (n, *[int(v) for v in tail])
         if any(v < 0 for v in shape):
             raise ValueError(f"{what} has a negative shape for {name!r}")
         count = math.prod(shape)
-        layout.append((name, _DTYPES[dtype], shape, count, count * _ITEM_BYTES[dtype]))
+        layout.append((name, DTYPES[dtype], shape, count, count * _ITEM_BYTES[dtype]))
     return header, tuple(layout)
-
-
-def encode_block(block: SensorSamples) -> bytes:
-    """The record of ``block`` (from a source: every clock present): times int64/float64,
-    channels float64, calibration int8."""
-    arrays = []
-    for name in _TIME_ARRAYS + CHANNELS:
-        value = getattr(block, _FIELDS.get(name, name))
-        if value is not None:
-            value = np.asarray(value)
-            dtype = "int8" if name == "calibration" else "int64" if value.dtype.kind == "i" else "float64"
-            arrays.append((name, value.astype(_DTYPES[dtype], copy=False)))
-    return encode_arrays({"source": block.source, "sensor_id": block.sensor_id}, len(block), arrays)
-
-
-def decode_block(data: bytes) -> SensorSamples:
-    """The block encoded in ``data``; ``ValueError`` if the bytes are inconsistent."""
-    header, values = decode_arrays(data, "sample block record")
-    unknown = [name for name in values if name not in _TIME_ARRAYS + CHANNELS]
-    if unknown or "sensor_id" not in header or any(name not in values for name in _TIME_ARRAYS):
-        raise ValueError(f"sample block record has unknown arrays {unknown}, or lacks its sensor id or a "
-                         f"time array")
-    return SensorSamples(source=str(header.get("source", "")), sensor_id=str(header["sensor_id"]),
-                         **{_FIELDS.get(name, name): value for name, value in values.items()})
