@@ -148,7 +148,13 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"{', '.join(given)} apply to recordings into the library only (with --subject)")
     recorder = Recorder(args.out, metadata,
                         RecorderSettings(flush_interval_s=args.flush_interval))
-    recorder.start()  # refuses an existing file or journal before anything runs
+    from mimucap.session.lsl_clock import recording_lsl_clock
+
+    start_host_s = time.monotonic()
+    lsl_clock = recording_lsl_clock(start_host_s)  # lines it up with a LabRecorder XDF of the same minutes
+    if lsl_clock is not None:
+        recorder.metadata["lsl_clock"] = lsl_clock
+    recorder.start(start_host_s)  # refuses an existing file or journal before anything runs
     stop = _StopRequest()
     previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     supervisor = Supervisor(configs)

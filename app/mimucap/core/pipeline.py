@@ -738,14 +738,10 @@ class LivePipeline:
         sensor that no assigned, non-silent sensor lags behind (:data:`HOLD_BACK_LIMIT_S`), so
         that every segment comes from samples of the same instant (as :func:`process_recording`
         forms it)."""
-        segments = assignment_of(body_calibration, sensor_segments)
-        tracks = {sid: self._tracks[sid] for sid in segments if sid in self._tracks and len(self._tracks[sid].t)}
-        reference = reference_sensor(self.model, segments, list(tracks))
-        if reference is None:
+        found = self._pose_instants(body_calibration, sensor_segments)
+        if found is None:
             return None
-        newest = max(track.newest_t for track in tracks.values())
-        limit = min(track.newest_t for track in tracks.values() if track.newest_t >= newest - HOLD_BACK_LIMIT_S)
-        ref_t = tracks[reference].t
+        tracks, ref_t, limit = found
         position = int(np.searchsorted(ref_t, limit, side="right")) - 1
         if position < 0 or ref_t[position] <= self._last_pose_t:
             return None
@@ -756,6 +752,39 @@ class LivePipeline:
             return None
         self._last_pose_t = t_pose
         return t_pose, q_segments
+
+    def poses_after(self, t_after_s: float, body_calibration: bodycal.BodyCalibration | None,
+                    sensor_segments: Mapping[str, str]) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+        """Every pose the pipeline can form at an instant later than ``t_after_s`` (s), in one
+        batch: ``(t_s (P,), segment → q_world_from_segment (P, 4))``, or ``None`` when there is
+        none. The instants are the reference sensor's sample times up to the one :meth:`pose`
+        would take now (every assigned sensor has delivered for them), so a consumer that wants
+        each sample instant (a stream at the sensors' rate) gets what :meth:`pose`, which keeps
+        only the newest, skips between two calls; the orientations are the same. Independent of
+        :meth:`pose`'s own progress; reaches back :data:`TRACK_CAPACITY` samples at most."""
+        found = self._pose_instants(body_calibration, sensor_segments)
+        if found is None:
+            return None
+        tracks, ref_t, limit = found
+        t_pose = ref_t[(ref_t > t_after_s) & (ref_t <= limit)]
+        if not len(t_pose):
+            return None
+        at = {sid: orientation_at(t_pose, track.t, track.q) for sid, track in tracks.items()}
+        q_segments = segments_from_sensors(self.model, at, body_calibration, sensor_segments)
+        return None if q_segments is None else (t_pose, q_segments)
+
+    def _pose_instants(self, body_calibration: bodycal.BodyCalibration | None, sensor_segments: Mapping[str, str]):
+        """``(tracks of the assigned sensors, the reference sensor's sample times, the newest
+        instant every assigned, non-silent sensor has delivered for)``, or ``None`` without a
+        reference sensor."""
+        segments = assignment_of(body_calibration, sensor_segments)
+        tracks = {sid: self._tracks[sid] for sid in segments if sid in self._tracks and len(self._tracks[sid].t)}
+        reference = reference_sensor(self.model, segments, list(tracks))
+        if reference is None:
+            return None
+        newest = max(track.newest_t for track in tracks.values())
+        limit = min(track.newest_t for track in tracks.values() if track.newest_t >= newest - HOLD_BACK_LIMIT_S)
+        return tracks, tracks[reference].t, limit
 
     def forget_poses(self) -> None:
         """Allow the next pose to be any instant again (after a calibration changed)."""
