@@ -127,13 +127,15 @@ def joint_layout(model: skeleton.SkeletonModel, source: str) -> StreamLayout:
                                                     ("zero", "the calibrated N-pose")))
 
 
-def raw_layout(sensor_id: str, segment: str | None, source: str) -> StreamLayout:
-    """The raw-sample stream of sensor ``sensor_id`` (worn on ``segment``, if known)."""
+def raw_layout(sensor_id: str, segment: str | None, source: str, device_id: str | None = None) -> StreamLayout:
+    """The raw-sample stream of sensor ``sensor_id`` (worn on ``segment``, if known; its
+    device's hardware id ``device_id``, if known: an import finds its magnetometer
+    calibration by it)."""
     tracked = segment or sensor_id
     channels = tuple(Channel(label, kind, unit, (("component", axis), ("tracked_point", tracked)))
                      for label, kind, axis, unit in RAW_CHANNELS)
     channels += (Channel("seq", "MISC", "n/a", (("description", "sequence number; a gap is a dropped sample"),)),)
-    reference = (("sensor_id", sensor_id), ("segment", segment or ""),
+    reference = (("sensor_id", sensor_id), ("segment", segment or ""), ("device_id", device_id or ""),
                  ("frame", "sensor axes; magnetometer before its calibration"))
     return StreamLayout(f"{NAME_PREFIX} raw {sensor_id}", RAW_TYPE, source_id(source, f"raw {sensor_id}"),
                         channels, reference=reference)
@@ -265,7 +267,8 @@ class LslStreamer:
         for item in items:
             outlet = self.raw.get(item.sensor_id)
             if outlet is None:
-                layout = raw_layout(item.sensor_id, self.session.sensor_segments.get(item.sensor_id), self.source)
+                layout = raw_layout(item.sensor_id, self.session.sensor_segments.get(item.sensor_id), self.source,
+                                    self.session.device_of(item.sensor_id).device_id)
                 outlet = self.raw[item.sensor_id] = _Outlet(self.pylsl, layout, self.source)
             block = item.block
             rows = np.full((len(block), len(RAW_CHANNELS) + 1), np.nan)
