@@ -37,7 +37,8 @@ def _run(session, seconds: float, each=None) -> None:
 
 
 def _resolve(prop: str, value: str, source_id: str):
-    found = [i for i in pylsl.resolve_byprop(prop, value, 0, 3.0) if i.source_id() == source_id]
+    """The stream whose ``prop`` (type, name) is ``value``, of ``source_id`` (this test's)."""
+    found = [i for i in pylsl.resolve_bypred(f"{prop}='{value}' and source_id='{source_id}'", 1, 3.0)]
     assert found, f"no stream with {prop}={value!r} and source_id {source_id!r}"
     return found[0]
 
