@@ -28,18 +28,24 @@ class LslSwitch:
         self.action.triggered.connect(self._toggled)
         self.streamer = None
         self._session = None
+        #: the switch is on: the streams go to every live session the window gets
+        self._wanted = False
+        self._marker_stream = ""
 
     def follow(self, session) -> None:
-        """The window's live session is now ``session``: streams move to it (or close)."""
-        on = self.streamer is not None
-        marker_stream = self.streamer.marker_stream if on else ""
+        """The window's live session is now ``session``: streams move to it (or close while it
+        has none, and open again with the next)."""
+        if self.streamer is not None:
+            self._marker_stream = self.streamer.marker_stream
         self._close()
         self._session = session
-        if on and session is not None:
-            self._open(marker_stream)
+        if self._wanted and session is not None:
+            self._open(self._marker_stream)
 
     def _toggled(self, on: bool) -> None:
         if not on:
+            self._wanted = False
+            self._marker_stream = ""
             self._close()
             self.window.statusBar().showMessage("Lab Streaming Layer streams closed", 5000)
             return
@@ -57,6 +63,7 @@ class LslSwitch:
         self._open("")
         if self.streamer is None:
             return
+        self._wanted = True
         names = self.streamer.marker_streams()
         if names:
             name, chosen = QtWidgets.QInputDialog.getItem(
@@ -78,6 +85,7 @@ class LslSwitch:
         try:
             self.streamer = LslStreamer(self._session)
         except (ValueError, RuntimeError, OSError) as error:
+            self._wanted = False
             self.action.setChecked(False)
             QtWidgets.QMessageBox.warning(self.window, "Lab Streaming Layer", f"Cannot open the LSL streams: {error}")
             return
@@ -93,4 +101,4 @@ class LslSwitch:
         if self.streamer is not None:
             self.streamer.close()
         self.streamer = None
-        self.action.setChecked(False)
+        self.action.setChecked(self._wanted)
