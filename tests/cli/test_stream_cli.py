@@ -87,3 +87,28 @@ def test_an_xdf_without_mimucap_streams_is_refused_naming_its_streams(tmp_path):
     write_xdf(tmp_path / "eeg.xdf", [RecordedStream(header, "float32", [1.0, 1.004], [[0.5], [0.6]])])
     assert main(["import", str(tmp_path / "eeg.xdf"), "--out", str(tmp_path / "s.h5")]) == 1
     assert not (tmp_path / "s.h5").exists()
+
+
+def test_stream_applies_the_body_calibration_file_with_its_magnetometers(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("pylsl", reason="pylsl is not installed (pip install 'mimucap[lsl]'; make test installs it)")
+    from mimucap.cli import main
+    from mimucap.cli.stream import apply_calibration_file
+    from mimucap.io.calibration_store import CalibrationStore
+    from mimucap.session.live import open_live_session
+
+    monkeypatch.setenv("MIMUCAP_DATA_DIR", str(tmp_path / "data"))
+    recording = tmp_path / "poses.h5"
+    assert main(["simulate", "--scenario", "demo", "--duration", "40", "--out", str(recording)]) == 0
+    assert main(["magcal", "fit", str(recording), "--save"]) == 0
+    calibration = tmp_path / "cal.json"
+    assert main(["bodycal", str(recording), "--out", str(calibration)]) == 0
+    session = open_live_session("simulated", calibration_store=CalibrationStore(tmp_path / "empty store"))
+    apply_calibration_file(session, calibration)
+    assert session.body_calibration is not None
+    assert sorted(session.mag_calibrations) == sorted(session.body_calibration.sensors.values())
+    capsys.readouterr()
+    assert main(["stream", "--source", "simulated", "--lsl", "--duration", "1.5",
+                 "--calibration", str(calibration)]) == 0
+    assert "MimuCap joint angles:" in capsys.readouterr().out
+    assert main(["stream", "--source", "simulated", "--lsl", "--duration", "1",
+                 "--calibration", str(tmp_path / "missing.json")]) == 1

@@ -201,6 +201,7 @@ def test_a_stream_that_is_not_there_or_not_of_markers_is_refused_with_the_reason
 
 
 def test_an_xdf_recorded_from_the_streams_imports_as_a_session_that_reviews(streaming, tmp_path):
+    pytest.importorskip("pyxdf", reason="pyxdf is not installed (pip install 'mimucap[lsl]'; make test installs it)")
     from tests.xdf_recorder import record, write_xdf
 
     from mimucap.cli import main
