@@ -57,7 +57,9 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-class _StopRequest:
+class StopRequest:
+    """A signal handler that asks the command's loop to end (Ctrl+C, SIGTERM)."""
+
     def __init__(self) -> None:
         self.requested = False
 
@@ -155,7 +157,7 @@ def run(args: argparse.Namespace) -> int:
     if lsl_clock is not None:
         recorder.metadata["lsl_clock"] = lsl_clock
     recorder.start(start_host_s)  # refuses an existing file or journal before anything runs
-    stop = _StopRequest()
+    stop = StopRequest()
     previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     supervisor = Supervisor(configs)
     reason = "duration"

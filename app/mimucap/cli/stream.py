@@ -45,14 +45,6 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-class _StopRequest:
-    def __init__(self) -> None:
-        self.requested = False
-
-    def __call__(self, signum, frame) -> None:
-        self.requested = True
-
-
 def run(args: argparse.Namespace) -> int:
     if not args.lsl:
         raise ValueError("say where to stream: --lsl (Lab Streaming Layer) is the output this command has")
@@ -72,7 +64,9 @@ def run(args: argparse.Namespace) -> int:
     if args.calibration is not None:
         apply_calibration_file(session, args.calibration)
     streamer = LslStreamer(session, pylsl)
-    stop = _StopRequest()
+    from mimucap.cli.record import StopRequest
+
+    stop = StopRequest()
     previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         if args.lsl_markers:
