@@ -112,3 +112,34 @@ def test_stream_applies_the_body_calibration_file_with_its_magnetometers(tmp_pat
     assert "MimuCap joint angles:" in capsys.readouterr().out
     assert main(["stream", "--source", "simulated", "--lsl", "--duration", "1",
                  "--calibration", str(tmp_path / "missing.json")]) == 1
+
+
+def test_markers_pushed_by_another_program_land_in_the_recording_at_their_times(tmp_path):
+    pylsl = pytest.importorskip("pylsl", reason="pylsl is not installed (pip install 'mimucap[lsl]'; make test installs it)")
+    from mimucap.io.session import read_session
+
+    name = f"Stimuli {os.getpid()} {time.monotonic_ns()}"
+    stimuli = pylsl.StreamOutlet(pylsl.StreamInfo(name, "Markers", 1, 0, "string", f"stimuli-{name}"))
+    out = tmp_path / "with-stimuli.h5"
+    process = subprocess.Popen(MIMUCAP + ["stream", "--source", "simulated", "--lsl", "--duration", "4",
+                                          "--lsl-markers", name, "--out", str(out)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    pushed = []
+    try:
+        assert "markers from" in process.stdout.readline()   # streaming, the marker inlet open
+        for label in ("tone 1", "tone 2", "plate trigger"):
+            time.sleep(0.4)
+            stamp = pylsl.local_clock() - 0.02
+            stimuli.push_sample([label], stamp)
+            pushed.append((label, stamp))
+        rest, err = process.communicate(timeout=60)
+    finally:
+        if process.poll() is None:
+            process.kill()
+    assert process.returncode == 0, err
+    assert f"3 markers taken from {name!r}" in rest
+    session = read_session(out)
+    start = session.metadata["lsl_clock"]["session_start_lsl_s"]
+    at = {m.label: m.t_s + start for m in session.markers}
+    for label, stamp in pushed:
+        assert abs(at[label] - stamp) < 0.010, (label, at[label] - stamp)
