@@ -20,7 +20,7 @@ class LslSwitch:
 
     def __init__(self, window: QtWidgets.QMainWindow, menu: QtWidgets.QMenu) -> None:
         self.window = window
-        self.action = menu.addAction("Stream to &Lab Streaming Layer…")
+        self.action = menu.addAction("S&tream to Lab Streaming Layer…")
         self.action.setCheckable(True)
         self.action.setToolTip("Publish segment orientations, joint angles, raw samples and markers as LSL "
                                "streams (LabRecorder records them beside EEG, EMG, force plates), and take "
