@@ -1,7 +1,8 @@
 """Recordings of other systems as MimuCap sessions: one entry for the command line and the window.
 
 :func:`session_from_file` reads an Xsens MVNX file (:func:`mimucap.io.mvnx.session_from_mvnx`) or
-an OpenSense orientation table (:func:`mimucap.io.opensense.session_from_sto`) by its suffix;
+an OpenSense orientation table (:func:`mimucap.io.opensense.session_from_sto`) or MimuCap's raw
+streams in a LabRecorder XDF file (:func:`mimucap.io.xdf.session_from_xdf`) by its suffix;
 :func:`import_recording` writes the session file that the review and the exports then open.
 """
 
@@ -10,11 +11,12 @@ from __future__ import annotations
 from pathlib import Path
 
 #: Suffixes of the recordings that can be imported, and what they are.
-IMPORT_SUFFIXES = {".mvnx": "Xsens MVNX", ".sto": "OpenSense orientation table"}
+IMPORT_SUFFIXES = {".mvnx": "Xsens MVNX", ".sto": "OpenSense orientation table",
+                   ".xdf": "XDF (LabRecorder) with MimuCap's raw streams"}
 
 
 def session_from_file(path: str | Path):
-    """A :class:`~mimucap.io.session.Session` of an ``.mvnx`` or OpenSense ``.sto`` file."""
+    """A :class:`~mimucap.io.session.Session` of an ``.mvnx``, OpenSense ``.sto`` or ``.xdf`` file."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".mvnx":
@@ -25,7 +27,12 @@ def session_from_file(path: str | Path):
         from mimucap.io.opensense import session_from_sto
 
         return session_from_sto(path)
-    raise ValueError(f"{path}: import reads Xsens .mvnx files and OpenSense .sto tables, not {suffix or 'no suffix'!r}")
+    if suffix == ".xdf":
+        from mimucap.io.xdf import session_from_xdf
+
+        return session_from_xdf(path)
+    raise ValueError(f"{path}: import reads Xsens .mvnx files, OpenSense .sto tables and XDF files, "
+                     f"not {suffix or 'no suffix'!r}")
 
 
 def import_recording(path: str | Path, out: str | Path):

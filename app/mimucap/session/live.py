@@ -76,6 +76,7 @@ from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_headin
 from mimucap.session.instructions import Instruction
 from mimucap.session.live_pose import LivePose, joint_column_groups
 from mimucap.session.live_status import StatusPublisher
+from mimucap.session.lsl_clock import recording_lsl_clock
 from mimucap.session.processing import check_body_calibration_fits, recording_record
 from mimucap.session.recording_checklist import magnetometer_readiness, sensor_standing
 from mimucap.session.recording import Recorder, RecordingResult
@@ -866,6 +867,9 @@ class LiveSession:
                                settings=self.pipeline.settings, filter_states=self.pipeline.filter_states(),
                                time_offset_s=start_host_s - self.t0_host_s),
         }
+        lsl_clock = recording_lsl_clock(start_host_s, self._clock)
+        if lsl_clock is not None:  # lines the recording up with a LabRecorder XDF of the same minutes
+            metadata["lsl_clock"] = lsl_clock
         metadata.update(extra_metadata or {})
         recorder = Recorder(path, metadata)
         recorder.start(start_host_s)
@@ -876,9 +880,11 @@ class LiveSession:
         self.status.mark_due()
         self.events.recording.emit(self.recording_info())
 
-    def add_marker(self, label: str) -> float:
-        """Mark now with ``label`` (in the recording when recording); returns its ``t_s``."""
-        now = self._clock()
+    def add_marker(self, label: str, host_s: float | None = None) -> float:
+        """Mark now, or the instant ``host_s`` (s on the session's clock: a marker that came with
+        its own time, e.g. from a Lab Streaming Layer stream), with ``label`` (in the recording
+        when recording); returns its ``t_s``."""
+        now = self._clock() if host_s is None else float(host_s)
         label = str(label).strip() or "marker"
         if self._recorder is not None:
             if not self._recorder.add_marker(label, now):

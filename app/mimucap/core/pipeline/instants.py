@@ -179,6 +179,10 @@ class LiveTrack:
     def newest_t(self) -> float:
         return float(self.t[-1]) if len(self.t) else float("nan")
 
+    def as_sensor_track(self) -> SensorTrack:
+        """The samples kept, as the batch form holds a sensor's orientations."""
+        return SensorTrack(self.t, self.q, self.flags, self.heading_std_rad, self.q_no_mag)
+
     def at(self, t_s: float) -> tuple[np.ndarray, int, float, np.ndarray | None]:
         """``(q_world_from_sensor (4,), flags, heading_std_rad, q_no_mag (4,) or None)`` at the
         instant ``t_s``: the orientation as :func:`orientation_at` gives it, the rest from the
@@ -222,23 +226,47 @@ def slerp_one(q0: np.ndarray, q1: np.ndarray, fraction: float) -> np.ndarray:
     return np.array([v / norm for v in out])
 
 
-def newest_instant(model: skeleton.SkeletonModel, segment_of_sensor: Mapping[str, str],
-                   tracks: Mapping[str, LiveTrack], after_s: float) -> float | None:
-    """The newest pose instant every assigned sensor has delivered for (the live form), later
-    than ``after_s``: a sample time of the reference sensor that no assigned sensor lags
-    behind, unless it has been silent for longer than :data:`HOLD_BACK_LIMIT_S` (it is then
-    held). ``None`` when there is no new one."""
+def _reference_times(model: skeleton.SkeletonModel, segment_of_sensor: Mapping[str, str],
+                     tracks: Mapping[str, LiveTrack]) -> tuple[np.ndarray, float] | None:
+    """The reference sensor's sample times and the newest instant every assigned sensor has
+    delivered for (a sensor silent for longer than :data:`HOLD_BACK_LIMIT_S` is held); ``None``
+    without a reference sensor."""
     tracks = {sid: tracks[sid] for sid in segment_of_sensor if sid in tracks and len(tracks[sid].t)}
     reference = reference_sensor(model, segment_of_sensor, list(tracks))
     if reference is None:
         return None
     newest = max(track.newest_t for track in tracks.values())
     limit = min(track.newest_t for track in tracks.values() if track.newest_t >= newest - HOLD_BACK_LIMIT_S)
-    ref_t = tracks[reference].t
+    return tracks[reference].t, limit
+
+
+def newest_instant(model: skeleton.SkeletonModel, segment_of_sensor: Mapping[str, str],
+                   tracks: Mapping[str, LiveTrack], after_s: float) -> float | None:
+    """The newest pose instant every assigned sensor has delivered for (the live form), later
+    than ``after_s``: a sample time of the reference sensor that no assigned sensor lags
+    behind, unless it has been silent for longer than :data:`HOLD_BACK_LIMIT_S` (it is then
+    held). ``None`` when there is no new one."""
+    found = _reference_times(model, segment_of_sensor, tracks)
+    if found is None:
+        return None
+    ref_t, limit = found
     position = int(np.searchsorted(ref_t, limit, side="right")) - 1
     if position < 0 or ref_t[position] <= after_s:
         return None
     return float(ref_t[position])
+
+
+def instants_after(model: skeleton.SkeletonModel, segment_of_sensor: Mapping[str, str],
+                   tracks: Mapping[str, LiveTrack], after_s: float) -> np.ndarray:
+    """Every pose instant later than ``after_s`` up to :func:`newest_instant`'s (the reference
+    sensor's sample times every assigned sensor has delivered for), (P,) s: a consumer that
+    wants each sample instant (a stream at the sensors' rate) gets those that the newest pose
+    alone skips. Reaches back :data:`TRACK_CAPACITY` samples at most."""
+    found = _reference_times(model, segment_of_sensor, tracks)
+    if found is None:
+        return np.empty(0)
+    ref_t, limit = found
+    return ref_t[(ref_t > after_s) & (ref_t <= limit)]
 
 
 def live_sensors_at(t_pose: float, tracks: Mapping[str, LiveTrack]) -> SensorsAtInstants:

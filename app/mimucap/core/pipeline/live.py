@@ -21,7 +21,9 @@ import numpy as np
 from mimucap.core import bodycal, skeleton
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.chain import SensorChain, SensorOrientations, update_chains
-from mimucap.core.pipeline.instants import LiveTrack, live_sensors_at, newest_instant
+from mimucap.core.pipeline.instants import (
+    LiveTrack, instants_after, live_sensors_at, newest_instant, sensors_at_instants,
+)
 from mimucap.core.pipeline.segments import JointCoupling, SegmentStage
 from mimucap.core.pipeline.settings import DEFAULT_PIPELINE_SETTINGS, PipelineSettings
 from mimucap.core.sensor_samples import SensorSamples
@@ -117,6 +119,22 @@ class LivePipeline:
             return None
         self._last_pose_t = t_pose
         return t_pose, q_segments
+
+    def poses_after(self, t_after_s: float, body_calibration: bodycal.BodyCalibration | None,
+                    sensor_segments: Mapping[str, str]) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+        """Every pose the pipeline can form at an instant later than ``t_after_s`` (s), in one
+        batch: ``(t_s (P,), segment → q_world_from_segment (P, 4))``, or ``None`` when there is
+        none (:func:`~mimucap.core.pipeline.instants.instants_after`): what :meth:`pose`, which
+        keeps only the newest, skips between two calls, with the same orientations. Independent
+        of :meth:`pose`'s own progress."""
+        stage = SegmentStage(self.model, body_calibration, sensor_segments, self.coupling)
+        t_pose = instants_after(self.model, stage.segment_of_sensor, self._tracks, t_after_s)
+        if not len(t_pose):
+            return None
+        tracks = {sid: self._tracks[sid].as_sensor_track() for sid in stage.segment_of_sensor
+                  if sid in self._tracks and len(self._tracks[sid].t)}
+        q_segments = stage.segments(sensors_at_instants(t_pose, tracks))
+        return None if q_segments is None else (t_pose, q_segments)
 
     def forget_poses(self) -> None:
         """Allow the next pose to be any instant again (after a calibration changed)."""
