@@ -70,7 +70,7 @@ def session_from_xdf(path: str | Path):
         import pyxdf
     except ImportError as error:
         raise ValueError(f"{path}: {PYXDF_HINT} ({error})") from None
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Marker, Session
 
     path = Path(path)
