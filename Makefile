@@ -3,7 +3,8 @@
 #   make test   install what the tests need (venv, Debian X packages when root) and run the suite
 # Extra targets: make screenshots, make bench, make wheel (a platform wheel with the compiled
 # kernels, in dist/), make bundle (the desktop bundle, dist/mimucap), make bundle-check (build
-# it and smoke-test it against the source install; CI runs it after make test).
+# it and smoke-test it against the source install), make wheel-check (install the wheel into a
+# clean environment and start it); CI runs both after make test.
 
 PYTHON ?= python3
 VENV := .venv
@@ -18,7 +19,7 @@ XVFB_DEBS := poppler-utils xvfb xauth libxcb-icccm4 libxcb-keysyms1 libxcb-xiner
 	libxcb-cursor0 libegl1 libgl1 libglx-mesa0 libegl-mesa0
 XVFB_RUN := xvfb-run -a -s "-screen 0 1920x1200x24"
 
-.PHONY: run test install screenshots bench wheel bundle bundle-check clean debs
+.PHONY: run test install screenshots bench wheel wheel-check bundle bundle-check clean debs
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -77,7 +78,19 @@ bench: debs $(BENCH_STAMP) $(KERNELS_STAMP)
 # (setup.py): built without pip's isolated environment, so that numba is there to compile them.
 wheel: $(STAMP)
 	$(PY) -m pip install --quiet "setuptools>=68" wheel
+	rm -rf dist/mimucap-*.whl build/lib
 	$(PY) -m pip wheel --quiet --no-deps --no-build-isolation --wheel-dir dist .
+
+# The wheel in a clean environment (build/wheel-check-venv, made anew): its compiled kernels
+# load without numba, its first window; and the first start without fitting compiled kernels
+# (tests/packaging/test_wheel.py).
+WHEEL_VENV := build/wheel-check-venv
+wheel-check: debs wheel $(TEST_STAMP)
+	rm -rf $(WHEEL_VENV)
+	$(PYTHON) -m venv $(WHEEL_VENV)
+	$(WHEEL_VENV)/bin/python -m pip install --quiet dist/mimucap-*.whl
+	MIMUCAP_WHEEL_PYTHON=$(WHEEL_VENV)/bin/python QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider \
+	  -s tests/packaging/test_wheel.py
 
 # The desktop bundle (dist/mimucap/mimucap, docs/packaging.md), built in its own environment
 # (build/bundle-venv: the versions of packaging/bundle-constraints.txt and PyInstaller, a build
