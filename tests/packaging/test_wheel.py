@@ -108,6 +108,8 @@ def test_the_installed_wheels_first_window(python, tmp_path):
     assert_shows_the_uncalibrated_skeleton(out)
 
 
+@pytest.mark.slow
+@pytest.mark.timeout(900)  # numba compiles the kernels from nothing: half a minute of CPU
 def test_without_fitting_compiled_kernels_the_window_is_usable_while_they_compile(tmp_path):
     """This checkout's program, with numba's JIT kernels and an empty cache, as an installation
     whose compiled kernels do not fit: they are compiled by a child process while the window
