@@ -19,7 +19,8 @@ import sys
 NO_NUMBA = (
     "this MimuCap bundle runs its orientation filter from the kernels compiled ahead of time "
     "(mimucap/core/fusion/_compiled) and ships no numba to compile them; they did not load here "
-    "(see the log: ~/.config/mimucap/mimucap.log). Install MimuCap again, or use the Python "
+    "(the log says why: mimucap.log in MimuCap's log folder, ~/.local/state/mimucap on Linux). "
+    "Install MimuCap again, or use the Python "
     "package (pip install mimucap), which compiles them on this computer.")
 
 

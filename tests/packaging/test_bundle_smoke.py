@@ -58,7 +58,8 @@ def bundle() -> Path:
 def _user_env(folder: Path) -> dict[str, str]:
     """The environment of a program run with its own, empty user folders under ``folder``."""
     return {**os.environ, "HOME": str(folder / "home"), "XDG_CONFIG_HOME": str(folder / "config"),
-            "XDG_DATA_HOME": str(folder / "share"), "MIMUCAP_DATA_DIR": str(folder / "data")}
+            "XDG_DATA_HOME": str(folder / "share"),
+            "XDG_STATE_HOME": str(folder / "state"), "MIMUCAP_DATA_DIR": str(folder / "data")}
 
 
 def _run(command: list[str], folder: Path, *args: str) -> subprocess.CompletedProcess:

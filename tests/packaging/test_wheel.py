@@ -74,7 +74,8 @@ win.close()
 def _user_env(folder: Path, **extra: str) -> dict[str, str]:
     return {**{k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "MIMUCAP_FUSION_KERNELS")},
             "HOME": str(folder / "home"), "XDG_CONFIG_HOME": str(folder / "config"),
-            "XDG_DATA_HOME": str(folder / "share"), "MIMUCAP_DATA_DIR": str(folder / "data"), **extra}
+            "XDG_DATA_HOME": str(folder / "share"),
+            "XDG_STATE_HOME": str(folder / "state"), "MIMUCAP_DATA_DIR": str(folder / "data"), **extra}
 
 
 @pytest.fixture(scope="module")
