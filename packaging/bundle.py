@@ -78,15 +78,24 @@ def shipped(toc):
 #: patched (``numpy.libs``, ``scipy.libs``…, and the extension modules pointing at them) no
 #: longer load once stripped ("ELF load command address/offset not page-aligned").
 STRIPPED_FOLDERS = ("vtkmodules/", "PyQt5/")
+#: Libraries of the bundle's top level stripped too: Python's own, which a Python built from
+#: source (pyenv) leaves with its symbols (23 MB instead of 6).
+STRIPPED_LIBRARIES = ("libpython",)
+
+
+def is_stripped(name: str) -> bool:
+    """Whether the library ``name`` (its path inside the bundle) is stripped on Linux."""
+    name = name.replace("\\", "/")
+    return name.startswith(STRIPPED_FOLDERS) or ("/" not in name and name.startswith(STRIPPED_LIBRARIES))
 
 
 def stripped(toc, folder: Path):
-    """``toc`` (binaries) with the libraries of :data:`STRIPPED_FOLDERS` replaced by stripped
+    """``toc`` (binaries) with the libraries :func:`is_stripped` names replaced by stripped
     copies made in ``folder`` (kept there: a rebuild strips only what changed)."""
     result = []
     for name, source, kind in toc:
         target = folder / name
-        if name.replace("\\", "/").startswith(STRIPPED_FOLDERS) and not Path(source).is_symlink():
+        if is_stripped(name) and not Path(source).is_symlink():
             if not target.is_file() or target.stat().st_mtime < Path(source).stat().st_mtime:
                 target.parent.mkdir(parents=True, exist_ok=True)
                 partial = target.with_name(target.name + ".partial")

@@ -180,3 +180,16 @@ def test_install_outside_a_bundle_folder_says_where_to_run_it(tmp_path):
     assert done.returncode == 1
     assert "run the install.sh inside the MimuCap bundle folder" in done.stderr
     assert not (tmp_path / "share").exists()
+
+
+@pytest.mark.parametrize(("name", "stripped"), [
+    ("vtkmodules/libvtkCommonCore-9.3.so", True),
+    ("PyQt5/Qt5/lib/libQt5Gui.so.5", True),
+    ("libpython3.11.so.1.0", True),
+    ("numpy.libs/libscipy_openblas64_-32a4b2a6.so", False),  # patched by auditwheel: must stay as it is
+    ("scipy/linalg/_flapack.cpython-311-x86_64-linux-gnu.so", False),
+    ("h5py.libs/libhdf5-9e18f0c6.so.320.0.0", False),
+    ("somewhere/libpython3.11.so.1.0", False),
+])
+def test_only_libraries_that_load_stripped_are_stripped(name, stripped):
+    assert bundle.is_stripped(name) is stripped
