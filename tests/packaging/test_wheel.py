@@ -63,10 +63,10 @@ QtCore.QTimer.singleShot(500, use)
 deadline = QtCore.QDeadlineTimer(600_000)
 while not (win.live.started and win.live.samples_received > 0) and not deadline.hasExpired():
     app.processEvents(QtCore.QEventLoop.AllEvents, 50)
-report = win._warm_up.result
+report = win._warm_up.result  # the preparation's report (None if it never finished)
 print(json.dumps({"used": used, "ticks_while_starting": sum(ticks), "live": win.live.samples_received > 0,
-                  "ahead_of_time": report.ahead_of_time, "cached": report.cached,
-                  "compiled_in_child": report.compiled_in_child}))
+                  "report": None if report is None else {"ahead_of_time": report.ahead_of_time,
+                  "cached": report.cached, "compiled_in_child": report.compiled_in_child}}))
 win.close()
 """
 
@@ -124,5 +124,5 @@ def test_without_fitting_compiled_kernels_the_window_is_usable_while_they_compil
     assert found["used"] == [[True, True]]  # the key press took effect while the kernels were compiling
     assert found["ticks_while_starting"] > 10
     assert found["live"]
-    assert not found["ahead_of_time"] and not found["cached"] and found["compiled_in_child"]
+    assert found["report"] == {"ahead_of_time": False, "cached": False, "compiled_in_child": True}
     assert any((tmp_path / "numba-cache").rglob("*.nbc"))  # compiled (by the child) into the cache
