@@ -106,7 +106,7 @@ def _pipeline(command: list[str], folder: Path) -> dict:
     angles = read_angles_csv(folder / "angles.csv")
     # the calibrations the command stored (its files, not its printout: a windowed program on
     # Windows prints nothing), one per sensor device
-    stored = sorted((folder / "share").rglob("magnetometer/devices/*.json"))
+    stored = sorted(folder.rglob("magnetometer/devices/*.json"))
     return {"magcal": [json.loads(path.read_text(encoding="utf-8")) for path in stored],
             "body": json.loads((folder / "body.json").read_text(encoding="utf-8")), "angles": angles}
 
