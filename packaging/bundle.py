@@ -91,7 +91,8 @@ def is_stripped(name: str) -> bool:
 
 def stripped(toc, folder: Path):
     """``toc`` (binaries) with the libraries :func:`is_stripped` names replaced by stripped
-    copies made in ``folder`` (kept there: a rebuild strips only what changed)."""
+    copies made in ``folder`` (kept there, outside the folder PyInstaller cleans: a rebuild
+    strips only what changed)."""
     result = []
     for name, source, kind in toc:
         target = folder / name
@@ -190,8 +191,13 @@ def build(dist: Path, work: Path) -> Path:
     # The sources are taken from this tree, not from an installed mimucap: the spec's
     # collect_submodules imports them in a child process, which inherits this path.
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(REPO / "app"), os.environ.get("PYTHONPATH", "")]))
-    subprocess.run([sys.executable, "-m", "PyInstaller", str(SPEC), "--noconfirm", "--log-level", "WARN",
+    # --clean: PyInstaller's own cache decides by modification times whether to compile a module
+    # again, and takes a module edited while an earlier build read it for a current one.
+    subprocess.run([sys.executable, "-m", "PyInstaller", str(SPEC), "--noconfirm", "--clean", "--log-level", "WARN",
                     "--distpath", str(dist), "--workpath", str(work)], check=True, env=env)
+    if sources_fingerprint() != wanted["sources"]:
+        raise SystemExit(f"the sources changed while {bundle} was built: it is not marked current; "
+                         "run the build again")
     for source, name in TOP_LEVEL_FILES.items():
         shutil.copy2(REPO / "packaging" / source, bundle / name)
     (bundle / FINGERPRINT_FILE).write_text("".join(f"{k} {v}\n" for k, v in wanted.items()), encoding="utf-8")
