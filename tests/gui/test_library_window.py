@@ -135,7 +135,7 @@ def test_two_sessions_recorded_found_and_compared(app_window, qtbot, tmp_path):
     assert compare.error is None and {r.result for r in compare.reviews} == {"live"}
     assert [e.condition for e in compare.entries] == ["pre-op", "6 weeks"]
     rows = {row[0]: row for row in compare.tables[0].rows}
-    knee = rows["knee_r_flexion"]
+    knee = rows["Right knee flexion"]
     assert knee[3] > 30.0 and knee[6] > 30.0  # walking bends the knee
     assert knee[7] == pytest.approx(knee[6] - knee[3])
     # (How close these ranges come to the simulator's own is tested without the GUI, in
@@ -145,7 +145,7 @@ def test_two_sessions_recorded_found_and_compared(app_window, qtbot, tmp_path):
     with qtbot.waitSignal(compare.compared, timeout=5000):
         picker.set_bounds(0, 1)
     narrowed_rows = compare.tables[0].rows
-    narrowed = {row[0]: row for row in narrowed_rows}["knee_r_flexion"]
+    narrowed = {row[0]: row for row in narrowed_rows}["Right knee flexion"]
     assert narrowed[3] <= whole_a + 1e-9 and narrowed[6] == pytest.approx(knee[6])
     assert "walk start" in compare.tables[0].note
     with qtbot.waitSignal(compare.compared, timeout=5000):
@@ -156,8 +156,8 @@ def test_two_sessions_recorded_found_and_compared(app_window, qtbot, tmp_path):
     assert compare.error is None and compare.tables[0].rows == narrowed_rows
     picker.set_bounds(None, None)
     csv_text = compare.save_csv(tmp_path / "compare.csv").read_text()
-    assert csv_text.startswith("Joint-angle range of motion\njoint angle,A min (°)")
-    assert "knee_r_flexion," in csv_text
+    assert csv_text.startswith("Joint-angle range of motion\nJoint angle,A min (°)")
+    assert "Right knee flexion," in csv_text
 
     # Open one for review from the library.
     library_window.select_paths({paths[0]})
@@ -236,7 +236,7 @@ def test_the_window_changes_files_and_shows_damaged_ones(prepared, qtbot, monkey
                         lambda *a, **k: asked.append(a[2]) or QtWidgets.QMessageBox.Yes)
     with qtbot.waitSignal(window.refreshed, timeout=10000):
         qtbot.keyClick(window.table, QtCore.Qt.Key_Delete)
-    assert asked and "Move 2 session file(s)" in asked[0]
+    assert asked and "Move 2 session files" in asked[0]
     moved = [prepared / "trash" / p for p in (damaged.path, "P002_2026-04-13_trial01.h5")]
     assert all(p.exists() for p in moved) and not (prepared / damaged.path).exists()
     assert sorted(window.subjects) == ["P001"] and len(window.visible_paths()) == 2
@@ -308,4 +308,48 @@ def test_compare_is_offered_for_two_calibrated_sessions_only(qtbot, tmp_path):
     assert not compare.isEnabled()
     assert "P001_2026-04-13_trial01.h5: no body calibration" in compare.toolTip()
     assert window.compare_selected() is None
+    window.close()
+
+
+def test_the_trend_shows_a_subjects_clinical_test_visits_and_prints(qtbot, tmp_path):
+    """Three visits of one subject with stored Timed Up and Go results (as the guided test or
+    `mimucap protocol` keep them): the trend plots them oldest first beside the reference, lists
+    them newest first and saves a PDF."""
+    from mimucap.gui.trend_dialog import TrendDialog
+    from mimucap.session.clinical_test_results import RESULT_PREFIX
+
+    root = tmp_path / "lib"
+    root.mkdir()
+    dates = ("2026-03-01", "2026-04-12", "2026-05-20")
+    for date in dates:
+        make_session(root / f"P001_{date}_trial01.h5", "P001", 2.0, f"{date}T10:00:00+00:00", body_verdict="good")
+    library = Library(root)
+    library.scan()
+    reference = {"key": "total_s", "mean": 9.2, "ci95_low": 8.2, "ci95_high": 10.2, "group": "people 70-79 years",
+                 "statistic": "mean and 95% confidence interval (s)", "source": "Bohannon 2006"}
+    totals = (14.0, 12.5, 11.0)
+    for date, total in zip(dates, totals):
+        library.store_result(f"P001_{date}_trial01.h5", RESULT_PREFIX + "tug",
+                             {"test": "tug", "total_s": total, "sit_to_stand_s": 1.5, "result": "reprocessed",
+                              "reference": reference})
+    window = LibraryWindow(root)
+    qtbot.addWidget(window)
+    window.show()
+    window.wait_for_scan()
+    window.select_subject("P001")
+    assert window.trend_button.isEnabled()
+    dialog = window.open_trend()
+    assert isinstance(dialog, TrendDialog) and dialog.test == "tug" and dialog.key == "total_s"
+    assert [v.values["total_s"] for v in dialog.visits] == list(totals)
+    curve = [item for item in dialog.plot.listDataItems()][0]
+    assert list(curve.yData) == list(totals)
+    assert dialog.table.item(0, 2).text() == "11.0 s"  # newest first
+    assert "Change since the first visit: -3.0 s" in dialog.note.text()
+    assert "Timed Up and Go (3 visits)" == dialog.test_combo.currentText()
+    pdf = dialog.save_pdf(tmp_path / "trend.pdf")
+    assert pdf.stat().st_size > 3000
+    dialog.test_combo.setCurrentIndex(dialog.test_combo.findData("10mwt"))
+    assert dialog.visits == [] and "No 10-metre walk test of P001" in dialog.note.text()
+    assert not dialog.pdf_button.isEnabled()
+    dialog.close()
     window.close()

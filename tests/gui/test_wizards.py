@@ -81,6 +81,7 @@ def test_magnetometer_wizard_calibrates_several_sensors_at_once(qtbot, magnetome
     assert [c.sensor_id for c in accepted.args[0]] == ids
     assert wizard.store.sensor_ids() == sorted(ids)
     assert "calibrated just now (good)" in wizard.sensor_list.item(0).text()
+    assert not wizard.isVisible()  # every sensor stored: nothing left to do in the wizard
 
 
 def test_enter_starts_the_magnetometer_wizard_instead_of_closing_it(qtbot, magnetometer_wizard) -> None:

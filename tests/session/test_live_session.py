@@ -123,7 +123,7 @@ def test_recording_markers_review_and_export(tmp_path):
     assert (a, b) == (pytest.approx(2.0, abs=0.03), pytest.approx(5.0, abs=0.03))
     exported = run_export(data, ExportRequest(tmp_path / "out", a, b, sensors_csv=True))
     names = sorted(p.name for p in exported.files)
-    assert "out.csv" in names and "out.mot" in names and "out_summary.csv" in names and "out_S01.csv" in names
+    assert {"out_joint_angles.csv", "out_joint_angles.mot", "out_joint_angle_summary.csv", "out_sensor_S01_raw.csv"} <= set(names)
     rows = summary_table({"x_deg": np.array([-5.0, 10.0, 2.0])})
     assert rows[0].minimum_deg == -5.0 and rows[0].maximum_deg == 10.0 and rows[0].rom_deg == 15.0
     with pytest.raises(ValueError, match="end after its start"):

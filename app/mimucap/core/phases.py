@@ -32,6 +32,8 @@ STAND_TO_SIT = "stand-to-sit"
 #: The user's own start and stop of a clinical test (they override what the sensors show).
 TEST_START = "test start"
 TEST_STOP = "test stop"
+#: The start signal of a guided clinical test ("Go!"): the test cannot start before it.
+GO_SIGNAL = "go signal"
 
 
 def _pairs(markers: Iterable) -> list[tuple[float, str]]:

@@ -30,6 +30,7 @@ from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.report import write_report
+from mimucap.gui.menus import closes_with_keys
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.analysis import (
     DOUBT_HEADER,
@@ -74,6 +75,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
 
     def __init__(self, parent: QtWidgets.QWidget | None, data: ReviewData) -> None:
         super().__init__(parent)
+        closes_with_keys(self)
         self.setObjectName("analysisWindow")
         self.setWindowTitle(f"MimuCap Analysis: {data.path.name}")
         self.resize(1200, 820)
@@ -232,8 +234,9 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         for group in curve_groups([analysis]):
             self.curve_choice.addItem(group.label, group)
         self.curve_choice.blockSignals(False)
-        knee = self.curve_choice.findText("knee flexion")
-        self.curve_choice.setCurrentIndex(max(knee, 0))
+        knee = next((k for k in range(self.curve_choice.count())
+                     if (self.curve_choice.itemData(k).joint, self.curve_choice.itemData(k).axis) == ("knee", "flexion")), 0)
+        self.curve_choice.setCurrentIndex(knee)
         self._show_curve()
         if analysis.rom:
             self.rom_label.setText("ROM protocol results (reference: healthy adults, "

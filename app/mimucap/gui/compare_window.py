@@ -15,6 +15,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.pipeline import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.gui.background import BackgroundTask
+from mimucap.gui.menus import closes_with_keys
 from mimucap.io.library import Library, SessionEntry
 from mimucap.session.library import ComparedSession, ComparisonTable, TimeWindow, compare, comparison_csv
 from mimucap.session.review import load_review
@@ -121,6 +122,7 @@ class CompareWindow(QtWidgets.QMainWindow):
     def __init__(self, library: Library, first: SessionEntry, second: SessionEntry,
                  parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
+        closes_with_keys(self)
         self.setObjectName("compareWindow")
         self.setWindowTitle(f"MimuCap Compare: {first.subject_id}: {first.file_name} / {second.file_name}")
         self.resize(1100, 720)

@@ -14,6 +14,8 @@ frame interval (60 and 30 a second); the session publishes its status 4 times a 
 
 from __future__ import annotations
 
+import dataclasses
+
 import logging
 from collections.abc import Callable
 from pathlib import Path
@@ -47,7 +49,7 @@ from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
-from mimucap.core.pipeline import POSE_SENSOR_AXES
+from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
 from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, doubt_warning, open_live_session
 from mimucap.io.library import library_fields, recording_path
@@ -75,6 +77,9 @@ VIEW_HINTS = {
     POSE_SENSOR_AXES: "Not calibrated yet: each sensor's axes stand for its segment.\n"
                       "Calibrate the magnetometers, then the body (menu Calibrate).",
 }
+#: The 3D view's hint once the magnetometers are calibrated: the body is next.
+BODY_NEXT_HINT = ("Magnetometers calibrated.\nNext: calibrate the body (Calibrate → Body…): the subject stands "
+                  "in the N-pose, then raises both arms sideways.")
 ABOUT_TEXT = (
     "<h3>MimuCap {version}</h3>"
     "<p>Human motion capture with magnetic-inertial sensors: live skeleton, joint angles, "
@@ -101,6 +106,11 @@ def _wizard_classes() -> dict[str, type]:
         found["rom"] = RomWizard
     except ImportError:
         log.info("range-of-motion wizard not available")
+    try:
+        from mimucap.gui.wizards.clinical_test import ClinicalTestWizard
+        found["clinical_test"] = ClinicalTestWizard
+    except ImportError:
+        log.info("clinical test wizard not available")
     return found
 
 
@@ -191,7 +201,7 @@ class MainWindow(QtWidgets.QMainWindow):
             "source_problem": self._source_problem_changed, "refused": self._show_refused_without_sensor,
             "truth_errors": self._truth_errors_changed, "truth_available": self.action_truth.setEnabled,
             "sensors": self._assign_remembered, "recording_progress": self._recording_progress,
-            "recording_failed": self._recording_failed}
+            "recording_failed": self._recording_failed, "calibration": lambda *_: self._update_hint()}
         self.source_error: str | None = None
         if not self.open_source(source or last_source_spec(), interactive=False) and source is None:
             error = self.source_error  # a remembered source that went away: say so over the fallback
@@ -269,8 +279,11 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.action_magcal = self.calibrate_menu.addAction("&Magnetometers…", lambda: self.open_wizard("magnetometer"))
             if "body" in self._wizards:
                 self.action_bodycal = self.calibrate_menu.addAction("&Body…", lambda: self.open_wizard("body"))
+            assess = bar.addMenu("&Assess")
             if "rom" in self._wizards:
-                self.action_rom = bar.addMenu("&Assess").addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
+                self.action_rom = assess.addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
+            if "clinical_test" in self._wizards:
+                self.action_clinical_test = assess.addAction("&Clinical Test…", lambda: self.open_wizard("clinical_test"))
 
         help_menu = bar.addMenu("&Help")
         self.action_guide = help_menu.addAction("&User Guide", self.show_user_guide)
@@ -503,11 +516,15 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _pose_source_changed(self, pose_source: str) -> None:
         self._pose_source = pose_source
+        if pose_source != POSE_BODY_CALIBRATION:
+            self._accuracy = ""
         self._show_pose_status()
         self._update_hint()
 
     def _truth_errors_changed(self, errors) -> None:
-        self._accuracy = accuracy_phrase(errors)
+        # Without a body calibration there is nothing to judge: the sensors' axes stand for the
+        # segments, and an error against the truth of 100° says nothing but "not calibrated".
+        self._accuracy = accuracy_phrase(errors) if self._pose_source == POSE_BODY_CALIBRATION else ""
         self._show_pose_status()
 
     def _show_pose_status(self) -> None:
@@ -525,8 +542,17 @@ class MainWindow(QtWidgets.QMainWindow):
             self.scene_view.set_hint(f"No data from the source.\n{self._source_problem}\n\n"
                                      "Check the device and its connection, or choose another source "
                                      "(File → Choose Source…).")
+        elif self._pose_source == POSE_SENSOR_AXES and self.live is not None and self._magnetometers_done():
+            self.scene_view.set_hint(BODY_NEXT_HINT)
         else:
             self.scene_view.set_hint(VIEW_HINTS.get(self._pose_source, ""))
+
+    def _magnetometers_done(self) -> bool:
+        """Every sensor that needs a magnetometer calibration has one (sensors fusing on board,
+        or sending their own orientation, need none)."""
+        live = self.live
+        needing = set(live.sensor_ids) - set(live.onboard_sensors()) - set(live.orientation_only_sensors())
+        return bool(needing) and needing <= set(live.mag_calibrations)
 
     def _recording_progress(self, info) -> None:
         self._show_elapsed(info.elapsed_s)
@@ -616,29 +642,46 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.set_recording(False)
             return
         if on and not self.live.recording:
-            checklist = recording_checklist(self.live)
-            self.session_panel.show_checklist(checklist)
-            not_ok = [item for item in checklist if not item.ok]
-            if not_ok and not self.confirm_recording(not_ok):
-                self.session_panel.set_recording(False)
-                return
-            try:
-                subject = self.session_panel.subject()
-                condition, tags = self.session_panel.session_fields()
-                path = recording_path(self.recording_folder(), subject.subject_id)
-                fields = library_fields(condition, tags, path.stem.rsplit("_", 1)[-1])
-                self.live.start_recording(path, subject.to_dict(), {"library": fields})
-            except (ValueError, OSError) as error:
-                self.session_panel.set_recording(False)
-                log.warning("cannot record: %s", error)
-                hint = "\n\nChoose another library folder (File → Library Folder)." if isinstance(error, OSError) else ""
-                QtWidgets.QMessageBox.warning(self, "Cannot record", f"{error}{hint}")
-                return
-            self.session_panel.markers_list.clear()
-            self._show_recording(True)
-            self.session_panel.show_info(self.live.recording_info())
-            self.statusBar().showMessage(f"Recording to {display_path(path)}")
+            self.start_recording()
         elif not on and self.live.recording:
+            self._finish_recording()
+
+    def start_recording(self, metadata: dict | None = None, subject_details: dict | None = None) -> bool:
+        """Start recording the live session into the library, after the checklist (and the
+        person's consent to record what is not ready); ``metadata`` adds keys to the session's
+        metadata (a guided clinical test's settings), ``subject_details`` fields to the subject
+        record (``age_years``, ``sex``, ``weight_kg``, which the tests' norms depend on). True
+        when recording."""
+        if self.live is None or self.live.recording:
+            return False
+        checklist = recording_checklist(self.live)
+        self.session_panel.show_checklist(checklist)
+        not_ok = [item for item in checklist if not item.ok]
+        if not_ok and not self.confirm_recording(not_ok):
+            self.session_panel.set_recording(False)
+            return False
+        try:
+            subject = dataclasses.replace(self.session_panel.subject(), **(subject_details or {}))
+            condition, tags = self.session_panel.session_fields()
+            path = recording_path(self.recording_folder(), subject.subject_id)
+            fields = library_fields(condition, tags, path.stem.rsplit("_", 1)[-1])
+            self.live.start_recording(path, subject.to_dict(), {"library": fields, **(metadata or {})})
+        except (ValueError, OSError) as error:
+            self.session_panel.set_recording(False)
+            log.warning("cannot record: %s", error)
+            hint = "\n\nChoose another library folder (File → Library Folder)." if isinstance(error, OSError) else ""
+            QtWidgets.QMessageBox.warning(self, "Cannot record", f"{error}{hint}")
+            return False
+        self.session_panel.markers_list.clear()
+        self._show_recording(True)
+        self.session_panel.show_info(self.live.recording_info())
+        self.statusBar().showMessage(f"Recording to {display_path(path)}")
+        return True
+
+    def stop_recording(self) -> None:
+        """Stop recording (the session file is written in the background; ``recording_saved``
+        follows)."""
+        if self.live is not None and self.live.recording:
             self._finish_recording()
 
     def _ask_to_record_anyway(self, items: list[CheckItem]) -> bool:

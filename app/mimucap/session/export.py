@@ -187,6 +187,29 @@ def write_sensor_csv(path: str | Path, data: ReviewData, sensor_id: str, t_from_
     return path
 
 
+#: What each exported file holds, said in its name: ``<session>_<name>`` (:func:`export_file`).
+EXPORT_NAMES = {"csv": "joint_angles.csv", "mot": "joint_angles.mot", "summary": "joint_angle_summary.csv",
+                "opensim_mot": "opensim_coordinates.mot", "c3d": "motion.c3d", "bvh": "skeleton.bvh",
+                "sto": "orientations.sto"}
+
+
+def export_file(base: str | Path, kind: str, sensor_id: str | None = None) -> Path:
+    """The file of ``kind`` (a key of :data:`EXPORT_NAMES`, or ``"sensor"`` with ``sensor_id``)
+    for the export named ``base`` (folder and session name): ``walk_joint_angles.csv``,
+    ``walk_sensor_S01_raw.csv``."""
+    base = Path(base)
+    if kind == "sensor":
+        return base.with_name(f"{base.name}_sensor_{sensor_id}_raw.csv")
+    return base.with_name(f"{base.name}_{EXPORT_NAMES[kind]}")
+
+
+def export_folder(session_path: str | Path) -> Path:
+    """Where a session's exports go unless the user picks another folder: a folder of their
+    own beside the session (``walk.h5`` → ``walk_exports/``), never the library folder itself."""
+    session_path = Path(session_path)
+    return session_path.with_name(f"{session_path.stem}_exports")
+
+
 def run_export(data: ReviewData, request: ExportRequest,
                progress: Callable[[float], None] | None = None) -> ExportResult:
     """Write the files of ``request``; ``progress(fraction)`` after each file."""
@@ -200,25 +223,23 @@ def run_export(data: ReviewData, request: ExportRequest,
     markers = markers_in_range(data.markers, request.t_from_s, request.t_to_s)
     jobs: list[tuple[str, Callable[[], Path]]] = []
     if request.angles_csv:
-        jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(
+        jobs.append(("csv", lambda: _written(export_file(base, "csv"), lambda p: write_angles_csv(
             p, t, angles, notes=notes, markers=markers, joint_doubt=doubt))))
     if request.angles_mot:
-        jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(
+        jobs.append(("mot", lambda: _written(export_file(base, "mot"), lambda p: write_angles_mot(
             p, t, angles, notes=notes, markers=markers, joint_doubt=doubt))))
     if request.summary_csv:
-        jobs.append(("summary", lambda: write_summary_csv(base.with_name(base.name + "_summary.csv"), result.summary,
+        jobs.append(("summary", lambda: write_summary_csv(export_file(base, "summary"), result.summary,
                                                           request.t_from_s, request.t_to_s, markers,
                                                           data.provenance.lines())))
-    motion_files = ((request.opensim_mot, "opensim_mot", base.with_name(base.name + "_opensim.mot")),
-                    (request.c3d, "c3d", base.with_suffix(".c3d")), (request.bvh, "bvh", base.with_suffix(".bvh")),
-                    (request.opensense_sto, "sto", base.with_name(base.name + "_orientations.sto")))
-    for wanted, fmt, path in motion_files:
+    for wanted, fmt in ((request.opensim_mot, "opensim_mot"), (request.c3d, "c3d"), (request.bvh, "bvh"),
+                        (request.opensense_sto, "sto")):
         if wanted:
-            jobs.append((fmt, lambda f=fmt, p=path: write_motion_file(data, f, p, request.t_from_s, request.t_to_s,
-                                                                      events=request.events)))
+            jobs.append((fmt, lambda f=fmt: write_motion_file(data, f, export_file(base, f), request.t_from_s,
+                                                              request.t_to_s, events=request.events)))
     if request.sensors_csv:
         for sensor_id in data.session.sensors:
-            jobs.append((sensor_id, lambda s=sensor_id: write_sensor_csv(base.with_name(f"{base.name}_{s}.csv"), data, s,
+            jobs.append((sensor_id, lambda s=sensor_id: write_sensor_csv(export_file(base, "sensor", s), data, s,
                                                                         request.t_from_s, request.t_to_s)))
     report(0.0)
     for done, (_name, job) in enumerate(jobs, start=1):

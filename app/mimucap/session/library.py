@@ -22,6 +22,7 @@ from mimucap.io.library import Library, SessionEntry
 from mimucap.io.library_settings import configured_library_folder
 from mimucap.io.session import Marker
 from mimucap.session.export import marker_at, marker_range
+from mimucap.core.clinical_names import angle_name
 
 
 def open_library(folder: str | os.PathLike[str] | None = None, default: str | os.PathLike[str] | None = None) -> Library:
@@ -105,14 +106,14 @@ def rom_table(a: ComparedSession, b: ComparedSession) -> ComparisonTable:
         first, second = rom_a.get(column), rom_b.get(column)
         if first is None and second is None:
             continue
-        cells: list = [column.removesuffix("_deg")]
+        cells: list = [angle_name(column)]
         for value in (first, second):
             cells += [None, None, None] if value is None else [value.min_deg, value.max_deg, value.rom_deg]
         cells.append(None if first is None or second is None else second.rom_deg - first.rom_deg)
         rows.append(tuple(cells))
     return ComparisonTable(
         name="Joint-angle range of motion",
-        headers=("joint angle", "A min (°)", "A max (°)", "A ROM (°)", "B min (°)", "B max (°)", "B ROM (°)",
+        headers=("Joint angle", "A min (°)", "A max (°)", "A ROM (°)", "B min (°)", "B max (°)", "B ROM (°)",
                  "ROM B − A (°)"),
         rows=tuple(rows),
         note=f"A: {a.entry.file_name}, {a.window.label}. B: {b.entry.file_name}, {b.window.label}.")

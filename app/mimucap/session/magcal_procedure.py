@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mimucap.core.wording import plural
 from mimucap.core.magcal import CalibrationResult, FitRefused, FitSettings, QualityThresholds, calibrate
 from mimucap.core.magcal_fit import EllipsoidFit, fit_ellipsoid
 from mimucap.core.magcal_guidance import AXIS_NAMES, GuidanceSettings, GuidanceState, SingleAxisGuide
@@ -182,10 +183,10 @@ def describe_age(age_days: float | None) -> str:
         return "date unknown"
     hours = age_days * 24.0
     if hours < 1.0:
-        return "just now" if hours < 1.0 / 60.0 else f"{hours * 60.0:.0f} minutes ago"
+        return "just now" if hours < 1.0 / 60.0 else f"{plural(round(hours * 60.0), 'minute')} ago"
     if age_days < 2.0:
-        return f"{hours:.0f} hours ago"
-    return f"{age_days:.0f} days ago"
+        return f"{plural(round(hours), 'hour')} ago"
+    return f"{plural(round(age_days), 'day')} ago"
 
 
 def _strip_severity(reason: str) -> str:
