@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from mimucap.cli import main
+from mimucap.io.journal.records import journal_path_for
 from mimucap.io.session import read_session
-from mimucap.session.recording import journal_path_for
 
 MIMUCAP = [sys.executable, "-m", "mimucap"]
 
@@ -221,7 +221,7 @@ def test_replayed_invalid_samples_are_rejections_with_their_reason_not_drops(tmp
     """Was: the 20 NaN accelerometer rows of a replayed session were counted as ``drops``
     (packet loss) and no rejection was reported; a live source refuses such samples as
     ``non_finite`` / ``out_of_range``."""
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session, write_session
 
     n = 400

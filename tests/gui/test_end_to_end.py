@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.core.pipeline import RESULT_LIVE
+from mimucap.core.pipeline.settings import RESULT_LIVE
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session, write_session
 from mimucap.session.evaluation import angle_errors
@@ -117,7 +117,7 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     blind_data = load_review(blind)
     run_export(blind_data, ExportRequest(tmp_path / "blind", blind_data.start_s, blind_data.end_s,
                                          angles_mot=False, summary_csv=False))
-    blind_table = read_angles_csv(tmp_path / "blind.csv")
+    blind_table = read_angles_csv(tmp_path / "blind_joint_angles.csv")
     assert blind_table.angles_deg.keys() == table.angles_deg.keys()
     for column, values in table.angles_deg.items():
         assert np.array_equal(blind_table.angles_deg[column], values), column

@@ -3,43 +3,24 @@ the window's own actions on a prepared library (filters, damaged files, renames,
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
 from mimucap.gui.library_window import LibraryWindow
-from mimucap.gui.main_window import MainWindow
 from mimucap.io.library import Library
 from mimucap.io.library_settings import LIBRARY_ENV
 from mimucap.io.session import read_metadata
-from mimucap.session.live import open_live_session
-
+from tests.gui.live_window import closed, live_window
 from tests.library_sessions import make_session
-
-SPEED_UP = 5.0
-
-
-def _fast_clock():
-    start = time.monotonic()
-    return lambda: start + SPEED_UP * (time.monotonic() - start)
 
 
 @pytest.fixture
 def app_window(qtbot, tmp_path, monkeypatch):
     monkeypatch.setenv(LIBRARY_ENV, str(tmp_path / "library"))
-    clock = _fast_clock()
-    window = MainWindow("simulated:walk", session_factory=lambda spec: open_live_session(spec, clock=clock))
-    window.clock = clock
-    window.confirm_recording = lambda items: True  # recording without calibrations, knowingly
-    window.show()
-    window.start()
-    qtbot.waitExposed(window)
+    window = live_window(qtbot, "simulated:walk")
     yield window
-    if window.live is not None and window.live.recording:
-        window.live.stop_recording()
-    window.close()
+    closed(window)
 
 
 def _record(window, qtbot, seconds: float, markers=()) -> object:

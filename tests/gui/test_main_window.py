@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from PyQt5 import QtGui, QtWidgets
 
-from mimucap.core.pipeline import POSE_SENSOR_AXES
+from mimucap.core.pipeline.recording import POSE_SENSOR_AXES
 from mimucap.gui.main_window import VIEW_HINTS, MainWindow
 
 from tests.gui.scene_projection import axis_label_positions
@@ -55,12 +55,12 @@ def test_menu_lists_only_working_items(window):
     # Each of these is exercised by a test of tests/gui.
     expected = {
         "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "&Library…", "Library &Folder…",
-        "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
+        "S&tream to Lab Streaming Layer…", "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
         "Front", "Side", "Top", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
         "Show World &Axes", "Show Simulator &Truth", "&Pause Plots\tSpace", "&User Guide", "&About MimuCap",
     }
     assert expected <= texts
-    assert texts - expected <= {"&Magnetometers…", "&Body…", "&Range of Motion…"}  # the wizards, when installed
+    assert texts - expected <= {"&Magnetometers…", "&Body…", "&Range of Motion…", "&Clinical Test…"}  # the wizards
 
 
 def test_screenshot_and_quit_from_the_file_menu(window, qtbot, tmp_path, monkeypatch):

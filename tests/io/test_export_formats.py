@@ -97,7 +97,7 @@ def test_sto_columns_are_opensim_bodies_and_raw_sensors_carry_the_mounting(walk,
     virtual, raw = tmp_path / "virtual.sto", tmp_path / "raw.sto"
     assert main(["export", str(walk), "--out", str(virtual)]) == 0
     assert main(["export", str(walk), "--format", "sto", "--raw-sensors", "--out", str(raw)]) == 0
-    from mimucap.io.quaternion_tables import read_opensim_sto
+    from mimucap.io.orientation_tables import read_opensim_sto
 
     v, r = read_opensim_sto(virtual), read_opensim_sto(raw)
     segments = review.model.segment_names

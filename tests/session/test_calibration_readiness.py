@@ -163,7 +163,7 @@ def test_udp_nodes_get_their_devices_calibrations_and_older_nodes_keep_theirs_un
     from mimucap.acquisition.emulate_udp import UdpEmulator
     from mimucap.acquisition.hello import NO_HELLO
     from mimucap.core.device_identity import mac_device_id
-    from mimucap.core.magcal import MagCalibration
+    from mimucap.core.magcal.model import MagCalibration
     from mimucap.session.live import open_live_session
     from tests.acquisition.conftest import SyntheticMotion
     from tests.acquisition.test_udp_loopback import free_udp_port

@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mimucap.io.analysis_tables import comparison_csv
 from mimucap.io.library import SessionEntry
 from mimucap.io.session import Marker
-from mimucap.session.library import (
-    COMPARISON_TABLES, ComparedSession, ComparisonTable, TimeWindow, compare, comparison_csv,
-)
+from mimucap.session.library import COMPARISON_TABLES, ComparedSession, ComparisonTable, TimeWindow, compare
 
 
 def _side(path: str, amplitude: float, subject: str = "P001", window: TimeWindow | None = None) -> ComparedSession:

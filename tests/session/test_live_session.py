@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation
-from mimucap.core.magcal import MagCalibration
+from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import simulate_session
 from mimucap.io.session import read_session, session_from_simulation, write_session
@@ -383,7 +383,7 @@ def test_the_simulated_subjects_activity_changes_are_not_markers():
 def test_packets_a_replay_refuses_reach_the_sensor_rows_by_sensor_and_reason(tmp_path):
     """Rows with a NaN are refused, not replayed; the sensor panel's rows count them for their
     sensor, by reason (values beyond the physical limits cannot even be written to a file)."""
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session
 
     t = np.arange(200) / 100.0

@@ -31,9 +31,10 @@ from dataclasses import dataclass, field
 
 from mimucap.acquisition.hello import HELLO_WAIT_S, NO_HELLO, Hello
 from mimucap.acquisition.messages import BlocksMessage, WorkerReport
+from mimucap.acquisition.packed_blocks import BlockBuilder
 from mimucap.acquisition.rejections import Rejection, RejectionCounter
-from mimucap.acquisition.samples import BlockBuilder, RefusedSample, Sample, SequenceUnwrapper
 from mimucap.acquisition.timesync import ClockSync, ClockSyncSettings
+from mimucap.acquisition.wire_sample import RefusedSample, Sample, SequenceUnwrapper
 from mimucap.core.device_identity import SensorDevice
 
 #: Distinct unknown ids/addresses tracked individually; beyond this they are lumped together.

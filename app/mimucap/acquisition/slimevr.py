@@ -50,8 +50,9 @@ from mimucap.acquisition import slimevr_protocol as proto
 from mimucap.acquisition.datagram_socket import drain, open_datagram_socket
 from mimucap.acquisition.messages import STATE_RUNNING, BlocksMessage, WorkerReport
 from mimucap.acquisition.outbox import Outbox
+from mimucap.acquisition.packed_blocks import BlockBuilder
 from mimucap.acquisition.rejections import Rejection, RejectionCounter
-from mimucap.acquisition.samples import BlockBuilder, Sample, ValueLimits, DEFAULT_LIMITS, validate_sample
+from mimucap.acquisition.wire_sample import Sample, ValueLimits, DEFAULT_LIMITS, validate_sample
 from mimucap.core.device_identity import SensorDevice, mac_device_id
 
 #: Why the sensors of a tracker that sends no MAC have no device id.

@@ -20,13 +20,13 @@ from dataclasses import dataclass, field
 from mimucap.acquisition.messages import (
     STATE_FAILED, STATE_FINISHED, STATE_STARTING, STATE_STOPPED, BlocksMessage, WorkerReport,
 )
+from mimucap.acquisition.packed_blocks import PackedBlock, join_packed_blocks
 from mimucap.acquisition.rejections import RejectionCounter
-from mimucap.acquisition.samples import PackedBlock, join_packed_blocks
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.timesync import ClockEstimate
 from mimucap.acquisition.worker import SourceConfig, run_worker
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ from mimucap.acquisition.intake import IntakeSettings, SampleIntake
 from mimucap.acquisition.messages import STATE_RUNNING
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits
+from mimucap.acquisition.wire_sample import DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits
 
 #: Outstanding sync requests remembered per node (older ones are forgotten).
 MAX_PENDING_SYNC = 16

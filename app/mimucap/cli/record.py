@@ -57,7 +57,9 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-class _StopRequest:
+class StopRequest:
+    """A signal handler that asks the command's loop to end (Ctrl+C, SIGTERM)."""
+
     def __init__(self) -> None:
         self.requested = False
 
@@ -148,8 +150,14 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"{', '.join(given)} apply to recordings into the library only (with --subject)")
     recorder = Recorder(args.out, metadata,
                         RecorderSettings(flush_interval_s=args.flush_interval))
-    recorder.start()  # refuses an existing file or journal before anything runs
-    stop = _StopRequest()
+    from mimucap.session.lsl_clock import recording_lsl_clock
+
+    start_host_s = time.monotonic()
+    lsl_clock = recording_lsl_clock(start_host_s)  # lines it up with a LabRecorder XDF of the same minutes
+    if lsl_clock is not None:
+        recorder.metadata["lsl_clock"] = lsl_clock
+    recorder.start(start_host_s)  # refuses an existing file or journal before anything runs
+    stop = StopRequest()
     previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     supervisor = Supervisor(configs)
     reason = "duration"

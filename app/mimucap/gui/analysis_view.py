@@ -31,6 +31,7 @@ from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.report import write_report
 from mimucap.gui.menus import closes_with_keys
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.analysis import (
     DOUBT_HEADER,
@@ -78,7 +79,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         closes_with_keys(self)
         self.setObjectName("analysisWindow")
         self.setWindowTitle(f"MimuCap Analysis: {data.path.name}")
-        self.resize(1200, 820)
+        fit_on_screen(self, 1200, 820, parent)
         self.data = data
         self.analysis: SessionAnalysis | None = None
         self.bands: dict[tuple[str, str], NormativeBand] = {}

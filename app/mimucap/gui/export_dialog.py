@@ -26,9 +26,10 @@ from mimucap.core.wording import fixed
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
+from mimucap.io.angles_export import write_summary_csv
 from mimucap.session.export import (
     ExportRequest, ExportResult, angles_in_range, doubt_in_range, export_folder, marker_range, run_export,
-    summary_table, write_summary_csv,
+    summary_table,
 )
 from mimucap.session.provenance import WITHOUT_BODY_CALIBRATION
 from mimucap.session.review import ReviewData

@@ -18,6 +18,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.core.wording import plural
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.menus import closes_with_keys
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
 from mimucap.session.library import COMPARISON_NEEDS_CALIBRATION
@@ -125,7 +126,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         super().__init__(parent)
         closes_with_keys(self)
         self.setObjectName("libraryWindow")
-        self.resize(1200, 640)
+        fit_on_screen(self, 1200, 640, parent)
         self._open_review = open_review
         self._new_session = new_session
         self.library: Library | None = None

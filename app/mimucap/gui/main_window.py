@@ -29,6 +29,7 @@ from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
 from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
+from mimucap.gui.lsl_switch import LslSwitch
 from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
@@ -44,12 +45,12 @@ from mimucap.gui.source_dialog import (
     remember_source,
 )
 from mimucap.io.calibration_store import user_data_dir
-from mimucap.io.imports import IMPORT_SUFFIXES, import_recording
+from mimucap.io.recording_import import IMPORT_SUFFIXES, import_recording
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.session.diagnostics import CpuMeter
 from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
-from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
+from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
 from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, doubt_warning, open_live_session
 from mimucap.io.library import library_fields, recording_path
@@ -233,6 +234,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_library.setShortcut(QtGui.QKeySequence("Ctrl+L"))
         self.action_folder = file_menu.addAction("Library &Folder…", self.choose_recording_folder)
         file_menu.addSeparator()
+        self.lsl_switch = LslSwitch(self, file_menu)
+        file_menu.addSeparator()
         self.action_save_screenshot = file_menu.addAction("Save Screens&hot…",
                                                           lambda: ask_to_save_screenshot(self, "mimucap.png"))
         self.action_save_screenshot.setShortcut(QtGui.QKeySequence("Ctrl+Shift+S"))
@@ -391,6 +394,7 @@ class MainWindow(QtWidgets.QMainWindow):
         for name, callback in self._subscriptions.items():
             getattr(session.events, name).connect(callback)
         self._update_ghost()
+        self.lsl_switch.follow(session)
         session.publish_status()
 
     def _disconnect_live(self) -> None:
@@ -400,6 +404,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plots.set_source(None)
         self.sensor_panel.set_session(None)
         self.session_panel.set_session(None)
+        self.lsl_switch.follow(None)
         if live is not None:
             for name, callback in self._subscriptions.items():
                 getattr(live.events, name).disconnect(callback)

@@ -27,7 +27,7 @@ from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
 from mimucap.session.camera import CAMERA_PRESETS
-from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
+from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.session.analysis import NEEDS_BODY_CALIBRATION
 from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
@@ -206,7 +206,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
 
     @property
     def result(self) -> str:
-        """Which result the review shows (:data:`~mimucap.core.pipeline.RESULTS`)."""
+        """Which result the review shows (:data:`~mimucap.core.pipeline.settings.RESULTS`)."""
         return self.result_combo.currentData()
 
     def set_result(self, result: str) -> None:

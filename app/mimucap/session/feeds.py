@@ -1,6 +1,6 @@
 """Where live sample blocks come from: the simulated suit in process, or acquisition workers.
 
-A feed hands out lists of :class:`~mimucap.core.samples.SensorSamples` on the host's
+A feed hands out lists of :class:`~mimucap.core.sensor_samples.SensorSamples` on the host's
 monotonic clock (``time.monotonic()``, s) and per-sensor statistics. Both feeds give the
 same blocks, so the rest of the live pipeline (fusion, calibration, recording) does not care
 which one runs:
@@ -26,7 +26,7 @@ from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_FAILED
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.supervisor import Supervisor
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.core.simulate.truth import SuitTruth
@@ -209,6 +209,8 @@ def simulated_subject_follows(simulator: SuitSimulator, instruction: Instruction
         activity = {"single_axis": "mag_single_axis", "figure8": "mag_figure8", "free": "mag_tumble"}[instruction.protocol]
         simulator.set_activity(activity, sensor_ids=list(instruction.sensor_ids),
                                turns=instructions.PROTOCOL_TURNS[instruction.protocol])
+    elif kind == instructions.WALK:
+        simulator.set_activity("walk")
     elif kind in (instructions.PREPARE_TEST, instructions.PERFORM_TEST):
         from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS
 

@@ -28,7 +28,7 @@ import threading
 import time
 from dataclasses import dataclass
 
-from mimucap.core.fusion.aot import fusion_kernels
+from mimucap.core.fusion.kernel_selection import fusion_kernels
 from mimucap.core.fusion.warmup import compile_kernels
 
 log = logging.getLogger(__name__)

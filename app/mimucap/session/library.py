@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mimucap.core.analysis.rom import range_of_motion
-from mimucap.core.pipeline import RESULT_LABELS, RESULT_REPROCESSED
+from mimucap.core.pipeline.settings import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.library import Library, SessionEntry
 from mimucap.io.library_settings import configured_library_folder
 from mimucap.io.session import Marker
@@ -68,7 +68,7 @@ class ComparedSession:
     ``angles_deg`` (column → (T,) deg, ISB sequences, columns of
     ``core.skeleton.joint_angle_columns``) at ``t_s`` (T,) s since the recording started, its
     ``markers`` and the ``window`` compared; ``calibrated`` whether a body calibration made
-    its segments, ``result`` which result it is (``core.pipeline.RESULTS``)."""
+    its segments, ``result`` which result it is (``core.pipeline.settings.RESULTS``)."""
 
     entry: SessionEntry
     t_s: np.ndarray
@@ -158,21 +158,5 @@ def check_comparable(a: ComparedSession, b: ComparedSession) -> None:
                          f"{RESULT_LABELS[b.result]}: compare results of one kind")
 
 
-def comparison_csv(tables: Sequence[ComparisonTable]) -> str:
-    """The tables as CSV text: each table's name, its header row and rows, a blank line between."""
-    import csv
-    import io
-
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    for table in tables:
-        writer.writerow([table.name])
-        writer.writerow(table.headers)
-        for row in table.rows:
-            writer.writerow(["" if v is None else (f"{v:.2f}" if isinstance(v, float) else v) for v in row])
-        writer.writerow([])
-    return out.getvalue()
-
-
 __all__ = ["open_library", "TimeWindow", "ComparedSession", "ComparisonTable", "rom_table", "COMPARISON_TABLES",
-           "COMPARISON_NEEDS_CALIBRATION", "check_comparable", "compare", "comparison_csv"]
+           "COMPARISON_NEEDS_CALIBRATION", "check_comparable", "compare"]

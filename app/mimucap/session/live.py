@@ -3,7 +3,7 @@
 :class:`LiveSession` is driven by one clock, in one thread (the GUI's pump, a test's loop):
 :meth:`LiveSession.step` takes whatever the source (a feed of :mod:`mimucap.session.feeds`) delivered since the last
 call and runs it through the one processing path of :mod:`mimucap.core.pipeline`
-(:class:`~mimucap.core.pipeline.LivePipeline`): magnetometer calibration, orientation filter
+(:class:`~mimucap.core.pipeline.live.LivePipeline`): magnetometer calibration, orientation filter
 (``q_world_from_sensor``, world ENU, scalar first; the device's own when it fuses on board),
 poses at one instant through the body calibration (until one is applied, each assigned
 sensor's axes stand for its segment, for every source alike), joint angles (deg) computed in
@@ -13,7 +13,7 @@ needed to compute the same numbers again (:mod:`mimucap.session.processing`).
 
 The session is a composition of parts with small interfaces: the *source* (``feed``: ``poll``,
 ``stats``, ``follow(instruction)``), the *pipeline* (``pipeline``,
-:class:`~mimucap.core.pipeline.LivePipeline`), the *pose* (``pose``,
+:class:`~mimucap.core.pipeline.live.LivePipeline`), the *pose* (``pose``,
 :class:`~mimucap.session.live_pose.LivePose`: the newest pose, where the figure stands, its
 picture and the joint-angle history), the *recorder* (:class:`~mimucap.session.recording.Recorder`,
 while recording) and the *status* (``status``,
@@ -23,7 +23,7 @@ subscribe to them and never ask the session on a timer of their own. Magnetomete
 data that persist, kept per device: each sensor the source brings gets the calibration stored for
 the device the source says it is (and no other: another suit numbered alike takes none, and the
 sensor says why), and a calibration made in the wizard is saved there for that device. Each
-calibration's standing (:func:`~mimucap.core.magcal_standing.calibration_standing`: verdict,
+calibration's standing (:func:`~mimucap.core.magcal.standing.calibration_standing`: verdict,
 device, the local field of the last seconds, age) is in the sensor rows, the checklist and what
 a recording stores (``magnetometer_readiness``). The simulated suit's ground truth
 is kept beside the data for evaluation only (:meth:`LiveSession.truth_pose`, the recording's
@@ -59,17 +59,13 @@ from typing import Any
 import numpy as np
 
 from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
-from mimucap.core import bodycal, doubt, skeleton
+from mimucap.core import bodycal, skeleton
 from mimucap.core.clinical_names import segment_name
 from mimucap.core.fusion import FLAG_NAMES
 from mimucap.core.device_identity import SensorDevice, describe_device, devices_to_json
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.magcal_standing import LocalField, Standing, age_s_at, local_field
-from mimucap.core.pipeline import (
-    POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorOrientations,
-    one_sensor_per_segment,
-)
-from mimucap.core.samples import SensorSamples, join_per_sensor
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.magcal.standing import LocalField, Standing, age_s_at, local_field
+from mimucap.core.sensor_samples import SensorSamples, join_per_sensor
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.truth import SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
@@ -80,11 +76,18 @@ from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_headin
 from mimucap.session.instructions import Instruction
 from mimucap.session.live_pose import LivePose, joint_column_groups
 from mimucap.session.live_status import StatusPublisher
+from mimucap.session.lsl_clock import recording_lsl_clock
 from mimucap.session.processing import check_body_calibration_fits, recording_record
 from mimucap.session.recording_checklist import magnetometer_readiness, sensor_standing
 from mimucap.session.recording import Recorder, RecordingResult
 from mimucap.session.ring_buffer import RingBuffer
 from mimucap.session.sources import SourceOptions
+from mimucap.core.pipeline import doubt_reasons
+from mimucap.core.pipeline.chain import SensorOrientations
+from mimucap.core.pipeline.live import LivePipeline
+from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
+from mimucap.core.pipeline.segments import one_sensor_per_segment
+from mimucap.core.pipeline.settings import PipelineSettings
 
 #: A sensor whose last sample arrived longer ago than this (s) is flagged stale.
 STALE_AFTER_S = 1.0
@@ -116,7 +119,7 @@ class SensorRow:
     ``mag_cal_age_s`` since the calibration was made (NaN if none); ``mag_cal_verdict`` its
     verdict (``good``, ``warn``; "" without one); ``mag_field_warning`` says when the local field
     (magnitude, dip) no longer matches the calibration's (""); ``mag_standing`` the
-    calibration's standing (:func:`~mimucap.core.magcal_standing.calibration_standing`: verdict,
+    calibration's standing (:func:`~mimucap.core.magcal.standing.calibration_standing`: verdict,
     device, local field, age; ``None`` without a calibration); ``mag_cal_note`` why a
     calibration stored under its id is not used (another device's, a damaged file:
     ``mag_cal_unreadable``; "");
@@ -130,7 +133,7 @@ class SensorRow:
     otherwise; ``rejections`` packets of this sensor the source refused, by reason
     (:class:`~mimucap.acquisition.rejections.Rejection` value → count, since the source started);
     ``doubt`` why its newest orientation may be wrong, in words ("" when it is trustworthy;
-    :mod:`mimucap.core.doubt`).
+    :mod:`mimucap.core.pipeline.doubt_reasons`).
     """
 
     sensor_id: str
@@ -195,7 +198,7 @@ class _SensorState:
 @dataclass(frozen=True)
 class ProcessedBlock:
     """One sensor's new samples as the pipeline took them: ``t_s`` (N,) session seconds,
-    ``block`` the raw :class:`~mimucap.core.samples.SensorSamples` (host times, uncalibrated
+    ``block`` the raw :class:`~mimucap.core.sensor_samples.SensorSamples` (host times, uncalibrated
     magnetometer), ``orientation`` the pipeline's output (``None`` for a sensor without an
     orientation: no gyroscope and no on-board fusion)."""
 
@@ -509,7 +512,7 @@ class LiveSession:
 
     def apply_mag_calibration(self, calibration: MagCalibration, save: bool = True) -> None:
         """Use ``calibration`` for its sensor from now on (its filter learns the heading anew,
-        :meth:`mimucap.core.pipeline.SensorChain.set_mag_calibration`) and keep it in the
+        :meth:`mimucap.core.pipeline.chain.SensorChain.set_mag_calibration`) and keep it in the
         calibration store (``save``) for the next start."""
         self._refuse_while_recording("changing a magnetometer calibration")
         device = self.device_of(calibration.sensor_id).device_id
@@ -777,7 +780,7 @@ class LiveSession:
             if chain is not None and chain.ekf is not None:
                 value = self.pipeline.flags.get(sid, 0)
                 flags = tuple(label for key, label in FLAG_LABELS.items() if value & FLAG_NAMES[key])
-            why = doubt.describe(self.pipeline.doubts.get(sid, 0)) if chain is not None else ""
+            why = doubt_reasons.describe(self.pipeline.doubts.get(sid, 0)) if chain is not None else ""
             if stale:
                 tint = "stale"
             elif mag_cal == "not calibrated":
@@ -864,6 +867,9 @@ class LiveSession:
                                settings=self.pipeline.settings, filter_states=self.pipeline.filter_states(),
                                time_offset_s=start_host_s - self.t0_host_s),
         }
+        lsl_clock = recording_lsl_clock(start_host_s, self._clock)
+        if lsl_clock is not None:  # lines the recording up with a LabRecorder XDF of the same minutes
+            metadata["lsl_clock"] = lsl_clock
         metadata.update(extra_metadata or {})
         recorder = Recorder(path, metadata)
         recorder.start(start_host_s)
@@ -874,9 +880,11 @@ class LiveSession:
         self.status.mark_due()
         self.events.recording.emit(self.recording_info())
 
-    def add_marker(self, label: str) -> float:
-        """Mark now with ``label`` (in the recording when recording); returns its ``t_s``."""
-        now = self._clock()
+    def add_marker(self, label: str, host_s: float | None = None) -> float:
+        """Mark now, or the instant ``host_s`` (s on the session's clock: a marker that came with
+        its own time, e.g. from a Lab Streaming Layer stream), with ``label`` (in the recording
+        when recording); returns its ``t_s``."""
+        now = self._clock() if host_s is None else float(host_s)
         label = str(label).strip() or "marker"
         if self._recorder is not None:
             if not self._recorder.add_marker(label, now):

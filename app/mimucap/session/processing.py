@@ -1,6 +1,6 @@
 """A recording run through the processing path again: what it stores, and how it is read back (no Qt).
 
-A recording stores everything :func:`mimucap.core.pipeline.process_recording` needs to
+A recording stores everything :func:`mimucap.core.pipeline.recording.process_recording` needs to
 recompute it: the raw samples (the session file's sensor streams), the magnetometer
 calibrations applied (``calibrations["magnetometer"]``, sensor id → the calibration's JSON),
 the body calibration (``calibrations["body"]``), the filter settings, the live filter's state
@@ -20,18 +20,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mimucap import __version__
-from mimucap.core import bodycal, phases, skeleton
+from mimucap.core import bodycal, skeleton, phase_markers
 from mimucap.core.fusion import FusionState
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.pipeline import (
-    RESULT_REPROCESSED, PipelineOutput, PipelineSettings, check_result, process_recording,
-    state_from_dict,
-)
-from mimucap.io.calibration_store import SESSION_KEY, calibration_from_json, calibration_to_json
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.pipeline.recording import PipelineOutput, process_recording
+from mimucap.core.pipeline.settings import RESULT_REPROCESSED, PipelineSettings, check_result, state_from_dict
+from mimucap.io.calibration_store import body_calibration_of, magnetometer_calibrations_of, session_calibrations
 from mimucap.io.session import Session
 from mimucap.session.calibrations import AppliedCalibrations, applied_calibrations
 
-BODY_KEY = "body"
 PIPELINE_KEY = "pipeline"
 
 
@@ -40,13 +37,8 @@ def recording_record(*, mag_calibrations: Mapping[str, MagCalibration],
                      filter_states: Mapping[str, Any], time_offset_s: float) -> dict[str, Any]:
     """The metadata entries a recording carries so that it can be recomputed (see the module
     docstring): ``{"calibrations": {...}, "pipeline": {...}, "mimucap_version": ...}``."""
-    calibrations: dict[str, Any] = {}
-    if mag_calibrations:
-        calibrations[SESSION_KEY] = {sid: calibration_to_json(cal) for sid, cal in mag_calibrations.items()}
-    if body_calibration is not None:
-        calibrations[BODY_KEY] = body_calibration.to_dict()
     return {
-        "calibrations": calibrations,
+        "calibrations": session_calibrations(mag_calibrations, body_calibration),
         PIPELINE_KEY: {"settings": settings.to_dict(), "live_filter_states": dict(filter_states),
                        "live_time_offset_s": float(time_offset_s)},
         "mimucap_version": __version__,
@@ -78,18 +70,13 @@ def recorded_processing(session: Session, origin: str = "the session") -> Record
     what it lacks."""
     meta = session.metadata
     found = RecordedProcessing(sensor_segments={sid: s.segment for sid, s in session.sensors.items() if s.segment})
-    section = session.calibrations.get(SESSION_KEY) or {}
-    for sensor_id, data in section.items():
-        found.mag_calibrations[sensor_id] = calibration_from_json(
-            data, f"{origin}: magnetometer calibration of {sensor_id}", sensor_id)
+    found.mag_calibrations = magnetometer_calibrations_of(session.calibrations, origin)
     names_only = meta.get("mag_calibrated_sensors") or []
     lost = [sid for sid in names_only if sid not in found.mag_calibrations]
     if lost:
         found.missing.append(f"the magnetometer calibrations applied live ({', '.join(lost)}) are not stored "
                              "(an older recording): their raw magnetometer samples are used")
-    body = session.calibrations.get(BODY_KEY) or meta.get("body_calibration")
-    if body:
-        found.body_calibration = bodycal.BodyCalibration.from_dict(body, origin=f"{origin}: body calibration")
+    found.body_calibration = body_calibration_of(session.calibrations, meta, origin)
     pipeline = meta.get(PIPELINE_KEY)
     if isinstance(pipeline, Mapping):
         found.settings = PipelineSettings.from_dict(pipeline.get("settings"), f"{origin}: pipeline settings")
@@ -147,6 +134,6 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
 
 def off_body_windows(session: Session) -> list[tuple[float, float]]:
     """The time windows (s) its markers name as a magnetometer calibration phase
-    (:func:`mimucap.core.phases.off_body_windows`)."""
+    (:func:`mimucap.core.phase_markers.off_body_windows`)."""
     end = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s.t_s)), default=0.0)
-    return phases.off_body_windows(session.markers, end + 1.0)
+    return phase_markers.off_body_windows(session.markers, end + 1.0)

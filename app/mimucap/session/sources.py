@@ -33,9 +33,9 @@ from mimucap.acquisition.slimevr import SlimeVrSourceConfig
 from mimucap.acquisition.udp import UdpSourceConfig
 from mimucap.acquisition.worker import SourceConfig
 from mimucap.core.device_identity import SensorDevice, xsens_device_id
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.input_names import SESSION_SUFFIXES
-from mimucap.io.quaternion_tables import read_xsens_file
+from mimucap.io.xsens_text import read_xsens_file
 from mimucap.io.session import read_session
 
 

@@ -33,7 +33,7 @@ from vtkmodules.vtkRenderingCore import (
     vtkTextActor,
 )
 
-from mimucap.core.magcal_fit import EllipsoidFit
+from mimucap.core.magcal.fit import EllipsoidFit
 from mimucap.gui.vtk_widget import VtkWidget
 from mimucap.session.magcal_display import MagcalDisplay
 

@@ -27,9 +27,9 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
 
-from mimucap.core.wording import plural
-from mimucap.core.magcal_guidance import AXIS_NAMES
+from mimucap.core.magcal.guidance import AXIS_NAMES
 from mimucap.core.simulate.suit import SuitSimulator
+from mimucap.core.wording import plural
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session import instructions
 from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
