@@ -37,6 +37,12 @@ def test_an_unpaired_node_is_offered_for_pairing_and_records_once_paired(qtbot):
         assert item.checkState() == QtCore.Qt.Checked and dialog.pair_button.isEnabled()
         assert win.live.sensor_ids == ()                     # refused until paired: no sensor in the table
         assert win.action_pair.isEnabled()
+        dialog.reject()                                        # "Not Now": not asked again by itself...
+        qtbot.wait(1000)
+        assert win._pair_dialog is None and PairingStore().device_ids() == frozenset()
+        win.action_pair.trigger()                              # ...but Session → Pair Devices… offers it again
+        dialog = win._pair_dialog
+        assert dialog is not None and dialog.isVisible() and dialog.list.count() == 1
         qtbot.mouseClick(dialog.pair_button, QtCore.Qt.LeftButton)
         assert PairingStore().device_ids() == {device_id}
         assert [d.label for d in PairingStore().devices()] == ["4"]
