@@ -8,8 +8,8 @@ node a time-sync request every ``sync_interval_s``; the answers feed the node's
 gets a hello request every ``sync_interval_s`` (:mod:`mimucap.acquisition.hello`); its hello is
 reported at once. Given the paired suit (``intake.paired_devices``), a node's samples are let in
 only once its hello names a paired device (:mod:`mimucap.acquisition.pairing`); it is asked
-for its hello meanwhile, and for its time only once it is let in. Memory is bounded by the kernel receive buffer (``receive_buffer_bytes``), the block
-size and the supervisor queue.
+for its hello meanwhile, and for its time only once it is let in. Memory is bounded by the
+kernel receive buffer (``receive_buffer_bytes``), the block size and the supervisor queue.
 """
 
 from __future__ import annotations

@@ -568,8 +568,9 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _unpaired_heard(self, sensors: list[UnpairedSensor]) -> None:
         """The source refuses ``sensors`` as not paired: offer to pair each device the first
-        time it is heard (Session → Pair Devices… offers them again)."""
-        self._unpaired = list(sensors)
+        time it is heard (Session → Pair Devices… offers them again). A node still to say which
+        device it is (its hello on the way) is left out until it has said."""
+        self._unpaired = [sensor for sensor in sensors if sensor.device.settled]
         self.action_pair.setEnabled(any(sensor.pairable for sensor in sensors))
         if any(sensor.pairable and sensor.device.device_id not in self._offered for sensor in sensors):
             self.pair_devices()
