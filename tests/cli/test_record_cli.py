@@ -100,6 +100,10 @@ def test_kill_9_during_record_loses_at_most_the_last_second(tmp_path):
 
 
 def test_emulated_udp_nodes_recorded_with_loss_reported_as_drops(tmp_path):
+    from mimucap.acquisition.emulate_common import node_mac
+    from mimucap.core.device_identity import mac_device_id
+
+    assert main(["pair", "add"] + [mac_device_id(node_mac(0, k)) for k in (1, 2, 3, 4)]) == 0   # our suit
     port = free_udp_port()
     out = tmp_path / "udp.h5"
     record = subprocess.Popen(MIMUCAP + ["record", "--source", f"udp:127.0.0.1:{port}", "--duration", "5",

@@ -56,6 +56,7 @@ def test_menu_lists_only_working_items(window):
     expected = {
         "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "&Library…", "Library &Folder…",
         "S&tream to Lab Streaming Layer…", "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
+        "&Pair Devices…",
         "Front", "Side", "Top", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
         "Show World &Axes", "Show Simulator &Truth", "&Pause Plots\tSpace", "&User Guide", "&About MimuCap",
     }

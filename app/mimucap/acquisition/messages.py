@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from mimucap.acquisition.packed_blocks import PackedBlock
+from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.timesync import ClockEstimate
 from mimucap.core.device_identity import SensorDevice
 from mimucap.core.sensor_samples import SensorSamples
@@ -74,3 +75,5 @@ class WorkerReport:
     #: sensor → which device it is, for the sensors the source can tell of (a node's hello, a
     #: tracker's MAC, a simulated unit; or why it has none)
     devices: dict[str, SensorDevice] = field(default_factory=dict)
+    #: sensor → a sensor refused because its device is not paired (:mod:`mimucap.acquisition.pairing`)
+    unpaired: dict[str, UnpairedSensor] = field(default_factory=dict)

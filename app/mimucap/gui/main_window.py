@@ -23,6 +23,7 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap import __version__
+from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.source_spec import ReplaySpec, parse_source_spec
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background import BackgroundTask
@@ -39,6 +40,7 @@ from mimucap.gui.session_panel import SessionPanel, display_path
 from mimucap.gui.settings import gui_settings
 from mimucap.gui.source_dialog import (
     DEFAULT_SPEC,
+    PairDevicesDialog,
     SourceDialog,
     last_skeleton_model,
     last_source_spec,
@@ -202,7 +204,12 @@ class MainWindow(QtWidgets.QMainWindow):
             "source_problem": self._source_problem_changed, "refused": self._show_refused_without_sensor,
             "truth_errors": self._truth_errors_changed, "truth_available": self.action_truth.setEnabled,
             "sensors": self._assign_remembered, "recording_progress": self._recording_progress,
-            "recording_failed": self._recording_failed, "calibration": lambda *_: self._update_hint()}
+            "recording_failed": self._recording_failed, "calibration": lambda *_: self._update_hint(),
+            "unpaired": self._unpaired_heard}
+        #: the sensors the source refuses as not paired; the device ids offered for pairing so far
+        self._unpaired: list[UnpairedSensor] = []
+        self._offered: set[str] = set()
+        self._pair_dialog: PairDevicesDialog | None = None
         self.source_error: str | None = None
         if not self.open_source(source or last_source_spec(), interactive=False) and source is None:
             error = self.source_error  # a remembered source that went away: say so over the fallback
@@ -249,6 +256,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_record.setShortcut(QtGui.QKeySequence("Ctrl+R"))
         self.action_marker = session_menu.addAction("Add &Marker", self.session_panel.request_marker)
         self.action_marker.setShortcut(QtGui.QKeySequence("M"))
+        self.action_pair = session_menu.addAction("&Pair Devices…", self.pair_devices)
+        self.action_pair.setEnabled(False)
 
         view_menu = bar.addMenu("&View")
         self.camera_actions = choice_actions(view_menu.addMenu("&Camera"), CAMERA_PRESETS, str.capitalize,
@@ -588,6 +597,48 @@ class MainWindow(QtWidgets.QMainWindow):
             remember_source(dialog.spec, dialog.model_name)
         else:
             self.model_name = previous_model
+
+    def _unpaired_heard(self, sensors: list[UnpairedSensor]) -> None:
+        """The source refuses ``sensors`` as not paired: offer to pair each device the first
+        time it is heard (Session → Pair Devices… offers them again). A node still to say which
+        device it is (its hello on the way) is left out until it has said."""
+        self._unpaired = [sensor for sensor in sensors if sensor.device.settled]
+        self.action_pair.setEnabled(any(sensor.pairable for sensor in sensors))
+        if any(sensor.pairable and sensor.device.device_id not in self._offered for sensor in sensors):
+            self.pair_devices()
+
+    def pair_devices(self) -> None:
+        """Offer to pair the devices the source refuses as not paired (a dialog that leaves the
+        live view running; one at a time)."""
+        live = self.live
+        if live is None or live.pairing_store is None or self._pair_dialog is not None or not self._unpaired:
+            return
+        self._offered.update(sensor.device.device_id for sensor in self._unpaired if sensor.pairable)
+        dialog = self._pair_dialog = PairDevicesDialog(self, live.label, self._unpaired)
+        dialog.finished.connect(lambda result: self._pair_dialog_closed(dialog, result))
+        dialog.open()
+
+    def _pair_dialog_closed(self, dialog: PairDevicesDialog, result: int) -> None:
+        """Pair the devices chosen, and open the source again so that it lets them in (after
+        the recording, if one runs); offer what was heard meanwhile."""
+        self._pair_dialog = None
+        chosen = dialog.chosen() if result == QtWidgets.QDialog.Accepted else []
+        live = self.live
+        if chosen and live is not None and live.pairing_store is not None:
+            try:
+                added = live.pairing_store.pair((sensor.device.device_id, sensor.sensor) for sensor in chosen)
+            except (ValueError, OSError) as error:
+                log.warning("cannot pair: %s", error)
+                QtWidgets.QMessageBox.warning(self, "Pair Devices", f"Cannot pair the devices: {error}")
+                return
+            if live.recording:
+                self.statusBar().showMessage(f"Paired {len(added)} devices: they join when the source is opened "
+                                             "again after this recording (File → Choose Source…).", 10000)
+            elif self.open_source(live.label):
+                self.statusBar().showMessage(f"Paired {len(added)} devices; the source was opened again "
+                                             "to take their data.", 10000)
+        if any(sensor.pairable and sensor.device.device_id not in self._offered for sensor in self._unpaired):
+            self.pair_devices()
 
     def assign_sensors(self) -> None:
         if self.live is None:

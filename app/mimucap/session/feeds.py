@@ -23,6 +23,7 @@ from typing import Protocol
 import numpy as np
 
 from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_FAILED
+from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.supervisor import Supervisor
 from mimucap.core.device_identity import SensorDevice
@@ -63,6 +64,10 @@ class LiveSource(Protocol):
 
     def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
         """Refused inputs that belong to no known sensor: (reason → count, sender → count)."""
+
+    def unpaired(self) -> dict[str, UnpairedSensor]:
+        """Sensor id → a sensor refused because its device is not paired
+        (:mod:`mimucap.acquisition.pairing`)."""
 
     def follow(self, instruction: Instruction) -> None:
         """A calibration procedure's instruction (the simulated subject does it)."""
@@ -180,6 +185,10 @@ class SimulatorFeed:
         """Nothing is refused by the simulated suit (see :meth:`SupervisorFeed.refused_without_sensor`)."""
         return {}, {}
 
+    def unpaired(self) -> dict[str, UnpairedSensor]:
+        """The simulated suit needs no pairing (see :meth:`SupervisorFeed.unpaired`)."""
+        return {}
+
     def signal_dbm(self) -> dict[str, float]:
         """The simulated suit has no radio link (see :meth:`SupervisorFeed.signal_dbm`)."""
         return {}
@@ -276,6 +285,13 @@ class SupervisorFeed:
         out: dict[str, SensorDevice] = {}
         for status in self.supervisor.sources().values():
             out.update(status.devices)
+        return out
+
+    def unpaired(self) -> dict[str, UnpairedSensor]:
+        """Sensor id → a sensor the sources refused because its device is not paired."""
+        out: dict[str, UnpairedSensor] = {}
+        for status in self.supervisor.sources().values():
+            out.update(status.unpaired)
         return out
 
     def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:

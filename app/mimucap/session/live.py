@@ -69,6 +69,7 @@ from mimucap.core.sensor_samples import SensorSamples, join_per_sensor
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.truth import SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
+from mimucap.io.pairing_store import PairingStore
 from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
 from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
@@ -268,6 +269,9 @@ class LiveSession:
         changed;
       - ``refused(reasons, senders)``: packets refused from no known sensor (reason → count,
         sender → count), when they changed;
+      - ``unpaired(list[UnpairedSensor])``: the sensors a network source refuses because their
+        device is not paired (:mod:`mimucap.acquisition.pairing`), when they changed (a device
+        became known, another was heard);
       - ``truth_errors(column → RMS deg)``: the running flexion error against the simulator's
         truth over 5 s (sources with truth, while someone listens).
     """
@@ -284,9 +288,12 @@ class LiveSession:
         self.events = EmitterGroup("blocks", "processed", "data", "frame", "truth_frame", "sensors",
                                    "pose_source", "assignment", "calibration", "recording", "marker",
                                    "recording_failed", "truth_available", "status", "checklist", "recording_progress",
-                                   "source_problem", "refused", "truth_errors")
+                                   "source_problem", "refused", "unpaired", "truth_errors")
         self.pipeline = LivePipeline(self.model, settings)
         self.calibration_store = calibration_store
+        #: the paired suit the network sources let in (:func:`open_live_session` sets it; the
+        #: source must be opened again for a device paired meanwhile to be let in)
+        self.pairing_store: PairingStore | None = None
         #: sensor → why a magnetometer calibration stored under its id is not used (a damaged
         #: file, another device's calibration)
         self.calibration_problems: dict[str, str] = {}
@@ -964,7 +971,8 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
                       in_process_simulator: bool = True,
                       n_sensors: int | None = None, rate_hz: float = 100.0,
                       model_name: str | None = None,
-                      calibration_store: CalibrationStore | None = None) -> LiveSession:
+                      calibration_store: CalibrationStore | None = None,
+                      pairing_store: PairingStore | None = None) -> LiveSession:
     """A live session (not started) for source ``spec``.
 
     ``simulated[:SCENARIO][@ROOM]`` runs the simulated suit (``n_sensors`` at ``rate_hz``) in process
@@ -972,7 +980,10 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
     (``udp:``, ``serial:``, ``replay:``) runs in acquisition workers.
 
     ``calibration_store`` keeps the magnetometer calibrations (default: the user's store,
-    :class:`~mimucap.io.calibration_store.CalibrationStore`).
+    :class:`~mimucap.io.calibration_store.CalibrationStore`). ``pairing_store`` holds the paired
+    suit (default: the user's, :class:`~mimucap.io.pairing_store.PairingStore`): the network
+    sources (``udp:``, ``slimevr:``) let in only its devices; the simulated suit, a replay and a
+    serial line need no pairing.
 
     ``model_name`` (``"ten_segment"`` or ``"fifteen_segment"``, default ten) is the skeleton
     the sensors drive. The simulated suit wears 10 sensors on the ten-segment model and 17 on
@@ -990,6 +1001,9 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
         feed = SimulatorFeed(config, clock=clock)
         return LiveSession(feed, format_source_spec(parsed), model_name=config.model_name,
                            height_m=config.height_m, clock=clock, calibration_store=store)
-    options = SourceOptions() if n_sensors is None else SourceOptions(sensor_count=n_sensors)
+    pairings = pairing_store if pairing_store is not None else PairingStore()
+    options = SourceOptions(sensor_count=n_sensors, paired_devices=pairings.device_ids())
     feed = SupervisorFeed(spec, options)
-    return LiveSession(feed, spec, model_name=model_name or "ten_segment", clock=clock, calibration_store=store)
+    session = LiveSession(feed, spec, model_name=model_name or "ten_segment", clock=clock, calibration_store=store)
+    session.pairing_store = pairings
+    return session

@@ -6,16 +6,17 @@ table a few times a second at most: :class:`StatusPublisher` publishes them at
 :data:`STATUS_RATE_HZ` from the session's :meth:`~mimucap.session.live.LiveSession.step` (the
 one clock of the live view), instead of each widget asking the session on a timer of its own.
 Events whose value changes rarely (the source's problem, the packets refused from no known
-sensor) are emitted only when the value differs from the one last published.
+sensor, the sensors refused as not paired) are emitted only when the value differs from the one last published.
 
 Interface: ``StatusPublisher(session, events, clock)``; :meth:`StatusPublisher.tick` from every
 step (publishes when :data:`STATUS_RATE_HZ` says so, or at once after :meth:`mark_due`);
 :meth:`StatusPublisher.publish` publishes now. ``session`` offers ``sensor_rows()``,
 ``recording_info()``, ``source_problem``, ``has_truth``, ``truth_errors(window_s, columns)``,
-``feed.refused_without_sensor()`` and what :func:`~mimucap.session.recording_checklist.recording_checklist`
+``feed.refused_without_sensor()``, ``feed.unpaired()`` and what :func:`~mimucap.session.recording_checklist.recording_checklist`
 reads. The events it emits (in ``events``, an :class:`~mimucap.session.events.EmitterGroup`)
 are declared in :class:`~mimucap.session.live.LiveSession`'s docstring: ``status``,
-``checklist``, ``recording_progress``, ``source_problem``, ``refused``, ``truth_errors``.
+``checklist``, ``recording_progress``, ``source_problem``, ``refused``, ``unpaired``,
+``truth_errors``.
 """
 
 from __future__ import annotations
@@ -59,6 +60,7 @@ class StatusPublisher:
         self._due = True
         self._problem: str | None = None
         self._refused: tuple | None = None
+        self._unpaired: tuple | None = None
 
     def mark_due(self) -> None:
         """Publish at the next :meth:`tick` whatever the rate (something the status shows changed:
@@ -76,7 +78,7 @@ class StatusPublisher:
 
     def publish(self, now: float | None = None) -> None:
         """Publish the whole status now: ``status`` and, while recording, ``recording_progress``
-        (else ``checklist``) always; ``source_problem`` and ``refused`` when they changed since
+        (else ``checklist``) always; ``source_problem``, ``refused`` and ``unpaired`` when they changed since
         the last publication; ``truth_errors`` when the source has truth and someone listens."""
         self._last_s = self._clock() if now is None else now
         self._due = False
@@ -99,6 +101,11 @@ class StatusPublisher:
         if key != self._refused:
             self._refused = key
             events.refused.emit(dict(refused[0]), dict(refused[1]))
+        unpaired = session.feed.unpaired()
+        key = tuple(sorted((name, sensor.device) for name, sensor in unpaired.items()))
+        if key != self._unpaired:
+            self._unpaired = key
+            events.unpaired.emit(list(unpaired.values()))
         if session.has_truth and events.truth_errors.callbacks:
             events.truth_errors.emit(session.truth_errors(TRUTH_ERROR_WINDOW_S, self.truth_columns))
 
@@ -107,4 +114,5 @@ class StatusPublisher:
         widgets that have just subscribed)."""
         self._problem = None
         self._refused = None
+        self._unpaired = None
         self._due = True
