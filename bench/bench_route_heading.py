@@ -37,7 +37,6 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-
 from mimucap.cli import main
 from mimucap.core import phases
 from mimucap.core import rotation as rot
