@@ -9,6 +9,7 @@ import math
 import pytest
 
 from mimucap.gui.main_window import VIEW_HINTS, MainWindow
+from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION
 from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, SensorRow
 from mimucap.session.recording_checklist import CheckItem
 
@@ -64,7 +65,10 @@ def test_the_hint_pose_status_checklist_and_truth_action_follow_their_events(idl
     events.source_problem.emit("cannot open /dev/ttyUSB0")
     assert "cannot open /dev/ttyUSB0" in window.scene_view.hint
     events.truth_errors.emit({"knee_r_flexion_deg": 1.5})
-    assert window.pose_status.text().startswith(f"Pose: {POSE_NONE}") and "truth" in window.pose_status.text()
+    assert window.pose_status.text() == f"Pose: {POSE_NONE}"  # nothing to judge before a body calibration
+    events.pose_source.emit(POSE_BODY_CALIBRATION)
+    events.truth_errors.emit({"knee_r_flexion_deg": 1.5})
+    assert window.pose_status.text().startswith(f"Pose: {POSE_BODY_CALIBRATION}") and "truth" in window.pose_status.text()
     window.action_truth.setEnabled(False)
     events.truth_available.emit(True)
     assert window.action_truth.isEnabled()
@@ -148,6 +152,11 @@ def test_the_review_shades_the_doubtful_spans_and_says_why_at_the_play_head(qtbo
     review.show()
     with qtbot.waitSignal(review.loaded, timeout=30000):
         review.load()
+    # Without a body calibration the joint angles are not plotted at all, and the selector says why;
+    assert review.plots.joint_angles_refused and not review.plots.selected_joints
+    # plotted anyway (as they are with a calibration), their doubtful spans are shaded.
+    review.plots.refuse_joint_angles("")
+    review.plots.set_joints(["knee_r"])
     review.seek(3.0)
     qtbot.waitUntil(lambda: [end for _start, end in review.plots.doubt_shown("knee_r")] == [pytest.approx(3.0, abs=0.02)],
                     timeout=5000)
