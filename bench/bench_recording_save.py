@@ -26,7 +26,7 @@ import numpy as np
 
 from mimucap.core.samples import SensorSamples
 from mimucap.io.session import write_session
-from mimucap.session.recording import Recorder, RecorderSettings, session_from_journal
+from mimucap.session.live.recorder import Recorder, RecorderSettings, session_from_journal
 
 RATE_HZ = 100.0
 BLOCK = 5

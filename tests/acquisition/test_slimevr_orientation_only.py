@@ -20,8 +20,8 @@ from mimucap.core.simulate.sensor_errors import error_model
 from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.live import LiveSession
+from mimucap.session.sources.feeds import SimulatorFeed
+from mimucap.session.live.live_session import LiveSession
 from tests.gui.body_wizard_runs import FakeClock, mounting_errors_deg, run_on_live
 
 pytestmark = pytest.mark.gui
@@ -114,7 +114,7 @@ def test_trackers_that_appear_later_are_worn_where_they_were_last_time(qtbot):
     from mimucap.acquisition import slimevr_protocol as proto
     from mimucap.gui.assignment_dialog import remember_assignment
     from mimucap.gui.main_window import MainWindow
-    from mimucap.session.live import POSE_SENSOR_AXES
+    from mimucap.session.live.live_session import POSE_SENSOR_AXES
 
     mac = bytes([0x02, 0x4D, 0x43, 0, 0, 9])
     remember_assignment({"024D43000009-0": "pelvis", "024D43000009-1": "thorax"})

@@ -15,7 +15,7 @@ import pytest
 
 from mimucap.cli import main
 from mimucap.io.session import read_session
-from mimucap.session.recording import journal_path_for
+from mimucap.session.live.recorder import journal_path_for
 
 MIMUCAP = [sys.executable, "-m", "mimucap"]
 

@@ -23,10 +23,10 @@ from mimucap.core.pipeline import RESULT_LIVE
 from mimucap.gui.main_window import MainWindow
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session, write_session
-from mimucap.session.evaluation import angle_errors
-from mimucap.session.export import ExportRequest, run_export
-from mimucap.session.live import RecordingToSave, open_live_session
-from mimucap.session.review import load_review
+from mimucap.session.angle_accuracy import angle_errors
+from mimucap.session.recorded.export import ExportRequest, run_export
+from mimucap.session.live.live_session import RecordingToSave, open_live_session
+from mimucap.session.recorded.review import load_review
 
 SPEED_UP = 4.0
 RECORD_S = 20.0

@@ -13,7 +13,7 @@ from PyQt5 import QtGui, QtWidgets
 def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path, calibrated_walk):
     from mimucap.gui.export_dialog import ExportDialog
     from mimucap.io.angles_export import read_angles_mot
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     # A calibrated walk: joint angles mean something only with a body calibration.
     dialog = ExportDialog(None, load_review(calibrated_walk))
@@ -57,7 +57,7 @@ def test_the_summary_chart_and_table_say_what_they_hold(qtbot, tmp_path, calibra
     """The summary PNG's caption and the summary CSV's header carry the result's record (result,
     body and magnetometer calibrations, model, software, file), as every export does."""
     from mimucap.gui.export_dialog import ExportDialog
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     data = load_review(calibrated_walk)
     dialog = ExportDialog(None, data)

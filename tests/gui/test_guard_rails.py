@@ -13,8 +13,8 @@ from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.assignment_dialog import remembered_assignment
 from mimucap.gui.wizards import BodyCalibrationWizard
-from mimucap.session.calibration_feed import SimulatedSuitFeed
-from mimucap.session.live import RecordingToSave
+from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
+from mimucap.session.live.live_session import RecordingToSave
 
 
 @pytest.fixture
@@ -73,7 +73,7 @@ def test_the_checklist_is_shown_and_recording_without_it_needs_a_confirmation(li
 
 
 def test_a_ready_session_records_without_asking(live_window, qtbot, monkeypatch):
-    from mimucap.session import recording_checklist as checklist
+    from mimucap.session.live import checklist as checklist
 
     window = live_window
     ready = [checklist.CheckItem(key, key, True, "ok") for key in ("streaming", "drops", "magnetometers", "body")]

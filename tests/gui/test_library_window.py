@@ -14,7 +14,7 @@ from mimucap.gui.main_window import MainWindow
 from mimucap.io.library import Library
 from mimucap.io.library_settings import LIBRARY_ENV
 from mimucap.io.session import read_metadata
-from mimucap.session.live import open_live_session
+from mimucap.session.live.live_session import open_live_session
 
 from tests.library_sessions import make_session
 

@@ -9,8 +9,8 @@ import math
 import pytest
 
 from mimucap.gui.main_window import VIEW_HINTS, MainWindow
-from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, SensorRow
-from mimucap.session.recording_checklist import CheckItem
+from mimucap.session.live.live_session import POSE_NONE, POSE_UNASSIGNED, SensorRow
+from mimucap.session.live.checklist import CheckItem
 
 
 def _row(sensor_id: str, segment: str | None, rate_hz: float, stale: bool = False) -> SensorRow:

@@ -21,10 +21,10 @@ from mimucap.core.simulate.sensor_errors import error_model
 from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
 from mimucap.gui.capture import grab_window
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.bodycal_procedure import BodycalProcedureSettings
-from mimucap.session.calibration_feed import SimulatedSuitFeed
-from mimucap.session.feeds import SimulatorFeed as LiveSimulatorFeed
-from mimucap.session.live import LiveSession
+from mimucap.session.procedures.body import BodycalProcedureSettings
+from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
+from mimucap.session.sources.feeds import SimulatorFeed as LiveSimulatorFeed
+from mimucap.session.live.live_session import LiveSession
 from tests.gui.body_wizard_runs import FakeClock, mounting_errors_deg, run_on_live
 
 NOW = dt.datetime(2026, 11, 21, 7, 0, tzinfo=dt.timezone.utc)

@@ -13,7 +13,7 @@ import pytest
 from mimucap.core.samples import SensorSamples
 from mimucap.io.journal import read_journal
 from mimucap.io.session import read_session
-from mimucap.session.recording import Recorder, RecorderSettings, journal_path_for, open_session, recover
+from mimucap.session.live.recorder import Recorder, RecorderSettings, journal_path_for, open_session, recover
 
 T0 = 1000.0
 
@@ -60,7 +60,7 @@ def test_blocks_become_a_session_and_the_journal_goes_away(tmp_path):
 def test_writing_the_session_reports_its_progress_up_to_the_whole(tmp_path):
     """Reading the journal and writing the file report fractions that only grow and end at 1,
     through the journal's records (several reports) and the sensors written."""
-    from mimucap.session.recording import PROGRESS_EVERY_RECORDS, READING_SHARE
+    from mimucap.session.live.recorder import PROGRESS_EVERY_RECORDS, READING_SHARE
 
     out = tmp_path / "s.h5"
     recorder = Recorder(out, {}, RecorderSettings(fsync=False))
@@ -134,7 +134,7 @@ def test_the_simulator_truth_is_journaled_and_survives_a_crash(tmp_path):
 
 
 def test_a_damaged_truth_record_names_the_record(tmp_path):
-    from mimucap.session.recording import KIND_TRUTH, decode_truth, encode_truth
+    from mimucap.session.live.recorder import KIND_TRUTH, decode_truth, encode_truth
 
     payload = encode_truth(*truth_rows(0, 3))
     part = decode_truth(payload)
@@ -225,7 +225,7 @@ import json, resource, signal, sys, time
 import numpy as np
 sys.path.insert(0, {test_dir!r})
 from test_recording import block
-from mimucap.session.recording import Recorder, RecorderSettings
+from mimucap.session.live.recorder import Recorder, RecorderSettings
 out = {out!r}
 recorder = Recorder(out, {{}}, RecorderSettings(flush_interval_s=0.05))
 recorder.start(start_host_s=1000.0)
@@ -261,7 +261,7 @@ def test_a_full_disk_ends_with_a_clear_message_and_a_readable_file(tmp_path):
 def test_the_gui_loop_records_a_simulated_suit(tmp_path):
     """The loop of docs/protocols.md: poll without blocking, record, stop."""
     from mimucap.acquisition.supervisor import Supervisor
-    from mimucap.session.sources import sensor_segments, source_configs
+    from mimucap.session.sources.source_configs import sensor_segments, source_configs
 
     configs = source_configs("simulated:walk")
     sensors = [f"S{i:02d}" for i in range(1, 11)]

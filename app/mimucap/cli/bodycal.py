@@ -126,7 +126,7 @@ def read_input(args: argparse.Namespace, command: str = "bodycal"):
     calibrations applied (:func:`magnetometer_calibrations`; none for a table), each not good
     one named on stderr by ``mimucap COMMAND``."""
     from mimucap.io.quaternion_tables import read_quaternion_table
-    from mimucap.session.calibrations import AppliedCalibrations
+    from mimucap.session.recorded.calibration_choice import AppliedCalibrations
 
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise ValueError(f"--rate {args.rate:g}: the update rate must be a positive number of Hz")
@@ -168,7 +168,7 @@ def static_npose_orientations(session, mags, mapping: dict[str, str],
     import numpy as np
 
     from mimucap.core import bodycal
-    from mimucap.session.processing import recorded_processing
+    from mimucap.session.recorded.reprocessing import recorded_processing
 
     fusion = recorded_processing(session).settings.fusion
     found = {}
@@ -288,7 +288,7 @@ def run(args: argparse.Namespace) -> int:
         )
     else:
         raise ValueError("give --tpose T2:T3 (N/T-pose calibration) or --heading-from SENSOR:AXIS")
-    from mimucap.session.calibrations import with_magnetometers
+    from mimucap.session.recorded.calibration_choice import with_magnetometers
 
     calibration = bodycal.with_doubtful_sensors(calibration, pose_doubts(table, mapping, npose, tpose))
     # the magnetometer calibrations its N-pose orientations were computed with go with it

@@ -53,7 +53,7 @@ def session_review(session: Path, calibration: Path | None, live: bool, allow_un
     or ``calibration``; ``ValueError`` naming ``--calibration`` when it has none and
     ``allow_uncalibrated`` is False (``what`` names what needs it)."""
     from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
-    from mimucap.session.review import load_review, require_body_calibration
+    from mimucap.session.recorded.review import load_review, require_body_calibration
 
     if calibration is not None and not calibration.is_file():
         raise OSError(f"{calibration}: no such file")
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from mimucap.core.analysis.gait import GaitInput, analyse_gait
     from mimucap.core.analysis.sagittal import axes_from_data
     from mimucap.io.gait_csv import read_foot_imu_csv
-    from mimucap.session.analysis import analyse_review, write_analysis_csv, write_gait_csv
+    from mimucap.session.recorded.analysis import analyse_review, write_analysis_csv, write_gait_csv
 
     source: Path = args.input
     if not source.is_file():

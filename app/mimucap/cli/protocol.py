@@ -6,7 +6,7 @@
 The session goes through the one processing path (its raw samples, the magnetometer
 calibrations of ``--mag-calibration``, the session or the user's store, the orientation
 filter, the body calibration of ``--calibration`` or the one the session recorded); the test is
-found in the sensors' data (:mod:`mimucap.session.clinical_tests`), never in the phase markers
+found in the sensors' data (:mod:`mimucap.session.recorded.clinical_tests`), never in the phase markers
 or a simulator's truth. Markers labelled ``test start`` and ``test stop`` override where the
 test starts and stops. A session without a body calibration is refused.
 
@@ -54,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from mimucap.cli.session_input import is_session
     from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
-    from mimucap.session.clinical_tests import run_clinical_test
+    from mimucap.session.recorded.clinical_tests import run_clinical_test
 
     if args.out.suffix.lower() != ".json":
         raise ValueError(f"{args.out}: the result is a JSON file; name it .json")

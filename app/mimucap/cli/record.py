@@ -119,8 +119,8 @@ def check_options(args: argparse.Namespace, spec: SourceSpec) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mimucap.acquisition.supervisor import Supervisor
-    from mimucap.session.recording import Recorder, RecorderSettings
-    from mimucap.session.sources import SourceOptions, parse_sensor_ids, sensor_segments, source_configs
+    from mimucap.session.live.recorder import Recorder, RecorderSettings
+    from mimucap.session.sources.source_configs import SourceOptions, parse_sensor_ids, sensor_segments, source_configs
 
     if not args.duration > 0:
         raise ValueError(f"--duration must be > 0 s, got {args.duration}")
@@ -232,7 +232,7 @@ def library_recording(args: argparse.Namespace):
     condition, tags and trial."""
     from mimucap.io.library import library_fields
     from mimucap.io.session import make_subject
-    from mimucap.session.library import open_library
+    from mimucap.session.recorded.library import open_library
 
     if args.out is not None:
         raise ValueError("--out and --subject exclude each other: a library recording is named by the library")

@@ -1,9 +1,9 @@
 """The comparison of two sessions of a subject: for each session the part compared (the whole
 recording or between two markers), then every table of the comparison (a named table each, as
-:func:`mimucap.session.library.compare` makes them) with A, B and the difference.
+:func:`mimucap.session.recorded.library.compare` makes them) with A, B and the difference.
 
 Both sessions are processed off the GUI thread by the one pipeline
-(:func:`mimucap.session.review.load_review`); changing a window recomputes the tables only.
+(:func:`mimucap.session.recorded.review.load_review`); changing a window recomputes the tables only.
 """
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.pipeline import RESULT_LABELS, RESULT_REPROCESSED
-from mimucap.gui.background import BackgroundTask
+from mimucap.gui.background_task import BackgroundTask
 from mimucap.io.library import Library, SessionEntry
-from mimucap.session.library import ComparedSession, ComparisonTable, TimeWindow, compare, comparison_csv
-from mimucap.session.review import load_review
+from mimucap.session.recorded.library import ComparedSession, ComparisonTable, TimeWindow, compare, comparison_csv
+from mimucap.session.recorded.review import load_review
 
 log = logging.getLogger(__name__)
 
@@ -255,7 +255,7 @@ class CompareWindow(QtWidgets.QMainWindow):
         self.save_button.setEnabled(bool(self.tables))
 
     def save_csv(self, path: str | Path) -> Path:
-        """Write the tables as CSV (:func:`mimucap.session.library.comparison_csv`)."""
+        """Write the tables as CSV (:func:`mimucap.session.recorded.library.comparison_csv`)."""
         target = Path(path)
         target.write_text(comparison_csv(self.tables), encoding="utf-8")
         return target

@@ -1,9 +1,9 @@
 """The main window: 3D skeleton view, live plots, sensor panel and session panel around a
-:class:`~mimucap.session.live.LiveSession`.
+:class:`~mimucap.session.live.live_session.LiveSession`.
 
 The window holds no data: it shows what the live session has and forwards what the user
 asks. One timer moves time forward: the pump (:data:`PUMP_INTERVAL_MS`) runs the session's
-pipeline (:meth:`~mimucap.session.live.LiveSession.step`). Nothing polls the session: each
+pipeline (:meth:`~mimucap.session.live.live_session.LiveSession.step`). Nothing polls the session: each
 widget subscribes to the session's events when the session is set (the 3D view to ``frame``,
 the plots to ``data``, the sensor panel to ``status``, the session panel to ``checklist``,
 ``recording_progress`` and ``marker``, the status bar here to ``status``, ``pose_source``,
@@ -23,7 +23,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap import __version__
 from mimucap.acquisition.source_spec import ReplaySpec, parse_source_spec
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
-from mimucap.gui.background import BackgroundTask
+from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
 from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
@@ -43,16 +43,16 @@ from mimucap.gui.source_dialog import (
 )
 from mimucap.io.calibration_store import user_data_dir
 from mimucap.io.imports import IMPORT_SUFFIXES, import_recording
-from mimucap.session.camera import CAMERA_PRESETS
-from mimucap.session.diagnostics import CpuMeter
-from mimucap.session.figure import DISPLAY_MODES
-from mimucap.session.kernel_preparation import KernelPreparation
+from mimucap.session.views.camera import CAMERA_PRESETS
+from mimucap.session.views.cpu_meter import CpuMeter
+from mimucap.session.views.skeleton_figure import DISPLAY_MODES
+from mimucap.session.live.kernel_preparation import KernelPreparation
 from mimucap.core.pipeline import POSE_SENSOR_AXES
-from mimucap.session.evaluation import accuracy_phrase
-from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, doubt_warning, open_live_session
+from mimucap.session.angle_accuracy import accuracy_phrase
+from mimucap.session.live.live_session import POSE_NONE, POSE_UNASSIGNED, LiveSession, doubt_warning, open_live_session
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
-from mimucap.session.recording_checklist import CheckItem, recording_checklist
+from mimucap.session.live.checklist import CheckItem, recording_checklist
 
 log = logging.getLogger(__name__)
 
@@ -405,7 +405,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Start the source, pumping, rendering and refreshing (call after ``show()``).
 
         The first time in a process, the fusion kernels are made ready first, by a background
-        thread (:mod:`mimucap.session.kernel_preparation`): the module compiled ahead of time at
+        thread (:mod:`mimucap.session.live.kernel_preparation`): the module compiled ahead of time at
         installation when it is current, else numba's cache, filled by a child process when it
         lacks them; so the GUI thread never compiles them on the first sample."""
         global _kernels_ready

@@ -19,7 +19,7 @@ without accepting a calibration asks whether to keep it (applied to the live ses
 sensor assignment) or discard it (:attr:`BodyCalibrationWizard.ask_about_assignment`);
 accepting a calibration applies the mapping with it.
 
-The logic is :class:`mimucap.session.bodycal_procedure.BodycalProcedure`, stepped by a
+The logic is :class:`mimucap.session.procedures.body.BodycalProcedure`, stepped by a
 ``QTimer``.
 """
 
@@ -38,10 +38,10 @@ from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.wizards.pictures import PictureWidget
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
-from mimucap.session.bodycal_procedure import ARMS, BodycalProcedure, BodycalProcedureSettings
-from mimucap.session import instructions
-from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
-from mimucap.session.figure import FigureBuilder
+from mimucap.session.procedures.body import ARMS, BodycalProcedure, BodycalProcedureSettings
+from mimucap.session.procedures import instructions
+from mimucap.session.sources.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
+from mimucap.session.views.skeleton_figure import FigureBuilder
 
 VERDICT_COLOURS = {"good": "#2ca02c", "acceptable": "#e08a00", "poor": "#d62728"}
 ARM_LABELS = {"both": "Both arms", "right": "Right arm only", "left": "Left arm only"}

@@ -8,7 +8,7 @@ from collections.abc import Callable, Mapping
 
 from PyQt5 import QtGui, QtWidgets
 
-from mimucap.session import instructions
+from mimucap.session.procedures import instructions
 
 
 def push_button(text: str, slot: Callable[[], object], tooltip: str = "") -> QtWidgets.QPushButton:

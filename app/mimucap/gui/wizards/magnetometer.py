@@ -14,7 +14,7 @@ Pages (a ``QStackedWidget``; :attr:`MagnetometerWizard.page_name` says which is 
   previous calibration and its age, and the advice in plain words; Accept stores the
   acceptable calibrations per sensor id, Redo starts again.
 
-All logic lives in :class:`mimucap.session.magcal_procedure.MagcalProcedure`; a ``QTimer``
+All logic lives in :class:`mimucap.session.procedures.magnetometer.MagcalProcedure`; a ``QTimer``
 calls its ``step`` and the page shows its status. The live views are refreshed at most every
 ``view_interval_ms`` (a refit of the preview is the expensive part).
 """
@@ -30,9 +30,9 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.core.magcal_guidance import AXIS_NAMES
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
-from mimucap.session import instructions
-from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
-from mimucap.session.magcal_procedure import (
+from mimucap.session.procedures import instructions
+from mimucap.session.sources.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
+from mimucap.session.procedures.magnetometer import (
     PROTOCOLS,
     MagcalProcedure,
     MagcalProcedureSettings,
@@ -42,7 +42,7 @@ from mimucap.session.magcal_procedure import (
     describe_age,
 )
 from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
-from mimucap.session.magcal_display import magcal_display
+from mimucap.session.views.magcal_display import magcal_display
 from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget
 from mimucap.core.clinical_names import sensor_name
 from mimucap.gui.screen_fit import fit_on_screen

@@ -1,12 +1,12 @@
 """The guided range-of-motion wizard: one movement after the other, the active joint angle in
 large digits, each repetition's peak captured, repeats averaged, and the results table.
 
-The logic is :class:`mimucap.session.rom_procedure.RomProcedure`, fed with every new pose of
+The logic is :class:`mimucap.session.procedures.range_of_motion.RomProcedure`, fed with every new pose of
 the live session (its ``frame`` event: the newest joint angles and segment orientations; it
 needs a body calibration, and follows the ``calibration`` event). Each step's start and end are also set as markers on the live session
 (``rom:<movement>:<side>:start`` / ``:end``), so a recording running meanwhile holds them and
 its analysis finds the same movements. Each movement is an instruction to the live session
-(:mod:`mimucap.session.instructions`): the person reads it, the simulated subject does it.
+(:mod:`mimucap.session.procedures.instructions`): the person reads it, the simulated subject does it.
 """
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.analysis import rom as rom_core
 from mimucap.gui.wizards.dialog import button_row, large_label, push_button
-from mimucap.session import instructions
-from mimucap.session.rom_procedure import RomProcedure
+from mimucap.session.procedures import instructions
+from mimucap.session.procedures.range_of_motion import RomProcedure
 
 
 class RomWizard(QtWidgets.QDialog):

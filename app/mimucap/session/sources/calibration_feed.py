@@ -17,7 +17,7 @@ asks for. A feed has:
 * ``device(sensor_id)``: what the source says of the sensor's device
   (:class:`~mimucap.core.device_identity.SensorDevice`): a calibration is made for it;
 * ``instruct(instruction)``: what the subject is asked to do
-  (:mod:`mimucap.session.instructions`); the source decides who follows it (a person reads the
+  (:mod:`mimucap.session.procedures.instructions`); the source decides who follows it (a person reads the
   screen; the simulated subject does it). No procedure asks which one it is.
 
 :class:`LiveSessionFeed` reads the main window's live session. :class:`SimulatedSuitFeed` is the
@@ -43,7 +43,7 @@ from mimucap.core.device_identity import SensorDevice
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate.suit import SuitSimulator
-from mimucap.session.instructions import Instruction
+from mimucap.session.procedures.instructions import Instruction
 
 #: The per-sample extra of a calibration feed's samples that holds the reasons their
 #: orientation may be wrong (``uint16`` bits of :mod:`mimucap.core.doubt`).
@@ -70,7 +70,7 @@ class CalibrationFeed(Protocol):
 
 
 class LiveSessionFeed:
-    """The main window's live session (:class:`mimucap.session.live.LiveSession`) as a feed.
+    """The main window's live session (:class:`mimucap.session.live.live_session.LiveSession`) as a feed.
 
     Subscribes to ``live_session.events.processed`` (each sensor's new samples and the
     orientations the session's pipeline gave them) and hands them out per sensor on
@@ -159,8 +159,8 @@ class SimulatedSuitFeed(LiveSessionFeed):
     def __init__(self, simulator: SuitSimulator, step_s: float = 0.1) -> None:
         if not (math.isfinite(step_s) and step_s > 0):
             raise ValueError(f"feed step must be a positive number of seconds, got {step_s}")
-        from mimucap.session.feeds import SimulatorFeed
-        from mimucap.session.live import LiveSession
+        from mimucap.session.sources.feeds import SimulatorFeed
+        from mimucap.session.live.live_session import LiveSession
 
         self.simulator = simulator
         self.step_s = float(step_s)

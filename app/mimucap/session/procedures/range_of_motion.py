@@ -13,7 +13,7 @@ A repetition is captured online by :class:`mimucap.core.analysis.rom.RepetitionC
 same rule the ROM of a recording uses.
 
 Every step leaves two markers, ``rom:<movement>:<side>:start`` and ``...:end`` (session time,
-s), so that :func:`mimucap.session.analysis.rom_of_protocol` finds the same movements again in
+s), so that :func:`mimucap.session.recorded.analysis.rom_of_protocol` finds the same movements again in
 the recording. Angles in degrees; orientations world ENU, quaternions scalar first.
 """
 

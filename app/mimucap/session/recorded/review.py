@@ -1,10 +1,10 @@
 """Review of a recorded session: poses and joint angles on a timeline, and a play head (no Qt).
 
 :func:`load_review` opens a session file (recovering an interrupted recording first, via
-:func:`mimucap.session.recording.open_session`) and runs it, once, through the one processing
-path (:func:`mimucap.session.processing.process_session`) with the calibrations the recording
+:func:`mimucap.session.live.recorder.open_session`) and runs it, once, through the one processing
+path (:func:`mimucap.session.recorded.reprocessing.process_session`) with the calibrations the recording
 stores, or a body calibration file given in place of its own
-(:func:`mimucap.session.calibrations.applied_calibrations`, the choice every consumer makes). Two results exist: *as seen live* (:data:`~mimucap.core.pipeline.RESULT_LIVE`, the
+(:func:`mimucap.session.recorded.calibration_choice.applied_calibrations`, the choice every consumer makes). Two results exist: *as seen live* (:data:`~mimucap.core.pipeline.RESULT_LIVE`, the
 forward filter continuing from the state the live view had, which reproduces what was shown)
 and *reprocessed* (:data:`~mimucap.core.pipeline.RESULT_REPROCESSED`, smoothed with past and
 future data; the default). The review holds:
@@ -35,14 +35,14 @@ from mimucap.core.clinical_names import joint_name
 from mimucap.core.locomotion import root_positions
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
-from mimucap.session.calibrations import AppliedCalibrations, applied_calibrations
-from mimucap.session.evaluation import angle_errors
+from mimucap.session.recorded.calibration_choice import AppliedCalibrations, applied_calibrations
+from mimucap.session.angle_accuracy import angle_errors
 from mimucap.session.events import EmitterGroup
-from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
-from mimucap.session.live_pose import joint_column_groups
-from mimucap.session.processing import process_session, recorded_processing, session_model
-from mimucap.session.provenance import Provenance, provenance
-from mimucap.session.recording import open_session
+from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
+from mimucap.session.views.live_pose import joint_column_groups
+from mimucap.session.recorded.reprocessing import process_session, recorded_processing, session_model
+from mimucap.session.recorded.provenance import Provenance, provenance
+from mimucap.session.live.recorder import open_session
 
 __all__ = ["POSE_BODY_CALIBRATION", "POSE_SENSOR_AXES", "ReviewData", "ReviewPlayer", "SPEEDS", "build_review",
            "require_body_calibration",
@@ -85,7 +85,7 @@ class ReviewData:
 
     @property
     def provenance(self) -> Provenance:
-        """What this result holds, as every output says it (:mod:`mimucap.session.provenance`)."""
+        """What this result holds, as every output says it (:mod:`mimucap.session.recorded.provenance`)."""
         return provenance(source_file=self.path.name, result=self.result, calibrations=self.calibrations,
                           model=self.model, height_m=self.height_m, metadata=self.session.metadata)
 
@@ -123,7 +123,7 @@ def build_review(path: str | Path, session: Session, progress: Callable[[float],
                  result: str = RESULT_REPROCESSED, calibrations: AppliedCalibrations | None = None) -> ReviewData:
     """Compute the review of ``session`` (read from ``path``) as ``result`` with
     ``calibrations`` (the session's own choice,
-    :func:`mimucap.session.calibrations.applied_calibrations`, when None); ``progress(fraction)``
+    :func:`mimucap.session.recorded.calibration_choice.applied_calibrations`, when None); ``progress(fraction)``
     is called as the work advances."""
     report = progress or (lambda fraction: None)
     model, height = session_model(session)

@@ -2,10 +2,10 @@
 the 2- and 6-minute walks and the 30-second chair stand, with their published references.
 
 The results come from the sensors alone, through the one processing path: the review
-(:func:`mimucap.session.review.build_review`: raw samples, magnetometer calibration, filter,
+(:func:`mimucap.session.recorded.review.build_review`: raw samples, magnetometer calibration, filter,
 body calibration, segment orientations) gives the trunk (thorax, else pelvis), thighs, shanks
 and pelvis, and the foot or shank sensors' sagittal rates (as the gait analysis picks them,
-:func:`mimucap.session.analysis.gait_inputs`); the pure computations are in
+:func:`mimucap.session.recorded.analysis.gait_inputs`); the pure computations are in
 :mod:`mimucap.core.analysis` (:mod:`~mimucap.core.analysis.chair_transitions`,
 :mod:`~mimucap.core.analysis.trunk_turns`, :mod:`~mimucap.core.analysis.tug`,
 :mod:`~mimucap.core.analysis.progression`, :mod:`~mimucap.core.analysis.walk_tests`,
@@ -45,9 +45,9 @@ from mimucap.core.analysis.tug import timed_up_and_go
 from mimucap.core.analysis.walk_tests import ten_metre_walk, timed_walk, walking_start
 from mimucap.core.pipeline import RESULT_REPROCESSED
 from mimucap.io.clinical_norms import read_norms, reference_for
-from mimucap.session.analysis import gait_inputs
-from mimucap.session.provenance import Provenance
-from mimucap.session.review import ReviewData, load_review, require_body_calibration
+from mimucap.session.recorded.analysis import gait_inputs
+from mimucap.session.recorded.provenance import Provenance
+from mimucap.session.recorded.review import ReviewData, load_review, require_body_calibration
 
 #: Test name → the keys of its result, as the ``protocol`` command writes them.
 RESULT_KEYS: dict[str, tuple[str, ...]] = {
@@ -84,7 +84,7 @@ class ClinicalTestResult:
     reference_note: str = ""
     subject: dict[str, Any] = field(default_factory=dict)
     result: str = RESULT_REPROCESSED
-    #: What the result holds, as every output says it (:mod:`mimucap.session.provenance`).
+    #: What the result holds, as every output says it (:mod:`mimucap.session.recorded.provenance`).
     provenance: Provenance | None = None
 
     def to_dict(self) -> dict[str, Any]:
@@ -107,7 +107,7 @@ def run_clinical_test(path: str | Path, test: str, *, calibration_file: str | Pa
                       walkway_m: float | None = None,
                       progress: Callable[[float], None] | None = None) -> ClinicalTestResult:
     """Open session ``path``, process it as review and export do
-    (:func:`mimucap.session.review.load_review`: its calibrations, or the body calibration of
+    (:func:`mimucap.session.recorded.review.load_review`: its calibrations, or the body calibration of
     ``calibration_file`` and the magnetometer calibration files ``mag_files``) and compute ``test``
     (:func:`clinical_test`)."""
     check_test(test)

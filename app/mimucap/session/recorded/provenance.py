@@ -29,7 +29,7 @@ from mimucap import __version__
 from mimucap.core.pipeline import RESULT_LABELS
 from mimucap.core.skeleton import SkeletonModel
 from mimucap.io.library import parse_utc, recorded_utc
-from mimucap.session.calibrations import AppliedCalibrations, body_created_utc
+from mimucap.session.recorded.calibration_choice import AppliedCalibrations, body_created_utc
 
 #: How each body calibration method is named.
 METHOD_NAMES = {"npose_tpose": "N-pose/T-pose", "heading": "heading from a sensor axis",

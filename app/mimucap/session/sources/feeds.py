@@ -30,9 +30,9 @@ from mimucap.core.samples import SensorSamples
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.core.simulate.truth import SuitTruth
-from mimucap.session import instructions
-from mimucap.session.instructions import Instruction
-from mimucap.session.sources import SourceOptions, sensor_segments, source_configs
+from mimucap.session.procedures import instructions
+from mimucap.session.procedures.instructions import Instruction
+from mimucap.session.sources.source_configs import SourceOptions, sensor_segments, source_configs
 
 class LiveSource(Protocol):
     """What the live session needs of a source (both feeds below are one)."""
@@ -210,7 +210,7 @@ def simulated_subject_follows(simulator: SuitSimulator, instruction: Instruction
         simulator.set_activity(activity, sensor_ids=list(instruction.sensor_ids),
                                turns=instructions.PROTOCOL_TURNS[instruction.protocol])
     elif kind == instructions.MOVE_JOINT:
-        from mimucap.session.rom_procedure import RomStep, simulated_activity
+        from mimucap.session.procedures.range_of_motion import RomStep, simulated_activity
 
         simulator.set_activity("rom", **simulated_activity(RomStep(instruction.movement, instruction.side)))
     else:

@@ -3,7 +3,7 @@ at a steady rate (no Qt).
 
 The sensors' rates, drops and latencies are statistics over an interval, and a person reads a
 table a few times a second at most: :class:`StatusPublisher` publishes them at
-:data:`STATUS_RATE_HZ` from the session's :meth:`~mimucap.session.live.LiveSession.step` (the
+:data:`STATUS_RATE_HZ` from the session's :meth:`~mimucap.session.live.live_session.LiveSession.step` (the
 one clock of the live view), instead of each widget asking the session on a timer of its own.
 Events whose value changes rarely (the source's problem, the packets refused from no known
 sensor) are emitted only when the value differs from the one last published.
@@ -12,9 +12,9 @@ Interface: ``StatusPublisher(session, events, clock)``; :meth:`StatusPublisher.t
 step (publishes when :data:`STATUS_RATE_HZ` says so, or at once after :meth:`mark_due`);
 :meth:`StatusPublisher.publish` publishes now. ``session`` offers ``sensor_rows()``,
 ``recording_info()``, ``source_problem``, ``has_truth``, ``truth_errors(window_s, columns)``,
-``feed.refused_without_sensor()`` and what :func:`~mimucap.session.recording_checklist.recording_checklist`
+``feed.refused_without_sensor()`` and what :func:`~mimucap.session.live.checklist.recording_checklist`
 reads. The events it emits (in ``events``, an :class:`~mimucap.session.events.EmitterGroup`)
-are declared in :class:`~mimucap.session.live.LiveSession`'s docstring: ``status``,
+are declared in :class:`~mimucap.session.live.live_session.LiveSession`'s docstring: ``status``,
 ``checklist``, ``recording_progress``, ``source_problem``, ``refused``, ``truth_errors``.
 """
 
@@ -22,9 +22,9 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from mimucap.session.evaluation import FLEXION_COLUMNS
+from mimucap.session.angle_accuracy import FLEXION_COLUMNS
 from mimucap.session.events import EmitterGroup
-from mimucap.session.recording_checklist import recording_checklist
+from mimucap.session.live.checklist import recording_checklist
 
 #: How often the status is published (Hz): the sensor table, the checklist, the recording's
 #: progress, the accuracy check. Four times a second shows a stale sensor within a second and a
@@ -38,7 +38,7 @@ class StatusPublisher:
     """Publishes a live session's status into ``events`` at :data:`STATUS_RATE_HZ`.
 
     Args:
-        session: the :class:`~mimucap.session.live.LiveSession` (see the module doc).
+        session: the :class:`~mimucap.session.live.live_session.LiveSession` (see the module doc).
         events: the session's events.
         clock: monotonic clock (s) of the publications (the wall's: people read the status).
         rate_hz: publications per second.

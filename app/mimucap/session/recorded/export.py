@@ -22,7 +22,7 @@ from mimucap.core import rotation
 from mimucap.core.clinical_names import angle_label
 from mimucap.io.angles_export import marker_lines, write_angles_csv, write_angles_mot
 from mimucap.io.session import Marker
-from mimucap.session.review import ReviewData
+from mimucap.session.recorded.review import ReviewData
 
 
 def check_export_range(t_from_s: float, t_to_s: float) -> None:
@@ -147,7 +147,7 @@ def write_summary_csv(path: str | Path, rows: Sequence[SummaryRow], t_from_s: fl
                       markers: Sequence[Marker] = (), notes: Sequence[str] = ()) -> Path:
     """The summary as CSV: machine column name, readable label, min, max, range (deg); the
     header names the range, says what the result holds (``notes``, e.g.
-    :meth:`~mimucap.session.provenance.Provenance.lines`) and lists ``markers``."""
+    :meth:`~mimucap.session.recorded.provenance.Provenance.lines`) and lists ``markers``."""
     path = Path(path)
     with path.open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"# MimuCap joint angle summary from {t_from_s:.3f} s to {t_to_s:.3f} s; degrees\n")

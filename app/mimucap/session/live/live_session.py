@@ -1,23 +1,23 @@
 """The live session the main window shows: sensor blocks in, skeleton, plots and files out (no Qt).
 
 :class:`LiveSession` is driven by one clock, in one thread (the GUI's pump, a test's loop):
-:meth:`LiveSession.step` takes whatever the source (a feed of :mod:`mimucap.session.feeds`) delivered since the last
+:meth:`LiveSession.step` takes whatever the source (a feed of :mod:`mimucap.session.sources.feeds`) delivered since the last
 call and runs it through the one processing path of :mod:`mimucap.core.pipeline`
 (:class:`~mimucap.core.pipeline.LivePipeline`): magnetometer calibration, orientation filter
 (``q_world_from_sensor``, world ENU, scalar first; the device's own when it fuses on board),
 poses at one instant through the body calibration (until one is applied, each assigned
 sensor's axes stand for its segment, for every source alike), joint angles (deg) computed in
 one batch when the plots ask (:meth:`LiveSession.joint_series`), and the recorder
-(:class:`~mimucap.session.recording.Recorder`) when recording. A recording stores what is
-needed to compute the same numbers again (:mod:`mimucap.session.processing`).
+(:class:`~mimucap.session.live.recorder.Recorder`) when recording. A recording stores what is
+needed to compute the same numbers again (:mod:`mimucap.session.recorded.reprocessing`).
 
 The session is a composition of parts with small interfaces: the *source* (``feed``: ``poll``,
 ``stats``, ``follow(instruction)``), the *pipeline* (``pipeline``,
 :class:`~mimucap.core.pipeline.LivePipeline`), the *pose* (``pose``,
-:class:`~mimucap.session.live_pose.LivePose`: the newest pose, where the figure stands, its
-picture and the joint-angle history), the *recorder* (:class:`~mimucap.session.recording.Recorder`,
+:class:`~mimucap.session.views.live_pose.LivePose`: the newest pose, where the figure stands, its
+picture and the joint-angle history), the *recorder* (:class:`~mimucap.session.live.recorder.Recorder`,
 while recording) and the *status* (``status``,
-:class:`~mimucap.session.live_status.StatusPublisher`: what the panels show, at a steady rate).
+:class:`~mimucap.session.live.status.StatusPublisher`: what the panels show, at a steady rate).
 It tells what changed through its events (:class:`LiveSession`, napari style): widgets
 subscribe to them and never ask the session on a timer of their own. Magnetometer calibrations are
 data that persist, kept per device: each sensor the source brings gets the calibration stored for
@@ -34,7 +34,7 @@ Times: ``t_s`` is seconds on the host monotonic clock since the live session sta
 API for calibration wizards (``MagnetometerWizard(parent, live_session)``,
 ``BodyCalibrationWizard(parent, live_session)``):
 
-* ``live_session.instruct(instruction)`` (:mod:`mimucap.session.instructions`): what the subject
+* ``live_session.instruct(instruction)`` (:mod:`mimucap.session.procedures.instructions`): what the subject
   is asked to do; the source is told too (the simulated subject does it);
 * ``live_session.events.processed.connect(callback)``: ``callback(items)`` gets every list of
   :class:`ProcessedBlock` (raw samples and the pipeline's orientations) as it arrives;
@@ -73,18 +73,18 @@ from mimucap.core.samples import SensorSamples, join_per_sensor
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.truth import SuitTruth
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
-from mimucap.session.evaluation import angle_errors
+from mimucap.session.angle_accuracy import angle_errors
 from mimucap.session.events import EmitterGroup
-from mimucap.session.feeds import SimulatorFeed, SupervisorFeed
-from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
-from mimucap.session.instructions import Instruction
-from mimucap.session.live_pose import LivePose, joint_column_groups
-from mimucap.session.live_status import StatusPublisher
-from mimucap.session.processing import check_body_calibration_fits, recording_record
-from mimucap.session.recording_checklist import magnetometer_readiness, sensor_standing
-from mimucap.session.recording import Recorder, RecordingResult
-from mimucap.session.ring_buffer import RingBuffer
-from mimucap.session.sources import SourceOptions
+from mimucap.session.sources.feeds import SimulatorFeed, SupervisorFeed
+from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
+from mimucap.session.procedures.instructions import Instruction
+from mimucap.session.views.live_pose import LivePose, joint_column_groups
+from mimucap.session.live.status import StatusPublisher
+from mimucap.session.recorded.reprocessing import check_body_calibration_fits, recording_record
+from mimucap.session.live.checklist import magnetometer_readiness, sensor_standing
+from mimucap.session.live.recorder import Recorder, RecordingResult
+from mimucap.session.live.ring_buffer import RingBuffer
+from mimucap.session.sources.source_configs import SourceOptions
 
 #: A sensor whose last sample arrived longer ago than this (s) is flagged stale.
 STALE_AFTER_S = 1.0
@@ -209,7 +209,7 @@ class LiveSession:
     """The live pipeline of one source (see the module doc).
 
     Args:
-        feed: the source, a :class:`~mimucap.session.feeds.LiveSource` (:class:`SimulatorFeed`
+        feed: the source, a :class:`~mimucap.session.sources.feeds.LiveSource` (:class:`SimulatorFeed`
             or :class:`SupervisorFeed`, not started yet).
         label: how the status bar names the source.
         model_name: skeleton model (``"ten_segment"`` or ``"fifteen_segment"``).
@@ -235,7 +235,7 @@ class LiveSession:
       - ``frame(frame_id, geometry)``: a new pose, as :meth:`frame` gives it (at most one a
         step, the step's last event, so that a view can draw all the step changed in one
         picture at once; again, with a new ``frame_id``, after the display mode or the height
-        changed); its :class:`~mimucap.session.figure.FigureGeometry` is built only while
+        changed); its :class:`~mimucap.session.views.skeleton_figure.FigureGeometry` is built only while
         someone listens;
       - ``sensors(sensor_ids)``: the tuple of known sensors grew (a worker source's sensors
         appear with their first samples);
@@ -254,7 +254,7 @@ class LiveSession:
         not markers);
       - ``truth_available(bool)``: the source's truth became known (:attr:`has_truth`);
 
-    * the status, at :data:`~mimucap.session.live_status.STATUS_RATE_HZ` (4 Hz on
+    * the status, at :data:`~mimucap.session.live.status.STATUS_RATE_HZ` (4 Hz on
       ``status_clock``) and at once after a change it shows (:meth:`publish_status` publishes it
       now):
 
@@ -318,7 +318,7 @@ class LiveSession:
         self.started = False
         self._known_ids: tuple[str, ...] = ()
         self._load_stored_calibrations(self.feed.sensor_ids)
-        #: the status part: publishes what the panels show (see :mod:`mimucap.session.live_status`)
+        #: the status part: publishes what the panels show (see :mod:`mimucap.session.live.status`)
         self.status = StatusPublisher(self, self.events, status_clock)
 
     # -- source ----------------------------------------------------------------------------
@@ -421,7 +421,7 @@ class LiveSession:
         return tuple(sid for sid, s in self._sensors.items() if sid in onboard and not s.has_mag)
 
     def set_display_mode(self, mode: str) -> None:
-        """``"world"`` or ``"body"`` (see :mod:`mimucap.session.figure`)."""
+        """``"world"`` or ``"body"`` (see :mod:`mimucap.session.views.skeleton_figure`)."""
         self.pose.set_display_mode(mode)
         self._emit_frame()
 

@@ -3,7 +3,7 @@ two sessions of a subject.
 
 A comparison is a list of named tables (:class:`ComparisonTable`), each made by one builder of
 :data:`COMPARISON_TABLES` from the two sessions' processed results (:class:`ComparedSession`,
-taken from :func:`mimucap.session.review.load_review` by the caller). The joint-angle range of
+taken from :func:`mimucap.session.recorded.review.load_review` by the caller). The joint-angle range of
 motion is the first builder; another analysis adds its table by appending a builder, and every
 view of a comparison shows whatever tables it gets.
 """
@@ -21,7 +21,7 @@ from mimucap.core.pipeline import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.library import Library, SessionEntry
 from mimucap.io.library_settings import configured_library_folder
 from mimucap.io.session import Marker
-from mimucap.session.export import marker_at, marker_range
+from mimucap.session.recorded.export import marker_at, marker_range
 
 
 def open_library(folder: str | os.PathLike[str] | None = None, default: str | os.PathLike[str] | None = None) -> Library:
@@ -42,7 +42,7 @@ class TimeWindow:
     @classmethod
     def between_markers(cls, markers: Sequence[Marker], first: int | None, second: int | None) -> "TimeWindow":
         """The window from marker ``first`` to marker ``second`` (indexes into ``markers``, in
-        either order, by the export's rule :func:`mimucap.session.export.marker_range`); None
+        either order, by the export's rule :func:`mimucap.session.recorded.export.marker_range`); None
         stands for the recording's start (``first``) or end (``second``). ``ValueError`` when a
         marker does not exist or the two are at one time."""
         if first is None and second is None:
@@ -79,7 +79,7 @@ class ComparedSession:
 
     @classmethod
     def from_review(cls, entry: SessionEntry, review, window: TimeWindow | None = None) -> "ComparedSession":
-        """From a :class:`mimucap.session.review.ReviewData` (the one pipeline's results)."""
+        """From a :class:`mimucap.session.recorded.review.ReviewData` (the one pipeline's results)."""
         return cls(entry, np.asarray(review.t_s, dtype=float), dict(review.angles_deg), list(review.markers),
                    window or TimeWindow(), review.body_calibration is not None, review.result)
 

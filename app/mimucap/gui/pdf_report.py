@@ -4,7 +4,7 @@ platform).
 
 A report of one session (:func:`write_report`): subject id, recording date and length, what
 the report holds (result, body and magnetometer calibrations, model, software, file: the
-record every output carries, :mod:`mimucap.session.provenance`), sensors, the doubtful data
+record every output carries, :mod:`mimucap.session.recorded.provenance`), sensors, the doubtful data
 (which joints' angles may be wrong, when and why), the gait table beside typical adult values,
 the gait-cycle curves of every joint angle (left and right mean ± SD, stance/swing boundary, a
 normative band where one is given; a curve whose strides hold doubtful samples says how many,
@@ -13,7 +13,7 @@ named under it), the markers and the notes.
 A comparison report (:func:`write_comparison_report`) puts two sessions of one subject
 (before / after) side by side with the differences.
 
-What it shows comes from :class:`mimucap.session.analysis.SessionAnalysis` only; pages are
+What it shows comes from :class:`mimucap.session.recorded.analysis.SessionAnalysis` only; pages are
 A4 portrait at 150 dpi.
 """
 
@@ -28,7 +28,7 @@ from PyQt5.QtGui import QColor, QFont, QPageLayout, QPageSize, QPainter, QPdfWri
 
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.core.analysis import rom as rom_core
-from mimucap.session.analysis import (
+from mimucap.session.recorded.analysis import (
     GAIT_PARAMETER_HEADER,
     ROM_HEADER,
     TYPICAL_SOURCE,
@@ -40,7 +40,7 @@ from mimucap.session.analysis import (
     gait_parameter_rows,
     rom_rows,
 )
-from mimucap.session.plot_scaling import nice_ticks
+from mimucap.session.views.plot_scaling import nice_ticks
 
 DPI = 150
 LEFT_COLOUR = QColor(30, 100, 200)
@@ -252,7 +252,7 @@ def _header(doc: _Document, analysis: SessionAnalysis, title: str) -> None:
 
 
 def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
-    """What the report holds (:attr:`~mimucap.session.review.ReviewData.provenance`, as every
+    """What the report holds (:attr:`~mimucap.session.recorded.review.ReviewData.provenance`, as every
     file says it), the sensors and the body calibration's remarks."""
     review = analysis.review
     session = review.session

@@ -4,9 +4,9 @@ the joint-angle history (no Qt).
 :class:`LivePose` takes each pose the pipeline makes (:meth:`LivePose.take`: session time ``t_s``
 and ``q_world_from_segment``, world ENU, scalar first, one per segment of the skeleton model),
 follows where the figure stands on the floor (:class:`~mimucap.core.locomotion.RootTracker`, from
-its feet's contact), builds the figure's :class:`~mimucap.session.figure.FigureGeometry` when
+its feet's contact), builds the figure's :class:`~mimucap.session.views.skeleton_figure.FigureGeometry` when
 asked (:meth:`LivePose.frame`, once per pose and display mode) and keeps the joint angles (deg)
-of the last :data:`~mimucap.session.live.MAX_WINDOW_S` seconds, computed in one vectorised
+of the last :data:`~mimucap.session.live.live_session.MAX_WINDOW_S` seconds, computed in one vectorised
 batch when they are read (poses arrive at up to 100 Hz, the plots read at 30 Hz).
 
 Interface: ``take(t_s, q_world_from_segment)``, ``reset()`` (a new body calibration: where the
@@ -25,8 +25,8 @@ import numpy as np
 
 from mimucap.core import rotation, skeleton
 from mimucap.core.locomotion import RootTracker
-from mimucap.session.figure import FigureBuilder, FigureGeometry
-from mimucap.session.ring_buffer import RingBuffer
+from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry
+from mimucap.session.live.ring_buffer import RingBuffer
 
 
 def joint_column_groups(model: skeleton.SkeletonModel) -> dict[str, tuple[str, str, str]]:
@@ -114,7 +114,7 @@ class LivePose:
 
     # -- the figure ----------------------------------------------------------------------------
     def set_display_mode(self, mode: str) -> None:
-        """``"world"`` or ``"body"`` (see :mod:`mimucap.session.figure`)."""
+        """``"world"`` or ``"body"`` (see :mod:`mimucap.session.views.skeleton_figure`)."""
         self.builder.display_alpha(mode, rotation.identity(), 0.0)  # validates
         self.display_mode = mode
         self.new_frame()

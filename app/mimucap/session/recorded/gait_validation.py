@@ -18,7 +18,7 @@ in its samples (:func:`mimucap.core.analysis.sagittal.axes_from_data`).
 The simulated suit runs the real pipeline: the session is written *without* its truth, the
 body calibration is computed from the simulated N-pose/T-pose by
 :func:`mimucap.core.bodycal.calibrate_npose_tpose` on the sensors' own orientation output, and
-the review (:func:`mimucap.session.review.load_review`) and analysis run on that file. Truth
+the review (:func:`mimucap.session.recorded.review.load_review`) and analysis run on that file. Truth
 gait events come from the simulator's per-foot contact state (``SuitTruth.foot_contact``),
 truth stride lengths from the ankle's displacement between mid-stances (forward kinematics of
 the true segment orientations).
@@ -41,8 +41,8 @@ from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SimulationResult, simulate_session
 from mimucap.io.gait_csv import FootImu, ReferenceStride, read_foot_imu_csv, read_gaitmap_reference
 from mimucap.io.session import Marker, session_from_simulation, write_session
-from mimucap.session.analysis import SessionAnalysis, analyse_review
-from mimucap.session.review import load_review
+from mimucap.session.recorded.analysis import SessionAnalysis, analyse_review
+from mimucap.session.recorded.review import load_review
 
 #: N-pose and T-pose windows (s) of the simulator's ``demo`` and ``bodycal`` scenarios.
 DEMO_NPOSE_S = (0.5, 2.5)

@@ -1,8 +1,8 @@
 """A whole guided session run on a live session without a window (no Qt): magnetometer turns,
 body calibration, then recording the subject's movement.
 
-It drives the same procedures the wizards drive (:mod:`mimucap.session.magcal_procedure`,
-:mod:`mimucap.session.bodycal_procedure`) over the live session's own feed, stepping a clock it
+It drives the same procedures the wizards drive (:mod:`mimucap.session.procedures.magnetometer`,
+:mod:`mimucap.session.procedures.body`) over the live session's own feed, stepping a clock it
 owns, so that a whole session runs faster than real time. Its subject follows the procedures'
 instructions like any other (the simulated suit's does them). Used by the end-to-end accuracy
 benchmark and by tests; the desktop application drives the same procedures from its wizards.
@@ -16,11 +16,11 @@ from pathlib import Path
 
 from mimucap.core.bodycal import BodyCalibration
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.bodycal_procedure import BodycalProcedure
-from mimucap.session.calibration_feed import LiveSessionFeed, SteppedClock
-from mimucap.session.instructions import RESUME
-from mimucap.session.magcal_procedure import MagcalProcedure
-from mimucap.session.recording import RecordingResult
+from mimucap.session.procedures.body import BodycalProcedure
+from mimucap.session.sources.calibration_feed import LiveSessionFeed, SteppedClock
+from mimucap.session.procedures.instructions import RESUME
+from mimucap.session.procedures.magnetometer import MagcalProcedure
+from mimucap.session.live.recorder import RecordingResult
 
 
 @dataclass

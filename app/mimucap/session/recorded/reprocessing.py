@@ -9,7 +9,7 @@ at the start of the recording and the clock offset the live view ran it on
 :func:`recording_record` builds those entries for the recorder; :func:`recorded_processing`
 reads them back (and says what an older recording lacks); :func:`process_session` gives either
 result (*as seen live* or *reprocessed*) of a session with the calibrations
-:func:`mimucap.session.calibrations.applied_calibrations` chooses. Review, export, the analysis
+:func:`mimucap.session.recorded.calibration_choice.applied_calibrations` chooses. Review, export, the analysis
 and the command line all go through :func:`process_session`.
 """
 
@@ -29,7 +29,7 @@ from mimucap.core.pipeline import (
 )
 from mimucap.io.calibration_store import SESSION_KEY, calibration_from_json, calibration_to_json
 from mimucap.io.session import Session
-from mimucap.session.calibrations import AppliedCalibrations, applied_calibrations
+from mimucap.session.recorded.calibration_choice import AppliedCalibrations, applied_calibrations
 
 BODY_KEY = "body"
 PIPELINE_KEY = "pipeline"
@@ -125,7 +125,7 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
                     model: skeleton.SkeletonModel | None = None,
                     shoulder_sequence: str = "zxy") -> PipelineOutput:
     """Either result of ``session`` through the processing path, with ``calibrations``
-    (:func:`mimucap.session.calibrations.applied_calibrations` of the session when None: the
+    (:func:`mimucap.session.recorded.calibration_choice.applied_calibrations` of the session when None: the
     one choice of body and magnetometer calibrations every consumer makes). The simulator's
     truth, when the session holds it, is never read. The phases its markers name as
     magnetometer calibration (:func:`off_body_windows`) make every joint angle there doubtful."""

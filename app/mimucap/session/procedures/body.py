@@ -3,7 +3,7 @@
 :class:`BodycalProcedure` is a state machine driven by :meth:`BodycalProcedure.step` (one
 call per timer tick, or a loop in tests). It pulls sensor orientations
 (``q_world_from_sensor``, world ENU, scalar-first) from a feed
-(:mod:`mimucap.session.calibration_feed`) and walks through two pose pages:
+(:mod:`mimucap.session.sources.calibration_feed`) and walks through two pose pages:
 
 1. **N-pose**: standing upright, arms hanging. The page waits until every mapped sensor is
    still (the *stillness meter*: the largest angle any sensor turned within the last
@@ -22,11 +22,11 @@ filter converges to, free of the transient its heading may still carry shortly a
 magnetometer calibration), or
 refuses (phase ``"refused"`` with the reason). The result carries the magnetometer calibrations
 the feed's pipeline applied (``feed.magnetometer_calibrations()``), with which its rotations
-hold (:mod:`mimucap.session.calibrations`); sensors whose orientation the pipeline doubted
+hold (:mod:`mimucap.session.recorded.calibration_choice`); sensors whose orientation the pipeline doubted
 between the N-pose and the end of the T-pose are recorded in it
 (:func:`~mimucap.core.bodycal.with_doubtful_sensors`: its joint angles are then doubtful). A pose that is not held still within
 ``pose_timeout_s`` is refused as well ("the subject kept moving in the N-pose"). Each page's
-instruction goes to the feed (:mod:`mimucap.session.instructions`): the person reads it, and the
+instruction goes to the feed (:mod:`mimucap.session.procedures.instructions`): the person reads it, and the
 simulated subject of the simulated suit does it.
 
 Samples of the sensors are put on a common time base (that of the sensor with the most
@@ -57,10 +57,10 @@ from mimucap.core.bodycal import (
 from mimucap.core.doubt import describe
 from mimucap.core.pipeline import segments_from_sensors
 from mimucap.core.skeleton import SkeletonModel
-from mimucap.session import instructions
-from mimucap.session.calibration_feed import DOUBT_EXTRA, CalibrationFeed
-from mimucap.session.calibrations import with_magnetometers
-from mimucap.session.instructions import Instruction
+from mimucap.session.procedures import instructions
+from mimucap.session.sources.calibration_feed import DOUBT_EXTRA, CalibrationFeed
+from mimucap.session.recorded.calibration_choice import with_magnetometers
+from mimucap.session.procedures.instructions import Instruction
 
 PHASES = ("ready", "npose", "tpose", "result", "refused")
 ARMS = ("both", "right", "left")

@@ -2,7 +2,7 @@
 angles over the gait cycle, range of motion between markers, and the tables saved as CSV.
 
 The computations are pure functions of :mod:`mimucap.core.analysis`; this module only picks
-their inputs out of :class:`~mimucap.session.review.ReviewData` (the processed result: sensor
+their inputs out of :class:`~mimucap.session.recorded.review.ReviewData` (the processed result: sensor
 samples, segment orientations and joint angles; nothing from the simulator's truth):
 
 * per side the foot sensor (``foot_l``/``foot_r``) if there is one, else the shank sensor;
@@ -20,7 +20,7 @@ axes. A review without one is analysed for the temporal parameters alone, labell
 (:data:`NEEDS_BODY_CALIBRATION`, :attr:`SessionAnalysis.limits`).
 
 ROM protocol markers are labelled ``rom:<movement>:<side>:start`` and ``...:end`` (side
-``left``, ``right`` or ``both``), see :mod:`mimucap.session.rom_procedure`.
+``left``, ``right`` or ``both``), see :mod:`mimucap.session.procedures.range_of_motion`.
 
 The tables as the Analysis window and the PDF report show them are built here once: the gait
 parameter rows (:func:`gait_parameter_rows`), the ROM rows (:func:`rom_rows`), each with its
@@ -51,7 +51,7 @@ from mimucap.core.analysis.sagittal import axes_calibrated, axes_from_data, sagi
 from mimucap.core.clinical_names import joint_name
 from mimucap.io.gait_csv import write_table
 from mimucap.io.session import Marker
-from mimucap.session.review import ReviewData
+from mimucap.session.recorded.review import ReviewData
 
 SIDE_LETTER = {"left": "l", "right": "r"}
 ROM_MARKER_PREFIX = "rom:"
@@ -324,7 +324,7 @@ def analyse_review(review: ReviewData, progress: Callable[[float], None] | None 
 
 def table_notes(analysis: SessionAnalysis) -> list[str]:
     """The header lines of an analysis table: what the result holds
-    (:attr:`~mimucap.session.review.ReviewData.provenance`) and what the analysis leaves out."""
+    (:attr:`~mimucap.session.recorded.review.ReviewData.provenance`) and what the analysis leaves out."""
     notes = analysis.review.provenance.lines()
     return notes + ([f"Analysis: {analysis.limits}"] if analysis.limits else [])
 

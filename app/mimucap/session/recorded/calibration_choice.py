@@ -23,11 +23,11 @@ for the review, the exports, the analysis and every command alike:
   applied, so today's store never changes it.
 
 Each calibration applied is judged as the live view judges it
-(:mod:`mimucap.session.calibration_readiness`: verdict, device, the recording's local field,
+(:mod:`mimucap.session.recorded.calibration_readiness`: verdict, device, the recording's local field,
 age), so that a command can name one that is not good with its figures.
 
 Every choice is said (:attr:`AppliedCalibrations.magnetometer_origin`, ``notes``) so that the
-files and the screen can tell what they hold (:mod:`mimucap.session.provenance`).
+files and the screen can tell what they hold (:mod:`mimucap.session.recorded.provenance`).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ from mimucap.io.calibration_store import (
     CalibrationFileError, CalibrationStore, calibration_from_json, calibration_to_json,
 )
 from mimucap.io.session import Session
-from mimucap.session.calibration_readiness import session_standings
+from mimucap.session.recorded.calibration_readiness import session_standings
 
 #: Where a body calibration keeps the magnetometer calibrations it was made with, and when it was made.
 MAGNETOMETER_DETAIL = "magnetometer"
@@ -131,7 +131,7 @@ class AppliedCalibrations:
 
     def not_good(self) -> list[str]:
         """Sensors whose applied magnetometer calibration is not good for this recording (its
-        verdict, device, local field or age: :mod:`mimucap.session.calibration_readiness`)."""
+        verdict, device, local field or age: :mod:`mimucap.session.recorded.calibration_readiness`)."""
         return [sid for sid, standing in self.standings.items() if not standing.good]
 
 
@@ -177,7 +177,7 @@ def applied_calibrations(session: Session, *, body: bodycal.BodyCalibration | No
     calibration); ``mag_files``: magnetometer calibration files given; ``origin`` names the
     session in messages; ``store``: the user's calibration store (default location when None),
     read only for a session that does not record its live processing."""
-    from mimucap.session.processing import recorded_processing
+    from mimucap.session.recorded.reprocessing import recorded_processing
 
     recorded = recorded_processing(session, origin=origin)
     if body is None and stored_body:

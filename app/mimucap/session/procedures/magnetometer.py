@@ -2,7 +2,7 @@
 
 :class:`MagcalProcedure` is a state machine driven by :meth:`MagcalProcedure.step` (one call
 per timer tick, or in a loop in tests): it pulls samples from a feed
-(:mod:`mimucap.session.calibration_feed`), tracks the protocol and, when the protocol is
+(:mod:`mimucap.session.sources.calibration_feed`), tracks the protocol and, when the protocol is
 complete, fits every selected sensor (:func:`mimucap.core.magcal.calibrate`).
 
 Protocols (:data:`PROTOCOLS`):
@@ -20,7 +20,7 @@ Protocols (:data:`PROTOCOLS`):
 Either way it stops after ``max_duration_s``, and :meth:`finish_now` computes with what was
 recorded. Phases: ``"ready"`` → ``"recording"`` → ``"result"`` (``redo`` goes back to
 ``"ready"``). The instructions (turn these sensors; put them back on) go to the feed
-(:mod:`mimucap.session.instructions`): the person reads them, the simulated subject does them.
+(:mod:`mimucap.session.procedures.instructions`): the person reads them, the simulated subject does them.
 
 Results (:class:`SensorOutcome`) carry the fit, its quality, the verdict and reasons in the
 words of the person calibrating ("turn about y again: coverage too low"), and the sensor's
@@ -43,8 +43,8 @@ from mimucap.core.magcal import CalibrationResult, FitRefused, FitSettings, Qual
 from mimucap.core.magcal_fit import EllipsoidFit, fit_ellipsoid
 from mimucap.core.magcal_guidance import AXIS_NAMES, GuidanceSettings, GuidanceState, SingleAxisGuide
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
-from mimucap.session import instructions
-from mimucap.session.calibration_feed import CalibrationFeed
+from mimucap.session.procedures import instructions
+from mimucap.session.sources.calibration_feed import CalibrationFeed
 
 PROTOCOLS = ("single_axis", "figure8", "free")
 #: Simulated activity performing each protocol, and its number of turns / gestures.

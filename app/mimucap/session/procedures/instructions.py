@@ -2,7 +2,7 @@
 
 A procedure gives an :class:`Instruction` ("hold still in N-pose", "raise both arms", "turn
 sensors S01, S02 once about each axis"); the screen shows its ``text`` to the person, and the
-source is told too (:meth:`mimucap.session.live.LiveSession.instruct`): a source of real sensors
+source is told too (:meth:`mimucap.session.live.live_session.LiveSession.instruct`): a source of real sensors
 has nobody to tell but the person at the screen, the simulated suit's subject does what the
 instruction says. No procedure asks which kind of source it has. :data:`RESUME` ends a
 procedure's instructions (the simulated subject goes back to its scenario).

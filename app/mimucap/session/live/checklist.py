@@ -3,7 +3,7 @@
 :func:`recording_checklist` gives four items, each ``ok`` or not with a line of text:
 
 1. **Sensors streaming**: every sensor assigned to a segment has sent a sample within
-   :data:`~mimucap.session.live.STALE_AFTER_S` (and at least one sensor is assigned);
+   :data:`~mimucap.session.live.live_session.STALE_AFTER_S` (and at least one sensor is assigned);
 2. **Drops**: no assigned sensor lost more than :data:`MAX_DROP_FRACTION` of its packets;
 3. **Magnetometers**: every assigned sensor's magnetometer is calibrated (or the device fuses
    on board), and each calibration's standing
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 from mimucap.core.clinical_names import sensor_name
 from mimucap.core.magcal_standing import MAX_AGE_H, calibration_standing
-from mimucap.session.magcal_procedure import describe_age
+from mimucap.session.procedures.magnetometer import describe_age
 
 #: A sensor losing more than this fraction of its packets is flagged.
 MAX_DROP_FRACTION = 0.01
@@ -68,8 +68,8 @@ def _age_text(age_s: float) -> str:
 
 
 def recording_checklist(live, rows=None) -> list[CheckItem]:
-    """The checklist of ``live`` (a :class:`~mimucap.session.live.LiveSession`) now; ``rows``:
-    its :meth:`~mimucap.session.live.LiveSession.sensor_rows` when the caller has them already."""
+    """The checklist of ``live`` (a :class:`~mimucap.session.live.live_session.LiveSession`) now; ``rows``:
+    its :meth:`~mimucap.session.live.live_session.LiveSession.sensor_rows` when the caller has them already."""
     rows = live.sensor_rows() if rows is None else rows
     stats = live.feed.stats()
     assigned = [(row.sensor_id, row.segment) for row in rows if row.segment is not None]
@@ -156,7 +156,7 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
 
 def sensor_standing(calibration, row):
     """The standing of the calibration applied to the sensor of ``row`` (a
-    :class:`~mimucap.session.live.SensorRow`): its device, its local field and its age as the
+    :class:`~mimucap.session.live.live_session.SensorRow`): its device, its local field and its age as the
     row gives them (:func:`~mimucap.core.magcal_standing.calibration_standing`)."""
     return calibration_standing(calibration, row.sensor_id, device=row.device, field=row.local_field,
                                 age_s=row.mag_cal_age_s)
