@@ -142,7 +142,8 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
     from mimucap.core.doubt import bridge_note
     from mimucap.io.session import read_session
     from mimucap.session.recorded.calibration_choice import applied_calibrations
-    from mimucap.session.recorded.reprocessing import process_session, recorded_processing, session_model
+    from mimucap.session.recorded.reprocessing import process_session
+    from mimucap.session.recorded.stored_processing import recorded_processing, session_model
     from mimucap.session.recorded.provenance import provenance
 
     check_reader_options(args)

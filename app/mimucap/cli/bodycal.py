@@ -168,7 +168,7 @@ def static_npose_orientations(session, mags, mapping: dict[str, str],
     import numpy as np
 
     from mimucap.core import bodycal
-    from mimucap.session.recorded.reprocessing import recorded_processing
+    from mimucap.session.recorded.stored_processing import recorded_processing
 
     fusion = recorded_processing(session).settings.fusion
     found = {}

@@ -23,7 +23,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.acquisition.rejections import Rejection
 from mimucap.core.clinical_names import segment_name
 from mimucap.session.live.live_session import SensorRow
-from mimucap.session.procedures.magnetometer import describe_age
+from mimucap.session.views.calibration_age import describe_age
 
 COLUMNS = ("Sensor", "Segment", "Rate (Hz)", "Drops", "Refused", "Latency p95 (ms)", "Battery (%)",
            "Signal (dBm)", "Mag. calibration", "Fusion flags", "State")

@@ -37,10 +37,8 @@ from mimucap.session.procedures.magnetometer import (
     MagcalProcedure,
     MagcalProcedureSettings,
     SensorOutcome,
-    age_days_since,
-    utc_now,
-    describe_age,
 )
+from mimucap.session.views.calibration_age import age_days_since, describe_age, utc_now
 from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
 from mimucap.session.views.magcal_display import magcal_display
 from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget

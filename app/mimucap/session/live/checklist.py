@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 from mimucap.core.clinical_names import sensor_name
 from mimucap.core.magcal_standing import MAX_AGE_H, calibration_standing
-from mimucap.session.procedures.magnetometer import describe_age
+from mimucap.session.views.calibration_age import describe_age
 
 #: A sensor losing more than this fraction of its packets is flagged.
 MAX_DROP_FRACTION = 0.01

@@ -80,7 +80,7 @@ from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry,
 from mimucap.session.procedures.instructions import Instruction
 from mimucap.session.views.live_pose import LivePose, joint_column_groups
 from mimucap.session.live.status import StatusPublisher
-from mimucap.session.recorded.reprocessing import check_body_calibration_fits, recording_record
+from mimucap.session.recorded.stored_processing import check_body_calibration_fits, recording_record
 from mimucap.session.live.checklist import magnetometer_readiness, sensor_standing
 from mimucap.session.live.recorder import Recorder, RecordingResult
 from mimucap.session.live.ring_buffer import RingBuffer

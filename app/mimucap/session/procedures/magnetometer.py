@@ -45,6 +45,7 @@ from mimucap.core.magcal_guidance import AXIS_NAMES, GuidanceSettings, GuidanceS
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.procedures import instructions
 from mimucap.session.sources.calibration_feed import CalibrationFeed
+from mimucap.session.views.calibration_age import age_days_since, utc_now
 
 PROTOCOLS = ("single_axis", "figure8", "free")
 #: Simulated activity performing each protocol, and its number of turns / gestures.
@@ -160,32 +161,6 @@ class _Recording:
         if len(self.t) > 1:
             self.t, self.mag, self.acc = [np.concatenate(self.t)], [np.concatenate(self.mag)], [np.concatenate(self.acc)]
         return self.t[0], self.mag[0], self.acc[0]
-
-
-def utc_now() -> _dt.datetime:
-    return _dt.datetime.now(_dt.timezone.utc)
-
-
-def age_days_since(created_utc: str, now: _dt.datetime) -> float | None:
-    try:
-        created = _dt.datetime.fromisoformat(created_utc.replace("Z", "+00:00"))
-    except ValueError:
-        return None
-    if created.tzinfo is None:
-        created = created.replace(tzinfo=_dt.timezone.utc)
-    return max((now - created).total_seconds() / 86400.0, 0.0)
-
-
-def describe_age(age_days: float | None) -> str:
-    """"3 days ago", "5 hours ago", "just now" or "date unknown"."""
-    if age_days is None:
-        return "date unknown"
-    hours = age_days * 24.0
-    if hours < 1.0:
-        return "just now" if hours < 1.0 / 60.0 else f"{hours * 60.0:.0f} minutes ago"
-    if age_days < 2.0:
-        return f"{hours:.0f} hours ago"
-    return f"{age_days:.0f} days ago"
 
 
 def _strip_severity(reason: str) -> str:

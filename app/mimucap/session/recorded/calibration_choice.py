@@ -46,6 +46,7 @@ from mimucap.io.calibration_store import (
 )
 from mimucap.io.session import Session
 from mimucap.session.recorded.calibration_readiness import session_standings
+from mimucap.session.recorded.stored_processing import recorded_processing
 
 #: Where a body calibration keeps the magnetometer calibrations it was made with, and when it was made.
 MAGNETOMETER_DETAIL = "magnetometer"
@@ -177,8 +178,6 @@ def applied_calibrations(session: Session, *, body: bodycal.BodyCalibration | No
     calibration); ``mag_files``: magnetometer calibration files given; ``origin`` names the
     session in messages; ``store``: the user's calibration store (default location when None),
     read only for a session that does not record its live processing."""
-    from mimucap.session.recorded.reprocessing import recorded_processing
-
     recorded = recorded_processing(session, origin=origin)
     if body is None and stored_body:
         body = recorded.body_calibration

@@ -40,7 +40,8 @@ from mimucap.session.angle_accuracy import angle_errors
 from mimucap.session.events import EmitterGroup
 from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
 from mimucap.session.views.live_pose import joint_column_groups
-from mimucap.session.recorded.reprocessing import process_session, recorded_processing, session_model
+from mimucap.session.recorded.reprocessing import process_session
+from mimucap.session.recorded.stored_processing import recorded_processing, session_model
 from mimucap.session.recorded.provenance import Provenance, provenance
 from mimucap.session.live.recorder import open_session
 
