@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mimucap.session.live.live_session import STALE_AFTER_S, open_live_session
+from mimucap.session.live.live_session import open_live_session
+from mimucap.session.live.sensor_rows import STALE_AFTER_S
 
 PACKAGE = "@slimevr/tracker-emulation@0.2.6"
 SCRIPT = Path(__file__).with_name("slimevr_trackers.mjs")

@@ -114,7 +114,7 @@ def test_trackers_that_appear_later_are_worn_where_they_were_last_time(qtbot):
     from mimucap.acquisition import slimevr_protocol as proto
     from mimucap.gui.assignment_dialog import remember_assignment
     from mimucap.gui.main_window import MainWindow
-    from mimucap.session.live.live_session import POSE_SENSOR_AXES
+    from mimucap.core.pipeline import POSE_SENSOR_AXES
 
     mac = bytes([0x02, 0x4D, 0x43, 0, 0, 9])
     remember_assignment({"024D43000009-0": "pelvis", "024D43000009-1": "thorax"})

@@ -25,7 +25,8 @@ from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session, write_session
 from mimucap.session.angle_accuracy import angle_errors
 from mimucap.session.recorded.export import ExportRequest, run_export
-from mimucap.session.live.live_session import RecordingToSave, open_live_session
+from mimucap.session.live.live_session import open_live_session
+from mimucap.session.live.recording import RecordingToSave
 from mimucap.session.recorded.review import load_review
 
 SPEED_UP = 4.0

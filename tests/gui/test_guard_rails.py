@@ -14,7 +14,7 @@ from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.assignment_dialog import remembered_assignment
 from mimucap.gui.wizards import BodyCalibrationWizard
 from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
-from mimucap.session.live.live_session import RecordingToSave
+from mimucap.session.live.recording import RecordingToSave
 
 
 @pytest.fixture

@@ -226,7 +226,7 @@ def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtb
     3D view explains that no sensor is assigned yet, the accelerometer plot shows the newest
     samples, and the gyroscope plot (not in the files) says it has no data."""
     from mimucap.gui.main_window import VIEW_HINTS
-    from mimucap.session.live.live_session import POSE_UNASSIGNED
+    from mimucap.session.live.processing import POSE_UNASSIGNED
 
     folder = shared_data / "body" / "opensense_example" / "IMUData"
     win = MainWindow(f"replay:{folder}")

@@ -9,7 +9,8 @@ import math
 import pytest
 
 from mimucap.gui.main_window import VIEW_HINTS, MainWindow
-from mimucap.session.live.live_session import POSE_NONE, POSE_UNASSIGNED, SensorRow
+from mimucap.session.live.processing import POSE_NONE, POSE_UNASSIGNED
+from mimucap.session.live.sensor_rows import SensorRow
 from mimucap.session.live.checklist import CheckItem
 
 

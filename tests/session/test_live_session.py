@@ -14,8 +14,11 @@ from mimucap.core.simulate.suit import simulate_session
 from mimucap.io.session import read_session, session_from_simulation, write_session
 from mimucap.session.recorded.export import ExportRequest, marker_range, run_export, summary_table
 from mimucap.session.sources.feeds import SimulatorFeed
-from mimucap.session.live.live_session import (POSE_SENSOR_AXES, POSE_UNASSIGNED, STALE_AFTER_S, TRUTH_NOTE, LiveSession,
-                                  open_live_session)
+from mimucap.core.pipeline import POSE_SENSOR_AXES
+from mimucap.session.live.evaluation import TRUTH_NOTE
+from mimucap.session.live.live_session import LiveSession, open_live_session
+from mimucap.session.live.processing import POSE_UNASSIGNED
+from mimucap.session.live.sensor_rows import STALE_AFTER_S
 from mimucap.session.live.recorder import open_session
 from mimucap.session.recorded.review import ReviewPlayer, load_review
 

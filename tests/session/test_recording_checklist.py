@@ -6,7 +6,7 @@ import math
 from types import SimpleNamespace
 
 from mimucap.acquisition.stats import SensorStats
-from mimucap.session.live.live_session import SensorRow
+from mimucap.session.live.sensor_rows import SensorRow
 from mimucap.session.live.checklist import MAG_CAL_MAX_AGE_H, recording_checklist
 
 

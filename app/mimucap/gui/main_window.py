@@ -49,7 +49,9 @@ from mimucap.session.views.skeleton_figure import DISPLAY_MODES
 from mimucap.session.live.kernel_preparation import KernelPreparation
 from mimucap.core.pipeline import POSE_SENSOR_AXES
 from mimucap.session.angle_accuracy import accuracy_phrase
-from mimucap.session.live.live_session import POSE_NONE, POSE_UNASSIGNED, LiveSession, doubt_warning, open_live_session
+from mimucap.session.live.live_session import LiveSession, open_live_session
+from mimucap.session.live.processing import POSE_NONE, POSE_UNASSIGNED
+from mimucap.session.live.sensor_rows import doubt_warning
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
 from mimucap.session.live.checklist import CheckItem, recording_checklist

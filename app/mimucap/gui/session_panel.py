@@ -12,7 +12,7 @@ from pathlib import Path
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
-from mimucap.session.live.live_session import RecordingInfo
+from mimucap.session.live.recording import RecordingInfo
 from mimucap.session.live.checklist import CheckItem
 from mimucap.session.subject import DOMINANCE, Subject
 

@@ -3,7 +3,7 @@
 :func:`recording_checklist` gives four items, each ``ok`` or not with a line of text:
 
 1. **Sensors streaming**: every sensor assigned to a segment has sent a sample within
-   :data:`~mimucap.session.live.live_session.STALE_AFTER_S` (and at least one sensor is assigned);
+   :data:`~mimucap.session.live.sensor_rows.STALE_AFTER_S` (and at least one sensor is assigned);
 2. **Drops**: no assigned sensor lost more than :data:`MAX_DROP_FRACTION` of its packets;
 3. **Magnetometers**: every assigned sensor's magnetometer is calibrated (or the device fuses
    on board), and each calibration's standing
@@ -156,7 +156,7 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
 
 def sensor_standing(calibration, row):
     """The standing of the calibration applied to the sensor of ``row`` (a
-    :class:`~mimucap.session.live.live_session.SensorRow`): its device, its local field and its age as the
+    :class:`~mimucap.session.live.sensor_rows.SensorRow`): its device, its local field and its age as the
     row gives them (:func:`~mimucap.core.magcal_standing.calibration_standing`)."""
     return calibration_standing(calibration, row.sensor_id, device=row.device, field=row.local_field,
                                 age_s=row.mag_cal_age_s)

@@ -1,208 +1,73 @@
 """The live session the main window shows: sensor blocks in, skeleton, plots and files out (no Qt).
 
 :class:`LiveSession` is driven by one clock, in one thread (the GUI's pump, a test's loop):
-:meth:`LiveSession.step` takes whatever the source (a feed of :mod:`mimucap.session.sources.feeds`) delivered since the last
-call and runs it through the one processing path of :mod:`mimucap.core.pipeline`
-(:class:`~mimucap.core.pipeline.LivePipeline`): magnetometer calibration, orientation filter
-(``q_world_from_sensor``, world ENU, scalar first; the device's own when it fuses on board),
-poses at one instant through the body calibration (until one is applied, each assigned
-sensor's axes stand for its segment, for every source alike), joint angles (deg) computed in
-one batch when the plots ask (:meth:`LiveSession.joint_series`), and the recorder
-(:class:`~mimucap.session.live.recorder.Recorder`) when recording. A recording stores what is
-needed to compute the same numbers again (:mod:`mimucap.session.recorded.reprocessing`).
+:meth:`LiveSession.step` takes whatever the source delivered since the last call and hands it
+from part to part. It is a composition; each part is one concept in its own module, owns its
+state and tells what changed through its own events (:mod:`mimucap.session.events`):
 
-The session is a composition of parts with small interfaces: the *source* (``feed``: ``poll``,
-``stats``, ``follow(instruction)``), the *pipeline* (``pipeline``,
-:class:`~mimucap.core.pipeline.LivePipeline`), the *pose* (``pose``,
-:class:`~mimucap.session.views.live_pose.LivePose`: the newest pose, where the figure stands, its
-picture and the joint-angle history), the *recorder* (:class:`~mimucap.session.live.recorder.Recorder`,
-while recording) and the *status* (``status``,
-:class:`~mimucap.session.live.status.StatusPublisher`: what the panels show, at a steady rate).
-It tells what changed through its events (:class:`LiveSession`, napari style): widgets
-subscribe to them and never ask the session on a timer of their own. Magnetometer calibrations are
-data that persist, kept per device: each sensor the source brings gets the calibration stored for
-the device the source says it is (and no other: another suit numbered alike takes none, and the
-sensor says why), and a calibration made in the wizard is saved there for that device. Each
-calibration's standing (:func:`~mimucap.core.magcal_standing.calibration_standing`: verdict,
-device, the local field of the last seconds, age) is in the sensor rows, the checklist and what
-a recording stores (``magnetometer_readiness``). The simulated suit's ground truth
-is kept beside the data for evaluation only (:meth:`LiveSession.truth_pose`, the recording's
-truth); it never drives the figure.
+* ``sensors`` (:class:`~mimucap.session.live.sensors.LiveSensors`): the source, the session
+  clock's origin, the sensors known, their devices and batteries, and which segment each is worn on;
+* ``processing`` (:class:`~mimucap.session.live.processing.LiveProcessing`): the one processing
+  path of :mod:`mimucap.core.pipeline` (magnetometer calibration, orientation filter
+  ``q_world_from_sensor``, world ENU, scalar first; the pose of the assigned segments) and what
+  drives the figure;
+* ``calibrations`` (:class:`~mimucap.session.live.calibrations.LiveCalibrations`): the
+  magnetometer calibration of each sensor, kept per device in the calibration store, and the
+  body calibration;
+* ``pose`` (:class:`~mimucap.session.views.live_pose.LivePose`): the newest pose, where the
+  figure stands, its picture and the joint-angle history;
+* ``history`` (:class:`~mimucap.session.live.plot_history.PlotHistory`): the last seconds of
+  every sensor's samples, what the plots read;
+* ``evaluation`` (:class:`~mimucap.session.live.evaluation.LiveEvaluation`): the simulator's
+  truth beside the estimate, for evaluation only (it never drives the figure);
+* ``recorder`` (:class:`~mimucap.session.live.recording.LiveRecording`): the recording and the markers;
+* ``status`` (:class:`~mimucap.session.live.status.StatusPublisher`): what the panels show, at a
+  steady rate (the rows are :func:`~mimucap.session.live.sensor_rows.sensor_rows`).
+
+The session's own code is the order of a step and the reactions between parts (a body
+calibration forgets the poses made; a recording locks the calibrations; a new device loads its
+stored calibration). ``events`` offers every part's events under one name each, the same
+emitters the parts own; widgets subscribe to them and never ask the session on a timer of their
+own. The methods and properties below the parts are the small vocabulary the panels, the
+commands and the tests use; each hands the call to the part that owns it.
 
 Times: ``t_s`` is seconds on the host monotonic clock since the live session started.
-
-API for calibration wizards (``MagnetometerWizard(parent, live_session)``,
-``BodyCalibrationWizard(parent, live_session)``):
-
-* ``live_session.instruct(instruction)`` (:mod:`mimucap.session.procedures.instructions`): what the subject
-  is asked to do; the source is told too (the simulated subject does it);
-* ``live_session.events.processed.connect(callback)``: ``callback(items)`` gets every list of
-  :class:`ProcessedBlock` (raw samples and the pipeline's orientations) as it arrives;
-* ``live_session.sensor_ids``, ``live_session.sensor_segments`` (sensor id → segment),
-  ``live_session.latest_orientations()`` (sensor id → ``q_world_from_sensor`` (4,)),
-  ``live_session.series(sensor_id, window_s)`` (recent ``t_s``, ``acc``, ``gyr``, ``mag_uT``);
-* ``live_session.apply_mag_calibration(cal)``, ``live_session.mag_calibrations``,
-  ``live_session.onboard_sensors()`` (sensors that fuse on board: nothing to calibrate);
-* ``live_session.apply_body_calibration(cal)`` and ``live_session.clear_body_calibration()``;
-* ``live_session.events.calibration`` is emitted after either changes.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field, replace
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
-from mimucap.core import bodycal, doubt, skeleton
-from mimucap.core.clinical_names import segment_name
-from mimucap.core.fusion import FLAG_NAMES
-from mimucap.core.device_identity import SensorDevice, describe_device, devices_to_json
+from mimucap.core import bodycal, skeleton
+from mimucap.core.device_identity import SensorDevice, devices_to_json
 from mimucap.core.magcal import MagCalibration
-from mimucap.core.magcal_standing import LocalField, Standing, age_s_at, local_field
-from mimucap.core.pipeline import (
-    POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorOrientations,
-    one_sensor_per_segment,
-)
-from mimucap.core.samples import SensorSamples, join_per_sensor
+from mimucap.core.pipeline import PipelineSettings
+from mimucap.core.samples import join_per_sensor
 from mimucap.core.simulate.config import SimulationConfig
-from mimucap.core.simulate.truth import SuitTruth
-from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
-from mimucap.session.angle_accuracy import angle_errors
+from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.events import EmitterGroup
-from mimucap.session.sources.feeds import SimulatorFeed, SupervisorFeed
-from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
-from mimucap.session.procedures.instructions import Instruction
-from mimucap.session.views.live_pose import LivePose, joint_column_groups
+from mimucap.session.live.calibrations import LiveCalibrations
+from mimucap.session.live.checklist import magnetometer_readiness
+from mimucap.session.live.evaluation import TRUTH_NOTE, LiveEvaluation
+from mimucap.session.live.plot_history import ANGLE_BUFFER_RATE_HZ, MAX_WINDOW_S, PlotHistory
+from mimucap.session.live.processing import LiveProcessing
+from mimucap.session.live.recorder import RecordingResult
+from mimucap.session.live.recording import LiveRecording, RecordingInfo, RecordingToSave
+from mimucap.session.live.sensor_rows import SensorRow, sensor_rows
+from mimucap.session.live.sensors import LiveSensors
 from mimucap.session.live.status import StatusPublisher
-from mimucap.session.recorded.stored_processing import check_body_calibration_fits, recording_record
-from mimucap.session.live.checklist import magnetometer_readiness, sensor_standing
-from mimucap.session.live.recorder import Recorder, RecordingResult
-from mimucap.session.live.ring_buffer import RingBuffer
+from mimucap.session.procedures.instructions import Instruction
+from mimucap.session.recorded.stored_processing import recording_record
+from mimucap.session.sources.feeds import SimulatorFeed, SupervisorFeed
 from mimucap.session.sources.source_configs import SourceOptions
-
-#: A sensor whose last sample arrived longer ago than this (s) is flagged stale.
-STALE_AFTER_S = 1.0
-#: Longest scrolling window the live plots can show (s).
-MAX_WINDOW_S = 30.0
-#: Samples per second the ring buffers are sized for (larger rates keep a shorter history).
-BUFFER_RATE_HZ = 200.0
-#: Joint-angle history rate bound: one pose per pipeline step (the GUI pumps at 62.5 Hz; other
-#: drivers, e.g. a test's stepped clock, may step faster).
-ANGLE_BUFFER_RATE_HZ = 120.0
-
-#: Where a recording's ground truth came from (stored with it, for evaluation).
-TRUTH_NOTE = "simulated suit shown live in mimucap gui"
-POSE_NONE = "no data"
-POSE_UNASSIGNED = "no sensor assigned (Session → Assign Sensors)"
-
-#: Fusion flags the sensor panel shows: flag name (:data:`FLAG_NAMES`) → label.
-FLAG_LABELS = {"rest": "rest", "mag_rejected": "mag disturbed", "acc_rejected": "acc disturbed",
-               "uninitialised": "starting"}
-
-
-@dataclass(frozen=True)
-class SensorRow:
-    """One line of the sensor panel.
-
-    ``rate_hz`` samples/s over the last 2 s; ``drops`` sequence gaps; ``latency_ms`` p95 from
-    the sample's host time to its arrival in this process; ``battery_pct`` (NaN if unknown);
-    ``mag_cal`` ``"calibrated"``, ``"on-board"`` (device fuses itself) or ``"not calibrated"``;
-    ``mag_cal_age_s`` since the calibration was made (NaN if none); ``mag_cal_verdict`` its
-    verdict (``good``, ``warn``; "" without one); ``mag_field_warning`` says when the local field
-    (magnitude, dip) no longer matches the calibration's (""); ``mag_standing`` the
-    calibration's standing (:func:`~mimucap.core.magcal_standing.calibration_standing`: verdict,
-    device, local field, age; ``None`` without a calibration); ``mag_cal_note`` why a
-    calibration stored under its id is not used (another device's, a damaged file:
-    ``mag_cal_unreadable``; "");
-    ``device`` what the source says of its device (:class:`~mimucap.core.device_identity.SensorDevice`);
-    ``local_field`` the field it measures now, corrected by its calibration (``None`` without a
-    calibration or enough samples); ``has_magnetometer`` whether it sends a magnetic field;
-    ``flags`` fusion flags
-    now (``"rest"``, ``"mag disturbed"``, ...); ``stale`` no sample for :data:`STALE_AFTER_S`;
-    ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``);
-    ``signal_dbm`` the strength of its radio link where the source reports one (SlimeVR), NaN
-    otherwise; ``rejections`` packets of this sensor the source refused, by reason
-    (:class:`~mimucap.acquisition.rejections.Rejection` value → count, since the source started);
-    ``doubt`` why its newest orientation may be wrong, in words ("" when it is trustworthy;
-    :mod:`mimucap.core.doubt`).
-    """
-
-    sensor_id: str
-    segment: str | None
-    rate_hz: float
-    drops: int
-    latency_ms: float
-    battery_pct: float
-    mag_cal: str
-    mag_cal_age_s: float
-    flags: tuple[str, ...]
-    stale: bool
-    state: str
-    mag_cal_verdict: str = ""
-    mag_field_warning: str = ""
-    signal_dbm: float = float("nan")
-    rejections: Mapping[str, int] = field(default_factory=dict)
-    mag_standing: Standing | None = None
-    mag_cal_note: str = ""
-    mag_cal_unreadable: bool = False
-    device: SensorDevice | None = None
-    local_field: LocalField | None = None
-    has_magnetometer: bool = False
-    doubt: str = ""
-
-
-def doubt_warning(rows) -> str:
-    """What the status bar says while sensors' orientations are doubtful: why, and the sensors
-    (segment and id) for each reason ("" when every orientation is trustworthy)."""
-    sensors_of: dict[str, list[str]] = {}
-    for row in rows:
-        if row.doubt and not row.stale:
-            where = f"{segment_name(row.segment)} ({row.sensor_id})" if row.segment else row.sensor_id
-            sensors_of.setdefault(row.doubt, []).append(where)
-    parts = [f"{why}: {', '.join(sensors)}" for why, sensors in sensors_of.items()]
-    return ("Orientation doubtful — " + "; ".join(parts)) if parts else ""
-
-
-@dataclass(frozen=True)
-class RecordingInfo:
-    """What is being recorded where: ``path``, ``elapsed_s`` (s), ``size_bytes`` (journal so far),
-    ``markers`` placed, ``samples`` per sensor."""
-
-    path: Path
-    elapsed_s: float
-    size_bytes: int
-    markers: int
-    samples: dict[str, int] = field(default_factory=dict)
-
-
-class _SensorState:
-    """Per-sensor live state: recent samples for the plots and the battery charge."""
-
-    def __init__(self, sensor_id: str, capacity: int) -> None:
-        self.sensor_id = sensor_id
-        #: rows acc (m/s²), gyr (rad/s), mag (µT, calibrated when applied); NaN when absent
-        self.raw = RingBuffer(capacity, (3, 3))
-        self.has_mag = False
-        self.battery_pct = float("nan")
-
-
-@dataclass(frozen=True)
-class ProcessedBlock:
-    """One sensor's new samples as the pipeline took them: ``t_s`` (N,) session seconds,
-    ``block`` the raw :class:`~mimucap.core.samples.SensorSamples` (host times, uncalibrated
-    magnetometer), ``orientation`` the pipeline's output (``None`` for a sensor without an
-    orientation: no gyroscope and no on-board fusion)."""
-
-    sensor_id: str
-    t_s: np.ndarray
-    block: SensorSamples
-    orientation: SensorOrientations | None
+from mimucap.session.views.live_pose import LivePose
+from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry, emit_pose_figures
 
 
 class LiveSession:
@@ -228,7 +93,7 @@ class LiveSession:
     * data, from every :meth:`step` that took samples in:
 
       - ``blocks(list[SensorSamples])``: the raw blocks as they arrived;
-      - ``processed(list[ProcessedBlock])``: the same data with the pipeline's orientations;
+      - ``processed(list[~mimucap.session.live.processing.ProcessedBlock])``: the same data with the pipeline's orientations;
       - ``data(cursor_s)``: new samples (and angles) for the plots, up to :attr:`cursor_s`;
       - ``truth_frame(frame_id, geometry_or_None)``: with each new pose while someone listens,
         the simulator's true pose (:meth:`truth_frame`; evaluation only), just before ``frame``;
@@ -273,152 +138,264 @@ class LiveSession:
                  clock: Callable[[], float] = time.monotonic, calibration_store: CalibrationStore | None = None,
                  settings: PipelineSettings = PipelineSettings(),
                  status_clock: Callable[[], float] = time.monotonic) -> None:
-        self.feed = feed
-        self.label = label or getattr(feed, "name", "source")
         self.model = skeleton.load_model(model_name)
-        #: the pose part: the newest pose, its figure, the joint-angle history
-        self.pose = LivePose(self.model, height_m, MAX_WINDOW_S, ANGLE_BUFFER_RATE_HZ)
-        self.events = EmitterGroup("blocks", "processed", "data", "frame", "truth_frame", "sensors",
-                                   "pose_source", "assignment", "calibration", "recording", "marker",
-                                   "recording_failed", "truth_available", "status", "checklist", "recording_progress",
-                                   "source_problem", "refused", "truth_errors")
-        self.pipeline = LivePipeline(self.model, settings)
-        self.calibration_store = calibration_store
-        #: sensor → why a magnetometer calibration stored under its id is not used (a damaged
-        #: file, another device's calibration)
-        self.calibration_problems: dict[str, str] = {}
-        #: sensor → what the source says of its device (updated from the feed every step)
-        self.devices: dict[str, SensorDevice] = dict(feed.devices())
-        #: sensors whose calibration in use was loaded from the store (a change of device drops it)
-        self._stored_calibrations: set[str] = set()
-        #: sensors of :attr:`calibration_problems` whose stored file could not be read
-        self._unreadable: set[str] = set()
         self._clock = clock
-        self.t0_host_s: float | None = None
-        #: sensor id → segment, as the source names it (a replayed recording's placement, the
-        #: simulated suit's labels); the user's assignment changes it
-        self.sensor_segments: dict[str, str] = one_sensor_per_segment(feed.sensor_segments())
-        self.body_calibration: bodycal.BodyCalibration | None = None
-        self._capacity = int(MAX_WINDOW_S * BUFFER_RATE_HZ)
-        self._sensors: dict[str, _SensorState] = {}
-        self._joint_columns = joint_column_groups(self.model)
-        self._pose_source = POSE_NONE
-        self._recorder: Recorder | None = None
-        self._journaled_truth: SuitTruth | None = None   # the simulator truth block last recorded
-        #: newest pose of the simulator's truth (segment → (4,)), for evaluation only
-        self._truth_pose: dict[str, np.ndarray] | None = None
-        self._truth_geometry: tuple[object, FigureGeometry] | None = None
-        #: the simulator's true joint angles (deg) of the last seconds, for the accuracy check
-        self._truth_angles = {j: RingBuffer(int(MAX_WINDOW_S * BUFFER_RATE_HZ), (3,)) for j in self._joint_columns}
-        self._recording_markers = 0
-        self._failure_told = False
-        self.last_recording: RecordingResult | None = None
-        self.samples_received = 0
-        self.last_arrival_s = float("nan")   #: host time the newest block arrived (latency bench)
-        self.started = False
-        self._known_ids: tuple[str, ...] = ()
-        self._load_stored_calibrations(self.feed.sensor_ids)
-        #: the status part: publishes what the panels show (see :mod:`mimucap.session.live.status`)
+        self.sensors = LiveSensors(feed, label, self.model, clock)
+        self.processing = LiveProcessing(self.model, settings)
+        self.calibrations = LiveCalibrations(self.sensors, self.processing, self.model, calibration_store)
+        self.pose = LivePose(self.model, height_m, MAX_WINDOW_S, ANGLE_BUFFER_RATE_HZ)
+        self.history = PlotHistory(self.sensors, self.processing, self.pose)
+        self.evaluation = LiveEvaluation(self.pose, self.history, lambda: self.calibrations.heading_ref_rad)
+        self.recorder = LiveRecording(clock)
+        sensors, recorder, evaluation = self.sensors.events, self.recorder.events, self.evaluation.events
+        self.events = EmitterGroup(
+            "frame", "calibration", "status", "checklist",
+            blocks=sensors.blocks, sensors=sensors.sensors, assignment=sensors.assignment,
+            source_problem=sensors.problem, refused=sensors.refused,
+            processed=self.processing.events.processed, pose_source=self.processing.events.pose_source,
+            data=self.history.events.data,
+            truth_frame=evaluation.truth_frame, truth_available=evaluation.available, truth_errors=evaluation.errors,
+            recording=recorder.recording, recording_progress=recorder.progress, marker=recorder.marker,
+            recording_failed=recorder.failed)
         self.status = StatusPublisher(self, self.events, status_clock)
+        #: what the last recording stopped with :meth:`stop_recording` wrote
+        self.last_recording: RecordingResult | None = None
+        # the reactions between parts
+        sensors.assignment.connect(self.status.mark_due)
+        recorder.recording.connect(self._recording_changed)
+        self.calibrations.events.magnetometer.connect(self._calibration_changed)
+        self.calibrations.events.body.connect(self._body_calibration_changed)
+        self.calibrations.load_stored(feed.sensor_ids)
 
-    # -- source ----------------------------------------------------------------------------
+    def _recording_changed(self, info: RecordingInfo | None) -> None:
+        """A recording is computed with the calibrations it started with: none changes meanwhile."""
+        self.calibrations.lock_while_recording(info is not None)
+        self.status.mark_due()
+
+    def _calibration_changed(self, *_sensor_ids) -> None:
+        self.status.mark_due()
+        self.events.calibration.emit()
+
+    def _body_calibration_changed(self, calibration: bodycal.BodyCalibration | None) -> None:
+        """The figure is driven anew (through ``calibration``'s sensors, when one is applied):
+        the poses made and where the figure stands are forgotten."""
+        if calibration is not None:
+            for segment, sensor in calibration.sensors.items():
+                self.sensors.assign(sensor, segment)
+        self.processing.forget_poses()
+        self.pose.reset()
+        self._calibration_changed()
+
+    # -- driving -----------------------------------------------------------------------------
+    def start(self) -> None:
+        """Start the source; ``t_s = 0`` is now."""
+        self.sensors.start()
+
+    def stop(self) -> RecordingResult | None:
+        """Stop recording (the file is written) and the source."""
+        result = self.stop_recording() if self.recording else None
+        self.sensors.stop()
+        return result
+
+    def step(self) -> int:
+        """Run everything that arrived since the last call through the parts; returns the number
+        of samples taken in."""
+        if not self.sensors.started:
+            return 0
+        blocks = self.sensors.poll()
+        merged = join_per_sensor(blocks)  # once: the recorder and the pipeline take the same records
+        self.recorder.take(merged)
+        self._take_truth()
+        changed = self.sensors.follow_devices()
+        if changed:
+            self.calibrations.follow_devices(changed)
+        if not blocks:
+            self.status.tick()
+            return 0
+        new_sensors = self.sensors.new_sensors(merged)
+        if new_sensors:
+            self.calibrations.load_stored(new_sensors)
+            self.status.mark_due()
+        processed = self.processing.process(merged, self.sensors.t0_host_s)
+        self.history.take(processed)
+        count_before = self.sensors.samples_received
+        self.sensors.note_samples(merged)
+        posed = self._take_pose()
+        self.history.publish()
+        self.status.tick()
+        if posed:  # last: a view may draw everything this step changed in one picture at once
+            self._emit_frame()
+        return self.sensors.samples_received - count_before
+
+    def _take_pose(self) -> bool:
+        """Take the pipeline's newest pose into the pose part; returns whether there is a new one."""
+        pose = self.processing.pose(self.calibrations.body, self.sensors.sensor_segments, self.sensors.seen(),
+                                    had_pose=self.pose.q_world_from_segment is not None)
+        if pose is None:
+            return False
+        try:
+            self.pose.take(*pose)
+        except ValueError as error:
+            raise ValueError(f"{self.pose_source}: {error}") from None
+        return True
+
+    def _take_truth(self) -> None:
+        """The simulator's newest truth block to the evaluation and, while recording, to the
+        journal; neither ever drives the figure."""
+        truth = self.sensors.feed.last_truth
+        if truth is None:
+            return
+        host_t_s = self.sensors.feed.host_time_of(truth.t_s)
+        self.evaluation.take(truth, host_t_s - self.sensors.t0_host_s)
+        self.recorder.take_truth(truth, host_t_s, TRUTH_NOTE)
+
+    def _emit_frame(self) -> None:
+        """Emit ``truth_frame`` and then ``frame`` with the newest pose's figure, built only when
+        someone listens (a new ``frame_id`` for a new pose, display mode or height)."""
+        if self.pose.q_world_from_segment is None:
+            return
+        self.evaluation.forget_figure()
+        emit_pose_figures(self)
+
+    def publish_status(self) -> None:
+        """Emit the status events now, each of them (``status``, ``checklist`` or
+        ``recording_progress``, ``source_problem``, ``refused``, ``truth_errors``) and
+        ``pose_source``: for widgets that have just subscribed; :meth:`step` publishes the
+        status at its own rate."""
+        self.status.forget()
+        self.processing.publish_pose_source()
+        self.status.publish()
+
+    # -- the source and its sensors (:attr:`sensors`) --------------------------------------------
+    @property
+    def feed(self):
+        return self.sensors.feed
+
+    @property
+    def label(self) -> str:
+        return self.sensors.label
+
     @property
     def simulator(self):
-        """The in-process :class:`~mimucap.core.simulate.suit.SuitSimulator`, or ``None`` (for the
-        evaluation of its truth; the pipeline and the procedures never ask for it)."""
-        return getattr(self.feed, "simulator", None)
+        """The in-process simulator, or ``None`` (evaluation only)."""
+        return self.sensors.simulator
 
-    def instruct(self, instruction: Instruction) -> None:
-        """Tell the source what a procedure asks of the subject (the person reads it on the
-        screen; the simulated subject does it)."""
-        self.feed.follow(instruction)
+    @property
+    def started(self) -> bool:
+        return self.sensors.started
+
+    @property
+    def t0_host_s(self) -> float | None:
+        return self.sensors.t0_host_s
+
+    @property
+    def samples_received(self) -> int:
+        return self.sensors.samples_received
+
+    @property
+    def last_arrival_s(self) -> float:
+        return self.sensors.last_arrival_s
+
+    @property
+    def source_problem(self) -> str:
+        return self.sensors.problem
 
     @property
     def sensor_ids(self) -> tuple[str, ...]:
-        ids = list(self.feed.sensor_ids)
-        ids += [s for s in self._sensors if s not in ids]
-        return tuple(ids)
+        return self.sensors.sensor_ids
 
-    def start(self) -> None:
-        """Start the feed; ``t_s = 0`` is now."""
-        self.t0_host_s = self._clock()
-        self.feed.start()
-        self.started = True
-
-    def stop(self) -> RecordingResult | None:
-        """Stop recording (the file is written) and the feed."""
-        result = self.stop_recording() if self.recording else None
-        if self.started:
-            self.feed.stop()
-            self.started = False
-        return result
-
-    # -- state -------------------------------------------------------------------------------
     @property
-    def source_problem(self) -> str:
-        """Why the source may be sending nothing, as its reader reported it (e.g. a serial
-        device that cannot be opened); "" when nothing is known to be wrong."""
-        return self.feed.problem()
+    def sensor_segments(self) -> dict[str, str]:
+        return self.sensors.sensor_segments
+
+    @property
+    def devices(self) -> dict[str, SensorDevice]:
+        return self.sensors.devices
+
+    def device_of(self, sensor_id: str) -> SensorDevice:
+        return self.sensors.device_of(sensor_id)
+
+    def instruct(self, instruction: Instruction) -> None:
+        self.sensors.instruct(instruction)
+
+    def assign_sensor(self, sensor_id: str, segment: str | None) -> None:
+        self.sensors.assign(sensor_id, segment)
+
+    # -- processing (:attr:`processing`) ---------------------------------------------------------
+    @property
+    def pipeline(self):
+        return self.processing.pipeline
 
     @property
     def pose_source(self) -> str:
-        """What drives the figure (see the module doc)."""
-        return self._pose_source
+        return self.processing.pose_source
+
+    def latest_orientations(self) -> dict[str, np.ndarray]:
+        return self.processing.latest_orientations()
+
+    def onboard_sensors(self) -> tuple[str, ...]:
+        return self.processing.onboard_sensors()
+
+    def orientation_only_sensors(self) -> tuple[str, ...]:
+        return self.processing.orientation_only_sensors()
+
+    # -- calibrations (:attr:`calibrations`) -----------------------------------------------------
+    @property
+    def calibration_store(self) -> CalibrationStore | None:
+        return self.calibrations.store
 
     @property
+    def mag_calibrations(self) -> dict[str, MagCalibration]:
+        return self.calibrations.magnetometer
+
+    @property
+    def calibration_problems(self) -> dict[str, str]:
+        return self.calibrations.problems
+
+    @property
+    def body_calibration(self) -> bodycal.BodyCalibration | None:
+        return self.calibrations.body
+
+    def apply_mag_calibration(self, calibration: MagCalibration, save: bool = True) -> None:
+        self.calibrations.apply_magnetometer(calibration, save)
+
+    def apply_body_calibration(self, calibration: bodycal.BodyCalibration) -> None:
+        self.calibrations.apply_body(calibration)
+
+    def clear_body_calibration(self) -> None:
+        self.calibrations.clear_body()
+
+    # -- the pose and the plots (:attr:`pose`, :attr:`history`) ----------------------------------
+    @property
     def time_s(self) -> float:
-        """Session time (s) of the newest pose (NaN before the first)."""
         return self.pose.time_s
 
     @property
     def cursor_s(self) -> float:
-        """The time the plots are aligned to (s): the newest pose (what the 3D view shows),
-        live; while no pose is made (no sensor assigned yet), the newest sample's time, so the
-        plots still scroll with the raw data. NaN before any data."""
-        if self._pose_source in (POSE_NONE, POSE_UNASSIGNED):
-            return self._newest_time()
-        return self.pose.time_s
+        return self.history.cursor_s
 
     @property
     def q_world_from_segment(self) -> dict[str, np.ndarray] | None:
-        """Newest segment orientations, segment → ``(4,)`` (world ENU, scalar first)."""
         return self.pose.q_world_from_segment
 
     @property
-    def joint_names(self) -> tuple[str, ...]:
-        return self.pose.joint_names
-
-    def joint_columns(self, joint: str) -> tuple[str, str, str]:
-        """The three angle column names of ``joint`` (meaning and ``_deg`` unit in the name)."""
-        return self.pose.joint_columns(joint)
-
-    @property
     def height_m(self) -> float:
-        """The subject's height (m)."""
         return self.pose.height_m
 
     @property
     def builder(self) -> FigureBuilder:
-        """What makes the figure of a pose (the model at the subject's height)."""
         return self.pose.builder
 
     @property
     def display_mode(self) -> str:
         return self.pose.display_mode
 
-    def latest_orientations(self) -> dict[str, np.ndarray]:
-        """Sensor id → newest ``q_world_from_sensor`` (4,) (sensors with an estimate only)."""
-        return self.pipeline.latest_orientations()
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return self.pose.joint_names
 
-    def onboard_sensors(self) -> tuple[str, ...]:
-        """Sensors that send their own orientation (fused on board: no magnetometer to calibrate)."""
-        return tuple(sid for sid, chain in self.pipeline.chains.items() if chain.onboard)
-
-    def orientation_only_sensors(self) -> tuple[str, ...]:
-        """Sensors that send their own orientation and no magnetometer readings (on-board
-        fusion that calibrates itself, e.g. SlimeVR trackers): nothing to calibrate here."""
-        onboard = set(self.onboard_sensors())
-        return tuple(sid for sid, s in self._sensors.items() if sid in onboard and not s.has_mag)
+    def joint_columns(self, joint: str) -> tuple[str, str, str]:
+        return self.pose.joint_columns(joint)
 
     def set_display_mode(self, mode: str) -> None:
         """``"world"`` or ``"body"`` (see :mod:`mimucap.session.views.skeleton_figure`)."""
@@ -430,427 +407,70 @@ class LiveSession:
         self.pose.set_height(height_m)
         self._emit_frame()
 
-    def assign_sensor(self, sensor_id: str, segment: str | None) -> None:
-        """Wear ``sensor_id`` on ``segment`` (``None`` unassigns); a segment holds one sensor."""
-        if segment is not None and segment not in self.model.segment_names:
-            raise ValueError(f"sensor {sensor_id}: unknown segment {segment!r}; use one of {', '.join(self.model.segment_names)}")
-        for other, seg in list(self.sensor_segments.items()):
-            if seg == segment and other != sensor_id:
-                del self.sensor_segments[other]
-        before = dict(self.sensor_segments)
-        if segment is None:
-            self.sensor_segments.pop(sensor_id, None)
-        else:
-            self.sensor_segments[sensor_id] = segment
-        if self.sensor_segments != before:
-            self.status.mark_due()
-            self.events.assignment.emit(dict(self.sensor_segments))
+    def frame(self) -> tuple[object, FigureGeometry] | None:
+        """``(frame_id, geometry)`` of the newest pose, or None before the first one
+        (``frame_id`` changes with every new pose, display mode and height)."""
+        return self.pose.frame(self.calibrations.heading_ref_rad)
 
-    # -- calibrations ------------------------------------------------------------------------
-    @property
-    def mag_calibrations(self) -> dict[str, MagCalibration]:
-        """Sensor id → the magnetometer calibration in use."""
-        return self.pipeline.mag_calibrations
+    def series(self, sensor_id: str, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        return self.history.series(sensor_id, window_s)
 
-    def device_of(self, sensor_id: str) -> SensorDevice:
-        """What the source says of ``sensor_id``'s device (nothing yet: ``SensorDevice()``)."""
-        return self.devices.get(sensor_id, SensorDevice())
+    def joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
+        return self.history.joint_series(joint, window_s)
 
-    def _load_stored_calibrations(self, sensor_ids) -> None:
-        """Apply the stored magnetometer calibration of each sensor in ``sensor_ids`` that is
-        not calibrated yet, its device's (:meth:`~mimucap.io.calibration_store.CalibrationStore.lookup`);
-        a sensor whose source has not said which device it is waits for it. Why one stored under
-        its id is not used (another device's, a damaged file) is kept in :attr:`calibration_problems`."""
-        if self.calibration_store is None:
-            return
-        for sensor_id in sensor_ids:
-            device = self.device_of(sensor_id)
-            if sensor_id in self.mag_calibrations or sensor_id in self.calibration_problems or not device.settled:
-                continue
-            try:
-                found = self.calibration_store.lookup(sensor_id, device)
-            except (CalibrationFileError, OSError, ValueError) as error:
-                self.calibration_problems[sensor_id] = str(error)
-                self._unreadable.add(sensor_id)
-                continue
-            if found.calibration is not None:
-                self.pipeline.set_mag_calibration(found.calibration)
-                self._stored_calibrations.add(sensor_id)
-            elif found.note:
-                self.calibration_problems[sensor_id] = found.note
-
-    def _follow_devices(self) -> None:
-        """Take what the source now says of its sensors' devices: a sensor whose device became
-        known gets its device's stored calibration; one whose device changed (another node
-        answering to the same id) loses a calibration made on another device."""
-        devices = self.feed.devices()
-        if devices == self.devices:
-            return
-        changed = [sid for sid in set(devices) | set(self.devices) if devices.get(sid) != self.devices.get(sid)]
-        self.devices = dict(devices)
-        for sensor_id in changed:
-            calibration = self.mag_calibrations.get(sensor_id)
-            now = self.device_of(sensor_id).device_id
-            made_on = None if calibration is None else calibration.device_id
-            if calibration is not None and (sensor_id in self._stored_calibrations
-                                            or (made_on is not None and now is not None and made_on != now)):
-                self.pipeline.clear_mag_calibration(sensor_id)
-                self._stored_calibrations.discard(sensor_id)
-            self.calibration_problems.pop(sensor_id, None)
-            self._unreadable.discard(sensor_id)
-        self._load_stored_calibrations(changed)
-        self.status.mark_due()
-        self.events.calibration.emit()
-
-    def _refuse_while_recording(self, what: str) -> None:
-        if self._recorder is not None:
-            raise ValueError(f"stop recording before {what}: a recording is computed with the calibrations "
-                             "it started with")
-
-    def apply_mag_calibration(self, calibration: MagCalibration, save: bool = True) -> None:
-        """Use ``calibration`` for its sensor from now on (its filter learns the heading anew,
-        :meth:`mimucap.core.pipeline.SensorChain.set_mag_calibration`) and keep it in the
-        calibration store (``save``) for the next start."""
-        self._refuse_while_recording("changing a magnetometer calibration")
-        device = self.device_of(calibration.sensor_id).device_id
-        if calibration.device_id is None and device is not None:
-            calibration = replace(calibration, device_id=device)   # made here, on this device
-        elif calibration.device_id is not None and device is not None and calibration.device_id != device:
-            raise ValueError(f"sensor {calibration.sensor_id}: this magnetometer calibration was made on "
-                             f"{describe_device(calibration.device_id)}, and the sensor is "
-                             f"{describe_device(device)}: calibrate it here")
-        self.pipeline.set_mag_calibration(calibration)
-        self._stored_calibrations.discard(calibration.sensor_id)
-        self.calibration_problems.pop(calibration.sensor_id, None)
-        self._unreadable.discard(calibration.sensor_id)
-        if save and self.calibration_store is not None:
-            self.calibration_store.save(calibration)
-        self.status.mark_due()
-        self.events.calibration.emit()
-
-    def apply_body_calibration(self, calibration: bodycal.BodyCalibration) -> None:
-        """Drive the figure through ``calibration`` (sensor → segment rotations) from now on."""
-        self._refuse_while_recording("applying a body calibration")
-        check_body_calibration_fits(calibration, self.model)
-        self.body_calibration = calibration
-        for segment, sensor in calibration.sensors.items():
-            self.assign_sensor(sensor, segment)
-        self._body_calibration_changed()
-
-    def clear_body_calibration(self) -> None:
-        self._refuse_while_recording("clearing the body calibration")
-        self.body_calibration = None
-        self._body_calibration_changed()
-
-    def _body_calibration_changed(self) -> None:
-        """The figure is driven anew: the poses made and where the figure stands are forgotten."""
-        self.pipeline.forget_poses()
-        self.pose.reset()
-        self.status.mark_due()
-        self.events.calibration.emit()
-
-    # -- driving -----------------------------------------------------------------------------
-    def step(self) -> int:
-        """Run everything that arrived since the last call through the pipeline; returns the
-        number of samples taken in."""
-        if not self.started:
-            return 0
-        blocks = self.feed.poll()
-        merged = join_per_sensor(blocks)  # once: the recorder and the pipeline take the same records
-        if self._recorder is not None:
-            if blocks:
-                self._recorder.add_blocks(merged)
-            else:
-                self._recorder.tick()
-            if self._recorder.failure and not self._failure_told:
-                self._failure_told = True
-                self.events.recording_failed.emit(self._recorder.failure)
-        self._note_truth()
-        self._follow_devices()
-        if not blocks:
-            self.status.tick()
-            return 0
-        self.last_arrival_s = max(float(b.receive_time_s[-1]) for b in blocks if len(b))
-        self.events.blocks.emit(blocks)
-        new_sensors = [b.sensor_id for b in merged if b.sensor_id not in self._sensors]
-        if new_sensors:
-            self._load_stored_calibrations(new_sensors)
-            self.status.mark_due()
-        times = [block.t_s - self.t0_host_s for block in merged]
-        outputs = self.pipeline.feed([b.with_times(t) for b, t in zip(merged, times)])
-        by_sensor = {out.sensor_id: out for out in outputs}
-        processed = []
-        count = 0
-        for block, t in zip(merged, times):
-            orientation = by_sensor.get(block.sensor_id)
-            count += self._buffer(block, t, None if orientation is None else orientation.mag_uT)
-            processed.append(ProcessedBlock(block.sensor_id, t, block, orientation))
-        self.events.processed.emit(processed)
-        self.samples_received += count
-        known = self.sensor_ids
-        if known != self._known_ids:
-            self._known_ids = known
-            self.events.sensors.emit(known)
-        posed = self._update_pose()
-        self.events.data.emit(self.cursor_s)
-        self.status.tick()
-        if posed:  # last: a view may draw everything this step changed in one picture at once
-            self._emit_frame()
-        return count
-
-    def publish_status(self) -> None:
-        """Emit the status events now, each of them (``status``, ``checklist`` or
-        ``recording_progress``, ``source_problem``, ``refused``, ``truth_errors``) and
-        ``pose_source``: for widgets that have just subscribed; :meth:`step` publishes the
-        status at its own rate."""
-        self.status.forget()
-        self.events.pose_source.emit(self._pose_source)
-        self.status.publish()
-
-    def _buffer(self, block: SensorSamples, t: np.ndarray, mag_calibrated: np.ndarray | None) -> int:
-        """Keep ``block`` for the plots (the calibrated field when there is one)."""
-        n = len(block)
-        state = self._sensors.get(block.sensor_id)
-        if state is None:
-            state = self._sensors[block.sensor_id] = _SensorState(block.sensor_id, self._capacity)
-        mag = mag_calibrated if mag_calibrated is not None else block.mag_uT
-        raw = np.full((n, 3, 3), np.nan)
-        for row, values in enumerate((block.acc, block.gyr, mag)):
-            if values is not None:
-                raw[:, row] = values
-        state.raw.append(t, raw)
-        state.has_mag = state.has_mag or mag is not None
-        if block.battery_pct is not None:
-            state.battery_pct = float(block.battery_pct[-1])
-        return n
-
-    def _update_pose(self) -> bool:
-        """Take the pipeline's newest pose; returns whether there is a new one."""
-        pose = self.pipeline.pose(self.body_calibration, self.sensor_segments)
-        if pose is None:
-            if self.pose.q_world_from_segment is None or not self._assigned_sensors_seen():
-                self._set_pose_source(POSE_UNASSIGNED if self._sensors else POSE_NONE)
-            return False
-        t_pose, q_segments = pose
-        self._set_pose_source(POSE_BODY_CALIBRATION if self.body_calibration is not None else POSE_SENSOR_AXES)
-        try:
-            self.pose.take(t_pose, q_segments)
-        except ValueError as error:
-            raise ValueError(f"{self.pose_source}: {error}") from None
-        return True
-
-    def _set_pose_source(self, source: str) -> None:
-        if source != self._pose_source:
-            self._pose_source = source
-            self.events.pose_source.emit(source)
-
-    def _emit_frame(self) -> None:
-        """Emit ``truth_frame`` and then ``frame`` with the newest pose's figure, built only when
-        someone listens (a new ``frame_id`` for a new pose, display mode or height)."""
-        if self.pose.q_world_from_segment is None:
-            return
-        self._truth_geometry = None
-        emit_pose_figures(self)
-
-    def _assigned_sensors_seen(self) -> bool:
-        segments = (self.body_calibration.sensors.values() if self.body_calibration is not None
-                    else self.sensor_segments)
-        return any(sid in self._sensors for sid in segments)
-
-    # -- the simulator's truth (evaluation only) -----------------------------------------------
-    def _note_truth(self) -> None:
-        """Keep the simulator's newest true pose for the on-screen comparison and journal its
-        truth while recording; neither ever drives the figure."""
-        truth = getattr(self.feed, "last_truth", None)
-        if truth is None or truth is self._journaled_truth:
-            return
-        first = self._truth_pose is None
-        self._truth_pose = {name: q[-1] for name, q in truth.q_world_from_segment.items()}
-        if first:
-            self.events.truth_available.emit(True)
-        t = self.feed.host_time_of(truth.t_s) - self.t0_host_s
-        for joint, columns in self._joint_columns.items():
-            if all(c in truth.joint_angles_deg for c in columns):
-                self._truth_angles[joint].append(t, np.stack([truth.joint_angles_deg[c] for c in columns], axis=-1))
-        if self._recorder is not None:
-            self._journal_truth(truth)
-        self._journaled_truth = truth
-
-    def truth_pose(self) -> dict[str, np.ndarray] | None:
-        """The simulated subject's true segment orientations now (segment → (4,)), or ``None``
-        for a source without truth. For evaluation: shown beside the estimate, never as it."""
-        return self._truth_pose
-
+    # -- evaluation against the simulator's truth (:attr:`evaluation`) ---------------------------
     @property
     def has_truth(self) -> bool:
-        """Whether the source knows the true pose (the simulated suit)."""
-        return self._truth_pose is not None
+        return self.evaluation.has_truth
 
-    def truth_joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """The simulator's true angles of ``joint`` over the last ``window_s`` seconds (as
-        :meth:`joint_series`; empty for a source without truth). For evaluation only."""
-        buffer = self._truth_angles[joint]
-        if not len(buffer):
-            return np.zeros(0), np.zeros((0, 3))
-        return buffer.since(buffer.latest()[0] - window_s)
-
-    def truth_errors(self, window_s: float = 5.0, columns=None) -> dict[str, float]:
-        """RMS error (deg) of each joint-angle column (or only of ``columns``) against the
-        simulator's truth over the last ``window_s`` seconds (empty for a source without truth):
-        the on-screen accuracy check."""
-        errors: dict[str, float] = {}
-        if not self.has_truth:
-            return errors
-        wanted = None if columns is None else set(columns)
-        for joint, joint_columns in self._joint_columns.items():
-            if wanted is not None and wanted.isdisjoint(joint_columns):
-                continue
-            t, estimate = self.joint_series(joint, window_s)
-            t_true, true = self.truth_joint_series(joint, window_s + 1.0)
-            if not len(t) or len(t_true) < 2:
-                continue
-            found = angle_errors(t, dict(zip(joint_columns, estimate.T)), t_true, dict(zip(joint_columns, true.T)))
-            errors.update({column: error.rms_deg for column, error in found.items()})
-        return errors
-
-    def _journal_truth(self, truth: SuitTruth) -> None:
-        """Hand a new block of the simulator's truth to the recorder, on host time."""
-        self._recorder.add_truth(self.feed.host_time_of(truth.t_s), truth.q_world_from_segment, truth.joint_angles_deg,
-                                 truth.root_position_m, TRUTH_NOTE)
-
-    def _newest_time(self) -> float:
-        times = [s.raw.latest_t() for s in self._sensors.values() if len(s.raw)]
-        return max(times) if times else float("nan")
-
-    def frame(self) -> tuple[object, FigureGeometry] | None:
-        """``(frame_id, geometry)`` of the newest pose, or None before the first one.
-
-        ``frame_id`` changes with every new pose, display mode and height.
-        """
-        return self.pose.frame(self._heading_ref())
+    def truth_pose(self) -> dict[str, np.ndarray] | None:
+        return self.evaluation.truth_pose()
 
     def truth_frame(self) -> tuple[object, FigureGeometry] | None:
-        """``(frame_id, geometry)`` of the simulator's true pose, standing where the estimate
-        stands (the ghost figure of the on-screen accuracy check); ``None`` for a source without
-        truth or before the first estimated pose. Evaluation only: never the figure itself."""
-        truth = self._truth_pose
-        if truth is None:
-            return None
-        frame_id = ("truth", self.pose.frame_id, self.pose.display_mode)
-        if self._truth_geometry is None or self._truth_geometry[0] != frame_id:
-            geometry = self.pose.figure_of(truth, self._heading_ref())
-            if geometry is None:
-                return None
-            self._truth_geometry = (frame_id, geometry)
-        return self._truth_geometry
+        return self.evaluation.truth_frame()
 
-    def _heading_ref(self) -> float | None:
-        """The heading the body display mode turns to face the camera: the N-pose's."""
-        return None if self.body_calibration is None else bodycal_heading(self.body_calibration)
+    def truth_joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
+        return self.history.truth_joint_series(joint, window_s)
 
-    # -- views for the panel and the plots -----------------------------------------------------
+    def truth_errors(self, window_s: float = 5.0, columns=None) -> dict[str, float]:
+        return self.evaluation.truth_errors(window_s, columns)
+
+    # -- status ------------------------------------------------------------------------------
+    def sensor_rows(self) -> list[SensorRow]:
+        """One :class:`~mimucap.session.live.sensor_rows.SensorRow` per known sensor, in the source's order."""
+        return sensor_rows(self.sensors, self.processing, self.calibrations, self.history, self._clock())
+
     def segment_states(self) -> dict[str, str]:
         """Segment → tint state of its sensor (``ok``, ``mag_uncalibrated``, ``stale``)."""
         return {row.segment: row.state for row in self.sensor_rows() if row.segment is not None}
 
-    def sensor_rows(self) -> list[SensorRow]:
-        """One :class:`SensorRow` per known sensor, in the source's order."""
-        now = self._clock()
-        stats = self.feed.stats()
-        signal = self.feed.signal_dbm()
-        rows = []
-        for sid in self.sensor_ids:
-            st = stats.get(sid)
-            state = self._sensors.get(sid)
-            last_seen = float("nan") if st is None else st.last_seen_s
-            stale = not (now - last_seen <= STALE_AFTER_S)
-            calibration = self.mag_calibrations.get(sid)
-            chain = self.pipeline.chains.get(sid)
-            onboard = chain is not None and chain.onboard
-            if calibration is not None:
-                mag_cal, age = "calibrated", _age_s(calibration.created_utc)
-            elif onboard:
-                mag_cal, age = "on-board", float("nan")
-            else:
-                mag_cal, age = "not calibrated", float("nan")
-            flags = ()
-            if chain is not None and chain.ekf is not None:
-                value = self.pipeline.flags.get(sid, 0)
-                flags = tuple(label for key, label in FLAG_LABELS.items() if value & FLAG_NAMES[key])
-            why = doubt.describe(self.pipeline.doubts.get(sid, 0)) if chain is not None else ""
-            if stale:
-                tint = "stale"
-            elif mag_cal == "not calibrated":
-                tint = "mag_uncalibrated"
-            else:
-                tint = "ok"
-            verdict = "" if calibration is None else str(calibration.quality.get("verdict", ""))
-            device = self.device_of(sid)
-            here = None if calibration is None or state is None else self._local_field(state)
-            row = SensorRow(
-                mag_cal_verdict=verdict, device=device, local_field=here,
-                mag_cal_note="" if calibration is not None else self.calibration_problems.get(sid, ""),
-                mag_cal_unreadable=calibration is None and sid in self._unreadable,
-                has_magnetometer=state is not None and state.has_mag,
-                sensor_id=sid, segment=self.sensor_segments.get(sid),
-                rate_hz=float("nan") if st is None else st.rate_hz, drops=0 if st is None else st.drops,
-                latency_ms=float("nan") if st is None else 1000.0 * st.latency_p95_s,
-                battery_pct=float("nan") if state is None else state.battery_pct,
-                mag_cal=mag_cal, mag_cal_age_s=age, flags=flags, stale=stale, state=tint,
-                signal_dbm=signal.get(sid, float("nan")),
-                rejections={} if st is None else dict(st.rejections), doubt=why)
-            if calibration is not None:
-                standing = sensor_standing(calibration, row)
-                fits = [p.text for p in standing.problems if p.kind == "field"]
-                row = replace(row, mag_standing=standing,
-                              mag_field_warning="; ".join(fits) + ": calibrate again here" if fits else "")
-            rows.append(row)
-        return rows
-
-    @staticmethod
-    def _local_field(state: _SensorState) -> LocalField | None:
-        """The field the sensor measured over the last :data:`FIELD_CHECK_WINDOW_S`, corrected
-        by its calibration (the plots' buffer holds the corrected field)."""
-        if not len(state.raw):
-            return None
-        _t, rows = state.raw.since(state.raw.latest_t() - FIELD_CHECK_WINDOW_S)
-        return local_field(rows[:, 0], rows[:, 1], rows[:, 2])
-
-    def series(self, sensor_id: str, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Last ``window_s`` seconds of one sensor: ``t_s`` (N,), ``acc`` (N,3) m/s², ``gyr``
-        (N,3) rad/s, ``mag_uT`` (N,3) (calibrated when a calibration is applied)."""
-        state = self._sensors.get(sensor_id)
-        if state is None or not len(state.raw):
-            empty = np.zeros((0, 3))
-            return np.zeros(0), empty, empty, empty
-        t, raw = state.raw.since(state.raw.latest_t() - window_s)
-        return t, raw[:, 0], raw[:, 1], raw[:, 2]
-
-    def joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """Last ``window_s`` seconds of ``joint``'s angles: ``t_s`` (N,), ``angles_deg`` (N,3)
-        in the order of :meth:`joint_columns`."""
-        return self.pose.joint_series(joint, window_s)
-
-    # -- recording ---------------------------------------------------------------------------
+    # -- recording (:attr:`recorder`) ------------------------------------------------------------
     @property
     def recording(self) -> bool:
-        return self._recorder is not None
+        return self.recorder.active
 
     @property
     def recording_started_s(self) -> float | None:
         """Session time (s) at which the current recording started, ``None`` when not
         recording: an instant's time in the recording (what review and export show) is its
         session time minus this."""
-        if self._recorder is None:
-            return None
-        return self._recorder.start_host_s - self.t0_host_s
+        return self.recorder.started_s
+
+    @property
+    def recording_failure(self) -> str | None:
+        return self.recorder.failure
+
+    def recording_info(self) -> RecordingInfo | None:
+        return self.recorder.info()
 
     def start_recording(self, path: str | Path, subject: Mapping[str, Any] | None = None,
                         extra_metadata: Mapping[str, Any] | None = None) -> None:
-        """Record everything from now on into session file ``path`` (journal beside it);
+        """Record everything from now on into session file ``path`` (journal beside it), with
+        what is needed to compute the same numbers again (the calibrations, the filters' states,
+        the settings: :func:`~mimucap.session.recorded.stored_processing.recording_record`);
         ``extra_metadata``: further top-level metadata keys (e.g. the library's ``"library"``)."""
-        if self._recorder is not None:
-            raise ValueError(f"already recording to {self._recorder.out_path}")
+        if self.recorder.active:
+            raise ValueError(f"already recording to {self.recorder.info().path}")
         if not self.started:
             raise ValueError("start the source before recording")
         start_host_s = self._clock()
@@ -861,95 +481,32 @@ class LiveSession:
             "devices": devices_to_json(self.devices),
             "magnetometer_readiness": magnetometer_readiness(self),
             **recording_record(mag_calibrations=self.mag_calibrations, body_calibration=self.body_calibration,
-                               settings=self.pipeline.settings, filter_states=self.pipeline.filter_states(),
+                               settings=self.processing.settings, filter_states=self.processing.filter_states(),
                                time_offset_s=start_host_s - self.t0_host_s),
         }
         metadata.update(extra_metadata or {})
-        recorder = Recorder(path, metadata)
-        recorder.start(start_host_s)
-        self._recorder = recorder
-        self._failure_told = False
-        self._journaled_truth = None
-        self._recording_markers = 0
-        self.status.mark_due()
-        self.events.recording.emit(self.recording_info())
+        self.recorder.start(path, metadata, start_host_s, start_host_s - self.t0_host_s)
 
     def add_marker(self, label: str) -> float:
         """Mark now with ``label`` (in the recording when recording); returns its ``t_s``."""
         now = self._clock()
-        label = str(label).strip() or "marker"
-        if self._recorder is not None:
-            if not self._recorder.add_marker(label, now):
-                raise OSError(self._recorder.failure or f"could not write the marker to {self._recorder.out_path}")
-            self._recording_markers += 1
         t_s = now - (self.t0_host_s or now)
-        self.events.marker.emit(t_s, label, self._recorder is not None)
+        self.recorder.add_marker(str(label).strip() or "marker", now, t_s)
         return t_s
-
-    def recording_info(self) -> RecordingInfo | None:
-        recorder = self._recorder
-        if recorder is None:
-            return None
-        try:
-            size = recorder.journal_path.stat().st_size
-        except OSError:
-            size = 0
-        return RecordingInfo(path=recorder.out_path, elapsed_s=self._clock() - recorder.start_host_s,
-                             size_bytes=size, markers=self._recording_markers, samples=dict(recorder.samples))
-
-    @property
-    def recording_failure(self) -> str | None:
-        return None if self._recorder is None else self._recorder.failure
 
     def end_recording(self) -> RecordingToSave:
         """Stop recording now (fast: the journal gets its last records and is closed); the
         returned :class:`RecordingToSave` writes the session file when asked (in any thread:
         a long recording takes seconds to convert). Until then the journal holds everything."""
-        if self._recorder is None:
-            raise ValueError("not recording")
-        recorder, self._recorder = self._recorder, None
         status = {sid: {"received": s.received, "drops": s.drops, "rate_hz": s.rate_hz}
-                  for sid, s in self.feed.stats().items()}
-        recorder.close(status, devices=devices_to_json(self.feed.devices()))
-        pending = RecordingToSave(recorder=recorder)
-        self.status.mark_due()
-        self.events.recording.emit(None)
-        return pending
+                  for sid, s in self.sensors.stats().items()}
+        return self.recorder.end(status, devices_to_json(self.feed.devices()))
 
     def stop_recording(self) -> RecordingResult:
         """Stop and write the session file now; returns what was written."""
         result = self.end_recording().save()
         self.last_recording = result
         return result
-
-
-@dataclass
-class RecordingToSave:
-    """A stopped recording whose session file is still to be written.
-
-    :meth:`save` reads only the closed recorder's journal (samples, markers and, when the
-    simulated suit was shown, its truth), so it may run off the GUI thread.
-    """
-
-    recorder: Recorder
-
-    @property
-    def session_path(self) -> Path:
-        return self.recorder.out_path
-
-    def save(self, progress: Callable[[float], None] | None = None) -> RecordingResult:
-        """Write the session file and remove the journal (``progress``: called with the
-        fraction done, 0..1, in the thread that saves)."""
-        return self.recorder.write_session(progress)
-
-
-#: Seconds of recent samples the local field is measured over (the sensor panel, the checklist).
-FIELD_CHECK_WINDOW_S = 2.0
-
-
-def _age_s(created_utc: str) -> float:
-    age = age_s_at(created_utc, datetime.now(timezone.utc))
-    return float("nan") if age is None else age
 
 
 def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time.monotonic,

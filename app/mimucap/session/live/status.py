@@ -10,19 +10,18 @@ sensor) are emitted only when the value differs from the one last published.
 
 Interface: ``StatusPublisher(session, events, clock)``; :meth:`StatusPublisher.tick` from every
 step (publishes when :data:`STATUS_RATE_HZ` says so, or at once after :meth:`mark_due`);
-:meth:`StatusPublisher.publish` publishes now. ``session`` offers ``sensor_rows()``,
-``recording_info()``, ``source_problem``, ``has_truth``, ``truth_errors(window_s, columns)``,
-``feed.refused_without_sensor()`` and what :func:`~mimucap.session.live.checklist.recording_checklist`
-reads. The events it emits (in ``events``, an :class:`~mimucap.session.events.EmitterGroup`)
-are declared in :class:`~mimucap.session.live.live_session.LiveSession`'s docstring: ``status``,
-``checklist``, ``recording_progress``, ``source_problem``, ``refused``, ``truth_errors``.
+:meth:`StatusPublisher.publish` publishes now. ``session`` offers ``sensor_rows()`` and what
+:func:`~mimucap.session.live.checklist.recording_checklist` reads, and its parts ``recorder``
+(``info()``, ``publish_progress()``), ``sensors`` (``publish_state()``, ``forget_state()``) and
+``evaluation`` (``publish_errors()``). It emits ``status`` and ``checklist`` into ``events``
+(an :class:`~mimucap.session.events.EmitterGroup`, declared in
+:class:`~mimucap.session.live.live_session.LiveSession`'s docstring); the parts emit the rest.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
-from mimucap.session.angle_accuracy import FLEXION_COLUMNS
 from mimucap.session.events import EmitterGroup
 from mimucap.session.live.checklist import recording_checklist
 
@@ -30,8 +29,6 @@ from mimucap.session.live.checklist import recording_checklist
 #: progress, the accuracy check. Four times a second shows a stale sensor within a second and a
 #: recording's clock without visible lag; rates and drops are per-interval figures anyway.
 STATUS_RATE_HZ = 4.0
-#: Window (s) of the running error against the simulator's truth (the on-screen accuracy check).
-TRUTH_ERROR_WINDOW_S = 5.0
 
 
 class StatusPublisher:
@@ -42,27 +39,22 @@ class StatusPublisher:
         events: the session's events.
         clock: monotonic clock (s) of the publications (the wall's: people read the status).
         rate_hz: publications per second.
-        truth_columns: the joint-angle columns of the running error against the simulator's
-            truth (flexion: the accuracy check the status bar shows).
     """
 
     def __init__(self, session, events: EmitterGroup, clock: Callable[[], float],
-                 rate_hz: float = STATUS_RATE_HZ, truth_columns=FLEXION_COLUMNS) -> None:
+                 rate_hz: float = STATUS_RATE_HZ) -> None:
         if not rate_hz > 0:
             raise ValueError(f"the status rate must be positive, got {rate_hz}")
         self._session = session
         self._events = events
         self._clock = clock
         self.interval_s = 1.0 / float(rate_hz)
-        self.truth_columns = tuple(truth_columns)
         self._last_s = float("-inf")
         self._due = True
-        self._problem: str | None = None
-        self._refused: tuple | None = None
 
-    def mark_due(self) -> None:
+    def mark_due(self, *_why) -> None:
         """Publish at the next :meth:`tick` whatever the rate (something the status shows changed:
-        an assignment, a calibration, a recording started)."""
+        an assignment, a calibration, a recording started); an event's arguments are ignored."""
         self._due = True
 
     def tick(self) -> bool:
@@ -81,30 +73,18 @@ class StatusPublisher:
         self._last_s = self._clock() if now is None else now
         self._due = False
         session, events = self._session, self._events
-        info = session.recording_info()
-        checklist = info is None and bool(events.checklist.callbacks)
+        checklist = not session.recorder.active and bool(events.checklist.callbacks)
         if events.status.callbacks or checklist:  # the rows are the costly part: only when read
             rows = session.sensor_rows()
             events.status.emit(rows)
             if checklist:
                 events.checklist.emit(recording_checklist(session, rows))
-        if info is not None:
-            events.recording_progress.emit(info)
-        problem = session.source_problem
-        if problem != self._problem:
-            self._problem = problem
-            events.source_problem.emit(problem)
-        refused = session.feed.refused_without_sensor()
-        key = (tuple(sorted(refused[0].items())), tuple(sorted(refused[1].items())))
-        if key != self._refused:
-            self._refused = key
-            events.refused.emit(dict(refused[0]), dict(refused[1]))
-        if session.has_truth and events.truth_errors.callbacks:
-            events.truth_errors.emit(session.truth_errors(TRUTH_ERROR_WINDOW_S, self.truth_columns))
+        session.recorder.publish_progress()
+        session.sensors.publish_state()
+        session.evaluation.publish_errors()
 
     def forget(self) -> None:
         """Forget what was published (the next publication emits every event again, e.g. for
         widgets that have just subscribed)."""
-        self._problem = None
-        self._refused = None
+        self._session.sensors.forget_state()
         self._due = True

@@ -6,7 +6,7 @@ and ``q_world_from_segment``, world ENU, scalar first, one per segment of the sk
 follows where the figure stands on the floor (:class:`~mimucap.core.locomotion.RootTracker`, from
 its feet's contact), builds the figure's :class:`~mimucap.session.views.skeleton_figure.FigureGeometry` when
 asked (:meth:`LivePose.frame`, once per pose and display mode) and keeps the joint angles (deg)
-of the last :data:`~mimucap.session.live.live_session.MAX_WINDOW_S` seconds, computed in one vectorised
+of the last :data:`~mimucap.session.live.plot_history.MAX_WINDOW_S` seconds, computed in one vectorised
 batch when they are read (poses arrive at up to 100 Hz, the plots read at 30 Hz).
 
 Interface: ``take(t_s, q_world_from_segment)``, ``reset()`` (a new body calibration: where the
