@@ -74,7 +74,7 @@ def test_the_panel_shows_battery_and_signal_and_the_magnetometer_wizard_asks_not
 
 def test_the_body_calibration_works_from_their_quaternions(qtbot):
     live, clock = _live("npose")
-    wizard = BodyCalibrationWizard(None, live, tick_ms=1)
+    wizard = BodyCalibrationWizard(None, live)
     qtbot.addWidget(wizard)
     wizard.show()
     run_on_live(qtbot, wizard, live, clock)

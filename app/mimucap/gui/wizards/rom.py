@@ -87,7 +87,7 @@ class RomWizard(QtWidgets.QDialog):
 
     def tick(self) -> None:
         """Feed the newest pose to the procedure and show its state (on every new pose)."""
-        if getattr(self.live, "body_calibration", None) is None:
+        if self.live.body_calibration is None:
             self.refresh()
             return
         pose = self._pose()
@@ -114,7 +114,7 @@ class RomWizard(QtWidgets.QDialog):
 
     # -- buttons ------------------------------------------------------------------------------
     def start_step(self) -> None:
-        if getattr(self.live, "body_calibration", None) is None:
+        if self.live.body_calibration is None:
             return
         step = self.procedure.step
         self.live.instruct(instructions.move_joint(step.key, step.side, step.instruction))
@@ -146,7 +146,7 @@ class RomWizard(QtWidgets.QDialog):
     # -- display ------------------------------------------------------------------------------
     def refresh(self) -> None:
         p = self.procedure
-        calibrated = getattr(self.live, "body_calibration", None) is not None
+        calibrated = self.live.body_calibration is not None
         step = p.step
         self.progress.setText(f"Step {min(p.index + 1, len(p.steps))} of {len(p.steps)}")
         if not calibrated:

@@ -1,7 +1,8 @@
 """The guided N-pose / T-pose body calibration (no Qt).
 
 :class:`BodycalProcedure` is a state machine driven by :meth:`BodycalProcedure.step` (one
-call per timer tick, or a loop in tests). It pulls sensor orientations
+call each time the feed tells ``arrived``, or a loop in tests; each step tells its
+:class:`BodycalStatus` through ``events.status``). It pulls sensor orientations
 (``q_world_from_sensor``, world ENU, scalar-first) from a feed
 (:mod:`mimucap.session.sources.calibration_feed`) and walks through two pose pages:
 
@@ -57,6 +58,7 @@ from mimucap.core.bodycal import (
 from mimucap.core.doubt import describe
 from mimucap.core.pipeline import segments_from_sensors
 from mimucap.core.skeleton import SkeletonModel
+from mimucap.session.events import EmitterGroup
 from mimucap.session.procedures import instructions
 from mimucap.session.sources.calibration_feed import DOUBT_EXTRA, CalibrationFeed
 from mimucap.session.recorded.calibration_choice import with_magnetometers
@@ -217,6 +219,8 @@ class BodycalProcedure:
         self.phase = "ready"
         self.calibration: BodyCalibration | None = None
         self.refusal: str | None = None
+        #: ``status(BodycalStatus)`` after every :meth:`step`
+        self.events = EmitterGroup("status")
         self._sensors = tuple(dict.fromkeys(self.mapping.values()))
         self._reset()
 
@@ -274,7 +278,9 @@ class BodycalProcedure:
                 if self._page_start is None:
                     self._page_start = self._now
                 self._advance_capture()
-        return self.status()
+        status = self.status()
+        self.events.status.emit(status)
+        return status
 
     def _meter(self) -> tuple[float, str]:
         """Largest recent turn (deg) of any sensor over the meter window, and that sensor."""

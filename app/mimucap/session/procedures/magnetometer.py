@@ -1,9 +1,10 @@
 """The guided magnetometer calibration of one or several sensors held together (no Qt).
 
 :class:`MagcalProcedure` is a state machine driven by :meth:`MagcalProcedure.step` (one call
-per timer tick, or in a loop in tests): it pulls samples from a feed
+each time the feed tells ``arrived``, or in a loop in tests): it pulls samples from a feed
 (:mod:`mimucap.session.sources.calibration_feed`), tracks the protocol and, when the protocol is
-complete, fits every selected sensor (:func:`mimucap.core.magcal.calibrate`).
+complete, fits every selected sensor (:func:`mimucap.core.magcal.calibrate`). Each step tells
+its :class:`MagcalStatus` through ``events.status`` (what the wizard shows).
 
 Protocols (:data:`PROTOCOLS`):
 
@@ -43,6 +44,7 @@ from mimucap.core.magcal import CalibrationResult, FitRefused, FitSettings, Qual
 from mimucap.core.magcal_fit import EllipsoidFit, fit_ellipsoid
 from mimucap.core.magcal_guidance import AXIS_NAMES, GuidanceSettings, GuidanceState, SingleAxisGuide
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
+from mimucap.session.events import EmitterGroup
 from mimucap.session.procedures import instructions
 from mimucap.session.sources.calibration_feed import CalibrationFeed
 from mimucap.session.views.calibration_age import age_days_since, utc_now
@@ -224,6 +226,8 @@ class MagcalProcedure:
         self._now = now
         self.phase = "ready"
         self.outcomes: dict[str, SensorOutcome] = {}
+        #: ``status(MagcalStatus)`` after every :meth:`step`
+        self.events = EmitterGroup("status")
         self._reset()
 
     # -- state -------------------------------------------------------------------------------
@@ -287,7 +291,9 @@ class MagcalProcedure:
                 self._last_t = max(self._last_t or -math.inf, float(block.t_s[-1]))
             if self._complete():
                 self.finish_now()
-        return self.status()
+        status = self.status()
+        self.events.status.emit(status)
+        return status
 
     def _complete(self) -> bool:
         elapsed = self.elapsed_s

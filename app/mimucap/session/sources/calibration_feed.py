@@ -18,12 +18,19 @@ asks for. A feed has:
   (:class:`~mimucap.core.device_identity.SensorDevice`): a calibration is made for it;
 * ``instruct(instruction)``: what the subject is asked to do
   (:mod:`mimucap.session.procedures.instructions`); the source decides who follows it (a person reads the
-  screen; the simulated subject does it). No procedure asks which one it is.
+  screen; the simulated subject does it). No procedure asks which one it is;
+* ``events.arrived()`` (:class:`~mimucap.session.events.EmitterGroup`): new samples wait for
+  :meth:`read` (a wizard steps its procedure on it instead of polling on a timer);
+* what a wizard prefills and shows: ``model`` (the skeleton), ``height_m`` (the subject's, m),
+  ``sensor_segments`` (sensor → segment worn on), ``orientation_only_sensors()`` (sensors that
+  fuse on board and send no magnetometer: nothing to calibrate); ``close()`` when done.
 
 :class:`LiveSessionFeed` reads the main window's live session. :class:`SimulatedSuitFeed` is the
 same feed on a live session of its own over the simulated suit, stepped by a fixed amount of
 simulated time per ``read()`` (tests, benchmarks and screenshots run faster than real time).
 Either way the orientations come from the one pipeline; no feed runs a filter of its own.
+:meth:`SimulatedSuitFeed.advance` moves its simulated time (a clock in the GUI calls it, or
+:meth:`~SimulatedSuitFeed.read` when nothing waits: a loop that pulls).
 
 Frames and units: samples are in each sensor's frame; ``acc`` m/s² (specific force), ``gyr``
 rad/s, ``mag_uT`` µT (raw: a new magnetometer calibration needs raw samples),
@@ -38,11 +45,12 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from mimucap.core.bodycal import static_alignment
+from mimucap.core import skeleton
 from mimucap.core.device_identity import SensorDevice
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate.suit import SuitSimulator
+from mimucap.session.events import EmitterGroup
 from mimucap.session.procedures.instructions import Instruction
 
 #: The per-sample extra of a calibration feed's samples that holds the reasons their
@@ -54,9 +62,17 @@ class CalibrationFeed(Protocol):
     """What a calibration procedure needs from a source (see the module docstring)."""
 
     sensor_ids: tuple[str, ...]
+    events: EmitterGroup
+    model: skeleton.SkeletonModel
+    height_m: float
+    sensor_segments: dict[str, str]
 
     @property
     def time_s(self) -> float: ...
+
+    def orientation_only_sensors(self) -> tuple[str, ...]: ...
+
+    def close(self) -> None: ...
 
     def read(self) -> dict[str, SensorSamples]: ...
 
@@ -73,8 +89,8 @@ class LiveSessionFeed:
     """The main window's live session (:class:`mimucap.session.live.live_session.LiveSession`) as a feed.
 
     Subscribes to ``live_session.events.processed`` (each sensor's new samples and the
-    orientations the session's pipeline gave them) and hands them out per sensor on
-    :meth:`read`. Times are session seconds (a block's host ``t_s`` − ``live_session.t0_host_s``).
+    orientations the session's pipeline gave them), tells ``events.arrived`` and hands them out
+    per sensor on :meth:`read`. Times are session seconds (a block's host ``t_s`` − ``live_session.t0_host_s``).
     Instructions go to ``live_session.instruct``. Call :meth:`close` when the wizard closes.
     """
 
@@ -83,10 +99,32 @@ class LiveSessionFeed:
         self.sensor_ids = tuple(live_session.sensor_ids)
         self._pending: list[Any] = []
         self._time_s = math.nan
+        self.events = EmitterGroup("arrived")
         live_session.events.processed.connect(self._on_processed)
 
     def _on_processed(self, items: list) -> None:
         self._pending.extend(items)
+        if items:
+            self.events.arrived.emit()
+
+    @property
+    def model(self) -> skeleton.SkeletonModel:
+        """The skeleton the live session's sensors drive."""
+        return self.live_session.model
+
+    @property
+    def height_m(self) -> float:
+        """The subject's height (m), as the live session has it."""
+        return self.live_session.height_m
+
+    @property
+    def sensor_segments(self) -> dict[str, str]:
+        """Sensor id → the segment it is worn on (the live session's assignment)."""
+        return self.live_session.sensor_segments
+
+    def orientation_only_sensors(self) -> tuple[str, ...]:
+        """Sensors that fuse on board and send no magnetometer readings (nothing to calibrate here)."""
+        return self.live_session.orientation_only_sensors()
 
     @property
     def time_s(self) -> float:
@@ -106,12 +144,7 @@ class LiveSessionFeed:
         (its raw field is not what the filter will settle on) or sends its own orientation.
         ``ValueError`` when the field is vertical or disturbed (its magnitude off the
         calibration's by more than the filter's tolerance)."""
-        chain = self.live_session.pipeline.chains.get(sensor_id)
-        if chain is None or chain.onboard or chain.mag_calibration is None:
-            return None
-        fusion = chain.settings.fusion
-        return static_alignment(acc, chain.calibrated_mag(np.asarray(mag_raw_uT, dtype=np.float64)),
-                                fusion.declination_rad, chain.mag_calibration.field_uT, fusion.mag_norm_tol)
+        return self.live_session.processing.static_orientation(sensor_id, acc, mag_raw_uT)
 
     def magnetometer_calibrations(self) -> dict[str, MagCalibration]:
         """Sensor → the magnetometer calibration the live session's pipeline applies now."""
@@ -177,10 +210,17 @@ class SimulatedSuitFeed(LiveSessionFeed):
             raise ValueError(f"sensor {calibration.sensor_id} is not in this suit")
         self.live_session.apply_mag_calibration(calibration, save=False)
 
-    def read(self) -> dict[str, SensorSamples]:
-        """Advance the simulation by ``step_s`` and return each sensor's new samples."""
+    def advance(self) -> None:
+        """Move the simulation on by ``step_s`` (its samples go through the live session's
+        pipeline; ``events.arrived`` tells of them)."""
         self._clock.now += self.step_s
         self.live_session.step()
+
+    def read(self) -> dict[str, SensorSamples]:
+        """Each sensor's samples waiting; when none wait (a loop that pulls), the simulation
+        first moves on by ``step_s``."""
+        if not self._pending:
+            self.advance()
         return super().read()
 
 
