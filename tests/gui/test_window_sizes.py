@@ -78,7 +78,7 @@ def test_the_main_window_and_its_wizards_fit_each_screen(main_window, screen, qt
     window.confirm_recording = lambda items: True
     window.action_record.trigger()
     _spin(qtbot)
-    assert window.recording_indicator.isVisible() and _problems(window) == []
+    assert window.live_status.recording_indicator.isVisible() and _problems(window) == []
     window.action_record.trigger()
     window.wait_for_saving()
     # the plots' titles are whole: the stack is as wide as its widest title asks

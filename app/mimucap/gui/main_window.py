@@ -6,9 +6,9 @@ asks. One timer moves time forward: the pump (:data:`PUMP_INTERVAL_MS`) runs the
 pipeline (:meth:`~mimucap.session.live.live_session.LiveSession.step`). Nothing polls the session: each
 widget subscribes to the session's events when the session is set (the 3D view to ``frame``,
 the plots to ``data``, the sensor panel to ``status``, the session panel to ``checklist``,
-``recording_progress`` and ``marker``, the status bar here to ``status``, ``pose_source``,
-``source_problem``, ``refused``, ``truth_errors``) and lets it go when the source changes or
-the window closes. The 3D view and the plots coalesce the events into at most one picture per
+``recording_progress`` and ``marker``, the status bar (:mod:`mimucap.gui.live_status_bar`) to
+``status``, ``pose_source``, ``source_problem``, ``refused``, ``truth_errors``, ``recording``
+and ``recording_progress``) and lets it go when the source changes or the window closes. The 3D view and the plots coalesce the events into at most one picture per
 frame interval (60 and 30 a second); the session publishes its status 4 times a second.
 """
 
@@ -25,13 +25,13 @@ from mimucap.acquisition.source_spec import ReplaySpec, parse_source_spec
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
-from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
+from mimucap.gui.live_status_bar import LiveStatusBar
 from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.scrolling import scrolling
-from mimucap.gui.sensor_panel import SensorPanel, rejections_tooltip
+from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.session_panel import SessionPanel, display_path
 from mimucap.gui.settings import gui_settings
 from mimucap.gui.source_dialog import (
@@ -44,14 +44,9 @@ from mimucap.gui.source_dialog import (
 from mimucap.io.calibration_store import user_data_dir
 from mimucap.io.imports import IMPORT_SUFFIXES, import_recording
 from mimucap.session.views.camera import CAMERA_PRESETS
-from mimucap.session.views.cpu_meter import CpuMeter
 from mimucap.session.views.skeleton_figure import DISPLAY_MODES
 from mimucap.session.live.kernel_preparation import KernelPreparation
-from mimucap.core.pipeline import POSE_SENSOR_AXES
-from mimucap.session.angle_accuracy import accuracy_phrase
 from mimucap.session.live.live_session import LiveSession, open_live_session
-from mimucap.session.live.processing import POSE_NONE, POSE_UNASSIGNED
-from mimucap.session.live.sensor_rows import doubt_warning
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
 from mimucap.session.live.checklist import CheckItem, recording_checklist
@@ -68,15 +63,6 @@ PUMP_INTERVAL_MS = 16
 SENSOR_DOCK_START_PX = 190
 #: A dock takes at most this share of a small window's height (Sensors) or width (Session).
 DOCK_MOST_SHARE = 0.3
-#: The recording indicator: white on red, always in the status bar while recording.
-RECORDING_STYLE = "QLabel { background: #d62728; color: white; font-weight: bold; padding: 1px 8px; border-radius: 3px; }"
-#: What the 3D view says while it has no figure to show, by pose source.
-VIEW_HINTS = {
-    POSE_NONE: "Waiting for data from the source…",
-    POSE_UNASSIGNED: "No sensor is assigned to a body segment yet.\nSession → Assign Sensors…",
-    POSE_SENSOR_AXES: "Not calibrated yet: each sensor's axes stand for its segment.\n"
-                      "Calibrate the magnetometers, then the body (menu Calibrate).",
-}
 ABOUT_TEXT = (
     "<h3>MimuCap {version}</h3>"
     "<p>Human motion capture with magnetic-inertial sensors: live skeleton, joint angles, "
@@ -135,15 +121,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.review_windows: list[QtWidgets.QWidget] = []
         self.library_window = None  # gui.library_window.LibraryWindow once opened
         self._wizards = _wizard_classes()
-        self._cpu = CpuMeter()
         self._last_record_message = ""
         self.saving_tasks: list[BackgroundTask] = []
         self._warm_up: BackgroundTask | None = None
         self._preparation: KernelPreparation | None = None
         self._wizard: QtWidgets.QWidget | None = None
-        self._source_problem = ""  # the last problem the source reported (from its event)
-        self._pose_source = ""     # what drives the figure (from its event)
-        self._accuracy = ""        # the running error against the simulator's truth, as a phrase
         self._sensors_seen: set[str] = set()  # sensors the remembered assignment was offered to
         self.last_recording = None  # RecordingResult of the last recording saved
         self._closing_progress: QtWidgets.QProgressDialog | None = None
@@ -189,10 +171,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pump.timeout.connect(self._pump_pipeline)
         #: the window's own subscriptions to the live session's events (event name → callback)
         self._subscriptions = {
-            "status": self._status_changed, "pose_source": self._pose_source_changed,
-            "source_problem": self._source_problem_changed, "refused": self._show_refused_without_sensor,
-            "truth_errors": self._truth_errors_changed, "truth_available": self.action_truth.setEnabled,
-            "sensors": self._assign_remembered, "recording_progress": self._recording_progress,
+            "truth_available": self.action_truth.setEnabled, "sensors": self._assign_remembered,
             "recording_failed": self._recording_failed}
         self.source_error: str | None = None
         if not self.open_source(source or last_source_spec(), interactive=False) and source is None:
@@ -280,33 +259,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_about = help_menu.addAction("&About MimuCap", self.show_about)
 
     def _build_status_bar(self) -> None:
-        status = self.statusBar()
-        self.recording_indicator = QtWidgets.QLabel("", self)
-        self.recording_indicator.setObjectName("recordingIndicator")
-        self.recording_indicator.setStyleSheet(RECORDING_STYLE)
-        self.recording_indicator.setVisible(False)
-        status.addPermanentWidget(self.recording_indicator)
-        self.source_status = ElidedLabel("", self)
-        self.pose_status = ElidedLabel("", self)
-        self.refused_status = QtWidgets.QLabel(self)
-        self.refused_status.setObjectName("refusedStatus")
-        self.refused_status.setStyleSheet("QLabel { color: #c05800; }")
-        self.refused_status.setVisible(False)
-        status.addPermanentWidget(self.refused_status)
-        # while a sensor's orientation is doubtful: which, and why (the whole text as tooltip)
-        self.doubt_status = ElidedLabel("", self)
-        self.doubt_status.setObjectName("doubtStatus")
-        self.doubt_status.setStyleSheet("QLabel { color: #c05800; }")
-        self.doubt_status.setVisible(False)
-        status.addPermanentWidget(self.doubt_status, 1)
-        self.rate_status = QtWidgets.QLabel(self)
-        # Wide enough for the usual figures, so that a rate going from 99 to 101 Hz does not
-        # need room the status bar has already given away.
-        self.rate_status.setMinimumWidth(self.rate_status.fontMetrics().horizontalAdvance("17 sensors, 888 Hz, 888 drops"))
-        self.cpu_status = QtWidgets.QLabel(self)
-        self.fps_status = QtWidgets.QLabel(self)
-        for label in (self.source_status, self.pose_status, self.rate_status, self.cpu_status, self.fps_status):
-            status.addPermanentWidget(label)
+        self.live_status = LiveStatusBar(self.statusBar(), lambda: self.scene_view.render_times)
+        self.live_status.hint_changed.connect(self.scene_view.set_hint)
 
     # -- the live session ----------------------------------------------------------------------
     def open_source(self, spec: str, interactive: bool = True) -> bool:
@@ -374,9 +328,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plots.set_source(session)
         self.sensor_panel.set_session(session)
         self.session_panel.set_session(session)
-        self.source_status.setText(f"Source: {session.label}")
+        self.live_status.set_session(session)
         self.action_truth.setEnabled(session.has_truth)
-        self._accuracy = ""
         for name, callback in self._subscriptions.items():
             getattr(session.events, name).connect(callback)
         self._update_ghost()
@@ -389,6 +342,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plots.set_source(None)
         self.sensor_panel.set_session(None)
         self.session_panel.set_session(None)
+        self.live_status.set_session(None)
         if live is not None:
             for name, callback in self._subscriptions.items():
                 getattr(live.events, name).disconnect(callback)
@@ -484,66 +438,6 @@ class MainWindow(QtWidgets.QMainWindow):
             if (segment in live.model.segment_names and sensor_id not in live.sensor_segments
                     and segment not in live.sensor_segments.values()):
                 live.assign_sensor(sensor_id, segment)
-
-    # -- the status bar, from the session's events ---------------------------------------------
-    def _status_changed(self, rows) -> None:
-        """The session's status (4 Hz): sensors, rates and drops; the process's CPU and the 3D
-        view's frame rate are sampled with it."""
-        rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
-        drops = sum(r.drops for r in rows)
-        warning = doubt_warning(rows)
-        if warning != self.doubt_status.text():
-            self.doubt_status.setText(warning)
-            self.doubt_status.setVisible(bool(warning))
-        self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")
-        self.cpu_status.setText(f"CPU {self._cpu.sample():.0f} %")
-        times = self.scene_view.render_times[-61:]
-        if len(times) >= 2 and times[-1] > times[0]:
-            self.fps_status.setText(f"{(len(times) - 1) / (times[-1] - times[0]):.0f} fps")
-        else:
-            self.fps_status.setText("– fps")
-
-    def _pose_source_changed(self, pose_source: str) -> None:
-        self._pose_source = pose_source
-        self._show_pose_status()
-        self._update_hint()
-
-    def _truth_errors_changed(self, errors) -> None:
-        self._accuracy = accuracy_phrase(errors)
-        self._show_pose_status()
-
-    def _show_pose_status(self) -> None:
-        self.pose_status.setText(f"Pose: {self._pose_source}{self._accuracy}")
-
-    def _source_problem_changed(self, problem: str) -> None:
-        self._source_problem = problem
-        if problem and self.live is not None:
-            log.warning("source %s: %s", self.live.label, problem)
-        self._update_hint()
-
-    def _update_hint(self) -> None:
-        """What the 3D view says while it has no figure: why, and what to do."""
-        if self._source_problem and self._pose_source == POSE_NONE:
-            self.scene_view.set_hint(f"No data from the source.\n{self._source_problem}\n\n"
-                                     "Check the device and its connection, or choose another source "
-                                     "(File → Choose Source…).")
-        else:
-            self.scene_view.set_hint(VIEW_HINTS.get(self._pose_source, ""))
-
-    def _recording_progress(self, info) -> None:
-        self._show_elapsed(info.elapsed_s)
-
-    def _show_refused_without_sensor(self, counts: dict[str, int], senders: dict[str, int]) -> None:
-        """Packets refused that belong to no sensor of the table (an unknown sender, a line too
-        damaged to name its sensor): counted in the status bar, the reasons and senders on hover."""
-        total = sum(counts.values())
-        self.refused_status.setVisible(total > 0)
-        if total:
-            self.refused_status.setText(f"{total} packets refused from no known sensor")
-            tooltip = rejections_tooltip(counts)
-            if senders:
-                tooltip += "\nFrom: " + ", ".join(f"{sender} ({count})" for sender, count in senders.items())
-            self.refused_status.setToolTip(tooltip)
 
     # -- user actions: source, sensors, recording ------------------------------------------------
     def choose_source(self) -> None:
@@ -657,22 +551,13 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _show_recording(self, on: bool) -> None:
         """The window's controls while recording (``on``) or not: the Record button and menu
-        item, the subject fields, Choose Source (no source change while recording), the red
-        indicator and the window title; the checklist is shown only before recording."""
+        item, the subject fields, Choose Source (no source change while recording) and the
+        window title (the status bar's red indicator follows the session's ``recording``); the checklist is shown only before recording."""
         self.session_panel.set_recording(on)
         self.action_record.setText("Stop &Recording" if on else "Start &Recording")
         self.action_source.setEnabled(not on)
         self.session_panel.checklist_box.setVisible(not on)
-        self.recording_indicator.setVisible(on)
         self.setWindowTitle("● Recording — MimuCap" if on else "MimuCap")
-        if on:
-            self._show_elapsed(0.0)
-
-    def _show_elapsed(self, elapsed_s: float) -> None:
-        minutes, seconds = divmod(int(elapsed_s), 60)
-        hours, minutes = divmod(minutes, 60)
-        clock = f"{hours}:{minutes:02d}:{seconds:02d}" if hours else f"{minutes:02d}:{seconds:02d}"
-        self.recording_indicator.setText(f"● REC {clock}")
 
     def _finish_recording(self, wait: bool = False) -> None:
         """Stop recording at once; the session file is written in a background thread (the

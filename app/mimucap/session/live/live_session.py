@@ -160,17 +160,22 @@ class LiveSession:
         self.status = StatusPublisher(self, self.events, status_clock)
         #: what the last recording stopped with :meth:`stop_recording` wrote
         self.last_recording: RecordingResult | None = None
-        # the reactions between parts
-        sensors.assignment.connect(self.status.mark_due)
-        recorder.recording.connect(self._recording_changed)
+        # the reactions between parts (those on events that widgets also follow are called
+        # here directly, so that a widget's subscriptions are the only ones on them)
         self.calibrations.events.magnetometer.connect(self._calibration_changed)
         self.calibrations.events.body.connect(self._body_calibration_changed)
         self.calibrations.load_stored(feed.sensor_ids)
 
-    def _recording_changed(self, info: RecordingInfo | None) -> None:
+    def _recording_changed(self) -> None:
         """A recording is computed with the calibrations it started with: none changes meanwhile."""
-        self.calibrations.lock_while_recording(info is not None)
+        self.calibrations.lock_while_recording(self.recorder.active)
         self.status.mark_due()
+
+    def _assign(self, sensor_id: str, segment: str | None) -> None:
+        before = dict(self.sensors.sensor_segments)
+        self.sensors.assign(sensor_id, segment)
+        if self.sensors.sensor_segments != before:
+            self.status.mark_due()
 
     def _calibration_changed(self, *_sensor_ids) -> None:
         self.status.mark_due()
@@ -181,7 +186,7 @@ class LiveSession:
         the poses made and where the figure stands are forgotten."""
         if calibration is not None:
             for segment, sensor in calibration.sensors.items():
-                self.sensors.assign(sensor, segment)
+                self._assign(sensor, segment)
         self.processing.forget_poses()
         self.pose.reset()
         self._calibration_changed()
@@ -319,7 +324,7 @@ class LiveSession:
         self.sensors.instruct(instruction)
 
     def assign_sensor(self, sensor_id: str, segment: str | None) -> None:
-        self.sensors.assign(sensor_id, segment)
+        self._assign(sensor_id, segment)
 
     # -- processing (:attr:`processing`) ---------------------------------------------------------
     @property
@@ -486,6 +491,7 @@ class LiveSession:
         }
         metadata.update(extra_metadata or {})
         self.recorder.start(path, metadata, start_host_s, start_host_s - self.t0_host_s)
+        self._recording_changed()
 
     def add_marker(self, label: str) -> float:
         """Mark now with ``label`` (in the recording when recording); returns its ``t_s``."""
@@ -500,7 +506,9 @@ class LiveSession:
         a long recording takes seconds to convert). Until then the journal holds everything."""
         status = {sid: {"received": s.received, "drops": s.drops, "rate_hz": s.rate_hz}
                   for sid, s in self.sensors.stats().items()}
-        return self.recorder.end(status, devices_to_json(self.feed.devices()))
+        pending = self.recorder.end(status, devices_to_json(self.feed.devices()))
+        self._recording_changed()
+        return pending
 
     def stop_recording(self) -> RecordingResult:
         """Stop and write the session file now; returns what was written."""

@@ -16,9 +16,8 @@ It is the *plot source* of :mod:`mimucap.gui.live_plots`: ``sensor_ids``, ``sens
 Events (``events``, :class:`~mimucap.session.events.EmitterGroup`):
 
 * ``data(cursor_s)``: new samples (and angles) up to :attr:`PlotHistory.cursor_s`, once per
-  step that brought samples;
-* ``sensors(sensor_ids)``: the choices the plots offer changed (a sensor appeared, or was worn
-  on another segment).
+  step that brought samples (which sensors there are and where they are worn is told by the
+  sensors part: ``sensors``, ``assignment``).
 """
 
 from __future__ import annotations
@@ -52,17 +51,12 @@ class PlotHistory:
         self._sensors = sensors
         self._processing = processing
         self._pose = pose
-        self.events = EmitterGroup("data", "sensors")
+        self.events = EmitterGroup("data")
         self._capacity = int(MAX_WINDOW_S * BUFFER_RATE_HZ)
         #: sensor → rows acc (m/s²), gyr (rad/s), mag (µT, calibrated when applied); NaN when absent
         self._raw: dict[str, RingBuffer] = {}
         #: the simulator's true joint angles (deg) of the last seconds (evaluation only)
         self._truth = {joint: RingBuffer(self._capacity, (3,)) for joint in pose.joint_names}
-        sensors.events.sensors.connect(self._choices_changed)
-        sensors.events.assignment.connect(self._choices_changed)
-
-    def _choices_changed(self, *_args) -> None:
-        self.events.sensors.emit(self.sensor_ids)
 
     # -- taking data ---------------------------------------------------------------------------
     def take(self, processed: list[ProcessedBlock]) -> None:
