@@ -27,6 +27,7 @@ from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.live_status_bar import LiveStatusBar
+from mimucap.gui.recording_saver import RecordingSaver
 from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
@@ -122,7 +123,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.library_window = None  # gui.library_window.LibraryWindow once opened
         self._wizards = _wizard_classes()
         self._last_record_message = ""
-        self.saving_tasks: list[BackgroundTask] = []
+        #: writes stopped recordings' session files in the background
+        self.saver = RecordingSaver(self)
+        self.saver.saved.connect(self._recording_saved)
+        self.saver.not_saved.connect(self._recording_not_saved)
+        self.saver.idle.connect(self._saving_done)
         self._warm_up: BackgroundTask | None = None
         self._preparation: KernelPreparation | None = None
         self._wizard: QtWidgets.QWidget | None = None
@@ -161,6 +166,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session_panel.record_toggled.connect(self._record_toggled)
         self.session_panel.marker_requested.connect(self.add_marker)
         self.session_panel.height.valueChanged.connect(self._height_changed)
+        self.saver.progress.connect(self.session_panel.show_saving_progress)
 
         self._build_menus()
         self._build_status_bar()
@@ -569,37 +575,25 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session_panel.show_info(None, message)
         self.session_panel.show_saving(True)
         self.statusBar().showMessage(message)
-        task = BackgroundTask(pending.save, self)
-        task.progress.connect(self.session_panel.show_saving_progress)
-        task.setObjectName(pending.session_path.name)
-        task.succeeded.connect(lambda result: self._recording_saved(live, result))
-        task.failed.connect(lambda error: self._recording_not_saved(pending, error))
-        task.finished.connect(lambda: self._saving_finished(task))
-        self.saving_tasks.append(task)
-        task.start()
+        self.saver.save(live, pending)
         if wait:
             self.wait_for_saving()
 
-    def _saving_finished(self, task: BackgroundTask) -> None:
-        if task in self.saving_tasks:
-            self.saving_tasks.remove(task)
-        if not self.saving:
-            self.session_panel.show_saving(False)
-            if self._closing_progress is not None:  # the window was closed while saving: close now
-                self._closing_progress.close()
-                self._closing_progress = None
-                self.close()
+    def _saving_done(self) -> None:
+        self.session_panel.show_saving(False)
+        if self._closing_progress is not None:  # the window was closed while saving: close now
+            self._closing_progress.close()
+            self._closing_progress = None
+            self.close()
 
     def wait_for_saving(self) -> None:
         """Block until every session file being written is written (their messages shown)."""
-        for task in list(self.saving_tasks):
-            task.wait()
-        QtCore.QCoreApplication.sendPostedEvents()  # deliver the tasks' results now
+        self.saver.wait()
 
     @property
     def saving(self) -> bool:
         """True while a stopped recording's session file is being written."""
-        return any(task.isRunning() for task in self.saving_tasks)
+        return self.saver.saving
 
     def _recording_saved(self, live: LiveSession, result) -> None:
         live.last_recording = result
@@ -622,9 +616,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.library_window.refresh()
         self.recording_saved.emit(result)
 
-    def _recording_not_saved(self, pending, error: str) -> None:
-        message = (f"The session file {pending.session_path} could not be written ({error}); every sample is "
-                   f"kept in {pending.recorder.journal_path}: run `mimucap recover {pending.session_path}`.")
+    def _recording_not_saved(self, message: str) -> None:
         self.session_panel.show_info(None, message)
         self.statusBar().showMessage(message)
         QtWidgets.QMessageBox.critical(self, "Recording not saved", message)
@@ -765,20 +757,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def _show_closing_progress(self) -> None:
         if self._closing_progress is not None:
             return
-        names = ", ".join(str(task.objectName()) for task in self.saving_tasks if task.objectName())
-        # A fraction only when one file is written (several would make the bar jump between them)
-        single = len(self.saving_tasks) == 1
-        dialog = QtWidgets.QProgressDialog(f"Writing the session file before closing…\n{names}".strip(),
-                                           "", 0, 100 if single else 0, self)
-        if single:
-            self.saving_tasks[0].progress.connect(lambda fraction: dialog.setValue(int(round(100.0 * fraction))))
-        dialog.setObjectName("closingProgress")
-        dialog.setWindowTitle("MimuCap")
-        dialog.setCancelButton(None)  # the file must be written: the journal is converted whole
-        dialog.setWindowModality(QtCore.Qt.WindowModal)
-        dialog.setMinimumDuration(0)
-        dialog.show()
-        self._closing_progress = dialog
+        self._closing_progress = self.saver.closing_dialog(self)
+        self._closing_progress.show()
         self.statusBar().showMessage("Writing the session file before closing…")
 
     def show_user_guide(self) -> None:
@@ -829,7 +809,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self._finish_recording()
         if self.saving:
             # The file is written in its thread while the window keeps running: it closes
-            # when the writing is done (:meth:`_saving_finished`), with a progress dialog until then.
+            # when the writing is done (:meth:`_saving_done`), with a progress dialog until then.
             event.ignore()
             self._show_closing_progress()
             return
