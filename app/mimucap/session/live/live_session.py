@@ -54,7 +54,7 @@ from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.events import EmitterGroup
 from mimucap.session.live.calibrations import LiveCalibrations
 from mimucap.session.live.checklist import magnetometer_readiness
-from mimucap.session.live.evaluation import TRUTH_NOTE, LiveEvaluation
+from mimucap.session.live.evaluation import TRUTH_ERROR_WINDOW_S, TRUTH_NOTE, LiveEvaluation
 from mimucap.session.live.plot_history import ANGLE_BUFFER_RATE_HZ, MAX_WINDOW_S, PlotHistory
 from mimucap.session.live.processing import LiveProcessing
 from mimucap.session.live.recorder import RecordingResult
@@ -437,7 +437,7 @@ class LiveSession:
     def truth_joint_series(self, joint: str, window_s: float) -> tuple[np.ndarray, np.ndarray]:
         return self.history.truth_joint_series(joint, window_s)
 
-    def truth_errors(self, window_s: float = 5.0, columns=None) -> dict[str, float]:
+    def truth_errors(self, window_s: float = TRUTH_ERROR_WINDOW_S, columns=None) -> dict[str, float]:
         return self.evaluation.truth_errors(window_s, columns)
 
     # -- status ------------------------------------------------------------------------------

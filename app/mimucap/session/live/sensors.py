@@ -27,8 +27,6 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import numpy as np
-
 from mimucap.core import skeleton
 from mimucap.core.device_identity import SensorDevice
 from mimucap.core.pipeline import one_sensor_per_segment
@@ -106,10 +104,6 @@ class LiveSensors:
                     self._battery[block.sensor_id] = float(block.battery_pct[-1])
             self.events.blocks.emit(blocks)
         return blocks
-
-    def session_time(self, host_t_s: np.ndarray | float) -> np.ndarray | float:
-        """Host monotonic time(s) → session seconds."""
-        return host_t_s - self.t0_host_s
 
     # -- the sensors -------------------------------------------------------------------------
     @property
