@@ -124,7 +124,14 @@ def test_a_recording_carrying_a_calibration_that_no_longer_fits_is_named_by_expo
     check_field_figures(err)
 
 
-def test_a_recording_without_magnetometer_calibrations_says_whose_raw_field_is_used(sessions, tmp_path, capsys):
+def test_a_recording_without_magnetometer_calibrations_says_whose_raw_field_is_used(sessions, tmp_path, capsys,
+                                                                                    monkeypatch):
+    # Its own devices' stored calibrations are applied, without a word; another suit's are not.
     assert main(["export", str(sessions["here"]), "--format", "csv", "--out", str(tmp_path / "e.csv")]) == 0
+    assert "warning" not in capsys.readouterr().err
+    assert main(["export", str(sessions["other_suit"]), "--format", "csv", "--out", str(tmp_path / "o.csv")]) == 0
+    assert "Pelvis sensor (S01) is not calibrated: the calibration stored under S01" in capsys.readouterr().err
+    monkeypatch.setenv("MIMUCAP_DATA_DIR", str(tmp_path / "empty"))  # nothing stored, nothing recorded
+    assert main(["export", str(sessions["here"]), "--format", "csv", "--out", str(tmp_path / "r.csv")]) == 0
     assert ("mimucap export: warning: the recording holds no magnetometer calibration for S01, S02, S03 and 7 more: "
             "their raw field is used") in capsys.readouterr().err

@@ -79,7 +79,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         if args.live:
             raise ValueError(f"{args.input}: --live applies to MimuCap sessions (an orientation table has no filter to run)")
-        table, _session, _mags = read_input(args, "angles")
+        table, _session, _mags = read_input(args)
         missing = [sensor for sensor in calibration.sensors.values() if sensor not in table.q_world_from_sensor]
         if missing:
             raise ValueError(f"{args.input}: calibrated sensor(s) {', '.join(missing)} missing from the data; it has: "
@@ -133,7 +133,7 @@ def _is_session(args: argparse.Namespace) -> bool:
 
 def _session_output(args: argparse.Namespace, model, calibration, result: str):
     """A session's joint angles through the processing path with ``calibration``, what the
-    result holds (:func:`mimucap.session.provenance.provenance`), the session's markers and a
+    result holds (:func:`mimucap.session.recorded.provenance.provenance`), the session's markers and a
     note on how long the gyroscope bridges a magnetometer."""
     import numpy as np
 

@@ -120,11 +120,11 @@ def check_reader_options(args: argparse.Namespace) -> None:
 EXIT_POOR = 3
 
 
-def read_input(args: argparse.Namespace, command: str = "bodycal"):
+def read_input(args: argparse.Namespace):
     """The orientation table of ``args.input`` with the reader options checked first (a
     session's through the processing path); the session too, or None; and the magnetometer
-    calibrations applied (:func:`magnetometer_calibrations`; none for a table), each not good
-    one named on stderr by ``mimucap COMMAND``."""
+    calibrations applied (:func:`magnetometer_calibrations`; none for a table; judged on the
+    poses by :func:`judged_on_the_poses` once the windows are known)."""
     from mimucap.io.quaternion_tables import read_quaternion_table
     from mimucap.session.recorded.calibration_choice import AppliedCalibrations
 
@@ -137,15 +137,26 @@ def read_input(args: argparse.Namespace, command: str = "bodycal"):
         _refuse_up_for_session(args)
         session = read_session(args.input)
         mags = magnetometer_calibrations(session, args.mag_calibration)
-        for line in mags.lines():
-            print(f"  {line}")
-        warn_about_magnetometers(command, session, mags)
         return orientation_table(session, str(args.input), mags.magnetometer), session, mags
     if args.mag_calibration:
         raise ValueError(f"{args.input}: --mag-calibration applies to MimuCap sessions (raw magnetometer "
                          "samples), not to orientation tables")
     return read_quaternion_table(args.input, up_axis=args.up, sensor_names=args.sensor_names,
                                  trial_prefix=args.trial, rate_hz=args.rate), None, AppliedCalibrations()
+
+
+def judged_on_the_poses(session, mags, npose: tuple[float, float] | None, tpose: tuple[float, float] | None):
+    """``mags`` (the calibrations applied) judged on the local field of the pose windows, from
+    the N-pose to the end of the T-pose (the whole recording without windows): the body
+    calibration takes its headings there, and a disturbance later in the recording is the
+    doubtful-data flags' business, not a reason to call the calibration stale."""
+    from dataclasses import replace
+
+    from mimucap.session.recorded.calibration_readiness import session_standings
+
+    windows = [w for w in (npose, tpose) if w is not None]
+    span = None if not windows else (min(w[0] for w in windows), max(w[1] for w in windows))
+    return replace(mags, standings=session_standings(session, mags.magnetometer, window_s=span))
 
 
 def _refuse_up_for_session(args: argparse.Namespace) -> None:
@@ -267,6 +278,11 @@ def run(args: argparse.Namespace) -> int:
         npose, tpose = pose_windows_from_markers(session.markers, float(table.t_s[-1]))
         print(f"  pose windows from the session's markers: N-pose {npose[0]:.2f}-{npose[1]:.2f} s, "
               f"T-pose {tpose[0]:.2f}-{tpose[1]:.2f} s")
+    if session is not None:
+        mags = judged_on_the_poses(session, mags, npose, tpose)
+        for line in mags.lines():
+            print(f"  {line}")
+        warn_about_magnetometers("bodycal", session, mags)
     if tpose is not None:
         if npose is None:
             raise ValueError("--tpose needs --npose T0:T1 as well")

@@ -68,8 +68,8 @@ def warn_about_magnetometers(command: str, session, applied, origin: str = "") -
     raw = [sid for sid in applied.raw_field if sid not in applied.store_notes]
     if raw:
         more = f" and {len(raw) - 3} more" if len(raw) > 3 else ""
-        print(f"{head}no magnetometer calibration for {', '.join(raw[:3])}{more}: their raw field is used",
-              file=sys.stderr)
+        print(f"{head}the recording holds no magnetometer calibration for {', '.join(raw[:3])}{more}: their raw "
+              "field is used", file=sys.stderr)
     return applied.not_good()
 
 

@@ -132,14 +132,15 @@ class SensorPanel(QtWidgets.QTableWidget):
                 state = "STALE: packets arrive but are refused (see Refused)"
             elif row.stale:
                 state = "STALE: no data"
-            elif row.doubt:
-                state = f"orientation doubtful: {row.doubt}"
+            # A calibration that does not fit is the cause to act on; the doubt it brings follows.
             elif row.state == "mag_uncalibrated":
                 state = "magnetometer not calibrated" + (f": {row.mag_cal_note}" if row.mag_cal_note else "")
             elif row.mag_field_warning:
                 state = row.mag_field_warning
             elif row.mag_standing is not None and not row.mag_standing.good:
                 state = f"magnetometer calibration {row.mag_standing.summary()}"
+            elif row.doubt:
+                state = f"orientation doubtful: {row.doubt}"
             else:
                 state = "ok"
             values = (

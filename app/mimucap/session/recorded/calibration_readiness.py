@@ -37,22 +37,32 @@ def recorded_at(session: Session) -> datetime | None:
 
 
 def session_standing(session: Session, sensor_id: str, calibration: MagCalibration,
-                     devices: Mapping[str, SensorDevice] | None = None) -> Standing:
+                     devices: Mapping[str, SensorDevice] | None = None,
+                     window_s: tuple[float, float] | None = None) -> Standing:
     """The standing of ``calibration`` applied to ``sensor_id`` of ``session`` (see the module
-    docstring); ``devices``: ``session.devices()``, when the caller has them already."""
+    docstring); ``devices``: ``session.devices()``, when the caller has them already;
+    ``window_s`` the part of the recording (s) whose local field counts (the whole recording
+    when None; a body calibration is judged on its poses, so that a disturbance later in the
+    recording does not make its N-pose headings suspect)."""
     stream = session.sensors[sensor_id]
     devices = session.devices() if devices is None else devices
     field = None
     if stream.mag_uT is not None:
-        field = local_field(stream.acc, stream.gyr, calibration.apply(stream.mag_uT, sensor_id))
+        rows = slice(None)
+        if window_s is not None:
+            rows = (stream.t_s >= window_s[0]) & (stream.t_s <= window_s[1])
+        acc = None if stream.acc is None else stream.acc[rows]
+        gyr = None if stream.gyr is None else stream.gyr[rows]
+        field = local_field(acc, gyr, calibration.apply(stream.mag_uT[rows], sensor_id))
     when = recorded_at(session)
     age = None if when is None else age_s_at(calibration.created_utc, when)
     return calibration_standing(calibration, sensor_id, device=devices.get(sensor_id), field=field, age_s=age)
 
 
-def session_standings(session: Session, calibrations: Mapping[str, MagCalibration]) -> dict[str, Standing]:
+def session_standings(session: Session, calibrations: Mapping[str, MagCalibration],
+                      window_s: tuple[float, float] | None = None) -> dict[str, Standing]:
     """Sensor → the standing of the calibration applied to it, for every sensor of
-    ``calibrations`` that the session holds."""
+    ``calibrations`` that the session holds (``window_s``: see :func:`session_standing`)."""
     devices = session.devices()
-    return {sid: session_standing(session, sid, calibration, devices)
+    return {sid: session_standing(session, sid, calibration, devices, window_s)
             for sid, calibration in calibrations.items() if sid in session.sensors}
