@@ -40,7 +40,7 @@ def test_analysis_window_shows_gait_rom_and_writes_the_report(qtbot, session_fil
     assert window.strides_table.rowCount() == len(window.analysis.gait.strides)
     refused = [window.strides_table.item(r, 7).text() for r in range(window.strides_table.rowCount())]
     assert any(text != "analysed" for text in refused)
-    assert window.curve_choice.currentText() == "knee flexion"
+    assert window.curve_choice.currentText() == "Knee flexion"
     assert len(window.curve_plot.listDataItems()) >= 2  # left and right means at least
     window.tabs.setCurrentWidget(window.rom_tab)
     assert window.rom_table.rowCount() == 1 and window.rom_table.item(0, 0).text() == "Knee flexion"

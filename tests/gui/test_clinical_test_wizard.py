@@ -91,3 +91,47 @@ def test_a_guided_timed_up_and_go_records_measures_and_reports(calibrated_window
         pytest.approx([result.values["total_s"]])
     report = wizard.write_report(tmp_path / "tug.pdf")
     assert report.stat().st_size > 5000
+    # The session's full report has the test's page (the same result, the reference).
+    from mimucap.cli import main
+
+    full = tmp_path / "full.pdf"
+    assert main(["report", str(wizard.session_path), "--out", str(full)]) == 0
+    import subprocess
+
+    text = subprocess.run(["pdftotext", str(full), "-"], capture_output=True, text=True, check=True).stdout
+    assert "Timed Up and Go" in text and f"{result.values['total_s']:.1f} s" in text and "Bohannon" in text
+
+
+def _run_guided(wizard, qtbot, test: str) -> None:
+    wizard.run_again()
+    wizard.choose(test)
+    qtbot.mouseClick(wizard.ready_button, QtCore.Qt.LeftButton)
+    qtbot.mouseClick(wizard.countdown_button, QtCore.Qt.LeftButton)
+    try:
+        qtbot.waitUntil(lambda: wizard.result is not None or "No result" in wizard.result_status.text(), timeout=120000)
+    except Exception:
+        p = wizard.procedure
+        raise AssertionError(f"{test}: state {p.state}, {wizard.live.simulator.current_activity()}, "
+                             f"history {list(p._history)[-10:]}, left start {p._left_start}, {wizard.result_status.text()}")
+    assert wizard.result is not None, wizard.result_status.text()
+
+
+def test_the_ten_metre_walk_and_the_chair_stand_run_guided_one_after_the_other(calibrated_window, qtbot):
+    window = calibrated_window
+    window.action_clinical_test.trigger()
+    wizard = window._wizard
+    entries: dict[float, str] = {}
+    live = window.live
+    live.events.frame.connect(lambda *_: entries.update(live.simulator.schedule.entries))
+
+    _run_guided(wizard, qtbot, "10mwt")
+    assert wizard.procedure.ended_by == "sensors: standing still again"
+    assert 0.9 < wizard.result.values["speed_m_s"] < 1.6 and 90 < wizard.result.values["cadence_steps_min"] < 130
+    assert wizard.chair.isHidden() and not wizard.walkway.isHidden()
+
+    entries.clear()
+    _run_guided(wizard, qtbot, "chair-stand")
+    assert wizard.procedure.ended_by == "time"
+    rises = sorted(t for t, label in entries.items() if label == "sit_to_stand")
+    true_stands = sum(1 for t in rises if t < rises[0] + 30.0 - 0.6)  # up (or more than halfway) by 30 s
+    assert abs(wizard.result.values["stands"] - true_stands) <= 1, (wizard.result.values, true_stands)

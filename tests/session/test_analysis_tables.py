@@ -91,11 +91,11 @@ def test_curves_are_grouped_by_joint_angle_in_model_order():
     after = analysis_with({"knee_r_flexion_deg": curve("knee_r_flexion_deg", "right", 6.0),
                            "elbow_l_flexion_deg": curve("elbow_l_flexion_deg", "left", 7.0)})
     groups = curve_groups([before])
-    assert [g.label for g in groups] == ["lumbar flexion", "hip flexion", "hip adduction", "knee flexion"]
+    assert [g.label for g in groups] == ["Lumbar spine flexion", "Hip flexion", "Hip adduction", "Knee flexion"]
     knee = groups[-1]
     assert set(knee.curves[0]) == {"left", "right"} and knee.curves[0]["right"].mean_deg[0] == 2.0
     both = curve_groups([before, after])
-    assert [g.label for g in both][-1] == "elbow flexion"  # not in the first review's model: last
-    knee = next(g for g in both if g.label == "knee flexion")
+    assert [g.label for g in both][-1] == "Elbow flexion"  # not in the first review's model: last
+    knee = next(g for g in both if g.label == "Knee flexion")
     assert len(knee.curves) == 2 and knee.curves[1]["right"].mean_deg[0] == 6.0 and "left" not in knee.curves[1]
     assert curve_groups([analysis_with({})]) == []

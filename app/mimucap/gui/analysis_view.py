@@ -232,8 +232,9 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         for group in curve_groups([analysis]):
             self.curve_choice.addItem(group.label, group)
         self.curve_choice.blockSignals(False)
-        knee = self.curve_choice.findText("knee flexion")
-        self.curve_choice.setCurrentIndex(max(knee, 0))
+        knee = next((k for k in range(self.curve_choice.count())
+                     if (self.curve_choice.itemData(k).joint, self.curve_choice.itemData(k).axis) == ("knee", "flexion")), 0)
+        self.curve_choice.setCurrentIndex(knee)
         self._show_curve()
         if analysis.rom:
             self.rom_label.setText("ROM protocol results (reference: healthy adults, "

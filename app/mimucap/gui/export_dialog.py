@@ -22,6 +22,7 @@ import pyqtgraph.exporters  # noqa: F401  (registers ImageExporter)
 from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.clinical_names import angle_label, angle_sign_text
+from mimucap.core.wording import fixed
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
@@ -33,12 +34,6 @@ from mimucap.session.recorded.provenance import WITHOUT_BODY_CALIBRATION
 from mimucap.session.recorded.review import ReviewData
 
 log = logging.getLogger(__name__)
-
-
-def _degrees(value: float) -> str:
-    """An angle (deg) with one decimal, never "-0.0"."""
-    text = f"{value:.1f}"
-    return "0.0" if text == "-0.0" else text
 
 
 class ExportDialog(QtWidgets.QDialog):
@@ -218,8 +213,8 @@ class ExportDialog(QtWidgets.QDialog):
         self.message.setText("")
         self.summary.setRowCount(len(rows))
         for r, row in enumerate(rows):
-            values = (angle_label(row.column), _degrees(row.minimum_deg), _degrees(row.maximum_deg),
-                      _degrees(row.rom_deg))
+            values = (angle_label(row.column), fixed(row.minimum_deg, 1), fixed(row.maximum_deg, 1),
+                      fixed(row.rom_deg, 1))
             for c, text in enumerate(values):
                 item = QtWidgets.QTableWidgetItem(text)
                 if c:

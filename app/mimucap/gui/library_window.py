@@ -15,6 +15,7 @@ from pathlib import Path
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
+from mimucap.core.wording import plural
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
@@ -170,6 +171,11 @@ class LibraryWindow(QtWidgets.QMainWindow):
         self.new_session_button.setObjectName("newSessionButton")
         self.new_session_button.clicked.connect(self.start_new_session)
         left_layout.addWidget(self.new_session_button)
+        self.trend_button = QtWidgets.QPushButton("Clinical Test Trend…", self)
+        self.trend_button.setObjectName("trendButton")
+        self.trend_button.setToolTip("The subject's clinical test results across visits, with the reference")
+        self.trend_button.clicked.connect(self.open_trend)
+        left_layout.addWidget(self.trend_button)
 
         self.condition_filter = QtWidgets.QComboBox(self)
         self.tag_filter = QtWidgets.QComboBox(self)
@@ -321,7 +327,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
                 self._fill([], [])
             damaged = sum(not e.ok for e in self.entries.values())
             self.statusBar().showMessage(
-                f"{len(self.subjects)} subjects, {len(self.entries)} sessions"
+                f"{plural(len(self.subjects), 'subject')}, {plural(len(self.entries), 'session')}"
                 + (f", {damaged} damaged (see Status)" if damaged else "")
                 + (f"; {len(report.added)} new, {len(report.removed)} gone since the last scan"
                    if report is not None and (report.added or report.removed) else ""))
@@ -454,6 +460,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         self.buttons["trash"].setEnabled(len(selected) >= 1)
         subject = self.selected_subject() or (selected[0].subject_id if len(selected) == 1 else None)
         self.new_session_button.setEnabled(bool(subject) and self._new_session is not None)
+        self.trend_button.setEnabled(bool(subject) and self.library is not None)
 
     def _one(self) -> SessionEntry | None:
         selected = self.selected_entries()
@@ -532,7 +539,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         if confirm:
             names = "\n".join(e.file_name for e in selected[:10]) + ("\n…" if len(selected) > 10 else "")
             answer = QtWidgets.QMessageBox.question(
-                self, "Move to Trash", f"Move {len(selected)} session file(s) to {self.library.trash}?\n\n{names}\n\n"
+                self, "Move to Trash", f"Move {plural(len(selected), 'session file')} to {self.library.trash}?\n\n{names}\n\n"
                 "They stay there until you delete them yourself.")
             if answer != QtWidgets.QMessageBox.Yes:
                 return []
@@ -561,6 +568,18 @@ class LibraryWindow(QtWidgets.QMainWindow):
         window.show()
         window.load()
         return window
+
+    def open_trend(self):
+        """The selected subject's clinical test results across visits (a dialog)."""
+        from mimucap.gui.trend_dialog import TrendDialog
+
+        selected = self._one()
+        subject = self.selected_subject() or (selected.subject_id if selected is not None else None)
+        if not subject or self.library is None:
+            return None
+        dialog = TrendDialog(self.library, subject, self)
+        dialog.show()
+        return dialog
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
         self.wait_for_scan()

@@ -9,7 +9,9 @@ record every output carries, :mod:`mimucap.session.recorded.provenance`), sensor
 the gait-cycle curves of every joint angle (left and right mean ± SD, stance/swing boundary, a
 normative band where one is given; a curve whose strides hold doubtful samples says how many,
 in orange), the ROM table beside the reference values (a movement recorded while doubtful is
-named under it), the markers and the notes.
+named under it), the markers and the notes, and for a recording of a guided clinical test
+its result beside the reference with the subject's earlier visits (:func:`clinical_test_section`;
+alone: :func:`write_clinical_test_report`).
 A comparison report (:func:`write_comparison_report`) puts two sessions of one subject
 (before / after) side by side with the differences.
 
@@ -28,6 +30,8 @@ from PyQt5.QtGui import QColor, QFont, QPageLayout, QPageSize, QPainter, QPdfWri
 
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.core.analysis import rom as rom_core
+from mimucap.core.clinical_names import segment_name
+from mimucap.core.wording import plural
 from mimucap.session.recorded.analysis import (
     GAIT_PARAMETER_HEADER,
     ROM_HEADER,
@@ -235,20 +239,32 @@ def _curve_pages(doc: _Document, analyses: Sequence[SessionAnalysis], bands: dic
                         where = f"{label} " if len(analyses) > 1 else ""
                         doubtful.append(f"{where}{side} {count}/{curve.n_strides}")
         note = ("doubtful strides: " + ", ".join(doubtful)) if doubtful else ""
-        _plot(doc, rect, f"{group.label} (deg)", curves, bands.get((group.joint, group.axis)), boundaries, note)
+        _plot(doc, rect, f"{group.label} (°)", curves, bands.get((group.joint, group.axis)), boundaries, note)
         if column == columns - 1 or index == len(groups) - 1:
             doc.y += plot_h
 
 
 def _header(doc: _Document, analysis: SessionAnalysis, title: str) -> None:
+    """Title, the subject (id, height, dominant side, age, sex, weight as recorded), the session
+    (local date and time, length, condition, trial, file)."""
     review = analysis.review
     meta = review.session.metadata
-    subject = meta.get("subject") or {}
+    subject = dict(meta.get("subject") or {})
     doc.text(title, 16, True, gap=8)
-    created = str(meta.get("created_utc") or "not recorded")
+    line = _subject_line(subject)
+    if subject.get("dominance"):
+        line += f", {subject['dominance']}-side dominant"
+    doc.text(line, 10, gap=2)
+    library = meta.get("library") or {}
+    created = local_time_text(str(meta.get("created_utc") or ""))
     duration = review.end_s - review.start_s
-    doc.text(f"Subject: {subject.get('id') or 'not recorded'}    Recorded: {created}    "
-             f"Length: {duration:.1f} s    File: {review.path.name}", 9)
+    session = [f"Recorded {created}", f"length {duration:.1f} s"]
+    if library.get("condition"):
+        session.append(f"condition: {library['condition']}")
+    if library.get("trial"):
+        session.append(f"trial {library['trial']}")
+    session.append(f"file {review.path.name}")
+    doc.text(", ".join(session), 9)
 
 
 def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
@@ -262,8 +278,9 @@ def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
     for note in review.missing:
         doc.text(f"Note: {note}.", 8, gap=2)
     doc.text("Sensors", 11, True, gap=4)
-    sensors = ", ".join(f"{sid} ({s.segment or 'unassigned'})" for sid, s in session.sensors.items())
-    doc.text(f"{len(session.sensors)} sensors: {sensors}", 8)
+    sensors = ", ".join(f"{sid} ({segment_name(s.segment) if s.segment else 'not worn'})"
+                        for sid, s in session.sensors.items())
+    doc.text(f"{plural(len(session.sensors), 'sensor')}: {sensors}", 8)
     calibration = body_calibration_of(review)
     if calibration is not None:
         doc.text("Body calibration remarks: " + ("; ".join(calibration.quality.problems) or "none") + ".", 8)
@@ -297,8 +314,8 @@ def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
         return
     refused = [s for s in gait.strides if not s.analysed]
     n = {side: sum(1 for s in gait.analysed if s.side == side) for side in ("left", "right")}
-    doc.text(f"{len(gait.analysed)} straight strides analysed (left {n['left']}, right {n['right']}), "
-             f"{len(refused)} refused, {len(gait.bouts)} walking bout(s), {len(gait.turns)} turn(s). "
+    doc.text(f"{plural(len(gait.analysed), 'straight stride')} analysed (left {n['left']}, right {n['right']}), "
+             f"{len(refused)} refused, {plural(len(gait.bouts), 'walking bout')}, {plural(len(gait.turns), 'turn')}. "
              + " ".join(f"{side.capitalize()}: {source}." for side, source in gait.sources.items()), 8)
     doc.table(GAIT_PARAMETER_HEADER, [row.cells() for row in gait_parameter_rows(gait)],
               [0.22, 0.14, 0.14, 0.14, 0.08, 0.11, 0.12])
@@ -352,6 +369,7 @@ def write_report(path: str | Path, analysis: SessionAnalysis, bands: dict[tuple[
         _gait_section(doc, analysis)
         _rom_section(doc, analysis)
         _markers_and_notes(doc, analysis, notes)
+        _guided_test_page(doc, analysis)
         doc.new_page()
         doc.text("Joint angles over the gait cycle", 11, True, gap=4)
         _curve_pages(doc, [analysis], bands or {}, ["session"])
@@ -463,8 +481,8 @@ def _trend_plot(doc: _Document, rect: QRectF, key: str, visits, reference: dict 
     span = finite + list(ref.values())
     if not span:
         return
-    ticks = nice_ticks(min(span + [0.0]), max(span) * 1.1, 5)
-    low, high = ticks[0], ticks[-1]
+    low, high = min(span + [0.0]), max(span) * 1.15
+    ticks = nice_ticks(low, high, 5)
     name, unit, _digits = QUANTITIES[key]
     painter = doc.painter
     plot = QRectF(rect.left() + 60, rect.top() + 20, rect.width() - 70, rect.height() - 50)
@@ -484,9 +502,9 @@ def _trend_plot(doc: _Document, rect: QRectF, key: str, visits, reference: dict 
             painter.drawLine(QPointF(plot.left(), y_of(level)), QPointF(plot.right(), y_of(level)))
     doc.font(7)
     painter.setPen(QPen(QColor(120, 120, 120), 1))
-    for tick in ticks:
+    for tick, label in ticks:
         painter.drawLine(QPointF(plot.left() - 3, y_of(tick)), QPointF(plot.left(), y_of(tick)))
-        painter.drawText(QRectF(rect.left(), y_of(tick) - 8, 55, 16), int(Qt.AlignRight | Qt.AlignVCenter), f"{tick:g}")
+        painter.drawText(QRectF(rect.left(), y_of(tick) - 8, 55, 16), int(Qt.AlignRight | Qt.AlignVCenter), label)
     painter.drawRect(plot)
     n = len(visits)
     xs = [plot.left() + plot.width() * ((k + 0.5) / n) for k in range(n)]
@@ -535,6 +553,27 @@ def clinical_test_section(doc: _Document, result, earlier) -> None:
     _trend_plot(doc, QRectF(0, doc.y, doc.width, 280), key, visits + [this], result.reference)
 
 
+def _guided_test_page(doc: _Document, analysis: SessionAnalysis) -> None:
+    """A page for the clinical test a guided recording holds (its settings in the metadata):
+    the result from the sensors, the reference, the subject's earlier visits in the library; a
+    result that cannot be computed says why."""
+    from mimucap.session.recorded.clinical_test_results import earlier_results
+    from mimucap.session.recorded.clinical_tests import TEST_NAMES, clinical_test
+
+    review = analysis.review
+    test = (review.session.metadata.get("clinical_test") or {}).get("test")
+    if test not in TEST_NAMES:
+        return
+    doc.new_page()
+    try:
+        result = clinical_test(review, test)
+    except ValueError as error:
+        doc.text(TEST_NAMES[test], 13, True, gap=4)
+        doc.text(f"No result: {error}.", 9, colour=DOUBT_COLOUR)
+        return
+    clinical_test_section(doc, result, earlier_results(review.path, test))
+
+
 def write_clinical_test_report(path: str | Path, result, earlier=()) -> Path:
     """A clinical test's report (PDF): page 1 names the subject, the session, what the result
     holds (calibrations, result kind, software), then the test's page with the earlier visits."""
@@ -551,6 +590,31 @@ def write_clinical_test_report(path: str | Path, result, earlier=()) -> Path:
                 doc.text(f"{label}: {text}.", 8, gap=2)
         doc.y += 6
         clinical_test_section(doc, result, earlier)
+    finally:
+        doc.finish()
+    return target
+
+
+def write_trend_report(path: str | Path, subject_id: str, test: str, key: str, visits, reference: dict | None) -> Path:
+    """One subject's results of one clinical test across visits (``visits``:
+    :class:`~mimucap.session.recorded.clinical_test_results.Visit`, oldest first) as a printable PDF page:
+    the chart of result ``key`` with the reference of the latest visit, and the table."""
+    from mimucap.session.recorded.clinical_test_results import QUANTITIES, format_quantity
+    from mimucap.session.recorded.clinical_tests import TEST_NAMES
+
+    target = Path(path)
+    doc = _Document(target, f"MimuCap trend: {TEST_NAMES[test]}, {subject_id}")
+    try:
+        doc.text(f"{TEST_NAMES[test]}: {QUANTITIES[key][0].lower()} across visits", 16, True, gap=8)
+        doc.text(f"Subject: {subject_id}    {len(visits)} visit{'s' if len(visits) != 1 else ''}", 10)
+        if reference is not None:
+            doc.text(f"Reference (latest visit): {reference.get('group', '')}, {reference.get('statistic', '')}. "
+                     f"Source: {reference.get('source', '')}.", 7.5, colour=QColor(70, 70, 70))
+        doc.need(460)
+        _trend_plot(doc, QRectF(0, doc.y, doc.width, 440), key, visits, reference)
+        doc.table(["Recorded", "Session", "Result kind", QUANTITIES[key][0]],
+                  [[local_time_text(v.recorded_utc), v.session, v.result.replace("_", " "),
+                    format_quantity(key, v.values.get(key))] for v in visits], [0.22, 0.46, 0.14, 0.18])
     finally:
         doc.finish()
     return target

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
+from mimucap.core.wording import plural
 from mimucap.session.live.recording import RecordingInfo
 from mimucap.session.live.checklist import CheckItem
 from mimucap.session.subject import DOMINANCE, Subject
@@ -223,7 +224,7 @@ class SessionPanel(QtWidgets.QWidget):
         minutes, seconds = divmod(info.elapsed_s, 60.0)
         self.record_status.setText(
             f"Recording {int(minutes):02d}:{seconds:04.1f}, {_size(info.size_bytes)}, "
-            f"{info.markers} marker(s)\n→ {display_path(info.path)}")
+            f"{plural(info.markers, 'marker')}\n→ {display_path(info.path)}")
 
     def add_marker_line(self, label: str, recording_t_s: float | None) -> None:
         """List a marker: at its time in the recording (s since the recording started, as

@@ -28,6 +28,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
 
+from mimucap.core.wording import plural
 from mimucap.core.magcal_guidance import AXIS_NAMES
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
@@ -156,7 +157,7 @@ class MagnetometerWizard(CalibrationDialog):
         # orientation-only sensors (on-board fusion, no magnetometer readings) calibrate themselves
         self.self_calibrating = tuple(self.feed.orientation_only_sensors())
         self.self_calibrating_note = QtWidgets.QLabel(
-            f"<p><b>{len(self.self_calibrating)} sensor(s) calibrate themselves</b> "
+            f"<p><b>{plural(len(self.self_calibrating), 'sensor')} calibrate{'s' if len(self.self_calibrating) == 1 else ''} themselves</b> "
             f"({', '.join(self.self_calibrating)}): they fuse their own orientation on board and send no "
             "magnetometer readings, so no turns are asked for them here. Follow their maker's "
             "calibration (for SlimeVR trackers: the SlimeVR firmware's own procedure).</p>")

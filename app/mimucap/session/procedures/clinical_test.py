@@ -208,7 +208,9 @@ class ClinicalTestProcedure:
         if not thighs:
             return False
         self._history.append((t, float(np.mean(inclination_deg(np.array(thighs))))))
-        while self._history and self._history[0][0] < t - max(STILL_S, 1.0):
+        # Keep one pose at or before the window's start, however sparse the poses arrive: the
+        # history then spans the whole window once it is that long.
+        while len(self._history) > 1 and self._history[1][0] <= t - max(STILL_S, 1.0):
             self._history.popleft()
         return self._check_end(t)
 
@@ -219,12 +221,12 @@ class ClinicalTestProcedure:
         if self.test == "tug":
             self._left_start |= bool(angles[-1] < UPRIGHT_DEG)
             seated = bool(np.all(angles > SEATED_DEG))
-            if self._left_start and seated and times[-1] - times[0] >= STILL_S - 0.05:
+            if self._left_start and seated and times[-1] - times[0] >= STILL_S:
                 return self._end("sensors: seated again")
             return False
         self._left_start |= bool(np.ptp(recent) > WALKING_RANGE_DEG)
         still = bool(np.ptp(angles) < STILL_RANGE_DEG and np.all(angles < UPRIGHT_DEG))
-        if self._left_start and still and times[-1] - times[0] >= STILL_S - 0.05:
+        if self._left_start and still and times[-1] - times[0] >= STILL_S:
             return self._end("sensors: standing still again")
         return False
 

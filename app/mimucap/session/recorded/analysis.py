@@ -48,7 +48,8 @@ from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves, split_col
 from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS, ParameterSummary, gait_parameters
 from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.sagittal import axes_calibrated, axes_from_data, sagittal_rate_dominant
-from mimucap.core.clinical_names import joint_name
+from mimucap.core.clinical_names import axis_short_name, joint_name
+from mimucap.core.wording import fixed
 from mimucap.io.gait_csv import write_table
 from mimucap.io.session import Marker
 from mimucap.session.recorded.review import ReviewData
@@ -347,10 +348,7 @@ AXIS_ORDER = ("flexion", "adduction", "rotation", "plane_of_elevation", "elevati
 def format_value(value: float | None, digits: int = 2) -> str:
     """``value`` with ``digits`` decimals, ``–`` when None or NaN; a small negative value
     that rounds to zero shows as zero (``-0.00`` would suggest a sign the figure does not have)."""
-    if value is None or not math.isfinite(value):
-        return "–"
-    text = f"{value:.{digits}f}"
-    return text[1:] if text.startswith("-") and float(text) == 0 else text
+    return fixed(value, digits)
 
 
 def parameter_digits(unit: str) -> int:
@@ -434,7 +432,8 @@ class CurveGroup:
 
     @property
     def label(self) -> str:
-        return f"{self.joint.replace('_', ' ')} {self.axis.replace('_', ' ')}"
+        """The angle in clinical words, both sides: "Knee varus/valgus", "Lumbar spine flexion"."""
+        return f"{joint_name(self.joint)} {axis_short_name(self.joint, self.axis)}"
 
 
 def curve_groups(analyses: Sequence[SessionAnalysis]) -> list[CurveGroup]:

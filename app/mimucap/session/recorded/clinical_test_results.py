@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from mimucap.core.wording import fixed
 from mimucap.io.library import INDEX_NAME, Library, LibraryError
 from mimucap.session.recorded.clinical_tests import RESULT_KEYS, TEST_NAMES, ClinicalTestResult
 
@@ -47,10 +48,7 @@ def format_quantity(key: str, value: float | None) -> str:
     if value is None or not math.isfinite(float(value)):
         return "–"
     _name, unit, decimals = QUANTITIES[key]
-    text = f"{float(value) + 0.0:.{decimals}f}"
-    if text.lstrip("-").strip("0.") == "":
-        text = text.lstrip("-")
-    return f"{text} {unit}".strip()
+    return f"{fixed(value, decimals)} {unit}".strip()
 
 
 def reference_text(key: str, reference: dict[str, Any] | None) -> str:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import datetime as _dt
 
+from mimucap.core.wording import plural
+
 
 def utc_now() -> _dt.datetime:
     """The wall clock now, an aware UTC datetime."""
@@ -31,7 +33,7 @@ def describe_age(age_days: float | None) -> str:
         return "date unknown"
     hours = age_days * 24.0
     if hours < 1.0:
-        return "just now" if hours < 1.0 / 60.0 else f"{hours * 60.0:.0f} minutes ago"
+        return "just now" if hours < 1.0 / 60.0 else f"{plural(round(hours * 60.0), 'minute')} ago"
     if age_days < 2.0:
-        return f"{hours:.0f} hours ago"
-    return f"{age_days:.0f} days ago"
+        return f"{plural(round(hours), 'hour')} ago"
+    return f"{plural(round(age_days), 'day')} ago"
