@@ -1,7 +1,10 @@
 # MimuCap: two set-up commands.
 #   make run    create .venv, install MimuCap (editable) and start the app on the simulated suit
 #   make test   install what the tests need (venv, Debian X packages when root) and run the suite
-# Extra targets: make screenshots, make bench, make bundle (PyInstaller, one folder in dist/).
+# Extra targets: make screenshots, make bench, make wheel (a platform wheel with the compiled
+# kernels, in dist/), make bundle (the desktop bundle, dist/mimucap), make bundle-check (build
+# it and smoke-test it against the source install), make wheel-check (install the wheel into a
+# clean environment and start it); CI runs both after make test.
 
 PYTHON ?= python3
 VENV := .venv
@@ -16,7 +19,7 @@ XVFB_DEBS := poppler-utils xvfb xauth libxcb-icccm4 libxcb-keysyms1 libxcb-xiner
 	libxcb-cursor0 libegl1 libgl1 libglx-mesa0 libegl-mesa0
 XVFB_RUN := xvfb-run -a -s "-screen 0 1920x1200x24"
 
-.PHONY: run test install screenshots bench bundle clean debs
+.PHONY: run test install screenshots bench wheel wheel-check bundle bundle-check clean debs
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -71,11 +74,47 @@ bench: debs $(BENCH_STAMP) $(KERNELS_STAMP)
 	  echo "== $$script"; QT_API=pyqt5 $(XVFB_RUN) $(PY) $$script || exit 1; \
 	done
 
-# A desktop bundle (dist/mimucap/mimucap); PyInstaller is a build tool, not a dependency.
-# Built under a virtual screen: collecting pyqtgraph's modules imports Qt.
-bundle: debs $(STAMP)
-	$(PY) -m pip install --quiet pyinstaller
-	$(XVFB_RUN) $(VENV)/bin/pyinstaller packaging/mimucap.spec --noconfirm --distpath dist --workpath build/pyinstaller
+# A wheel with the fusion kernels compiled ahead of time for any CPU of this architecture
+# (setup.py): built without pip's isolated environment, so that numba is there to compile them.
+wheel: $(STAMP)
+	$(PY) -m pip install --quiet "setuptools>=68" wheel
+	rm -rf dist/mimucap-*.whl build/lib
+	$(PY) -m pip wheel --quiet --no-deps --no-build-isolation --wheel-dir dist .
+
+# The wheel in a clean environment (build/wheel-check-venv, made anew): its compiled kernels
+# load without numba, its first window; and the first start without fitting compiled kernels
+# (tests/packaging/test_wheel.py).
+WHEEL_VENV := build/wheel-check-venv
+wheel-check: debs wheel $(TEST_STAMP)
+	rm -rf $(WHEEL_VENV)
+	$(PYTHON) -m venv $(WHEEL_VENV)
+	$(WHEEL_VENV)/bin/python -m pip install --quiet dist/mimucap-*.whl
+	MIMUCAP_WHEEL_PYTHON=$(WHEEL_VENV)/bin/python QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider \
+	  -s tests/packaging/test_wheel.py
+
+# The desktop bundle (dist/mimucap/mimucap, docs/packaging.md), built in its own environment
+# (build/bundle-venv: the versions of packaging/bundle-constraints.txt and PyInstaller, a build
+# tool, not a dependency) and only when its sources or that environment changed (bundle.py).
+# Under a virtual screen: collecting pyqtgraph's modules imports Qt.
+BUNDLE_VENV := build/bundle-venv
+BUNDLE_PY := $(BUNDLE_VENV)/bin/python
+BUNDLE_STAMP := $(BUNDLE_VENV)/.mimucap-bundle-installed
+$(BUNDLE_STAMP): pyproject.toml packaging/bundle-constraints.txt
+	$(PYTHON) -m venv $(BUNDLE_VENV)
+	$(BUNDLE_PY) -m pip install --quiet --upgrade pip
+	$(BUNDLE_PY) -m pip install --quiet -c packaging/bundle-constraints.txt -e . pyinstaller setuptools
+	touch $@
+
+bundle: debs $(BUNDLE_STAMP)
+	$(XVFB_RUN) $(BUNDLE_PY) packaging/bundle.py build
+	$(BUNDLE_PY) packaging/bundle.py sizes
+
+# The bundle's smoke test (tests/packaging/test_bundle_smoke.py): its size, a screenshot of the
+# bundled app on the simulated suit, and simulate → magcal fit → bodycal → angles with the
+# bundled command against the source install's numbers.
+bundle-check: bundle $(TEST_STAMP) $(KERNELS_STAMP)
+	MIMUCAP_BUNDLE=dist/mimucap QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider \
+	  tests/packaging/test_bundle_smoke.py
 
 clean:
 	rm -rf $(VENV) build dist *.egg-info app/*.egg-info app/mimucap/core/fusion/_compiled

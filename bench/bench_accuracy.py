@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.core import rotation as rot
-from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED, orientation_at
+from mimucap.core.pipeline.instants import orientation_at
+from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 from mimucap.io.calibration_store import CalibrationStore
@@ -75,7 +76,7 @@ def run_case(scenario: str, seconds: float, seed: int, folder: Path,
 def joint_rotation_errors(data, span_s: tuple[float, float]) -> dict[str, float]:
     """Joint → RMS (deg) over ``span_s`` of the angle between the estimated and the true
     ``q_prox_from_dist`` (the truth's segment orientations at the estimate's instants, as the
-    pipeline forms a pose: :func:`mimucap.core.pipeline.orientation_at`)."""
+    pipeline forms a pose: :func:`mimucap.core.pipeline.instants.orientation_at`)."""
     truth = data.truth
     keep = (data.t_s >= span_s[0]) & (data.t_s <= span_s[1])
     t = data.t_s[keep]

@@ -41,7 +41,7 @@ from mimucap.core.fusion.ekf import fuse
 from mimucap.core.fusion.evaluation import orientation_errors
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, DEG
-from mimucap.io.broad import BroadTrial, list_broad_trials, read_broad
+from mimucap.io.broad_trials import BroadTrial, list_broad_trials, read_broad
 
 #: The settings cross-validated and the values tried.
 GRID: dict[str, tuple[float, ...]] = {

@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.cli import main
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
 from mimucap.session.angle_accuracy import truth_at
@@ -67,7 +67,7 @@ def measure(folder: Path, session: Path, calibration: Path, live: bool) -> dict[
     table = read_angles_csv(out)
     recorded = read_session(session)
     walking = np.zeros(len(table.t_s), dtype=bool)
-    for start, end in phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1])):
+    for start, end in phase_markers.phase_windows(recorded.markers, phase_markers.WALK, float(table.t_s[-1])):
         walking |= (table.t_s >= start) & (table.t_s < end)
     found = {}
     for joint in JOINTS:

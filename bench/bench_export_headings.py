@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.cli import main
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core import rotation as rot
 from mimucap.session.recorded.calibration_choice import AppliedCalibrations
 from mimucap.session.recorded.review import build_review, load_review
@@ -44,8 +44,8 @@ def worst(review) -> tuple[float, str, float, str]:
     truth = review.truth
     index = np.clip(np.searchsorted(truth.t_s, review.t_s - 1e-9), 0, len(truth.t_s) - 1)
     t = review.t_s
-    still = [(a + 1.0, b - 0.3) for a, b in phases.phase_windows(review.markers, phases.NPOSE, review.end_s)]
-    walking = [(a + 1.0, b) for a, b in phases.phase_windows(review.markers, phases.WALK, review.end_s)]
+    still = [(a + 1.0, b - 0.3) for a, b in phase_markers.phase_windows(review.markers, phase_markers.NPOSE, review.end_s)]
+    walking = [(a + 1.0, b) for a, b in phase_markers.phase_windows(review.markers, phase_markers.WALK, review.end_s)]
     n_worst, n_segment, w_worst, w_segment = 0.0, "", 0.0, ""
     for segment, q in review.q_world_from_segment.items():
         error = heading_error_deg(q, np.asarray(truth.q_world_from_segment[segment])[index])

@@ -64,7 +64,7 @@ np.save(sys.argv[2], quat)
 
 #: Prints which fusion kernels a mimucap process runs.
 KERNELS_PROBE = """
-from mimucap.core.fusion.aot import fusion_kernels
+from mimucap.core.fusion.kernel_selection import fusion_kernels
 kernels = fusion_kernels()
 print(f"compiled ahead of time ({kernels.origin})" if kernels.ahead_of_time else kernels.origin)
 """

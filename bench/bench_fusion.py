@@ -32,7 +32,7 @@ from mimucap.core.fusion.evaluation import error_angles_rad
 from mimucap.core.fusion.propagation import integrate_gyro, integrate_increments
 from mimucap.core.fusion.ekf import fuse
 from mimucap.core.fusion.offline import fuse_offline
-from mimucap.io.broad import list_broad_trials, read_broad
+from mimucap.io.broad_trials import list_broad_trials, read_broad
 
 BROAD_DIR = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "broad"
 SLOW_SAMPLES = 20_000

@@ -16,8 +16,8 @@ import time
 
 import numpy as np
 
-from mimucap.core.magcal import calibrate
-from mimucap.core.magcal_fit import FitSettings, fit_ellipsoid
+from mimucap.core.magcal.calibrate import calibrate
+from mimucap.core.magcal.fit import FitSettings, fit_ellipsoid
 
 
 def lstsq_quadric_centre(mag: np.ndarray) -> np.ndarray:

@@ -24,9 +24,10 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
+from mimucap.io.journal.to_session import session_from_journal
 from mimucap.io.session import write_session
-from mimucap.session.live.recorder import Recorder, RecorderSettings, session_from_journal
+from mimucap.session.live.recorder import Recorder, RecorderSettings
 
 RATE_HZ = 100.0
 BLOCK = 5

@@ -27,10 +27,10 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.cli import main
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
-from mimucap.session.angle_accuracy import angle_errors
+from mimucap.session.angle_accuracy import pooled_rms_deg
 
 COLUMNS = tuple(f"{joint}_{side}_{axis}_deg" for joint in ("hip", "knee") for side in ("l", "r")
                 for axis in ("flexion", "adduction", "rotation"))
@@ -44,10 +44,10 @@ def field_summary(session_path: Path) -> str:
     truth = recorded.truth
     end = float(truth.t_s[-1])
     walking = np.zeros(truth.t_s.shape, bool)
-    for start, stop in phases.phase_windows(recorded.markers, phases.WALK, end):
+    for start, stop in phase_markers.phase_windows(recorded.markers, phase_markers.WALK, end):
         walking |= (truth.t_s >= start + 1.0) & (truth.t_s < stop)
     turning = np.zeros(truth.t_s.shape, bool)
-    for start, stop in phases.phase_windows(recorded.markers, phases.MAG_TURNS, end):
+    for start, stop in phase_markers.phase_windows(recorded.markers, phase_markers.MAG_TURNS, end):
         turning |= (truth.t_s >= start) & (truth.t_s < stop)
     parts = []
     for sensor_id, sensor in sorted(truth.sensors.items()):
@@ -75,13 +75,10 @@ def run_route(folder: Path, seed: int, duration_s: float, room: str, disturbance
         out = folder / f"angles_{kind}.csv"
         assert main(["angles", str(session), "--calibration", str(calibration), "--out", str(out)] + extra) == 0
         table = read_angles_csv(out)
-        squared = {column: [] for column in COLUMNS}
-        for start, stop in phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1])):
-            errors = angle_errors(table.t_s, table.angles_deg, recorded.truth.t_s, recorded.truth.joint_angles_deg,
-                                  span_s=(start + 1.0, stop))
-            for column in COLUMNS:
-                squared[column].append((errors[column].rms_deg ** 2, errors[column].samples))
-        results[kind] = {c: float(np.sqrt(sum(s * n for s, n in v) / sum(n for _, n in v))) for c, v in squared.items()}
+        walks = [(start + 1.0, stop) for start, stop in phase_markers.phase_windows(recorded.markers, phase_markers.WALK,
+                                                                                   float(table.t_s[-1]))]
+        results[kind] = pooled_rms_deg(table.t_s, table.angles_deg, recorded.truth.t_s,
+                                       recorded.truth.joint_angles_deg, walks, COLUMNS)
     return results
 
 

@@ -21,12 +21,12 @@ from pathlib import Path
 import numpy as np
 from PyQt5 import QtWidgets
 
-from mimucap.core.magcal import MagCalibration
+from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
+from mimucap.gui.capture import grab_window
 from mimucap.gui.wizards.body import BodyCalibrationWizard
 from mimucap.gui.wizards.magnetometer import MagnetometerWizard
-from mimucap.gui.capture import grab_window
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.session.procedures.body import BodycalProcedureSettings
 

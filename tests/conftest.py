@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
 from tests.external_data import DATA_SETS, DEFAULT_ROOT_TEXT, REPO_ROOT, data_required, data_root, is_present
+
+# liblsl finds streams on this machine only in the tests (and in the processes they start):
+# resolving then sends nothing beyond the loopback interface.
+os.environ["LSLAPICFG"] = str(Path(__file__).with_name("lsl_api.cfg"))
 
 #: The reason text of a test skipped for want of a data set starts with this.
 MISSING_DATA = "needs the external data set"

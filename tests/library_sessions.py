@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.library import library_fields
-from mimucap.core.samples import SensorSamples
 from mimucap.io.session import Marker, Session, make_subject, write_session
 
 

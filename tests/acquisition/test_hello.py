@@ -16,10 +16,10 @@ from mimucap.acquisition.emulate_serial import SerialEmulator
 from mimucap.acquisition.hello import HELLO_WAIT_S, NO_HELLO, Hello, HelloRequest
 from mimucap.acquisition.intake import IntakeSettings, SampleIntake
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import Sample
 from mimucap.acquisition.serial_port import SerialSourceConfig
 from mimucap.acquisition.supervisor import Supervisor
 from mimucap.acquisition.udp import UdpSourceConfig
+from mimucap.acquisition.wire_sample import Sample
 from mimucap.core.device_identity import SensorDevice, mac_device_id
 
 from tests.acquisition.test_udp_loopback import free_udp_port, run_emulator, wait_for

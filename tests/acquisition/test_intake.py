@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from mimucap.acquisition.intake import MAX_TRACKED_UNKNOWN, IntakeSettings, SampleIntake
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import RefusedSample, Sample
+from mimucap.acquisition.wire_sample import RefusedSample, Sample
 
 
 def test_strangers_are_counted_in_bounded_memory_and_stale_samples_refused():

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mimucap.acquisition.samples import BlockBuilder, Sample, join_packed_blocks
+from mimucap.acquisition.packed_blocks import BlockBuilder, join_packed_blocks
+from mimucap.acquisition.wire_sample import Sample
 
 
 def _message(builder: BlockBuilder, rows) -> list:

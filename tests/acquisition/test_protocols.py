@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from mimucap.acquisition import protocol_serial, protocol_udp
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import RefusedSample, Sample, refused_rows, validate_sample
+from mimucap.acquisition.wire_sample import RefusedSample, Sample, refused_rows, validate_sample
 
 FULL = Sample(sensor_id=7, seq=123456, device_time_s=1234.567891, acc=(0.1, -0.2, 9.81),
               gyr=(0.01, 0.02, -0.03), mag_uT=(20.0, -5.5, -40.25),

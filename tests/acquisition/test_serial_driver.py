@@ -5,8 +5,8 @@ from __future__ import annotations
 from mimucap.acquisition import protocol_serial
 from mimucap.acquisition.intake import IntakeSettings
 from mimucap.acquisition.outbox import Outbox
-from mimucap.acquisition.samples import Sample
 from mimucap.acquisition.serial_port import SerialDriver, SerialSourceConfig
+from mimucap.acquisition.wire_sample import Sample
 
 
 class ListQueue:

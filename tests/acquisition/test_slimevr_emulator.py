@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mimucap.core.device_identity import mac_device_id
+from mimucap.io.pairing_store import PairingStore
 from mimucap.session.live.live_session import open_live_session
 from mimucap.session.live.sensor_rows import STALE_AFTER_S
 
@@ -114,6 +116,8 @@ def expected_q_world_from_sensor(t: int, s: int, k: np.ndarray) -> np.ndarray:
 @pytest.mark.slow
 def test_emulated_trackers_through_the_live_pipeline(emulation_modules):
     port = _free_udp_port()
+    names = [f"024D430000{t + 1:02X}-{s}" for t in range(TRACKERS) for s in range(SENSORS)]
+    PairingStore().pair((mac_device_id(name[:12], int(name[-1])), name) for name in names)   # our suit
     live = open_live_session(f"slimevr:127.0.0.1:{port}")
     received: dict[str, list[np.ndarray]] = {}
     live.events.blocks.connect(lambda blocks: [received.setdefault(b.sensor_id, []).append(b.q_world_from_sensor)
@@ -123,7 +127,6 @@ def test_emulated_trackers_through_the_live_pipeline(emulation_modules):
     try:
         # handshake: every tracker finds this server (it answers as SlimeVR-Server does)
         trackers.wait_for("connected", TRACKERS, timeout_s=20.0, pump=live.step)
-        names = [f"024D430000{t + 1:02X}-{s}" for t in range(TRACKERS) for s in range(SENSORS)]
         deadline = time.monotonic() + 5.0
         while time.monotonic() < deadline and set(live.sensor_ids) != set(names):
             live.step()

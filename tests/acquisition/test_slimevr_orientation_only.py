@@ -113,11 +113,14 @@ def test_trackers_that_appear_later_are_worn_where_they_were_last_time(qtbot):
 
     from mimucap.acquisition import slimevr_protocol as proto
     from mimucap.gui.assignment_dialog import remember_assignment
+    from mimucap.core.device_identity import mac_device_id
     from mimucap.gui.main_window import MainWindow
-    from mimucap.core.pipeline import POSE_SENSOR_AXES
+    from mimucap.io.pairing_store import PairingStore
+    from mimucap.session.live.processing import POSE_SENSOR_AXES
 
     mac = bytes([0x02, 0x4D, 0x43, 0, 0, 9])
     remember_assignment({"024D43000009-0": "pelvis", "024D43000009-1": "thorax"})
+    PairingStore().pair([(mac_device_id(mac, 0), "024D43000009-0"), (mac_device_id(mac, 1), "024D43000009-1")])
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
         probe.bind(("127.0.0.1", 0))
         port = probe.getsockname()[1]

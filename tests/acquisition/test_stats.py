@@ -10,7 +10,7 @@ import pytest
 
 from mimucap.acquisition.replay import ReplayDriver, ReplaySourceConfig, replayable
 from mimucap.acquisition.stats import SensorStatsTracker, _RecentValues, percentiles_linear
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 
 
 @pytest.mark.parametrize("n", [1, 2, 3, 10, 101, 4096])

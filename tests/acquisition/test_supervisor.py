@@ -8,9 +8,9 @@ from pathlib import Path
 
 from mimucap.acquisition import protocol_udp
 from mimucap.acquisition.intake import IntakeSettings
-from mimucap.acquisition.samples import Sample
 from mimucap.acquisition.supervisor import Supervisor, SupervisorSettings
 from mimucap.acquisition.udp import UdpSourceConfig
+from mimucap.acquisition.wire_sample import Sample
 
 
 def poll_until(supervisor, condition, timeout_s=20.0):

@@ -17,9 +17,9 @@ from mimucap.acquisition import protocol_udp
 from mimucap.acquisition.emulate_common import EmulatorSettings
 from mimucap.acquisition.emulate_udp import UdpEmulator
 from mimucap.acquisition.intake import IntakeSettings
-from mimucap.acquisition.samples import Sample
 from mimucap.acquisition.supervisor import Supervisor
 from mimucap.acquisition.udp import UdpSourceConfig
+from mimucap.acquisition.wire_sample import Sample
 
 
 def free_udp_port() -> int:

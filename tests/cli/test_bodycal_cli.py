@@ -11,7 +11,7 @@ from mimucap.cli import main
 from mimucap.core import rotation as rot
 from mimucap.core import skeleton as sk
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
-from mimucap.io.quaternion_tables import QuaternionTable, write_quaternion_csv
+from mimucap.io.orientation_tables import QuaternionTable, write_quaternion_csv
 
 TEN = sk.load_model("ten_segment")
 EX, EY, EZ = np.eye(3)
@@ -130,7 +130,7 @@ def test_heading_mode_on_the_opensense_walk(shared_data, tmp_path, capsys):
 
 
 def test_mapping_defaults_to_the_session_segments(tmp_path, suit):
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session, write_session
 
     t, sensors, mapping, mountings, _ = suit
@@ -296,7 +296,7 @@ def test_xsens_reader_options_are_refused_for_inputs_they_do_not_apply_to(suit, 
                                                                         shared_data):
     """Was: --sensor-names, --trial and --rate were used for Xsens exports and silently ignored
     for every other input (a session, a CSV, a BROAD trial...)."""
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session, write_session
 
     t, sensors, mapping, *_ = suit
@@ -366,7 +366,7 @@ def test_session_streams_are_put_on_one_time_axis_through_the_processing_path(tm
     """The commands' view of a session: every sensor's orientation (on-board, or fused by the
     pipeline) at the instants of the best-sampled sensor where all have one."""
     from mimucap.cli.session_input import orientation_table
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session
 
     t_a = np.arange(0.0, 2.0, 0.01)
@@ -391,3 +391,115 @@ def test_session_streams_are_put_on_one_time_axis_through_the_processing_path(tm
     assert np.degrees(rot.angle_between(table.q_world_from_sensor["A"], expected_a)).max() < 1e-6
     up_in_sensor = rot.rotate(rot.conjugate(table.q_world_from_sensor["F"][-1]), [0, 0, 1.0])
     np.testing.assert_allclose(up_in_sensor, rot.rotate(rot.conjugate(q_true), [0, 0, 1.0]), atol=0.01)
+
+
+# --------------------------------------------------------------------------------------------
+# --method functional
+# --------------------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def walking_session(tmp_path_factory):
+    """``mimucap simulate`` demo, 18 s, on-board orientations: N-pose 0-3 s, T-pose 3-6 s,
+    N-pose 6-8 s, walk 8-16 s (then a turn), each marked; the truth is stored with it."""
+    path = tmp_path_factory.mktemp("functional") / "demo.h5"
+    assert main(["simulate", "--scenario", "demo", "--duration", "18", "--sensors", "10", "--seed", "5",
+                 "--errors", "ideal", "--onboard", "--no-magcal-turns", "--out", str(path)]) == 0
+    return path
+
+
+def test_functional_calibration_of_a_session_takes_its_windows_from_the_markers(walking_session, tmp_path, capsys):
+    from mimucap.io.session import read_session
+
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(walking_session), "--method", "functional", "--out", str(cal)]) == 0
+    out = capsys.readouterr().out
+    assert "windows from the session's markers: standing still 7.00-7.70 s (N-pose), movement 8.00-16.00 s (walk)" in out
+    assert "verdict good" in out and "pelvis (S01) faces the walking direction" in out
+    # the verdict says how well the movement defined each axis, on screen and in the file
+    assert "how well the movement defined each axis:\n    Left knee axis good: it bent" in out
+    assert "    Pelvis forward direction good: it faces the walking direction; the two halves of the movement found it within" in out
+    document = json.loads(cal.read_text())
+    axes = {axis["axis"]: axis for axis in document["quality"]["axes"]}
+    assert axes["knee_r"]["verdict"] == "good" and axes["knee_r"]["segments"] == ["thigh_r", "shank_r"]
+    assert axes["knee_r"]["words"].startswith("Right knee axis good: it bent")
+    assert axes["thorax"]["verdict"] == "good" and axes["thorax"]["words"].startswith("Thorax forward direction good")
+    assert document["method"] == "functional" and document["still_s"] == [7.0, 7.7]
+    assert document["movement_s"] == [8.0, 16.0] and "tpose_s" not in document
+    session = read_session(walking_session)
+    for segment, entry in document["segments"].items():
+        true_mounting = session.truth.sensors[entry["sensor"]].q_segment_from_sensor
+        # the simulated knee turns ±3° about the shank while walking, so not quite a hinge
+        assert np.degrees(rot.angle_between(entry["q_segment_from_sensor"], true_mounting)) < 2.0, segment
+    out = tmp_path / "angles.csv"
+    assert main(["angles", str(walking_session), "--calibration", str(cal), "--out", str(out)]) == 0
+    table = read_angles_csv(out)
+    walking = (table.t_s >= 9.0) & (table.t_s <= 16.0)
+    for column in ("knee_r_flexion_deg", "knee_l_flexion_deg", "hip_r_flexion_deg", "hip_l_flexion_deg"):
+        expected = np.interp(table.t_s[walking], session.truth.t_s, session.truth.joint_angles_deg[column])
+        assert np.sqrt(np.mean((table.angles_deg[column][walking] - expected) ** 2)) < 1.0, column
+
+
+def test_functional_calibration_of_a_table_with_given_windows(suit, suit_csv, tmp_path, capsys):
+    """The suit's knees and elbows flex from 3 s while the pelvis stays put facing 130°."""
+    _, _, mapping, mountings, _ = suit
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(suit_csv), "--mapping", mapping, "--method", "functional", "--still", "0:0.99",
+                 "--movement", "3:4.99", "--out", str(cal), "--json"]) == 0
+    document = json.loads(capsys.readouterr().out)
+    assert document["quality"]["axis_sources"]["shank_l"] == "knee_l"
+    for segment in TEN.segment_names:
+        assert np.degrees(rot.angle_between(document["segments"][segment]["q_segment_from_sensor"],
+                                            mountings[segment])) < 0.5, segment
+    facing = sk.q_world_from_body_facing(np.radians(130.0))
+    assert np.degrees(rot.angle_between(document["q_world_from_body"], facing)) < 0.5
+
+
+def test_functional_calibration_finds_the_still_second_and_takes_the_rest(suit, suit_csv, tmp_path, capsys):
+    """Without windows a table's first still second is the standing and the rest the movement
+    (here the arm raise of 1-3 s too: the elbows then stay straight, the knees still flex)."""
+    cal = tmp_path / "CAL.json"
+    assert main(["bodycal", str(suit_csv), "--mapping", suit[2], "--method", "functional", "--out", str(cal)]) == 0
+    out = capsys.readouterr().out
+    assert "standing still: 0.00-1.00 s, the first second in which every sensor was still" in out
+    assert "movement: 1.01-4.99 s, the rest of the recording" in out
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    (["--method", "functional", "--tpose", "2:3"], "--tpose belongs to the npose-tpose method, not to --method functional"),
+    (["--method", "functional", "--heading-from", "imu0:x"], "--heading-from belongs to the heading method"),
+    (["--method", "functional", "--arms", "left", "--forward-from", "swing"],
+     "--arms, --forward-from belong to the npose-tpose method"),
+    (["--method", "functional", "--npose", "0:1"], "--method functional takes its standing window from --still"),
+    (["--still", "0:1"], "--still belongs to the functional method, not to --method npose-tpose"),
+    (["--heading-from", "imu0:x", "--movement", "1:2"], "--movement belongs to the functional method, not to "
+                                                        "--method heading"),
+    (["--method", "heading"], "--method heading needs --heading-from SENSOR:AXIS"),
+    (["--method", "npose-tpose", "--heading-from", "imu0:x"], "--heading-from belongs to the heading method"),
+    (["--method", "functional", "--still", "0:0.99", "--movement", "0.5:3"], "overlap"),
+    (["--method", "functional", "--still", "4.5:4.99"], "nothing follows the still window 4.5:4.99 s: give --movement"),
+])
+def test_options_of_another_method_are_refused(suit, suit_csv, tmp_path, capsys, extra, message):
+    err = run_error(["bodycal", str(suit_csv), "--mapping", suit[2], *extra, "--out", str(tmp_path / "c.json")], capsys)
+    assert message in err
+    assert not (tmp_path / "c.json").exists()
+
+
+def test_a_poor_functional_calibration_is_written_and_exits_3(tmp_path, capsys):
+    """Standing 0-1 s, then knees that bend only 10°: their axes are weakly defined."""
+    rng = np.random.default_rng(21)
+    t = np.arange(0.0, 6.0, 0.01)
+    bend = 10.0 * (t > 1.0) * 0.5 * (1 - np.cos(2 * np.pi * t / 1.1))
+    angles = {f"knee_{side}": np.column_stack((bend, np.zeros_like(t), np.zeros_like(t))) for side in "lr"}
+    legs = ("pelvis", "thigh_l", "thigh_r", "shank_l", "shank_r")
+    q_body = np.broadcast_to(sk.q_world_from_body_facing(0.7), (t.size, 4))
+    segments = sk.segment_orientations_from_joint_angles(TEN, q_body, angles)
+    sensors = {f"imu{i}": rot.multiply(segments[s], rot.normalize(rng.normal(size=4))) for i, s in enumerate(legs)}
+    path = tmp_path / "legs.csv"
+    write_quaternion_csv(path, QuaternionTable(t, sensors, source="legs"))
+    argv = ["bodycal", str(path), "--mapping", ",".join(f"imu{i}={s}" for i, s in enumerate(legs)),
+            "--method", "functional", "--out", str(tmp_path / "c.json")]
+    assert main(argv) == 3
+    err = capsys.readouterr().err
+    assert "verdict is poor (the left knee moved only 10°" in err and "redo the movement" in err
+    assert (tmp_path / "c.json").exists()
+    assert main(argv + ["--accept-poor"]) == 0

@@ -19,6 +19,8 @@ from mimucap.core.simulate.suit import simulate_session
 from mimucap.io.calibration_store import CalibrationStore, embed_in_session
 from mimucap.io.session import read_session, session_from_simulation, write_session
 
+#: The export of the sensors' own orientations (no body calibration needed; the magnetometers judged).
+SENSOR_ORIENTATIONS = ("--format", "sto", "--raw-sensors", "--out")
 FIELD = re.compile(r"the magnetometer calibration of Pelvis sensor \(S01\) is not good: local field (\d+) µT, "
                    r"(\d+) µT when calibrated")
 
@@ -110,7 +112,7 @@ def test_a_recording_carrying_a_calibration_that_no_longer_fits_is_named_by_expo
     recording = tmp_path / "recorded.h5"
     write_session(recording, session)
     capsys.readouterr()
-    assert main(["export", str(recording), "--format", "csv", "--out", str(tmp_path / "e.csv")]) == 0
+    assert main(["export", str(recording), *SENSOR_ORIENTATIONS, str(tmp_path / "e.sto")]) == 0
     err = capsys.readouterr().err
     assert err.startswith("mimucap export: warning: ")
     check_field_figures(err)
@@ -127,11 +129,11 @@ def test_a_recording_carrying_a_calibration_that_no_longer_fits_is_named_by_expo
 def test_a_recording_without_magnetometer_calibrations_says_whose_raw_field_is_used(sessions, tmp_path, capsys,
                                                                                     monkeypatch):
     # Its own devices' stored calibrations are applied, without a word; another suit's are not.
-    assert main(["export", str(sessions["here"]), "--format", "csv", "--out", str(tmp_path / "e.csv")]) == 0
+    assert main(["export", str(sessions["here"]), *SENSOR_ORIENTATIONS, str(tmp_path / "e.sto")]) == 0
     assert "warning" not in capsys.readouterr().err
-    assert main(["export", str(sessions["other_suit"]), "--format", "csv", "--out", str(tmp_path / "o.csv")]) == 0
+    assert main(["export", str(sessions["other_suit"]), *SENSOR_ORIENTATIONS, str(tmp_path / "o.sto")]) == 0
     assert "Pelvis sensor (S01) is not calibrated: the calibration stored under S01" in capsys.readouterr().err
     monkeypatch.setenv("MIMUCAP_DATA_DIR", str(tmp_path / "empty"))  # nothing stored, nothing recorded
-    assert main(["export", str(sessions["here"]), "--format", "csv", "--out", str(tmp_path / "r.csv")]) == 0
+    assert main(["export", str(sessions["here"]), *SENSOR_ORIENTATIONS, str(tmp_path / "r.sto")]) == 0
     assert ("mimucap export: warning: the recording holds no magnetometer calibration for S01, S02, S03 and 7 more: "
             "their raw field is used") in capsys.readouterr().err

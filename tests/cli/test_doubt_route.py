@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from mimucap.cli import main
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
 from mimucap.session.angle_accuracy import truth_at
@@ -55,7 +55,7 @@ def _check(table, session):
     the walking samples' share flagged 1 per knee."""
     recorded = read_session(session)
     walking = np.zeros(len(table.t_s), dtype=bool)
-    for start, end in phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1])):
+    for start, end in phase_markers.phase_windows(recorded.markers, phase_markers.WALK, float(table.t_s[-1])):
         walking |= (table.t_s >= start) & (table.t_s < end)
     shares = {}
     for joint in KNEES:

@@ -12,8 +12,8 @@ import pytest
 from mimucap.cli import main
 from mimucap.core import rotation as rot
 from mimucap.core.fusion.evaluation import orientation_errors
-from mimucap.io.broad import read_broad
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
+from mimucap.io.broad_trials import read_broad
 from mimucap.io.session import Session, write_session
 from tests.external_data import data_path
 

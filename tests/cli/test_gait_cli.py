@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 from mimucap.cli import main
-from mimucap.io.gait_csv import read_foot_imu_csv, read_table
+from mimucap.io.analysis_tables import read_table
+from mimucap.io.gaitmap import read_foot_imu_csv
 from tests.external_data import data_path
 
 GAITMAP = data_path("gaitmap")

@@ -106,7 +106,7 @@ def test_study_folders_without_trials_are_errors(tmp_path: Path, capsys) -> None
 
 
 def test_study_checks_the_plot_path_before_the_study(tmp_path: Path, capsys, monkeypatch) -> None:
-    import mimucap.core.magcal_study as magcal_study
+    import mimucap.core.magcal.study as magcal_study
 
     def must_not_run(settings):
         raise AssertionError("the study ran before the plot path was checked")
@@ -176,8 +176,8 @@ def test_study_plot_writes_a_png_with_every_panel(tmp_path: Path, capsys) -> Non
 
 
 def test_fit_one_sensor_of_a_session(tmp_path: Path, capsys) -> None:
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.core.simulate.hand_held import calibration_motion
-    from mimucap.core.samples import SensorSamples
     from mimucap.io.session import Session, write_session
 
     motions = {sid: calibration_motion("single_axis", 1, seed=seed, errors="mpu9250", sensor_id=sid)

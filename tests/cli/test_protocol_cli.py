@@ -76,6 +76,8 @@ def check_against_truth(scenario: str, seed: int, folder: Path) -> None:
     assert found["started_by"].startswith("sensors")
     if test == "tug" and seed == 1:
         check_manual_markers(session, calibration, data, truth, folder)
+    if test == "10mwt":
+        check_start_signal(session, calibration, data, truth, found, folder)
 
 
 def check_manual_markers(session: Path, calibration: Path, data: Path, truth: dict, folder: Path) -> None:
@@ -89,6 +91,22 @@ def check_manual_markers(session: Path, calibration: Path, data: Path, truth: di
     assert found["started_by"] == "marker 'test start'"
     assert found["total_s"] == pytest.approx(stop - start, abs=1e-9)
     assert found["sit_to_stand_s"] == pytest.approx(truth["sit_to_stand_s"] + 0.5, abs=TIME_TOLERANCE_S)
+
+
+def check_start_signal(session: Path, calibration: Path, data: Path, truth: dict, found: dict, folder: Path) -> None:
+    """A guided test's start signal bounds where the test is searched: walking before it (the
+    subject going to the start line) is not the test, and the start is still the sensors'."""
+    copy = read_session(session)
+    copy.markers = [Marker(truth["start_s"] - 0.7, "go signal")]
+    signalled = folder / "walk10m_signalled.h5"
+    write_session(signalled, copy)
+    same = protocol(signalled, calibration, data, "10mwt", folder / "10mwt_signalled.json")
+    assert same["started_by"] == "sensors: the first step"
+    assert same["speed_m_s"] == found["speed_m_s"] and same["start_s"] == found["start_s"]
+    copy.markers = [Marker(truth["start_s"] + 3.0, "go signal")]  # a signal given while walking
+    write_session(signalled, copy)
+    later = protocol(signalled, calibration, data, "10mwt", folder / "10mwt_later.json")
+    assert later["start_s"] >= truth["start_s"] + 3.0 - 1.0
 
 
 @pytest.mark.slow

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from mimucap.cli import main
+from mimucap.io.journal.records import journal_path_for
 from mimucap.io.session import read_session
-from mimucap.session.live.recorder import journal_path_for
 
 MIMUCAP = [sys.executable, "-m", "mimucap"]
 
@@ -100,6 +100,10 @@ def test_kill_9_during_record_loses_at_most_the_last_second(tmp_path):
 
 
 def test_emulated_udp_nodes_recorded_with_loss_reported_as_drops(tmp_path):
+    from mimucap.acquisition.emulate_common import node_mac
+    from mimucap.core.device_identity import mac_device_id
+
+    assert main(["pair", "add"] + [mac_device_id(node_mac(0, k)) for k in (1, 2, 3, 4)]) == 0   # our suit
     port = free_udp_port()
     out = tmp_path / "udp.h5"
     record = subprocess.Popen(MIMUCAP + ["record", "--source", f"udp:127.0.0.1:{port}", "--duration", "5",
@@ -221,7 +225,7 @@ def test_replayed_invalid_samples_are_rejections_with_their_reason_not_drops(tmp
     """Was: the 20 NaN accelerometer rows of a replayed session were counted as ``drops``
     (packet loss) and no rejection was reported; a live source refuses such samples as
     ``non_finite`` / ``out_of_range``."""
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session, write_session
 
     n = 400

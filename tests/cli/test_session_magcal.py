@@ -12,7 +12,7 @@ import pytest
 
 from mimucap.cli import main
 from mimucap.cli.magcal import FAIL_EXIT_STATUS
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.io.session import read_session
 
@@ -29,8 +29,8 @@ def test_the_demo_session_begins_with_the_marked_turns_then_n_and_t_pose(demo_se
     session = read_session(demo_session)
     assert [m.label for m in session.markers] == ["magnetometer turns", "N-pose", "T-pose", "N-pose", "walk"]
     assert session.metadata["source"]["magcal_turns"] is True
-    (start_s, end_s), = phases.phase_windows(session.markers, phases.MAG_TURNS, 36.0)
-    (npose_s, npose_end_s), _ = phases.phase_windows(session.markers, phases.NPOSE, 36.0)
+    (start_s, end_s), = phase_markers.phase_windows(session.markers, phase_markers.MAG_TURNS, 36.0)
+    (npose_s, npose_end_s), _ = phase_markers.phase_windows(session.markers, phase_markers.NPOSE, 36.0)
     assert start_s == 0.0 and npose_s == end_s and npose_end_s - npose_s == pytest.approx(4.0)
     t = session.truth.t_s
     turns = (t >= start_s) & (t < end_s)

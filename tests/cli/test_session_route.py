@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mimucap.cli import main
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
 from mimucap.session.angle_accuracy import angle_errors
@@ -51,7 +51,7 @@ def test_knee_and_hip_flexion_while_walking_match_the_truth(route, live, capsys)
     table = read_angles_csv(out)
     recorded = read_session(session)
     assert [m.label for m in table.markers] == [m.label for m in recorded.markers]  # the record's markers
-    walks = phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1]))
+    walks = phase_markers.phase_windows(recorded.markers, phase_markers.WALK, float(table.t_s[-1]))
     assert len(walks) >= 2
     for window in walks:
         errors = angle_errors(table.t_s, table.angles_deg, recorded.truth.t_s, recorded.truth.joint_angles_deg,
@@ -100,8 +100,8 @@ def test_bodycal_without_pose_markers_says_what_to_give(tmp_path, capsys):
 def route_windows(markers, end_s: float) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
     """The held part of every N-pose (from a second after its marker to 0.3 s before the next)
     and every walk (from a second after its marker)."""
-    still = [(a + 1.0, b - 0.3) for a, b in phases.phase_windows(markers, phases.NPOSE, end_s)]
-    walking = [(a + 1.0, b) for a, b in phases.phase_windows(markers, phases.WALK, end_s)]
+    still = [(a + 1.0, b - 0.3) for a, b in phase_markers.phase_windows(markers, phase_markers.NPOSE, end_s)]
+    walking = [(a + 1.0, b) for a, b in phase_markers.phase_windows(markers, phase_markers.WALK, end_s)]
     return still, walking
 
 
@@ -147,7 +147,7 @@ def test_opensense_on_the_route_with_its_calibration_table(route, shared_data, t
 
     folder, session, calibration = route
     recorded = read_session(session)
-    (walk_start, walk_end), *_ = phases.phase_windows(recorded.markers, phases.WALK, float(recorded.truth.t_s[-1]))
+    (walk_start, walk_end), *_ = phase_markers.phase_windows(recorded.markers, phase_markers.WALK, float(recorded.truth.t_s[-1]))
     table = tmp_path / "walk.sto"
     assert main(["export", str(session), "--calibration", str(calibration), "--format", "sto",
                  "--from", f"{walk_start + 1.0}", "--to", f"{walk_end}", "--out", str(table)]) == 0
@@ -192,7 +192,7 @@ def test_gait_and_report_refuse_a_session_without_a_body_calibration(route, tmp_
     assert "no body calibration" in said and "--calibration CAL.json" in said
     assert not (tmp_path / "report.pdf").exists()
     # The temporal parameters alone, when asked for, labelled so in every table.
-    from mimucap.io.gait_csv import read_table
+    from mimucap.io.analysis_tables import read_table
 
     assert main(["gait", str(session), "--temporal-only", "--out", str(tmp_path / "temporal")]) == 0
     assert "temporal gait parameters only" in capsys.readouterr().out
@@ -210,7 +210,7 @@ def test_gait_and_report_refuse_a_session_without_a_body_calibration(route, tmp_
 def test_gait_and_report_with_the_calibration_find_the_turns_and_stride_lengths(route, tmp_path, capsys):
     """With ``--calibration`` the route's three turns (marked ``turn``) are found, none while the
     sensors were turned in the hands, and the stride lengths follow the simulator's."""
-    from mimucap.io.gait_csv import read_table
+    from mimucap.io.analysis_tables import read_table
     from mimucap.session.recorded.gait_validation import compare
 
     folder, session, calibration = route
@@ -218,7 +218,7 @@ def test_gait_and_report_with_the_calibration_find_the_turns_and_stride_lengths(
     assert main(["gait", str(session), "--calibration", str(calibration), "--out", str(out)]) == 0
     recorded = read_session(session)
     end_s = float(recorded.truth.t_s[-1])
-    marked = phases.phase_windows(recorded.markers, phases.TURN, end_s)
+    marked = phase_markers.phase_windows(recorded.markers, phase_markers.TURN, end_s)
     turns = [(float(r["start_s"]), float(r["end_s"]), float(r["angle_deg"]))
              for r in read_table(out / "bouts_turns.csv") if r["kind"] == "turn"]
     assert len(turns) == len(marked) == 3, turns

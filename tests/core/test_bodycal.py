@@ -599,7 +599,7 @@ def opensense(shared_data) -> Path:
 
 @pytest.fixture
 def facing_calibrations(opensense):
-    from mimucap.io.quaternion_tables import read_quaternion_table
+    from mimucap.io.orientation_inputs import read_quaternion_table
 
     result = {}
     for name in ("Facing_X", "Facing_negX"):
@@ -618,7 +618,7 @@ def test_opensense_facing_x_and_negx_agree(facing_calibrations):
     segment's rotation that gravity fixes (the sensor-frame direction of the segment's long
     axis) within 3°. The remaining differences are rotations about the vertical, present in the
     raw data: relative to the pelvis sensor, the tibia sensors' headings differ by ~22° between
-    the two files (see test_quaternion_tables), which no heading-based calibration can remove.
+    the two files (see test_orientation_tables), which no heading-based calibration can remove.
     """
     x, neg = facing_calibrations["Facing_X"], facing_calibrations["Facing_negX"]
     assert x.quality.verdict == "good" and neg.quality.verdict == "good"
@@ -647,7 +647,7 @@ def test_opensense_walking_knee_flexion_has_the_shape_of_normal_gait(opensense):
     knee flexion ~0–10° at heel strike, a loading-response flexion of ~15–20° just after,
     a peak of ~55–70° in swing.
     """
-    from mimucap.io.quaternion_tables import read_quaternion_table
+    from mimucap.io.orientation_inputs import read_quaternion_table
 
     folder = opensense
     table = read_quaternion_table(folder / "IMUData", sensor_names=folder / "myIMUMappings.xml")

@@ -1,4 +1,4 @@
-"""Doubtful orientations (core.doubt): a sample is flagged where its orientation is wrong, and
+"""Doubtful orientations (core.pipeline.sensor_doubt and .joint_angles): a sample is flagged where its orientation is wrong, and
 left alone where the filter knows it is right. Synthetic sensors with known orientation: a
 sensor turning about the vertical while rocking, its samples computed from the motion."""
 
@@ -9,17 +9,19 @@ import math
 import numpy as np
 import pytest
 
-from mimucap.core import bodycal, doubt, rotation, skeleton
+from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.fusion import FusionParams
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.pipeline import (
-    FILTER_BLOCK_SAMPLES, RESULT_LIVE, RESULT_REPROCESSED, LivePipeline, joint_reasons, process_recording,
-    sensor_orientation,
-)
-from mimucap.core.samples import SensorSamples
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.pipeline import doubt_reasons, joint_angles, sensor_doubt
+from mimucap.core.pipeline.chain import FILTER_BLOCK_SAMPLES, SensorChain
+from mimucap.core.pipeline.joint_angles import joint_reasons
+from mimucap.core.pipeline.live import LivePipeline
+from mimucap.core.pipeline.recording import process_recording
+from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
+from mimucap.core.sensor_samples import SensorSamples
 
 RATE_HZ = 100.0
-BUDGET_DEG = math.degrees(doubt.DEFAULT_DOUBT_SETTINGS.attitude_budget_rad)
+BUDGET_DEG = math.degrees(sensor_doubt.DEFAULT_DOUBT_SETTINGS.attitude_budget_rad)
 
 
 def field_vector(norm_uT: float, dip_deg: float, azimuth_deg: float) -> np.ndarray:
@@ -50,12 +52,12 @@ def motion(duration_s: float, field_of=None, yaw_rate_of=None):
 
 
 def track(t, gyr, acc, mag, result=RESULT_LIVE, seq=None, calibration=CALIBRATION):
-    return sensor_orientation(t, gyr, acc, mag, None, sensor_id="S1", result=result, mag_calibration=calibration,
-                              seq=np.arange(len(t)) if seq is None else seq)
+    seq = np.arange(len(t)) if seq is None else seq
+    return SensorChain("S1", calibration).process(SensorSamples("S1", t, seq, acc=acc, gyr=gyr, mag_uT=mag), result)
 
 
 def names(reasons: np.ndarray) -> set[str]:
-    return {name for value in np.unique(reasons) for name in doubt.reason_names(int(value))}
+    return {name for value in np.unique(reasons) for name in doubt_reasons.reason_names(int(value))}
 
 
 @pytest.mark.parametrize("result", [RESULT_LIVE, RESULT_REPROCESSED])
@@ -71,12 +73,12 @@ def test_a_heading_taken_from_a_foreign_field_is_doubted_wherever_it_is_wrong(re
     assert error_deg[t > 100].min() > 20.0  # the filter did follow the foreign field
     wrong = error_deg > BUDGET_DEG
     assert np.all(out.doubt[wrong] != 0)
-    assert np.all(out.doubt[wrong] & doubt.FIELD_MISMATCH)
+    assert np.all(out.doubt[wrong] & doubt_reasons.FIELD_MISMATCH)
     before = (t > 10.0) & (t < 40.0)
     if result == RESULT_LIVE:
         assert np.all(out.doubt[before] == 0)
     else:
-        assert np.all(out.doubt[before] & doubt.FIELD_MISMATCH)
+        assert np.all(out.doubt[before] & doubt_reasons.FIELD_MISMATCH)
 
 
 def test_a_field_that_keeps_its_magnitude_and_dip_within_the_tolerance_is_trusted():
@@ -101,12 +103,12 @@ def test_the_bridge_time_follows_the_filter_settings_and_the_budget():
     """From the filter's steady state, the heading's 3 σ reach the budget after the bridge time;
     a gyroscope whose bias walks more is bridged for less, and a wider budget for longer."""
     default = FusionParams()
-    bridge = doubt.bridge_time_s(default, 0.01)
+    bridge = sensor_doubt.bridge_time_s(default, 0.01)
     assert 10.0 < bridge < 600.0
-    assert doubt.bridge_time_s(FusionParams(bias_walk_rad_s_sqrt_s=10 * default.bias_walk_rad_s_sqrt_s), 0.01) < bridge
-    wider = doubt.DoubtSettings(attitude_budget_rad=math.radians(10.0))
-    assert doubt.bridge_time_s(default, 0.01, wider) > bridge
-    assert 60.0 < doubt.smoother_memory_s(default, 0.01) < math.inf
+    assert sensor_doubt.bridge_time_s(FusionParams(bias_walk_rad_s_sqrt_s=10 * default.bias_walk_rad_s_sqrt_s), 0.01) < bridge
+    wider = sensor_doubt.DoubtSettings(attitude_budget_rad=math.radians(10.0))
+    assert sensor_doubt.bridge_time_s(default, 0.01, wider) > bridge
+    assert 60.0 < sensor_doubt.smoother_memory_s(default, 0.01) < math.inf
 
 
 def test_rotation_lost_with_dropped_samples_is_doubted_where_it_matters():
@@ -118,7 +120,7 @@ def test_rotation_lost_with_dropped_samples_is_doubted_where_it_matters():
     keep = ~((t > 29.9) & (t < 30.2))
     out = track(t[keep], gyr[keep], acc[keep], mag[keep], seq=np.flatnonzero(keep))
     after = np.flatnonzero(t[keep] >= 30.2)[0]
-    assert out.doubt[after] & doubt.LOST_SAMPLES
+    assert out.doubt[after] & doubt_reasons.LOST_SAMPLES
     error_deg = np.degrees(rotation.angle_between(out.q_world_from_sensor, q[keep]))
     assert error_deg.max() > BUDGET_DEG  # the gap did cost rotation
     assert np.all(out.doubt[error_deg > BUDGET_DEG] != 0)
@@ -130,11 +132,12 @@ def test_rotation_lost_with_dropped_samples_is_doubted_where_it_matters():
 
 def test_an_uncalibrated_magnetometer_and_an_onboard_calibration_at_zero_are_standing_reasons():
     t, _q, gyr, acc, mag = motion(10.0)
-    assert np.all(track(t, gyr, acc, mag, calibration=None).doubt & doubt.MAG_UNCALIBRATED)
+    assert np.all(track(t, gyr, acc, mag, calibration=None).doubt & doubt_reasons.MAG_UNCALIBRATED)
     status = np.tile([3, 3, 1, 3], (len(t), 1)).astype(np.int8)
     status[: len(t) // 2, 3] = 0  # magnetometer not calibrated yet, then calibrated
-    onboard = sensor_orientation(t, None, None, None, rotation.identity((len(t),)), sensor_id="S1", status=status)
-    assert np.all(onboard.doubt[: len(t) // 2] == doubt.ONBOARD_UNCALIBRATED)
+    onboard = SensorChain("S1").process(SensorSamples("S1", t, None, q_world_from_sensor=rotation.identity((len(t),)),
+                                                      calibration=status))
+    assert np.all(onboard.doubt[: len(t) // 2] == doubt_reasons.ONBOARD_UNCALIBRATED)
     assert np.all(onboard.doubt[len(t) // 2:] == 0)
 
 
@@ -161,34 +164,34 @@ def test_the_smoothed_terms_carry_a_later_pull_back_and_a_lost_step_as_it_decays
     pull = zero.copy()
     pull[800] = math.radians(20.0)
     gain = np.full(n, 0.01)
-    terms = doubt.DoubtTerms(t, zero, zero, zero, pull, pull, gain, np.zeros(n, bool),
-                             np.zeros(n, doubt.DOUBT_DTYPE), np.full(n, doubt.SETTLING, doubt.DOUBT_DTYPE))
+    terms = sensor_doubt.DoubtTerms(t, zero, zero, zero, pull, pull, gain, np.zeros(n, bool),
+                             np.zeros(n, doubt_reasons.DOUBT_DTYPE), np.full(n, doubt_reasons.SETTLING, doubt_reasons.DOUBT_DTYPE))
     smoothed = terms.smoothed(memory_s=300.0)
     assert smoothed.field[0] > math.radians(19.0)  # 8 s before, at a 300 s memory
     assert math.radians(17.0) < smoothed.lost[790] < math.radians(20.0) and smoothed.lost[0] < 1e-3
-    assert np.all(smoothed.reasons()[:800] & doubt.FIELD_MISMATCH)
+    assert np.all(smoothed.reasons()[:800] & doubt_reasons.FIELD_MISMATCH)
 
 
 def test_reasons_at_pose_instants_joints_and_windows():
     t = np.array([0.0, 1.0, 2.0, 3.0])
-    reasons = np.array([0, doubt.LOST_SAMPLES, 0, 0], dtype=doubt.DOUBT_DTYPE)
-    at = doubt.at_instants(np.array([-1.0, 0.5, 1.5, 2.5, 3.2, 9.0]), t, reasons, hold_s=0.5)
-    assert list(at) == [doubt.NO_ORIENTATION, doubt.LOST_SAMPLES, doubt.LOST_SAMPLES, 0, 0, doubt.LOST_SAMPLES]
+    reasons = np.array([0, doubt_reasons.LOST_SAMPLES, 0, 0], dtype=doubt_reasons.DOUBT_DTYPE)
+    at = joint_angles.at_instants(np.array([-1.0, 0.5, 1.5, 2.5, 3.2, 9.0]), t, reasons, hold_s=0.5)
+    assert list(at) == [doubt_reasons.NO_ORIENTATION, doubt_reasons.LOST_SAMPLES, doubt_reasons.LOST_SAMPLES, 0, 0, doubt_reasons.LOST_SAMPLES]
     model = skeleton.load_model()
     sensors = {"S1": "thigh_r", "S2": "shank_r", "S3": "pelvis"}
-    tracks = {"S1": (t, reasons), "S2": (t, np.zeros(4, doubt.DOUBT_DTYPE)), "S3": (t, np.zeros(4, doubt.DOUBT_DTYPE))}
+    tracks = {"S1": (t, reasons), "S2": (t, np.zeros(4, doubt_reasons.DOUBT_DTYPE)), "S3": (t, np.zeros(4, doubt_reasons.DOUBT_DTYPE))}
     found = joint_reasons(model, t, sensors, tracks, None)
     assert set(found) == {"hip_r", "knee_r"}
-    assert list(found["knee_r"]) == [doubt.NO_BODY_CALIBRATION | r for r in (0, doubt.LOST_SAMPLES, 0, 0)]
+    assert list(found["knee_r"]) == [doubt_reasons.NO_BODY_CALIBRATION | r for r in (0, doubt_reasons.LOST_SAMPLES, 0, 0)]
     gyr = np.zeros((6, 3))
     gyr[1:3, 2] = 3.0  # being strapped on until 1 s, then still
-    off = doubt.off_body(np.arange(6.0) * 0.5, [(0.0, 0.75)], gyr, 0.1, 1.0)
-    assert list(off) == [doubt.OFF_BODY] * 4 + [0, 0]  # still for 1 s at 2 s
-    assert list(doubt.singular(np.array([0.0, 59.0, 61.0, -89.0]), proper=False)) == [0, 0, doubt.SINGULAR, doubt.SINGULAR]
-    assert list(doubt.singular(np.array([5.0, 90.0, 175.0]), proper=True)) == [doubt.SINGULAR, 0, doubt.SINGULAR]
-    assert doubt.spans(np.arange(6.0), np.array([0, 1, 1, 0, 0, 4])) == [(1.0, 2.0, 1), (5.0, 5.0, 4)]
-    assert doubt.spans(np.arange(6.0), np.array([0, 1, 0, 4, 0, 0]), join_s=2.5) == [(1.0, 3.0, 5)]
-    assert doubt.describe(doubt.FIELD_MISMATCH | doubt.MAG_UNCALIBRATED).startswith("magnetometer not calibrated; ")
+    off = joint_angles.off_body(np.arange(6.0) * 0.5, [(0.0, 0.75)], gyr, 0.1, 1.0)
+    assert list(off) == [doubt_reasons.OFF_BODY] * 4 + [0, 0]  # still for 1 s at 2 s
+    assert list(joint_angles.singular(np.array([0.0, 59.0, 61.0, -89.0]), proper=False)) == [0, 0, doubt_reasons.SINGULAR, doubt_reasons.SINGULAR]
+    assert list(joint_angles.singular(np.array([5.0, 90.0, 175.0]), proper=True)) == [doubt_reasons.SINGULAR, 0, doubt_reasons.SINGULAR]
+    assert doubt_reasons.spans(np.arange(6.0), np.array([0, 1, 1, 0, 0, 4])) == [(1.0, 2.0, 1), (5.0, 5.0, 4)]
+    assert doubt_reasons.spans(np.arange(6.0), np.array([0, 1, 0, 4, 0, 0]), join_s=2.5) == [(1.0, 3.0, 5)]
+    assert doubt_reasons.describe(doubt_reasons.FIELD_MISMATCH | doubt_reasons.MAG_UNCALIBRATED).startswith("magnetometer not calibrated; ")
 
 
 def test_a_body_calibration_made_from_doubtful_orientations_says_so_and_makes_every_joint_doubtful():
@@ -204,4 +207,4 @@ def test_a_body_calibration_made_from_doubtful_orientations_says_so_and_makes_ev
     t = np.arange(3.0)
     streams = {sid: SensorSamples(sid, t, np.arange(3), q_world_from_sensor=rotation.identity((3,))) for sid in ("S1", "S2")}
     out = process_recording(streams, skeleton.load_model(), body_calibration=again)
-    assert np.all(out.joint_doubt["knee_r"] == doubt.BODY_CALIBRATION_DOUBTFUL)
+    assert np.all(out.joint_doubt["knee_r"] == doubt_reasons.BODY_CALIBRATION_DOUBTFUL)

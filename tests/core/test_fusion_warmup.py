@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numba.core.registry import CPUDispatcher
 
-from mimucap.core.fusion import OrientationEKF, aot, fuse_offline, disturbance, kernels, offline, propagation, state
+from mimucap.core.fusion import OrientationEKF, fuse_offline, kernel_selection, disturbance, kernels, offline, propagation, state
 from mimucap.core.fusion.warmup import compile_kernels
 
 
@@ -23,7 +23,7 @@ def _compiled_signatures() -> dict[str, int]:
 @pytest.fixture(autouse=True)
 def jit_kernels():
     """These tests are about numba's JIT kernels, whether or not a compiled module exists."""
-    with aot.kernels_in_use(aot.jit_kernels()):
+    with kernel_selection.kernels_in_use(kernel_selection.jit_kernels()):
         yield
 
 

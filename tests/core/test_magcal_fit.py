@@ -5,13 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.core.magcal_fit import (
-    FitRefused,
-    FitSettings,
-    apply_correction,
-    fit_ellipsoid,
-    symmetric_sqrt,
-)
+from mimucap.core.magcal.fit import FitRefused, FitSettings, apply_correction, fit_ellipsoid, symmetric_sqrt
 
 FIELD_UT = 49.3
 

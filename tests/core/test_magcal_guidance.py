@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.core.magcal_guidance import GuidanceSettings, SingleAxisGuide, guide_single_axis
+from mimucap.core.magcal.guidance import GuidanceSettings, SingleAxisGuide, guide_single_axis
 from mimucap.core.simulate.hand_held import calibration_motion
 from mimucap.io.magdata import read_mag_files
 

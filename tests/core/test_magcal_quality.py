@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation as rot
-from mimucap.core.magcal import MagCalibration, calibrate
-from mimucap.core.magcal_fit import FitSettings
-from mimucap.core.magcal_quality import QualityThresholds, axis_coverage, coverage_condition
+from mimucap.core.magcal.calibrate import calibrate
+from mimucap.core.magcal.fit import FitSettings
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.magcal.quality import QualityThresholds, axis_coverage, coverage_condition
 from mimucap.core.simulate.hand_held import calibration_motion
 
 FIELD_WORLD_UT = np.array([0.0, 49.3 * np.cos(np.radians(60)), -49.3 * np.sin(np.radians(60))])

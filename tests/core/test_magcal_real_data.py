@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.core.magcal import calibrate
-from mimucap.core.magcal_fit import FitRefused, FitSettings, fit_ellipsoid
-from mimucap.core.magcal_quality import QualityThresholds
+from mimucap.core.magcal.calibrate import calibrate
+from mimucap.core.magcal.fit import FitRefused, FitSettings, fit_ellipsoid
+from mimucap.core.magcal.quality import QualityThresholds
 from mimucap.io.magdata import read_mag_files, to_microtesla
 
 ROTATIONS = (

@@ -11,8 +11,8 @@ import pytest
 
 from mimucap.core import rotation
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.magcal_standing import (
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.magcal.standing import (
     FIELD_DIP_TOLERANCE_DEG, FIELD_MAGNITUDE_TOLERANCE, GOOD, MAX_AGE_H, NOT_GOOD, WARN, LocalField,
     calibration_standing, local_field,
 )

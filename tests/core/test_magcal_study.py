@@ -5,13 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.core.magcal_study import (
-    STUDY_PROTOCOLS,
-    StudySettings,
-    Trial,
-    evaluate_protocols,
-    format_tables,
-    simulate_study,
+from mimucap.core.magcal.study import (
+    STUDY_PROTOCOLS, StudySettings, Trial, evaluate_protocols, format_tables, simulate_study,
 )
 
 

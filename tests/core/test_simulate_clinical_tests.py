@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mimucap.cli.simulate import check_size
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core import rotation as rot
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator, simulate_session
@@ -63,8 +63,8 @@ def test_timed_up_and_go_phases_match_the_motion(seed: int) -> None:
     assert abs(heading[index_at(result, bounds[5])] - heading[last_turn]) == pytest.approx(180.0, abs=8.0)
     assert np.hypot(*(root[seated_end, :2] - root[seated_start, :2])) < 0.2  # back on the same chair
     markers = [label for t, label in result.markers if t >= t0 - 1e-9]
-    assert markers[:7] == [phases.SIT_TO_STAND, phases.WALK, phases.TURN, phases.WALK, phases.TURN,
-                           phases.STAND_TO_SIT, phases.SITTING]
+    assert markers[:7] == [phase_markers.SIT_TO_STAND, phase_markers.WALK, phase_markers.TURN, phase_markers.WALK, phase_markers.TURN,
+                           phase_markers.STAND_TO_SIT, phase_markers.SITTING]
 
 
 def test_the_subject_differs_by_seed() -> None:
@@ -105,7 +105,7 @@ def test_two_minute_walk_distance_matches_the_pelvis_path(seed: int) -> None:
     y_all = result.truth.root_position_m[:, 1]
     y = y_all[window]
     # along the walkway from the start to each turn at its ends, then to the 2 minutes' end
-    onsets = [tm for tm, label in result.markers if label == phases.TURN and truth["start_s"] < tm < truth["start_s"] + 120]
+    onsets = [tm for tm, label in result.markers if label == phase_markers.TURN and truth["start_s"] < tm < truth["start_s"] + 120]
     places = [y_all[index_at(result, tm)] for tm in [truth["start_s"], *onsets, truth["start_s"] + 120.0]]
     walked = float(np.abs(np.diff(places)).sum())
     assert walked == pytest.approx(truth["distance_m"], rel=0.02)

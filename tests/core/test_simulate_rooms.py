@@ -12,7 +12,7 @@ import hashlib
 import numpy as np
 import pytest
 
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core import rotation as rot
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.magnetic_field import EarthField
@@ -37,7 +37,7 @@ def walking_mask(result, settle_s: float = 1.0) -> np.ndarray:
     """Samples while walking (from ``settle_s`` after each walk marker to the next marker)."""
     t = result.truth.t_s
     mask = np.zeros(t.shape, bool)
-    for start, stop in phases.phase_windows(result.markers, phases.WALK, float(t[-1])):
+    for start, stop in phase_markers.phase_windows(result.markers, phase_markers.WALK, float(t[-1])):
         mask |= (t >= start + settle_s) & (t < stop)
     return mask
 
@@ -146,7 +146,7 @@ def test_the_bed_is_passed_twice_with_more_than_40_uT_within_half_a_metre(clinic
         strongest = np.maximum(strongest, np.where(close, deviation_uT(clinic, sensor_id), 0.0))
     edges = np.flatnonzero(np.diff(near.astype(int)))
     passes = [(t[a + 1], t[b]) for a, b in zip(edges[::2], edges[1::2])]
-    walks = phases.phase_windows(clinic.markers, phases.WALK, float(t[-1]))
+    walks = phase_markers.phase_windows(clinic.markers, phase_markers.WALK, float(t[-1]))
     # each walk passes the bed once: on the way out and on the way back (twice in each demo loop,
     # a third time in the second loop of the 90-s demo)
     assert len(passes) == len(walks) == 3, passes
@@ -154,7 +154,7 @@ def test_the_bed_is_passed_twice_with_more_than_40_uT_within_half_a_metre(clinic
         assert walk[0] < start < stop < walk[1]
         assert strongest[(t >= start) & (t <= stop)].max() >= 40.0
     # the magnetometer turns happen away from the bed, where the room adds only a few µT
-    turns = phases.phase_windows(clinic.markers, phases.MAG_TURNS, float(t[-1]))[0]
+    turns = phase_markers.phase_windows(clinic.markers, phase_markers.MAG_TURNS, float(t[-1]))[0]
     during = (t >= turns[0] + 2.0) & (t < turns[1] - 2.0)
     for sensor_id in clinic.truth.position_m:
         assert distance_to_bed_m(clinic.truth.position_m[sensor_id][during]).min() > 2.0

@@ -17,7 +17,7 @@ import pytest
 
 from mimucap.acquisition import protocol_serial, protocol_udp
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import RefusedSample, Sample, SequenceUnwrapper, validate_sample
+from mimucap.acquisition.wire_sample import RefusedSample, Sample, SequenceUnwrapper, validate_sample
 
 ROOT = Path(__file__).resolve().parents[2]
 HEADER_DIR = ROOT / "firmware" / "include"

@@ -57,7 +57,11 @@ def calibrate(window, qtbot) -> None:
     qtbot.waitUntil(lambda: wizard.procedure.phase == "result", timeout=60000)
     qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
     assert set(live.mag_calibrations) == set(live.sensor_ids)
-    wizard.close()
+    assert not wizard.isVisible()  # every sensor stored: Accept was the last click
+    # The 3D view's prompt follows: the body is next.
+    from mimucap.gui.live_status_bar import BODY_NEXT_HINT
+
+    qtbot.waitUntil(lambda: window.scene_view.hint == BODY_NEXT_HINT, timeout=5000)
     # The sensors are strapped back on (half a minute in a clinic): the filters, learning the
     # heading from the newly calibrated magnetometers, settle meanwhile.
     settled = window.clock() + 20.0
@@ -70,5 +74,7 @@ def calibrate(window, qtbot) -> None:
     qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
     assert live.body_calibration is not None
     qtbot.waitUntil(lambda: live.pose_source == "body calibration", timeout=5000)
+    # Now there is a calibration to judge: the on-screen check against the simulator's truth.
+    qtbot.waitUntil(lambda: "vs. truth" in window.pose_status.text(), timeout=10000)
     # The wizard is closed: the simulated subject walks on.
     qtbot.waitUntil(lambda: live.simulator.current_activity().startswith("walk"), timeout=10000)

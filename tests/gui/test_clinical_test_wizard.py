@@ -2,8 +2,10 @@
 calibrations through their wizards, then the Timed Up and Go chosen, the subject seated, the
 countdown and start signal; the recording ends by itself when the subject sits again, and the
 result comes from the saved session through the ``protocol`` command's path, is kept in the
-library and makes a report. The simulated subject does what the wizard asks; its true phase
-durations (from its own schedule, never read by the result) grade the result."""
+library and makes a report; then the 10-metre walk and the chair stand, one after the other (one
+calibration for all: the calibrations are the end-to-end tests' business). The simulated subject
+does what the wizard asks; its true phase durations (from its own schedule, never read by the
+result) grade the result."""
 
 from __future__ import annotations
 
@@ -37,7 +39,7 @@ def _true_tug_s(activities: list[tuple[float, str]]) -> float:
     return next(t for t, label in activities[last_sit_down:] if label == "sit") - rise
 
 
-def test_a_guided_timed_up_and_go_records_measures_and_reports(calibrated_window, qtbot, tmp_path):
+def test_the_guided_tests_record_measure_and_report(calibrated_window, qtbot, tmp_path):
     window = calibrated_window
     live = window.live
     window.action_clinical_test.trigger()
@@ -101,6 +103,8 @@ def test_a_guided_timed_up_and_go_records_measures_and_reports(calibrated_window
     text = subprocess.run(["pdftotext", str(full), "-"], capture_output=True, text=True, check=True).stdout
     assert "Timed Up and Go" in text and f"{result.values['total_s']:.1f} s" in text and "Bohannon" in text
 
+    check_ten_metre_walk_and_chair_stand(window, qtbot)
+
 
 def _run_guided(wizard, qtbot, test: str) -> None:
     wizard.run_again()
@@ -116,9 +120,8 @@ def _run_guided(wizard, qtbot, test: str) -> None:
     assert wizard.result is not None, wizard.result_status.text()
 
 
-def test_the_ten_metre_walk_and_the_chair_stand_run_guided_one_after_the_other(calibrated_window, qtbot):
-    window = calibrated_window
-    window.action_clinical_test.trigger()
+def check_ten_metre_walk_and_chair_stand(window, qtbot) -> None:
+    """The 10-metre walk and the chair stand run guided one after the other (Run Again)."""
     wizard = window._wizard
     entries: dict[float, str] = {}
     live = window.live

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.core.pipeline import RESULT_LIVE
+from mimucap.core.pipeline.settings import RESULT_LIVE
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session, write_session
 from mimucap.session.angle_accuracy import angle_errors
@@ -80,15 +80,15 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     review = window.review_windows[-1]
     qtbot.waitUntil(lambda: review.export_dialog is not None, timeout=30000)
     dialog = review.export_dialog
-    dialog.base_path.setText(str(tmp_path / "walk_angles"))
+    dialog.base_path.setText(str(tmp_path / "walk"))
     qtbot.mouseClick(dialog.export_button, QtCore.Qt.LeftButton)
     qtbot.waitUntil(lambda: dialog.result is not None, timeout=30000)
-    table = read_angles_csv(tmp_path / "walk_angles.csv")
-    header = (tmp_path / "walk_angles.csv").read_text().split("\n", 20)
+    table = read_angles_csv(tmp_path / "walk_joint_angles.csv")
+    header = (tmp_path / "walk_joint_angles.csv").read_text().split("\n", 20)
     assert any("Result: reprocessed" in line for line in header)
-    mot = read_angles_mot(tmp_path / "walk_angles.mot")
+    mot = read_angles_mot(tmp_path / "walk_joint_angles.mot")
     assert np.allclose(mot.angles_deg["knee_r_flexion_deg"], table.angles_deg["knee_r_flexion_deg"], atol=1e-5)
-    summary = (tmp_path / "walk_angles_summary.csv").read_text().splitlines()
+    summary = (tmp_path / "walk_joint_angle_summary.csv").read_text().splitlines()
     assert "column,label,min_deg,max_deg,rom_deg,doubtful_pct" in summary
     assert "knee_r_flexion_deg,Right knee flexion (°)," in "\n".join(summary)
     # the recording's markers are in both angle files' headers
@@ -117,7 +117,7 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     blind_data = load_review(blind)
     run_export(blind_data, ExportRequest(tmp_path / "blind", blind_data.start_s, blind_data.end_s,
                                          angles_mot=False, summary_csv=False))
-    blind_table = read_angles_csv(tmp_path / "blind.csv")
+    blind_table = read_angles_csv(tmp_path / "blind_joint_angles.csv")
     assert blind_table.angles_deg.keys() == table.angles_deg.keys()
     for column, values in table.angles_deg.items():
         assert np.array_equal(blind_table.angles_deg[column], values), column

@@ -26,9 +26,9 @@ def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path, calib
     dialog.start_export()
     qtbot.waitUntil(lambda: dialog.result is not None, timeout=30000)
     names = sorted(p.name for p in dialog.result.files)
-    assert names == ["out.bvh", "out.c3d", "out_markers.csv", "out_opensim.mot", "out_orientations.sto",
-                     "out_orientations_calibration.sto"]
-    mot = read_angles_mot(tmp_path / "out_opensim.mot")
+    assert names == ["out_motion.c3d", "out_opensim_coordinates.mot", "out_orientations.sto",
+                     "out_orientations_calibration.sto", "out_skeleton.bvh", "out_skeleton_markers.csv"]
+    mot = read_angles_mot(tmp_path / "out_opensim_coordinates.mot")
     assert "knee_angle_r" in mot.angles_deg and np.ptp(mot.angles_deg["knee_angle_r"]) > 20.0
     assert "Exported" in dialog.message.text()
 
@@ -118,3 +118,30 @@ def test_review_plots_no_joint_angles_without_a_body_calibration(qtbot, uncalibr
         if not calibrated:
             assert NEEDS_BODY_CALIBRATION in plots.joint_button.toolTip()
         review.close()
+
+
+def test_exports_go_to_a_folder_of_their_own_where_every_file_dialog_starts(qtbot, tmp_path, monkeypatch,
+                                                                             uncalibrated_walk):
+    """Not the library folder itself, not the program's working folder: the session's own
+    export folder, named after it, created when a file dialog needs it."""
+    from mimucap.gui.export_dialog import ExportDialog
+    from mimucap.session.recorded.review import load_review
+
+    monkeypatch.chdir(tmp_path)
+    dialog = ExportDialog(None, load_review(uncalibrated_walk))
+    qtbot.addWidget(dialog)
+    folder = uncalibrated_walk.with_name("walk_exports")
+    assert dialog.export_base_path() == folder / "walk"
+    asked = []
+    monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", lambda parent, title, start, kinds: (asked.append(start), ("", ""))[1])
+    dialog._ask_summary_png()
+    dialog._ask_summary_csv()
+    dialog._browse()
+    assert asked == [str(folder / "walk_joint_angle_summary.png"), str(folder / "walk_joint_angle_summary.csv"),
+                     str(folder / "walk")]
+    assert folder.is_dir()
+    dialog.start_export()
+    qtbot.waitUntil(lambda: dialog.result is not None, timeout=30000)
+    assert sorted(p.name for p in dialog.result.files) == [f"walk_sensor_{s}_raw.csv" for s in sorted(
+        dialog.data.session.sensors)]
+    assert all(p.parent == folder for p in dialog.result.files)

@@ -24,6 +24,22 @@ def _pixels(path) -> np.ndarray:
     return rows[:, : 3 * image.width()].reshape(image.height(), image.width(), 3).astype(int)
 
 
+def assert_shows_the_uncalibrated_skeleton(path) -> None:
+    """The screenshot at ``path`` is the main window (1280 × 800) with the simulated suit's
+    figure in the middle of its 3D view. Before a magnetometer calibration the figure is tinted
+    amber (sensors "magnetometer not calibrated"): far redder than the grey floor and the slate
+    background. Its pixels sit in the middle of the 3D view, below the menu bar."""
+    pixels = _pixels(path)
+    height, width, _ = pixels.shape
+    assert (width, height) == (1280, 800)
+    amber = (pixels[..., 0].astype(int) - pixels[..., 2]) > 60
+    amber[height - STATUS_BAR_PX:] = False  # the status bar's warnings are orange too
+    rows, cols = np.nonzero(amber)
+    assert rows.size > 2000
+    assert 0.3 * width < np.median(cols) < 0.7 * width
+    assert rows.min() > 20 and rows.max() < height - STATUS_BAR_PX - 20
+
+
 def test_screenshot_command_shows_the_skeleton(tmp_path):
     out = tmp_path / "main.png"
     done = subprocess.run(
@@ -31,18 +47,7 @@ def test_screenshot_command_shows_the_skeleton(tmp_path):
         capture_output=True, text=True, timeout=120,
     )
     assert done.returncode == 0, done.stderr
-    pixels = _pixels(out)
-    height, width, _ = pixels.shape
-    assert (width, height) == (1280, 800)
-    # Before a magnetometer calibration the figure is tinted amber (sensors "magnetometer not
-    # calibrated"): far redder than the grey floor and the slate background. Its pixels sit in
-    # the middle of the 3D view, below the menu bar.
-    amber = (pixels[..., 0].astype(int) - pixels[..., 2]) > 60
-    amber[height - STATUS_BAR_PX:] = False  # the status bar's warnings are orange too
-    rows, cols = np.nonzero(amber)
-    assert rows.size > 2000
-    assert 0.3 * width < np.median(cols) < 0.7 * width
-    assert rows.min() > 20 and rows.max() < height - STATUS_BAR_PX - 20
+    assert_shows_the_uncalibrated_skeleton(out)
 
 
 def test_no_display_prints_one_line_and_exits_1():

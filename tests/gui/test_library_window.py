@@ -3,43 +3,24 @@ the window's own actions on a prepared library (filters, damaged files, renames,
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
 from mimucap.gui.library_window import LibraryWindow
-from mimucap.gui.main_window import MainWindow
 from mimucap.io.library import Library
 from mimucap.io.library_settings import LIBRARY_ENV
 from mimucap.io.session import read_metadata
-from mimucap.session.live.live_session import open_live_session
-
+from tests.gui.live_window import closed, live_window
 from tests.library_sessions import make_session
-
-SPEED_UP = 5.0
-
-
-def _fast_clock():
-    start = time.monotonic()
-    return lambda: start + SPEED_UP * (time.monotonic() - start)
 
 
 @pytest.fixture
 def app_window(qtbot, tmp_path, monkeypatch):
     monkeypatch.setenv(LIBRARY_ENV, str(tmp_path / "library"))
-    clock = _fast_clock()
-    window = MainWindow("simulated:walk", session_factory=lambda spec: open_live_session(spec, clock=clock))
-    window.clock = clock
-    window.confirm_recording = lambda items: True  # recording without calibrations, knowingly
-    window.show()
-    window.start()
-    qtbot.waitExposed(window)
+    window = live_window(qtbot, "simulated:walk")
     yield window
-    if window.live is not None and window.live.recording:
-        window.live.stop_recording()
-    window.close()
+    closed(window)
 
 
 def _record(window, qtbot, seconds: float, markers=()) -> object:
@@ -135,7 +116,7 @@ def test_two_sessions_recorded_found_and_compared(app_window, qtbot, tmp_path):
     assert compare.error is None and {r.result for r in compare.reviews} == {"live"}
     assert [e.condition for e in compare.entries] == ["pre-op", "6 weeks"]
     rows = {row[0]: row for row in compare.tables[0].rows}
-    knee = rows["knee_r_flexion"]
+    knee = rows["Right knee flexion"]
     assert knee[3] > 30.0 and knee[6] > 30.0  # walking bends the knee
     assert knee[7] == pytest.approx(knee[6] - knee[3])
     # (How close these ranges come to the simulator's own is tested without the GUI, in
@@ -145,7 +126,7 @@ def test_two_sessions_recorded_found_and_compared(app_window, qtbot, tmp_path):
     with qtbot.waitSignal(compare.compared, timeout=5000):
         picker.set_bounds(0, 1)
     narrowed_rows = compare.tables[0].rows
-    narrowed = {row[0]: row for row in narrowed_rows}["knee_r_flexion"]
+    narrowed = {row[0]: row for row in narrowed_rows}["Right knee flexion"]
     assert narrowed[3] <= whole_a + 1e-9 and narrowed[6] == pytest.approx(knee[6])
     assert "walk start" in compare.tables[0].note
     with qtbot.waitSignal(compare.compared, timeout=5000):
@@ -156,8 +137,8 @@ def test_two_sessions_recorded_found_and_compared(app_window, qtbot, tmp_path):
     assert compare.error is None and compare.tables[0].rows == narrowed_rows
     picker.set_bounds(None, None)
     csv_text = compare.save_csv(tmp_path / "compare.csv").read_text()
-    assert csv_text.startswith("Joint-angle range of motion\njoint angle,A min (°)")
-    assert "knee_r_flexion," in csv_text
+    assert csv_text.startswith("Joint-angle range of motion\nJoint angle,A min (°)")
+    assert "Right knee flexion," in csv_text
 
     # Open one for review from the library.
     library_window.select_paths({paths[0]})
@@ -236,7 +217,7 @@ def test_the_window_changes_files_and_shows_damaged_ones(prepared, qtbot, monkey
                         lambda *a, **k: asked.append(a[2]) or QtWidgets.QMessageBox.Yes)
     with qtbot.waitSignal(window.refreshed, timeout=10000):
         qtbot.keyClick(window.table, QtCore.Qt.Key_Delete)
-    assert asked and "Move 2 session file(s)" in asked[0]
+    assert asked and "Move 2 session files" in asked[0]
     moved = [prepared / "trash" / p for p in (damaged.path, "P002_2026-04-13_trial01.h5")]
     assert all(p.exists() for p in moved) and not (prepared / damaged.path).exists()
     assert sorted(window.subjects) == ["P001"] and len(window.visible_paths()) == 2

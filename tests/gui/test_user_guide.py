@@ -15,7 +15,9 @@ def test_the_guide_opens_from_the_help_menu_and_covers_a_session(window, qtbot):
     qtbot.waitExposed(guide)
     text = guide.text()
     for section in ("Set-up", "Magnetometer calibration", "N-pose and T-pose", "Recording", "Review", "Export",
-                    "What each verdict and warning means"):
+                    "As seen live, or reprocessed", "Using the files in other programs", "OpenSim", "Visual3D",
+                    "Blender", "Gait parameters", "Range of motion", "The report", "The library and comparisons",
+                    "Clinical tests", "What each verdict and warning means"):
         assert section in text, section
     for verdict in ("Good", "Usable, with a warning", "Failed — redo", "Acceptable", "Poor", "Refused",
                     "STALE: no data", "STALE: packets arrive but are refused"):

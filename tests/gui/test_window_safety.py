@@ -171,11 +171,11 @@ def test_a_click_on_the_review_slider_moves_the_play_head_there(window, qtbot, t
     review.close()
 
 
-def test_export_dialog_follows_the_users_edits_and_says_what_failed(qtbot, tmp_path):
+def test_export_dialog_follows_the_users_edits_and_says_what_failed(qtbot, tmp_path, calibrated_walk):
     from mimucap.gui.export_dialog import ExportDialog
     from mimucap.session.recorded.review import load_review
 
-    data = load_review(_session_file(tmp_path))
+    data = load_review(calibrated_walk)  # joint angles are offered with a body calibration only
     dialog = ExportDialog(None, data)
     qtbot.addWidget(dialog)
     assert dialog.range_all.isChecked() and dialog.export_button.isEnabled()
@@ -193,7 +193,7 @@ def test_export_dialog_follows_the_users_edits_and_says_what_failed(qtbot, tmp_p
     folder = tmp_path / "out"
     folder.mkdir()
     dialog.base_path.setText(str(folder) + "/")  # a folder: the files go inside it
-    assert dialog.export_base_path() == folder / "walk_angles"
+    assert dialog.export_base_path() == folder / "walk"
     dialog.base_path.setText("  ")
     with pytest.raises(ValueError, match="Save as"):
         dialog.export_base_path()

@@ -132,3 +132,72 @@ def test_the_review_window_and_export_dialog_open_on_each_screen(qtbot, screen, 
     assert _problems(dialog) == []
     dialog.close()
     review.close()
+
+
+def test_the_analysis_library_compare_trend_and_assessment_windows_fit_each_screen(qtbot, screen, calibrated_walk,
+                                                                                   tmp_path):
+    """Every other window and dialog a clinician opens: on the screen, nothing cut, no column
+    header clipped (the analysis window opened 1200 × 820, taller than a laptop's screen)."""
+    import shutil
+
+    from mimucap.gui.library_window import LibraryWindow
+    from mimucap.gui.review_window import ReviewWindow
+    from mimucap.gui.trend_dialog import TrendDialog
+    from mimucap.io.library import Library
+    from mimucap.session.recorded.clinical_test_results import RESULT_PREFIX
+
+    review = ReviewWindow(calibrated_walk)
+    review.show()
+    review.load()
+    qtbot.waitUntil(lambda: review.player is not None, timeout=20000)
+    analysis = review.open_analysis()
+    with qtbot.waitSignal(analysis.analysed, timeout=30000):
+        pass
+    for index in range(analysis.tabs.count()):
+        analysis.tabs.setCurrentIndex(index)
+        _spin(qtbot, 150)
+        assert _inside(screen, analysis), (analysis.geometry(), screen)
+        assert _problems(analysis) == [], index
+    analysis.close()
+    review.close()
+
+    root = tmp_path / "library"
+    root.mkdir()
+    for name in ("S001_2026-03-01_trial01.h5", "S001_2026-04-01_trial01.h5"):
+        shutil.copy(calibrated_walk, root / name)
+    library = Library(root)
+    library.scan()
+    entries = library.sessions()
+    library.store_result(entries[0].path, RESULT_PREFIX + "tug", {"test": "tug", "total_s": 11.2, "result": "reprocessed"})
+    window = LibraryWindow(root)
+    window.show()
+    window.wait_for_scan()
+    _spin(qtbot)
+    assert _inside(screen, window) and _problems(window) == []
+    window.select_paths({e.path for e in entries})
+    compare = window.compare_selected()
+    qtbot.waitUntil(lambda: compare.tables or compare.error, timeout=30000)
+    _spin(qtbot)
+    assert _inside(screen, compare) and _problems(compare) == []
+    trend = TrendDialog(library, entries[0].subject_id, window)
+    trend.show()
+    _spin(qtbot)
+    assert _inside(screen, trend) and _problems(trend) == []
+    for dialog in (trend, compare, window):
+        dialog.close()
+
+
+def test_the_assessment_wizards_fit_each_screen(main_window, screen, qtbot):
+    window = main_window
+    for name in ("rom", "clinical_test"):
+        window.open_wizard(name)
+        wizard = window._wizard
+        qtbot.waitExposed(wizard)
+        assert _inside(screen, wizard), (name, wizard.geometry(), screen)
+        pages = getattr(wizard, "pages", None)
+        for index in range(pages.count() if pages is not None else 1):
+            if pages is not None:
+                pages.setCurrentIndex(index)
+            _spin(qtbot, 150)
+            assert _problems(wizard) == [], (name, index)
+        wizard.close()

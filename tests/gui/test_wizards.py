@@ -82,6 +82,7 @@ def test_magnetometer_wizard_calibrates_several_sensors_at_once(qtbot, magnetome
     assert [c.sensor_id for c in accepted.args[0]] == ids
     assert wizard.store.sensor_ids() == sorted(ids)
     assert "calibrated just now (good)" in wizard.sensor_list.item(0).text()
+    assert not wizard.isVisible()  # every sensor stored: nothing left to do in the wizard
 
 
 def test_enter_starts_the_magnetometer_wizard_instead_of_closing_it(qtbot, magnetometer_wizard) -> None:
@@ -150,6 +151,44 @@ def test_body_wizard_matches_the_true_mountings_and_applies_the_result(qtbot) ->
     with qtbot.waitSignal(wizard.calibration_accepted):
         qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
     assert live.applied == [calibration]
+
+
+def test_body_wizard_without_a_tpose_calibrates_from_a_walk(qtbot) -> None:
+    """The "no T-pose" path: the simulated subject stands still, then walks as the page asks;
+    the functional calibration (the code of ``mimucap bodycal --method functional``) gives every
+    segment within 2° of its true mounting, and the result names each axis' verdict in words."""
+    live = FakeLiveSession()
+    simulator, wizard = body_wizard(qtbot, seed=6, live=live)
+    wizard.set_method("functional")
+    assert not wizard.arms_combo.isEnabled()
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    assert wizard.page_name == "pose" and "stand still" in wizard.pose_title.text()
+    qtbot.waitUntil(lambda: "walk" in wizard.pose_title.text(), timeout=10000)
+    assert wizard.pose_instruction.text().startswith("Walk a few steps")
+    qtbot.waitUntil(lambda: simulator.current_activity() == "walk", timeout=5000)
+    qtbot.waitUntil(lambda: wizard.page_name == "result", timeout=30000)
+    calibration = wizard.procedure.calibration
+    assert calibration.quality.method == "functional"
+    errors = mounting_errors_deg(calibration, simulator)
+    assert len(errors) == 10 and max(errors) < 2.5, errors
+    rows = {wizard.figures_table.item(row, 0).text(): wizard.figures_table.item(row, 1).text()
+            for row in range(wizard.figures_table.rowCount())}
+    assert rows["Left knee axis"].startswith("good: it bent") and "moved as a hinge" in rows["Right knee axis"]
+    assert rows["Pelvis forward direction"].startswith("good: it faces the walking direction")
+    assert "standing still" in wizard.verdict_label.text()
+    with qtbot.waitSignal(wizard.calibration_accepted):
+        qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
+    assert live.applied == [calibration]
+
+
+def test_body_wizard_without_a_tpose_refuses_a_subject_who_did_not_walk(qtbot) -> None:
+    """A subject who stays standing: no joint bent, so no axis and no forward direction."""
+    _, wizard = body_wizard(qtbot, seed=7, settings=BodycalProcedureSettings(movement_s=4.0))
+    wizard.set_method("functional")
+    wizard.feed.instruct = lambda instruction: None  # the subject ignores the instructions
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    qtbot.waitUntil(lambda: wizard.page_name == "refused", timeout=30000)
+    assert "no knee or elbow flexion axis" in wizard.refusal_label.text()
 
 
 def test_enter_starts_the_body_wizard(qtbot) -> None:

@@ -107,11 +107,11 @@ def test_a_damaged_marker_line_is_named(tmp_path):
 
 
 def test_each_joint_gets_a_trust_column_after_its_angles_and_the_header_says_when_and_why(tmp_path):
-    from mimucap.core import doubt
+    from mimucap.core.pipeline import doubt_reasons
 
     angles = {"hip_r_flexion_deg": np.zeros(5), "knee_r_flexion_deg": np.ones(5), "knee_r_rotation_deg": np.ones(5)}
-    knee = np.array([0, doubt.FIELD_MISMATCH, doubt.FIELD_MISMATCH, 0, 0], dtype=doubt.DOUBT_DTYPE)
-    joint_doubt = {"hip_r": np.zeros(5, doubt.DOUBT_DTYPE), "knee_r": knee}
+    knee = np.array([0, doubt_reasons.FIELD_MISMATCH, doubt_reasons.FIELD_MISMATCH, 0, 0], dtype=doubt_reasons.DOUBT_DTYPE)
+    joint_doubt = {"hip_r": np.zeros(5, doubt_reasons.DOUBT_DTYPE), "knee_r": knee}
     for suffix in (".csv", ".mot"):
         path = tmp_path / f"a{suffix}"
         ae.write_angles(path, T, angles, joint_doubt=joint_doubt)

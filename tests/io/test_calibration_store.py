@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mimucap.core.magcal import MagCalibration
+from mimucap.core.magcal.model import MagCalibration
 from mimucap.io.calibration_store import (
     CALIBRATION_FORMAT_VERSION,
     CalibrationFileError,
@@ -155,7 +155,7 @@ def test_an_older_calibration_without_a_device_is_never_given_silently_to_a_know
     device numbered S01: a sensor of a known device does not take it and is told why; a sensor
     whose source says no device (an older node) takes it, unverified."""
     from mimucap.core.device_identity import SensorDevice
-    from mimucap.core.magcal_standing import WARN, calibration_standing
+    from mimucap.core.magcal.standing import WARN, calibration_standing
 
     store = CalibrationStore()
     old = calibration_to_json(make("S01"))

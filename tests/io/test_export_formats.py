@@ -97,7 +97,7 @@ def test_sto_columns_are_opensim_bodies_and_raw_sensors_carry_the_mounting(walk,
     virtual, raw = tmp_path / "virtual.sto", tmp_path / "raw.sto"
     assert main(["export", str(walk), "--out", str(virtual)]) == 0
     assert main(["export", str(walk), "--format", "sto", "--raw-sensors", "--out", str(raw)]) == 0
-    from mimucap.io.quaternion_tables import read_opensim_sto
+    from mimucap.io.orientation_tables import read_opensim_sto
 
     v, r = read_opensim_sto(virtual), read_opensim_sto(raw)
     segments = review.model.segment_names
@@ -400,7 +400,8 @@ def test_every_file_says_what_it_holds(walk, review, tmp_path):
                                                 opensim_mot=True, c3d=True, bvh=True, opensense_sto=True))
     tables = write_analysis_csv(tmp_path / "tables", analyse_review(review))
     names = sorted(p.name for p in exported.files + tables)
-    assert {"all.csv", "all.mot", "all_summary.csv", "all_S01.csv", "all_opensim.mot", "all_markers.csv",
+    assert {"all_joint_angles.csv", "all_joint_angles.mot", "all_joint_angle_summary.csv", "all_sensor_S01_raw.csv",
+            "all_opensim_coordinates.mot", "all_skeleton.bvh", "all_skeleton_markers.csv", "all_motion.c3d",
             "all_orientations.sto", "all_orientations_calibration.sto", "strides.csv", "parameters.csv"} <= set(names)
     for path in exported.files + tables:
         if path.suffix == ".c3d" or path.suffix == ".bvh":
@@ -410,7 +411,7 @@ def test_every_file_says_what_it_holds(walk, review, tmp_path):
             assert line in text or line.replace("=", ":") in text, (path.name, line)
     import c3d
 
-    with (tmp_path / "all.c3d").open("rb") as handle:
+    with (tmp_path / "all_motion.c3d").open("rb") as handle:
         group = c3d.Reader(handle).get("MIMUCAP")
         found = {name: [s.strip() for s in group.get(name).string_array] for name in record.parameters()}
     assert found == record.parameters()

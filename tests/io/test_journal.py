@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from mimucap.io.journal import (
+from mimucap.io.journal.file import (
     RESYNC_DIRECT_CHECK_BYTES, RESYNC_WINDOW_BYTES, DamagedSpan, JournalError, JournalWriter, read_journal,
 )
 
@@ -187,7 +187,7 @@ def test_kill_9_loses_at_most_the_last_flush_interval(tmp_path):
     path = tmp_path / "k.journal"
     script = (
         "import sys, time\n"
-        "from mimucap.io.journal import JournalWriter\n"
+        "from mimucap.io.journal.file import JournalWriter\n"
         f"w = JournalWriter({str(path)!r}, flush_interval_s=0.5)\n"
         "i = 0\n"
         "while True:\n"

@@ -15,7 +15,7 @@ from mimucap.io.magdata import (
     read_xsens,
     to_microtesla,
 )
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.session import Session, write_session
 
 SAMPLES = np.array([[12.5, -3.25, 40.0], [11.0, -4.0, 41.5], [-0.5, 2e-3, 1e2]])

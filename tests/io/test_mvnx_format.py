@@ -131,7 +131,7 @@ def test_bad_files_are_refused_with_a_reason(sample, tmp_path):
     with pytest.raises(ValueError, match=r"frame 5: orientation has \d+ numbers"):
         mvnx.read_mvnx(short)
     with pytest.raises(ValueError, match="reads Xsens .mvnx files"):
-        from mimucap.io.imports import session_from_file
+        from mimucap.io.recording_import import session_from_file
 
         session_from_file(tmp_path / "x.bvh")
 
@@ -158,7 +158,7 @@ def test_export_applies_the_calibration_given(sample, tmp_path):
     from mimucap.core.bodycal import BodyCalibration
     from mimucap.io.angles_export import read_angles_csv
     from mimucap.io.body_calibration_file import write_body_calibration
-    from mimucap.io.imports import import_recording
+    from mimucap.io.recording_import import import_recording
 
     session = import_recording(sample, tmp_path / "imported.h5")
     calibration = BodyCalibration.from_dict(session.calibrations["body"])

@@ -8,8 +8,8 @@ import h5py
 import numpy as np
 import pytest
 
-from mimucap.core.samples import SensorSamples
 from mimucap.core.sensor_limits import GYR_MAX_RAD_S
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.session import (
     SESSION_FORMAT_VERSION,
     Marker,

@@ -132,3 +132,33 @@ def test_bad_arguments_are_refused() -> None:
         BodycalProcedure(feed, without_right, arms="both")
     with pytest.raises(ValueError, match="S99"):
         BodycalProcedure(feed, {**mapping, "pelvis": "S99"})
+
+
+def test_the_functional_method_stands_then_walks_and_needs_no_arm_raised() -> None:
+    """No T-pose: the still page, then a walk of ``movement_s`` counted down (the simulated
+    subject walks as it is told), then every segment within 2.5° of its true mounting."""
+    simulator, _, procedure = make(4, method="functional", settings=BodycalProcedureSettings(movement_s=8.0))
+    procedure.start()
+    statuses = []
+    while procedure.phase in ("npose", "movement"):
+        statuses.append(procedure.step())
+        assert procedure.feed.time_s < 60.0
+    assert procedure.phase == "result", procedure.refusal
+    counting = [s.countdown_s for s in statuses if s.pose == "movement"]
+    assert counting and counting[0] > counting[-1] and "tpose" not in procedure.windows
+    still, movement = procedure.windows["npose"], procedure.windows["movement"]
+    assert movement[0] > still[1] and movement[1] - still[1] >= 8.0
+    errors = mounting_errors_deg(procedure, simulator)
+    assert len(errors) == 10 and max(errors.values()) < 2.5, errors
+    assert {axis.axis for axis in procedure.calibration.quality.axes} >= {"knee_l", "knee_r", "pelvis", "thorax"}
+
+
+def test_the_functional_method_needs_no_arm_sensor_and_an_unknown_method_is_refused() -> None:
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=1, errors=ONBOARD))
+    feed = SimulatedSuitFeed(simulator, step_s=0.1)
+    legs = {m.segment: sid for sid, m in simulator.mounting.items() if "arm" not in m.segment}
+    with pytest.raises(ValueError, match="the left arm has no sensor"):
+        BodycalProcedure(feed, legs)
+    assert BodycalProcedure(feed, legs, method="functional").arm_sensors == {}
+    with pytest.raises(ValueError, match="method must be one of npose-tpose, functional, got 'walk'"):
+        BodycalProcedure(feed, legs, method="walk")

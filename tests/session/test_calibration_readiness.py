@@ -153,7 +153,8 @@ def test_udp_nodes_get_their_devices_calibrations_and_older_nodes_keep_theirs_un
     """Over loopback UDP: node 1 says hello, so it takes the calibration stored for its MAC (and
     not the one stored under its id for another device); node 2 is older (no hello): once the
     source says so it takes the calibration stored under its id, and its standing says the device
-    is not verified, and why."""
+    is not verified, and why. An older node cannot be paired (it names no device), so the source
+    is a fixed set-up: its senders are named by address."""
     import threading
     import time
 
@@ -163,8 +164,9 @@ def test_udp_nodes_get_their_devices_calibrations_and_older_nodes_keep_theirs_un
     from mimucap.acquisition.emulate_udp import UdpEmulator
     from mimucap.acquisition.hello import NO_HELLO
     from mimucap.core.device_identity import mac_device_id
-    from mimucap.core.magcal import MagCalibration
-    from mimucap.session.live.live_session import open_live_session
+    from mimucap.core.magcal.model import MagCalibration
+    from mimucap.session.sources.feeds import SupervisorFeed
+    from mimucap.session.sources.source_configs import SourceOptions
     from tests.acquisition.conftest import SyntheticMotion
     from tests.acquisition.test_udp_loopback import free_udp_port
 
@@ -182,7 +184,8 @@ def test_udp_nodes_get_their_devices_calibrations_and_older_nodes_keep_theirs_un
     store.save(calibration("1", "mac:0200000000AA"))          # another node once numbered 1
     store.save(calibration("2", None))                        # made for node 2, which has no hello
     port = free_udp_port()
-    live = open_live_session(f"udp:127.0.0.1:{port}", calibration_store=store)
+    live = LiveSession(SupervisorFeed(f"udp:127.0.0.1:{port}", SourceOptions(allowed_addresses=("127.0.0.1",))),
+                       calibration_store=store)
     live.start()
     new, old = (EmulatorSettings(n_sensors=1, first_sensor_id=k, duration_s=8.0, hello=k == 1) for k in (1, 2))
     try:

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core import rotation as rot
 from mimucap.session.procedures import instructions
 from mimucap.session.procedures.clinical_test import (
@@ -85,7 +85,7 @@ def test_the_clinicians_start_and_stop_are_markers_the_analysis_takes():
     procedure = _started("tug")
     procedure.mark_start(14.0)
     procedure.stop(25.0)
-    assert procedure.markers[1:] == [(14.0, phases.TEST_START), (25.0, phases.TEST_STOP)]
+    assert procedure.markers[1:] == [(14.0, phase_markers.TEST_START), (25.0, phase_markers.TEST_STOP)]
     assert procedure.state == "done" and procedure.ended_by == "stopped by the clinician"
 
 

@@ -9,7 +9,8 @@ import pytest
 
 from mimucap.acquisition.simulated import SimulatedSourceConfig
 from mimucap.core import skeleton
-from mimucap.core.pipeline import one_sensor_per_segment, process_recording
+from mimucap.core.pipeline.recording import process_recording
+from mimucap.core.pipeline.segments import one_sensor_per_segment
 from mimucap.core.simulate.config import MAX_SENSORS, SENSOR_PLACEMENTS, SimulationConfig, default_assignment
 from mimucap.core.simulate.suit import SuitSimulator, simulate_session
 from mimucap.io.session import session_from_simulation

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from mimucap.core.fusion import aot
+from mimucap.core.fusion import kernel_selection
 from mimucap.session.live.kernel_preparation import KernelPreparation
 
 #: Run in a fresh interpreter with an empty numba cache: prepare, then count the kernel
@@ -38,12 +38,12 @@ print(json.dumps({"cached": report.cached, "child_exit_code": report.child_exit_
 def jit_kernels():
     """These tests are about numba's JIT kernels, whether or not a compiled module exists (with
     one, the preparation has nothing to do: tests/core/fusion/test_aot.py)."""
-    with aot.kernels_in_use(aot.jit_kernels()):
+    with kernel_selection.kernels_in_use(kernel_selection.jit_kernels()):
         yield
 
 
 def test_a_cold_start_compiles_in_a_child_and_this_process_only_loads_from_the_cache(tmp_path):
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache"), aot.KERNELS_ENV: "jit"}
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "numba-cache"), kernel_selection.KERNELS_ENV: "jit"}
     done = subprocess.run([sys.executable, "-c", COLD_START], env=env, capture_output=True, text=True,
                           timeout=600)
     assert done.returncode == 0, done.stderr

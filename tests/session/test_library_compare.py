@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mimucap.io.analysis_tables import comparison_csv
 from mimucap.io.library import SessionEntry
 from mimucap.io.session import Marker
-from mimucap.session.recorded.library import (
-    COMPARISON_TABLES, ComparedSession, ComparisonTable, TimeWindow, compare, comparison_csv,
-)
+from mimucap.session.recorded.library import COMPARISON_TABLES, ComparedSession, ComparisonTable, TimeWindow, compare
 
 
 def _side(path: str, amplitude: float, subject: str = "P001", window: TimeWindow | None = None) -> ComparedSession:
@@ -25,9 +24,9 @@ def test_the_rom_table_has_both_sides_and_the_difference():
     tables = compare(before, after)
     assert [t.name for t in tables] == ["Joint-angle range of motion"]
     rows = {row[0]: row for row in tables[0].rows}
-    assert rows["knee_r_flexion"][3] == pytest.approx(40.0) and rows["knee_r_flexion"][6] == pytest.approx(55.0)
-    assert rows["knee_r_flexion"][7] == pytest.approx(15.0)
-    assert rows["hip_r_flexion"][3] == pytest.approx(20.0)
+    assert rows["Right knee flexion"][3] == pytest.approx(40.0) and rows["Right knee flexion"][6] == pytest.approx(55.0)
+    assert rows["Right knee flexion"][7] == pytest.approx(15.0)
+    assert rows["Right hip flexion"][3] == pytest.approx(20.0)
     # Between markers (in either order) the hip does not move.
     window = TimeWindow.between_markers(before.markers, 1, 0)
     assert (window.start_s, window.end_s) == (1.0, 4.0) and "start" in window.label
@@ -39,7 +38,7 @@ def test_the_rom_table_has_both_sides_and_the_difference():
     with pytest.raises(ValueError, match="marker 2 does not exist"):
         TimeWindow.between_markers(before.markers, None, 2)
     rows = {row[0]: row for row in compare(_side("a.h5", 40.0, window=window), after)[0].rows}
-    assert rows["hip_r_flexion"][3] == pytest.approx(0.0) and rows["hip_r_flexion"][7] == pytest.approx(20.0)
+    assert rows["Right hip flexion"][3] == pytest.approx(0.0) and rows["Right hip flexion"][7] == pytest.approx(20.0)
 
 
 def test_more_tables_are_added_as_builders_and_subjects_must_match():
@@ -109,10 +108,11 @@ def test_two_recordings_of_the_simulated_suit_compare_as_the_simulator_moved():
     rows = {row[0]: row for row in compare(a, b)[0].rows}
     expected_a = range_of_motion(truth_a.t_s, truth_a.joint_angles_deg)
     expected_b = range_of_motion(truth_b.t_s, truth_b.joint_angles_deg, b.window.start_s, b.window.end_s)
-    for column in ("knee_r_flexion", "knee_l_flexion", "hip_r_flexion"):
-        assert rows[column][3] == pytest.approx(expected_a[f"{column}_deg"].rom_deg, abs=6.0), column
-        assert rows[column][6] == pytest.approx(expected_b[f"{column}_deg"].rom_deg, abs=6.0), column
-    assert rows["knee_r_flexion"][3] > 40.0  # walking bends the knee
+    for column, name in (("knee_r_flexion_deg", "Right knee flexion"), ("knee_l_flexion_deg", "Left knee flexion"),
+                         ("hip_r_flexion_deg", "Right hip flexion")):
+        assert rows[name][3] == pytest.approx(expected_a[column].rom_deg, abs=6.0), column
+        assert rows[name][6] == pytest.approx(expected_b[column].rom_deg, abs=6.0), column
+    assert rows["Right knee flexion"][3] > 40.0  # walking bends the knee
 
 
 def test_sessions_without_a_body_calibration_or_of_another_result_are_not_compared():

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from mimucap.core.pipeline import POSE_SENSOR_AXES
+from mimucap.core.pipeline.recording import POSE_SENSOR_AXES
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.session.angle_accuracy import FLEXION_COLUMNS
 from mimucap.session.sources.feeds import SimulatorFeed

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation
-from mimucap.core.magcal import MagCalibration
+from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import simulate_session
 from mimucap.io.session import read_session, session_from_simulation, write_session
 from mimucap.session.recorded.export import ExportRequest, marker_range, run_export, summary_table
 from mimucap.session.sources.feeds import SimulatorFeed
-from mimucap.core.pipeline import POSE_SENSOR_AXES
+from mimucap.core.pipeline.recording import POSE_SENSOR_AXES
 from mimucap.session.live.evaluation import TRUTH_NOTE
 from mimucap.session.live.live_session import LiveSession, open_live_session
 from mimucap.session.live.processing import POSE_UNASSIGNED
@@ -126,7 +126,7 @@ def test_recording_markers_review_and_export(tmp_path):
     assert (a, b) == (pytest.approx(2.0, abs=0.03), pytest.approx(5.0, abs=0.03))
     exported = run_export(data, ExportRequest(tmp_path / "out", a, b, sensors_csv=True))
     names = sorted(p.name for p in exported.files)
-    assert "out.csv" in names and "out.mot" in names and "out_summary.csv" in names and "out_S01.csv" in names
+    assert {"out_joint_angles.csv", "out_joint_angles.mot", "out_joint_angle_summary.csv", "out_sensor_S01_raw.csv"} <= set(names)
     rows = summary_table({"x_deg": np.array([-5.0, 10.0, 2.0])})
     assert rows[0].minimum_deg == -5.0 and rows[0].maximum_deg == 10.0 and rows[0].rom_deg == 15.0
     with pytest.raises(ValueError, match="end after its start"):
@@ -386,7 +386,7 @@ def test_the_simulated_subjects_activity_changes_are_not_markers():
 def test_packets_a_replay_refuses_reach_the_sensor_rows_by_sensor_and_reason(tmp_path):
     """Rows with a NaN are refused, not replayed; the sensor panel's rows count them for their
     sensor, by reason (values beyond the physical limits cannot even be written to a file)."""
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session
 
     t = np.arange(200) / 100.0

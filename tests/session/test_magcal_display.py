@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.core.magcal_fit import fit_ellipsoid
+from mimucap.core.magcal.fit import fit_ellipsoid
 from mimucap.session.views.magcal_display import magcal_display
 
 

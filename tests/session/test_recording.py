@@ -10,10 +10,11 @@ import time
 import numpy as np
 import pytest
 
-from mimucap.core.samples import SensorSamples
-from mimucap.io.journal import read_journal
+from mimucap.core.sensor_samples import SensorSamples
+from mimucap.io.journal.file import read_journal
+from mimucap.io.journal.records import journal_path_for
 from mimucap.io.session import read_session
-from mimucap.session.live.recorder import Recorder, RecorderSettings, journal_path_for, open_session, recover
+from mimucap.session.live.recorder import Recorder, RecorderSettings, open_session, recover
 
 T0 = 1000.0
 
@@ -60,7 +61,8 @@ def test_blocks_become_a_session_and_the_journal_goes_away(tmp_path):
 def test_writing_the_session_reports_its_progress_up_to_the_whole(tmp_path):
     """Reading the journal and writing the file report fractions that only grow and end at 1,
     through the journal's records (several reports) and the sensors written."""
-    from mimucap.session.live.recorder import PROGRESS_EVERY_RECORDS, READING_SHARE
+    from mimucap.io.journal.to_session import PROGRESS_EVERY_RECORDS
+    from mimucap.session.live.recorder import READING_SHARE
 
     out = tmp_path / "s.h5"
     recorder = Recorder(out, {}, RecorderSettings(fsync=False))
@@ -134,7 +136,7 @@ def test_the_simulator_truth_is_journaled_and_survives_a_crash(tmp_path):
 
 
 def test_a_damaged_truth_record_names_the_record(tmp_path):
-    from mimucap.session.live.recorder import KIND_TRUTH, decode_truth, encode_truth
+    from mimucap.io.journal.records import KIND_TRUTH, decode_truth, encode_truth
 
     payload = encode_truth(*truth_rows(0, 3))
     part = decode_truth(payload)

@@ -11,7 +11,7 @@ from mimucap.acquisition.replay import ReplaySourceConfig
 from mimucap.acquisition.simulated import SimulatedSourceConfig
 from mimucap.acquisition.supervisor import Supervisor
 from mimucap.acquisition.udp import UdpSourceConfig
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.session import Session, write_session
 from mimucap.session.sources.source_configs import SourceOptions, load_replay, parse_sensor_ids, source_configs
 

@@ -24,7 +24,7 @@ from typing import Protocol
 import numpy as np
 
 from mimucap.acquisition.hello import Hello
-from mimucap.acquisition.samples import Sample
+from mimucap.acquisition.wire_sample import Sample
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,11 @@ A well-framed sample whose values are refused (:class:`RefusedSample`: NaN, beyo
 is a rejection of its sensor. Its sequence number, if newer than the last accepted one, waits
 until the next accepted sample: then it lies in the gap that sample leaves, and is reported in
 ``refused_in_gaps`` so the gap is not counted as a drop.
+
+Given the paired suit (``IntakeSettings.paired_devices``, :mod:`mimucap.acquisition.pairing`),
+a sample of a sensor whose device is not paired, or not identified yet, is refused as
+``unpaired_device`` before anything of its sensor (sequence, clock) is touched; such sensors are
+reported in the report's ``unpaired`` and left out of its ``devices``.
 """
 
 from __future__ import annotations
@@ -31,9 +36,11 @@ from dataclasses import dataclass, field
 
 from mimucap.acquisition.hello import HELLO_WAIT_S, NO_HELLO, Hello
 from mimucap.acquisition.messages import BlocksMessage, WorkerReport
+from mimucap.acquisition.packed_blocks import BlockBuilder
+from mimucap.acquisition.pairing import UnpairedSensor, admits
 from mimucap.acquisition.rejections import Rejection, RejectionCounter
-from mimucap.acquisition.samples import BlockBuilder, RefusedSample, Sample, SequenceUnwrapper
 from mimucap.acquisition.timesync import ClockSync, ClockSyncSettings
+from mimucap.acquisition.wire_sample import RefusedSample, Sample, SequenceUnwrapper
 from mimucap.core.device_identity import SensorDevice
 
 #: Distinct unknown ids/addresses tracked individually; beyond this they are lumped together.
@@ -56,6 +63,8 @@ class IntakeSettings:
 
     sensor_ids: tuple[int, ...] | None = None  #: expected wire ids; ``None`` accepts any id
     sensor_names: tuple[tuple[int, str], ...] = ()  #: wire id → session name (default str(id))
+    #: device ids of the paired suit; ``None`` lets every device in (see the module docstring)
+    paired_devices: frozenset[str] | None = None
     flush_interval_s: float = 0.001   #: s, the oldest pending sample waits at most this long
     max_block_samples: int = 4096     #: pending samples that force a flush
     clock: ClockSyncSettings = field(default_factory=ClockSyncSettings)
@@ -67,7 +76,7 @@ class IntakeSettings:
 
 class _SensorState:
     __slots__ = ("name", "unwrapper", "clock", "last_host_s", "last_device_s", "rejections",
-                 "restarts", "clock_settings", "pending_refused", "refused_in_gaps", "device", "first_heard_s")
+                 "restarts", "clock_settings", "pending_refused", "refused_in_gaps", "device", "first_heard_s", "unpaired")
 
     def __init__(self, name: str, clock_settings: ClockSyncSettings) -> None:
         self.name = name
@@ -82,6 +91,7 @@ class _SensorState:
         self.refused_in_gaps = 0
         self.device: SensorDevice | None = None   # from the node's hello
         self.first_heard_s: float | None = None   # host time of its first sample or hello
+        self.unpaired = 0   # samples refused because its device is not paired (or not known yet)
 
     def restart(self) -> None:
         """The node rebooted: its clock starts over (sequence numbers continue, see intake)."""
@@ -168,6 +178,17 @@ class SampleIntake:
         state.device = device
         return changed
 
+    def admitted(self, sensor_id: int) -> bool:
+        """Whether samples of wire id ``sensor_id`` are let in now (its device is paired, or
+        the source checks no pairing)."""
+        state = self._sensors.get(sensor_id)
+        return state is not None and admits(self.settings.paired_devices, state.device)
+
+    def awaiting_hello(self, sensor_id: int) -> bool:
+        """Whether wire id ``sensor_id`` is a sensor of the session whose node has not said hello."""
+        state = self._sensors.get(sensor_id)
+        return state is not None and state.device is None
+
     def identified(self, sensor_id: int) -> bool:
         """Whether the node of wire id ``sensor_id`` has said hello."""
         state = self._sensors.get(sensor_id)
@@ -178,15 +199,32 @@ class SampleIntake:
             state.first_heard_s = receive_time_s
         self._latest_s = max(self._latest_s, receive_time_s)
 
+    def _device(self, state: _SensorState) -> SensorDevice | None:
+        """The sensor's device (the hello's), or why it has none once it has been heard for
+        :data:`HELLO_WAIT_S` without a hello; ``None`` while it may still say."""
+        if state.device is not None:
+            return state.device
+        if state.first_heard_s is not None and self._latest_s - state.first_heard_s >= HELLO_WAIT_S:
+            return SensorDevice(None, NO_HELLO)
+        return None
+
     def devices(self) -> dict[str, SensorDevice]:
-        """Sensor name → its device (the hello's), or why it has none once it has been heard
-        for :data:`HELLO_WAIT_S` without a hello; sensors still waiting are left out."""
+        """Sensor name → its device (:meth:`_device`), for the sensors let in; sensors still
+        waiting for their hello and refused ones (:meth:`unpaired`) are left out."""
         found = {}
         for state in self._sensors.values():
-            if state.device is not None:
-                found[state.name] = state.device
-            elif state.first_heard_s is not None and self._latest_s - state.first_heard_s >= HELLO_WAIT_S:
-                found[state.name] = SensorDevice(None, NO_HELLO)
+            device = self._device(state)
+            if device is not None and admits(self.settings.paired_devices, device):
+                found[state.name] = device
+        return found
+
+    def unpaired(self) -> dict[str, UnpairedSensor]:
+        """Sensor name → the sensors refused as not paired whose device is still not paired."""
+        found = {}
+        for state in self._sensors.values():
+            device = self._device(state)
+            if state.unpaired and not admits(self.settings.paired_devices, device):
+                found[state.name] = UnpairedSensor(state.name, device or SensorDevice(), state.unpaired)
         return found
 
     def clock(self, sensor_id: int) -> ClockSync | None:
@@ -201,6 +239,10 @@ class SampleIntake:
             self.count_unknown(f"id {sample.sensor_id}", Rejection.UNKNOWN_SENSOR)
             return False
         self._heard(state, receive_time_s)
+        if not admits(self.settings.paired_devices, state.device):
+            state.unpaired += 1
+            self.reject(Rejection.UNPAIRED_DEVICE, sample.sensor_id)
+            return False
         restarted = state.last_device_s - sample.device_time_s > RESTART_CLOCK_JUMP_S
         if restarted:           # the node rebooted: new clock, and maybe a new counter
             state.restart()
@@ -260,4 +302,5 @@ class SampleIntake:
             rejections[Rejection.QUEUE_OVERFLOW.value] = overflow_samples
         return WorkerReport(self.source, state, message, rejections,
                             dict(self.unknown), by_sensor, clocks, overflow_samples, reconnects,
-                            restarts, self._refused_in_gaps(), devices=self.devices())
+                            restarts, self._refused_in_gaps(), devices=self.devices(),
+                            unpaired=self.unpaired())

@@ -9,10 +9,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from mimucap.acquisition.samples import PackedBlock
+from mimucap.acquisition.packed_blocks import PackedBlock
+from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.timesync import ClockEstimate
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 
 #: Worker states as reported to the supervisor.
 STATE_STARTING = "starting"
@@ -43,7 +44,7 @@ class BlocksMessage:
         return sum(len(block) for block in self.blocks)
 
     def unpacked(self) -> list[SensorSamples]:
-        """One :class:`~mimucap.core.samples.SensorSamples` per sensor and run."""
+        """One :class:`~mimucap.core.sensor_samples.SensorSamples` per sensor and run."""
         out: list[SensorSamples] = []
         for block in self.blocks:
             out.extend(block.unpack() if isinstance(block, PackedBlock) else (block,))
@@ -74,3 +75,5 @@ class WorkerReport:
     #: sensor → which device it is, for the sensors the source can tell of (a node's hello, a
     #: tracker's MAC, a simulated unit; or why it has none)
     devices: dict[str, SensorDevice] = field(default_factory=dict)
+    #: sensor → a sensor refused because its device is not paired (:mod:`mimucap.acquisition.pairing`)
+    unpaired: dict[str, UnpairedSensor] = field(default_factory=dict)

@@ -27,8 +27,9 @@ from __future__ import annotations
 
 from mimucap.acquisition.hello import Hello
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import (DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits,
-                                         validated_or_refused)
+from mimucap.acquisition.wire_sample import (
+    DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits, validated_or_refused,
+)
 
 TALKER = "MIMU"
 HELLO_TALKER = "MIMUH"

@@ -1,8 +1,8 @@
 """The MimuCap UDP protocol of wireless sensor nodes (ESP32 + BNO055 class), version 1.
 
 Pure encoders and a *total* decoder: :func:`decode_packet` turns any byte string into a
-:class:`~mimucap.acquisition.samples.Sample`, a :class:`SyncRequest`, a :class:`SyncResponse`,
-a :class:`~mimucap.acquisition.samples.RefusedSample` (a valid frame whose values are NaN or out
+:class:`~mimucap.acquisition.wire_sample.Sample`, a :class:`SyncRequest`, a :class:`SyncResponse`,
+a :class:`~mimucap.acquisition.wire_sample.RefusedSample` (a valid frame whose values are NaN or out
 of range: its sensor and sequence number are kept) or a
 :class:`~mimucap.acquisition.rejections.Rejection`; it never raises and never lets a NaN through. The layout is documented in ``docs/protocols.md``; in short (little-endian)::
 
@@ -34,8 +34,9 @@ from dataclasses import dataclass
 
 from mimucap.acquisition.hello import Hello, HelloRequest
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import (DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits,
-                                         validated_or_refused)
+from mimucap.acquisition.wire_sample import (
+    DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits, validated_or_refused,
+)
 
 MAGIC = 0x434D
 VERSION = 1

@@ -30,6 +30,7 @@ class Rejection(str, Enum):
     OUT_OF_RANGE = "out_of_range"          #: a value outside the physical limits
     UNKNOWN_SENSOR = "unknown_sensor"      #: a sensor id that is not part of the session
     UNKNOWN_ADDRESS = "unknown_address"    #: a UDP sender that is not part of the session
+    UNPAIRED_DEVICE = "unpaired_device"    #: a device not paired with the suit, or not identified yet
     STALE_SEQUENCE = "stale_sequence"      #: duplicate or older sequence number
     UNEXPECTED_MESSAGE = "unexpected_message"  #: a valid message the host does not expect here
     QUEUE_OVERFLOW = "queue_overflow"      #: the pipeline was full; the sample was discarded

@@ -7,7 +7,7 @@ host time ``start + (t_s[k] − t0) / speed`` and stamped with that host time; t
 is kept as ``device_time_s``. The source reports ``finished`` after its last sample.
 
 A recorded row that a live source would refuse (NaN or infinity: ``non_finite``; beyond
-:class:`~mimucap.acquisition.samples.ValueLimits`: ``out_of_range``) is never released:
+:class:`~mimucap.acquisition.wire_sample.ValueLimits`: ``out_of_range``) is never released:
 :func:`replayable` sets it apart, and the driver counts it as a rejection with
 its reason when the replay reaches its time, per sensor and for the source, as the packet
 intake does. Its sequence number is reported in ``refused_in_gaps`` so that the gap it leaves
@@ -25,9 +25,9 @@ import numpy as np
 from mimucap.acquisition.messages import STATE_FINISHED, STATE_RUNNING, BlocksMessage, WorkerReport
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import RejectionCounter
-from mimucap.acquisition.samples import DEFAULT_LIMITS, ValueLimits, refused_rows
+from mimucap.acquisition.wire_sample import DEFAULT_LIMITS, ValueLimits, refused_rows
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.samples import CHANNELS, SensorSamples
+from mimucap.core.sensor_samples import CHANNELS, SensorSamples
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,7 +56,7 @@ class RefusedRows:
 
 def replayable(samples: SensorSamples, limits: ValueLimits = DEFAULT_LIMITS) -> tuple[SensorSamples, RefusedRows | None]:
     """A recording's samples split as a live source validates samples
-    (:func:`~mimucap.acquisition.samples.refused_rows`): the rows to replay (``t_s`` recorded
+    (:func:`~mimucap.acquisition.wire_sample.refused_rows`): the rows to replay (``t_s`` recorded
     time, ``seq``, the channels, quaternions normalised; ``segment`` kept), and the rows with a
     NaN, an infinity or a value beyond ``limits``, with their reasons (``None`` when every
     row is replayable)."""

@@ -23,7 +23,7 @@ from mimucap.acquisition.intake import IntakeSettings, SampleIntake
 from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_RUNNING, STATE_STARTING
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits
+from mimucap.acquisition.wire_sample import DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits
 
 READ_CHUNK_BYTES = 4096
 

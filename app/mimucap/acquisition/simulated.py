@@ -18,7 +18,7 @@ import numpy as np
 from mimucap.acquisition.messages import STATE_RUNNING, BlocksMessage, WorkerReport
 from mimucap.acquisition.outbox import Outbox
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.core.simulate.config import SimulationConfig, default_assignment
 from mimucap.core.simulate.suit import SuitSimulator
 

@@ -16,7 +16,10 @@ socket (port 6969 by default, where trackers look for a server), and speaks the 
 Each sensor of a tracker becomes one MimuCap sensor named ``"<MAC>-<sensor>"`` (the MAC as 12
 hex digits, e.g. ``"A1B2C3D4E5F6-0"``), stable across reconnects, and is the device
 ``mac:<MAC>/<sensor>`` (:mod:`mimucap.core.device_identity`; a tracker whose handshake carries no
-MAC is named by its address and has no device id). It is *orientation-only*: its
+MAC is named by its address and has no device id). Given the paired suit (``paired_devices``,
+:mod:`mimucap.acquisition.pairing`), a sensor whose device is not in it is still served (the
+tracker keeps its server) but its rotations are refused as ``unpaired_device`` and it is
+reported in ``unpaired``, not among the devices. It is *orientation-only*: its
 samples carry ``q_world_from_sensor`` (the tracker's on-board fusion, world ENU, see
 :func:`~mimucap.acquisition.slimevr_protocol.q_world_from_slimevr`) and, once the tracker has
 sent one, ``battery_pct``; no raw accelerometer, gyroscope or magnetometer. The acceleration
@@ -50,8 +53,10 @@ from mimucap.acquisition import slimevr_protocol as proto
 from mimucap.acquisition.datagram_socket import drain, open_datagram_socket
 from mimucap.acquisition.messages import STATE_RUNNING, BlocksMessage, WorkerReport
 from mimucap.acquisition.outbox import Outbox
+from mimucap.acquisition.packed_blocks import BlockBuilder
+from mimucap.acquisition.pairing import UnpairedSensor, admits
 from mimucap.acquisition.rejections import Rejection, RejectionCounter
-from mimucap.acquisition.samples import BlockBuilder, Sample, ValueLimits, DEFAULT_LIMITS, validate_sample
+from mimucap.acquisition.wire_sample import Sample, ValueLimits, DEFAULT_LIMITS, validate_sample
 from mimucap.core.device_identity import SensorDevice, mac_device_id
 
 #: Why the sensors of a tracker that sends no MAC have no device id.
@@ -75,6 +80,8 @@ class SlimeVrSourceConfig:
     report_interval_s: float = 0.5
     receive_buffer_bytes: int = 4 * 1024 * 1024
     limits: ValueLimits = DEFAULT_LIMITS
+    #: device ids of the paired suit; ``None`` lets every tracker in (see the module docstring)
+    paired_devices: frozenset[str] | None = None
 
     def __post_init__(self) -> None:
         if not 0 <= self.port < 65536:   # 0: a free port chosen by the system (tests)
@@ -84,11 +91,13 @@ class SlimeVrSourceConfig:
 
 
 class _Sensor:
-    __slots__ = ("name", "index", "rotations", "rejections", "last_host_s")
+    __slots__ = ("name", "index", "rotations", "rejections", "last_host_s", "device", "unpaired")
 
-    def __init__(self, name: str, index: int) -> None:
+    def __init__(self, name: str, index: int, device: SensorDevice) -> None:
         self.name = name
         self.index = index
+        self.device = device
+        self.unpaired = 0   # rotations refused because its device is not paired
         self.rotations = 0
         self.rejections = RejectionCounter()
         self.last_host_s = float("-inf")
@@ -249,7 +258,11 @@ class SlimeVrDriver:
     def _sensor(self, tracker: _Tracker, sensor_id: int) -> _Sensor:
         sensor = tracker.sensors.get(sensor_id)
         if sensor is None:
-            sensor = tracker.sensors[sensor_id] = _Sensor(f"{tracker.mac}-{sensor_id}", self._sensor_count)
+            try:
+                device = SensorDevice(mac_device_id(tracker.mac, sensor_id))
+            except ValueError:     # named by its address: the handshake had no MAC
+                device = SensorDevice(None, NO_MAC)
+            sensor = tracker.sensors[sensor_id] = _Sensor(f"{tracker.mac}-{sensor_id}", self._sensor_count, device)
             self._sensor_count += 1
         return sensor
 
@@ -282,6 +295,11 @@ class SlimeVrDriver:
     def _rotation(self, tracker: _Tracker, rotation: proto.Rotation, now: float) -> None:
         sensor = self._sensor(tracker, rotation.sensor)
         if rotation.kind != proto.ROTATION_NORMAL:   # magnetometer correction data: unused
+            return
+        if not admits(self.config.paired_devices, sensor.device):
+            sensor.unpaired += 1
+            self.rejections.add(Rejection.UNPAIRED_DEVICE)
+            sensor.rejections.add(Rejection.UNPAIRED_DEVICE)
             return
         host_s = now - tracker.one_way_delay_s
         if host_s <= sensor.last_host_s:
@@ -319,15 +337,14 @@ class SlimeVrDriver:
         return out
 
     def devices(self) -> dict[str, SensorDevice]:
-        """Sensor name → its device: sensor ``n`` of the tracker's MAC."""
-        out = {}
-        for tracker in self._trackers.values():
-            for sensor_id, sensor in tracker.sensors.items():
-                try:
-                    out[sensor.name] = SensorDevice(mac_device_id(tracker.mac, sensor_id))
-                except ValueError:     # named by its address: the handshake had no MAC
-                    out[sensor.name] = SensorDevice(None, NO_MAC)
-        return out
+        """Sensor name → its device (sensor ``n`` of the tracker's MAC), for the sensors let in."""
+        return {sensor.name: sensor.device for tracker in self._trackers.values()
+                for sensor in tracker.sensors.values() if admits(self.config.paired_devices, sensor.device)}
+
+    def unpaired(self) -> dict[str, UnpairedSensor]:
+        """Sensor name → the sensors whose rotations were refused because their device is not paired."""
+        return {sensor.name: UnpairedSensor(sensor.name, sensor.device, sensor.unpaired)
+                for tracker in self._trackers.values() for sensor in tracker.sensors.values() if sensor.unpaired}
 
     def report(self, state: str, message: str = "") -> WorkerReport:
         """A cumulative report of this source (see :class:`~mimucap.acquisition.messages.WorkerReport`)."""
@@ -344,4 +361,5 @@ class SlimeVrDriver:
                     if t.handshakes > 1}
         return WorkerReport(self.config.name, state, message, rejections,
                             dict(self.refused_trackers), by_sensor, {}, overflow, 0, restarts,
-                            signal_dbm=self.signal_dbm(), warning=self.warning, devices=self.devices())
+                            signal_dbm=self.signal_dbm(), warning=self.warning, devices=self.devices(),
+                            unpaired=self.unpaired())

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 
 #: After this long (s) without an arrival, a sensor's rate is taken over the time up to now
 #: (it falls), not up to its last arrival.

@@ -20,13 +20,14 @@ from dataclasses import dataclass, field
 from mimucap.acquisition.messages import (
     STATE_FAILED, STATE_FINISHED, STATE_STARTING, STATE_STOPPED, BlocksMessage, WorkerReport,
 )
+from mimucap.acquisition.packed_blocks import PackedBlock, join_packed_blocks
+from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.rejections import RejectionCounter
-from mimucap.acquisition.samples import PackedBlock, join_packed_blocks
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.timesync import ClockEstimate
 from mimucap.acquisition.worker import SourceConfig, run_worker
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 
 
 @dataclass(frozen=True)
@@ -61,6 +62,7 @@ class SourceStatus:
     signal_dbm: dict[str, float] = field(default_factory=dict)    #: sensor → radio link (dBm)
     warning: str = ""                #: the worker's last warning (see WorkerReport.warning)
     devices: dict[str, SensorDevice] = field(default_factory=dict)   #: sensor → its device (WorkerReport.devices)
+    unpaired: dict[str, UnpairedSensor] = field(default_factory=dict)   #: WorkerReport.unpaired
     exit_code: int | None = None
 
 
@@ -217,6 +219,7 @@ class Supervisor:
         status.signal_dbm = dict(report.signal_dbm)
         status.warning = report.warning
         status.devices.update(report.devices)   # a restarted worker has not told them all again yet
+        status.unpaired = dict(report.unpaired)
         for sensor, counts in report.rejections_by_sensor.items():
             if sensor in self._trackers:
                 self._trackers[sensor].rejections = dict(counts)

@@ -5,9 +5,11 @@ decodes every datagram with :func:`~mimucap.acquisition.protocol_udp.decode_pack
 datagrams from addresses or sensor ids outside the session (counted), and sends each known
 node a time-sync request every ``sync_interval_s``; the answers feed the node's
 :class:`~mimucap.acquisition.timesync.ClockSync`. A node that has not said which device it is
-gets a hello request with each of them (:mod:`mimucap.acquisition.hello`); its hello is reported
-at once. Memory is bounded by the kernel receive buffer (``receive_buffer_bytes``), the block
-size and the supervisor queue.
+gets a hello request every ``sync_interval_s`` (:mod:`mimucap.acquisition.hello`); its hello is
+reported at once. Given the paired suit (``intake.paired_devices``), a node's samples are let in
+only once its hello names a paired device (:mod:`mimucap.acquisition.pairing`); it is asked
+for its hello meanwhile, and for its time only once it is let in. Memory is bounded by the
+kernel receive buffer (``receive_buffer_bytes``), the block size and the supervisor queue.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from mimucap.acquisition.intake import IntakeSettings, SampleIntake
 from mimucap.acquisition.messages import STATE_RUNNING
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import Rejection
-from mimucap.acquisition.samples import DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits
+from mimucap.acquisition.wire_sample import DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits
 
 #: Outstanding sync requests remembered per node (older ones are forgotten).
 MAX_PENDING_SYNC = 16
@@ -128,9 +130,10 @@ class UdpDriver:
         elif isinstance(message, RefusedSample):
             self.intake.refuse(message)
         elif isinstance(message, Sample):
-            if self.intake.accept(message, now):
+            # a node let in, or one still to say which device it is (asked with the time requests)
+            if self.intake.accept(message, now) or self.intake.awaiting_hello(message.sensor_id):
                 if message.sensor_id not in self._addresses:
-                    self._next_sync_s = 0.0      # a new node: ask for its time right away
+                    self._next_sync_s = 0.0      # a new node: ask for its time (or hello) right away
                 self._addresses[message.sensor_id] = address
         elif isinstance(message, proto.SyncResponse):
             self._handle_sync_response(message, now)
@@ -153,6 +156,10 @@ class UdpDriver:
     def _send_sync_requests(self, now: float) -> None:
         assert self.sock is not None
         for sensor_id, address in self._addresses.items():
+            if not self.intake.admitted(sensor_id):    # not paired (yet): only its hello is asked
+                if self.intake.awaiting_hello(sensor_id):
+                    self._send_to(proto.encode_hello_request(HelloRequest(sensor_id)), address)
+                continue
             request_id = self._next_request_id
             self._next_request_id = (self._next_request_id + 1) % 2**32
             pending = self._pending_sync.setdefault(sensor_id, {})
@@ -167,3 +174,10 @@ class UdpDriver:
                     self.sock.sendto(proto.encode_hello_request(HelloRequest(sensor_id)), address)
             except OSError:
                 pending.pop(request_id, None)
+
+    def _send_to(self, packet: bytes, address: tuple) -> None:
+        assert self.sock is not None
+        try:
+            self.sock.sendto(packet, address)
+        except OSError:
+            pass   # a node that went away; its silence says so

@@ -18,8 +18,9 @@ from pathlib import Path
 from mimucap import __version__
 
 #: Sub-command modules, in the order ``--help`` lists them.
-COMMAND_MODULES: tuple[str, ...] = ("gui", "magcal", "bodycal", "angles", "emulate", "record", "recover", "fuse", "bench",
-                                     "simulate", "export", "import_", "library", "gait", "report", "protocol")
+COMMAND_MODULES: tuple[str, ...] = ("gui", "magcal", "bodycal", "angles", "emulate", "pair", "record", "recover", "fuse",
+                                     "bench", "simulate", "export", "import_", "library", "gait", "report", "protocol",
+                                     "stream")
 
 EXIT_USAGE = 2
 

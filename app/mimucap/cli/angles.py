@@ -46,8 +46,9 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED, process_recording
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.pipeline.recording import process_recording
+    from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.core.skeleton import joint_angle_columns
     from mimucap.io.angles_export import write_angles
     from mimucap.io.body_calibration_file import read_body_calibration
@@ -114,7 +115,7 @@ def doubt_summary(t_s, joint_doubt) -> list[str]:
     reason in words."""
     import numpy as np
 
-    from mimucap.core.doubt import describe
+    from mimucap.core.pipeline.doubt_reasons import describe
 
     lines = []
     for joint, reasons in joint_doubt.items():
@@ -139,7 +140,7 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
 
     from mimucap.cli.bodycal import _refuse_up_for_session, check_reader_options
     from mimucap.cli.session_input import warn_about_magnetometers
-    from mimucap.core.doubt import bridge_note
+    from mimucap.core.pipeline.sensor_doubt import bridge_note
     from mimucap.io.session import read_session
     from mimucap.session.recorded.calibration_choice import applied_calibrations
     from mimucap.session.recorded.reprocessing import process_session

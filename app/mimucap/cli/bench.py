@@ -29,7 +29,7 @@ from mimucap.core.fusion.algorithms import ALGORITHMS
 if TYPE_CHECKING:
     import numpy as np
 
-    from mimucap.io.broad import BroadTrial
+    from mimucap.io.broad_trials import BroadTrial
 
 OUR_ALGORITHMS = ("ekf-taylor3", "ekf-taylor3-offline", "ekf-rk4", "ekf-rk4-offline",
                   "taylor3", "rk4")
@@ -65,11 +65,13 @@ def _vqf_available() -> bool:
 
 
 def estimate(trial: BroadTrial, algorithm: str) -> np.ndarray:
-    """``q_world_from_sensor`` (N, 4) of one algorithm on one trial."""
+    """``q_world_from_sensor`` (N, 4) of one algorithm on one trial: ours through the
+    per-sensor chain of the processing path (:class:`mimucap.core.pipeline.chain.SensorChain`,
+    the trial's magnetometer as the data set calibrated it), VQF through its own package."""
     import numpy as np
 
-    from mimucap.core.fusion.ekf import fuse
-    from mimucap.core.fusion.offline import fuse_offline
+    from mimucap.core.pipeline.chain import SensorChain
+    from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
 
     if algorithm in VQF_ALGORITHMS:
         import vqf
@@ -85,9 +87,8 @@ def estimate(trial: BroadTrial, algorithm: str) -> np.ndarray:
     name = algorithm.removesuffix("-offline")
     if name not in ALGORITHMS:
         raise ValueError(f"unknown algorithm {algorithm!r}")
-    estimator = fuse_offline if offline else fuse
-    return estimator(trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT,
-                     algorithm=name).q_world_from_sensor
+    chain = SensorChain(trial.name, algorithm=name, doubt=False)
+    return chain.process(trial.samples(), RESULT_REPROCESSED if offline else RESULT_LIVE).q_world_from_sensor
 
 
 def _trial_errors(trial: BroadTrial, algorithm: str) -> dict:
@@ -112,7 +113,7 @@ def evaluate(directory: Path, algorithms: list[str]) -> dict:
     """Per-trial, per-category and mean errors; the structure printed by ``--json``."""
     import numpy as np
 
-    from mimucap.io.broad import list_broad_trials, read_broad
+    from mimucap.io.broad_trials import list_broad_trials, read_broad
 
     trials = []
     paths = list_broad_trials(directory)

@@ -6,9 +6,10 @@
 INPUT is a BROAD-style HDF5 trial (``imu_gyr``, ``imu_acc``, ``imu_mag`` unless ``--no-mag``,
 attribute ``sampling_rate``) or a MimuCap session (:func:`mimucap.io.session.read_session`). A session
 gives one output per sensor with a gyroscope, named ``OUT_<sensor id>.<ext>``, or only the
-sensor chosen with ``--sensor`` (written to OUT itself); its magnetometer samples are calibrated
-first as the processing path does (the session's calibrations, else the stored ones, or
-``--mag-calibration FILE``).
+sensor chosen with ``--sensor`` (written to OUT itself). Every sensor goes through its chain of
+the processing path (:class:`mimucap.core.pipeline.chain.SensorChain`: magnetometer calibration
+with the session's calibrations, else the stored ones, or ``--mag-calibration FILE``; then the
+filter, forward or, with ``--offline``, smoothed).
 
 Output: one row per input sample, ``q_world_from_sensor`` (world ENU, scalar first; NaN rows
 before the first valid accelerometer sample). CSV: header ``t_s,qw,qx,qy,qz``; HDF5: dataset
@@ -29,7 +30,8 @@ from mimucap.core.fusion.algorithms import ALGORITHMS
 if TYPE_CHECKING:
     import numpy as np
 
-    from mimucap.core.fusion.ekf import FusionResult
+    from mimucap.core.magcal.model import MagCalibration
+    from mimucap.core.sensor_samples import SensorSamples
 
 OUTPUT_SUFFIXES = (".csv", ".h5", ".hdf5", ".npy")
 
@@ -55,13 +57,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _inputs(path: Path, sensor: str | None, no_mag: bool,
-            mag_files: list[str] | None = None) -> list[tuple[str | None, np.ndarray, np.ndarray,
-                                                              np.ndarray | None, np.ndarray | None]]:
-    """``(sensor id or None, t_s, gyr, acc, mag)`` for each stream to fuse; a session's
-    magnetometer samples come calibrated, as the processing path calibrates them (the session's
-    own calibrations, the stored ones, or ``mag_files``; :mod:`mimucap.cli.session_input`)."""
+            mag_files: list[str] | None = None) -> list[tuple[str | None, SensorSamples, MagCalibration | None]]:
+    """``(sensor id or None, raw samples, magnetometer calibration or None)`` for each stream to
+    fuse: a session's calibrations are those the processing path applies (the session's own, the
+    stored ones, or ``mag_files``; :mod:`mimucap.cli.session_input`); ``no_mag`` leaves the
+    magnetometer out."""
+    import numpy as np
+
     from mimucap.cli.session_input import magnetometer_calibrations, warn_about_magnetometers
-    from mimucap.io.broad import is_broad_file, read_broad
+    from mimucap.core.sensor_samples import SensorSamples
+    from mimucap.io.broad_trials import is_broad_file, read_broad
     from mimucap.io.session import read_session
 
     if not path.is_file():
@@ -75,7 +80,7 @@ def _inputs(path: Path, sensor: str | None, no_mag: bool,
                              "fuse it without the magnetometer with --no-mag")
         if mag_files:
             raise ValueError(f"{path}: --mag-calibration applies to MimuCap sessions (sensor ids), not to a BROAD trial")
-        return [(None, trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT)]
+        return [(None, trial.samples(with_mag=not no_mag), None)]
     session = read_session(path)
     calibrations = {}
     if not no_mag:
@@ -95,10 +100,9 @@ def _inputs(path: Path, sensor: str | None, no_mag: bool,
             if sensor is not None:
                 raise ValueError(f"{path}: sensor {sensor_id} has no gyroscope channel")
             continue
-        mag = stream.mag_uT
-        if mag is not None and sensor_id in calibrations:
-            mag = calibrations[sensor_id].apply(mag, sensor_id)
-        chosen.append((sensor_id, stream.t_s, stream.gyr, stream.acc, mag))
+        raw = SensorSamples(sensor_id, np.asarray(stream.t_s, dtype=np.float64), stream.seq, stream.acc, stream.gyr,
+                            None if no_mag else stream.mag_uT)
+        chosen.append((sensor_id, raw, calibrations.get(sensor_id)))
     if not chosen:
         raise ValueError(f"{path}: no sensor with a gyroscope channel to fuse")
     return chosen
@@ -110,14 +114,15 @@ def _output_path(out: Path, sensor_id: str | None, several: bool) -> Path:
     return out.with_name(f"{out.stem}_{sensor_id}{out.suffix}")
 
 
-def write_orientation(path: Path, t_s: np.ndarray, result: FusionResult) -> None:
-    """Write ``q_world_from_sensor`` as CSV, HDF5 or .npy (chosen by the suffix of ``path``)."""
+def write_orientation(path: Path, t_s: np.ndarray, q_world_from_sensor: np.ndarray, flags: np.ndarray) -> None:
+    """Write ``q_world_from_sensor`` (N, 4) at ``t_s`` (N,) with the filter's ``flags`` (N,) as
+    CSV, HDF5 or .npy (chosen by the suffix of ``path``)."""
     import h5py
     import numpy as np
 
     from mimucap.core.fusion.state import FLAG_NAMES
 
-    q = result.q_world_from_sensor
+    q = q_world_from_sensor
     suffix = path.suffix.lower()
     if suffix == ".csv":
         table = np.column_stack((t_s, q))
@@ -128,8 +133,8 @@ def write_orientation(path: Path, t_s: np.ndarray, result: FusionResult) -> None
             dataset = handle.create_dataset("q_world_from_sensor", data=q)
             dataset.attrs["description"] = "q_world_from_sensor, world ENU, scalar first [w, x, y, z]"
             handle.create_dataset("t_s", data=t_s).attrs["unit"] = "s"
-            flags = handle.create_dataset("flags", data=result.flags)
-            flags.attrs["bits"] = ", ".join(f"{name}={bit}" for name, bit in FLAG_NAMES.items())
+            written = handle.create_dataset("flags", data=flags)
+            written.attrs["bits"] = ", ".join(f"{name}={bit}" for name, bit in FLAG_NAMES.items())
     elif suffix == ".npy":
         np.save(path, q)
     else:
@@ -144,36 +149,34 @@ def _sensor_label(sensor_id: str | None) -> str:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from mimucap.core.fusion.ekf import fuse
+    from mimucap.core.pipeline.chain import SensorChain
+    from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
 
     if args.out.suffix.lower() not in OUTPUT_SUFFIXES:
         raise ValueError(f"{args.out}: output must end in {', '.join(OUTPUT_SUFFIXES)}")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)  # also when per-sensor names derive from it: a slip
     inputs = _inputs(args.input, args.sensor, args.no_mag, args.mag_calibration)
-    estimator = fuse
-    if args.offline:
-        from mimucap.core.fusion.offline import fuse_offline as estimator
+    result = RESULT_REPROCESSED if args.offline else RESULT_LIVE
     several = len(inputs) > 1
     for sensor_id, *_ in inputs:  # every file to write, before any is written
         refuse_to_overwrite_input(_output_path(args.out, sensor_id, several), args.input)
     results = []
-    for sensor_id, t_s, gyr, acc, mag in inputs:  # every sensor fused, and checked, before any file is written
+    for sensor_id, samples, calibration in inputs:  # every sensor fused, and checked, before any file is written
         name = f"{args.input}: {_sensor_label(sensor_id)}"
-        if len(t_s) == 0:
+        if len(samples.t_s) == 0:
             raise ValueError(f"{name}no samples (0 rows): nothing to fuse")
-        result = estimator(t_s, gyr, acc, None if args.no_mag else mag,
-                           algorithm=args.algorithm, use_mag=not args.no_mag)
-        q = result.q_world_from_sensor
+        chain = SensorChain(samples.sensor_id, calibration, algorithm=args.algorithm, doubt=False)
+        out = chain.process(samples, result)
+        q = out.q_world_from_sensor
         # an initialised filter stays so: a finite last row answers at once for hours of samples
         if not (np.isfinite(q[-1]).all() or np.isfinite(q).all(axis=-1).any()):
             raise ValueError(f"{name}fusion gave no orientation: no valid accelerometer sample among "
-                             f"{len(t_s)} (all missing, NaN or zero); nothing was written")
-        results.append((sensor_id, np.asarray(t_s, dtype=np.float64), result))
-    for sensor_id, t_s, result in results:
+                             f"{len(samples.t_s)} (all missing, NaN or zero); nothing was written")
+        results.append((sensor_id, out, chain.counters()))
+    for sensor_id, out, counts in results:
         path = _output_path(args.out, sensor_id, several)
-        write_orientation(path, t_s, result)
-        counts = result.counters[0]
+        write_orientation(path, out.t_s, out.q_world_from_sensor, out.flags)
         print(f"{_sensor_label(sensor_id)}{counts['samples']} samples -> {path} (skipped {counts['skipped']}, "
               f"rest {counts['rest']}, magnetometer rejected {counts['mag_rejected']} and missing or invalid "
               f"{counts['mag_missing']}, accelerometer rejected {counts['acc_rejected']} and missing or invalid "

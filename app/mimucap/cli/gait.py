@@ -52,7 +52,7 @@ def session_review(session: Path, calibration: Path | None, live: bool, allow_un
     """The review of ``session`` (reprocessed, or as seen live) with its stored body calibration
     or ``calibration``; ``ValueError`` naming ``--calibration`` when it has none and
     ``allow_uncalibrated`` is False (``what`` names what needs it)."""
-    from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
+    from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
     from mimucap.session.recorded.review import load_review, require_body_calibration
 
     if calibration is not None and not calibration.is_file():
@@ -72,8 +72,9 @@ def _is_csv(path: Path) -> bool:
 def run(args: argparse.Namespace) -> int:
     from mimucap.core.analysis.gait import GaitInput, analyse_gait
     from mimucap.core.analysis.sagittal import axes_from_data
-    from mimucap.io.gait_csv import read_foot_imu_csv
-    from mimucap.session.recorded.analysis import analyse_review, write_analysis_csv, write_gait_csv
+    from mimucap.io.analysis_tables import write_gait_tables
+    from mimucap.io.gaitmap import read_foot_imu_csv
+    from mimucap.session.recorded.analysis import analyse_review, write_analysis_csv
 
     source: Path = args.input
     if not source.is_file():
@@ -96,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
         notes = [f"Source file: {source.name}; foot IMUs in the gaitmap layout (axes given by the layout, "
                  f"{args.rate:g} Hz, gyroscope in {args.gyr_unit}); no orientation filter or body calibration"]
-        written = write_gait_csv(out, gait, notes)
+        written = write_gait_tables(out, gait, notes)
     else:
         if args.rate is not None:
             raise ValueError("--rate applies to CSV input only (a session carries its time stamps)")

@@ -1,6 +1,6 @@
 """``mimucap import``: a recording from another system as a MimuCap session file.
 
-``mimucap import FILE.{mvnx,sto} --out SESSION.h5``
+``mimucap import FILE.{mvnx,sto,xdf} --out SESSION.h5``
 
 * Xsens MVNX (versions 3 and 4): the sensors' orientations and accelerations, the body
   calibration Xsens applied, the subject, and Xsens's own joint angles and segment data kept
@@ -9,6 +9,11 @@
   assigned to our segment when the column is named ``<body>_imu`` after an OpenSim body
   (:data:`mimucap.io.opensense.OPENSIM_BODIES`); no body calibration (calibrate it with
   ``mimucap bodycal`` or in the review).
+* XDF files (LabRecorder) with MimuCap's raw-sample streams (``MimuCap raw <sensor>``, streamed by
+  ``mimucap stream --lsl`` or the window): every sensor's accelerometer, gyroscope and raw
+  magnetometer at its sample times, its segment and device, and the file's marker streams as
+  markers; session time 0 is the first sample (:mod:`mimucap.io.xdf`; needs ``pyxdf``:
+  ``pip install 'mimucap[lsl]'``).
 
 The session opens in the review (File → Open) and exports (``mimucap export``) like a recording
 of ours.
@@ -25,11 +30,11 @@ from mimucap.cli import check_output_path, refuse_to_overwrite_input
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "import",
-        help="an Xsens MVNX file or an OpenSense .sto table as a MimuCap session",
+        help="an Xsens MVNX file, an OpenSense .sto table or an XDF file as a MimuCap session",
         description=__doc__.split("\n\n", 1)[1],
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("input", metavar="FILE", help="an .mvnx file or an OpenSense .sto table")
+    parser.add_argument("input", metavar="FILE", help="an .mvnx file, an OpenSense .sto table or an .xdf file")
     parser.add_argument("--out", required=True, metavar="SESSION.h5", help="session file to write")
     parser.set_defaults(func=run)
 
@@ -41,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
     refuse_to_overwrite_input(args.out, args.input)
     if Path(args.out).exists():  # it may be a recording: never replaced by an import
         raise OSError(f"{args.out} exists: choose another --out (an import never replaces a session file)")
-    from mimucap.io.imports import import_recording
+    from mimucap.io.recording_import import import_recording
 
     from mimucap.io.session import session_duration_s
 

@@ -18,7 +18,7 @@ script can tell it from a usable fit.
 
 A single MimuCap session file is fitted per sensor (every sensor with a magnetometer, or only
 ``--sensor``): each from its samples in the session's magnetometer-turn windows, which run from
-a marker labelled "magnetometer turns" to the next marker (:mod:`mimucap.core.phases`; all its
+a marker labelled "magnetometer turns" to the next marker (:mod:`mimucap.core.phase_markers`; all its
 samples when no marker says so). One line per sensor gives its verdict; ``--json`` prints one
 object per sensor and line, with a ``sensor`` key besides the keys above when there are
 several; ``--save`` stores every usable fit. The exit status is 1 if a sensor's fit was
@@ -52,7 +52,7 @@ from mimucap.io.input_names import FORMATS, MAG_UNITS
 if TYPE_CHECKING:
     import numpy as np
 
-    from mimucap.core.magcal_study import StudyResult, Trial
+    from mimucap.core.magcal.study import StudyResult, Trial
     from mimucap.io.magdata import MagRecording
 
 #: Exit status of a fit printed but failing its quality checks (1 is a fit refused outright).
@@ -149,9 +149,10 @@ def _finite_or_none(value: float) -> float | None:
 
 
 def _fit(recordings: list[MagRecording], sensor_id: str, args: argparse.Namespace, protocol: str):
-    """The :class:`~mimucap.core.magcal.CalibrationResult` of the samples of ``recordings``;
+    """The :class:`~mimucap.core.magcal.calibrate.CalibrationResult` of the samples of ``recordings``;
     a refused fit raises ``ValueError`` naming whose samples they were."""
-    from mimucap.core.magcal import FitSettings, calibrate
+    from mimucap.core.magcal.calibrate import calibrate
+    from mimucap.core.magcal.fit import FitSettings
 
     mag, acc = _samples_uT(recordings, args)
     created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
@@ -244,12 +245,12 @@ def run_fit(args: argparse.Namespace) -> int:
 
 def session_turn_recordings(path: Path, sensor: str | None) -> tuple[dict[str, MagRecording], list[tuple[float, float]]]:
     """Per sensor with a magnetometer (only ``sensor`` if given), its samples in the session's
-    magnetometer-turn windows (markers "magnetometer turns", :mod:`mimucap.core.phases`), and
+    magnetometer-turn windows (markers "magnetometer turns", :mod:`mimucap.core.phase_markers`), and
     those windows (s); all its samples, and no window, when no marker marks turns. µT, sensor
     frame; the accelerometer samples come along for the dip figure."""
     import numpy as np
 
-    from mimucap.core import phases
+    from mimucap.core import phase_markers
     from mimucap.io.magdata import MagRecording
     from mimucap.io.session import read_session
 
@@ -257,7 +258,7 @@ def session_turn_recordings(path: Path, sensor: str | None) -> tuple[dict[str, M
     devices = session.devices()
     # Just past the last sample, so that a window running to the end of the recording holds it.
     end_s = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s)), default=0.0) + 1.0
-    windows = phases.phase_windows(session.markers, phases.MAG_TURNS, end_s)
+    windows = phase_markers.phase_windows(session.markers, phase_markers.MAG_TURNS, end_s)
     if sensor is not None and sensor not in session.sensors:
         raise ValueError(f"{path}: no sensor {sensor} in this session (sensors: {', '.join(session.sensors) or 'none'})")
     recordings = {}
@@ -342,7 +343,7 @@ def _vector(values, digits: int = 3) -> str:
 
 
 def _folder_trial(paths: list[Path], args: argparse.Namespace) -> Trial:
-    from mimucap.core.magcal_study import Trial
+    from mimucap.core.magcal.study import Trial
     from mimucap.io.magdata import read_mag_files
 
     recordings = read_mag_files(paths, args.format, args.sensor)
@@ -367,7 +368,7 @@ def _trial_paths(folder: Path) -> list[list[Path]]:
 
 def run_study(args: argparse.Namespace) -> int:
     """Run the protocol study (simulated or on a folder) and print the tables."""
-    from mimucap.core import magcal_study
+    from mimucap.core.magcal import study as magcal_study
 
     if args.plot is not None:
         check_output_path(args.plot)  # before the study, which takes a while
@@ -384,7 +385,7 @@ def run_study(args: argparse.Namespace) -> int:
 
 
 def _folder_study(args: argparse.Namespace) -> StudyResult:
-    from mimucap.core.magcal_study import evaluate_protocols
+    from mimucap.core.magcal.study import evaluate_protocols
 
     folder = args.folder
     if not folder.is_dir():

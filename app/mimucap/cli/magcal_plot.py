@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.cli import check_output_path
-from mimucap.core.magcal_fit import Ellipsoid, symmetric_sqrt
-from mimucap.core.magcal_study import StudyResult
+from mimucap.core.magcal.fit import Ellipsoid, symmetric_sqrt
+from mimucap.core.magcal.study import StudyResult
 
 #: Panel size in pixels and panels per row.
 PANEL_PX = 360

@@ -53,7 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mimucap.cli.session_input import is_session
-    from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
+    from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
     from mimucap.session.recorded.clinical_tests import run_clinical_test
 
     if args.out.suffix.lower() != ".json":

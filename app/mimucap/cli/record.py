@@ -14,6 +14,11 @@ received no sample at all (the message gives the source's last complaint, e.g. a
 cannot be opened; the empty session file is still written). Options that do not apply to the
 source are refused rather than ignored: ``--sensors`` (udp, serial), ``--allow`` (udp),
 ``--sensor-count`` and ``--rate`` (simulated).
+
+The network sources (``udp:``, ``slimevr:``) record only the paired devices (``mimucap pair``);
+the others' packets are refused and counted (``unpaired_device``), and the devices are named at
+the end with the command that pairs them. ``--allow`` names a fixed set-up's UDP senders by
+address: their devices are then taken without pairing.
 """
 
 from __future__ import annotations
@@ -27,7 +32,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mimucap.acquisition.source_spec import (
-    VALID_FORMS, ReplaySpec, SerialSpec, SimulatedSpec, SourceSpec, UdpSpec, format_source_spec, parse_source_spec,
+    VALID_FORMS, ReplaySpec, SerialSpec, SimulatedSpec, SlimeVrSpec, SourceSpec, UdpSpec, format_source_spec,
+    parse_source_spec,
 )
 
 if TYPE_CHECKING:
@@ -57,7 +63,9 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-class _StopRequest:
+class StopRequest:
+    """A signal handler that asks the command's loop to end (Ctrl+C, SIGTERM)."""
+
     def __init__(self) -> None:
         self.requested = False
 
@@ -75,7 +83,9 @@ def _status(supervisor: Supervisor) -> dict:
                       "reconnects": s.reconnects, "node_restarts": s.node_restarts, "rejections": s.rejections,
                       "unknown_senders": s.unknown_sensors, "overflow_samples": s.overflow_samples,
                       "clocks": {k: {"drift_ppm": c.drift_ppm, "uncertainty_s": c.uncertainty_s}
-                                 for k, c in s.clocks.items()}}
+                                 for k, c in s.clocks.items()},
+                      "unpaired": {k: {"device": u.device.to_json(), "refused": u.refused}
+                                   for k, u in s.unpaired.items()}}
                for name, s in supervisor.sources().items()}
     return {"sensors": stats, "sources": sources}
 
@@ -132,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(f"--sensors {args.sensors!r}: {error}") from None
     options = SourceOptions(sensor_ids=sensor_ids,
                             allowed_addresses=tuple(args.allow) if args.allow else None,
-                            sensor_count=args.sensor_count, rate_hz=args.rate)
+                            sensor_count=args.sensor_count, rate_hz=args.rate,
+                            paired_devices=_paired_devices(spec))
     configs = source_configs(spec, options)
     metadata = {"source": format_source_spec(spec), "sensor_segments": sensor_segments(configs)}
     library = None
@@ -148,8 +159,14 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"{', '.join(given)} apply to recordings into the library only (with --subject)")
     recorder = Recorder(args.out, metadata,
                         RecorderSettings(flush_interval_s=args.flush_interval))
-    recorder.start()  # refuses an existing file or journal before anything runs
-    stop = _StopRequest()
+    from mimucap.session.streaming.lsl_clock import recording_lsl_clock
+
+    start_host_s = time.monotonic()
+    lsl_clock = recording_lsl_clock(start_host_s)  # lines it up with a LabRecorder XDF of the same minutes
+    if lsl_clock is not None:
+        recorder.metadata["lsl_clock"] = lsl_clock
+    recorder.start(start_host_s)  # refuses an existing file or journal before anything runs
+    stop = StopRequest()
     previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     supervisor = Supervisor(configs)
     reason = "duration"
@@ -202,6 +219,11 @@ def run(args: argparse.Namespace) -> int:
     for name, source in status["sources"].items():
         if source["rejections"] or source["state"] == "failed":
             print(f"source {name}: {source['state']} {source['message']} rejections {source['rejections']}")
+    unpaired = [u for source in supervisor.sources().values() for u in source.unpaired.values()]
+    if unpaired:
+        print(f"mimucap record: refused {len(unpaired)} sensors not paired ("
+              + "; ".join(f"{u.describe()}, {u.refused} samples" for u in unpaired)
+              + f"); pair them with: mimucap pair listen --source {args.source}", file=sys.stderr)
     if result.session_path is None or recorder.failure is not None:
         print(f"mimucap record: error: {result.message}", file=sys.stderr)
         return 1
@@ -224,6 +246,15 @@ def run(args: argparse.Namespace) -> int:
     if result.message:
         print(result.message)
     return 0
+
+
+def _paired_devices(spec: SourceSpec) -> frozenset[str] | None:
+    """The paired suit, for the network sources (``None``, no check, for the others)."""
+    if not isinstance(spec, (UdpSpec, SlimeVrSpec)):
+        return None
+    from mimucap.io.pairing_store import PairingStore
+
+    return PairingStore().device_ids()
 
 
 def library_recording(args: argparse.Namespace):

@@ -9,8 +9,8 @@ recorded, the user's calibration store for a session that does not record its li
 processing, which gives a sensor only its own device's calibration). Each calibration applied
 is judged as the live view judges it (verdict, device, the recording's local field, age), and
 one that is not good is named with its figures (:func:`warn_about_magnetometers`), as is a
-stored calibration that is not used. The N-pose and T-pose windows come from the session's
-markers when none are given.
+stored calibration that is not used. The N-pose and T-pose windows (or, for a functional
+calibration, the still and walking windows) come from the session's markers when none are given.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ def add_session_options(parser: argparse.ArgumentParser) -> None:
 
 
 def is_session(path) -> bool:
-    from mimucap.io.quaternion_tables import MIMUCAP_SESSION, orientation_input_kind
+    from mimucap.io.orientation_inputs import MIMUCAP_SESSION, orientation_input_kind
 
     return orientation_input_kind(path) == MIMUCAP_SESSION
 
@@ -73,45 +73,66 @@ def warn_about_magnetometers(command: str, session, applied, origin: str = "") -
     return applied.not_good()
 
 
+def held_window(window: tuple[float, float], name: str) -> tuple[float, float]:
+    """The part of a pose's phase window (s) in which the pose is held: up to the next marker
+    minus :data:`POSE_MARGIN_S`, at most :data:`POSE_LONGEST_S` long and not before the pose's
+    marker plus :data:`POSE_SETTLE_S`. ``ValueError`` when the phase is too short."""
+    start, stop = window
+    last = stop - POSE_MARGIN_S
+    first = max(start + POSE_SETTLE_S, last - POSE_LONGEST_S)
+    if last <= first:
+        raise ValueError(f"the {name} from {start:.2f} s to {stop:.2f} s is too short to hold the pose")
+    return first, last
+
+
+def _marker_labels(markers) -> str:
+    return ", ".join(f"'{m.label}'" for m in sorted(markers, key=lambda m: m.t_s)) or "none"
+
+
 def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float], tuple[float, float]]:
     """The N-pose and T-pose windows (s) from the session's phase markers
-    (:mod:`mimucap.core.phases`): the end of each pose, up to the next marker minus
-    :data:`POSE_MARGIN_S`, at most :data:`POSE_LONGEST_S` long and not before the pose's marker
-    plus :data:`POSE_SETTLE_S` (the subject is in the pose and still). The last N-pose before
-    the first T-pose after it is used. ``ValueError`` when the markers do not name both poses."""
-    from mimucap.core import phases
+    (:mod:`mimucap.core.phase_markers`): each pose's :func:`held_window`. The last N-pose before the
+    first T-pose after it is used. ``ValueError`` when the markers do not name both poses."""
+    from mimucap.core import phase_markers
 
-    npose_all = phases.phase_windows(markers, phases.NPOSE, end_s)
-    tpose_all = phases.phase_windows(markers, phases.TPOSE, end_s)
+    npose_all = phase_markers.phase_windows(markers, phase_markers.NPOSE, end_s)
+    tpose_all = phase_markers.phase_windows(markers, phase_markers.TPOSE, end_s)
     pairs = [(n, t) for t in tpose_all for n in npose_all if n[1] <= t[0]]
     if not pairs:
-        labels = ", ".join(f"'{m.label}'" for m in sorted(markers, key=lambda m: m.t_s)) or "none"
-        raise ValueError(f"no '{phases.NPOSE}' marker followed by a '{phases.TPOSE}' marker in the session "
-                         f"(markers: {labels}); give --npose and --tpose")
+        raise ValueError(f"no '{phase_markers.NPOSE}' marker followed by a '{phase_markers.TPOSE}' marker in the "
+                         f"session (markers: {_marker_labels(markers)}); give --npose and --tpose")
     # The first T-pose, and the N-pose just before it.
     npose, tpose = min(pairs, key=lambda pair: (pair[1][0], -pair[0][0]))
+    return held_window(npose, "N-pose"), held_window(tpose, "T-pose")
 
-    def held(window, name):
-        start, stop = window
-        last = stop - POSE_MARGIN_S
-        first = max(start + POSE_SETTLE_S, last - POSE_LONGEST_S)
-        if last <= first:
-            raise ValueError(f"the {name} from {start:.2f} s to {stop:.2f} s is too short to hold the pose")
-        return first, last
 
-    return held(npose, "N-pose"), held(tpose, "T-pose")
+def functional_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """The still-standing and movement windows (s) of a functional calibration from the
+    session's phase markers: the :func:`held_window` of the last N-pose before the first walk
+    after an N-pose, and that walk's phase (to the next marker). None when the markers name no
+    N-pose followed by a walk (the T-pose is not used)."""
+    from mimucap.core import phase_markers
+
+    npose_all = phase_markers.phase_windows(markers, phase_markers.NPOSE, end_s)
+    walks = phase_markers.phase_windows(markers, phase_markers.WALK, end_s)
+    pairs = [(n, w) for w in walks for n in npose_all if n[1] <= w[0]]
+    if not pairs:
+        return None
+    npose, walk = min(pairs, key=lambda pair: (pair[1][0], -pair[0][0]))
+    return held_window(npose, "N-pose"), walk
 
 
 def orientation_table(session, source: str, mag_calibrations: dict):
     """Every sensor's orientation (reprocessed, with ``mag_calibrations``: sensor → the
     magnetometer calibration applied) on the reference sensor's instants where every sensor has
-    one, as a :class:`~mimucap.io.quaternion_tables.QuaternionTable` (world ENU), with the
+    one, as a :class:`~mimucap.io.orientation_tables.QuaternionTable` (world ENU), with the
     reasons each may be wrong."""
     import numpy as np
 
-    from mimucap.core.doubt import at_instants
-    from mimucap.core.pipeline import RESULT_REPROCESSED, finite_track, orientation_at
-    from mimucap.io.quaternion_tables import QuaternionTable
+    from mimucap.core.pipeline.instants import finite_track, orientation_at
+    from mimucap.core.pipeline.joint_angles import at_instants
+    from mimucap.core.pipeline.settings import RESULT_REPROCESSED
+    from mimucap.io.orientation_tables import QuaternionTable
     from mimucap.session.recorded.calibration_choice import AppliedCalibrations
     from mimucap.session.recorded.reprocessing import process_session
 

@@ -20,7 +20,7 @@ room whose field changes with position, measured by each unit where it is
 reinforced floor, strongest at the feet, and a steel bed beside the walkway, passed on the way
 out and back) or ``treadmill`` (the walking happens on a treadmill). The file (format in ``docs/session-format.md``)
 holds the raw streams, a marker at the start of each phase ("magnetometer turns", "N-pose",
-"T-pose", "walk", ...; :mod:`mimucap.core.phases`) and, unless ``--no-truth``, the ground truth.
+"T-pose", "walk", ...; :mod:`mimucap.core.phase_markers`) and, unless ``--no-truth``, the ground truth.
 The demo begins with the magnetometer turns: every unit is taken off the body, the units are
 held together and turned once about each of their axes (about 26 s), then worn again, so that
 ``mimucap magcal fit FILE.h5`` can calibrate them all from the file; ``--no-magcal-turns``

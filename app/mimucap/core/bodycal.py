@@ -128,13 +128,18 @@ class BodyCalSettings:
     forward_from: str = "swing"
 
     def __post_init__(self) -> None:
-        if self.forward_from not in ("swing", "rotation_axis"):
-            raise ValueError(f"BodyCalSettings.forward_from must be 'swing' or 'rotation_axis', got {self.forward_from!r}")
-        for name, value in self.__dict__.items():
-            if name == "forward_from":
-                continue
-            if not np.isfinite(value) or value < 0.0:
-                raise ValueError(f"BodyCalSettings.{name} must be a finite non-negative angle, got {value}")
+        check_settings(self, "forward_from", ("swing", "rotation_axis"))
+
+
+def check_settings(settings: object, choice: str, options: Sequence[str]) -> None:
+    """``ValueError`` naming the field of a settings dataclass whose ``choice`` field is not one
+    of ``options`` or whose other fields (angles, limits) are not finite and non-negative."""
+    kind = type(settings).__name__
+    if getattr(settings, choice) not in options:
+        raise ValueError(f"{kind}.{choice} must be one of {', '.join(options)}, got {getattr(settings, choice)!r}")
+    for name, value in settings.__dict__.items():
+        if name != choice and (not np.isfinite(value) or value < 0.0):
+            raise ValueError(f"{kind}.{name} must be a finite non-negative number, got {value}")
 
 
 DEFAULT_SETTINGS = BodyCalSettings()
@@ -194,7 +199,7 @@ class CalibrationQuality:
     """Quality figures and the verdict (``good``, ``acceptable`` or ``poor``) with reasons.
 
     ``doubtful_sensors``: the sensors whose orientation was doubtful during the poses
-    (:mod:`mimucap.core.doubt`; :func:`with_doubtful_sensors`).
+    (:mod:`mimucap.core.pipeline.doubt_reasons`; :func:`with_doubtful_sensors`).
     """
 
     method: str
@@ -282,14 +287,14 @@ class BodyCalibration:
         if data.get("format_version") != 1:
             raise ValueError(f"{origin}: unsupported body calibration version {data.get('format_version')!r}")
         try:
-            q_body = _unit_quaternion(data["q_world_from_body"], f"{origin}: q_world_from_body")
+            q_body = unit_quaternion(data["q_world_from_body"], f"{origin}: q_world_from_body")
             up = np.asarray(data["up_world"], dtype=np.float64)
             if up.shape != (3,) or not np.isclose(np.linalg.norm(up), 1.0, atol=1e-6):
                 raise ValueError(f"{origin}: up_world must be a unit 3-vector")
             sensors, q_seg = {}, {}
             for seg, entry in data["segments"].items():
                 sensors[seg] = str(entry["sensor"])
-                q_seg[seg] = _unit_quaternion(entry["q_segment_from_sensor"], f"{origin}: segment {seg}")
+                q_seg[seg] = unit_quaternion(entry["q_segment_from_sensor"], f"{origin}: segment {seg}")
             quality_data = data.get("quality", {})
             quality = CalibrationQuality(
                 method=str(data.get("method", quality_data.get("method", ""))),
@@ -313,7 +318,7 @@ _DOCUMENT_KEYS = ("format", "format_version", "method", "q_world_from_body", "up
 
 def with_doubtful_sensors(calibration: BodyCalibration, reasons: Mapping[str, str]) -> BodyCalibration:
     """``calibration`` made from orientations that were doubtful during its poses (``reasons``
-    sensor → why, in words; :mod:`mimucap.core.doubt`): the sensors are recorded, the reason
+    sensor → why, in words; :mod:`mimucap.core.pipeline.doubt_reasons`): the sensors are recorded, the reason
     joins the problems and a good verdict becomes acceptable (every joint angle computed with
     it is then doubtful). Unchanged when ``reasons`` is empty."""
     if not reasons:
@@ -330,7 +335,9 @@ def with_doubtful_sensors(calibration: BodyCalibration, reasons: Mapping[str, st
     return replace(calibration, quality=quality)
 
 
-def _unit_quaternion(value: object, what: str) -> FloatArray:
+def unit_quaternion(value: object, what: str) -> FloatArray:
+    """``value`` as a unit quaternion (4,); ``ValueError`` naming ``what`` unless it is four
+    finite numbers of norm 1 (within 1e-3)."""
     q = np.asarray(value, dtype=np.float64)
     if q.shape != (4,) or not np.all(np.isfinite(q)) or abs(np.linalg.norm(q) - 1.0) > 1e-3:
         raise ValueError(f"{what}: expected a unit quaternion [w, x, y, z], got {value!r}")
@@ -341,7 +348,8 @@ def _unit_quaternion(value: object, what: str) -> FloatArray:
 # Building blocks
 # --------------------------------------------------------------------------------------------
 
-def _unit(v: ArrayLike, what: str) -> FloatArray:
+def unit_vector(v: ArrayLike, what: str) -> FloatArray:
+    """``v`` (3,) normalised; ``ValueError`` naming ``what`` for a zero or non-finite vector."""
     v = np.asarray(v, dtype=np.float64)
     n = np.linalg.norm(v)
     if v.shape != (3,) or not np.isfinite(n) or n < 1e-12:
@@ -381,7 +389,7 @@ def static_alignment(acc_m_s2: ArrayLike, mag_uT: ArrayLike, declination_rad: fl
                          f"{acc.shape} and {mag.shape}")
     if not (np.all(np.isfinite(acc)) and np.all(np.isfinite(mag))):
         raise ValueError("static alignment: the window holds non-finite samples")
-    up = _unit(acc.mean(axis=0), "mean specific force")
+    up = unit_vector(acc.mean(axis=0), "mean specific force")
     field = mag.mean(axis=0)
     magnitude = float(np.linalg.norm(field))
     if field_uT is not None and abs(magnitude - field_uT) > field_tolerance * field_uT:
@@ -401,8 +409,8 @@ def static_alignment(acc_m_s2: ArrayLike, mag_uT: ArrayLike, declination_rad: fl
 
 def q_world_from_body_from_forward(forward_world: ArrayLike, up_world: ArrayLike) -> FloatArray:
     """``q_world_from_body`` (4,) with x = horizontal part of ``forward``, y = up, z = x × y."""
-    up = _unit(up_world, "up_world")
-    x = horizontal(_unit(forward_world, "forward axis"), up)
+    up = unit_vector(up_world, "up_world")
+    x = horizontal(unit_vector(forward_world, "forward axis"), up)
     norm = np.linalg.norm(x)
     if norm < 1e-6:
         raise ValueError("the forward axis is vertical: no heading can be taken from it")
@@ -468,7 +476,7 @@ def fit_swing_direction(
     Least squares through the origin on the horizontal parts (``Σ h hᵀ``, largest
     eigenvalue), so directions close to vertical weigh little.
     """
-    up = _unit(up_world, "up_world")
+    up = unit_vector(up_world, "up_world")
     d = np.asarray(d_world, dtype=np.float64).reshape(-1, 3)
     h = horizontal(d, up)
     _, vectors = np.linalg.eigh(h.T @ h)
@@ -502,7 +510,7 @@ def fit_arm_axis(
     """
     if side not in ARM_SEGMENTS:
         raise ValueError(f"arm side must be 'left' or 'right', got {side!r}")
-    up = _unit(up_world, "up_world")
+    up = unit_vector(up_world, "up_world")
     q_inv_n = rot.conjugate(np.asarray(q_world_from_arm_npose, dtype=np.float64))
     q_delta_t = rot.multiply(np.asarray(q_world_from_arm_tpose, dtype=np.float64), q_inv_n)
     r_t = rot.to_rotvec(q_delta_t)
@@ -550,36 +558,42 @@ def fit_arm_axis(
     )
 
 
-def _grade(value: float, good: float, acceptable: float) -> int:
+def grade(value: float, good: float, acceptable: float) -> int:
+    """0 (good) when ``value <= good``, 1 (acceptable) when ``value <= acceptable``, else 2 (poor)."""
     return 0 if value <= good else (1 if value <= acceptable else 2)
 
 
-def _verdict(checks: Sequence[tuple[int, str]]) -> tuple[str, tuple[str, ...]]:
-    worst = max((grade for grade, _ in checks), default=0)
-    return VERDICTS[worst], tuple(text for grade, text in checks if grade > 0)
+def verdict_of(checks: Sequence[tuple[int, str]]) -> tuple[str, tuple[str, ...]]:
+    """The worst grade of ``checks`` ``(grade, words)`` as a verdict, and the words of every
+    check that was not good."""
+    worst = max((level for level, _ in checks), default=0)
+    return VERDICTS[worst], tuple(text for level, text in checks if level > 0)
 
 
-def _stillness_checks(stillness: Sequence[PoseStillness], settings: BodyCalSettings) -> list[tuple[int, str]]:
+def stillness_checks(stillness: Sequence[PoseStillness], limit_deg: float, good_deg: float) -> list[tuple[int, str]]:
+    """Graded checks of pose windows: :class:`CalibrationRefused` naming the first sensor that
+    moved more than ``limit_deg`` from its window's mean orientation; acceptable above ``good_deg``."""
     checks = []
     for s in stillness:
-        if s.max_deviation_deg > settings.stillness_limit_deg:
+        if s.max_deviation_deg > limit_deg:
             raise CalibrationRefused(
                 f"sensor {s.sensor} moved during the {s.pose}: {s.max_deviation_deg:.1f}° from its "
-                f"mean orientation (limit {settings.stillness_limit_deg:g}°); repeat the pose standing still",
+                f"mean orientation (limit {limit_deg:g}°); repeat the pose standing still",
                 {"pose": s.pose, "sensor": s.sensor, "max_deviation_deg": s.max_deviation_deg},
             )
-        if s.max_deviation_deg > settings.stillness_good_deg:
+        if s.max_deviation_deg > good_deg:
             checks.append((1, f"sensor {s.sensor} was not quite still in the {s.pose} "
                               f"({s.max_deviation_deg:.1f}°)"))
     return checks
 
 
-def _npose_means(
-    q_world_from_sensor: Mapping[str, ArrayLike], sensors: Sequence[str], window: slice
+def window_means(
+    q_world_from_sensor: Mapping[str, ArrayLike], sensors: Sequence[str], window: slice, pose: str = "N-pose"
 ) -> tuple[dict[str, FloatArray], list[PoseStillness]]:
+    """Mean orientation (4,) and stillness figures of each sensor over one pose window."""
     means, figures = {}, []
     for sensor in sensors:
-        mean, still = pose_stillness(np.asarray(q_world_from_sensor[sensor])[window], "N-pose", sensor)
+        mean, still = pose_stillness(np.asarray(q_world_from_sensor[sensor])[window], pose, sensor)
         means[sensor] = mean
         figures.append(still)
     return means, figures
@@ -664,7 +678,7 @@ def calibrate_npose_tpose(
     ``ValueError``) when a pose was not still, no arm was raised or the arms disagree.
     """
     t = np.asarray(t_s, dtype=np.float64)
-    up = _unit(up_world, "up_world")
+    up = unit_vector(up_world, "up_world")
     mapping = check_mapping(mapping, list(q_world_from_sensor))
     n_window = pose_window(t, npose_s, "N-pose")
     t_window = pose_window(t, tpose_s, "T-pose")
@@ -675,7 +689,7 @@ def calibrate_npose_tpose(
         )
     if arms not in ("auto", "left", "right", "both"):
         raise ValueError(f"arms must be auto, left, right or both, got {arms!r}")
-    means, stillness = _npose_means(q_world_from_sensor, list(dict.fromkeys(mapping.values())), n_window)
+    means, stillness = window_means(q_world_from_sensor, list(dict.fromkeys(mapping.values())), n_window)
     candidates = {}
     for side, segments in ARM_SEGMENTS.items():
         segment = next((s for s in segments if s in mapping), None)
@@ -700,7 +714,7 @@ def calibrate_npose_tpose(
             fits.append(fit_arm_axis(side, sensor, means[sensor], q_t, q[n_window.stop:t_window.stop], up, settings))
         except CalibrationRefused as refusal:
             refusals.append(refusal)
-    checks = _stillness_checks(stillness, settings)
+    checks = stillness_checks(stillness, settings.stillness_limit_deg, settings.stillness_good_deg)
     if refusals and (arms != "auto" or not fits):
         raise refusals[0]
     disagreement = None
@@ -713,28 +727,28 @@ def calibrate_npose_tpose(
                 "sideways (was one raised forward?)",
                 {"left_right_disagreement_deg": disagreement},
             )
-        checks.append((_grade(disagreement, settings.lr_good_deg, settings.lr_acceptable_deg),
+        checks.append((grade(disagreement, settings.lr_good_deg, settings.lr_acceptable_deg),
                        f"left and right arm axes disagree by {disagreement:.1f}°"))
     for fit in fits:
         swing = settings.forward_from == "swing"
         angle = fit.raise_angle_deg if swing else fit.rotation_angle_deg
-        checks.append((_grade(abs(angle - settings.arm_angle_expected_deg), settings.arm_angle_good_deg,
+        checks.append((grade(abs(angle - settings.arm_angle_expected_deg), settings.arm_angle_good_deg,
                               settings.arm_angle_acceptable_deg),
                        f"the {fit.side} arm {'rose' if swing else 'turned'} {angle:.0f}° "
                        f"(about {settings.arm_angle_expected_deg:g}° expected)"))
         tilt_acceptable = np.inf if swing else settings.axis_tilt_acceptable_deg
-        checks.append((_grade(fit.axis_tilt_deg, settings.axis_tilt_good_deg, tilt_acceptable),
+        checks.append((grade(fit.axis_tilt_deg, settings.axis_tilt_good_deg, tilt_acceptable),
                        f"the {fit.side} arm turned about its own long axis while raised (rotation axis "
                        f"tilted {fit.axis_tilt_deg:.0f}° from horizontal; keep the palm facing down)"))
         residual = fit.swing_residual_deg if swing else fit.axis_residual_deg
-        checks.append((_grade(residual, settings.axis_residual_good_deg, settings.axis_residual_acceptable_deg),
+        checks.append((grade(residual, settings.axis_residual_good_deg, settings.axis_residual_acceptable_deg),
                        f"the {fit.side} arm left its raise plane (residual {residual:.1f}°)" if swing else
                        f"the {fit.side} arm did not turn about one axis (residual {residual:.1f}°)"))
     forward = np.sum([fit.forward_world for fit in fits], axis=0)
     q_world_from_body = q_world_from_body_from_forward(forward, up)
-    verdict, problems = _verdict(checks)
+    verdict, problems = verdict_of(checks)
     quality = CalibrationQuality("npose_tpose", tuple(stillness), tuple(fits), disagreement, None, verdict, problems)
-    given = {sensor: _unit_quaternion(q, f"N-pose orientation of sensor {sensor}")
+    given = {sensor: unit_quaternion(q, f"N-pose orientation of sensor {sensor}")
              for sensor, q in (npose_orientations or {}).items() if sensor in means}
     segments = _segment_rotations(q_world_from_body, {**means, **given}, mapping, q_segment_from_body_npose)
     details = {"npose_s": [float(npose_s[0]), float(npose_s[1])], "tpose_s": [float(tpose_s[0]), float(tpose_s[1])]}
@@ -764,8 +778,8 @@ def calibrate_heading(
     sample, as OpenSense does). Other arguments as :func:`calibrate_npose_tpose`.
     """
     t = np.asarray(t_s, dtype=np.float64)
-    up = _unit(up_world, "up_world")
-    axis = _unit(heading_axis_sensor, "heading axis")
+    up = unit_vector(up_world, "up_world")
+    axis = unit_vector(heading_axis_sensor, "heading axis")
     mapping = check_mapping(mapping, list(q_world_from_sensor))
     if heading_sensor not in q_world_from_sensor:
         raise ValueError(
@@ -773,8 +787,8 @@ def calibrate_heading(
         )
     window = pose_window(t, npose_s if npose_s is not None else (t[0], t[0]), "N-pose")
     sensors = list(dict.fromkeys(list(mapping.values()) + [heading_sensor]))
-    means, stillness = _npose_means(q_world_from_sensor, sensors, window)
-    checks = _stillness_checks(stillness, settings)
+    means, stillness = window_means(q_world_from_sensor, sensors, window)
+    checks = stillness_checks(stillness, settings.stillness_limit_deg, settings.stillness_good_deg)
     forward_raw = rot.rotate(means[heading_sensor], axis)
     tilt = float(tilt_from_horizontal_deg(forward_raw, up))
     if tilt > settings.heading_tilt_refuse_deg:
@@ -783,10 +797,10 @@ def calibrate_heading(
             "give the forward direction (choose an axis that points forward)",
             {"heading_axis_tilt_deg": tilt},
         )
-    checks.append((_grade(tilt, settings.heading_tilt_good_deg, settings.heading_tilt_acceptable_deg),
+    checks.append((grade(tilt, settings.heading_tilt_good_deg, settings.heading_tilt_acceptable_deg),
                    f"the heading axis of sensor {heading_sensor} is tilted {tilt:.0f}° from horizontal"))
     q_world_from_body = q_world_from_body_from_forward(forward_raw, up)
-    verdict, problems = _verdict(checks)
+    verdict, problems = verdict_of(checks)
     quality = CalibrationQuality("heading", tuple(stillness), (), None, tilt, verdict, problems)
     segments = _segment_rotations(q_world_from_body, means, mapping, q_segment_from_body_npose)
     details = {

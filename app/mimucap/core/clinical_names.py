@@ -143,16 +143,26 @@ def axis_short_name(joint: str, axis: str) -> str:
     return meaning.short or meaning.name
 
 
+def angle_name(column: str) -> str:
+    """"Right knee varus/valgus" for ``knee_r_adduction_deg`` (no unit); another column that is
+    not a joint angle is spelled out (``pelvis_tilt`` → "Pelvis tilt")."""
+    try:
+        joint, axis = split_angle_column(column)
+    except ValueError:
+        return _spelled(column)
+    return f"{joint_name(joint)} {axis_short_name(joint, axis)}"
+
+
 def angle_label(column: str) -> str:
     """"Right knee flexion (°)" for ``knee_r_flexion_deg``; "Time (s)" for ``t_s``; another
     column that is not a joint angle is spelled out (``pelvis_tilt`` → "Pelvis tilt")."""
     if column == "t_s":
         return "Time (s)"
     try:
-        joint, axis = split_angle_column(column)
+        split_angle_column(column)
     except ValueError:
         return _spelled(column)
-    return f"{joint_name(joint)} {axis_short_name(joint, axis)} (°)"
+    return f"{angle_name(column)} (°)"
 
 
 def angle_sign_text(column: str) -> str:

@@ -30,6 +30,8 @@ from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.pdf_report import write_report
+from mimucap.gui.menus import closes_with_keys
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.recorded.analysis import (
     DOUBT_HEADER,
@@ -74,9 +76,10 @@ class AnalysisWindow(QtWidgets.QMainWindow):
 
     def __init__(self, parent: QtWidgets.QWidget | None, data: ReviewData) -> None:
         super().__init__(parent)
+        closes_with_keys(self)
         self.setObjectName("analysisWindow")
         self.setWindowTitle(f"MimuCap Analysis: {data.path.name}")
-        self.resize(1200, 820)
+        fit_on_screen(self, 1200, 820, parent)
         self.data = data
         self.analysis: SessionAnalysis | None = None
         self.bands: dict[tuple[str, str], NormativeBand] = {}

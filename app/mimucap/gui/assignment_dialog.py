@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-from PyQt5 import QtWidgets
+from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.clinical_names import segment_name
 from mimucap.gui.settings import load_json, save_json
@@ -23,6 +23,21 @@ def remember_assignment(assignment: Mapping[str, str]) -> None:
     save_json(SETTINGS_KEY, dict(assignment))
 
 
+class SegmentCombo(QtWidgets.QComboBox):
+    """A combo box that takes the mouse wheel only once the user has clicked into it: scrolling
+    the table over it scrolls the table instead of changing the sensor's segment."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setFocusPolicy(QtCore.Qt.StrongFocus)
+
+    def wheelEvent(self, event) -> None:  # noqa: N802 (Qt API)
+        if self.hasFocus():
+            super().wheelEvent(event)
+        else:
+            event.ignore()  # goes on to the table, which scrolls
+
+
 class AssignmentDialog(QtWidgets.QDialog):
     """Edit which segment each sensor is worn on; :meth:`assignment` gives the result."""
 
@@ -39,7 +54,7 @@ class AssignmentDialog(QtWidgets.QDialog):
         for row, sid in enumerate(sensor_ids):
             item = QtWidgets.QTableWidgetItem(sid)
             self.table.setItem(row, 0, item)
-            combo = QtWidgets.QComboBox(self.table)
+            combo = SegmentCombo(self.table)
             combo.addItem(NOT_WORN, None)
             for segment in segments:  # shown by its clinical name, kept by its machine name
                 combo.addItem(segment_name(segment), segment)

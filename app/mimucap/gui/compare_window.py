@@ -13,10 +13,13 @@ from pathlib import Path
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
-from mimucap.core.pipeline import RESULT_LABELS, RESULT_REPROCESSED
+from mimucap.core.pipeline.settings import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.gui.background_task import BackgroundTask
+from mimucap.gui.menus import closes_with_keys
+from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.io.analysis_tables import write_comparison_csv
 from mimucap.io.library import Library, SessionEntry
-from mimucap.session.recorded.library import ComparedSession, ComparisonTable, TimeWindow, compare, comparison_csv
+from mimucap.session.recorded.library import ComparedSession, ComparisonTable, TimeWindow, compare
 from mimucap.session.recorded.review import load_review
 
 log = logging.getLogger(__name__)
@@ -121,9 +124,10 @@ class CompareWindow(QtWidgets.QMainWindow):
     def __init__(self, library: Library, first: SessionEntry, second: SessionEntry,
                  parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
+        closes_with_keys(self)
         self.setObjectName("compareWindow")
         self.setWindowTitle(f"MimuCap Compare: {first.subject_id}: {first.file_name} / {second.file_name}")
-        self.resize(1100, 720)
+        fit_on_screen(self, 1100, 720, parent)
         self.library = library
         self.entries = (first, second)
         self.reviews = None
@@ -175,7 +179,7 @@ class CompareWindow(QtWidgets.QMainWindow):
 
     @property
     def result(self) -> str:
-        """Which result of the processing both sessions show (``core.pipeline.RESULTS``)."""
+        """Which result of the processing both sessions show (``core.pipeline.settings.RESULTS``)."""
         return self.result_combo.currentData()
 
     def load(self) -> None:
@@ -255,10 +259,8 @@ class CompareWindow(QtWidgets.QMainWindow):
         self.save_button.setEnabled(bool(self.tables))
 
     def save_csv(self, path: str | Path) -> Path:
-        """Write the tables as CSV (:func:`mimucap.session.recorded.library.comparison_csv`)."""
-        target = Path(path)
-        target.write_text(comparison_csv(self.tables), encoding="utf-8")
-        return target
+        """Write the tables as CSV (:func:`mimucap.io.analysis_tables.write_comparison_csv`)."""
+        return write_comparison_csv(path, self.tables)
 
     def ask_to_save_csv(self) -> None:
         first, second = self.entries

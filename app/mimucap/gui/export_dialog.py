@@ -26,9 +26,10 @@ from mimucap.core.wording import fixed
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
+from mimucap.io.angles_export import write_summary_csv
 from mimucap.session.recorded.export import (
-    ExportRequest, ExportResult, angles_in_range, doubt_in_range, marker_range, run_export, summary_table,
-    write_summary_csv,
+    ExportRequest, ExportResult, angles_in_range, doubt_in_range, export_folder, marker_range, run_export,
+    summary_table,
 )
 from mimucap.session.recorded.provenance import WITHOUT_BODY_CALIBRATION
 from mimucap.session.recorded.review import ReviewData
@@ -104,8 +105,9 @@ class ExportDialog(QtWidgets.QDialog):
         else:
             for box in (self.want_csv, self.want_mot, self.want_summary):
                 box.setChecked(True)
-        # the home folder written "~" (expanded again by export_base_path)
-        self.base_path = QtWidgets.QLineEdit(display_path(data.path.with_suffix("")) + "_angles", files_box)
+        # the home folder written "~" (expanded again by export_base_path); the files are named
+        # <session>_joint_angles.csv... inside the session's own export folder
+        self.base_path = QtWidgets.QLineEdit(display_path(export_folder(data.path) / data.path.stem), files_box)
         self.base_path.setObjectName("exportBasePath")
         browse = QtWidgets.QPushButton("Browse…", files_box)
         browse.clicked.connect(self._browse)
@@ -182,6 +184,12 @@ class ExportDialog(QtWidgets.QDialog):
             box.toggled.connect(self._update_buttons)
         self.update_summary()
 
+    def set_data(self, data: ReviewData) -> None:
+        """Another result of the same session (as seen live / reprocessed): the summary follows,
+        the user's choices (range, files, where) stay."""
+        self.data = data
+        self.update_summary()
+
     # -- range and summary -------------------------------------------------------------------
     def time_range(self) -> tuple[float, float]:
         """The chosen range (s); ``ValueError`` when it is empty."""
@@ -234,8 +242,20 @@ class ExportDialog(QtWidgets.QDialog):
         self.summary_png_button.setEnabled(self._range_valid and calibrated)
 
     # -- export ------------------------------------------------------------------------------
+    def _suggested(self, name: str) -> str:
+        """A file ``<session>_<name>`` in the export folder (absolute), for a file dialog; the
+        home folder when the "Save as" text cannot give one."""
+        try:
+            return str(self.export_folder() / f"{self.export_base_path().name}_{name}")
+        except (ValueError, OSError):
+            return str(Path.home() / f"{self.data.path.stem}_{name}")
+
     def _browse(self) -> None:
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Export As", self.base_path.text(), "All files (*)")
+        try:
+            start = str(self.export_folder() / self.export_base_path().name)
+        except (ValueError, OSError):
+            start = str(Path.home() / self.data.path.stem)
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Export As", start, "All files (*)")
         if path:
             self.base_path.setText(str(Path(path).with_suffix("")))
 
@@ -247,8 +267,16 @@ class ExportDialog(QtWidgets.QDialog):
             raise ValueError("choose where to save the files (Save as)")
         path = Path(text).expanduser()
         if text.endswith(("/", os.sep)) or path.is_dir():
-            path = path / (self.data.path.stem + "_angles")
+            path = path / self.data.path.stem
         return path
+
+    def export_folder(self) -> Path:
+        """The folder the files go to, created when needed: every file dialog of the export
+        starts there (a dialog given a folder that does not exist opens in the program's working
+        folder instead)."""
+        folder = self.export_base_path().parent
+        folder.mkdir(parents=True, exist_ok=True)
+        return folder
 
     def request(self) -> ExportRequest:
         a, b = self.time_range()
@@ -293,7 +321,8 @@ class ExportDialog(QtWidgets.QDialog):
 
     # -- summary files -----------------------------------------------------------------------
     def _ask_summary_csv(self) -> None:
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Summary", self.base_path.text() + "_summary.csv", "CSV (*.csv)")
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Summary", self._suggested("joint_angle_summary.csv"),
+                                                        "CSV (*.csv)")
         if path:
             self._save_or_say(self.save_summary_csv, path)
 
@@ -312,7 +341,8 @@ class ExportDialog(QtWidgets.QDialog):
         return written
 
     def _ask_summary_png(self) -> None:
-        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Summary Chart", self.base_path.text() + "_summary.png", "PNG (*.png)")
+        path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Summary Chart",
+                                                        self._suggested("joint_angle_summary.png"), "PNG (*.png)")
         if path:
             self._save_or_say(self.save_summary_png, path)
 

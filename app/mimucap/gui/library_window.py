@@ -17,6 +17,8 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.wording import plural
 from mimucap.gui.background_task import BackgroundTask
+from mimucap.gui.menus import closes_with_keys
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
 from mimucap.session.recorded.library import COMPARISON_NEEDS_CALIBRATION
@@ -122,8 +124,9 @@ class LibraryWindow(QtWidgets.QMainWindow):
                  new_session: Callable[[str, float | None, str, str], None] | None = None,
                  parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
+        closes_with_keys(self)
         self.setObjectName("libraryWindow")
-        self.resize(1200, 640)
+        fit_on_screen(self, 1200, 640, parent)
         self._open_review = open_review
         self._new_session = new_session
         self.library: Library | None = None

@@ -6,7 +6,7 @@ The data comes from a *plot source* (the live session, or the review player), wh
 ``(t_s, acc, gyr, mag_uT)`` and ``joint_series(joint, window_s)`` → ``(t_s, angles_deg (N,3))``,
 ``cursor_s`` (the time the 3D view shows), when it knows them, ``sensor_segments`` (sensor
 id → segment), ``doubt_spans(joint, window_s)`` → ``[(start_s, end_s), …]`` where the joint's
-angles are doubtful (shaded in its plot; :mod:`mimucap.core.doubt`), and ``events`` (:class:`~mimucap.session.events.EmitterGroup`): ``data`` (new
+angles are doubtful (shaded in its plot; :mod:`mimucap.core.pipeline.doubt_reasons`), and ``events`` (:class:`~mimucap.session.events.EmitterGroup`): ``data`` (new
 data, or the play head moved) and, when the choices can change, ``sensors`` and
 ``assignment``. Sensors, joints and angle axes are shown by their clinical names
 (:mod:`mimucap.core.clinical_names`: "Pelvis sensor (S01)", "Right knee", "flexion").

@@ -7,8 +7,11 @@ else: ``status`` (the sensor rows, 4 Hz: rates, drops, doubtful orientations; th
 and the 3D view's frame rate are sampled with it), ``pose_source`` and ``truth_errors`` (what
 drives the figure and its running error against the simulator's truth), ``source_problem``,
 ``refused`` (packets of no known sensor), ``recording`` and ``recording_progress`` (the red
-indicator and its clock). What the 3D view says while it has no figure follows from the pose
-source and the source's problem: it is told by :attr:`LiveStatusBar.hint_changed`.
+indicator and its clock), ``calibration`` (for the hint). What the 3D view says while it has no
+figure follows from the pose source, the source's problem and the calibrations made: it is told
+by :attr:`LiveStatusBar.hint_changed`. The accuracy against the truth is shown only with a body
+calibration: before it, the sensors' axes stand for the segments and an error of 100° says
+nothing but "not calibrated".
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from collections.abc import Callable, Sequence
 
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.core.pipeline import POSE_SENSOR_AXES
+from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
 from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.sensor_panel import rejections_tooltip
 from mimucap.session.angle_accuracy import accuracy_phrase
@@ -37,6 +40,9 @@ VIEW_HINTS = {
     POSE_SENSOR_AXES: "Not calibrated yet: each sensor's axes stand for its segment.\n"
                       "Calibrate the magnetometers, then the body (menu Calibrate).",
 }
+#: The 3D view's hint once the magnetometers are calibrated: the body is next.
+BODY_NEXT_HINT = ("Magnetometers calibrated.\nNext: calibrate the body (Calibrate → Body…): the subject stands "
+                  "in the N-pose, then raises both arms sideways.")
 
 
 def elapsed_text(elapsed_s: float) -> str:
@@ -66,7 +72,8 @@ class LiveStatusBar(QtCore.QObject):
             "status": self._status_changed, "pose_source": self._pose_source_changed,
             "source_problem": self._source_problem_changed, "refused": self._refused_changed,
             "truth_errors": self._truth_errors_changed, "recording": self._recording_changed,
-            "recording_progress": self._recording_progress}
+            "recording_progress": self._recording_progress,
+            "calibration": self._tell_hint}
         self.recording_indicator = QtWidgets.QLabel("", status_bar)
         self.recording_indicator.setObjectName("recordingIndicator")
         self.recording_indicator.setStyleSheet(RECORDING_STYLE)
@@ -126,11 +133,13 @@ class LiveStatusBar(QtCore.QObject):
 
     def _pose_source_changed(self, pose_source: str) -> None:
         self._pose_source = pose_source
+        if pose_source != POSE_BODY_CALIBRATION:
+            self._accuracy = ""
         self._show_pose_status()
         self._tell_hint()
 
     def _truth_errors_changed(self, errors) -> None:
-        self._accuracy = accuracy_phrase(errors)
+        self._accuracy = accuracy_phrase(errors) if self._pose_source == POSE_BODY_CALIBRATION else ""
         self._show_pose_status()
 
     def _show_pose_status(self) -> None:
@@ -142,13 +151,24 @@ class LiveStatusBar(QtCore.QObject):
             log.warning("source %s: %s", self._session.label, problem)
         self._tell_hint()
 
-    def _tell_hint(self) -> None:
+    def _tell_hint(self, *_why) -> None:
         if self._source_problem and self._pose_source == POSE_NONE:
             self.hint_changed.emit(f"No data from the source.\n{self._source_problem}\n\n"
                                    "Check the device and its connection, or choose another source "
                                    "(File → Choose Source…).")
+        elif self._pose_source == POSE_SENSOR_AXES and self._magnetometers_done():
+            self.hint_changed.emit(BODY_NEXT_HINT)
         else:
             self.hint_changed.emit(VIEW_HINTS.get(self._pose_source, ""))
+
+    def _magnetometers_done(self) -> bool:
+        """Every sensor that needs a magnetometer calibration has one (sensors fusing on board,
+        or sending their own orientation, need none)."""
+        live = self._session
+        if live is None:
+            return False
+        needing = set(live.sensor_ids) - set(live.onboard_sensors()) - set(live.orientation_only_sensors())
+        return bool(needing) and needing <= set(live.mag_calibrations)
 
     def _refused_changed(self, counts: dict[str, int], senders: dict[str, int]) -> None:
         """Packets refused that belong to no sensor of the table (an unknown sender, a line too

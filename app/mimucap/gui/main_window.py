@@ -23,6 +23,7 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap import __version__
+from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.source_spec import ReplaySpec, parse_source_spec
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.background_task import BackgroundTask
@@ -30,6 +31,7 @@ from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
 from mimucap.gui.live_plots import LivePlots
 from mimucap.gui.live_status_bar import LiveStatusBar
 from mimucap.gui.recording_saver import RecordingSaver
+from mimucap.gui.lsl_switch import LslSwitch
 from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
@@ -39,13 +41,14 @@ from mimucap.gui.session_panel import SessionPanel, display_path
 from mimucap.gui.settings import gui_settings
 from mimucap.gui.source_dialog import (
     DEFAULT_SPEC,
+    PairDevicesDialog,
     SourceDialog,
     last_skeleton_model,
     last_source_spec,
     remember_source,
 )
 from mimucap.io.calibration_store import user_data_dir
-from mimucap.io.imports import IMPORT_SUFFIXES, import_recording
+from mimucap.io.recording_import import IMPORT_SUFFIXES, import_recording
 from mimucap.session.views.camera import CAMERA_PRESETS
 from mimucap.session.views.skeleton_figure import DISPLAY_MODES
 from mimucap.session.live.kernel_preparation import KernelPreparation
@@ -185,7 +188,11 @@ class MainWindow(QtWidgets.QMainWindow):
         #: the window's own subscriptions to the live session's events (event name → callback)
         self._subscriptions = {
             "truth_available": self.action_truth.setEnabled, "sensors": self._assign_remembered,
-            "recording_failed": self._recording_failed}
+            "recording_failed": self._recording_failed, "unpaired": self._unpaired_heard}
+        #: the sensors the source refuses as not paired; the device ids offered for pairing so far
+        self._unpaired: list[UnpairedSensor] = []
+        self._offered: set[str] = set()
+        self._pair_dialog: PairDevicesDialog | None = None
         self.source_error: str | None = None
         if not self.open_source(source or last_source_spec(), interactive=False) and source is None:
             error = self.source_error  # a remembered source that went away: say so over the fallback
@@ -217,6 +224,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_library.setShortcut(QtGui.QKeySequence("Ctrl+L"))
         self.action_folder = file_menu.addAction("Library &Folder…", self.choose_recording_folder)
         file_menu.addSeparator()
+        self.lsl_switch = LslSwitch(self, file_menu)
+        file_menu.addSeparator()
         self.action_save_screenshot = file_menu.addAction("Save Screens&hot…",
                                                           lambda: ask_to_save_screenshot(self, "mimucap.png"))
         self.action_save_screenshot.setShortcut(QtGui.QKeySequence("Ctrl+Shift+S"))
@@ -230,6 +239,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_record.setShortcut(QtGui.QKeySequence("Ctrl+R"))
         self.action_marker = session_menu.addAction("Add &Marker", self.session_panel.request_marker)
         self.action_marker.setShortcut(QtGui.QKeySequence("M"))
+        self.action_pair = session_menu.addAction("&Pair Devices…", self.pair_devices)
+        self.action_pair.setEnabled(False)
 
         view_menu = bar.addMenu("&View")
         self.camera_actions = choice_actions(view_menu.addMenu("&Camera"), CAMERA_PRESETS, str.capitalize,
@@ -349,6 +360,7 @@ class MainWindow(QtWidgets.QMainWindow):
         for name, callback in self._subscriptions.items():
             getattr(session.events, name).connect(callback)
         self._update_ghost()
+        self.lsl_switch.follow(session)
         session.publish_status()
 
     def _disconnect_live(self) -> None:
@@ -359,6 +371,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.sensor_panel.set_session(None)
         self.session_panel.set_session(None)
         self.live_status.set_session(None)
+        self.lsl_switch.follow(None)
         if live is not None:
             for name, callback in self._subscriptions.items():
                 getattr(live.events, name).disconnect(callback)
@@ -469,6 +482,48 @@ class MainWindow(QtWidgets.QMainWindow):
             remember_source(dialog.spec, dialog.model_name)
         else:
             self.model_name = previous_model
+
+    def _unpaired_heard(self, sensors: list[UnpairedSensor]) -> None:
+        """The source refuses ``sensors`` as not paired: offer to pair each device the first
+        time it is heard (Session → Pair Devices… offers them again). A node still to say which
+        device it is (its hello on the way) is left out until it has said."""
+        self._unpaired = [sensor for sensor in sensors if sensor.device.settled]
+        self.action_pair.setEnabled(any(sensor.pairable for sensor in sensors))
+        if any(sensor.pairable and sensor.device.device_id not in self._offered for sensor in sensors):
+            self.pair_devices()
+
+    def pair_devices(self) -> None:
+        """Offer to pair the devices the source refuses as not paired (a dialog that leaves the
+        live view running; one at a time)."""
+        live = self.live
+        if live is None or live.pairing_store is None or self._pair_dialog is not None or not self._unpaired:
+            return
+        self._offered.update(sensor.device.device_id for sensor in self._unpaired if sensor.pairable)
+        dialog = self._pair_dialog = PairDevicesDialog(self, live.label, self._unpaired)
+        dialog.finished.connect(lambda result: self._pair_dialog_closed(dialog, result))
+        dialog.open()
+
+    def _pair_dialog_closed(self, dialog: PairDevicesDialog, result: int) -> None:
+        """Pair the devices chosen, and open the source again so that it lets them in (after
+        the recording, if one runs); offer what was heard meanwhile."""
+        self._pair_dialog = None
+        chosen = dialog.chosen() if result == QtWidgets.QDialog.Accepted else []
+        live = self.live
+        if chosen and live is not None and live.pairing_store is not None:
+            try:
+                added = live.pairing_store.pair((sensor.device.device_id, sensor.sensor) for sensor in chosen)
+            except (ValueError, OSError) as error:
+                log.warning("cannot pair: %s", error)
+                QtWidgets.QMessageBox.warning(self, "Pair Devices", f"Cannot pair the devices: {error}")
+                return
+            if live.recording:
+                self.statusBar().showMessage(f"Paired {len(added)} devices: they join when the source is opened "
+                                             "again after this recording (File → Choose Source…).", 10000)
+            elif self.open_source(live.label):
+                self.statusBar().showMessage(f"Paired {len(added)} devices; the source was opened again "
+                                             "to take their data.", 10000)
+        if any(sensor.pairable and sensor.device.device_id not in self._offered for sensor in self._unpaired):
+            self.pair_devices()
 
     def assign_sensors(self) -> None:
         if self.live is None:

@@ -37,3 +37,10 @@ def truth_action(menu: QtWidgets.QMenu, toggled: Callable[[bool], None]) -> QtWi
                       "estimate (the simulated suit only): an accuracy check")
     action.toggled.connect(toggled)
     return action
+
+
+def closes_with_keys(window: QtWidgets.QWidget) -> None:
+    """``window`` (a secondary window: analysis, library, compare) closes with Esc and with the
+    platform's Close keys (Ctrl+W, ⌘W), as dialogs do."""
+    for keys in (QtGui.QKeySequence(QtGui.QKeySequence.Close), QtGui.QKeySequence("Esc")):
+        QtWidgets.QShortcut(keys, window, activated=window.close)

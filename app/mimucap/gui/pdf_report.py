@@ -292,7 +292,7 @@ def check_reportable(analysis: SessionAnalysis) -> None:
     if not analysis.calibrated:
         raise ValueError(f"{analysis.review.path.name}: no report: {analysis.limits}")
 def _doubt_section(doc: _Document, analysis: SessionAnalysis, label: str = "") -> None:
-    """Which joints' angles may be wrong, when and why (:mod:`mimucap.core.doubt`), or that none is."""
+    """Which joints' angles may be wrong, when and why (:mod:`mimucap.core.pipeline.doubt_reasons`), or that none is."""
     doc.text(f"Doubtful data{f' ({label})' if label else ''}", 11, True, gap=4)
     if not analysis.doubt:
         doc.text("Every joint angle passed MimuCap's checks (sensor orientations, field, lost samples, "

@@ -27,7 +27,7 @@ from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
 from mimucap.session.views.camera import CAMERA_PRESETS
-from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
+from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.session.recorded.analysis import NEEDS_BODY_CALIBRATION
 from mimucap.session.angle_accuracy import accuracy_phrase
 from mimucap.session.recorded.review import SPEEDS, ReviewData, ReviewPlayer, load_review
@@ -38,6 +38,8 @@ log = logging.getLogger(__name__)
 PLAY_INTERVAL_MS = 33
 #: Slider steps per second of recording.
 SLIDER_STEPS_PER_S = 100
+#: How near (pixels) a click on the timeline must be to a marker to jump to it.
+MARKER_CLICK_PX = 6.0
 #: Heights of successive marker labels on the timeline (fraction of its height): neighbours
 #: alternate, so that two close markers' labels do not overlap.
 MARKER_LABEL_HEIGHTS = (0.75, 0.3)
@@ -126,6 +128,8 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.timeline.hideAxis("left")
         self.timeline.setMouseEnabled(x=False, y=False)
         self.timeline.setMenuEnabled(False)
+        self.timeline.hideButtons()  # no auto-range button: the timeline always shows the whole session
+        self.timeline.scene().sigMouseClicked.connect(self._timeline_clicked)
         self.timeline.setLabel("bottom", "time (s)")
         self.timeline_cursor = pg.InfiniteLine(angle=90, movable=True, pen=pg.mkPen("#c0392b", width=2))
         self.timeline_cursor.sigPositionChanged.connect(lambda line: self.seek(line.value()))
@@ -202,7 +206,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
 
     @property
     def result(self) -> str:
-        """Which result the review shows (:data:`~mimucap.core.pipeline.RESULTS`)."""
+        """Which result the review shows (:data:`~mimucap.core.pipeline.settings.RESULTS`)."""
         return self.result_combo.currentData()
 
     def set_result(self, result: str) -> None:
@@ -258,7 +262,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
             self._marker_lines.append(line)
             self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker.label}")
         self.pose_status.setText(f"Pose: {data.pose_source}; {RESULT_TITLES[data.result].lower()}"
-                                 + accuracy_phrase(data.truth_errors()))
+                                 + (accuracy_phrase(data.truth_errors()) if data.body_calibration is not None else ""))
         message = (f"{display_path(self.path)}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "
                    f"{len(data.markers)} markers")
         if data.missing:
@@ -274,7 +278,10 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self._timer.start()
         self.loaded.emit()
         if self.export_when_loaded:
+            self.export_when_loaded = False  # once: another result loaded later is not a request to export
             self.open_export()
+        elif self.export_dialog is not None and self.export_dialog.isVisible():
+            self.export_dialog.set_data(data)  # the result switched: its choices stay
 
     def _load_failed(self, message: str) -> None:
         """Say why the file cannot be reviewed, then close: a window without a session has
@@ -292,6 +299,23 @@ class ReviewWindow(QtWidgets.QMainWindow):
             return
         t = self.player.seek(t_s)
         self._show_cursor(t)
+
+    def _timeline_clicked(self, event) -> None:
+        """A click on the timeline jumps there; on (or within a few pixels of) a marker, to the marker."""
+        if self.player is None or event.button() != QtCore.Qt.LeftButton:
+            return
+        view = self.timeline.getPlotItem().vb
+        if not view.sceneBoundingRect().contains(event.scenePos()):
+            return
+        t = view.mapSceneToView(event.scenePos()).x()
+        pixel_s = view.viewPixelSize()[0]
+        markers = self.player.data.markers
+        if markers:
+            index = min(range(len(markers)), key=lambda k: abs(markers[k].t_s - t))
+            if abs(markers[index].t_s - t) <= MARKER_CLICK_PX * pixel_s:
+                self.seek_marker(index)
+                return
+        self.seek(t)
 
     def seek_marker(self, index: int) -> None:
         if self.player is None:

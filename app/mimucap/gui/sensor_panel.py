@@ -43,6 +43,7 @@ REJECTION_TEXT = {
     Rejection.OUT_OF_RANGE: "a value outside the sensor's physical range",
     Rejection.UNKNOWN_SENSOR: "a sensor id this source does not expect",
     Rejection.UNKNOWN_ADDRESS: "a sender this source does not accept",
+    Rejection.UNPAIRED_DEVICE: "a device not paired with this suit (or not identified yet)",
     Rejection.STALE_SEQUENCE: "stale: a repeated or older packet number (a sensor restarted, or packets arrive twice)",
     Rejection.UNEXPECTED_MESSAGE: "a message not expected here",
     Rejection.QUEUE_OVERFLOW: "the program could not keep up; the sample was discarded",

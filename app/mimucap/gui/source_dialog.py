@@ -5,12 +5,17 @@ It builds a source spec string (``simulated:demo``, ``simulated:demo@clinic``, `
 layer's parser, asks which skeleton the sensors drive (ten segments, or fifteen with head,
 hands and feet). :func:`remember_source` keeps both in the GUI settings once the main window
 has opened the source; the dialog starts from them.
+
+:class:`PairDevicesDialog` offers to pair the devices a network source heard but refused because
+they are not paired (:mod:`mimucap.acquisition.pairing`): the main window opens it when such a
+device is first heard.
 """
 
 from __future__ import annotations
 
-from PyQt5 import QtWidgets
+from PyQt5 import QtCore, QtWidgets
 
+from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
 from mimucap.core.simulate.names import ROOM_NAMES, SCENARIOS
 from mimucap.gui.settings import gui_settings
@@ -197,3 +202,44 @@ class SourceDialog(QtWidgets.QDialog):
         self.spec = spec
         self.model_name = str(self.model_combo.currentData())
         super().accept()
+
+
+class PairDevicesDialog(QtWidgets.QDialog):
+    """Offer to pair the devices of ``sensors`` that ``source`` heard and refused; after
+    ``accept()``, :meth:`chosen` are the ones ticked. Devices that cannot be paired (they do not
+    say which device they are) are listed with the reason, not ticked."""
+
+    def __init__(self, parent: QtWidgets.QWidget | None, source: str, sensors: list[UnpairedSensor]) -> None:
+        super().__init__(parent)
+        self.setWindowTitle("Pair New Devices?")
+        self.setObjectName("pairDevicesDialog")
+        self.sensors = list(sensors)
+        text = QtWidgets.QLabel(
+            f"{source} hears devices that are not paired with this suit: their data is refused. "
+            "Pair your own sensors only (switch the others off, or move away from them).", self)
+        text.setWordWrap(True)
+        self.list = QtWidgets.QListWidget(self)
+        for sensor in self.sensors:
+            item = QtWidgets.QListWidgetItem(f"{sensor.describe()} ({sensor.refused} packets refused)")
+            if sensor.pairable:
+                item.setFlags(item.flags() | QtCore.Qt.ItemIsUserCheckable)
+                item.setCheckState(QtCore.Qt.Checked)
+            else:
+                item.setFlags(item.flags() & ~QtCore.Qt.ItemIsEnabled)
+                item.setToolTip("It cannot be paired: it does not say which device it is.")
+            self.list.addItem(item)
+        buttons = QtWidgets.QDialogButtonBox(self)
+        self.pair_button = buttons.addButton("Pair", QtWidgets.QDialogButtonBox.AcceptRole)
+        buttons.addButton("Not Now", QtWidgets.QDialogButtonBox.RejectRole)
+        self.pair_button.setEnabled(any(sensor.pairable for sensor in self.sensors))
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.addWidget(text)
+        layout.addWidget(self.list)
+        layout.addWidget(buttons)
+
+    def chosen(self) -> list[UnpairedSensor]:
+        """The pairable sensors whose box is ticked."""
+        return [sensor for row, sensor in enumerate(self.sensors)
+                if sensor.pairable and self.list.item(row).checkState() == QtCore.Qt.Checked]

@@ -21,11 +21,14 @@ for their meaning, see :func:`mimucap.core.skeleton.joint_angle_columns`), in de
 
 Both may carry, after a joint's three angle columns, its **trust column** ``<joint>_ok``: 1
 where the joint's angles are trustworthy, 0 where they are doubtful (the reasons of
-:mod:`mimucap.core.doubt`: a magnetometer rejected for longer than the gyroscope can bridge, a
+:mod:`mimucap.core.pipeline.doubt_reasons`: a magnetometer rejected for longer than the gyroscope can bridge, a
 heading taken from a foreign magnetic field, lost samples, no body calibration…). The header
 explains the column and lists every doubtful span of each joint with its reasons in words
 (:func:`doubt_lines`). A ``.mot`` named for OpenSim coordinates carries the spans only (OpenSim
 would take another column for a coordinate).
+
+The **summary** CSV (:func:`write_summary_csv`) holds one row per column over an exported
+range: its minimum, maximum and range of motion in degrees and the share of doubtful samples.
 
 Any later export format writes its markers with :func:`marker_lines` and reads them back with
 :func:`parse_marker_line`, so that a marker reads the same in every file.
@@ -33,6 +36,7 @@ Any later export format writes its markers with :func:`marker_lines` and reads t
 
 from __future__ import annotations
 
+import csv
 import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -108,7 +112,7 @@ def column_lines(columns: Sequence[str]) -> list[str]:
 def doubt_lines(t_s: np.ndarray, joint_doubt: Mapping[str, np.ndarray]) -> list[str]:
     """Header lines explaining the trust columns and listing, per joint, the doubtful spans
     (times in s on the table's axis) and their reasons in words."""
-    from mimucap.core.doubt import describe, spans
+    from mimucap.core.pipeline.doubt_reasons import describe, spans
 
     lines = ["Trust: <joint>_ok is 1 where the joint's angles are trustworthy and 0 where they may be wrong "
              "(the orientation of a sensor it uses, or the body calibration, is doubtful)"]
@@ -215,7 +219,7 @@ def write_angles_csv(
 ) -> None:
     """Write joint angles (deg) as CSV with a commented header; ``notes`` are extra comment
     lines, ``markers`` (times in s on the ``t_s`` axis) go in the header's marker table;
-    ``joint_doubt`` joint → (N,) reasons (:mod:`mimucap.core.doubt`) adds its trust column."""
+    ``joint_doubt`` joint → (N,) reasons (:mod:`mimucap.core.pipeline.doubt_reasons`) adds its trust column."""
     t, columns, data = _check(t_s, angles_deg)
     angle_columns = columns
     columns, data, doubt = _with_trust(t, columns, data, joint_doubt)
@@ -241,7 +245,7 @@ def write_angles_mot(
 ) -> None:
     """Write joint angles (deg) as an OpenSim ``.mot`` motion with ``inDegrees=yes``;
     ``markers`` (times in s on the time axis) go in its description lines; ``joint_doubt``
-    joint → (N,) reasons (:mod:`mimucap.core.doubt`) adds the trust columns (with
+    joint → (N,) reasons (:mod:`mimucap.core.pipeline.doubt_reasons`) adds the trust columns (with
     ``opensim_names`` the doubtful spans only).
 
     ``opensim_names``: name the columns as OpenSim coordinates with OpenSim's signs (see the
@@ -367,3 +371,36 @@ def read_angles_mot(path: str | Path) -> AnglesTable:
     return AnglesTable(data[:, 0], {c: data[:, i] * scale for i, c in enumerate(columns)
                                     if i > 0 and not c.endswith(OK_SUFFIX)}, tuple(header),
                        labels, markers, _trust(columns, data))
+
+
+@dataclass(frozen=True)
+class SummaryRow:
+    """One joint-angle column over an exported range: ``minimum_deg``, ``maximum_deg``,
+    ``rom_deg`` (range of motion = max − min), all degrees; ``doubtful_fraction`` the share of
+    its samples where the joint's angles are doubtful (:mod:`mimucap.core.pipeline.doubt_reasons`)."""
+
+    column: str
+    minimum_deg: float
+    maximum_deg: float
+    rom_deg: float
+    doubtful_fraction: float = 0.0
+
+
+def write_summary_csv(path: str | Path, rows: Sequence[SummaryRow], t_from_s: float, t_to_s: float,
+                      markers: Sequence[Marker] = (), notes: Sequence[str] = ()) -> Path:
+    """The summary as CSV: machine column name, readable label, min, max, range (deg); the
+    header names the range, says what the result holds (``notes``, e.g. the provenance's lines)
+    and lists ``markers``."""
+    path = Path(path)
+    with path.open("w", encoding="utf-8", newline="") as handle:
+        handle.write(f"# MimuCap joint angle summary from {t_from_s:.3f} s to {t_to_s:.3f} s; degrees\n")
+        for line in list(notes) + marker_lines(markers):
+            handle.write(f"# {line}\n")
+        handle.write("# doubtful_pct: share of the range's samples where the joint's angles may be wrong "
+                     "(see the joint-angle file's <joint>_ok column); min, max and range include them\n")
+        writer = csv.writer(handle)
+        writer.writerow(["column", "label", "min_deg", "max_deg", "rom_deg", "doubtful_pct"])
+        for row in rows:
+            writer.writerow([row.column, angle_label(row.column), f"{row.minimum_deg:.3f}", f"{row.maximum_deg:.3f}",
+                             f"{row.rom_deg:.3f}", f"{100.0 * row.doubtful_fraction:.1f}"])
+    return path

@@ -1,11 +1,12 @@
 """Body calibration files (``CAL.json``): write and read :class:`~mimucap.core.bodycal.BodyCalibration`.
 
 Content (JSON object): ``format`` = ``"mimucap-body-calibration"``, ``format_version`` = 1,
-``method`` (``"npose_tpose"`` or ``"heading"``), ``q_world_from_body`` ``[w, x, y, z]``,
+``method`` (``"npose_tpose"``, ``"heading"`` or ``"functional"``), ``q_world_from_body`` ``[w, x, y, z]``,
 ``up_world`` (the world's up unit vector), ``segments``: ``{segment: {"sensor": id,
 "q_segment_from_sensor": [w, x, y, z]}}``, ``quality`` (figures in degrees, see
 :meth:`~mimucap.core.bodycal.CalibrationQuality.to_dict`), ``verdict`` (``good``,
-``acceptable`` or ``poor``), the pose windows in seconds and, when written by the command line,
+``acceptable`` or ``poor``), the pose windows in seconds (``npose_s``, ``tpose_s``; a functional
+calibration's ``still_s`` and ``movement_s``) and, when written by the command line,
 the model, input file and reader options.
 
 Reading refuses, naming the file and the segment or key: a quaternion or vector cell that is

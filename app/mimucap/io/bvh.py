@@ -20,11 +20,16 @@ channel values per frame.
   frame in BVH axes (segment x anterior → +z, y up → +y, z right → −x).
 * **Root translation**: the pipeline's root position where it knows one, else the model's
   standing height over the origin.
+
+BVH has no place for text: the markers and events of the motion go into a sidecar CSV
+(:func:`write_bvh_markers`, ``<name>_markers.csv``: ``t_s`` seconds from the first frame,
+``context``, ``label``), headed by ``#`` lines saying what the motion holds.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import csv
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -135,3 +140,29 @@ def write_bvh(
         handle.write("\n".join(lines) + "\n")
         np.savetxt(handle, table, fmt="%.6f", delimiter=" ")
     return path
+
+
+def bvh_markers_path(bvh_path: str | Path) -> Path:
+    """The markers sidecar of ``NAME.bvh``: ``NAME_markers.csv`` beside it."""
+    path = Path(bvh_path)
+    return path.with_name(path.stem + "_markers.csv")
+
+
+def write_bvh_markers(bvh_path: str | Path, first_frame_s: float, markers: Sequence[tuple[float, str]],
+                      events: Sequence[tuple[float, str, str]] = (), notes: Sequence[str] = ()) -> Path:
+    """Write the markers sidecar of the BVH file ``bvh_path`` (:func:`bvh_markers_path`):
+    ``markers`` ``(t_s, label)`` (context "General") and gait ``events`` ``(t_s, context,
+    label)``, their times (s, the recording's clock) counted from the first frame at
+    ``first_frame_s``; ``notes`` as ``#`` lines. Returns the sidecar's path."""
+    side = bvh_markers_path(bvh_path)
+    with side.open("w", encoding="utf-8", newline="") as handle:
+        handle.write(f"# markers and events of {Path(bvh_path).name}; t_s seconds from the first BVH frame\n")
+        for note in notes:
+            handle.write(f"# {note}\n")
+        writer = csv.writer(handle)
+        writer.writerow(["t_s", "context", "label"])
+        for time, label in markers:
+            writer.writerow([f"{time - first_frame_s:.6f}", "General", label])
+        for time, context, label in events:
+            writer.writerow([f"{time - first_frame_s:.6f}", context, label])
+    return side

@@ -1,4 +1,5 @@
-"""Persist magnetometer calibrations per device as versioned JSON.
+"""Where calibrations are kept: the user's store of magnetometer calibrations per device, and the
+calibrations a session file or a body calibration carries, as versioned JSON.
 
 A calibration describes one piece of hardware, so it is kept for the *device* it was made on
 (:mod:`mimucap.core.device_identity`), with the sensor id as its human label. Location:
@@ -19,15 +20,23 @@ The JSON object (format version :data:`CALIBRATION_FORMAT_VERSION`; version 1 ha
      "quality": {"rms_residual_uT": ..., "verdict": "good", ...}}
 
 ``soft_iron`` is ``A⁻¹`` (symmetric); apply as ``mag_cal = soft_iron @ (mag_raw − offset_uT)``
-(sensor frame, µT). A session file embeds the calibrations it used under
-``session.calibrations["magnetometer"][sensor_id]`` with the same object
-(:func:`embed_in_session`, :func:`calibration_from_session`).
+(sensor frame, µT). The same object is what every other place keeps of a calibration:
+
+* a file given on the command line (``--mag-calibration FILE``, :func:`read_calibration_file`);
+* a session file: the magnetometer calibrations a recording applied under
+  ``session.calibrations["magnetometer"][sensor_id]`` and its body calibration under
+  ``session.calibrations["body"]`` (:func:`session_calibrations`,
+  :func:`magnetometer_calibrations_of`, :func:`body_calibration_of`; one at a time:
+  :func:`embed_in_session`, :func:`calibration_from_session`);
+* a body calibration, which carries the magnetometer calibrations its N-pose orientations were
+  computed with (sensor id → the object: :func:`calibrations_to_json`,
+  :func:`calibrations_from_json`).
 
 Which stored calibration a sensor gets is :meth:`CalibrationStore.lookup`'s decision: its
 device's, and no other. A sensor of a known device never takes a calibration stored under its
 label for another device or for an unknown one; a sensor whose device is not known takes only a
 calibration of an unknown device stored under its label (its device stays unverified, which
-:mod:`mimucap.core.magcal_standing` says). Either refusal comes with a sentence saying why.
+:mod:`mimucap.core.magcal.standing` says). Either refusal comes with a sentence saying why.
 Loading a calibration for another sensor id or device is refused; a corrupt, foreign or newer
 file raises :class:`CalibrationFileError` (a ``ValueError``) naming the file and the problem.
 """
@@ -39,15 +48,17 @@ import math
 import os
 import re
 import tempfile
-from collections.abc import MutableMapping
+from collections.abc import Mapping, MutableMapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from mimucap.core import bodycal
 from mimucap.core.device_identity import SensorDevice, check_device_id, describe_device
-from mimucap.core.magcal import MagCalibration
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.io.json_document import read_json_document
 
 CALIBRATION_FORMAT = "mimucap-magcal"
 CALIBRATION_FORMAT_VERSION = 2
@@ -55,6 +66,8 @@ CALIBRATION_FORMAT_VERSION = 2
 DEVICES_FOLDER = "devices"
 #: Key of the magnetometer calibrations in ``Session.calibrations``.
 SESSION_KEY = "magnetometer"
+#: Key of the body calibration in ``Session.calibrations``.
+BODY_KEY = "body"
 _SENSOR_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,63}$")
 
 
@@ -300,6 +313,57 @@ class CalibrationStore:
         labels = {p.stem for p in self.directory.glob("*.json")}
         labels.update(c.sensor_id for c in self._device_calibrations())
         return sorted(labels)
+
+
+def calibrations_to_json(calibrations: Mapping[str, MagCalibration]) -> dict[str, dict[str, Any]]:
+    """Sensor id → the JSON object of its calibration (what a session or a body calibration keeps)."""
+    return {sensor_id: calibration_to_json(calibration) for sensor_id, calibration in calibrations.items()}
+
+
+def calibrations_from_json(section: Any, origin: str, what: str = "magnetometer calibrations") -> dict[str, MagCalibration]:
+    """Inverse of :func:`calibrations_to_json`; :class:`CalibrationFileError` naming ``origin``
+    (and ``what``, when the section is no mapping) when it is malformed or a calibration is
+    filed under another sensor's id."""
+    if not isinstance(section, Mapping):
+        raise CalibrationFileError(f"{origin}: {what} is not a mapping")
+    return {sensor_id: calibration_from_json(data, f"{origin}: magnetometer calibration of {sensor_id}", sensor_id)
+            for sensor_id, data in section.items()}
+
+
+def read_calibration_file(path: str | os.PathLike[str], option: str = "") -> MagCalibration:
+    """The calibration in the JSON file ``path`` (any sensor's); ``ValueError`` naming the file
+    (and ``option``, the command-line option that gave it) and what it is when it cannot be read
+    or is not one (:func:`~mimucap.io.json_document.read_json_document`)."""
+    what = f"magnetometer calibration ({option})" if option else "magnetometer calibration"
+    return calibration_from_json(read_json_document(path, what), str(path))
+
+
+def session_calibrations(mag_calibrations: Mapping[str, MagCalibration],
+                         body_calibration: bodycal.BodyCalibration | None) -> dict[str, Any]:
+    """The ``calibrations`` a recording stores: the magnetometer calibrations it applied and its
+    body calibration (each only when there is one)."""
+    calibrations: dict[str, Any] = {}
+    if mag_calibrations:
+        calibrations[SESSION_KEY] = calibrations_to_json(mag_calibrations)
+    if body_calibration is not None:
+        calibrations[BODY_KEY] = body_calibration.to_dict()
+    return calibrations
+
+
+def magnetometer_calibrations_of(calibrations: Mapping[str, Any], origin: str) -> dict[str, MagCalibration]:
+    """Sensor → the magnetometer calibration a session's ``calibrations`` carry (none: empty);
+    :class:`CalibrationFileError` naming ``origin`` when one is malformed."""
+    return calibrations_from_json(calibrations.get(SESSION_KEY) or {}, origin)
+
+
+def body_calibration_of(calibrations: Mapping[str, Any], metadata: Mapping[str, Any],
+                        origin: str) -> bodycal.BodyCalibration | None:
+    """The body calibration a session stores (``calibrations["body"]``, or an older file's
+    ``metadata["body_calibration"]``), or None; ``ValueError`` naming ``origin`` when malformed."""
+    body = calibrations.get(BODY_KEY) or metadata.get("body_calibration")
+    if not body:
+        return None
+    return bodycal.BodyCalibration.from_dict(body, origin=f"{origin}: body calibration")
 
 
 def embed_in_session(calibrations: MutableMapping[str, Any], calibration: MagCalibration) -> None:

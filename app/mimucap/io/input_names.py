@@ -1,11 +1,11 @@
 """Names of the inputs the readers take, importable without numpy or h5py.
 
 The command line lists them in ``--help`` and checks options against them before any reader
-is loaded. The readers (:mod:`mimucap.io.quaternion_tables`, :mod:`mimucap.io.magdata`)
+is loaded. The readers (:mod:`mimucap.io.orientation_tables`, :mod:`mimucap.io.magdata`)
 import them from here.
 """
 
-#: Kinds of orientation input (:func:`mimucap.io.quaternion_tables.orientation_input_kind`),
+#: Kinds of orientation input (:func:`mimucap.io.orientation_inputs.orientation_input_kind`),
 #: each named as a message says it.
 XSENS_FOLDER = "Xsens export folders"
 XSENS_FILE = "Xsens export files"

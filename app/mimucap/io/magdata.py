@@ -12,7 +12,7 @@ Formats (``read_mag_files(..., fmt=...)``; ``"auto"`` picks by content):
     magnetometer columns sets the unit. The sunsided/sensor-fusion recordings
     (``mag_hmc5883l.csv.gz``: ``t_s,mx_gauss,my_gauss,mz_gauss``) are read this way, and their
     companion ``imu_mpu6050.csv.gz`` (``t_s,ax,ay,az,gx,gy,gz`` in g and °/s) next to them is
-    attached as a :class:`~mimucap.core.samples.SensorSamples` record (``acc`` m/s², ``gyr``
+    attached as a :class:`~mimucap.core.sensor_samples.SensorSamples` record (``acc`` m/s², ``gyr``
     rad/s), converted to this project's conventions following the
     upstream READMEs: set 2 (the default) records the accelerometer as the *gravity*
     direction (−1 g on z when z points up), so specific force = −a; set 1 records the up
@@ -50,7 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from mimucap.core.device_identity import xsens_device_id
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.input_names import FORMATS, MAG_UNITS, SESSION_SUFFIXES
 
 FloatArray = NDArray[np.float64]
@@ -291,11 +291,11 @@ def read_sunsided_imu(path: str | Path, variant: str = "auto") -> SensorSamples:
 def read_xsens(path: str | Path) -> MagRecording:
     """Read an Xsens MT Manager text export with ``Mag_X..Z`` columns (see module docstring).
 
-    The file is parsed by the one Xsens reader, :func:`mimucap.io.quaternion_tables.read_xsens_file`
+    The file is parsed by the one Xsens reader, :func:`mimucap.io.xsens_text.read_xsens_file`
     (headers, delimiters, empty fields, packet counters); this keeps its magnetometer (Xsens's
     arbitrary units, normalised to the local field: ``unit="counts"``, to be scaled) and its
     accelerometer and gyroscope as the companion inertial samples."""
-    from mimucap.io.quaternion_tables import read_xsens_file
+    from mimucap.io.xsens_text import read_xsens_file
 
     path = Path(path)
     recording = read_xsens_file(path)

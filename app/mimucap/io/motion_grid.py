@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from mimucap.core.analysis import signals
-from mimucap.core.pipeline import orientation_at
+from mimucap.core.pipeline.instants import orientation_at
 
 
 def uniform_grid(t_s: np.ndarray) -> tuple[np.ndarray, float]:
@@ -33,7 +33,7 @@ def sample_series(t_src: np.ndarray, values: np.ndarray, t_dst: np.ndarray) -> n
 
 def sample_orientations(t_src: np.ndarray, q: np.ndarray, t_dst: np.ndarray) -> np.ndarray:
     """Unit quaternions ``q`` (N, 4) at ``t_src`` (N,) slerped at ``t_dst`` (F,) → (F, 4), as
-    :func:`mimucap.core.pipeline.orientation_at` samples an orientation track (the grid of
+    :func:`mimucap.core.pipeline.instants.orientation_at` samples an orientation track (the grid of
     :func:`uniform_grid` lies within ``t_src``'s span)."""
     return orientation_at(np.asarray(t_dst, dtype=np.float64), np.asarray(t_src, dtype=np.float64),
                           np.asarray(q, dtype=np.float64))

@@ -380,7 +380,7 @@ def session_from_mvnx(recording: MvnxRecording):
       calibration poses, for comparison and reports.
     """
     from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
     from mimucap.io.session import Session, make_subject
 
     t = recording.t_s

@@ -235,8 +235,8 @@ def session_from_sto(path: str | Path):
     samples per column (``q_world_from_sensor`` as the table holds it; OpenSense readers keep the vendor's
     z-up world, read as ENU), assigned to our segment when named ``<body>_imu``; no body
     calibration, no raw channels."""
-    from mimucap.io.quaternion_tables import read_opensim_sto
-    from mimucap.core.samples import SensorSamples
+    from mimucap.core.sensor_samples import SensorSamples
+    from mimucap.io.orientation_tables import read_opensim_sto
     from mimucap.io.session import Session
 
     table = read_opensim_sto(path)

@@ -1,7 +1,7 @@
 """MimuCap session files: HDF5, versioned, read back by this module only.
 
 A session holds what was recorded (each sensor's raw samples, a
-:class:`~mimucap.core.samples.SensorSamples`), what is known about it (metadata,
+:class:`~mimucap.core.sensor_samples.SensorSamples`), what is known about it (metadata,
 markers, optional ground truth of a simulation) and what was computed from it (calibrations
 and results). The layout is documented in ``docs/session-format.md``; this module is its
 only reader and writer.
@@ -38,8 +38,8 @@ import numpy as np
 
 from mimucap import __version__
 from mimucap.core.device_identity import SensorDevice, devices_from_json
-from mimucap.core.samples import SensorSamples
 from mimucap.core.sensor_limits import GYR_MAX_RAD_S
+from mimucap.core.sensor_samples import SensorSamples
 
 #: Value of the root attribute ``format``.
 SESSION_FORMAT = "mimucap-session"
@@ -56,7 +56,7 @@ SENSOR_CHANNELS: dict[str, tuple[tuple[int, ...], str]] = {
     "device_time_s": ((), "s (device clock)"),
 }
 
-#: Dataset → the :class:`~mimucap.core.samples.SensorSamples` field it holds, where they differ.
+#: Dataset → the :class:`~mimucap.core.sensor_samples.SensorSamples` field it holds, where they differ.
 _FIELD_OF_DATASET = {"battery": "battery_pct"}
 #: A stored fraction × this = the record's percent.
 _PERCENT_PER_FRACTION = 100.0
@@ -137,7 +137,7 @@ class SessionTruth:
 class Session:
     """One recording: ``metadata`` (JSON-serialisable dict, see ``docs/session-format.md``:
     ``source``, ``created_utc``, ``mimucap_version``, ``subject`` with ``id``, ``height_m``,
-    ``dominance``, ``notes``), ``sensors`` (id → :class:`~mimucap.core.samples.SensorSamples`,
+    ``dominance``, ``notes``), ``sensors`` (id → :class:`~mimucap.core.sensor_samples.SensorSamples`,
     ``t_s`` since the session start), ``markers``,
     ``truth`` (simulations only), ``calibrations`` (name → JSON-serialisable value, e.g.
     ``"magnetometer"`` → {sensor id → calibration dict}, ``"body"`` → dict) and ``results``
@@ -328,7 +328,7 @@ def _write_nested(group: h5py.Group, values: Mapping[str, Any], what: str) -> No
 
 
 def _write_sensor(group: h5py.Group, stream: SensorSamples) -> None:
-    """Write one sensor's samples (already :meth:`~mimucap.core.samples.SensorSamples.validated`)."""
+    """Write one sensor's samples (already :meth:`~mimucap.core.sensor_samples.SensorSamples.validated`)."""
     g = _group(group, stream.sensor_id)
     g.attrs["sensor_id"] = stream.sensor_id
     if stream.segment is not None:

@@ -53,6 +53,21 @@ def angle_errors(t_s: np.ndarray, angles_deg: Mapping[str, np.ndarray], truth_t_
     return errors
 
 
+def pooled_rms_deg(t_s: np.ndarray, angles_deg: Mapping[str, np.ndarray], truth_t_s: np.ndarray,
+                   truth_deg: Mapping[str, np.ndarray], spans_s, columns) -> dict[str, float]:
+    """RMS error (deg) of each of ``columns`` over all the samples of several ``spans_s``
+    (``(start, end)`` s each, e.g. every walking phase), pooled; NaN for a column without a
+    sample in them."""
+    squared = {column: [0.0, 0] for column in columns}
+    for span in spans_s:
+        errors = angle_errors(t_s, angles_deg, truth_t_s, truth_deg, span_s=span)
+        for column in columns:
+            if column in errors:
+                squared[column][0] += errors[column].rms_deg ** 2 * errors[column].samples
+                squared[column][1] += errors[column].samples
+    return {column: float(np.sqrt(total / count)) if count else float("nan") for column, (total, count) in squared.items()}
+
+
 #: The joint angles the on-screen accuracy check and the benchmark sum up.
 FLEXION_COLUMNS = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg",
                    "elbow_l_flexion_deg", "elbow_r_flexion_deg")

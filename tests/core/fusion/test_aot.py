@@ -13,11 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mimucap.core.fusion import aot
+from mimucap.core.fusion import aot, kernel_selection
 from mimucap.core.fusion.ekf import OrientationEKF, fuse, update_together
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.params import FusionParams
-from mimucap.io.broad import read_broad
+from mimucap.io.broad_trials import read_broad
 from tests.external_data import data_path
 
 BROAD_DIR = data_path("broad")
@@ -50,14 +50,14 @@ def compiled(compiled_dir) -> aot.FusionKernels:
 
 @pytest.fixture(scope="module")
 def jit() -> aot.FusionKernels:
-    return aot.jit_kernels()
+    return kernel_selection.jit_kernels()
 
 
 def both(compiled, jit, run):
     """``run()`` with the compiled kernels, then with the JIT kernels."""
     results = []
     for kernels in (compiled, jit):
-        with aot.kernels_in_use(kernels):
+        with kernel_selection.kernels_in_use(kernels):
             results.append(run())
     return results
 
@@ -137,7 +137,7 @@ def test_compiled_and_jit_kernels_agree_block_by_block_and_for_several_sensors(c
     t, gyr, acc, mag = _edge_recording()
     outputs = []
     for kernels in (compiled, jit):
-        with aot.kernels_in_use(kernels):
+        with kernel_selection.kernels_in_use(kernels):
             filters = [OrientationEKF(), OrientationEKF()]
             blocks = []
             for start in range(0, len(t), 7):
@@ -218,21 +218,21 @@ def test_a_missing_or_stale_module_is_never_loaded(compiled_dir, tmp_path, monke
     assert aot.load_ahead_of_time(compiled_dir) is not None
     # without a current module the process runs the JIT kernels
     monkeypatch.setattr(aot, "COMPILED_DIR", tmp_path)
-    monkeypatch.setattr(aot, "_selected", None)
-    assert aot.fusion_kernels().origin == "numba JIT"
+    monkeypatch.setattr(kernel_selection, "_selected", None)
+    assert kernel_selection.fusion_kernels().origin == "numba JIT"
 
 
 def test_the_environment_can_choose_the_jit_kernels(compiled_dir, monkeypatch):
     monkeypatch.setattr(aot, "COMPILED_DIR", compiled_dir)
-    monkeypatch.setattr(aot, "_selected", None)
-    assert aot.fusion_kernels().ahead_of_time
-    monkeypatch.setattr(aot, "_selected", None)
-    monkeypatch.setenv(aot.KERNELS_ENV, "jit")
-    assert not aot.fusion_kernels().ahead_of_time
-    monkeypatch.setattr(aot, "_selected", None)
-    monkeypatch.setenv(aot.KERNELS_ENV, "fast")
+    monkeypatch.setattr(kernel_selection, "_selected", None)
+    assert kernel_selection.fusion_kernels().ahead_of_time
+    monkeypatch.setattr(kernel_selection, "_selected", None)
+    monkeypatch.setenv(kernel_selection.KERNELS_ENV, "jit")
+    assert not kernel_selection.fusion_kernels().ahead_of_time
+    monkeypatch.setattr(kernel_selection, "_selected", None)
+    monkeypatch.setenv(kernel_selection.KERNELS_ENV, "fast")
     with pytest.raises(ValueError, match="MIMUCAP_FUSION_KERNELS"):
-        aot.fusion_kernels()
+        kernel_selection.fusion_kernels()
 
 
 #: Runs ``mimucap fuse`` and the GUI's kernel preparation in a fresh interpreter whose compiled
@@ -241,12 +241,13 @@ PROBE = r"""
 import json, sys
 from pathlib import Path
 import mimucap.core.fusion.aot as aot
+import mimucap.core.fusion.kernel_selection as kernel_selection
 aot.COMPILED_DIR = Path(sys.argv[1])
 from mimucap.cli import main
 code = main(["fuse", sys.argv[2], "--out", sys.argv[3]])
 from mimucap.session.live.kernel_preparation import KernelPreparation
 report = KernelPreparation().run()
-print(json.dumps({"code": code, "origin": aot.fusion_kernels().origin, "ahead_of_time": report.ahead_of_time,
+print(json.dumps({"code": code, "origin": kernel_selection.fusion_kernels().origin, "ahead_of_time": report.ahead_of_time,
                   "imported": [name for name in ("numba", "llvmlite", "scipy") if name in sys.modules]}))
 """
 
@@ -254,14 +255,14 @@ print(json.dumps({"code": code, "origin": aot.fusion_kernels().origin, "ahead_of
 @pytest.mark.data("broad")
 def test_fuse_and_the_first_start_do_not_import_numba_with_compiled_kernels(compiled_dir, compiled, jit, tmp_path):
     out = tmp_path / "q.npy"
-    env = {key: value for key, value in os.environ.items() if key != aot.KERNELS_ENV}
+    env = {key: value for key, value in os.environ.items() if key != kernel_selection.KERNELS_ENV}
     done = subprocess.run([sys.executable, "-c", PROBE, str(compiled_dir), str(TRIAL), str(out)],
                           capture_output=True, text=True, timeout=120, env=env)
     assert done.returncode == 0, done.stderr
     seen = json.loads(done.stdout.strip().splitlines()[-1])
     assert seen == {"code": 0, "origin": compiled.origin, "ahead_of_time": True, "imported": []}
     trial = read_broad(TRIAL)
-    with aot.kernels_in_use(jit):
+    with kernel_selection.kernels_in_use(jit):
         expected = fuse(trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT).q_world_from_sensor
     written = np.load(out)
     assert np.array_equal(np.isnan(written), np.isnan(expected))

@@ -18,7 +18,7 @@ import pytest
 from mimucap.core.fusion.ekf import fuse
 from mimucap.core.fusion.evaluation import orientation_errors
 from mimucap.core.fusion.offline import fuse_offline
-from mimucap.io.broad import read_broad
+from mimucap.io.broad_trials import read_broad
 from tests.external_data import data_path
 
 BROAD_DIR = data_path("broad")

@@ -10,9 +10,10 @@ Frames and order: ``q_world_from_sensor``, scalar-first Hamilton quaternions, wo
 * :mod:`.state` — the filter state of S sensors and the per-sample diagnostic flags;
 * :mod:`.disturbance` — rest detection, accelerometer weighting, magnetic rejection;
 * :mod:`.kernels` — the compiled (numba) loops: error-state EKF and RTS backward pass;
-* :mod:`.aot` — which compiled kernels a process runs: the module compiled ahead of time at
-  installation (:mod:`.aot_build`) when it is current, else numba's JIT (:mod:`.jit`,
-  :mod:`.warmup`);
+* :mod:`.aot` — the module compiled ahead of time at installation (:mod:`.aot_build`): its
+  name, its check against the current sources, its loading;
+* :mod:`.kernel_selection` — which compiled kernels a process runs: that module when it is
+  current, else numba's JIT (:mod:`.jit`, :mod:`.warmup`);
 * :mod:`.ekf` — :class:`OrientationEKF` (online: ``update`` / ``update_batch``; several
   one-sensor filters in one call: :func:`update_together`) and :func:`fuse`;
 * :mod:`.offline` — :func:`fuse_offline`, forward EKF plus RTS smoother;

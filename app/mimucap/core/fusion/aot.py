@@ -1,5 +1,5 @@
-"""Which compiled fusion kernels a process runs: the ahead-of-time module if it is current,
-else numba's JIT.
+"""The fusion kernels compiled ahead of time: where their module is, whether it is current, and
+how it is loaded (which kernels a process then runs: :mod:`.kernel_selection`).
 
 The numba kernels of :mod:`.kernels` (the forward EKF :func:`~.kernels.ekf_sensors` and the
 Rauch-Tung-Striebel backward pass :func:`~.kernels.rts_smooth_sensors`) are also compiled ahead
@@ -17,7 +17,7 @@ state layouts the kernels read as constants (:data:`LAYOUT_FINGERPRINT`), and it
 install builds) or ``generic`` (any CPU of the architecture). After an edit of a kernel, a
 layout change or a move to another CPU, the name looked for is another one, so the old file is
 simply not found, and the kernels come from numba's JIT (:mod:`.kernels`, compiled once into
-numba's on-disk cache) until the next installation builds a current module. Where the sources
+numba's on-disk cache; :mod:`.kernel_selection`) until the next installation builds a current module. Where the sources
 cannot be read, no fingerprint can be checked and the JIT kernels serve; the desktop bundle
 therefore ships the kernel sources beside its ``generic`` module (``packaging/mimucap.spec``).
 
@@ -26,23 +26,18 @@ numba's cache holds them (both are LLVM's code for this CPU from the same source
 itself can round the last bits differently from one compilation to the next). The ``generic``
 target may differ in the last bits (no fused multiply-add). Installation checks the agreement
 (:mod:`.warmup`).
-
-The environment variable ``MIMUCAP_FUSION_KERNELS=jit`` makes a process use the JIT kernels
-even when a current module exists (comparisons, and tests of the JIT path).
 """
 
 from __future__ import annotations
 
-import contextlib
 import importlib.machinery
 import importlib.util
 import logging
-import os
 import platform
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Callable
 
 import numpy as np
 
@@ -58,9 +53,6 @@ COMPILED_DIR = PACKAGE_DIR / "_compiled"
 KERNEL_SOURCES = ("kernels.py", "disturbance.py", "propagation.py", "jit.py", "aot_build.py")
 #: File names of compiled modules start with this (followed by the fingerprint).
 MODULE_PREFIX = "fusion_kernels_"
-#: Environment variable choosing the kernels: ``jit`` forces numba's JIT; unset or ``auto``
-#: takes the ahead-of-time module when a current one exists.
-KERNELS_ENV = "MIMUCAP_FUSION_KERNELS"
 #: Fields of ``/proc/cpuinfo`` that identify a CPU's instruction set (not its clock or load).
 CPU_FIELDS = ("vendor_id", "cpu family", "model", "model name", "flags", "CPU implementer",
               "CPU architecture", "CPU variant", "CPU part", "Features", "isa")
@@ -205,38 +197,3 @@ def load_ahead_of_time(directory: Path | None = None) -> FusionKernels | None:
         return FusionKernels(checked(module.ekf_sensors, "ekf_sensors"),
                              checked(module.rts_smooth_sensors, "rts_smooth_sensors"), path.name, True)
     return None
-
-
-def jit_kernels() -> FusionKernels:
-    """The numba JIT kernels (imports numba; compiled or loaded from numba's cache at first call)."""
-    from mimucap.core.fusion import kernels
-
-    return FusionKernels(kernels.ekf_sensors, kernels.rts_smooth_sensors, "numba JIT", False)
-
-
-_selected: FusionKernels | None = None
-
-
-def fusion_kernels() -> FusionKernels:
-    """The kernels this process uses, chosen at the first call: the current ahead-of-time
-    module, else numba's JIT (see the module doc and :data:`KERNELS_ENV`)."""
-    global _selected
-    if _selected is None:
-        choice = os.environ.get(KERNELS_ENV, "auto").strip().lower()
-        if choice not in ("auto", "jit", ""):
-            raise ValueError(f"environment variable {KERNELS_ENV}={choice!r}: use 'jit' or 'auto'")
-        _selected = (load_ahead_of_time() if choice != "jit" else None) or jit_kernels()
-    return _selected
-
-
-@contextlib.contextmanager
-def kernels_in_use(kernels: FusionKernels) -> Iterator[FusionKernels]:
-    """Within the block, this process's fusion runs ``kernels`` (comparisons of the two kinds,
-    and the installation's warm-up of the JIT kernels); the previous choice returns after it."""
-    global _selected
-    previous = _selected
-    _selected = kernels
-    try:
-        yield kernels
-    finally:
-        _selected = previous

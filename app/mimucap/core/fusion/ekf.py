@@ -14,7 +14,7 @@ absent). NaN or out-of-range samples are skipped and counted, never fed to the s
 ``update_batch`` a block, and feeding a recording in blocks gives exactly the result of one
 call (:func:`fuse`). The loop over the samples is the compiled kernel
 :func:`~mimucap.core.fusion.kernels.ekf_sensors`, from the module compiled ahead of time or
-through numba's JIT (:mod:`mimucap.core.fusion.aot`); numba is imported only in the latter case,
+through numba's JIT (:mod:`mimucap.core.fusion.kernel_selection`); numba is imported only in the latter case,
 at the first call.
 """
 
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mimucap.core.fusion.algorithms import ALGORITHMS
-from mimucap.core.fusion.aot import fusion_kernels
+from mimucap.core.fusion.kernel_selection import fusion_kernels
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams, pack_params
 from mimucap.core.fusion.state import AX_INIT, AX_MAG_CAND_T, AX_MAG_REF_OK, FusionState, decode_flags
 

@@ -11,18 +11,60 @@ difference, and ``x_{k|N} = x_{k|k} ⊕ δx_k`` (``q ← exp(δθ) ⊗ q``, ``b 
 
 So every sample uses the whole recording: gyro bias learned at the end of a recording and
 heading corrections after a magnetic disturbance reach back in time. Memory: about 0.7 kB per
-sample and sensor during the call. The backward pass is the compiled kernel
-:func:`~mimucap.core.fusion.kernels.rts_smooth_sensors` (as chosen by :mod:`.aot`).
+sample and sensor during the call (:class:`SmootherStore`). The forward pass may be fed in
+blocks (:func:`forward_block`, as the per-sensor chain does to read its filter's covariance
+between blocks), then :func:`smooth` runs the backward pass; :func:`fuse_offline` does both
+for whole recordings. The backward pass is the compiled kernel
+:func:`~mimucap.core.fusion.kernels.rts_smooth_sensors` (as chosen by :mod:`.kernel_selection`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from mimucap.core.fusion.aot import fusion_kernels
 from mimucap.core.fusion.ekf import FusionResult, OrientationEKF, shaped_inputs
+from mimucap.core.fusion.kernel_selection import fusion_kernels
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
 from mimucap.core.fusion.state import FusionState
+
+
+class SmootherStore:
+    """What the forward pass of one sensor over ``n`` samples keeps for the backward pass (about
+    0.7 kB per sample): the predicted state, the predicted and updated covariances and the
+    transition block of every sample, as the kernel writes them."""
+
+    def __init__(self, n: int) -> None:
+        self.arrays = (np.empty((1, n, 4)), np.empty((1, n, 3)), np.empty((1, n, 6, 6)),
+                       np.empty((1, n, 6, 6)), np.empty((1, n, 3, 3)))
+
+    def rows(self, start: int, stop: int) -> tuple[np.ndarray, ...]:
+        """Views of samples ``start:stop`` for one block of the forward pass (C-contiguous: the
+        sensor axis has length one)."""
+        return tuple(array[:, start:stop] for array in self.arrays)
+
+
+def forward_block(ekf: OrientationEKF, store: SmootherStore, start: int, t_s, gyr_rad_s, acc_m_s2=None,
+                  mag_uT=None) -> FusionResult:
+    """Feed ``ekf`` (one sensor) the block of samples ``start:start + N`` of a recording, keeping
+    what the backward pass needs in ``store``; the outputs are those of
+    :meth:`~mimucap.core.fusion.ekf.OrientationEKF.update_batch`. Feeding a recording block by
+    block keeps exactly what one call over it keeps."""
+    n = len(np.asarray(t_s))
+    return ekf.update_batch(t_s, gyr_rad_s, acc_m_s2, mag_uT, _store=store.rows(start, start + n))
+
+
+def smooth(q_forward: np.ndarray, bias_forward: np.ndarray, store: SmootherStore) -> tuple[np.ndarray, np.ndarray]:
+    """The Rauch-Tung-Striebel backward pass over one sensor's forward run: its outputs
+    ``q_forward`` (N, 4), ``bias_forward`` (N, 3) and ``store`` (filled for all N samples);
+    returns the smoothed ``q_world_from_sensor`` (N, 4) and gyro bias (N, 3) rad/s."""
+    n = len(q_forward)
+    out_q, out_b = np.empty((1, n, 4)), np.empty((1, n, 3))
+    if n:
+        # one sensor as a batch of one: views, no copies
+        fusion_kernels().rts_smooth_sensors(
+            np.ascontiguousarray(q_forward, dtype=np.float64)[None],
+            np.ascontiguousarray(bias_forward, dtype=np.float64)[None], *store.arrays, out_q, out_b)
+    return out_q[0], out_b[0]
 
 
 def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
@@ -45,16 +87,11 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
     if state is not None and n_sensors != 1:
         raise ValueError("a prior state is given for one sensor at a time")
     for s in range(n_sensors):
-        store = (np.empty((1, n, 4)), np.empty((1, n, 3)), np.empty((1, n, 6, 6)),
-                 np.empty((1, n, 6, 6)), np.empty((1, n, 3, 3)))
+        store = SmootherStore(n)
         ekf = OrientationEKF(params, algorithm=algorithm, use_mag=use_mag, state=state)
-        forward = ekf.update_batch(t[s], gyr3[s], None if acc3 is None else acc3[s],
-                                   None if mag3 is None else mag3[s], _store=store)
-        if n:
-            # one sensor as a batch of one: views, no copies
-            fusion_kernels().rts_smooth_sensors(
-                forward.q_world_from_sensor[None], forward.bias_rad_s[None], *store,
-                out_q[s:s + 1], out_b[s:s + 1])
+        forward = forward_block(ekf, store, 0, t[s], gyr3[s], None if acc3 is None else acc3[s],
+                                None if mag3 is None else mag3[s])
+        out_q[s], out_b[s] = smooth(forward.q_world_from_sensor, forward.bias_rad_s, store)
         flags[s] = forward.flags
         counters.append(forward.counters[0])
     if single:

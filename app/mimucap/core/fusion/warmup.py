@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from mimucap.core.fusion import aot
+from mimucap.core.fusion import aot, kernel_selection
 from mimucap.core.fusion.ekf import OrientationEKF, fuse
 from mimucap.core.fusion.offline import fuse_offline
 
@@ -70,7 +70,7 @@ def largest_difference(first: aot.FusionKernels, second: aot.FusionKernels) -> f
     data = turning_sensor()
     results = []
     for kernels in (first, second):
-        with aot.kernels_in_use(kernels):
+        with kernel_selection.kernels_in_use(kernels):
             results.append((fuse(*data), fuse_offline(*data)))
     worst = 0.0
     for one, other in zip(*results):
@@ -98,8 +98,8 @@ def install() -> None:
         except (ImportError, OSError, ValueError) as error:
             print(f"fusion kernels not compiled ahead of time ({error}); numba's JIT kernels will serve")
     started = time.perf_counter()
-    jit = aot.jit_kernels()
-    with aot.kernels_in_use(jit):
+    jit = kernel_selection.jit_kernels()
+    with kernel_selection.kernels_in_use(jit):
         compile_kernels()
     print(f"fusion kernels compiled into numba's cache in {time.perf_counter() - started:.1f} s")
     if path is None:

@@ -16,7 +16,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core.simulate.body_pose import BaseState, BodyPose, pelvis_rotation, standing_sway
 from mimucap.core.simulate.hand_held import HAND_HEIGHT_M, HAND_PATHS
 from mimucap.core.simulate.minimum_jerk import minimum_jerk
@@ -34,7 +34,7 @@ class Activity(ABC):
     """Base of all activities: ``duration_s`` (None: indefinite) and :meth:`pose`."""
 
     name = "activity"
-    #: Label of the marker written where the activity starts (:mod:`mimucap.core.phases`).
+    #: Label of the marker written where the activity starts (:mod:`mimucap.core.phase_markers`).
     marker = "activity"
     duration_s: float | None = None
     #: Seconds over which this activity is blended in, and over which the next one replaces it
@@ -75,7 +75,7 @@ class NPose(Activity):
     with quiet-standing sway of ``sway_deg`` (0 for a perfectly still subject)."""
 
     name = "npose"
-    marker = phases.NPOSE
+    marker = phase_markers.NPOSE
 
     def __init__(self, duration_s: float | None = None, sway_deg: float = 0.3) -> None:
         self.duration_s = duration_s
@@ -90,7 +90,7 @@ class TPose(Activity):
     in ``raise_s`` seconds (minimum jerk), then held; ``arms`` right, left or both."""
 
     name = "tpose"
-    marker = phases.TPOSE
+    marker = phase_markers.TPOSE
 
     def __init__(self, duration_s: float | None = None, arms: str = "both", angle_deg: float = 88.0,
                  raise_s: float = 1.5, sway_deg: float = 0.3) -> None:
@@ -122,7 +122,7 @@ class Turn(Activity):
     times (None: forever)."""
 
     name = "turn"
-    marker = phases.TURN
+    marker = phase_markers.TURN
 
     def __init__(self, duration_s: float | None = None, angle_deg: float = 180.0, turn_s: float = 2.5,
                  pause_s: float = 1.0, turns: int | None = None) -> None:
@@ -176,7 +176,7 @@ class ArmRaise(_Cyclic):
     "abduction" (sideways, below 90°: Z-X'-Y'' is singular at 90°); ``arms`` right/left/both."""
 
     name = "arm_raise"
-    marker = phases.ARM_RAISE
+    marker = phase_markers.ARM_RAISE
 
     def __init__(self, duration_s: float | None = None, arms: str = "both", plane: str = "flexion",
                  angle_deg: float = 150.0, cycles: int | None = None, move_s: float = 1.5,
@@ -213,7 +213,7 @@ class Squat(_Cyclic):
     (shanks 30° forward), the ankles dorsiflex 30° and the arms reach forward 80°."""
 
     name = "squat"
-    marker = phases.SQUAT
+    marker = phase_markers.SQUAT
 
     def __init__(self, duration_s: float | None = None, depth: float = 0.8, cycles: int | None = None,
                  move_s: float = 1.4, hold_s: float = 0.3, rest_s: float = 0.4) -> None:
@@ -289,8 +289,8 @@ class HoldSensors(Activity):
         if int(turns) != turns or not 1 <= turns <= 5:
             raise ValueError(f"turns must be an integer from 1 to 5, got {turns}")
         self.name = f"mag_{protocol}"
-        self.marker = {"single_axis": phases.MAG_TURNS, "figure8": phases.MAG_FIGURE8,
-                       "tumble": phases.MAG_TUMBLE}[protocol]
+        self.marker = {"single_axis": phase_markers.MAG_TURNS, "figure8": phase_markers.MAG_FIGURE8,
+                       "tumble": phase_markers.MAG_TUMBLE}[protocol]
         self.protocol = protocol
         self.sensor_ids = tuple(sensor_ids)
         self.path = HAND_PATHS[protocol](np.random.default_rng([int(seed) & 0xFFFFFFFF, 404]), int(turns))

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core.simulate.activities import Activity
 from mimucap.core.simulate.body_pose import BodyPose, pelvis_rotation
 from mimucap.core.simulate.minimum_jerk import minimum_jerk
@@ -60,7 +60,7 @@ class Sit(Activity):
     """Sitting still on the chair for ``duration_s`` (None: indefinitely)."""
 
     name = "sit"
-    marker = phases.SITTING
+    marker = phase_markers.SITTING
 
     def __init__(self, duration_s: float | None = None, arms_crossed: bool = False) -> None:
         self.duration_s = duration_s
@@ -83,7 +83,7 @@ class ChairTransition(Activity):
         self.duration_s = self.move_s + float(hold_s)
         self.arms_crossed = bool(arms_crossed)
         self.name = "sit_to_stand" if rise else "stand_to_sit"
-        self.marker = phases.SIT_TO_STAND if rise else phases.STAND_TO_SIT
+        self.marker = phase_markers.SIT_TO_STAND if rise else phase_markers.STAND_TO_SIT
 
     def pose(self, tau, start):
         x = np.clip(tau / self.move_s, 0.0, 1.0)

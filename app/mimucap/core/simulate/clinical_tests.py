@@ -39,7 +39,7 @@ the phase boundaries of the instrumented tests:
   past 45° from horizontal) counting as a full stand, as Jones et al. score it; and the mean
   duration of a full sit-stand-sit cycle.
 
-Every phase starts with a marker (:mod:`mimucap.core.phases`: "sitting", "sit-to-stand",
+Every phase starts with a marker (:mod:`mimucap.core.phase_markers`: "sitting", "sit-to-stand",
 "walk", "turn", "stand-to-sit").
 """
 

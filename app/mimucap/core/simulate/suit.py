@@ -38,12 +38,12 @@ import numpy as np
 
 from mimucap.core import rotation as rot
 from mimucap.core import skeleton
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS, protocol_truth
 from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SensorMounting, SimulationConfig, default_assignment
+from mimucap.core.simulate.magnetic_field import disturbed_field
 from mimucap.core.simulate.names import SCENARIOS
 from mimucap.core.simulate.rooms import room
-from mimucap.core.simulate.magnetic_field import disturbed_field
 from mimucap.core.simulate.scenarios import scenario_activities
 from mimucap.core.simulate.schedule import Schedule
 from mimucap.core.simulate.sensor_errors import (

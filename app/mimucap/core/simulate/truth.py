@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mimucap.core.samples import SensorSamples, concatenate_samples
+from mimucap.core.sensor_samples import SensorSamples, concatenate_samples
 
 
 @dataclass
@@ -59,10 +59,10 @@ class SuitTruth:
 @dataclass
 class SuitBlock:
     """One interval of simulation: ``samples`` per sensor id, ``truth``, and ``markers``
-    ``(t_s, label)`` for activities starting in the interval (labels of :mod:`mimucap.core.phases`:
+    ``(t_s, label)`` for activities starting in the interval (labels of :mod:`mimucap.core.phase_markers`:
     "magnetometer turns", "N-pose", "T-pose", "walk", ...).
 
-    A unit's :class:`~mimucap.core.samples.SensorSamples` are those it delivered (dropped ones
+    A unit's :class:`~mimucap.core.sensor_samples.SensorSamples` are those it delivered (dropped ones
     removed): ``t_s`` the true time, ``seq`` the sample numbers, ``acc``, ``gyr``, ``mag_uT``,
     ``q_world_from_sensor`` when the units fuse on board (else None), ``device_time_s`` the
     unit's clock, ``segment`` the segment it drives

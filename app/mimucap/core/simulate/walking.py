@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core.simulate.activities import Activity
 from mimucap.core.simulate.body_pose import BodyPose, pelvis_rotation
 from mimucap.core.simulate.minimum_jerk import minimum_jerk
@@ -60,7 +60,7 @@ class Walk(Activity):
     """
 
     name = "walk"
-    marker = phases.WALK
+    marker = phase_markers.WALK
     blend_in_s = 1.0  # gait initiation and termination take about one step
     blend_out_s = 1.0
 

@@ -1,17 +1,21 @@
-"""The body-calibration wizard: subject and mapping, N-pose, T-pose, result.
+"""The body-calibration wizard: subject and mapping, N-pose, T-pose (or a walk), result.
 
 Pages (:attr:`BodyCalibrationWizard.page_name`):
 
-* ``"setup"``: subject height (prefilled from the session), which arm(s) will do the T-pose,
-  and the sensor mapping (segment → sensor id, one combo box per segment).
+* ``"setup"``: subject height (prefilled from the session), the method (N-pose and T-pose,
+  or "no T-pose": stand still, then walk or bend the elbows, for a patient who cannot raise
+  the arms), which arm(s) will do the T-pose, and the sensor mapping (segment → sensor id,
+  one combo box per segment).
 * ``"pose"``: N-pose, then T-pose: the picture of the pose, the instruction, a countdown
   while the averaged window fills, and the stillness meter (a bar that turns green when the
-  subject holds still); movement restarts the capture with a message.
+  subject holds still); movement restarts the capture with a message. Without a T-pose, the
+  still N-pose, then the walk with its countdown (the movement's axes are found after it).
 * ``"result"``: the skeleton in the calibrated N-pose (VTK, the main window's figure
   actors) next to the quality figures (arm raise and rotation angles, axis tilt, left/right
-  agreement, stillness) and the verdict with its reasons. Accept applies the calibration to
-  the main window's live session (``live_session.apply_body_calibration``, when the wizard has
-  one) and emits :attr:`BodyCalibrationWizard.calibration_accepted`.
+  agreement, stillness; without a T-pose, how well the movement defined each axis, in words)
+  and the verdict with its reasons. Accept applies the calibration to
+  the live pipeline (``live_session.apply_body_calibration`` when the pipeline has it) and
+  emits :attr:`BodyCalibrationWizard.calibration_accepted`.
 * ``"refused"``: why the capture was refused, Change settings, Close and Redo.
 
 A sensor mapping changed on the setup page is never dropped silently: closing the wizard
@@ -40,13 +44,18 @@ from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.simulated_suit_clock import SimulatedSuitClock
 from mimucap.gui.wizards.pictures import PictureWidget
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
-from mimucap.session.procedures.body import ARMS, BodycalProcedure, BodycalProcedureSettings
+from mimucap.session.procedures.body import ARMS, METHODS, BodycalProcedure, BodycalProcedureSettings
 from mimucap.session.procedures import instructions
 from mimucap.session.sources.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
 from mimucap.session.views.skeleton_figure import FigureBuilder
 
 VERDICT_COLOURS = {"good": "#2ca02c", "acceptable": "#e08a00", "poor": "#d62728"}
 ARM_LABELS = {"both": "Both arms", "right": "Right arm only", "left": "Left arm only"}
+METHOD_LABELS = {"npose-tpose": "N-pose, then T-pose",
+                 "functional": "No T-pose: stand still, then walk (or bend the elbows)"}
+#: Page titles of each method's steps.
+STEP_TITLES = {"npose-tpose": {"npose": "Step 1 of 2: N-pose", "tpose": "Step 2 of 2: T-pose"},
+               "functional": {"npose": "Step 1 of 2: stand still", "movement": "Step 2 of 2: walk"}}
 #: Full scale of the stillness meter (degrees turned within the meter window).
 METER_FULL_SCALE_DEG = 10.0
 NO_SENSOR = "(none)"
@@ -134,7 +143,10 @@ class BodyCalibrationWizard(CalibrationDialog):
         intro = QtWidgets.QLabel(
             "<h2>Body calibration</h2><p>The subject stands upright with the arms hanging (N-pose), "
             "then raises the chosen arm(s) sideways to shoulder height (T-pose). Each pose is held "
-            f"still for {self.settings.hold_s:g} s; the wizard captures it by itself.</p>")
+            f"still for {self.settings.hold_s:g} s; the wizard captures it by itself.</p><p>A patient who "
+            "cannot raise the arms: choose <i>No T-pose</i>. The subject stands still, then walks (or, "
+            f"seated, bends both elbows a few times) for {self.settings.movement_s:g} s; the knees' and "
+            "elbows' axes come from the movement.</p>")
         intro.setWordWrap(True)
         layout.addWidget(intro)
         form = QtWidgets.QFormLayout()
@@ -145,10 +157,16 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.height_spin.setSuffix(" m")
         self.height_spin.setValue(height_m)
         form.addRow("Subject height", self.height_spin)
+        self.method_combo = QtWidgets.QComboBox()
+        for method in METHODS:
+            self.method_combo.addItem(METHOD_LABELS[method], method)
+        form.addRow("Method", self.method_combo)
         self.arms_combo = QtWidgets.QComboBox()
         for arms in ARMS:
             self.arms_combo.addItem(ARM_LABELS[arms], arms)
         form.addRow("T-pose with", self.arms_combo)
+        self.method_combo.currentIndexChanged.connect(
+            lambda: self.arms_combo.setEnabled(self.method_combo.currentData() == "npose-tpose"))
         layout.addLayout(form)
         layout.addWidget(QtWidgets.QLabel("<b>Sensor on each segment</b>"))
         self.mapping_table = QtWidgets.QTableWidget(len(self.model.segment_names), 2)
@@ -252,12 +270,17 @@ class BodyCalibrationWizard(CalibrationDialog):
     def set_arms(self, arms: str) -> None:
         self.arms_combo.setCurrentIndex(ARMS.index(arms))
 
+    def set_method(self, method: str) -> None:
+        """``"npose-tpose"`` or ``"functional"`` (no T-pose)."""
+        self.method_combo.setCurrentIndex(METHODS.index(method))
+
     # -- actions -----------------------------------------------------------------------------
     def start(self) -> None:
         """Check the setup and begin with the N-pose page."""
         try:
             self.procedure = BodycalProcedure(self.feed, self.mapping(), arms=self.arms_combo.currentData(),
-                                              height_m=self.height_spin.value(), settings=self.settings)
+                                              height_m=self.height_spin.value(), settings=self.settings,
+                                              method=self.method_combo.currentData())
         except ValueError as error:
             self.setup_error.setText(in_clinical_words(str(error)))
             return
@@ -369,8 +392,16 @@ class BodyCalibrationWizard(CalibrationDialog):
             return
         if status.pose is None:
             return
-        step = "Step 1 of 2: N-pose" if status.pose == "npose" else "Step 2 of 2: T-pose"
-        self.pose_title.setText(f"<h2>{step}</h2>")
+        self.pose_title.setText(f"<h2>{STEP_TITLES[procedure.method][status.pose]}</h2>")
+        self.pose_picture.setVisible(status.pose != "movement")  # there is no picture of walking
+        if status.pose == "movement":
+            self.pose_instruction.setText(procedure.instruction(status.pose))
+            self.countdown.setText(f"{status.countdown_s:.0f} s")
+            self.movement_message.setText("")
+            self.meter.setFormat("moving: keep going")
+            self.meter.setValue(0)
+            self.meter_label.setText("")
+            return
         self.pose_picture.show_pose(status.pose, procedure.arms)
         movement = status.message.startswith("Movement")
         self.pose_instruction.setText(procedure.instruction(status.pose))
@@ -401,16 +432,19 @@ class BodyCalibrationWizard(CalibrationDialog):
         calibration = procedure.calibration
         quality = calibration.quality
         colour = VERDICT_COLOURS.get(quality.verdict, "#000000")
+        pose = "standing still" if procedure.method == "functional" else "the calibrated N-pose"
         self.verdict_label.setText(
             f"<h2>Result: <span style='color:{colour}'>{quality.verdict}</span></h2>"
-            "<p>The figure shows the subject in the calibrated N-pose: it should stand upright with "
+            f"<p>The figure shows the subject {pose}: it should stand upright with "
             "the arms hanging and face you.</p>")
         rows = procedure.quality_figures()
         self.figures_table.setRowCount(len(rows))
         for row, (label, value) in enumerate(rows):
             self.figures_table.setItem(row, 0, QtWidgets.QTableWidgetItem(label))
             self.figures_table.setItem(row, 1, QtWidgets.QTableWidgetItem(value))
-        self.figures_table.resizeColumnsToContents()
+        # the labels whole; the values (an axis' verdict is a sentence) wrap in the rest
+        self.figures_table.resizeColumnToContents(0)
+        self.figures_table.resizeRowsToContents()
         problems = quality.problems
         self.problems_label.setText(
             "<p><b>Remarks:</b></p><ul>" + "".join(f"<li>{p}</li>" for p in problems) + "</ul>"

@@ -23,6 +23,7 @@ from PyQt5 import QtCore, QtWidgets
 
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.wizards.dialog import button_row, large_label, push_button
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.session import SEXES
 from mimucap.session.procedures import instructions
 from mimucap.session.procedures.clinical_test import GUIDES, ClinicalTestProcedure
@@ -55,7 +56,7 @@ class ClinicalTestWizard(QtWidgets.QDialog):
         self.pages.addWidget(self._result_page())
         layout = QtWidgets.QVBoxLayout(self)
         layout.addWidget(self.pages)
-        self.resize(720, 560)
+        fit_on_screen(self, 720, 560, parent)
         live_session.events.frame.connect(self._pose_arrived)
         live_session.events.calibration.connect(self._refresh_choice)
         parent.recording_saved.connect(self._recording_saved)

@@ -33,7 +33,7 @@ from vtkmodules.vtkRenderingCore import (
     vtkTextActor,
 )
 
-from mimucap.core.magcal_fit import EllipsoidFit
+from mimucap.core.magcal.fit import EllipsoidFit
 from mimucap.gui.vtk_widget import VtkWidget
 from mimucap.session.views.magcal_display import MagcalDisplay
 
@@ -172,7 +172,7 @@ class EllipsoidView(QtWidgets.QWidget):
             self._initialized = True
 
     def set_data(self, display: MagcalDisplay) -> None:
-        """Show one update of the samples and the fit (:func:`~mimucap.session.magcal_display.magcal_display`)."""
+        """Show one update of the samples and the fit (:func:`~mimucap.session.views.magcal_display.magcal_display`)."""
         self.raw_cloud.set(display.raw_uT, display.time_fraction)
         self.fit_shown = display.fit
         if display.fit is None:

@@ -28,9 +28,9 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
 
-from mimucap.core.wording import plural
-from mimucap.core.magcal_guidance import AXIS_NAMES
+from mimucap.core.magcal.guidance import AXIS_NAMES
 from mimucap.core.simulate.suit import SuitSimulator
+from mimucap.core.wording import plural
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.procedures import instructions
 from mimucap.session.sources.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
@@ -365,6 +365,8 @@ class MagnetometerWizard(CalibrationDialog):
         self.result_title.setText(f"<h2>Result</h2><p>{text}</p>")
         self.accept_button.setEnabled(False)
         self._update_previous()
+        if not failed:  # nothing left to redo: the wizard's work is done
+            self.accept()
         return stored
 
     # -- showing -----------------------------------------------------------------------------

@@ -18,6 +18,7 @@ from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.analysis import rom as rom_core
 from mimucap.gui.wizards.dialog import button_row, large_label, push_button
+from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.session.procedures import instructions
 from mimucap.session.procedures.range_of_motion import RomProcedure
 
@@ -30,7 +31,7 @@ class RomWizard(QtWidgets.QDialog):
         super().__init__(parent)
         self.setObjectName("romWizard")
         self.setWindowTitle("Range of Motion")
-        self.resize(760, 620)
+        fit_on_screen(self, 760, 620, parent)
         self.live = live_session
         self.procedure = procedure or RomProcedure(repeats=repeats)
         self._markers_sent = 0

@@ -30,7 +30,7 @@ from dataclasses import replace
 
 from mimucap.core import bodycal, skeleton
 from mimucap.core.device_identity import describe_device
-from mimucap.core.magcal import MagCalibration
+from mimucap.core.magcal.model import MagCalibration
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.events import EmitterGroup
 from mimucap.session.live.processing import LiveProcessing

@@ -7,7 +7,7 @@
 2. **Drops**: no assigned sensor lost more than :data:`MAX_DROP_FRACTION` of its packets;
 3. **Magnetometers**: every assigned sensor's magnetometer is calibrated (or the device fuses
    on board), and each calibration's standing
-   (:func:`~mimucap.core.magcal_standing.calibration_standing`: its verdict, the device it was
+   (:func:`~mimucap.core.magcal.standing.calibration_standing`: its verdict, the device it was
    made on, whether the local field still fits it, its age) is not "not good"; a sensor whose
    stored calibration belongs to another device is named as not calibrated, with that reason;
 4. **Body calibration**: an N/T-pose calibration is applied, and its verdict is not "poor".
@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 
 from mimucap.core.clinical_names import sensor_name
-from mimucap.core.magcal_standing import MAX_AGE_H, calibration_standing
+from mimucap.core.magcal.standing import MAX_AGE_H, calibration_standing
 from mimucap.session.views.calibration_age import describe_age
 
 #: A sensor losing more than this fraction of its packets is flagged.
@@ -31,7 +31,7 @@ MAX_DROP_FRACTION = 0.01
 #: A magnetometer calibration older than this (hours) is flagged (the standing's limit).
 MAG_CAL_MAX_AGE_H = MAX_AGE_H
 #: How the checklist groups the calibrations that are not good, by problem kind
-#: (:data:`~mimucap.core.magcal_standing.PROBLEM_KINDS`).
+#: (:data:`~mimucap.core.magcal.standing.PROBLEM_KINDS`).
 PROBLEM_GROUPS = {"verdict": "verdict fail", "device": "made on another device",
                   "field": "the local field no longer fits", "age": f"older than {MAX_AGE_H:.0f} h"}
 #: Sensors named in one line before "and N more" (the line stays short in the session panel).
@@ -157,14 +157,14 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
 def sensor_standing(calibration, row):
     """The standing of the calibration applied to the sensor of ``row`` (a
     :class:`~mimucap.session.live.sensor_rows.SensorRow`): its device, its local field and its age as the
-    row gives them (:func:`~mimucap.core.magcal_standing.calibration_standing`)."""
+    row gives them (:func:`~mimucap.core.magcal.standing.calibration_standing`)."""
     return calibration_standing(calibration, row.sensor_id, device=row.device, field=row.local_field,
                                 age_s=row.mag_cal_age_s)
 
 
 def magnetometer_readiness(live, rows=None) -> dict[str, dict]:
     """What a recording stores of its magnetometers' readiness when it starts: sensor id →
-    the standing of its calibration (:meth:`~mimucap.core.magcal_standing.Standing.to_json`),
+    the standing of its calibration (:meth:`~mimucap.core.magcal.standing.Standing.to_json`),
     or ``{"level": "not calibrated", "problems": [why]}``, for every sensor with a
     magnetometer that does not fuse on board."""
     rows = live.sensor_rows() if rows is None else rows

@@ -1,6 +1,6 @@
 """Prepare the fusion kernels for this process without holding up its other threads.
 
-After ``make install`` the kernels are compiled ahead of time (:mod:`mimucap.core.fusion.aot`):
+After ``make install`` the kernels are compiled ahead of time (:mod:`mimucap.core.fusion.kernel_selection`):
 then :meth:`KernelPreparation.run` loads that module and returns at once, numba is not even
 imported, and the first start has nothing to compile. The rest concerns numba's JIT kernels,
 the fallback when that module is missing or stale.
@@ -28,7 +28,7 @@ import threading
 import time
 from dataclasses import dataclass
 
-from mimucap.core.fusion.aot import fusion_kernels
+from mimucap.core.fusion.kernel_selection import fusion_kernels
 from mimucap.core.fusion.warmup import compile_kernels
 
 log = logging.getLogger(__name__)

@@ -46,11 +46,12 @@ import numpy as np
 from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
 from mimucap.core import bodycal, skeleton
 from mimucap.core.device_identity import SensorDevice, devices_to_json
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.pipeline import PipelineSettings
-from mimucap.core.samples import join_per_sensor
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.pipeline.settings import PipelineSettings
+from mimucap.core.sensor_samples import join_per_sensor
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.io.calibration_store import CalibrationStore
+from mimucap.io.pairing_store import PairingStore
 from mimucap.session.events import EmitterGroup
 from mimucap.session.live.calibrations import LiveCalibrations
 from mimucap.session.live.checklist import magnetometer_readiness
@@ -62,6 +63,7 @@ from mimucap.session.live.recording import LiveRecording, RecordingInfo, Recordi
 from mimucap.session.live.sensor_rows import SensorRow, sensor_rows
 from mimucap.session.live.sensors import LiveSensors
 from mimucap.session.live.status import StatusPublisher
+from mimucap.session.streaming.lsl_clock import recording_lsl_clock
 from mimucap.session.procedures.instructions import Instruction
 from mimucap.session.recorded.stored_processing import recording_record
 from mimucap.session.sources.feeds import SimulatorFeed, SupervisorFeed
@@ -130,6 +132,9 @@ class LiveSession:
         changed;
       - ``refused(reasons, senders)``: packets refused from no known sensor (reason → count,
         sender → count), when they changed;
+      - ``unpaired(list[UnpairedSensor])``: the sensors a network source refuses because their
+        device is not paired (:mod:`mimucap.acquisition.pairing`), when they changed (a device
+        became known, another was heard);
       - ``truth_errors(column → RMS deg)``: the running flexion error against the simulator's
         truth over 5 s (sources with truth, while someone listens).
     """
@@ -151,7 +156,7 @@ class LiveSession:
         self.events = EmitterGroup(
             "frame", "calibration", "status", "checklist",
             blocks=sensors.blocks, sensors=sensors.sensors, assignment=sensors.assignment,
-            source_problem=sensors.problem, refused=sensors.refused,
+            source_problem=sensors.problem, refused=sensors.refused, unpaired=sensors.unpaired,
             processed=self.processing.events.processed, pose_source=self.processing.events.pose_source,
             data=self.history.events.data,
             truth_frame=evaluation.truth_frame, truth_available=evaluation.available, truth_errors=evaluation.errors,
@@ -304,6 +309,10 @@ class LiveSession:
     @property
     def source_problem(self) -> str:
         return self.sensors.problem
+
+    @property
+    def pairing_store(self) -> PairingStore | None:
+        return self.sensors.pairing_store
 
     @property
     def sensor_ids(self) -> tuple[str, ...]:
@@ -489,13 +498,18 @@ class LiveSession:
                                settings=self.processing.settings, filter_states=self.processing.filter_states(),
                                time_offset_s=start_host_s - self.t0_host_s),
         }
+        lsl_clock = recording_lsl_clock(start_host_s, self._clock)
+        if lsl_clock is not None:  # lines the recording up with a LabRecorder XDF of the same minutes
+            metadata["lsl_clock"] = lsl_clock
         metadata.update(extra_metadata or {})
         self.recorder.start(path, metadata, start_host_s, start_host_s - self.t0_host_s)
         self._recording_changed()
 
-    def add_marker(self, label: str) -> float:
-        """Mark now with ``label`` (in the recording when recording); returns its ``t_s``."""
-        now = self._clock()
+    def add_marker(self, label: str, host_s: float | None = None) -> float:
+        """Mark now, or the instant ``host_s`` (s on the session's clock: a marker that came with
+        its own time, e.g. from a Lab Streaming Layer stream), with ``label`` (in the recording
+        when recording); returns its ``t_s``."""
+        now = self._clock() if host_s is None else float(host_s)
         t_s = now - (self.t0_host_s or now)
         self.recorder.add_marker(str(label).strip() or "marker", now, t_s)
         return t_s
@@ -521,7 +535,8 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
                       in_process_simulator: bool = True,
                       n_sensors: int | None = None, rate_hz: float = 100.0,
                       model_name: str | None = None,
-                      calibration_store: CalibrationStore | None = None) -> LiveSession:
+                      calibration_store: CalibrationStore | None = None,
+                      pairing_store: PairingStore | None = None) -> LiveSession:
     """A live session (not started) for source ``spec``.
 
     ``simulated[:SCENARIO][@ROOM]`` runs the simulated suit (``n_sensors`` at ``rate_hz``) in process
@@ -529,7 +544,10 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
     (``udp:``, ``serial:``, ``replay:``) runs in acquisition workers.
 
     ``calibration_store`` keeps the magnetometer calibrations (default: the user's store,
-    :class:`~mimucap.io.calibration_store.CalibrationStore`).
+    :class:`~mimucap.io.calibration_store.CalibrationStore`). ``pairing_store`` holds the paired
+    suit (default: the user's, :class:`~mimucap.io.pairing_store.PairingStore`): the network
+    sources (``udp:``, ``slimevr:``) let in only its devices; the simulated suit, a replay and a
+    serial line need no pairing.
 
     ``model_name`` (``"ten_segment"`` or ``"fifteen_segment"``, default ten) is the skeleton
     the sensors drive. The simulated suit wears 10 sensors on the ten-segment model and 17 on
@@ -547,6 +565,9 @@ def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time
         feed = SimulatorFeed(config, clock=clock)
         return LiveSession(feed, format_source_spec(parsed), model_name=config.model_name,
                            height_m=config.height_m, clock=clock, calibration_store=store)
-    options = SourceOptions() if n_sensors is None else SourceOptions(sensor_count=n_sensors)
+    pairings = pairing_store if pairing_store is not None else PairingStore()
+    options = SourceOptions(sensor_count=n_sensors, paired_devices=pairings.device_ids())
     feed = SupervisorFeed(spec, options)
-    return LiveSession(feed, spec, model_name=model_name or "ten_segment", clock=clock, calibration_store=store)
+    session = LiveSession(feed, spec, model_name=model_name or "ten_segment", clock=clock, calibration_store=store)
+    session.sensors.pairing_store = pairings
+    return session

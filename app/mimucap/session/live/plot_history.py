@@ -26,7 +26,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from mimucap.core.magcal_standing import LocalField, local_field
+from mimucap.core.magcal.standing import LocalField, local_field
 from mimucap.session.events import EmitterGroup
 from mimucap.session.live.processing import POSE_NONE, POSE_UNASSIGNED, LiveProcessing, ProcessedBlock
 from mimucap.session.live.ring_buffer import RingBuffer
@@ -135,7 +135,7 @@ class PlotHistory:
 
     def local_field(self, sensor_id: str, window_s: float) -> LocalField | None:
         """The field ``sensor_id`` measured over its last ``window_s`` seconds, corrected by its
-        calibration (``None`` before any sample; :func:`~mimucap.core.magcal_standing.local_field`)."""
+        calibration (``None`` before any sample; :func:`~mimucap.core.magcal.standing.local_field`)."""
         buffer = self._raw.get(sensor_id)
         if buffer is None or not len(buffer):
             return None

@@ -26,11 +26,12 @@ import numpy as np
 
 from mimucap.core import bodycal, skeleton
 from mimucap.core.bodycal import static_alignment
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.pipeline import (
-    POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorOrientations,
-)
-from mimucap.core.samples import SensorSamples
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.pipeline.chain import SensorOrientations
+from mimucap.core.pipeline.live import LivePipeline
+from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
+from mimucap.core.pipeline.settings import PipelineSettings
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.session.events import EmitterGroup
 
 #: What drives the figure before any sample arrived, and while no assigned sensor sends.
@@ -41,7 +42,7 @@ POSE_UNASSIGNED = "no sensor assigned (Session → Assign Sensors)"
 @dataclass(frozen=True)
 class ProcessedBlock:
     """One sensor's new samples as the pipeline took them: ``t_s`` (N,) session seconds,
-    ``block`` the raw :class:`~mimucap.core.samples.SensorSamples` (host times, uncalibrated
+    ``block`` the raw :class:`~mimucap.core.sensor_samples.SensorSamples` (host times, uncalibrated
     magnetometer), ``orientation`` the pipeline's output (``None`` for a sensor without an
     orientation: no gyroscope and no on-board fusion)."""
 

@@ -1,7 +1,7 @@
 """The recorder: sample blocks → crash-safe journal → session file.
 
 Used by ``mimucap record`` and by the GUI's record button. While recording, every block is
-appended to a journal beside the output (``SESSION.h5.journal``, see
+appended to a journal beside the output (``SESSION.h5.journal``; its format is
 :mod:`mimucap.io.journal`), flushed and fsynced at least every ``flush_interval_s``; at
 :meth:`Recorder.stop` the journal is converted into the session file
 (:func:`mimucap.io.session.write_session`) and removed. After a crash the journal is still
@@ -26,32 +26,24 @@ keeps the battery charge as a fraction and the calibration status (system, gyr, 
 from __future__ import annotations
 
 import errno
-import json
-import math
 import os
 import time
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from mimucap.acquisition.block_codec import decode_arrays, decode_block, encode_arrays, encode_block
-from mimucap.core.samples import SensorSamples, concatenate_samples, join_per_sensor
-from mimucap.io.journal import JournalContents, JournalWriter, iter_journal
-from mimucap.io.session import Marker, Session, SessionTruth, read_session, write_session
-
-JOURNAL_SUFFIX = ".journal"
-#: A damaged journal is kept under its name plus this after recovery (nothing is thrown away).
-DAMAGED_SUFFIX = ".damaged"
-KIND_START = 1     #: JSON: metadata and start time
-KIND_BLOCK = 2     #: a sample block (mimucap.acquisition.block_codec)
-KIND_MARKER = 3    #: JSON: {"t_s": host time, "label": ...}
-KIND_STATUS = 4    #: JSON: acquisition statistics at the end
-KIND_END = 5       #: JSON: why the recording ended
-KIND_TRUTH = 6     #: a block of the simulator's ground truth (:func:`encode_truth`)
+from mimucap.core.sensor_samples import SensorSamples, join_per_sensor
+from mimucap.io.journal.file import JournalWriter
+from mimucap.io.journal.records import (
+    DAMAGED_SUFFIX, JOURNAL_SUFFIX, KIND_BLOCK, KIND_END, KIND_MARKER, KIND_START, KIND_STATUS, KIND_TRUTH,
+    encode_block, encode_end, encode_json, encode_marker, encode_start, encode_truth, journal_path_for,
+)
+from mimucap.io.journal.to_session import damage_report, session_from_journal
+from mimucap.io.session import Session, read_session, write_session
 
 
 @dataclass(frozen=True)
@@ -71,23 +63,6 @@ class RecordingResult:
     samples: dict[str, int] = field(default_factory=dict)   #: sensor → samples stored
     complete: bool = True              #: False if the recording ended by an error or a crash
     message: str = ""
-
-
-def _json_safe(value: Any) -> Any:
-    """``value`` with NaN/infinite floats replaced by ``None`` (session metadata is strict JSON)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, Mapping):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    return value
-
-
-def journal_path_for(session_path: str | os.PathLike[str]) -> Path:
-    """``SESSION.h5`` → ``SESSION.h5.journal``."""
-    path = Path(session_path)
-    return path.with_name(path.name + JOURNAL_SUFFIX)
 
 
 def _describe_os_error(error: OSError) -> str:
@@ -128,10 +103,9 @@ class Recorder:
             raise OSError(f"cannot record to {self.out_path}: folder {self.out_path.parent} does not exist")
         self.start_host_s = time.monotonic() if start_host_s is None else float(start_host_s)
         self._journal = JournalWriter(self.journal_path, self.settings.flush_interval_s, self.settings.fsync)
-        start = {"metadata": self.metadata, "start_host_s": self.start_host_s,
-                 "started_utc": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                 "flush_interval_s": self.settings.flush_interval_s}
-        self._append(KIND_START, json.dumps(start).encode("utf-8"))
+        self._append(KIND_START, encode_start(self.metadata, self.start_host_s,
+                                              datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                                              self.settings.flush_interval_s))
 
     def _append(self, kind: int, payload: bytes) -> bool:
         if self._journal is None or self.failure is not None:
@@ -164,7 +138,7 @@ class Recorder:
     def add_marker(self, label: str, host_s: float | None = None) -> bool:
         """Mark an instant (host monotonic s, default now) with ``label``."""
         host_s = time.monotonic() if host_s is None else float(host_s)
-        return self._append(KIND_MARKER, json.dumps({"host_s": host_s, "label": str(label)}).encode("utf-8"))
+        return self._append(KIND_MARKER, encode_marker(host_s, label))
 
     def add_truth(self, host_s: np.ndarray, q_world_from_segment: Mapping[str, np.ndarray],
                   joint_angles_deg: Mapping[str, np.ndarray], root_position_m: np.ndarray,
@@ -206,11 +180,8 @@ class Recorder:
         if self._journal is None:
             raise ValueError("the recorder was not started")
         if status is not None:
-            self._append(KIND_STATUS, json.dumps(_json_safe(status), default=str).encode("utf-8"))
-        end = {"reason": reason if self.failure is None else "write error", "stopped_host_s": time.monotonic()}
-        if devices:
-            end["devices"] = dict(devices)
-        self._append(KIND_END, json.dumps(end).encode("utf-8"))
+            self._append(KIND_STATUS, encode_json(status))
+        self._append(KIND_END, encode_end(reason if self.failure is None else "write error", time.monotonic(), devices))
         try:
             self._journal.close()
         except OSError as error:
@@ -243,179 +214,9 @@ class Recorder:
 
 # ------------------------------------------------------------------ journal → session
 
-#: Journal records read between two progress reports of :func:`session_from_journal`.
-PROGRESS_EVERY_RECORDS = 4096
 #: Share of a conversion's time its reading of the journal takes (the rest writes the file):
 #: how :func:`_convert` divides its progress.
 READING_SHARE = 0.8
-
-
-def session_from_journal(journal_path: str | os.PathLike[str],
-                         progress: Callable[[float], None] | None = None) -> tuple[Session, JournalContents]:
-    """Rebuild the session from every intact record of a recorder journal. ``progress``
-    (optional) is called with the fraction (0..1) of the journal's bytes read so far."""
-    journal_path = Path(journal_path)
-    contents = JournalContents(journal_path)
-    start: dict[str, Any] | None = None
-    status: Any = None
-    end: dict[str, Any] | None = None
-    markers: list[Any] = []
-    per_sensor: dict[str, list[SensorSamples]] = {}
-    truth_parts: list[_TruthPart] = []
-    for index, (kind, payload) in enumerate(iter_journal(journal_path, contents)):
-        if progress is not None and index % PROGRESS_EVERY_RECORDS == 0 and contents.file_bytes:
-            progress(contents.valid_bytes / contents.file_bytes)
-        try:
-            if kind == KIND_START:
-                start = json.loads(payload)
-            elif kind == KIND_BLOCK:
-                block = decode_block(payload)
-                per_sensor.setdefault(block.sensor_id, []).append(block)
-            elif kind == KIND_MARKER:
-                markers.append(json.loads(payload))
-            elif kind == KIND_STATUS:
-                status = json.loads(payload)
-            elif kind == KIND_END:
-                end = json.loads(payload)
-            elif kind == KIND_TRUTH:
-                truth_parts.append(decode_truth(payload))
-        except ValueError as error:
-            raise ValueError(f"{journal_path}: record {index + 1} is damaged: {error}") from None
-    if start is None:
-        start = _start_from_samples(per_sensor)
-        if start is None:
-            raise ValueError(f"{journal_path}: the journal holds no recording start (nothing to recover)")
-    try:
-        t0 = float(start["start_host_s"])
-        metadata = dict(start.get("metadata") or {})
-        markers = [(float(m["host_s"]) - t0, str(m["label"])) for m in markers]
-    except (KeyError, TypeError, ValueError, AttributeError) as error:
-        raise ValueError(f"{journal_path}: the start or a marker record is damaged: {error!r}") from None
-    segments = metadata.pop("sensor_segments", {}) or {}
-    calibrations = metadata.pop("calibrations", {}) or {}
-    recording = {"started_utc": start.get("started_utc"), "start_host_monotonic_s": t0,
-                 "start_record_lost": bool(start.get("lost", False)),
-                 "journal_flush_interval_s": start.get("flush_interval_s"),
-                 "ended": (end or {}).get("reason", "crash (recovered from the journal)"),
-                 "journal_discarded_bytes": contents.discarded_bytes,
-                 "journal_skipped_bytes": [[span.offset, span.size] for span in contents.skipped]}
-    metadata["recording"] = recording
-    told_at_end = (end or {}).get("devices")
-    if isinstance(told_at_end, dict) and told_at_end:
-        # the devices known at the start stand (their calibrations were chosen for them)
-        metadata["devices"] = {**told_at_end, **(metadata.get("devices") or {})}
-    if status is not None:
-        metadata["acquisition"] = status
-    sensors = {sensor_id: _recorded(blocks, t0, segments.get(sensor_id))
-               for sensor_id, blocks in sorted(per_sensor.items())}
-    session = Session(metadata=metadata, sensors=sensors,
-                      markers=[Marker(t, label) for t, label in markers],
-                      truth=_joined_truth(truth_parts, t0), calibrations=dict(calibrations))
-    return session, contents
-
-
-@dataclass
-class _TruthPart:
-    """One decoded :data:`KIND_TRUTH` record (see :func:`encode_truth`)."""
-
-    host_s: np.ndarray
-    q_world_from_segment: dict[str, np.ndarray]
-    joint_angles_deg: dict[str, np.ndarray]
-    root_position_m: np.ndarray
-    note: str
-
-
-#: Prefixes of a truth record's per-segment and per-column array names.
-_SEGMENT_PREFIX, _ANGLE_PREFIX = "q_world_from_segment:", "joint_angles_deg:"
-
-
-def encode_truth(host_s, q_world_from_segment: Mapping[str, np.ndarray], joint_angles_deg: Mapping[str, np.ndarray],
-                 root_position_m, note: str = "") -> bytes:
-    """A truth block as a journal payload (:func:`~mimucap.acquisition.block_codec.encode_arrays`,
-    header field ``note``): float64 arrays ``host_s`` (n,), ``q_world_from_segment:<segment>``
-    (n, 4), ``joint_angles_deg:<column>`` (n,) and ``root_position_m`` (n, 3)."""
-    host = np.asarray(host_s, dtype=np.float64).reshape(-1)
-    n = len(host)
-    arrays = [("host_s", host)]
-    arrays += [(_SEGMENT_PREFIX + name, np.asarray(q, dtype=np.float64).reshape(n, 4))
-               for name, q in q_world_from_segment.items()]
-    arrays += [(_ANGLE_PREFIX + name, np.asarray(a, dtype=np.float64).reshape(n))
-               for name, a in joint_angles_deg.items()]
-    arrays.append(("root_position_m", np.asarray(root_position_m, dtype=np.float64).reshape(n, 3)))
-    return encode_arrays({"note": str(note)}, n, arrays)
-
-
-def decode_truth(payload: bytes) -> _TruthPart:
-    """The inverse of :func:`encode_truth`; ``ValueError`` when the payload does not add up."""
-    header, arrays = decode_arrays(payload, "truth record")
-    if "host_s" not in arrays or "root_position_m" not in arrays:
-        raise ValueError("truth record lacks its host times or root positions")
-
-    def named(prefix: str) -> dict[str, np.ndarray]:
-        return {name[len(prefix):]: value for name, value in arrays.items() if name.startswith(prefix)}
-
-    return _TruthPart(arrays["host_s"], named(_SEGMENT_PREFIX), named(_ANGLE_PREFIX), arrays["root_position_m"],
-                      str(header.get("note", "")))
-
-
-def _joined_truth(parts: list[_TruthPart], t0: float) -> SessionTruth | None:
-    """The truth blocks of a recording as one :class:`SessionTruth` on session time (``t_s =
-    host − t0``, rows before the start dropped, sorted, a repeated instant kept once);
-    ``None`` when there is none. Blocks whose names differ from the first one's are left out
-    (one recording shows one simulated suit)."""
-    parts = [p for p in parts if p.q_world_from_segment.keys() == parts[0].q_world_from_segment.keys()
-             and p.joint_angles_deg.keys() == parts[0].joint_angles_deg.keys()] if parts else []
-    if not parts:
-        return None
-    t = np.concatenate([p.host_s for p in parts]) - t0
-    order = np.argsort(t, kind="stable")
-    keep = order[t[order] >= 0.0]
-    if len(keep):
-        keep = keep[np.r_[True, np.diff(t[keep]) > 0.0]]
-
-    def joined(pick) -> np.ndarray:
-        return np.concatenate([pick(p) for p in parts])[keep]
-
-    return SessionTruth(
-        t_s=t[keep],
-        q_world_from_segment={name: joined(lambda p, k=name: p.q_world_from_segment[k])
-                              for name in parts[0].q_world_from_segment},
-        joint_angles_deg={name: joined(lambda p, k=name: p.joint_angles_deg[k]) for name in parts[0].joint_angles_deg},
-        extra={"root_position_m": joined(lambda p: p.root_position_m)},
-        attributes={"origin": parts[0].note} if parts[0].note else {},
-    )
-
-
-def _start_from_samples(per_sensor: Mapping[str, list[SensorSamples]]) -> dict[str, Any] | None:
-    """A stand-in for a damaged start record: time zero at the first sample (host monotonic
-    s), no metadata (source, subject and sensor segments are lost with the record); ``None``
-    when there is no sample either."""
-    first = min((float(np.min(b.t_s)) for blocks in per_sensor.values() for b in blocks if len(b)),
-                default=None)
-    if first is None:
-        return None
-    return {"metadata": {}, "start_host_s": first, "started_utc": None, "flush_interval_s": None, "lost": True}
-
-
-def _recorded(blocks: list[SensorSamples], t0: float, segment: str | None) -> SensorSamples:
-    """One sensor's journaled blocks as the session keeps them: rows in host-time order, ``t_s``
-    since the recording started (host monotonic ``t0`` s), a channel that some blocks lacked
-    NaN (−1 for the calibration status) in their rows: every sample is kept, and what it did
-    not send stays recognisable."""
-    joined = concatenate_samples(blocks, missing="fill")
-    joined = joined.rows(np.argsort(joined.t_s, kind="stable"))
-    return replace(joined, t_s=joined.t_s - t0, receive_time_s=None, source="", segment=segment)
-
-
-def damage_report(contents: JournalContents) -> str:
-    """What reading a journal could not use, one clause per damaged stretch: skipped bytes in
-    the middle (offset, size and the records recovered after them) and a torn tail."""
-    parts = [f"skipped {span.size} damaged bytes at offset {span.offset}; "
-             f"{contents.records_after(span)} records after it recovered" for span in contents.skipped]
-    if contents.torn:
-        parts.append(f"the last {contents.torn_bytes} bytes (from offset {contents.valid_bytes}) are a torn "
-                     f"tail holding no intact record (the unflushed moment of a crash)")
-    return "; ".join(parts)
 
 
 def _convert(journal_path: Path, session_path: Path,

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.core.simulate.truth import SuitTruth
 from mimucap.session.events import EmitterGroup
 from mimucap.session.live.recorder import Recorder, RecordingResult

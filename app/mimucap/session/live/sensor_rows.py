@@ -3,7 +3,7 @@
 A :class:`SensorRow` gathers what the sensor panel, the checklist and the status bar say of one
 sensor: its rate, drops and latency (the source's statistics over the last 2 s), its battery and
 radio link, its magnetometer calibration and how well it still fits the local field, its fusion
-flags and why its orientation may be wrong (:mod:`mimucap.core.doubt`). :func:`sensor_rows`
+flags and why its orientation may be wrong (:mod:`mimucap.core.pipeline.doubt_reasons`). :func:`sensor_rows`
 builds the rows from the parts that own each of those (sensors, processing, calibrations, plot
 history); the status part publishes them (:mod:`mimucap.session.live.status`).
 """
@@ -14,11 +14,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 
-from mimucap.core import doubt
+from mimucap.core.pipeline import doubt_reasons
 from mimucap.core.clinical_names import segment_name
 from mimucap.core.device_identity import SensorDevice
 from mimucap.core.fusion import FLAG_NAMES
-from mimucap.core.magcal_standing import LocalField, Standing, age_s_at
+from mimucap.core.magcal.standing import LocalField, Standing, age_s_at
 from mimucap.session.live.calibrations import LiveCalibrations
 from mimucap.session.live.checklist import sensor_standing
 from mimucap.session.live.plot_history import PlotHistory
@@ -44,7 +44,7 @@ class SensorRow:
     ``mag_cal_age_s`` since the calibration was made (NaN if none); ``mag_cal_verdict`` its
     verdict (``good``, ``warn``; "" without one); ``mag_field_warning`` says when the local field
     (magnitude, dip) no longer matches the calibration's (""); ``mag_standing`` the
-    calibration's standing (:func:`~mimucap.core.magcal_standing.calibration_standing`: verdict,
+    calibration's standing (:func:`~mimucap.core.magcal.standing.calibration_standing`: verdict,
     device, local field, age; ``None`` without a calibration); ``mag_cal_note`` why a
     calibration stored under its id is not used (another device's, a damaged file:
     ``mag_cal_unreadable``; "");
@@ -58,7 +58,7 @@ class SensorRow:
     otherwise; ``rejections`` packets of this sensor the source refused, by reason
     (:class:`~mimucap.acquisition.rejections.Rejection` value → count, since the source started);
     ``doubt`` why its newest orientation may be wrong, in words ("" when it is trustworthy;
-    :mod:`mimucap.core.doubt`).
+    :mod:`mimucap.core.pipeline.doubt_reasons`).
     """
 
     sensor_id: str
@@ -105,7 +105,7 @@ def sensor_rows(sensors: LiveSensors, processing: LiveProcessing, calibrations: 
             mag_cal, age = "not calibrated", float("nan")
         value = processing.fusion_flags(sid)
         flags = () if value is None else tuple(label for key, label in FLAG_LABELS.items() if value & FLAG_NAMES[key])
-        why = doubt.describe(processing.doubt_bits(sid)) if processing.knows(sid) else ""
+        why = doubt_reasons.describe(processing.doubt_bits(sid)) if processing.knows(sid) else ""
         if stale:
             tint = "stale"
         elif mag_cal == "not calibrated":

@@ -17,9 +17,12 @@ Events (``events``, :class:`~mimucap.session.events.EmitterGroup`):
   :attr:`LiveSensors.sensor_segments`);
 * ``problem(text)``: why the source may send nothing ("": nothing known), when it changed;
 * ``refused(reasons, senders)``: packets refused from no known sensor (reason → count, sender →
-  count), when they changed.
+  count), when they changed;
+* ``unpaired(list[UnpairedSensor])``: the sensors a network source refuses because their device is
+  not paired (:mod:`mimucap.acquisition.pairing`), when they changed (a device became known,
+  another was heard).
 
-The last two are read from the source when the status is published
+The last three are read from the source when the status is published
 (:meth:`LiveSensors.publish_state`, at the status rate).
 """
 
@@ -29,8 +32,9 @@ from collections.abc import Callable
 
 from mimucap.core import skeleton
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.pipeline import one_sensor_per_segment
-from mimucap.core.samples import SensorSamples
+from mimucap.io.pairing_store import PairingStore
+from mimucap.core.pipeline.segments import one_sensor_per_segment
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.session.events import EmitterGroup
 from mimucap.session.procedures.instructions import Instruction
 
@@ -44,7 +48,7 @@ class LiveSensors:
         self.label = label or feed.name
         self.model = model
         self._clock = clock
-        self.events = EmitterGroup("blocks", "sensors", "assignment", "problem", "refused")
+        self.events = EmitterGroup("blocks", "sensors", "assignment", "problem", "refused", "unpaired")
         #: host monotonic time (s) of the start: session time 0
         self.t0_host_s: float | None = None
         self.started = False
@@ -60,6 +64,10 @@ class LiveSensors:
         self.last_arrival_s = float("nan")   #: host time the newest block arrived (latency bench)
         self._problem: str | None = None
         self._refused: tuple | None = None
+        self._unpaired: tuple | None = None
+        #: the paired suit the network sources let in (:func:`~mimucap.session.live.live_session.open_live_session`
+        #: sets it; the source must be opened again for a device paired meanwhile to be let in)
+        self.pairing_store: PairingStore | None = None
 
     # -- the source ------------------------------------------------------------------------
     @property
@@ -168,7 +176,7 @@ class LiveSensors:
 
     # -- what the status publishes -------------------------------------------------------------
     def publish_state(self) -> None:
-        """Emit ``problem`` and ``refused`` when they changed since they were last told."""
+        """Emit ``problem``, ``refused`` and ``unpaired`` when they changed since they were last told."""
         problem = self.problem
         if problem != self._problem:
             self._problem = problem
@@ -178,8 +186,14 @@ class LiveSensors:
         if key != self._refused:
             self._refused = key
             self.events.refused.emit(dict(refused[0]), dict(refused[1]))
+        unpaired = self.feed.unpaired()
+        key = tuple(sorted((name, sensor.device) for name, sensor in unpaired.items()))
+        if key != self._unpaired:
+            self._unpaired = key
+            self.events.unpaired.emit(list(unpaired.values()))
 
     def forget_state(self) -> None:
         """Forget what was told (the next :meth:`publish_state` tells everything again)."""
         self._problem = None
         self._refused = None
+        self._unpaired = None

@@ -6,7 +6,7 @@ table a few times a second at most: :class:`StatusPublisher` publishes them at
 :data:`STATUS_RATE_HZ` from the session's :meth:`~mimucap.session.live.live_session.LiveSession.step` (the
 one clock of the live view), instead of each widget asking the session on a timer of its own.
 Events whose value changes rarely (the source's problem, the packets refused from no known
-sensor) are emitted only when the value differs from the one last published.
+sensor, the sensors refused as not paired) are emitted only when the value differs from the one last published.
 
 Interface: ``StatusPublisher(session, events, clock)``; :meth:`StatusPublisher.tick` from every
 step (publishes when :data:`STATUS_RATE_HZ` says so, or at once after :meth:`mark_due`);
@@ -68,7 +68,7 @@ class StatusPublisher:
 
     def publish(self, now: float | None = None) -> None:
         """Publish the whole status now: ``status`` and, while recording, ``recording_progress``
-        (else ``checklist``) always; ``source_problem`` and ``refused`` when they changed since
+        (else ``checklist``) always; ``source_problem``, ``refused`` and ``unpaired`` when they changed since
         the last publication; ``truth_errors`` when the source has truth and someone listens."""
         self._last_s = self._clock() if now is None else now
         self._due = False

@@ -30,6 +30,13 @@ between the N-pose and the end of the T-pose are recorded in it
 instruction goes to the feed (:mod:`mimucap.session.procedures.instructions`): the person reads it, and the
 simulated subject of the simulated suit does it.
 
+The **functional** method (``method="functional"``), for a subject who cannot raise the arms:
+the same still page (standing upright, stillness meter, averaged window), then a **movement**
+page: walk a few steps, or, seated, bend both elbows a few times, for ``movement_s`` seconds.
+:func:`mimucap.core.functional_bodycal.calibrate_functional`, the code of ``mimucap bodycal
+--method functional``, then finds the knees' and elbows' axes and the walking direction in the
+movement; its verdict grades every axis (:meth:`BodycalProcedure.quality_figures`).
+
 Samples of the sensors are put on a common time base (that of the sensor with the most
 samples, each other sensor's nearest sample: within half a sample period at the common rate).
 Units: s, degrees for the figures shown.
@@ -55,8 +62,9 @@ from mimucap.core.bodycal import (
     segment_orientations,
     with_doubtful_sensors,
 )
-from mimucap.core.doubt import describe
-from mimucap.core.pipeline import segments_from_sensors
+from mimucap.core.functional_bodycal import calibrate_functional
+from mimucap.core.pipeline.doubt_reasons import describe
+from mimucap.core.pipeline.segments import segments_from_sensors
 from mimucap.core.skeleton import SkeletonModel
 from mimucap.session.events import EmitterGroup
 from mimucap.session.procedures import instructions
@@ -64,8 +72,10 @@ from mimucap.session.sources.calibration_feed import DOUBT_EXTRA, CalibrationFee
 from mimucap.session.recorded.calibration_choice import with_magnetometers
 from mimucap.session.procedures.instructions import Instruction
 
-PHASES = ("ready", "npose", "tpose", "result", "refused")
+PHASES = ("ready", "npose", "tpose", "movement", "result", "refused")
 ARMS = ("both", "right", "left")
+#: The calibration methods: N-pose then T-pose, or standing still then walking (no T-pose).
+METHODS = ("npose-tpose", "functional")
 
 
 @dataclass(frozen=True)
@@ -76,7 +86,9 @@ class BodycalProcedureSettings:
     more than this from its window mean restarts the capture [2°; the engine refuses above
     3°]. meter_window_s: span of the stillness meter [0.5 s]. raise_min_deg: an arm sensor
     turned this far from the N-pose counts as raised [60°]. pose_timeout_s: a pose not
-    captured within this time is refused [30 s]. engine: the body-calibration limits.
+    captured within this time is refused [30 s]. movement_s: length of the functional
+    method's movement (walking, or bending the elbows) [10 s: a few strides or flexions].
+    engine: the body-calibration limits of the N/T-pose method.
     """
 
     hold_s: float = 2.0
@@ -84,10 +96,11 @@ class BodycalProcedureSettings:
     meter_window_s: float = 0.5
     raise_min_deg: float = 60.0
     pose_timeout_s: float = 30.0
+    movement_s: float = 10.0
     engine: BodyCalSettings = DEFAULT_SETTINGS
 
     def __post_init__(self) -> None:
-        for name in ("hold_s", "still_limit_deg", "meter_window_s", "raise_min_deg", "pose_timeout_s"):
+        for name in ("hold_s", "still_limit_deg", "meter_window_s", "raise_min_deg", "pose_timeout_s", "movement_s"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"body calibration setting {name} must be a positive number")
@@ -97,9 +110,9 @@ class BodycalProcedureSettings:
 class BodycalStatus:
     """What the page shows after a step.
 
-    phase: see :data:`PHASES`. pose: "npose"/"tpose" while capturing, else None.
+    phase: see :data:`PHASES`. pose: "npose"/"tpose"/"movement" while capturing, else None.
     meter_deg: the stillness meter (largest recent turn of any sensor, deg; NaN before data).
-    still: meter below the limit. capturing: the averaged window is filling.
+    still: meter below the limit. capturing: the averaged window (or the movement) is filling.
     countdown_s: seconds of the window still to fill (None when not capturing).
     message: the instruction. restarts: captures restarted by movement on this page.
     """
@@ -116,7 +129,7 @@ class BodycalStatus:
 
 class _Track:
     """Growing orientation samples of one sensor: t (N,), q (N, 4), and the times (s) and
-    reasons of the samples whose orientation the pipeline doubted (:mod:`mimucap.core.doubt`)."""
+    reasons of the samples whose orientation the pipeline doubted (:mod:`mimucap.core.pipeline.doubt_reasons`)."""
 
     def __init__(self) -> None:
         self.t_parts: list[np.ndarray] = []
@@ -185,11 +198,13 @@ def _spread_deg(q: np.ndarray) -> float:
 
 
 class BodycalProcedure:
-    """Guided N-pose/T-pose calibration.
+    """Guided N-pose/T-pose calibration, or standing still then walking (``method``, one of
+    :data:`METHODS`).
 
     ``feed``: the sample source. ``mapping``: segment → sensor id (checked). ``arms``:
-    ``"both"``, ``"right"`` or ``"left"`` (which arm(s) do the T-pose). ``height_m``: the
-    subject's height (m), used for the skeleton shown with the result.
+    ``"both"``, ``"right"`` or ``"left"`` (which arm(s) do the T-pose; not used by the
+    functional method). ``height_m``: the subject's height (m), used for the skeleton shown with
+    the result.
     """
 
     def __init__(
@@ -199,13 +214,16 @@ class BodycalProcedure:
         arms: str = "both",
         height_m: float = 1.75,
         settings: BodycalProcedureSettings = BodycalProcedureSettings(),
+        method: str = "npose-tpose",
     ) -> None:
         if arms not in ARMS:
             raise ValueError(f"arms must be one of {', '.join(ARMS)}, got {arms!r}")
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
         if not (math.isfinite(height_m) and 0.5 <= height_m <= 2.5):
             raise ValueError(f"subject height must be 0.5..2.5 m, got {height_m}")
         self.mapping = check_mapping(mapping, list(feed.sensor_ids))
-        sides = ("left", "right") if arms == "both" else (arms,)
+        sides = () if method == "functional" else ("left", "right") if arms == "both" else (arms,)
         self.arm_sensors: dict[str, str] = {}
         for side in sides:
             segment = next((s for s in ARM_SEGMENTS[side] if s in self.mapping), None)
@@ -214,6 +232,7 @@ class BodycalProcedure:
             self.arm_sensors[side] = self.mapping[segment]
         self.feed = feed
         self.arms = arms
+        self.method = method
         self.height_m = float(height_m)
         self.settings = settings
         self.phase = "ready"
@@ -258,15 +277,17 @@ class BodycalProcedure:
         self._message = self.instruction(pose)
 
     def _instruction_of(self, pose: str) -> Instruction:
+        if pose == "movement":
+            return instructions.walk()
         return instructions.npose() if pose == "npose" else instructions.tpose(self.arms)
 
     def instruction(self, pose: str) -> str:
-        """The instruction of the ``"npose"`` or ``"tpose"`` page."""
+        """The instruction of the ``"npose"``, ``"tpose"`` or ``"movement"`` page."""
         return self._instruction_of(pose).text
 
     def step(self) -> BodycalStatus:
         """Pull new samples and advance the capture."""
-        if self.phase in ("npose", "tpose"):
+        if self.phase in ("npose", "tpose", "movement"):
             for sensor_id, block in self.feed.read().items():
                 if sensor_id in self._tracks and block.q_world_from_sensor is not None and block.t_s.shape[0]:
                     reasons = (block.extra or {}).get(DOUBT_EXTRA)
@@ -306,6 +327,10 @@ class BodycalProcedure:
     def _advance_capture(self) -> None:
         s = self.settings
         pose = self.phase
+        if pose == "movement":
+            if self._now - self.windows["npose"][1] >= s.movement_s:
+                self._compute()
+            return
         if self._window_start is None:
             meter, sensor = self._meter()
             ready = math.isfinite(meter) and meter <= s.still_limit_deg
@@ -358,7 +383,7 @@ class BodycalProcedure:
                     if static is not None:
                         self.npose_static[sensor_id] = static
             self._fields = {s: _Fields() for s in self._sensors}
-            self._enter("tpose")
+            self._enter("movement" if self.method == "functional" else "tpose")
         else:
             self._compute()
 
@@ -383,21 +408,32 @@ class BodycalProcedure:
 
     def _compute(self) -> None:
         t, q = self._common_time_base()
+        still = self.windows["npose"]
         try:
-            calibration = calibrate_npose_tpose(
-                t, q, self.mapping, self.windows["npose"], self.windows["tpose"],
-                arms=self.arms, settings=self.settings.engine, npose_orientations=self.npose_static,
-            )
+            if self.method == "functional":
+                # the movement from the first sample after the still window (they must not overlap)
+                after = t[t > still[1]]
+                if after.shape[0] < 2:
+                    raise CalibrationRefused("no movement was recorded after standing still")
+                self.windows["movement"] = (float(after[0]), float(after[-1]))
+                calibration = calibrate_functional(t, q, self.mapping, still, self.windows["movement"],
+                                                   still_orientations=self.npose_static)
+            else:
+                calibration = calibrate_npose_tpose(
+                    t, q, self.mapping, still, self.windows["tpose"],
+                    arms=self.arms, settings=self.settings.engine, npose_orientations=self.npose_static,
+                )
         except CalibrationRefused as refusal:
             self._refuse(refusal.reason)
             return
-        start, end = self.windows["npose"][0], self.windows["tpose"][1]
+        start, end = self.windows["npose"][0], self.windows["movement" if self.method == "functional" else "tpose"][1]
         doubtful = {sensor_id: describe(bits) for sensor_id in self.mapping.values()
                     if sensor_id in self._tracks and (bits := self._tracks[sensor_id].doubt_between(start, end))}
         calibration = with_doubtful_sensors(calibration, doubtful)
         # It holds with the magnetometer calibrations its orientations were computed with.
         self.calibration = with_magnetometers(calibration, self.feed.magnetometer_calibrations(),
-                                              origin="made live (N-pose and T-pose)")
+                                              origin="made live (standing still, then walking)"
+                                              if self.method == "functional" else "made live (N-pose and T-pose)")
         self.phase = "result"
         self._message = f"Calibration {self.calibration.quality.verdict}: check the figure and accept"
         self.feed.instruct(instructions.npose())
@@ -406,7 +442,10 @@ class BodycalProcedure:
     def status(self) -> BodycalStatus:
         """The current :class:`BodycalStatus`."""
         meter, still, capturing, countdown = math.nan, False, False, None
-        pose = self.phase if self.phase in ("npose", "tpose") else None
+        pose = self.phase if self.phase in ("npose", "tpose", "movement") else None
+        if pose == "movement" and self._now is not None:
+            left = self.settings.movement_s - (self._now - self.windows["npose"][1])
+            return BodycalStatus(self.phase, pose, math.nan, False, True, max(left, 0.0), self._message, 0)
         if pose is not None and self._now is not None:
             meter, _ = self._meter()
             still = math.isfinite(meter) and meter <= self.settings.still_limit_deg
@@ -419,7 +458,7 @@ class BodycalProcedure:
 
     def npose_segment_orientations(self, model: SkeletonModel | None = None) -> dict[str, np.ndarray]:
         """The calibrated N-pose: segment → ``q_world_from_segment`` (4,) from the N-pose means
-        and the result, by the pipeline's own step (:func:`mimucap.core.pipeline.segments_from_sensors`);
+        and the result, by the pipeline's own step (:func:`mimucap.core.pipeline.segments.segments_from_sensors`);
         every segment of ``model`` (those without a sensor follow their parent), or the
         calibrated segments without one. Only in phase ``"result"``."""
         if self.calibration is None:
@@ -430,11 +469,12 @@ class BodycalProcedure:
 
     def quality_figures(self) -> list[tuple[str, str]]:
         """(label, value) pairs for the result page: arm raise/rotation angles, axis tilt,
-        left/right agreement, stillness."""
+        left/right agreement, stillness; after the functional method, how well the movement
+        defined each axis (its verdict and why, in clinical words)."""
         if self.calibration is None:
             return []
         quality = self.calibration.quality
-        rows = []
+        rows = [(axis.name, f"{axis.verdict}: {axis.detail}") for axis in getattr(quality, "axes", ())]
         for arm in quality.arms:
             rows.append((f"{arm.side} arm raised", f"{arm.raise_angle_deg:.0f}° (about 90° expected)"))
             rows.append((f"{arm.side} arm rotation", f"{arm.rotation_angle_deg:.0f}°"))

@@ -8,8 +8,8 @@ file by :func:`mimucap.session.recorded.clinical_tests.run_clinical_test`, the o
 ``protocol`` command also takes. The start of the test is found there from the sensors (rising
 from the chair, the first step); the start signal is only a marker (:data:`GO_SIGNAL`). The
 clinician can override: :meth:`~ClinicalTestProcedure.mark_start` sets the
-:data:`~mimucap.core.phases.TEST_START` marker, and :meth:`~ClinicalTestProcedure.stop` the
-:data:`~mimucap.core.phases.TEST_STOP` marker, which the analysis takes in place of what the
+:data:`~mimucap.core.phase_markers.TEST_START` marker, and :meth:`~ClinicalTestProcedure.stop` the
+:data:`~mimucap.core.phase_markers.TEST_STOP` marker, which the analysis takes in place of what the
 sensors show.
 
 The recording ends by itself when the test is over:
@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core.analysis.segment_motion import inclination_deg
 from mimucap.session.procedures import instructions
 from mimucap.session.recorded.clinical_tests import TEN_METRE_WALKWAY_M, TEST_NAMES, WALK_DURATION_S
@@ -42,7 +42,7 @@ from mimucap.session.recorded.clinical_tests import TEN_METRE_WALKWAY_M, TEST_NA
 #: Session metadata key of a guided test's settings.
 METADATA_KEY = "clinical_test"
 #: Marker at the start signal ("Go!"): when the subject was told to start.
-GO_SIGNAL = "go signal"
+GO_SIGNAL = phase_markers.GO_SIGNAL
 #: Seconds counted down before the start signal.
 COUNTDOWN_S = 3.0
 #: Seconds recorded after a timed test's time is up.
@@ -239,13 +239,13 @@ class ClinicalTestProcedure:
         """The clinician's start: overrides the start the sensors show."""
         if self.state != "running":
             raise ValueError("the start can be marked once the test runs")
-        self.markers.append((float(t_s), phases.TEST_START))
+        self.markers.append((float(t_s), phase_markers.TEST_START))
 
     def stop(self, t_s: float) -> None:
         """The clinician's stop: ends the test now, and the analysis ends it here."""
         if self.state not in ("countdown", "running"):
             raise ValueError(f"no test is running (state {self.state!r})")
         if self.state == "running":
-            self.markers.append((float(t_s), phases.TEST_STOP))
+            self.markers.append((float(t_s), phase_markers.TEST_STOP))
         self.state = "done"
         self.ended_by = "stopped by the clinician"

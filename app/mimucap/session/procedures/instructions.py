@@ -19,10 +19,11 @@ TURN_SENSORS = "turn_sensors"
 MOVE_JOINT = "move_joint"
 PREPARE_TEST = "prepare_test"
 PERFORM_TEST = "perform_test"
+WALK = "walk"
 RESUME_KIND = "resume"
-KINDS = (NPOSE, TPOSE, TURN_SENSORS, MOVE_JOINT, PREPARE_TEST, PERFORM_TEST, RESUME_KIND)
+KINDS = (NPOSE, TPOSE, TURN_SENSORS, MOVE_JOINT, PREPARE_TEST, PERFORM_TEST, WALK, RESUME_KIND)
 
-#: Magnetometer protocols and how often each one turns the bundle (see core.magcal_guidance).
+#: Magnetometer protocols and how often each one turns the bundle (see core.magcal.guidance).
 PROTOCOL_TURNS = {"single_axis": 1, "figure8": 3, "free": 2}
 
 _ARMS_TEXT = {"both": "both arms", "right": "the right arm", "left": "the left arm"}
@@ -86,6 +87,12 @@ def move_joint(movement: str, side: str, text: str) -> Instruction:
     """Do range-of-motion ``movement`` on ``side`` (``left``, ``right`` or ``both``) as far as
     it goes, repeatedly; ``text`` is the movement's instruction on the screen."""
     return Instruction(MOVE_JOINT, text, movement=movement, side=side)
+
+
+def walk() -> Instruction:
+    """Walk (or, seated, bend the elbows): the movement of the functional body calibration."""
+    return Instruction(WALK, "Walk a few steps at a comfortable pace, turning when needed (or, seated, bend "
+                             "both elbows fully a few times)")
 
 
 def prepare_test(test: str, text: str, walkway_m: float = 0.0) -> Instruction:

@@ -3,14 +3,14 @@
 :class:`MagcalProcedure` is a state machine driven by :meth:`MagcalProcedure.step` (one call
 each time the feed tells ``arrived``, or in a loop in tests): it pulls samples from a feed
 (:mod:`mimucap.session.sources.calibration_feed`), tracks the protocol and, when the protocol is
-complete, fits every selected sensor (:func:`mimucap.core.magcal.calibrate`). Each step tells
+complete, fits every selected sensor (:func:`mimucap.core.magcal.calibrate.calibrate`). Each step tells
 its :class:`MagcalStatus` through ``events.status`` (what the wizard shows).
 
 Protocols (:data:`PROTOCOLS`):
 
 * ``"single_axis"`` (default; the best protocol of Choe et al., "Study of calibration method of
   low-cost MEMS magnetometer"): one full turn about each sensor axis. Every
-  selected sensor has its own :class:`~mimucap.core.magcal_guidance.SingleAxisGuide`; the
+  selected sensor has its own :class:`~mimucap.core.magcal.guidance.SingleAxisGuide`; the
   progress of an axis is the smallest over the sensors (they are held together, so they agree
   up to how they sit in the hand); the axis asked for is the first one not yet done (x, y,
   z), so the page advances by itself, and the recording finishes when all three are done.
@@ -40,9 +40,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mimucap.core.magcal import CalibrationResult, FitRefused, FitSettings, QualityThresholds, calibrate
-from mimucap.core.magcal_fit import EllipsoidFit, fit_ellipsoid
-from mimucap.core.magcal_guidance import AXIS_NAMES, GuidanceSettings, GuidanceState, SingleAxisGuide
+from mimucap.core.magcal.calibrate import CalibrationResult, calibrate
+from mimucap.core.magcal.fit import EllipsoidFit, FitRefused, FitSettings, fit_ellipsoid
+from mimucap.core.magcal.guidance import AXIS_NAMES, GuidanceSettings, GuidanceState, SingleAxisGuide
+from mimucap.core.magcal.quality import QualityThresholds
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
 from mimucap.session.events import EmitterGroup
 from mimucap.session.procedures import instructions

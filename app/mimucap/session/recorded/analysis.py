@@ -25,9 +25,10 @@ ROM protocol markers are labelled ``rom:<movement>:<side>:start`` and ``...:end`
 The tables as the Analysis window and the PDF report show them are built here once: the gait
 parameter rows (:func:`gait_parameter_rows`), the ROM rows (:func:`rom_rows`), each with its
 label, unit and values and :meth:`cells` for its text, and the cycle curves grouped by joint
-angle (:func:`curve_groups`); the CSV tables are the functions ending in ``_table``.
+angle (:func:`curve_groups`); the CSV tables are written by :mod:`mimucap.io.analysis_tables`
+(:func:`write_analysis_csv` says what they hold).
 
-Doubtful data is marked, not hidden (:mod:`mimucap.core.doubt`): the joints whose angles are
+Doubtful data is marked, not hidden (:mod:`mimucap.core.pipeline.doubt_reasons`): the joints whose angles are
 doubtful somewhere, when and why (:func:`doubt_rows`), the strides of each cycle curve that
 hold doubtful samples, and the share of each ROM window that is doubtful.
 """
@@ -41,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mimucap.core import bodycal, doubt, phases
+from mimucap.core import bodycal, phase_markers
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait import GaitAnalysis, GaitInput, analyse_gait
 from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves, split_column
@@ -49,8 +50,9 @@ from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETER
 from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.sagittal import axes_calibrated, axes_from_data, sagittal_rate_dominant
 from mimucap.core.clinical_names import axis_short_name, joint_name
+from mimucap.core.pipeline import doubt_reasons
 from mimucap.core.wording import fixed
-from mimucap.io.gait_csv import write_table
+from mimucap.io.analysis_tables import write_analysis_tables
 from mimucap.io.session import Marker
 from mimucap.session.recorded.review import ReviewData
 
@@ -164,7 +166,7 @@ NEEDS_BODY_CALIBRATION = ("no body calibration: joint-angle curves, range of mot
 
 def unworn_windows(review: ReviewData) -> list[tuple[float, float]]:
     """The time windows (s) in which the review's markers say the sensors were not worn."""
-    return phases.off_body_windows(review.markers, review.end_s)
+    return phase_markers.off_body_windows(review.markers, review.end_s)
 
 
 def while_worn(gait: GaitAnalysis, windows: Sequence[tuple[float, float]]) -> GaitAnalysis:
@@ -210,7 +212,7 @@ def rom_doubt(review: ReviewData) -> dict[tuple[str, str], float]:
 @dataclass(frozen=True)
 class DoubtRow:
     """A joint whose angles are doubtful somewhere in the review: the ``fraction`` of its
-    poses, the ``spans`` ``(start_s, end_s, reasons)`` (reason bits of :mod:`mimucap.core.doubt`)."""
+    poses, the ``spans`` ``(start_s, end_s, reasons)`` (reason bits of :mod:`mimucap.core.pipeline.doubt_reasons`)."""
 
     joint: str
     fraction: float
@@ -225,7 +227,7 @@ class DoubtRow:
         if len(self.spans) > self.SHOWN_SPANS:
             shown += f" and {len(self.spans) - self.SHOWN_SPANS} more"
         reasons = int(np.bitwise_or.reduce([r for _a, _b, r in self.spans])) if self.spans else 0
-        return [joint_name(self.joint), f"{100.0 * self.fraction:.1f}", shown, doubt.describe(reasons)]
+        return [joint_name(self.joint), f"{100.0 * self.fraction:.1f}", shown, doubt_reasons.describe(reasons)]
 
 
 DOUBT_HEADER = ("Joint", "Doubtful %", "When (s)", "Why")
@@ -238,7 +240,7 @@ def doubt_rows(review: ReviewData) -> list[DoubtRow]:
         reasons = review.joint_doubt.get(joint)
         if reasons is None or not np.any(reasons):
             continue
-        rows.append(DoubtRow(joint, float(np.mean(reasons != 0)), tuple(doubt.spans(review.t_s, reasons))))
+        rows.append(DoubtRow(joint, float(np.mean(reasons != 0)), tuple(doubt_reasons.spans(review.t_s, reasons))))
     return rows
 
 
@@ -457,76 +459,7 @@ def curve_groups(analyses: Sequence[SessionAnalysis]) -> list[CurveGroup]:
     return [CurveGroup(joint, axis, tuple(found[(joint, axis)])) for joint, axis in sorted(found, key=rank)]
 
 
-# -- tables (CSV) --------------------------------------------------------------------------------
-def strides_table(gait: GaitAnalysis) -> tuple[list[str], list[list[object]]]:
-    header = ["foot", "ic_s", "fc_s", "next_ic_s", "stride_time_s", "stride_length_m", "straight",
-              "heading_change_deg", "analysed", "refused_because"]
-    rows = [[s.side, s.ic_s, s.fc_s, s.next_ic_s, s.stride_time_s, s.stride_length_m, s.straight,
-             s.heading_change_deg, s.analysed, s.refused_because] for s in gait.strides]
-    return header, rows
-
-
-def parameters_table(gait: GaitAnalysis) -> tuple[list[str], list[list[object]]]:
-    header = ["parameter", "unit", "side", "n", "mean", "sd", "cv_percent"]
-    rows = []
-    for name, unit, _ in PARAMETERS:
-        for side in ("left", "right", "both"):
-            s = gait.parameters.get(name, side)
-            rows.append([name, unit, side, s.n, s.mean, s.sd, s.cv_percent])
-    for name in SYMMETRY_PARAMETERS:
-        rows.append([f"{name}_symmetry_index", "%", "both", None, gait.parameters.symmetry_percent[name], None, None])
-    return header, rows
-
-
-def curves_table(curves: dict[str, CycleCurve]) -> tuple[list[str], list[list[object]]]:
-    header = ["column", "side", "percent", "mean_deg", "sd_deg", "n_strides", "stance_percent"]
-    rows = []
-    for curve in curves.values():
-        for k in range(101):
-            rows.append([curve.column, curve.side, k, curve.mean_deg[k], curve.sd_deg[k], curve.n_strides,
-                         curve.stance_percent])
-    return header, rows
-
-
-def rom_table(rom: dict[tuple[str, str], rom_core.RomResult]) -> tuple[list[str], list[list[object]]]:
-    header = ["movement", "side", "repetitions", "active_rom_deg", "peak_deg", "peaks_deg",
-              "left_minus_right_deg", "reference_deg", "reference_source"]
-    rows = []
-    for (key, side), r in rom.items():
-        rows.append([key, side, r.repetitions, r.active_rom_deg, r.peak_deg,
-                     " ".join(f"{p:.1f}" for p in r.peaks_deg), rom_core.left_right_difference_deg(rom, key),
-                     r.reference_deg, rom_core.REFERENCE_SOURCE])
-    return header, rows
-
-
-def bouts_table(gait: GaitAnalysis) -> tuple[list[str], list[list[object]]]:
-    header = ["kind", "start_s", "end_s", "n_strides", "angle_deg"]
-    rows = [["bout", b.start_s, b.end_s, b.n_strides, None] for b in gait.bouts]
-    rows += [["turn", t.start_s, t.end_s, t.n_strides, t.angle_deg] for t in gait.turns]
-    return header, rows
-
-
-def write_gait_csv(folder: str | Path, gait: GaitAnalysis, notes: Sequence[str] = ()) -> list[Path]:
-    """``strides.csv``, ``parameters.csv`` and ``bouts_turns.csv`` in ``folder``, each headed
-    by ``notes`` (``#`` lines: what the input holds)."""
-    base = Path(folder)
-    return [write_table(base / "strides.csv", *strides_table(gait), notes=notes),
-            write_table(base / "parameters.csv", *parameters_table(gait), notes=notes),
-            write_table(base / "bouts_turns.csv", *bouts_table(gait), notes=notes)]
-
-
 def write_analysis_csv(folder: str | Path, analysis: SessionAnalysis) -> list[Path]:
     """Every table of ``analysis`` as one CSV in ``folder`` (created if needed), each headed by
-    :func:`table_notes`."""
-    base = Path(folder)
-    base.mkdir(parents=True, exist_ok=True)
-    notes = table_notes(analysis)
-    written = []
-    if analysis.gait is not None:
-        written += write_gait_csv(base, analysis.gait, notes)
-    if analysis.curves:
-        written.append(write_table(base / "gait_cycle_curves.csv", *curves_table(analysis.curves), notes=notes))
-    if analysis.rom:
-        written.append(write_table(base / "rom.csv", *rom_table(analysis.rom), notes=notes))
-    return written
-
+    :func:`table_notes` (:func:`mimucap.io.analysis_tables.write_analysis_tables`)."""
+    return write_analysis_tables(folder, analysis.gait, analysis.curves, analysis.rom, table_notes(analysis))

@@ -38,12 +38,11 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 from mimucap.core import bodycal
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.magcal_standing import Standing
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.magcal.standing import Standing
 from mimucap.io.calibration_store import (
-    CalibrationFileError, CalibrationStore, calibration_from_json, calibration_to_json,
+    CalibrationFileError, CalibrationStore, calibrations_from_json, calibrations_to_json, read_calibration_file,
 )
-from mimucap.io.json_document import read_json_document
 from mimucap.io.session import Session
 from mimucap.session.recorded.calibration_readiness import session_standings
 from mimucap.session.recorded.stored_processing import recorded_processing
@@ -69,8 +68,8 @@ def with_magnetometers(calibration: bodycal.BodyCalibration, mag_calibrations: M
     details = dict(calibration.details)
     sensors = set(calibration.sensors.values())
     if mag_calibrations is not None:
-        details[MAGNETOMETER_DETAIL] = {sid: calibration_to_json(cal) for sid, cal in sorted(mag_calibrations.items())
-                                        if sid in sensors}
+        details[MAGNETOMETER_DETAIL] = calibrations_to_json({sid: cal for sid, cal in sorted(mag_calibrations.items())
+                                                             if sid in sensors})
     details[CREATED_DETAIL] = created_utc or details.get(CREATED_DETAIL) or utc_now_text()
     if origin is not None:
         details[ORIGIN_DETAIL] = origin
@@ -84,10 +83,7 @@ def body_magnetometers(calibration: bodycal.BodyCalibration, origin: str) -> dic
     section = calibration.details.get(MAGNETOMETER_DETAIL)
     if section is None:
         return None
-    if not isinstance(section, Mapping):
-        raise ValueError(f"{origin}: body calibration entry '{MAGNETOMETER_DETAIL}' is not a mapping")
-    return {sid: calibration_from_json(data, f"{origin}: magnetometer calibration of {sid}", sid)
-            for sid, data in section.items()}
+    return calibrations_from_json(section, origin, f"body calibration entry '{MAGNETOMETER_DETAIL}'")
 
 
 def body_created_utc(calibration: bodycal.BodyCalibration) -> str:
@@ -105,7 +101,7 @@ class AppliedCalibrations:
     sensors whose device sends its own orientation (its fusion handles its magnetometer); ``notes``
     sentences about choices a reader should know (a body calibration made with another
     magnetometer calibration than the recording applied live, ...); ``standings`` sensor → how
-    its calibration stands against the recording (:class:`~mimucap.core.magcal_standing.Standing`);
+    its calibration stands against the recording (:class:`~mimucap.core.magcal.standing.Standing`);
     ``store_notes`` sensor → why a calibration stored under its label was not used (another
     device's, or a device that cannot be checked).
     """
@@ -136,23 +132,13 @@ class AppliedCalibrations:
         return [sid for sid, standing in self.standings.items() if not standing.good]
 
 
-def stored_body_calibration(session: Session, origin: str) -> bodycal.BodyCalibration | None:
-    """The body calibration ``session`` stores (``calibrations["body"]``, or an older file's
-    ``metadata["body_calibration"]``), or None; ``ValueError`` naming ``origin`` when malformed."""
-    body = session.calibrations.get("body") or session.metadata.get("body_calibration")
-    if not body:
-        return None
-    return bodycal.BodyCalibration.from_dict(body, origin=f"{origin}: body calibration")
-
-
 def read_magnetometer_files(paths: Sequence[str | Path], session: Session) -> dict[str, tuple[MagCalibration, str]]:
     """Sensor → (calibration, file) of magnetometer calibration files given for ``session``;
     ``ValueError`` naming the file when it cannot be read or names a sensor the session lacks."""
     found: dict[str, tuple[MagCalibration, str]] = {}
     for name in paths:
         path = Path(name)
-        data = read_json_document(path, "magnetometer calibration (--mag-calibration)")
-        calibration = calibration_from_json(data, str(path))
+        calibration = read_calibration_file(path, "--mag-calibration")
         if calibration.sensor_id not in session.sensors:
             raise ValueError(f"--mag-calibration {path}: sensor {calibration.sensor_id} is not in the session "
                              f"(it has {', '.join(session.sensors)})")

@@ -3,7 +3,7 @@
 A command that processes a session (``bodycal``, ``angles``, ``export``, ``gait``, ``report``)
 applies a magnetometer calibration to each sensor: the one the recording stores, one given on
 the command line, or the one the user's calibration store holds for the sensor's device. Each is
-judged by :func:`~mimucap.core.magcal_standing.calibration_standing`, as the live view judges
+judged by :func:`~mimucap.core.magcal.standing.calibration_standing`, as the live view judges
 it, against the recording: the device the recording says the sensor was
 (:meth:`~mimucap.io.session.Session.devices`), the local field of the recording's own samples corrected by the
 calibration (the whole recording: its median magnitude, and its dip while the sensor is still),
@@ -16,8 +16,8 @@ from collections.abc import Mapping
 from datetime import datetime, timezone
 
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.magcal_standing import Standing, age_s_at, calibration_standing, local_field
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.magcal.standing import Standing, age_s_at, calibration_standing, local_field
 from mimucap.io.session import Session
 
 def recorded_at(session: Session) -> datetime | None:

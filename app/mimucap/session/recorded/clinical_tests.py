@@ -13,8 +13,8 @@ and pelvis, and the foot or shank sensors' sagittal rates (as the gait analysis 
 truth are never read.
 
 The test starts where the sensors show it (rising from the chair, the first step). Markers
-labelled :data:`~mimucap.core.phases.TEST_START` ("test start") and
-:data:`~mimucap.core.phases.TEST_STOP` ("test stop") override that: the test is searched
+labelled :data:`~mimucap.core.phase_markers.TEST_START` ("test start") and
+:data:`~mimucap.core.phase_markers.TEST_STOP` ("test stop") override that: the test is searched
 between them, starts at the start marker and, for the Timed Up and Go, ends at the stop
 marker (the first of each after the other is used).
 
@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from mimucap import __version__
-from mimucap.core import phases
+from mimucap.core import phase_markers
 from mimucap.core.analysis.chair_stand import chair_stand
 from mimucap.core.analysis.chair_transitions import find_transitions
 from mimucap.core.analysis.gait_events import SwingEvents, detect_swing_events
@@ -47,7 +47,7 @@ from mimucap.core.analysis.segment_motion import flexion_rate_dps, inclination_d
 from mimucap.core.analysis.trunk_turns import find_trunk_turns
 from mimucap.core.analysis.tug import timed_up_and_go
 from mimucap.core.analysis.walk_tests import ten_metre_walk, timed_walk, walking_start
-from mimucap.core.pipeline import RESULT_REPROCESSED
+from mimucap.core.pipeline.settings import RESULT_REPROCESSED
 from mimucap.io.clinical_norms import read_norms, reference_for
 from mimucap.session.recorded.analysis import gait_inputs
 from mimucap.session.recorded.provenance import Provenance
@@ -156,13 +156,17 @@ def clinical_test(review: ReviewData, test: str, walkway_m: float | None = None)
 
 # -- the tests ------------------------------------------------------------------------------------
 def _marker_window(review: ReviewData) -> tuple[tuple[float, float] | None, tuple[float | None, float | None]]:
-    """The window between the user's start and stop markers (None without them) and the
-    overriding start and stop times."""
-    starts = [m.t_s for m in review.markers if phases.is_phase(m.label, phases.TEST_START)]
+    """The window between the user's start and stop markers (None without them; from a guided
+    test's start signal on when it has one) and the overriding start and stop times."""
+    starts = [m.t_s for m in review.markers if phase_markers.is_phase(m.label, phase_markers.TEST_START)]
     if not starts:
-        return None, (None, None)
+        # A guided test's start signal: the test is searched from there on (a subject still
+        # walking to the start line before it is not doing the test), its start still found
+        # from the sensors.
+        signals = [m.t_s for m in review.markers if phase_markers.is_phase(m.label, phase_markers.GO_SIGNAL)]
+        return (None if not signals else (min(signals) - _MARKER_SLACK_S, math.inf)), (None, None)
     start = min(starts)
-    stops = [m.t_s for m in review.markers if phases.is_phase(m.label, phases.TEST_STOP) and m.t_s > start]
+    stops = [m.t_s for m in review.markers if phase_markers.is_phase(m.label, phase_markers.TEST_STOP) and m.t_s > start]
     stop = min(stops) if stops else None
     return (start - _MARKER_SLACK_S, math.inf if stop is None else stop + _MARKER_SLACK_S), (start, stop)
 
@@ -192,7 +196,7 @@ def _tug(review: ReviewData, window, overrides) -> ClinicalTestResult:
     bounds = list(found.boundaries_s)
     started_by = "sensors: the start of rising from the chair"
     if overrides[0] is not None:
-        bounds[0], started_by = overrides[0], f"marker '{phases.TEST_START}'"
+        bounds[0], started_by = overrides[0], f"marker '{phase_markers.TEST_START}'"
     if overrides[1] is not None:
         bounds[-1] = overrides[1]
     keys = RESULT_KEYS["tug"]
@@ -206,7 +210,7 @@ def _tug(review: ReviewData, window, overrides) -> ClinicalTestResult:
 def _chair_stand(review: ReviewData, window, overrides) -> ClinicalTestResult:
     found = chair_stand(_transitions(review), within_s=window, start_s=overrides[0])
     started_by = ("sensors: the start of the first rise from the chair" if overrides[0] is None
-                  else f"marker '{phases.TEST_START}'")
+                  else f"marker '{phase_markers.TEST_START}'")
     details = {"stand_times_s": list(found.stand_times_s)}
     return ClinicalTestResult("chair-stand", {"stands": float(found.stands), "cycle_s": found.cycle_s},
                               found.start_s, found.start_s + found.duration_s, started_by, details)
@@ -226,7 +230,7 @@ def walking_signals(review: ReviewData) -> tuple[dict[str, SwingEvents], Progres
 def _walk(review: ReviewData, test: str, window, overrides, walkway_m: float | None) -> ClinicalTestResult:
     events, way = walking_signals(review)
     if overrides[0] is not None:
-        start, started_by = overrides[0], f"marker '{phases.TEST_START}'"
+        start, started_by = overrides[0], f"marker '{phase_markers.TEST_START}'"
     else:
         start, started_by = walking_start(events, window), "sensors: the first step"
     if test == "10mwt":

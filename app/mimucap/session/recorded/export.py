@@ -1,7 +1,9 @@
 """Exports of a reviewed session: joint angles (CSV, OpenSim ``.mot``), per-sensor raw data and
 orientations (CSV), a per-joint summary (min, max, range of motion) as CSV, and the motion as
-C3D, BVH and an OpenSense orientation table (:func:`write_motion_file`; the formats are
-described in :mod:`mimucap.io.c3d_export`, :mod:`mimucap.io.bvh` and :mod:`mimucap.io.opensense`).
+C3D, BVH and an OpenSense orientation table (:func:`write_motion_file`). This module decides
+what goes into which file (the range, the rows, the header notes); the files are written by
+``io``: :mod:`mimucap.io.angles_export` (angles and their summary), :mod:`mimucap.io.sensor_csv`,
+:mod:`mimucap.io.c3d_export`, :mod:`mimucap.io.bvh` and :mod:`mimucap.io.opensense`.
 
 The time range is ``[t_from_s, t_to_s]`` in session seconds, or the span between two markers
 (:func:`marker_range`). Joint angle files use :mod:`mimucap.io.angles_export` (their header
@@ -11,7 +13,6 @@ progress as a fraction in [0, 1] and can run off the GUI thread.
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,8 +20,10 @@ from pathlib import Path
 import numpy as np
 
 from mimucap.core import rotation
-from mimucap.core.clinical_names import angle_label
-from mimucap.io.angles_export import marker_lines, write_angles_csv, write_angles_mot
+from mimucap.io import sensor_csv
+from mimucap.io.angles_export import (
+    SummaryRow, marker_lines, write_angles_csv, write_angles_mot, write_summary_csv,
+)
 from mimucap.io.session import Marker
 from mimucap.session.recorded.review import ReviewData
 
@@ -64,19 +67,6 @@ class ExportRequest:
             raise ValueError("choose at least one file to export")
 
 
-@dataclass(frozen=True)
-class SummaryRow:
-    """One joint-angle column over the exported range: ``minimum_deg``, ``maximum_deg``,
-    ``rom_deg`` (range of motion = max − min), all degrees; ``doubtful_fraction`` the share of
-    its samples where the joint's angles are doubtful (:mod:`mimucap.core.doubt`)."""
-
-    column: str
-    minimum_deg: float
-    maximum_deg: float
-    rom_deg: float
-    doubtful_fraction: float = 0.0
-
-
 @dataclass
 class ExportResult:
     files: list[Path] = field(default_factory=list)
@@ -110,7 +100,7 @@ def angles_in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> tuple[n
 
 
 def doubt_in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> dict[str, np.ndarray]:
-    """Joint → the reasons (:mod:`mimucap.core.doubt`) its angles may be wrong, at the poses of
+    """Joint → the reasons (:mod:`mimucap.core.pipeline.doubt_reasons`) its angles may be wrong, at the poses of
     :func:`angles_in_range`."""
     keep = _in_range(data, t_from_s, t_to_s)
     return {joint: reasons[keep] for joint, reasons in data.joint_doubt.items()}
@@ -143,48 +133,37 @@ def summary_table(angles_deg: dict[str, np.ndarray],
     return rows
 
 
-def write_summary_csv(path: str | Path, rows: Sequence[SummaryRow], t_from_s: float, t_to_s: float,
-                      markers: Sequence[Marker] = (), notes: Sequence[str] = ()) -> Path:
-    """The summary as CSV: machine column name, readable label, min, max, range (deg); the
-    header names the range, says what the result holds (``notes``, e.g.
-    :meth:`~mimucap.session.recorded.provenance.Provenance.lines`) and lists ``markers``."""
-    path = Path(path)
-    with path.open("w", encoding="utf-8", newline="") as handle:
-        handle.write(f"# MimuCap joint angle summary from {t_from_s:.3f} s to {t_to_s:.3f} s; degrees\n")
-        for line in list(notes) + marker_lines(markers):
-            handle.write(f"# {line}\n")
-        handle.write("# doubtful_pct: share of the range's samples where the joint's angles may be wrong "
-                     "(see the joint-angle file's <joint>_ok column); min, max and range include them\n")
-        writer = csv.writer(handle)
-        writer.writerow(["column", "label", "min_deg", "max_deg", "rom_deg", "doubtful_pct"])
-        for row in rows:
-            writer.writerow([row.column, angle_label(row.column), f"{row.minimum_deg:.3f}", f"{row.maximum_deg:.3f}",
-                             f"{row.rom_deg:.3f}", f"{100.0 * row.doubtful_fraction:.1f}"])
-    return path
-
-
 def write_sensor_csv(path: str | Path, data: ReviewData, sensor_id: str, t_from_s: float, t_to_s: float) -> Path:
-    """One sensor's raw channels and orientation in the range (absent channels are left out);
-    the header lists the range's markers."""
+    """One sensor's raw channels and orientation in the range (:func:`mimucap.io.sensor_csv.write_sensor_csv`);
+    the header says what the result holds and lists the range's markers."""
     stream = data.session.sensors[sensor_id]
     keep = (stream.t_s >= t_from_s) & (stream.t_s <= t_to_s)
-    columns: list[tuple[str, np.ndarray]] = [("t_s", stream.t_s[keep])]
-    for name, unit, values in (("acc", "m_s2", stream.acc), ("gyr", "rad_s", stream.gyr), ("mag", "uT", stream.mag_uT)):
-        if values is not None:
-            columns += [(f"{name}_{axis}_{unit}", values[keep, i]) for i, axis in enumerate("xyz")]
     q = data.q_world_from_sensor.get(sensor_id)
-    if q is not None:
-        columns += [(f"q_world_from_sensor_{c}", q[keep, i]) for i, c in enumerate("wxyz")]
-    path = Path(path)
-    with path.open("w", encoding="utf-8", newline="") as handle:
-        handle.write(f"# MimuCap sensor {sensor_id} (segment {stream.segment or 'none'}); sensor frame; "
-                     "q_world_from_sensor scalar first, world ENU\n")
-        for line in data.provenance.lines() + marker_lines(markers_in_range(data.markers, t_from_s, t_to_s)):
-            handle.write(f"# {line}\n")
-        handle.write(",".join(name for name, _ in columns) + "\n")
-        table = np.column_stack([v for _, v in columns])
-        np.savetxt(handle, table, delimiter=",", fmt="%.6f")
-    return path
+    notes = data.provenance.lines() + marker_lines(markers_in_range(data.markers, t_from_s, t_to_s))
+    return sensor_csv.write_sensor_csv(path, stream.rows(keep), None if q is None else q[keep], notes)
+
+
+#: What each exported file holds, said in its name: ``<session>_<name>`` (:func:`export_file`).
+EXPORT_NAMES = {"csv": "joint_angles.csv", "mot": "joint_angles.mot", "summary": "joint_angle_summary.csv",
+                "opensim_mot": "opensim_coordinates.mot", "c3d": "motion.c3d", "bvh": "skeleton.bvh",
+                "sto": "orientations.sto"}
+
+
+def export_file(base: str | Path, kind: str, sensor_id: str | None = None) -> Path:
+    """The file of ``kind`` (a key of :data:`EXPORT_NAMES`, or ``"sensor"`` with ``sensor_id``)
+    for the export named ``base`` (folder and session name): ``walk_joint_angles.csv``,
+    ``walk_sensor_S01_raw.csv``."""
+    base = Path(base)
+    if kind == "sensor":
+        return base.with_name(f"{base.name}_sensor_{sensor_id}_raw.csv")
+    return base.with_name(f"{base.name}_{EXPORT_NAMES[kind]}")
+
+
+def export_folder(session_path: str | Path) -> Path:
+    """Where a session's exports go unless the user picks another folder: a folder of their
+    own beside the session (``walk.h5`` → ``walk_exports/``), never the library folder itself."""
+    session_path = Path(session_path)
+    return session_path.with_name(f"{session_path.stem}_exports")
 
 
 def run_export(data: ReviewData, request: ExportRequest,
@@ -200,25 +179,23 @@ def run_export(data: ReviewData, request: ExportRequest,
     markers = markers_in_range(data.markers, request.t_from_s, request.t_to_s)
     jobs: list[tuple[str, Callable[[], Path]]] = []
     if request.angles_csv:
-        jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(
+        jobs.append(("csv", lambda: _written(export_file(base, "csv"), lambda p: write_angles_csv(
             p, t, angles, notes=notes, markers=markers, joint_doubt=doubt))))
     if request.angles_mot:
-        jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(
+        jobs.append(("mot", lambda: _written(export_file(base, "mot"), lambda p: write_angles_mot(
             p, t, angles, notes=notes, markers=markers, joint_doubt=doubt))))
     if request.summary_csv:
-        jobs.append(("summary", lambda: write_summary_csv(base.with_name(base.name + "_summary.csv"), result.summary,
+        jobs.append(("summary", lambda: write_summary_csv(export_file(base, "summary"), result.summary,
                                                           request.t_from_s, request.t_to_s, markers,
                                                           data.provenance.lines())))
-    motion_files = ((request.opensim_mot, "opensim_mot", base.with_name(base.name + "_opensim.mot")),
-                    (request.c3d, "c3d", base.with_suffix(".c3d")), (request.bvh, "bvh", base.with_suffix(".bvh")),
-                    (request.opensense_sto, "sto", base.with_name(base.name + "_orientations.sto")))
-    for wanted, fmt, path in motion_files:
+    for wanted, fmt in ((request.opensim_mot, "opensim_mot"), (request.c3d, "c3d"), (request.bvh, "bvh"),
+                        (request.opensense_sto, "sto")):
         if wanted:
-            jobs.append((fmt, lambda f=fmt, p=path: write_motion_file(data, f, p, request.t_from_s, request.t_to_s,
-                                                                      events=request.events)))
+            jobs.append((fmt, lambda f=fmt: write_motion_file(data, f, export_file(base, f), request.t_from_s,
+                                                              request.t_to_s, events=request.events)))
     if request.sensors_csv:
         for sensor_id in data.session.sensors:
-            jobs.append((sensor_id, lambda s=sensor_id: write_sensor_csv(base.with_name(f"{base.name}_{s}.csv"), data, s,
+            jobs.append((sensor_id, lambda s=sensor_id: write_sensor_csv(export_file(base, "sensor", s), data, s,
                                                                         request.t_from_s, request.t_to_s)))
     report(0.0)
     for done, (_name, job) in enumerate(jobs, start=1):
@@ -315,21 +292,10 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
         return [write_c3d(path, data.model, data.height_m, t, q_segments, angles, root, markers, events, subject,
                           provenance=data.provenance.parameters())]
     if fmt == "bvh":
-        from mimucap.io.bvh import write_bvh
+        from mimucap.io.bvh import write_bvh, write_bvh_markers
 
         written = [write_bvh(path, data.model, data.height_m, t, q_segments, root)]
-        side = path.with_name(path.stem + "_markers.csv")  # BVH has no place for text
-        with side.open("w", encoding="utf-8", newline="") as handle:
-            handle.write(f"# markers and events of {path.name}; t_s seconds from the first BVH frame\n")
-            for note in notes:
-                handle.write(f"# {note}\n")
-            writer = csv.writer(handle)
-            writer.writerow(["t_s", "context", "label"])
-            for time, label in markers:
-                writer.writerow([f"{time - t[0]:.6f}", "General", label])
-            for time, context, label in events:
-                writer.writerow([f"{time - t[0]:.6f}", context, label])
-        written.append(side)
+        written.append(write_bvh_markers(path, float(t[0]), markers, events, notes))
         return written
     if fmt == "sto":
         if raw_sensors:

@@ -39,7 +39,7 @@ from mimucap.core.analysis.sagittal import axes_from_data
 from mimucap.core.analysis.strides import Stride
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SimulationResult, simulate_session
-from mimucap.io.gait_csv import FootImu, ReferenceStride, read_foot_imu_csv, read_gaitmap_reference
+from mimucap.io.gaitmap import FootImu, ReferenceStride, read_foot_imu_csv, read_gaitmap_reference
 from mimucap.io.session import Marker, session_from_simulation, write_session
 from mimucap.session.recorded.analysis import SessionAnalysis, analyse_review
 from mimucap.session.recorded.review import load_review
@@ -190,12 +190,12 @@ def _contacts(t: np.ndarray, contact: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def walk_windows(markers: list[tuple[float, str]], end_s: float) -> list[tuple[float, float]]:
-    """Steady-walking windows of a simulation (its ``walk`` phases, :mod:`mimucap.core.phases`, trimmed)."""
-    from mimucap.core import phases
+    """Steady-walking windows of a simulation (its ``walk`` phases, :mod:`mimucap.core.phase_markers`, trimmed)."""
+    from mimucap.core import phase_markers
 
     windows = []
     for i, (start, label) in enumerate(markers):
-        if phases.is_phase(label, phases.WALK):
+        if phase_markers.is_phase(label, phase_markers.WALK):
             stop = markers[i + 1][0] if i + 1 < len(markers) else end_s
             if stop - start > 2 * WALK_TRIM_S:
                 windows.append((start + WALK_TRIM_S, stop - WALK_TRIM_S))

@@ -17,11 +17,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mimucap.core.analysis.rom import range_of_motion
-from mimucap.core.pipeline import RESULT_LABELS, RESULT_REPROCESSED
+from mimucap.core.pipeline.settings import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.library import Library, SessionEntry
 from mimucap.io.library_settings import configured_library_folder
 from mimucap.io.session import Marker
 from mimucap.session.recorded.export import marker_at, marker_range
+from mimucap.core.clinical_names import angle_name
 
 
 def open_library(folder: str | os.PathLike[str] | None = None, default: str | os.PathLike[str] | None = None) -> Library:
@@ -67,7 +68,7 @@ class ComparedSession:
     ``angles_deg`` (column → (T,) deg, ISB sequences, columns of
     ``core.skeleton.joint_angle_columns``) at ``t_s`` (T,) s since the recording started, its
     ``markers`` and the ``window`` compared; ``calibrated`` whether a body calibration made
-    its segments, ``result`` which result it is (``core.pipeline.RESULTS``)."""
+    its segments, ``result`` which result it is (``core.pipeline.settings.RESULTS``)."""
 
     entry: SessionEntry
     t_s: np.ndarray
@@ -105,14 +106,14 @@ def rom_table(a: ComparedSession, b: ComparedSession) -> ComparisonTable:
         first, second = rom_a.get(column), rom_b.get(column)
         if first is None and second is None:
             continue
-        cells: list = [column.removesuffix("_deg")]
+        cells: list = [angle_name(column)]
         for value in (first, second):
             cells += [None, None, None] if value is None else [value.min_deg, value.max_deg, value.rom_deg]
         cells.append(None if first is None or second is None else second.rom_deg - first.rom_deg)
         rows.append(tuple(cells))
     return ComparisonTable(
         name="Joint-angle range of motion",
-        headers=("joint angle", "A min (°)", "A max (°)", "A ROM (°)", "B min (°)", "B max (°)", "B ROM (°)",
+        headers=("Joint angle", "A min (°)", "A max (°)", "A ROM (°)", "B min (°)", "B max (°)", "B ROM (°)",
                  "ROM B − A (°)"),
         rows=tuple(rows),
         note=f"A: {a.entry.file_name}, {a.window.label}. B: {b.entry.file_name}, {b.window.label}.")
@@ -157,21 +158,5 @@ def check_comparable(a: ComparedSession, b: ComparedSession) -> None:
                          f"{RESULT_LABELS[b.result]}: compare results of one kind")
 
 
-def comparison_csv(tables: Sequence[ComparisonTable]) -> str:
-    """The tables as CSV text: each table's name, its header row and rows, a blank line between."""
-    import csv
-    import io
-
-    out = io.StringIO()
-    writer = csv.writer(out, lineterminator="\n")
-    for table in tables:
-        writer.writerow([table.name])
-        writer.writerow(table.headers)
-        for row in table.rows:
-            writer.writerow(["" if v is None else (f"{v:.2f}" if isinstance(v, float) else v) for v in row])
-        writer.writerow([])
-    return out.getvalue()
-
-
 __all__ = ["open_library", "TimeWindow", "ComparedSession", "ComparisonTable", "rom_table", "COMPARISON_TABLES",
-           "COMPARISON_NEEDS_CALIBRATION", "check_comparable", "compare", "comparison_csv"]
+           "COMPARISON_NEEDS_CALIBRATION", "check_comparable", "compare"]

@@ -4,7 +4,7 @@ Every file, report and picture MimuCap writes carries one :class:`Provenance` re
 :func:`provenance` alone, so that a reader can tell two numbers apart without asking:
 
 * **result**: *as seen live* (the forward filter) or *reprocessed* (smoothed with past and
-  future data), :data:`mimucap.core.pipeline.RESULT_LABELS`;
+  future data), :data:`mimucap.core.pipeline.settings.RESULT_LABELS`;
 * **body calibration**: its method, verdict, when it was made and where it came from (made live,
   a ``CAL.json`` file, imported), or none, and what that leaves meaningless;
 * **magnetometer calibrations**: per sensor its verdict and its age at the recording's start
@@ -26,14 +26,14 @@ from dataclasses import dataclass
 from datetime import datetime
 
 from mimucap import __version__
-from mimucap.core.pipeline import RESULT_LABELS
+from mimucap.core.pipeline.settings import RESULT_LABELS
 from mimucap.core.skeleton import SkeletonModel
 from mimucap.io.library import parse_utc, recorded_utc
 from mimucap.session.recorded.calibration_choice import AppliedCalibrations, body_created_utc
 
 #: How each body calibration method is named.
 METHOD_NAMES = {"npose_tpose": "N-pose/T-pose", "heading": "heading from a sensor axis",
-                "xsens-mvn": "Xsens MVN calibration"}
+                "functional": "functional (standing still, then walking)", "xsens-mvn": "Xsens MVN calibration"}
 #: What a result without a body calibration cannot give.
 WITHOUT_BODY_CALIBRATION = ("none: the segments follow the sensors' own axes, so joint angles, range of motion "
                             "and spatial gait parameters mean nothing")
@@ -131,7 +131,7 @@ def _body(calibrations: AppliedCalibrations) -> str:
 def provenance(*, source_file: str, result: str, calibrations: AppliedCalibrations, model: SkeletonModel,
                height_m: float | None, metadata: Mapping | None = None) -> Provenance:
     """The record of a result (module doc): ``source_file`` the input's name, ``result`` one of
-    :data:`~mimucap.core.pipeline.RESULTS` (or a sentence for an input that is no recording),
+    :data:`~mimucap.core.pipeline.settings.RESULTS` (or a sentence for an input that is no recording),
     the ``calibrations`` applied, the skeleton ``model`` and height (m; None where no figure is
     drawn), the session's ``metadata`` (its recording time and the version that recorded it;
     None for an input that is no MimuCap session)."""

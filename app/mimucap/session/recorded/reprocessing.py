@@ -8,8 +8,9 @@ chooses. Review, export, the analysis and the command line all go through :func:
 
 from __future__ import annotations
 
-from mimucap.core import phases, skeleton
-from mimucap.core.pipeline import RESULT_REPROCESSED, PipelineOutput, check_result, process_recording
+from mimucap.core import phase_markers, skeleton
+from mimucap.core.pipeline.recording import PipelineOutput, process_recording
+from mimucap.core.pipeline.settings import RESULT_REPROCESSED, check_result
 from mimucap.io.session import Session
 from mimucap.session.recorded.calibration_choice import AppliedCalibrations, applied_calibrations
 from mimucap.session.recorded.stored_processing import (
@@ -45,6 +46,6 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
 
 def off_body_windows(session: Session) -> list[tuple[float, float]]:
     """The time windows (s) its markers name as a magnetometer calibration phase
-    (:func:`mimucap.core.phases.off_body_windows`)."""
+    (:func:`mimucap.core.phase_markers.off_body_windows`)."""
     end = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s.t_s)), default=0.0)
-    return phases.off_body_windows(session.markers, end + 1.0)
+    return phase_markers.off_body_windows(session.markers, end + 1.0)

@@ -4,15 +4,15 @@
 :func:`mimucap.session.live.recorder.open_session`) and runs it, once, through the one processing
 path (:func:`mimucap.session.recorded.reprocessing.process_session`) with the calibrations the recording
 stores, or a body calibration file given in place of its own
-(:func:`mimucap.session.recorded.calibration_choice.applied_calibrations`, the choice every consumer makes). Two results exist: *as seen live* (:data:`~mimucap.core.pipeline.RESULT_LIVE`, the
+(:func:`mimucap.session.recorded.calibration_choice.applied_calibrations`, the choice every consumer makes). Two results exist: *as seen live* (:data:`~mimucap.core.pipeline.settings.RESULT_LIVE`, the
 forward filter continuing from the state the live view had, which reproduces what was shown)
-and *reprocessed* (:data:`~mimucap.core.pipeline.RESULT_REPROCESSED`, smoothed with past and
+and *reprocessed* (:data:`~mimucap.core.pipeline.settings.RESULT_REPROCESSED`, smoothed with past and
 future data; the default). The review holds:
 
 * segment orientations ``q_world_from_segment`` (T, 4) (world ENU, scalar first) on the pose
   instants ``t_s`` (T,) (seconds since the recording started);
 * joint angles (deg) of every joint, :func:`mimucap.core.skeleton.joint_angles_deg`, and
-  where each may be wrong (:mod:`mimucap.core.doubt`).
+  where each may be wrong (:mod:`mimucap.core.pipeline.doubt_reasons`).
 
 A simulated recording's ground truth is kept beside them (``truth``) for the on-screen
 comparison only; it never replaces the estimate.
@@ -30,10 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from mimucap.core import bodycal, doubt, rotation, skeleton
+from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.clinical_names import joint_name
-from mimucap.core.locomotion import root_positions
-from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
+from mimucap.core.pipeline import doubt_reasons
+from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
+from mimucap.core.pipeline.settings import RESULT_LABELS, RESULT_REPROCESSED
+from mimucap.core.root_position import root_positions
 from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.recorded.calibration_choice import AppliedCalibrations, applied_calibrations
 from mimucap.session.angle_accuracy import angle_errors
@@ -57,8 +59,8 @@ SPEEDS = (0.25, 0.5, 1.0, 2.0, 4.0)
 class ReviewData:
     """Everything the review shows, computed once (see the module doc).
 
-    ``result`` is :data:`~mimucap.core.pipeline.RESULT_LIVE` or
-    :data:`~mimucap.core.pipeline.RESULT_REPROCESSED`; ``missing`` says what an older recording
+    ``result`` is :data:`~mimucap.core.pipeline.settings.RESULT_LIVE` or
+    :data:`~mimucap.core.pipeline.settings.RESULT_REPROCESSED`; ``missing`` says what an older recording
     does not store; ``truth`` is the simulator's ground truth (evaluation only) or None.
     """
 
@@ -68,7 +70,7 @@ class ReviewData:
     height_m: float
     t_s: np.ndarray                                  #: (T,) pose times, s
     q_world_from_segment: dict[str, np.ndarray]      #: segment → (T, 4)
-    root_position_m: np.ndarray | None               #: (T, 3) world, from the feet's contact (core.locomotion)
+    root_position_m: np.ndarray | None               #: (T, 3) world, from the feet's contact (core.root_position)
     angles_deg: dict[str, np.ndarray]                #: column → (T,)
     pose_source: str
     heading_ref_rad: float | None
@@ -76,7 +78,7 @@ class ReviewData:
     result: str = RESULT_REPROCESSED
     calibrations: AppliedCalibrations = field(default_factory=AppliedCalibrations)
     missing: list[str] = field(default_factory=list)
-    #: joint → (T,) the reasons its angles may be wrong (``uint16`` bits of :mod:`mimucap.core.doubt`)
+    #: joint → (T,) the reasons its angles may be wrong (``uint16`` bits of :mod:`mimucap.core.pipeline.doubt_reasons`)
     joint_doubt: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
@@ -352,14 +354,14 @@ class ReviewPlayer:
 
     def doubt_spans(self, joint: str, window_s: float) -> list[tuple[float, float]]:
         """The spans ``(start_s, end_s)`` in the window ending at the play head where
-        ``joint``'s angles are doubtful (:mod:`mimucap.core.doubt`): the plots shade them."""
+        ``joint``'s angles are doubtful (:mod:`mimucap.core.pipeline.doubt_reasons`): the plots shade them."""
         return [(max(a, self._cursor - window_s), min(b, self._cursor))
                 for a, b, _r in self._spans(joint) if b >= self._cursor - window_s and a <= self._cursor]
 
     def _spans(self, joint: str) -> list[tuple[float, float, int]]:
         if joint not in self._doubt_spans:
             reasons = self.data.joint_doubt.get(joint)
-            self._doubt_spans[joint] = [] if reasons is None else doubt.spans(self.data.t_s, reasons, join_s=0.0)
+            self._doubt_spans[joint] = [] if reasons is None else doubt_reasons.spans(self.data.t_s, reasons, join_s=0.0)
         return self._doubt_spans[joint]
 
     def doubtful_spans(self) -> list[tuple[float, float]]:
@@ -368,7 +370,7 @@ class ReviewPlayer:
         if not self.data.joint_doubt or not len(self.data.t_s):
             return []
         any_joint = np.logical_or.reduce([np.asarray(r) != 0 for r in self.data.joint_doubt.values()])
-        return [(a, b) for a, b, _r in doubt.spans(self.data.t_s, any_joint.astype(np.uint16), join_s=0.0)]
+        return [(a, b) for a, b, _r in doubt_reasons.spans(self.data.t_s, any_joint.astype(np.uint16), join_s=0.0)]
 
     def doubt_here(self) -> str:
         """Which joints' angles are doubtful at the play head, and why, in words ("" when none)."""
@@ -379,4 +381,4 @@ class ReviewPlayer:
         for joint, reasons in self.data.joint_doubt.items():
             if reasons[i]:
                 by_reason.setdefault(int(reasons[i]), []).append(joint_name(joint))
-        return "; ".join(f"{', '.join(joints)}: {doubt.describe(bits)}" for bits, joints in by_reason.items())
+        return "; ".join(f"{', '.join(joints)}: {doubt_reasons.describe(bits)}" for bits, joints in by_reason.items())

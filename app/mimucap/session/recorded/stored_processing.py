@@ -1,6 +1,6 @@
 """What a recording stores of its processing, and how it is read back (no Qt).
 
-A recording stores everything :func:`mimucap.core.pipeline.process_recording` needs to
+A recording stores everything :func:`mimucap.core.pipeline.recording.process_recording` needs to
 recompute it: the raw samples (the session file's sensor streams), the magnetometer
 calibrations applied (``calibrations["magnetometer"]``, sensor id → the calibration's JSON),
 the body calibration (``calibrations["body"]``), the filter settings, the live filter's state
@@ -20,12 +20,11 @@ from typing import Any
 from mimucap import __version__
 from mimucap.core import bodycal, skeleton
 from mimucap.core.fusion import FusionState
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.pipeline import PipelineSettings, state_from_dict
-from mimucap.io.calibration_store import SESSION_KEY, calibration_from_json, calibration_to_json
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.pipeline.settings import PipelineSettings, state_from_dict
+from mimucap.io.calibration_store import body_calibration_of, magnetometer_calibrations_of, session_calibrations
 from mimucap.io.session import Session
 
-BODY_KEY = "body"
 PIPELINE_KEY = "pipeline"
 
 
@@ -34,13 +33,8 @@ def recording_record(*, mag_calibrations: Mapping[str, MagCalibration],
                      filter_states: Mapping[str, Any], time_offset_s: float) -> dict[str, Any]:
     """The metadata entries a recording carries so that it can be recomputed (see the module
     docstring): ``{"calibrations": {...}, "pipeline": {...}, "mimucap_version": ...}``."""
-    calibrations: dict[str, Any] = {}
-    if mag_calibrations:
-        calibrations[SESSION_KEY] = {sid: calibration_to_json(cal) for sid, cal in mag_calibrations.items()}
-    if body_calibration is not None:
-        calibrations[BODY_KEY] = body_calibration.to_dict()
     return {
-        "calibrations": calibrations,
+        "calibrations": session_calibrations(mag_calibrations, body_calibration),
         PIPELINE_KEY: {"settings": settings.to_dict(), "live_filter_states": dict(filter_states),
                        "live_time_offset_s": float(time_offset_s)},
         "mimucap_version": __version__,
@@ -72,18 +66,13 @@ def recorded_processing(session: Session, origin: str = "the session") -> Record
     what it lacks."""
     meta = session.metadata
     found = RecordedProcessing(sensor_segments={sid: s.segment for sid, s in session.sensors.items() if s.segment})
-    section = session.calibrations.get(SESSION_KEY) or {}
-    for sensor_id, data in section.items():
-        found.mag_calibrations[sensor_id] = calibration_from_json(
-            data, f"{origin}: magnetometer calibration of {sensor_id}", sensor_id)
+    found.mag_calibrations = magnetometer_calibrations_of(session.calibrations, origin)
     names_only = meta.get("mag_calibrated_sensors") or []
     lost = [sid for sid in names_only if sid not in found.mag_calibrations]
     if lost:
         found.missing.append(f"the magnetometer calibrations applied live ({', '.join(lost)}) are not stored "
                              "(an older recording): their raw magnetometer samples are used")
-    body = session.calibrations.get(BODY_KEY) or meta.get("body_calibration")
-    if body:
-        found.body_calibration = bodycal.BodyCalibration.from_dict(body, origin=f"{origin}: body calibration")
+    found.body_calibration = body_calibration_of(session.calibrations, meta, origin)
     pipeline = meta.get(PIPELINE_KEY)
     if isinstance(pipeline, Mapping):
         found.settings = PipelineSettings.from_dict(pipeline.get("settings"), f"{origin}: pipeline settings")

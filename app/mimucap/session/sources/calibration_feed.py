@@ -5,9 +5,9 @@ asks for. A feed has:
 
 * ``sensor_ids`` (tuple of str), ``time_s`` (s, time of the newest sample delivered);
 * ``read() -> dict[str, SensorSamples]``: the samples that arrived since the last call
-  (:class:`mimucap.core.samples.SensorSamples`, ``t_s`` in session seconds, raw magnetometer),
+  (:class:`mimucap.core.sensor_samples.SensorSamples`, ``t_s`` in session seconds, raw magnetometer),
   with ``q_world_from_sensor`` the orientation the live session's processing path gave them
-  and, in ``extra[DOUBT_EXTRA]`` (N,), the reasons it may be wrong (:mod:`mimucap.core.doubt`);
+  and, in ``extra[DOUBT_EXTRA]`` (N,), the reasons it may be wrong (:mod:`mimucap.core.pipeline.doubt_reasons`);
 * ``static_orientation(sensor_id, acc, mag_raw_uT)``: ``q_world_from_sensor`` (4,) of a still
   window from its mean specific force and magnetic field, the field corrected as the
   pipeline corrects it (:func:`mimucap.core.bodycal.static_alignment`), or None for a sensor
@@ -47,14 +47,14 @@ import numpy as np
 
 from mimucap.core import skeleton
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.magcal import MagCalibration
-from mimucap.core.samples import SensorSamples, concatenate_samples
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.sensor_samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.session.events import EmitterGroup
 from mimucap.session.procedures.instructions import Instruction
 
 #: The per-sample extra of a calibration feed's samples that holds the reasons their
-#: orientation may be wrong (``uint16`` bits of :mod:`mimucap.core.doubt`).
+#: orientation may be wrong (``uint16`` bits of :mod:`mimucap.core.pipeline.doubt_reasons`).
 DOUBT_EXTRA = "doubt"
 
 

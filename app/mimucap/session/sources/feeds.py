@@ -1,6 +1,6 @@
 """Where live sample blocks come from: the simulated suit in process, or acquisition workers.
 
-A feed hands out lists of :class:`~mimucap.core.samples.SensorSamples` on the host's
+A feed hands out lists of :class:`~mimucap.core.sensor_samples.SensorSamples` on the host's
 monotonic clock (``time.monotonic()``, s) and per-sensor statistics. Both feeds give the
 same blocks, so the rest of the live pipeline (fusion, calibration, recording) does not care
 which one runs:
@@ -23,10 +23,11 @@ from typing import Protocol
 import numpy as np
 
 from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_FAILED
+from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.supervisor import Supervisor
 from mimucap.core.device_identity import SensorDevice
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.core.simulate.truth import SuitTruth
@@ -63,6 +64,10 @@ class LiveSource(Protocol):
 
     def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
         """Refused inputs that belong to no known sensor: (reason → count, sender → count)."""
+
+    def unpaired(self) -> dict[str, UnpairedSensor]:
+        """Sensor id → a sensor refused because its device is not paired
+        (:mod:`mimucap.acquisition.pairing`)."""
 
     def follow(self, instruction: Instruction) -> None:
         """A calibration procedure's instruction (the simulated subject does it)."""
@@ -180,6 +185,10 @@ class SimulatorFeed:
         """Nothing is refused by the simulated suit (see :meth:`SupervisorFeed.refused_without_sensor`)."""
         return {}, {}
 
+    def unpaired(self) -> dict[str, UnpairedSensor]:
+        """The simulated suit needs no pairing (see :meth:`SupervisorFeed.unpaired`)."""
+        return {}
+
     def signal_dbm(self) -> dict[str, float]:
         """The simulated suit has no radio link (see :meth:`SupervisorFeed.signal_dbm`)."""
         return {}
@@ -209,6 +218,8 @@ def simulated_subject_follows(simulator: SuitSimulator, instruction: Instruction
         activity = {"single_axis": "mag_single_axis", "figure8": "mag_figure8", "free": "mag_tumble"}[instruction.protocol]
         simulator.set_activity(activity, sensor_ids=list(instruction.sensor_ids),
                                turns=instructions.PROTOCOL_TURNS[instruction.protocol])
+    elif kind == instructions.WALK:
+        simulator.set_activity("walk")
     elif kind in (instructions.PREPARE_TEST, instructions.PERFORM_TEST):
         from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS
 
@@ -274,6 +285,13 @@ class SupervisorFeed:
         out: dict[str, SensorDevice] = {}
         for status in self.supervisor.sources().values():
             out.update(status.devices)
+        return out
+
+    def unpaired(self) -> dict[str, UnpairedSensor]:
+        """Sensor id → a sensor the sources refused because its device is not paired."""
+        out: dict[str, UnpairedSensor] = {}
+        for status in self.supervisor.sources().values():
+            out.update(status.unpaired)
         return out
 
     def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:

@@ -33,9 +33,9 @@ from mimucap.acquisition.slimevr import SlimeVrSourceConfig
 from mimucap.acquisition.udp import UdpSourceConfig
 from mimucap.acquisition.worker import SourceConfig
 from mimucap.core.device_identity import SensorDevice, xsens_device_id
-from mimucap.core.samples import SensorSamples
+from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.input_names import SESSION_SUFFIXES
-from mimucap.io.quaternion_tables import read_xsens_file
+from mimucap.io.xsens_text import read_xsens_file
 from mimucap.io.session import read_session
 
 
@@ -48,6 +48,9 @@ class SourceOptions:
     sensor_count: int | None = None                  #: simulated suit size (default: the model's)
     rate_hz: float | None = None                     #: simulated rate (default: simulator's)
     seed: int = 0                                    #: simulated suit seed
+    #: device ids of the paired suit, checked by the network sources (UDP, SlimeVR; a UDP source
+    #: given ``allowed_addresses`` is a fixed set-up and checks none); ``None`` checks nothing
+    paired_devices: frozenset[str] | None = None
 
 
 @dataclass
@@ -138,8 +141,10 @@ def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOption
         spec = parse_source_spec(spec)
     intake = IntakeSettings(sensor_ids=options.sensor_ids)
     if isinstance(spec, UdpSpec):
+        paired = None if options.allowed_addresses is not None else options.paired_devices
         return [UdpSourceConfig(name=name or "udp", bind_address=spec.bind_address, port=spec.port,
-                                allowed_addresses=options.allowed_addresses, intake=intake)]
+                                allowed_addresses=options.allowed_addresses,
+                                intake=IntakeSettings(sensor_ids=options.sensor_ids, paired_devices=paired))]
     if isinstance(spec, SerialSpec):
         return [SerialSourceConfig(name=name or "serial", device=spec.device, baud=spec.baud,
                                    intake=intake)]
@@ -147,7 +152,8 @@ def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOption
         return [load_replay(spec.path).config(name or "replay", spec.speed)]
     if isinstance(spec, SlimeVrSpec):
         # SlimeVR trackers name their sensors by MAC (see acquisition.slimevr); wire ids do not apply
-        return [SlimeVrSourceConfig(name=name or "slimevr", bind_address=spec.bind_address, port=spec.port)]
+        return [SlimeVrSourceConfig(name=name or "slimevr", bind_address=spec.bind_address, port=spec.port,
+                                    paired_devices=options.paired_devices)]
     if isinstance(spec, SimulatedSpec):
         return [SimulatedSourceConfig(name=name or "simulated", scenario=spec.scenario, room=spec.room,
                                       n_sensors=options.sensor_count, rate_hz=options.rate_hz,

@@ -3,7 +3,7 @@ the joint-angle history (no Qt).
 
 :class:`LivePose` takes each pose the pipeline makes (:meth:`LivePose.take`: session time ``t_s``
 and ``q_world_from_segment``, world ENU, scalar first, one per segment of the skeleton model),
-follows where the figure stands on the floor (:class:`~mimucap.core.locomotion.RootTracker`, from
+follows where the figure stands on the floor (:class:`~mimucap.core.root_position.RootTracker`, from
 its feet's contact), builds the figure's :class:`~mimucap.session.views.skeleton_figure.FigureGeometry` when
 asked (:meth:`LivePose.frame`, once per pose and display mode) and keeps the joint angles (deg)
 of the last :data:`~mimucap.session.live.plot_history.MAX_WINDOW_S` seconds, computed in one vectorised
@@ -24,7 +24,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from mimucap.core import rotation, skeleton
-from mimucap.core.locomotion import RootTracker
+from mimucap.core.root_position import RootTracker
 from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry
 from mimucap.session.live.ring_buffer import RingBuffer
 

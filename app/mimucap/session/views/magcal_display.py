@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from mimucap.core.magcal_fit import EllipsoidFit
+from mimucap.core.magcal.fit import EllipsoidFit
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,141 @@
+"""The processing path fed block by block as samples arrive: the live form (no I/O, no Qt).
+
+:class:`LivePipeline` keeps one chain per sensor (:mod:`.chain`) and each sensor's recent
+orientations (:class:`~mimucap.core.pipeline.instants.LiveTrack`); a pose is formed at the
+newest instant every assigned sensor has delivered for (:func:`~mimucap.core.pipeline.instants.newest_instant`)
+and turned into segment orientations by the same stage as a recording's
+(:class:`~mimucap.core.pipeline.segments.SegmentStage`). Fed the same samples from the same
+filter states, it gives the numbers of :func:`~mimucap.core.pipeline.recording.process_recording`
+with :data:`~mimucap.core.pipeline.settings.RESULT_LIVE`: a recording's *as seen live* result
+reproduces the screen.
+
+Times ``t_s`` are float64 seconds on the pipeline's clock (the session's).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from mimucap.core import bodycal, skeleton
+from mimucap.core.magcal.model import MagCalibration
+from mimucap.core.pipeline.chain import SensorChain, SensorOrientations, update_chains
+from mimucap.core.pipeline.instants import (
+    LiveTrack, instants_after, live_sensors_at, newest_instant, sensors_at_instants,
+)
+from mimucap.core.pipeline.segments import JointCoupling, SegmentStage
+from mimucap.core.pipeline.settings import DEFAULT_PIPELINE_SETTINGS, PipelineSettings
+from mimucap.core.sensor_samples import SensorSamples
+
+
+class LivePipeline:
+    """The processing path fed block by block (see the module docstring).
+
+    Args:
+        model: the skeleton model the poses are for.
+        settings: the filter settings.
+        coupling: the joint coupling of the segment stage
+            (:class:`~mimucap.core.pipeline.segments.JointCoupling`), or None.
+    """
+
+    def __init__(self, model: skeleton.SkeletonModel, settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS,
+                 coupling: JointCoupling | None = None) -> None:
+        self.model = model
+        self.settings = settings
+        self.coupling = coupling
+        self.chains: dict[str, SensorChain] = {}
+        self.mag_calibrations: dict[str, MagCalibration] = {}
+        #: sensor → the filter flags of its newest sample
+        self.flags: dict[str, int] = {}
+        #: sensor → the reasons its newest orientation may be wrong (:mod:`.doubt_reasons`)
+        self.doubts: dict[str, int] = {}
+        self._tracks: dict[str, LiveTrack] = {}
+        self._last_pose_t = -np.inf
+
+    def chain(self, sensor_id: str) -> SensorChain:
+        """``sensor_id``'s chain (made at its first samples, with its magnetometer calibration)."""
+        chain = self.chains.get(sensor_id)
+        if chain is None:
+            chain = self.chains[sensor_id] = SensorChain(sensor_id, self.mag_calibrations.get(sensor_id), self.settings)
+        return chain
+
+    def set_mag_calibration(self, calibration: MagCalibration) -> None:
+        """Use ``calibration`` for its sensor from now on (its filter learns the heading anew:
+        :meth:`~mimucap.core.pipeline.chain.SensorChain.set_mag_calibration`)."""
+        self.mag_calibrations[calibration.sensor_id] = calibration
+        self.chain(calibration.sensor_id).set_mag_calibration(calibration)
+
+    def clear_mag_calibration(self, sensor_id: str) -> None:
+        """Use ``sensor_id``'s raw magnetometer from now on (its calibration was for another
+        device); its filter learns the heading anew."""
+        self.mag_calibrations.pop(sensor_id, None)
+        if sensor_id in self.chains:
+            self.chains[sensor_id].set_mag_calibration(None)
+
+    def filter_states(self) -> dict[str, dict[str, list]]:
+        """Sensor → its filter state now (JSON-ready), for the sensors whose filter runs."""
+        return {sid: snap for sid, chain in self.chains.items() if (snap := chain.state_snapshot()) is not None}
+
+    def feed(self, blocks: Sequence[SensorSamples]) -> list[SensorOrientations]:
+        """Calibrate and fuse new samples (``t_s`` on the pipeline's clock, raw ``mag_uT``; a
+        ``q_world_from_sensor`` is the device's own orientation and is taken as it is): each
+        through its sensor's chain (:func:`~mimucap.core.pipeline.chain.update_chains`). Returns
+        their orientations in the blocks' order (a block with neither an orientation nor a
+        gyroscope gives none)."""
+        done = [out for out in update_chains([self.chain(block.sensor_id) for block in blocks], blocks)
+                if out is not None]
+        for item in done:
+            track = self._tracks.get(item.sensor_id)
+            if track is None:
+                track = self._tracks[item.sensor_id] = LiveTrack()
+            track.add(item.t_s, item.q_world_from_sensor, item.flags, item.heading_std_rad,
+                      item.q_world_from_sensor_no_mag)
+            if len(item.flags):
+                self.flags[item.sensor_id] = int(item.flags[-1])
+                self.doubts[item.sensor_id] = int(item.doubt[-1])
+        return done
+
+    def latest_orientations(self) -> dict[str, np.ndarray]:
+        """Sensor → its newest ``q_world_from_sensor`` (4,) (sensors with one only)."""
+        return {sid: track.q[-1] for sid, track in self._tracks.items() if len(track.t)}
+
+    def pose(self, body_calibration: bodycal.BodyCalibration | None,
+             sensor_segments: Mapping[str, str]) -> tuple[float, dict[str, np.ndarray]] | None:
+        """The newest pose every assigned sensor has delivered for: ``(t_s, segment → (4,))``,
+        or ``None`` when no new one is ready. Its instant is a sample time of the reference
+        sensor that no assigned, non-silent sensor lags behind
+        (:data:`~mimucap.core.pipeline.instants.HOLD_BACK_LIMIT_S`), so that every segment comes
+        from samples of the same instant (as
+        :func:`~mimucap.core.pipeline.recording.process_recording` forms it)."""
+        stage = SegmentStage(self.model, body_calibration, sensor_segments, self.coupling)
+        t_pose = newest_instant(self.model, stage.segment_of_sensor, self._tracks, self._last_pose_t)
+        if t_pose is None:
+            return None
+        tracks = {sid: self._tracks[sid] for sid in stage.segment_of_sensor
+                  if sid in self._tracks and len(self._tracks[sid].t)}
+        q_segments = stage.segments(live_sensors_at(t_pose, tracks))
+        if q_segments is None:
+            return None
+        self._last_pose_t = t_pose
+        return t_pose, q_segments
+
+    def poses_after(self, t_after_s: float, body_calibration: bodycal.BodyCalibration | None,
+                    sensor_segments: Mapping[str, str]) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+        """Every pose the pipeline can form at an instant later than ``t_after_s`` (s), in one
+        batch: ``(t_s (P,), segment → q_world_from_segment (P, 4))``, or ``None`` when there is
+        none (:func:`~mimucap.core.pipeline.instants.instants_after`): what :meth:`pose`, which
+        keeps only the newest, skips between two calls, with the same orientations. Independent
+        of :meth:`pose`'s own progress."""
+        stage = SegmentStage(self.model, body_calibration, sensor_segments, self.coupling)
+        t_pose = instants_after(self.model, stage.segment_of_sensor, self._tracks, t_after_s)
+        if not len(t_pose):
+            return None
+        tracks = {sid: self._tracks[sid].as_sensor_track() for sid in stage.segment_of_sensor
+                  if sid in self._tracks and len(self._tracks[sid].t)}
+        q_segments = stage.segments(sensors_at_instants(t_pose, tracks))
+        return None if q_segments is None else (t_pose, q_segments)
+
+    def forget_poses(self) -> None:
+        """Allow the next pose to be any instant again (after a calibration changed)."""
+        self._last_pose_t = -np.inf
