@@ -123,7 +123,7 @@ class LiveCalibrations:
 
     def apply_magnetometer(self, calibration: MagCalibration, save: bool = True) -> None:
         """Use ``calibration`` for its sensor from now on (its filter learns the heading anew,
-        :meth:`mimucap.core.pipeline.SensorChain.set_mag_calibration`) and keep it in the
+        :meth:`mimucap.core.pipeline.chain.SensorChain.set_mag_calibration`) and keep it in the
         store (``save``) for the next start. ``ValueError`` while locked, or when it was made
         on another device than the sensor's."""
         self._refuse_while_locked("changing a magnetometer calibration")

@@ -1,7 +1,7 @@
 """The live session's processing part: each sensor's new samples through the one processing path,
 and the pose they make (no Qt).
 
-:class:`LiveProcessing` holds the :class:`~mimucap.core.pipeline.LivePipeline` of the live view:
+:class:`LiveProcessing` holds the :class:`~mimucap.core.pipeline.live.LivePipeline` of the live view:
 magnetometer calibration, orientation filter (``q_world_from_sensor``, world ENU, scalar first;
 the device's own when it fuses on board) and the pose of the assigned segments at one instant,
 through the body calibration when one is applied (until then each assigned sensor's axes stand
@@ -91,8 +91,8 @@ class LiveProcessing:
     # -- the pose --------------------------------------------------------------------------
     @property
     def pose_source(self) -> str:
-        """What drives the figure: :data:`~mimucap.core.pipeline.POSE_BODY_CALIBRATION`,
-        :data:`~mimucap.core.pipeline.POSE_SENSOR_AXES`, :data:`POSE_UNASSIGNED` or :data:`POSE_NONE`."""
+        """What drives the figure: :data:`~mimucap.core.pipeline.recording.POSE_BODY_CALIBRATION`,
+        :data:`~mimucap.core.pipeline.recording.POSE_SENSOR_AXES`, :data:`POSE_UNASSIGNED` or :data:`POSE_NONE`."""
         return self._pose_source
 
     def pose(self, body_calibration: bodycal.BodyCalibration | None, sensor_segments: Mapping[str, str],
@@ -177,7 +177,7 @@ class LiveProcessing:
         return self.pipeline.flags.get(sensor_id, 0)
 
     def doubt_bits(self, sensor_id: str) -> int:
-        """Why ``sensor_id``'s newest orientation may be wrong (:mod:`mimucap.core.doubt` bits; 0: trustworthy)."""
+        """Why ``sensor_id``'s newest orientation may be wrong (:mod:`mimucap.core.pipeline.sensor_doubt` bits; 0: trustworthy)."""
         return self.pipeline.doubts.get(sensor_id, 0)
 
     def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None:
