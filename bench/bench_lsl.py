@@ -95,7 +95,7 @@ def window_pump(seconds: float) -> dict[str, list[float]]:
     from mimucap.session.streaming.lsl_streamer import LslStreamer
 
     session = open_live_session("simulated", calibration_store=CalibrationStore(Path(tempfile.mkdtemp())))
-    session.label = "simulated:bench-window"
+    session.sensors.label = "simulated:bench-window"
     streamer = LslStreamer(session)
     session.start()
     try:
