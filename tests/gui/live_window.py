@@ -75,6 +75,6 @@ def calibrate(window, qtbot) -> None:
     assert live.body_calibration is not None
     qtbot.waitUntil(lambda: live.pose_source == "body calibration", timeout=5000)
     # Now there is a calibration to judge: the on-screen check against the simulator's truth.
-    qtbot.waitUntil(lambda: "vs. truth" in window.pose_status.text(), timeout=10000)
+    qtbot.waitUntil(lambda: "vs. truth" in window.live_status.pose_status.text(), timeout=10000)
     # The wizard is closed: the simulated subject walks on.
     qtbot.waitUntil(lambda: live.simulator.current_activity().startswith("walk"), timeout=10000)

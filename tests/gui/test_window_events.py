@@ -8,6 +8,7 @@ import math
 
 import pytest
 
+from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION
 from mimucap.gui.live_status_bar import VIEW_HINTS
 from mimucap.gui.main_window import MainWindow
 from mimucap.session.live.processing import POSE_NONE, POSE_UNASSIGNED
@@ -65,8 +66,12 @@ def test_the_hint_pose_status_checklist_and_truth_action_follow_their_events(idl
     events.pose_source.emit(POSE_NONE)
     events.source_problem.emit("cannot open /dev/ttyUSB0")
     assert "cannot open /dev/ttyUSB0" in window.scene_view.hint
+    events.truth_errors.emit({"knee_r_flexion_deg": 1.5})   # nothing to judge without a body calibration
+    assert window.live_status.pose_status.text() == f"Pose: {POSE_NONE}"
+    events.pose_source.emit(POSE_BODY_CALIBRATION)
     events.truth_errors.emit({"knee_r_flexion_deg": 1.5})
-    assert window.live_status.pose_status.text().startswith(f"Pose: {POSE_NONE}") and "truth" in window.live_status.pose_status.text()
+    text = window.live_status.pose_status.text()
+    assert text.startswith(f"Pose: {POSE_BODY_CALIBRATION}") and "truth" in text
     window.action_truth.setEnabled(False)
     events.truth_available.emit(True)
     assert window.action_truth.isEnabled()
