@@ -3,8 +3,8 @@
 Each run is a whole guided session on the simulated suit with its default sensor errors (noise,
 gyro bias, hard and soft iron): the magnetometer turns, the N/T-pose body calibration, then the
 scenario's movement, recorded. The recording is processed *as seen live* and *reprocessed*
-(:func:`mimucap.session.review.load_review`), and every joint angle is compared with the
-simulator's truth (:mod:`mimucap.session.evaluation`). Scenarios: walk, squat, demo, each
+(:func:`mimucap.session.recorded.review.load_review`), and every joint angle is compared with the
+simulator's truth (:mod:`mimucap.session.angle_accuracy`). Scenarios: walk, squat, demo, each
 without and with a magnetic disturbance episode (a 40 µT local field near the subject for 6 s).
 
 Run: ``.venv/bin/python bench/bench_accuracy.py [--seconds 30] [--scenarios walk,squat,demo] [--seed 3]``.
@@ -30,11 +30,11 @@ from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.magnetic_field import MagneticDisturbance
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.evaluation import FLEXION_COLUMNS, angle_errors
-from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.guided_session import SteppedClock, run_guided_session
-from mimucap.session.live import LiveSession
-from mimucap.session.review import load_review
+from mimucap.session.angle_accuracy import FLEXION_COLUMNS, angle_errors
+from mimucap.session.sources.feeds import SimulatorFeed
+from mimucap.session.procedures.guided_session import SteppedClock, run_guided_session
+from mimucap.session.live.live_session import LiveSession
+from mimucap.session.recorded.review import load_review
 
 #: The disturbance episode: a local field (world, µT) from this many seconds into the recording.
 DISTURBANCE_FIELD_UT = (40.0, -25.0, 10.0)

@@ -1,7 +1,7 @@
 """Total guided calibration time of a simulated ten-sensor suit, in simulated user time.
 
-Runs the same procedures the wizards drive (:mod:`mimucap.session.magcal_procedure`,
-:mod:`mimucap.session.bodycal_procedure`) on the simulated suit, faster than real time:
+Runs the same procedures the wizards drive (:mod:`mimucap.session.procedures.magnetometer`,
+:mod:`mimucap.session.procedures.body`) on the simulated suit, faster than real time:
 magnetometers in bundles held together (single-axis protocol), then the N-pose/T-pose body
 calibration with the orientation filter using the new magnetometer calibrations. Prints one
 row per stage (user seconds, verdicts, errors against the simulator's truth) and the total,
@@ -21,9 +21,9 @@ from mimucap.core import rotation as rot
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.bodycal_procedure import BodycalProcedure
-from mimucap.session.calibration_feed import SimulatedSuitFeed
-from mimucap.session.magcal_procedure import MagcalProcedure
+from mimucap.session.procedures.body import BodycalProcedure
+from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
+from mimucap.session.procedures.magnetometer import MagcalProcedure
 
 GOAL_S = 180.0
 #: Seconds between the last magnetometer bundle and the body calibration (units strapped on;

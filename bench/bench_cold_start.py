@@ -6,7 +6,7 @@ Two starts of ``MainWindow("simulated:walk")``, each in a fresh interpreter:
 
 * **cold**: numba's cache is an empty temporary folder (``NUMBA_CACHE_DIR``), as after an
   installation: the fusion kernels are compiled before the first sample (in a child
-  process, :mod:`mimucap.session.kernel_preparation`), and then the live session starts;
+  process, :mod:`mimucap.session.live.kernel_preparation`), and then the live session starts;
 * **warm**: the same folder, now holding the compiled kernels.
 
 With ``--installed`` a single start runs with numba's own cache location instead (no

@@ -31,7 +31,7 @@ from mimucap.cli import main
 from mimucap.core import phase_markers
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
-from mimucap.session.evaluation import truth_at
+from mimucap.session.angle_accuracy import truth_at
 
 DISTURBANCE = "30,-20,10,34,90"
 JOINTS = ("knee_l", "knee_r", "hip_l", "hip_r")

@@ -2,7 +2,7 @@
 
 The route of the README: ``mimucap simulate --scenario demo`` → ``magcal fit --save`` (into a
 throwaway calibration store) → ``bodycal --out CAL.json`` → the motion every export writes
-(:func:`mimucap.session.review.load_review` with ``calibration_file=CAL.json``; the tests read
+(:func:`mimucap.session.recorded.review.load_review` with ``calibration_file=CAL.json``; the tests read
 the C3D, BVH and OpenSense files back with other programs and find the same figures). Per
 segment, the heading error is the turn about the world's vertical of the exported segment from
 the true one (the twist of ``q_estimate ⊗ q_true⁻¹`` about ENU z). Printed per seed: the largest
@@ -45,8 +45,8 @@ import numpy as np
 from mimucap.cli import main
 from mimucap.core import phase_markers
 from mimucap.core import rotation as rot
-from mimucap.session.calibrations import AppliedCalibrations
-from mimucap.session.review import build_review, load_review
+from mimucap.session.recorded.calibration_choice import AppliedCalibrations
+from mimucap.session.recorded.review import build_review, load_review
 
 
 def heading_error_deg(q_estimate: np.ndarray, q_true: np.ndarray) -> np.ndarray:

@@ -46,7 +46,7 @@ from mimucap.core import phase_markers
 from mimucap.core import rotation as rot
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session
-from mimucap.session.evaluation import pooled_rms_deg
+from mimucap.session.angle_accuracy import pooled_rms_deg
 
 COLUMNS = tuple(f"{joint}_{side}_{axis}_deg" for joint in ("hip", "knee") for side in ("l", "r")
                 for axis in ("flexion", "adduction", "rotation"))

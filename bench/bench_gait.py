@@ -4,7 +4,7 @@
    optical gait events and heel-marker stride positions; MIT licence, Küderle et al. 2024),
    analysed as ``mimucap gait`` does (each sensor's axes found in its own samples), compared
    with the straight reference strides (optical heading change ≤ 45°), as recorded and as other
-   sensors would have recorded it (:data:`~mimucap.session.analysis_evaluation.GAITMAP_VARIANTS`:
+   sensors would have recorded it (:data:`~mimucap.session.recorded.gait_validation.GAITMAP_VARIANTS`:
    the raw samples resampled to 102.4 and 100 Hz, turned on the foot by 20-45° about the
    mediolateral axis and 10-20° about the vertical, both signs): one table per variant.
 2. The simulated suit (``demo`` scenario with BNO055-like sensors: on-board orientation, body
@@ -38,7 +38,7 @@ import numpy as np
 
 from mimucap.core.analysis.gait import GaitAnalysis
 from mimucap.core.simulate.config import SimulationConfig
-from mimucap.session.analysis_evaluation import (
+from mimucap.session.recorded.gait_validation import (
     GAITMAP_VARIANTS,
     compare,
     gaitmap_variant_analysis,

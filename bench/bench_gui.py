@@ -44,7 +44,7 @@ from vtkmodules.vtkRenderingCore import vtkRenderer
 from bench_acquisition import cpu_seconds  # bench/ is on sys.path when a bench script runs
 from mimucap.gui.main_window import MainWindow
 from mimucap.gui.vtk_widget import VtkWidget
-from mimucap.session.live import open_live_session
+from mimucap.session.live.live_session import open_live_session
 
 WARMUP_S = 2.0
 MEASURE_S = 8.0

@@ -91,11 +91,11 @@ def window_pump(seconds: float) -> dict[str, list[float]]:
     import tempfile
 
     from mimucap.io.calibration_store import CalibrationStore
-    from mimucap.session.live import open_live_session
-    from mimucap.session.lsl import LslStreamer
+    from mimucap.session.live.live_session import open_live_session
+    from mimucap.session.streaming.lsl_streamer import LslStreamer
 
     session = open_live_session("simulated", calibration_store=CalibrationStore(Path(tempfile.mkdtemp())))
-    session.label = "simulated:bench-window"
+    session.sensors.label = "simulated:bench-window"
     streamer = LslStreamer(session)
     session.start()
     try:

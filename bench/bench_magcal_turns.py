@@ -1,10 +1,10 @@
 """Guided magnetometer turns on the simulated suit: which sensors pass, and the turns measured.
 
-Each seed is the magnetometer part of a guided session (:mod:`mimucap.session.guided_session`):
+Each seed is the magnetometer part of a guided session (:mod:`mimucap.session.procedures.guided_session`):
 every unit of a ten-sensor suit held together and turned one full turn about its x, y and z
 axis by the simulated subject, who follows the procedure's instruction, with the default sensor
 errors (gyro bias, noise, hard and soft iron) and the hand's sway. The procedure
-(:class:`mimucap.session.magcal_procedure.MagcalProcedure`) measures the turns from each
+(:class:`mimucap.session.procedures.magnetometer.MagcalProcedure`) measures the turns from each
 sensor's gyroscope and finishes once every axis of every sensor has 330°, or after 120 s.
 
 Prints per seed how many sensors pass, the smallest angle measured over every sensor and axis,
@@ -24,10 +24,10 @@ from pathlib import Path
 
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.calibration_feed import LiveSessionFeed, SteppedClock
-from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.live import LiveSession
-from mimucap.session.magcal_procedure import MagcalProcedure
+from mimucap.session.sources.calibration_feed import LiveSessionFeed, SteppedClock
+from mimucap.session.sources.feeds import SimulatorFeed
+from mimucap.session.live.live_session import LiveSession
+from mimucap.session.procedures.magnetometer import MagcalProcedure
 
 STEP_S = 0.02  # the guided session's clock step
 

@@ -14,7 +14,7 @@ same two segments (:data:`mimucap.io.mvnx.XSENS_JOINTS`), as max |difference| an
 * ``anatomical forearms``: the forearm and hand frames turned to Xsens's (palms forward at zero,
   :func:`mimucap.io.mvnx.anatomical_forearms`): then every joint agrees to rounding.
 * ``through the pipeline``: the file imported as a session (sensor orientations and Xsens's
-  body calibration) and reviewed (:func:`mimucap.session.review.load_review`), anatomical
+  body calibration) and reviewed (:func:`mimucap.session.recorded.review.load_review`), anatomical
   forearms: what is left is MVN's segments not sitting rigidly on their sensors.
 
 Signs: Xsens's X of the arm joints is abduction, ours adduction; the table compares after that
@@ -66,7 +66,7 @@ def main(argv: list[str]) -> int:
     segments = recording.q_world_from_segment()
     table("our frames", ours_per_joint(model, segments), recording)
     table("anatomical forearms", ours_per_joint(model, anatomical_forearms(segments)), recording)
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     with tempfile.TemporaryDirectory() as folder:
         session_path = Path(folder) / "imported.h5"

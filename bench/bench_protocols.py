@@ -26,7 +26,7 @@ from pathlib import Path
 from mimucap.cli import main
 from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS
 from mimucap.io.session import read_session, write_session
-from mimucap.session.clinical_tests import RESULT_KEYS
+from mimucap.session.recorded.clinical_tests import RESULT_KEYS
 
 DURATION_S = {"tug": 62.0, "walk10m": 55.0, "chair_stand": 80.0, "walk2min": 170.0, "walk6min": 410.0}
 GOAL = {"time_s": 0.3, "percent": 3.0}

@@ -27,7 +27,7 @@ import numpy as np
 from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.journal.to_session import session_from_journal
 from mimucap.io.session import write_session
-from mimucap.session.recording import Recorder, RecorderSettings
+from mimucap.session.live.recorder import Recorder, RecorderSettings
 
 RATE_HZ = 100.0
 BLOCK = 5

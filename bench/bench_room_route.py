@@ -30,7 +30,7 @@ from mimucap.cli import main
 from mimucap.core import phase_markers
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
-from mimucap.session.evaluation import pooled_rms_deg
+from mimucap.session.angle_accuracy import pooled_rms_deg
 
 COLUMNS = tuple(f"{joint}_{side}_{axis}_deg" for joint in ("hip", "knee") for side in ("l", "r")
                 for axis in ("flexion", "adduction", "rotation"))

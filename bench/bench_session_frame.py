@@ -3,7 +3,7 @@
 Plain script: ``.venv/bin/python bench/bench_session_frame.py [--seconds S] [--warmup S]
 [--sensors N ...]`` (``--warmup 45`` for the steady state of the latency statistics).
 
-A :class:`~mimucap.session.live.LiveSession` on the in-process simulated suit
+A :class:`~mimucap.session.live.live_session.LiveSession` on the in-process simulated suit
 (``simulated:walk``, 100 Hz; 17 sensors wear the fifteen-segment model, 10 the ten-segment
 one) is driven by a fake monotonic clock in 16 ms ticks, as the GUI's frame clock
 (``mimucap.gui.main_window.PUMP_INTERVAL_MS``) does, so the figures do not depend on the
@@ -32,7 +32,7 @@ import numpy as np
 
 from mimucap.core import skeleton
 from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
-from mimucap.session.live import LiveSession, open_live_session
+from mimucap.session.live.live_session import LiveSession, open_live_session
 
 #: The GUI's frame clock (s): one pipeline step and one 3D frame per tick.
 TICK_S = 0.016

@@ -80,7 +80,7 @@ class _PipelineLive:
         return self.np.array([self.time_s]), self.np.array([[self._angles[c] for c in self.columns[joint]]])
 
     def instruct(self, instruction) -> None:
-        from mimucap.session.feeds import simulated_subject_follows
+        from mimucap.session.sources.feeds import simulated_subject_follows
 
         simulated_subject_follows(self.simulator, instruction)
 
@@ -92,7 +92,7 @@ class _PipelineLive:
 def write_rom_wizard_screenshot(out_dir: Path) -> list[Path]:
     from mimucap.gui.capture import save_window_png
     from mimucap.gui.wizards.rom import RomWizard
-    from mimucap.session.rom_procedure import RomProcedure, RomStep
+    from mimucap.session.procedures.range_of_motion import RomProcedure, RomStep
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
     live = _PipelineLive()
@@ -124,7 +124,7 @@ def write_analysis_screenshots(out_dir: Path) -> list[Path]:
     from mimucap.core.simulate.config import SimulationConfig
     from mimucap.gui.capture import save_window_png
     from mimucap.gui.review_window import ReviewWindow
-    from mimucap.session.analysis_evaluation import simulated_analysis
+    from mimucap.session.recorded.gait_validation import simulated_analysis
 
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
     written = []

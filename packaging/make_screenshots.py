@@ -70,10 +70,10 @@ def _calibrate(app: QtWidgets.QApplication, window, folder: Path) -> None:
     """The magnetometer and body calibrations, as the wizards run them, on the window's live
     session (the simulated subject does what they ask)."""
     from mimucap.io.calibration_store import CalibrationStore
-    from mimucap.session.bodycal_procedure import BodycalProcedure
-    from mimucap.session.calibration_feed import LiveSessionFeed
-    from mimucap.session.instructions import RESUME
-    from mimucap.session.magcal_procedure import MagcalProcedure
+    from mimucap.session.procedures.body import BodycalProcedure
+    from mimucap.session.sources.calibration_feed import LiveSessionFeed
+    from mimucap.session.procedures.instructions import RESUME
+    from mimucap.session.procedures.magnetometer import MagcalProcedure
 
     live = window.live
     feed = LiveSessionFeed(live)
@@ -98,7 +98,7 @@ def _calibrate(app: QtWidgets.QApplication, window, folder: Path) -> None:
 def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -> list[Path]:
     from mimucap.gui.capture import save_window_png
     from mimucap.gui.main_window import MainWindow
-    from mimucap.session.live import open_live_session
+    from mimucap.session.live.live_session import open_live_session
 
     written: list[Path] = []
     clock = _fast_clock()

@@ -28,7 +28,7 @@ from mimucap.gui.capture import grab_window
 from mimucap.gui.wizards.body import BodyCalibrationWizard
 from mimucap.gui.wizards.magnetometer import MagnetometerWizard
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.bodycal_procedure import BodycalProcedureSettings
+from mimucap.session.procedures.body import BodycalProcedureSettings
 
 NOW = dt.datetime(2026, 11, 21, 9, 0, tzinfo=dt.timezone.utc)
 

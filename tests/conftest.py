@@ -93,9 +93,9 @@ def record_calibrated_session(path: Path, scenario: str = "walk", seconds: float
     N-pose), ``seconds`` of it. Its truth is kept for evaluation only."""
     from mimucap.core.simulate.config import SimulationConfig
     from mimucap.io.calibration_store import CalibrationStore
-    from mimucap.session.feeds import SimulatorFeed
-    from mimucap.session.guided_session import SteppedClock, run_guided_session
-    from mimucap.session.live import LiveSession
+    from mimucap.session.sources.feeds import SimulatorFeed
+    from mimucap.session.procedures.guided_session import SteppedClock, run_guided_session
+    from mimucap.session.live.live_session import LiveSession
 
     clock = SteppedClock(10.0)
     config = SimulationConfig(scenario=scenario, seed=seed, n_sensors=n_sensors)

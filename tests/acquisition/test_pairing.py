@@ -14,7 +14,7 @@ from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.pairing import UnpairedSensor, admits
 from mimucap.acquisition.slimevr import SlimeVrDriver, SlimeVrSourceConfig
 from mimucap.core.device_identity import SensorDevice, mac_device_id
-from mimucap.session.sources import SourceOptions, source_configs
+from mimucap.session.sources.source_configs import SourceOptions, source_configs
 from tests.acquisition.test_slimevr_protocol import TRACKER, FakeSocket, handshake, rotation_packet
 
 OURS, THEIRS = bytes.fromhex("02000000000A"), bytes.fromhex("02000000000B")

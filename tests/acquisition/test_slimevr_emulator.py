@@ -21,7 +21,8 @@ import pytest
 
 from mimucap.core.device_identity import mac_device_id
 from mimucap.io.pairing_store import PairingStore
-from mimucap.session.live import STALE_AFTER_S, open_live_session
+from mimucap.session.live.live_session import open_live_session
+from mimucap.session.live.sensor_rows import STALE_AFTER_S
 
 PACKAGE = "@slimevr/tracker-emulation@0.2.6"
 SCRIPT = Path(__file__).with_name("slimevr_trackers.mjs")

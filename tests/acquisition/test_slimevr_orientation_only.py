@@ -20,8 +20,8 @@ from mimucap.core.simulate.sensor_errors import error_model
 from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.live import LiveSession
+from mimucap.session.sources.feeds import SimulatorFeed
+from mimucap.session.live.live_session import LiveSession
 from tests.gui.body_wizard_runs import FakeClock, mounting_errors_deg, run_on_live
 
 pytestmark = pytest.mark.gui
@@ -74,7 +74,7 @@ def test_the_panel_shows_battery_and_signal_and_the_magnetometer_wizard_asks_not
 
 def test_the_body_calibration_works_from_their_quaternions(qtbot):
     live, clock = _live("npose")
-    wizard = BodyCalibrationWizard(None, live, tick_ms=1)
+    wizard = BodyCalibrationWizard(None, live)
     qtbot.addWidget(wizard)
     wizard.show()
     run_on_live(qtbot, wizard, live, clock)
@@ -116,7 +116,7 @@ def test_trackers_that_appear_later_are_worn_where_they_were_last_time(qtbot):
     from mimucap.core.device_identity import mac_device_id
     from mimucap.gui.main_window import MainWindow
     from mimucap.io.pairing_store import PairingStore
-    from mimucap.session.live import POSE_SENSOR_AXES
+    from mimucap.session.live.processing import POSE_SENSOR_AXES
 
     mac = bytes([0x02, 0x4D, 0x43, 0, 0, 9])
     remember_assignment({"024D43000009-0": "pelvis", "024D43000009-1": "thorax"})

@@ -19,7 +19,7 @@ from mimucap.acquisition.rejections import Rejection
 from mimucap.acquisition.slimevr import SlimeVrDriver, SlimeVrSourceConfig
 from mimucap.acquisition.source_spec import SlimeVrSpec, format_source_spec, parse_source_spec
 from mimucap.core import rotation
-from mimucap.session.sources import source_configs
+from mimucap.session.sources.source_configs import source_configs
 
 MAC = bytes([0x02, 0x4D, 0x43, 0x00, 0x00, 0x07])
 TRACKER = ("192.0.2.7", 4242)
@@ -198,7 +198,7 @@ def test_a_refused_tracker_is_named_as_the_sources_problem():
     import socket
     import time
 
-    from mimucap.session.live import open_live_session
+    from mimucap.session.live.live_session import open_live_session
 
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
         probe.bind(("127.0.0.1", 0))

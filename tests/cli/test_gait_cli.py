@@ -71,7 +71,7 @@ def test_gait_csv_with_no_walking_says_so(tmp_path, capsys):
 
 def test_gait_on_a_session_writes_every_table(tmp_path, capsys):
     from mimucap.core.simulate.config import SimulationConfig
-    from mimucap.session.analysis_evaluation import simulated_analysis
+    from mimucap.session.recorded.gait_validation import simulated_analysis
 
     config = SimulationConfig(scenario="demo", duration_s=30.0, n_sensors=10, errors="bno055", seed=8)
     _, analysis = simulated_analysis(config, tmp_path)

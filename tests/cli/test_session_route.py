@@ -14,7 +14,7 @@ from mimucap.cli import main
 from mimucap.core import phase_markers
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
-from mimucap.session.evaluation import angle_errors
+from mimucap.session.angle_accuracy import angle_errors
 
 COLUMNS = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg")
 
@@ -167,10 +167,10 @@ def test_opensense_on_the_route_with_its_calibration_table(route, shared_data, t
 
 def route_reference(recorded):
     """The simulator's strides of the route's steady walking (contacts and stride lengths from
-    the stored truth, :func:`mimucap.session.analysis_evaluation.simulated_reference`)."""
+    the stored truth, :func:`mimucap.session.recorded.gait_validation.simulated_reference`)."""
     from types import SimpleNamespace
 
-    from mimucap.session.analysis_evaluation import simulated_reference
+    from mimucap.session.recorded.gait_validation import simulated_reference
 
     truth = recorded.truth
     suit = SimpleNamespace(t_s=truth.t_s, q_world_from_segment=truth.q_world_from_segment,
@@ -211,7 +211,7 @@ def test_gait_and_report_with_the_calibration_find_the_turns_and_stride_lengths(
     """With ``--calibration`` the route's three turns (marked ``turn``) are found, none while the
     sensors were turned in the hands, and the stride lengths follow the simulator's."""
     from mimucap.io.analysis_tables import read_table
-    from mimucap.session.analysis_evaluation import compare
+    from mimucap.session.recorded.gait_validation import compare
 
     folder, session, calibration = route
     out = tmp_path / "gait"
@@ -227,8 +227,8 @@ def test_gait_and_report_with_the_calibration_find_the_turns_and_stride_lengths(
     strides = read_table(out / "strides.csv")
     lengths = [float(s["stride_length_m"]) for s in strides if s["analysed"] == "true"]
     assert len(lengths) >= 20 and all(np.isfinite(lengths))
-    from mimucap.session.analysis import analyse_review
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.analysis import analyse_review
+    from mimucap.session.recorded.review import load_review
 
     analysis = analyse_review(load_review(session, calibration_file=calibration))
     figures = compare(analysis.gait.strides, route_reference(recorded)).summary()

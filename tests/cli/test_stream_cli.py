@@ -94,7 +94,7 @@ def test_stream_applies_the_body_calibration_file_with_its_magnetometers(tmp_pat
     from mimucap.cli import main
     from mimucap.cli.stream import apply_calibration_file
     from mimucap.io.calibration_store import CalibrationStore
-    from mimucap.session.live import open_live_session
+    from mimucap.session.live.live_session import open_live_session
 
     monkeypatch.setenv("MIMUCAP_DATA_DIR", str(tmp_path / "data"))
     recording = tmp_path / "poses.h5"

@@ -8,7 +8,7 @@ import time
 from PyQt5 import QtCore
 
 from mimucap.gui.main_window import MainWindow
-from mimucap.session.live import open_live_session
+from mimucap.session.live.live_session import open_live_session
 
 SPEED_UP = 4.0
 
@@ -59,7 +59,7 @@ def calibrate(window, qtbot) -> None:
     assert set(live.mag_calibrations) == set(live.sensor_ids)
     assert not wizard.isVisible()  # every sensor stored: Accept was the last click
     # The 3D view's prompt follows: the body is next.
-    from mimucap.gui.main_window import BODY_NEXT_HINT
+    from mimucap.gui.live_status_bar import BODY_NEXT_HINT
 
     qtbot.waitUntil(lambda: window.scene_view.hint == BODY_NEXT_HINT, timeout=5000)
     # The sensors are strapped back on (half a minute in a clinic): the filters, learning the
@@ -75,6 +75,6 @@ def calibrate(window, qtbot) -> None:
     assert live.body_calibration is not None
     qtbot.waitUntil(lambda: live.pose_source == "body calibration", timeout=5000)
     # Now there is a calibration to judge: the on-screen check against the simulator's truth.
-    qtbot.waitUntil(lambda: "vs. truth" in window.pose_status.text(), timeout=10000)
+    qtbot.waitUntil(lambda: "vs. truth" in window.live_status.pose_status.text(), timeout=10000)
     # The wizard is closed: the simulated subject walks on.
     qtbot.waitUntil(lambda: live.simulator.current_activity().startswith("walk"), timeout=10000)

@@ -8,7 +8,7 @@ from PyQt5 import QtWidgets
 
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.gui.review_window import ReviewWindow
-from mimucap.session.analysis_evaluation import simulated_analysis
+from mimucap.session.recorded.gait_validation import simulated_analysis
 
 ROM_MARKERS = ((30.0, "rom:knee_flexion:left:start"), (37.0, "rom:knee_flexion:left:end"))
 
@@ -89,7 +89,7 @@ def test_the_windows_report_and_the_command_agree_for_the_same_result(qtbot, ses
     report`` of the same file for the same result: the same text and the same numbers, each
     saying which result it holds on its first page."""
     from mimucap.cli import main
-    from mimucap.session.analysis import write_analysis_csv
+    from mimucap.session.recorded.analysis import write_analysis_csv
 
     review, window = analysed_in_review(qtbot, session_file, result)
     window.write_report(tmp_path / "window.pdf")

@@ -14,8 +14,8 @@ import json
 import pytest
 from PyQt5 import QtCore
 
-from mimucap.session.clinical_test_results import RESULT_PREFIX, subject_trend
-from mimucap.session.clinical_tests import run_clinical_test
+from mimucap.session.recorded.clinical_test_results import RESULT_PREFIX, subject_trend
+from mimucap.session.recorded.clinical_tests import run_clinical_test
 from tests.gui.live_window import calibrate, closed, live_window
 
 

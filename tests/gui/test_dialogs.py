@@ -7,7 +7,7 @@ import math
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
 from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.source_dialog import SourceDialog, last_skeleton_model, last_source_spec, remember_source
-from mimucap.session.live import SensorRow
+from mimucap.session.live.sensor_rows import SensorRow
 
 
 def test_source_dialog_builds_checks_and_starts_from_the_remembered_spec(qtbot):

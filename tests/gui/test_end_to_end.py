@@ -21,10 +21,10 @@ from PyQt5 import QtCore, QtWidgets
 from mimucap.core.pipeline.settings import RESULT_LIVE
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session, write_session
-from mimucap.session.evaluation import angle_errors
-from mimucap.session.export import ExportRequest, run_export
-from mimucap.session.live import RecordingToSave
-from mimucap.session.review import load_review
+from mimucap.session.angle_accuracy import angle_errors
+from mimucap.session.recorded.export import ExportRequest, run_export
+from mimucap.session.live.recording import RecordingToSave
+from mimucap.session.recorded.review import load_review
 from tests.gui.live_window import calibrate, closed, live_window
 
 RECORD_S = 20.0

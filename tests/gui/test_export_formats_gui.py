@@ -13,7 +13,7 @@ from PyQt5 import QtGui, QtWidgets
 def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path, calibrated_walk):
     from mimucap.gui.export_dialog import ExportDialog
     from mimucap.io.angles_export import read_angles_mot
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     # A calibrated walk: joint angles mean something only with a body calibration.
     dialog = ExportDialog(None, load_review(calibrated_walk))
@@ -57,7 +57,7 @@ def test_the_summary_chart_and_table_say_what_they_hold(qtbot, tmp_path, calibra
     """The summary PNG's caption and the summary CSV's header carry the result's record (result,
     body and magnetometer calibrations, model, software, file), as every export does."""
     from mimucap.gui.export_dialog import ExportDialog
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     data = load_review(calibrated_walk)
     dialog = ExportDialog(None, data)
@@ -87,7 +87,7 @@ def test_without_a_body_calibration_only_the_sensor_data_can_be_exported(qtbot, 
     """Joint angles, ranges of motion and segments mean nothing without a body calibration: the
     dialog offers the sensor data alone, says why, and has no summary to save."""
     from mimucap.gui.export_dialog import ExportDialog
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     dialog = ExportDialog(None, load_review(uncalibrated_walk))
     qtbot.addWidget(dialog)
@@ -104,7 +104,7 @@ def test_without_a_body_calibration_only_the_sensor_data_can_be_exported(qtbot, 
 
 def test_review_plots_no_joint_angles_without_a_body_calibration(qtbot, uncalibrated_walk, calibrated_walk):
     from mimucap.gui.review_window import ReviewWindow
-    from mimucap.session.analysis import NEEDS_BODY_CALIBRATION
+    from mimucap.session.recorded.analysis import NEEDS_BODY_CALIBRATION
 
     for path, calibrated in ((uncalibrated_walk, False), (calibrated_walk, True)):
         review = ReviewWindow(path)
@@ -125,7 +125,7 @@ def test_exports_go_to_a_folder_of_their_own_where_every_file_dialog_starts(qtbo
     """Not the library folder itself, not the program's working folder: the session's own
     export folder, named after it, created when a file dialog needs it."""
     from mimucap.gui.export_dialog import ExportDialog
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     monkeypatch.chdir(tmp_path)
     dialog = ExportDialog(None, load_review(uncalibrated_walk))

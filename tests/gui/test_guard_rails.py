@@ -13,8 +13,8 @@ from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.assignment_dialog import remembered_assignment
 from mimucap.gui.wizards import BodyCalibrationWizard
-from mimucap.session.calibration_feed import SimulatedSuitFeed
-from mimucap.session.live import RecordingToSave
+from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
+from mimucap.session.live.recording import RecordingToSave
 
 
 @pytest.fixture
@@ -55,13 +55,13 @@ def test_the_checklist_is_shown_and_recording_without_it_needs_a_confirmation(li
     qtbot.mouseClick(window.session_panel.record_button, QtCore.Qt.LeftButton)
     assert asked == [["magnetometers", "body"]]
     assert not window.live.recording and not window.session_panel.record_button.isChecked()
-    assert not window.recording_indicator.isVisible()
+    assert not window.live_status.recording_indicator.isVisible()
 
     window.confirm_recording = lambda items: asked.append([i.key for i in items]) or True
     window.action_record.trigger()
     assert window.live.recording and len(asked) == 2
     # the red indicator with the elapsed time, in the status bar; the checklist steps aside
-    indicator = window.recording_indicator
+    indicator = window.live_status.recording_indicator
     assert indicator.isVisible() and indicator.text() == "● REC 00:00"
     assert "#d62728" in indicator.styleSheet() and window.windowTitle().startswith("● Recording")
     assert not window.session_panel.checklist_box.isVisible()
@@ -73,7 +73,7 @@ def test_the_checklist_is_shown_and_recording_without_it_needs_a_confirmation(li
 
 
 def test_a_ready_session_records_without_asking(live_window, qtbot, monkeypatch):
-    from mimucap.session import recording_checklist as checklist
+    from mimucap.session.live import checklist as checklist
 
     window = live_window
     ready = [checklist.CheckItem(key, key, True, "ok") for key in ("streaming", "drops", "magnetometers", "body")]
@@ -198,11 +198,11 @@ def test_the_body_wizards_mapping_is_kept_or_discarded_never_dropped_silently(qt
 
 def test_packets_of_no_known_sensor_are_counted_in_the_status_bar(live_window, monkeypatch):
     window = live_window
-    assert not window.refused_status.isVisible()
+    assert not window.live_status.refused_status.isVisible()
     monkeypatch.setattr(window.live.feed, "refused_without_sensor",
                         lambda: ({"unknown_address": 340}, {"address 10.0.0.9": 340}), raising=False)
     window.live.publish_status()
-    label = window.refused_status
+    label = window.live_status.refused_status
     assert label.isVisible() and label.text() == "340 packets refused from no known sensor"
     assert "340 × a sender this source does not accept" in label.toolTip()
     assert "address 10.0.0.9 (340)" in label.toolTip()

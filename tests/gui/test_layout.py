@@ -13,10 +13,10 @@ from mimucap.gui.main_window import SENSOR_DOCK_START_PX
 
 def test_the_main_window_shrinks_to_800_by_500_and_its_docks_come_back(window, qtbot):
     window.plots.set_joints(["knee_r", "hip_r", "elbow_r"])
-    window.source_status.setText("Source: " + "udp:0.0.0.0:5005, " * 12)  # a long text is elided, not a floor
+    window.live_status.source_status.setText("Source: " + "udp:0.0.0.0:5005, " * 12)  # a long text is elided, not a floor
     minimum = window.minimumSizeHint()
     assert minimum.width() <= 800 and minimum.height() <= 500
-    assert window.source_status.toolTip().startswith("Source: udp")  # the whole text, when elided
+    assert window.live_status.source_status.toolTip().startswith("Source: udp")  # the whole text, when elided
     qtbot.waitUntil(lambda: abs(window.sensor_dock.height() - SENSOR_DOCK_START_PX) <= 2, timeout=3000)
     session_width = window.session_dock.width()
     assert session_width >= window.session_panel.sizeHint().width()  # the whole panel, no scroll bar

@@ -297,7 +297,7 @@ def test_the_trend_shows_a_subjects_clinical_test_visits_and_prints(qtbot, tmp_p
     `mimucap protocol` keep them): the trend plots them oldest first beside the reference, lists
     them newest first and saves a PDF."""
     from mimucap.gui.trend_dialog import TrendDialog
-    from mimucap.session.clinical_test_results import RESULT_PREFIX
+    from mimucap.session.recorded.clinical_test_results import RESULT_PREFIX
 
     root = tmp_path / "lib"
     root.mkdir()

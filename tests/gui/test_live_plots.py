@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mimucap.gui.live_plots import MAX_JOINTS, REFRESH_HZ, REFRESH_SLACK, LivePlots
-from mimucap.session import plot_scaling
+from mimucap.session.views import plot_scaling
 from mimucap.session.events import EmitterGroup
 
 

@@ -10,7 +10,7 @@ import pytest
 from PyQt5 import QtWidgets
 
 from mimucap.gui.main_window import MainWindow
-from mimucap.session import lsl_clock
+from mimucap.session.streaming import lsl_clock
 
 
 @pytest.fixture

@@ -7,7 +7,8 @@ import pytest
 from PyQt5 import QtGui, QtWidgets
 
 from mimucap.core.pipeline.recording import POSE_SENSOR_AXES
-from mimucap.gui.main_window import VIEW_HINTS, MainWindow
+from mimucap.gui.live_status_bar import VIEW_HINTS
+from mimucap.gui.main_window import MainWindow
 
 from tests.gui.scene_projection import axis_label_positions
 
@@ -37,12 +38,12 @@ def test_window_starts_and_renders_the_skeleton(window, qtbot):
     # The status bar follows at the panels' pace (4 Hz), after the first frames.
     # Like any source, the simulated suit shows what its sensors give until it is calibrated,
     # and the view says so.
-    qtbot.waitUntil(lambda: "sensor axes" in window.pose_status.text(), timeout=2000)
+    qtbot.waitUntil(lambda: "sensor axes" in window.live_status.pose_status.text(), timeout=2000)
     # No accuracy figure against the truth before a calibration to judge (it said "vs. truth:
     # flexion RMS 109.9°"): the on-screen check appears with the body calibration.
     qtbot.wait(1500)
-    assert "vs. truth" not in window.pose_status.text()
-    assert "simulated:demo" in window.source_status.text()
+    assert "vs. truth" not in window.live_status.pose_status.text()
+    assert "simulated:demo" in window.live_status.source_status.text()
     assert window.scene_view.hint == VIEW_HINTS[POSE_SENSOR_AXES]
     # Every segment of the ten-sensor suit has a sensor: tinted "magnetometer not calibrated"
     # once each has sent data (until its first sample a sensor is "stale").
@@ -229,8 +230,8 @@ def test_before_any_sensor_is_assigned_the_view_says_so_and_the_plots_scroll(qtb
     """Xsens exports replayed (accelerations and on-board orientations, no segment known): the
     3D view explains that no sensor is assigned yet, the accelerometer plot shows the newest
     samples, and the gyroscope plot (not in the files) says it has no data."""
-    from mimucap.gui.main_window import VIEW_HINTS
-    from mimucap.session.live import POSE_UNASSIGNED
+    from mimucap.gui.live_status_bar import VIEW_HINTS
+    from mimucap.session.live.processing import POSE_UNASSIGNED
 
     folder = shared_data / "body" / "opensense_example" / "IMUData"
     win = MainWindow(f"replay:{folder}")

@@ -13,9 +13,9 @@ from PyQt5.QtGui import QImage
 
 from mimucap.cli import main
 from mimucap.core.simulate.config import SimulationConfig
-from mimucap.gui.report import write_comparison_report, write_report
+from mimucap.gui.pdf_report import write_comparison_report, write_report
 from mimucap.io.normative_bands import read_normative_bands
-from mimucap.session.analysis_evaluation import simulated_analysis
+from mimucap.session.recorded.gait_validation import simulated_analysis
 
 ROM_MARKERS = (
     (30.0, "rom:knee_flexion:left:start"), (37.0, "rom:knee_flexion:left:end"),

@@ -12,7 +12,7 @@ from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.wizards.rom import RomWizard
 from mimucap.session.events import EmitterGroup
-from mimucap.session.rom_procedure import RomProcedure, RomStep
+from mimucap.session.procedures.range_of_motion import RomProcedure, RomStep
 
 
 class SimulatedLive:
@@ -50,7 +50,7 @@ class SimulatedLive:
         return np.array([self.time_s]), values
 
     def instruct(self, instruction) -> None:
-        from mimucap.session.feeds import simulated_subject_follows
+        from mimucap.session.sources.feeds import simulated_subject_follows
 
         simulated_subject_follows(self.simulator, instruction)
 

@@ -14,9 +14,9 @@ from PyQt5 import QtCore, QtGui
 
 from mimucap.core import skeleton
 from mimucap.gui.scene.view import FRAME_INTERVAL_SLACK, SceneView
-from mimucap.session.camera import CAMERA_PRESETS
+from mimucap.session.views.camera import CAMERA_PRESETS
 from mimucap.session.events import EmitterGroup
-from mimucap.session.figure import FigureBuilder
+from mimucap.session.views.skeleton_figure import FigureBuilder
 
 from tests.gui.scene_projection import axis_label_positions, world_to_display
 

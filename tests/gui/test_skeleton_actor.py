@@ -9,7 +9,7 @@ from vtkmodules.vtkRenderingCore import vtkRenderer
 
 from mimucap.core import skeleton
 from mimucap.gui.scene.skeleton_actor import TINTS, SkeletonActor
-from mimucap.session.figure import FigureBuilder
+from mimucap.session.views.skeleton_figure import FigureBuilder
 
 
 @pytest.fixture(params=["ten_segment", "fifteen_segment"])

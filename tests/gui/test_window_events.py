@@ -8,10 +8,12 @@ import math
 
 import pytest
 
-from mimucap.gui.main_window import VIEW_HINTS, MainWindow
 from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION
-from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, SensorRow
-from mimucap.session.recording_checklist import CheckItem
+from mimucap.gui.live_status_bar import VIEW_HINTS
+from mimucap.gui.main_window import MainWindow
+from mimucap.session.live.processing import POSE_NONE, POSE_UNASSIGNED
+from mimucap.session.live.sensor_rows import SensorRow
+from mimucap.session.live.checklist import CheckItem
 
 
 def _row(sensor_id: str, segment: str | None, rate_hz: float, stale: bool = False) -> SensorRow:
@@ -46,11 +48,11 @@ def test_the_panels_and_the_status_bar_show_the_status_event_and_nothing_else(id
     panel = window.sensor_panel
     assert panel.rowCount() == 2 and panel.cell_text("S01", "Rate (Hz)") == "99.0"
     assert panel.cell_text("S02", "State") == "STALE: no data"
-    assert window.rate_status.text() == "2 sensors, 74 Hz, 6 drops"
+    assert window.live_status.rate_status.text() == "2 sensors, 74 Hz, 6 drops"
     # the session's state changes underneath; without an event nothing shows it
     live.sensor_rows = lambda: [_row("S09", "head", 10.0)]
     qtbot.wait(700)
-    assert panel.rowCount() == 2 and window.rate_status.text() == "2 sensors, 74 Hz, 6 drops"
+    assert panel.rowCount() == 2 and window.live_status.rate_status.text() == "2 sensors, 74 Hz, 6 drops"
     live.publish_status()  # the session tells: now it shows
     assert panel.rowCount() == 1 and panel.cell_text("S09", "Segment") == "Head"
 
@@ -60,15 +62,16 @@ def test_the_hint_pose_status_checklist_and_truth_action_follow_their_events(idl
     events = window.live.events
     events.pose_source.emit(POSE_UNASSIGNED)
     assert window.scene_view.hint == VIEW_HINTS[POSE_UNASSIGNED]
-    assert window.pose_status.text() == f"Pose: {POSE_UNASSIGNED}"
+    assert window.live_status.pose_status.text() == f"Pose: {POSE_UNASSIGNED}"
     events.pose_source.emit(POSE_NONE)
     events.source_problem.emit("cannot open /dev/ttyUSB0")
     assert "cannot open /dev/ttyUSB0" in window.scene_view.hint
-    events.truth_errors.emit({"knee_r_flexion_deg": 1.5})
-    assert window.pose_status.text() == f"Pose: {POSE_NONE}"  # nothing to judge before a body calibration
+    events.truth_errors.emit({"knee_r_flexion_deg": 1.5})   # nothing to judge without a body calibration
+    assert window.live_status.pose_status.text() == f"Pose: {POSE_NONE}"
     events.pose_source.emit(POSE_BODY_CALIBRATION)
     events.truth_errors.emit({"knee_r_flexion_deg": 1.5})
-    assert window.pose_status.text().startswith(f"Pose: {POSE_BODY_CALIBRATION}") and "truth" in window.pose_status.text()
+    text = window.live_status.pose_status.text()
+    assert text.startswith(f"Pose: {POSE_BODY_CALIBRATION}") and "truth" in text
     window.action_truth.setEnabled(False)
     events.truth_available.emit(True)
     assert window.action_truth.isEnabled()
@@ -76,7 +79,7 @@ def test_the_hint_pose_status_checklist_and_truth_action_follow_their_events(idl
     label = window.session_panel.checklist_labels["body"]
     assert label.property("ok") and "verdict good" in label.text()
     events.refused.emit({"unknown_address": 5}, {"address 10.0.0.9": 5})
-    assert window.refused_status.text() == "5 packets refused from no known sensor"
+    assert window.live_status.refused_status.text() == "5 packets refused from no known sensor"
 
 
 def test_changing_the_source_or_closing_leaves_no_subscription_behind(qtbot):
@@ -133,11 +136,11 @@ def test_a_doubtful_orientation_is_named_in_the_sensor_panel_and_the_status_bar(
     window.live.events.status.emit([doubtful, _row("S01", "pelvis", 99.0)])
     assert window.sensor_panel.cell_text("S07", "State") == (
         "orientation doubtful: heading taken from a magnetic field that differs from the calibrated one")
-    assert window.doubt_status.isVisible()
-    assert window.doubt_status.text() == ("Orientation doubtful — heading taken from a magnetic field that differs "
+    assert window.live_status.doubt_status.isVisible()
+    assert window.live_status.doubt_status.text() == ("Orientation doubtful — heading taken from a magnetic field that differs "
                                           "from the calibrated one: Left thigh (S07)")
     window.live.events.status.emit([_row("S01", "pelvis", 99.0)])
-    assert not window.doubt_status.isVisible()
+    assert not window.live_status.doubt_status.isVisible()
 
 
 def test_the_review_shades_the_doubtful_spans_and_says_why_at_the_play_head(qtbot, tmp_path):

@@ -173,7 +173,7 @@ def test_a_click_on_the_review_slider_moves_the_play_head_there(window, qtbot, t
 
 def test_export_dialog_follows_the_users_edits_and_says_what_failed(qtbot, tmp_path, calibrated_walk):
     from mimucap.gui.export_dialog import ExportDialog
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     data = load_review(calibrated_walk)  # joint angles are offered with a body calibration only
     dialog = ExportDialog(None, data)

@@ -78,7 +78,7 @@ def test_the_main_window_and_its_wizards_fit_each_screen(main_window, screen, qt
     window.confirm_recording = lambda items: True
     window.action_record.trigger()
     _spin(qtbot)
-    assert window.recording_indicator.isVisible() and _problems(window) == []
+    assert window.live_status.recording_indicator.isVisible() and _problems(window) == []
     window.action_record.trigger()
     window.wait_for_saving()
     # the plots' titles are whole: the stack is as wide as its widest title asks
@@ -144,7 +144,7 @@ def test_the_analysis_library_compare_trend_and_assessment_windows_fit_each_scre
     from mimucap.gui.review_window import ReviewWindow
     from mimucap.gui.trend_dialog import TrendDialog
     from mimucap.io.library import Library
-    from mimucap.session.clinical_test_results import RESULT_PREFIX
+    from mimucap.session.recorded.clinical_test_results import RESULT_PREFIX
 
     review = ReviewWindow(calibrated_walk)
     review.show()

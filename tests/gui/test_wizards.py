@@ -20,11 +20,12 @@ from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.core.simulate.sensor_errors import error_model
 from mimucap.gui.wizards import BodyCalibrationWizard, MagnetometerWizard
 from mimucap.gui.capture import grab_window
+from mimucap.gui.simulated_suit_clock import SimulatedSuitClock
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.bodycal_procedure import BodycalProcedureSettings
-from mimucap.session.calibration_feed import SimulatedSuitFeed
-from mimucap.session.feeds import SimulatorFeed as LiveSimulatorFeed
-from mimucap.session.live import LiveSession
+from mimucap.session.procedures.body import BodycalProcedureSettings
+from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
+from mimucap.session.sources.feeds import SimulatorFeed as LiveSimulatorFeed
+from mimucap.session.live.live_session import LiveSession
 from tests.gui.body_wizard_runs import FakeClock, mounting_errors_deg, run_on_live
 
 NOW = dt.datetime(2026, 11, 21, 7, 0, tzinfo=dt.timezone.utc)
@@ -122,8 +123,9 @@ class FakeLiveSession:
 def body_wizard(qtbot, seed: int, settings=BodycalProcedureSettings(), live=None):
     simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=seed, errors=ONBOARD))
     feed = SimulatedSuitFeed(simulator, step_s=0.1)
-    wizard = BodyCalibrationWizard(None, live, feed=feed, model=simulator.model, settings=settings, tick_ms=1,
+    wizard = BodyCalibrationWizard(None, live, feed=feed, model=simulator.model, settings=settings,
                                    mapping={m.segment: sid for sid, m in simulator.mounting.items()})
+    SimulatedSuitClock(feed, 1, wizard)
     qtbot.addWidget(wizard)
     wizard.show()
     qtbot.waitExposed(wizard)
@@ -221,7 +223,7 @@ def test_body_wizard_on_the_main_windows_live_session(qtbot, tmp_path) -> None:
     assert magnetometer.feed.sensor_ids == live.sensor_ids
     magnetometer.close()
 
-    wizard = BodyCalibrationWizard(None, live, tick_ms=1)
+    wizard = BodyCalibrationWizard(None, live)
     qtbot.addWidget(wizard)
     assert wizard.height_spin.value() == pytest.approx(live.height_m)
     assert wizard.mapping()["upper_arm_r"] == "S04"

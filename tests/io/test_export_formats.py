@@ -26,8 +26,8 @@ from mimucap.core import rotation as rot
 from mimucap.core import skeleton
 from mimucap.io import opensense
 from mimucap.io.angles_export import read_angles_mot
-from mimucap.session.export import write_motion_file
-from mimucap.session.review import load_review
+from mimucap.session.recorded.export import write_motion_file
+from mimucap.session.recorded.review import load_review
 
 HERE = Path(__file__).resolve().parent
 
@@ -382,8 +382,8 @@ def test_every_file_says_what_it_holds(walk, review, tmp_path):
     """One record (result, body calibration, magnetometer calibrations, skeleton model, software,
     source file) in every file an export and the analysis write: the header lines of the text
     files, the BVH's sidecar, the C3D's parameters (read by the ``c3d`` package)."""
-    from mimucap.session.analysis import analyse_review, write_analysis_csv
-    from mimucap.session.export import ExportRequest, run_export
+    from mimucap.session.recorded.analysis import analyse_review, write_analysis_csv
+    from mimucap.session.recorded.export import ExportRequest, run_export
 
     record = review.provenance
     assert record.result.startswith("reprocessed")

@@ -77,7 +77,7 @@ def test_our_joint_angles_match_xsens_where_the_definitions_match(recording):
 def test_imported_session_is_reviewed_from_its_sensors(sample, recording, tmp_path):
     out = tmp_path / "imported.h5"
     assert main(["import", str(sample), "--out", str(out)]) == 0
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     data = load_review(out)
     assert data.model.name == "fifteen_segment"
@@ -141,7 +141,7 @@ def test_opensense_table_imports_with_segments(shared_data, tmp_path):
     table = shared_data / "body" / "opensense_example" / "test_resources" / "MT_012005D6_009-quaternions_calibration_trial_Facing_X.sto"
     out = tmp_path / "table.h5"
     assert main(["import", str(table), "--out", str(out)]) == 0
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     data = load_review(out)
     segments = {sid: s.segment for sid, s in data.session.sensors.items()}
@@ -187,7 +187,7 @@ def test_a_file_without_sensor_data_stands_its_segments_for_sensors(sample, tmp_
     session = mvnx.session_from_mvnx(recording)
     assert session.sensors["RightForeArm"].segment == "forearm_r" and session.sensors["Pelvis"].acc is None
     from mimucap.io.session import write_session
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     data = load_review(write_session(tmp_path / "s.h5", session))
     model = skeleton.load_model("fifteen_segment")

@@ -12,7 +12,7 @@ from mimucap.core.analysis.gait import GaitAnalysis
 from mimucap.core.analysis.gait_cycle import CycleCurve
 from mimucap.core.analysis.gait_parameters import PARAMETERS, GaitParameters, ParameterSummary
 from mimucap.core.analysis.rom import RomResult
-from mimucap.session.analysis import (
+from mimucap.session.recorded.analysis import (
     GAIT_PARAMETER_HEADER,
     ROM_HEADER,
     SessionAnalysis,

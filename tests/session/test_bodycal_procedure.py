@@ -12,8 +12,8 @@ from mimucap.core import rotation as rot
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.core.simulate.sensor_errors import error_model
-from mimucap.session.bodycal_procedure import BodycalProcedure, BodycalProcedureSettings
-from mimucap.session.calibration_feed import SimulatedSuitFeed
+from mimucap.session.procedures.body import BodycalProcedure, BodycalProcedureSettings
+from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
 
 #: Units with an on-board orientation as good as 0.3° rms (the procedure's own error is then
 #: what is measured); everything else of the default error model.

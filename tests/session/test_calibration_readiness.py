@@ -24,9 +24,9 @@ from mimucap.core.simulate.magnetic_field import EarthField
 from mimucap.io.calibration_store import CalibrationStore
 from mimucap.io.library import _verdicts
 from mimucap.io.session import read_session
-from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.live import LiveSession
-from mimucap.session.recording_checklist import recording_checklist
+from mimucap.session.sources.feeds import SimulatorFeed
+from mimucap.session.live.live_session import LiveSession
+from mimucap.session.live.checklist import recording_checklist
 
 SEED = 5
 
@@ -165,8 +165,8 @@ def test_udp_nodes_get_their_devices_calibrations_and_older_nodes_keep_theirs_un
     from mimucap.acquisition.hello import NO_HELLO
     from mimucap.core.device_identity import mac_device_id
     from mimucap.core.magcal.model import MagCalibration
-    from mimucap.session.feeds import SupervisorFeed
-    from mimucap.session.sources import SourceOptions
+    from mimucap.session.sources.feeds import SupervisorFeed
+    from mimucap.session.sources.source_configs import SourceOptions
     from tests.acquisition.conftest import SyntheticMotion
     from tests.acquisition.test_udp_loopback import free_udp_port
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from mimucap.session.camera import (CAMERA_PRESETS, FIT_HEIGHT_HEIGHTS, FIT_MARGIN, FIT_WIDTH_HEIGHTS,
+from mimucap.session.views.camera import (CAMERA_PRESETS, FIT_HEIGHT_HEIGHTS, FIT_MARGIN, FIT_WIDTH_HEIGHTS,
                                     VIEW_ANGLE_DEG, camera_preset, fit_distance)
 
 

@@ -11,8 +11,8 @@ import pytest
 
 from mimucap.core import phase_markers
 from mimucap.core import rotation as rot
-from mimucap.session import instructions
-from mimucap.session.clinical_test_procedure import (
+from mimucap.session.procedures import instructions
+from mimucap.session.procedures.clinical_test import (
     COUNTDOWN_S, END_MARGIN_S, GO_SIGNAL, GUIDES, STILL_S, ClinicalTestProcedure,
 )
 

@@ -14,8 +14,8 @@ from mimucap.core.pipeline.segments import one_sensor_per_segment
 from mimucap.core.simulate.config import MAX_SENSORS, SENSOR_PLACEMENTS, SimulationConfig, default_assignment
 from mimucap.core.simulate.suit import SuitSimulator, simulate_session
 from mimucap.io.session import session_from_simulation
-from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.live import LiveSession
+from mimucap.session.sources.feeds import SimulatorFeed
+from mimucap.session.live.live_session import LiveSession
 
 SUITS = [(n, model) for n in range(1, MAX_SENSORS + 1) for model in skeleton.MODEL_NAMES
          if model == "fifteen_segment" or n <= 10]

@@ -1,7 +1,7 @@
 """The vectorised figure builder places every piece where a plain per-piece construction does.
 
 The reference below builds each matrix on its own, straight from the definitions in
-:mod:`mimucap.session.figure`'s docstrings (unit cylinder along scene y, its x axis along the
+:mod:`mimucap.session.views.skeleton_figure`'s docstrings (unit cylinder along scene y, its x axis along the
 segment's anterior axis made orthogonal, unit spheres scaled by their radius), so that the
 vectorised :meth:`FigureBuilder.build` can be checked on random poses of both models in both
 display modes.
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation, skeleton
-from mimucap.session.figure import (
+from mimucap.session.views.skeleton_figure import (
     CONNECTOR_RADIUS_FACTOR,
     END_CAP_RADIUS_FACTOR,
     JOINT_RADIUS_FACTOR,

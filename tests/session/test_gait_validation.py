@@ -13,8 +13,8 @@ from mimucap.core.analysis.gait import GaitInput, analyse_gait
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.io.analysis_tables import read_table
 from mimucap.io.gaitmap import read_foot_imu_csv, read_gaitmap_reference
-from mimucap.session.analysis import write_analysis_csv
-from mimucap.session.analysis_evaluation import (
+from mimucap.session.recorded.analysis import write_analysis_csv
+from mimucap.session.recorded.gait_validation import (
     compare,
     simulated_analysis,
     simulated_reference,

@@ -15,7 +15,7 @@ import pytest
 from mimucap.core import rotation as rot
 from mimucap.core.analysis.sagittal import axes_from_data
 from mimucap.io.gaitmap import read_foot_imu_csv
-from mimucap.session.analysis_evaluation import (
+from mimucap.session.recorded.gait_validation import (
     GAITMAP_RATE_HZ,
     GAITMAP_VARIANTS,
     ImuVariant,

@@ -10,7 +10,7 @@ import sys
 import pytest
 
 from mimucap.core.fusion import kernel_selection
-from mimucap.session.kernel_preparation import KernelPreparation
+from mimucap.session.live.kernel_preparation import KernelPreparation
 
 #: Run in a fresh interpreter with an empty numba cache: prepare, then count the kernel
 #: signatures it made ready in *this* process and those of them not loaded from the cache
@@ -19,7 +19,7 @@ COLD_START = """
 import importlib, json, pkgutil
 from numba.core.registry import CPUDispatcher
 import mimucap.core.fusion as fusion
-from mimucap.session.kernel_preparation import prepare_fusion_kernels
+from mimucap.session.live.kernel_preparation import prepare_fusion_kernels
 
 kernels = [value for info in pkgutil.iter_modules(fusion.__path__, "mimucap.core.fusion.")
            for value in vars(importlib.import_module(info.name)).values() if isinstance(value, CPUDispatcher)]
@@ -56,7 +56,7 @@ def test_a_cold_start_compiles_in_a_child_and_this_process_only_loads_from_the_c
 
 
 def test_a_child_that_does_not_finish_in_time_is_stopped_and_the_kernels_are_compiled_here(monkeypatch):
-    from mimucap.session import kernel_preparation as module
+    from mimucap.session.live import kernel_preparation as module
 
     monkeypatch.setattr(module, "load_cached_kernels", lambda: False)  # as if the cache were empty
     preparation = KernelPreparation(timeout_s=1e-3)
@@ -70,7 +70,7 @@ def test_cancelling_while_the_child_starts_stops_it_and_compiles_nothing_here(mo
     import threading
     import time
 
-    from mimucap.session import kernel_preparation as module
+    from mimucap.session.live import kernel_preparation as module
 
     monkeypatch.setattr(module, "load_cached_kernels", lambda: False)  # as if the cache were empty
     preparation = KernelPreparation()
@@ -113,7 +113,7 @@ def test_only_the_preparing_thread_is_refused_compilation(monkeypatch):
 
     from numba import njit
 
-    from mimucap.session import kernel_preparation as module
+    from mimucap.session.live import kernel_preparation as module
 
     compiled_elsewhere = []
 

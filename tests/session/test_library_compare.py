@@ -8,7 +8,7 @@ import pytest
 from mimucap.io.analysis_tables import comparison_csv
 from mimucap.io.library import SessionEntry
 from mimucap.io.session import Marker
-from mimucap.session.library import COMPARISON_TABLES, ComparedSession, ComparisonTable, TimeWindow, compare
+from mimucap.session.recorded.library import COMPARISON_TABLES, ComparedSession, ComparisonTable, TimeWindow, compare
 
 
 def _side(path: str, amplitude: float, subject: str = "P001", window: TimeWindow | None = None) -> ComparedSession:
@@ -67,9 +67,9 @@ def test_two_recordings_of_the_simulated_suit_compare_as_the_simulator_moved():
     from mimucap.core.analysis.rom import range_of_motion
     from mimucap.core.simulate.config import SimulationConfig
     from mimucap.io.session import read_session
-    from mimucap.session.feeds import SimulatorFeed
-    from mimucap.session.live import LiveSession
-    from mimucap.session.review import load_review
+    from mimucap.session.sources.feeds import SimulatorFeed
+    from mimucap.session.live.live_session import LiveSession
+    from mimucap.session.recorded.review import load_review
 
     now = [50.0]
     live = LiveSession(SimulatorFeed(SimulationConfig(scenario="walk", errors="ideal"), clock=lambda: now[0]), clock=lambda: now[0])

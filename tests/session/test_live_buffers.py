@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.session.diagnostics import CpuMeter
+from mimucap.session.views.cpu_meter import CpuMeter
 from mimucap.session.events import EmitterGroup
-from mimucap.session.ring_buffer import RingBuffer
+from mimucap.session.live.ring_buffer import RingBuffer
 
 
 def test_ring_buffer_keeps_the_newest_samples_in_time_order():

@@ -8,10 +8,11 @@ import pytest
 
 from mimucap.core.pipeline.recording import POSE_SENSOR_AXES
 from mimucap.core.simulate.config import SimulationConfig
-from mimucap.session.evaluation import FLEXION_COLUMNS
-from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.live import POSE_NONE, LiveSession
-from mimucap.session.live_status import STATUS_RATE_HZ, StatusPublisher
+from mimucap.session.angle_accuracy import FLEXION_COLUMNS
+from mimucap.session.sources.feeds import SimulatorFeed
+from mimucap.session.live.live_session import LiveSession
+from mimucap.session.live.processing import POSE_NONE
+from mimucap.session.live.status import STATUS_RATE_HZ, StatusPublisher
 
 
 def _session(**config) -> tuple[LiveSession, list[float]]:

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from mimucap.core.simulate.config import SimulationConfig
-from mimucap.session.camera import camera_preset, follow_shift
-from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.live import LiveSession, open_live_session
+from mimucap.session.views.camera import camera_preset, follow_shift
+from mimucap.session.sources.feeds import SimulatorFeed
+from mimucap.session.live.live_session import LiveSession, open_live_session
 
 
 def _session(scenario: str, now: list[float]) -> LiveSession:

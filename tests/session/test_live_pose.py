@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation, skeleton
-from mimucap.session.live_pose import LivePose
+from mimucap.session.views.live_pose import LivePose
 
 
 def _pose(model, angle_rad: float = 0.0) -> dict[str, np.ndarray]:

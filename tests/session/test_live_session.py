@@ -12,12 +12,15 @@ from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import simulate_session
 from mimucap.io.session import read_session, session_from_simulation, write_session
-from mimucap.session.export import ExportRequest, marker_range, run_export, summary_table
-from mimucap.session.feeds import SimulatorFeed
-from mimucap.session.live import (POSE_SENSOR_AXES, POSE_UNASSIGNED, STALE_AFTER_S, TRUTH_NOTE, LiveSession,
-                                  open_live_session)
-from mimucap.session.recording import open_session
-from mimucap.session.review import ReviewPlayer, load_review
+from mimucap.session.recorded.export import ExportRequest, marker_range, run_export, summary_table
+from mimucap.session.sources.feeds import SimulatorFeed
+from mimucap.core.pipeline.recording import POSE_SENSOR_AXES
+from mimucap.session.live.evaluation import TRUTH_NOTE
+from mimucap.session.live.live_session import LiveSession, open_live_session
+from mimucap.session.live.processing import POSE_UNASSIGNED
+from mimucap.session.live.sensor_rows import STALE_AFTER_S
+from mimucap.session.live.recorder import open_session
+from mimucap.session.recorded.review import ReviewPlayer, load_review
 
 
 def _session(scenario: str = "walk", **config) -> tuple[LiveSession, list[float]]:
@@ -250,8 +253,8 @@ def test_small_blocks_give_the_same_session_as_whole_ones():
     """Wireless nodes deliver a sample or two at a time; the pipeline joins each sensor's
     blocks of one poll, and the buffers and orientations are those of whole blocks."""
     from mimucap.core.simulate.config import SimulationConfig
-    from mimucap.session.feeds import SimulatorFeed
-    from mimucap.session.live import LiveSession
+    from mimucap.session.sources.feeds import SimulatorFeed
+    from mimucap.session.live.live_session import LiveSession
 
     def one_sample_blocks(blocks):
         return [block.rows(slice(i, i + 1)) for block in blocks for i in range(len(block))]

@@ -13,8 +13,8 @@ import pytest
 pylsl = pytest.importorskip("pylsl", reason="pylsl is not installed (pip install 'mimucap[lsl]'; make test installs it)")
 
 from mimucap.io.calibration_store import CalibrationStore  # noqa: E402
-from mimucap.session.live import open_live_session  # noqa: E402
-from mimucap.session.lsl import LslStreamer, marker_layout  # noqa: E402
+from mimucap.session.live.live_session import open_live_session  # noqa: E402
+from mimucap.session.streaming.lsl_streamer import LslStreamer, marker_layout  # noqa: E402
 
 RATE_HZ = 100.0
 
@@ -22,7 +22,7 @@ RATE_HZ = 100.0
 def _session(tmp_path):
     """A simulated 10-sensor suit at 100 Hz whose streams no other test shares (its own source)."""
     session = open_live_session("simulated", calibration_store=CalibrationStore(tmp_path / "calibrations"))
-    session.label = f"simulated:test-{uuid.uuid4().hex[:8]}"
+    session.sensors.label = f"simulated:test-{uuid.uuid4().hex[:8]}"
     return session
 
 
@@ -143,7 +143,7 @@ def test_streams_resolve_with_their_metadata_and_carry_every_sample_at_its_sampl
 def test_the_source_id_is_the_same_after_a_restart(tmp_path):
     first = _session(tmp_path)
     second = open_live_session("simulated", calibration_store=CalibrationStore(tmp_path / "c2"))
-    second.label = first.label
+    second.sensors.label = first.label
     ids = []
     for session in (first, second):
         streamer = LslStreamer(session)
@@ -206,7 +206,7 @@ def test_an_xdf_recorded_from_the_streams_imports_as_a_session_that_reviews(stre
 
     from mimucap.cli import main
     from mimucap.io.session import read_session
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.review import load_review
 
     session, streamer = streaming
     sent: dict[str, list] = {}

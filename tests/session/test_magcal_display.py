@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from mimucap.core.magcal.fit import fit_ellipsoid
-from mimucap.session.magcal_display import magcal_display
+from mimucap.session.views.magcal_display import magcal_display
 
 
 def _samples(n: int, seed: int = 0):

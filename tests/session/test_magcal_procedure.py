@@ -13,8 +13,9 @@ import pytest
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.io.calibration_store import CalibrationStore
-from mimucap.session.calibration_feed import SimulatedSuitFeed
-from mimucap.session.magcal_procedure import MagcalProcedure, MagcalProcedureSettings, describe_age
+from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
+from mimucap.session.procedures.magnetometer import MagcalProcedure, MagcalProcedureSettings
+from mimucap.session.views.calibration_age import describe_age
 
 NOW = dt.datetime(2026, 11, 21, 7, 0, tzinfo=dt.timezone.utc)
 #: Truth bounds: hard-iron offset within 0.5 µT (1 % of the Earth's field) and the shape of the

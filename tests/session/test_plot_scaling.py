@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mimucap.session.plot_scaling import SteadyRange, column_bounds, nice_ticks, peak_decimate
+from mimucap.session.views.plot_scaling import SteadyRange, column_bounds, nice_ticks, peak_decimate
 
 
 def test_peak_decimation_keeps_every_peak_and_every_gap():

@@ -14,7 +14,7 @@ from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.journal.file import read_journal
 from mimucap.io.journal.records import journal_path_for
 from mimucap.io.session import read_session
-from mimucap.session.recording import Recorder, RecorderSettings, open_session, recover
+from mimucap.session.live.recorder import Recorder, RecorderSettings, open_session, recover
 
 T0 = 1000.0
 
@@ -62,7 +62,7 @@ def test_writing_the_session_reports_its_progress_up_to_the_whole(tmp_path):
     """Reading the journal and writing the file report fractions that only grow and end at 1,
     through the journal's records (several reports) and the sensors written."""
     from mimucap.io.journal.to_session import PROGRESS_EVERY_RECORDS
-    from mimucap.session.recording import READING_SHARE
+    from mimucap.session.live.recorder import READING_SHARE
 
     out = tmp_path / "s.h5"
     recorder = Recorder(out, {}, RecorderSettings(fsync=False))
@@ -227,7 +227,7 @@ import json, resource, signal, sys, time
 import numpy as np
 sys.path.insert(0, {test_dir!r})
 from test_recording import block
-from mimucap.session.recording import Recorder, RecorderSettings
+from mimucap.session.live.recorder import Recorder, RecorderSettings
 out = {out!r}
 recorder = Recorder(out, {{}}, RecorderSettings(flush_interval_s=0.05))
 recorder.start(start_host_s=1000.0)
@@ -263,7 +263,7 @@ def test_a_full_disk_ends_with_a_clear_message_and_a_readable_file(tmp_path):
 def test_the_gui_loop_records_a_simulated_suit(tmp_path):
     """The loop of docs/protocols.md: poll without blocking, record, stop."""
     from mimucap.acquisition.supervisor import Supervisor
-    from mimucap.session.sources import sensor_segments, source_configs
+    from mimucap.session.sources.source_configs import sensor_segments, source_configs
 
     configs = source_configs("simulated:walk")
     sensors = [f"S{i:02d}" for i in range(1, 11)]

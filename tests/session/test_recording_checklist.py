@@ -6,8 +6,8 @@ import math
 from types import SimpleNamespace
 
 from mimucap.acquisition.stats import SensorStats
-from mimucap.session.live import SensorRow
-from mimucap.session.recording_checklist import MAG_CAL_MAX_AGE_H, recording_checklist
+from mimucap.session.live.sensor_rows import SensorRow
+from mimucap.session.live.checklist import MAG_CAL_MAX_AGE_H, recording_checklist
 
 
 def _row(sid, segment, stale=False, mag_cal="calibrated", age_s=600.0, drops=0):

@@ -13,7 +13,7 @@ from mimucap.core import bodycal, skeleton
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
-from mimucap.session.rom_procedure import RomProcedure, RomStep, default_steps
+from mimucap.session.procedures.range_of_motion import RomProcedure, RomStep, default_steps
 
 #: (movement, side) → simulator joint, axis and signed angle (deg).
 MOVES = {

@@ -13,7 +13,7 @@ from mimucap.acquisition.supervisor import Supervisor
 from mimucap.acquisition.udp import UdpSourceConfig
 from mimucap.core.sensor_samples import SensorSamples
 from mimucap.io.session import Session, write_session
-from mimucap.session.sources import SourceOptions, load_replay, parse_sensor_ids, source_configs
+from mimucap.session.sources.source_configs import SourceOptions, load_replay, parse_sensor_ids, source_configs
 
 
 def collect(configs, timeout_s=30.0):
@@ -89,9 +89,9 @@ def test_an_xsens_export_folder_replays_every_data_row(shared_data):
 
 
 def test_a_replayed_session_keeps_the_sensor_placement_stored_in_it(tmp_path):
-    from mimucap.session.feeds import SupervisorFeed
-    from mimucap.session.live import LiveSession
-    from mimucap.session.sources import sensor_segments
+    from mimucap.session.sources.feeds import SupervisorFeed
+    from mimucap.session.live.live_session import LiveSession
+    from mimucap.session.sources.source_configs import sensor_segments
 
     t = np.arange(50) / 100.0
     worn = {"A": "thigh_r", "B": "pelvis"}
@@ -123,7 +123,7 @@ def test_refusals_of_no_known_sensor_are_the_sources_less_the_sensors():
     from types import SimpleNamespace
 
     from mimucap.acquisition.stats import SensorStats
-    from mimucap.session.feeds import SupervisorFeed
+    from mimucap.session.sources.feeds import SupervisorFeed
 
     feed = SupervisorFeed.__new__(SupervisorFeed)  # no worker: only the bookkeeping is tested
     status = SimpleNamespace(rejections={"stale_sequence": 5, "unknown_address": 340, "bad_checksum": 2},

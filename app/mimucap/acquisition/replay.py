@@ -1,7 +1,7 @@
 """Replay driver: plays already-loaded sensor samples back in (scaled) real time.
 
 The acquisition layer does not read files (``io`` is out of its reach); the caller (see
-``mimucap.session.sources``) loads a session file or an export and hands the arrays over in a
+``mimucap.session.sources.source_configs``) loads a session file or an export and hands the arrays over in a
 :class:`ReplaySourceConfig`. Sample ``k`` of a sensor recorded at ``t_s[k]`` is released at
 host time ``start + (t_s[k] − t0) / speed`` and stamped with that host time; the recorded time
 is kept as ``device_time_s``. The source reports ``finished`` after its last sample.

@@ -52,8 +52,8 @@ def run(args: argparse.Namespace) -> int:
     from mimucap.core.skeleton import joint_angle_columns
     from mimucap.io.angles_export import write_angles
     from mimucap.io.body_calibration_file import read_body_calibration
-    from mimucap.session.calibrations import AppliedCalibrations
-    from mimucap.session.provenance import provenance
+    from mimucap.session.recorded.calibration_choice import AppliedCalibrations
+    from mimucap.session.recorded.provenance import provenance
 
     calibration, document = read_body_calibration(args.calibration)
     if not str(args.out).lower().endswith((".csv", ".mot")):
@@ -134,7 +134,7 @@ def _is_session(args: argparse.Namespace) -> bool:
 
 def _session_output(args: argparse.Namespace, model, calibration, result: str):
     """A session's joint angles through the processing path with ``calibration``, what the
-    result holds (:func:`mimucap.session.provenance.provenance`), the session's markers and a
+    result holds (:func:`mimucap.session.recorded.provenance.provenance`), the session's markers and a
     note on how long the gyroscope bridges a magnetometer."""
     import numpy as np
 
@@ -142,9 +142,10 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
     from mimucap.cli.session_input import warn_about_magnetometers
     from mimucap.core.pipeline.sensor_doubt import bridge_note
     from mimucap.io.session import read_session
-    from mimucap.session.calibrations import applied_calibrations
-    from mimucap.session.processing import process_session, recorded_processing, session_model
-    from mimucap.session.provenance import provenance
+    from mimucap.session.recorded.calibration_choice import applied_calibrations
+    from mimucap.session.recorded.reprocessing import process_session
+    from mimucap.session.recorded.stored_processing import recorded_processing, session_model
+    from mimucap.session.recorded.provenance import provenance
 
     check_reader_options(args)
     _refuse_up_for_session(args)

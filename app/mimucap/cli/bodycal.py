@@ -137,7 +137,7 @@ def read_input(args: argparse.Namespace):
     calibrations applied (:func:`magnetometer_calibrations`; none for a table; judged on the
     calibration's windows by :func:`judged_on_the_windows` once they are known)."""
     from mimucap.io.orientation_inputs import read_quaternion_table
-    from mimucap.session.calibrations import AppliedCalibrations
+    from mimucap.session.recorded.calibration_choice import AppliedCalibrations
 
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise ValueError(f"--rate {args.rate:g}: the update rate must be a positive number of Hz")
@@ -164,7 +164,7 @@ def judged_on_the_windows(session, mags, windows):
     doubtful-data flags' business, not a reason to call the calibration stale."""
     from dataclasses import replace
 
-    from mimucap.session.calibration_readiness import session_standings
+    from mimucap.session.recorded.calibration_readiness import session_standings
 
     span = None if not windows else (min(w[0] for w in windows), max(w[1] for w in windows))
     return replace(mags, standings=session_standings(session, mags.magnetometer, window_s=span))
@@ -190,7 +190,7 @@ def static_npose_orientations(session, mags, mapping: dict[str, str],
     import numpy as np
 
     from mimucap.core import bodycal
-    from mimucap.session.processing import recorded_processing
+    from mimucap.session.recorded.stored_processing import recorded_processing
 
     fusion = recorded_processing(session).settings.fusion
     found = {}
@@ -309,7 +309,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     from mimucap.core import bodycal
     from mimucap.io.body_calibration_file import write_body_calibration
-    from mimucap.session.calibrations import with_magnetometers
+    from mimucap.session.recorded.calibration_choice import with_magnetometers
 
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.input)

@@ -6,7 +6,7 @@
 The motion is the pipeline's result for the session (segment orientations and joint angles, as
 the review shows them), computed with the session's stored calibrations, or with the body
 calibration of ``--calibration`` and the magnetometer calibrations it was made with
-(:func:`mimucap.session.calibrations.applied_calibrations`). The format follows ``--format``,
+(:func:`mimucap.session.recorded.calibration_choice.applied_calibrations`). The format follows ``--format``,
 else the suffix of ``--out``:
 
 * ``c3d``: joint angles (``LKneeAngles``… X/Y/Z = flexion/adduction/rotation, degrees), segment
@@ -21,7 +21,7 @@ else the suffix of ``--out``:
 ``--from``/``--to`` (seconds) keep a part of the recording. The markers go into every format that
 has a place for them: C3D events, ``.mot``/``.csv``/``.sto`` header lines; BVH has none, so they
 are listed in a ``<name>_markers.csv`` file beside it. Every file says what it holds (result,
-calibrations, model, software, source file: :mod:`mimucap.session.provenance`).
+calibrations, model, software, source file: :mod:`mimucap.session.recorded.provenance`).
 """
 
 from __future__ import annotations
@@ -73,14 +73,14 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("--raw-sensors applies to --format sto")
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.session, args.calibration)
-    from mimucap.session.export import write_motion_file
-    from mimucap.session.review import load_review
+    from mimucap.session.recorded.export import write_motion_file
+    from mimucap.session.recorded.review import load_review
 
     from mimucap.cli.session_input import warn_about_magnetometers
 
     data = load_review(args.session, calibration_file=args.calibration)
     if not (fmt == "sto" and args.raw_sensors):  # the sensors' own orientations need no body calibration
-        from mimucap.session.review import require_body_calibration
+        from mimucap.session.recorded.review import require_body_calibration
 
         require_body_calibration(data, f"a {fmt} export of joint angles or segments")
     warn_about_magnetometers("export", data.session, data.calibrations)

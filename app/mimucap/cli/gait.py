@@ -53,7 +53,7 @@ def session_review(session: Path, calibration: Path | None, live: bool, allow_un
     or ``calibration``; ``ValueError`` naming ``--calibration`` when it has none and
     ``allow_uncalibrated`` is False (``what`` names what needs it)."""
     from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
-    from mimucap.session.review import load_review, require_body_calibration
+    from mimucap.session.recorded.review import load_review, require_body_calibration
 
     if calibration is not None and not calibration.is_file():
         raise OSError(f"{calibration}: no such file")
@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     from mimucap.core.analysis.sagittal import axes_from_data
     from mimucap.io.analysis_tables import write_gait_tables
     from mimucap.io.gaitmap import read_foot_imu_csv
-    from mimucap.session.analysis import analyse_review, write_analysis_csv
+    from mimucap.session.recorded.analysis import analyse_review, write_analysis_csv
 
     source: Path = args.input
     if not source.is_file():

@@ -86,7 +86,7 @@ def run_remove(args: argparse.Namespace) -> int:
 def run_listen(args: argparse.Namespace) -> int:
     from mimucap.acquisition.supervisor import Supervisor
     from mimucap.io.pairing_store import PairingStore
-    from mimucap.session.sources import SourceOptions, parse_sensor_ids, source_configs
+    from mimucap.session.sources.source_configs import SourceOptions, parse_sensor_ids, source_configs
 
     spec = parse_source_spec(args.source)
     if not isinstance(spec, (UdpSpec, SlimeVrSpec)):

@@ -6,7 +6,7 @@
 The session goes through the one processing path (its raw samples, the magnetometer
 calibrations of ``--mag-calibration``, the session or the user's store, the orientation
 filter, the body calibration of ``--calibration`` or the one the session recorded); the test is
-found in the sensors' data (:mod:`mimucap.session.clinical_tests`), never in the phase markers
+found in the sensors' data (:mod:`mimucap.session.recorded.clinical_tests`), never in the phase markers
 or a simulator's truth. Markers labelled ``test start`` and ``test stop`` override where the
 test starts and stops. A session without a body calibration is refused.
 
@@ -54,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from mimucap.cli.session_input import is_session
     from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
-    from mimucap.session.clinical_tests import run_clinical_test
+    from mimucap.session.recorded.clinical_tests import run_clinical_test
 
     if args.out.suffix.lower() != ".json":
         raise ValueError(f"{args.out}: the result is a JSON file; name it .json")
@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     if args.calibration is None and not args.mag_calibration:
         # A result of the session as stored is the one the library's trend follows (a result
         # computed with other calibrations given here is the user's own, kept in the file only).
-        from mimucap.session.clinical_test_results import store_in_library
+        from mimucap.session.recorded.clinical_test_results import store_in_library
 
         stored = store_in_library(args.session, found)
         if stored:

@@ -129,8 +129,8 @@ def check_options(args: argparse.Namespace, spec: SourceSpec) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mimucap.acquisition.supervisor import Supervisor
-    from mimucap.session.recording import Recorder, RecorderSettings
-    from mimucap.session.sources import SourceOptions, parse_sensor_ids, sensor_segments, source_configs
+    from mimucap.session.live.recorder import Recorder, RecorderSettings
+    from mimucap.session.sources.source_configs import SourceOptions, parse_sensor_ids, sensor_segments, source_configs
 
     if not args.duration > 0:
         raise ValueError(f"--duration must be > 0 s, got {args.duration}")
@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"{', '.join(given)} apply to recordings into the library only (with --subject)")
     recorder = Recorder(args.out, metadata,
                         RecorderSettings(flush_interval_s=args.flush_interval))
-    from mimucap.session.lsl_clock import recording_lsl_clock
+    from mimucap.session.streaming.lsl_clock import recording_lsl_clock
 
     start_host_s = time.monotonic()
     lsl_clock = recording_lsl_clock(start_host_s)  # lines it up with a LabRecorder XDF of the same minutes
@@ -263,7 +263,7 @@ def library_recording(args: argparse.Namespace):
     condition, tags and trial."""
     from mimucap.io.library import library_fields
     from mimucap.io.session import make_subject
-    from mimucap.session.library import open_library
+    from mimucap.session.recorded.library import open_library
 
     if args.out is not None:
         raise ValueError("--out and --subject exclude each other: a library recording is named by the library")

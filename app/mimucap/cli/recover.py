@@ -18,7 +18,7 @@ def register(subparsers) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mimucap.session.recording import recover
+    from mimucap.session.live.recorder import recover
 
     result = recover(args.file)
     print(f"recovered {result.session_path}: {sum(result.samples.values())} samples from "

@@ -45,7 +45,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from mimucap.cli.gait import session_review
     from mimucap.io.normative_bands import read_normative_bands
-    from mimucap.session.analysis import analyse_review, write_analysis_csv
+    from mimucap.session.recorded.analysis import analyse_review, write_analysis_csv
 
     if args.out.suffix.lower() != ".pdf":
         raise ValueError(f"{args.out}: the report is a PDF; give a .pdf file name")
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
         before = analyse_review(earlier)
     from PyQt5.QtGui import QGuiApplication
 
-    from mimucap.gui.report import write_comparison_report, write_report
+    from mimucap.gui.pdf_report import write_comparison_report, write_report
 
     # The PDF needs no screen: Qt's offscreen platform, asked for on the command line of the
     # application object rather than in the environment (which child processes would inherit).

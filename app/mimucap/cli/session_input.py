@@ -1,9 +1,9 @@
 """A MimuCap session on the command line: its samples through the one processing path.
 
 ``bodycal`` and ``angles`` read a session's raw samples and run them through
-:func:`mimucap.session.processing.process_session` (magnetometer calibration, orientation
+:func:`mimucap.session.recorded.reprocessing.process_session` (magnetometer calibration, orientation
 filter, body calibration, joint angles), exactly as review and export do, with the
-calibrations :func:`mimucap.session.calibrations.applied_calibrations` chooses (per sensor: a
+calibrations :func:`mimucap.session.recorded.calibration_choice.applied_calibrations` chooses (per sensor: a
 ``--mag-calibration`` file, the one the body calibration was made with, the one the session
 recorded, the user's calibration store for a session that does not record its live
 processing, which gives a sensor only its own device's calibration). Each calibration applied
@@ -39,10 +39,10 @@ def is_session(path) -> bool:
 
 def magnetometer_calibrations(session, files):
     """The magnetometer calibrations to apply to ``session`` without its body calibration
-    (:func:`mimucap.session.calibrations.applied_calibrations` with the files given): an
-    :class:`~mimucap.session.calibrations.AppliedCalibrations` whose ``lines()`` say, per
+    (:func:`mimucap.session.recorded.calibration_choice.applied_calibrations` with the files given): an
+    :class:`~mimucap.session.recorded.calibration_choice.AppliedCalibrations` whose ``lines()`` say, per
     sensor, where its calibration came from and how it stands."""
-    from mimucap.session.calibrations import applied_calibrations
+    from mimucap.session.recorded.calibration_choice import applied_calibrations
 
     return applied_calibrations(session, mag_files=files or (), stored_body=False)
 
@@ -51,7 +51,7 @@ def warn_about_magnetometers(command: str, session, applied, origin: str = "") -
     """Print on stderr a warning naming each sensor whose applied calibration is not good for
     this recording (with its figures), whose stored calibration was not used, or whose raw field
     is used, and return the sensors not good. ``applied``: the
-    :class:`~mimucap.session.calibrations.AppliedCalibrations`; ``origin``: the session's file,
+    :class:`~mimucap.session.recorded.calibration_choice.AppliedCalibrations`; ``origin``: the session's file,
     named when a command reads several."""
     from mimucap.core.clinical_names import sensor_name
 
@@ -133,8 +133,8 @@ def orientation_table(session, source: str, mag_calibrations: dict):
     from mimucap.core.pipeline.joint_angles import at_instants
     from mimucap.core.pipeline.settings import RESULT_REPROCESSED
     from mimucap.io.orientation_tables import QuaternionTable
-    from mimucap.session.calibrations import AppliedCalibrations
-    from mimucap.session.processing import process_session
+    from mimucap.session.recorded.calibration_choice import AppliedCalibrations
+    from mimucap.session.recorded.reprocessing import process_session
 
     output = process_session(session, result=RESULT_REPROCESSED,
                              calibrations=AppliedCalibrations(magnetometer=dict(mag_calibrations)))

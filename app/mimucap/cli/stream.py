@@ -54,11 +54,11 @@ def run(args: argparse.Namespace) -> int:
         from mimucap.cli import check_output_path
 
         check_output_path(args.out)
-    from mimucap.session.lsl_clock import load_pylsl
+    from mimucap.session.streaming.lsl_clock import load_pylsl
 
     pylsl = load_pylsl()  # before anything starts: says how to install it
-    from mimucap.session.live import open_live_session
-    from mimucap.session.lsl import LslStreamer
+    from mimucap.session.live.live_session import open_live_session
+    from mimucap.session.streaming.lsl_streamer import LslStreamer
 
     session = open_live_session(args.source, model_name=args.model)
     if args.calibration is not None:
@@ -108,7 +108,7 @@ def apply_calibration_file(session, path: Path) -> None:
     """Apply the body calibration of ``path`` (``mimucap bodycal``'s CAL.json) and the
     magnetometer calibrations it was made with to ``session``."""
     from mimucap.io.body_calibration_file import read_body_calibration
-    from mimucap.session.calibrations import body_magnetometers
+    from mimucap.session.recorded.calibration_choice import body_magnetometers
 
     calibration, _document = read_body_calibration(path)
     for mag in (body_magnetometers(calibration, str(path)) or {}).values():

@@ -42,7 +42,7 @@ the segment's rotation about its long axis for the whole recording). Live (3.11)
 ``q_world_from_segment(t) = q_world_from_sensor(t) ⊗ q_sensor_from_segment``.
 
 The display modes of seed section 4.3 (equations 4.2–4.3) are drawn by
-:mod:`mimucap.session.figure`, from the calibration's ``q_world_from_body``.
+:mod:`mimucap.session.views.skeleton_figure`, from the calibration's ``q_world_from_body``.
 
 Checks: each pose window must be still (every sample within ``stillness_limit_deg`` of the
 window's mean orientation), or the calibration is refused naming the sensor that moved; the

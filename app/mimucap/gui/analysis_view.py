@@ -7,14 +7,14 @@
   once a band file is loaded).
 * **ROM**: the ROM protocol's results (active ROM, peaks, left/right difference, reference
   value), and the ROM of every movement between any two markers.
-* **Report…** writes the PDF report (:mod:`mimucap.gui.report`); **Save tables…** writes every
+* **Report…** writes the PDF report (:mod:`mimucap.gui.pdf_report`); **Save tables…** writes every
   analysis table as CSV.
 
 Without a body calibration the gait tab shows the temporal parameters alone, and the curves,
 the ROM tab and the report are disabled, each saying why
-(:data:`mimucap.session.analysis.NEEDS_BODY_CALIBRATION`).
+(:data:`mimucap.session.recorded.analysis.NEEDS_BODY_CALIBRATION`).
 
-The analysis runs off the GUI thread (:func:`mimucap.session.analysis.analyse_review`); this
+The analysis runs off the GUI thread (:func:`mimucap.session.recorded.analysis.analyse_review`); this
 window only shows it.
 """
 
@@ -28,12 +28,12 @@ from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
-from mimucap.gui.background import BackgroundTask
-from mimucap.gui.report import write_report
+from mimucap.gui.background_task import BackgroundTask
+from mimucap.gui.pdf_report import write_report
 from mimucap.gui.menus import closes_with_keys
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.normative_bands import read_normative_bands
-from mimucap.session.analysis import (
+from mimucap.session.recorded.analysis import (
     DOUBT_HEADER,
     GAIT_PARAMETER_HEADER,
     ROM_HEADER,
@@ -47,7 +47,7 @@ from mimucap.session.analysis import (
     rom_rows,
     write_analysis_csv,
 )
-from mimucap.session.review import ReviewData
+from mimucap.session.recorded.review import ReviewData
 
 SIDE_PENS = {"left": (30, 100, 200), "right": (200, 50, 40)}
 

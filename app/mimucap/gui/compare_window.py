@@ -1,9 +1,9 @@
 """The comparison of two sessions of a subject: for each session the part compared (the whole
 recording or between two markers), then every table of the comparison (a named table each, as
-:func:`mimucap.session.library.compare` makes them) with A, B and the difference.
+:func:`mimucap.session.recorded.library.compare` makes them) with A, B and the difference.
 
 Both sessions are processed off the GUI thread by the one pipeline
-(:func:`mimucap.session.review.load_review`); changing a window recomputes the tables only.
+(:func:`mimucap.session.recorded.review.load_review`); changing a window recomputes the tables only.
 """
 
 from __future__ import annotations
@@ -14,13 +14,13 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.pipeline.settings import RESULT_LABELS, RESULT_REPROCESSED
-from mimucap.gui.background import BackgroundTask
+from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.menus import closes_with_keys
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.analysis_tables import write_comparison_csv
 from mimucap.io.library import Library, SessionEntry
-from mimucap.session.library import ComparedSession, ComparisonTable, TimeWindow, compare
-from mimucap.session.review import load_review
+from mimucap.session.recorded.library import ComparedSession, ComparisonTable, TimeWindow, compare
+from mimucap.session.recorded.review import load_review
 
 log = logging.getLogger(__name__)
 

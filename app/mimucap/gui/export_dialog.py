@@ -2,10 +2,10 @@
 the motion as C3D, BVH and an OpenSense orientation table, sensor data, and the summary table per
 joint (min, max, range of motion) saved as CSV and as a PNG chart for a report.
 
-The files are written off the GUI thread (:class:`~mimucap.gui.background.BackgroundTask`)
-with a progress bar; the work itself is :func:`mimucap.session.export.run_export`. Every file,
+The files are written off the GUI thread (:class:`~mimucap.gui.background_task.BackgroundTask`)
+with a progress bar; the work itself is :func:`mimucap.session.recorded.export.run_export`. Every file,
 the summary CSV and the chart's caption say what the result holds
-(:attr:`~mimucap.session.review.ReviewData.provenance`); without a body calibration the dialog
+(:attr:`~mimucap.session.recorded.review.ReviewData.provenance`); without a body calibration the dialog
 says so above the summary.
 """
 
@@ -23,16 +23,16 @@ from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.clinical_names import angle_label, angle_sign_text
 from mimucap.core.wording import fixed
-from mimucap.gui.background import BackgroundTask
+from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
 from mimucap.io.angles_export import write_summary_csv
-from mimucap.session.export import (
+from mimucap.session.recorded.export import (
     ExportRequest, ExportResult, angles_in_range, doubt_in_range, export_folder, marker_range, run_export,
     summary_table,
 )
-from mimucap.session.provenance import WITHOUT_BODY_CALIBRATION
-from mimucap.session.review import ReviewData
+from mimucap.session.recorded.provenance import WITHOUT_BODY_CALIBRATION
+from mimucap.session.recorded.review import ReviewData
 
 log = logging.getLogger(__name__)
 

@@ -16,12 +16,12 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.wording import plural
-from mimucap.gui.background import BackgroundTask
+from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.menus import closes_with_keys
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
-from mimucap.session.library import COMPARISON_NEEDS_CALIBRATION
+from mimucap.session.recorded.library import COMPARISON_NEEDS_CALIBRATION
 
 log = logging.getLogger(__name__)
 

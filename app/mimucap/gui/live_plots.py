@@ -35,7 +35,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.core.clinical_names import axis_short_name, joint_name, segment_name, sensor_name, split_angle_column
 from mimucap.gui.scrolling import scrolling
 from mimucap.gui.throttle import RepaintThrottle
-from mimucap.session.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
+from mimucap.session.views.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
 
 #: Plot refreshes a second (Hz): at most this, less :data:`REFRESH_SLACK`.
 REFRESH_HZ = 30.0

@@ -2,7 +2,7 @@
 
 Turned on, the live session's outputs go out as LSL streams and, when the user picks one, the
 markers of another program's LSL marker stream come in as session markers
-(:class:`~mimucap.session.lsl.LslStreamer` does both; this only shows and forwards). The streams
+(:class:`~mimucap.session.streaming.lsl_streamer.LslStreamer` does both; this only shows and forwards). The streams
 follow the window's source: a new source gets its own streams. Without pylsl the switch says
 how to install it and stays off.
 """
@@ -49,7 +49,7 @@ class LslSwitch:
             self._close()
             self.window.statusBar().showMessage("Lab Streaming Layer streams closed", 5000)
             return
-        from mimucap.session.lsl_clock import LslMissing, load_pylsl
+        from mimucap.session.streaming.lsl_clock import LslMissing, load_pylsl
 
         try:
             load_pylsl()
@@ -80,7 +80,7 @@ class LslSwitch:
             QtWidgets.QMessageBox.warning(self.window, "Lab Streaming Layer", str(error))
 
     def _open(self, marker_stream: str) -> None:
-        from mimucap.session.lsl import LslStreamer
+        from mimucap.session.streaming.lsl_streamer import LslStreamer
 
         try:
             self.streamer = LslStreamer(self._session)

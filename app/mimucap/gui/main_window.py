@@ -1,14 +1,14 @@
 """The main window: 3D skeleton view, live plots, sensor panel and session panel around a
-:class:`~mimucap.session.live.LiveSession`.
+:class:`~mimucap.session.live.live_session.LiveSession`.
 
 The window holds no data: it shows what the live session has and forwards what the user
 asks. One timer moves time forward: the pump (:data:`PUMP_INTERVAL_MS`) runs the session's
-pipeline (:meth:`~mimucap.session.live.LiveSession.step`). Nothing polls the session: each
+pipeline (:meth:`~mimucap.session.live.live_session.LiveSession.step`). Nothing polls the session: each
 widget subscribes to the session's events when the session is set (the 3D view to ``frame``,
 the plots to ``data``, the sensor panel to ``status``, the session panel to ``checklist``,
-``recording_progress`` and ``marker``, the status bar here to ``status``, ``pose_source``,
-``source_problem``, ``refused``, ``truth_errors``) and lets it go when the source changes or
-the window closes. The 3D view and the plots coalesce the events into at most one picture per
+``recording_progress`` and ``marker``, the status bar (:mod:`mimucap.gui.live_status_bar`) to
+``status``, ``pose_source``, ``source_problem``, ``refused``, ``truth_errors``, ``recording``
+and ``recording_progress``) and lets it go when the source changes or the window closes. The 3D view and the plots coalesce the events into at most one picture per
 frame interval (60 and 30 a second); the session publishes its status 4 times a second.
 """
 
@@ -26,16 +26,17 @@ from mimucap import __version__
 from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.source_spec import ReplaySpec, parse_source_spec
 from mimucap.gui.assignment_dialog import AssignmentDialog, remembered_assignment
-from mimucap.gui.background import BackgroundTask
+from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot, save_screenshot
-from mimucap.gui.elided_label import ElidedLabel
 from mimucap.gui.live_plots import LivePlots
+from mimucap.gui.live_status_bar import LiveStatusBar
+from mimucap.gui.recording_saver import RecordingSaver
 from mimucap.gui.lsl_switch import LslSwitch
 from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.scrolling import scrolling
-from mimucap.gui.sensor_panel import SensorPanel, rejections_tooltip
+from mimucap.gui.sensor_panel import SensorPanel
 from mimucap.gui.session_panel import SessionPanel, display_path
 from mimucap.gui.settings import gui_settings
 from mimucap.gui.source_dialog import (
@@ -48,16 +49,13 @@ from mimucap.gui.source_dialog import (
 )
 from mimucap.io.calibration_store import user_data_dir
 from mimucap.io.recording_import import IMPORT_SUFFIXES, import_recording
-from mimucap.session.camera import CAMERA_PRESETS
-from mimucap.session.diagnostics import CpuMeter
-from mimucap.session.figure import DISPLAY_MODES
-from mimucap.session.kernel_preparation import KernelPreparation
-from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
-from mimucap.session.evaluation import accuracy_phrase
-from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, doubt_warning, open_live_session
+from mimucap.session.views.camera import CAMERA_PRESETS
+from mimucap.session.views.skeleton_figure import DISPLAY_MODES
+from mimucap.session.live.kernel_preparation import KernelPreparation
+from mimucap.session.live.live_session import LiveSession, open_live_session
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
-from mimucap.session.recording_checklist import CheckItem, recording_checklist
+from mimucap.session.live.checklist import CheckItem, recording_checklist
 
 log = logging.getLogger(__name__)
 
@@ -71,18 +69,6 @@ PUMP_INTERVAL_MS = 16
 SENSOR_DOCK_START_PX = 190
 #: A dock takes at most this share of a small window's height (Sensors) or width (Session).
 DOCK_MOST_SHARE = 0.3
-#: The recording indicator: white on red, always in the status bar while recording.
-RECORDING_STYLE = "QLabel { background: #d62728; color: white; font-weight: bold; padding: 1px 8px; border-radius: 3px; }"
-#: What the 3D view says while it has no figure to show, by pose source.
-VIEW_HINTS = {
-    POSE_NONE: "Waiting for data from the source…",
-    POSE_UNASSIGNED: "No sensor is assigned to a body segment yet.\nSession → Assign Sensors…",
-    POSE_SENSOR_AXES: "Not calibrated yet: each sensor's axes stand for its segment.\n"
-                      "Calibrate the magnetometers, then the body (menu Calibrate).",
-}
-#: The 3D view's hint once the magnetometers are calibrated: the body is next.
-BODY_NEXT_HINT = ("Magnetometers calibrated.\nNext: calibrate the body (Calibrate → Body…): the subject stands "
-                  "in the N-pose, then raises both arms sideways.")
 ABOUT_TEXT = (
     "<h3>MimuCap {version}</h3>"
     "<p>Human motion capture with magnetic-inertial sensors: live skeleton, joint angles, "
@@ -146,15 +132,15 @@ class MainWindow(QtWidgets.QMainWindow):
         self.review_windows: list[QtWidgets.QWidget] = []
         self.library_window = None  # gui.library_window.LibraryWindow once opened
         self._wizards = _wizard_classes()
-        self._cpu = CpuMeter()
         self._last_record_message = ""
-        self.saving_tasks: list[BackgroundTask] = []
+        #: writes stopped recordings' session files in the background
+        self.saver = RecordingSaver(self)
+        self.saver.saved.connect(self._recording_saved)
+        self.saver.not_saved.connect(self._recording_not_saved)
+        self.saver.idle.connect(self._saving_done)
         self._warm_up: BackgroundTask | None = None
         self._preparation: KernelPreparation | None = None
         self._wizard: QtWidgets.QWidget | None = None
-        self._source_problem = ""  # the last problem the source reported (from its event)
-        self._pose_source = ""     # what drives the figure (from its event)
-        self._accuracy = ""        # the running error against the simulator's truth, as a phrase
         self._sensors_seen: set[str] = set()  # sensors the remembered assignment was offered to
         self.last_recording = None  # RecordingResult of the last recording saved
         self._closing_progress: QtWidgets.QProgressDialog | None = None
@@ -190,6 +176,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session_panel.record_toggled.connect(self._record_toggled)
         self.session_panel.marker_requested.connect(self.add_marker)
         self.session_panel.height.valueChanged.connect(self._height_changed)
+        self.saver.progress.connect(self.session_panel.show_saving_progress)
 
         self._build_menus()
         self._build_status_bar()
@@ -200,12 +187,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pump.timeout.connect(self._pump_pipeline)
         #: the window's own subscriptions to the live session's events (event name → callback)
         self._subscriptions = {
-            "status": self._status_changed, "pose_source": self._pose_source_changed,
-            "source_problem": self._source_problem_changed, "refused": self._show_refused_without_sensor,
-            "truth_errors": self._truth_errors_changed, "truth_available": self.action_truth.setEnabled,
-            "sensors": self._assign_remembered, "recording_progress": self._recording_progress,
-            "recording_failed": self._recording_failed, "calibration": lambda *_: self._update_hint(),
-            "unpaired": self._unpaired_heard}
+            "truth_available": self.action_truth.setEnabled, "sensors": self._assign_remembered,
+            "recording_failed": self._recording_failed, "unpaired": self._unpaired_heard}
         #: the sensors the source refuses as not paired; the device ids offered for pairing so far
         self._unpaired: list[UnpairedSensor] = []
         self._offered: set[str] = set()
@@ -303,33 +286,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_about = help_menu.addAction("&About MimuCap", self.show_about)
 
     def _build_status_bar(self) -> None:
-        status = self.statusBar()
-        self.recording_indicator = QtWidgets.QLabel("", self)
-        self.recording_indicator.setObjectName("recordingIndicator")
-        self.recording_indicator.setStyleSheet(RECORDING_STYLE)
-        self.recording_indicator.setVisible(False)
-        status.addPermanentWidget(self.recording_indicator)
-        self.source_status = ElidedLabel("", self)
-        self.pose_status = ElidedLabel("", self)
-        self.refused_status = QtWidgets.QLabel(self)
-        self.refused_status.setObjectName("refusedStatus")
-        self.refused_status.setStyleSheet("QLabel { color: #c05800; }")
-        self.refused_status.setVisible(False)
-        status.addPermanentWidget(self.refused_status)
-        # while a sensor's orientation is doubtful: which, and why (the whole text as tooltip)
-        self.doubt_status = ElidedLabel("", self)
-        self.doubt_status.setObjectName("doubtStatus")
-        self.doubt_status.setStyleSheet("QLabel { color: #c05800; }")
-        self.doubt_status.setVisible(False)
-        status.addPermanentWidget(self.doubt_status, 1)
-        self.rate_status = QtWidgets.QLabel(self)
-        # Wide enough for the usual figures, so that a rate going from 99 to 101 Hz does not
-        # need room the status bar has already given away.
-        self.rate_status.setMinimumWidth(self.rate_status.fontMetrics().horizontalAdvance("17 sensors, 888 Hz, 888 drops"))
-        self.cpu_status = QtWidgets.QLabel(self)
-        self.fps_status = QtWidgets.QLabel(self)
-        for label in (self.source_status, self.pose_status, self.rate_status, self.cpu_status, self.fps_status):
-            status.addPermanentWidget(label)
+        self.live_status = LiveStatusBar(self.statusBar(), lambda: self.scene_view.render_times)
+        self.live_status.hint_changed.connect(self.scene_view.set_hint)
 
     # -- the live session ----------------------------------------------------------------------
     def open_source(self, spec: str, interactive: bool = True) -> bool:
@@ -397,9 +355,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plots.set_source(session)
         self.sensor_panel.set_session(session)
         self.session_panel.set_session(session)
-        self.source_status.setText(f"Source: {session.label}")
+        self.live_status.set_session(session)
         self.action_truth.setEnabled(session.has_truth)
-        self._accuracy = ""
         for name, callback in self._subscriptions.items():
             getattr(session.events, name).connect(callback)
         self._update_ghost()
@@ -413,6 +370,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.plots.set_source(None)
         self.sensor_panel.set_session(None)
         self.session_panel.set_session(None)
+        self.live_status.set_session(None)
         self.lsl_switch.follow(None)
         if live is not None:
             for name, callback in self._subscriptions.items():
@@ -432,7 +390,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Start the source, pumping, rendering and refreshing (call after ``show()``).
 
         The first time in a process, the fusion kernels are made ready first, by a background
-        thread (:mod:`mimucap.session.kernel_preparation`): the module compiled ahead of time at
+        thread (:mod:`mimucap.session.live.kernel_preparation`): the module compiled ahead of time at
         installation when it is current, else numba's cache, filled by a child process when it
         lacks them; so the GUI thread never compiles them on the first sample."""
         global _kernels_ready
@@ -509,79 +467,6 @@ class MainWindow(QtWidgets.QMainWindow):
             if (segment in live.model.segment_names and sensor_id not in live.sensor_segments
                     and segment not in live.sensor_segments.values()):
                 live.assign_sensor(sensor_id, segment)
-
-    # -- the status bar, from the session's events ---------------------------------------------
-    def _status_changed(self, rows) -> None:
-        """The session's status (4 Hz): sensors, rates and drops; the process's CPU and the 3D
-        view's frame rate are sampled with it."""
-        rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
-        drops = sum(r.drops for r in rows)
-        warning = doubt_warning(rows)
-        if warning != self.doubt_status.text():
-            self.doubt_status.setText(warning)
-            self.doubt_status.setVisible(bool(warning))
-        self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")
-        self.cpu_status.setText(f"CPU {self._cpu.sample():.0f} %")
-        times = self.scene_view.render_times[-61:]
-        if len(times) >= 2 and times[-1] > times[0]:
-            self.fps_status.setText(f"{(len(times) - 1) / (times[-1] - times[0]):.0f} fps")
-        else:
-            self.fps_status.setText("– fps")
-
-    def _pose_source_changed(self, pose_source: str) -> None:
-        self._pose_source = pose_source
-        if pose_source != POSE_BODY_CALIBRATION:
-            self._accuracy = ""
-        self._show_pose_status()
-        self._update_hint()
-
-    def _truth_errors_changed(self, errors) -> None:
-        # Without a body calibration there is nothing to judge: the sensors' axes stand for the
-        # segments, and an error against the truth of 100° says nothing but "not calibrated".
-        self._accuracy = accuracy_phrase(errors) if self._pose_source == POSE_BODY_CALIBRATION else ""
-        self._show_pose_status()
-
-    def _show_pose_status(self) -> None:
-        self.pose_status.setText(f"Pose: {self._pose_source}{self._accuracy}")
-
-    def _source_problem_changed(self, problem: str) -> None:
-        self._source_problem = problem
-        if problem and self.live is not None:
-            log.warning("source %s: %s", self.live.label, problem)
-        self._update_hint()
-
-    def _update_hint(self) -> None:
-        """What the 3D view says while it has no figure: why, and what to do."""
-        if self._source_problem and self._pose_source == POSE_NONE:
-            self.scene_view.set_hint(f"No data from the source.\n{self._source_problem}\n\n"
-                                     "Check the device and its connection, or choose another source "
-                                     "(File → Choose Source…).")
-        elif self._pose_source == POSE_SENSOR_AXES and self.live is not None and self._magnetometers_done():
-            self.scene_view.set_hint(BODY_NEXT_HINT)
-        else:
-            self.scene_view.set_hint(VIEW_HINTS.get(self._pose_source, ""))
-
-    def _magnetometers_done(self) -> bool:
-        """Every sensor that needs a magnetometer calibration has one (sensors fusing on board,
-        or sending their own orientation, need none)."""
-        live = self.live
-        needing = set(live.sensor_ids) - set(live.onboard_sensors()) - set(live.orientation_only_sensors())
-        return bool(needing) and needing <= set(live.mag_calibrations)
-
-    def _recording_progress(self, info) -> None:
-        self._show_elapsed(info.elapsed_s)
-
-    def _show_refused_without_sensor(self, counts: dict[str, int], senders: dict[str, int]) -> None:
-        """Packets refused that belong to no sensor of the table (an unknown sender, a line too
-        damaged to name its sensor): counted in the status bar, the reasons and senders on hover."""
-        total = sum(counts.values())
-        self.refused_status.setVisible(total > 0)
-        if total:
-            self.refused_status.setText(f"{total} packets refused from no known sensor")
-            tooltip = rejections_tooltip(counts)
-            if senders:
-                tooltip += "\nFrom: " + ", ".join(f"{sender} ({count})" for sender, count in senders.items())
-            self.refused_status.setToolTip(tooltip)
 
     # -- user actions: source, sensors, recording ------------------------------------------------
     def choose_source(self) -> None:
@@ -754,22 +639,13 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _show_recording(self, on: bool) -> None:
         """The window's controls while recording (``on``) or not: the Record button and menu
-        item, the subject fields, Choose Source (no source change while recording), the red
-        indicator and the window title; the checklist is shown only before recording."""
+        item, the subject fields, Choose Source (no source change while recording) and the
+        window title (the status bar's red indicator follows the session's ``recording``); the checklist is shown only before recording."""
         self.session_panel.set_recording(on)
         self.action_record.setText("Stop &Recording" if on else "Start &Recording")
         self.action_source.setEnabled(not on)
         self.session_panel.checklist_box.setVisible(not on)
-        self.recording_indicator.setVisible(on)
         self.setWindowTitle("● Recording — MimuCap" if on else "MimuCap")
-        if on:
-            self._show_elapsed(0.0)
-
-    def _show_elapsed(self, elapsed_s: float) -> None:
-        minutes, seconds = divmod(int(elapsed_s), 60)
-        hours, minutes = divmod(minutes, 60)
-        clock = f"{hours}:{minutes:02d}:{seconds:02d}" if hours else f"{minutes:02d}:{seconds:02d}"
-        self.recording_indicator.setText(f"● REC {clock}")
 
     def _finish_recording(self, wait: bool = False) -> None:
         """Stop recording at once; the session file is written in a background thread (the
@@ -781,37 +657,25 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session_panel.show_info(None, message)
         self.session_panel.show_saving(True)
         self.statusBar().showMessage(message)
-        task = BackgroundTask(pending.save, self)
-        task.progress.connect(self.session_panel.show_saving_progress)
-        task.setObjectName(pending.session_path.name)
-        task.succeeded.connect(lambda result: self._recording_saved(live, result))
-        task.failed.connect(lambda error: self._recording_not_saved(pending, error))
-        task.finished.connect(lambda: self._saving_finished(task))
-        self.saving_tasks.append(task)
-        task.start()
+        self.saver.save(live, pending)
         if wait:
             self.wait_for_saving()
 
-    def _saving_finished(self, task: BackgroundTask) -> None:
-        if task in self.saving_tasks:
-            self.saving_tasks.remove(task)
-        if not self.saving:
-            self.session_panel.show_saving(False)
-            if self._closing_progress is not None:  # the window was closed while saving: close now
-                self._closing_progress.close()
-                self._closing_progress = None
-                self.close()
+    def _saving_done(self) -> None:
+        self.session_panel.show_saving(False)
+        if self._closing_progress is not None:  # the window was closed while saving: close now
+            self._closing_progress.close()
+            self._closing_progress = None
+            self.close()
 
     def wait_for_saving(self) -> None:
         """Block until every session file being written is written (their messages shown)."""
-        for task in list(self.saving_tasks):
-            task.wait()
-        QtCore.QCoreApplication.sendPostedEvents()  # deliver the tasks' results now
+        self.saver.wait()
 
     @property
     def saving(self) -> bool:
         """True while a stopped recording's session file is being written."""
-        return any(task.isRunning() for task in self.saving_tasks)
+        return self.saver.saving
 
     def _recording_saved(self, live: LiveSession, result) -> None:
         live.last_recording = result
@@ -834,9 +698,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self.library_window.refresh()
         self.recording_saved.emit(result)
 
-    def _recording_not_saved(self, pending, error: str) -> None:
-        message = (f"The session file {pending.session_path} could not be written ({error}); every sample is "
-                   f"kept in {pending.recorder.journal_path}: run `mimucap recover {pending.session_path}`.")
+    def _recording_not_saved(self, message: str) -> None:
         self.session_panel.show_info(None, message)
         self.statusBar().showMessage(message)
         QtWidgets.QMessageBox.critical(self, "Recording not saved", message)
@@ -977,20 +839,8 @@ class MainWindow(QtWidgets.QMainWindow):
     def _show_closing_progress(self) -> None:
         if self._closing_progress is not None:
             return
-        names = ", ".join(str(task.objectName()) for task in self.saving_tasks if task.objectName())
-        # A fraction only when one file is written (several would make the bar jump between them)
-        single = len(self.saving_tasks) == 1
-        dialog = QtWidgets.QProgressDialog(f"Writing the session file before closing…\n{names}".strip(),
-                                           "", 0, 100 if single else 0, self)
-        if single:
-            self.saving_tasks[0].progress.connect(lambda fraction: dialog.setValue(int(round(100.0 * fraction))))
-        dialog.setObjectName("closingProgress")
-        dialog.setWindowTitle("MimuCap")
-        dialog.setCancelButton(None)  # the file must be written: the journal is converted whole
-        dialog.setWindowModality(QtCore.Qt.WindowModal)
-        dialog.setMinimumDuration(0)
-        dialog.show()
-        self._closing_progress = dialog
+        self._closing_progress = self.saver.closing_dialog(self)
+        self._closing_progress.show()
         self.statusBar().showMessage("Writing the session file before closing…")
 
     def show_user_guide(self) -> None:
@@ -1041,7 +891,7 @@ class MainWindow(QtWidgets.QMainWindow):
             self._finish_recording()
         if self.saving:
             # The file is written in its thread while the window keeps running: it closes
-            # when the writing is done (:meth:`_saving_finished`), with a progress dialog until then.
+            # when the writing is done (:meth:`_saving_done`), with a progress dialog until then.
             event.ignore()
             self._show_closing_progress()
             return

@@ -4,7 +4,7 @@ angles are doubtful are shaded on the timeline and in the joint plots, and the s
 which joints are doubtful at the play head, and why.
 
 The session is loaded and its poses computed off the GUI thread
-(:func:`mimucap.session.review.load_review` in a :class:`BackgroundTask`), with progress. The
+(:func:`mimucap.session.recorded.review.load_review` in a :class:`BackgroundTask`), with progress. The
 play timer is the review's clock: it moves the player's play head, and the 3D view and the
 plots follow the player's events (``frame``, ``data``).
 """
@@ -18,7 +18,7 @@ from pathlib import Path
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtGui, QtWidgets
 
-from mimucap.gui.background import BackgroundTask
+from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot
 from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import DOUBT_BRUSH, LivePlots
@@ -26,11 +26,11 @@ from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
-from mimucap.session.camera import CAMERA_PRESETS
+from mimucap.session.views.camera import CAMERA_PRESETS
 from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
-from mimucap.session.analysis import NEEDS_BODY_CALIBRATION
-from mimucap.session.evaluation import accuracy_phrase
-from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
+from mimucap.session.recorded.analysis import NEEDS_BODY_CALIBRATION
+from mimucap.session.angle_accuracy import accuracy_phrase
+from mimucap.session.recorded.review import SPEEDS, ReviewData, ReviewPlayer, load_review
 
 log = logging.getLogger(__name__)
 

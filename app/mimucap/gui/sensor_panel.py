@@ -5,7 +5,7 @@ magnetometer calibration that is not good (its standing: another device's, a loc
 no longer fits, too old; or a stored one not used) named in the State column, the device each
 sensor is in the tooltip of its id.
 Orientation-only sensors (on-board fusion, e.g. SlimeVR trackers) read "on-board" under
-magnetometer calibration. Shows :class:`~mimucap.session.live.SensorRow` values as they are,
+magnetometer calibration. Shows :class:`~mimucap.session.live.sensor_rows.SensorRow` values as they are,
 from the live session's ``status`` event (:meth:`SensorPanel.set_session`); computes nothing.
 
 The "Refused" column counts the packets of a sensor that the source received and refused
@@ -22,8 +22,8 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.acquisition.rejections import Rejection
 from mimucap.core.clinical_names import segment_name
-from mimucap.session.live import SensorRow
-from mimucap.session.magcal_procedure import describe_age
+from mimucap.session.live.sensor_rows import SensorRow
+from mimucap.session.views.calibration_age import describe_age
 
 COLUMNS = ("Sensor", "Segment", "Rate (Hz)", "Drops", "Refused", "Latency p95 (ms)", "Battery (%)",
            "Signal (dBm)", "Mag. calibration", "Fusion flags", "State")

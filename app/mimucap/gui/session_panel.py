@@ -13,8 +13,8 @@ from pathlib import Path
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.wording import plural
-from mimucap.session.live import RecordingInfo
-from mimucap.session.recording_checklist import CheckItem
+from mimucap.session.live.recording import RecordingInfo
+from mimucap.session.live.checklist import CheckItem
 from mimucap.session.subject import DOMINANCE, Subject
 
 #: How a checklist item is marked: ok, or to look at.

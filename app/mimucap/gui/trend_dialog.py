@@ -1,7 +1,7 @@
 """Library → Trend: one subject's results of a clinical test across visits, as a chart with the
-published reference, a table, and a printable PDF (:func:`mimucap.gui.report.write_trend_report`).
+published reference, a table, and a printable PDF (:func:`mimucap.gui.pdf_report.write_trend_report`).
 
-The results are those the library keeps (:mod:`mimucap.session.clinical_test_results`): every
+The results are those the library keeps (:mod:`mimucap.session.recorded.clinical_test_results`): every
 guided test in the window, and ``mimucap protocol`` run on a session of the library.
 """
 
@@ -13,13 +13,13 @@ import numpy as np
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtGui, QtWidgets
 
-from mimucap.gui.report import local_time_text, write_trend_report
+from mimucap.gui.pdf_report import local_time_text, write_trend_report
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.library import Library
-from mimucap.session.clinical_test_results import (
+from mimucap.session.recorded.clinical_test_results import (
     MAIN_RESULT, QUANTITIES, RESULT_PREFIX, Visit, format_quantity, subject_trend,
 )
-from mimucap.session.clinical_tests import RESULT_KEYS, TEST_NAMES
+from mimucap.session.recorded.clinical_tests import RESULT_KEYS, TEST_NAMES
 
 
 class TrendDialog(QtWidgets.QDialog):

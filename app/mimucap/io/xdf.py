@@ -2,7 +2,7 @@
 
 A LabRecorder XDF of a session streamed by MimuCap (``mimucap stream --lsl`` or the window's
 Lab Streaming Layer switch) holds one stream per sensor, named ``MimuCap raw <sensor>`` (type
-``IMU``, :mod:`mimucap.session.lsl`): channels ``acc_x..z`` (m/s², sensor frame), ``gyr_x..z``
+``IMU``, :mod:`mimucap.session.streaming.lsl_streamer`): channels ``acc_x..z`` (m/s², sensor frame), ``gyr_x..z``
 (rad/s), ``mag_x..z`` (µT, before the magnetometer calibration) and ``seq``, each sample stamped
 with its sample time on the LSL clock; the stream's meta-data names the sensor, its segment and
 its device. :func:`session_from_xdf` reads those streams (with ``pyxdf``, which applies the

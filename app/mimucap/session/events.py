@@ -84,12 +84,21 @@ class EmitterGroup:
 
     ``events = EmitterGroup("frame", "status")`` gives ``events.frame`` and ``events.status``;
     a typo in a name raises ``AttributeError`` instead of silently creating an event.
+
+    A model composed of parts offers its parts' events under its own names:
+    ``EmitterGroup("frame", data=history.events.data)`` gives a new ``frame`` and, as ``data``,
+    the very emitter of the part (one list of subscribers: a part that builds something only
+    while someone listens sees the subscribers of the whole).
     """
 
-    def __init__(self, *names: str) -> None:
-        if len(set(names)) != len(names):
-            raise ValueError(f"duplicate event names in {names}")
+    def __init__(self, *names: str, **shared: EventEmitter) -> None:
+        if len(set(names)) != len(names) or set(names) & set(shared):
+            raise ValueError(f"duplicate event names in {names} and {tuple(shared)}")
+        for name, emitter in shared.items():
+            if not isinstance(emitter, EventEmitter):
+                raise ValueError(f"event {name!r}: {emitter!r} is not an EventEmitter")
         self._emitters = {name: EventEmitter(name) for name in names}
+        self._emitters.update(shared)
 
     def __getattr__(self, name: str) -> EventEmitter:
         emitters = self.__dict__.get("_emitters", {})

@@ -245,7 +245,7 @@ import mimucap.core.fusion.kernel_selection as kernel_selection
 aot.COMPILED_DIR = Path(sys.argv[1])
 from mimucap.cli import main
 code = main(["fuse", sys.argv[2], "--out", sys.argv[3]])
-from mimucap.session.kernel_preparation import KernelPreparation
+from mimucap.session.live.kernel_preparation import KernelPreparation
 report = KernelPreparation().run()
 print(json.dumps({"code": code, "origin": kernel_selection.fusion_kernels().origin, "ahead_of_time": report.ahead_of_time,
                   "imported": [name for name in ("numba", "llvmlite", "scipy") if name in sys.modules]}))

@@ -2,7 +2,7 @@
 
 Capsules (segments and the connectors between them) are copies of one unit template (an open
 cylinder along +y, radius 1, height 1, centred at the origin) placed by their ``(4, 4)``
-matrices from a :class:`mimucap.session.figure.FigureGeometry` (scene frame, metres). All
+matrices from a :class:`mimucap.session.views.skeleton_figure.FigureGeometry` (scene frame, metres). All
 copies live in a single ``vtkPolyData`` drawn by a single actor: each frame moves the vertices
 and normals in place (``points = M[:3, :3] @ p + M[:3, 3]``, ``normals ∝ M[:3, :3]^-T @ n``),
 one buffer upload and one draw call for the whole figure, where one actor per piece would
@@ -32,9 +32,9 @@ from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLSphereMapper
 
 from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata
-from mimucap.session.figure import FigureBuilder, FigureGeometry
+from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry
 
-#: Segment colour (RGB 0..1) for each sensor state (see ``mimucap.session.sensor_status``).
+#: Segment colour (RGB 0..1) for each sensor state (see ``mimucap.session.live.status``).
 TINTS: dict[str, tuple[float, float, float]] = {
     "ok": (0.50, 0.70, 0.92),
     "mag_uncalibrated": (0.95, 0.72, 0.30),

@@ -3,7 +3,7 @@
 The widget *has* a :class:`~mimucap.gui.vtk_widget.VtkWidget` (VTK's Qt render window
 interactor; no double inheritance). It subscribes to a model's events (:meth:`SceneView.set_model`:
 the live session or the review player, ``frame(frame_id, geometry)`` with the newest
-:class:`~mimucap.session.figure.FigureGeometry`, ``truth_frame`` for the ghost figure,
+:class:`~mimucap.session.views.skeleton_figure.FigureGeometry`, ``truth_frame`` for the ghost figure,
 ``status`` for the segments' tints) and keeps no copy of the model's data. Whatever changes
 (a tint, the camera, the hint) marks the picture dirty and asks for one render when the event
 loop is free again; a new frame (a model's last event of a step) is drawn at once with all that
@@ -12,7 +12,7 @@ per frame interval (:attr:`SceneView.target_fps`, less :data:`FRAME_INTERVAL_SLA
 timers' jitter): what arrives sooner waits for a single-shot timer, and frames that arrive
 faster are coalesced.
 Mouse orbit/zoom is VTK's trackball camera style. The camera follows the subject along the
-floor in every preset (:mod:`mimucap.session.camera`). After :meth:`SceneView.shutdown`
+floor in every preset (:mod:`mimucap.session.views.camera`). After :meth:`SceneView.shutdown`
 (called on close) nothing renders again.
 """
 
@@ -31,8 +31,8 @@ from mimucap.gui.scene.environment import Stage, scene_renderer
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
 from mimucap.gui.throttle import RepaintThrottle
 from mimucap.gui.vtk_widget import VtkWidget
-from mimucap.session.camera import CAMERA_PRESETS, camera_preset, follow_shift
-from mimucap.session.figure import FigureBuilder, FigureGeometry, plain_world_matrix
+from mimucap.session.views.camera import CAMERA_PRESETS, camera_preset, follow_shift
+from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry, plain_world_matrix
 
 #: How far beyond the focal point the far plane lies (m): the whole floor grid.
 CLIPPING_FAR_M = 45.0

@@ -1,6 +1,6 @@
 """Calibration wizards: magnetometer (:class:`MagnetometerWizard`) and body
 (:class:`BodyCalibrationWizard`). Both are dialogs over the Qt-free procedures of
-:mod:`mimucap.session.magcal_procedure` and :mod:`mimucap.session.bodycal_procedure`; the
+:mod:`mimucap.session.procedures.magnetometer` and :mod:`mimucap.session.procedures.body`; the
 main window opens them with ``(parent, live_session)``."""
 
 from mimucap.gui.wizards.body import BodyCalibrationWizard

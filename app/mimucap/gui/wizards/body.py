@@ -23,8 +23,9 @@ without accepting a calibration asks whether to keep it (applied to the live ses
 sensor assignment) or discard it (:attr:`BodyCalibrationWizard.ask_about_assignment`);
 accepting a calibration applies the mapping with it.
 
-The logic is :class:`mimucap.session.bodycal_procedure.BodycalProcedure`, stepped by a
-``QTimer``.
+The logic is :class:`mimucap.session.procedures.body.BodycalProcedure`: the feed's ``arrived``
+event steps it and the pages show each status it tells
+(:meth:`~mimucap.gui.wizards.dialog.CalibrationDialog.follow`); nothing polls.
 """
 
 from __future__ import annotations
@@ -40,12 +41,13 @@ from mimucap.gui.assignment_dialog import remember_assignment
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.simulated_suit_clock import SimulatedSuitClock
 from mimucap.gui.wizards.pictures import PictureWidget
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
-from mimucap.session.bodycal_procedure import ARMS, METHODS, BodycalProcedure, BodycalProcedureSettings
-from mimucap.session import instructions
-from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
-from mimucap.session.figure import FigureBuilder
+from mimucap.session.procedures.body import ARMS, METHODS, BodycalProcedure, BodycalProcedureSettings
+from mimucap.session.procedures import instructions
+from mimucap.session.sources.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
+from mimucap.session.views.skeleton_figure import FigureBuilder
 
 VERDICT_COLOURS = {"good": "#2ca02c", "acceptable": "#e08a00", "poor": "#d62728"}
 ARM_LABELS = {"both": "Both arms", "right": "Right arm only", "left": "Left arm only"}
@@ -62,10 +64,11 @@ NO_SENSOR = "(none)"
 class BodyCalibrationWizard(CalibrationDialog):
     """Guided N-pose/T-pose body calibration.
 
-    ``live_session``: the main window's live pipeline (source, model, height, and where an
-    accepted calibration goes); or give ``feed``, ``model`` and ``mapping`` directly.
-    ``mapping``: segment → sensor id prefilled on the setup page. ``settings``: the
-    procedure's settings. ``tick_ms``: step interval.
+    ``live_session``: the main window's live session (whose assignment the setup page shows and
+    changes, and where an accepted calibration goes; ``None``: the calibration is only told);
+    ``feed``: where the samples come from (default: the live session's). ``model``, ``mapping``
+    (segment → sensor id prefilled on the setup page) and ``height_m`` default to the live
+    session's, else the feed's. ``settings``: the procedure's settings.
     """
 
     calibration_accepted = QtCore.pyqtSignal(object)
@@ -80,28 +83,23 @@ class BodyCalibrationWizard(CalibrationDialog):
         mapping: Mapping[str, str] | None = None,
         height_m: float | None = None,
         settings: BodycalProcedureSettings = BodycalProcedureSettings(),
-        tick_ms: int = 40,
     ) -> None:
         super().__init__(parent)
-        self.live_session = live_session if live_session is not None else getattr(feed, "live_session", None)
-        #: the assignment is the main window's to keep (a feed's own session is the wizard's alone)
-        self._shared_session = live_session is not None
+        #: the main window's live session: the assignment is its to keep, and the calibration
+        #: its to apply (a feed's own session is the wizard's alone)
+        self.live_session = live_session
         if feed is None:
             if live_session is None:
                 raise ValueError("the body calibration wizard needs a live session or a feed")
             feed = feed_for_live_session(live_session)
         self.feed = feed
-        live = self.live_session
-        if model is None:
-            model = getattr(live, "model", None)
-        if model is None:
-            raise ValueError("the body calibration wizard needs the skeleton model")
-        self.model = model
-        if mapping is None and live is not None:
-            mapping = {segment: sid for sid, segment in getattr(live, "sensor_segments", {}).items() if segment}
-        self.initial_mapping = dict(mapping or {})
+        self.model = model if model is not None else feed.model
+        if mapping is None:
+            worn = (live_session if live_session is not None else feed).sensor_segments
+            mapping = {segment: sid for sid, segment in worn.items() if segment}
+        self.initial_mapping = dict(mapping)
         if height_m is None:
-            height_m = float(getattr(live, "height_m", 0.0) or 1.75)
+            height_m = feed.height_m
         self.settings = settings
         self.procedure: BodycalProcedure | None = None
         self.accepted_calibration = None
@@ -124,19 +122,19 @@ class BodyCalibrationWizard(CalibrationDialog):
         layout.addWidget(self.pages)
         self.set_page_defaults(self.pages, {self.setup_page: self.start_button,
                                             self.result_page: self.accept_button})
-        self.timer = QtCore.QTimer(self)
-        self.timer.setInterval(int(tick_ms))
-        self.timer.timeout.connect(self._tick)
 
     @classmethod
     def for_simulator(
         cls, simulator: SuitSimulator, parent: QtWidgets.QWidget | None = None, step_s: float = 0.1,
-        feed: SimulatedSuitFeed | None = None, **kwargs,
+        feed: SimulatedSuitFeed | None = None, tick_ms: int = 40, **kwargs,
     ) -> BodyCalibrationWizard:
         """A wizard on a simulated suit (its sensors' labels prefill the mapping), ``step_s`` simulated
-        seconds per tick; pass ``feed`` to reuse one (e.g. with magnetometer calibrations)."""
+        seconds every ``tick_ms`` ms (:class:`~mimucap.gui.simulated_suit_clock.SimulatedSuitClock`);
+        pass ``feed`` to reuse one (e.g. with magnetometer calibrations)."""
         feed = feed if feed is not None else SimulatedSuitFeed(simulator, step_s=step_s)
-        return cls(parent, None, feed=feed, model=simulator.model, **kwargs)
+        wizard = cls(parent, None, feed=feed, model=simulator.model, **kwargs)
+        wizard.clock = SimulatedSuitClock(feed, tick_ms, wizard)
+        return wizard
 
     # -- pages -------------------------------------------------------------------------------
     def _build_setup(self, height_m: float) -> QtWidgets.QWidget:
@@ -290,7 +288,7 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.procedure.start()
         self.pages.setCurrentWidget(self.pose_page)
         self._show_status()
-        self.timer.start()
+        self.follow(self.procedure, self._status_told)
 
     def redo(self) -> None:
         """Start the poses again with the same settings."""
@@ -299,10 +297,10 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.procedure.redo()
         self.pages.setCurrentWidget(self.pose_page)
         self._show_status()
-        self.timer.start()
+        self.follow(self.procedure, self._status_told)
 
     def back_to_setup(self) -> None:
-        self.timer.stop()
+        self.stop_following()
         self.feed.instruct(instructions.npose())
         self.pages.setCurrentWidget(self.setup_page)
 
@@ -311,9 +309,8 @@ class BodyCalibrationWizard(CalibrationDialog):
         if self.procedure is None or self.procedure.calibration is None:
             return
         calibration = self.procedure.calibration
-        apply = getattr(self.live_session, "apply_body_calibration", None)
-        if callable(apply):
-            apply(calibration)
+        if self.live_session is not None:
+            self.live_session.apply_body_calibration(calibration)
         self.accepted_calibration = calibration
         self.assignment_settled = True  # the calibration carries the mapping
         self.calibration_accepted.emit(calibration)
@@ -322,7 +319,7 @@ class BodyCalibrationWizard(CalibrationDialog):
     # -- the mapping made here: kept or discarded, never dropped silently --------------------
     def assignment_changed(self) -> bool:
         """Whether the setup page's mapping differs from the live session's assignment."""
-        return self._shared_session and self.mapping() != self.initial_mapping
+        return self.live_session is not None and self.mapping() != self.initial_mapping
 
     def _ask_about_assignment(self) -> str:
         box = QtWidgets.QMessageBox(QtWidgets.QMessageBox.Question, "Sensor assignment",
@@ -374,11 +371,8 @@ class BodyCalibrationWizard(CalibrationDialog):
             return
         super().closeEvent(event)
 
-    def _tick(self) -> None:
-        if self.procedure is None:
-            self.timer.stop()
-            return
-        self.procedure.step()
+    def _status_told(self, _status) -> None:
+        """The procedure took new samples: show where it stands."""
         self._show_status()
 
     # -- showing -----------------------------------------------------------------------------
@@ -386,11 +380,11 @@ class BodyCalibrationWizard(CalibrationDialog):
         procedure = self.procedure
         status = procedure.status()
         if status.phase == "result":
-            self.timer.stop()
+            self.stop_following()
             self._show_result()
             return
         if status.phase == "refused":
-            self.timer.stop()
+            self.stop_following()
             reason = procedure.refusal or ""
             reason = in_clinical_words(reason)
             self.refusal_label.setText(reason[:1].upper() + reason[1:])

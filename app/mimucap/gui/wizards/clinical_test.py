@@ -4,10 +4,10 @@ result from the sensors beside the published reference.
 Three pages: the test with what to prepare and say and its settings (walkway, chair seat; the
 subject's age, sex and weight, which the references depend on); the run (the countdown, the
 start signal, the time, the clinician's own start and stop); the result. The run is
-:class:`mimucap.session.clinical_test_procedure.ClinicalTestProcedure`, fed with every new pose
+:class:`mimucap.session.procedures.clinical_test.ClinicalTestProcedure`, fed with every new pose
 of the live session (its ``frame`` event); the recording goes through the main window's own
 (:meth:`MainWindow.start_recording`, the checklist included) and the result is computed from the
-saved session file by :func:`mimucap.session.clinical_tests.run_clinical_test`, the path the
+saved session file by :func:`mimucap.session.recorded.clinical_tests.run_clinical_test`, the path the
 ``protocol`` command takes, in a background thread. The result is kept in the library
 (:meth:`mimucap.io.library.Library.store_result`, name ``clinical_test:<test>``) for the trend
 of the subject's visits.
@@ -21,13 +21,13 @@ from pathlib import Path
 
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.gui.background import BackgroundTask
+from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.wizards.dialog import button_row, large_label, push_button
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.session import SEXES
-from mimucap.session import instructions
-from mimucap.session.clinical_test_procedure import GUIDES, ClinicalTestProcedure
-from mimucap.session.clinical_test_results import result_rows, store_in_library
+from mimucap.session.procedures import instructions
+from mimucap.session.procedures.clinical_test import GUIDES, ClinicalTestProcedure
+from mimucap.session.recorded.clinical_test_results import result_rows, store_in_library
 
 log = logging.getLogger(__name__)
 
@@ -36,7 +36,7 @@ class ClinicalTestWizard(QtWidgets.QDialog):
     """Guided clinical test on ``live_session``; ``parent`` is the main window (it records, and
     says when a recording is saved: ``recording_saved``)."""
 
-    #: the result is shown (its :class:`~mimucap.session.clinical_tests.ClinicalTestResult`)
+    #: the result is shown (its :class:`~mimucap.session.recorded.clinical_tests.ClinicalTestResult`)
     result_ready = QtCore.pyqtSignal(object)
 
     def __init__(self, parent, live_session) -> None:
@@ -329,7 +329,7 @@ class ClinicalTestWizard(QtWidgets.QDialog):
             return
         self.session_path = Path(recording.session_path)
         self.result_status.setText(f"Computing the result from {self.session_path.name}…")
-        from mimucap.session.clinical_tests import run_clinical_test
+        from mimucap.session.recorded.clinical_tests import run_clinical_test
 
         test, path = procedure.test, self.session_path
         self._task = BackgroundTask(lambda progress: run_clinical_test(path, test, progress=progress), self)
@@ -378,8 +378,8 @@ class ClinicalTestWizard(QtWidgets.QDialog):
 
     def write_report(self, path: str | Path) -> Path:
         """The test's report page (with the subject's earlier visits from the library) as a PDF."""
-        from mimucap.gui.report import write_clinical_test_report
-        from mimucap.session.clinical_test_results import earlier_results
+        from mimucap.gui.pdf_report import write_clinical_test_report
+        from mimucap.session.recorded.clinical_test_results import earlier_results
 
         earlier = earlier_results(self.session_path, self.result.test, self.main_window.library_folder())
         written = write_clinical_test_report(path, self.result, earlier)

@@ -1,6 +1,6 @@
-"""The life cycle both calibration wizards share: a tick timer driving a procedure from a
-sample feed, and one 3D view; closing or finishing the dialog stops the timer, closes the
-feed and releases the view, so nothing renders or reads samples afterwards."""
+"""The life cycle both calibration wizards share: a procedure stepped by its sample feed's
+events, and one 3D view; closing or finishing the dialog stops following the procedure, closes
+the feed and releases the view, so nothing renders or reads samples afterwards."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from collections.abc import Callable, Mapping
 
 from PyQt5 import QtGui, QtWidgets
 
-from mimucap.session import instructions
+from mimucap.session.procedures import instructions
 
 
 def push_button(text: str, slot: Callable[[], object], tooltip: str = "") -> QtWidgets.QPushButton:
@@ -44,8 +44,34 @@ def button_row(*items: QtWidgets.QWidget | None) -> QtWidgets.QHBoxLayout:
 
 
 class CalibrationDialog(QtWidgets.QDialog):
-    """Base of the wizards. Subclasses set ``self.timer`` (QTimer), ``self.feed`` (a
-    calibration feed, optionally with ``close()``) and return their 3D view from :meth:`vtk_view`."""
+    """Base of the calibration wizards. Subclasses set ``self.feed`` (a calibration feed,
+    :mod:`mimucap.session.sources.calibration_feed`) and return their 3D view from
+    :meth:`vtk_view`.
+
+    A wizard does not poll: while a procedure runs, :meth:`follow` steps it each time the feed
+    tells ``arrived`` and shows each status the procedure tells (``events.status``);
+    :meth:`stop_following` ends both subscriptions.
+    """
+
+    def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
+        super().__init__(parent)
+        self._followed: tuple[object, Callable[[object], None]] | None = None
+
+    def follow(self, procedure, show_status: Callable[[object], None]) -> None:
+        """Step ``procedure`` on every arrival of samples and call ``show_status(status)`` after each step."""
+        self.stop_following()
+        self.feed.events.arrived.connect(procedure.step)
+        procedure.events.status.connect(show_status)
+        self._followed = (procedure, show_status)
+
+    def stop_following(self) -> None:
+        """Stop stepping the procedure followed (nothing when none is)."""
+        if self._followed is None:
+            return
+        procedure, show_status = self._followed
+        self.feed.events.arrived.disconnect(procedure.step)
+        procedure.events.status.disconnect(show_status)
+        self._followed = None
 
     def set_page_defaults(self, pages: QtWidgets.QStackedWidget,
                           defaults: Mapping[QtWidgets.QWidget, QtWidgets.QPushButton]) -> None:
@@ -69,17 +95,15 @@ class CalibrationDialog(QtWidgets.QDialog):
         raise NotImplementedError
 
     def before_shutdown(self) -> None:
-        """Hook run after the timer stops and before the feed closes (default: nothing)."""
+        """Hook run after the procedure is no longer followed and before the feed closes (default: nothing)."""
 
     def shutdown(self) -> None:
-        """Stop the timer, let the subject carry on (the simulated subject resumes its
-        scenario), close the feed and release the 3D view."""
-        self.timer.stop()
+        """Stop following the procedure, let the subject carry on (the simulated subject
+        resumes its scenario), close the feed and release the 3D view."""
+        self.stop_following()
         self.before_shutdown()
         self.feed.instruct(instructions.RESUME)
-        close = getattr(self.feed, "close", None)
-        if callable(close):
-            close()
+        self.feed.close()
         self.vtk_view().shutdown()
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)

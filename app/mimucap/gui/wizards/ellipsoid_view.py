@@ -10,7 +10,7 @@
 :class:`FieldMagnitudePlot` plots ``|raw|`` and ``|corrected|`` against time with the field
 radius as a dashed line: the corrected curve should be flat.
 
-Neither computes anything: they show a :class:`~mimucap.session.magcal_display.MagcalDisplay`
+Neither computes anything: they show a :class:`~mimucap.session.views.magcal_display.MagcalDisplay`
 (samples thinned, corrected, their magnitudes, the ellipsoid's matrix); the callers throttle
 how often they call ``set_data``.
 """
@@ -35,7 +35,7 @@ from vtkmodules.vtkRenderingCore import (
 
 from mimucap.core.magcal.fit import EllipsoidFit
 from mimucap.gui.vtk_widget import VtkWidget
-from mimucap.session.magcal_display import MagcalDisplay
+from mimucap.session.views.magcal_display import MagcalDisplay
 
 ELLIPSOID_COLOUR = (0.95, 0.62, 0.18)
 SPHERE_COLOUR = (0.35, 0.75, 0.45)
@@ -172,7 +172,7 @@ class EllipsoidView(QtWidgets.QWidget):
             self._initialized = True
 
     def set_data(self, display: MagcalDisplay) -> None:
-        """Show one update of the samples and the fit (:func:`~mimucap.session.magcal_display.magcal_display`)."""
+        """Show one update of the samples and the fit (:func:`~mimucap.session.views.magcal_display.magcal_display`)."""
         self.raw_cloud.set(display.raw_uT, display.time_fraction)
         self.fit_shown = display.fit
         if display.fit is None:

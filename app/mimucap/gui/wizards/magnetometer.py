@@ -14,9 +14,10 @@ Pages (a ``QStackedWidget``; :attr:`MagnetometerWizard.page_name` says which is 
   previous calibration and its age, and the advice in plain words; Accept stores the
   acceptable calibrations per sensor id, Redo starts again.
 
-All logic lives in :class:`mimucap.session.magcal_procedure.MagcalProcedure`; a ``QTimer``
-calls its ``step`` and the page shows its status. The live views are refreshed at most every
-``view_interval_ms`` (a refit of the preview is the expensive part).
+All logic lives in :class:`mimucap.session.procedures.magnetometer.MagcalProcedure`: the feed's
+``arrived`` event steps it and the page shows each status it tells
+(:meth:`~mimucap.gui.wizards.dialog.CalibrationDialog.follow`); nothing polls. The live views are
+refreshed at most every ``view_interval_ms`` (a refit of the preview is the expensive part).
 """
 
 from __future__ import annotations
@@ -31,22 +32,21 @@ from mimucap.core.magcal.guidance import AXIS_NAMES
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.core.wording import plural
 from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore
-from mimucap.session import instructions
-from mimucap.session.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
-from mimucap.session.magcal_procedure import (
+from mimucap.session.procedures import instructions
+from mimucap.session.sources.calibration_feed import CalibrationFeed, SimulatedSuitFeed, feed_for_live_session
+from mimucap.session.procedures.magnetometer import (
     PROTOCOLS,
     MagcalProcedure,
     MagcalProcedureSettings,
     SensorOutcome,
-    age_days_since,
-    utc_now,
-    describe_age,
 )
+from mimucap.session.views.calibration_age import age_days_since, describe_age, utc_now
 from mimucap.gui.wizards.ellipsoid_view import EllipsoidView, FieldMagnitudePlot
-from mimucap.session.magcal_display import magcal_display
+from mimucap.session.views.magcal_display import magcal_display
 from mimucap.gui.wizards.pictures import AXIS_COLOURS, PictureWidget
 from mimucap.core.clinical_names import sensor_name
 from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.simulated_suit_clock import SimulatedSuitClock
 from mimucap.gui.wizards.dialog import CalibrationDialog, button_row, large_label, push_button
 
 PROTOCOL_LABELS = {
@@ -69,9 +69,9 @@ class MagnetometerWizard(CalibrationDialog):
 
     ``live_session``: the main window's live session (read through
     :func:`feed_for_live_session`; accepted calibrations are also applied to it with
-    ``apply_mag_calibration``); or give ``feed`` directly. ``store``: where calibrations are
-    kept (default: the user's). ``tick_ms``: procedure step interval. ``preselected``: sensor
-    ids checked at the start (default: all).
+    ``apply_mag_calibration``); or give ``feed`` directly (with ``live_session`` None, accepted
+    calibrations are only stored and told). ``store``: where calibrations are kept (default: the
+    user's). ``preselected``: sensor ids checked at the start (default: all).
     """
 
     calibrations_accepted = QtCore.pyqtSignal(list)
@@ -83,7 +83,6 @@ class MagnetometerWizard(CalibrationDialog):
         *,
         feed: CalibrationFeed | None = None,
         store: CalibrationStore | None = None,
-        tick_ms: int = 40,
         view_interval_ms: int = 300,
         preselected: Sequence[str] | None = None,
         now: Callable = utc_now,
@@ -93,7 +92,7 @@ class MagnetometerWizard(CalibrationDialog):
             if live_session is None:
                 raise ValueError("the magnetometer wizard needs a live session or a feed")
             feed = feed_for_live_session(live_session)
-        self.live_session = live_session if live_session is not None else getattr(feed, "live_session", None)
+        self.live_session = live_session
         self.feed = feed
         self.store = store if store is not None else CalibrationStore()
         self._now = now
@@ -130,18 +129,20 @@ class MagnetometerWizard(CalibrationDialog):
         layout.addWidget(self.views_panel, 3)
         self.set_page_defaults(self.pages, {self.setup_page: self.start_button,
                                             self.result_page: self.accept_button})
-
-        self.timer = QtCore.QTimer(self)
-        self.timer.setInterval(int(tick_ms))
-        self.timer.timeout.connect(self._tick)
         self._update_previous()
 
     @classmethod
     def for_simulator(
-        cls, simulator: SuitSimulator, parent: QtWidgets.QWidget | None = None, step_s: float = 0.2, **kwargs
+        cls, simulator: SuitSimulator, parent: QtWidgets.QWidget | None = None, step_s: float = 0.2,
+        tick_ms: int = 40, **kwargs
     ) -> MagnetometerWizard:
-        """A wizard on a simulated suit advancing ``step_s`` simulated seconds per tick."""
-        return cls(parent, None, feed=SimulatedSuitFeed(simulator, step_s=step_s), **kwargs)
+        """A wizard on a simulated suit of its own, advancing ``step_s`` simulated seconds every
+        ``tick_ms`` ms (:class:`~mimucap.gui.simulated_suit_clock.SimulatedSuitClock`); accepted
+        calibrations are applied to the suit's session too."""
+        feed = SimulatedSuitFeed(simulator, step_s=step_s)
+        wizard = cls(parent, feed.live_session, feed=feed, **kwargs)
+        wizard.clock = SimulatedSuitClock(feed, tick_ms, wizard)
+        return wizard
 
     # -- pages -------------------------------------------------------------------------------
     def _build_setup(self, preselected: Sequence[str] | None) -> QtWidgets.QWidget:
@@ -154,8 +155,7 @@ class MagnetometerWizard(CalibrationDialog):
         title.setWordWrap(True)
         layout.addWidget(title)
         # orientation-only sensors (on-board fusion, no magnetometer readings) calibrate themselves
-        live = getattr(self.feed, "live_session", None)
-        self.self_calibrating = tuple(live.orientation_only_sensors()) if live is not None else ()
+        self.self_calibrating = tuple(self.feed.orientation_only_sensors())
         self.self_calibrating_note = QtWidgets.QLabel(
             f"<p><b>{plural(len(self.self_calibrating), 'sensor')} calibrate{'s' if len(self.self_calibrating) == 1 else ''} themselves</b> "
             f"({', '.join(self.self_calibrating)}): they fuse their own orientation on board and send no "
@@ -269,7 +269,7 @@ class MagnetometerWizard(CalibrationDialog):
 
     def sensor_label(self, sensor_id: str) -> str:
         """The sensor by the segment it is worn on, when the live session says: "Pelvis sensor (S01)"."""
-        segment = getattr(self.live_session, "sensor_segments", {}).get(sensor_id)
+        segment = self.feed.sensor_segments.get(sensor_id)
         return sensor_name(segment, sensor_id) if segment else sensor_id
 
     def _update_previous(self) -> None:
@@ -321,13 +321,10 @@ class MagnetometerWizard(CalibrationDialog):
         self.views_panel.setVisible(True)
         self.view.start()
         self._show_status()
-        self.timer.start()
+        self.follow(procedure, self._status_told)
 
-    def _tick(self) -> None:
-        if self.procedure is None or self.procedure.phase != "recording":
-            self.timer.stop()
-            return
-        self.procedure.step()
+    def _status_told(self, _status) -> None:
+        """The procedure took new samples: show where it stands (the result once it is done)."""
         self._show_status()
         if self.procedure.phase == "result":
             self._show_result()
@@ -342,7 +339,7 @@ class MagnetometerWizard(CalibrationDialog):
 
     def redo(self) -> None:
         """Back to the setup page; the recording is discarded."""
-        self.timer.stop()
+        self.stop_following()
         if self.procedure is not None:
             if self.procedure.phase == "recording":
                 self.feed.instruct(instructions.put_sensors_back())
@@ -357,10 +354,9 @@ class MagnetometerWizard(CalibrationDialog):
             return []
         stored = self.procedure.accept()
         calibrations = [self.procedure.outcomes[s].result.calibration for s in stored]
-        apply = getattr(self.live_session, "apply_mag_calibration", None)
-        if callable(apply):
+        if self.live_session is not None:
             for calibration in calibrations:
-                apply(calibration, save=False)  # the procedure has stored it
+                self.live_session.apply_mag_calibration(calibration, save=False)  # the procedure has stored it
         self.calibrations_accepted.emit(calibrations)
         failed = [s for s in self.procedure.sensor_ids if s not in stored]
         text = f"Stored: {', '.join(stored) or 'none'}."
@@ -414,7 +410,7 @@ class MagnetometerWizard(CalibrationDialog):
         self.plot.set_data(display)
 
     def _show_result(self) -> None:
-        self.timer.stop()
+        self.stop_following()
         procedure = self.procedure
         outcomes = [procedure.outcomes[s] for s in procedure.sensor_ids]
         failed = [o.sensor_id for o in outcomes if o.verdict == "fail"]

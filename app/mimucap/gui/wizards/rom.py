@@ -1,12 +1,12 @@
 """The guided range-of-motion wizard: one movement after the other, the active joint angle in
 large digits, each repetition's peak captured, repeats averaged, and the results table.
 
-The logic is :class:`mimucap.session.rom_procedure.RomProcedure`, fed with every new pose of
+The logic is :class:`mimucap.session.procedures.range_of_motion.RomProcedure`, fed with every new pose of
 the live session (its ``frame`` event: the newest joint angles and segment orientations; it
 needs a body calibration, and follows the ``calibration`` event). Each step's start and end are also set as markers on the live session
 (``rom:<movement>:<side>:start`` / ``:end``), so a recording running meanwhile holds them and
 its analysis finds the same movements. Each movement is an instruction to the live session
-(:mod:`mimucap.session.instructions`): the person reads it, the simulated subject does it.
+(:mod:`mimucap.session.procedures.instructions`): the person reads it, the simulated subject does it.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from PyQt5 import QtCore, QtWidgets
 from mimucap.core.analysis import rom as rom_core
 from mimucap.gui.wizards.dialog import button_row, large_label, push_button
 from mimucap.gui.screen_fit import fit_on_screen
-from mimucap.session import instructions
-from mimucap.session.rom_procedure import RomProcedure
+from mimucap.session.procedures import instructions
+from mimucap.session.procedures.range_of_motion import RomProcedure
 
 
 class RomWizard(QtWidgets.QDialog):
@@ -88,7 +88,7 @@ class RomWizard(QtWidgets.QDialog):
 
     def tick(self) -> None:
         """Feed the newest pose to the procedure and show its state (on every new pose)."""
-        if getattr(self.live, "body_calibration", None) is None:
+        if self.live.body_calibration is None:
             self.refresh()
             return
         pose = self._pose()
@@ -115,7 +115,7 @@ class RomWizard(QtWidgets.QDialog):
 
     # -- buttons ------------------------------------------------------------------------------
     def start_step(self) -> None:
-        if getattr(self.live, "body_calibration", None) is None:
+        if self.live.body_calibration is None:
             return
         step = self.procedure.step
         self.live.instruct(instructions.move_joint(step.key, step.side, step.instruction))
@@ -147,7 +147,7 @@ class RomWizard(QtWidgets.QDialog):
     # -- display ------------------------------------------------------------------------------
     def refresh(self) -> None:
         p = self.procedure
-        calibrated = getattr(self.live, "body_calibration", None) is not None
+        calibrated = self.live.body_calibration is not None
         step = p.step
         self.progress.setText(f"Step {min(p.index + 1, len(p.steps))} of {len(p.steps)}")
         if not calibrated:

@@ -8,5 +8,5 @@
 * :mod:`.to_session` — a journal read back as a session (at the end of a recording, and after
   a crash).
 
-The recorder itself (when to write what) is :mod:`mimucap.session.recording`.
+The recorder itself (when to write what) is :mod:`mimucap.session.live.recorder`.
 """

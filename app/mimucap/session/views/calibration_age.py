@@ -1,0 +1,39 @@
+"""How old a calibration is, in the words the windows use ("3 days ago") (no Qt).
+
+Ages are computed from a calibration's ``created_utc`` (ISO 8601, UTC) against an aware UTC
+``now``; they are read in the magnetometer wizard, the sensor table and the checklist alike.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+
+from mimucap.core.wording import plural
+
+
+def utc_now() -> _dt.datetime:
+    """The wall clock now, an aware UTC datetime."""
+    return _dt.datetime.now(_dt.timezone.utc)
+
+
+def age_days_since(created_utc: str, now: _dt.datetime) -> float | None:
+    """Days (≥ 0) from ``created_utc`` to ``now``; ``None`` when the date cannot be read."""
+    try:
+        created = _dt.datetime.fromisoformat(created_utc.replace("Z", "+00:00"))
+    except ValueError:
+        return None
+    if created.tzinfo is None:
+        created = created.replace(tzinfo=_dt.timezone.utc)
+    return max((now - created).total_seconds() / 86400.0, 0.0)
+
+
+def describe_age(age_days: float | None) -> str:
+    """"3 days ago", "5 hours ago", "just now" or "date unknown"."""
+    if age_days is None:
+        return "date unknown"
+    hours = age_days * 24.0
+    if hours < 1.0:
+        return "just now" if hours < 1.0 / 60.0 else f"{plural(round(hours * 60.0), 'minute')} ago"
+    if age_days < 2.0:
+        return f"{plural(round(hours), 'hour')} ago"
+    return f"{plural(round(age_days), 'day')} ago"
