@@ -137,7 +137,6 @@ def write_analysis_screenshots(out_dir: Path) -> list[Path]:
         _wait(app, lambda: review.player is not None, 60, "the review")
         window = review.open_analysis()
         _wait(app, lambda: window.analysis is not None, 60, "the analysis")
-        window.resize(1400, 860)
         app.processEvents()
         written.append(save_window_png(window, out_dir / "analysis-gait.png"))
         window.tabs.setCurrentWidget(window.rom_tab)

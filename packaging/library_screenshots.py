@@ -10,6 +10,7 @@ Usage alone: ``python packaging/library_screenshots.py OUT_DIR`` (under a displa
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
@@ -75,35 +76,48 @@ def make_library(folder: Path) -> None:
 
 
 def write_library_screenshots(out_dir: Path) -> list[Path]:
-    from mimucap.gui.capture import save_window_png
-    from mimucap.gui.library_window import LibraryWindow
-
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
     written = []
     with tempfile.TemporaryDirectory() as scratch:
-        folder = Path(scratch) / "MimuCap Library"
-        folder.mkdir()
-        make_library(folder)
-        window = LibraryWindow(folder, open_review=lambda path: None, new_session=lambda *subject: None)
-        window.resize(1360, 560)
-        window.show()
-        window.wait_for_scan()
-        window.select_subject(None)
-        window.select_paths({"P042_2026-05-04_trial01.h5", "P042_2026-06-15_trial01.h5"})
-        app.processEvents()
-        written.append(save_window_png(window, out_dir / "library.png"))
-        compare = window.compare_selected()
-        compare.resize(1200, 860)
-        _wait(app, lambda: bool(compare.tables) or compare.error is not None, 120, "the comparison")
-        for picker in compare.pickers:
-            picker.set_bounds(0, 1)
-        rows = [row[0] for row in compare.tables[0].rows]
-        table = compare.table_widgets[0]
-        table.scrollToItem(table.item(rows.index("hip_r_flexion"), 0), QtWidgets.QAbstractItemView.PositionAtTop)
-        app.processEvents()
-        written.append(save_window_png(compare, out_dir / "library-compare.png"))
-        compare.close()
-        window.close()
+        home = os.environ.get("HOME")
+        os.environ["HOME"] = scratch  # the library's folder reads ~/MimuCap Library on every run
+        try:
+            written += _library_and_compare(app, Path(scratch), out_dir)
+        finally:
+            if home is None:
+                os.environ.pop("HOME", None)
+            else:
+                os.environ["HOME"] = home
+    return written
+
+
+def _library_and_compare(app: QtWidgets.QApplication, scratch: Path, out_dir: Path) -> list[Path]:
+    from mimucap.gui.capture import save_window_png
+    from mimucap.gui.library_window import LibraryWindow
+
+    written = []
+    folder = scratch / "MimuCap Library"
+    folder.mkdir()
+    make_library(folder)
+    window = LibraryWindow(folder, open_review=lambda path: None, new_session=lambda *subject: None)
+    window.show()
+    window.wait_for_scan()
+    window.select_subject(None)
+    window.select_paths({"P042_2026-05-04_trial01.h5", "P042_2026-06-15_trial01.h5"})
+    app.processEvents()
+    written.append(save_window_png(window, out_dir / "library.png"))
+    compare = window.compare_selected()
+    _wait(app, lambda: bool(compare.tables) or compare.error is not None, 120, "the comparison")
+    for picker in compare.pickers:
+        picker.set_bounds(0, 1)
+    rows = [row[0] for row in compare.tables[0].rows]
+    table = compare.table_widgets[0]
+    hip = next(k for k, row in enumerate(rows) if row in ("hip_r_flexion", "Right hip flexion"))
+    table.scrollToItem(table.item(hip, 0), QtWidgets.QAbstractItemView.PositionAtTop)
+    app.processEvents()
+    written.append(save_window_png(compare, out_dir / "library-compare.png"))
+    compare.close()
+    window.close()
     return written
 
 

@@ -27,7 +27,7 @@ from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.session import SEXES
 from mimucap.session import instructions
 from mimucap.session.clinical_test_procedure import GUIDES, ClinicalTestProcedure
-from mimucap.session.clinical_test_results import result_rows, store_in_library
+from mimucap.session.clinical_test_results import result_rows, start_text, store_in_library
 
 log = logging.getLogger(__name__)
 
@@ -339,7 +339,7 @@ class ClinicalTestWizard(QtWidgets.QDialog):
 
     def _show_result(self, result) -> None:
         self.result = result
-        self.result_status.setText(f"From the sensors ({result.started_by}); {self.session_path.name}, "
+        self.result_status.setText(f"Timed from {start_text(result.started_by)}; {self.session_path.name}, "
                                    f"{result.result.replace('_', ' ')}.")
         rows = result_rows(result)
         self.result_table.setRowCount(len(rows))

@@ -162,6 +162,7 @@ class EllipsoidView(QtWidgets.QWidget):
         self._initialized = False
         self._alive = True
         self._framed_size: float | None = None
+        self._framed_centre = np.zeros(3)
         self.fit_shown: EllipsoidFit | None = None
         self.updates = 0
 
@@ -200,12 +201,15 @@ class EllipsoidView(QtWidgets.QWidget):
     def _frame_camera(self, display: MagcalDisplay) -> None:
         """Look at the raw cloud (left) and the corrected one (right, around the origin) from
         the same oblique direction, far enough back for the whole cloud to fit the half-width
-        viewport. Reframed only when the cloud's size changed by more than 15 %, so that a
-        view the user turned stays put while samples arrive."""
+        viewport. Reframed only when the cloud's size changed, or its centre moved, by more than
+        15 % of its size (another sensor shown), so that a view the user turned stays put while
+        samples arrive."""
         size = display.extent_uT
-        if self._framed_size is not None and abs(size - self._framed_size) <= 0.15 * self._framed_size:
+        centre = np.asarray(display.centre_uT, dtype=float)
+        if (self._framed_size is not None and abs(size - self._framed_size) <= 0.15 * self._framed_size
+                and np.linalg.norm(centre - self._framed_centre) <= 0.15 * self._framed_size):
             return
-        self._framed_size = size
+        self._framed_size, self._framed_centre = size, centre
         for renderer, focal, extent in ((self.raw_renderer, display.centre_uT, size),
                                         (self.corrected_renderer, (0.0, 0.0, 0.0), display.field_uT or size)):
             camera = renderer.GetActiveCamera()
