@@ -26,8 +26,8 @@ from PyQt5 import QtCore, QtWidgets
 
 #: (file, recorded UTC, simulator seed) of the subject's earlier Timed Up and Go visits.
 EARLIER_VISITS = (
-    ("P001_2026-08-24_trial01.h5", "2026-08-24T09:30:00+00:00", 11),
-    ("P001_2026-10-05_trial01.h5", "2026-10-05T09:40:00+00:00", 12),
+    ("P001_2026-08-24_trial01.h5", "2026-08-24T09:30:00+00:00", 16),
+    ("P001_2026-10-05_trial01.h5", "2026-10-05T09:40:00+00:00", 3),
 )
 #: The subject as the clinician enters them on the choice page (the reference needs age and sex).
 AGE_YEARS, SEX, HEIGHT_M = 72, "female", 1.75

@@ -1,7 +1,9 @@
 """``make screenshots``: PNGs of every workspace on a clinic laptop's screen (1366 × 768).
 
-Usage: ``python packaging/make_screenshots.py OUT_DIR`` under a display of 1366 × 768 (``make
-screenshots`` runs it under ``Xvfb -screen 0 1366x768x24``; another size is refused). Every window
+Usage: ``python packaging/make_screenshots.py OUT_DIR [--guide GUIDE_IMG_DIR]`` under a display
+of 1366 × 768 (``make screenshots`` runs it under ``Xvfb -screen 0 1366x768x24`` with
+``--guide resources/guide/img``; another screen size is refused); ``--guide`` copies the user
+guide's pictures (:data:`GUIDE_PICTURES`) there. Every window
 opens at the size it chooses on that screen (:mod:`mimucap.gui.screen_fit`), the subject id is
 fixed (P001) and the home folder is a scratch folder, so the paths in view read ``~/sessions/…``
 on every run. The main window on the simulated suit (on a clock four times as fast as the
@@ -18,6 +20,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -179,12 +182,32 @@ def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -
     return written
 
 
+#: The pictures the user guide shows (``resources/guide/img``), one per section of it.
+GUIDE_PICTURES = ("main-window.png", "wizard-magnetometer-2-turn-about-y.png", "wizard-body-5-result.png",
+                  "review.png", "export-dialog.png", "analysis-gait.png", "library-compare.png",
+                  "clinical-test-4-result.png", "clinical-test-trend.png")
+
+
+def copy_guide_pictures(out_dir: Path, guide_dir: Path) -> list[Path]:
+    """Copy :data:`GUIDE_PICTURES` from ``out_dir`` to ``guide_dir`` (the guide's ``img`` folder)."""
+    guide_dir.mkdir(parents=True, exist_ok=True)
+    copied = []
+    for name in GUIDE_PICTURES:
+        copied.append(guide_dir / name)
+        shutil.copyfile(out_dir / name, copied[-1])
+    return copied
+
+
 def main(argv: list[str]) -> int:
-    if len(argv) != 1:
-        print("usage: make_screenshots.py OUT_DIR", file=sys.stderr)
+    if len(argv) not in (1, 3) or (len(argv) == 3 and argv[1] != "--guide"):
+        print("usage: make_screenshots.py OUT_DIR [--guide GUIDE_IMG_DIR]", file=sys.stderr)
         return 2
-    for path in make_screenshots(Path(argv[0])):
+    out_dir = Path(argv[0])
+    for path in make_screenshots(out_dir):
         print(path)
+    if len(argv) == 3:
+        for path in copy_guide_pictures(out_dir, Path(argv[2])):
+            print(path)
     return 0
 
 

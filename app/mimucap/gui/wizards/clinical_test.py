@@ -24,6 +24,7 @@ from PyQt5 import QtCore, QtWidgets
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.wizards.dialog import button_row, large_label, push_button
 from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.session_panel import display_path
 from mimucap.io.session import SEXES
 from mimucap.session import instructions
 from mimucap.session.clinical_test_procedure import GUIDES, ClinicalTestProcedure
@@ -356,9 +357,10 @@ class ClinicalTestWizard(QtWidgets.QDialog):
         else:
             notes.append(f"Reference: {result.reference['group']}, {result.reference['statistic']} "
                          f"({result.reference['source']}).")
-        stored = store_in_library(self.session_path, result, self.main_window.library_folder())
+        library = self.main_window.library_folder()
+        stored = store_in_library(self.session_path, result, library)
         if stored:
-            notes.append(stored)
+            notes.append(stored.replace(str(library), display_path(library)))  # the home folder as ~, as elsewhere
         self.result_notes.setText(" ".join(notes))
         self.report_button.setEnabled(True)
         self.review_button.setEnabled(True)

@@ -180,7 +180,7 @@ class EllipsoidView(QtWidgets.QWidget):
             self.ellipsoid_actor.VisibilityOff()
             self.sphere_actor.VisibilityOff()
             self.corrected_cloud.set(np.zeros((0, 3)), np.zeros(0))
-            self.raw_label.SetInput(f"raw samples (colour: time): {display.count} shown, no fit yet")
+            self.raw_label.SetInput(f"raw samples (colour: time)\n{display.count} shown, no fit yet")
         else:
             _set_matrix(self.ellipsoid_actor, display.ellipsoid_matrix)
             self.ellipsoid_actor.VisibilityOn()
@@ -189,10 +189,10 @@ class EllipsoidView(QtWidgets.QWidget):
             self.corrected_cloud.set(display.corrected_uT, display.time_fraction)
             centre = display.centre_uT
             self.raw_label.SetInput(
-                "raw samples (colour: time) and fitted ellipsoid\n"
+                "raw samples (colour: time)\nand fitted ellipsoid\n"
                 f"offset {centre[0]:.1f}, {centre[1]:.1f}, {centre[2]:.1f} µT"
             )
-            self.corrected_label.SetInput(f"corrected samples on the {display.field_uT:.1f} µT sphere")
+            self.corrected_label.SetInput(f"corrected samples\non the {display.field_uT:.1f} µT sphere")
         if display.count > 10:
             self._frame_camera(display)
         self.updates += 1
