@@ -19,10 +19,11 @@ import shutil
 import socket
 import subprocess
 import threading
-import time
 from pathlib import Path
 
-from PyQt5 import QtCore, QtWidgets
+from PyQt5 import QtWidgets
+from screenshots_common import known_mounting_calibration
+from screenshots_common import wait as _wait
 
 #: (file, recorded UTC, simulator seed) of the subject's earlier Timed Up and Go visits.
 EARLIER_VISITS = (
@@ -33,20 +34,8 @@ EARLIER_VISITS = (
 AGE_YEARS, SEX, HEIGHT_M = 72, "female", 1.75
 
 
-def _wait(app: QtWidgets.QApplication, condition, timeout_s: float, what: str) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"timed out waiting for {what}")
-        app.processEvents(QtCore.QEventLoop.AllEvents, 20)
-
-
 def make_earlier_visits(library: Path) -> None:
     """The subject's earlier Timed Up and Go sessions in ``library``, measured and kept there."""
-    import numpy as np
-
-    from mimucap.core import skeleton
-    from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
     from mimucap.core.simulate.config import SimulationConfig
     from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.library import library_fields
@@ -55,17 +44,11 @@ def make_earlier_visits(library: Path) -> None:
     from mimucap.session.clinical_tests import run_clinical_test
 
     for name, started, seed in EARLIER_VISITS:
-        # Error-free sensors worn along their segments, with that mounting as their body
-        # calibration (as the N-pose/T-pose procedure would find it).
         config = SimulationConfig(scenario="tug", seed=seed, height_m=HEIGHT_M, errors="ideal", random_mounting=False)
         result = simulate_session(config)
         subject = make_subject("P001", HEIGHT_M, "right", age_years=AGE_YEARS, sex=SEX)
         session = session_from_simulation(result, subject, include_truth=False)
-        session.calibrations["body"] = BodyCalibration(
-            q_world_from_body=skeleton.q_world_from_body_facing(0.0), up_world=np.array([0.0, 0.0, 1.0]),
-            sensors={m.segment: sid for sid, m in result.mounting.items()},
-            q_segment_from_sensor={m.segment: m.q_segment_from_sensor for m in result.mounting.values()},
-            quality=CalibrationQuality("known mounting", ())).to_dict()
+        session.calibrations["body"] = known_mounting_calibration(result)
         session.metadata["recording"] = {"started_utc": started}
         session.metadata["library"] = library_fields("follow-up", ["balance"], "trial01")
         path = library / name

@@ -26,15 +26,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from PyQt5 import QtCore, QtWidgets
-
-
-def _wait(app: QtWidgets.QApplication, condition, timeout_s: float, what: str) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"timed out waiting for {what}")
-        app.processEvents(QtCore.QEventLoop.AllEvents, 20)
+from PyQt5 import QtWidgets
+from screenshots_common import wait as _wait
 
 
 #: The screen every picture is taken on: a clinic laptop's (px).
