@@ -67,7 +67,7 @@ test: debs $(TEST_STAMP) $(KERNELS_STAMP)
 	QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider
 
 screenshots: debs $(KERNELS_STAMP)
-	QT_API=pyqt5 $(XVFB_RUN) $(PY) packaging/make_screenshots.py docs/screenshots
+	QT_API=pyqt5 xvfb-run -a -s "-screen 0 1366x768x24" $(PY) packaging/make_screenshots.py docs/screenshots --guide resources/guide/img
 
 bench: debs $(BENCH_STAMP) $(KERNELS_STAMP)
 	@for script in bench/bench_*.py; do \

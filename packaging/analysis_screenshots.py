@@ -10,10 +10,10 @@ from __future__ import annotations
 import shutil
 import subprocess
 import tempfile
-import time
 from pathlib import Path
 
-from PyQt5 import QtCore, QtWidgets
+from PyQt5 import QtWidgets
+from screenshots_common import wait as _wait
 
 ROM_MARKERS = (
     (30.0, "rom:knee_flexion:left:start"), (37.0, "rom:knee_flexion:left:end"),
@@ -21,14 +21,6 @@ ROM_MARKERS = (
     (37.2, "rom:shoulder_flexion:left:start"), (44.9, "rom:shoulder_flexion:left:end"),
     (37.2, "rom:shoulder_flexion:right:start"), (44.9, "rom:shoulder_flexion:right:end"),
 )
-
-
-def _wait(app, condition, timeout_s: float, what: str) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"timed out waiting for {what}")
-        app.processEvents(QtCore.QEventLoop.AllEvents, 20)
 
 
 class _PipelineLive:
@@ -137,7 +129,6 @@ def write_analysis_screenshots(out_dir: Path) -> list[Path]:
         _wait(app, lambda: review.player is not None, 60, "the review")
         window = review.open_analysis()
         _wait(app, lambda: window.analysis is not None, 60, "the analysis")
-        window.resize(1400, 860)
         app.processEvents()
         written.append(save_window_png(window, out_dir / "analysis-gait.png"))
         window.tabs.setCurrentWidget(window.rom_tab)

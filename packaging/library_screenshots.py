@@ -10,12 +10,14 @@ Usage alone: ``python packaging/library_screenshots.py OUT_DIR`` (under a displa
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
-import time
 from pathlib import Path
 
-from PyQt5 import QtCore, QtWidgets
+from PyQt5 import QtWidgets
+from screenshots_common import known_mounting_calibration
+from screenshots_common import wait as _wait
 
 #: (file, subject, height m, started UTC, condition, tags, trial, scenario, its parameters, seed)
 SESSIONS = (
@@ -34,20 +36,8 @@ SESSIONS = (
 )
 
 
-def _wait(app: QtWidgets.QApplication, condition, timeout_s: float, what: str) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"timed out waiting for {what}")
-        app.processEvents(QtCore.QEventLoop.AllEvents, 20)
-
-
 def make_library(folder: Path) -> None:
     """Simulated squats and walks as library sessions in ``folder`` (and one damaged file)."""
-    import numpy as np
-
-    from mimucap.core import skeleton
-    from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
     from mimucap.core.simulate.config import SimulationConfig
     from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.library import library_fields
@@ -55,17 +45,13 @@ def make_library(folder: Path) -> None:
 
     for name, subject, height, started, condition, tags, trial, scenario, parameters, seed in SESSIONS:
         # Error-free sensors worn along their segments, with that mounting as their body
-        # calibration (as the N-pose/T-pose procedure would find it; comparisons need one).
+        # calibration (comparisons need one).
         config = SimulationConfig(scenario=scenario, duration_s=8.0, seed=seed, height_m=height,
                                   scenario_params=parameters, errors="ideal", random_mounting=False)
         notes = "left knee arthroplasty" if subject == "P042" else ""
         result = simulate_session(config)
         session = session_from_simulation(result, make_subject(subject, height, "right", notes), include_truth=False)
-        session.calibrations["body"] = BodyCalibration(
-            q_world_from_body=skeleton.q_world_from_body_facing(0.0), up_world=np.array([0.0, 0.0, 1.0]),
-            sensors={m.segment: sid for sid, m in result.mounting.items()},
-            q_segment_from_sensor={m.segment: m.q_segment_from_sensor for m in result.mounting.values()},
-            quality=CalibrationQuality("known mounting", ())).to_dict()
+        session.calibrations["body"] = known_mounting_calibration(result)
         session.metadata["recording"] = {"started_utc": started}
         session.metadata["library"] = library_fields(condition, tags, trial)
         session.markers = [Marker(0.5, f"{scenario} start"), Marker(7.5, f"{scenario} end")]
@@ -75,35 +61,48 @@ def make_library(folder: Path) -> None:
 
 
 def write_library_screenshots(out_dir: Path) -> list[Path]:
-    from mimucap.gui.capture import save_window_png
-    from mimucap.gui.library_window import LibraryWindow
-
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
     written = []
     with tempfile.TemporaryDirectory() as scratch:
-        folder = Path(scratch) / "MimuCap Library"
-        folder.mkdir()
-        make_library(folder)
-        window = LibraryWindow(folder, open_review=lambda path: None, new_session=lambda *subject: None)
-        window.resize(1360, 560)
-        window.show()
-        window.wait_for_scan()
-        window.select_subject(None)
-        window.select_paths({"P042_2026-05-04_trial01.h5", "P042_2026-06-15_trial01.h5"})
-        app.processEvents()
-        written.append(save_window_png(window, out_dir / "library.png"))
-        compare = window.compare_selected()
-        compare.resize(1200, 860)
-        _wait(app, lambda: bool(compare.tables) or compare.error is not None, 120, "the comparison")
-        for picker in compare.pickers:
-            picker.set_bounds(0, 1)
-        rows = [row[0] for row in compare.tables[0].rows]
-        table = compare.table_widgets[0]
-        table.scrollToItem(table.item(rows.index("hip_r_flexion"), 0), QtWidgets.QAbstractItemView.PositionAtTop)
-        app.processEvents()
-        written.append(save_window_png(compare, out_dir / "library-compare.png"))
-        compare.close()
-        window.close()
+        home = os.environ.get("HOME")
+        os.environ["HOME"] = scratch  # the library's folder reads ~/MimuCap Library on every run
+        try:
+            written += _library_and_compare(app, Path(scratch), out_dir)
+        finally:
+            if home is None:
+                os.environ.pop("HOME", None)
+            else:
+                os.environ["HOME"] = home
+    return written
+
+
+def _library_and_compare(app: QtWidgets.QApplication, scratch: Path, out_dir: Path) -> list[Path]:
+    from mimucap.gui.capture import save_window_png
+    from mimucap.gui.library_window import LibraryWindow
+
+    written = []
+    folder = scratch / "MimuCap Library"
+    folder.mkdir()
+    make_library(folder)
+    window = LibraryWindow(folder, open_review=lambda path: None, new_session=lambda *subject: None)
+    window.show()
+    window.wait_for_scan()
+    window.select_subject(None)
+    window.select_paths({"P042_2026-05-04_trial01.h5", "P042_2026-06-15_trial01.h5"})
+    app.processEvents()
+    written.append(save_window_png(window, out_dir / "library.png"))
+    compare = window.compare_selected()
+    _wait(app, lambda: bool(compare.tables) or compare.error is not None, 120, "the comparison")
+    for picker in compare.pickers:
+        picker.set_bounds(0, 1)
+    rows = [row[0] for row in compare.tables[0].rows]
+    table = compare.table_widgets[0]
+    hip = next(k for k, row in enumerate(rows) if row in ("hip_r_flexion", "Right hip flexion"))
+    table.scrollToItem(table.item(hip, 0), QtWidgets.QAbstractItemView.PositionAtTop)
+    app.processEvents()
+    written.append(save_window_png(compare, out_dir / "library-compare.png"))
+    compare.close()
+    window.close()
     return written
 
 

@@ -1,39 +1,54 @@
-"""``make screenshots``: PNGs of the main window live, the review window and the export dialog.
+"""``make screenshots``: PNGs of every workspace on a clinic laptop's screen (1366 × 768).
 
-Usage: ``python packaging/make_screenshots.py OUT_DIR`` (under a display; ``make screenshots``
-runs it under Xvfb). Every window is shown at its own default size (as a user first sees it on
-a screen that holds it), the subject id is fixed (P001) and the home folder is a scratch folder,
-so the paths in view read ``~/sessions/…`` on every run. The simulated suit (on a clock four
-times as fast as the wall's) has its magnetometers and body calibrated by the wizards'
-procedures, then walks; a session is recorded with two markers, reopened for review (play head
-on the second marker) and shown with its export dialog. The calibration wizards', the library's
-and the analysis' pictures are added by ``packaging/wizard_screenshots.py``,
-``library_screenshots.py`` and ``analysis_screenshots.py``.
+Usage: ``python packaging/make_screenshots.py OUT_DIR [--guide GUIDE_IMG_DIR]`` under a display
+of 1366 × 768 (``make screenshots`` runs it under ``Xvfb -screen 0 1366x768x24`` with
+``--guide resources/guide/img``; another screen size is refused); ``--guide`` copies the user
+guide's pictures (:data:`GUIDE_PICTURES`) there. Every window
+opens at the size it chooses on that screen (:mod:`mimucap.gui.screen_fit`), the subject id is
+fixed (P001) and the home folder is a scratch folder, so the paths in view read ``~/sessions/…``
+on every run. The main window on the simulated suit (on a clock four times as fast as the
+wall's) is shown before any calibration; its magnetometers and body are calibrated by the
+wizards' procedures and the subject walks; a session is recorded with two markers, reopened for
+review (play head on the second marker) and shown with its export dialog; then Assess →
+Clinical Test runs a Timed Up and Go, with its report and the subject's trend
+(``packaging/clinical_screenshots.py``, which also shows the offer to pair unknown devices). The
+calibration wizards', the library's and the analysis' pictures are added by
+``packaging/wizard_screenshots.py``, ``library_screenshots.py`` and ``analysis_screenshots.py``.
 """
 
 from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-from PyQt5 import QtCore, QtWidgets
+from PyQt5 import QtWidgets
+from screenshots_common import wait as _wait
 
 
-def _wait(app: QtWidgets.QApplication, condition, timeout_s: float, what: str) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise RuntimeError(f"timed out waiting for {what}")
-        app.processEvents(QtCore.QEventLoop.AllEvents, 20)
+#: The screen every picture is taken on: a clinic laptop's (px).
+SCREEN = (1366, 768)
+
+
+def _helper(script: str):
+    """The helper module ``packaging/<script>.py``."""
+    spec = importlib.util.spec_from_file_location(script, Path(__file__).with_name(f"{script}.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
 def make_screenshots(out_dir: Path) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
+    screen = app.primaryScreen().geometry()
+    if (screen.width(), screen.height()) != SCREEN:
+        raise RuntimeError(f"the screen is {screen.width()} x {screen.height()}; the screenshots are taken on "
+                           f"{SCREEN[0]} x {SCREEN[1]} (xvfb-run -a -s \"-screen 0 1366x768x24\")")
     written: list[Path] = []
     with tempfile.TemporaryDirectory() as scratch:
         home = os.environ.get("HOME")
@@ -42,6 +57,7 @@ def make_screenshots(out_dir: Path) -> list[Path]:
         folder.mkdir()
         try:
             written += _main_and_review(app, out_dir, folder)
+            written += _helper("clinical_screenshots").write_pairing_screenshot(app, out_dir)
         finally:
             if home is None:
                 os.environ.pop("HOME", None)
@@ -50,10 +66,7 @@ def make_screenshots(out_dir: Path) -> list[Path]:
     for script, function in (("wizard_screenshots", "write_wizard_screenshots"),
                              ("library_screenshots", "write_library_screenshots"),
                              ("analysis_screenshots", "write_analysis_screenshots")):
-        spec = importlib.util.spec_from_file_location(script, Path(__file__).with_name(f"{script}.py"))
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        written.extend(getattr(module, function)(out_dir))
+        written.extend(getattr(_helper(script), function)(out_dir))
     return written
 
 
@@ -62,8 +75,18 @@ SPEED_UP = 4.0
 
 
 def _fast_clock():
-    start = time.monotonic()
-    return lambda: start + SPEED_UP * (time.monotonic() - start)
+    """Simulated time, SPEED_UP times the wall clock; a stall of a busy machine slows it down
+    (each reading moves it at most half a second) instead of making the simulated suit lose the
+    samples of the stall."""
+    state = [time.monotonic(), time.monotonic()]
+
+    def clock() -> float:
+        wall = time.monotonic()
+        state[0] += min(SPEED_UP * (wall - state[1]), 0.5)
+        state[1] = wall
+        return state[0]
+
+    return clock
 
 
 def _calibrate(app: QtWidgets.QApplication, window, folder: Path) -> None:
@@ -109,11 +132,14 @@ def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -
     window.start()
     window.set_camera_preset("front")
     _wait(app, lambda: window.live.samples_received > 0, 20, "live data")
+    window.session_panel.subject_id.setText("P001")
+    start = time.monotonic()
+    _wait(app, lambda: time.monotonic() - start > 2.0, 10, "the sensors' first seconds")
+    written.append(window.save_screenshot(out_dir / "main-window-before-calibration.png"))
     _calibrate(app, window, folder)
     window.action_truth.setChecked(True)  # the simulator's truth beside the estimate
     start = time.monotonic()
     _wait(app, lambda: time.monotonic() - start > 1.0, 10, "walking")
-    window.session_panel.subject_id.setText("P001")
     window.session_panel.record_button.setChecked(True)
     start = time.monotonic()
     _wait(app, lambda: time.monotonic() - start > 3.0, 10, "recording")
@@ -143,16 +169,38 @@ def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -
     written.append(dialog.save_summary_png(out_dir / "export-summary.png"))
     dialog.close()
     review.close()
+    window.action_truth.setChecked(False)
+    written += _helper("clinical_screenshots").write_clinical_test_screenshots(app, window, folder, out_dir)
     window.close()
     return written
 
 
+#: The pictures the user guide shows (``resources/guide/img``), one per section of it.
+GUIDE_PICTURES = ("main-window.png", "wizard-magnetometer-2-turn-about-y.png", "wizard-body-5-result.png",
+                  "review.png", "export-dialog.png", "analysis-gait.png", "library-compare.png",
+                  "clinical-test-4-result.png", "clinical-test-trend.png")
+
+
+def copy_guide_pictures(out_dir: Path, guide_dir: Path) -> list[Path]:
+    """Copy :data:`GUIDE_PICTURES` from ``out_dir`` to ``guide_dir`` (the guide's ``img`` folder)."""
+    guide_dir.mkdir(parents=True, exist_ok=True)
+    copied = []
+    for name in GUIDE_PICTURES:
+        copied.append(guide_dir / name)
+        shutil.copyfile(out_dir / name, copied[-1])
+    return copied
+
+
 def main(argv: list[str]) -> int:
-    if len(argv) != 1:
-        print("usage: make_screenshots.py OUT_DIR", file=sys.stderr)
+    if len(argv) not in (1, 3) or (len(argv) == 3 and argv[1] != "--guide"):
+        print("usage: make_screenshots.py OUT_DIR [--guide GUIDE_IMG_DIR]", file=sys.stderr)
         return 2
-    for path in make_screenshots(Path(argv[0])):
+    out_dir = Path(argv[0])
+    for path in make_screenshots(out_dir):
         print(path)
+    if len(argv) == 3:
+        for path in copy_guide_pictures(out_dir, Path(argv[2])):
+            print(path)
     return 0
 
 

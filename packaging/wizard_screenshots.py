@@ -2,9 +2,9 @@
 
 ``write_wizard_screenshots(out_dir) -> list[Path]`` writes PNGs named ``wizard-*.png``
 (full pages: the Qt widgets with the VTK views painted in) and returns their paths. Needs a
-display (``xvfb-run -a -s "-screen 0 1920x1200x24"``). Run directly:
+display (``xvfb-run -a -s "-screen 0 1366x768x24"``). Run directly:
 
-    xvfb-run -a -s "-screen 0 1920x1200x24" .venv/bin/python packaging/wizard_screenshots.py docs/screenshots
+    xvfb-run -a -s "-screen 0 1366x768x24" .venv/bin/python packaging/wizard_screenshots.py docs/screenshots
 
 The simulated subject performs what each page asks, faster than real time (the wizards are
 stepped directly, not by their timers).
@@ -61,11 +61,11 @@ def write_wizard_screenshots(out_dir: str | Path) -> list[Path]:
     written: list[Path] = []
     store = CalibrationStore(Path(tempfile.mkdtemp(prefix="mimucap-shots-")))
     simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=3))
-    # A previous calibration of S02, 12 days old, for the comparison column.
+    # A previous calibration of S02's device, 12 days old, for the comparison column.
     old = simulator.parameters["S02"]
     store.save(MagCalibration("S02", old.mag_b_uT + 1.5, [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]], 48.0,
                               created_utc="2026-11-09T08:30:00Z", protocol="single_axis",
-                              quality={"verdict": "good"}))
+                              quality={"verdict": "good"}, device_id=simulator.config.device_ids()["S02"]))
 
     mag = MagnetometerWizard.for_simulator(simulator, store=store, now=lambda: NOW, view_interval_ms=0)
     mag.set_selected_sensors(["S01", "S02", "S03", "S04", "S05"])
@@ -104,8 +104,10 @@ def write_wizard_screenshots(out_dir: str | Path) -> list[Path]:
     for sensor_id, parameters in simulator_body.parameters.items():
         body.feed.set_magnetometer_calibration(
             MagCalibration(sensor_id, parameters.mag_b_uT, np.linalg.inv(parameters.mag_A), 50.0))
-    for _ in range(30):
-        body.feed.read()  # the orientation filters settle while the setup page is shown
+    # The orientation filters settle on the new magnetometer calibrations while the sensors are
+    # strapped on and the setup page is shown (half a minute in a clinic; 20 s here).
+    for _ in range(int(20.0 / body.feed.step_s)):
+        body.feed.read()
     body.show()
     _save(app, body, out_dir, "body-1-setup", written)
     body.start()

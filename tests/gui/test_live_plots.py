@@ -7,6 +7,7 @@ import time
 
 import numpy as np
 import pytest
+from PyQt5 import QtWidgets
 
 from mimucap.gui.live_plots import MAX_JOINTS, REFRESH_HZ, REFRESH_SLACK, LivePlots
 from mimucap.session.views import plot_scaling
@@ -97,6 +98,12 @@ def test_default_joint_and_several_joints_each_with_its_plot(plots):
     assert [j for j, a in plots.joint_actions.items() if a.isChecked()] == ["hip_r", "ankle_r", "elbow_l"]
     assert not plots.joint_actions["knee_r"].isEnabled()
     assert plots.joint_button.text() == "Right hip +2"
+    # The centred text stays clear of the menu arrow in the button's right corner.
+    button = plots.joint_button
+    plots.show()
+    QtWidgets.QApplication.processEvents()
+    arrow = button.style().pixelMetric(QtWidgets.QStyle.PM_MenuButtonIndicator, None, button)
+    assert (button.width() - button.fontMetrics().horizontalAdvance(button.text())) / 2 >= arrow + 4
     plots.joint_actions["ankle_r"].setChecked(False)  # as the user would, in the menu
     assert plots.selected_joints == ["hip_r", "elbow_l"]
     assert "joint:ankle_r" not in plots.plots and plots.joint_actions["knee_r"].isEnabled()

@@ -69,6 +69,15 @@ def test_the_offer_lists_a_device_that_cannot_be_paired_without_a_box(qtbot):
     assert dialog.chosen() == [new]
     dialog.list.item(1).setCheckState(QtCore.Qt.Unchecked)
     assert dialog.chosen() == []
+    # Every device's whole line is in view (the MAC is what to check), said in words
+    dialog.show()
+    qtbot.waitExposed(dialog)
+    assert dialog.list.viewport().width() >= dialog.list.sizeHintForColumn(0)
+    assert dialog.list.horizontalScrollBar().maximum() == 0
+    assert "(12 packets refused)" in dialog.list.item(1).text()
+    one = PairDevicesDialog(None, "udp:0.0.0.0:5555", [UnpairedSensor("9", SensorDevice("mac:02A1B2C3D4E6"), 1)])
+    qtbot.addWidget(one)
+    assert one.list.item(0).text().endswith("(1 packet refused)")
     only_old = PairDevicesDialog(None, "udp:0.0.0.0:5555", [old])
     qtbot.addWidget(only_old)
     assert not only_old.pair_button.isEnabled()

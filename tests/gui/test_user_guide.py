@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import re
 
+from PyQt5 import QtCore, QtGui
+
 from mimucap.gui.user_guide import GUIDE, guide_path
 from mimucap.resources import resources_root
 
@@ -28,6 +30,17 @@ def test_the_guide_opens_from_the_help_menu_and_covers_a_session(window, qtbot):
     links = re.findall(r'href="([^"]+)"', html)
     assert links and all(link.startswith("#") and link[1:] in anchors for link in links)
     assert "http" not in html
+    # every picture is a file shipped beside the guide, and the guide window shows it
+    images = re.findall(r'<img [^>]*src="([^"]+)"', html)
+    assert len(images) >= 9
+    for src in images:
+        assert src.startswith("img/") and (guide_path().parent / src).is_file(), src
+        image = guide.browser.document().resource(QtGui.QTextDocument.ImageResource, QtCore.QUrl(src))
+        if isinstance(image, QtCore.QByteArray):
+            image = QtGui.QImage.fromData(image)
+        assert isinstance(image, (QtGui.QImage, QtGui.QPixmap)) and not image.isNull(), src
+    shipped = sum(path.stat().st_size for path in (guide_path().parent / "img").iterdir())
+    assert shipped < 2.5e6  # the pictures travel in every wheel and bundle
     window.action_guide.trigger()  # a second time: the same window comes back
     assert window._guide is guide and guide.isVisible()
     guide.close()

@@ -158,6 +158,9 @@ def test_the_analysis_library_compare_trend_and_assessment_windows_fit_each_scre
         _spin(qtbot, 150)
         assert _inside(screen, analysis), (analysis.geometry(), screen)
         assert _problems(analysis) == [], index
+    analysis.tabs.setCurrentIndex(0)
+    _spin(qtbot, 150)
+    assert analysis.parameters_table.horizontalScrollBar().maximum() == 0  # every column of the gait table in view
     analysis.close()
     review.close()
 

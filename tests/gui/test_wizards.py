@@ -76,6 +76,15 @@ def test_magnetometer_wizard_calibrates_several_sensors_at_once(qtbot, magnetome
         offset_error, shape_error = truth_errors(outcome.result.calibration, simulator.parameters[sensor_id])
         assert offset_error < 0.5 and shape_error < 0.01
     assert wizard.result_table.rowCount() == len(ids)
+    qtbot.wait(50)
+    assert wizard.result_table.horizontalScrollBar().maximum() == 0  # every column in view
+    # Another sensor chosen: the raw view looks at its cloud (another offset), not the first one's.
+    offsets = [wizard.procedure.outcomes[s].result.calibration.offset_uT for s in ids[:2]]
+    assert np.linalg.norm(offsets[1] - offsets[0]) > 10.0
+    wizard.result_table.selectRow(1)
+    qtbot.wait(50)
+    focal = np.array(wizard.view.raw_renderer.GetActiveCamera().GetFocalPoint())
+    assert np.linalg.norm(focal - offsets[1]) < 2.0, (focal, offsets)
     assert wizard.accept_button.isEnabled()
     with qtbot.waitSignal(wizard.calibrations_accepted) as accepted:
         qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)

@@ -79,7 +79,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         closes_with_keys(self)
         self.setObjectName("analysisWindow")
         self.setWindowTitle(f"MimuCap Analysis: {data.path.name}")
-        fit_on_screen(self, 1200, 820, parent)
+        fit_on_screen(self, 1320, 820, parent)  # the gait table whole on a 1366-px laptop screen
         self.data = data
         self.analysis: SessionAnalysis | None = None
         self.bands: dict[tuple[str, str], NormativeBand] = {}
@@ -138,8 +138,8 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         right.addWidget(self.curve_plot, 1)
         right.addWidget(self.band_label)
         gait_layout = QtWidgets.QHBoxLayout(self.gait_tab)
-        gait_layout.addLayout(left, 11)
-        gait_layout.addLayout(right, 9)
+        gait_layout.addLayout(left, 3)
+        gait_layout.addLayout(right, 2)
 
         # -- ROM tab -------------------------------------------------------------------------
         self.rom_label = QtWidgets.QLabel("ROM protocol:", self.rom_tab)

@@ -19,6 +19,7 @@ from mimucap.core.wording import plural
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.menus import closes_with_keys
 from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.session_panel import display_path
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
 from mimucap.session.recorded.library import COMPARISON_NEEDS_CALIBRATION
@@ -126,7 +127,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         super().__init__(parent)
         closes_with_keys(self)
         self.setObjectName("libraryWindow")
-        fit_on_screen(self, 1200, 640, parent)
+        fit_on_screen(self, 1320, 640, parent)  # every column whole on a 1366-px laptop screen
         self._open_review = open_review
         self._new_session = new_session
         self.library: Library | None = None
@@ -269,7 +270,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         """Show the library in ``folder`` (its index made when new; a refused index in the banner)."""
         self.folder = Path(folder)
         self.setWindowTitle(f"MimuCap Library: {folder}")
-        self.folder_label.setText(str(folder))
+        self.folder_label.setText(display_path(folder))
         try:
             self.library = Library(folder)
         except LibraryError as error:

@@ -350,7 +350,12 @@ class LivePlots(QtWidgets.QWidget):
             action.setEnabled(joint in joints or len(joints) < MAX_JOINTS)
             action.blockSignals(False)
         first = joint_name(joints[0]) if joints else "(none)"
-        self.joint_button.setText(first + (f" +{len(joints) - 1}" if len(joints) > 1 else ""))
+        text = first + (f" +{len(joints) - 1}" if len(joints) > 1 else "")
+        self.joint_button.setText(text)
+        # The text is centred and the menu arrow drawn in the right corner: room for the arrow on
+        # both sides keeps the text clear of it.
+        arrow = self.joint_button.style().pixelMetric(QtWidgets.QStyle.PM_MenuButtonIndicator, None, self.joint_button)
+        self.joint_button.setMinimumWidth(max(72, self.joint_button.fontMetrics().horizontalAdvance(text) + 2 * arrow + 16))
         self.joint_button.setToolTip(f"Joints plotted (up to {MAX_JOINTS}): "
                                      f"{', '.join(joint_name(j) for j in joints) or 'none'}")
         self._fix_x_range()

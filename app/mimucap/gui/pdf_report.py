@@ -518,24 +518,27 @@ def _trend_plot(doc: _Document, rect: QRectF, key: str, visits, reference: dict 
     painter.setBrush(Qt.NoBrush)
     painter.setPen(QColor(0, 0, 0))
     for x, visit in zip(xs, visits):
-        painter.drawText(QRectF(x - 45, plot.bottom() + 4, 90, 24), int(Qt.AlignHCenter | Qt.AlignTop),
-                         local_time_text(visit.recorded_utc).split(",")[0])
+        date = local_time_text(visit.recorded_utc).split(",")[0]
+        half = painter.fontMetrics().horizontalAdvance(date) / 2 + 6  # the whole date, however the device scales
+        painter.drawText(QRectF(x - half, plot.bottom() + 4, 2 * half, 24), int(Qt.AlignHCenter | Qt.AlignTop), date)
     doc.y = rect.bottom() + 10
 
 
 def clinical_test_section(doc: _Document, result, earlier) -> None:
     """One clinical test: its results beside the reference, how its start was found, and the
     subject's earlier visits (``earlier``: :class:`~mimucap.session.recorded.clinical_test_results.Visit`)."""
-    from mimucap.session.recorded.clinical_test_results import MAIN_RESULT, Visit, format_quantity, result_rows
+    from mimucap.session.recorded.clinical_test_results import (
+        MAIN_RESULT, Visit, format_quantity, result_rows, start_text,
+    )
     from mimucap.session.recorded.clinical_tests import TEST_NAMES
 
     doc.text(TEST_NAMES[result.test], 13, True, gap=4)
-    doc.text(f"Test from {result.start_s:.1f} s to {result.end_s:.1f} s of the recording; started by "
-             f"{result.started_by}.", 8.5)
+    doc.text(f"Test from {result.start_s:.1f} s to {result.end_s:.1f} s of the recording, timed from "
+             f"{start_text(result.started_by)}.", 8.5)
     doc.table(["Result", "Value", "Reference"], [list(row) for row in result_rows(result)], [0.34, 0.16, 0.5])
     if result.reference is not None:
         doc.text(f"Reference: {result.reference['group']}, {result.reference['statistic']}. "
-                 f"Source: {result.reference['source']}.", 7.5, colour=QColor(70, 70, 70))
+                 f"Source: {result.reference['source'].rstrip('.')}.", 7.5, colour=QColor(70, 70, 70))
     else:
         doc.text(f"No reference: {result.reference_note}.", 7.5, colour=QColor(70, 70, 70))
     key = MAIN_RESULT[result.test]
@@ -609,7 +612,7 @@ def write_trend_report(path: str | Path, subject_id: str, test: str, key: str, v
         doc.text(f"Subject: {subject_id}    {len(visits)} visit{'s' if len(visits) != 1 else ''}", 10)
         if reference is not None:
             doc.text(f"Reference (latest visit): {reference.get('group', '')}, {reference.get('statistic', '')}. "
-                     f"Source: {reference.get('source', '')}.", 7.5, colour=QColor(70, 70, 70))
+                     f"Source: {reference.get('source', '').rstrip('.')}.", 7.5, colour=QColor(70, 70, 70))
         doc.need(460)
         _trend_plot(doc, QRectF(0, doc.y, doc.width, 440), key, visits, reference)
         doc.table(["Recorded", "Session", "Result kind", QUANTITIES[key][0]],

@@ -18,6 +18,7 @@ from PyQt5 import QtCore, QtWidgets
 from mimucap.acquisition.pairing import UnpairedSensor
 from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
 from mimucap.core.simulate.names import ROOM_NAMES, SCENARIOS
+from mimucap.gui.screen_fit import available_geometry
 from mimucap.gui.settings import gui_settings
 
 KINDS = ("simulated", "udp", "serial", "replay", "slimevr")
@@ -220,7 +221,8 @@ class PairDevicesDialog(QtWidgets.QDialog):
         text.setWordWrap(True)
         self.list = QtWidgets.QListWidget(self)
         for sensor in self.sensors:
-            item = QtWidgets.QListWidgetItem(f"{sensor.describe()} ({sensor.refused} packets refused)")
+            packets = "packet" if sensor.refused == 1 else "packets"
+            item = QtWidgets.QListWidgetItem(f"{sensor.describe()} ({sensor.refused} {packets} refused)")
             if sensor.pairable:
                 item.setFlags(item.flags() | QtCore.Qt.ItemIsUserCheckable)
                 item.setCheckState(QtCore.Qt.Checked)
@@ -234,6 +236,9 @@ class PairDevicesDialog(QtWidgets.QDialog):
         self.pair_button.setEnabled(any(sensor.pairable for sensor in self.sensors))
         buttons.accepted.connect(self.accept)
         buttons.rejected.connect(self.reject)
+        # Wide enough for every device's whole line (within the screen): the MAC is what to check.
+        whole = self.list.sizeHintForColumn(0) + 2 * self.list.frameWidth() + 8
+        self.list.setMinimumWidth(min(whole, available_geometry(parent).width() - 80))
         layout = QtWidgets.QVBoxLayout(self)
         layout.addWidget(text)
         layout.addWidget(self.list)

@@ -24,10 +24,11 @@ from PyQt5 import QtCore, QtWidgets
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.wizards.dialog import button_row, large_label, push_button
 from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.session_panel import display_path
 from mimucap.io.session import SEXES
 from mimucap.session.procedures import instructions
 from mimucap.session.procedures.clinical_test import GUIDES, ClinicalTestProcedure
-from mimucap.session.recorded.clinical_test_results import result_rows, store_in_library
+from mimucap.session.recorded.clinical_test_results import result_rows, start_text, store_in_library
 
 log = logging.getLogger(__name__)
 
@@ -339,7 +340,7 @@ class ClinicalTestWizard(QtWidgets.QDialog):
 
     def _show_result(self, result) -> None:
         self.result = result
-        self.result_status.setText(f"From the sensors ({result.started_by}); {self.session_path.name}, "
+        self.result_status.setText(f"Timed from {start_text(result.started_by)}; {self.session_path.name}, "
                                    f"{result.result.replace('_', ' ')}.")
         rows = result_rows(result)
         self.result_table.setRowCount(len(rows))
@@ -356,9 +357,10 @@ class ClinicalTestWizard(QtWidgets.QDialog):
         else:
             notes.append(f"Reference: {result.reference['group']}, {result.reference['statistic']} "
                          f"({result.reference['source']}).")
-        stored = store_in_library(self.session_path, result, self.main_window.library_folder())
+        library = self.main_window.library_folder()
+        stored = store_in_library(self.session_path, result, library)
         if stored:
-            notes.append(stored)
+            notes.append(stored.replace(str(library), display_path(library)))  # the home folder as ~, as elsewhere
         self.result_notes.setText(" ".join(notes))
         self.report_button.setEnabled(True)
         self.review_button.setEnabled(True)

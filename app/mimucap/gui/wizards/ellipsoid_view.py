@@ -162,6 +162,7 @@ class EllipsoidView(QtWidgets.QWidget):
         self._initialized = False
         self._alive = True
         self._framed_size: float | None = None
+        self._framed_centre = np.zeros(3)
         self.fit_shown: EllipsoidFit | None = None
         self.updates = 0
 
@@ -179,7 +180,7 @@ class EllipsoidView(QtWidgets.QWidget):
             self.ellipsoid_actor.VisibilityOff()
             self.sphere_actor.VisibilityOff()
             self.corrected_cloud.set(np.zeros((0, 3)), np.zeros(0))
-            self.raw_label.SetInput(f"raw samples (colour: time): {display.count} shown, no fit yet")
+            self.raw_label.SetInput(f"raw samples (colour: time)\n{display.count} shown, no fit yet")
         else:
             _set_matrix(self.ellipsoid_actor, display.ellipsoid_matrix)
             self.ellipsoid_actor.VisibilityOn()
@@ -188,10 +189,10 @@ class EllipsoidView(QtWidgets.QWidget):
             self.corrected_cloud.set(display.corrected_uT, display.time_fraction)
             centre = display.centre_uT
             self.raw_label.SetInput(
-                "raw samples (colour: time) and fitted ellipsoid\n"
+                "raw samples (colour: time)\nand fitted ellipsoid\n"
                 f"offset {centre[0]:.1f}, {centre[1]:.1f}, {centre[2]:.1f} µT"
             )
-            self.corrected_label.SetInput(f"corrected samples on the {display.field_uT:.1f} µT sphere")
+            self.corrected_label.SetInput(f"corrected samples\non the {display.field_uT:.1f} µT sphere")
         if display.count > 10:
             self._frame_camera(display)
         self.updates += 1
@@ -200,12 +201,15 @@ class EllipsoidView(QtWidgets.QWidget):
     def _frame_camera(self, display: MagcalDisplay) -> None:
         """Look at the raw cloud (left) and the corrected one (right, around the origin) from
         the same oblique direction, far enough back for the whole cloud to fit the half-width
-        viewport. Reframed only when the cloud's size changed by more than 15 %, so that a
-        view the user turned stays put while samples arrive."""
+        viewport. Reframed only when the cloud's size changed, or its centre moved, by more than
+        15 % of its size (another sensor shown), so that a view the user turned stays put while
+        samples arrive."""
         size = display.extent_uT
-        if self._framed_size is not None and abs(size - self._framed_size) <= 0.15 * self._framed_size:
+        centre = np.asarray(display.centre_uT, dtype=float)
+        if (self._framed_size is not None and abs(size - self._framed_size) <= 0.15 * self._framed_size
+                and np.linalg.norm(centre - self._framed_centre) <= 0.15 * self._framed_size):
             return
-        self._framed_size = size
+        self._framed_size, self._framed_centre = size, centre
         for renderer, focal, extent in ((self.raw_renderer, display.centre_uT, size),
                                         (self.corrected_renderer, (0.0, 0.0, 0.0), display.field_uT or size)):
             camera = renderer.GetActiveCamera()

@@ -125,8 +125,8 @@ class MagnetometerWizard(CalibrationDialog):
         self.views_panel.setVisible(False)
 
         layout = QtWidgets.QHBoxLayout(self)
-        layout.addWidget(self.pages, 2)
-        layout.addWidget(self.views_panel, 3)
+        layout.addWidget(self.pages, 1)
+        layout.addWidget(self.views_panel, 1)
         self.set_page_defaults(self.pages, {self.setup_page: self.start_button,
                                             self.result_page: self.accept_button})
         self._update_previous()
@@ -230,9 +230,10 @@ class MagnetometerWizard(CalibrationDialog):
         self.result_title = QtWidgets.QLabel("<h2>Result</h2>")
         self.result_title.setWordWrap(True)
         layout.addWidget(self.result_title)
-        self.result_table = QtWidgets.QTableWidget(0, 6)
-        self.result_table.setHorizontalHeaderLabels(
-            ["Sensor", "Verdict", "Offset (µT)", "Residual", "Coverage x/y/z", "Previous"])
+        # The offset is in the details below and under the 3D view: the table keeps what tells
+        # the calibrations apart, every column in view on a laptop's screen.
+        self.result_table = QtWidgets.QTableWidget(0, 5)
+        self.result_table.setHorizontalHeaderLabels(["Sensor", "Verdict", "Residual", "Coverage x/y/z", "Previous"])
         self.result_table.verticalHeader().setVisible(False)
         self.result_table.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
         self.result_table.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectRows)
@@ -432,11 +433,9 @@ class MagnetometerWizard(CalibrationDialog):
         cells = [self.sensor_label(outcome.sensor_id), VERDICT_WORDS[outcome.verdict]]
         if outcome.result is not None:
             q = outcome.result.quality
-            offset = outcome.result.calibration.offset_uT
-            cells += [", ".join(f"{v:.1f}" for v in offset), f"{q.rms_residual_uT:.2f} µT",
-                      "/".join(f"{c * 100:.0f}" for c in q.axis_coverage) + " %"]
+            cells += [f"{q.rms_residual_uT:.2f} µT", "/".join(f"{c * 100:.0f}" for c in q.axis_coverage) + " %"]
         else:
-            cells += ["—", "—", "—"]
+            cells += ["—", "—"]
         previous = outcome.previous
         # the age only: the previous offset is in the details below and in the tooltip
         cells.append("none" if previous is None else describe_age(previous.age_days))

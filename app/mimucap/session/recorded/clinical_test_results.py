@@ -39,7 +39,7 @@ MAIN_RESULT = {"tug": "total_s", "10mwt": "speed_m_s", "2mwt": "distance_m", "6m
 #: Library result name prefix.
 RESULT_PREFIX = "clinical_test:"
 #: Reference value names as people read them.
-_REFERENCE_WORDS = {"mean": "mean", "ci95_low": "95 % CI from", "ci95_high": "to", "p25": "25th percentile",
+_REFERENCE_WORDS = {"mean": "mean", "ci95_low": "95 % CI", "ci95_high": "to", "p25": "25th percentile",
                     "p75": "75th percentile", "predicted": "predicted", "lower_limit": "lower limit of normal"}
 
 
@@ -57,9 +57,22 @@ def reference_text(key: str, reference: dict[str, Any] | None) -> str:
         return ""
     parts = []
     for name, words in _REFERENCE_WORDS.items():
+        if name == "ci95_high" and "ci95_low" in reference:
+            continue  # said with its lower end: "95 % CI 8.2 s to 10.2 s"
         if name in reference:
             parts.append(f"{words} {format_quantity(key, reference[name])}")
+        if name == "ci95_low" and "ci95_high" in reference:
+            parts[-1] += f" to {format_quantity(key, reference['ci95_high'])}"
     return f"{', '.join(parts)} ({reference.get('group', '')})"
+
+
+def start_text(started_by: str) -> str:
+    """Where a result's test was timed from, in words, from its ``started_by``
+    (``"sensors: the first step"`` → ``"the first step, found by the sensors"``,
+    ``"marker 'test start'"`` → ``"the marker 'test start'"``)."""
+    if started_by.startswith("sensors: "):
+        return f"{started_by[len('sensors: '):]}, found by the sensors"
+    return f"the {started_by}" if started_by.startswith("marker ") else started_by
 
 
 def result_rows(result: ClinicalTestResult) -> list[tuple[str, str, str]]:
