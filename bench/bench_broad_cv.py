@@ -2,15 +2,13 @@
 
 Plain script: ``.venv/bin/python bench/bench_broad_cv.py [DIR]`` (DIR defaults to
 ``$MIMUCAP_TEST_DATA/broad``, else ``../shared/data/broad``; VQF rows need the ``vqf`` package of
-the ``bench`` extra). About 45 minutes on one core: every combination of :data:`GRID` runs on
+the ``bench`` extra). About 20 minutes on one core: every combination of :data:`GRID` runs on
 every trial.
 
 The free settings are those without a value from the sensor's noise figures: the heading noise
 from the field's quality (``heading_field_error_gain``), the gyroscope's scale-factor noise
-(``gyr_scale_noise_sqrt_s``), the hard-iron tracking's memory and least offset
-(``mag_offset_tau_s``, ``mag_offset_min_uT``) and the smoother's gyroscope noise
-(``smoother_gyr_noise_rad_s_sqrt_hz``: the white noise measured in the trials' own rest
-samples, a middle value, or the online filter's). Every combination runs online (:func:`fuse`)
+(``gyr_scale_noise_sqrt_s``) and the hard-iron tracking's memory and least offset
+(``mag_offset_tau_s``, ``mag_offset_min_uT``). Every combination runs online (:func:`fuse`)
 and offline (:func:`fuse_offline`) on every trial. For each trial in turn, the combination with
 the lowest mean of the online and offline total RMSE on the *other* trials is chosen (one
 parameter set serves both, as in the pipeline), and its scores on the left-out trial are the
@@ -18,9 +16,8 @@ held-out scores: what the settings achieve on a trial they were not chosen on.
 
 Printed per trial and per category (from the trial names): BROAD's total RMSE (deg) of the
 defaults (:data:`DEFAULT_FUSION_PARAMS`), of the held-out choice and of the defaults without
-this round's terms (no hard-iron tracking, the smoother with the online gyroscope noise),
-online and offline, beside VQF 9D with default parameters online (``vqf.VQF(Ts).updateBatch``)
-and offline (``vqf.offlineVQF``). Then the held-out choices, the combination chosen on all
+the hard-iron tracking, online and offline, beside VQF 9D with default parameters online
+(``vqf.VQF(Ts).updateBatch``) and offline (``vqf.offlineVQF``). Then the held-out choices, the combination chosen on all
 trials, the best combination that keeps the trials ``tests/core/fusion/test_broad_scores.py``
 bounds below VQF's online score (:data:`BOUNDED_TRIALS`; the defaults should be that one), the
 held-out scores of a choice made only among the combinations within the bounds of the training
@@ -48,21 +45,16 @@ from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, DEG
 from mimucap.io.broad import BroadTrial, list_broad_trials, read_broad
 
-#: Stands, in :data:`GRID`, for the gyroscope's white noise measured in the trials' rest samples.
-MEASURED = "white noise at rest"
-
 #: The settings cross-validated and the values tried.
 GRID: dict[str, tuple] = {
     "heading_field_error_gain": (1.0, 2.0, 3.0, 4.0),
     "gyr_scale_noise_sqrt_s": (0.00025, 0.0005, 0.00075),
     "mag_offset_tau_s": (2.0, 3.0, 5.0),
     "mag_offset_min_uT": (2.0, 3.0, 5.0),
-    "smoother_gyr_noise_rad_s_sqrt_hz": (MEASURED, 0.08 * DEG, DEFAULT_FUSION_PARAMS.gyr_noise_rad_s_sqrt_hz),
 }
 
-#: The settings of this round switched off: what the filter did before them.
-WITHOUT_THIS_ROUND = {"mag_offset_tau_s": 0.0,
-                      "smoother_gyr_noise_rad_s_sqrt_hz": DEFAULT_FUSION_PARAMS.gyr_noise_rad_s_sqrt_hz}
+#: The defaults without the hard-iron tracking: what the filter did before it.
+WITHOUT_TRACKING = {"mag_offset_tau_s": 0.0}
 
 #: Trials ``tests/core/fusion/test_broad_scores.py`` holds below VQF's online score, online and
 #: offline.
@@ -148,15 +140,7 @@ def fmt(values) -> str:
 
 
 def describe(combo: dict) -> str:
-    parts = []
-    for key, value in combo.items():
-        if isinstance(value, str):
-            parts.append(f"{key}={value}")
-        elif key.endswith("_rad_s_sqrt_hz"):
-            parts.append(f"{key}={value / DEG:g}°")
-        else:
-            parts.append(f"{key}={value:g}")
-    return ", ".join(parts)
+    return ", ".join(f"{key}={value:g}" for key, value in combo.items())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -166,14 +150,11 @@ def main(argv: list[str] | None = None) -> int:
     paths = list_broad_trials(args.directory)
     trials = [read_broad(path) for path in paths]
     started = time.perf_counter()
-    density = [rest_noise_density(trial) for trial in trials]
-    measured = float(np.mean(density))
     combos = [dict(zip(GRID, values)) for values in itertools.product(*GRID.values())]
-    scores = np.array([[our_scores(trial, replace(DEFAULT_FUSION_PARAMS, **{
-        k: measured if v == MEASURED else v for k, v in combo.items()})) for trial in trials]
-        for combo in combos])
+    scores = np.array([[our_scores(trial, replace(DEFAULT_FUSION_PARAMS, **combo)) for trial in trials]
+                       for combo in combos])
     defaults = np.array([our_scores(trial, DEFAULT_FUSION_PARAMS) for trial in trials])
-    before = np.array([our_scores(trial, replace(DEFAULT_FUSION_PARAMS, **WITHOUT_THIS_ROUND))
+    before = np.array([our_scores(trial, replace(DEFAULT_FUSION_PARAMS, **WITHOUT_TRACKING))
                        for trial in trials])
     vqf_rows = np.array([vqf_scores(trial) for trial in trials])
     picks = leave_one_out(scores)
@@ -183,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"BROAD, {len(trials)} trials in {args.directory}: total RMSE (deg) over movement samples")
     print(f"grid: {'; '.join(f'{k} {list(v)}' for k, v in GRID.items())}; {len(combos)} combinations, "
           f"{time.perf_counter() - started:.0f} s")
-    print(f"{'trial':44s} {'default':>7s} {'':>7s} {'held-out':>7s} {'':>7s} {'before':>7s} {'':>7s} "
+    print(f"{'trial':44s} {'default':>7s} {'':>7s} {'held-out':>7s} {'':>7s} {'no track':>7s} {'':>7s} "
           f"{'VQF':>7s} {'VQF':>7s}")
     print(f"{'':44s}" + " {:>7s} {:>7s}".format("online", "offline") * 4)
     for i, trial in enumerate(trials):
@@ -204,7 +185,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"chosen on all {len(trials)} trials: {describe(combos[all_fit])} "
           f"(online {scores[all_fit, :, 0].mean():.3f}, offline {scores[all_fit, :, 1].mean():.3f})")
     print(f"defaults: online {defaults[:, 0].mean():.3f}, offline {defaults[:, 1].mean():.3f}; "
-          f"without this round's terms: online {before[:, 0].mean():.3f}, offline {before[:, 1].mean():.3f}")
+          f"without the hard-iron tracking: online {before[:, 0].mean():.3f}, offline {before[:, 1].mean():.3f}")
     bounded = [i for i, trial in enumerate(trials) if trial.name in BOUNDED_TRIALS]
     if bounded and not np.isnan(vqf_rows[bounded, 0]).any():
         # (combinations, trials): within VQF's online score, online and offline, where bounded
@@ -221,10 +202,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"held-out, choosing within the bounds of the training trials: online "
               f"{bounded_held[:, 0].mean():.3f}, offline {bounded_held[:, 1].mean():.3f} (folds: " + "; ".join(
                   f"{count}: {describe(combos[c])}" for c, count in Counter(bounded_picks).most_common()) + ")")
-    print(f"gyroscope white noise at rest: {measured / DEG:.4f} °/s/√Hz "
-          f"(trials {min(density) / DEG:.4f}-{max(density) / DEG:.4f}); defaults gyr_noise_rad_s_sqrt_hz "
-          f"{DEFAULT_FUSION_PARAMS.gyr_noise_rad_s_sqrt_hz / DEG:.4f}, smoother_gyr_noise_rad_s_sqrt_hz "
-          f"{DEFAULT_FUSION_PARAMS.smoother_gyr_noise_rad_s_sqrt_hz / DEG:.4f} °/s/√Hz")
+    density = [rest_noise_density(trial) for trial in trials]
+    print(f"gyroscope white noise at rest: {np.mean(density) / DEG:.4f} °/s/√Hz "
+          f"(trials {min(density) / DEG:.4f}-{max(density) / DEG:.4f}); default gyr_noise_rad_s_sqrt_hz "
+          f"{DEFAULT_FUSION_PARAMS.gyr_noise_rad_s_sqrt_hz / DEG:.4f} °/s/√Hz")
     return 0
 
 

@@ -1,9 +1,8 @@
 """Offline orientation estimate of a recording: forward EKF plus Rauch-Tung-Striebel smoother.
 
-The forward pass is the online filter (:mod:`ekf`) with the smoother's gyroscope noise
-(``smoother_gyr_noise_rad_s_sqrt_hz`` in place of ``gyr_noise_rad_s_sqrt_hz``), storing, per
-sample, the predicted state ``x_{k|k-1}``, the predicted and updated covariances and the
-transition block ``A = −R·dt`` of ``Φ = [[I, A], [0, I]]``. The backward pass runs over the error state
+The forward pass is the online filter (:mod:`ekf`) storing, per sample, the predicted state
+``x_{k|k-1}``, the predicted and updated covariances and the transition block ``A = −R·dt`` of
+``Φ = [[I, A], [0, I]]``. The backward pass runs over the error state
 ``[δθ (world frame, rad), δb (rad/s)]``:
 
 ``C_k = P_{k|k} Φ_{k+1}ᵀ P_{k+1|k}⁻¹``,
@@ -17,8 +16,6 @@ sample and sensor during the call. The backward pass is the compiled kernel
 """
 
 from __future__ import annotations
-
-from dataclasses import replace
 
 import numpy as np
 
@@ -47,11 +44,10 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
     counters = []
     if state is not None and n_sensors != 1:
         raise ValueError("a prior state is given for one sensor at a time")
-    forward_params = replace(params, gyr_noise_rad_s_sqrt_hz=params.smoother_gyr_noise_rad_s_sqrt_hz)
     for s in range(n_sensors):
         store = (np.empty((1, n, 4)), np.empty((1, n, 3)), np.empty((1, n, 6, 6)),
                  np.empty((1, n, 6, 6)), np.empty((1, n, 3, 3)))
-        ekf = OrientationEKF(forward_params, algorithm=algorithm, use_mag=use_mag, state=state)
+        ekf = OrientationEKF(params, algorithm=algorithm, use_mag=use_mag, state=state)
         forward = ekf.update_batch(t[s], gyr3[s], None if acc3 is None else acc3[s],
                                    None if mag3 is None else mag3[s], _store=store)
         if n:

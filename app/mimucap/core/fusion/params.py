@@ -37,19 +37,11 @@ class FusionParams:
     #: Gyroscope propagation: ``"taylor3"`` (coning-corrected two-sample increments and a
     #: third-order exponential), ``"rk4"`` or ``"exact"`` (exponential map of one increment).
     propagation: str = "taylor3"
-    #: Gyroscope noise density (rad/s/√Hz) of the online filter: attitude process noise
-    #: ``σ²·dt``. Far above a MEMS gyroscope's white noise (0.006 °/s/√Hz in the rest samples
-    #: of the BROAD trials): it stands for the errors the model leaves out (the magnetometer's
-    #: lag, axis misalignment, drift in motion), so that a filter that sees only the past keeps
-    #: following the magnetometer.
+    #: Gyroscope noise density (rad/s/√Hz): attitude process noise ``σ²·dt``. Far above a MEMS
+    #: gyroscope's white noise (0.006 °/s/√Hz in the rest samples of the BROAD trials): it
+    #: stands for the errors the model leaves out (the magnetometer's lag, axis misalignment,
+    #: drift in motion), so that the filter keeps following the magnetometer.
     gyr_noise_rad_s_sqrt_hz: float = 0.15 * DEG
-    #: The same density for the forward pass of the offline smoother (:mod:`.offline`), which
-    #: also sees the field after each moment and so can hold the gyroscope's heading across a
-    #: movement. Chosen by leave-one-trial-out cross-validation on BROAD among the sensor's
-    #: white noise measured at rest, this value and the online one: the held-out choice is the
-    #: white noise, and this is the smallest that keeps every BROAD trial within its VQF bound
-    #: (``bench/bench_broad_cv.py``).
-    smoother_gyr_noise_rad_s_sqrt_hz: float = 0.08 * DEG
     #: Gyroscope scale-factor and axis-misalignment noise (√s): attitude process noise
     #: ``(k·‖ω‖)²·dt`` on top of the white noise. A gyroscope whose scale or axes are off by a
     #: fraction ``ε`` turns the estimate by ``ε`` times every angle turned, so the uncertainty
@@ -158,8 +150,7 @@ class FusionParams:
                 raise ValueError(f"fusion setting {field.name} must be a finite number >= 0, got {value!r}")
         for name in ("gravity_m_s2", "heading_noise_rad", "acc_noise_m_s2", "rest_tau_s",
                      "max_gap_s", "gyr_range_rad_s", "acc_range_m_s2", "mag_range_uT",
-                     "rest_bias_noise_rad_s", "mag_ref_tau_s", "mag_offset_fit_uT", "mag_offset_std_uT",
-                     "smoother_gyr_noise_rad_s_sqrt_hz"):
+                     "rest_bias_noise_rad_s", "mag_ref_tau_s", "mag_offset_fit_uT", "mag_offset_std_uT"):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f"fusion setting {name} must be > 0")
 
