@@ -34,8 +34,9 @@ that the calibration's own residue and the field's variation over the room are a
 the offset, and a fitted offset would follow them. So an attached magnet is learned within
 a few time constants of turning the sensor, and forgotten the same way once it is gone.
 
+The fit is updated with every sample and the choice made every :data:`DECIDE_INTERVAL_S`.
 State in the filter's auxiliary vector (:mod:`.state`, ``AX_HI_*``): the offset in use
-(``AX_HI_ON`` whether one is), the forgetting sums: weight ``W``, ``Σy²``, ``Σa·y`` (5,) and
+(``AX_HI_ON`` whether one is), the time since the last choice, the forgetting sums: weight ``W``, ``Σy²``, ``Σa·y`` (5,) and
 the upper triangle of ``Σa·aᵀ`` (15,), with the unknowns ``[o (3), c₁, c₂]``.
 """
 
@@ -53,9 +54,13 @@ from mimucap.core.fusion.params import (
     PI_MAG_OFFSET_TAU,
 )
 from mimucap.core.fusion.state import (
-    AX_HI_G, AX_HI_H, AX_HI_ON, AX_HI_O, AX_HI_W, AX_HI_YY, AX_MAG_DIP_REF, AX_MAG_NORM_REF,
+    AX_HI_G, AX_HI_H, AX_HI_ON, AX_HI_O, AX_HI_T, AX_HI_W, AX_HI_YY, AX_MAG_DIP_REF, AX_MAG_NORM_REF,
     AX_MAG_REF_OK, AX_N_MAG_OFFSET_NEW, HI_UNKNOWNS,
 )
+
+
+#: Time (s) between two decisions on the offset: far below the fit's forgetting time.
+DECIDE_INTERVAL_S = 0.05
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -166,17 +171,14 @@ def _decide(p, aux, mats, vecs):
         aux[AX_HI_ON] = 1.0
         aux[AX_HI_O], aux[AX_HI_O + 1], aux[AX_HI_O + 2] = ox, oy, oz
     else:
-        reset_offset(aux, False)
+        reset_offset(aux)
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def reset_offset(aux, forget_fit):
-    """No offset in use; ``forget_fit`` also empties the fit (a new calibration)."""
+def reset_offset(aux):
+    """No offset in use (the calibration stands); the fit goes on."""
     aux[AX_HI_ON] = 0.0
     aux[AX_HI_O] = aux[AX_HI_O + 1] = aux[AX_HI_O + 2] = 0.0
-    if forget_fit:
-        for i in range(AX_HI_W, AX_HI_H + HI_UNKNOWNS * (HI_UNKNOWNS + 1) // 2):
-            aux[i] = 0.0
 
 
 @njit(**JIT_OPTIONS)
@@ -201,8 +203,11 @@ def offset_update(p, aux, mx, my, mz, ux, uy, uz, dt, mats, vecs):
     _add_equation(aux, a, 0.5 * (mx * mx + my * my + mz * mz) * scale)
     a[0], a[1], a[2], a[3], a[4] = ux, uy, uz, 0.0, 1.0
     _add_equation(aux, a, ux * mx + uy * my + uz * mz)
-    # two equations a sample; decide once the sums hold at least half their steady weight
-    if dt > 0.0 and aux[AX_HI_W] >= tau / dt:
+    # two equations a sample; decide once the sums hold at least half their steady weight, and
+    # then every DECIDE_INTERVAL_S (the fit changes over the forgetting time, not per sample)
+    aux[AX_HI_T] += dt
+    if dt > 0.0 and aux[AX_HI_W] >= tau / dt and aux[AX_HI_T] >= DECIDE_INTERVAL_S:
+        aux[AX_HI_T] = 0.0
         _decide(p, aux, mats, vecs)
 
 

@@ -50,10 +50,11 @@ FLAG_NAMES = {
     AX_MAG_CAND_T, AX_MAG_CAND_ROT, AX_MAG_GOOD_T, AX_AWLP_INIT, AX_AWLP_X, AX_AWLP_Y, AX_AWLP_Z,
     AX_N_SAMPLES, AX_N_SKIPPED, AX_N_REST, AX_N_MAG_REJECTED, AX_N_ACC_REJECTED,
     AX_N_MAG_MISSING, AX_N_ACC_MISSING, AX_N_MAG_NEW_REF, AX_N_MAG_OFFSET, AX_N_MAG_OFFSET_NEW,
-    # hard-iron offset (:mod:`.hard_iron`): in use or not, the offset (µT, sensor frame), then
-    # the fit's forgetting sums: weight, Σy², Σa·y (HI_UNKNOWNS) and Σa·aᵀ (packed triangle)
-    AX_HI_ON, AX_HI_O, AX_HI_O_Y, AX_HI_O_Z, AX_HI_W, AX_HI_YY, AX_HI_G,
-) = range(43)
+    # hard-iron offset (:mod:`.hard_iron`): in use or not, the offset (µT, sensor frame), the
+    # time since the last decision (s), then the fit's forgetting sums: weight, Σy², Σa·y
+    # (HI_UNKNOWNS) and Σa·aᵀ (packed triangle)
+    AX_HI_ON, AX_HI_O, AX_HI_O_Y, AX_HI_O_Z, AX_HI_T, AX_HI_W, AX_HI_YY, AX_HI_G,
+) = range(44)
 #: Unknowns of the hard-iron fit: the offset (3) and two constants of the field.
 HI_UNKNOWNS = 5
 AX_HI_H = AX_HI_G + HI_UNKNOWNS
