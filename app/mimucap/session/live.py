@@ -107,7 +107,7 @@ POSE_UNASSIGNED = "no sensor assigned (Session → Assign Sensors)"
 
 #: Fusion flags the sensor panel shows: flag name (:data:`FLAG_NAMES`) → label.
 FLAG_LABELS = {"rest": "rest", "mag_rejected": "mag disturbed", "acc_rejected": "acc disturbed",
-               "uninitialised": "starting"}
+               "uninitialised": "starting", "mag_offset": "mag hard iron removed"}
 
 
 @dataclass(frozen=True)
