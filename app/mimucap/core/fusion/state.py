@@ -43,7 +43,7 @@ FLAG_NAMES = {
 }
 
 # Layout of the auxiliary state vector. New entries go at the end: the state a recording stored
-# with an older layout is a prefix of today's (``pipeline.state_from_dict`` pads it with zeros).
+# with an older layout is a prefix of today's (``core.pipeline.settings.state_from_dict`` pads it with zeros).
 (
     AX_INIT, AX_T_LAST, AX_HAVE_PREV, AX_GYR_PREV_X, AX_GYR_PREV_Y, AX_GYR_PREV_Z,
     AX_GLP_X, AX_GLP_Y, AX_GLP_Z, AX_ALP_X, AX_ALP_Y, AX_ALP_Z, AX_REST_T, AX_LP_INIT,
