@@ -2,24 +2,27 @@
 
 Plain script: ``.venv/bin/python bench/bench_broad_cv.py [DIR]`` (DIR defaults to
 ``$MIMUCAP_TEST_DATA/broad``, else ``../shared/data/broad``; VQF rows need the ``vqf`` package of
-the ``bench`` extra).
+the ``bench`` extra). About 5 minutes on one core: every combination of :data:`GRID` runs on
+every trial.
 
-The filter's free settings without a value from the sensor's noise figures are the two noise
-terms that grow with what the data show: the heading noise from the field's quality
-(``heading_field_error_gain``) and the gyroscope's scale-factor noise
-(``gyr_scale_noise_sqrt_s``). Every combination of :data:`GRID` runs, online (:func:`fuse`)
-and offline (:func:`fuse_offline`), on every trial. For each trial in turn, the combination with
+The free settings are those without a value from the sensor's noise figures: the heading noise
+from the field's quality (``heading_field_error_gain``), the gyroscope's scale-factor noise
+(``gyr_scale_noise_sqrt_s``) and the hard-iron tracking's memory and least offset
+(``mag_offset_tau_s``, ``mag_offset_min_uT``). Every combination runs online (:func:`fuse`)
+and offline (:func:`fuse_offline`) on every trial. For each trial in turn, the combination with
 the lowest mean of the online and offline total RMSE on the *other* trials is chosen (one
 parameter set serves both, as in the pipeline), and its scores on the left-out trial are the
-held-out scores: what the settings achieve on a trial they were not chosen on. The combination
-chosen on all trials is printed beside the defaults (:data:`DEFAULT_FUSION_PARAMS`), which
-should be that choice.
+held-out scores: what the settings achieve on a trial they were not chosen on.
 
 Printed per trial and per category (from the trial names): BROAD's total RMSE (deg) of the
-defaults and of the held-out choice, online and offline, beside VQF 9D with default parameters
-online (``vqf.VQF(Ts).updateBatch``) and offline (``vqf.offlineVQF``), and the gyroscope's white
-noise density measured in the trials' rest samples next to the default
-``gyr_noise_rad_s_sqrt_hz`` it stands for.
+defaults (:data:`DEFAULT_FUSION_PARAMS`), of the held-out choice and of the defaults without
+the hard-iron tracking, online and offline, beside VQF 9D with default parameters online
+(``vqf.VQF(Ts).updateBatch``) and offline (``vqf.offlineVQF``). Then the held-out choices, the combination chosen on all
+trials, the held-out scores of the hard-iron settings alone (the other settings at their
+defaults), the best combination that keeps the trials ``tests/core/fusion/test_broad_scores.py``
+bounds below VQF's online score (:data:`BOUNDED_TRIALS`), the held-out scores of a choice made
+only among the combinations within the bounds of the training trials, and the gyroscope's white
+noise density measured in the trials' rest samples.
 """
 
 from __future__ import annotations
@@ -44,10 +47,22 @@ from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, DEG
 from mimucap.io.broad_trials import BroadTrial, list_broad_trials, read_broad
 
 #: The settings cross-validated and the values tried.
-GRID: dict[str, tuple[float, ...]] = {
-    "heading_field_error_gain": (0.0, 1.0, 2.0, 3.0, 4.0),
-    "gyr_scale_noise_sqrt_s": (0.0, 0.00025, 0.0005, 0.00075),
+GRID: dict[str, tuple] = {
+    "heading_field_error_gain": (1.0, 2.0, 3.0, 4.0),
+    "gyr_scale_noise_sqrt_s": (0.00025, 0.0005, 0.00075),
+    "mag_offset_tau_s": (2.0, 3.0, 5.0),
+    "mag_offset_min_uT": (2.0, 3.0, 5.0),
 }
+
+#: The settings of the hard-iron tracking (:mod:`mimucap.core.fusion.hard_iron`).
+HARD_IRON_SETTINGS = ("mag_offset_tau_s", "mag_offset_min_uT")
+
+#: The defaults without the hard-iron tracking: what the filter did before it.
+WITHOUT_TRACKING = {"mag_offset_tau_s": 0.0}
+
+#: Trials ``tests/core/fusion/test_broad_scores.py`` holds below VQF's online score, online and
+#: offline.
+BOUNDED_TRIALS = ("24_disturbed_tapping_A", "26_disturbed_phone_vibration_A", "32_disturbed_attached_magnet_1cm")
 
 #: Categories of the trial names, first match wins.
 CATEGORIES = (
@@ -97,28 +112,39 @@ def vqf_scores(trial: BroadTrial) -> tuple[float, float]:
 
 
 def rest_noise_density(trial: BroadTrial) -> float:
-    """The gyroscope's white noise density (rad/s/√Hz, mean of the axes) over the samples the
-    filter flags as resting: the rms of successive differences / √2 is the per-sample noise
-    (a slowly varying bias cancels), divided by √(sampling rate)."""
+    """The gyroscope's white noise density (rad/s/√Hz, rms of the axes) over the samples the
+    filter flags as resting: successive differences cancel a slowly varying bias and hold
+    twice the white noise's variance, ``N²/dt`` per sample."""
     result = fuse(trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT)
     rest = result.flag_masks()["rest"]
     pairs = rest[1:] & rest[:-1]
     diff = np.diff(trial.gyr_rad_s, axis=0)[pairs]
-    per_sample = np.sqrt(np.mean(diff ** 2, axis=0) / 2.0)
-    return float(np.mean(per_sample) / math.sqrt(trial.sampling_rate_hz))
+    return float(np.sqrt(np.mean(diff ** 2) / (2.0 * trial.sampling_rate_hz)))
 
 
-def leave_one_out(scores: np.ndarray) -> list[int]:
+def leave_one_out(scores: np.ndarray, allowed: np.ndarray | None = None) -> list[int]:
     """``scores`` (combinations, trials, 2: online/offline); per trial the combination whose
-    mean of online and offline over the other trials is lowest."""
+    mean of online and offline over the other trials is lowest, among those ``allowed`` by the
+    other trials ((combinations, trials) bool: a combination is allowed in a fold when every
+    training trial allows it; None: all)."""
     objective = scores.mean(axis=2)  # (combinations, trials)
     n = objective.shape[1]
     total = objective.sum(axis=1)
-    return [int(np.argmin((total - objective[:, i]) / (n - 1))) for i in range(n)]
+    picks = []
+    for i in range(n):
+        mean_others = (total - objective[:, i]) / (n - 1)
+        if allowed is not None:
+            mean_others = np.where(np.delete(allowed, i, axis=1).all(axis=1), mean_others, np.inf)
+        picks.append(int(np.argmin(mean_others)))
+    return picks
 
 
 def fmt(values) -> str:
     return " ".join(f"{v:7.2f}" for v in values)
+
+
+def describe(combo: dict) -> str:
+    return ", ".join(f"{key}={value:g}" for key, value in combo.items())
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -132,42 +158,64 @@ def main(argv: list[str] | None = None) -> int:
     scores = np.array([[our_scores(trial, replace(DEFAULT_FUSION_PARAMS, **combo)) for trial in trials]
                        for combo in combos])
     defaults = np.array([our_scores(trial, DEFAULT_FUSION_PARAMS) for trial in trials])
+    before = np.array([our_scores(trial, replace(DEFAULT_FUSION_PARAMS, **WITHOUT_TRACKING))
+                       for trial in trials])
     vqf_rows = np.array([vqf_scores(trial) for trial in trials])
     picks = leave_one_out(scores)
     held = np.array([scores[pick, i] for i, pick in enumerate(picks)])
     all_fit = int(np.argmin(scores.mean(axis=(1, 2))))
-    density = [rest_noise_density(trial) for trial in trials]
 
     print(f"BROAD, {len(trials)} trials in {args.directory}: total RMSE (deg) over movement samples")
-    print(f"grid: {', '.join(f'{k} {list(v)}' for k, v in GRID.items())}; {len(combos)} combinations, "
+    print(f"grid: {'; '.join(f'{k} {list(v)}' for k, v in GRID.items())}; {len(combos)} combinations, "
           f"{time.perf_counter() - started:.0f} s")
-    header = f"{'trial':44s} {'default':>7s} {'':>7s} {'held-out':>7s} {'':>7s} {'VQF':>7s} {'VQF':>7s}"
-    print(header)
-    print(f"{'':44s} {'online':>7s} {'offline':>7s} {'online':>7s} {'offline':>7s} {'online':>7s} {'offline':>7s}")
+    print(f"{'trial':44s} {'default':>7s} {'':>7s} {'held-out':>7s} {'':>7s} {'no track':>7s} {'':>7s} "
+          f"{'VQF':>7s} {'VQF':>7s}")
+    print(f"{'':44s}" + " {:>7s} {:>7s}".format("online", "offline") * 4)
     for i, trial in enumerate(trials):
-        print(f"{trial.name[:44]:44s} {fmt([*defaults[i], *held[i], *vqf_rows[i]])}")
+        print(f"{trial.name[:44]:44s} {fmt([*defaults[i], *held[i], *before[i], *vqf_rows[i]])}")
     print()
     names = [category(trial.name) for trial in trials]
     groups = [(label, [i for i, n in enumerate(names) if n == label]) for label, _ in CATEGORIES]
     groups.append(("undisturbed", [i for i, t in enumerate(trials) if "undisturbed" in t.name]))
     groups.append(("disturbed", [i for i, t in enumerate(trials) if "undisturbed" not in t.name]))
+    groups.append((f"over {len(trials)} trials", list(range(len(trials)))))
     for label, rows in groups:
         if rows:
             print(f"{'mean ' + label + f' ({len(rows)})':44s} "
-                  f"{fmt([*defaults[rows].mean(0), *held[rows].mean(0), *vqf_rows[rows].mean(0)])}")
-    print(f"{f'MEAN over {len(trials)} trials':44s} {fmt([*defaults.mean(0), *held.mean(0), *vqf_rows.mean(0)])}")
+                  f"{fmt([*defaults[rows].mean(0), *held[rows].mean(0), *before[rows].mean(0), *vqf_rows[rows].mean(0)])}")
     print()
-    chosen = Counter(picks)
-    print("held-out choices (combination: folds): " + "; ".join(
-        f"{', '.join(f'{k}={v:g}' for k, v in combos[c].items())}: {count}" for c, count in chosen.most_common()))
-    best = combos[all_fit]
-    current = {k: getattr(DEFAULT_FUSION_PARAMS, k) for k in GRID}
-    print(f"chosen on all {len(trials)} trials: {best} (online {scores[all_fit, :, 0].mean():.3f}, "
-          f"offline {scores[all_fit, :, 1].mean():.3f}); defaults {current}: "
-          f"online {defaults[:, 0].mean():.3f}, offline {defaults[:, 1].mean():.3f}")
-    off_terms = replace(DEFAULT_FUSION_PARAMS, **{k: 0.0 for k in GRID})
-    without = np.array([our_scores(trial, off_terms) for trial in trials])
-    print(f"defaults without both terms: online {without[:, 0].mean():.3f}, offline {without[:, 1].mean():.3f}")
+    print("held-out choices (folds: combination): " + "; ".join(
+        f"{count}: {describe(combos[c])}" for c, count in Counter(picks).most_common()))
+    print(f"chosen on all {len(trials)} trials: {describe(combos[all_fit])} "
+          f"(online {scores[all_fit, :, 0].mean():.3f}, offline {scores[all_fit, :, 1].mean():.3f})")
+    print(f"defaults: online {defaults[:, 0].mean():.3f}, offline {defaults[:, 1].mean():.3f}; "
+          f"without the hard-iron tracking: online {before[:, 0].mean():.3f}, offline {before[:, 1].mean():.3f}")
+    own = [c for c, combo in enumerate(combos)
+           if all(value == getattr(DEFAULT_FUSION_PARAMS, key) for key, value in combo.items()
+                  if key not in HARD_IRON_SETTINGS)]
+    if own:
+        own_picks = leave_one_out(scores[own])
+        own_held = np.array([scores[own[pick], i] for i, pick in enumerate(own_picks)])
+        print(f"held-out, choosing only {', '.join(HARD_IRON_SETTINGS)} (the others at their defaults): "
+              f"online {own_held[:, 0].mean():.3f}, offline {own_held[:, 1].mean():.3f} (folds: " + "; ".join(
+                  f"{count}: {describe(combos[own[c]])}" for c, count in Counter(own_picks).most_common()) + ")")
+    bounded = [i for i, trial in enumerate(trials) if trial.name in BOUNDED_TRIALS]
+    if bounded and not np.isnan(vqf_rows[bounded, 0]).any():
+        # (combinations, trials): within VQF's online score, online and offline, where bounded
+        allowed = np.ones(scores.shape[:2], dtype=bool)
+        allowed[:, bounded] = (scores[:, bounded, :] < vqf_rows[bounded, 0][None, :, None]).all(axis=2)
+        within = np.flatnonzero(allowed.all(axis=1))
+        if within.size:
+            best = within[np.argmin(scores[within].mean(axis=(1, 2)))]
+            print(f"best within the VQF bounds of {', '.join(trials[i].name[:2] for i in bounded)}: "
+                  f"{describe(combos[best])} (online {scores[best, :, 0].mean():.3f}, "
+                  f"offline {scores[best, :, 1].mean():.3f})")
+        bounded_picks = leave_one_out(scores, allowed)
+        bounded_held = np.array([scores[pick, i] for i, pick in enumerate(bounded_picks)])
+        print(f"held-out, choosing within the bounds of the training trials: online "
+              f"{bounded_held[:, 0].mean():.3f}, offline {bounded_held[:, 1].mean():.3f} (folds: " + "; ".join(
+                  f"{count}: {describe(combos[c])}" for c, count in Counter(bounded_picks).most_common()) + ")")
+    density = [rest_noise_density(trial) for trial in trials]
     print(f"gyroscope white noise at rest: {np.mean(density) / DEG:.4f} °/s/√Hz "
           f"(trials {min(density) / DEG:.4f}-{max(density) / DEG:.4f}); default gyr_noise_rad_s_sqrt_hz "
           f"{DEFAULT_FUSION_PARAMS.gyr_noise_rad_s_sqrt_hz / DEG:.4f} °/s/√Hz")

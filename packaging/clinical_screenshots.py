@@ -6,7 +6,7 @@ simulated suit has both calibrations (the subject, P001, does what the wizard as
 page, the run page during the countdown and while running, the result page, then the test's
 report (page 1, rendered by ``pdftoppm``) and Library → Clinical Test Trend. The two earlier
 visits in the trend are simulated Timed Up and Go sessions of the same subject, measured by the
-``protocol`` command's path (:func:`mimucap.session.clinical_tests.run_clinical_test`) and kept
+``protocol`` command's path (:func:`mimucap.session.recorded.clinical_tests.run_clinical_test`) and kept
 in the library as the wizard keeps its result.
 
 ``write_pairing_screenshot`` shows the offer to pair: a main window on a UDP source that hears
@@ -40,8 +40,8 @@ def make_earlier_visits(library: Path) -> None:
     from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.library import library_fields
     from mimucap.io.session import make_subject, session_from_simulation, write_session
-    from mimucap.session.clinical_test_results import store_in_library
-    from mimucap.session.clinical_tests import run_clinical_test
+    from mimucap.session.recorded.clinical_test_results import store_in_library
+    from mimucap.session.recorded.clinical_tests import run_clinical_test
 
     for name, started, seed in EARLIER_VISITS:
         config = SimulationConfig(scenario="tug", seed=seed, height_m=HEIGHT_M, errors="ideal", random_mounting=False)

@@ -12,6 +12,7 @@ import pytest
 
 from mimucap.core import rotation, skeleton
 from mimucap.core.fusion import OrientationEKF
+from mimucap.core.fusion.state import AX_N_MAG_OFFSET
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.chain import SensorChain, update_chains
 from mimucap.core.pipeline.instants import orientation_at
@@ -68,6 +69,24 @@ def test_a_filter_state_survives_its_json_form_and_a_malformed_one_is_named():
         assert np.array_equal(a, b)
     with pytest.raises(ValueError, match="S07.*filter state"):
         state_from_dict({"q_world_from_sensor": [1, 0, 0]}, "S07")
+
+
+def test_a_filter_state_stored_before_the_hard_iron_tracking_still_loads():
+    """Recordings made before the layout grew hold the first 34 entries of ``aux``: the rest
+    (the hard-iron offset and its fit) start at zero, and the filter runs on from the state."""
+    ekf = OrientationEKF()
+    rng = np.random.default_rng(1)
+    t, gyr, acc, mag = _block(rng, 50, 0.0)
+    ekf.update_batch(t, gyr, acc, mag)
+    stored = state_to_dict(ekf.state)
+    stored["aux"] = stored["aux"][:AX_N_MAG_OFFSET]
+    state = state_from_dict(stored, "old")
+    assert np.array_equal(state.aux[0, :AX_N_MAG_OFFSET], ekf.state.aux[0, :AX_N_MAG_OFFSET])
+    assert not state.aux[0, AX_N_MAG_OFFSET:].any() and state.magnetic_offset() is None
+    resumed = OrientationEKF(state=state).update_batch(t + 1.0, gyr, acc, mag)
+    assert np.isfinite(resumed.q_world_from_sensor).all()
+    with pytest.raises(ValueError, match="old.*aux"):
+        state_from_dict({**stored, "aux": stored["aux"] + [0.0] * 100}, "old")
 
 
 def _samples(sid, t, acc, gyr, mag):

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from mimucap.session.clinical_test_results import reference_text, start_text
+from mimucap.session.recorded.clinical_test_results import reference_text, start_text
 
 TUG_REFERENCE = {"key": "total_s", "mean": 9.2, "ci95_low": 8.2, "ci95_high": 10.2, "group": "adults 70-79 years",
                  "statistic": "mean and 95% confidence interval (s)", "source": "Bohannon 2006"}

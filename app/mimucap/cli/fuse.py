@@ -179,6 +179,7 @@ def run(args: argparse.Namespace) -> int:
         write_orientation(path, out.t_s, out.q_world_from_sensor, out.flags)
         print(f"{_sensor_label(sensor_id)}{counts['samples']} samples -> {path} (skipped {counts['skipped']}, "
               f"rest {counts['rest']}, magnetometer rejected {counts['mag_rejected']} and missing or invalid "
-              f"{counts['mag_missing']}, accelerometer rejected {counts['acc_rejected']} and missing or invalid "
+              f"{counts['mag_missing']} and corrected for a hard iron learned in the recording "
+              f"{counts['mag_offset']}, accelerometer rejected {counts['acc_rejected']} and missing or invalid "
               f"{counts['acc_missing']})", file=sys.stdout)
     return 0

@@ -50,7 +50,7 @@ PACKAGE_DIR = Path(__file__).resolve().parent
 COMPILED_DIR = PACKAGE_DIR / "_compiled"
 #: Modules whose source is compiled into the module: the kernels, the functions they call,
 #: the numba options, and the exported signatures.
-KERNEL_SOURCES = ("kernels.py", "disturbance.py", "propagation.py", "jit.py", "aot_build.py")
+KERNEL_SOURCES = ("kernels.py", "disturbance.py", "hard_iron.py", "propagation.py", "jit.py", "aot_build.py")
 #: File names of compiled modules start with this (followed by the fingerprint).
 MODULE_PREFIX = "fusion_kernels_"
 #: Fields of ``/proc/cpuinfo`` that identify a CPU's instruction set (not its clock or load).

@@ -30,7 +30,9 @@ import numpy as np
 from mimucap.core.fusion.algorithms import ALGORITHMS
 from mimucap.core.fusion.kernel_selection import fusion_kernels
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams, pack_params
-from mimucap.core.fusion.state import AX_INIT, AX_MAG_CAND_T, AX_MAG_REF_OK, FusionState, decode_flags
+from mimucap.core.fusion.state import (
+    AUX_COUNT, AX_HI_ON, AX_INIT, AX_MAG_CAND_T, AX_MAG_REF_OK, FusionState, decode_flags,
+)
 
 #: Standard deviation (rad) of a heading about which nothing is known: that of an angle
 #: uniformly distributed over the circle, π/√3 (104°).
@@ -183,7 +185,8 @@ class OrientationEKF:
         initial uncertainty again (tilt ``init_tilt_std_rad``, bias ``init_bias_std_rad_s``,
         no correlations), the heading that of an unknown angle
         (:data:`UNKNOWN_HEADING_STD_RAD`: the first corrected samples set it), and forgets the
-        learned field reference (norm and dip; the first new sample seeds it). Unlike a new
+        learned field reference (norm and dip; the first new sample seeds it) and any hard-iron
+        offset learned on top of the old calibration (:mod:`.hard_iron`). Unlike a new
         filter, this neither re-aligns the tilt on one accelerometer sample (wherever the
         sensor is moving at that instant: a calibration is typically applied while the sensor
         is being strapped back on) nor forgets the gyro bias, so the estimate settles within
@@ -199,6 +202,7 @@ class OrientationEKF:
             self.state.cov[s] = cov
             self.state.aux[s, AX_MAG_REF_OK] = 0.0
             self.state.aux[s, AX_MAG_CAND_T] = 0.0
+            self.state.aux[s, AX_HI_ON:AUX_COUNT] = 0.0  # the offset and its fit come last
 
     def update_batch(self, t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
                      _store: tuple | None = None) -> FusionResult:

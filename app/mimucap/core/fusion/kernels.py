@@ -21,7 +21,9 @@ orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
   ``atan2(m_w,x, m_w,y) − declination = δθ_z`` (north along +y). Its Kalman gain rows of the tilt
   states are set to zero (Joseph-form covariance update), so the magnetometer corrects the
   heading and the bias, never the tilt. Its noise grows with the field's distance from the
-  learned reference (:func:`~.disturbance.heading_noise_var`).
+  learned reference (:func:`~.disturbance.heading_noise_var`). A hard-iron offset that
+  appeared during the recording (a magnet fixed to the sensor) is learned from the field
+  samples and removed from each before it is judged (:mod:`.hard_iron`).
 * Rest: zero-rate update of the bias, measurement ``ω_raw = b``.
 * All updates of one sample share one linearisation point (sequential scalar updates of the
   error state), which is then injected once: ``q ← exp(δθ) ⊗ q``, ``b ← b + δb``.
@@ -40,6 +42,7 @@ from numba import njit
 from mimucap.core.fusion.disturbance import (
     acc_noise_var, heading_noise_var, lowpass_gain, mag_accept, rest_update,
 )
+from mimucap.core.fusion.hard_iron import offset_update, scratch
 from mimucap.core.fusion.jit import JIT_OPTIONS, LAYOUT_FINGERPRINT, refresh_if_stale
 from mimucap.core.fusion.params import (
     PI_ACC_LP_TAU, PI_ACC_RANGE, PI_BIAS_MAX, PI_BIAS_WALK, PI_GAP_RATE, PI_GYR_NOISE, PI_GYR_RANGE,
@@ -52,8 +55,9 @@ from mimucap.core.fusion.propagation import (
 from mimucap.core.fusion.state import (
     AX_AWLP_INIT, AX_AWLP_X, AX_GYR_PREV_X, AX_HAVE_PREV, AX_INIT, AX_LP_INIT, AX_MAG_REF_OK, AX_N_ACC_MISSING,
     AX_N_ACC_REJECTED, AX_N_MAG_MISSING, AX_N_MAG_REJECTED, AX_N_REST, AX_N_SAMPLES,
-    AX_N_SKIPPED, AX_REST_T, AX_T_LAST, FLAG_ACC_MISSING, FLAG_ACC_REJECTED, FLAG_MAG_MISSING,
-    FLAG_MAG_REJECTED, FLAG_REST, FLAG_SKIPPED, FLAG_UNINITIALISED,
+    AX_N_SKIPPED, AX_REST_T, AX_T_LAST, AX_HI_ON, AX_HI_O, AX_N_MAG_OFFSET, FLAG_ACC_MISSING,
+    FLAG_ACC_REJECTED, FLAG_MAG_MISSING, FLAG_MAG_OFFSET, FLAG_MAG_REJECTED, FLAG_REST, FLAG_SKIPPED,
+    FLAG_UNINITIALISED,
 )
 
 
@@ -262,6 +266,7 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
     T = np.empty((3, 3))
     dx = np.zeros(6)
     c = np.empty(6)
+    hi_mats, hi_vecs = scratch()
     for k in range(n):
         flags = 0
         aux[AX_N_SAMPLES] += 1.0
@@ -442,6 +447,14 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                     updated = True
             # heading
             if mag_ok:
+                # an attached hard iron learned from the samples (R's last row: up, sensor frame)
+                offset_update(p, aux, mx, my, mz, R[2, 0], R[2, 1], R[2, 2], dt, hi_mats, hi_vecs)
+                if aux[AX_HI_ON] > 0.0:
+                    mx -= aux[AX_HI_O]
+                    my -= aux[AX_HI_O + 1]
+                    mz -= aux[AX_HI_O + 2]
+                    flags |= FLAG_MAG_OFFSET
+                    aux[AX_N_MAG_OFFSET] += 1.0
                 mwx = R[0, 0] * mx + R[0, 1] * my + R[0, 2] * mz
                 mwy = R[1, 0] * mx + R[1, 1] * my + R[1, 2] * mz
                 mwz = R[2, 0] * mx + R[2, 1] * my + R[2, 2] * mz

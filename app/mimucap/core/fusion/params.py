@@ -37,7 +37,10 @@ class FusionParams:
     #: Gyroscope propagation: ``"taylor3"`` (coning-corrected two-sample increments and a
     #: third-order exponential), ``"rk4"`` or ``"exact"`` (exponential map of one increment).
     propagation: str = "taylor3"
-    #: Gyroscope white-noise density (rad/s/√Hz): attitude process noise ``σ²·dt``.
+    #: Gyroscope noise density (rad/s/√Hz): attitude process noise ``σ²·dt``. Far above a MEMS
+    #: gyroscope's white noise (0.006 °/s/√Hz in the rest samples of the BROAD trials): it
+    #: stands for the errors the model leaves out (the magnetometer's lag, axis misalignment,
+    #: drift in motion), so that the filter keeps following the magnetometer.
     gyr_noise_rad_s_sqrt_hz: float = 0.15 * DEG
     #: Gyroscope scale-factor and axis-misalignment noise (√s): attitude process noise
     #: ``(k·‖ω‖)²·dt`` on top of the white noise. A gyroscope whose scale or axes are off by a
@@ -100,6 +103,16 @@ class FusionParams:
     #: that stays the same while the sensor turns is homogeneous (a new place), whereas a
     #: sensor resting next to a magnet must not adopt the magnet's field.
     mag_new_min_rate_rad_s: float = 20.0 * DEG
+    #: A hard-iron offset that appears during the recording (a magnet or a phone fixed to the
+    #: sensor) is learned from the field samples and removed (:mod:`.hard_iron`): the time
+    #: constant (s) with which the fit forgets old samples (0 switches the tracking off), the
+    #: least rms (µT) of the field's variation the offset must explain to be applied, the
+    #: largest rms residual (µT) of a fit that counts as a constant offset, and the largest
+    #: standard deviation (µT) of an offset that counts as determined.
+    mag_offset_tau_s: float = 2.0
+    mag_offset_min_uT: float = 3.0
+    mag_offset_fit_uT: float = 2.0
+    mag_offset_std_uT: float = 0.3
 
     #: Rest detection: deviations of gyro (rad/s) and accelerometer (m/s²) from their
     #: low-pass values, the low-pass time constant (s), the largest mean rate (rad/s) and the
@@ -137,7 +150,7 @@ class FusionParams:
                 raise ValueError(f"fusion setting {field.name} must be a finite number >= 0, got {value!r}")
         for name in ("gravity_m_s2", "heading_noise_rad", "acc_noise_m_s2", "rest_tau_s",
                      "max_gap_s", "gyr_range_rad_s", "acc_range_m_s2", "mag_range_uT",
-                     "rest_bias_noise_rad_s", "mag_ref_tau_s"):
+                     "rest_bias_noise_rad_s", "mag_ref_tau_s", "mag_offset_fit_uT", "mag_offset_std_uT"):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f"fusion setting {name} must be > 0")
 
@@ -150,10 +163,11 @@ DEFAULT_FUSION_PARAMS = FusionParams()
     PI_METHOD, PI_GYR_NOISE, PI_GYR_SCALE_NOISE, PI_BIAS_WALK, PI_INIT_TILT, PI_INIT_HEADING, PI_INIT_BIAS,
     PI_BIAS_MAX, PI_GRAVITY, PI_ACC_LP_TAU, PI_ACC_NOISE, PI_ACC_DEV_GAIN, PI_ACC_RATE_GAIN, PI_ACC_REJECT,
     PI_HEADING_NOISE, PI_HEADING_FIELD_GAIN, PI_DECLINATION, PI_MAG_NORM_TOL, PI_MAG_DIP_TOL, PI_MAG_SETTLE, PI_MAG_REF_TAU, PI_MAG_NEW_FIELD, PI_MAG_NEW_MIN_RATE,
+    PI_MAG_OFFSET_TAU, PI_MAG_OFFSET_MIN, PI_MAG_OFFSET_FIT, PI_MAG_OFFSET_STD,
     PI_REST_GYR_DEV, PI_REST_ACC_DEV, PI_REST_TAU, PI_REST_MAX_RATE, PI_REST_TIME,
     PI_REST_BIAS_NOISE, PI_MAX_GAP, PI_GAP_RATE, PI_GYR_RANGE, PI_ACC_RANGE, PI_MAG_RANGE,
     PI_USE_ACC, PI_USE_MAG, PI_CORRECT, PI_COUNT,
-) = range(38)
+) = range(42)
 
 
 def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = True,
@@ -188,6 +202,10 @@ def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = T
     p[PI_MAG_REF_TAU] = params.mag_ref_tau_s
     p[PI_MAG_NEW_FIELD] = params.mag_new_field_s
     p[PI_MAG_NEW_MIN_RATE] = params.mag_new_min_rate_rad_s
+    p[PI_MAG_OFFSET_TAU] = params.mag_offset_tau_s
+    p[PI_MAG_OFFSET_MIN] = params.mag_offset_min_uT
+    p[PI_MAG_OFFSET_FIT] = params.mag_offset_fit_uT
+    p[PI_MAG_OFFSET_STD] = params.mag_offset_std_uT
     p[PI_REST_GYR_DEV] = params.rest_gyr_dev_rad_s
     p[PI_REST_ACC_DEV] = params.rest_acc_dev_m_s2
     p[PI_REST_TAU] = params.rest_tau_s

@@ -8,7 +8,7 @@ The state of sensor ``s`` is
   true orientation is ``exp(δθ) ⊗ q`` (error expressed in the world frame);
 * ``aux[s]`` (:data:`AUX_COUNT`,): bookkeeping (last time stamp, previous gyro sample,
   low-pass values for rest detection, the low-passed world-frame specific force, magnetic
-  reference and candidate, counters), laid out
+  reference and candidate, counters, the hard-iron offset and its fit), laid out
   by the ``AX_*`` indices.
 
 Arrays, not objects, because the numba kernels update them in place.
@@ -29,6 +29,7 @@ FLAG_SKIPPED = 8  #: gyroscope sample missing, out of range or time stamp not in
 FLAG_MAG_MISSING = 16  #: magnetometer sample NaN / out of range / absent
 FLAG_ACC_MISSING = 32  #: accelerometer sample NaN / out of range / absent
 FLAG_UNINITIALISED = 64  #: no orientation yet (waiting for a valid accelerometer sample)
+FLAG_MAG_OFFSET = 128  #: a hard-iron offset learned in the recording was removed from the magnetometer sample
 
 FLAG_NAMES = {
     "rest": FLAG_REST,
@@ -38,18 +39,27 @@ FLAG_NAMES = {
     "mag_missing": FLAG_MAG_MISSING,
     "acc_missing": FLAG_ACC_MISSING,
     "uninitialised": FLAG_UNINITIALISED,
+    "mag_offset": FLAG_MAG_OFFSET,
 }
 
-# Layout of the auxiliary state vector.
+# Layout of the auxiliary state vector. New entries go at the end: the state a recording stored
+# with an older layout is a prefix of today's (``core.pipeline.settings.state_from_dict`` pads it with zeros).
 (
     AX_INIT, AX_T_LAST, AX_HAVE_PREV, AX_GYR_PREV_X, AX_GYR_PREV_Y, AX_GYR_PREV_Z,
     AX_GLP_X, AX_GLP_Y, AX_GLP_Z, AX_ALP_X, AX_ALP_Y, AX_ALP_Z, AX_REST_T, AX_LP_INIT,
     AX_MAG_REF_OK, AX_MAG_NORM_REF, AX_MAG_DIP_REF, AX_MAG_CAND_NORM, AX_MAG_CAND_DIP,
     AX_MAG_CAND_T, AX_MAG_CAND_ROT, AX_MAG_GOOD_T, AX_AWLP_INIT, AX_AWLP_X, AX_AWLP_Y, AX_AWLP_Z,
     AX_N_SAMPLES, AX_N_SKIPPED, AX_N_REST, AX_N_MAG_REJECTED, AX_N_ACC_REJECTED,
-    AX_N_MAG_MISSING, AX_N_ACC_MISSING, AX_N_MAG_NEW_REF,
-    AUX_COUNT,
-) = range(35)
+    AX_N_MAG_MISSING, AX_N_ACC_MISSING, AX_N_MAG_NEW_REF, AX_N_MAG_OFFSET, AX_N_MAG_OFFSET_NEW,
+    # hard-iron offset (:mod:`.hard_iron`): in use or not, the offset (µT, sensor frame), the
+    # time since the last decision (s), then the fit's forgetting sums: weight, Σy², Σa·y
+    # (HI_UNKNOWNS) and Σa·aᵀ (packed triangle)
+    AX_HI_ON, AX_HI_O, AX_HI_O_Y, AX_HI_O_Z, AX_HI_T, AX_HI_W, AX_HI_YY, AX_HI_G,
+) = range(44)
+#: Unknowns of the hard-iron fit: the offset (3) and two constants of the field.
+HI_UNKNOWNS = 5
+AX_HI_H = AX_HI_G + HI_UNKNOWNS
+AUX_COUNT = AX_HI_H + HI_UNKNOWNS * (HI_UNKNOWNS + 1) // 2
 
 #: Counter name -> aux index (counts over every sample fed so far).
 COUNTER_INDEX = {
@@ -61,6 +71,8 @@ COUNTER_INDEX = {
     "mag_missing": AX_N_MAG_MISSING,
     "acc_missing": AX_N_ACC_MISSING,
     "mag_new_reference": AX_N_MAG_NEW_REF,
+    "mag_offset": AX_N_MAG_OFFSET,
+    "mag_new_offset": AX_N_MAG_OFFSET_NEW,
 }
 
 
@@ -107,6 +119,13 @@ class FusionState:
         if self.aux[sensor, AX_MAG_REF_OK] <= 0.0:
             return None
         return float(self.aux[sensor, AX_MAG_NORM_REF]), float(self.aux[sensor, AX_MAG_DIP_REF])
+
+    def magnetic_offset(self, sensor: int = 0) -> np.ndarray | None:
+        """The hard-iron offset (µT, sensor frame, (3,)) removed from the magnetometer's samples
+        now (:mod:`.hard_iron`), or ``None`` when the calibration is used as it is."""
+        if self.aux[sensor, AX_HI_ON] <= 0.0:
+            return None
+        return self.aux[sensor, AX_HI_O:AX_HI_O + 3].copy()
 
     def attitude_std_rad(self, sensor: int = 0) -> np.ndarray:
         """Standard deviations (3,) of the world-frame attitude error (rad): x, y tilt, z heading."""

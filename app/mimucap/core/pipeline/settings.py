@@ -68,13 +68,20 @@ def state_to_dict(state: FusionState) -> dict[str, list]:
 
 
 def state_from_dict(data: Mapping[str, Any], origin: str) -> FusionState:
-    """Inverse of :func:`state_to_dict`; ``ValueError`` naming ``origin`` when malformed."""
+    """Inverse of :func:`state_to_dict`; ``ValueError`` naming ``origin`` when malformed.
+
+    The ``aux`` of a recording made before the layout grew is a prefix of today's (new entries
+    are appended, :mod:`~mimucap.core.fusion.state`): the entries it lacks start at zero, as in
+    a new filter."""
     template = FusionState.new(1)
     try:
         arrays = [np.asarray(data[name], dtype=np.float64)[None]
                   for name in ("q_world_from_sensor", "bias_rad_s", "cov", "aux")]
     except (KeyError, TypeError, ValueError) as error:
         raise ValueError(f"{origin}: malformed filter state ({error!r})") from None
+    aux = arrays[3]
+    if aux.ndim == 2 and 0 < aux.shape[1] < template.aux.shape[1]:
+        arrays[3] = np.concatenate([aux, np.zeros((1, template.aux.shape[1] - aux.shape[1]))], axis=1)
     for array, name, like in zip(arrays, ("q", "bias", "cov", "aux"),
                                  (template.q_world_from_sensor, template.bias_rad_s, template.cov, template.aux)):
         if array.shape != like.shape or not np.all(np.isfinite(array)):
