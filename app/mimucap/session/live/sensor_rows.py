@@ -30,8 +30,8 @@ STALE_AFTER_S = 1.0
 #: Seconds of recent samples the local field is measured over (the sensor panel, the checklist).
 FIELD_CHECK_WINDOW_S = 2.0
 #: Fusion flags the sensor panel shows: flag name (:data:`FLAG_NAMES`) → label.
-FLAG_LABELS = {"rest": "rest", "mag_rejected": "mag disturbed", "acc_rejected": "acc disturbed", "mag_offset": "mag hard iron removed",
-               "uninitialised": "starting"}
+FLAG_LABELS = {"rest": "rest", "mag_rejected": "mag disturbed", "acc_rejected": "acc disturbed",
+               "uninitialised": "starting", "mag_offset": "mag hard iron removed"}
 
 
 @dataclass(frozen=True)
