@@ -10,7 +10,7 @@ et al. 2004, "Gait assessment in Parkinson's disease: toward an ambulatory syste
 long-term monitoring", IEEE TBME 51:1434-1443: mid-swing peaks above 50 °/s). The events are
 then timed on a copy low-passed at ``event_lowpass_hz`` (zero phase, so no delay):
 
-* **Initial contact is the heel strike itself**: the impact in the sagittal-plane
+* **Initial contact is the heel strike itself**: the onset of the impact in the sagittal-plane
   acceleration (:mod:`.heel_strike`) after the swing, searched from ``heel_strike_window_s[0]``
   before to ``heel_strike_window_s[1]`` after the end of the swing's forward rotation (the
   + → − zero crossing of the rate). The foot's forward rotation ends in terminal swing, at or

@@ -7,9 +7,12 @@ TBME 62:1089-1097) time the initial contact where "the foot decelerates rapidly 
 ground", in the antero-posterior acceleration near the angular-rate minimum that follows the
 swing; Selles et al. 2005 ("Automated estimation of initial and terminal contact timing using
 accelerometers; development and validation in transtibial amputees and controls", IEEE TNSRE
-13:81-88) time both contacts with accelerometers on the shank. Here the impact is looked for in the acceleration
-in the sagittal plane (antero-posterior and vertical components, :mod:`.sagittal`), whose
-change does not depend on how the sensor is turned within that plane:
+13:81-88) time both contacts with accelerometers on the shank. An extremum of one
+acceleration axis depends on how the sensor is mounted (the heel's impact, mostly along the leg,
+and the forefoot's slap share each axis in proportions that turn with the sensor). Here the
+impact is looked for in the acceleration in the sagittal plane (antero-posterior and vertical
+components, :mod:`.sagittal`), whose change does not depend on how the sensor is turned within
+that plane:
 
 * it *begins* where the acceleration first changes by at least ``min_change_m_s2`` within
   ``span_s``. Free limb movement cannot do that: the foot's swing accelerations of a few g vary

@@ -7,37 +7,45 @@ move; on their own they do not keep the feet on a floor. This module turns them 
 that does, once per walk, over one stride of gait phase (right heel strike at phase 0, left at
 0.5):
 
-1. **Stance feet roll.** Each foot lands on its heel where the curves put it, turns down about
-   the heel until the forefoot reaches the floor (the heel rocker, flat by
-   :data:`FOOT_FLAT_PHASE` of the stride: Perry & Burnfield, "Gait Analysis: Normal and
-   Pathological Function", 2010, loading response), stays flat, rises on the toe from the
-   heel-off the curves give (their foot pitch turning toe-down) and leaves the floor at the
-   toe-off :data:`TOE_OFF_PHASE` with the curves' own pitch and pitch rate. No point on the
-   floor moves: the heel, then the whole sole, then the toe is the pivot.
-2. **The pelvis rides on them.** The pelvis' forward and vertical path is where the curves'
-   hip and knee put it above the rolling stance foot (both feet, weighted, while the load
-   passes between them), smoothed to :data:`PELVIS_HARMONICS` harmonics of the stride: the
-   body moves smoothly while the legs take up what the floor imposes. Its sideways sway is the
-   walk's own.
-3. **The legs reach the feet.** Each leg's hip flexion and adduction and its knee flexion are
-   solved (Newton iterations on the forward kinematics) so that the ankle is where the stance
-   foot needs it; in swing the foot follows the curves, joined without a jump in position or
-   velocity to the foot that left the floor, and brought down onto the floor at the next heel
-   strike. The ankle angles follow from the shank and the foot.
-4. **The floor stops the foot.** At heel strike the heel's velocity (forward and down) goes
-   to zero within :data:`HEEL_CONTACT_S`, and when the forefoot lands the foot's rotation stops
-   within :data:`FOREFOOT_CONTACT_S`: the heel pad and the sole compress instead of an
-   instantaneous stop (minimum-jerk velocity decay). The accelerometers on the foot and, less,
-   on the shank measure this as the heel-strike transient (Light, McLellan & Klenerman 1980,
-   "Skeletal transients on heel strike in normal walking with different footwear", J. Biomech.
-   13:477-480: about 5 g at the tibia with hard heels, half with resilient ones); Winter 1992
-   ("Foot trajectory in human gait: a precise and multifactorial motor control task", Phys.
-   Ther. 72:45-53) measured the heel arriving at about 0.9 m/s forward and slowly downward,
-   and the toe clearing the floor by 1.3 cm in mid-swing.
+1. **Stance feet roll.** Each foot lands on its heel where the curves put it and turns down
+   about the heel (the heel rocker) until the forefoot reaches the floor at
+   :data:`FOOT_FLAT_PHASE` (Perry & Burnfield, "Gait Analysis: Normal and Pathological
+   Function", 2010: within the loading response); it stays flat, then rises about the toe just
+   as far as the curves' leg, from where the pelvis is, needs to reach it (the knee keeps the
+   curves' flexion), and leaves the floor at :data:`TOE_OFF_PHASE` with the curves' pitch and
+   pitch rate. No point on the floor slides: the heel, then the whole sole, then the toe is the
+   pivot.
+2. **The pelvis rides on them.** Forward, it goes where the curves' leg puts it above the
+   single stance foot, fitted across the double supports with :data:`PELVIS_HARMONICS`
+   harmonics of the stride; vertically it is highest in mid-stance, where the curves' leg holds
+   it above the flat foot, and lowest in double support, at heel strike where the curves' leading
+   leg puts its heel on the floor (a second harmonic of the stride); sideways it sways as the
+   walk says. The body moves smoothly while the legs take up what the floor imposes.
+3. **The legs reach the feet.** Each leg's hip angles and knee flexion are solved (Newton's
+   method on the forward kinematics) so that the ankle is where the foot needs it and the
+   ankle's axial rotation is the curves'; the ankle's other angles follow from the shank and the
+   foot. In swing the foot follows the curves, joined without a jump in position or velocity to
+   the foot that left the floor, lifted where it would pass nearer the floor than
+   :data:`MIN_TOE_CLEARANCE_M`, and brought down onto its next landing point at
+   :data:`HEEL_APPROACH_M_S`.
+4. **The floor stops the foot.** At heel strike the heel's velocity goes to zero within
+   :data:`HEEL_CONTACT_S` (the heel pad and the shoe compress: a minimum-jerk decay instead of
+   an instantaneous stop); the ankle, carried on by the leg, keeps its velocity across the
+   heel-ankle lever, so the foot turns down about the heel faster (the foot slap). When the
+   forefoot lands, the foot's rotation stops within :data:`FOREFOOT_CONTACT_S`. The
+   accelerometers measure this as the heel-strike transient: about 5 g at the foot and the
+   shank, 3 g at the thigh and 0.3 g at the pelvis (1 kHz, ideal sensors), as Light, McLellan &
+   Klenerman measured at the tibia and the head ("Skeletal transients on heel strike in normal
+   walking with different footwear", J. Biomech. 13:477-480, 1980: about 5 g and 0.5 g with hard
+   heels, half with resilient ones). Winter ("Foot trajectory in human gait: a precise and
+   multifactorial motor control task", Phys. Ther. 72:45-53, 1992) measured the heel arriving
+   at about 0.9 m/s forward and slowly downward, and the toe clearing the floor by 1.3 cm in
+   mid-swing.
 
 The contacts that follow are marker events on the result, as an optical system with markers on
 the sole would report them: a foot is on the floor while its heel or toe point is at or below
-the floor (:meth:`GaitDesign.contact`).
+the floor (:meth:`GaitDesign.contact`; the heel pad and the sole are pressed a fraction of a
+millimetre into it while the foot carries the body).
 
 Frames: the walking frame is the world at heading 0 (x to the right, y forward, z up, floor at
 z = 0); segment frames ISB (x anterior, y superior, z right); quaternions scalar first,
@@ -80,6 +88,8 @@ MIN_TOE_CLEARANCE_M = 0.0129
 #: forefoot lands: the compression of the heel pad and the sole.
 HEEL_CONTACT_S = 0.015
 FOREFOOT_CONTACT_S = 0.025
+#: How near (m) the floor a sole point counts as on it (the design's numerical precision).
+ON_FLOOR_M = 1e-6
 #: Gait phase from heel strike to the other foot's toe-off: the double support.
 DOUBLE_SUPPORT_PHASE = TOE_OFF_PHASE - 0.5
 #: Harmonics of the stride kept in the pelvis' forward and vertical path.
@@ -96,14 +106,6 @@ SWING_JOIN_PHASE = 0.15
 
 _UP = np.array([0.0, 0.0, 1.0])
 _SIDES = ("r", "l")
-
-
-def stance_weight_right(phase: np.ndarray) -> np.ndarray:
-    """Share (0..1) of the right foot in carrying the body at gait ``phase`` (right heel strike
-    at 0, toe-off at 0.62; the left foot carries the rest): single support 0.12-0.5, smooth
-    hand-overs in the double-support phases 0-0.12 and 0.5-0.62."""
-    p = np.asarray(phase, dtype=np.float64) % 1.0
-    return minimum_jerk(p / 0.12) - minimum_jerk((p - 0.5) / 0.12)
 
 
 @dataclass(frozen=True)
@@ -241,13 +243,10 @@ _ONSET_SHIFT = {"r": 0.0, "l": 0.5}
 @dataclass(frozen=True)
 class _StanceFoot:
     """A stance foot relative to its landing heel point (floor origin), over own phase (n,):
-    orientation (n, 4), ankle (n, 3); ``pitch`` (n,) rad; phases of foot flat and heel-off."""
+    orientation (n, 4) and ankle (n, 3)."""
 
     q_foot: np.ndarray
     ankle: np.ndarray
-    pitch: np.ndarray
-    flat_phase: float
-    heel_off_phase: float
 
 
 def design_gait(leg_angles: Callable[[np.ndarray], dict[str, np.ndarray]],
@@ -278,7 +277,6 @@ def design_gait(leg_angles: Callable[[np.ndarray], dict[str, np.ndarray]],
     path = _pelvis_path(stance, prescribed, sway, top)
     stride_m = float(np.hypot(path.stride[0], path.stride[1]))
     stride_s = float(stride_s_of(stride_m))
-    periodic, stride, phase = path.periodic, path.stride, own
 
     angles: dict[str, np.ndarray] = {}
     contact_phases: dict[str, tuple[float, float]] = {}
@@ -291,20 +289,21 @@ def design_gait(leg_angles: Callable[[np.ndarray], dict[str, np.ndarray]],
         presc = prescribed[side]
         hip_rel = rot.rotate(q_pelvis[side], geometry.hip_m[side]) + root_own - landing
         ankle_target, q_foot_target, landing_velocity[side] = _foot_targets(
-            presc, root_own, landing, landing + stride, stride_s, geometry, hip_rel)
+            presc, root_own, landing, landing + path.stride, stride_s, geometry, hip_rel)
         hip, knee, ankle, pose = _reach(geometry, side, q_pelvis[side], root_own, curves[side], ankle_target,
                                         q_foot_target)
         angles[f"hip_{side}"], angles[f"knee_{side}"], angles[f"ankle_{side}"] = hip, knee, ankle
         low = np.minimum(pose.heel[:, 2], pose.toe[:, 2])
-        on = low <= 0.0
+        on = low <= ON_FLOOR_M
         after = np.flatnonzero(~on & (own > 0.3))
         contact_phases[side] = (float(own[np.argmax(on)]), float(own[after[0]]) if after.size else 1.0)
         swing = (own > TOE_OFF_PHASE + 0.05) & (own < 0.95)
         clearance = min(clearance, float(pose.toe[swing, 2].min()))
     splines = {joint: CubicSpline(np.append(own, 1.0), np.vstack((value, value[:1])), bc_type="periodic")
                for joint, value in angles.items()}
-    path = np.stack((periodic[:, 1] - periodic[0, 1], periodic[:, 2] - geometry.root_height_m), axis=-1)
-    pelvis = CubicSpline(np.append(phase, 1.0), np.vstack((path, path[:1])), bc_type="periodic")
+    periodic = path.periodic
+    offsets = np.stack((periodic[:, 1] - periodic[0, 1], periodic[:, 2] - geometry.root_height_m), axis=-1)
+    pelvis = CubicSpline(np.append(own, 1.0), np.vstack((offsets, offsets[:1])), bc_type="periodic")
     return GaitDesign(stride_m, splines, pelvis, contact_phases, landing_velocity, clearance)
 
 
@@ -417,10 +416,20 @@ def _stance_foot(prescribed: LegPose, geometry: LegGeometry, hip: np.ndarray | N
         pitch[landing] = heel_pitch[start_index] + heel_rate[start_index] * stop * _stop_profile(
             (s[landing] - start) / stop)
     flat_end = start + stop
+    # The floor also stops the foot's turning about other axes than the pitch axis (along the
+    # heel's contact): a turn ``held`` (n, 3) on top of the pitch.
+    held = np.zeros((n, 3))
+    if strike is not None and stride_s is not None:
+        other = strike[1] - (strike[1] @ axis) * axis
+        held = HEEL_CONTACT_S * _stop_profile(s * stride_s / HEEL_CONTACT_S)[:, None] * other
+
+    def orientation(turn: np.ndarray, index: np.ndarray | slice) -> np.ndarray:
+        return rot.multiply(rot.from_rotvec(held[index]), rot.multiply(rot.from_axis_angle(axis, turn - p_c), q_c))
+
     # The foot as it lies once flat (the last sample turning about the heel): its toe is the
     # pivot from then on.
     flat_index = int(np.flatnonzero(s <= flat_end)[-1])
-    q_flat = rot.multiply(rot.from_axis_angle(axis, pitch[flat_index] - p_c), q_c)
+    q_flat = orientation(np.array(pitch[flat_index]), flat_index)
     ankle_flat = -rot.rotate(q_flat, geometry.heel_m)
     toe_floor = ankle_flat + rot.rotate(q_flat, geometry.toe_m)
     late = (s > flat_end) & (s <= TOE_OFF_PHASE)
@@ -438,18 +447,12 @@ def _stance_foot(prescribed: LegPose, geometry: LegGeometry, hip: np.ndarray | N
         scale = np.radians(HEEL_RISE_SOFTNESS_DEG)
         settle = minimum_jerk((s[late] - s[flat_index]) / HEEL_RISE_SETTLE_PHASE)  # the foot is flat first
         pitch[late] = pitch[flat_index] - settle * scale * np.logaddexp(0.0, -needed / scale)
-    q_foot = rot.multiply(rot.from_axis_angle(axis, pitch - p_c), q_c)
-    if strike is not None and stride_s is not None:
-        # The floor also stops the foot's turning about other axes than the pitch axis.
-        other = strike[1] - (strike[1] @ axis) * axis
-        held = HEEL_CONTACT_S * _stop_profile(s * stride_s / HEEL_CONTACT_S)
-        q_foot = rot.multiply(rot.from_rotvec(held[:, None] * other), q_foot)
+    q_foot = orientation(pitch, slice(None))
     # Pivots: the heel at the origin until the foot is flat, then the toe where it lies.
     ankle = -rot.rotate(q_foot, geometry.heel_m)
     on_toe = s > s[flat_index]
     ankle[on_toe] = toe_floor - rot.rotate(q_foot[on_toe], geometry.toe_m)
-    heel_off = float(s[late][np.argmax(pitch[late] < -np.radians(1.0))]) if np.any(late) else TOE_OFF_PHASE
-    return _StanceFoot(q_foot, ankle, pitch, flat_end, heel_off)
+    return _StanceFoot(q_foot, ankle)
 
 
 def _slap_rate(heel_velocity: np.ndarray, angular_velocity: np.ndarray, q_foot: np.ndarray, axis: np.ndarray,

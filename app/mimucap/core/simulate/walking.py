@@ -47,10 +47,10 @@ class Walk(Activity):
     Joint-angle curves (right leg; phase 0 = right heel strike, the left leg half a cycle
     later), after the typical sagittal gait curves (Perry & Burnfield, "Gait Analysis: Normal and
     Pathological Function", 2010; Winter, "Biomechanics and Motor Control of Human Movement",
-    2009), angles from the standing posture: hip flexion about +25° at heel strike, −15° at 50 %
-    and +30° in mid-swing; knee flexion 5° at heel strike, a loading-response peak of ~17° at
-    15 %, ~6° at 40 %, 38° at toe-off and 60° in swing at 70 %; ankle plantar-flexion of about
-    −15° at toe-off; arm swing ±20° opposite to the legs with the elbow flexed 10-30°; pelvis
+    2009), angles from the standing posture: hip flexion about +25° at heel strike, −13° at 50 %
+    and +33° in mid-swing; knee flexion 5° at heel strike, a loading-response peak of ~17° at
+    15 %, ~6° at 40 %, 40° at toe-off and 60° in swing at 72 %; ankle plantar-flexion of about
+    −15° after toe-off; arm swing ±20° opposite to the legs with the elbow flexed 10-30°; pelvis
     rotation ±5°, obliquity ±4°, thorax counter-rotation.
 
     The legs then walk on the floor (:mod:`.gait_design`): the stance foot rolls from heel to
@@ -58,7 +58,7 @@ class Walk(Activity):
     reach the feet (their hip, knee and ankle angles are solved for it, close to the curves), the
     swinging foot clears the floor and lands on its heel, which the floor stops within
     milliseconds. This fixes the stride length, and the stride duration ``stride_s`` follows
-    from ``speed_mps`` (about 1.1 s at 1.2 m/s for a 1.75 m subject); the forward speed
+    from ``speed_mps`` (about 1.0 s at 1.2 m/s for a 1.75 m subject); the forward speed
     fluctuates within the stride. Sideways the pelvis sways ±2.5 cm towards the carrying foot.
     ``turn_rate_dps`` walks along a circle. The feet's contacts with the floor are marker
     events of that motion (:meth:`.gait_design.GaitDesign.contact`).
@@ -109,10 +109,13 @@ class Walk(Activity):
 
     @staticmethod
     def leg(phase: np.ndarray) -> dict[str, np.ndarray]:
-        """Hip, knee and ankle angles (n,3) deg of one leg at its own gait ``phase``."""
+        """Hip, knee and ankle angles (n,3) deg of one leg at its own gait ``phase``: the curves
+        the walk starts from (the legs that walk on the floor follow them, :mod:`.gait_design`).
+        The hip flexes early in swing (most at 85 %, Perry & Burnfield), which carries the toe
+        over the floor."""
         hip = np.stack((5.5 + 19.0 * np.cos(_TWO_PI * (phase - 0.04)) + 14.0 * _periodic_bump(phase, 0.82, 0.14),
                         5.0 * np.sin(_TWO_PI * (phase + 0.1)),
-                        4.0 * np.cos(_TWO_PI * phase)), axis=-1)
+                        -4.0 * np.cos(_TWO_PI * phase)), axis=-1)
         knee_flexion = (5.0 + 12.0 * _periodic_bump(phase, 0.15, 0.14) + 55.0 * _periodic_bump(phase, 0.72, 0.14))
         knee = np.stack((knee_flexion, np.zeros_like(phase), 3.0 * np.cos(_TWO_PI * phase)), axis=-1)
         ankle_flexion = (2.0 - 7.0 * _periodic_bump(phase, 0.05, 0.05) + 10.0 * _periodic_bump(phase, 0.42, 0.12)
