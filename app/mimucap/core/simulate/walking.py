@@ -4,7 +4,6 @@
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -31,14 +30,23 @@ DEFAULT_HEIGHT_M = 1.75
 SWAY_M = 0.025
 
 
-@functools.lru_cache(maxsize=16)
-def _design(model_name: str, height_m: float, speed_mps: float) -> GaitDesign:
+#: Gait designs made so far, by the legs' proportions, the subject's height and the speed.
+_DESIGNS: dict[tuple, GaitDesign] = {}
+
+
+def _design(model: skeleton.SkeletonModel, height_m: float, speed_mps: float) -> GaitDesign:
     """The gait design (:mod:`.gait_design`) of the walk's curves for a subject of ``height_m``
-    with the legs of ``model_name``, walking at ``speed_mps`` (cached: the same for every walk
-    of that subject and speed)."""
-    geometry = LegGeometry.of(skeleton.load_model(model_name), height_m)
-    sway = lambda phase: SWAY_M * np.sin(_TWO_PI * (phase - 0.06))  # noqa: E731
-    return design_gait(Walk.leg, Walk.pelvis_in_walking_frame, sway, geometry, lambda stride_m: stride_m / speed_mps)
+    with the legs of ``model``, walking at ``speed_mps``; made once per leg proportions, height
+    and speed (the ten- and fifteen-segment models share their legs)."""
+    legs = tuple(float(v) for name in ("thigh_l", "thigh_r", "shank_r") for v in
+                 (*model.segment(name).attach_ratio, model.segment(name).length_ratio))
+    key = (legs, model.root_height_ratio, float(height_m), float(speed_mps))
+    if key not in _DESIGNS:
+        geometry = LegGeometry.of(model, height_m)
+        sway = lambda phase: SWAY_M * np.sin(_TWO_PI * (phase - 0.06))  # noqa: E731
+        _DESIGNS[key] = design_gait(Walk.leg, Walk.pelvis_in_walking_frame, sway, geometry,
+                                    lambda stride_m: stride_m / speed_mps)
+    return _DESIGNS[key]
 
 
 class Walk(Activity):
@@ -75,7 +83,8 @@ class Walk(Activity):
         self.duration_s, self.speed = duration_s, float(speed_mps)
         self.turn_rate = math.radians(turn_rate_dps)
         self.treadmill = False
-        self.fit_body(DEFAULT_MODEL, DEFAULT_HEIGHT_M)
+        self._body = (DEFAULT_MODEL, DEFAULT_HEIGHT_M)
+        self._design: GaitDesign | None = None
 
     def on_treadmill(self, treadmill: bool = True) -> Walk:
         """Walk on a treadmill belt (``treadmill`` True) or over ground; returns self.
@@ -89,13 +98,31 @@ class Walk(Activity):
 
     def fit_body(self, model_name: str, height_m: float) -> Walk:
         """Walk with the legs of skeleton model ``model_name`` for a subject of ``height_m``
-        metres (the gait design, :mod:`.gait_design`); returns self."""
-        self.design = _design(str(model_name), float(height_m), self.speed)
-        self.stride_m = self.design.stride_m
-        self.stride_s = self.stride_m / self.speed
-        if not 0.5 <= self.stride_s <= 3.0:
-            raise ValueError(f"walking at {self.speed} m/s needs a stride of {self.stride_s:.2f} s, outside 0.5..3 s")
+        metres (the gait design, :mod:`.gait_design`, made when first needed); returns self."""
+        self._body = (str(model_name), float(height_m))
+        self._design = None
         return self
+
+    @property
+    def design(self) -> GaitDesign:
+        """The gait design of this walk's subject and speed (:mod:`.gait_design`)."""
+        if self._design is None:
+            design = _design(skeleton.load_model(self._body[0]), self._body[1], self.speed)
+            stride_s = design.stride_m / self.speed
+            if not 0.5 <= stride_s <= 3.0:
+                raise ValueError(f"walking at {self.speed} m/s needs a stride of {stride_s:.2f} s, outside 0.5..3 s")
+            self._design = design
+        return self._design
+
+    @property
+    def stride_m(self) -> float:
+        """Stride length (m)."""
+        return self.design.stride_m
+
+    @property
+    def stride_s(self) -> float:
+        """Stride duration (s) at the walk's speed."""
+        return self.design.stride_m / self.speed
 
     def _distance(self, tau: np.ndarray) -> np.ndarray:
         """Forward distance (m) covered after ``tau`` seconds."""
@@ -112,7 +139,8 @@ class Walk(Activity):
         """Hip, knee and ankle angles (n,3) deg of one leg at its own gait ``phase``: the curves
         the walk starts from (the legs that walk on the floor follow them, :mod:`.gait_design`).
         The hip flexes early in swing (most at 85 %, Perry & Burnfield), which carries the toe
-        over the floor."""
+        over the floor, and rotates internally through stance as the pelvis turns over the
+        planted foot."""
         hip = np.stack((5.5 + 19.0 * np.cos(_TWO_PI * (phase - 0.04)) + 14.0 * _periodic_bump(phase, 0.82, 0.14),
                         5.0 * np.sin(_TWO_PI * (phase + 0.1)),
                         -4.0 * np.cos(_TWO_PI * phase)), axis=-1)
