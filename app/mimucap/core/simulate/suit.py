@@ -135,6 +135,9 @@ class SuitSimulator:
         self._switches = 0
         self.schedule = Schedule(self._activities(config.scenario, dict(config.scenario_params),
                                                   with_magcal_turns=config.magcal_turns))
+        # The walk's gait design takes a moment: made now, a streaming suit never waits for it
+        # (for the default speed; other speeds are designed when first walked).
+        Walk().fit_body(self.model.name, config.height_m).design  # noqa: B018
         #: The true results of a clinical test scenario (:func:`~.clinical_tests.protocol_truth`), else None.
         self.protocol: dict[str, Any] | None = None
         if config.scenario in CLINICAL_TESTS:
