@@ -58,7 +58,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from mimucap.core import rotation as rot
 from mimucap.core import skeleton
@@ -97,7 +96,10 @@ PELVIS_HARMONICS = 8
 #: Passes of the design: the stance feet and the pelvis path depend on each other.
 DESIGN_PASSES = 2
 #: Phase samples per stride of the design (fine enough to resolve the contacts' milliseconds).
-DESIGN_SAMPLES = 4096
+DESIGN_SAMPLES = 2048
+#: The Newton iterations of the legs' inverse kinematics that recompute the Jacobian (the others
+#: reuse the last one).
+JACOBIAN_AT = (0, 1, 3)
 #: Width (gait phase) of the window that smooths the swinging foot's lift over the floor.
 CLEARANCE_WINDOW_PHASE = 0.08
 #: Share of the swing over which a foot's correction fades out after toe-off and in before
@@ -189,6 +191,30 @@ def _hermite(s: np.ndarray, s0: float, s1: float, v0, d0, v1, d1) -> np.ndarray:
     return (h00 * np.asarray(v0) + h10 * h * np.asarray(d0) + h01 * np.asarray(v1) + h11 * h * np.asarray(d1))
 
 
+class PeriodicSpline:
+    """The periodic cubic spline through ``values`` (n, k) sampled at phases j/n, j = 0..n−1
+    (period 1): a uniform cubic B-spline whose coefficients solve ``(c[j−1] + 4 c[j] +
+    c[j+1]) / 6 = values[j]``, a circular convolution undone in the Fourier domain. Twice
+    continuously differentiable, as the accelerometer needs; numpy only."""
+
+    def __init__(self, values: np.ndarray) -> None:
+        y = np.asarray(values, dtype=np.float64)
+        n = y.shape[0]
+        kernel = np.zeros(n)
+        kernel[[0, 1, -1]] = [4.0 / 6.0, 1.0 / 6.0, 1.0 / 6.0]
+        self._coefficients = np.fft.irfft(np.fft.rfft(y, axis=0) / np.fft.rfft(kernel)[:, None], n=n, axis=0)
+
+    def __call__(self, phase: np.ndarray) -> np.ndarray:
+        """Values (m, k) at ``phase`` (m,) (any real numbers; period 1)."""
+        c = self._coefficients
+        n = c.shape[0]
+        x = (np.asarray(phase, dtype=np.float64) % 1.0) * n
+        j = np.floor(x).astype(np.int64)
+        t = (x - j)[:, None]
+        weights = ((1.0 - t) ** 3, 3.0 * t**3 - 6.0 * t**2 + 4.0, -3.0 * t**3 + 3.0 * t**2 + 3.0 * t + 1.0, t**3)
+        return sum(w * c[(j + offset) % n] for w, offset in zip(weights, (-1, 0, 1, 2))) / 6.0
+
+
 def _stop_profile(x: np.ndarray) -> np.ndarray:
     """∫₀ˣ (1 − minimum_jerk(u)) du: the distance covered while a unit velocity decays to zero
     along a minimum-jerk profile over x ∈ [0, 1] (½ for x ≥ 1, x for x ≤ 0)."""
@@ -207,8 +233,8 @@ class GaitDesign:
     (``min_toe_clearance_m``), for checks."""
 
     stride_m: float
-    angles: dict[str, CubicSpline]
-    pelvis: CubicSpline
+    angles: dict[str, PeriodicSpline]
+    pelvis: PeriodicSpline
     contact_phases: dict[str, tuple[float, float]]
     landing_velocity_m_s: dict[str, np.ndarray]
     min_toe_clearance_m: float
@@ -299,11 +325,10 @@ def design_gait(leg_angles: Callable[[np.ndarray], dict[str, np.ndarray]],
         contact_phases[side] = (float(own[np.argmax(on)]), float(own[after[0]]) if after.size else 1.0)
         swing = (own > TOE_OFF_PHASE + 0.05) & (own < 0.95)
         clearance = min(clearance, float(pose.toe[swing, 2].min()))
-    splines = {joint: CubicSpline(np.append(own, 1.0), np.vstack((value, value[:1])), bc_type="periodic")
-               for joint, value in angles.items()}
+    splines = {joint: PeriodicSpline(value) for joint, value in angles.items()}
     periodic = path.periodic
     offsets = np.stack((periodic[:, 1] - periodic[0, 1], periodic[:, 2] - geometry.root_height_m), axis=-1)
-    pelvis = CubicSpline(np.append(own, 1.0), np.vstack((offsets, offsets[:1])), bc_type="periodic")
+    pelvis = PeriodicSpline(offsets)
     return GaitDesign(stride_m, splines, pelvis, contact_phases, landing_velocity, clearance)
 
 
@@ -471,18 +496,26 @@ def _slap_rate(heel_velocity: np.ndarray, angular_velocity: np.ndarray, q_foot: 
 def _pitch_to_reach(hip: np.ndarray, reach: np.ndarray, ankle_flat: np.ndarray, toe: np.ndarray,
                     axis: np.ndarray) -> np.ndarray:
     """The turn (m,) rad of a foot about its ``toe`` (3,) from flat (ankle at ``ankle_flat``)
-    that puts the ankle ``reach`` (m,) from ``hip`` (m, 3) (bisection between 85° toe down and
-    30° toe up; turning toe down brings the ankle nearer the hip)."""
-    low = np.full(reach.shape, -np.radians(85.0))
-    high = np.full(reach.shape, np.radians(30.0))
+    that puts the ankle ``reach`` (m,) from ``hip`` (m, 3), between 85° toe down and 30° toe up
+    (the nearer of them where none does). Turning the lever ``l`` = ankle − toe by ``p`` about
+    the unit ``axis`` (Rodrigues) makes ``(hip − toe)·R(p) l = A cos p + B sin p + C``, which
+    the distance fixes; of the two turns that give it, the one where turning further toe down
+    brings the ankle nearer the hip."""
     lever = ankle_flat - toe
-    for _ in range(32):
-        middle = 0.5 * (low + high)
-        ankle = toe + rot.rotate(rot.from_axis_angle(axis, middle), lever)
-        too_far = np.linalg.norm(ankle - hip, axis=-1) > reach
-        high = np.where(too_far, middle, high)
-        low = np.where(too_far, low, middle)
-    return 0.5 * (low + high)
+    d = hip - toe
+    along = axis @ lever
+    d_axis = d @ axis
+    a = d @ lever - d_axis * along
+    b = d @ np.cross(axis, lever)
+    target = 0.5 * (lever @ lever + np.sum(d * d, axis=-1) - reach * reach) - d_axis * along
+    radius = np.hypot(a, b)
+    ratio = np.clip(target / radius, -1.0, 1.0)
+    centre = np.arctan2(b, a)
+    turns = np.stack((centre + np.arccos(ratio), centre - np.arccos(ratio)))
+    turns = (turns + np.pi) % (2.0 * np.pi) - np.pi
+    nearer = -a * np.sin(turns) + b * np.cos(turns) < 0.0  # d(distance)/d(turn) > 0
+    turn = np.where(nearer[0], turns[0], turns[1])
+    return np.clip(turn, -np.radians(85.0), np.radians(30.0))
 
 
 def _foot_targets(prescribed: LegPose, root: np.ndarray, landing: np.ndarray, next_landing: np.ndarray,
@@ -567,7 +600,7 @@ def _clearance_lift(s: np.ndarray, ankle: np.ndarray, q_foot: np.ndarray, geomet
 
 def _reach(geometry: LegGeometry, side: str, q_pelvis: np.ndarray, root: np.ndarray, curves: dict[str, np.ndarray],
            ankle_target: np.ndarray, q_foot_target: np.ndarray,
-           iterations: int = 6) -> tuple[np.ndarray, np.ndarray, np.ndarray, LegPose]:
+           iterations: int = 7) -> tuple[np.ndarray, np.ndarray, np.ndarray, LegPose]:
     """Hip, knee and ankle angles (n, 3) degrees that put the ankle at ``ankle_target`` (n, 3)
     with the foot at ``q_foot_target`` (n, 4), and the leg's pose: the hip's three angles and the
     knee's flexion are solved (Newton's method, from the curves' values) so that the ankle is
@@ -591,14 +624,17 @@ def _reach(geometry: LegGeometry, side: str, q_pelvis: np.ndarray, root: np.ndar
         return np.concatenate((ankle - ankle_target, (lever * (turn[:, 2] - curves["ankle"][:, 2]))[:, None]), axis=-1)
 
     unknown = ((hip, 0), (hip, 1), (hip, 2), (knee, 0))
-    for _ in range(iterations):
+    inverse = None
+    for iteration in range(iterations):
         base = residual(hip, knee)
-        jacobian = np.empty(base.shape + (4,))
-        for column, (array, index) in enumerate(unknown):
-            array[:, index] += delta
-            jacobian[..., column] = (residual(hip, knee) - base) / delta
-            array[:, index] -= delta
-        step = np.linalg.solve(jacobian, -base[..., None])[..., 0]
+        if iteration in JACOBIAN_AT:  # the Jacobian changes little near the solution: reused
+            jacobian = np.empty(base.shape + (4,))
+            for column, (array, index) in enumerate(unknown):
+                array[:, index] += delta
+                jacobian[..., column] = (residual(hip, knee) - base) / delta
+                array[:, index] -= delta
+            inverse = np.linalg.inv(jacobian)
+        step = -np.einsum("nij,nj->ni", inverse, base)
         for column, (array, index) in enumerate(unknown):
             array[:, index] += step[:, column]
     pose = leg_pose(geometry, side, q_pelvis, root, hip, knee, zero)
