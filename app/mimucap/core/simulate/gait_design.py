@@ -33,11 +33,11 @@ that does, once per walk, over one stride of gait phase (right heel strike at ph
    an instantaneous stop); the ankle, carried on by the leg, keeps its velocity across the
    heel-ankle lever, so the foot turns down about the heel faster (the foot slap). When the
    forefoot lands, the foot's rotation stops within :data:`FOREFOOT_CONTACT_S`. The
-   accelerometers measure this as the heel-strike transient: about 5 g at the foot and the
-   shank, 3 g at the thigh and 0.3 g at the pelvis (1 kHz, ideal sensors), as Light, McLellan &
-   Klenerman measured at the tibia and the head ("Skeletal transients on heel strike in normal
-   walking with different footwear", J. Biomech. 13:477-480, 1980: about 5 g and 0.5 g with hard
-   heels, half with resilient ones). Winter ("Foot trajectory in human gait: a precise and
+   accelerometers measure this as the heel-strike transient, a few g at the foot, the shank and
+   the thigh and a fraction of that at the pelvis, the sizes Light, McLellan & Klenerman measured
+   at the tibia and the head ("Skeletal transients on heel strike in normal walking with
+   different footwear", J. Biomech. 13:477-480, 1980: about 5 g and 0.5 g with hard heels, half
+   with resilient ones). Winter ("Foot trajectory in human gait: a precise and
    multifactorial motor control task", Phys. Ther. 72:45-53, 1992) measured the heel arriving
    at about 0.9 m/s forward and slowly downward, and the toe clearing the floor by 1.3 cm in
    mid-swing.
