@@ -44,19 +44,28 @@ def _wait(app: QtWidgets.QApplication, condition, timeout_s: float, what: str) -
 
 def make_library(folder: Path) -> None:
     """Simulated squats and walks as library sessions in ``folder`` (and one damaged file)."""
+    import numpy as np
+
+    from mimucap.core import skeleton
+    from mimucap.core.bodycal import BodyCalibration, CalibrationQuality
     from mimucap.core.simulate.config import SimulationConfig
     from mimucap.core.simulate.suit import simulate_session
     from mimucap.io.library import library_fields
     from mimucap.io.session import Marker, make_subject, session_from_simulation, write_session
 
     for name, subject, height, started, condition, tags, trial, scenario, parameters, seed in SESSIONS:
-        # Error-free sensors worn along their segments: without calibrations the sensors' own
-        # orientations then stand for the segments' (the simulator's truth is not used).
+        # Error-free sensors worn along their segments, with that mounting as their body
+        # calibration (as the N-pose/T-pose procedure would find it; comparisons need one).
         config = SimulationConfig(scenario=scenario, duration_s=8.0, seed=seed, height_m=height,
                                   scenario_params=parameters, errors="ideal", random_mounting=False)
         notes = "left knee arthroplasty" if subject == "P042" else ""
-        session = session_from_simulation(simulate_session(config), make_subject(subject, height, "right", notes),
-                                          include_truth=False)
+        result = simulate_session(config)
+        session = session_from_simulation(result, make_subject(subject, height, "right", notes), include_truth=False)
+        session.calibrations["body"] = BodyCalibration(
+            q_world_from_body=skeleton.q_world_from_body_facing(0.0), up_world=np.array([0.0, 0.0, 1.0]),
+            sensors={m.segment: sid for sid, m in result.mounting.items()},
+            q_segment_from_sensor={m.segment: m.q_segment_from_sensor for m in result.mounting.values()},
+            quality=CalibrationQuality("known mounting", ())).to_dict()
         session.metadata["recording"] = {"started_utc": started}
         session.metadata["library"] = library_fields(condition, tags, trial)
         session.markers = [Marker(0.5, f"{scenario} start"), Marker(7.5, f"{scenario} end")]

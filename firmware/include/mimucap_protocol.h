@@ -1,4 +1,4 @@
-// MimuCap device protocols, node side: the UDP packet (protocol v1) and the serial line.
+// MimuCap device protocols, node side: the UDP packet (protocol v1), its hello, and the serial line.
 //
 // The reference implementation of docs/protocols.md for sensor nodes. Portable C++11 with no
 // Arduino dependency: the firmware (src/main.cpp) includes it, and the host test
@@ -30,7 +30,10 @@ const uint8_t kVersion = 1;
 const uint8_t kTypeSample = 1;
 const uint8_t kTypeSyncRequest = 2;
 const uint8_t kTypeSyncResponse = 3;
+const uint8_t kTypeHello = 4;             // node → host: the node's factory MAC
+const uint8_t kTypeHelloRequest = 5;      // host → node: "say hello"
 const uint16_t kBroadcastId = 0xFFFF;
+const size_t kMacBytes = 6;
 const size_t kHeaderBytes = 20;
 const size_t kCrcBytes = 4;
 const size_t kMaxPacketBytes = 256;
@@ -184,6 +187,25 @@ inline bool decode_sync_request(const uint8_t* data, size_t size, SyncRequest* r
   return true;
 }
 
+// The hello packet: which hardware sends under `sensor_id` (its factory MAC, 6 bytes), with the
+// node clock `time_us`. `out` holds at least 30 bytes; returns the length (30).
+inline size_t encode_hello(uint16_t sensor_id, uint64_t time_us, const uint8_t mac[kMacBytes], uint8_t* out) {
+  uint8_t* p = detail::put_header(out, kTypeHello, sensor_id, 0, 0, time_us);
+  std::memcpy(p, mac, kMacBytes);
+  return detail::finish(out, p + kMacBytes);
+}
+
+// Reads a host → node hello request; false for anything else. `target_id` is this node's id or
+// kBroadcastId.
+inline bool decode_hello_request(const uint8_t* data, size_t size, uint16_t* target_id) {
+  if (size != kHeaderBytes + kCrcBytes) return false;
+  if (detail::get_u16(data) != kMagic || data[2] != kVersion || data[3] != kTypeHelloRequest) return false;
+  if (detail::get_u16(data + 6) != 0) return false;
+  if (crc32(data, kHeaderBytes) != detail::get_u32(data + kHeaderBytes)) return false;
+  *target_id = detail::get_u16(data + 4);
+  return true;
+}
+
 namespace detail {
 
 // Appends printf output to the line; false when it no longer fits.
@@ -215,6 +237,17 @@ struct LineWriter {
     std::snprintf(buffer, sizeof buffer, "%llu", value);
     text(buffer);
   }
+  // Closes the line with its checksum (XOR of every byte after the "$") and "*HH\r\n";
+  // returns its length, or 0 if anything did not fit.
+  size_t finish() {
+    if (!ok) return 0;
+    uint8_t checksum = 0;
+    for (size_t i = 1; i < length; ++i) checksum ^= uint8_t(out[i]);
+    char tail[8];
+    std::snprintf(tail, sizeof tail, "*%02X\r\n", checksum);
+    text(tail);
+    return ok ? length : 0;
+  }
 };
 
 }  // namespace detail
@@ -244,12 +277,20 @@ inline size_t encode_line(const Sample& s, char* out, size_t capacity) {
   }
   if (s.has_battery) { w.text(",B"); w.number(s.battery_pct); }
   if (!w.ok || w.length > kMaxLineBytes - 3) return 0;
-  uint8_t checksum = 0;
-  for (size_t i = 1; i < w.length; ++i) checksum ^= uint8_t(out[i]);
-  char tail[8];
-  std::snprintf(tail, sizeof tail, "*%02X\r\n", checksum);
-  w.text(tail);
-  return w.ok ? w.length : 0;
+  return w.finish();
+}
+
+// The serial hello line ("$MIMUH,<sensor_id>,<MAC as 12 hex digits>*HH\r\n") written to `out`
+// (NUL-terminated, at least 40 bytes); returns its length without the NUL.
+inline size_t encode_hello_line(uint16_t sensor_id, const uint8_t mac[kMacBytes], char* out, size_t capacity) {
+  detail::LineWriter w{out, capacity, 0, true};
+  out[0] = '\0';
+  w.text("$MIMUH,");
+  w.integer(sensor_id);
+  char hex[2 * kMacBytes + 2];
+  std::snprintf(hex, sizeof hex, ",%02X%02X%02X%02X%02X%02X", mac[0], mac[1], mac[2], mac[3], mac[4], mac[5]);
+  w.text(hex);
+  return w.finish();
 }
 
 }  // namespace mimucap

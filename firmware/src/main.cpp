@@ -1,5 +1,5 @@
 // MimuCap sensor node: ESP32 + Bosch BNO055, the reference implementation of the node side of
-// docs/protocols.md (UDP protocol v1 and the serial line protocol).
+// docs/protocols.md (UDP protocol v1 with its hello, and the serial line protocol).
 //
 // * A hardware timer ticks at 100 Hz; its interrupt stamps the node clock (esp_timer_get_time,
 //   µs since boot) and wakes the sampling task, which reads the BNO055 in one I²C burst (raw
@@ -10,6 +10,9 @@
 //   answering), so the host maps the node clock onto its own.
 // * The sensor id is the low 16 bits of the chip's factory MAC (0xFFFF, the broadcast id,
 //   becomes 0xFFFE): stable for a board, printed by "show".
+// * The hello says which board this is: its whole factory MAC, the device id its magnetometer
+//   calibration is kept for on the host. Sent over UDP when Wi-Fi connects and whenever the host
+//   asks (hello request), and over the serial output every second (that link is one-way).
 // * Wi-Fi, host address, output and battery measurement are set over the USB serial console
 //   and kept in flash (NVS, Preferences "mimucap"): no recompiling per board or network.
 //   Console replies start with "#", so a host reading the serial protocol refuses them as
@@ -44,6 +47,7 @@ namespace {
 const uint32_t kSamplePeriodUs = 10000;  // 100 Hz
 const uint16_t kDefaultPort = 5555;
 const uint32_t kBatteryPeriodMs = 2000;
+const uint32_t kSerialHelloPeriodMs = 1000;
 
 struct Settings {
   String ssid, password, host;
@@ -62,6 +66,7 @@ bool host_valid = false;
 bno055::Device imu;
 bool imu_ok = false;
 uint16_t sensor_id = 0;
+uint8_t node_mac[mimucap::kMacBytes];   // the factory MAC: the device id its hello carries
 uint32_t next_seq = 0;
 float battery_pct = NAN;
 
@@ -106,10 +111,23 @@ void save_settings() {
 }
 
 uint16_t id_from_mac() {
-  uint8_t mac[6];
-  esp_efuse_mac_get_default(mac);
-  uint16_t id = uint16_t(mac[4]) << 8 | mac[5];
+  uint16_t id = uint16_t(node_mac[4]) << 8 | node_mac[5];
   return id == mimucap::kBroadcastId ? uint16_t(0xFFFE) : id;
+}
+
+// The hello packet to `ip`:`port` (the host; the caller holds udp_lock).
+void send_hello_locked(IPAddress ip, uint16_t port) {
+  uint8_t packet[64];
+  size_t n = mimucap::encode_hello(sensor_id, uint64_t(esp_timer_get_time()), node_mac, packet);
+  udp.beginPacket(ip, port);
+  udp.write(packet, n);
+  udp.endPacket();
+}
+
+void send_serial_hello() {
+  char line[64];
+  size_t n = mimucap::encode_hello_line(sensor_id, node_mac, line, sizeof line);
+  if (n) Serial.write(reinterpret_cast<const uint8_t*>(line), n);
 }
 
 // Remaining charge of a single Li-ion/LiPo cell from its resting voltage (piecewise linear
@@ -192,9 +210,9 @@ void start_timer() {
 #endif
 }
 
-// Answers the host's time-sync requests (and ignores anything else on the port). The host
-// sends them to the address the samples come from.
-void serve_time_sync() {
+// Answers the host's time-sync and hello requests (and ignores anything else on the port). The
+// host sends them to the address the samples come from.
+void serve_requests() {
   xSemaphoreTake(udp_lock, portMAX_DELAY);
   int size = udp.parsePacket();
   while (size > 0) {
@@ -202,6 +220,7 @@ void serve_time_sync() {
     uint8_t data[mimucap::kMaxPacketBytes];
     int length = udp.read(data, sizeof data);
     mimucap::SyncRequest request;
+    uint16_t hello_target = 0;
     if (length > 0 && mimucap::decode_sync_request(data, size_t(length), &request) &&
         (request.target_id == sensor_id || request.target_id == mimucap::kBroadcastId)) {
       uint8_t answer[64];
@@ -210,6 +229,9 @@ void serve_time_sync() {
       udp.beginPacket(udp.remoteIP(), udp.remotePort());
       udp.write(answer, n);
       udp.endPacket();
+    } else if (length > 0 && mimucap::decode_hello_request(data, size_t(length), &hello_target) &&
+               (hello_target == sensor_id || hello_target == mimucap::kBroadcastId)) {
+      send_hello_locked(udp.remoteIP(), udp.remotePort());
     }
     size = udp.parsePacket();
   }
@@ -218,6 +240,8 @@ void serve_time_sync() {
 
 void show() {
   Serial.printf("# MimuCap node, sensor id %u (from the MAC), protocol v%u\r\n", sensor_id, mimucap::kVersion);
+  Serial.printf("# device mac:%02X%02X%02X%02X%02X%02X (said in its hello)\r\n", node_mac[0], node_mac[1], node_mac[2],
+                node_mac[3], node_mac[4], node_mac[5]);
   Serial.printf("# BNO055: %s\r\n", imu_ok ? "found, NDOF fusion at 100 Hz" : "NOT FOUND (check wiring)");
   Serial.printf("# wifi '%s' (%s), IP %s\r\n", settings.ssid.c_str(),
                 WiFi.status() == WL_CONNECTED ? "connected" : "not connected", WiFi.localIP().toString().c_str());
@@ -318,6 +342,7 @@ void read_console() {
 void setup() {
   Serial.begin(115200);
   load_settings();
+  esp_efuse_mac_get_default(node_mac);
   sensor_id = id_from_mac();
   Wire.begin();               // SDA GPIO 21, SCL GPIO 22 on ESP32 DevKit boards
   Wire.setClock(400000);
@@ -337,8 +362,21 @@ void setup() {
 
 void loop() {
   static uint32_t last_battery_ms = 0;
+  static uint32_t last_serial_hello_ms = 0;
+  static bool was_connected = false;
   read_console();
-  if (WiFi.status() == WL_CONNECTED) serve_time_sync();
+  bool connected = WiFi.status() == WL_CONNECTED;
+  if (connected && !was_connected && settings.udp && host_valid) {   // just joined: say hello
+    xSemaphoreTake(udp_lock, portMAX_DELAY);
+    send_hello_locked(host_ip, settings.port);
+    xSemaphoreGive(udp_lock);
+  }
+  was_connected = connected;
+  if (connected) serve_requests();
+  if (settings.serial && millis() - last_serial_hello_ms >= kSerialHelloPeriodMs) {
+    last_serial_hello_ms = millis();
+    send_serial_hello();
+  }
   if (millis() - last_battery_ms >= kBatteryPeriodMs) {
     last_battery_ms = millis();
     measure_battery();

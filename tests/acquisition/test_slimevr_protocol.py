@@ -218,3 +218,21 @@ def test_a_refused_tracker_is_named_as_the_sources_problem():
     finally:
         tracker.close()
         live.stop()
+
+
+def test_each_sensor_of_a_tracker_is_a_device_named_by_the_trackers_mac(driver):
+    """Sensor n of the tracker whose handshake says MAC 02:4D:43:00:00:07 is the device
+    ``mac:024D43000007/n``; a tracker whose handshake carries no MAC (named by its address)
+    has none, and the report says why."""
+    from mimucap.core.device_identity import SensorDevice
+
+    driver.handle_datagram(handshake(), TRACKER, 10.0)
+    for k, sensor in enumerate((0, 1)):
+        driver.handle_datagram(rotation_packet(1 + k, sensor, (0, 0, 0, 1)), TRACKER, 10.1)
+    other = ("192.0.2.8", 4242)
+    driver.handle_datagram(handshake(mac=bytes(6)), other, 10.2)
+    driver.handle_datagram(rotation_packet(1, 0, (0, 0, 0, 1)), other, 10.3)
+    devices = driver.report("running").devices
+    assert devices["024D43000007-0"] == SensorDevice("mac:024D43000007/0")
+    assert devices["024D43000007-1"] == SensorDevice("mac:024D43000007/1")
+    assert devices["192.0.2.8:4242-0"].device_id is None and "no MAC" in devices["192.0.2.8:4242-0"].missing

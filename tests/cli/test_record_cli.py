@@ -272,3 +272,17 @@ def test_emulate_udp_refuses_a_target_host_that_cannot_be_resolved(capsys):
     assert main(["emulate", "udp", "--sensors", "1", "--duration", "1",
                  "--target", "no.such.host.invalid:5005"]) == 1      # was: exit 0 with "100 send errors"
     assert "--target no.such.host.invalid:5005: cannot resolve host 'no.such.host.invalid'" in capsys.readouterr().err
+
+
+def test_a_headless_recording_stores_which_device_each_sensor_was(tmp_path, capsys):
+    """The devices the source told by the end of the recording (the simulated suit's units)
+    land in the session's ``devices``, which a calibration's standing is judged against."""
+    from mimucap.core.simulate.config import SimulationConfig
+
+    out = tmp_path / "devices.h5"
+    assert main(["record", "--source", "simulated:npose", "--sensor-count", "3", "--duration", "1.5",
+                 "--out", str(out), "--quiet"]) == 0
+    session = read_session(out)
+    expected = SimulationConfig(n_sensors=3).device_ids()
+    assert session.metadata["devices"] == {sid: {"device_id": device} for sid, device in expected.items()}
+    assert {sid: device.device_id for sid, device in session.devices().items()} == expected

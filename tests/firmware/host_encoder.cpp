@@ -7,9 +7,11 @@
 //                                                     IEEE-754 float bit patterns in hex
 //   S sensor request t1 t2 t3                         a time-sync response
 //   R hex                                             a time-sync request to decode
+//   H sensor time_us mac                              a hello (mac: 12 hex digits)
+//   Q hex                                             a hello request to decode
 //
 // and prints one line per vector: "U <packet hex> <line hex or ->", "S <packet hex>",
-// "R ok <target> <request> <t1>" or "R bad".
+// "R ok <target> <request> <t1>" or "R bad", "H <packet hex> <line hex>", "Q ok <target>" or "Q bad".
 #include <cstdint>
 #include <cstring>
 #include <iostream>
@@ -74,6 +76,28 @@ int main() {
       uint8_t packet[64];
       size_t n = mimucap::encode_sync_response(uint16_t(sensor), uint32_t(request), t1, t2, t3, packet);
       std::cout << "S " << hex(packet, n) << "\n";
+    } else if (kind == "H") {
+      unsigned long long sensor, time_us;
+      std::string mac_text;
+      in >> sensor >> time_us >> mac_text;
+      uint8_t mac[mimucap::kMacBytes];
+      for (size_t i = 0; i < mimucap::kMacBytes; ++i) mac[i] = uint8_t(std::stoul(mac_text.substr(2 * i, 2), nullptr, 16));
+      uint8_t packet[64];
+      size_t n = mimucap::encode_hello(uint16_t(sensor), time_us, mac, packet);
+      char text[64];
+      size_t m = mimucap::encode_hello_line(uint16_t(sensor), mac, text, sizeof text);
+      std::cout << "H " << hex(packet, n) << " " << (m ? hex(reinterpret_cast<uint8_t*>(text), m) : "-") << "\n";
+    } else if (kind == "Q") {
+      std::string text;
+      in >> text;
+      std::vector<uint8_t> bytes;
+      for (size_t i = 0; i + 1 < text.size(); i += 2) bytes.push_back(uint8_t(std::stoul(text.substr(i, 2), nullptr, 16)));
+      uint16_t target = 0;
+      if (mimucap::decode_hello_request(bytes.data(), bytes.size(), &target)) {
+        std::cout << "Q ok " << target << "\n";
+      } else {
+        std::cout << "Q bad\n";
+      }
     } else if (kind == "R") {
       std::string text;
       in >> text;

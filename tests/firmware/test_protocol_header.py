@@ -176,3 +176,25 @@ def test_time_sync_answers_and_requests(host_encoder):
     for request, result in zip(requests, results[2:4]):
         assert result == ["R", "ok", str(request.target_id), str(request.request_id), str(request.host_send_us)]
     assert results[4:] == [["R", "bad"], ["R", "bad"]]
+
+
+def test_hellos_and_hello_requests(host_encoder):
+    """The node's hello (packet and serial line) equals the Python encoders' and parses back to
+    its MAC; the node reads the host's hello requests, and nothing else, as such."""
+    from mimucap.acquisition.hello import Hello, HelloRequest
+
+    hellos = [(Hello(3, bytes.fromhex("A1B2C3D4E5F6")), 12345678), (Hello(65534, bytes.fromhex("020000000001")), 2**64 - 1)]
+    requests = [HelloRequest(3), HelloRequest(0xFFFF)]
+    sync = protocol_udp.encode_sync_request(protocol_udp.SyncRequest(3, 1, 2))
+    lines = [f"H {hello.sensor_id} {time_us} {hello.mac.hex()}" for hello, time_us in hellos]
+    lines += [f"Q {protocol_udp.encode_hello_request(r).hex()}" for r in requests] + [f"Q {sync.hex()}"]
+    results = run(host_encoder, lines)
+    for (hello, time_us), (kind, packet_hex, line_hex) in zip(hellos, results[:2]):
+        assert kind == "H"
+        assert bytes.fromhex(packet_hex) == protocol_udp.encode_hello(hello, time_us)
+        assert protocol_udp.decode_packet(bytes.fromhex(packet_hex)) == hello
+        assert bytes.fromhex(line_hex) == protocol_serial.encode_hello_line(hello)
+        assert protocol_serial.parse_line(bytes.fromhex(line_hex)) == hello
+    assert results[2:] == [["Q", "ok", "3"], ["Q", "ok", "65535"], ["Q", "bad"]]
+    # an older node's request decoder takes a hello request for no time-sync request
+    assert run(host_encoder, [f"R {protocol_udp.encode_hello_request(requests[0]).hex()}"]) == [["R", "bad"]]

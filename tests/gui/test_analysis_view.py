@@ -56,3 +56,83 @@ def test_analysis_window_shows_gait_rom_and_writes_the_report(qtbot, session_fil
     window.report_button.click()
     assert out.read_bytes().startswith(b"%PDF")
     review.close()
+
+
+def pdf_text(path) -> str:
+    """The PDF's text, by poppler's pdftotext (another program than the writer)."""
+    import shutil
+    import subprocess
+
+    if shutil.which("pdftotext") is None:
+        pytest.fail("pdftotext (Debian poppler-utils) is needed: make debs installs it")
+    text = subprocess.run(["pdftotext", "-layout", str(path), "-"], check=True, capture_output=True, text=True).stdout
+    return text.replace("\ufb01", "fi").replace("\ufb02", "fl")  # the font's ligatures
+
+
+def analysed_in_review(qtbot, path, result: str = "reprocessed"):
+    """The review window of ``path`` showing ``result``, and its Analysis window once analysed."""
+    review = ReviewWindow(path)
+    qtbot.addWidget(review)
+    review.result_combo.setCurrentIndex(review.result_combo.findData(result))
+    review.show()
+    with qtbot.waitSignal(review.loaded, timeout=30000):
+        review.load()
+    window = review.open_analysis()
+    with qtbot.waitSignal(window.analysed, timeout=30000):
+        pass
+    return review, window
+
+
+@pytest.mark.parametrize("result", ["reprocessed", "live"])
+def test_the_windows_report_and_the_command_agree_for_the_same_result(qtbot, session_file, tmp_path, result):
+    """The report and the tables made in the window while review shows a result, and ``mimucap
+    report`` of the same file for the same result: the same text and the same numbers, each
+    saying which result it holds on its first page."""
+    from mimucap.cli import main
+    from mimucap.session.analysis import write_analysis_csv
+
+    review, window = analysed_in_review(qtbot, session_file, result)
+    window.write_report(tmp_path / "window.pdf")
+    window_tables = write_analysis_csv(tmp_path / "window", window.analysis)
+    review.close()
+    assert main(["report", str(session_file), "--out", str(tmp_path / "command.pdf"), "--csv", str(tmp_path / "command")]
+                + (["--live"] if result == "live" else [])) == 0
+    shown, written = pdf_text(tmp_path / "window.pdf"), pdf_text(tmp_path / "command.pdf")
+    first_page = written.split("\f")[0]
+    assert ("Result: as seen live" if result == "live" else "Result: reprocessed") in first_page
+    assert "Body calibration: N-pose/T-pose, verdict" in first_page and "Source file: simulated_demo_10.h5" in first_page
+    assert "the device fuses its orientation on board" in first_page
+    assert shown == written
+    assert len(window_tables) >= 4
+    for table in window_tables:
+        assert table.read_text() == (tmp_path / "command" / table.name).read_text(), table.name
+
+
+@pytest.fixture(scope="module")
+def uncalibrated_file(tmp_path_factory):
+    """A simulated walk written without a body calibration (sensor axes only)."""
+    from mimucap.core.simulate.suit import simulate_session
+    from mimucap.io.session import session_from_simulation, write_session
+
+    path = tmp_path_factory.mktemp("uncalibrated") / "walk.h5"
+    config = SimulationConfig(scenario="walk", duration_s=15.0, n_sensors=10, errors="bno055", seed=2)
+    return write_session(path, session_from_simulation(simulate_session(config), include_truth=False))
+
+
+def test_without_a_body_calibration_the_window_gives_temporal_parameters_only(qtbot, uncalibrated_file, tmp_path):
+    review, window = analysed_in_review(qtbot, uncalibrated_file)
+    assert not window.analysis.calibrated
+    assert window.limits_label.isVisible() and "no body calibration" in window.limits_label.text()
+    assert "straight strides analysed" in window.gait_summary.text()
+    rows = {window.parameters_table.item(r, 0).text(): window.parameters_table.item(r, 3).text()
+            for r in range(window.parameters_table.rowCount())}
+    assert rows["Cadence (steps/min)"].split(" ± ")[0] != "–"  # temporal: given
+    assert rows["Stride length (m)"] == "– ± –" and rows["Gait speed (m/s)"] == "– ± –"  # spatial: not
+    for widget in (window.report_button, window.curve_choice, window.marker_button):
+        assert not widget.isEnabled() and "no body calibration" in widget.toolTip()
+    assert not window.tabs.isTabEnabled(window.tabs.indexOf(window.rom_tab))
+    assert "no body calibration" in window.tabs.tabToolTip(window.tabs.indexOf(window.rom_tab))
+    assert window.csv_button.isEnabled()  # the temporal tables, labelled
+    with pytest.raises(ValueError, match="no body calibration"):
+        window.write_report(tmp_path / "report.pdf")
+    review.close()

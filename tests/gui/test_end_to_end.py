@@ -152,7 +152,7 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     mot = read_angles_mot(tmp_path / "walk_angles.mot")
     assert np.allclose(mot.angles_deg["knee_r_flexion_deg"], table.angles_deg["knee_r_flexion_deg"], atol=1e-5)
     summary = (tmp_path / "walk_angles_summary.csv").read_text().splitlines()
-    assert "column,label,min_deg,max_deg,rom_deg" in summary
+    assert "column,label,min_deg,max_deg,rom_deg,doubtful_pct" in summary
     assert "knee_r_flexion_deg,Right knee flexion (°)," in "\n".join(summary)
     # the recording's markers are in both angle files' headers
     for written in (table, mot):
@@ -169,6 +169,9 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     for column, error in errors.items():
         assert error.rms_deg < 4.0, (column, error)
     assert np.ptp(table.angles_deg["knee_r_flexion_deg"]) > 30.0  # walking bends the knee
+    # calibrated in the window, walking in a clean field: the joint angles are trusted
+    for joint in ("hip_l", "hip_r", "knee_l", "knee_r"):
+        assert np.mean(table.ok[joint]) > 0.95, (joint, np.mean(table.ok[joint]))
 
     # The same export from a copy without the truth is identical: it comes from the sensors.
     session.truth = None

@@ -7,21 +7,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from PyQt5 import QtWidgets
-
-from mimucap.core.simulate.config import SimulationConfig
-from mimucap.core.simulate.suit import simulate_session
-from mimucap.io.session import session_from_simulation, write_session
+from PyQt5 import QtGui, QtWidgets
 
 
-def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path):
+def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path, calibrated_walk):
     from mimucap.gui.export_dialog import ExportDialog
     from mimucap.io.angles_export import read_angles_mot
     from mimucap.session.review import load_review
 
-    path = write_session(tmp_path / "walk.h5", session_from_simulation(simulate_session(
-        SimulationConfig(scenario="walk", duration_s=3.0, n_sensors=10, seed=2))))
-    dialog = ExportDialog(None, load_review(path))
+    # A calibrated walk: joint angles mean something only with a body calibration.
+    dialog = ExportDialog(None, load_review(calibrated_walk))
     qtbot.addWidget(dialog)
     for box in (dialog.want_csv, dialog.want_mot, dialog.want_summary):
         box.setChecked(False)
@@ -31,7 +26,8 @@ def test_export_dialog_writes_c3d_bvh_sto_and_opensim_mot(qtbot, tmp_path):
     dialog.start_export()
     qtbot.waitUntil(lambda: dialog.result is not None, timeout=30000)
     names = sorted(p.name for p in dialog.result.files)
-    assert names == ["out.bvh", "out.c3d", "out_markers.csv", "out_opensim.mot", "out_orientations.sto"]
+    assert names == ["out.bvh", "out.c3d", "out_markers.csv", "out_opensim.mot", "out_orientations.sto",
+                     "out_orientations_calibration.sto"]
     mot = read_angles_mot(tmp_path / "out_opensim.mot")
     assert "knee_angle_r" in mot.angles_deg and np.ptp(mot.angles_deg["knee_angle_r"]) > 20.0
     assert "Exported" in dialog.message.text()
@@ -55,3 +51,24 @@ def test_open_imports_an_mvnx_file_and_reviews_it(qtbot, tmp_path, monkeypatch, 
     assert review.player.pose_source == "body calibration"
     review.close()
     window.close()
+
+
+def test_the_summary_chart_and_table_say_what_they_hold(qtbot, tmp_path, calibrated_walk):
+    """The summary PNG's caption and the summary CSV's header carry the result's record (result,
+    body and magnetometer calibrations, model, software, file), as every export does."""
+    from mimucap.gui.export_dialog import ExportDialog
+    from mimucap.session.review import load_review
+
+    data = load_review(calibrated_walk)
+    dialog = ExportDialog(None, data)
+    qtbot.addWidget(dialog)
+    assert not dialog.calibration_note.isVisible()
+    png = dialog.save_summary_png(tmp_path / "summary.png")
+    lines = data.provenance.lines()
+    assert dialog.summary_caption.splitlines() == lines
+    assert lines[0].startswith("Result: reprocessed") and lines[1].startswith("Body calibration: N-pose/T-pose")
+    image = QtGui.QImage(str(png))
+    assert image.height() > 90 + 24 * dialog.summary.rowCount()  # the caption is drawn below the bars
+    header = [line[2:] for line in dialog.save_summary_csv(tmp_path / "summary.csv").read_text().splitlines()
+              if line.startswith("# ")]
+    assert all(line in header for line in lines)

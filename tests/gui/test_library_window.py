@@ -289,3 +289,23 @@ def test_the_library_folder_is_chosen_once_and_remembered(window, qtbot, tmp_pat
     assert window.library_window is library_window
     assert library_window.library is None and library_window.banner.isVisible()
     assert "cannot use" in library_window.banner.text() and library_window.visible_paths() == []
+
+
+def test_compare_is_offered_for_two_calibrated_sessions_only(qtbot, tmp_path):
+    root = tmp_path / "lib"
+    root.mkdir()
+    make_session(root / "P001_2026-03-01_trial01.h5", "P001", 2.0, body_verdict="good")
+    make_session(root / "P001_2026-04-12_trial01.h5", "P001", 2.0, "2026-04-12T10:00:00+00:00", body_verdict="good")
+    make_session(root / "P001_2026-04-13_trial01.h5", "P001", 2.0, "2026-04-13T10:00:00+00:00")
+    window = LibraryWindow(root)
+    qtbot.addWidget(window)
+    window.show()
+    window.wait_for_scan()
+    window.select_paths({"P001_2026-03-01_trial01.h5", "P001_2026-04-12_trial01.h5"})
+    assert window.buttons["compare"].isEnabled()
+    window.select_paths({"P001_2026-03-01_trial01.h5", "P001_2026-04-13_trial01.h5"})
+    compare = window.buttons["compare"]
+    assert not compare.isEnabled()
+    assert "P001_2026-04-13_trial01.h5: no body calibration" in compare.toolTip()
+    assert window.compare_selected() is None
+    window.close()

@@ -77,3 +77,20 @@ def test_comparison_report_and_command_line(qapp, analysed, tmp_path):
     assert out.read_bytes().startswith(b"%PDF")
     assert (tmp_path / "csv" / "rom.csv").is_file() and (tmp_path / "csv" / "parameters.csv").is_file()
     assert main(["report", str(session), "--out", str(tmp_path / "r.txt")]) == 1
+
+
+def test_the_report_lists_the_doubtful_joints_with_when_and_why(qapp, analysed, tmp_path):
+    """In the demo's T-pose the shoulders are abducted to about 90°, where Z-X'-Y'' is singular:
+    their angles are marked doubtful there; the walking knees are not."""
+    rows = {row.joint: row for row in analysed.doubt}
+    assert set(rows) == {"shoulder_l", "shoulder_r"}
+    joint, _percent, when, why = rows["shoulder_r"].cells()
+    assert joint == "Right shoulder" and "gimbal lock" in why
+    start, end = (float(v) for v in when.split("–"))
+    assert 3.0 < start < end < 7.0  # the T-pose of the demo: 3-6 s
+    assert not any(analysed.curve_doubt.values()) and not any(analysed.rom_doubt.values())
+    pdf = write_report(tmp_path / "report.pdf", analysed)
+    if shutil.which("pdftotext") is None:
+        pytest.fail("pdftotext (Debian poppler-utils) is needed: make debs installs it")
+    text = subprocess.run(["pdftotext", str(pdf), "-"], check=True, capture_output=True, text=True).stdout
+    assert "Doubtful data" in text and "Right shoulder:" in text and "gimbal lock" in text

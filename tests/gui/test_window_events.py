@@ -118,3 +118,41 @@ def test_the_review_follows_its_player_and_lets_it_go(qtbot, calibrated_walk):
     assert _subscribed(player) == {"data": 1, "frame": 1, "truth_frame": 1}
     review.close()
     assert _subscribed(player) == {}
+
+
+def test_a_doubtful_orientation_is_named_in_the_sensor_panel_and_the_status_bar(idle_window):
+    window = idle_window
+    doubtful = SensorRow(sensor_id="S07", segment="thigh_l", rate_hz=99.0, drops=0, latency_ms=4.0,
+                         battery_pct=math.nan, mag_cal="calibrated", mag_cal_age_s=60.0, flags=("mag disturbed",),
+                         stale=False, state="ok",
+                         doubt="heading taken from a magnetic field that differs from the calibrated one")
+    window.live.events.status.emit([doubtful, _row("S01", "pelvis", 99.0)])
+    assert window.sensor_panel.cell_text("S07", "State") == (
+        "orientation doubtful: heading taken from a magnetic field that differs from the calibrated one")
+    assert window.doubt_status.isVisible()
+    assert window.doubt_status.text() == ("Orientation doubtful — heading taken from a magnetic field that differs "
+                                          "from the calibrated one: Left thigh (S07)")
+    window.live.events.status.emit([_row("S01", "pelvis", 99.0)])
+    assert not window.doubt_status.isVisible()
+
+
+def test_the_review_shades_the_doubtful_spans_and_says_why_at_the_play_head(qtbot, tmp_path):
+    """A recording without a body calibration: its joint angles are doubtful throughout."""
+    from mimucap.cli import main
+    from mimucap.gui.review_window import ReviewWindow
+
+    session = tmp_path / "walk.h5"
+    assert main(["simulate", "--scenario", "walk", "--duration", "4", "--no-magcal-turns", "--out", str(session)]) == 0
+    review = ReviewWindow(session)
+    qtbot.addWidget(review)
+    review.show()
+    with qtbot.waitSignal(review.loaded, timeout=30000):
+        review.load()
+    review.seek(3.0)
+    qtbot.waitUntil(lambda: [end for _start, end in review.plots.doubt_shown("knee_r")] == [pytest.approx(3.0, abs=0.02)],
+                    timeout=5000)
+    assert review.plots.doubt_shown("knee_r")[0][0] <= 0.1
+    assert review._doubt_regions  # on the timeline
+    assert review.doubt_status.isVisible() and "Right knee" in review.doubt_status.text()
+    assert "no body calibration" in review.doubt_status.text()
+    review.close()

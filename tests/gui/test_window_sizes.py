@@ -60,6 +60,9 @@ def main_window(qtbot, screen):
     qtbot.waitUntil(lambda: window.live.samples_received > 50, timeout=15000)
     window.live.publish_status()
     yield window
+    if window.live is not None and window.live.recording:  # a test that failed while recording:
+        window.action_record.trigger()                    # closing would ask whether to stop
+        window.wait_for_saving()
     window.close()
     window.deleteLater()
 

@@ -104,3 +104,28 @@ def test_a_damaged_marker_line_is_named(tmp_path):
     path.write_text('# marker 1.0 "unterminated\nt_s,knee_r_flexion_deg\n0,1\n', encoding="utf-8")
     with pytest.raises(ValueError, match="bad.csv: damaged marker line"):
         ae.read_angles_csv(path)
+
+
+def test_each_joint_gets_a_trust_column_after_its_angles_and_the_header_says_when_and_why(tmp_path):
+    from mimucap.core import doubt
+
+    angles = {"hip_r_flexion_deg": np.zeros(5), "knee_r_flexion_deg": np.ones(5), "knee_r_rotation_deg": np.ones(5)}
+    knee = np.array([0, doubt.FIELD_MISMATCH, doubt.FIELD_MISMATCH, 0, 0], dtype=doubt.DOUBT_DTYPE)
+    joint_doubt = {"hip_r": np.zeros(5, doubt.DOUBT_DTYPE), "knee_r": knee}
+    for suffix in (".csv", ".mot"):
+        path = tmp_path / f"a{suffix}"
+        ae.write_angles(path, T, angles, joint_doubt=joint_doubt)
+        text = path.read_text()
+        assert ("t_s,hip_r_flexion_deg,hip_r_ok,knee_r_flexion_deg,knee_r_rotation_deg,knee_r_ok" in text
+                or "time\thip_r_flexion_deg\thip_r_ok\tknee_r_flexion_deg\tknee_r_rotation_deg\tknee_r_ok" in text)
+        assert "<joint>_ok is 1 where the joint's angles are trustworthy" in text
+        assert ("doubtful knee_r 0.010-0.020 s: heading taken from a magnetic field that differs from the "
+                "calibrated one") in text
+        assert "doubtful hip_r: 0.0 % of the samples, 0 span(s)" in text
+        table = ae.read_angles_csv(path) if suffix == ".csv" else ae.read_angles_mot(path)
+        assert list(table.ok["knee_r"]) == [True, False, False, True, True] and table.ok["hip_r"].all()
+        assert set(table.angles_deg) == set(angles)  # the trust columns are not angles
+    opensim = tmp_path / "o.mot"
+    ae.write_angles_mot(opensim, T, angles, opensim_names=True, joint_doubt=joint_doubt)
+    text = opensim.read_text()
+    assert "knee_r_ok" not in text.split("endheader")[1] and "doubtful knee_r 0.010-0.020 s" in text

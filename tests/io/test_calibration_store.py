@@ -114,3 +114,62 @@ def test_session_embeds_the_calibrations_it_used(tmp_path: Path) -> None:
     np.testing.assert_array_equal(calibration.soft_iron, SOFT_IRON)
     with pytest.raises(KeyError, match="S03"):
         calibration_from_session(loaded.calibrations, "S03")
+
+
+def _with_device(sensor_id: str, device_id: str | None) -> MagCalibration:
+    from dataclasses import replace
+
+    return replace(make(sensor_id), device_id=device_id)
+
+
+def test_a_calibration_is_kept_for_its_device_and_labelled_by_its_sensor_id() -> None:
+    from mimucap.core.device_identity import SensorDevice
+
+    store = CalibrationStore()
+    path = store.save(_with_device("S01", "mac:A1B2C3D4E5F6"))
+    assert path == store.directory / "devices" / "mac_A1B2C3D4E5F6.json"
+    assert json.loads(path.read_text())["device_id"] == "mac:A1B2C3D4E5F6"
+    assert store.sensor_ids() == ["S01"] and store.load("S01").device_id == "mac:A1B2C3D4E5F6"
+    # the device answering to another id (its node re-numbered) still finds its own calibration
+    found = store.lookup("S07", SensorDevice("mac:A1B2C3D4E5F6"))
+    assert found.calibration is not None and found.calibration.device_id == "mac:A1B2C3D4E5F6" and found.note == ""
+    # another device numbered S01 does not take it, and is told why
+    found = store.lookup("S01", SensorDevice("mac:0200000000AA"))
+    assert found.calibration is None
+    assert found.note == ("the calibration stored under S01 is of MAC A1:B2:C3:D4:E5:F6 (2026-11-21T06:00:00Z); "
+                          "this sensor is MAC 02:00:00:00:00:AA: not used, calibrate it here")
+    # a sensor that does not say which device it is does not take a device's calibration either
+    found = store.lookup("S01", SensorDevice(None, "its node sends no hello"))
+    assert found.calibration is None and "S01 does not say which device it is (its node sends no hello)" in found.note
+    # and a sensor whose source has not said yet gets nothing, and no note, until it does
+    pending = store.lookup("S01", SensorDevice())
+    assert pending.calibration is None and pending.note == ""
+    store.save(_with_device("S01", "mac:0200000000AA"))
+    with pytest.raises(CalibrationFileError, match="2 devices have a calibration labelled S01"):
+        store.load("S01")
+    assert store.load("S01", "mac:0200000000AA").device_id == "mac:0200000000AA"
+
+
+def test_an_older_calibration_without_a_device_is_never_given_silently_to_a_known_device() -> None:
+    """A format-1 file (written before calibrations were tied to devices) may belong to any
+    device numbered S01: a sensor of a known device does not take it and is told why; a sensor
+    whose source says no device (an older node) takes it, unverified."""
+    from mimucap.core.device_identity import SensorDevice
+    from mimucap.core.magcal_standing import WARN, calibration_standing
+
+    store = CalibrationStore()
+    old = calibration_to_json(make("S01"))
+    old["format_version"] = 1
+    del old["device_id"]
+    (store.directory).mkdir(parents=True)
+    (store.directory / "S01.json").write_text(json.dumps(old))
+    found = store.lookup("S01", SensorDevice("sim:0011aabb/S01"))
+    assert found.calibration is None
+    assert found.note == ("the calibration stored under S01 was made before calibrations were tied to a device "
+                          "(2026-11-21T06:00:00Z); this sensor is simulated unit S01 of suit 0011aabb: not used, "
+                          "calibrate it here")
+    older_node = SensorDevice(None, "its node sends no hello")
+    found = store.lookup("S01", older_node)
+    assert found.calibration is not None and found.calibration.device_id is None
+    standing = calibration_standing(found.calibration, "S01", device=older_node, age_s=600.0)
+    assert standing.level == WARN and standing.summary() == "warn: device not verified: its node sends no hello"

@@ -324,3 +324,93 @@ def test_writers_refuse_bad_input_naming_what_is_wrong(review, tmp_path):
     with pytest.raises(ValueError, match="context must be Left, Right or General"):
         write_c3d(tmp_path / "x.c3d", review.model, review.height_m, review.t_s, review.q_world_from_segment,
                   review.angles_deg, events=[(1.0, "left", "Foot Strike")])
+
+
+# --------------------------------------------------------------------------------------------
+# Segment orientations of a session calibrated in the window (issue 31, point 1)
+# --------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("fmt", ["c3d", "bvh", "sto"])
+def test_exported_segment_headings_of_a_window_calibration_follow_the_truth(walk, review, tmp_path, fmt, capsys):
+    """The export of a session whose body calibration was made live (stored in the session),
+    read back by another program's reader: every segment's heading within 3° of the simulator's
+    in the N-pose (mean) and while walking (RMS), as for the command-line route
+    (``tests/cli/test_session_route.py``)."""
+    from tests.io.exported_segments import bvh_segments, c3d_segments, heading_figures, sto_segments
+
+    path = tmp_path / f"walk.{fmt}"
+    assert main(["export", str(walk), "--format", fmt, "--out", str(path)]) == 0
+    t, segments = {"c3d": lambda: c3d_segments(path, review.markers), "bvh": lambda: bvh_segments(path, review.markers),
+                   "sto": lambda: sto_segments(path)}[fmt]()
+    figures = heading_figures(t, segments, review.truth, still=[(0.1, 0.9)], moving=[(1.5, review.end_s)])
+    assert len(figures) >= 14  # every segment (the head has no OpenSense body)
+    with capsys.disabled():
+        print(f"\nwindow route, {fmt}: worst segment heading error N-pose {max(f[0] for f in figures.values()):.2f}°, "
+              f"walking RMS {max(f[1] for f in figures.values()):.2f}°")
+    for segment, (npose_deg, walking_deg) in figures.items():
+        assert npose_deg < 3.0 and walking_deg < 3.0, (segment, npose_deg, walking_deg)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(importlib.util.find_spec("opensim") is None,
+                    reason="opensim (OpenSim 4.6, test extra) is not installed: pip install opensim")
+@pytest.mark.data("opensense")
+def test_opensense_calibrates_on_the_calibration_table_of_a_window_calibration(walk, review, shared_data, tmp_path,
+                                                                              capsys):
+    """A table of walking alone (it does not begin in the N-pose) and its calibration table:
+    OpenSense's knee flexion within 3° RMS of the simulator's."""
+    table = tmp_path / "walking.sto"
+    assert main(["export", str(walk), "--format", "sto", "--from", "1.5", "--out", str(table)]) == 0
+    calibration = tmp_path / "walking_calibration.sto"
+    header = table.read_text().split("endheader")[0]
+    assert "calibrate on walking_calibration.sto" in header
+    model = shared_data / "body" / "opensense_example" / "Rajagopal_2015.osim"
+    from tests.io.exported_segments import opensense_knee_errors
+
+    errors = opensense_knee_errors(table, calibration, model, tmp_path / "ik", lambda t, c: truth_on(t, review, c))
+    with capsys.disabled():
+        print("\nOpenSense IK (calibration table) vs truth while walking, window route, RMS deg: "
+              + ", ".join(f"{k} {v:.2f}" for k, v in errors.items()))
+    assert max(errors.values()) < 3.0, errors
+
+
+# --------------------------------------------------------------------------------------------
+# Every output says what it holds (issue 31, point 5)
+# --------------------------------------------------------------------------------------------
+
+def test_every_file_says_what_it_holds(walk, review, tmp_path):
+    """One record (result, body calibration, magnetometer calibrations, skeleton model, software,
+    source file) in every file an export and the analysis write: the header lines of the text
+    files, the BVH's sidecar, the C3D's parameters (read by the ``c3d`` package)."""
+    from mimucap.session.analysis import analyse_review, write_analysis_csv
+    from mimucap.session.export import ExportRequest, run_export
+
+    record = review.provenance
+    assert record.result.startswith("reprocessed")
+    assert record.body_calibration.startswith("N-pose/T-pose, verdict ") and "made live" in record.body_calibration
+    assert "made 20" in record.body_calibration  # when (ISO date)
+    # a verdict and an age per sensor (the wizard's calibrations, made just before recording)
+    assert all(re.search(r"^S\d\d(, S\d\d)*: (good|warn), made within a minute of the recording$", text)
+               for text in record.magnetometer), record.magnetometer
+    assert sum(text.count("S") for text in record.magnetometer) == 17
+    assert record.skeleton_model.startswith("fifteen_segment (15 segments)")
+    assert record.software.startswith("MimuCap ") and record.source_file == "walk.h5"
+    lines = record.lines()
+    exported = run_export(review, ExportRequest(tmp_path / "all", review.start_s, review.end_s, sensors_csv=True,
+                                                opensim_mot=True, c3d=True, bvh=True, opensense_sto=True))
+    tables = write_analysis_csv(tmp_path / "tables", analyse_review(review))
+    names = sorted(p.name for p in exported.files + tables)
+    assert {"all.csv", "all.mot", "all_summary.csv", "all_S01.csv", "all_opensim.mot", "all_markers.csv",
+            "all_orientations.sto", "all_orientations_calibration.sto", "strides.csv", "parameters.csv"} <= set(names)
+    for path in exported.files + tables:
+        if path.suffix == ".c3d" or path.suffix == ".bvh":
+            continue
+        text = path.read_text(encoding="utf-8")
+        for line in lines:
+            assert line in text or line.replace("=", ":") in text, (path.name, line)
+    import c3d
+
+    with (tmp_path / "all.c3d").open("rb") as handle:
+        group = c3d.Reader(handle).get("MIMUCAP")
+        found = {name: [s.strip() for s in group.get(name).string_array] for name in record.parameters()}
+    assert found == record.parameters()

@@ -195,3 +195,14 @@ def test_missing_paths(tmp_path: Path) -> None:
         read_mag_files([tmp_path])
     with pytest.raises(ValueError, match="format"):
         read_mag_files([tmp_path], fmt="matlab")
+
+
+@pytest.mark.data("opensense")
+def test_an_xsens_export_names_its_device_and_a_fit_of_it_says_so(shared_data: Path, capsys) -> None:
+    """The export's DeviceId is the device a calibration of it belongs to (``xsens:<id>``)."""
+    from mimucap.cli import main
+
+    path = shared_data / "body" / "opensense_example" / "xsens_format_variants" / "MT_012005D6_031-000_00B421AF.txt"
+    assert read_xsens(path).device_id == "xsens:00B421AF"
+    main(["magcal", "fit", str(path), "--scale-to-uT", "49.3"])   # a short recording: its fit fails, as it should
+    assert "device         Xsens 00B421AF" in capsys.readouterr().out

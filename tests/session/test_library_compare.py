@@ -113,3 +113,19 @@ def test_two_recordings_of_the_simulated_suit_compare_as_the_simulator_moved():
         assert rows[column][3] == pytest.approx(expected_a[f"{column}_deg"].rom_deg, abs=6.0), column
         assert rows[column][6] == pytest.approx(expected_b[f"{column}_deg"].rom_deg, abs=6.0), column
     assert rows["knee_r_flexion"][3] > 40.0  # walking bends the knee
+
+
+def test_sessions_without_a_body_calibration_or_of_another_result_are_not_compared():
+    """Joint angles mean nothing without a body calibration, and two results of different kinds
+    differ by their processing: such pairs are refused with the reason."""
+    calibrated, other = _side("a.h5", 40.0), _side("b.h5", 40.0)
+    other.calibrated = False
+    with pytest.raises(ValueError, match="b.h5 has no body calibration, the other session has one"):
+        compare(calibrated, other)
+    calibrated.calibrated = False
+    with pytest.raises(ValueError, match="neither a.h5 nor b.h5 has a body calibration"):
+        compare(calibrated, other)
+    live = _side("b.h5", 40.0)
+    live.result = "live"
+    with pytest.raises(ValueError, match="a.h5 is reprocessed .*, b.h5 as seen live"):
+        compare(_side("a.h5", 40.0), live)

@@ -351,8 +351,9 @@ def test_after_a_restart_the_magnetometer_calibrations_are_back_with_their_age(t
     from mimucap.io.calibration_store import CalibrationStore
 
     store = CalibrationStore(tmp_path / "store")
+    s02 = SimulationConfig(scenario="npose").device_ids()["S02"]   # made on this suit's S02 before
     store.save(MagCalibration("S02", offset_uT=np.array([5.0, -3.0, 1.0]), soft_iron=np.eye(3), field_uT=49.0,
-                              created_utc="2026-01-01T00:00:00+00:00", quality={"verdict": "good"}))
+                              created_utc="2026-01-01T00:00:00+00:00", quality={"verdict": "good"}, device_id=s02))
     store.save(MagCalibration("S99", offset_uT=np.zeros(3), soft_iron=np.eye(3), field_uT=49.0))  # not worn today
     now = [50.0]
     clock = lambda: now[0]  # noqa: E731

@@ -151,6 +151,9 @@ class _NoAccelerometer:
     def instruct(self, instruction):
         self._feed.instruct(instruction)
 
+    def device(self, sensor_id):
+        return self._feed.device(sensor_id)
+
 
 def test_units_without_accelerometer_are_calibrated_without_the_dip_figure(tmp_path) -> None:
     simulator, feed = make_feed(seed=9)

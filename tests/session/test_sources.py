@@ -105,6 +105,20 @@ def test_a_replayed_session_keeps_the_sensor_placement_stored_in_it(tmp_path):
     assert live.sensor_segments == worn
 
 
+def test_a_replayed_session_is_the_devices_it_recorded(tmp_path):
+    from mimucap.core.device_identity import SensorDevice
+    from mimucap.io.session import DEVICE_NOT_RECORDED
+
+    t = np.arange(50) / 100.0
+    sensors = {sid: SensorSamples(sensor_id=sid, t_s=t, seq=np.arange(50), gyr=np.zeros((50, 3))) for sid in "AB"}
+    metadata = {"source": "test", "devices": {"A": {"device_id": "mac:A1B2C3D4E5F6"}}}
+    path = write_session(tmp_path / "devices.h5", Session(metadata=metadata, sensors=sensors))
+    config, = source_configs(f"replay:{path}")
+    assert dict(config.devices) == {"A": SensorDevice("mac:A1B2C3D4E5F6"), "B": SensorDevice(None, DEVICE_NOT_RECORDED)}
+    blocks, status = collect([config])
+    assert status["replay"].devices == dict(config.devices)     # reported as the source's
+
+
 def test_refusals_of_no_known_sensor_are_the_sources_less_the_sensors():
     from types import SimpleNamespace
 

@@ -7,10 +7,15 @@ of the machine). Tests therefore know the true mapping and can check the time-sy
 Motion comes from a :class:`MotionSource` (the simulated suit by default, see
 :mod:`mimucap.acquisition.emulate_motion`): node ``i`` (wire id ``first_sensor_id + i``)
 sends the motion source's sensor ``i mod n_sensors``.
+
+Each emulated node is a device of its own: its MAC (:func:`node_mac`, a locally administered
+address drawn from the seed and the wire id) is what its hello says, unless ``hello`` is off
+(nodes older than the hello, which send none).
 """
 
 from __future__ import annotations
 
+import hashlib
 import heapq
 import itertools
 from dataclasses import dataclass
@@ -18,6 +23,7 @@ from typing import Protocol
 
 import numpy as np
 
+from mimucap.acquisition.hello import Hello
 from mimucap.acquisition.samples import Sample
 
 
@@ -36,6 +42,7 @@ class EmulatorSettings:
     seed: int = 0
     first_sensor_id: int = 1
     battery_pct: float = 90.0
+    hello: bool = True           #: the nodes say hello with their MAC (off: older firmware)
 
     def __post_init__(self) -> None:
         if not 1 <= self.n_sensors <= 1024:
@@ -57,6 +64,17 @@ class EmulatorSettings:
 
     def sensor_ids(self) -> list[int]:
         return [self.first_sensor_id + i for i in range(self.n_sensors)]
+
+    def hellos(self) -> list[Hello]:
+        """Each node's hello (none when :attr:`hello` is off)."""
+        return [Hello(sensor_id, node_mac(self.seed, sensor_id)) for sensor_id in self.sensor_ids()] if self.hello else []
+
+
+def node_mac(seed: int, sensor_id: int) -> bytes:
+    """The MAC of emulated node ``sensor_id`` of the emulator seeded ``seed``: locally
+    administered and unicast (first byte ``0x02``), the rest drawn from both, so that two
+    emulators with other seeds are other devices under the same wire ids."""
+    return b"\x02" + hashlib.sha256(f"mimucap-emulated-node/{int(seed)}/{int(sensor_id)}".encode()).digest()[:5]
 
 
 class DeviceClock:

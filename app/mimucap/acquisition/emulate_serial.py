@@ -6,8 +6,10 @@ pyserial. With ``link`` set, a symbolic link at that path points to the current 
 :meth:`unplug` / :meth:`replug` emulate pulling the cable: the link disappears and the master
 is closed (the host's reads fail), then a new pty appears behind the same link path.
 Lines the host does not read fast enough are discarded when the pty buffer is full (counted
-in ``overflow``), as a real UART would. ``corrupt`` damages one byte of some lines. Clock,
-loss and jitter as in
+in ``overflow``), as a real UART would. ``corrupt`` damages one byte of some lines. Each node
+writes its hello line when it starts and every
+:data:`~mimucap.acquisition.hello.SERIAL_HELLO_PERIOD_S` (unless the settings emulate nodes
+older than the hello). Clock, loss and jitter as in
 :mod:`mimucap.acquisition.emulate_common`.
 """
 
@@ -21,6 +23,7 @@ from threading import Event, Lock
 
 from mimucap.acquisition import protocol_serial as proto
 from mimucap.acquisition.emulate_common import Corrupter, EmulatorSettings, MotionSource, NodeSchedule
+from mimucap.acquisition.hello import SERIAL_HELLO_PERIOD_S
 
 
 class SerialEmulator:
@@ -102,8 +105,13 @@ class SerialEmulator:
 
     def run(self, stop: Event | None = None) -> NodeSchedule:
         schedule = self.schedule = NodeSchedule(self.settings, self.motion, time.monotonic())
+        next_hello_s = schedule.start_host_s
         while not (stop is not None and stop.is_set()):
             now = time.monotonic()
+            if now >= next_hello_s:
+                for hello in self.settings.hellos():
+                    self._write(proto.encode_hello_line(hello))
+                next_hello_s = now + SERIAL_HELLO_PERIOD_S
             schedule.generate_until(now)
             for sample in schedule.pop_ready(now):
                 self._write(self.corrupt(proto.encode_line(sample), keep_tail=2))

@@ -1,8 +1,9 @@
 """UDP device emulator: N sensor nodes that speak the UDP protocol from one socket.
 
 Sends one datagram per sample and node to ``target`` (loopback in tests), answers
-time-sync requests with the emulated clock (see :mod:`mimucap.acquisition.emulate_common`)
-and misbehaves on demand: ``loss`` drops samples (their sequence numbers are skipped),
+time-sync requests with the emulated clock (see :mod:`mimucap.acquisition.emulate_common`),
+says each node's hello when it starts and when asked (unless the settings emulate nodes older
+than the hello) and misbehaves on demand: ``loss`` drops samples (their sequence numbers are skipped),
 ``corrupt`` damages one byte of some datagrams (the host refuses them: ``bad_checksum``),
 ``jitter_ms`` delays them, ``drift_ppm``/``offset_ms`` skew the node clock. The loop stops
 by itself after ``duration_s`` or when ``stop`` is set.
@@ -18,6 +19,7 @@ from threading import Event
 
 from mimucap.acquisition import protocol_udp as proto
 from mimucap.acquisition.emulate_common import Corrupter, EmulatorSettings, MotionSource, NodeSchedule
+from mimucap.acquisition.hello import HelloRequest
 
 
 def resolve_target(target: tuple[str, int]) -> tuple[str, int]:
@@ -60,6 +62,8 @@ class UdpEmulator:
         start = time.monotonic()
         schedule = self.schedule = NodeSchedule(self.settings, self.motion, start)
         try:
+            for hello in self.settings.hellos():      # a node says hello when it starts
+                self._send(proto.encode_hello(hello, self._node_time_us()), self.target)
             while not (stop is not None and stop.is_set()):
                 now = time.monotonic()
                 schedule.generate_until(now)
@@ -83,6 +87,16 @@ class UdpEmulator:
             self.sock.close()
         return schedule
 
+    def _node_time_us(self) -> int:
+        clock = self.schedule.clock
+        return int(round(clock.device_from_host(time.monotonic()) * 1e6))
+
+    def _send(self, packet: bytes, address: tuple[str, int]) -> None:
+        try:
+            self.sock.sendto(packet, address)
+        except OSError:
+            self.send_errors += 1
+
     def _answer_requests(self) -> None:
         assert self.schedule is not None
         clock = self.schedule.clock
@@ -95,6 +109,11 @@ class UdpEmulator:
                 continue
             received = clock.device_from_host(time.monotonic())
             request = proto.decode_packet(data)
+            if isinstance(request, HelloRequest):
+                for hello in self.settings.hellos():
+                    if request.target_id in (hello.sensor_id, proto.BROADCAST_ID):
+                        self._send(proto.encode_hello(hello, self._node_time_us()), address)
+                continue
             if not isinstance(request, proto.SyncRequest):
                 continue
             targets = self._ids if request.target_id == proto.BROADCAST_ID else (

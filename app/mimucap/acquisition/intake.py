@@ -12,6 +12,11 @@ pending, so memory stays bounded and latency stays low.
 Mapped host times are kept strictly increasing per sensor (a refit of the clock that would
 move a sample before its predecessor places it 1 µs after it).
 
+A node's hello (:mod:`mimucap.acquisition.hello`) says which device its sensor is
+(:meth:`SampleIntake.identify`); a sensor heard for :data:`~mimucap.acquisition.hello.HELLO_WAIT_S`
+without one is reported as lacking a device id (an older node), and the report's ``devices``
+carries both.
+
 A well-framed sample whose values are refused (:class:`RefusedSample`: NaN, beyond the limits)
 is a rejection of its sensor. Its sequence number, if newer than the last accepted one, waits
 until the next accepted sample: then it lies in the gap that sample leaves, and is reported in
@@ -24,10 +29,12 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from mimucap.acquisition.hello import HELLO_WAIT_S, NO_HELLO, Hello
 from mimucap.acquisition.messages import BlocksMessage, WorkerReport
 from mimucap.acquisition.rejections import Rejection, RejectionCounter
 from mimucap.acquisition.samples import BlockBuilder, RefusedSample, Sample, SequenceUnwrapper
 from mimucap.acquisition.timesync import ClockSync, ClockSyncSettings
+from mimucap.core.device_identity import SensorDevice
 
 #: Distinct unknown ids/addresses tracked individually; beyond this they are lumped together.
 MAX_TRACKED_UNKNOWN = 256
@@ -60,7 +67,7 @@ class IntakeSettings:
 
 class _SensorState:
     __slots__ = ("name", "unwrapper", "clock", "last_host_s", "last_device_s", "rejections",
-                 "restarts", "clock_settings", "pending_refused", "refused_in_gaps")
+                 "restarts", "clock_settings", "pending_refused", "refused_in_gaps", "device", "first_heard_s")
 
     def __init__(self, name: str, clock_settings: ClockSyncSettings) -> None:
         self.name = name
@@ -73,6 +80,8 @@ class _SensorState:
         self.restarts = 0
         self.pending_refused: deque[int] = deque(maxlen=MAX_PENDING_REFUSED)  # unwrapped numbers
         self.refused_in_gaps = 0
+        self.device: SensorDevice | None = None   # from the node's hello
+        self.first_heard_s: float | None = None   # host time of its first sample or hello
 
     def restart(self) -> None:
         """The node rebooted: its clock starts over (sequence numbers continue, see intake)."""
@@ -111,6 +120,7 @@ class SampleIntake:
         self._builder = BlockBuilder(source)
         self.rejections = RejectionCounter()
         self.unknown: dict[str, int] = {}
+        self._latest_s = float("-inf")   # host time of the newest input (the devices' clock)
 
     # ----------------------------------------------------------------- bookkeeping
     def reject(self, reason: Rejection, sensor_id: int | None = None) -> None:
@@ -145,6 +155,40 @@ class SampleIntake:
             state = self._sensors[sensor_id] = _SensorState(name, self.settings.clock)
         return state
 
+    def identify(self, hello: Hello, receive_time_s: float) -> bool:
+        """Take a node's hello, received at host time ``receive_time_s``; returns whether its
+        sensor's device changed (first told, or another node now sends under that id)."""
+        state = self.sensor(hello.sensor_id)
+        if state is None:
+            self.count_unknown(f"id {hello.sensor_id}", Rejection.UNKNOWN_SENSOR)
+            return False
+        self._heard(state, receive_time_s)
+        device = SensorDevice(hello.device_id)
+        changed = device != state.device
+        state.device = device
+        return changed
+
+    def identified(self, sensor_id: int) -> bool:
+        """Whether the node of wire id ``sensor_id`` has said hello."""
+        state = self._sensors.get(sensor_id)
+        return state is not None and state.device is not None
+
+    def _heard(self, state: _SensorState, receive_time_s: float) -> None:
+        if state.first_heard_s is None:
+            state.first_heard_s = receive_time_s
+        self._latest_s = max(self._latest_s, receive_time_s)
+
+    def devices(self) -> dict[str, SensorDevice]:
+        """Sensor name → its device (the hello's), or why it has none once it has been heard
+        for :data:`HELLO_WAIT_S` without a hello; sensors still waiting are left out."""
+        found = {}
+        for state in self._sensors.values():
+            if state.device is not None:
+                found[state.name] = state.device
+            elif state.first_heard_s is not None and self._latest_s - state.first_heard_s >= HELLO_WAIT_S:
+                found[state.name] = SensorDevice(None, NO_HELLO)
+        return found
+
     def clock(self, sensor_id: int) -> ClockSync | None:
         state = self._sensors.get(sensor_id)
         return None if state is None else state.clock
@@ -156,6 +200,7 @@ class SampleIntake:
         if state is None:
             self.count_unknown(f"id {sample.sensor_id}", Rejection.UNKNOWN_SENSOR)
             return False
+        self._heard(state, receive_time_s)
         restarted = state.last_device_s - sample.device_time_s > RESTART_CLOCK_JUMP_S
         if restarted:           # the node rebooted: new clock, and maybe a new counter
             state.restart()
@@ -215,4 +260,4 @@ class SampleIntake:
             rejections[Rejection.QUEUE_OVERFLOW.value] = overflow_samples
         return WorkerReport(self.source, state, message, rejections,
                             dict(self.unknown), by_sensor, clocks, overflow_samples, reconnects,
-                            restarts, self._refused_in_gaps())
+                            restarts, self._refused_in_gaps(), devices=self.devices())

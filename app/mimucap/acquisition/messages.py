@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 from mimucap.acquisition.samples import PackedBlock
 from mimucap.acquisition.timesync import ClockEstimate
+from mimucap.core.device_identity import SensorDevice
 from mimucap.core.samples import SensorSamples
 
 #: Worker states as reported to the supervisor.
@@ -70,3 +71,6 @@ class WorkerReport:
     signal_dbm: dict[str, float] = field(default_factory=dict)
     #: something the user should act on while the source runs (e.g. a refused SlimeVR tracker)
     warning: str = ""
+    #: sensor → which device it is, for the sensors the source can tell of (a node's hello, a
+    #: tracker's MAC, a simulated unit; or why it has none)
+    devices: dict[str, SensorDevice] = field(default_factory=dict)

@@ -9,18 +9,29 @@ One sample per ASCII line, NMEA-style, with an XOR checksum of every byte betwee
 Units: ``A`` m/s², ``G`` rad/s, ``M`` µT (sensor frame), ``Q`` = q_world_from_sensor scalar
 first, ``C`` calibration status 0..3, ``B`` battery percent; ``time_us`` is the board clock in
 µs. Each tag appears at most once, in this order. Lines longer than :data:`MAX_LINE_BYTES` are
-refused. :func:`parse_line` is total: any bytes give a Sample, a RefusedSample (a well-formed
-line whose values are refused, e.g. ``nan``/``inf`` spellings as ``non_finite``: its sensor and
-sequence number are kept) or a Rejection, never an exception and never a NaN.
+refused.
+
+A node says which hardware it is in a hello line, when it starts and every
+:data:`~mimucap.acquisition.hello.SERIAL_HELLO_PERIOD_S` (the link is one-way: the host cannot
+ask)::
+
+    $MIMUH,<sensor_id>,<MAC as 12 hex digits>*HH\\r\\n
+
+:func:`parse_line` is total: any bytes give a Sample, a RefusedSample (a well-formed line whose
+values are refused, e.g. ``nan``/``inf`` spellings as ``non_finite``: its sensor and sequence
+number are kept), a :class:`~mimucap.acquisition.hello.Hello` or a Rejection, never an exception
+and never a NaN.
 """
 
 from __future__ import annotations
 
+from mimucap.acquisition.hello import Hello
 from mimucap.acquisition.rejections import Rejection
 from mimucap.acquisition.samples import (DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits,
                                          validated_or_refused)
 
 TALKER = "MIMU"
+HELLO_TALKER = "MIMUH"
 MAX_LINE_BYTES = 256
 #: Tag → (sample attribute, number of values), in the only allowed order.
 TAGS = {
@@ -61,6 +72,12 @@ def encode_line(sample: Sample) -> bytes:
     return b"$" + body + b"*" + f"{checksum(body):02X}".encode("ascii") + b"\r\n"
 
 
+def encode_hello_line(hello: Hello) -> bytes:
+    """The hello line (with ``\\r\\n``) of a node."""
+    body = f"{HELLO_TALKER},{int(hello.sensor_id)},{bytes(hello.mac).hex().upper()}".encode("ascii")
+    return b"$" + body + b"*" + f"{checksum(body):02X}".encode("ascii") + b"\r\n"
+
+
 def _int_field(text: str, upper: int) -> int | None:
     if not text.isdigit() or len(text) > 20:
         return None
@@ -68,7 +85,7 @@ def _int_field(text: str, upper: int) -> int | None:
     return value if value <= upper else None
 
 
-def parse_line(line: bytes, limits: ValueLimits = DEFAULT_LIMITS) -> Sample | RefusedSample | Rejection:
+def parse_line(line: bytes, limits: ValueLimits = DEFAULT_LIMITS) -> Sample | RefusedSample | Hello | Rejection:
     """Decode one line (with or without its line terminator); never raises."""
     try:
         return _parse(bytes(line), limits)
@@ -76,7 +93,7 @@ def parse_line(line: bytes, limits: ValueLimits = DEFAULT_LIMITS) -> Sample | Re
         return Rejection.UNDECODABLE
 
 
-def _parse(line: bytes, limits: ValueLimits) -> Sample | RefusedSample | Rejection:
+def _parse(line: bytes, limits: ValueLimits) -> Sample | RefusedSample | Hello | Rejection:
     line = line.rstrip(b"\r\n")
     if len(line) > MAX_LINE_BYTES:
         return Rejection.OVERSIZED
@@ -93,6 +110,8 @@ def _parse(line: bytes, limits: ValueLimits) -> Sample | RefusedSample | Rejecti
     if checksum(body) != expected:
         return Rejection.BAD_CHECKSUM
     fields = text.split(",")
+    if fields[0] == HELLO_TALKER:
+        return _hello(fields)
     if len(fields) < 4 or fields[0] != TALKER:
         return Rejection.MALFORMED_LINE
     sensor_id = _int_field(fields[1], 0xFFFE)
@@ -125,3 +144,17 @@ def _parse(line: bytes, limits: ValueLimits) -> Sample | RefusedSample | Rejecti
         index += 1 + count
     sample = Sample(sensor_id=sensor_id, seq=seq, device_time_s=time_us * 1e-6, **values)
     return validated_or_refused(sample, limits)  # refuses NaN and infinity as non_finite
+
+
+def _hello(fields: list[str]) -> Hello | Rejection:
+    """A hello line's fields (``MIMUH``, sensor id, MAC) as a :class:`Hello`."""
+    if len(fields) != 3:
+        return Rejection.MALFORMED_LINE
+    sensor_id = _int_field(fields[1], 0xFFFE)
+    mac = fields[2]
+    if sensor_id is None or len(mac) != 12 or not all(c in "0123456789abcdefABCDEF" for c in mac):
+        return Rejection.BAD_FIELD
+    raw = bytes.fromhex(mac)
+    if raw in (bytes(6), b"\xff" * 6):
+        return Rejection.OUT_OF_RANGE   # a MAC that names no device
+    return Hello(sensor_id, raw)

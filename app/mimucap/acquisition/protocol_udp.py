@@ -18,7 +18,12 @@ Message types: ``1`` sample (node → host; ``time_us`` = node clock at measurem
 ``2`` time-sync request (host → node; ``sensor_id`` = target or ``0xFFFF`` for all,
 ``seq`` = request id, ``time_us`` = host send time t1), ``3`` time-sync response
 (node → host; ``seq`` = request id, ``time_us`` = node receive time t2, payload
-``t1_us u64`` echoed and ``t3_us u64`` node send time).
+``t1_us u64`` echoed and ``t3_us u64`` node send time), ``4`` hello (node → host, when it starts
+and on request; ``time_us`` = node clock, payload the node's factory MAC, 6 bytes, see
+:mod:`mimucap.acquisition.hello`), ``5`` hello request (host → node; ``sensor_id`` = target or
+``0xFFFF``, no payload). A node older than the hello ignores a hello request (it is no
+time-sync request) and sends no hello; a host older than the hello refuses a hello as
+``unknown_type``.
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import struct
 import zlib
 from dataclasses import dataclass
 
+from mimucap.acquisition.hello import Hello, HelloRequest
 from mimucap.acquisition.rejections import Rejection
 from mimucap.acquisition.samples import (DEFAULT_LIMITS, RefusedSample, Sample, ValueLimits,
                                          validated_or_refused)
@@ -36,7 +42,10 @@ VERSION = 1
 TYPE_SAMPLE = 1
 TYPE_SYNC_REQUEST = 2
 TYPE_SYNC_RESPONSE = 3
+TYPE_HELLO = 4
+TYPE_HELLO_REQUEST = 5
 BROADCAST_ID = 0xFFFF
+MAC_BYTES = 6
 
 FLAG_ACC = 1 << 0
 FLAG_GYR = 1 << 1
@@ -130,8 +139,20 @@ def encode_sync_response(response: SyncResponse) -> bytes:
                   response.node_receive_us, payload)
 
 
+def encode_hello(hello: Hello, node_time_us: int = 0) -> bytes:
+    """The datagram of a node's hello (``node_time_us``: its clock when sending, µs)."""
+    if len(hello.mac) != MAC_BYTES:
+        raise ValueError(f"a hello carries a {MAC_BYTES}-byte MAC, got {len(hello.mac)} bytes")
+    return _frame(TYPE_HELLO, hello.sensor_id, 0, 0, node_time_us, bytes(hello.mac))
+
+
+def encode_hello_request(request: HelloRequest) -> bytes:
+    """The datagram asking node ``request.target_id`` (or every node) for its hello."""
+    return _frame(TYPE_HELLO_REQUEST, request.target_id, 0, 0, 0, b"")
+
+
 def decode_packet(data: bytes, limits: ValueLimits = DEFAULT_LIMITS
-                  ) -> Sample | RefusedSample | SyncRequest | SyncResponse | Rejection:
+                  ) -> Sample | RefusedSample | SyncRequest | SyncResponse | Hello | HelloRequest | Rejection:
     """Decode one datagram; any input gives a message or a :class:`Rejection` (never raises)."""
     try:
         return _decode(bytes(data), limits)
@@ -140,7 +161,7 @@ def decode_packet(data: bytes, limits: ValueLimits = DEFAULT_LIMITS
 
 
 def _decode(data: bytes, limits: ValueLimits
-            ) -> Sample | RefusedSample | SyncRequest | SyncResponse | Rejection:
+            ) -> Sample | RefusedSample | SyncRequest | SyncResponse | Hello | HelloRequest | Rejection:
     if len(data) > MAX_PACKET_BYTES:
         return Rejection.OVERSIZED
     if len(data) < HEADER.size + CRC.size:
@@ -167,6 +188,20 @@ def _decode(data: bytes, limits: ValueLimits
             return Rejection.LENGTH_MISMATCH
         t1, t3 = SYNC_PAYLOAD.unpack(payload)
         return SyncResponse(sensor_id, seq, t1, time_us, t3)
+    if msg_type == TYPE_HELLO:
+        if flags:
+            return Rejection.UNKNOWN_FLAGS
+        if len(payload) != MAC_BYTES:
+            return Rejection.LENGTH_MISMATCH
+        if sensor_id == BROADCAST_ID:
+            return Rejection.UNKNOWN_SENSOR
+        if payload in (bytes(MAC_BYTES), b"\xff" * MAC_BYTES):
+            return Rejection.OUT_OF_RANGE   # a MAC that names no device
+        return Hello(sensor_id, payload)
+    if msg_type == TYPE_HELLO_REQUEST:
+        if flags or payload:
+            return Rejection.LENGTH_MISMATCH
+        return HelloRequest(sensor_id)
     return Rejection.UNKNOWN_TYPE
 
 

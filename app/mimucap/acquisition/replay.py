@@ -26,6 +26,7 @@ from mimucap.acquisition.messages import STATE_FINISHED, STATE_RUNNING, BlocksMe
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import RejectionCounter
 from mimucap.acquisition.samples import DEFAULT_LIMITS, ValueLimits, refused_rows
+from mimucap.core.device_identity import SensorDevice
 from mimucap.core.samples import CHANNELS, SensorSamples
 
 
@@ -81,11 +82,13 @@ class ReplaySourceConfig:
 
     ``streams``: each sensor's recorded samples to replay (``t_s`` recorded time, increasing;
     ``segment`` where the recording says the sensor was worn), as :func:`replayable` gives
-    them; ``refused``: (sensor id, rows refused before replay) pairs."""
+    them; ``refused``: (sensor id, rows refused before replay) pairs; ``devices``: (sensor id,
+    the device the recording says it was) pairs, reported as the source's."""
 
     name: str = "replay"
     streams: tuple[SensorSamples, ...] = ()
     refused: tuple[tuple[str, RefusedRows], ...] = ()
+    devices: tuple[tuple[str, SensorDevice], ...] = ()
     speed: float = 1.0              #: × real time
     block_interval_s: float = 0.01  #: s of host time between released blocks
     report_interval_s: float = 0.5
@@ -131,7 +134,7 @@ class ReplayDriver:
         by_sensor = {sensor: counter.as_dict() for sensor, counter in self.rejections_by_sensor.items()}
         return WorkerReport(self.config.name, state, message, self.rejections.as_dict(),
                             rejections_by_sensor=by_sensor, overflow_samples=self.outbox.overflow_samples,
-                            refused_in_gaps=self.refused_in_gaps())
+                            refused_in_gaps=self.refused_in_gaps(), devices=dict(self.config.devices))
 
     def refused_in_gaps(self) -> dict[str, int]:
         """Per sensor, the refused rows numbered between released ones so far."""

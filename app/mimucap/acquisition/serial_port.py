@@ -2,7 +2,8 @@
 
 Runs inside a worker process. Each line is decoded with
 :func:`~mimucap.acquisition.protocol_serial.parse_line`; the node clock is mapped with
-one-way timestamps (see :mod:`mimucap.acquisition.timesync`). When the device disappears
+one-way timestamps (see :mod:`mimucap.acquisition.timesync`); a node's hello line says which
+device its sensor is (:mod:`mimucap.acquisition.hello`). When the device disappears
 (unplugged: the read fails or the path is gone) the driver reports ``disconnected``, closes
 the port and tries to reopen the same path every ``reconnect_interval_s`` until it is back;
 the partial line at the moment of the unplug is discarded and counted.
@@ -17,6 +18,7 @@ from threading import Event
 import serial
 
 from mimucap.acquisition import protocol_serial as proto
+from mimucap.acquisition.hello import Hello
 from mimucap.acquisition.intake import IntakeSettings, SampleIntake
 from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_RUNNING, STATE_STARTING
 from mimucap.acquisition.outbox import Outbox
@@ -142,6 +144,9 @@ class SerialDriver:
         result = proto.parse_line(line, self.config.limits)
         if isinstance(result, Sample):
             self.intake.accept(result, now)
+        elif isinstance(result, Hello):
+            if self.intake.identify(result, now):
+                self.outbox.send_report(self.report(self.state, self.message))   # the device is known: tell now
         elif isinstance(result, RefusedSample):
             self.intake.refuse(result)
         else:

@@ -17,8 +17,9 @@ import numpy as np
 
 from mimucap.acquisition.messages import STATE_RUNNING, BlocksMessage, WorkerReport
 from mimucap.acquisition.outbox import Outbox
+from mimucap.core.device_identity import SensorDevice
 from mimucap.core.samples import SensorSamples
-from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SimulationConfig
+from mimucap.core.simulate.config import SimulationConfig, default_assignment
 from mimucap.core.simulate.suit import SuitSimulator
 
 DEFAULT_SENSORS = 10
@@ -50,9 +51,8 @@ class SimulatedSourceConfig:
                                 errors=self.errors, room=self.room)
 
     def sensor_segments(self) -> dict[str, str]:
-        """Sensor id → the segment it is worn on."""
-        ids = self.simulation_config().sensor_ids
-        return {sid: segment for sid, segment, _r, _n in SENSOR_PLACEMENTS if sid in ids}
+        """Sensor id → the segment it drives as the suit comes (one sensor per segment)."""
+        return default_assignment(self.simulation_config().sensor_ids)
 
 
 class SimulatedDriver:
@@ -63,7 +63,9 @@ class SimulatedDriver:
         self.sent = 0
 
     def report(self, state: str, message: str = "") -> WorkerReport:
-        return WorkerReport(self.config.name, state, message, overflow_samples=self.outbox.overflow_samples)
+        devices = {sid: SensorDevice(device_id) for sid, device_id in self.simulator.device_ids.items()}
+        return WorkerReport(self.config.name, state, message, overflow_samples=self.outbox.overflow_samples,
+                            devices=devices)
 
     def run(self, stop: Event) -> None:
         start = time.monotonic()

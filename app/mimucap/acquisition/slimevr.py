@@ -14,7 +14,9 @@ socket (port 6969 by default, where trackers look for a server), and speaks the 
   sensor on it.
 
 Each sensor of a tracker becomes one MimuCap sensor named ``"<MAC>-<sensor>"`` (the MAC as 12
-hex digits, e.g. ``"A1B2C3D4E5F6-0"``), stable across reconnects. It is *orientation-only*: its
+hex digits, e.g. ``"A1B2C3D4E5F6-0"``), stable across reconnects, and is the device
+``mac:<MAC>/<sensor>`` (:mod:`mimucap.core.device_identity`; a tracker whose handshake carries no
+MAC is named by its address and has no device id). It is *orientation-only*: its
 samples carry ``q_world_from_sensor`` (the tracker's on-board fusion, world ENU, see
 :func:`~mimucap.acquisition.slimevr_protocol.q_world_from_slimevr`) and, once the tracker has
 sent one, ``battery_pct``; no raw accelerometer, gyroscope or magnetometer. The acceleration
@@ -50,6 +52,10 @@ from mimucap.acquisition.messages import STATE_RUNNING, BlocksMessage, WorkerRep
 from mimucap.acquisition.outbox import Outbox
 from mimucap.acquisition.rejections import Rejection, RejectionCounter
 from mimucap.acquisition.samples import BlockBuilder, Sample, ValueLimits, DEFAULT_LIMITS, validate_sample
+from mimucap.core.device_identity import SensorDevice, mac_device_id
+
+#: Why the sensors of a tracker that sends no MAC have no device id.
+NO_MAC = "its tracker's handshake carries no MAC"
 
 #: Trackers served at most (a flood of handshakes with made-up MACs cannot grow the memory).
 MAX_TRACKERS = 256
@@ -312,6 +318,17 @@ class SlimeVrDriver:
                     out[sensor.name] = value
         return out
 
+    def devices(self) -> dict[str, SensorDevice]:
+        """Sensor name → its device: sensor ``n`` of the tracker's MAC."""
+        out = {}
+        for tracker in self._trackers.values():
+            for sensor_id, sensor in tracker.sensors.items():
+                try:
+                    out[sensor.name] = SensorDevice(mac_device_id(tracker.mac, sensor_id))
+                except ValueError:     # named by its address: the handshake had no MAC
+                    out[sensor.name] = SensorDevice(None, NO_MAC)
+        return out
+
     def report(self, state: str, message: str = "") -> WorkerReport:
         """A cumulative report of this source (see :class:`~mimucap.acquisition.messages.WorkerReport`)."""
         by_sensor = {}
@@ -327,4 +344,4 @@ class SlimeVrDriver:
                     if t.handshakes > 1}
         return WorkerReport(self.config.name, state, message, rejections,
                             dict(self.refused_trackers), by_sensor, {}, overflow, 0, restarts,
-                            signal_dbm=self.signal_dbm(), warning=self.warning)
+                            signal_dbm=self.signal_dbm(), warning=self.warning, devices=self.devices())

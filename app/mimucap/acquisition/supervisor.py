@@ -25,6 +25,7 @@ from mimucap.acquisition.samples import PackedBlock, join_packed_blocks
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.timesync import ClockEstimate
 from mimucap.acquisition.worker import SourceConfig, run_worker
+from mimucap.core.device_identity import SensorDevice
 from mimucap.core.samples import SensorSamples
 
 
@@ -59,6 +60,7 @@ class SourceStatus:
     node_restarts: dict[str, int] = field(default_factory=dict)   #: sensor → reboots seen
     signal_dbm: dict[str, float] = field(default_factory=dict)    #: sensor → radio link (dBm)
     warning: str = ""                #: the worker's last warning (see WorkerReport.warning)
+    devices: dict[str, SensorDevice] = field(default_factory=dict)   #: sensor → its device (WorkerReport.devices)
     exit_code: int | None = None
 
 
@@ -214,6 +216,7 @@ class Supervisor:
         status.node_restarts = dict(report.node_restarts)
         status.signal_dbm = dict(report.signal_dbm)
         status.warning = report.warning
+        status.devices.update(report.devices)   # a restarted worker has not told them all again yet
         for sensor, counts in report.rejections_by_sensor.items():
             if sensor in self._trackers:
                 self._trackers[sensor].rejections = dict(counts)

@@ -1,11 +1,13 @@
-"""UDP driver: receives sensor-node datagrams, answers nothing, asks for the time.
+"""UDP driver: receives sensor-node datagrams, answers nothing, asks for the time and the hello.
 
 Runs inside a worker process (see :mod:`mimucap.acquisition.worker`). It binds one socket,
 decodes every datagram with :func:`~mimucap.acquisition.protocol_udp.decode_packet`, refuses
 datagrams from addresses or sensor ids outside the session (counted), and sends each known
 node a time-sync request every ``sync_interval_s``; the answers feed the node's
-:class:`~mimucap.acquisition.timesync.ClockSync`. Memory is bounded by the kernel receive
-buffer (``receive_buffer_bytes``), the block size and the supervisor queue.
+:class:`~mimucap.acquisition.timesync.ClockSync`. A node that has not said which device it is
+gets a hello request with each of them (:mod:`mimucap.acquisition.hello`); its hello is reported
+at once. Memory is bounded by the kernel receive buffer (``receive_buffer_bytes``), the block
+size and the supervisor queue.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from threading import Event
 
 from mimucap.acquisition import protocol_udp as proto
 from mimucap.acquisition.datagram_socket import drain, open_datagram_socket
+from mimucap.acquisition.hello import Hello, HelloRequest
 from mimucap.acquisition.intake import IntakeSettings, SampleIntake
 from mimucap.acquisition.messages import STATE_RUNNING
 from mimucap.acquisition.outbox import Outbox
@@ -131,6 +134,9 @@ class UdpDriver:
                 self._addresses[message.sensor_id] = address
         elif isinstance(message, proto.SyncResponse):
             self._handle_sync_response(message, now)
+        elif isinstance(message, Hello):
+            if self.intake.identify(message, now):
+                self.outbox.send_report(self.report(STATE_RUNNING))   # the device is known: tell now
         else:
             self.intake.reject(Rejection.UNEXPECTED_MESSAGE)
 
@@ -157,5 +163,7 @@ class UdpDriver:
             packet = proto.encode_sync_request(proto.SyncRequest(sensor_id, request_id, send_us))
             try:
                 self.sock.sendto(packet, address)
+                if not self.intake.identified(sensor_id):
+                    self.sock.sendto(proto.encode_hello_request(HelloRequest(sensor_id)), address)
             except OSError:
                 pending.pop(request_id, None)

@@ -19,7 +19,7 @@ from mimucap import __version__
 
 #: Sub-command modules, in the order ``--help`` lists them.
 COMMAND_MODULES: tuple[str, ...] = ("gui", "magcal", "bodycal", "angles", "emulate", "record", "recover", "fuse", "bench",
-                                     "simulate", "export", "import_", "library", "gait", "report")
+                                     "simulate", "export", "import_", "library", "gait", "report", "protocol")
 
 EXIT_USAGE = 2
 

@@ -10,12 +10,14 @@ q_sensor_from_segment`` at the reference sensor's instants, and the joint angles
 whose two segments have sensors; conventions: ISB Z-X'-Y'', left mirrored, zero in the
 calibrated N-pose). A session is reprocessed (filter smoothed with past and future data) unless
 ``--live`` asks for the forward filter as the live view ran it. A calibration whose verdict is
-poor is refused unless ``--accept-poor``.
+poor is refused unless ``--accept-poor``. Each joint's ``<joint>_ok`` column says where its
+angles are trustworthy (1) or doubtful (0); the header lists the doubtful spans and why.
 """
 
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.cli.bodycal import add_reader_options, choose_model, read_input
@@ -49,6 +51,8 @@ def run(args: argparse.Namespace) -> int:
     from mimucap.core.skeleton import joint_angle_columns
     from mimucap.io.angles_export import write_angles
     from mimucap.io.body_calibration_file import read_body_calibration
+    from mimucap.session.calibrations import AppliedCalibrations
+    from mimucap.session.provenance import provenance
 
     calibration, document = read_body_calibration(args.calibration)
     if not str(args.out).lower().endswith((".csv", ".mot")):
@@ -69,8 +73,9 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise ValueError(f"{args.calibration}: segment(s) {', '.join(unknown)} not in model {model.name}")
     result = RESULT_LIVE if args.live else RESULT_REPROCESSED
+    trust = []
     if _is_session(args):
-        output, source_note, markers = _session_output(args, model, calibration, result)
+        output, record, markers, trust = _session_output(args, model, calibration, result)
     else:
         if args.live:
             raise ValueError(f"{args.input}: --live applies to MimuCap sessions (an orientation table has no filter to run)")
@@ -84,7 +89,9 @@ def run(args: argparse.Namespace) -> int:
                    for sid, q in table.q_world_from_sensor.items()}
         output = process_recording(streams, model, body_calibration=calibration, shoulder_sequence=args.shoulder)
         markers = ()
-        source_note = "orientations as the input gives them"
+        record = provenance(source_file=Path(args.input).name, result="orientations as the input gives them",
+                            calibrations=AppliedCalibrations(body=calibration, body_origin=str(args.calibration)),
+                            model=model, height_m=None)
     angles = output.angles_deg
     ordered = {c: angles[c] for c in joint_angle_columns(model, args.shoulder) if c in angles}
     if not ordered:
@@ -92,16 +99,30 @@ def run(args: argparse.Namespace) -> int:
             f"{args.calibration}: no joint has calibrated segments on both sides "
             f"(segments: {', '.join(calibration.sensors)})"
         )
-    notes = [
-        f"input: {args.input}",
-        f"calibration: {args.calibration} (method {calibration.quality.method}, verdict {calibration.quality.verdict})",
-        f"model: {model.name}",
-        f"result: {source_note}; computed from the sensors",
-    ]
-    write_angles(args.out, output.t_s, ordered, args.shoulder, notes, markers=markers)
+    notes = [f"input: {args.input}", "computed from the sensors"] + record.lines() + trust
+    write_angles(args.out, output.t_s, ordered, args.shoulder, notes, markers=markers,
+                 joint_doubt=output.joint_doubt)
     joints = [j for j in model.joint_names if any(c.startswith(j + "_") for c in ordered)]
     print(f"{len(output.t_s)} samples, {len(ordered)} angle columns ({', '.join(joints)}) written to {args.out}")
+    for line in doubt_summary(output.t_s, output.joint_doubt):
+        print(f"  {line}")
     return 0
+
+
+def doubt_summary(t_s, joint_doubt) -> list[str]:
+    """One line per joint whose angles are doubtful somewhere: the share of samples and every
+    reason in words."""
+    import numpy as np
+
+    from mimucap.core.doubt import describe
+
+    lines = []
+    for joint, reasons in joint_doubt.items():
+        doubtful = np.asarray(reasons) != 0
+        if np.any(doubtful):
+            why = describe(int(np.bitwise_or.reduce(np.asarray(reasons)[doubtful])))
+            lines.append(f"{joint}: doubtful in {100.0 * np.mean(doubtful):.1f} % of the samples ({why})")
+    return lines
 
 
 def _is_session(args: argparse.Namespace) -> bool:
@@ -111,13 +132,18 @@ def _is_session(args: argparse.Namespace) -> bool:
 
 
 def _session_output(args: argparse.Namespace, model, calibration, result: str):
-    """A session's joint angles through the processing path with ``calibration``, the result's
-    name and the session's markers."""
+    """A session's joint angles through the processing path with ``calibration``, what the
+    result holds (:func:`mimucap.session.provenance.provenance`), the session's markers and a
+    note on how long the gyroscope bridges a magnetometer."""
+    import numpy as np
+
     from mimucap.cli.bodycal import _refuse_up_for_session, check_reader_options
-    from mimucap.core.pipeline import RESULT_LABELS
-    from mimucap.cli.session_input import magnetometer_calibrations
+    from mimucap.cli.session_input import warn_about_magnetometers
+    from mimucap.core.doubt import bridge_note
     from mimucap.io.session import read_session
-    from mimucap.session.processing import process_session
+    from mimucap.session.calibrations import applied_calibrations
+    from mimucap.session.processing import process_session, recorded_processing, session_model
+    from mimucap.session.provenance import provenance
 
     check_reader_options(args)
     _refuse_up_for_session(args)
@@ -126,9 +152,18 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
     if missing:
         raise ValueError(f"{args.input}: calibrated sensor(s) {', '.join(missing)} missing from the data; it has: "
                          f"{', '.join(session.sensors)}")
-    mags, lines = magnetometer_calibrations(session, args.mag_calibration)
-    for line in lines:
+    applied = applied_calibrations(session, body=calibration, body_origin=str(args.calibration),
+                                   mag_files=args.mag_calibration or (), origin=str(args.input))
+    for line in applied.lines() + list(applied.notes):
         print(f"  {line}")
-    output = process_session(session, result=result, mag_calibrations=mags, body_calibration=calibration,
-                             model=model, shoulder_sequence=args.shoulder)
-    return output, RESULT_LABELS[result], session.markers
+    warn_about_magnetometers("angles", session, applied)
+    output = process_session(session, result=result, calibrations=applied, model=model,
+                             shoulder_sequence=args.shoulder)
+    record = provenance(source_file=Path(args.input).name, result=result, calibrations=applied, model=model,
+                        height_m=session_model(session)[1], metadata=session.metadata)
+    trust = []
+    if output.reference_sensor is not None and len(output.t_s) > 1:
+        step = float(np.median(np.diff(session.sensors[output.reference_sensor].t_s)))
+        fusion = recorded_processing(session, origin=str(args.input)).settings.fusion
+        trust.append(f"trust: {bridge_note(fusion, step)}")
+    return output, record, session.markers, trust

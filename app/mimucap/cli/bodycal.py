@@ -12,7 +12,8 @@ the orientation filter, reprocessed), and its N-pose and T-pose markers give the
 (``--npose`` required); with ``--heading-from pelvis_imu:z`` the forward direction is that
 sensor axis (OpenSense's ``base_heading_axis``) in the N-pose window (default: the first
 sample). A calibration whose verdict is poor is written but the command exits with status 3,
-unless ``--accept-poor``.
+unless ``--accept-poor``; so is one made while a sensor's magnetometer calibration is not good
+(another device's, a local field that no longer fits it, too old: each named with its figures).
 """
 
 from __future__ import annotations
@@ -24,7 +25,8 @@ import sys
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.cli.session_input import (
-    add_session_options, is_session, magnetometer_calibrations, orientation_table, pose_windows_from_markers,
+    add_session_options, is_session, magnetometer_calibrations, orientation_table,
+    pose_windows_from_markers, warn_about_magnetometers,
 )
 from mimucap.core.skeleton_models import MODEL_NAMES
 from mimucap.io.input_names import XSENS_FILE, XSENS_FOLDER
@@ -121,9 +123,10 @@ EXIT_POOR = 3
 def read_input(args: argparse.Namespace):
     """The orientation table of ``args.input`` with the reader options checked first (a
     session's through the processing path); the session too, or None; and the magnetometer
-    calibrations applied (sensor → calibration, :func:`magnetometer_calibrations`; empty for a
-    table)."""
+    calibrations applied (:func:`magnetometer_calibrations`; none for a table; judged on the
+    poses by :func:`judged_on_the_poses` once the windows are known)."""
     from mimucap.io.quaternion_tables import read_quaternion_table
+    from mimucap.session.calibrations import AppliedCalibrations
 
     if args.rate is not None and not (math.isfinite(args.rate) and args.rate > 0):
         raise ValueError(f"--rate {args.rate:g}: the update rate must be a positive number of Hz")
@@ -133,15 +136,27 @@ def read_input(args: argparse.Namespace):
 
         _refuse_up_for_session(args)
         session = read_session(args.input)
-        mags, lines = magnetometer_calibrations(session, args.mag_calibration)
-        for line in lines:
-            print(f"  {line}")
-        return orientation_table(session, str(args.input), mags), session, mags
+        mags = magnetometer_calibrations(session, args.mag_calibration)
+        return orientation_table(session, str(args.input), mags.magnetometer), session, mags
     if args.mag_calibration:
         raise ValueError(f"{args.input}: --mag-calibration applies to MimuCap sessions (raw magnetometer "
                          "samples), not to orientation tables")
     return read_quaternion_table(args.input, up_axis=args.up, sensor_names=args.sensor_names,
-                                 trial_prefix=args.trial, rate_hz=args.rate), None, {}
+                                 trial_prefix=args.trial, rate_hz=args.rate), None, AppliedCalibrations()
+
+
+def judged_on_the_poses(session, mags, npose: tuple[float, float] | None, tpose: tuple[float, float] | None):
+    """``mags`` (the calibrations applied) judged on the local field of the pose windows, from
+    the N-pose to the end of the T-pose (the whole recording without windows): the body
+    calibration takes its headings there, and a disturbance later in the recording is the
+    doubtful-data flags' business, not a reason to call the calibration stale."""
+    from dataclasses import replace
+
+    from mimucap.session.calibration_readiness import session_standings
+
+    windows = [w for w in (npose, tpose) if w is not None]
+    span = None if not windows else (min(w[0] for w in windows), max(w[1] for w in windows))
+    return replace(mags, standings=session_standings(session, mags.magnetometer, window_s=span))
 
 
 def _refuse_up_for_session(args: argparse.Namespace) -> None:
@@ -153,14 +168,14 @@ def _refuse_up_for_session(args: argparse.Namespace) -> None:
         raise ValueError(f"{args.input}: up axis {args.up} cannot apply: MimuCap sessions are z up")
 
 
-def static_npose_orientations(session, mags: dict, mapping: dict[str, str],
+def static_npose_orientations(session, mags, mapping: dict[str, str],
                               npose: tuple[float, float]) -> dict:
     """Sensor → ``q_world_from_sensor`` (4,) of the N-pose window from its mean accelerometer and
     calibrated magnetometer samples (:func:`mimucap.core.bodycal.static_alignment`, the filter's
     world frame and declination), for the mapped sensors fused with a magnetometer calibration
     (what their filters converge to, whatever transient the filter's estimate still carries);
     the others keep their orientation tracks. ``mags``: sensor → the magnetometer calibration
-    the processing path applied (:func:`read_input`)."""
+    the processing path applied (``magnetometer`` of :func:`read_input`'s calibrations)."""
     import numpy as np
 
     from mimucap.core import bodycal
@@ -190,6 +205,27 @@ def static_npose_orientations(session, mags: dict, mapping: dict[str, str],
     return found
 
 
+def pose_doubts(table, mapping: dict[str, str], npose: tuple[float, float] | None,
+                tpose: tuple[float, float] | None) -> dict[str, str]:
+    """Mapped sensor → why its orientation was doubtful (words) somewhere from the N-pose's start
+    to the T-pose's end (the N-pose alone without a T-pose), for the sensors the processing path
+    doubted there (:attr:`~mimucap.io.quaternion_tables.QuaternionTable.doubt`)."""
+    import numpy as np
+
+    from mimucap.core.doubt import describe
+
+    if npose is None or not table.doubt:
+        return {}
+    end = (tpose or npose)[1]
+    inside = (table.t_s >= npose[0]) & (table.t_s <= end)
+    found = {}
+    for sensor in mapping.values():
+        reasons = int(np.bitwise_or.reduce(table.doubt[sensor][inside])) if sensor in table.doubt and np.any(inside) else 0
+        if reasons:
+            found[sensor] = describe(reasons)
+    return found
+
+
 def register(subparsers) -> None:
     parser = subparsers.add_parser(
         "bodycal",
@@ -209,7 +245,8 @@ def register(subparsers) -> None:
                         help="forward estimate of the N/T-pose: the arm's swing (default) or its rotation axis (Podoprosvetov et al.)")
     parser.add_argument("--model", default="auto", help=f"skeleton model: auto, {', '.join(MODEL_NAMES)} or a JSON file")
     parser.add_argument("--accept-poor", action="store_true",
-                        help="exit 0 even when the calibration's verdict is poor")
+                        help="exit 0 even when the calibration's verdict is poor or a magnetometer calibration "
+                             "is not good")
     add_reader_options(parser)
     parser.add_argument("--out", required=True, metavar="CAL.json", help="calibration file to write")
     parser.add_argument("--json", action="store_true", help="print the calibration as JSON")
@@ -228,7 +265,9 @@ def run(args: argparse.Namespace) -> int:
     if not mapping:
         if not table.segment_hints:
             raise ValueError("--mapping SENSOR=SEGMENT[,...] is required (the input names no segments)")
-        mapping = {segment: sensor for sensor, segment in table.segment_hints.items()}
+        from mimucap.core.pipeline import one_sensor_per_segment
+
+        mapping = {segment: sensor for sensor, segment in one_sensor_per_segment(table.segment_hints).items()}
     model = choose_model(args.model, mapping)
     mapping = bodycal.check_mapping(mapping, table.sensor_ids, model.segment_names)
     npose = parse_window(args.npose, "--npose") if args.npose else None
@@ -239,10 +278,15 @@ def run(args: argparse.Namespace) -> int:
         npose, tpose = pose_windows_from_markers(session.markers, float(table.t_s[-1]))
         print(f"  pose windows from the session's markers: N-pose {npose[0]:.2f}-{npose[1]:.2f} s, "
               f"T-pose {tpose[0]:.2f}-{tpose[1]:.2f} s")
+    if session is not None:
+        mags = judged_on_the_poses(session, mags, npose, tpose)
+        for line in mags.lines():
+            print(f"  {line}")
+        warn_about_magnetometers("bodycal", session, mags)
     if tpose is not None:
         if npose is None:
             raise ValueError("--tpose needs --npose T0:T1 as well")
-        static = {} if session is None else static_npose_orientations(session, mags, mapping, npose)
+        static = {} if session is None else static_npose_orientations(session, mags.magnetometer, mapping, npose)
         calibration = bodycal.calibrate_npose_tpose(
             table.t_s, table.q_world_from_sensor, mapping, npose, tpose,
             up_world=table.up_world, arms=args.arms,
@@ -260,7 +304,15 @@ def run(args: argparse.Namespace) -> int:
         )
     else:
         raise ValueError("give --tpose T2:T3 (N/T-pose calibration) or --heading-from SENSOR:AXIS")
+    from mimucap.session.calibrations import with_magnetometers
+
+    calibration = bodycal.with_doubtful_sensors(calibration, pose_doubts(table, mapping, npose, tpose))
+    # the magnetometer calibrations its N-pose orientations were computed with go with it
+    calibration = with_magnetometers(calibration, mags.magnetometer if session is not None else None,
+                                     origin=f"mimucap bodycal of {args.input}")
     extra = {"model": model.name, "input": str(args.input), "world_frame": table.world_frame}
+    if mags.standings:
+        extra["magnetometer_standing"] = {sid: standing.to_json() for sid, standing in mags.standings.items()}
     document = write_body_calibration(args.out, calibration, extra)
     if args.json:
         print(json.dumps(document, indent=2))
@@ -284,5 +336,11 @@ def run(args: argparse.Namespace) -> int:
     if calibration.quality.verdict == "poor" and not args.accept_poor:
         print(f"mimucap bodycal: the calibration's verdict is poor ({'; '.join(calibration.quality.problems)}): "
               "redo the poses, or pass --accept-poor to use it anyway", file=sys.stderr)
+        return EXIT_POOR
+    poor_magnetometers = [sid for sid in mags.not_good() if sid in mapping.values()]
+    if poor_magnetometers and not args.accept_poor:
+        print(f"mimucap bodycal: the magnetometer calibration of {', '.join(poor_magnetometers)} is not good (see "
+              "above): the N-pose headings it gives are not to be trusted; calibrate the magnetometers again, or "
+              "pass --accept-poor to use the calibration anyway", file=sys.stderr)
         return EXIT_POOR
     return 0

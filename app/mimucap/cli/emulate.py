@@ -1,14 +1,15 @@
 """``mimucap emulate``: emulated sensor devices driven by the simulated suit.
 
     mimucap emulate udp --sensors N --rate HZ --target HOST:PORT [--loss P] [--jitter MS]
-                        [--drift PPM] [--offset-ms MS] [--duration S] [--corrupt P]
+                        [--drift PPM] [--offset-ms MS] [--duration S] [--corrupt P] [--no-hello]
     mimucap emulate serial --sensors N --rate HZ [--link PATH] [--loss P] [--jitter MS]
                         [--drift PPM] [--offset-ms MS] [--duration S]
-                        [--unplug-after S --unplug-for S]
+                        [--unplug-after S --unplug-for S] [--no-hello]
 
-``udp`` runs N nodes speaking the UDP protocol (answering time-sync requests); ``serial``
-writes the serial line protocol on a pseudo-terminal and prints the device path to open
-(first line of the output). The emulated clock reads ``host_monotonic·(1+drift) + offset``.
+``udp`` runs N nodes speaking the UDP protocol (answering time-sync and hello requests);
+``serial`` writes the serial line protocol on a pseudo-terminal and prints the device path to
+open (first line of the output). Each node says hello with a MAC of its own (drawn from
+``--seed`` and its wire id); ``--no-hello`` emulates nodes older than the hello. The emulated clock reads ``host_monotonic·(1+drift) + offset``.
 Both stop after ``--duration`` seconds, or on Ctrl+C. ``--unplug-after`` and ``--unplug-for``
 are seconds ≥ 0 (``--unplug-for``, default 1 s, only with ``--unplug-after``).
 """
@@ -47,6 +48,8 @@ def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--scenario", default="demo", help="what the simulated subject does (default demo)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--first-id", type=int, default=1, metavar="ID", help="wire id of the first node")
+    parser.add_argument("--no-hello", action="store_true",
+                        help="nodes older than the hello: they never say which device they are")
 
 
 def register(subparsers) -> None:
@@ -84,7 +87,7 @@ def _settings(args: argparse.Namespace) -> EmulatorSettings:
     return EmulatorSettings(n_sensors=args.sensors, rate_hz=args.rate, loss=args.loss, jitter_ms=args.jitter,
                             corrupt=args.corrupt,
                             drift_ppm=args.drift, offset_ms=args.offset_ms, duration_s=args.duration,
-                            seed=args.seed, first_sensor_id=args.first_id)
+                            seed=args.seed, first_sensor_id=args.first_id, hello=not args.no_hello)
 
 
 def run(args: argparse.Namespace) -> int:

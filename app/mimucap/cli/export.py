@@ -5,19 +5,23 @@
 
 The motion is the pipeline's result for the session (segment orientations and joint angles, as
 the review shows them), computed with the session's stored calibrations, or with the body
-calibration of ``--calibration``. The format follows ``--format``, else the suffix of ``--out``:
+calibration of ``--calibration`` and the magnetometer calibrations it was made with
+(:func:`mimucap.session.calibrations.applied_calibrations`). The format follows ``--format``,
+else the suffix of ``--out``:
 
 * ``c3d``: joint angles (``LKneeAngles``… X/Y/Z = flexion/adduction/rotation, degrees), segment
   orientations, joint centres, the markers as events (Visual3D, Mokka, Vicon Nexus, OpenSim);
 * ``bvh``: the skeleton's hierarchy and motion (Blender, MotionBuilder, game engines);
 * ``sto``: an OpenSense orientation table, one virtual IMU per segment (``--raw-sensors``: the
-  sensors' own orientations) for OpenSim's IMUPlacer and IMUInverseKinematicsTool;
+  sensors' own orientations) for OpenSim's IMUPlacer and IMUInverseKinematicsTool, and beside
+  it ``<name>_calibration.sto``, the body calibration's N-pose for IMUPlacer;
 * ``mot``: joint angles as an OpenSim motion (``--opensim-names``: as OpenSim coordinates);
 * ``csv``: joint angles with a header naming sequences, signs and units.
 
 ``--from``/``--to`` (seconds) keep a part of the recording. The markers go into every format that
 has a place for them: C3D events, ``.mot``/``.csv``/``.sto`` header lines; BVH has none, so they
-are listed in a ``.markers.csv`` file beside it.
+are listed in a ``<name>_markers.csv`` file beside it. Every file says what it holds (result,
+calibrations, model, software, source file: :mod:`mimucap.session.provenance`).
 """
 
 from __future__ import annotations
@@ -61,22 +65,6 @@ def choose_format(out: str, given: str | None) -> str:
     return suffix
 
 
-def review_for_export(session_path: str | Path, calibration_path: str | Path | None = None):
-    """The pipeline's result for ``session_path`` (:func:`mimucap.session.review.load_review`),
-    with the body calibration read from ``calibration_path`` in place of the stored one."""
-    from mimucap.session import review
-
-    if calibration_path is None:
-        return review.load_review(session_path)
-    from mimucap.io.body_calibration_file import read_body_calibration
-    from mimucap.session.recording import open_session
-
-    calibration, _document = read_body_calibration(calibration_path)
-    session = open_session(session_path)
-    session.calibrations = {**session.calibrations, "body": calibration.to_dict()}
-    return review.build_review(session_path, session)
-
-
 def run(args: argparse.Namespace) -> int:
     fmt = choose_format(args.out, args.format)
     if args.opensim_names and fmt != "mot":
@@ -86,8 +74,12 @@ def run(args: argparse.Namespace) -> int:
     check_output_path(args.out)
     refuse_to_overwrite_input(args.out, args.session, args.calibration)
     from mimucap.session.export import write_motion_file
+    from mimucap.session.review import load_review
 
-    data = review_for_export(args.session, args.calibration)
+    from mimucap.cli.session_input import warn_about_magnetometers
+
+    data = load_review(args.session, calibration_file=args.calibration)
+    warn_about_magnetometers("export", data.session, data.calibrations)
     written = write_motion_file(data, fmt, Path(args.out), args.t_from, args.t_to, opensim_names=args.opensim_names,
                                 raw_sensors=args.raw_sensors)
     print(f"{data.path.name} ({data.pose_source}): {len(written)} file(s) written: "

@@ -60,7 +60,7 @@ def _inputs(path: Path, sensor: str | None, no_mag: bool,
     """``(sensor id or None, t_s, gyr, acc, mag)`` for each stream to fuse; a session's
     magnetometer samples come calibrated, as the processing path calibrates them (the session's
     own calibrations, the stored ones, or ``mag_files``; :mod:`mimucap.cli.session_input`)."""
-    from mimucap.cli.session_input import magnetometer_calibrations
+    from mimucap.cli.session_input import magnetometer_calibrations, warn_about_magnetometers
     from mimucap.io.broad import is_broad_file, read_broad
     from mimucap.io.session import read_session
 
@@ -79,9 +79,11 @@ def _inputs(path: Path, sensor: str | None, no_mag: bool,
     session = read_session(path)
     calibrations = {}
     if not no_mag:
-        calibrations, lines = magnetometer_calibrations(session, mag_files)
-        for line in lines:
+        mags = magnetometer_calibrations(session, mag_files)
+        for line in mags.lines():
             print(f"  {line}")
+        warn_about_magnetometers("fuse", session, mags)
+        calibrations = mags.magnetometer
     streams = session.sensors
     if sensor is not None:
         if sensor not in streams:

@@ -9,7 +9,9 @@ units, i.e. counts); a plain 3-column CSV without a stated unit is taken as µT.
 object is printed with exactly the keys ``offset_uT``, ``soft_iron``, ``field_uT``,
 ``rms_residual_uT``, ``rms_residual_pct``, ``condition``, ``samples_used``,
 ``samples_rejected``, ``verdict``, ``reasons``. ``--save`` stores the calibration for the
-sensor (see :mod:`mimucap.io.calibration_store`). A refused fit exits with status 1 and its
+sensor's device (see :mod:`mimucap.io.calibration_store`: the device the file names, a
+session's recorded device or an Xsens export's device id; a file that names none stores it for
+an unknown device, under the sensor id). A refused fit exits with status 1 and its
 reason. A fit whose verdict is ``fail`` is printed but never saved (a calibration already
 stored for the sensor is kept) and exits with status :data:`FAIL_EXIT_STATUS`, so that a
 script can tell it from a usable fit.
@@ -153,10 +155,11 @@ def _fit(recordings: list[MagRecording], sensor_id: str, args: argparse.Namespac
 
     mag, acc = _samples_uT(recordings, args)
     created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
+    devices = {r.device_id for r in recordings}
     try:
         return calibrate(
             mag, sensor_id, acc=acc, settings=FitSettings(method=args.method, field_uT=args.field_uT),
-            protocol=protocol, created_utc=created,
+            protocol=protocol, created_utc=created, device_id=devices.pop() if len(devices) == 1 else None,
         )
     except ValueError as error:  # e.g. too few samples: say whose samples
         raise ValueError(f"{_samples_origin(recordings, sensor_id)}: {error}") from None
@@ -193,6 +196,8 @@ def _save(result, args: argparse.Namespace) -> Path | None:
 
 
 def _print_detail(result, heading: str, saved: Path | None) -> None:
+    from mimucap.core.device_identity import describe_device
+
     fit, quality = result.fit, result.quality
     print(heading)
     print(f"offset_uT      {_vector(fit.offset_uT)}")
@@ -212,6 +217,7 @@ def _print_detail(result, heading: str, saved: Path | None) -> None:
     print(f"verdict        {quality.verdict}")
     for reason in quality.reasons:
         print(f"  - {reason}")
+    print(f"device         {describe_device(result.calibration.device_id) if result.calibration.device_id else 'not known'}")
     if saved is not None:
         print(f"saved          {saved}")
 
@@ -248,6 +254,7 @@ def session_turn_recordings(path: Path, sensor: str | None) -> tuple[dict[str, M
     from mimucap.io.session import read_session
 
     session = read_session(path, include_truth=False)
+    devices = session.devices()
     # Just past the last sample, so that a window running to the end of the recording holds it.
     end_s = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s)), default=0.0) + 1.0
     windows = phases.phase_windows(session.markers, phases.MAG_TURNS, end_s)
@@ -268,7 +275,7 @@ def session_turn_recordings(path: Path, sensor: str | None) -> tuple[dict[str, M
         picked = stream.rows(keep)   # one selection: the magnetometer rows and their companions
         recordings[sid] = MagRecording(
             source=f"{path}#{sid}", sensor_id=sid, mag=np.asarray(picked.mag_uT, dtype=np.float64), unit="uT",
-            t_s=np.asarray(picked.t_s, dtype=np.float64), imu=picked)
+            t_s=np.asarray(picked.t_s, dtype=np.float64), imu=picked, device_id=devices[sid].device_id)
     if not recordings:
         raise ValueError(f"{path}: no sensor with a magnetometer in this session "
                          f"(sensors: {', '.join(session.sensors) or 'none'})")
@@ -319,6 +326,12 @@ def _run_session_fit(args: argparse.Namespace) -> int:
               f"{'yes' if saved[sid] is not None else '-'}")
         for reason in quality.reasons:
             print(f"  - {reason}")
+    devices = sorted({r.device_id.partition("/")[0] for r in recordings.values() if r.device_id})
+    unknown = [sid for sid, r in recordings.items() if not r.device_id]
+    if devices:
+        print(f"devices        {', '.join(devices)}" + (f"; not known for {', '.join(unknown)}" if unknown else ""))
+    elif unknown:
+        print("devices        not known (the session does not say): stored under the sensor ids")
     for folder in sorted(folders):
         print(f"saved in {folder}")
     return status

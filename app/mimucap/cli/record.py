@@ -80,6 +80,16 @@ def _status(supervisor: Supervisor) -> dict:
     return {"sensors": stats, "sources": sources}
 
 
+def _devices(supervisor: Supervisor) -> dict:
+    """Sensor → what its source told of its device (the session's ``devices``)."""
+    from mimucap.core.device_identity import devices_to_json
+
+    told = {}
+    for source in supervisor.sources().values():
+        told.update(source.devices)
+    return devices_to_json(told)
+
+
 #: The source kinds each source-specific option applies to (it is refused for the others).
 OPTION_SOURCES = {
     "--sensors": (UdpSpec, SerialSpec),
@@ -183,7 +193,7 @@ def run(args: argparse.Namespace) -> int:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     status = _status(supervisor)
-    result = recorder.stop(status, reason)
+    result = recorder.stop(status, reason, devices=_devices(supervisor))
     print(f"{'sensor':>10} {'samples':>8} {'drops':>6} {'rate Hz':>8} {'p95 ms':>7}  rejections")
     for name, s in status["sensors"].items():
         rejected = ", ".join(f"{k}: {v}" for k, v in s["rejections"].items()) or "-"

@@ -2,18 +2,21 @@
 
 ``bodycal`` and ``angles`` read a session's raw samples and run them through
 :func:`mimucap.session.processing.process_session` (magnetometer calibration, orientation
-filter, body calibration, joint angles), exactly as review and export do. The magnetometer
-calibrations applied are, for each sensor, the first found of: a ``--mag-calibration`` file,
-the calibration the session recorded, the user's calibration store (where ``mimucap magcal fit
---save`` and the wizard keep them). The N-pose and T-pose windows come from the session's
+filter, body calibration, joint angles), exactly as review and export do, with the
+calibrations :func:`mimucap.session.calibrations.applied_calibrations` chooses (per sensor: a
+``--mag-calibration`` file, the one the body calibration was made with, the one the session
+recorded, the user's calibration store for a session that does not record its live
+processing, which gives a sensor only its own device's calibration). Each calibration applied
+is judged as the live view judges it (verdict, device, the recording's local field, age), and
+one that is not good is named with its figures (:func:`warn_about_magnetometers`), as is a
+stored calibration that is not used. The N-pose and T-pose windows come from the session's
 markers when none are given.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
+import sys
 
 #: Seconds after a pose's marker before the pose can be held (the subject gets into it).
 POSE_SETTLE_S = 1.0
@@ -34,42 +37,40 @@ def is_session(path) -> bool:
     return orientation_input_kind(path) == MIMUCAP_SESSION
 
 
-def magnetometer_calibrations(session, files) -> tuple[dict, list[str]]:
-    """Sensor → the calibration to apply (see the module docstring) and one line per sensor
-    saying where its calibration came from."""
-    from mimucap.io.calibration_store import CalibrationFileError, CalibrationStore, calibration_from_json
-    from mimucap.session.processing import recorded_processing
+def magnetometer_calibrations(session, files):
+    """The magnetometer calibrations to apply to ``session`` without its body calibration
+    (:func:`mimucap.session.calibrations.applied_calibrations` with the files given): an
+    :class:`~mimucap.session.calibrations.AppliedCalibrations` whose ``lines()`` say, per
+    sensor, where its calibration came from and how it stands."""
+    from mimucap.session.calibrations import applied_calibrations
 
-    chosen: dict = {}
-    origin: dict[str, str] = {}
-    for name in files or []:
-        path = Path(name)
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as error:
-            raise ValueError(f"--mag-calibration {path}: cannot read it ({error})") from None
-        calibration = calibration_from_json(data, str(path))
-        if calibration.sensor_id not in session.sensors:
-            raise ValueError(f"--mag-calibration {path}: sensor {calibration.sensor_id} is not in the session "
-                             f"(it has {', '.join(session.sensors)})")
-        chosen[calibration.sensor_id] = calibration
-        origin[calibration.sensor_id] = str(path)
-    recorded = recorded_processing(session).mag_calibrations
-    store = CalibrationStore()
-    stored = set(store.sensor_ids())
-    for sensor_id, stream in session.sensors.items():
-        if sensor_id in chosen or stream.mag_uT is None:
-            continue
-        if sensor_id in recorded:
-            chosen[sensor_id], origin[sensor_id] = recorded[sensor_id], "recorded with the session"
-        elif sensor_id in stored:
-            try:
-                chosen[sensor_id], origin[sensor_id] = store.load(sensor_id), f"stored ({store.path_for(sensor_id)})"
-            except CalibrationFileError as error:
-                raise ValueError(str(error)) from None
-    lines = [f"magnetometer {sid}: {origin.get(sid, 'not calibrated (raw field used)')}"
-             for sid, stream in session.sensors.items() if stream.mag_uT is not None]
-    return chosen, lines
+    return applied_calibrations(session, mag_files=files or (), stored_body=False)
+
+
+def warn_about_magnetometers(command: str, session, applied, origin: str = "") -> list[str]:
+    """Print on stderr a warning naming each sensor whose applied calibration is not good for
+    this recording (with its figures), whose stored calibration was not used, or whose raw field
+    is used, and return the sensors not good. ``applied``: the
+    :class:`~mimucap.session.calibrations.AppliedCalibrations`; ``origin``: the session's file,
+    named when a command reads several."""
+    from mimucap.core.clinical_names import sensor_name
+
+    def name(sid: str) -> str:
+        return sensor_name(session.sensors[sid].segment, sid)
+
+    head = f"mimucap {command}: warning: " + (f"{origin}: " if origin else "")
+    for sid in applied.not_good():
+        print(f"{head}the magnetometer calibration of {name(sid)} is "
+              f"{applied.standings[sid].summary()}; calibrate it again where the recording is made",
+              file=sys.stderr)
+    for sid, note in applied.store_notes.items():
+        print(f"{head}{name(sid)} is not calibrated: {note}", file=sys.stderr)
+    raw = [sid for sid in applied.raw_field if sid not in applied.store_notes]
+    if raw:
+        more = f" and {len(raw) - 3} more" if len(raw) > 3 else ""
+        print(f"{head}the recording holds no magnetometer calibration for {', '.join(raw[:3])}{more}: their raw "
+              "field is used", file=sys.stderr)
+    return applied.not_good()
 
 
 def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -102,15 +103,20 @@ def pose_windows_from_markers(markers, end_s: float) -> tuple[tuple[float, float
 
 
 def orientation_table(session, source: str, mag_calibrations: dict):
-    """Every sensor's orientation (reprocessed) on the reference sensor's instants where every
-    sensor has one, as a :class:`~mimucap.io.quaternion_tables.QuaternionTable` (world ENU)."""
+    """Every sensor's orientation (reprocessed, with ``mag_calibrations``: sensor → the
+    magnetometer calibration applied) on the reference sensor's instants where every sensor has
+    one, as a :class:`~mimucap.io.quaternion_tables.QuaternionTable` (world ENU), with the
+    reasons each may be wrong."""
     import numpy as np
 
+    from mimucap.core.doubt import at_instants
     from mimucap.core.pipeline import RESULT_REPROCESSED, finite_track, orientation_at
     from mimucap.io.quaternion_tables import QuaternionTable
+    from mimucap.session.calibrations import AppliedCalibrations
     from mimucap.session.processing import process_session
 
-    output = process_session(session, result=RESULT_REPROCESSED, mag_calibrations=mag_calibrations)
+    output = process_session(session, result=RESULT_REPROCESSED,
+                             calibrations=AppliedCalibrations(magnetometer=dict(mag_calibrations)))
     for problem in output.problems:
         print(f"  {problem}")
     tracks = {sid: finite_track(session.sensors[sid].t_s, q) for sid, q in output.q_world_from_sensor.items()}
@@ -124,4 +130,6 @@ def orientation_table(session, source: str, mag_calibrations: dict):
     t_common = t_ref[(t_ref >= start) & (t_ref <= stop)]
     quats = {sid: orientation_at(t_common, t, q) for sid, (t, q) in tracks.items()}
     hints = {sid: s.segment for sid, s in session.sensors.items() if s.segment}
-    return QuaternionTable(t_common, quats, np.array([0.0, 0.0, 1.0]), "ENU", source, hints)
+    hold_s = float(np.max(np.diff(t_ref))) if len(t_ref) > 1 else 0.0
+    doubts = {sid: at_instants(t_common, session.sensors[sid].t_s, output.doubt[sid], hold_s) for sid in tracks}
+    return QuaternionTable(t_common, quats, np.array([0.0, 0.0, 1.0]), "ENU", source, hints, doubts)

@@ -10,13 +10,15 @@ raises, looping from the N-pose),
 ``walk``, ``turn``, ``arm_raise``, ``squat``, ``mag_single_axis``, ``mag_figure8``,
 ``mag_tumble``), or a clinical test (``tug``, ``walk10m``, ``walk2min``, ``walk6min``,
 ``chair_stand``; :mod:`mimucap.core.simulate.clinical_tests`: the truth holds its true results
-in the truth group's ``protocol_json``). Sensors: 1..17 (10: the ten-segment suit; 17: the fifteen-segment suit
-with second units on thorax and pelvis). ``--disturbance`` adds a magnetic field (world ENU,
-µT) to every sensor from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. ``--room``
-puts the subject in a room whose field changes with position, measured by each unit where it
-is (:mod:`mimucap.core.simulate.rooms`): ``clean`` (default, the earth field alone), ``clinic``
-(a reinforced floor, strongest at the feet, and a steel bed beside the walkway, passed on the
-way out and back) or ``treadmill`` (the walking happens on a treadmill). The file (format in ``docs/session-format.md``)
+in the truth group's ``protocol_json``). Sensors: 1..17 (10: the ten-segment suit; 17: the
+fifteen-segment suit with second units on thorax and pelvis, worn but assigned to no segment:
+each segment carries one sensor). The file names each unit's device (the suit's seed and error
+model, and the unit). ``--disturbance`` adds a magnetic field (world ENU, µT) to every sensor
+from START to END seconds (0.5-s ramps), e.g. ``30,0,-10,5,8``. ``--room`` puts the subject in a
+room whose field changes with position, measured by each unit where it is
+(:mod:`mimucap.core.simulate.rooms`): ``clean`` (default, the earth field alone), ``clinic`` (a
+reinforced floor, strongest at the feet, and a steel bed beside the walkway, passed on the way
+out and back) or ``treadmill`` (the walking happens on a treadmill). The file (format in ``docs/session-format.md``)
 holds the raw streams, a marker at the start of each phase ("magnetometer turns", "N-pose",
 "T-pose", "walk", ...; :mod:`mimucap.core.phases`) and, unless ``--no-truth``, the ground truth.
 The demo begins with the magnetometer turns: every unit is taken off the body, the units are

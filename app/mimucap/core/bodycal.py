@@ -56,7 +56,7 @@ raised it shows as a left/right disagreement near 180° and is refused.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -191,7 +191,11 @@ class ArmAxisFit:
 
 @dataclass(frozen=True)
 class CalibrationQuality:
-    """Quality figures and the verdict (``good``, ``acceptable`` or ``poor``) with reasons."""
+    """Quality figures and the verdict (``good``, ``acceptable`` or ``poor``) with reasons.
+
+    ``doubtful_sensors``: the sensors whose orientation was doubtful during the poses
+    (:mod:`mimucap.core.doubt`; :func:`with_doubtful_sensors`).
+    """
 
     method: str
     stillness: tuple[PoseStillness, ...]
@@ -200,6 +204,7 @@ class CalibrationQuality:
     heading_axis_tilt_deg: float | None = None
     verdict: str = "good"
     problems: tuple[str, ...] = ()
+    doubtful_sensors: tuple[str, ...] = ()
 
     def to_dict(self) -> dict:
         """JSON-ready figures (degrees, plain lists)."""
@@ -207,6 +212,7 @@ class CalibrationQuality:
             "method": self.method,
             "verdict": self.verdict,
             "problems": list(self.problems),
+            "doubtful_sensors": list(self.doubtful_sensors),
             "stillness": [
                 {"pose": s.pose, "sensor": s.sensor, "max_deviation_deg": s.max_deviation_deg,
                  "rms_deviation_deg": s.rms_deviation_deg, "n_samples": s.n_samples}
@@ -233,7 +239,9 @@ class BodyCalibration:
     """A body calibration.
 
     ``q_world_from_body`` (4,); ``up_world`` (3,) the world's up unit vector;
-    ``sensors`` segment → sensor id; ``q_segment_from_sensor`` segment → (4,).
+    ``sensors`` segment → sensor id; ``q_segment_from_sensor`` segment → (4,); ``details``
+    further JSON-ready entries written beside them (pose windows, where and when it was made,
+    the magnetometer calibrations its N-pose orientations were computed with), kept on reading.
     """
 
     q_world_from_body: FloatArray
@@ -267,7 +275,8 @@ class BodyCalibration:
 
     @classmethod
     def from_dict(cls, data: Mapping, origin: str = "calibration") -> "BodyCalibration":
-        """Inverse of :meth:`to_dict` (quality figures are kept as the verdict and problems)."""
+        """Inverse of :meth:`to_dict` (quality figures are kept as the verdict and problems;
+        every other entry as ``details``)."""
         if not isinstance(data, Mapping) or data.get("format") != "mimucap-body-calibration":
             raise ValueError(f"{origin}: not a MimuCap body calibration (format 'mimucap-body-calibration')")
         if data.get("format_version") != 1:
@@ -287,12 +296,38 @@ class BodyCalibration:
                 stillness=(),
                 verdict=str(data.get("verdict", quality_data.get("verdict", "good"))),
                 problems=tuple(quality_data.get("problems", ())),
+                doubtful_sensors=tuple(str(sensor) for sensor in quality_data.get("doubtful_sensors", ())),
             )
         except (KeyError, TypeError, AttributeError) as error:
             raise ValueError(f"{origin}: malformed body calibration ({error!r})") from None
         if not sensors:
             raise ValueError(f"{origin}: the calibration has no segments")
-        return cls(q_body, up, sensors, q_seg, quality)
+        details = {key: value for key, value in data.items() if key not in _DOCUMENT_KEYS}
+        return cls(q_body, up, sensors, q_seg, quality, details)
+
+
+#: The entries :meth:`BodyCalibration.to_dict` writes itself (the others are ``details``).
+_DOCUMENT_KEYS = ("format", "format_version", "method", "q_world_from_body", "up_world", "segments", "quality",
+                  "verdict")
+
+
+def with_doubtful_sensors(calibration: BodyCalibration, reasons: Mapping[str, str]) -> BodyCalibration:
+    """``calibration`` made from orientations that were doubtful during its poses (``reasons``
+    sensor → why, in words; :mod:`mimucap.core.doubt`): the sensors are recorded, the reason
+    joins the problems and a good verdict becomes acceptable (every joint angle computed with
+    it is then doubtful). Unchanged when ``reasons`` is empty."""
+    if not reasons:
+        return calibration
+    quality = calibration.quality
+    by_reason: dict[str, list[str]] = {}
+    for sensor, why in sorted(reasons.items()):
+        by_reason.setdefault(why, []).append(sensor)
+    problem = ("orientations doubtful during the poses: "
+               + "; ".join(f"{', '.join(sensors)} ({why})" for why, sensors in by_reason.items()))
+    verdict = "acceptable" if quality.verdict == "good" else quality.verdict
+    quality = replace(quality, verdict=verdict, problems=quality.problems + (problem,),
+                      doubtful_sensors=tuple(sorted(reasons)))
+    return replace(calibration, quality=quality)
 
 
 def _unit_quaternion(value: object, what: str) -> FloatArray:

@@ -4,7 +4,8 @@ Model (``docs/conventions.md``): ``mag_raw = A · mag_true + b + noise``. A
 :class:`MagCalibration` holds the hard-iron offset ``b`` (``offset_uT``, (3,), µT, sensor
 frame) and the soft-iron correction ``A⁻¹`` (``soft_iron``, (3, 3), the symmetric square root),
 and is applied as ``mag_cal = soft_iron @ (mag_raw − offset_uT)``. It carries the sensor id
-it belongs to and refuses to be applied to another one, the creation date (ISO 8601 UTC,
+it belongs to and refuses to be applied to another one, the device it was made on
+(:mod:`mimucap.core.device_identity`; ``None`` when the source did not say), the creation date (ISO 8601 UTC,
 supplied by the caller: the core reads no clock), the protocol used, the sample count and
 its quality figures.
 
@@ -19,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from mimucap.core.device_identity import check_device_id
 from mimucap.core.magcal_fit import (
     EllipsoidFit,
     FitRefused,
@@ -48,6 +50,8 @@ class MagCalibration:
     symmetric. field_uT: field magnitude the calibrated samples have. created_utc: ISO 8601
     date. protocol: how the samples were recorded (e.g. "single_axis", "figure8", "file").
     samples_used: samples in the final fit. quality: :meth:`Quality.as_dict` figures.
+    device_id: the device the samples came from (:func:`~mimucap.core.device_identity.check_device_id`),
+    ``None`` when it is not known (a file without one, a node that does not say).
     """
 
     sensor_id: str
@@ -58,6 +62,7 @@ class MagCalibration:
     protocol: str = ""
     samples_used: int = 0
     quality: dict = field(default_factory=dict)
+    device_id: str | None = None
 
     def __post_init__(self) -> None:
         offset = np.asarray(self.offset_uT, dtype=np.float64)
@@ -74,6 +79,8 @@ class MagCalibration:
             raise ValueError(f"sensor {self.sensor_id}: field_uT must be a positive number")
         if not self.sensor_id:
             raise ValueError("a magnetometer calibration needs a sensor id")
+        if self.device_id is not None:
+            check_device_id(self.device_id, f"sensor {self.sensor_id}")
         object.__setattr__(self, "offset_uT", offset)
         object.__setattr__(self, "soft_iron", soft_iron)
 
@@ -105,11 +112,13 @@ def calibrate(
     thresholds: QualityThresholds = QualityThresholds(),
     protocol: str = "",
     created_utc: str = "",
+    device_id: str | None = None,
 ) -> CalibrationResult:
     """Fit and assess a magnetometer calibration for ``sensor_id``.
 
     mag_raw: (N, 3) raw samples, µT, sensor frame. acc: optional (N, 3) specific force, m/s²,
-    sampled at the same instants (enables the dip-scatter figure). Raises
+    sampled at the same instants (enables the dip-scatter figure). device_id: the device the
+    samples came from (None when not known). Raises
     :class:`~mimucap.core.magcal_fit.FitRefused` (a ``ValueError``) when no trustworthy
     ellipsoid can be fitted; otherwise the verdict of the result may still be "fail".
     """
@@ -124,5 +133,6 @@ def calibrate(
         protocol=protocol,
         samples_used=fit.samples_used,
         quality=quality.as_dict(),
+        device_id=device_id,
     )
     return CalibrationResult(fit=fit, quality=quality, calibration=calibration)

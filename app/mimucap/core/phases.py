@@ -29,6 +29,9 @@ ARM_RAISE = "arm raise"
 SITTING = "sitting"
 SIT_TO_STAND = "sit-to-stand"
 STAND_TO_SIT = "stand-to-sit"
+#: The user's own start and stop of a clinical test (they override what the sensors show).
+TEST_START = "test start"
+TEST_STOP = "test stop"
 
 
 def _pairs(markers: Iterable) -> list[tuple[float, str]]:
@@ -63,3 +66,15 @@ def phase_windows(markers: Iterable, phase: str, end_s: float) -> list[tuple[flo
         if stop > t_s:
             windows.append((t_s, stop))
     return windows
+
+
+#: Phases in which the sensors are turned in the hands, not worn on their segments.
+OFF_BODY_PHASES = (MAG_TURNS, MAG_FIGURE8, MAG_TUMBLE)
+
+
+def off_body_windows(markers: Iterable, end_s: float) -> list[tuple[float, float]]:
+    """The time windows ``(start_s, end_s)``, in time order, in which the markers say the sensors
+    were in the hands (a magnetometer calibration phase), not on the body: no joint angle, turn
+    or stride is measured there."""
+    markers = list(markers)
+    return sorted(window for phase in OFF_BODY_PHASES for window in phase_windows(markers, phase, end_s))

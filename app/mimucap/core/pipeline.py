@@ -23,6 +23,11 @@ commands ``fuse``, ``bodycal``, ``angles``) runs its data through these function
    follow their parents; a root without a sensor faces north.
 5. **Joint angles** (ISB, :func:`mimucap.core.skeleton.joint_angles_deg`).
 
+Beside each orientation the path keeps why it may be wrong (:mod:`mimucap.core.doubt`: reason
+bits per sensor and sample, from the filter's covariance and flags, the field against the
+magnetometer calibration, lost samples, an on-board calibration status), and every joint angle
+inherits the reasons of the sensors of its two segments.
+
 :class:`LivePipeline` is the online form (block by block, as samples arrive);
 :func:`process_recording` the batch form. Fed the same samples from the same filter state they
 give the same numbers, which is how a recording's *as seen live* result reproduces the screen.
@@ -41,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core import bodycal, doubt, rotation, skeleton
 from mimucap.core.fusion import DEFAULT_FUSION_PARAMS, FusionParams, FusionState, OrientationEKF, update_together
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples
@@ -141,6 +146,7 @@ class SensorChain:
         self.mag_calibration = mag_calibration
         self.ekf: OrientationEKF | None = None
         self.onboard = False
+        self._doubt: doubt.SensorDoubt | None = None
 
     def set_mag_calibration(self, calibration: MagCalibration | None) -> None:
         if calibration is not None and calibration.sensor_id != self.sensor_id:
@@ -149,6 +155,22 @@ class SensorChain:
         self.mag_calibration = calibration
         if self.ekf is not None and self.ekf.use_mag:
             self.ekf.magnetometer_changed()
+        if self._doubt is not None:
+            self._doubt.set_mag_calibration(calibration)
+
+    def doubt(self) -> doubt.SensorDoubt:
+        """What keeps this sensor's reasons for doubt (:mod:`mimucap.core.doubt`) across blocks."""
+        if self._doubt is None or self._doubt.onboard != self.onboard:
+            self._doubt = doubt.SensorDoubt(self.settings.fusion, self.mag_calibration, onboard=self.onboard)
+        return self._doubt
+
+    def doubt_terms(self, t_s: np.ndarray, seq: np.ndarray | None, gyr: np.ndarray | None,
+                    mag_uT: np.ndarray | None, q_world_from_sensor: np.ndarray, flags: np.ndarray,
+                    status: np.ndarray | None = None) -> doubt.DoubtTerms:
+        """The error terms of a block this chain has just fused (or received fused on board:
+        ``status`` its calibration status), with the filter's covariance after it."""
+        cov = None if self.onboard or self.ekf is None else self.ekf.state.cov[0]
+        return self.doubt().update(t_s, seq, gyr, mag_uT, q_world_from_sensor, flags, cov, status)
 
     def calibrated_mag(self, mag_raw_uT: np.ndarray | None) -> np.ndarray | None:
         """``mag_raw_uT`` (N, 3) corrected by this sensor's calibration (raw when it has none)."""
@@ -226,39 +248,78 @@ def run_chains(inputs: Sequence[ChainInput]) -> list[ChainOutput]:
 # Step 2, batch
 # --------------------------------------------------------------------------------------------
 
+#: Samples the filter is fed at a time when a recording is processed, so that its covariance is
+#: read as often as the live view reads it between blocks (the numbers are those of one call).
+FILTER_BLOCK_SAMPLES = 32
+
+
+@dataclass
+class SensorTrack:
+    """One sensor's whole recording through steps 1-2: ``q_world_from_sensor`` (N, 4), the
+    filter's ``flags`` (N,) (:data:`~mimucap.core.fusion.FLAG_NAMES`; zeros for an on-board
+    orientation) and ``doubt`` (N,) the reasons it may be wrong (:mod:`mimucap.core.doubt`)."""
+
+    q_world_from_sensor: np.ndarray
+    flags: np.ndarray
+    doubt: np.ndarray
+
+
 def sensor_orientation(t_s: np.ndarray, gyr_rad_s: np.ndarray | None, acc_m_s2: np.ndarray | None,
                        mag_raw_uT: np.ndarray | None, q_onboard: np.ndarray | None, *, sensor_id: str,
                        result: str = RESULT_REPROCESSED, mag_calibration: MagCalibration | None = None,
                        settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS,
-                       initial_state: FusionState | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """``q_world_from_sensor`` (N, 4) and flags (N,) of one sensor's whole recording.
+                       initial_state: FusionState | None = None, seq: np.ndarray | None = None,
+                       status: np.ndarray | None = None) -> SensorTrack:
+    """One sensor's whole recording through the magnetometer calibration and the filter.
 
     ``t_s`` (N,) s; ``gyr_rad_s``, ``acc_m_s2`` (N, 3) or None; ``mag_raw_uT`` (N, 3) raw µT
     (calibrated here with ``mag_calibration``) or None; ``q_onboard`` (N, 4) the device's own
-    orientation, used as it is when given. ``result``: :data:`RESULT_LIVE` runs the forward
-    filter from ``initial_state`` (the live filter's state when the recording started; a
-    fresh filter when None, as the live view starts one), :data:`RESULT_REPROCESSED` the
-    forward filter plus smoother with the same prior (what the live filter had learnt before
-    the recording: gyro bias, heading). ``ValueError`` naming the sensor when it has neither an
-    orientation nor a gyroscope.
+    orientation, used as it is when given (``status`` (N, 4) its calibration status, or None);
+    ``seq`` (N,) the sequence numbers (their gaps are lost samples). ``result``:
+    :data:`RESULT_LIVE` runs the forward filter from ``initial_state`` (the live filter's state
+    when the recording started; a fresh filter when None, as the live view starts one),
+    :data:`RESULT_REPROCESSED` the forward filter plus smoother with the same prior (what the
+    live filter had learnt before the recording: gyro bias, heading); the reasons for doubt of
+    the reprocessed result also reach back from later samples (:meth:`~mimucap.core.doubt.
+    DoubtTerms.smoothed`). ``ValueError`` naming the sensor when it has neither an orientation
+    nor a gyroscope.
     """
     check_result(result)
     n = len(t_s)
+    chain = SensorChain(sensor_id, mag_calibration, settings)
     if q_onboard is not None:
-        return np.asarray(q_onboard, dtype=np.float64), np.zeros(n, dtype=np.uint8)
+        chain.onboard = True
+        q = np.asarray(q_onboard, dtype=np.float64)
+        flags = np.zeros(n, dtype=np.uint8)
+        terms = chain.doubt_terms(t_s, seq, gyr_rad_s, None, q, flags, status)
+        return SensorTrack(q, flags, terms.reasons())
     if gyr_rad_s is None:
         raise ValueError(f"sensor {sensor_id}: neither an on-board orientation nor a gyroscope to fuse")
-    chain = SensorChain(sensor_id, mag_calibration, settings)
     mag = chain.calibrated_mag(mag_raw_uT)
+    chain.ekf = OrientationEKF(settings.fusion, use_mag=mag is not None, state=initial_state)
+    q_parts, flag_parts, term_parts = [], [], []
+    for start in range(0, n, FILTER_BLOCK_SAMPLES):
+        rows = slice(start, start + FILTER_BLOCK_SAMPLES)
+        block = [None if channel is None else channel[rows] for channel in (t_s, gyr_rad_s, acc_m_s2, mag, seq)]
+        out = chain.ekf.update_batch(*block[:4])
+        q_parts.append(out.q_world_from_sensor)
+        flag_parts.append(out.flags)
+        term_parts.append(chain.doubt_terms(block[0], block[4], block[1], block[3], out.q_world_from_sensor,
+                                            out.flags))
+    terms = doubt.DoubtTerms.joined(term_parts)
     if result == RESULT_LIVE:
-        ekf = OrientationEKF(settings.fusion, use_mag=mag is not None, state=initial_state)
-        out = ekf.update_batch(t_s, gyr_rad_s, acc_m_s2, mag)
-    else:
-        from mimucap.core.fusion import fuse_offline
+        if not n:
+            return SensorTrack(np.zeros((0, 4)), np.zeros(0, dtype=np.uint8), np.zeros(0, dtype=doubt.DOUBT_DTYPE))
+        return SensorTrack(np.concatenate(q_parts), np.concatenate(flag_parts), terms.reasons())
+    from mimucap.core.fusion import fuse_offline
 
-        out = fuse_offline(t_s, gyr_rad_s, acc_m_s2, mag, params=settings.fusion, use_mag=mag is not None,
-                           state=initial_state)
-    return np.asarray(out.q_world_from_sensor), np.asarray(out.flags)
+    out = fuse_offline(t_s, gyr_rad_s, acc_m_s2, mag, params=settings.fusion, use_mag=mag is not None,
+                       state=initial_state)
+    intervals = np.diff(np.asarray(t_s, dtype=np.float64))
+    intervals = intervals[intervals > 0]
+    step = float(np.median(intervals)) if len(intervals) else 0.01
+    terms = terms.smoothed(doubt.smoother_memory_s(settings.fusion, step))
+    return SensorTrack(np.asarray(out.q_world_from_sensor), np.asarray(out.flags), terms.reasons())
 
 
 # --------------------------------------------------------------------------------------------
@@ -304,12 +365,24 @@ def reference_sensor(model: skeleton.SkeletonModel, segment_of_sensor: Mapping[s
     return None
 
 
+def one_sensor_per_segment(sensor_segments: Mapping[str, str | None]) -> dict[str, str]:
+    """``sensor_segments`` (sensor id → segment) with each segment carried by one sensor, the
+    first in the mapping's order (a recording made when two sensors could share a segment, e.g.
+    the simulated suit's second pelvis unit, keeps its first); unassigned sensors are left out."""
+    kept: dict[str, str] = {}
+    for sensor, segment in sensor_segments.items():
+        if segment is not None and segment not in kept.values():
+            kept[sensor] = segment
+    return kept
+
+
 def assignment_of(body_calibration: bodycal.BodyCalibration | None,
                   sensor_segments: Mapping[str, str]) -> dict[str, str]:
-    """Sensor id → segment as the pose uses it: the body calibration's when there is one."""
+    """Sensor id → segment as the pose uses it: the body calibration's when there is one, else
+    ``sensor_segments`` with one sensor per segment (:func:`one_sensor_per_segment`)."""
     if body_calibration is not None:
         return {sensor: segment for segment, sensor in body_calibration.sensors.items()}
-    return dict(sensor_segments)
+    return one_sensor_per_segment(sensor_segments)
 
 
 def segments_from_sensors(model: skeleton.SkeletonModel, q_world_from_sensor: Mapping[str, np.ndarray],
@@ -323,7 +396,7 @@ def segments_from_sensors(model: skeleton.SkeletonModel, q_world_from_sensor: Ma
         found = bodycal.segment_orientations(body_calibration, q_world_from_sensor, require_all=False, allow_nan=True)
     else:
         found = {segment: np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
-                 for sensor, segment in sensor_segments.items()
+                 for sensor, segment in one_sensor_per_segment(sensor_segments).items()
                  if sensor in q_world_from_sensor and segment in model.segment_names}
     if not found:
         return None
@@ -352,6 +425,8 @@ class PipelineOutput:
     ``q_world_from_sensor`` sensor → (N, 4) on that sensor's own ``t_s``; ``flags`` sensor →
     (N,) filter flags; ``result`` one of :data:`RESULTS`; ``pose_source`` :data:`POSE_BODY_CALIBRATION`
     or :data:`POSE_SENSOR_AXES`; ``reference_sensor`` the sensor whose instants are the poses'.
+    ``doubt`` sensor → (N,) and ``joint_doubt`` joint → (T,) (the joints of ``angles_deg``): the
+    reasons each may be wrong (:mod:`mimucap.core.doubt`, 0 where trustworthy).
     """
 
     result: str
@@ -363,6 +438,8 @@ class PipelineOutput:
     pose_source: str
     reference_sensor: str | None
     problems: list[str] = field(default_factory=list)
+    doubt: dict[str, np.ndarray] = field(default_factory=dict)
+    joint_doubt: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.SkeletonModel, *,
@@ -373,7 +450,8 @@ def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.Skel
                       settings: PipelineSettings = DEFAULT_PIPELINE_SETTINGS,
                       initial_states: Mapping[str, FusionState] | None = None,
                       time_offset_s: float = 0.0,
-                      shoulder_sequence: str = "zxy") -> PipelineOutput:
+                      shoulder_sequence: str = "zxy",
+                      off_body_s: Sequence[tuple[float, float]] = ()) -> PipelineOutput:
     """Run a whole recording through the processing path (see the module docstring).
 
     ``streams``: sensor id → its samples (``t_s`` (N,) s; ``acc``, ``gyr``, ``mag_uT`` raw µT,
@@ -382,41 +460,87 @@ def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.Skel
     without a body calibration. ``initial_states`` (the live filter's state at the start) and
     ``time_offset_s`` continue the live filter: it runs on ``t_s + time_offset_s``, the clock the
     live view ran it on (both results start from that prior). A sensor that can give no
-    orientation is left out and named in ``problems``.
+    orientation is left out and named in ``problems``. ``off_body_s``: time windows (s) in
+    which the sensors are not on the body (the magnetometer turns): every joint angle there is
+    doubtful, and so until each sensor first rests after a window (strapped back on).
     """
     check_result(result)
     mag_calibrations = dict(mag_calibrations or {})
     initial_states = dict(initial_states or {})
     q_sensor: dict[str, np.ndarray] = {}
     flags: dict[str, np.ndarray] = {}
+    reasons: dict[str, np.ndarray] = {}
     problems: list[str] = []
     for sensor_id, stream in streams.items():
         t = np.asarray(stream.t_s, dtype=np.float64)
         if len(t) == 0:
             continue
         try:
-            q, f = sensor_orientation(t + time_offset_s, stream.gyr, stream.acc, stream.mag_uT,
-                                      stream.q_world_from_sensor, sensor_id=sensor_id, result=result,
-                                      mag_calibration=mag_calibrations.get(sensor_id), settings=settings,
-                                      initial_state=initial_states.get(sensor_id))
+            track = sensor_orientation(t + time_offset_s, stream.gyr, stream.acc, stream.mag_uT,
+                                       stream.q_world_from_sensor, sensor_id=sensor_id, result=result,
+                                       mag_calibration=mag_calibrations.get(sensor_id), settings=settings,
+                                       initial_state=initial_states.get(sensor_id), seq=stream.seq,
+                                       status=stream.calibration)
         except ValueError as error:
             problems.append(str(error))
             continue
-        q_sensor[sensor_id], flags[sensor_id] = q, f
+        q_sensor[sensor_id], flags[sensor_id], reasons[sensor_id] = track.q_world_from_sensor, track.flags, track.doubt
     segments = assignment_of(body_calibration, sensor_segments or {})
     tracks = {sid: finite_track(streams[sid].t_s, q) for sid, q in q_sensor.items() if sid in segments}
     tracks = {sid: track for sid, track in tracks.items() if len(track[0])}
     source = POSE_BODY_CALIBRATION if body_calibration is not None else POSE_SENSOR_AXES
     reference = reference_sensor(model, segments, list(tracks))
     if reference is None:
-        return PipelineOutput(result, np.zeros(0), {}, {}, q_sensor, flags, source, None, problems)
+        return PipelineOutput(result, np.zeros(0), {}, {}, q_sensor, flags, source, None, problems, reasons)
     t_pose = tracks[reference][0]
     at = {sid: orientation_at(t_pose, t, q) for sid, (t, q) in tracks.items()}
     q_segments = segments_from_sensors(model, at, body_calibration, sensor_segments or {}) or {}
     angles = skeleton.joint_angles_deg(model, q_segments, shoulder_sequence) if len(t_pose) else {}
     measured = {segments[sid] for sid in tracks}
     angles = measured_joint_angles(model, angles, measured)
-    return PipelineOutput(result, t_pose, q_segments, angles, q_sensor, flags, source, reference, problems)
+    if off_body_s:
+        fusion = settings.fusion
+        for sid, stream in streams.items():
+            if sid in reasons:
+                reasons[sid] = reasons[sid] | doubt.off_body(stream.t_s, off_body_s, stream.gyr,
+                                                             fusion.rest_max_rate_rad_s, fusion.rest_time_s)
+    joint_doubt = joint_reasons(model, t_pose, segments, {sid: (np.asarray(streams[sid].t_s), reasons[sid])
+                                                         for sid in tracks},
+                                body_calibration, settings.fusion.max_gap_s)
+    joint_doubt = {joint: value | singular_reasons(model, joint, angles, shoulder_sequence)
+                   for joint, value in joint_doubt.items() if any(c.startswith(joint + "_") for c in angles)}
+    return PipelineOutput(result, t_pose, q_segments, angles, q_sensor, flags, source, reference, problems,
+                          reasons, joint_doubt)
+
+
+def singular_reasons(model: skeleton.SkeletonModel, joint: str, angles_deg: Mapping[str, np.ndarray],
+                     shoulder_sequence: str) -> np.ndarray | int:
+    """:data:`~mimucap.core.doubt.SINGULAR` (T,) where ``joint``'s angles (``angles_deg``, columns of
+    :func:`~mimucap.core.skeleton.joint_angle_columns`) lie near their sequence's singularity
+    (0 when the joint has no angles)."""
+    column, proper = skeleton.middle_angle(model.joint(joint), shoulder_sequence)
+    return doubt.singular(angles_deg[column], proper) if column in angles_deg else 0
+
+
+def joint_reasons(model: skeleton.SkeletonModel, t_pose: np.ndarray, segment_of_sensor: Mapping[str, str],
+                  sensor_reasons: Mapping[str, tuple[np.ndarray, np.ndarray]],
+                  body_calibration: bodycal.BodyCalibration | None,
+                  hold_s: float = HOLD_BACK_LIMIT_S) -> dict[str, np.ndarray]:
+    """Joint → the reasons (T,) its angles at the pose instants ``t_pose`` may be wrong: its two
+    sensors' (``sensor_reasons`` sensor → ``(t_s (N,), reasons (N,))``, at the instants by
+    :func:`~mimucap.core.doubt.at_instants`, ``hold_s`` the longest a held orientation counts
+    as measured), and no body calibration or a poor one."""
+    shared = np.zeros(len(t_pose), dtype=doubt.DOUBT_DTYPE)
+    if body_calibration is None:
+        shared |= doubt.NO_BODY_CALIBRATION
+    else:
+        if body_calibration.quality.verdict == "poor":
+            shared |= doubt.BODY_CALIBRATION_POOR
+        if body_calibration.quality.doubtful_sensors:
+            shared |= doubt.BODY_CALIBRATION_DOUBTFUL
+    at = {sid: doubt.at_instants(t_pose, t, values, hold_s) for sid, (t, values) in sensor_reasons.items()}
+    sensor_of_segment = {segment: sid for sid, segment in segment_of_sensor.items() if sid in at}
+    return doubt.joint_reasons(model.joints, sensor_of_segment, at, shared)
 
 
 def measured_joint_angles(model: skeleton.SkeletonModel, angles_deg: Mapping[str, np.ndarray],
@@ -438,7 +562,8 @@ class SensorOrientations:
     """What the pipeline made of one sensor's :class:`~mimucap.core.samples.SensorSamples`:
     ``t_s`` (N,), ``q_world_from_sensor``
     (N, 4) (NaN rows before the filter has an orientation), ``mag_uT`` (N, 3) the calibrated
-    field or None, ``flags`` (N,) filter flags (zeros for an on-board orientation)."""
+    field or None, ``flags`` (N,) filter flags (zeros for an on-board orientation), ``doubt``
+    (N,) the reasons the orientation may be wrong (:mod:`mimucap.core.doubt`)."""
 
     sensor_id: str
     t_s: np.ndarray
@@ -446,6 +571,7 @@ class SensorOrientations:
     mag_uT: np.ndarray | None
     flags: np.ndarray
     onboard: bool
+    doubt: np.ndarray
 
 
 #: Orientations a live sensor track keeps: a pose needs its sensors' last second or so
@@ -525,6 +651,8 @@ class LivePipeline:
         self.chains: dict[str, SensorChain] = {}
         self.mag_calibrations: dict[str, MagCalibration] = {}
         self.flags: dict[str, int] = {}
+        #: sensor → the reasons its newest orientation may be wrong (:mod:`mimucap.core.doubt`)
+        self.doubts: dict[str, int] = {}
         self._tracks: dict[str, _Track] = {}
         self._last_pose_t = -np.inf
 
@@ -540,6 +668,13 @@ class LivePipeline:
         self.mag_calibrations[calibration.sensor_id] = calibration
         self.chain(calibration.sensor_id).set_mag_calibration(calibration)
 
+    def clear_mag_calibration(self, sensor_id: str) -> None:
+        """Use ``sensor_id``'s raw magnetometer from now on (its calibration was for another
+        device); its filter learns the heading anew."""
+        self.mag_calibrations.pop(sensor_id, None)
+        if sensor_id in self.chains:
+            self.chains[sensor_id].set_mag_calibration(None)
+
     def filter_states(self) -> dict[str, dict[str, list]]:
         """Sensor → its filter state now (JSON-ready), for the sensors whose filter runs."""
         return {sid: snap for sid, chain in self.chains.items() if (snap := chain.state_snapshot()) is not None}
@@ -550,25 +685,46 @@ class LivePipeline:
         their orientations, in the blocks' order."""
         results: list[SensorOrientations | None] = [None] * len(blocks)
         inputs: list[ChainInput] = []
-        slots: list[tuple[int, np.ndarray | None]] = []
+        fused_at: list[int] = []
+        onboard_at: list[int] = []
+        calibrated: dict[int, np.ndarray | None] = {}
         for index, block in enumerate(blocks):
             chain = self.chain(block.sensor_id)
-            mag = chain.calibrated_mag(block.mag_uT)
+            calibrated[index] = chain.calibrated_mag(block.mag_uT)
             if block.q_world_from_sensor is not None:
                 chain.onboard = True
-                q = np.asarray(block.q_world_from_sensor, dtype=np.float64)
-                results[index] = SensorOrientations(block.sensor_id, block.t_s, q, mag,
-                                                    np.zeros(len(block.t_s), dtype=np.uint8), True)
+                onboard_at.append(index)
             elif block.gyr is not None:
-                inputs.append(ChainInput(chain, block.t_s, block.gyr, block.acc, mag))
-                slots.append((index, mag))
-        for (index, mag), out in zip(slots, run_chains(inputs)):
-            results[index] = SensorOrientations(out.sensor_id, out.t_s, out.q_world_from_sensor, mag, out.flags, False)
+                inputs.append(ChainInput(chain, block.t_s, block.gyr, block.acc, calibrated[index]))
+                fused_at.append(index)
+        orientation: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        for index in onboard_at:
+            orientation[index] = (np.asarray(blocks[index].q_world_from_sensor, dtype=np.float64),
+                                  np.zeros(len(blocks[index].t_s), dtype=np.uint8))
+        for index, out in zip(fused_at, run_chains(inputs)):
+            orientation[index] = (out.q_world_from_sensor, out.flags)
+        order = onboard_at + fused_at
+        chains = [self.chains[blocks[index].sensor_id] for index in order]
+        doubt_blocks = [doubt.DoubtBlock(blocks[index].t_s, blocks[index].seq, blocks[index].gyr,
+                                         None if chain.onboard else calibrated[index], *orientation[index],
+                                         None if chain.onboard else chain.ekf.state.cov[0],
+                                         blocks[index].calibration if chain.onboard else None)
+                        for index, chain in zip(order, chains)]
+        reasons = doubt.update_together([chain.doubt() for chain in chains], doubt_blocks).reasons()
+        start = 0
+        for index, chain in zip(order, chains):
+            block = blocks[index]
+            q, flags = orientation[index]
+            n = len(block.t_s)
+            results[index] = SensorOrientations(block.sensor_id, block.t_s, q, calibrated[index], flags, chain.onboard,
+                                                reasons[start:start + n])
+            start += n
         done = [r for r in results if r is not None]
         for item in done:
             self._tracks.setdefault(item.sensor_id, _Track()).add(item.t_s, item.q_world_from_sensor)
             if len(item.flags):
                 self.flags[item.sensor_id] = int(item.flags[-1])
+                self.doubts[item.sensor_id] = int(item.doubt[-1])
         return done
 
     def latest_orientations(self) -> dict[str, np.ndarray]:

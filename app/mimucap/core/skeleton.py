@@ -443,6 +443,14 @@ def _axis_names(joint: Joint, shoulder_sequence: str) -> tuple[str, str, str]:
     return ("flexion", "adduction", "rotation")
 
 
+def middle_angle(joint: Joint, shoulder_sequence: str = "zxy") -> tuple[str, bool]:
+    """The column of ``joint``'s middle Euler angle, and whether its sequence is a proper Euler
+    one (singular at a middle angle of 0° or 180°; a Tait-Bryan one is singular at ±90°)."""
+    seq = _check_shoulder_sequence(shoulder_sequence)
+    axis = _axis_names(joint, seq)[1]
+    return f"{joint.name}_{axis}_deg", joint.kind == "shoulder" and seq == "yxy"
+
+
 def joint_angle_columns(model: SkeletonModel, shoulder_sequence: str = "zxy") -> list[str]:
     """Column names ``<joint>_<axis>_deg`` in model order, three per joint."""
     seq = _check_shoulder_sequence(shoulder_sequence)

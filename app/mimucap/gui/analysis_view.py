@@ -10,6 +10,10 @@
 * **Report…** writes the PDF report (:mod:`mimucap.gui.report`); **Save tables…** writes every
   analysis table as CSV.
 
+Without a body calibration the gait tab shows the temporal parameters alone, and the curves,
+the ROM tab and the report are disabled, each saying why
+(:data:`mimucap.session.analysis.NEEDS_BODY_CALIBRATION`).
+
 The analysis runs off the GUI thread (:func:`mimucap.session.analysis.analyse_review`); this
 window only shows it.
 """
@@ -28,6 +32,7 @@ from mimucap.gui.background import BackgroundTask
 from mimucap.gui.report import write_report
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.analysis import (
+    DOUBT_HEADER,
     GAIT_PARAMETER_HEADER,
     ROM_HEADER,
     CurveGroup,
@@ -80,12 +85,26 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         self.tabs = QtWidgets.QTabWidget(self)
         self.gait_tab = QtWidgets.QWidget(self)
         self.rom_tab = QtWidgets.QWidget(self)
+        self.doubt_tab = QtWidgets.QWidget(self)
         self.tabs.addTab(self.gait_tab, "Gait")
         self.tabs.addTab(self.rom_tab, "ROM")
+        self.tabs.addTab(self.doubt_tab, "Doubtful data")
+        self.doubt_label = QtWidgets.QLabel("Analysing…", self.doubt_tab)
+        self.doubt_label.setWordWrap(True)
+        self.doubt_table = QtWidgets.QTableWidget(self.doubt_tab)
+        self.doubt_table.setObjectName("doubtTable")
+        doubt_layout = QtWidgets.QVBoxLayout(self.doubt_tab)
+        doubt_layout.addWidget(self.doubt_label)
+        doubt_layout.addWidget(self.doubt_table, 1)
 
         # -- gait tab ------------------------------------------------------------------------
         self.gait_summary = QtWidgets.QLabel("Analysing…", self.gait_tab)
         self.gait_summary.setWordWrap(True)
+        self.limits_label = QtWidgets.QLabel(self)
+        self.limits_label.setObjectName("analysisLimits")
+        self.limits_label.setWordWrap(True)
+        self.limits_label.setStyleSheet("color: #b00020; font-weight: bold")
+        self.limits_label.hide()
         self.parameters_table = QtWidgets.QTableWidget(self.gait_tab)
         self.parameters_table.setObjectName("parametersTable")
         self.strides_table = QtWidgets.QTableWidget(self.gait_tab)
@@ -168,6 +187,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         bottom.addWidget(self.report_button)
         central = QtWidgets.QWidget(self)
         layout = QtWidgets.QVBoxLayout(central)
+        layout.addWidget(self.limits_label)
         layout.addWidget(self.tabs, 1)
         layout.addLayout(bottom)
         self.setCentralWidget(central)
@@ -221,12 +241,34 @@ class AnalysisWindow(QtWidgets.QMainWindow):
             _fill_table(self.rom_table, list(ROM_HEADER), [row.cells() for row in rom_rows(analysis.rom)])
         else:
             self.rom_label.setText("ROM protocol: this recording has no ROM protocol markers.")
-        if len(self.data.markers) >= 2:
+        if len(self.data.markers) >= 2 and analysis.calibrated:
             self.compute_marker_rom()
+        if analysis.doubt:
+            self.doubt_label.setText("The joint angles below may be wrong where marked (the orientation of a sensor "
+                                     "they use, or the body calibration, is doubtful); the results include them.")
+        else:
+            self.doubt_label.setText("Every joint angle passed the checks: none is marked doubtful.")
+        _fill_table(self.doubt_table, list(DOUBT_HEADER), [row.cells() for row in analysis.doubt])
         for button in (self.report_button, self.csv_button):
             button.setEnabled(True)
+        self._show_limits(analysis)
         self.statusBar().showMessage("Analysis done.", 5000)
         self.analysed.emit()
+
+    def _show_limits(self, analysis: SessionAnalysis) -> None:
+        """Disable what the analysis cannot give (without a body calibration), saying why."""
+        reason = analysis.limits
+        self.limits_label.setText(f"Temporal gait parameters only: {reason}. Calibrate the body (or give the "
+                                  "session a body calibration) for the rest." if reason else "")
+        self.limits_label.setVisible(bool(reason))
+        for widget in (self.curve_choice, self.band_button, self.curve_plot, self.report_button, self.marker_button):
+            if reason:
+                widget.setEnabled(False)
+            widget.setToolTip(reason)
+        self.tabs.setTabEnabled(self.tabs.indexOf(self.rom_tab), not reason)
+        self.tabs.setTabToolTip(self.tabs.indexOf(self.rom_tab), reason)
+        if reason:
+            self.rom_label.setText(f"ROM: {reason}.")
 
     def _show_curve(self) -> None:
         self.curve_plot.clear()

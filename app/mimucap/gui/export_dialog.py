@@ -3,11 +3,15 @@ the motion as C3D, BVH and an OpenSense orientation table, sensor data, and the 
 joint (min, max, range of motion) saved as CSV and as a PNG chart for a report.
 
 The files are written off the GUI thread (:class:`~mimucap.gui.background.BackgroundTask`)
-with a progress bar; the work itself is :func:`mimucap.session.export.run_export`.
+with a progress bar; the work itself is :func:`mimucap.session.export.run_export`. Every file,
+the summary CSV and the chart's caption say what the result holds
+(:attr:`~mimucap.session.review.ReviewData.provenance`); without a body calibration the dialog
+says so above the summary.
 """
 
 from __future__ import annotations
 
+import html
 import logging
 import os
 from pathlib import Path
@@ -22,8 +26,10 @@ from mimucap.gui.background import BackgroundTask
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
 from mimucap.session.export import (
-    ExportRequest, ExportResult, angles_in_range, marker_range, run_export, summary_table, write_summary_csv,
+    ExportRequest, ExportResult, angles_in_range, doubt_in_range, marker_range, run_export, summary_table,
+    write_summary_csv,
 )
+from mimucap.session.provenance import WITHOUT_BODY_CALIBRATION
 from mimucap.session.review import ReviewData
 
 log = logging.getLogger(__name__)
@@ -44,7 +50,7 @@ class ExportDialog(QtWidgets.QDialog):
         self.setObjectName("exportDialog")
         self.data = data
         self.result: ExportResult | None = None
-        self._chart: pg.PlotWidget | None = None  # drawn off screen for the summary PNG
+        self._chart: tuple | None = None  # drawn off screen for the summary PNG
         self._task: BackgroundTask | None = None
         self._range_valid = False  # the chosen range holds poses (set by update_summary)
 
@@ -113,6 +119,13 @@ class ExportDialog(QtWidgets.QDialog):
         self.progress.setValue(0)
         self.message = QtWidgets.QLabel(self)
         self.message.setWordWrap(True)
+        self.calibration_note = QtWidgets.QLabel(self)
+        self.calibration_note.setObjectName("exportCalibrationNote")
+        self.calibration_note.setWordWrap(True)
+        self.calibration_note.setStyleSheet("color: #b00020")
+        if data.body_calibration is None:
+            self.calibration_note.setText(f"Body calibration: {WITHOUT_BODY_CALIBRATION}. The files say so.")
+        self.calibration_note.setVisible(data.body_calibration is None)
         self.summary = QtWidgets.QTableWidget(0, 4, self)
         self.summary.setObjectName("summaryTable")
         self.summary.setHorizontalHeaderLabels(["Joint angle", "Min (°)", "Max (°)", "Range of motion (°)"])
@@ -145,6 +158,7 @@ class ExportDialog(QtWidgets.QDialog):
         main.addWidget(files_box)
         main.addWidget(self.progress)
         main.addWidget(self.message)
+        main.addWidget(self.calibration_note)
         main.addWidget(self.summary, 1)
         main.addLayout(buttons)
         fit_on_screen(self, 620, 720, parent)
@@ -176,7 +190,7 @@ class ExportDialog(QtWidgets.QDialog):
     def summary_rows(self):
         a, b = self.time_range()
         _t, angles = angles_in_range(self.data, a, b)
-        return summary_table(angles)
+        return summary_table(angles, doubt_in_range(self.data, a, b))
 
     def update_summary(self) -> None:
         try:
@@ -285,7 +299,7 @@ class ExportDialog(QtWidgets.QDialog):
 
     def save_summary_csv(self, path: str | Path) -> Path:
         a, b = self.time_range()
-        written = write_summary_csv(path, self.summary_rows(), a, b)
+        written = write_summary_csv(path, self.summary_rows(), a, b, notes=self.data.provenance.lines())
         self.message.setText(f"Summary saved to {written}")
         return written
 
@@ -294,29 +308,35 @@ class ExportDialog(QtWidgets.QDialog):
         if path:
             self._save_or_say(self.save_summary_png, path)
 
-    def _summary_chart(self) -> pg.PlotWidget:
-        """The off-screen chart of the summary PNG: a child of the dialog, made once and deleted
-        with it (a throwaway top-level plot was deleted at an arbitrary later moment, by Qt's
-        deferred delete or Python's garbage collector, while its items could still be painted)."""
+    def _summary_chart(self) -> tuple[pg.GraphicsLayoutWidget, pg.PlotItem, pg.LabelItem]:
+        """The off-screen chart of the summary PNG (the plot, and its caption below it): a child
+        of the dialog, made once and deleted with it (a throwaway top-level plot was deleted at
+        an arbitrary later moment, by Qt's deferred delete or Python's garbage collector, while
+        its items could still be painted)."""
         if self._chart is None:
-            plot = pg.PlotWidget(self, background="w")
-            plot.setWindowFlags(QtCore.Qt.Window)  # its own size, not laid out in the dialog
-            plot.setAttribute(QtCore.Qt.WA_DontShowOnScreen, True)
+            chart = pg.GraphicsLayoutWidget(self)
+            chart.setBackground("w")
+            chart.setWindowFlags(QtCore.Qt.Window)  # its own size, not laid out in the dialog
+            chart.setAttribute(QtCore.Qt.WA_DontShowOnScreen, True)
+            plot = chart.addPlot(row=0, col=0)
             left = plot.getAxis("left")
             left.setWidth(260)
             plot.setLabel("bottom", "joint angle, min to max (°)")
             plot.showGrid(x=True, alpha=0.3)
             plot.invertY(True)
-            self._chart = plot
+            caption = chart.addLabel(row=1, col=0, justify="left", color="#333333", size="8pt")
+            self._chart = (chart, plot, caption)
         return self._chart
 
     def save_summary_png(self, path: str | Path, width: int = 1200) -> Path:
-        """A bar chart of each column's range (min to max, degrees), written with pyqtgraph."""
+        """A bar chart of each column's range (min to max, degrees), written with pyqtgraph, with
+        a caption saying what the result holds."""
         rows = self.summary_rows()
-        height = 90 + 24 * len(rows)
-        plot = self._summary_chart()
+        lines = self.data.provenance.lines()
+        height = 90 + 24 * len(rows) + 18 * len(lines)
+        chart, plot, caption = self._summary_chart()
         plot.clear()
-        plot.resize(width, height)
+        chart.resize(width, height)
         y = np.arange(len(rows))
         lows = np.array([r.minimum_deg for r in rows])
         highs = np.array([r.maximum_deg for r in rows])
@@ -328,13 +348,19 @@ class ExportDialog(QtWidgets.QDialog):
         a, b = self.time_range()
         plot.setTitle(f"{self.data.path.name}: {a:.2f}–{b:.2f} s")
         plot.setYRange(-0.8, len(rows) - 0.2, padding=0)
-        plot.show()
+        caption.setText("<br>".join(html.escape(line) for line in lines))
+        chart.show()
         QtWidgets.QApplication.processEvents()
-        exporter = pg.exporters.ImageExporter(plot.plotItem)
+        exporter = pg.exporters.ImageExporter(chart.ci)
         exporter.parameters()["width"] = width
         exporter.export(str(path))
-        plot.hide()
+        chart.hide()
         if not Path(path).exists():
             raise OSError(f"could not write {path}")
         self.message.setText(f"Summary chart saved to {path}")
         return Path(path)
+
+    @property
+    def summary_caption(self) -> str:
+        """The caption of the last summary chart (plain text lines)."""
+        return "" if self._chart is None else html.unescape(self._chart[2].text.replace("<br>", "\n"))

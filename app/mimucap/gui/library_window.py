@@ -18,6 +18,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.gui.background import BackgroundTask
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
+from mimucap.session.library import COMPARISON_NEEDS_CALIBRATION
 
 log = logging.getLogger(__name__)
 
@@ -438,9 +439,16 @@ class LibraryWindow(QtWidgets.QMainWindow):
         selected = self.selected_entries()
         one_ok = len(selected) == 1 and selected[0].ok
         two = len(selected) == 2 and all(e.ok for e in selected) and selected[0].subject_id == selected[1].subject_id
+        uncalibrated = [e.file_name for e in selected if "body" not in e.verdicts]
         self.buttons["open"].setEnabled(one_ok and self._open_review is not None)
-        self.buttons["compare"].setEnabled(two)
-        self.buttons["compare"].setToolTip("" if two else "Select two readable sessions of one subject")
+        self.buttons["compare"].setEnabled(two and not uncalibrated)
+        if not two:
+            self.buttons["compare"].setToolTip("Select two readable sessions of one subject")
+        elif uncalibrated:
+            self.buttons["compare"].setToolTip(f"{' and '.join(uncalibrated)}: no body calibration; "
+                                               f"{COMPARISON_NEEDS_CALIBRATION}")
+        else:
+            self.buttons["compare"].setToolTip("")
         for key in ("rename", "tags", "condition"):
             self.buttons[key].setEnabled(one_ok)
         self.buttons["trash"].setEnabled(len(selected) >= 1)
@@ -543,7 +551,8 @@ class LibraryWindow(QtWidgets.QMainWindow):
         from mimucap.gui.compare_window import CompareWindow
 
         selected = self.selected_entries()
-        if len(selected) != 2 or selected[0].subject_id != selected[1].subject_id:
+        if (len(selected) != 2 or selected[0].subject_id != selected[1].subject_id
+                or any("body" not in e.verdicts for e in selected)):
             return None
         first, second = sorted(selected, key=lambda e: (e.recorded_utc, e.path))
         window = CompareWindow(self.library, first, second)

@@ -5,7 +5,8 @@ The data comes from a *plot source* (the live session, or the review player), wh
 ``sensor_ids``, ``joint_names``, ``joint_columns(joint)``, ``series(sensor_id, window_s)`` →
 ``(t_s, acc, gyr, mag_uT)`` and ``joint_series(joint, window_s)`` → ``(t_s, angles_deg (N,3))``,
 ``cursor_s`` (the time the 3D view shows), when it knows them, ``sensor_segments`` (sensor
-id → segment), and ``events`` (:class:`~mimucap.session.events.EmitterGroup`): ``data`` (new
+id → segment), ``doubt_spans(joint, window_s)`` → ``[(start_s, end_s), …]`` where the joint's
+angles are doubtful (shaded in its plot; :mod:`mimucap.core.doubt`), and ``events`` (:class:`~mimucap.session.events.EmitterGroup`): ``data`` (new
 data, or the play head moved) and, when the choices can change, ``sensors`` and
 ``assignment``. Sensors, joints and angle axes are shown by their clinical names
 (:mod:`mimucap.core.clinical_names`: "Pelvis sensor (S01)", "Right knee", "flexion").
@@ -66,6 +67,8 @@ TIME_AXIS_HEIGHT_PX = 40
 MAX_TICKS = 4
 #: Colour of the "no data" note in a plot's title.
 NO_DATA_COLOUR = "#888888"
+#: Shade of the spans where a joint's angles are doubtful.
+DOUBT_BRUSH = (255, 160, 40, 60)
 
 #: Font size of the plot titles.
 TITLE_SIZE = "9pt"
@@ -201,6 +204,8 @@ class LivePlots(QtWidgets.QWidget):
         #: whether the joint plots draw the simulator's truth beside the estimate (when the
         #: source has one: ``truth_joint_series``)
         self.show_truth = False
+        #: joint plot key → shaded regions of its doubtful spans (reused, hidden when unused)
+        self.doubt_regions: dict[str, list[pg.LinearRegionItem]] = {}
         self.cursors: dict[str, pg.InfiniteLine] = {}
         self._ranges: dict[str, SteadyRange] = {}
         self._titles: dict[str, str] = {}     # each plot's title, without the curve names
@@ -304,6 +309,7 @@ class LivePlots(QtWidgets.QWidget):
         del self.curves[key], self.cursors[key], self._ranges[key], self._titles[key]
         self._no_data.pop(key, None)
         self.truth_curves.pop(key, None)
+        self.doubt_regions.pop(key, None)
         self.layout_widget.removeItem(plot)
         plot.deleteLater()
 
@@ -545,9 +551,12 @@ class LivePlots(QtWidgets.QWidget):
                 self._show(key, t, values, origin, now)
             drew = drew or len(t) > 0
         truth_of = getattr(self.source, "truth_joint_series", None) if self.show_truth else None
+        doubt_of = getattr(self.source, "doubt_spans", None)
         for joint in self.selected_joints:
             t, angles = self.source.joint_series(joint, window)
             self._show(self._joint_key(joint), t, angles, origin, now)
+            if doubt_of is not None:
+                self._show_doubt(self._joint_key(joint), doubt_of(joint, window), origin)
             drew = drew or len(t) > 0
             if truth_of is not None:
                 self._show_truth(self._joint_key(joint), joint, truth_of, window, origin)
@@ -562,6 +571,27 @@ class LivePlots(QtWidgets.QWidget):
             if len(self.refresh_times) > 600:
                 del self.refresh_times[:300]
             self.refreshed.emit(now)
+
+    def _show_doubt(self, key: str, spans, origin: float) -> None:
+        """Shade ``spans`` ``(start_s, end_s)`` of plot ``key`` (source time)."""
+        regions = self.doubt_regions.setdefault(key, [])
+        while len(regions) < len(spans):
+            region = pg.LinearRegionItem(movable=False, brush=pg.mkBrush(*DOUBT_BRUSH), pen=pg.mkPen(None))
+            region.setZValue(-10)
+            self.plots[key].addItem(region)
+            regions.append(region)
+        for index, region in enumerate(regions):
+            if index < len(spans):
+                start, end = spans[index]
+                region.setRegion((start - origin, end - origin))
+                region.setVisible(True)
+            elif region.isVisible():
+                region.setVisible(False)
+
+    def doubt_shown(self, joint: str) -> list[tuple[float, float]]:
+        """The doubtful spans shaded in ``joint``'s plot, in source time (s)."""
+        return [tuple(v + self._origin for v in region.getRegion())
+                for region in self.doubt_regions.get(self._joint_key(joint), []) if region.isVisible()]
 
     def set_show_truth(self, on: bool) -> None:
         """Draw the simulator's true angles beside the estimate (when the source has them) or

@@ -49,7 +49,7 @@ from mimucap.session.figure import DISPLAY_MODES
 from mimucap.session.kernel_preparation import KernelPreparation
 from mimucap.core.pipeline import POSE_SENSOR_AXES
 from mimucap.session.evaluation import accuracy_phrase
-from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, open_live_session
+from mimucap.session.live import POSE_NONE, POSE_UNASSIGNED, LiveSession, doubt_warning, open_live_session
 from mimucap.io.library import library_fields, recording_path
 from mimucap.io.library_settings import configured_library_folder, remember_library_folder
 from mimucap.session.recording_checklist import CheckItem, recording_checklist
@@ -291,7 +291,16 @@ class MainWindow(QtWidgets.QMainWindow):
         self.refused_status.setStyleSheet("QLabel { color: #c05800; }")
         self.refused_status.setVisible(False)
         status.addPermanentWidget(self.refused_status)
+        # while a sensor's orientation is doubtful: which, and why (the whole text as tooltip)
+        self.doubt_status = ElidedLabel("", self)
+        self.doubt_status.setObjectName("doubtStatus")
+        self.doubt_status.setStyleSheet("QLabel { color: #c05800; }")
+        self.doubt_status.setVisible(False)
+        status.addPermanentWidget(self.doubt_status, 1)
         self.rate_status = QtWidgets.QLabel(self)
+        # Wide enough for the usual figures, so that a rate going from 99 to 101 Hz does not
+        # need room the status bar has already given away.
+        self.rate_status.setMinimumWidth(self.rate_status.fontMetrics().horizontalAdvance("17 sensors, 888 Hz, 888 drops"))
         self.cpu_status = QtWidgets.QLabel(self)
         self.fps_status = QtWidgets.QLabel(self)
         for label in (self.source_status, self.pose_status, self.rate_status, self.cpu_status, self.fps_status):
@@ -480,6 +489,10 @@ class MainWindow(QtWidgets.QMainWindow):
         view's frame rate are sampled with it."""
         rates = [r.rate_hz for r in rows if r.rate_hz == r.rate_hz]
         drops = sum(r.drops for r in rows)
+        warning = doubt_warning(rows)
+        if warning != self.doubt_status.text():
+            self.doubt_status.setText(warning)
+            self.doubt_status.setVisible(bool(warning))
         self.rate_status.setText(f"{len(rates)} sensors, {sum(rates) / len(rates):.0f} Hz, {drops} drops" if rates else "no data")
         self.cpu_status.setText(f"CPU {self._cpu.sample():.0f} %")
         times = self.scene_view.render_times[-61:]

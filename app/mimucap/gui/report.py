@@ -2,10 +2,14 @@
 further dependency). Needs a ``QGuiApplication`` (the command line makes one on the offscreen
 platform).
 
-A report of one session (:func:`write_report`): subject id, recording date and length,
-sensors and calibration quality, the gait table beside typical adult values, the gait-cycle
-curves of every joint angle (left and right mean ± SD, stance/swing boundary, a normative band
-where one is given), the ROM table beside the reference values, the markers and the notes.
+A report of one session (:func:`write_report`): subject id, recording date and length, what
+the report holds (result, body and magnetometer calibrations, model, software, file: the
+record every output carries, :mod:`mimucap.session.provenance`), sensors, the doubtful data
+(which joints' angles may be wrong, when and why), the gait table beside typical adult values,
+the gait-cycle curves of every joint angle (left and right mean ± SD, stance/swing boundary, a
+normative band where one is given; a curve whose strides hold doubtful samples says how many,
+in orange), the ROM table beside the reference values (a movement recorded while doubtful is
+named under it), the markers and the notes.
 A comparison report (:func:`write_comparison_report`) puts two sessions of one subject
 (before / after) side by side with the differences.
 
@@ -30,6 +34,7 @@ from mimucap.session.analysis import (
     TYPICAL_SOURCE,
     SessionAnalysis,
     body_calibration_of,
+    curve_doubt_of,
     curve_groups,
     format_value,
     gait_parameter_rows,
@@ -40,6 +45,8 @@ from mimucap.session.plot_scaling import nice_ticks
 DPI = 150
 LEFT_COLOUR = QColor(30, 100, 200)
 RIGHT_COLOUR = QColor(200, 50, 40)
+#: The colour of what is doubtful.
+DOUBT_COLOUR = QColor(200, 100, 0)
 
 
 def _numeric(text: str) -> bool:
@@ -125,8 +132,9 @@ class _Document:
 
 
 def _plot(doc: _Document, rect: QRectF, title: str, curves: list[tuple[object, QColor, Qt.PenStyle]],
-          band: NormativeBand | None, boundaries: list[tuple[float, QColor]]) -> None:
-    """One gait-cycle plot: x 0-100 %, y degrees; each curve a CycleCurve drawn mean ± SD."""
+          band: NormativeBand | None, boundaries: list[tuple[float, QColor]], doubtful: str = "") -> None:
+    """One gait-cycle plot: x 0-100 %, y degrees; each curve a CycleCurve drawn mean ± SD;
+    ``doubtful`` says (in orange, under the title) which of its strides hold doubtful samples."""
     p = doc.painter
     values = []
     for curve, _, _ in curves:
@@ -144,7 +152,13 @@ def _plot(doc: _Document, rect: QRectF, title: str, curves: list[tuple[object, Q
     doc.font(7.5, True)
     p.setPen(QColor(0, 0, 0))
     p.drawText(QRectF(rect.left(), rect.top(), rect.width(), 18), int(Qt.AlignLeft | Qt.AlignVCenter), title)
-    area = QRectF(rect.left() + 42, rect.top() + 20, rect.width() - 48, rect.height() - 42)
+    top = 20.0
+    if doubtful:
+        doc.font(6.5)
+        p.setPen(DOUBT_COLOUR)
+        p.drawText(QRectF(rect.left(), rect.top() + 16, rect.width(), 14), int(Qt.AlignLeft | Qt.AlignVCenter), doubtful)
+        top = 32.0
+    area = QRectF(rect.left() + 42, rect.top() + top, rect.width() - 48, rect.height() - top - 22)
     x_of = lambda pct: area.left() + pct / 100.0 * area.width()  # noqa: E731
     y_of = lambda deg: area.bottom() - (deg - lo) / (hi - lo) * area.height()  # noqa: E731
     p.setPen(QPen(QColor(150, 150, 150), 1))
@@ -209,14 +223,19 @@ def _curve_pages(doc: _Document, analyses: Sequence[SessionAnalysis], bands: dic
         if column == 0:
             doc.need(plot_h)
         rect = QRectF(column * plot_w, doc.y, plot_w - 10, plot_h - 10)
-        curves, boundaries = [], []
-        for by_side, style in zip(group.curves, styles):
+        curves, boundaries, doubtful = [], [], []
+        for analysis, label, by_side, style in zip(analyses, labels, group.curves, styles):
             for side, colour in (("left", LEFT_COLOUR), ("right", RIGHT_COLOUR)):
                 curve = by_side.get(side)
                 if curve is not None:
                     curves.append((curve, colour, style))
                     boundaries.append((curve.stance_percent, colour))
-        _plot(doc, rect, f"{group.label} (deg)", curves, bands.get((group.joint, group.axis)), boundaries)
+                    count = curve_doubt_of(analysis, curve)
+                    if count:
+                        where = f"{label} " if len(analyses) > 1 else ""
+                        doubtful.append(f"{where}{side} {count}/{curve.n_strides}")
+        note = ("doubtful strides: " + ", ".join(doubtful)) if doubtful else ""
+        _plot(doc, rect, f"{group.label} (deg)", curves, bands.get((group.joint, group.axis)), boundaries, note)
         if column == columns - 1 or index == len(groups) - 1:
             doc.y += plot_h
 
@@ -233,27 +252,41 @@ def _header(doc: _Document, analysis: SessionAnalysis, title: str) -> None:
 
 
 def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
+    """What the report holds (:attr:`~mimucap.session.review.ReviewData.provenance`, as every
+    file says it), the sensors and the body calibration's remarks."""
     review = analysis.review
     session = review.session
-    doc.text("Sensors and calibration", 11, True, gap=4)
+    doc.text("What this report holds", 11, True, gap=4)
+    for label, text in review.provenance.items():
+        doc.text(f"{label}: {text}.", 8, gap=2)
+    for note in review.missing:
+        doc.text(f"Note: {note}.", 8, gap=2)
+    doc.text("Sensors", 11, True, gap=4)
     sensors = ", ".join(f"{sid} ({s.segment or 'unassigned'})" for sid, s in session.sensors.items())
     doc.text(f"{len(session.sensors)} sensors: {sensors}", 8)
     calibration = body_calibration_of(review)
-    if calibration is None:
-        doc.text("Body calibration: none (segments shown in sensor axes; spatial results not available).", 8)
-    else:
-        problems = "; ".join(calibration.quality.problems) or "no problems"
-        doc.text(f"Body calibration: {calibration.quality.method or 'stored'}, verdict {calibration.quality.verdict} ({problems}).", 8)
-    mag = session.calibrations.get("magnetometer") or {}
-    if mag:
-        verdicts = ", ".join(f"{sid}: {(entry or {}).get('verdict', (entry or {}).get('quality', {}).get('verdict', '?'))}"
-                             for sid, entry in mag.items())
-        doc.text(f"Magnetometer calibrations: {verdicts}.", 8)
-    elif session.metadata.get("mag_calibrated_sensors"):
-        doc.text("Magnetometer calibrated (live): " + ", ".join(session.metadata["mag_calibrated_sensors"]) + ".", 8)
-    else:
-        doc.text("Magnetometer calibrations: none recorded.", 8)
+    if calibration is not None:
+        doc.text("Body calibration remarks: " + ("; ".join(calibration.quality.problems) or "none") + ".", 8)
     doc.text(f"Poses from: {review.pose_source}.", 8, gap=8)
+
+
+def check_reportable(analysis: SessionAnalysis) -> None:
+    """``ValueError`` when ``analysis`` lacks what a report needs (a body calibration)."""
+    if not analysis.calibrated:
+        raise ValueError(f"{analysis.review.path.name}: no report: {analysis.limits}")
+def _doubt_section(doc: _Document, analysis: SessionAnalysis, label: str = "") -> None:
+    """Which joints' angles may be wrong, when and why (:mod:`mimucap.core.doubt`), or that none is."""
+    doc.text(f"Doubtful data{f' ({label})' if label else ''}", 11, True, gap=4)
+    if not analysis.doubt:
+        doc.text("Every joint angle passed MimuCap's checks (sensor orientations, field, lost samples, "
+                 "body calibration): none is marked doubtful.", 8, gap=8)
+        return
+    doc.text("The joint angles below may be wrong where marked; the numbers of this report include them "
+             "(a curve or movement that uses doubtful samples says so).", 8, colour=DOUBT_COLOUR)
+    for row in analysis.doubt:
+        joint, percent, when, why = row.cells()
+        doc.text(f"{joint}: {percent} % of the recording ({when} s): {why}.", 7.5, gap=2)
+    doc.y += 6
 
 
 def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
@@ -285,6 +318,10 @@ def _rom_section(doc: _Document, analysis: SessionAnalysis) -> None:
         return
     doc.table(ROM_HEADER, [row.cells() for row in rom_rows(analysis.rom)],
               [0.15, 0.06, 0.12, 0.13, 0.09, 0.1, 0.1, 0.12, 0.13])
+    doubtful = [f"{rom_core.movement(key).label} ({side}): {100.0 * share:.0f} % of its window"
+                for (key, side), share in analysis.rom_doubt.items() if share > 0 and (key, side) in analysis.rom]
+    if doubtful:
+        doc.text("Recorded while doubtful: " + "; ".join(doubtful) + ".", 7.5, colour=DOUBT_COLOUR)
     doc.text(f"Reference: active ROM of healthy adults, {rom_core.REFERENCE_SOURCE}. Shoulder: humeral elevation in the plane of the movement.",
              7.5, colour=QColor(70, 70, 70), gap=8)
 
@@ -303,12 +340,15 @@ def _markers_and_notes(doc: _Document, analysis: SessionAnalysis, notes: str) ->
 
 def write_report(path: str | Path, analysis: SessionAnalysis, bands: dict[tuple[str, str], NormativeBand] | None = None,
                  notes: str = "") -> Path:
-    """Write the report of one session to ``path`` (PDF); returns the path."""
+    """Write the report of one session to ``path`` (PDF); returns the path. ``ValueError``
+    for an analysis without a body calibration (:func:`check_reportable`)."""
+    check_reportable(analysis)
     target = Path(path)
     doc = _Document(target, "MimuCap clinical report")
     try:
         _header(doc, analysis, "MimuCap clinical report")
         _sensors_section(doc, analysis)
+        _doubt_section(doc, analysis)
         _gait_section(doc, analysis)
         _rom_section(doc, analysis)
         _markers_and_notes(doc, analysis, notes)
@@ -322,7 +362,14 @@ def write_report(path: str | Path, analysis: SessionAnalysis, bands: dict[tuple[
 
 def write_comparison_report(path: str | Path, before: SessionAnalysis, after: SessionAnalysis,
                             bands: dict[tuple[str, str], NormativeBand] | None = None, notes: str = "") -> Path:
-    """Write a before/after report of two sessions to ``path`` (PDF); returns the path."""
+    """Write a before/after report of two sessions to ``path`` (PDF); returns the path.
+    ``ValueError`` when either analysis lacks a body calibration or the two hold different
+    results (as seen live / reprocessed)."""
+    for analysis in (before, after):
+        check_reportable(analysis)
+    if before.review.result != after.review.result:
+        raise ValueError(f"{before.review.path.name} is {before.review.result_label}, {after.review.path.name} "
+                         f"{after.review.result_label}: compare results of one kind")
     target = Path(path)
     doc = _Document(target, "MimuCap comparison report")
     labels = (f"before ({before.review.path.name})", f"after ({after.review.path.name})")
@@ -330,10 +377,16 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
         _header(doc, after, "MimuCap comparison report")
         doc.text(f"Before: {before.review.path.name}, recorded {before.review.session.metadata.get('created_utc') or 'not recorded'}. "
                  f"After: {after.review.path.name}, recorded {after.review.session.metadata.get('created_utc') or 'not recorded'}.", 9)
+        for label, analysis in (("Before", before), ("After", after)):
+            doc.text(f"What the {label.lower()} session's figures hold", 10, True, gap=3)
+            for item, text in analysis.review.provenance.items():
+                doc.text(f"{item}: {text}.", 7.5, gap=1)
         ids = {str(((a.review.session.metadata.get('subject') or {}).get('id')) or '') for a in (before, after)}
         if len(ids) > 1:
             doc.text(f"Warning: the two sessions name different subjects ({', '.join(sorted(ids))}).", 9, True,
                      colour=QColor(180, 0, 0))
+        for label, analysis in zip(labels, (before, after)):
+            _doubt_section(doc, analysis, label)
         doc.text("Gait", 11, True, gap=4)
         if before.gait is None or after.gait is None:
             doc.text("Gait comparison not possible: "

@@ -1,5 +1,7 @@
 """The review window: a recorded session's skeleton and plots following a play head, a
-timeline with the markers, play/pause, speed, and the export dialog.
+timeline with the markers, play/pause, speed, and the export dialog. The spans where a joint's
+angles are doubtful are shaded on the timeline and in the joint plots, and the status bar says
+which joints are doubtful at the play head, and why.
 
 The session is loaded and its poses computed off the GUI thread
 (:func:`mimucap.session.review.load_review` in a :class:`BackgroundTask`), with progress. The
@@ -19,13 +21,14 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.gui.background import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot
 from mimucap.gui.export_dialog import ExportDialog
-from mimucap.gui.live_plots import LivePlots
+from mimucap.gui.live_plots import DOUBT_BRUSH, LivePlots
 from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
 from mimucap.session.camera import CAMERA_PRESETS
 from mimucap.core.pipeline import RESULT_LIVE, RESULT_REPROCESSED
+from mimucap.session.analysis import NEEDS_BODY_CALIBRATION
 from mimucap.session.evaluation import accuracy_phrase
 from mimucap.session.review import SPEEDS, ReviewData, ReviewPlayer, load_review
 
@@ -175,6 +178,13 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.statusBar().addPermanentWidget(self.progress)
         self.pose_status = QtWidgets.QLabel(self)
         self.statusBar().addPermanentWidget(self.pose_status)
+        self.doubt_status = QtWidgets.QLabel(self)
+        self.doubt_status.setObjectName("doubtStatus")
+        self.doubt_status.setStyleSheet("QLabel { color: #c05800; }")
+        self.doubt_status.setWordWrap(True)
+        self.doubt_status.setVisible(False)
+        self.statusBar().addWidget(self.doubt_status, 1)
+        self._doubt_regions: list = []
         self._timer = QtCore.QTimer(self)
         self._timer.setInterval(PLAY_INTERVAL_MS)
         self._timer.timeout.connect(self._tick)
@@ -217,9 +227,10 @@ class ReviewWindow(QtWidgets.QMainWindow):
         if self.analysis_window is not None:  # it analysed the other result
             self.analysis_window.close()
             self.analysis_window = None
-        for line in self._marker_lines:
+        for line in self._marker_lines + self._doubt_regions:
             self.timeline.removeItem(line)
         self._marker_lines.clear()
+        self._doubt_regions.clear()
         self.markers_list.clear()
         self.player = ReviewPlayer(data)
         self.progress.hide()
@@ -232,6 +243,11 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.slider.setRange(int(round(data.start_s * SLIDER_STEPS_PER_S)), int(round(data.end_s * SLIDER_STEPS_PER_S)))
         self.timeline.setXRange(data.start_s, data.end_s, padding=0.01)
         self.timeline.setYRange(0, 1)
+        for start, end in self.player.doubtful_spans():
+            region = pg.LinearRegionItem((start, end), movable=False, brush=pg.mkBrush(*DOUBT_BRUSH), pen=pg.mkPen(None))
+            region.setZValue(-10)
+            self.timeline.addItem(region)
+            self._doubt_regions.append(region)
         for index, marker in enumerate(data.markers):
             line = pg.InfiniteLine(marker.t_s, angle=90, movable=False, pen=pg.mkPen("#2c3e50", width=1),
                                    label=marker.label,
@@ -249,6 +265,9 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.statusBar().showMessage(message, 15000)
         self.action_export.setEnabled(True)
         self.action_analysis.setEnabled(True)
+        # Without a body calibration the analysis gives the temporal gait parameters alone.
+        self.action_analysis.setStatusTip("" if data.body_calibration is not None else
+                                          f"Analysis: {NEEDS_BODY_CALIBRATION}")
         self.seek(data.start_s if keep is None else keep)
         self.scene_view.start()
         self._timer.start()
@@ -284,6 +303,12 @@ class ReviewWindow(QtWidgets.QMainWindow):
             widget.setValue(value)
             widget.blockSignals(False)
         self.time_label.setText(f"{t:7.2f} / {self.player.data.end_s:.2f} s")
+        here = self.player.doubt_here()
+        text = f"Doubtful here — {here}" if here else ""
+        if self.doubt_status.text() != text:
+            self.doubt_status.setText(text)
+            self.doubt_status.setToolTip(text)
+            self.doubt_status.setVisible(bool(text))
 
     def _slider_moved(self, value: int) -> None:
         self.seek(value / SLIDER_STEPS_PER_S)

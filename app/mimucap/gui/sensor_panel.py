@@ -1,5 +1,9 @@
 """The sensor panel: one row per sensor (id, segment, rate, drops, packets refused, latency,
-battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red.
+battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red,
+a sensor whose orientation is doubtful in orange with the reasons in its State column; a
+magnetometer calibration that is not good (its standing: another device's, a local field that
+no longer fits, too old; or a stored one not used) named in the State column, the device each
+sensor is in the tooltip of its id.
 Orientation-only sensors (on-board fusion, e.g. SlimeVR trackers) read "on-board" under
 magnetometer calibration. Shows :class:`~mimucap.session.live.SensorRow` values as they are,
 from the live session's ``status`` event (:meth:`SensorPanel.set_session`); computes nothing.
@@ -65,6 +69,15 @@ def rejections_tooltip(counts: dict[str, int]) -> str:
     return "Packets refused:\n" + "\n".join(lines) if lines else "No packet of this sensor was refused."
 
 
+def device_tooltip(row: SensorRow) -> str:
+    """Which device the sensor is (its calibrations are kept for it), or why that is not known."""
+    if row.device is None or not row.device.settled:
+        return "Device: not told yet by the source."
+    if row.device.known:
+        return f"Device: {row.device.describe()} (its magnetometer calibration is kept for this device)."
+    return f"Device not known: {row.device.missing}. A calibration made for it cannot be checked against the device."
+
+
 def _age(seconds: float) -> str:
     """`` (3 hours ago)`` after the calibration state ("" when the date is unknown)."""
     if not math.isfinite(seconds):
@@ -119,10 +132,15 @@ class SensorPanel(QtWidgets.QTableWidget):
                 state = "STALE: packets arrive but are refused (see Refused)"
             elif row.stale:
                 state = "STALE: no data"
+            # A calibration that does not fit is the cause to act on; the doubt it brings follows.
             elif row.state == "mag_uncalibrated":
-                state = "magnetometer not calibrated"
+                state = "magnetometer not calibrated" + (f": {row.mag_cal_note}" if row.mag_cal_note else "")
             elif row.mag_field_warning:
                 state = row.mag_field_warning
+            elif row.mag_standing is not None and not row.mag_standing.good:
+                state = f"magnetometer calibration {row.mag_standing.summary()}"
+            elif row.doubt:
+                state = f"orientation doubtful: {row.doubt}"
             else:
                 state = "ok"
             values = (
@@ -132,7 +150,9 @@ class SensorPanel(QtWidgets.QTableWidget):
                 row.mag_cal + (f" ({row.mag_cal_verdict})" if row.mag_cal_verdict else "") + _age(row.mag_cal_age_s),
                 ", ".join(row.flags) or "–", state,
             )
-            brush = STALE_BRUSH if row.stale else WARN_BRUSH if row.state != "ok" or row.mag_field_warning else QtGui.QBrush()
+            doubtful = row.mag_standing is not None and not row.mag_standing.good
+            brush = (STALE_BRUSH if row.stale else WARN_BRUSH if row.state != "ok" or doubtful or row.doubt
+                     else QtGui.QBrush())
             for c, text in enumerate(values):
                 item = self.item(r, c)
                 if item is None:
@@ -147,6 +167,10 @@ class SensorPanel(QtWidgets.QTableWidget):
             tooltip = rejections_tooltip(dict(row.rejections))
             if refused_item.toolTip() != tooltip:
                 refused_item.setToolTip(tooltip)
+            sensor_item = self.item(r, 0)
+            device = device_tooltip(row)
+            if sensor_item.toolTip() != device:
+                sensor_item.setToolTip(device)
         if refit:
             self._shown_ids = ids
             self.resizeColumnsToContents()

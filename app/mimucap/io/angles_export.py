@@ -19,6 +19,14 @@ for their meaning, see :func:`mimucap.core.skeleton.joint_angle_columns`), in de
   signs; the table is :data:`mimucap.io.opensense.OPENSIM_COORDINATES`), so that OpenSim loads the
   file as a motion of its Rajagopal or gait2392-style models.
 
+Both may carry, after a joint's three angle columns, its **trust column** ``<joint>_ok``: 1
+where the joint's angles are trustworthy, 0 where they are doubtful (the reasons of
+:mod:`mimucap.core.doubt`: a magnetometer rejected for longer than the gyroscope can bridge, a
+heading taken from a foreign magnetic field, lost samples, no body calibration…). The header
+explains the column and lists every doubtful span of each joint with its reasons in words
+(:func:`doubt_lines`). A ``.mot`` named for OpenSim coordinates carries the spans only (OpenSim
+would take another column for a coordinate).
+
 Any later export format writes its markers with :func:`marker_lines` and reads them back with
 :func:`parse_marker_line`, so that a marker reads the same in every file.
 """
@@ -40,19 +48,26 @@ from mimucap.io.session import Marker
 MARKER_PREFIX = "marker "
 #: How a column's label line starts.
 COLUMN_PREFIX = "column "
+#: The suffix of a joint's trust column.
+OK_SUFFIX = "_ok"
+#: Doubtful spans closer than this (s) are listed as one.
+DOUBT_SPAN_JOIN_S = 1.0
+#: Spans listed per joint at most (the rest are counted).
+DOUBT_SPANS_LISTED = 40
 
 
 @dataclass(frozen=True)
 class AnglesTable:
     """Joint angles read back from a file: ``t_s`` (N,), ``angles_deg`` column → (N,), header
     notes, ``labels`` column → readable label, ``markers`` of the record (times in s on the
-    ``t_s`` axis)."""
+    ``t_s`` axis), ``ok`` joint → (N,) bool (its trust column, when the file has one)."""
 
     t_s: np.ndarray
     angles_deg: Mapping[str, np.ndarray]
     header: Sequence[str] = field(default_factory=tuple)
     labels: Mapping[str, str] = field(default_factory=dict)
     markers: Sequence[Marker] = field(default_factory=tuple)
+    ok: Mapping[str, np.ndarray] = field(default_factory=dict)
 
 
 def marker_lines(markers: Sequence[Marker]) -> list[str]:
@@ -87,6 +102,24 @@ def column_lines(columns: Sequence[str]) -> list[str]:
     for column in columns:
         sign = angle_sign_text(column)
         lines.append(f"{COLUMN_PREFIX}{column}: {angle_label(column)}" + (f"; {sign}" if sign else ""))
+    return lines
+
+
+def doubt_lines(t_s: np.ndarray, joint_doubt: Mapping[str, np.ndarray]) -> list[str]:
+    """Header lines explaining the trust columns and listing, per joint, the doubtful spans
+    (times in s on the table's axis) and their reasons in words."""
+    from mimucap.core.doubt import describe, spans
+
+    lines = ["Trust: <joint>_ok is 1 where the joint's angles are trustworthy and 0 where they may be wrong "
+             "(the orientation of a sensor it uses, or the body calibration, is doubtful)"]
+    for joint, reasons in joint_doubt.items():
+        found = spans(t_s, reasons, DOUBT_SPAN_JOIN_S)
+        doubtful = float(np.count_nonzero(np.asarray(reasons))) / max(len(reasons), 1)
+        lines.append(f"doubtful {joint}: {100.0 * doubtful:.1f} % of the samples, {len(found)} span(s)")
+        for start, stop, bits in found[:DOUBT_SPANS_LISTED]:
+            lines.append(f"doubtful {joint} {start:.3f}-{stop:.3f} s: {describe(bits)}")
+        if len(found) > DOUBT_SPANS_LISTED:
+            lines.append(f"doubtful {joint}: {len(found) - DOUBT_SPANS_LISTED} more span(s)")
     return lines
 
 
@@ -132,14 +165,43 @@ def _check(t_s: np.ndarray, angles: Mapping[str, np.ndarray],
 
 
 def _notes(shoulder_sequence: str, notes: Sequence[str], columns: Sequence[str],
-           markers: Sequence[Marker]) -> list[str]:
+           markers: Sequence[Marker], doubt: Sequence[str] = ()) -> list[str]:
     lines = ["MimuCap joint angles", sequence_description(shoulder_sequence)]
     lines += JOINT_ANGLE_SIGNS_DOC.splitlines()
     lines += ["Units: t_s in seconds; every <joint>_<axis>_deg column in degrees"]
     lines += list(notes)
     lines += ["Columns: machine name, readable label, sign"] + column_lines(columns)
+    lines += list(doubt)
     lines += marker_lines(markers)
     return lines
+
+
+def _with_trust(t: np.ndarray, columns: list[str], data: np.ndarray,
+                joint_doubt: Mapping[str, np.ndarray] | None) -> tuple[list[str], np.ndarray, list[str]]:
+    """The table with each joint's trust column after its angle columns (for the joints of
+    ``joint_doubt`` that have columns), and the header lines that explain them."""
+    if not joint_doubt:
+        return columns, data, []
+    out_columns: list[str] = []
+    out_data: list[np.ndarray] = []
+    used = {}
+    for index, column in enumerate(columns):
+        out_columns.append(column)
+        out_data.append(data[:, index])
+        joint = next((j for j in joint_doubt if column.startswith(j + "_")), None)
+        following = columns[index + 1] if index + 1 < len(columns) else ""
+        if joint is not None and not following.startswith(joint + "_"):
+            reasons = np.asarray(joint_doubt[joint])
+            if reasons.shape != t.shape:
+                raise ValueError(f"the trust of joint {joint} has {reasons.shape[0]} rows, t_s has {t.size}")
+            out_columns.append(joint + OK_SUFFIX)
+            out_data.append((reasons == 0).astype(np.float64))
+            used[joint] = reasons
+    return out_columns, np.column_stack(out_data), doubt_lines(t, used)
+
+
+def _cell(column: str, value: float) -> str:
+    return f"{int(value)}" if column.endswith(OK_SUFFIX) else f"{value:.6f}"
 
 
 def write_angles_csv(
@@ -149,17 +211,21 @@ def write_angles_csv(
     shoulder_sequence: str = "zxy",
     notes: Sequence[str] = (),
     markers: Sequence[Marker] = (),
+    joint_doubt: Mapping[str, np.ndarray] | None = None,
 ) -> None:
     """Write joint angles (deg) as CSV with a commented header; ``notes`` are extra comment
-    lines, ``markers`` (times in s on the ``t_s`` axis) go in the header's marker table."""
+    lines, ``markers`` (times in s on the ``t_s`` axis) go in the header's marker table;
+    ``joint_doubt`` joint → (N,) reasons (:mod:`mimucap.core.doubt`) adds its trust column."""
     t, columns, data = _check(t_s, angles_deg)
-    header = _notes(shoulder_sequence, notes, columns, markers)
+    angle_columns = columns
+    columns, data, doubt = _with_trust(t, columns, data, joint_doubt)
+    header = _notes(shoulder_sequence, notes, angle_columns, markers, doubt)
     with Path(path).open("w", encoding="utf-8", newline="") as handle:
         for line in header:
             handle.write(f"# {line}\n")
         handle.write(",".join(["t_s"] + columns) + "\n")
         for time, row in zip(t, data):
-            handle.write(f"{time:.6f}," + ",".join(f"{v:.6f}" for v in row) + "\n")
+            handle.write(f"{time:.6f}," + ",".join(_cell(c, v) for c, v in zip(columns, row)) + "\n")
 
 
 def write_angles_mot(
@@ -171,9 +237,12 @@ def write_angles_mot(
     name: str = "mimucap_joint_angles",
     opensim_names: bool = False,
     markers: Sequence[Marker] = (),
+    joint_doubt: Mapping[str, np.ndarray] | None = None,
 ) -> None:
     """Write joint angles (deg) as an OpenSim ``.mot`` motion with ``inDegrees=yes``;
-    ``markers`` (times in s on the time axis) go in its description lines.
+    ``markers`` (times in s on the time axis) go in its description lines; ``joint_doubt``
+    joint → (N,) reasons (:mod:`mimucap.core.doubt`) adds the trust columns (with
+    ``opensim_names`` the doubtful spans only).
 
     ``opensim_names``: name the columns as OpenSim coordinates with OpenSim's signs (see the
     module doc; needs the shoulder's Z-X'-Y'' columns for ``arm_flex``/``arm_add``/``arm_rot``);
@@ -194,10 +263,12 @@ def write_angles_mot(
                         for c in renamed)]
         t, columns, data = _check(t_s, renamed, unit_suffix=False)
         labelled = [OPENSIM_COORDINATES[c][0] for c in columns]
+        doubt = doubt_lines(t, joint_doubt) if joint_doubt else []
     else:
         t, columns, data = _check(t_s, angles_deg)
         labelled = columns
-    header = _notes(shoulder_sequence, notes, labelled, markers)
+        columns, data, doubt = _with_trust(t, columns, data, joint_doubt)
+    header = _notes(shoulder_sequence, notes, labelled, markers, doubt)
     with Path(path).open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"{name}\nversion=1\nnRows={t.size}\nnColumns={len(columns) + 1}\ninDegrees=yes\n\n")
         handle.write("Units are S.I. units (second, meters, Newtons, ...)\n")
@@ -208,19 +279,21 @@ def write_angles_mot(
         handle.write("\nendheader\n")
         handle.write("\t".join(["time"] + columns) + "\n")
         for time, row in zip(t, data):
-            handle.write(f"{time:.6f}\t" + "\t".join(f"{v:.6f}" for v in row) + "\n")
+            handle.write(f"{time:.6f}\t" + "\t".join(_cell(c, v) for c, v in zip(columns, row)) + "\n")
 
 
 def write_angles(path: str | Path, t_s, angles_deg, shoulder_sequence: str = "zxy", notes: Sequence[str] = (),
-                 opensim_names: bool = False, markers: Sequence[Marker] = ()) -> None:
+                 opensim_names: bool = False, markers: Sequence[Marker] = (),
+                 joint_doubt: Mapping[str, np.ndarray] | None = None) -> None:
     """Write ``.csv`` or ``.mot`` by the file's suffix (``opensim_names`` only for ``.mot``)."""
     suffix = Path(path).suffix.lower()
     if opensim_names and suffix != ".mot":
         raise ValueError(f"{path}: OpenSim coordinate names are for .mot files")
     if suffix == ".csv":
-        write_angles_csv(path, t_s, angles_deg, shoulder_sequence, notes, markers)
+        write_angles_csv(path, t_s, angles_deg, shoulder_sequence, notes, markers, joint_doubt)
     elif suffix == ".mot":
-        write_angles_mot(path, t_s, angles_deg, shoulder_sequence, notes, opensim_names=opensim_names, markers=markers)
+        write_angles_mot(path, t_s, angles_deg, shoulder_sequence, notes, opensim_names=opensim_names, markers=markers,
+                         joint_doubt=joint_doubt)
     else:
         raise ValueError(f"{path}: joint angles are written as .csv or .mot, not {suffix or 'no suffix'!r}")
 
@@ -253,8 +326,13 @@ def read_angles_csv(path: str | Path) -> AnglesTable:
         raise ValueError(f"{path}: no header line")
     data = np.array(rows).reshape(len(rows), len(columns))
     labels, markers = _read_header(header, path)
-    return AnglesTable(data[:, 0], {c: data[:, i] for i, c in enumerate(columns) if i > 0}, tuple(header),
-                       labels, markers)
+    return AnglesTable(data[:, 0], {c: data[:, i] for i, c in enumerate(columns) if i > 0 and not c.endswith(OK_SUFFIX)},
+                       tuple(header), labels, markers, _trust(columns, data))
+
+
+def _trust(columns: Sequence[str], data: np.ndarray) -> dict[str, np.ndarray]:
+    """Joint → its trust column as bool, for the ``<joint>_ok`` columns of a table."""
+    return {c[:-len(OK_SUFFIX)]: data[:, i] != 0 for i, c in enumerate(columns) if c.endswith(OK_SUFFIX)}
 
 
 def read_angles_mot(path: str | Path) -> AnglesTable:
@@ -286,5 +364,6 @@ def read_angles_mot(path: str | Path) -> AnglesTable:
         raise ValueError(f"{path}: nColumns={meta['nColumns']} but {len(columns)} columns follow")
     scale = 1.0 if in_degrees else 180.0 / np.pi
     labels, markers = _read_header(header, path)
-    return AnglesTable(data[:, 0], {c: data[:, i] * scale for i, c in enumerate(columns) if i > 0}, tuple(header),
-                       labels, markers)
+    return AnglesTable(data[:, 0], {c: data[:, i] * scale for i, c in enumerate(columns)
+                                    if i > 0 and not c.endswith(OK_SUFFIX)}, tuple(header),
+                       labels, markers, _trust(columns, data))

@@ -26,6 +26,9 @@ the first frame at the first pose, ``TRIAL:ACTUAL_START_FIELD = 1``):
   ``PelvisOrigin`` (the root's proximal point), ``<Segment>End`` at the distal end of every
   segment without a child. Where the pipeline knows no root translation the pelvis stays put.
 * **Subject**: ``SUBJECTS:NAMES`` and ``PROCESSING:Height`` (mm); ``MANUFACTURER:SOFTWARE``.
+* **What the result holds** in the group ``MIMUCAP`` (:data:`PROVENANCE_GROUP`): ``RESULT`` (as
+  seen live or reprocessed), ``BODY_CALIBRATION``, ``MAGNETOMETER`` (one string per sensor),
+  ``SKELETON_MODEL``, ``SOFTWARE``, ``SOURCE_FILE``.
 * **Events** in the ``EVENT`` group: the recording's markers (context ``General``, label the
   marker's text) and any gait events given as ``(t_s, context, label)``, e.g.
   ``(3.21, "Left", "Foot Strike")``; ``EVENT:TIMES`` are seconds from the first frame (C3D's
@@ -48,6 +51,8 @@ CLINICAL_JOINTS = {
     "elbow": "ElbowAngles", "wrist": "WristAngles", "lumbar": "SpineAngles", "neck": "NeckAngles",
 }
 _AXES = ("flexion", "adduction", "rotation")
+#: The parameter group saying what the result holds (result, calibrations, model, software, source).
+PROVENANCE_GROUP = "MIMUCAP"
 
 
 def _camel(name: str) -> str:
@@ -78,13 +83,15 @@ def write_c3d(
     markers: Sequence[tuple[float, str]] = (),
     events: Sequence[tuple[float, str, str]] = (),
     subject: str = "",
+    provenance: Mapping[str, Sequence[str]] | None = None,
 ) -> Path:
     """Write a C3D file (contents in the module doc).
 
     ``t_s`` (T,) s the pose times; ``q_world_from_segment`` segment → (T, 4) (world ENU, w first),
     every segment of ``model``; ``angles_deg`` column → (T,) (``<joint>_<axis>_deg``); a joint's
     angles are written when its three Z-X'-Y'' columns are there; ``root_position_m`` (T, 3) or
-    ``None``; ``markers`` ``(t_s, label)``; ``events`` ``(t_s, context, label)``. Returns the path.
+    ``None``; ``markers`` ``(t_s, label)``; ``events`` ``(t_s, context, label)``; ``provenance``
+    parameter name → strings, what the result holds (group ``MIMUCAP``). Returns the path.
     """
     import ezc3d
 
@@ -157,6 +164,8 @@ def write_c3d(
     c3d.add_parameter("PROCESSING", "Height", float(height_m) * 1000.0)
     c3d.add_parameter("MANUFACTURER", "COMPANY", ["MimuCap"])
     c3d.add_parameter("MANUFACTURER", "SOFTWARE", ["MimuCap joint angles from magnetic-inertial sensors"])
+    for name, texts in (provenance or {}).items():
+        c3d.add_parameter(PROVENANCE_GROUP, name, [str(text) for text in texts] or [""])
     start = float(frames_t[0])
     for time, label in markers:
         if frames_t[0] - 1e-9 <= time <= frames_t[-1] + 1e-9:

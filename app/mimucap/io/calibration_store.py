@@ -1,14 +1,21 @@
-"""Persist magnetometer calibrations per sensor id as versioned JSON.
+"""Persist magnetometer calibrations per device as versioned JSON.
 
-Location: ``<data dir>/calibrations/magnetometer/<sensor id>.json`` where the data dir is
+A calibration describes one piece of hardware, so it is kept for the *device* it was made on
+(:mod:`mimucap.core.device_identity`), with the sensor id as its human label. Location:
+``<data dir>/calibrations/magnetometer/devices/<device id>.json`` (the device id with ``:`` and
+``/`` written ``_``), and ``<data dir>/calibrations/magnetometer/<sensor id>.json`` for a
+calibration whose device is not known (a node that sends no hardware id, a file fitted without
+one, and every file written before calibrations were tied to devices). The data dir is
 ``$MIMUCAP_DATA_DIR`` if set (tests), else ``$XDG_DATA_HOME/mimucap``, else
 ``~/.local/share/mimucap``. Writes are atomic (temporary file + rename).
 
-The JSON object (format version :data:`CALIBRATION_FORMAT_VERSION`)::
+The JSON object (format version :data:`CALIBRATION_FORMAT_VERSION`; version 1 had no
+``device_id`` and is read as a calibration of an unknown device)::
 
-    {"format": "mimucap-magcal", "format_version": 1, "sensor_id": "S01",
-     "created_utc": "2026-11-21T06:30:00Z", "protocol": "single_axis", "samples_used": 2400,
-     "offset_uT": [bx, by, bz], "soft_iron": [[...], [...], [...]], "field_uT": 49.3,
+    {"format": "mimucap-magcal", "format_version": 2, "sensor_id": "S01",
+     "device_id": "mac:A1B2C3D4E5F6", "created_utc": "2026-11-21T06:30:00Z",
+     "protocol": "single_axis", "samples_used": 2400, "offset_uT": [bx, by, bz],
+     "soft_iron": [[...], [...], [...]], "field_uT": 49.3,
      "quality": {"rms_residual_uT": ..., "verdict": "good", ...}}
 
 ``soft_iron`` is ``A⁻¹`` (symmetric); apply as ``mag_cal = soft_iron @ (mag_raw − offset_uT)``
@@ -16,8 +23,13 @@ The JSON object (format version :data:`CALIBRATION_FORMAT_VERSION`)::
 ``session.calibrations["magnetometer"][sensor_id]`` with the same object
 (:func:`embed_in_session`, :func:`calibration_from_session`).
 
-Loading a calibration for another sensor id is refused; a corrupt, foreign or newer file
-raises :class:`CalibrationFileError` (a ``ValueError``) naming the file and the problem.
+Which stored calibration a sensor gets is :meth:`CalibrationStore.lookup`'s decision: its
+device's, and no other. A sensor of a known device never takes a calibration stored under its
+label for another device or for an unknown one; a sensor whose device is not known takes only a
+calibration of an unknown device stored under its label (its device stays unverified, which
+:mod:`mimucap.core.magcal_standing` says). Either refusal comes with a sentence saying why.
+Loading a calibration for another sensor id or device is refused; a corrupt, foreign or newer
+file raises :class:`CalibrationFileError` (a ``ValueError``) naming the file and the problem.
 """
 
 from __future__ import annotations
@@ -28,15 +40,19 @@ import os
 import re
 import tempfile
 from collections.abc import MutableMapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from mimucap.core.device_identity import SensorDevice, check_device_id, describe_device
 from mimucap.core.magcal import MagCalibration
 
 CALIBRATION_FORMAT = "mimucap-magcal"
-CALIBRATION_FORMAT_VERSION = 1
+CALIBRATION_FORMAT_VERSION = 2
+#: Sub-folder of the store holding the calibrations of known devices.
+DEVICES_FOLDER = "devices"
 #: Key of the magnetometer calibrations in ``Session.calibrations``.
 SESSION_KEY = "magnetometer"
 _SENSOR_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.\-]{0,63}$")
@@ -62,6 +78,7 @@ def calibration_to_json(calibration: MagCalibration) -> dict[str, Any]:
         "format": CALIBRATION_FORMAT,
         "format_version": CALIBRATION_FORMAT_VERSION,
         "sensor_id": calibration.sensor_id,
+        "device_id": calibration.device_id,
         "created_utc": calibration.created_utc,
         "protocol": calibration.protocol,
         "samples_used": int(calibration.samples_used),
@@ -106,6 +123,12 @@ def calibration_from_json(
     sensor_id = data.get("sensor_id")
     if not isinstance(sensor_id, str) or not sensor_id:
         raise CalibrationFileError(f"{source}: missing sensor_id")
+    device_id = data.get("device_id")
+    if device_id is not None:
+        try:
+            check_device_id(device_id, f"{source}: device_id")
+        except ValueError as error:
+            raise CalibrationFileError(str(error)) from None
     if expected_sensor_id is not None and sensor_id != expected_sensor_id:
         raise CalibrationFileError(
             f"{source}: this calibration belongs to sensor {sensor_id!r}, not {expected_sensor_id!r}; "
@@ -121,14 +144,31 @@ def calibration_from_json(
             protocol=str(data.get("protocol", "")),
             samples_used=int(data.get("samples_used", 0)),
             quality=dict(data.get("quality") or {}),
+            device_id=device_id,
         )
     except (KeyError, TypeError, ValueError) as error:
         raise CalibrationFileError(f"{source}: invalid calibration ({error})") from error
     return calibration
 
 
+@dataclass(frozen=True)
+class StoredCalibration:
+    """What the store holds for one sensor (:meth:`CalibrationStore.lookup`): ``calibration``
+    to apply, or ``None``; ``note``: why a calibration stored under the sensor's label is not
+    applied, or that the one applied cannot be checked against the device ("" when there is
+    nothing to say)."""
+
+    calibration: MagCalibration | None
+    note: str = ""
+
+
+def device_file_name(device_id: str) -> str:
+    """The file name of ``device_id``'s calibration (``mac:A1…/1`` → ``mac_A1…_1.json``)."""
+    return check_device_id(device_id).replace(":", "_").replace("/", "_") + ".json"
+
+
 class CalibrationStore:
-    """Magnetometer calibrations on disk, one JSON file per sensor id.
+    """Magnetometer calibrations on disk, one JSON file per device (see the module docstring).
 
     directory: where the files live (default ``user_data_dir()/calibrations/magnetometer``).
     """
@@ -136,8 +176,11 @@ class CalibrationStore:
     def __init__(self, directory: str | os.PathLike[str] | None = None) -> None:
         self.directory = Path(directory) if directory is not None else user_data_dir() / "calibrations" / SESSION_KEY
 
-    def path_for(self, sensor_id: str) -> Path:
-        """The file of ``sensor_id``; ids must be 1–64 letters, digits, ``_``, ``.`` or ``-``."""
+    def path_for(self, sensor_id: str, device_id: str | None = None) -> Path:
+        """The file of ``device_id``'s calibration, or, without a device, of ``sensor_id``'s
+        (ids must be 1–64 letters, digits, ``_``, ``.`` or ``-``)."""
+        if device_id is not None:
+            return self.directory / DEVICES_FOLDER / device_file_name(device_id)
         if not isinstance(sensor_id, str) or not _SENSOR_ID.match(sensor_id) or ".." in sensor_id:
             raise ValueError(
                 f"sensor id {sensor_id!r} cannot name a calibration file: use letters, digits, _ . -"
@@ -145,8 +188,9 @@ class CalibrationStore:
         return self.directory / f"{sensor_id}.json"
 
     def save(self, calibration: MagCalibration) -> Path:
-        """Write ``calibration`` (replacing the sensor's previous one) and return its path."""
-        path = self.path_for(calibration.sensor_id)
+        """Write ``calibration`` (replacing its device's previous one, or, without a device, the
+        sensor's) and return its path."""
+        path = self.path_for(calibration.sensor_id, calibration.device_id)
         path.parent.mkdir(parents=True, exist_ok=True)
         text = json.dumps(calibration_to_json(calibration), indent=2, allow_nan=False)
         handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -159,26 +203,103 @@ class CalibrationStore:
             raise
         return path
 
-    def load(self, sensor_id: str) -> MagCalibration:
-        """The stored calibration of ``sensor_id``.
-
-        Raises ``FileNotFoundError`` if there is none, :class:`CalibrationFileError` if the
-        file is corrupt or belongs to another sensor.
-        """
-        path = self.path_for(sensor_id)
-        if not path.is_file():
-            raise FileNotFoundError(f"no magnetometer calibration for sensor {sensor_id!r} (looked for {path})")
+    def _read(self, path: Path, sensor_id: str | None = None) -> MagCalibration:
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
         except (UnicodeDecodeError, json.JSONDecodeError) as error:
             raise CalibrationFileError(f"{path}: corrupt calibration file ({error}); calibrate the sensor again") from error
         return calibration_from_json(data, str(path), expected_sensor_id=sensor_id)
 
+    def load(self, sensor_id: str, device_id: str | None = None) -> MagCalibration:
+        """The stored calibration of device ``device_id``, or, without one, the calibration
+        stored under label ``sensor_id``: the unknown device's, else the only device's labelled
+        so (a tool's look-up by name; :meth:`lookup` decides what a sensor may use).
+
+        Raises ``FileNotFoundError`` if there is none, :class:`CalibrationFileError` if the
+        file is corrupt, belongs to another sensor or device, or the label names several devices.
+        """
+        if device_id is not None:
+            path = self.path_for(sensor_id, device_id)
+            if not path.is_file():
+                raise FileNotFoundError(f"no magnetometer calibration for {describe_device(device_id)} "
+                                        f"(looked for {path})")
+            calibration = self._read(path)
+            if calibration.device_id != device_id:
+                raise CalibrationFileError(f"{path}: this calibration belongs to device {calibration.device_id}, "
+                                           f"not {device_id}; it cannot be used for another device")
+            return calibration
+        path = self.path_for(sensor_id)
+        if path.is_file():
+            return self._read(path, sensor_id)
+        labelled = [c for c in self._device_calibrations() if c.sensor_id == sensor_id]
+        if len(labelled) > 1:
+            raise CalibrationFileError(f"{self.directory}: {len(labelled)} devices have a calibration labelled "
+                                       f"{sensor_id} ({', '.join(c.device_id for c in labelled)}): name the device")
+        if not labelled:
+            raise FileNotFoundError(f"no magnetometer calibration for sensor {sensor_id!r} (looked in {self.directory})")
+        return labelled[0]
+
+    def _device_calibrations(self) -> list[MagCalibration]:
+        """Every readable calibration of a known device (an unreadable file is skipped: it is
+        named when its device is looked up)."""
+        folder = self.directory / DEVICES_FOLDER
+        found = []
+        for path in sorted(folder.glob("*.json")) if folder.is_dir() else ():
+            try:
+                found.append(self._read(path))
+            except (CalibrationFileError, OSError):
+                continue
+        return found
+
+    def lookup(self, sensor_id: str, device: SensorDevice) -> StoredCalibration:
+        """The calibration sensor ``sensor_id`` may use, being ``device`` (see the module
+        docstring), with a note when one stored under its label is not used or when its device
+        cannot be checked. A device that is not settled yet gets nothing and no note (ask again
+        once the source has said). A corrupt file of its own raises :class:`CalibrationFileError`."""
+        if not device.settled:
+            return StoredCalibration(None)
+        if device.device_id is not None:
+            path = self.path_for(sensor_id, device.device_id)
+            if path.is_file():
+                return StoredCalibration(self.load(sensor_id, device.device_id))
+            others = self._labelled(sensor_id, exclude=device.device_id)
+            if not others:
+                return StoredCalibration(None)
+            return StoredCalibration(None, f"the calibration stored under {sensor_id} {others}; this sensor is "
+                                           f"{describe_device(device.device_id)}: not used, calibrate it here")
+        path = self.path_for(sensor_id)
+        if path.is_file():
+            return StoredCalibration(self._read(path, sensor_id))
+        others = self._labelled(sensor_id, exclude=None)
+        if not others:
+            return StoredCalibration(None)
+        return StoredCalibration(None, f"{sensor_id} does not say which device it is ({device.missing}); the "
+                                       f"calibration stored under {sensor_id} {others}: not used")
+
+    def _labelled(self, sensor_id: str, exclude: str | None) -> str:
+        """How the calibrations labelled ``sensor_id`` other than ``exclude``'s are described
+        ("is of MAC …, made …"), "" when there are none."""
+        stored = [c for c in self._device_calibrations() if c.sensor_id == sensor_id and c.device_id != exclude]
+        unknown = self.path_for(sensor_id)
+        if exclude is not None and unknown.is_file():
+            try:
+                stored.append(self._read(unknown, sensor_id))
+            except (CalibrationFileError, OSError):
+                pass
+        if not stored:
+            return ""
+        described = [(f"is of {describe_device(c.device_id)}" if c.device_id else
+                      "was made before calibrations were tied to a device")
+                     + (f" ({c.created_utc})" if c.created_utc else "") for c in stored]
+        return " and ".join(described)
+
     def sensor_ids(self) -> list[str]:
-        """Ids of the sensors with a stored calibration, sorted."""
+        """Labels (sensor ids) of the stored calibrations, sorted, each once."""
         if not self.directory.is_dir():
             return []
-        return sorted(p.stem for p in self.directory.glob("*.json"))
+        labels = {p.stem for p in self.directory.glob("*.json")}
+        labels.update(c.sensor_id for c in self._device_calibrations())
+        return sorted(labels)
 
 
 def embed_in_session(calibrations: MutableMapping[str, Any], calibration: MagCalibration) -> None:

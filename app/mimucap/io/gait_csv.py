@@ -10,8 +10,9 @@ the sagittal (flexion-axis) rate, positive as the foot swings forward (dorsiflex
 therefore ``−gyr_y`` for both feet when the file keeps to that frame (``mimucap gait`` does not
 rely on it: it finds each sensor's axes in its samples). Time = sample number / rate.
 
-**Tables** are plain CSV with one header row; empty cells are values that could not be
-estimated; booleans are ``true``/``false``.
+**Tables** are CSV with one header row, after ``#`` lines saying what the input holds (result,
+calibrations, software, source file); empty cells are values that could not be estimated;
+booleans are ``true``/``false``.
 """
 
 from __future__ import annotations
@@ -188,10 +189,13 @@ def format_cell(value: object) -> str:
     return str(value)
 
 
-def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[object]]) -> Path:
-    """Write one CSV table (module doc); returns the path."""
+def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[object]],
+                notes: Sequence[str] = ()) -> Path:
+    """Write one CSV table (module doc), ``notes`` as ``#`` lines above it; returns the path."""
     target = Path(path)
     with open(target, "w", newline="", encoding="utf-8") as handle:
+        for note in notes:
+            handle.write("# " + " ".join(str(note).split()) + "\n")
         writer = csv.writer(handle)
         writer.writerow(list(header))
         for row in rows:
@@ -200,6 +204,6 @@ def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence
 
 
 def read_table(path: str | Path) -> list[dict[str, str]]:
-    """Rows of a CSV table as header → text."""
+    """Rows of a CSV table as header → text (its ``#`` lines skipped)."""
     with open(path, newline="", encoding="utf-8") as handle:
-        return list(csv.DictReader(handle))
+        return list(csv.DictReader(line for line in handle if not line.startswith("#")))

@@ -277,17 +277,29 @@ def _verdicts(metadata: Mapping[str, Any], calibrations: Mapping[str, Any]) -> d
         verdict = body.get("verdict") or (body.get("quality") or {}).get("verdict")
         verdicts["body"] = str(verdict or "applied")
     magnetometers = calibrations.get("magnetometer")
+    # what the recording judged of its calibrations when it started (their standing: verdict,
+    # device, local field, age), else their fits' verdicts
+    readiness = metadata.get("magnetometer_readiness")
+    readiness = readiness if isinstance(readiness, Mapping) else {}
     if isinstance(magnetometers, Mapping):
         for sensor_id, calibration in sorted(magnetometers.items()):
             quality = calibration.get("quality") if isinstance(calibration, Mapping) else None
             verdict = quality.get("verdict") if isinstance(quality, Mapping) else None
+            standing = readiness.get(sensor_id)
+            if isinstance(standing, Mapping) and standing.get("level"):
+                verdict = standing["level"]
             verdicts[f"magnetometer {sensor_id}"] = str(verdict or "applied")
+    for sensor_id, standing in sorted(readiness.items()):
+        if isinstance(standing, Mapping) and standing.get("level") == "not calibrated":
+            verdicts.setdefault(f"magnetometer {sensor_id}", "not calibrated")
     for sensor_id in metadata.get("mag_calibrated_sensors") or ():
         verdicts.setdefault(f"magnetometer {sensor_id}", "applied")
     return verdicts
 
 
-def _recorded_utc(metadata: Mapping[str, Any]) -> str:
+def recorded_utc(metadata: Mapping[str, Any]) -> str:
+    """When a session was recorded (ISO 8601): the recording's start, else the file's creation;
+    '' when unknown."""
     recording = metadata.get("recording")
     started = recording.get("started_utc") if isinstance(recording, Mapping) else None
     return str(started or metadata.get("created_utc") or "")
@@ -360,7 +372,7 @@ def read_entry(root: str | os.PathLike[str], relative: str) -> SessionEntry:
     height = subject.get("height_m", metadata.get("height_m"))
     return SessionEntry(
         path=relative, subject_id=str(subject.get("id") or _guess_subject(relative)),
-        recorded_utc=_recorded_utc(metadata), condition=str(fields.get("condition") or ""), tags=tags,
+        recorded_utc=recorded_utc(metadata), condition=str(fields.get("condition") or ""), tags=tags,
         trial=str(fields.get("trial") or ""), duration_s=summary.duration_s,
         sensors=dict(sorted(summary.segments.items())),
         verdicts=_verdicts(metadata, summary.calibrations),
@@ -760,4 +772,5 @@ __all__ = [
     "INDEX_NAME", "TRASH_NAME", "SCHEMA_VERSION", "BUSY_TIMEOUT_S", "METADATA_KEY", "STATUS_OK", "STATUS_DAMAGED",
     "LibraryError", "LibraryVersionError", "SessionEntry", "SubjectEntry", "ScanReport", "Library",
     "read_entry", "recording_path", "library_fields", "check_tags", "check_trial_name", "session_file_name", "parse_utc",
+    "recorded_utc",
 ]

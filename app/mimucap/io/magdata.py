@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from mimucap.core.device_identity import xsens_device_id
 from mimucap.core.samples import SensorSamples
 from mimucap.io.input_names import FORMATS, MAG_UNITS, SESSION_SUFFIXES
 
@@ -67,7 +68,9 @@ class MagRecording:
     mag: (N, 3) samples in ``unit`` ("uT", "gauss", "counts", or ``None`` if the file does not
     state it), sensor frame. t_s: (N,) s or ``None``. imu: companion inertial samples (``acc``
     m/s², ``gyr`` rad/s, sensor frame; either may be ``None``) or ``None``.
-    imu_in_mag_frame: whether the inertial samples share the magnetometer's axes.
+    imu_in_mag_frame: whether the inertial samples share the magnetometer's axes. device_id: the
+    device the samples came from when the file says (:mod:`mimucap.core.device_identity`: a
+    session's recorded device, an Xsens export's device id), else ``None``.
     """
 
     source: str
@@ -77,6 +80,7 @@ class MagRecording:
     t_s: FloatArray | None = None
     imu: SensorSamples | None = None
     imu_in_mag_frame: bool = True
+    device_id: str | None = None
 
     def acc_at_mag_times(self) -> FloatArray | None:
         """Accelerometer samples (N, 3, m/s²) linearly interpolated at the magnetometer times
@@ -303,7 +307,17 @@ def read_xsens(path: str | Path) -> MagRecording:
         imu = SensorSamples(recording.device_id or path.stem, t_s, np.arange(len(t_s)), acc=recording.acc,
                             gyr=recording.gyr)
     return MagRecording(source=str(path), sensor_id=recording.device_id, mag=recording.mag_au, unit="counts",
-                        t_s=t_s, imu=imu)
+                        t_s=t_s, imu=imu, device_id=_xsens_device(recording.device_id))
+
+
+def _xsens_device(device: str | None) -> str | None:
+    """The device id of an Xsens export's ``DeviceId`` (``None`` when it names none usable)."""
+    if not device:
+        return None
+    try:
+        return xsens_device_id(device)
+    except ValueError:
+        return None
 
 
 def read_session_mag(path: str | Path, sensor_id: str | None = None) -> list[MagRecording]:
@@ -312,6 +326,7 @@ def read_session_mag(path: str | Path, sensor_id: str | None = None) -> list[Mag
     from mimucap.io.session import read_session
 
     session = read_session(path, include_truth=False)
+    devices = session.devices()
     recordings = []
     for sid, stream in session.sensors.items():
         if sensor_id is not None and sid != sensor_id:
@@ -322,7 +337,8 @@ def read_session_mag(path: str | Path, sensor_id: str | None = None) -> list[Mag
             continue
         recordings.append(
             MagRecording(source=f"{path}#{sid}", sensor_id=sid, mag=np.asarray(stream.mag_uT, dtype=np.float64),
-                         unit="uT", t_s=np.asarray(stream.t_s, dtype=np.float64), imu=stream)
+                         unit="uT", t_s=np.asarray(stream.t_s, dtype=np.float64), imu=stream,
+                         device_id=devices[sid].device_id)
         )
     if not recordings:
         present = ", ".join(session.sensors) or "none"

@@ -43,6 +43,8 @@ import numpy as np
 
 from mimucap.core import rotation
 
+#: Why an MVNX session's sensors have no device id.
+NO_DEVICE_IN_MVNX = "an MVNX file names its sensors by body position, not by device"
 #: Xsens segment label → MimuCap segment (fifteen-segment model).
 SEGMENT_OF_XSENS: dict[str, str] = {
     "Pelvis": "pelvis", "T8": "thorax", "Head": "head",
@@ -435,6 +437,8 @@ def session_from_mvnx(recording: MvnxRecording):
                                 "height from the Xsens model" if recording.height_m() else "height unknown"),
         "skeleton_model": "fifteen_segment",
         "sensor_segments": {label: s.segment for label, s in sensors.items()},
+        # MVNX names its sensors by where they are worn, never by device: say so for each
+        "devices": {label: {"device_id": None, "missing": NO_DEVICE_IN_MVNX} for label in sensors},
     }
     return Session(metadata=metadata, sensors=sensors, calibrations={"body": calibration.to_dict()},
                    results={"xsens": xsens})

@@ -19,7 +19,11 @@ the heading correction, a segment frame in the N-pose is ground's own frame (x f
 z right), which is how the bodies of OpenSim's full-body models (e.g. Rajagopal et al. 2015,
 "Full-Body Musculoskeletal Model for Muscle-Driven Simulation of Human Gait") are oriented in
 their default pose. So ``IMUPlacer`` with the settings above and ``IMUInverseKinematicsTool``
-run on it unchanged. **Raw sensors (an option)** export each segment's sensor orientation
+run on it unchanged. ``IMUPlacer`` calibrates on a table's first row, which in a whole recording
+is seldom the subject standing still in the N-pose; the export therefore writes beside each table
+a calibration table (``<stem>_calibration.sto``, :data:`CALIBRATION_SUFFIX`): one row, the N-pose
+the body calibration measured, as the same sensors, and the table's header says to calibrate on
+it. **Raw sensors (an option)** export each segment's sensor orientation
 ``q_world_from_sensor`` instead: OpenSense then finds the sensor-to-body rotations itself, and the
 base heading axis is whichever sensor axis points forward on the pelvis.
 
@@ -199,6 +203,22 @@ def write_orientation_sto(
     return path
 
 
+#: ``<table stem>`` + this: the calibration table written beside an orientation table.
+CALIBRATION_SUFFIX = "_calibration.sto"
+#: The first header note of a calibration table.
+CALIBRATION_TABLE_NOTE = ("calibration pose for IMUPlacer: the N-pose the body calibration measured (every "
+                          "virtual sensor as its segment stood then), one row; the motion is in {table}")
+#: The first header note of a table without a calibration table (no body calibration).
+NO_CALIBRATION_TABLE_NOTE = ("no body calibration: no calibration table; IMUPlacer calibrates on this table's "
+                             "first row, which must then be the subject standing in the model's default pose")
+
+
+def placer_note(calibration_table: str) -> str:
+    """The first header note of an orientation table written with its calibration table."""
+    return (f"IMUPlacer: calibrate on {calibration_table} (the body calibration's N-pose), not on this table's "
+            "first row (it need not be a standing pose); then IMU inverse kinematics on this table")
+
+
 #: Header notes every virtual-sensor table carries (how to run OpenSense on it).
 VIRTUAL_SENSOR_NOTES = (
     "virtual sensors aligned with MimuCap segments (x anterior, y along the segment, z right), world ENU",
@@ -229,5 +249,7 @@ def session_from_sto(path: str | Path):
         "source": {"kind": "opensense-sto", "file": Path(path).name, "start_s": float(table.t_s[0])},
         "skeleton_model": "fifteen_segment" if any(s.startswith(("hand", "foot")) for s in segments) else "ten_segment",
         "sensor_segments": {label: s.segment for label, s in sensors.items()},
+        "devices": {label: {"device_id": None, "missing": "an OpenSense table names its sensors by body, not by device"}
+                    for label in sensors},
     }
     return Session(metadata=metadata, sensors=sensors)

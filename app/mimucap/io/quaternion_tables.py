@@ -87,7 +87,9 @@ class QuaternionTable:
     ``t_s`` (N,) float64 seconds, strictly increasing; ``q_world_from_sensor`` maps sensor
     id to (N, 4) unit quaternions (w, x, y, z); ``up_world`` (3,) is the unit up direction in
     world coordinates; ``world_frame`` names the world frame; ``source`` the file it came from;
-    ``segment_hints`` the body segment each sensor was recorded as worn on, when the file says.
+    ``segment_hints`` the body segment each sensor was recorded as worn on, when the file says;
+    ``doubt`` sensor → (N,) the reasons each orientation may be wrong (``uint16`` bits of
+    :mod:`mimucap.core.doubt`), when the orientations come from MimuCap's processing path.
     """
 
     t_s: np.ndarray
@@ -96,6 +98,7 @@ class QuaternionTable:
     world_frame: str = "ENU"
     source: str = ""
     segment_hints: Mapping[str, str] = field(default_factory=dict)
+    doubt: Mapping[str, np.ndarray] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         t = np.asarray(self.t_s, dtype=np.float64)

@@ -37,6 +37,7 @@ import h5py
 import numpy as np
 
 from mimucap import __version__
+from mimucap.core.device_identity import SensorDevice, devices_from_json
 from mimucap.core.samples import SensorSamples
 from mimucap.core.sensor_limits import GYR_MAX_RAD_S
 
@@ -63,6 +64,8 @@ _PERCENT_PER_FRACTION = 100.0
 CALIBRATION_STATUS = "calibration_status"
 
 _COMPRESS_MIN_ELEMENTS = 4096
+#: Why a sensor of a session has no device id when the session does not name one.
+DEVICE_NOT_RECORDED = "the recording does not say which device it was (made before MimuCap recorded devices)"
 
 #: :data:`~mimucap.core.sensor_limits.GYR_MAX_RAD_S` in °/s: a larger number is not a rate in
 #: either unit.
@@ -152,6 +155,13 @@ class Session:
         """Sensor id → segment name (``None`` when unassigned)."""
         return {sensor_id: stream.segment for sensor_id, stream in self.sensors.items()}
 
+    def devices(self) -> dict[str, SensorDevice]:
+        """Sensor id → its device as the recording says (metadata ``devices``,
+        :mod:`mimucap.core.device_identity`); a sensor it does not name has none,
+        :data:`DEVICE_NOT_RECORDED` saying why. ``ValueError`` for a malformed entry."""
+        stored = devices_from_json(self.metadata.get("devices"), "the session's devices")
+        return {sid: stored.get(sid, SensorDevice(None, DEVICE_NOT_RECORDED)) for sid in self.sensors}
+
 
 @dataclass(frozen=True)
 class SessionSummary:
@@ -167,16 +177,37 @@ class SessionSummary:
     calibrations: dict[str, Any]
 
 
+#: The sexes a subject record may name (the clinical norms differ by sex); "" when not given.
+SEXES = ("female", "male", "")
+
+
 def make_subject(
-    subject_id: str = "", height_m: float = 1.75, dominance: str = "right", notes: str = ""
+    subject_id: str = "", height_m: float = 1.75, dominance: str = "right", notes: str = "",
+    age_years: float | None = None, sex: str = "", weight_kg: float | None = None,
 ) -> dict[str, Any]:
     """A subject record for ``metadata["subject"]``; ``dominance`` is ``"right"``, ``"left"``
-    or ``"unknown"``; ``height_m`` must lie in (0.5, 2.5) m."""
+    or ``"unknown"``; ``height_m`` must lie in (0.5, 2.5) m. Optional, for the clinical tests'
+    reference values: ``age_years`` (0-120), ``sex`` one of :data:`SEXES`, ``weight_kg``
+    (10-400); a value not given is left out of the record."""
     if not 0.5 < float(height_m) < 2.5:
         raise ValueError(f"subject height {height_m} m is outside 0.5..2.5 m")
     if dominance not in ("right", "left", "unknown"):
         raise ValueError(f"subject dominance must be right, left or unknown, got {dominance!r}")
-    return {"id": str(subject_id), "height_m": float(height_m), "dominance": dominance, "notes": str(notes)}
+    record: dict[str, Any] = {"id": str(subject_id), "height_m": float(height_m), "dominance": dominance,
+                              "notes": str(notes)}
+    if age_years is not None:
+        if not 0.0 <= float(age_years) <= 120.0:
+            raise ValueError(f"subject age {age_years} years is outside 0..120")
+        record["age_years"] = float(age_years)
+    if sex not in SEXES:
+        raise ValueError(f"subject sex must be female or male (or empty), got {sex!r}")
+    if sex:
+        record["sex"] = sex
+    if weight_kg is not None:
+        if not 10.0 <= float(weight_kg) <= 400.0:
+            raise ValueError(f"subject weight {weight_kg} kg is outside 10..400 kg")
+        record["weight_kg"] = float(weight_kg)
+    return record
 
 
 # --------------------------------------------------------------------------------------------
@@ -747,7 +778,8 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
 
     Sensors keep the simulated samples (dropped packets absent); ``metadata["source"]``
     records the scenario, seed, rate, sensor count, model, error model and earth field so the
-    file says how to reproduce it; markers are the activity changes; ``truth`` (unless
+    file says how to reproduce it; ``metadata["devices"]`` each unit's device id (the suit's
+    fingerprint and the unit, :meth:`~mimucap.core.simulate.SimulationConfig.device_ids`); markers are the activity changes; ``truth`` (unless
     ``include_truth`` is False) holds segment and sensor orientations, mounting, magnetometer
     distortion, gyroscope bias, field, joint angles and the hand-held calibration axis.
     """
@@ -768,6 +800,7 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
         "source": source,
         "subject": subject if subject is not None else make_subject("simulated", result.height_m, "right", "simulated subject"),
         "sensor_segments": {sid: s.segment for sid, s in result.samples.items()},
+        "devices": {sid: {"device_id": device_id} for sid, device_id in config.device_ids().items()},
         "skeleton_model": result.model_name,
         "height_m": result.height_m,
     }
@@ -804,7 +837,8 @@ def session_from_simulation(result: Any, subject: dict[str, Any] | None = None, 
 __all__ = [
     "SESSION_FORMAT", "SESSION_FORMAT_VERSION", "SENSOR_CHANNELS", "SessionFormatError",
     "time_stamp_problem", "gyro_range_problem",
-    "CALIBRATION_STATUS", "Marker", "SensorTruth", "SessionTruth", "Session", "SessionSummary", "make_subject",
+    "CALIBRATION_STATUS", "DEVICE_NOT_RECORDED", "SEXES", "Marker", "SensorTruth", "SessionTruth", "Session",
+    "SessionSummary", "make_subject",
     "write_session", "read_session", "read_metadata", "read_summary", "update_metadata", "session_duration_s",
     "session_from_simulation",
 ]

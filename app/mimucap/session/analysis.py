@@ -10,7 +10,14 @@ samples, segment orientations and joint angles; nothing from the simulator's tru
   rotation, or without a calibration found in its own samples
   (:mod:`mimucap.core.analysis.sagittal`);
 * the thighs, shanks and pelvis for the leg model and the heading, only when the segment
-  orientations come from a body calibration (sensor axes alone are not the segments).
+  orientations come from a body calibration (sensor axes alone are not the segments);
+* nothing from the phases in which the sensors were in the hands (the magnetometer turns),
+  :func:`while_worn`.
+
+Joint-angle curves, range of motion, turns and spatial gait parameters (stride length, gait
+speed) need a body calibration: without one the segment "orientations" are the sensors' own
+axes. A review without one is analysed for the temporal parameters alone, labelled so
+(:data:`NEEDS_BODY_CALIBRATION`, :attr:`SessionAnalysis.limits`).
 
 ROM protocol markers are labelled ``rom:<movement>:<side>:start`` and ``...:end`` (side
 ``left``, ``right`` or ``both``), see :mod:`mimucap.session.rom_procedure`.
@@ -19,24 +26,29 @@ The tables as the Analysis window and the PDF report show them are built here on
 parameter rows (:func:`gait_parameter_rows`), the ROM rows (:func:`rom_rows`), each with its
 label, unit and values and :meth:`cells` for its text, and the cycle curves grouped by joint
 angle (:func:`curve_groups`); the CSV tables are the functions ending in ``_table``.
+
+Doubtful data is marked, not hidden (:mod:`mimucap.core.doubt`): the joints whose angles are
+doubtful somewhere, when and why (:func:`doubt_rows`), the strides of each cycle curve that
+hold doubtful samples, and the share of each ROM window that is doubtful.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from mimucap.core import bodycal
+from mimucap.core import bodycal, doubt, phases
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait import GaitAnalysis, GaitInput, analyse_gait
 from mimucap.core.analysis.gait_cycle import CycleCurve, cycle_curves, split_column
-from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS, ParameterSummary
+from mimucap.core.analysis.gait_parameters import PARAMETERS, SYMMETRY_PARAMETERS, ParameterSummary, gait_parameters
 from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.sagittal import axes_calibrated, axes_from_data, sagittal_rate_dominant
+from mimucap.core.clinical_names import joint_name
 from mimucap.io.gait_csv import write_table
 from mimucap.io.session import Marker
 from mimucap.session.review import ReviewData
@@ -144,11 +156,123 @@ def rom_of_protocol(review: ReviewData) -> dict[tuple[str, str], rom_core.RomRes
     return results
 
 
+#: Why an analysis without a body calibration gives the temporal gait parameters alone.
+NEEDS_BODY_CALIBRATION = ("no body calibration: joint-angle curves, range of motion, turns and spatial gait "
+                          "parameters (stride length, gait speed) need one; temporal gait parameters only")
+
+
+def unworn_windows(review: ReviewData) -> list[tuple[float, float]]:
+    """The time windows (s) in which the review's markers say the sensors were not worn."""
+    return phases.off_body_windows(review.markers, review.end_s)
+
+
+def while_worn(gait: GaitAnalysis, windows: Sequence[tuple[float, float]]) -> GaitAnalysis:
+    """``gait`` without the strides, bouts and turns that overlap ``windows`` (s) in which the sensors
+    were not worn (turning a sensor in the hand is no turn of the walker), its parameters
+    recomputed."""
+    if not windows:
+        return gait
+
+    def outside(start: float, end: float) -> bool:
+        return not any(start < b and end > a for a, b in windows)
+
+    strides = [s for s in gait.strides if outside(s.ic_s, s.next_ic_s)]
+    bouts = [b for b in gait.bouts if outside(b.start_s, b.end_s)]
+    turns = [t for t in gait.turns if outside(t.start_s, t.end_s)]
+    return replace(gait, strides=strides, bouts=bouts, turns=turns, parameters=gait_parameters(strides))
+
+
+def temporal_only(gait: GaitAnalysis) -> GaitAnalysis:
+    """``gait`` without what needs a body calibration: stride lengths and heading changes
+    left out (NaN), no turns, the parameters of the same strides recomputed (stride length and
+    gait speed then have no value)."""
+    strides = [replace(s, stride_length_m=math.nan, heading_change_deg=math.nan) for s in gait.strides]
+    sources = {side: text.split(";")[0] + "; temporal parameters only (no body calibration)"
+               for side, text in gait.sources.items()}
+    return replace(gait, strides=strides, turns=[], parameters=gait_parameters(strides), sources=sources)
+
+
+def rom_doubt(review: ReviewData) -> dict[tuple[str, str], float]:
+    """The share of each ROM protocol window (keyed (movement, side)) in which the movement's
+    joint angles are doubtful."""
+    found = {}
+    for key, side, start, end in rom_markers(review.markers):
+        m = rom_core.movement(key)
+        joint = m.joint if m.joint in ("lumbar", "neck") else f"{m.joint}_{side[0]}"
+        reasons = review.joint_doubt.get(joint)
+        window = rom_core.window_mask(review.t_s, start, end)
+        if reasons is not None and np.any(window):
+            found[(key, side)] = float(np.mean(reasons[window] != 0))
+    return found
+
+
+@dataclass(frozen=True)
+class DoubtRow:
+    """A joint whose angles are doubtful somewhere in the review: the ``fraction`` of its
+    poses, the ``spans`` ``(start_s, end_s, reasons)`` (reason bits of :mod:`mimucap.core.doubt`)."""
+
+    joint: str
+    fraction: float
+    spans: tuple[tuple[float, float, int], ...]
+
+    #: Spans shown in a table cell (the rest are counted).
+    SHOWN_SPANS = 4
+
+    def cells(self) -> list[str]:
+        """The row's text under :data:`DOUBT_HEADER`."""
+        shown = ", ".join(f"{a:.1f}–{b:.1f}" for a, b, _r in self.spans[:self.SHOWN_SPANS])
+        if len(self.spans) > self.SHOWN_SPANS:
+            shown += f" and {len(self.spans) - self.SHOWN_SPANS} more"
+        reasons = int(np.bitwise_or.reduce([r for _a, _b, r in self.spans])) if self.spans else 0
+        return [joint_name(self.joint), f"{100.0 * self.fraction:.1f}", shown, doubt.describe(reasons)]
+
+
+DOUBT_HEADER = ("Joint", "Doubtful %", "When (s)", "Why")
+
+
+def doubt_rows(review: ReviewData) -> list[DoubtRow]:
+    """The joints whose angles are doubtful somewhere, in the model's joint order."""
+    rows = []
+    for joint in review.model.joint_names:
+        reasons = review.joint_doubt.get(joint)
+        if reasons is None or not np.any(reasons):
+            continue
+        rows.append(DoubtRow(joint, float(np.mean(reasons != 0)), tuple(doubt.spans(review.t_s, reasons))))
+    return rows
+
+
+def doubtful_strides(review: ReviewData, curves: dict[str, CycleCurve], strides) -> dict[str, int]:
+    """Curve key → how many of the strides it averages hold a doubtful sample of its joint."""
+    found = {}
+    for key, curve in curves.items():
+        joint = next((j for j in review.joint_doubt if curve.column.startswith(j + "_")), None)
+        if joint is None:
+            continue
+        reasons = review.joint_doubt[joint]
+        count = 0
+        for stride in strides:
+            if stride.side != curve.side or not stride.analysed:
+                continue
+            inside = (review.t_s >= stride.ic_s) & (review.t_s <= stride.next_ic_s)
+            count += int(np.any(reasons[inside] != 0))
+        found[key] = count
+    return found
+
+
+def curve_doubt_of(analysis: "SessionAnalysis", curve: CycleCurve) -> int:
+    """How many strides of ``curve`` (one of ``analysis.curves``) hold doubtful samples."""
+    sided = split_column(curve.column)[1] is not None
+    return analysis.curve_doubt.get(curve.column if sided else f"{curve.column}@{curve.side}", 0)
+
+
 @dataclass
 class SessionAnalysis:
     """The analysis of one session: ``gait`` (None with ``gait_problem`` saying why),
     ``curves`` joint-angle cycle curves, ``rom`` results keyed (movement, side) with
-    ``rom_source`` saying where they come from."""
+    ``rom_source`` saying where they come from; ``limits`` what it leaves out and why ('' for a
+    full analysis, :data:`NEEDS_BODY_CALIBRATION` without a body calibration); ``doubt`` the
+    joints doubtful somewhere, ``curve_doubt`` curve key → its strides holding doubtful samples,
+    ``rom_doubt`` (movement, side) → the doubtful share of its window."""
 
     review: ReviewData
     gait: GaitAnalysis | None
@@ -156,30 +280,53 @@ class SessionAnalysis:
     curves: dict[str, CycleCurve] = field(default_factory=dict)
     rom: dict[tuple[str, str], rom_core.RomResult] = field(default_factory=dict)
     rom_source: str = ""
+    limits: str = ""
+    doubt: list[DoubtRow] = field(default_factory=list)
+    curve_doubt: dict[str, int] = field(default_factory=dict)
+    rom_doubt: dict[tuple[str, str], float] = field(default_factory=dict)
+
+    @property
+    def calibrated(self) -> bool:
+        """Whether the review had a body calibration (a full analysis)."""
+        return self.review.body_calibration is not None
 
 
 def analyse_review(review: ReviewData, progress: Callable[[float], None] | None = None) -> SessionAnalysis:
-    """Gait, cycle curves and ROM of a review (module doc)."""
+    """Gait, cycle curves and ROM of a review (module doc); without a body calibration, the
+    temporal gait parameters alone (:func:`temporal_only`)."""
     report = progress or (lambda fraction: None)
+    calibrated = review.body_calibration is not None
     gait, problem, curves = None, "", {}
     inputs, legs = gait_inputs(review)
     if not inputs:
         problem = "no foot or shank sensor with a gyroscope"
     else:
         try:
-            gait = analyse_gait(inputs, legs)
+            gait = while_worn(analyse_gait(inputs, legs), unworn_windows(review))
         except ValueError as error:
             problem = str(error)
+        if gait is not None and not calibrated:
+            gait = temporal_only(gait)
         if gait is not None and not gait.analysed:
             problem = "no straight-walking stride found"
     report(0.6)
-    if gait is not None and gait.analysed and len(review.t_s) > 1:
+    curve_doubt = {}
+    if calibrated and gait is not None and gait.analysed and len(review.t_s) > 1:
         curves = cycle_curves(review.t_s, review.angles_deg, gait.strides)
+        curve_doubt = doubtful_strides(review, curves, gait.strides)
     report(0.8)
-    rom = rom_of_protocol(review)
+    rom = rom_of_protocol(review) if calibrated else {}
     source = "ROM protocol" if rom else ""
     report(1.0)
-    return SessionAnalysis(review, gait, problem, curves, rom, source)
+    return SessionAnalysis(review, gait, problem, curves, rom, source, "" if calibrated else NEEDS_BODY_CALIBRATION,
+                           doubt_rows(review), curve_doubt, rom_doubt(review))
+
+
+def table_notes(analysis: SessionAnalysis) -> list[str]:
+    """The header lines of an analysis table: what the result holds
+    (:attr:`~mimucap.session.review.ReviewData.provenance`) and what the analysis leaves out."""
+    notes = analysis.review.provenance.lines()
+    return notes + ([f"Analysis: {analysis.limits}"] if analysis.limits else [])
 
 
 # -- tables as shown (the Analysis window and the PDF report) -------------------------------------
@@ -360,24 +507,27 @@ def bouts_table(gait: GaitAnalysis) -> tuple[list[str], list[list[object]]]:
     return header, rows
 
 
-def write_gait_csv(folder: str | Path, gait: GaitAnalysis) -> list[Path]:
-    """``strides.csv``, ``parameters.csv`` and ``bouts_turns.csv`` in ``folder``."""
+def write_gait_csv(folder: str | Path, gait: GaitAnalysis, notes: Sequence[str] = ()) -> list[Path]:
+    """``strides.csv``, ``parameters.csv`` and ``bouts_turns.csv`` in ``folder``, each headed
+    by ``notes`` (``#`` lines: what the input holds)."""
     base = Path(folder)
-    return [write_table(base / "strides.csv", *strides_table(gait)),
-            write_table(base / "parameters.csv", *parameters_table(gait)),
-            write_table(base / "bouts_turns.csv", *bouts_table(gait))]
+    return [write_table(base / "strides.csv", *strides_table(gait), notes=notes),
+            write_table(base / "parameters.csv", *parameters_table(gait), notes=notes),
+            write_table(base / "bouts_turns.csv", *bouts_table(gait), notes=notes)]
 
 
 def write_analysis_csv(folder: str | Path, analysis: SessionAnalysis) -> list[Path]:
-    """Every table of ``analysis`` as one CSV in ``folder`` (created if needed)."""
+    """Every table of ``analysis`` as one CSV in ``folder`` (created if needed), each headed by
+    :func:`table_notes`."""
     base = Path(folder)
     base.mkdir(parents=True, exist_ok=True)
+    notes = table_notes(analysis)
     written = []
     if analysis.gait is not None:
-        written += write_gait_csv(base, analysis.gait)
+        written += write_gait_csv(base, analysis.gait, notes)
     if analysis.curves:
-        written.append(write_table(base / "gait_cycle_curves.csv", *curves_table(analysis.curves)))
+        written.append(write_table(base / "gait_cycle_curves.csv", *curves_table(analysis.curves), notes=notes))
     if analysis.rom:
-        written.append(write_table(base / "rom.csv", *rom_table(analysis.rom)))
+        written.append(write_table(base / "rom.csv", *rom_table(analysis.rom), notes=notes))
     return written
 

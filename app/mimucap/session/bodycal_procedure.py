@@ -20,7 +20,11 @@ sensor's N-pose orientation taken from the still window's mean accelerometer and
 magnetometer where the feed can give it (``feed.static_orientation``: what the orientation
 filter converges to, free of the transient its heading may still carry shortly after a new
 magnetometer calibration), or
-refuses (phase ``"refused"`` with the reason). A pose that is not held still within
+refuses (phase ``"refused"`` with the reason). The result carries the magnetometer calibrations
+the feed's pipeline applied (``feed.magnetometer_calibrations()``), with which its rotations
+hold (:mod:`mimucap.session.calibrations`); sensors whose orientation the pipeline doubted
+between the N-pose and the end of the T-pose are recorded in it
+(:func:`~mimucap.core.bodycal.with_doubtful_sensors`: its joint angles are then doubtful). A pose that is not held still within
 ``pose_timeout_s`` is refused as well ("the subject kept moving in the N-pose"). Each page's
 instruction goes to the feed (:mod:`mimucap.session.instructions`): the person reads it, and the
 simulated subject of the simulated suit does it.
@@ -47,9 +51,15 @@ from mimucap.core.bodycal import (
     CalibrationRefused,
     calibrate_npose_tpose,
     check_mapping,
+    segment_orientations,
+    with_doubtful_sensors,
 )
+from mimucap.core.doubt import describe
+from mimucap.core.pipeline import segments_from_sensors
+from mimucap.core.skeleton import SkeletonModel
 from mimucap.session import instructions
-from mimucap.session.calibration_feed import CalibrationFeed
+from mimucap.session.calibration_feed import DOUBT_EXTRA, CalibrationFeed
+from mimucap.session.calibrations import with_magnetometers
 from mimucap.session.instructions import Instruction
 
 PHASES = ("ready", "npose", "tpose", "result", "refused")
@@ -103,17 +113,30 @@ class BodycalStatus:
 
 
 class _Track:
-    """Growing orientation samples of one sensor: t (N,), q (N, 4)."""
+    """Growing orientation samples of one sensor: t (N,), q (N, 4), and the times (s) and
+    reasons of the samples whose orientation the pipeline doubted (:mod:`mimucap.core.doubt`)."""
 
     def __init__(self) -> None:
         self.t_parts: list[np.ndarray] = []
         self.q_parts: list[np.ndarray] = []
+        self.doubtful: list[tuple[np.ndarray, np.ndarray]] = []
 
-    def add(self, t: np.ndarray, q: np.ndarray) -> None:
+    def add(self, t: np.ndarray, q: np.ndarray, reasons: np.ndarray | None = None) -> None:
         good = np.isfinite(t) & np.all(np.isfinite(q), axis=1)
         if np.any(good):
             self.t_parts.append(t[good])
             self.q_parts.append(q[good])
+        if reasons is not None and np.any(reasons):
+            self.doubtful.append((t[reasons != 0], reasons[reasons != 0]))
+
+    def doubt_between(self, start_s: float, end_s: float) -> int:
+        """The reasons of the samples from ``start_s`` to ``end_s`` (s), combined (0: none)."""
+        found = 0
+        for t, reasons in self.doubtful:
+            inside = (t >= start_s) & (t <= end_s)
+            if np.any(inside):
+                found |= int(np.bitwise_or.reduce(reasons[inside]))
+        return found
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
         if not self.t_parts:
@@ -242,7 +265,8 @@ class BodycalProcedure:
         if self.phase in ("npose", "tpose"):
             for sensor_id, block in self.feed.read().items():
                 if sensor_id in self._tracks and block.q_world_from_sensor is not None and block.t_s.shape[0]:
-                    self._tracks[sensor_id].add(block.t_s, block.q_world_from_sensor)
+                    reasons = (block.extra or {}).get(DOUBT_EXTRA)
+                    self._tracks[sensor_id].add(block.t_s, block.q_world_from_sensor, reasons)
                     if self.phase == "npose":
                         self._fields[sensor_id].add(block.t_s, block.acc, block.mag_uT)
                     self._now = max(self._now if self._now is not None else -math.inf, float(block.t_s[-1]))
@@ -354,13 +378,20 @@ class BodycalProcedure:
     def _compute(self) -> None:
         t, q = self._common_time_base()
         try:
-            self.calibration = calibrate_npose_tpose(
+            calibration = calibrate_npose_tpose(
                 t, q, self.mapping, self.windows["npose"], self.windows["tpose"],
                 arms=self.arms, settings=self.settings.engine, npose_orientations=self.npose_static,
             )
         except CalibrationRefused as refusal:
             self._refuse(refusal.reason)
             return
+        start, end = self.windows["npose"][0], self.windows["tpose"][1]
+        doubtful = {sensor_id: describe(bits) for sensor_id in self.mapping.values()
+                    if sensor_id in self._tracks and (bits := self._tracks[sensor_id].doubt_between(start, end))}
+        calibration = with_doubtful_sensors(calibration, doubtful)
+        # It holds with the magnetometer calibrations its orientations were computed with.
+        self.calibration = with_magnetometers(calibration, self.feed.magnetometer_calibrations(),
+                                              origin="made live (N-pose and T-pose)")
         self.phase = "result"
         self._message = f"Calibration {self.calibration.quality.verdict}: check the figure and accept"
         self.feed.instruct(instructions.npose())
@@ -380,14 +411,16 @@ class BodycalProcedure:
                     self._message = self.instruction(pose)
         return BodycalStatus(self.phase, pose, meter, still, capturing, countdown, self._message, self._restarts)
 
-    def npose_segment_orientations(self) -> dict[str, np.ndarray]:
+    def npose_segment_orientations(self, model: SkeletonModel | None = None) -> dict[str, np.ndarray]:
         """The calibrated N-pose: segment → ``q_world_from_segment`` (4,) from the N-pose means
-        and the result (only in phase ``"result"``)."""
+        and the result, by the pipeline's own step (:func:`mimucap.core.pipeline.segments_from_sensors`);
+        every segment of ``model`` (those without a sensor follow their parent), or the
+        calibrated segments without one. Only in phase ``"result"``."""
         if self.calibration is None:
             raise ValueError("no body calibration result yet")
-        cal = self.calibration
-        return {seg: rot.multiply(self.npose_mean[sid], rot.conjugate(cal.q_segment_from_sensor[seg]))
-                for seg, sid in cal.sensors.items()}
+        if model is None:
+            return segment_orientations(self.calibration, self.npose_mean)
+        return segments_from_sensors(model, self.npose_mean, self.calibration, {}) or {}
 
     def quality_figures(self) -> list[tuple[str, str]]:
         """(label, value) pairs for the result page: arm raise/rotation angles, axis tilt,

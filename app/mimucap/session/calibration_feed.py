@@ -6,11 +6,16 @@ asks for. A feed has:
 * ``sensor_ids`` (tuple of str), ``time_s`` (s, time of the newest sample delivered);
 * ``read() -> dict[str, SensorSamples]``: the samples that arrived since the last call
   (:class:`mimucap.core.samples.SensorSamples`, ``t_s`` in session seconds, raw magnetometer),
-  with ``q_world_from_sensor`` the orientation the live session's processing path gave them;
+  with ``q_world_from_sensor`` the orientation the live session's processing path gave them
+  and, in ``extra[DOUBT_EXTRA]`` (N,), the reasons it may be wrong (:mod:`mimucap.core.doubt`);
 * ``static_orientation(sensor_id, acc, mag_raw_uT)``: ``q_world_from_sensor`` (4,) of a still
   window from its mean specific force and magnetic field, the field corrected as the
   pipeline corrects it (:func:`mimucap.core.bodycal.static_alignment`), or None for a sensor
   whose orientation does not come from the pipeline's filter with a calibrated magnetometer;
+* ``magnetometer_calibrations()``: sensor → the magnetometer calibration the pipeline applies
+  now (those a body calibration made from these orientations holds with);
+* ``device(sensor_id)``: what the source says of the sensor's device
+  (:class:`~mimucap.core.device_identity.SensorDevice`): a calibration is made for it;
 * ``instruct(instruction)``: what the subject is asked to do
   (:mod:`mimucap.session.instructions`); the source decides who follows it (a person reads the
   screen; the simulated subject does it). No procedure asks which one it is.
@@ -34,10 +39,15 @@ from typing import Any, Protocol
 import numpy as np
 
 from mimucap.core.bodycal import static_alignment
+from mimucap.core.device_identity import SensorDevice
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples, concatenate_samples
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.session.instructions import Instruction
+
+#: The per-sample extra of a calibration feed's samples that holds the reasons their
+#: orientation may be wrong (``uint16`` bits of :mod:`mimucap.core.doubt`).
+DOUBT_EXTRA = "doubt"
 
 
 class CalibrationFeed(Protocol):
@@ -51,6 +61,10 @@ class CalibrationFeed(Protocol):
     def read(self) -> dict[str, SensorSamples]: ...
 
     def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None: ...
+
+    def magnetometer_calibrations(self) -> dict[str, MagCalibration]: ...
+
+    def device(self, sensor_id: str) -> SensorDevice: ...
 
     def instruct(self, instruction: Instruction) -> None: ...
 
@@ -81,6 +95,10 @@ class LiveSessionFeed:
     def instruct(self, instruction: Instruction) -> None:
         self.live_session.instruct(instruction)
 
+    def device(self, sensor_id: str) -> SensorDevice:
+        """What the live session's source says of ``sensor_id``'s device."""
+        return self.live_session.device_of(sensor_id)
+
     def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None:
         """``q_world_from_sensor`` (4,) of ``sensor_id`` held still over the samples ``acc`` (K, 3)
         m/s² and ``mag_raw_uT`` (K, 3) raw µT, with the magnetometer calibration and declination
@@ -95,6 +113,10 @@ class LiveSessionFeed:
         return static_alignment(acc, chain.calibrated_mag(np.asarray(mag_raw_uT, dtype=np.float64)),
                                 fusion.declination_rad, chain.mag_calibration.field_uT, fusion.mag_norm_tol)
 
+    def magnetometer_calibrations(self) -> dict[str, MagCalibration]:
+        """Sensor → the magnetometer calibration the live session's pipeline applies now."""
+        return dict(self.live_session.mag_calibrations)
+
     def read(self) -> dict[str, SensorSamples]:
         """The samples that arrived since the last call, per sensor (a channel is None when
         any of the sensor's blocks lacks it)."""
@@ -104,8 +126,11 @@ class LiveSessionFeed:
             if len(item.t_s) == 0:
                 continue
             q = None if item.orientation is None else item.orientation.q_world_from_sensor
+            extra = item.block.extra
+            if item.orientation is not None:
+                extra = {**(extra or {}), DOUBT_EXTRA: item.orientation.doubt}
             parts.setdefault(item.sensor_id, []).append(
-                replace(item.block, t_s=item.t_s, q_world_from_sensor=q))
+                replace(item.block, t_s=item.t_s, q_world_from_sensor=q, extra=extra))
             newest = float(item.t_s[-1])
             self._time_s = max(newest, self._time_s) if math.isfinite(self._time_s) else newest
         return {sensor_id: concatenate_samples(samples, missing="drop") for sensor_id, samples in parts.items()}

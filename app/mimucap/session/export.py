@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mimucap.core import rotation
 from mimucap.core.clinical_names import angle_label
 from mimucap.io.angles_export import marker_lines, write_angles_csv, write_angles_mot
 from mimucap.io.session import Marker
@@ -66,12 +67,14 @@ class ExportRequest:
 @dataclass(frozen=True)
 class SummaryRow:
     """One joint-angle column over the exported range: ``minimum_deg``, ``maximum_deg``,
-    ``rom_deg`` (range of motion = max − min), all degrees."""
+    ``rom_deg`` (range of motion = max − min), all degrees; ``doubtful_fraction`` the share of
+    its samples where the joint's angles are doubtful (:mod:`mimucap.core.doubt`)."""
 
     column: str
     minimum_deg: float
     maximum_deg: float
     rom_deg: float
+    doubtful_fraction: float = 0.0
 
 
 @dataclass
@@ -102,11 +105,23 @@ def marker_range(markers: Sequence[Marker], first: int, second: int) -> tuple[fl
 
 def angles_in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Pose times (s) and joint angle columns (deg) with ``t_from_s <= t <= t_to_s``."""
+    keep = _in_range(data, t_from_s, t_to_s)
+    return data.t_s[keep], {c: v[keep] for c, v in data.angles_deg.items()}
+
+
+def doubt_in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> dict[str, np.ndarray]:
+    """Joint → the reasons (:mod:`mimucap.core.doubt`) its angles may be wrong, at the poses of
+    :func:`angles_in_range`."""
+    keep = _in_range(data, t_from_s, t_to_s)
+    return {joint: reasons[keep] for joint, reasons in data.joint_doubt.items()}
+
+
+def _in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> np.ndarray:
     keep = (data.t_s >= t_from_s) & (data.t_s <= t_to_s)
     if not np.any(keep):
         raise ValueError(f"no poses between {t_from_s:.3f} and {t_to_s:.3f} s (the recording spans "
                          f"{data.start_s:.3f}..{data.end_s:.3f} s)")
-    return data.t_s[keep], {c: v[keep] for c, v in data.angles_deg.items()}
+    return keep
 
 
 def markers_in_range(markers: Sequence[Marker], t_from_s: float, t_to_s: float) -> list[Marker]:
@@ -115,29 +130,36 @@ def markers_in_range(markers: Sequence[Marker], t_from_s: float, t_to_s: float) 
     return sorted((m for m in markers if t_from_s <= m.t_s <= t_to_s), key=lambda m: m.t_s)
 
 
-def summary_table(angles_deg: dict[str, np.ndarray]) -> list[SummaryRow]:
-    """Min, max and range of motion of each column (deg), in column order."""
+def summary_table(angles_deg: dict[str, np.ndarray],
+                  joint_doubt: dict[str, np.ndarray] | None = None) -> list[SummaryRow]:
+    """Min, max and range of motion of each column (deg), in column order, with the share of
+    doubtful samples of its joint (``joint_doubt`` joint → reasons, on the same samples)."""
     rows = []
     for column, values in angles_deg.items():
         low, high = float(np.min(values)), float(np.max(values))
-        rows.append(SummaryRow(column, low, high, high - low))
+        reasons = next((r for joint, r in (joint_doubt or {}).items() if column.startswith(joint + "_")), None)
+        doubtful = 0.0 if reasons is None or not len(reasons) else float(np.mean(np.asarray(reasons) != 0))
+        rows.append(SummaryRow(column, low, high, high - low, doubtful))
     return rows
 
 
 def write_summary_csv(path: str | Path, rows: Sequence[SummaryRow], t_from_s: float, t_to_s: float,
-                      markers: Sequence[Marker] = ()) -> Path:
+                      markers: Sequence[Marker] = (), notes: Sequence[str] = ()) -> Path:
     """The summary as CSV: machine column name, readable label, min, max, range (deg); the
-    header names the range and lists ``markers``."""
+    header names the range, says what the result holds (``notes``, e.g.
+    :meth:`~mimucap.session.provenance.Provenance.lines`) and lists ``markers``."""
     path = Path(path)
     with path.open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"# MimuCap joint angle summary from {t_from_s:.3f} s to {t_to_s:.3f} s; degrees\n")
-        for line in marker_lines(markers):
+        for line in list(notes) + marker_lines(markers):
             handle.write(f"# {line}\n")
+        handle.write("# doubtful_pct: share of the range's samples where the joint's angles may be wrong "
+                     "(see the joint-angle file's <joint>_ok column); min, max and range include them\n")
         writer = csv.writer(handle)
-        writer.writerow(["column", "label", "min_deg", "max_deg", "rom_deg"])
+        writer.writerow(["column", "label", "min_deg", "max_deg", "rom_deg", "doubtful_pct"])
         for row in rows:
             writer.writerow([row.column, angle_label(row.column), f"{row.minimum_deg:.3f}", f"{row.maximum_deg:.3f}",
-                             f"{row.rom_deg:.3f}"])
+                             f"{row.rom_deg:.3f}", f"{100.0 * row.doubtful_fraction:.1f}"])
     return path
 
 
@@ -157,7 +179,7 @@ def write_sensor_csv(path: str | Path, data: ReviewData, sensor_id: str, t_from_
     with path.open("w", encoding="utf-8", newline="") as handle:
         handle.write(f"# MimuCap sensor {sensor_id} (segment {stream.segment or 'none'}); sensor frame; "
                      "q_world_from_sensor scalar first, world ENU\n")
-        for line in marker_lines(markers_in_range(data.markers, t_from_s, t_to_s)):
+        for line in data.provenance.lines() + marker_lines(markers_in_range(data.markers, t_from_s, t_to_s)):
             handle.write(f"# {line}\n")
         handle.write(",".join(name for name, _ in columns) + "\n")
         table = np.column_stack([v for _, v in columns])
@@ -170,21 +192,23 @@ def run_export(data: ReviewData, request: ExportRequest,
     """Write the files of ``request``; ``progress(fraction)`` after each file."""
     report = progress or (lambda fraction: None)
     t, angles = angles_in_range(data, request.t_from_s, request.t_to_s)
-    result = ExportResult(rows=len(t), summary=summary_table(angles))
+    doubt = doubt_in_range(data, request.t_from_s, request.t_to_s)
+    result = ExportResult(rows=len(t), summary=summary_table(angles, doubt))
     base = Path(request.base_path)
     base.parent.mkdir(parents=True, exist_ok=True)
-    notes = [f"Session {data.path.name}; {request.t_from_s:.3f}..{request.t_to_s:.3f} s",
-             f"Result: {data.result_label}; pose from {data.pose_source}; computed from the sensors"]
-    notes += [f"Note: {text}" for text in data.missing]
+    notes = export_notes(data, request.t_from_s, request.t_to_s)
     markers = markers_in_range(data.markers, request.t_from_s, request.t_to_s)
     jobs: list[tuple[str, Callable[[], Path]]] = []
     if request.angles_csv:
-        jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(p, t, angles, notes=notes, markers=markers))))
+        jobs.append(("csv", lambda: _written(base.with_suffix(".csv"), lambda p: write_angles_csv(
+            p, t, angles, notes=notes, markers=markers, joint_doubt=doubt))))
     if request.angles_mot:
-        jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(p, t, angles, notes=notes, markers=markers))))
+        jobs.append(("mot", lambda: _written(base.with_suffix(".mot"), lambda p: write_angles_mot(
+            p, t, angles, notes=notes, markers=markers, joint_doubt=doubt))))
     if request.summary_csv:
         jobs.append(("summary", lambda: write_summary_csv(base.with_name(base.name + "_summary.csv"), result.summary,
-                                                          request.t_from_s, request.t_to_s, markers)))
+                                                          request.t_from_s, request.t_to_s, markers,
+                                                          data.provenance.lines())))
     motion_files = ((request.opensim_mot, "opensim_mot", base.with_name(base.name + "_opensim.mot")),
                     (request.c3d, "c3d", base.with_suffix(".c3d")), (request.bvh, "bvh", base.with_suffix(".bvh")),
                     (request.opensense_sto, "sto", base.with_name(base.name + "_orientations.sto")))
@@ -204,6 +228,15 @@ def run_export(data: ReviewData, request: ExportRequest,
     return result
 
 
+def export_notes(data: ReviewData, t_from_s: float, t_to_s: float) -> list[str]:
+    """The header lines of an exported file: the session and range, where the poses come
+    from, what the result holds (:attr:`ReviewData.provenance`) and what the recording lacks."""
+    notes = [f"Session {data.path.name}; {t_from_s:.3f}..{t_to_s:.3f} s",
+             f"Result: {data.result_label}; pose from {data.pose_source}; computed from the sensors"]
+    notes += data.provenance.lines()[1:]  # the result is said above
+    return notes + [f"Note: {text}" for text in data.missing]
+
+
 def _segment_sensors(data: ReviewData) -> dict[str, str]:
     """Segment → the sensor id the pipeline took its orientation from: the body calibration's
     assignment where there is one, else each sensor's recorded segment (the first per segment)."""
@@ -216,6 +249,27 @@ def _segment_sensors(data: ReviewData) -> dict[str, str]:
     return result
 
 
+def calibration_pose_table(data: ReviewData, raw_sensors: bool = False
+                           ) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+    """The N-pose the body calibration measured, as OpenSense's calibration table: ``(t_s (1,),
+    <body>_imu → (1, 4))`` (None without a body calibration). Every segment frame is parallel
+    to the body frame in the calibrated N-pose, so each virtual sensor is ``q_world_from_body``;
+    a raw sensor is ``q_world_from_body ⊗ q_segment_from_sensor`` (its orientation then). Its
+    time is 0: the N-pose may lie outside the recording (made live before it)."""
+    from mimucap.io import opensense
+
+    body = data.body_calibration
+    if body is None:
+        return None
+    segments = [s for s in data.model.segment_names if s in opensense.OPENSIM_BODIES]
+    if raw_sensors:
+        q = {s: rotation.multiply(body.q_world_from_body, body.q_segment_from_sensor[s]) for s in segments
+             if s in body.q_segment_from_sensor}
+    else:
+        q = {s: body.q_world_from_body for s in segments if s in data.q_world_from_segment}
+    return np.zeros(1), {opensense.imu_label(s): np.asarray(v, dtype=np.float64)[None] for s, v in q.items()}
+
+
 def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | None = None,
                       t_to_s: float | None = None, opensim_names: bool = False, raw_sensors: bool = False,
                       events: Sequence[tuple[float, str, str]] = ()) -> list[Path]:
@@ -226,8 +280,12 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
     sensors' own instead of segment-aligned virtual sensors), ``"mot"`` (``opensim_names``: OpenSim
     coordinates), ``"opensim_mot"`` (the same as ``"mot"`` with ``opensim_names``) or ``"csv"``.
     The markers in the range go with it (C3D events; header lines of ``.mot``/``.csv``/``.sto``;
-    a ``<name>_markers.csv`` beside a BVH file, which has no place for them), and so do the gait
-    ``events`` ``(t_s, context, label)``. Returns the files written.
+    the sidecar ``<name>_markers.csv`` beside a BVH file, which has no place for them), and so do
+    the gait ``events`` ``(t_s, context, label)``. What the result holds
+    (:attr:`ReviewData.provenance`) goes into every file: C3D parameters (group ``MIMUCAP``),
+    header lines, the BVH sidecar's ``#`` lines. An OpenSense table comes with
+    ``<name>_calibration.sto``, the N-pose of the body calibration for ``IMUPlacer``
+    (:func:`calibration_pose_table`). Returns the files written.
     """
     from mimucap.io import opensense
     from mimucap.io.angles_export import write_angles
@@ -243,33 +301,35 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
     t = data.t_s[keep]
     q_segments = {s: q[keep] for s, q in data.q_world_from_segment.items()}
     angles = {c: v[keep] for c, v in data.angles_deg.items()}
+    doubt = {joint: reasons[keep] for joint, reasons in data.joint_doubt.items()}
     root = None if data.root_position_m is None else data.root_position_m[keep]
     in_range = markers_in_range(data.markers, t_from, t_to)
     markers = [(m.t_s, m.label) for m in in_range]
     events = [e for e in events if t_from <= e[0] <= t_to]
-    notes = [f"Session {data.path.name}; {t_from:.3f}..{t_to:.3f} s",
-             f"Result: {data.result_label}; pose from {data.pose_source}; computed from the sensors"]
+    notes = export_notes(data, t_from, t_to)
     notes += [f"event at {time:.3f} s: {context} {label}" for time, context, label in events]
     subject = (data.session.metadata.get("subject") or {}).get("id", "")
     if fmt == "c3d":
         from mimucap.io.c3d_export import write_c3d
 
-        return [write_c3d(path, data.model, data.height_m, t, q_segments, angles, root, markers, events, subject)]
+        return [write_c3d(path, data.model, data.height_m, t, q_segments, angles, root, markers, events, subject,
+                          provenance=data.provenance.parameters())]
     if fmt == "bvh":
         from mimucap.io.bvh import write_bvh
 
         written = [write_bvh(path, data.model, data.height_m, t, q_segments, root)]
-        if markers or events:
-            side = path.with_name(path.stem + "_markers.csv")
-            with side.open("w", encoding="utf-8", newline="") as handle:
-                handle.write(f"# markers and events of {path.name}; t_s seconds from the first BVH frame\n")
-                writer = csv.writer(handle)
-                writer.writerow(["t_s", "context", "label"])
-                for time, label in markers:
-                    writer.writerow([f"{time - t[0]:.6f}", "General", label])
-                for time, context, label in events:
-                    writer.writerow([f"{time - t[0]:.6f}", context, label])
-            written.append(side)
+        side = path.with_name(path.stem + "_markers.csv")  # BVH has no place for text
+        with side.open("w", encoding="utf-8", newline="") as handle:
+            handle.write(f"# markers and events of {path.name}; t_s seconds from the first BVH frame\n")
+            for note in notes:
+                handle.write(f"# {note}\n")
+            writer = csv.writer(handle)
+            writer.writerow(["t_s", "context", "label"])
+            for time, label in markers:
+                writer.writerow([f"{time - t[0]:.6f}", "General", label])
+            for time, context, label in events:
+                writer.writerow([f"{time - t[0]:.6f}", context, label])
+        written.append(side)
         return written
     if fmt == "sto":
         if raw_sensors:
@@ -280,10 +340,21 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
         else:
             table = opensense.virtual_sensor_table(q_segments)
             header = opensense.VIRTUAL_SENSOR_NOTES
-        return [opensense.write_orientation_sto(path, t, table, list(header) + notes + marker_lines(in_range))]
+        written = []
+        pose = calibration_pose_table(data, raw_sensors)
+        if pose is not None:
+            pose_path = path.with_name(path.stem + opensense.CALIBRATION_SUFFIX)
+            t_pose, pose_table = pose
+            written.append(opensense.write_orientation_sto(
+                pose_path, t_pose, pose_table, [opensense.CALIBRATION_TABLE_NOTE.format(table=path.name)] + notes))
+            header = (opensense.placer_note(pose_path.name),) + tuple(header)
+        else:
+            header = (opensense.NO_CALIBRATION_TABLE_NOTE,) + tuple(header)
+        table_path = opensense.write_orientation_sto(path, t, table, list(header) + notes + marker_lines(in_range))
+        return [table_path] + written
     if fmt in ("mot", "opensim_mot", "csv"):
         write_angles(path, t, angles, notes=notes, opensim_names=opensim_names or fmt == "opensim_mot",
-                     markers=in_range)
+                     markers=in_range, joint_doubt=doubt)
         return [path]
     raise ValueError(f"unknown export format {fmt!r}; use c3d, bvh, sto, mot or csv")
 

@@ -25,8 +25,9 @@ import numpy as np
 from mimucap.acquisition.messages import STATE_DISCONNECTED, STATE_FAILED
 from mimucap.acquisition.stats import SensorStats, SensorStatsTracker
 from mimucap.acquisition.supervisor import Supervisor
+from mimucap.core.device_identity import SensorDevice
 from mimucap.core.samples import SensorSamples
-from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SimulationConfig
+from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.core.simulate.truth import SuitTruth
 from mimucap.session import instructions
@@ -55,6 +56,10 @@ class LiveSource(Protocol):
 
     def signal_dbm(self) -> dict[str, float]:
         """Sensor id → strength of its radio link (dBm), for the sensors whose source reports it."""
+
+    def devices(self) -> dict[str, SensorDevice]:
+        """Sensor id → what the source says of its device
+        (:class:`~mimucap.core.device_identity.SensorDevice`), for the sensors it has told of."""
 
     def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:
         """Refused inputs that belong to no known sensor: (reason → count, sender → count)."""
@@ -98,6 +103,7 @@ class SimulatorFeed:
         self._start_host_s: float | None = None
         self._last_poll: float | None = None
         self._trackers = {sid: SensorStatsTracker(sid, name, STATS_WINDOW_S) for sid in self.simulator.sensor_ids}
+        self._devices = {sid: SensorDevice(device_id) for sid, device_id in self.simulator.device_ids.items()}
         #: truth of the newest simulated sample (segment orientations, root), or None
         self.last_truth: SuitTruth | None = None
 
@@ -106,8 +112,9 @@ class SimulatorFeed:
         return tuple(self.simulator.sensor_ids)
 
     def sensor_segments(self) -> dict[str, str]:
-        """Sensor id → the segment it is worn on (the suit knows it)."""
-        return {sid: segment for sid, segment, _r, _n in SENSOR_PLACEMENTS if sid in self.simulator.sensor_ids}
+        """Sensor id → the segment it drives as the suit comes (one sensor per segment,
+        :func:`~mimucap.core.simulate.default_assignment`)."""
+        return dict(self.simulator.assignment)
 
     def start(self) -> None:
         now = self._clock()
@@ -176,6 +183,10 @@ class SimulatorFeed:
     def signal_dbm(self) -> dict[str, float]:
         """The simulated suit has no radio link (see :meth:`SupervisorFeed.signal_dbm`)."""
         return {}
+
+    def devices(self) -> dict[str, SensorDevice]:
+        """Each unit's device id (:meth:`~mimucap.core.simulate.SimulationConfig.device_ids`)."""
+        return self._devices
 
     def problem(self) -> str:
         """Why data may not be coming ("" : nothing known); the simulator always delivers."""
@@ -248,6 +259,14 @@ class SupervisorFeed:
         out: dict[str, float] = {}
         for status in self.supervisor.sources().values():
             out.update(status.signal_dbm)
+        return out
+
+    def devices(self) -> dict[str, SensorDevice]:
+        """Sensor id → its device, as the sources told (a sensor a source has not told of yet
+        is absent: e.g. a node whose hello has not arrived)."""
+        out: dict[str, SensorDevice] = {}
+        for status in self.supervisor.sources().values():
+            out.update(status.devices)
         return out
 
     def refused_without_sensor(self) -> tuple[dict[str, int], dict[str, int]]:

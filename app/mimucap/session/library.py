@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mimucap.core.analysis.rom import range_of_motion
+from mimucap.core.pipeline import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.library import Library, SessionEntry
 from mimucap.io.library_settings import configured_library_folder
 from mimucap.io.session import Marker
@@ -65,19 +66,22 @@ class ComparedSession:
     """One side of a comparison: the library ``entry``, its processed joint angles
     ``angles_deg`` (column → (T,) deg, ISB sequences, columns of
     ``core.skeleton.joint_angle_columns``) at ``t_s`` (T,) s since the recording started, its
-    ``markers`` and the ``window`` compared."""
+    ``markers`` and the ``window`` compared; ``calibrated`` whether a body calibration made
+    its segments, ``result`` which result it is (``core.pipeline.RESULTS``)."""
 
     entry: SessionEntry
     t_s: np.ndarray
     angles_deg: dict[str, np.ndarray]
     markers: list[Marker] = field(default_factory=list)
     window: TimeWindow = field(default_factory=TimeWindow)
+    calibrated: bool = True
+    result: str = RESULT_REPROCESSED
 
     @classmethod
     def from_review(cls, entry: SessionEntry, review, window: TimeWindow | None = None) -> "ComparedSession":
         """From a :class:`mimucap.session.review.ReviewData` (the one pipeline's results)."""
         return cls(entry, np.asarray(review.t_s, dtype=float), dict(review.angles_deg), list(review.markers),
-                   window or TimeWindow())
+                   window or TimeWindow(), review.body_calibration is not None, review.result)
 
 
 @dataclass(frozen=True)
@@ -123,12 +127,34 @@ def compare(a: ComparedSession, b: ComparedSession,
             builders: Sequence[Callable[[ComparedSession, ComparedSession], ComparisonTable | None]] | None = None,
             ) -> list[ComparisonTable]:
     """The tables comparing ``a`` with ``b`` (:data:`COMPARISON_TABLES` unless ``builders``);
-    ``ValueError`` when the two are not sessions of one subject."""
+    ``ValueError`` when the two are not sessions of one subject, hold different results (as seen
+    live / reprocessed), or one of them has no body calibration (:func:`check_comparable`)."""
     if a.entry.subject_id != b.entry.subject_id:
         raise ValueError(f"{a.entry.file_name} ({a.entry.subject_id}) and {b.entry.file_name} "
                          f"({b.entry.subject_id}) are not sessions of one subject")
+    check_comparable(a, b)
     tables = [build(a, b) for build in (COMPARISON_TABLES if builders is None else builders)]
     return [table for table in tables if table is not None]
+
+
+#: Why two sessions without a body calibration are not compared.
+COMPARISON_NEEDS_CALIBRATION = ("joint angles and their range of motion mean nothing without a body calibration "
+                                "(the segments are the sensors' own axes)")
+
+
+def check_comparable(a: ComparedSession, b: ComparedSession) -> None:
+    """``ValueError`` saying why ``a`` and ``b`` cannot be compared: one or both without a body
+    calibration, or results of different kinds (differences would be the processing's)."""
+    uncalibrated = [side.entry.file_name for side in (a, b) if not side.calibrated]
+    if len(uncalibrated) == 2:
+        raise ValueError(f"neither {a.entry.file_name} nor {b.entry.file_name} has a body calibration: "
+                         f"{COMPARISON_NEEDS_CALIBRATION}")
+    if uncalibrated:
+        raise ValueError(f"{uncalibrated[0]} has no body calibration, the other session has one: their "
+                         f"differences would be the calibration's ({COMPARISON_NEEDS_CALIBRATION})")
+    if a.result != b.result:
+        raise ValueError(f"{a.entry.file_name} is {RESULT_LABELS[a.result]}, {b.entry.file_name} "
+                         f"{RESULT_LABELS[b.result]}: compare results of one kind")
 
 
 def comparison_csv(tables: Sequence[ComparisonTable]) -> str:
@@ -148,4 +174,4 @@ def comparison_csv(tables: Sequence[ComparisonTable]) -> str:
 
 
 __all__ = ["open_library", "TimeWindow", "ComparedSession", "ComparisonTable", "rom_table", "COMPARISON_TABLES",
-           "compare", "comparison_csv"]
+           "COMPARISON_NEEDS_CALIBRATION", "check_comparable", "compare", "comparison_csv"]

@@ -20,8 +20,12 @@ while recording) and the *status* (``status``,
 :class:`~mimucap.session.live_status.StatusPublisher`: what the panels show, at a steady rate).
 It tells what changed through its events (:class:`LiveSession`, napari style): widgets
 subscribe to them and never ask the session on a timer of their own. Magnetometer calibrations are
-data that persist: they are loaded from the calibration store for every sensor the source
-brings, and a calibration made in the wizard is saved there. The simulated suit's ground truth
+data that persist, kept per device: each sensor the source brings gets the calibration stored for
+the device the source says it is (and no other: another suit numbered alike takes none, and the
+sensor says why), and a calibration made in the wizard is saved there for that device. Each
+calibration's standing (:func:`~mimucap.core.magcal_standing.calibration_standing`: verdict,
+device, the local field of the last seconds, age) is in the sensor rows, the checklist and what
+a recording stores (``magnetometer_readiness``). The simulated suit's ground truth
 is kept beside the data for evaluation only (:meth:`LiveSession.truth_pose`, the recording's
 truth); it never drives the figure.
 
@@ -47,7 +51,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -55,11 +59,15 @@ from typing import Any
 import numpy as np
 
 from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
-from mimucap.core import bodycal, skeleton
+from mimucap.core import bodycal, doubt, skeleton
+from mimucap.core.clinical_names import segment_name
 from mimucap.core.fusion import FLAG_NAMES
+from mimucap.core.device_identity import SensorDevice, describe_device, devices_to_json
 from mimucap.core.magcal import MagCalibration
+from mimucap.core.magcal_standing import LocalField, Standing, age_s_at, local_field
 from mimucap.core.pipeline import (
     POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, LivePipeline, PipelineSettings, SensorOrientations,
+    one_sensor_per_segment,
 )
 from mimucap.core.samples import SensorSamples, join_per_sensor
 from mimucap.core.simulate.config import SimulationConfig
@@ -73,6 +81,7 @@ from mimucap.session.instructions import Instruction
 from mimucap.session.live_pose import LivePose, joint_column_groups
 from mimucap.session.live_status import StatusPublisher
 from mimucap.session.processing import check_body_calibration_fits, recording_record
+from mimucap.session.recording_checklist import magnetometer_readiness, sensor_standing
 from mimucap.session.recording import Recorder, RecordingResult
 from mimucap.session.ring_buffer import RingBuffer
 from mimucap.session.sources import SourceOptions
@@ -106,12 +115,22 @@ class SensorRow:
     ``mag_cal`` ``"calibrated"``, ``"on-board"`` (device fuses itself) or ``"not calibrated"``;
     ``mag_cal_age_s`` since the calibration was made (NaN if none); ``mag_cal_verdict`` its
     verdict (``good``, ``warn``; "" without one); ``mag_field_warning`` says when the local field
-    (magnitude, dip) no longer matches the calibration's (""); ``flags`` fusion flags
+    (magnitude, dip) no longer matches the calibration's (""); ``mag_standing`` the
+    calibration's standing (:func:`~mimucap.core.magcal_standing.calibration_standing`: verdict,
+    device, local field, age; ``None`` without a calibration); ``mag_cal_note`` why a
+    calibration stored under its id is not used (another device's, a damaged file:
+    ``mag_cal_unreadable``; "");
+    ``device`` what the source says of its device (:class:`~mimucap.core.device_identity.SensorDevice`);
+    ``local_field`` the field it measures now, corrected by its calibration (``None`` without a
+    calibration or enough samples); ``has_magnetometer`` whether it sends a magnetic field;
+    ``flags`` fusion flags
     now (``"rest"``, ``"mag disturbed"``, ...); ``stale`` no sample for :data:`STALE_AFTER_S`;
     ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``);
     ``signal_dbm`` the strength of its radio link where the source reports one (SlimeVR), NaN
     otherwise; ``rejections`` packets of this sensor the source refused, by reason
-    (:class:`~mimucap.acquisition.rejections.Rejection` value → count, since the source started).
+    (:class:`~mimucap.acquisition.rejections.Rejection` value → count, since the source started);
+    ``doubt`` why its newest orientation may be wrong, in words ("" when it is trustworthy;
+    :mod:`mimucap.core.doubt`).
     """
 
     sensor_id: str
@@ -129,6 +148,25 @@ class SensorRow:
     mag_field_warning: str = ""
     signal_dbm: float = float("nan")
     rejections: Mapping[str, int] = field(default_factory=dict)
+    mag_standing: Standing | None = None
+    mag_cal_note: str = ""
+    mag_cal_unreadable: bool = False
+    device: SensorDevice | None = None
+    local_field: LocalField | None = None
+    has_magnetometer: bool = False
+    doubt: str = ""
+
+
+def doubt_warning(rows) -> str:
+    """What the status bar says while sensors' orientations are doubtful: why, and the sensors
+    (segment and id) for each reason ("" when every orientation is trustworthy)."""
+    sensors_of: dict[str, list[str]] = {}
+    for row in rows:
+        if row.doubt and not row.stale:
+            where = f"{segment_name(row.segment)} ({row.sensor_id})" if row.segment else row.sensor_id
+            sensors_of.setdefault(row.doubt, []).append(where)
+    parts = [f"{why}: {', '.join(sensors)}" for why, sensors in sensors_of.items()]
+    return ("Orientation doubtful — " + "; ".join(parts)) if parts else ""
 
 
 @dataclass(frozen=True)
@@ -246,13 +284,20 @@ class LiveSession:
                                    "source_problem", "refused", "truth_errors")
         self.pipeline = LivePipeline(self.model, settings)
         self.calibration_store = calibration_store
-        #: sensor → why its stored magnetometer calibration could not be loaded
+        #: sensor → why a magnetometer calibration stored under its id is not used (a damaged
+        #: file, another device's calibration)
         self.calibration_problems: dict[str, str] = {}
+        #: sensor → what the source says of its device (updated from the feed every step)
+        self.devices: dict[str, SensorDevice] = dict(feed.devices())
+        #: sensors whose calibration in use was loaded from the store (a change of device drops it)
+        self._stored_calibrations: set[str] = set()
+        #: sensors of :attr:`calibration_problems` whose stored file could not be read
+        self._unreadable: set[str] = set()
         self._clock = clock
         self.t0_host_s: float | None = None
         #: sensor id → segment, as the source names it (a replayed recording's placement, the
         #: simulated suit's labels); the user's assignment changes it
-        self.sensor_segments: dict[str, str] = dict(feed.sensor_segments())
+        self.sensor_segments: dict[str, str] = one_sensor_per_segment(feed.sensor_segments())
         self.body_calibration: bodycal.BodyCalibration | None = None
         self._capacity = int(MAX_WINDOW_S * BUFFER_RATE_HZ)
         self._sensors: dict[str, _SensorState] = {}
@@ -407,19 +452,55 @@ class LiveSession:
         """Sensor id → the magnetometer calibration in use."""
         return self.pipeline.mag_calibrations
 
+    def device_of(self, sensor_id: str) -> SensorDevice:
+        """What the source says of ``sensor_id``'s device (nothing yet: ``SensorDevice()``)."""
+        return self.devices.get(sensor_id, SensorDevice())
+
     def _load_stored_calibrations(self, sensor_ids) -> None:
-        """Load the stored magnetometer calibration of each sensor in ``sensor_ids`` that has one
-        and is not calibrated yet (a damaged file is named in :attr:`calibration_problems`)."""
+        """Apply the stored magnetometer calibration of each sensor in ``sensor_ids`` that is
+        not calibrated yet, its device's (:meth:`~mimucap.io.calibration_store.CalibrationStore.lookup`);
+        a sensor whose source has not said which device it is waits for it. Why one stored under
+        its id is not used (another device's, a damaged file) is kept in :attr:`calibration_problems`."""
         if self.calibration_store is None:
             return
-        stored = set(self.calibration_store.sensor_ids())
         for sensor_id in sensor_ids:
-            if sensor_id in self.mag_calibrations or sensor_id not in stored or sensor_id in self.calibration_problems:
+            device = self.device_of(sensor_id)
+            if sensor_id in self.mag_calibrations or sensor_id in self.calibration_problems or not device.settled:
                 continue
             try:
-                self.pipeline.set_mag_calibration(self.calibration_store.load(sensor_id))
+                found = self.calibration_store.lookup(sensor_id, device)
             except (CalibrationFileError, OSError, ValueError) as error:
                 self.calibration_problems[sensor_id] = str(error)
+                self._unreadable.add(sensor_id)
+                continue
+            if found.calibration is not None:
+                self.pipeline.set_mag_calibration(found.calibration)
+                self._stored_calibrations.add(sensor_id)
+            elif found.note:
+                self.calibration_problems[sensor_id] = found.note
+
+    def _follow_devices(self) -> None:
+        """Take what the source now says of its sensors' devices: a sensor whose device became
+        known gets its device's stored calibration; one whose device changed (another node
+        answering to the same id) loses a calibration made on another device."""
+        devices = self.feed.devices()
+        if devices == self.devices:
+            return
+        changed = [sid for sid in set(devices) | set(self.devices) if devices.get(sid) != self.devices.get(sid)]
+        self.devices = dict(devices)
+        for sensor_id in changed:
+            calibration = self.mag_calibrations.get(sensor_id)
+            now = self.device_of(sensor_id).device_id
+            made_on = None if calibration is None else calibration.device_id
+            if calibration is not None and (sensor_id in self._stored_calibrations
+                                            or (made_on is not None and now is not None and made_on != now)):
+                self.pipeline.clear_mag_calibration(sensor_id)
+                self._stored_calibrations.discard(sensor_id)
+            self.calibration_problems.pop(sensor_id, None)
+            self._unreadable.discard(sensor_id)
+        self._load_stored_calibrations(changed)
+        self.status.mark_due()
+        self.events.calibration.emit()
 
     def _refuse_while_recording(self, what: str) -> None:
         if self._recorder is not None:
@@ -431,8 +512,17 @@ class LiveSession:
         :meth:`mimucap.core.pipeline.SensorChain.set_mag_calibration`) and keep it in the
         calibration store (``save``) for the next start."""
         self._refuse_while_recording("changing a magnetometer calibration")
+        device = self.device_of(calibration.sensor_id).device_id
+        if calibration.device_id is None and device is not None:
+            calibration = replace(calibration, device_id=device)   # made here, on this device
+        elif calibration.device_id is not None and device is not None and calibration.device_id != device:
+            raise ValueError(f"sensor {calibration.sensor_id}: this magnetometer calibration was made on "
+                             f"{describe_device(calibration.device_id)}, and the sensor is "
+                             f"{describe_device(device)}: calibrate it here")
         self.pipeline.set_mag_calibration(calibration)
+        self._stored_calibrations.discard(calibration.sensor_id)
         self.calibration_problems.pop(calibration.sensor_id, None)
+        self._unreadable.discard(calibration.sensor_id)
         if save and self.calibration_store is not None:
             self.calibration_store.save(calibration)
         self.status.mark_due()
@@ -476,6 +566,7 @@ class LiveSession:
                 self._failure_told = True
                 self.events.recording_failed.emit(self._recorder.failure)
         self._note_truth()
+        self._follow_devices()
         if not blocks:
             self.status.tick()
             return 0
@@ -686,6 +777,7 @@ class LiveSession:
             if chain is not None and chain.ekf is not None:
                 value = self.pipeline.flags.get(sid, 0)
                 flags = tuple(label for key, label in FLAG_LABELS.items() if value & FLAG_NAMES[key])
+            why = doubt.describe(self.pipeline.doubts.get(sid, 0)) if chain is not None else ""
             if stale:
                 tint = "stale"
             elif mag_cal == "not calibrated":
@@ -693,17 +785,36 @@ class LiveSession:
             else:
                 tint = "ok"
             verdict = "" if calibration is None else str(calibration.quality.get("verdict", ""))
-            warning = "" if calibration is None or state is None else field_mismatch(calibration, state.raw)
-            rows.append(SensorRow(
-                mag_cal_verdict=verdict, mag_field_warning=warning,
+            device = self.device_of(sid)
+            here = None if calibration is None or state is None else self._local_field(state)
+            row = SensorRow(
+                mag_cal_verdict=verdict, device=device, local_field=here,
+                mag_cal_note="" if calibration is not None else self.calibration_problems.get(sid, ""),
+                mag_cal_unreadable=calibration is None and sid in self._unreadable,
+                has_magnetometer=state is not None and state.has_mag,
                 sensor_id=sid, segment=self.sensor_segments.get(sid),
                 rate_hz=float("nan") if st is None else st.rate_hz, drops=0 if st is None else st.drops,
                 latency_ms=float("nan") if st is None else 1000.0 * st.latency_p95_s,
                 battery_pct=float("nan") if state is None else state.battery_pct,
                 mag_cal=mag_cal, mag_cal_age_s=age, flags=flags, stale=stale, state=tint,
                 signal_dbm=signal.get(sid, float("nan")),
-                rejections={} if st is None else dict(st.rejections)))
+                rejections={} if st is None else dict(st.rejections), doubt=why)
+            if calibration is not None:
+                standing = sensor_standing(calibration, row)
+                fits = [p.text for p in standing.problems if p.kind == "field"]
+                row = replace(row, mag_standing=standing,
+                              mag_field_warning="; ".join(fits) + ": calibrate again here" if fits else "")
+            rows.append(row)
         return rows
+
+    @staticmethod
+    def _local_field(state: _SensorState) -> LocalField | None:
+        """The field the sensor measured over the last :data:`FIELD_CHECK_WINDOW_S`, corrected
+        by its calibration (the plots' buffer holds the corrected field)."""
+        if not len(state.raw):
+            return None
+        _t, rows = state.raw.since(state.raw.latest_t() - FIELD_CHECK_WINDOW_S)
+        return local_field(rows[:, 0], rows[:, 1], rows[:, 2])
 
     def series(self, sensor_id: str, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Last ``window_s`` seconds of one sensor: ``t_s`` (N,), ``acc`` (N,3) m/s², ``gyr``
@@ -747,6 +858,8 @@ class LiveSession:
             "source": self.label, "sensor_segments": dict(self.sensor_segments),
             "skeleton_model": self.model.name, "height_m": self.height_m,
             "subject": dict(subject or {}), "created_by": "mimucap gui",
+            "devices": devices_to_json(self.devices),
+            "magnetometer_readiness": magnetometer_readiness(self),
             **recording_record(mag_calibrations=self.mag_calibrations, body_calibration=self.body_calibration,
                                settings=self.pipeline.settings, filter_states=self.pipeline.filter_states(),
                                time_offset_s=start_host_s - self.t0_host_s),
@@ -797,7 +910,7 @@ class LiveSession:
         recorder, self._recorder = self._recorder, None
         status = {sid: {"received": s.received, "drops": s.drops, "rate_hz": s.rate_hz}
                   for sid, s in self.feed.stats().items()}
-        recorder.close(status)
+        recorder.close(status, devices=devices_to_json(self.feed.devices()))
         pending = RecordingToSave(recorder=recorder)
         self.status.mark_due()
         self.events.recording.emit(None)
@@ -830,59 +943,13 @@ class RecordingToSave:
         return self.recorder.write_session(progress)
 
 
-#: The local field's magnitude may differ this much (fraction) from the calibration's, its dip
-#: this much (deg), before the sensor panel warns that the calibration may no longer hold.
-FIELD_MAGNITUDE_TOLERANCE = 0.15
-FIELD_DIP_TOLERANCE_DEG = 10.0
-#: Seconds of recent samples the field check looks at.
+#: Seconds of recent samples the local field is measured over (the sensor panel, the checklist).
 FIELD_CHECK_WINDOW_S = 2.0
-#: A sample is still enough for the dip check when its specific force is within this of g
-#: (m/s²) and its angular rate below this (rad/s).
-FIELD_CHECK_STILL_ACC_M_S2 = 0.3
-FIELD_CHECK_STILL_GYR_RAD_S = 0.05
-
-
-def field_mismatch(calibration: MagCalibration, raw: RingBuffer) -> str:
-    """Why the local field no longer matches ``calibration`` ("" when it does, or cannot be
-    told): the median magnitude of the recent calibrated field (µT) against the calibration's,
-    and, while the sensor is still (specific force ≈ g, no rotation), the dip against the
-    calibration's."""
-    if not len(raw):
-        return ""
-    _t, rows = raw.since(raw.latest_t() - FIELD_CHECK_WINDOW_S)
-    acc, mag = rows[:, 0], rows[:, 2]
-    finite = np.isfinite(mag).all(axis=1)
-    if np.count_nonzero(finite) < 10:
-        return ""
-    norm = np.linalg.norm(mag[finite], axis=1)
-    magnitude = float(np.median(norm))
-    if abs(magnitude / calibration.field_uT - 1.0) > FIELD_MAGNITUDE_TOLERANCE:
-        return (f"local field {magnitude:.0f} µT, {calibration.field_uT:.0f} µT when calibrated: "
-                "calibrate again here")
-    dip_ref = calibration.quality.get("dip_mean_deg")
-    acc_norm = np.linalg.norm(acc, axis=1)
-    gyr_norm = np.linalg.norm(rows[:, 1], axis=1)
-    # Only a still sensor's specific force is gravity alone (a swinging limb's is not).
-    still = (finite & np.isfinite(acc_norm) & (np.abs(acc_norm - 9.81) < FIELD_CHECK_STILL_ACC_M_S2)
-             & np.isfinite(gyr_norm) & (gyr_norm < FIELD_CHECK_STILL_GYR_RAD_S))
-    if dip_ref is None or not np.isfinite(dip_ref) or np.count_nonzero(still) < 10:
-        return ""
-    up = acc[still] / acc_norm[still, None]
-    m = mag[still] / np.linalg.norm(mag[still], axis=1)[:, None]
-    dip = float(np.degrees(np.median(-np.arcsin(np.clip(np.sum(up * m, axis=1), -1.0, 1.0)))))
-    if abs(dip - float(dip_ref)) > FIELD_DIP_TOLERANCE_DEG:
-        return f"field dip {dip:.0f}°, {float(dip_ref):.0f}° when calibrated: calibrate again here"
-    return ""
 
 
 def _age_s(created_utc: str) -> float:
-    try:
-        created = datetime.fromisoformat(created_utc.replace("Z", "+00:00"))
-    except (ValueError, AttributeError):
-        return float("nan")
-    if created.tzinfo is None:
-        created = created.replace(tzinfo=timezone.utc)
-    return (datetime.now(timezone.utc) - created).total_seconds()
+    age = age_s_at(created_utc, datetime.now(timezone.utc))
+    return float("nan") if age is None else age
 
 
 def open_live_session(spec: str = "simulated", clock: Callable[[], float] = time.monotonic,

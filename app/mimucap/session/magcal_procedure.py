@@ -353,7 +353,8 @@ class MagcalProcedure:
             result, refusal = None, None
             try:
                 result = calibrate(mag, sensor_id, acc, self.settings.fit, self.settings.thresholds,
-                                   protocol=self.protocol, created_utc=created)
+                                   protocol=self.protocol, created_utc=created,
+                                   device_id=self.feed.device(sensor_id).device_id)
             except FitRefused as error:
                 refusal = str(error)
             verdict = "fail" if result is None else result.quality.verdict
@@ -367,8 +368,10 @@ class MagcalProcedure:
 
     def _previous(self, sensor_id: str, now: _dt.datetime) -> PreviousCalibration | None:
         try:
-            old = self.store.load(sensor_id)
-        except (FileNotFoundError, CalibrationFileError):
+            old = self.store.lookup(sensor_id, self.feed.device(sensor_id)).calibration
+        except (OSError, CalibrationFileError):
+            return None
+        if old is None:
             return None
         return PreviousCalibration(
             old.offset_uT, old.soft_iron, old.field_uT, old.created_utc, age_days_since(old.created_utc, now),

@@ -8,8 +8,9 @@ at the start of the recording and the clock offset the live view ran it on
 (``metadata["pipeline"]``), the skeleton model, the subject's height and the software version.
 :func:`recording_record` builds those entries for the recorder; :func:`recorded_processing`
 reads them back (and says what an older recording lacks); :func:`process_session` gives either
-result (*as seen live* or *reprocessed*) of a session. Review, export and the command line all
-go through :func:`process_session`.
+result (*as seen live* or *reprocessed*) of a session with the calibrations
+:func:`mimucap.session.calibrations.applied_calibrations` chooses. Review, export, the analysis
+and the command line all go through :func:`process_session`.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from mimucap import __version__
-from mimucap.core import bodycal, skeleton
+from mimucap.core import bodycal, phases, skeleton
 from mimucap.core.fusion import FusionState
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.pipeline import (
@@ -28,6 +29,7 @@ from mimucap.core.pipeline import (
 )
 from mimucap.io.calibration_store import SESSION_KEY, calibration_from_json, calibration_to_json
 from mimucap.io.session import Session
+from mimucap.session.calibrations import AppliedCalibrations, applied_calibrations
 
 BODY_KEY = "body"
 PIPELINE_KEY = "pipeline"
@@ -118,28 +120,33 @@ def check_body_calibration_fits(calibration: bodycal.BodyCalibration, model: ske
 
 
 def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
+                    calibrations: AppliedCalibrations | None = None,
                     recorded: RecordedProcessing | None = None,
-                    mag_calibrations: Mapping[str, MagCalibration] | None = None,
-                    body_calibration: bodycal.BodyCalibration | None = None,
                     model: skeleton.SkeletonModel | None = None,
                     shoulder_sequence: str = "zxy") -> PipelineOutput:
-    """Either result of ``session`` through the processing path.
-
-    The session's own calibrations are used unless others are given (``mag_calibrations``
-    replaces them sensor by sensor; ``body_calibration`` replaces the stored one). The
-    simulator's truth, when the session holds it, is never read.
-    """
+    """Either result of ``session`` through the processing path, with ``calibrations``
+    (:func:`mimucap.session.calibrations.applied_calibrations` of the session when None: the
+    one choice of body and magnetometer calibrations every consumer makes). The simulator's
+    truth, when the session holds it, is never read. The phases its markers name as
+    magnetometer calibration (:func:`off_body_windows`) make every joint angle there doubtful."""
     check_result(result)
     recorded = recorded if recorded is not None else recorded_processing(session)
-    mags = dict(recorded.mag_calibrations)
-    mags.update(mag_calibrations or {})
-    body = body_calibration if body_calibration is not None else recorded.body_calibration
+    if calibrations is None:
+        calibrations = applied_calibrations(session)
+    body = calibrations.body
     if model is None:
         model = session_model(session)[0]
     if body is not None:
         check_body_calibration_fits(body, model)
     return process_recording(
-        session.sensors, model, result=result, mag_calibrations=mags, body_calibration=body,
+        session.sensors, model, result=result, mag_calibrations=calibrations.magnetometer, body_calibration=body,
         sensor_segments=recorded.sensor_segments, settings=recorded.settings,
         initial_states=recorded.initial_states, time_offset_s=recorded.time_offset_s,
-        shoulder_sequence=shoulder_sequence)
+        shoulder_sequence=shoulder_sequence, off_body_s=off_body_windows(session))
+
+
+def off_body_windows(session: Session) -> list[tuple[float, float]]:
+    """The time windows (s) its markers name as a magnetometer calibration phase
+    (:func:`mimucap.core.phases.off_body_windows`)."""
+    end = max((float(s.t_s[-1]) for s in session.sensors.values() if len(s.t_s)), default=0.0)
+    return phases.off_body_windows(session.markers, end + 1.0)

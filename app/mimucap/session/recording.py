@@ -188,22 +188,29 @@ class Recorder:
             self._fail(error)
         return self.failure is None
 
-    def stop(self, status: Mapping[str, Any] | None = None, reason: str = "stopped") -> RecordingResult:
+    def stop(self, status: Mapping[str, Any] | None = None, reason: str = "stopped",
+             devices: Mapping[str, Any] | None = None) -> RecordingResult:
         """End the recording and write the session file (the journal is then removed):
         :meth:`close` then :meth:`write_session`."""
-        self.close(status, reason)
+        self.close(status, reason, devices)
         return self.write_session()
 
-    def close(self, status: Mapping[str, Any] | None = None, reason: str = "stopped") -> None:
+    def close(self, status: Mapping[str, Any] | None = None, reason: str = "stopped",
+              devices: Mapping[str, Any] | None = None) -> None:
         """End the recording: the last records go to the journal, which is closed (fast;
         nothing more is recorded). ``status`` (JSON-serialisable, e.g. per-sensor
-        statistics) lands in the session metadata under ``"acquisition"``."""
+        statistics) lands in the session metadata under ``"acquisition"``; ``devices`` (sensor
+        id → :meth:`~mimucap.core.device_identity.SensorDevice.to_json`) what the sources told of
+        their sensors' devices by the end, which completes the metadata's ``"devices"`` (a
+        sensor first heard, or identified, after the start)."""
         if self._journal is None:
             raise ValueError("the recorder was not started")
         if status is not None:
             self._append(KIND_STATUS, json.dumps(_json_safe(status), default=str).encode("utf-8"))
-        self._append(KIND_END, json.dumps({"reason": reason if self.failure is None else "write error",
-                                           "stopped_host_s": time.monotonic()}).encode("utf-8"))
+        end = {"reason": reason if self.failure is None else "write error", "stopped_host_s": time.monotonic()}
+        if devices:
+            end["devices"] = dict(devices)
+        self._append(KIND_END, json.dumps(end).encode("utf-8"))
         try:
             self._journal.close()
         except OSError as error:
@@ -293,6 +300,10 @@ def session_from_journal(journal_path: str | os.PathLike[str],
                  "journal_discarded_bytes": contents.discarded_bytes,
                  "journal_skipped_bytes": [[span.offset, span.size] for span in contents.skipped]}
     metadata["recording"] = recording
+    told_at_end = (end or {}).get("devices")
+    if isinstance(told_at_end, dict) and told_at_end:
+        # the devices known at the start stand (their calibrations were chosen for them)
+        metadata["devices"] = {**told_at_end, **(metadata.get("devices") or {})}
     if status is not None:
         metadata["acquisition"] = status
     sensors = {sensor_id: _recorded(blocks, t0, segments.get(sensor_id))

@@ -6,13 +6,15 @@
    :data:`~mimucap.session.live.STALE_AFTER_S` (and at least one sensor is assigned);
 2. **Drops**: no assigned sensor lost more than :data:`MAX_DROP_FRACTION` of its packets;
 3. **Magnetometers**: every assigned sensor's magnetometer is calibrated (or the device fuses
-   on board), with a verdict that is not "fail" and not older than :data:`MAG_CAL_MAX_AGE_H`
-   hours (the magnetic surroundings of a room change: furniture, equipment, another room);
+   on board), and each calibration's standing
+   (:func:`~mimucap.core.magcal_standing.calibration_standing`: its verdict, the device it was
+   made on, whether the local field still fits it, its age) is not "not good"; a sensor whose
+   stored calibration belongs to another device is named as not calibrated, with that reason;
 4. **Body calibration**: an N/T-pose calibration is applied, and its verdict is not "poor".
 
 The live session publishes the list with its status (event ``checklist``); the main window
 shows it next to the Record button and asks for a confirmation before recording while an item
-is not ok.
+is not ok. :func:`magnetometer_readiness` is what a recording stores of the same judgement.
 """
 
 from __future__ import annotations
@@ -21,12 +23,17 @@ import math
 from dataclasses import dataclass
 
 from mimucap.core.clinical_names import sensor_name
+from mimucap.core.magcal_standing import MAX_AGE_H, calibration_standing
 from mimucap.session.magcal_procedure import describe_age
 
 #: A sensor losing more than this fraction of its packets is flagged.
 MAX_DROP_FRACTION = 0.01
-#: A magnetometer calibration older than this (hours) is flagged.
-MAG_CAL_MAX_AGE_H = 24.0
+#: A magnetometer calibration older than this (hours) is flagged (the standing's limit).
+MAG_CAL_MAX_AGE_H = MAX_AGE_H
+#: How the checklist groups the calibrations that are not good, by problem kind
+#: (:data:`~mimucap.core.magcal_standing.PROBLEM_KINDS`).
+PROBLEM_GROUPS = {"verdict": "verdict fail", "device": "made on another device",
+                  "field": "the local field no longer fits", "age": f"older than {MAX_AGE_H:.0f} h"}
 #: Sensors named in one line before "and N more" (the line stays short in the session panel).
 MAX_NAMED = 2
 
@@ -91,30 +98,38 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
         (f"{total_drops} packets lost in all" if total_drops else "no packet lost") if not lossy else
         _first_few([f"{sensor_name(seg, sid)} lost {100 * fraction:.1f} %" for sid, seg, fraction in lossy], "; ")))
 
-    uncalibrated, failed, old, ages, verdicts = [], [], [], [], set()
+    uncalibrated, not_used, unreadable, ages, verdicts, unverified = [], [], [], [], set(), []
+    groups: dict[str, list[str]] = {kind: [] for kind in PROBLEM_GROUPS}
     for sid, seg in assigned:
         row = by_id[sid]
         if row.mag_cal == "on-board":
             continue
         calibration = live.mag_calibrations.get(sid)
         if calibration is None:
-            uncalibrated.append((sid, seg))
+            group = unreadable if row.mag_cal_unreadable else not_used if row.mag_cal_note else uncalibrated
+            group.append((sid, seg))
             continue
-        verdict = str(calibration.quality.get("verdict", "unknown"))
-        verdicts.add(verdict)
-        if verdict == "fail":
-            failed.append((sid, seg))
-        age = row.mag_cal_age_s
-        ages.append(age)
-        if not (age <= MAG_CAL_MAX_AGE_H * 3600.0):
-            old.append((sid, seg))
+        standing = sensor_standing(calibration, row)
+        verdicts.add(standing.verdict)
+        ages.append(row.mag_cal_age_s)
+        for kind in PROBLEM_GROUPS:
+            found = [p.text for p in standing.problems if p.kind == kind]
+            if found and kind == "field":   # the figures, sensor by sensor
+                groups[kind].append(f"{sensor_name(seg, sid)} {', '.join(found)}")
+            elif found:
+                groups[kind].append(sensor_name(seg, sid))
+        if any(w.kind == "device" for w in standing.warnings):
+            unverified.append((sid, seg))
     problems = []
     if uncalibrated:
         problems.append(f"not calibrated: {_names(uncalibrated, len(assigned))}")
-    if failed:
-        problems.append(f"verdict fail: {_names(failed)}")
-    if old:
-        problems.append(f"older than {MAG_CAL_MAX_AGE_H:.0f} h: {_names(old, len(assigned))}")
+    if not_used:
+        problems.append(f"not calibrated, the stored calibration is another device's: {_names(not_used)}")
+    if unreadable:
+        problems.append(f"not calibrated, the stored calibration is unreadable: {_names(unreadable)}")
+    for kind, label in PROBLEM_GROUPS.items():
+        if groups[kind]:
+            problems.append(f"{label}: " + _first_few(groups[kind], "; " if kind == "field" else ", "))
     if not assigned:
         mag_text, mag_ok = "no sensor assigned", False
     elif problems:
@@ -123,6 +138,8 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
         finite = [a for a in ages if math.isfinite(a)]
         oldest = _age_text(max(finite)) if finite else "date unknown"
         mag_text = f"{len(ages)} calibrated, the oldest {oldest}; verdict {', '.join(sorted(verdicts))}"
+        if unverified:
+            mag_text += f"; device not verified: {_names(unverified)}"
         mag_ok = True
     else:
         mag_text, mag_ok = "the sensors fuse on board", True
@@ -135,3 +152,31 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
         verdict = body.quality.verdict
         items.append(CheckItem("body", "Body calibration", verdict != "poor", f"done, verdict {verdict}"))
     return items
+
+
+def sensor_standing(calibration, row):
+    """The standing of the calibration applied to the sensor of ``row`` (a
+    :class:`~mimucap.session.live.SensorRow`): its device, its local field and its age as the
+    row gives them (:func:`~mimucap.core.magcal_standing.calibration_standing`)."""
+    return calibration_standing(calibration, row.sensor_id, device=row.device, field=row.local_field,
+                                age_s=row.mag_cal_age_s)
+
+
+def magnetometer_readiness(live, rows=None) -> dict[str, dict]:
+    """What a recording stores of its magnetometers' readiness when it starts: sensor id →
+    the standing of its calibration (:meth:`~mimucap.core.magcal_standing.Standing.to_json`),
+    or ``{"level": "not calibrated", "problems": [why]}``, for every sensor with a
+    magnetometer that does not fuse on board."""
+    rows = live.sensor_rows() if rows is None else rows
+    found: dict[str, dict] = {}
+    for row in rows:
+        if row.mag_cal == "on-board":
+            continue
+        calibration = live.mag_calibrations.get(row.sensor_id)
+        if calibration is not None:
+            found[row.sensor_id] = sensor_standing(calibration, row).to_json()
+        elif row.has_magnetometer:
+            found[row.sensor_id] = {"level": "not calibrated",
+                                    "problems": [row.mag_cal_note] if row.mag_cal_note else []}
+    return found
+

@@ -3,14 +3,16 @@
 :func:`load_review` opens a session file (recovering an interrupted recording first, via
 :func:`mimucap.session.recording.open_session`) and runs it, once, through the one processing
 path (:func:`mimucap.session.processing.process_session`) with the calibrations the recording
-stores. Two results exist: *as seen live* (:data:`~mimucap.core.pipeline.RESULT_LIVE`, the
+stores, or a body calibration file given in place of its own
+(:func:`mimucap.session.calibrations.applied_calibrations`, the choice every consumer makes). Two results exist: *as seen live* (:data:`~mimucap.core.pipeline.RESULT_LIVE`, the
 forward filter continuing from the state the live view had, which reproduces what was shown)
 and *reprocessed* (:data:`~mimucap.core.pipeline.RESULT_REPROCESSED`, smoothed with past and
 future data; the default). The review holds:
 
 * segment orientations ``q_world_from_segment`` (T, 4) (world ENU, scalar first) on the pose
   instants ``t_s`` (T,) (seconds since the recording started);
-* joint angles (deg) of every joint, :func:`mimucap.core.skeleton.joint_angles_deg`.
+* joint angles (deg) of every joint, :func:`mimucap.core.skeleton.joint_angles_deg`, and
+  where each may be wrong (:mod:`mimucap.core.doubt`).
 
 A simulated recording's ground truth is kept beside them (``truth``) for the on-screen
 comparison only; it never replaces the estimate.
@@ -22,24 +24,28 @@ as the live session, with windows that end at the play head.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core import bodycal, doubt, rotation, skeleton
+from mimucap.core.clinical_names import joint_name
 from mimucap.core.locomotion import root_positions
 from mimucap.core.pipeline import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES, RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.io.session import Marker, Session, SessionTruth
+from mimucap.session.calibrations import AppliedCalibrations, applied_calibrations
 from mimucap.session.evaluation import angle_errors
 from mimucap.session.events import EmitterGroup
 from mimucap.session.figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
 from mimucap.session.live_pose import joint_column_groups
 from mimucap.session.processing import process_session, recorded_processing, session_model
+from mimucap.session.provenance import Provenance, provenance
 from mimucap.session.recording import open_session
 
 __all__ = ["POSE_BODY_CALIBRATION", "POSE_SENSOR_AXES", "ReviewData", "ReviewPlayer", "SPEEDS", "build_review",
+           "require_body_calibration",
            "load_review"]
 
 #: Playback speeds offered (× real time).
@@ -67,8 +73,21 @@ class ReviewData:
     heading_ref_rad: float | None
     q_world_from_sensor: dict[str, np.ndarray]       #: sensor → (N, 4) on that sensor's t_s
     result: str = RESULT_REPROCESSED
-    body_calibration: bodycal.BodyCalibration | None = None
+    calibrations: AppliedCalibrations = field(default_factory=AppliedCalibrations)
     missing: list[str] = field(default_factory=list)
+    #: joint → (T,) the reasons its angles may be wrong (``uint16`` bits of :mod:`mimucap.core.doubt`)
+    joint_doubt: dict[str, np.ndarray] = field(default_factory=dict)
+
+    @property
+    def body_calibration(self) -> bodycal.BodyCalibration | None:
+        """The body calibration the processing applied, or None."""
+        return self.calibrations.body
+
+    @property
+    def provenance(self) -> Provenance:
+        """What this result holds, as every output says it (:mod:`mimucap.session.provenance`)."""
+        return provenance(source_file=self.path.name, result=self.result, calibrations=self.calibrations,
+                          model=self.model, height_m=self.height_m, metadata=self.session.metadata)
 
     @property
     def result_label(self) -> str:
@@ -101,33 +120,59 @@ class ReviewData:
 
 
 def build_review(path: str | Path, session: Session, progress: Callable[[float], None] | None = None,
-                 result: str = RESULT_REPROCESSED) -> ReviewData:
-    """Compute the review of ``session`` (read from ``path``) as ``result``;
-    ``progress(fraction)`` is called as the work advances."""
+                 result: str = RESULT_REPROCESSED, calibrations: AppliedCalibrations | None = None) -> ReviewData:
+    """Compute the review of ``session`` (read from ``path``) as ``result`` with
+    ``calibrations`` (the session's own choice,
+    :func:`mimucap.session.calibrations.applied_calibrations`, when None); ``progress(fraction)``
+    is called as the work advances."""
     report = progress or (lambda fraction: None)
     model, height = session_model(session)
     report(0.1)
     recorded = recorded_processing(session, origin=str(path))
-    output = process_session(session, result=result, recorded=recorded, model=model)
+    if calibrations is None:
+        calibrations = applied_calibrations(session, origin=str(path))
+    output = process_session(session, result=result, calibrations=calibrations, recorded=recorded, model=model)
     report(0.9)
     if not len(output.t_s):
         reasons = "; ".join(output.problems) or "no sensor is assigned to a segment and none is calibrated"
         raise ValueError(f"{path}: nothing to review ({reasons})")
-    heading_ref = None if recorded.body_calibration is None else bodycal_heading(recorded.body_calibration)
+    body = calibrations.body
+    heading_ref = None if body is None else bodycal_heading(body)
     report(1.0)
     q_stacked = np.stack([output.q_world_from_segment[name] for name in model.segment_names])
     root = root_positions(model, height, q_stacked)
     return ReviewData(Path(path), session, model, height, output.t_s, output.q_world_from_segment, root,
                       output.angles_deg, output.pose_source, heading_ref, output.q_world_from_sensor,
-                      result=output.result, body_calibration=recorded.body_calibration,
-                      missing=list(recorded.missing) + list(output.problems))
+                      result=output.result, calibrations=calibrations,
+                      missing=list(recorded.missing) + list(calibrations.notes) + list(output.problems),
+                      joint_doubt=output.joint_doubt)
 
 
 def load_review(path: str | Path, progress: Callable[[float], None] | None = None,
-                result: str = RESULT_REPROCESSED) -> ReviewData:
-    """Open session file ``path`` (recovering it first if needed) and build its review."""
+                result: str = RESULT_REPROCESSED, calibration_file: str | Path | None = None,
+                mag_files: Sequence[str | Path] = ()) -> ReviewData:
+    """Open session file ``path`` (recovering it first if needed) and build its review, with
+    the body calibration of ``calibration_file`` (a ``CAL.json`` of ``mimucap bodycal``) in
+    place of the stored one when given, and the magnetometer calibration files ``mag_files``."""
     session = open_session(path)
-    return build_review(path, session, progress, result)
+    body = None
+    if calibration_file is not None:
+        from mimucap.io.body_calibration_file import read_body_calibration
+
+        body, _document = read_body_calibration(calibration_file)
+    calibrations = applied_calibrations(session, body=body, body_origin=str(calibration_file or ""),
+                                        mag_files=mag_files, origin=str(path))
+    return build_review(path, session, progress, result, calibrations)
+
+
+def require_body_calibration(review: ReviewData, what: str) -> None:
+    """``ValueError`` naming ``--calibration`` when ``review`` has no body calibration: without
+    one the sensors' axes stand for the segments, and ``what`` (e.g. "a report") would be
+    computed from numbers that mean nothing."""
+    if review.body_calibration is None:
+        raise ValueError(f"{review.path}: the session stores no body calibration, and {what} needs one (joint "
+                         "angles, range of motion, turns and stride length mean nothing without it): give "
+                         "--calibration CAL.json (made by mimucap bodycal)")
 
 
 class ReviewPlayer:
@@ -157,6 +202,7 @@ class ReviewPlayer:
         self._truth_geometry: tuple[object, FigureGeometry] | None = None
         self._columns = {joint: cols for joint, cols in joint_column_groups(self.model).items()
                          if all(c in data.angles_deg for c in cols)}
+        self._doubt_spans: dict[str, list[tuple[float, float, int]]] = {}  # joint → spans, found once
 
     # -- play head ---------------------------------------------------------------------------
     @property
@@ -302,3 +348,34 @@ class ReviewPlayer:
         a, b = np.searchsorted(t, [self._cursor - window_s, self._cursor], side="right")
         columns = self._columns[joint]
         return t[a:b], np.stack([self.data.angles_deg[c][a:b] for c in columns], axis=-1)
+
+    def doubt_spans(self, joint: str, window_s: float) -> list[tuple[float, float]]:
+        """The spans ``(start_s, end_s)`` in the window ending at the play head where
+        ``joint``'s angles are doubtful (:mod:`mimucap.core.doubt`): the plots shade them."""
+        return [(max(a, self._cursor - window_s), min(b, self._cursor))
+                for a, b, _r in self._spans(joint) if b >= self._cursor - window_s and a <= self._cursor]
+
+    def _spans(self, joint: str) -> list[tuple[float, float, int]]:
+        if joint not in self._doubt_spans:
+            reasons = self.data.joint_doubt.get(joint)
+            self._doubt_spans[joint] = [] if reasons is None else doubt.spans(self.data.t_s, reasons, join_s=0.0)
+        return self._doubt_spans[joint]
+
+    def doubtful_spans(self) -> list[tuple[float, float]]:
+        """The spans ``(start_s, end_s)`` of the whole recording where any joint's angles are
+        doubtful (the timeline shades them)."""
+        if not self.data.joint_doubt or not len(self.data.t_s):
+            return []
+        any_joint = np.logical_or.reduce([np.asarray(r) != 0 for r in self.data.joint_doubt.values()])
+        return [(a, b) for a, b, _r in doubt.spans(self.data.t_s, any_joint.astype(np.uint16), join_s=0.0)]
+
+    def doubt_here(self) -> str:
+        """Which joints' angles are doubtful at the play head, and why, in words ("" when none)."""
+        if not len(self.data.t_s):
+            return ""
+        i = self.index()
+        by_reason: dict[int, list[str]] = {}
+        for joint, reasons in self.data.joint_doubt.items():
+            if reasons[i]:
+                by_reason.setdefault(int(reasons[i]), []).append(joint_name(joint))
+        return "; ".join(f"{', '.join(joints)}: {doubt.describe(bits)}" for bits, joints in by_reason.items())

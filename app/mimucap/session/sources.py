@@ -32,6 +32,7 @@ from mimucap.acquisition.simulated import SimulatedSourceConfig
 from mimucap.acquisition.slimevr import SlimeVrSourceConfig
 from mimucap.acquisition.udp import UdpSourceConfig
 from mimucap.acquisition.worker import SourceConfig
+from mimucap.core.device_identity import SensorDevice, xsens_device_id
 from mimucap.core.samples import SensorSamples
 from mimucap.io.input_names import SESSION_SUFFIXES
 from mimucap.io.quaternion_tables import read_xsens_file
@@ -52,10 +53,13 @@ class SourceOptions:
 @dataclass
 class LoadedReplay:
     """What a replay plays: each sensor's replayable samples (``segment`` where a session names
-    it) and the rows refused before replay (sensor → :class:`RefusedRows`, sensors with some)."""
+    it), the rows refused before replay (sensor → :class:`RefusedRows`, sensors with some) and
+    each sensor's device as the file says (a session's recorded devices, an Xsens export's
+    device id)."""
 
     streams: tuple[SensorSamples, ...]
     refused: dict[str, RefusedRows] = field(default_factory=dict)
+    devices: dict[str, SensorDevice] = field(default_factory=dict)
 
     @property
     def skipped_rows(self) -> dict[str, int]:
@@ -69,7 +73,8 @@ class LoadedReplay:
 
     def config(self, name: str, speed: float) -> ReplaySourceConfig:
         """The replay worker's config."""
-        return ReplaySourceConfig(name=name, streams=self.streams, refused=tuple(self.refused.items()), speed=speed)
+        return ReplaySourceConfig(name=name, streams=self.streams, refused=tuple(self.refused.items()), speed=speed,
+                                  devices=tuple(self.devices.items()))
 
 
 def load_replay(path: str | Path) -> LoadedReplay:
@@ -87,6 +92,7 @@ def load_replay(path: str | Path) -> LoadedReplay:
     if not files:
         raise ValueError(f"replay folder {path} holds no Xsens .txt exports")
     recordings = []
+    devices = {}
     for file in files:
         recording = read_xsens_file(file)
         samples = SensorSamples(recording.device_id, recording.t_s, recording.packet_counter.astype(np.int64),
@@ -95,7 +101,11 @@ def load_replay(path: str | Path) -> LoadedReplay:
         if not samples.channels():
             raise ValueError(f"{file}: no accelerometer, gyroscope or orientation columns to replay")
         recordings.append(samples)
-    return _replayed(recordings)
+        try:
+            devices[recording.device_id] = SensorDevice(xsens_device_id(recording.device_id))
+        except ValueError:
+            devices[recording.device_id] = SensorDevice(None, f"{file.name} names no Xsens device id")
+    return _replayed(recordings, devices)
 
 
 def _session_streams(path: Path) -> LoadedReplay:
@@ -103,10 +113,14 @@ def _session_streams(path: Path) -> LoadedReplay:
     if not session.sensors:
         raise ValueError(f"replay file {path} holds no sensor streams")
     # a NaN row (e.g. a channel missing for a while) is refused, as a live source refuses it
-    return _replayed(list(session.sensors.values()))
+    try:
+        devices = session.devices()
+    except ValueError as error:
+        raise ValueError(f"replay file {path}: {error}") from None
+    return _replayed(list(session.sensors.values()), devices)
 
 
-def _replayed(recordings: list[SensorSamples]) -> LoadedReplay:
+def _replayed(recordings: list[SensorSamples], devices: dict[str, SensorDevice]) -> LoadedReplay:
     """Each recording's replayable rows, and those refused (see :func:`replayable`)."""
     streams, refused = [], {}
     for samples in recordings:
@@ -114,7 +128,7 @@ def _replayed(recordings: list[SensorSamples]) -> LoadedReplay:
         streams.append(stream)
         if rows is not None:
             refused[stream.sensor_id] = rows
-    return LoadedReplay(tuple(streams), refused)
+    return LoadedReplay(tuple(streams), refused, dict(devices))
 
 
 def source_configs(spec: str | SourceSpec, options: SourceOptions = SourceOptions(),

@@ -11,14 +11,17 @@ mounting rotation ``q_segment_from_sensor``.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from mimucap.core import skeleton
+from mimucap.core.device_identity import simulated_device_id
 from mimucap.core.simulate.magnetic_field import EarthField, MagneticDisturbance
 from mimucap.core.simulate.names import ROOM_NAMES, SCENARIOS
 from mimucap.core.simulate.scenarios import scenario_activities
@@ -46,6 +49,31 @@ SENSOR_PLACEMENTS: tuple[tuple[str, str, float, tuple[float, float, float]], ...
     ("S17", "pelvis", 0.5, (0.0, 0.0, 1.0)),        # right side of the pelvis (second pelvis unit)
 )
 MAX_SENSORS = len(SENSOR_PLACEMENTS)
+#: Error-model fields that describe the link, not the unit: they leave the suit the same.
+_LINK_SETTINGS = ("drop_probability",)
+
+
+def default_assignment(sensor_ids: Iterable[str]) -> dict[str, str]:
+    """Sensor id → segment as the suit comes assigned: one sensor per segment, the first unit
+    worn on it (:data:`SENSOR_PLACEMENTS` order); a second unit on a segment (``S16`` on the
+    thorax, ``S17`` on the pelvis) is worn but assigned to none (assign it by hand to drive its
+    segment instead)."""
+    wanted = set(sensor_ids)
+    assignment: dict[str, str] = {}
+    for sensor_id, segment, _along, _normal in SENSOR_PLACEMENTS:
+        if sensor_id in wanted and segment not in assignment.values():
+            assignment[sensor_id] = segment
+    return assignment
+
+
+def suit_fingerprint(seed: int, errors: SensorErrorModel | str) -> str:
+    """Eight hex digits naming the suit whose units ``seed`` and ``errors`` draw (the link's
+    settings, e.g. the drop probability, do not change the units)."""
+    model = asdict(error_model(errors))
+    for name in _LINK_SETTINGS:
+        model.pop(name, None)
+    text = json.dumps({"seed": int(seed) & 0xFFFFFFFF, "errors": model}, sort_keys=True)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:8]
 
 
 @dataclass(frozen=True)
@@ -122,6 +150,12 @@ class SimulationConfig:
     @property
     def sensor_ids(self) -> tuple[str, ...]:
         return tuple(p[0] for p in SENSOR_PLACEMENTS[: self.n_sensors])
+
+    def device_ids(self) -> dict[str, str]:
+        """Sensor id → device id of each unit (:mod:`mimucap.core.device_identity`: the suit is
+        named by :func:`suit_fingerprint` of the seed and the error model)."""
+        suit = suit_fingerprint(self.seed, self.errors)
+        return {sid: simulated_device_id(suit, sid) for sid in self.sensor_ids}
 
     def error_settings(self) -> SensorErrorModel:
         """The resolved error model (with ``drop_probability`` applied)."""

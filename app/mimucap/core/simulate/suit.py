@@ -10,6 +10,13 @@ measured by sensors with a realistic error model.
 :class:`~mimucap.core.simulate.config.SimulationConfig` holds the settings; the samples and
 truth come as :class:`~mimucap.core.simulate.truth.SuitBlock`. A hand-held sensor's
 magnetometer-calibration motion alone is :func:`mimucap.core.simulate.hand_held.calibration_motion`.
+The suit comes assigned one sensor per segment
+(:func:`~mimucap.core.simulate.config.default_assignment`): the second units are worn but drive
+no segment. Each unit is a device of its own (:mod:`mimucap.core.device_identity`): its error
+parameters are drawn from the seed and the error model, so
+:func:`~mimucap.core.simulate.config.suit_fingerprint` of those two names the suit, and
+``sim:<fingerprint>/<sensor id>`` the unit. Another seed is another suit with units numbered
+alike; the same session file read twice is the same suit.
 
 Frames: world ENU (z up), segment frames ISB (x anterior, y superior, z right), sensor
 frames the device axes; quaternions scalar-first Hamilton, ``q_A_from_B``. Units: s, m,
@@ -34,7 +41,7 @@ from mimucap.core import rotation as rot
 from mimucap.core import skeleton
 from mimucap.core.samples import SensorSamples
 from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS, protocol_truth
-from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SensorMounting, SimulationConfig
+from mimucap.core.simulate.config import SENSOR_PLACEMENTS, SensorMounting, SimulationConfig, default_assignment
 from mimucap.core.simulate.names import SCENARIOS
 from mimucap.core.simulate.rooms import room
 from mimucap.core.simulate.magnetic_field import disturbed_field
@@ -127,6 +134,10 @@ class SuitSimulator:
             misalign.append(rot.from_rotvec(rng.normal(size=3) * math.radians(1.5)))
             offsets.append(np.array([0.0, 0.0, 0.015 * index]))
         self._segments_of_sensors = [self.mounting[s].segment for s in self.sensor_ids]
+        #: sensor → the segment it drives as the suit comes (:func:`default_assignment`)
+        self.assignment = default_assignment(self.sensor_ids)
+        #: sensor → its device id (:meth:`SimulationConfig.device_ids`)
+        self.device_ids = config.device_ids()
         self._q_segment_from_sensor = np.stack([self.mounting[s].q_segment_from_sensor for s in self.sensor_ids])
         self._position_in_segment = np.stack([self.mounting[s].position_in_segment_m for s in self.sensor_ids])
         self._q_bundle_from_sensor = np.stack(misalign)
@@ -339,7 +350,7 @@ class SuitSimulator:
             samples[sid] = SensorSamples(
                 sid, t[keep], seq[keep], meas.acc[keep, i], meas.gyr[keep, i], meas.mag_uT[keep, i],
                 q_world_from_sensor=None if meas.q_world_from_sensor is None else meas.q_world_from_sensor[keep, i],
-                device_time_s=meas.device_time_s[keep, i], segment=self.mounting[sid].segment,
+                device_time_s=meas.device_time_s[keep, i], segment=self.assignment.get(sid),
             )
         angles = {}
         for joint in self.model.joint_names:

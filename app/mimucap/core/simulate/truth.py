@@ -65,7 +65,9 @@ class SuitBlock:
     A unit's :class:`~mimucap.core.samples.SensorSamples` are those it delivered (dropped ones
     removed): ``t_s`` the true time, ``seq`` the sample numbers, ``acc``, ``gyr``, ``mag_uT``,
     ``q_world_from_sensor`` when the units fuse on board (else None), ``device_time_s`` the
-    unit's clock, ``segment`` the segment it is worn on."""
+    unit's clock, ``segment`` the segment it drives
+    (:func:`~mimucap.core.simulate.config.default_assignment`; ``None`` for a second unit on a
+    segment, whose placement is in the simulator's ``mounting``)."""
 
     samples: dict[str, SensorSamples]
     truth: SuitTruth

@@ -33,7 +33,6 @@ from PyQt5 import QtCore, QtWidgets
 from mimucap.core import skeleton
 from mimucap.core.clinical_names import in_clinical_words, segment_name
 from mimucap.gui.assignment_dialog import remember_assignment
-from mimucap.core.bodycal import fill_missing_segments
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
@@ -428,8 +427,7 @@ class BodyCalibrationWizard(CalibrationDialog):
     def _show_skeleton(self) -> None:
         """The calibrated N-pose as the main window's figure (body display mode: facing the
         camera); segments without a sensor follow their parent."""
-        segments = fill_missing_segments(
-            self.procedure.npose_segment_orientations(), [(s.name, s.parent) for s in self.model.segments])
+        segments = self.procedure.npose_segment_orientations(self.model)
         height = self.procedure.height_m
         poses = skeleton.forward_kinematics(self.model, segments, height)
         builder = FigureBuilder(self.model, height)

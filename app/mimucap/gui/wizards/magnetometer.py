@@ -277,12 +277,16 @@ class MagnetometerWizard(CalibrationDialog):
             item = self.sensor_list.item(i)
             sensor_id = item.data(QtCore.Qt.UserRole)
             try:
-                old = self.store.load(sensor_id)
-                text = (f"{self.sensor_label(sensor_id)} — calibrated {describe_age(age_days_since(old.created_utc, now))} "
-                        f"({old.quality.get('verdict', 'unknown')})")
-            except FileNotFoundError:
-                text = f"{self.sensor_label(sensor_id)} — never calibrated"
-            except CalibrationFileError:
+                found = self.store.lookup(sensor_id, self.feed.device(sensor_id))
+                old = found.calibration
+                if old is not None:
+                    text = (f"{self.sensor_label(sensor_id)} — calibrated {describe_age(age_days_since(old.created_utc, now))} "
+                            f"({old.quality.get('verdict', 'unknown')})")
+                elif found.note:
+                    text = f"{self.sensor_label(sensor_id)} — never calibrated on this device"
+                else:
+                    text = f"{self.sensor_label(sensor_id)} — never calibrated"
+            except (OSError, CalibrationFileError):
                 text = f"{self.sensor_label(sensor_id)} — stored calibration unreadable: calibrate again"
             self.sensor_list.blockSignals(True)
             item.setText(text)

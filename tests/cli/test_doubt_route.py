@@ -1,0 +1,104 @@
+"""The doubtful-seconds flags of ``mimucap angles`` against the simulator's truth, on the demo
+with and without a magnetic disturbance, through the command-line route (simulate → magcal fit
+--save → bodycal → angles, reprocessed and --live): where ``<joint>_ok`` is 1 the knee flexion
+is within 5° of the truth, and where it is off by more than 10° the flag is 0. The truth is
+read here only; no command reads it. (``bench/bench_doubt.py`` measures the same over seeds.)"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mimucap.cli import main
+from mimucap.core import phases
+from mimucap.io.angles_export import read_angles_csv
+from mimucap.io.session import read_session
+from mimucap.session.evaluation import truth_at
+
+DISTURBANCE = "30,-20,10,34,90"
+KNEES = ("knee_l", "knee_r")
+
+
+def _route(folder, patch, name: str, extra: list[str]):
+    """Simulate, fit and store the magnetometer calibrations (an isolated store), calibrate the
+    body: the session and calibration paths."""
+    patch.setenv("MIMUCAP_DATA_DIR", str(folder / f"data_{name}"))
+    session = folder / f"{name}.h5"
+    assert main(["simulate", "--scenario", "demo", "--duration", "90", "--seed", "3", "--out", str(session)] + extra) == 0
+    assert main(["magcal", "fit", str(session), "--save"]) == 0
+    calibration = folder / f"{name}_cal.json"
+    assert main(["bodycal", str(session), "--out", str(calibration)]) == 0
+    return session, calibration
+
+
+@pytest.fixture(scope="module")
+def routes(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("doubt_route")
+    with pytest.MonkeyPatch.context() as patch:
+        clean = _route(folder, patch, "clean", [])
+        disturbed = _route(folder, patch, "disturbed", ["--disturbance", DISTURBANCE])
+    return folder, clean, disturbed
+
+
+def _angles(folder, session, calibration, live: bool, monkeypatch):
+    monkeypatch.setenv("MIMUCAP_DATA_DIR", str(folder / f"data_{session.stem}"))
+    out = folder / f"{session.stem}_{calibration.stem}{'_live' if live else ''}.csv"
+    assert main(["angles", str(session), "--calibration", str(calibration), "--out", str(out)]
+                + (["--live"] if live else [])) == 0
+    return read_angles_csv(out)
+
+
+def _check(table, session):
+    """The flags are right: flagged 1 → within 5°; off by more than 10° → flagged 0. Returns
+    the walking samples' share flagged 1 per knee."""
+    recorded = read_session(session)
+    walking = np.zeros(len(table.t_s), dtype=bool)
+    for start, end in phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1])):
+        walking |= (table.t_s >= start) & (table.t_s < end)
+    shares = {}
+    for joint in KNEES:
+        column = f"{joint}_flexion_deg"
+        error = np.abs(table.angles_deg[column] - truth_at(table.t_s, recorded.truth.t_s,
+                                                           recorded.truth.joint_angles_deg[column]))
+        ok = table.ok[joint]
+        assert np.all(error[ok] <= 5.0), (joint, float(error[ok].max()))
+        assert not np.any(ok[error > 10.0]), (joint, int(np.count_nonzero(ok[error > 10.0])))
+        shares[joint] = float(np.mean(ok[walking]))
+    return shares
+
+
+@pytest.mark.parametrize("live", [False, True])
+def test_walking_in_a_clean_field_is_trusted_and_the_flags_are_right(routes, live, monkeypatch):
+    folder, (session, calibration), _disturbed = routes
+    shares = _check(_angles(folder, session, calibration, live, monkeypatch), session)
+    assert min(shares.values()) > 0.95, shares
+
+
+@pytest.mark.parametrize("live", [False, True])
+def test_a_disturbed_field_is_flagged_wherever_the_knees_are_wrong(routes, live, monkeypatch):
+    """The disturbance's field is followed by the smoothed filter back into the poses, so the
+    body calibration made from it knows its orientations were doubtful: every joint angle is
+    flagged, with the reason in the file."""
+    folder, _clean, (session, calibration) = routes
+    assert json.loads(calibration.read_text())["quality"]["doubtful_sensors"]
+    table = _angles(folder, session, calibration, live, monkeypatch)
+    _check(table, session)
+    assert any("the body calibration was made from doubtful orientations" in line for line in table.header)
+
+
+@pytest.mark.parametrize("live", [False, True])
+def test_with_a_calibration_from_the_clean_field_the_flags_follow_the_disturbance(routes, live, monkeypatch):
+    """The same subject and sensors calibrated in the clean session: the joint angles are
+    flagged where the disturbed field reaches them, and right where they are trusted."""
+    folder, (_clean_session, clean_calibration), (session, _calibration) = routes
+    table = _angles(folder, session, clean_calibration, live, monkeypatch)
+    _check(table, session)
+    before = (table.t_s > 30.0) & (table.t_s < 34.0)
+    for joint in KNEES:
+        assert not np.all(table.ok[joint][table.t_s > 34.5])
+        if live:  # the forward filter cannot know what comes; the smoothed one carries it back
+            assert np.mean(table.ok[joint][before]) > 0.95, joint
+    assert any("heading taken from a magnetic field that differs from the calibrated one" in line
+               for line in table.header)
