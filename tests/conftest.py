@@ -77,6 +77,7 @@ def _isolated_user_dirs(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("MIMUCAP_DATA_DIR", str(base / "data"))
     monkeypatch.setenv("XDG_CONFIG_HOME", str(base / "config"))
     monkeypatch.setenv("XDG_DATA_HOME", str(base / "share"))
+    monkeypatch.setenv("XDG_STATE_HOME", str(base / "state"))
 
 
 def record_calibrated_session(path: Path, scenario: str = "walk", seconds: float = 8.0, seed: int = 3,

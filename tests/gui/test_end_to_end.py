@@ -13,106 +13,43 @@ pipeline reads the same clock).
 from __future__ import annotations
 
 import threading
-import time
 
 import numpy as np
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.pipeline import RESULT_LIVE
-from mimucap.gui.main_window import MainWindow
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session, write_session
 from mimucap.session.evaluation import angle_errors
 from mimucap.session.export import ExportRequest, run_export
-from mimucap.session.live import RecordingToSave, open_live_session
+from mimucap.session.live import RecordingToSave
 from mimucap.session.review import load_review
+from tests.gui.live_window import calibrate, closed, live_window
 
-SPEED_UP = 4.0
 RECORD_S = 20.0
 FLEXION = ("knee_l_flexion_deg", "knee_r_flexion_deg", "hip_l_flexion_deg", "hip_r_flexion_deg",
            "elbow_l_flexion_deg", "elbow_r_flexion_deg")
 
 
-def _fast_clock():
-    """Simulated time, SPEED_UP times the wall clock; a stall of the busy test machine slows it
-    down (each reading moves it at most half a second) instead of making the simulated suit
-    lose the samples of the stall, as a real radio would."""
-    state = [time.monotonic(), time.monotonic()]
-
-    def clock() -> float:
-        wall = time.monotonic()
-        state[0] += min(SPEED_UP * (wall - state[1]), 0.5)
-        state[1] = wall
-        return state[0]
-
-    return clock
-
-
-def _window(qtbot, spec: str):
-    clock = _fast_clock()
-    window = MainWindow(spec, session_factory=lambda chosen: open_live_session(chosen, clock=clock))
-    window.clock = clock
-    window.confirm_recording = lambda items: True  # recording without calibrations, knowingly
-    window.show()
-    window.start()
-    qtbot.waitExposed(window)
-    return window
-
-
-def _closed(window) -> None:
-    for review in window.review_windows:
-        review.close()
-    if window.live is not None and window.live.recording:
-        window.live.stop_recording()
-    window.close()
-
-
 @pytest.fixture
 def app_window(qtbot):
-    window = _window(qtbot, "simulated:demo")
+    window = live_window(qtbot, "simulated:demo")
     yield window
-    _closed(window)
+    closed(window)
 
 
 @pytest.fixture
 def walking_window(qtbot):
-    window = _window(qtbot, "simulated:walk")
+    window = live_window(qtbot, "simulated:walk")
     yield window
-    _closed(window)
-
-
-def _calibrate(window, qtbot) -> None:
-    """Both wizards, as a user clicks through them."""
-    live = window.live
-    qtbot.waitUntil(lambda: live.samples_received > 200, timeout=10000)
-    window.action_magcal.trigger()
-    wizard = window._wizard
-    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
-    qtbot.waitUntil(lambda: wizard.procedure.phase == "result", timeout=60000)
-    qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
-    assert set(live.mag_calibrations) == set(live.sensor_ids)
-    wizard.close()
-    # The sensors are strapped back on (half a minute in a clinic): the filters, learning the
-    # heading from the newly calibrated magnetometers, settle meanwhile.
-    settled = window.clock() + 20.0
-    qtbot.waitUntil(lambda: window.clock() > settled, timeout=20000)
-    window.action_bodycal.trigger()
-    wizard = window._wizard
-    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
-    qtbot.waitUntil(lambda: wizard.procedure.phase in ("result", "refused"), timeout=60000)
-    assert wizard.procedure.phase == "result", wizard.procedure.refusal
-    qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
-    assert live.body_calibration is not None
-    qtbot.waitUntil(lambda: live.pose_source == "body calibration", timeout=5000)
-    # The wizard is closed: the simulated subject walks on.
-    qtbot.waitUntil(lambda: live.simulator.current_activity().startswith("walk"), timeout=10000)
+    closed(window)
 
 
 def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, qtbot, tmp_path, monkeypatch):
     window = walking_window
     live = window.live
-    _calibrate(window, qtbot)
+    calibrate(window, qtbot)
 
     window.session_panel.subject_id.setText("P042")
     monkeypatch.setattr(window, "recording_folder", lambda: tmp_path)

@@ -72,3 +72,49 @@ def test_the_summary_chart_and_table_say_what_they_hold(qtbot, tmp_path, calibra
     header = [line[2:] for line in dialog.save_summary_csv(tmp_path / "summary.csv").read_text().splitlines()
               if line.startswith("# ")]
     assert all(line in header for line in lines)
+
+
+@pytest.fixture(scope="module")
+def uncalibrated_walk(tmp_path_factory) -> Path:
+    from mimucap.cli import main
+
+    path = tmp_path_factory.mktemp("uncalibrated") / "walk.h5"
+    assert main(["simulate", "--scenario", "walk", "--duration", "3", "--out", str(path)]) == 0
+    return path
+
+
+def test_without_a_body_calibration_only_the_sensor_data_can_be_exported(qtbot, tmp_path, uncalibrated_walk):
+    """Joint angles, ranges of motion and segments mean nothing without a body calibration: the
+    dialog offers the sensor data alone, says why, and has no summary to save."""
+    from mimucap.gui.export_dialog import ExportDialog
+    from mimucap.session.review import load_review
+
+    dialog = ExportDialog(None, load_review(uncalibrated_walk))
+    qtbot.addWidget(dialog)
+    dialog.show()
+    assert dialog.calibration_note.isVisible() and "Only the sensor data" in dialog.calibration_note.text()
+    for box in (dialog.want_csv, dialog.want_mot, dialog.want_opensim_mot, dialog.want_summary,
+                dialog.want_c3d, dialog.want_bvh, dialog.want_sto):
+        assert not box.isEnabled() and not box.isChecked() and "body calibration" in box.toolTip()
+    assert dialog.want_sensors.isEnabled() and dialog.want_sensors.isChecked()
+    assert not dialog.summary.isVisible()
+    assert not dialog.summary_csv_button.isEnabled() and not dialog.summary_png_button.isEnabled()
+    assert dialog.export_button.isEnabled()
+
+
+def test_review_plots_no_joint_angles_without_a_body_calibration(qtbot, uncalibrated_walk, calibrated_walk):
+    from mimucap.gui.review_window import ReviewWindow
+    from mimucap.session.analysis import NEEDS_BODY_CALIBRATION
+
+    for path, calibrated in ((uncalibrated_walk, False), (calibrated_walk, True)):
+        review = ReviewWindow(path)
+        qtbot.addWidget(review)
+        review.show()
+        review.load()
+        qtbot.waitUntil(lambda r=review: r.player is not None, timeout=30000)
+        plots = review.plots
+        assert bool(plots.selected_joints) == calibrated
+        assert plots.joint_button.isEnabled() == calibrated
+        if not calibrated:
+            assert NEEDS_BODY_CALIBRATION in plots.joint_button.toolTip()
+        review.close()

@@ -309,3 +309,47 @@ def test_compare_is_offered_for_two_calibrated_sessions_only(qtbot, tmp_path):
     assert "P001_2026-04-13_trial01.h5: no body calibration" in compare.toolTip()
     assert window.compare_selected() is None
     window.close()
+
+
+def test_the_trend_shows_a_subjects_clinical_test_visits_and_prints(qtbot, tmp_path):
+    """Three visits of one subject with stored Timed Up and Go results (as the guided test or
+    `mimucap protocol` keep them): the trend plots them oldest first beside the reference, lists
+    them newest first and saves a PDF."""
+    from mimucap.gui.trend_dialog import TrendDialog
+    from mimucap.session.clinical_test_results import RESULT_PREFIX
+
+    root = tmp_path / "lib"
+    root.mkdir()
+    dates = ("2026-03-01", "2026-04-12", "2026-05-20")
+    for date in dates:
+        make_session(root / f"P001_{date}_trial01.h5", "P001", 2.0, f"{date}T10:00:00+00:00", body_verdict="good")
+    library = Library(root)
+    library.scan()
+    reference = {"key": "total_s", "mean": 9.2, "ci95_low": 8.2, "ci95_high": 10.2, "group": "people 70-79 years",
+                 "statistic": "mean and 95% confidence interval (s)", "source": "Bohannon 2006"}
+    totals = (14.0, 12.5, 11.0)
+    for date, total in zip(dates, totals):
+        library.store_result(f"P001_{date}_trial01.h5", RESULT_PREFIX + "tug",
+                             {"test": "tug", "total_s": total, "sit_to_stand_s": 1.5, "result": "reprocessed",
+                              "reference": reference})
+    window = LibraryWindow(root)
+    qtbot.addWidget(window)
+    window.show()
+    window.wait_for_scan()
+    window.select_subject("P001")
+    assert window.trend_button.isEnabled()
+    dialog = window.open_trend()
+    assert isinstance(dialog, TrendDialog) and dialog.test == "tug" and dialog.key == "total_s"
+    assert [v.values["total_s"] for v in dialog.visits] == list(totals)
+    curve = [item for item in dialog.plot.listDataItems()][0]
+    assert list(curve.yData) == list(totals)
+    assert dialog.table.item(0, 2).text() == "11.0 s"  # newest first
+    assert "Change since the first visit: -3.0 s" in dialog.note.text()
+    assert "Timed Up and Go (3 visits)" == dialog.test_combo.currentText()
+    pdf = dialog.save_pdf(tmp_path / "trend.pdf")
+    assert pdf.stat().st_size > 3000
+    dialog.test_combo.setCurrentIndex(dialog.test_combo.findData("10mwt"))
+    assert dialog.visits == [] and "No 10-metre walk test of P001" in dialog.note.text()
+    assert not dialog.pdf_button.isEnabled()
+    dialog.close()
+    window.close()

@@ -87,7 +87,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"mimucap {args.command}: error: not enough memory for this request; ask for less "
               f"(a shorter duration, fewer sensors or a lower rate)", file=sys.stderr)
         return 1
-    except (ValueError, OSError) as error:
+    except OSError as error:
+        from mimucap.io.json_document import describe_os_error
+
+        print(f"mimucap {args.command}: error: {describe_os_error(error)}", file=sys.stderr)
+        return 1
+    except UnicodeError:
+        print(f"mimucap {args.command}: error: an input file is not the text file expected "
+              f"(a binary file given where a CSV or JSON file belongs?)", file=sys.stderr)
+        return 1
+    except ValueError as error:
         print(f"mimucap {args.command}: error: {error}", file=sys.stderr)
         return 1
 

@@ -79,6 +79,10 @@ def run(args: argparse.Namespace) -> int:
     from mimucap.cli.session_input import warn_about_magnetometers
 
     data = load_review(args.session, calibration_file=args.calibration)
+    if not (fmt == "sto" and args.raw_sensors):  # the sensors' own orientations need no body calibration
+        from mimucap.session.review import require_body_calibration
+
+        require_body_calibration(data, f"a {fmt} export of joint angles or segments")
     warn_about_magnetometers("export", data.session, data.calibrations)
     written = write_motion_file(data, fmt, Path(args.out), args.t_from, args.t_to, opensim_names=args.opensim_names,
                                 raw_sensors=args.raw_sensors)

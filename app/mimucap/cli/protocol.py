@@ -77,6 +77,14 @@ def run(args: argparse.Namespace) -> int:
     print(f"{found.test}: {shown} ({document['result']}); wrote {args.out}")
     if found.reference is None:
         print(f"  no reference: {found.reference_note}")
+    if args.calibration is None and not args.mag_calibration:
+        # A result of the session as stored is the one the library's trend follows (a result
+        # computed with other calibrations given here is the user's own, kept in the file only).
+        from mimucap.session.clinical_test_results import store_in_library
+
+        stored = store_in_library(args.session, found)
+        if stored:
+            print(f"  {stored}")
     return 0
 
 

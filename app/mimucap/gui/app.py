@@ -16,7 +16,7 @@ def has_display(environ=None) -> bool:
 
 
 def _log_to_file(path: Path) -> None:
-    """Warnings and errors of the application also go to ``path`` (the user's config folder)."""
+    """Warnings and errors of the application also go to ``path`` (in the platform's log folder)."""
     import logging
 
     handler = logging.FileHandler(path, encoding="utf-8")
@@ -67,10 +67,10 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
     from mimucap.acquisition.source_spec import parse_source_spec
     from mimucap.gui.capture import save_window_png
     from mimucap.gui.main_window import MainWindow
-    from mimucap.gui.settings import config_dir
+    from mimucap.gui.settings import log_dir
     from mimucap.resources import resource_path
 
-    log_path = config_dir() / "mimucap.log"
+    log_path = log_dir() / "mimucap.log"
     _log_to_file(log_path)
     _report_uncaught_errors(log_path)
 

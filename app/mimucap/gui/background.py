@@ -31,7 +31,16 @@ class BackgroundTask(QtCore.QThread):
     def run(self) -> None:  # runs in the worker thread
         try:
             self.result = self._work(self.progress.emit)
-        except Exception as error:  # reported to the user in the window, and logged
+        except (ValueError, OSError) as error:
+            # A file the user chose is not what it should be: their problem to act on, said in
+            # the window; the log keeps the sentence, without a traceback that reads like a crash.
+            from mimucap.io.json_document import describe_os_error
+
+            self.error = describe_os_error(error) if isinstance(error, OSError) else f"{error}"
+            log.warning("%s", self.error)
+            self.failed.emit(self.error)
+            return
+        except Exception as error:  # a defect of ours: reported in the window, logged with its traceback
             log.exception("background task failed")
             self.error = f"{error}"
             self.failed.emit(self.error)

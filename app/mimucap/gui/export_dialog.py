@@ -98,8 +98,17 @@ class ExportDialog(QtWidgets.QDialog):
         self.want_sto = QtWidgets.QCheckBox("Segment orientations, OpenSense .sto (OpenSim IMU kinematics)", files_box)
         self._file_boxes = (self.want_csv, self.want_mot, self.want_opensim_mot, self.want_summary, self.want_sensors,
                             self.want_c3d, self.want_bvh, self.want_sto)
-        for box in (self.want_csv, self.want_mot, self.want_summary):
-            box.setChecked(True)
+        #: the files that hold joint angles or segments: meaningless without a body calibration
+        self._needs_body_calibration = (self.want_csv, self.want_mot, self.want_opensim_mot, self.want_summary,
+                                        self.want_c3d, self.want_bvh, self.want_sto)
+        if data.body_calibration is None:
+            for box in self._needs_body_calibration:
+                box.setEnabled(False)
+                box.setToolTip(f"Needs a body calibration: {WITHOUT_BODY_CALIBRATION}")
+            self.want_sensors.setChecked(True)
+        else:
+            for box in (self.want_csv, self.want_mot, self.want_summary):
+                box.setChecked(True)
         # the home folder written "~" (expanded again by export_base_path)
         self.base_path = QtWidgets.QLineEdit(display_path(data.path.with_suffix("")) + "_angles", files_box)
         self.base_path.setObjectName("exportBasePath")
@@ -124,12 +133,15 @@ class ExportDialog(QtWidgets.QDialog):
         self.calibration_note.setWordWrap(True)
         self.calibration_note.setStyleSheet("color: #b00020")
         if data.body_calibration is None:
-            self.calibration_note.setText(f"Body calibration: {WITHOUT_BODY_CALIBRATION}. The files say so.")
+            self.calibration_note.setText(f"Body calibration: {WITHOUT_BODY_CALIBRATION}. Only the sensor data "
+                                          f"can be exported; calibrate the body (or give the session a body "
+                                          f"calibration) for joint angles and segments.")
         self.calibration_note.setVisible(data.body_calibration is None)
         self.summary = QtWidgets.QTableWidget(0, 4, self)
         self.summary.setObjectName("summaryTable")
         self.summary.setHorizontalHeaderLabels(["Joint angle", "Min (°)", "Max (°)", "Range of motion (°)"])
         self.summary.verticalHeader().setVisible(False)
+        self.summary.setVisible(data.body_calibration is not None)  # a range of motion needs one
         self.summary.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
         header = self.summary.horizontalHeader()
         header.setSectionResizeMode(0, QtWidgets.QHeaderView.Stretch)
@@ -220,10 +232,11 @@ class ExportDialog(QtWidgets.QDialog):
     def _update_buttons(self) -> None:
         """Export needs a valid range, a file ticked and no export running; the summary
         files a valid range."""
-        wanted = any(box.isChecked() for box in self._file_boxes)
+        wanted = any(box.isChecked() and box.isEnabled() for box in self._file_boxes)
         self.export_button.setEnabled(self._range_valid and wanted and not self.busy)
-        self.summary_csv_button.setEnabled(self._range_valid)
-        self.summary_png_button.setEnabled(self._range_valid)
+        calibrated = self.data.body_calibration is not None
+        self.summary_csv_button.setEnabled(self._range_valid and calibrated)
+        self.summary_png_button.setEnabled(self._range_valid and calibrated)
 
     # -- export ------------------------------------------------------------------------------
     def _browse(self) -> None:

@@ -170,6 +170,11 @@ class LibraryWindow(QtWidgets.QMainWindow):
         self.new_session_button.setObjectName("newSessionButton")
         self.new_session_button.clicked.connect(self.start_new_session)
         left_layout.addWidget(self.new_session_button)
+        self.trend_button = QtWidgets.QPushButton("Clinical Test Trend…", self)
+        self.trend_button.setObjectName("trendButton")
+        self.trend_button.setToolTip("The subject's clinical test results across visits, with the reference")
+        self.trend_button.clicked.connect(self.open_trend)
+        left_layout.addWidget(self.trend_button)
 
         self.condition_filter = QtWidgets.QComboBox(self)
         self.tag_filter = QtWidgets.QComboBox(self)
@@ -454,6 +459,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         self.buttons["trash"].setEnabled(len(selected) >= 1)
         subject = self.selected_subject() or (selected[0].subject_id if len(selected) == 1 else None)
         self.new_session_button.setEnabled(bool(subject) and self._new_session is not None)
+        self.trend_button.setEnabled(bool(subject) and self.library is not None)
 
     def _one(self) -> SessionEntry | None:
         selected = self.selected_entries()
@@ -561,6 +567,18 @@ class LibraryWindow(QtWidgets.QMainWindow):
         window.show()
         window.load()
         return window
+
+    def open_trend(self):
+        """The selected subject's clinical test results across visits (a dialog)."""
+        from mimucap.gui.trend_dialog import TrendDialog
+
+        selected = self._one()
+        subject = self.selected_subject() or (selected.subject_id if selected is not None else None)
+        if not subject or self.library is None:
+            return None
+        dialog = TrendDialog(self.library, subject, self)
+        dialog.show()
+        return dialog
 
     def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
         self.wait_for_scan()

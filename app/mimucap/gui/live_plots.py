@@ -211,6 +211,9 @@ class LivePlots(QtWidgets.QWidget):
         self._titles: dict[str, str] = {}     # each plot's title, without the curve names
         self._no_data: dict[str, bool] = {}   # plots whose window held no finite value
         self.selected_joints: list[str] = []
+        #: why joint angles are not plotted ("" when they are): without a body calibration the
+        #: segments follow the sensors' own axes and the angles mean nothing
+        self.joint_angles_refused = ""
         for key, title, unit, min_range in SENSOR_PLOTS:
             self._add_plot(key, title, unit, min_range, AXIS_NAMES)
         self._place_time_axis()
@@ -470,8 +473,9 @@ class LivePlots(QtWidgets.QWidget):
             self.sensor_combo.blockSignals(False)
             self._titled_sensor = ""  # the sensor's name may have changed with its segment
             self._fit_titles()
-        joints = list(self.source.joint_names)
-        if list(self.joint_actions) != joints:
+        joints = [] if self.joint_angles_refused else list(self.source.joint_names)
+        self.joint_button.setEnabled(not self.joint_angles_refused)
+        if list(self.joint_actions) != joints or (not joints and self.selected_joints):
             self.joint_menu.clear()
             self.joint_actions = {}
             for joint in joints:
@@ -484,6 +488,15 @@ class LivePlots(QtWidgets.QWidget):
                 kept = [DEFAULT_JOINT if DEFAULT_JOINT in joints else joints[0]]
             self.set_joints(kept)
             self._fit_titles()
+        if self.joint_angles_refused:
+            self.joint_button.setText("(none)")
+            self.joint_button.setToolTip(f"Joint angles: {self.joint_angles_refused}")
+
+    def refuse_joint_angles(self, reason: str) -> None:
+        """Plot no joint angles, saying ``reason`` on the joint selector ("": plot them again)."""
+        self.joint_angles_refused = reason
+        self.update_choices()
+        self._data_changed()
 
     @property
     def sensor_id(self) -> str:

@@ -14,6 +14,8 @@ frame interval (60 and 30 a second); the session publishes its status 4 times a 
 
 from __future__ import annotations
 
+import dataclasses
+
 import logging
 from collections.abc import Callable
 from pathlib import Path
@@ -101,6 +103,11 @@ def _wizard_classes() -> dict[str, type]:
         found["rom"] = RomWizard
     except ImportError:
         log.info("range-of-motion wizard not available")
+    try:
+        from mimucap.gui.wizards.clinical_test import ClinicalTestWizard
+        found["clinical_test"] = ClinicalTestWizard
+    except ImportError:
+        log.info("clinical test wizard not available")
     return found
 
 
@@ -269,8 +276,11 @@ class MainWindow(QtWidgets.QMainWindow):
                 self.action_magcal = self.calibrate_menu.addAction("&Magnetometers…", lambda: self.open_wizard("magnetometer"))
             if "body" in self._wizards:
                 self.action_bodycal = self.calibrate_menu.addAction("&Body…", lambda: self.open_wizard("body"))
+            assess = bar.addMenu("&Assess")
             if "rom" in self._wizards:
-                self.action_rom = bar.addMenu("&Assess").addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
+                self.action_rom = assess.addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
+            if "clinical_test" in self._wizards:
+                self.action_clinical_test = assess.addAction("&Clinical Test…", lambda: self.open_wizard("clinical_test"))
 
         help_menu = bar.addMenu("&Help")
         self.action_guide = help_menu.addAction("&User Guide", self.show_user_guide)
@@ -616,29 +626,46 @@ class MainWindow(QtWidgets.QMainWindow):
             self.session_panel.set_recording(False)
             return
         if on and not self.live.recording:
-            checklist = recording_checklist(self.live)
-            self.session_panel.show_checklist(checklist)
-            not_ok = [item for item in checklist if not item.ok]
-            if not_ok and not self.confirm_recording(not_ok):
-                self.session_panel.set_recording(False)
-                return
-            try:
-                subject = self.session_panel.subject()
-                condition, tags = self.session_panel.session_fields()
-                path = recording_path(self.recording_folder(), subject.subject_id)
-                fields = library_fields(condition, tags, path.stem.rsplit("_", 1)[-1])
-                self.live.start_recording(path, subject.to_dict(), {"library": fields})
-            except (ValueError, OSError) as error:
-                self.session_panel.set_recording(False)
-                log.warning("cannot record: %s", error)
-                hint = "\n\nChoose another library folder (File → Library Folder)." if isinstance(error, OSError) else ""
-                QtWidgets.QMessageBox.warning(self, "Cannot record", f"{error}{hint}")
-                return
-            self.session_panel.markers_list.clear()
-            self._show_recording(True)
-            self.session_panel.show_info(self.live.recording_info())
-            self.statusBar().showMessage(f"Recording to {display_path(path)}")
+            self.start_recording()
         elif not on and self.live.recording:
+            self._finish_recording()
+
+    def start_recording(self, metadata: dict | None = None, subject_details: dict | None = None) -> bool:
+        """Start recording the live session into the library, after the checklist (and the
+        person's consent to record what is not ready); ``metadata`` adds keys to the session's
+        metadata (a guided clinical test's settings), ``subject_details`` fields to the subject
+        record (``age_years``, ``sex``, ``weight_kg``, which the tests' norms depend on). True
+        when recording."""
+        if self.live is None or self.live.recording:
+            return False
+        checklist = recording_checklist(self.live)
+        self.session_panel.show_checklist(checklist)
+        not_ok = [item for item in checklist if not item.ok]
+        if not_ok and not self.confirm_recording(not_ok):
+            self.session_panel.set_recording(False)
+            return False
+        try:
+            subject = dataclasses.replace(self.session_panel.subject(), **(subject_details or {}))
+            condition, tags = self.session_panel.session_fields()
+            path = recording_path(self.recording_folder(), subject.subject_id)
+            fields = library_fields(condition, tags, path.stem.rsplit("_", 1)[-1])
+            self.live.start_recording(path, subject.to_dict(), {"library": fields, **(metadata or {})})
+        except (ValueError, OSError) as error:
+            self.session_panel.set_recording(False)
+            log.warning("cannot record: %s", error)
+            hint = "\n\nChoose another library folder (File → Library Folder)." if isinstance(error, OSError) else ""
+            QtWidgets.QMessageBox.warning(self, "Cannot record", f"{error}{hint}")
+            return False
+        self.session_panel.markers_list.clear()
+        self._show_recording(True)
+        self.session_panel.show_info(self.live.recording_info())
+        self.statusBar().showMessage(f"Recording to {display_path(path)}")
+        return True
+
+    def stop_recording(self) -> None:
+        """Stop recording (the session file is written in the background; ``recording_saved``
+        follows)."""
+        if self.live is not None and self.live.recording:
             self._finish_recording()
 
     def _ask_to_record_anyway(self, items: list[CheckItem]) -> bool:

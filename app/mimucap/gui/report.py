@@ -9,7 +9,9 @@ record every output carries, :mod:`mimucap.session.provenance`), sensors, the do
 the gait-cycle curves of every joint angle (left and right mean ± SD, stance/swing boundary, a
 normative band where one is given; a curve whose strides hold doubtful samples says how many,
 in orange), the ROM table beside the reference values (a movement recorded while doubtful is
-named under it), the markers and the notes.
+named under it), the markers and the notes, and for a recording of a guided clinical test
+its result beside the reference with the subject's earlier visits (:func:`clinical_test_section`;
+alone: :func:`write_clinical_test_report`).
 A comparison report (:func:`write_comparison_report`) puts two sessions of one subject
 (before / after) side by side with the differences.
 
@@ -352,6 +354,7 @@ def write_report(path: str | Path, analysis: SessionAnalysis, bands: dict[tuple[
         _gait_section(doc, analysis)
         _rom_section(doc, analysis)
         _markers_and_notes(doc, analysis, notes)
+        _guided_test_page(doc, analysis)
         doc.new_page()
         doc.text("Joint angles over the gait cycle", 11, True, gap=4)
         _curve_pages(doc, [analysis], bands or {}, ["session"])
@@ -419,6 +422,184 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
         doc.new_page()
         doc.text("Joint angles over the gait cycle, before and after", 11, True, gap=4)
         _curve_pages(doc, [before, after], bands or {}, labels)
+    finally:
+        doc.finish()
+    return target
+
+
+# -- clinical tests ---------------------------------------------------------------------------------
+def local_time_text(iso_utc: str) -> str:
+    """An ISO 8601 time as local date and time people read ("28 Nov 2026, 09:14"); the text
+    itself when it is not one."""
+    from datetime import datetime, timezone
+
+    try:
+        moment = datetime.fromisoformat(str(iso_utc).replace("Z", "+00:00"))
+    except ValueError:
+        return str(iso_utc) or "not recorded"
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=timezone.utc)
+    return moment.astimezone().strftime("%d %b %Y, %H:%M")
+
+
+def _subject_line(subject: dict) -> str:
+    parts = [f"Subject: {subject.get('id') or 'not recorded'}"]
+    if subject.get("age_years") is not None:
+        parts.append(f"age {float(subject['age_years']):.0f} years")
+    if subject.get("sex"):
+        parts.append(str(subject["sex"]))
+    if subject.get("height_m") is not None:
+        parts.append(f"height {float(subject['height_m']):.2f} m")
+    if subject.get("weight_kg") is not None:
+        parts.append(f"weight {float(subject['weight_kg']):.0f} kg")
+    return ", ".join(parts)
+
+
+def _trend_plot(doc: _Document, rect: QRectF, key: str, visits, reference: dict | None) -> None:
+    """The main result of each visit, oldest on the left, with the reference as a band or line."""
+    from mimucap.session.clinical_test_results import QUANTITIES
+
+    values = [v.values.get(key) for v in visits]
+    finite = [float(v) for v in values if v is not None and math.isfinite(float(v))]
+    ref = {k: float(reference[k]) for k in ("mean", "ci95_low", "ci95_high", "p25", "p75", "predicted", "lower_limit")
+           if reference is not None and reference.get("key") == key and k in reference}
+    span = finite + list(ref.values())
+    if not span:
+        return
+    low, high = min(span + [0.0]), max(span) * 1.15
+    ticks = nice_ticks(low, high, 5)
+    name, unit, _digits = QUANTITIES[key]
+    painter = doc.painter
+    plot = QRectF(rect.left() + 60, rect.top() + 20, rect.width() - 70, rect.height() - 50)
+    doc.font(8, True)
+    painter.setPen(QColor(0, 0, 0))
+    painter.drawText(QRectF(rect.left(), rect.top(), rect.width(), 18), int(Qt.AlignLeft), f"{name} ({unit})" if unit else name)
+
+    def y_of(value: float) -> float:
+        return plot.bottom() - (value - low) / (high - low) * plot.height()
+
+    band = (ref.get("ci95_low"), ref.get("ci95_high")) if "ci95_low" in ref else (ref.get("p25"), ref.get("p75"))
+    if band[0] is not None and band[1] is not None:
+        painter.fillRect(QRectF(plot.left(), y_of(band[1]), plot.width(), y_of(band[0]) - y_of(band[1])), QColor(220, 235, 220))
+    for level in (ref.get("mean"), ref.get("predicted"), ref.get("lower_limit")):
+        if level is not None:
+            painter.setPen(QPen(QColor(60, 140, 60), 1, Qt.DashLine))
+            painter.drawLine(QPointF(plot.left(), y_of(level)), QPointF(plot.right(), y_of(level)))
+    doc.font(7)
+    painter.setPen(QPen(QColor(120, 120, 120), 1))
+    for tick, label in ticks:
+        painter.drawLine(QPointF(plot.left() - 3, y_of(tick)), QPointF(plot.left(), y_of(tick)))
+        painter.drawText(QRectF(rect.left(), y_of(tick) - 8, 55, 16), int(Qt.AlignRight | Qt.AlignVCenter), label)
+    painter.drawRect(plot)
+    n = len(visits)
+    xs = [plot.left() + plot.width() * ((k + 0.5) / n) for k in range(n)]
+    points = [QPointF(x, y_of(float(v))) for x, v in zip(xs, values) if v is not None and math.isfinite(float(v))]
+    painter.setPen(QPen(QColor(30, 100, 200), 2))
+    if len(points) > 1:
+        painter.drawPolyline(QPolygonF(points))
+    painter.setBrush(QColor(30, 100, 200))
+    for point in points:
+        painter.drawEllipse(point, 4, 4)
+    painter.setBrush(Qt.NoBrush)
+    painter.setPen(QColor(0, 0, 0))
+    for x, visit in zip(xs, visits):
+        painter.drawText(QRectF(x - 45, plot.bottom() + 4, 90, 24), int(Qt.AlignHCenter | Qt.AlignTop),
+                         local_time_text(visit.recorded_utc).split(",")[0])
+    doc.y = rect.bottom() + 10
+
+
+def clinical_test_section(doc: _Document, result, earlier) -> None:
+    """One clinical test: its results beside the reference, how its start was found, and the
+    subject's earlier visits (``earlier``: :class:`~mimucap.session.clinical_test_results.Visit`)."""
+    from mimucap.session.clinical_test_results import MAIN_RESULT, Visit, format_quantity, result_rows
+    from mimucap.session.clinical_tests import TEST_NAMES
+
+    doc.text(TEST_NAMES[result.test], 13, True, gap=4)
+    doc.text(f"Test from {result.start_s:.1f} s to {result.end_s:.1f} s of the recording; started by "
+             f"{result.started_by}.", 8.5)
+    doc.table(["Result", "Value", "Reference"], [list(row) for row in result_rows(result)], [0.34, 0.16, 0.5])
+    if result.reference is not None:
+        doc.text(f"Reference: {result.reference['group']}, {result.reference['statistic']}. "
+                 f"Source: {result.reference['source']}.", 7.5, colour=QColor(70, 70, 70))
+    else:
+        doc.text(f"No reference: {result.reference_note}.", 7.5, colour=QColor(70, 70, 70))
+    key = MAIN_RESULT[result.test]
+    doc.text("Visits", 11, True, gap=4)
+    this = Visit(result.recorded_utc, "this session", dict(result.values), result.result)
+    visits = list(earlier)
+    if not visits:
+        doc.text("No earlier visit of this subject with this test in the library.", 8.5, gap=6)
+        return
+    rows = [[local_time_text(v.recorded_utc), v.session, format_quantity(key, v.values.get(key))] for v in visits]
+    rows.append(["this visit", result.provenance.source_file if result.provenance is not None else "",
+                 format_quantity(key, result.values.get(key))])
+    doc.table(["Recorded", "Session", TEST_NAMES[result.test] + ": " + key.split("_")[0]], rows, [0.25, 0.5, 0.25])
+    doc.need(300)
+    _trend_plot(doc, QRectF(0, doc.y, doc.width, 280), key, visits + [this], result.reference)
+
+
+def _guided_test_page(doc: _Document, analysis: SessionAnalysis) -> None:
+    """A page for the clinical test a guided recording holds (its settings in the metadata):
+    the result from the sensors, the reference, the subject's earlier visits in the library; a
+    result that cannot be computed says why."""
+    from mimucap.session.clinical_test_results import earlier_results
+    from mimucap.session.clinical_tests import TEST_NAMES, clinical_test
+
+    review = analysis.review
+    test = (review.session.metadata.get("clinical_test") or {}).get("test")
+    if test not in TEST_NAMES:
+        return
+    doc.new_page()
+    try:
+        result = clinical_test(review, test)
+    except ValueError as error:
+        doc.text(TEST_NAMES[test], 13, True, gap=4)
+        doc.text(f"No result: {error}.", 9, colour=DOUBT_COLOUR)
+        return
+    clinical_test_section(doc, result, earlier_results(review.path, test))
+
+
+def write_clinical_test_report(path: str | Path, result, earlier=()) -> Path:
+    """A clinical test's report (PDF): page 1 names the subject, the session, what the result
+    holds (calibrations, result kind, software), then the test's page with the earlier visits."""
+    from mimucap.session.clinical_tests import TEST_NAMES
+
+    target = Path(path)
+    doc = _Document(target, f"MimuCap clinical test report: {TEST_NAMES[result.test]}")
+    try:
+        doc.text(f"Clinical test report: {TEST_NAMES[result.test]}", 16, True, gap=8)
+        doc.text(_subject_line(result.subject), 10)
+        if result.provenance is not None:
+            doc.text("What this report holds", 11, True, gap=4)
+            for label, text in result.provenance.items():
+                doc.text(f"{label}: {text}.", 8, gap=2)
+        doc.y += 6
+        clinical_test_section(doc, result, earlier)
+    finally:
+        doc.finish()
+    return target
+
+
+def write_trend_report(path: str | Path, subject_id: str, test: str, key: str, visits, reference: dict | None) -> Path:
+    """One subject's results of one clinical test across visits (``visits``:
+    :class:`~mimucap.session.clinical_test_results.Visit`, oldest first) as a printable PDF page:
+    the chart of result ``key`` with the reference of the latest visit, and the table."""
+    from mimucap.session.clinical_test_results import QUANTITIES, format_quantity
+    from mimucap.session.clinical_tests import TEST_NAMES
+
+    target = Path(path)
+    doc = _Document(target, f"MimuCap trend: {TEST_NAMES[test]}, {subject_id}")
+    try:
+        doc.text(f"{TEST_NAMES[test]}: {QUANTITIES[key][0].lower()} across visits", 16, True, gap=8)
+        doc.text(f"Subject: {subject_id}    {len(visits)} visit{'s' if len(visits) != 1 else ''}", 10)
+        if reference is not None:
+            doc.text(f"Reference (latest visit): {reference.get('group', '')}, {reference.get('statistic', '')}. "
+                     f"Source: {reference.get('source', '')}.", 7.5, colour=QColor(70, 70, 70))
+        doc.need(460)
+        _trend_plot(doc, QRectF(0, doc.y, doc.width, 440), key, visits, reference)
+        doc.table(["Recorded", "Session", "Result kind", QUANTITIES[key][0]],
+                  [[local_time_text(v.recorded_utc), v.session, v.result.replace("_", " "),
+                    format_quantity(key, v.values.get(key))] for v in visits], [0.22, 0.46, 0.14, 0.18])
     finally:
         doc.finish()
     return target

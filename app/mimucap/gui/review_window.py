@@ -239,6 +239,7 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self._update_ghost()
         self.action_truth.setEnabled(data.truth is not None)
         self.scene_view.set_tints({s: "ok" for s in data.model.segment_names})
+        self.plots.joint_angles_refused = "" if data.body_calibration is not None else NEEDS_BODY_CALIBRATION
         self.plots.set_source(self.player)
         self.slider.setRange(int(round(data.start_s * SLIDER_STEPS_PER_S)), int(round(data.end_s * SLIDER_STEPS_PER_S)))
         self.timeline.setXRange(data.start_s, data.end_s, padding=0.01)

@@ -20,6 +20,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from mimucap.core.bodycal import BodyCalibration
+from mimucap.io.json_document import read_json_document
 
 
 def calibration_document(calibration: BodyCalibration, extra: Mapping[str, object] | None = None) -> dict:
@@ -42,10 +43,7 @@ def write_body_calibration(path: str | Path, calibration: BodyCalibration, extra
 def read_body_calibration(path: str | Path) -> tuple[BodyCalibration, dict]:
     """Read a calibration file: the calibration and the whole JSON document."""
     path = Path(path)
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{path}: invalid JSON at line {error.lineno}: {error.msg}") from None
+    document = read_json_document(path, "body calibration")
     _check_numeric_cells(document, path)
     calibration = BodyCalibration.from_dict(document, str(path))
     _check_one_segment_per_sensor(calibration, path)

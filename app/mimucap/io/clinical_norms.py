@@ -14,11 +14,11 @@ of the source's values were left out because they could not be checked.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from mimucap.io.json_document import read_json_document
 
 FORMAT = "mimucap-clinical-norms 1"
 NORMS_RESOURCE = "norms/clinical-tests.json"
@@ -48,10 +48,7 @@ def read_norms(path: str | Path | None = None) -> dict[str, Any]:
         from mimucap.resources import resource_path
 
         path = resource_path(NORMS_RESOURCE)
-    try:
-        document = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as error:
-        raise ValueError(f"{path}: cannot read the clinical norms ({error})") from None
+    document = read_json_document(path, "clinical norms table")
     if not isinstance(document, dict) or document.get("format") != FORMAT or not isinstance(document.get("tests"), dict):
         raise ValueError(f"{path}: not a clinical norms file (format '{FORMAT}' with 'tests')")
     for test, table in document["tests"].items():

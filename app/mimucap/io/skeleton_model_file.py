@@ -15,6 +15,7 @@ from pathlib import Path
 from mimucap.core.skeleton import MODEL_NAMES, SkeletonModel, model_from_dict
 from mimucap.core.skeleton import load_model as built_in_model
 from mimucap.core.skeleton_models import BUILT_IN_MODELS
+from mimucap.io.json_document import read_json_document
 
 
 def load_model(name_or_path: str | Path = "ten_segment") -> SkeletonModel:
@@ -27,14 +28,7 @@ def load_model(name_or_path: str | Path = "ten_segment") -> SkeletonModel:
     if not path.suffix:
         raise ValueError(f"unknown skeleton model {str(name_or_path)!r}; use one of {', '.join(MODEL_NAMES)} "
                          f"or a JSON file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as error:
-        raise ValueError(f"cannot read skeleton model {path}: {error.strerror or error}") from error
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{path}: invalid JSON at line {error.lineno}: {error.msg}") from error
+    data = read_json_document(path, "skeleton model")
     return model_from_dict(data, str(path))
 
 

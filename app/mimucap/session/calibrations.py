@@ -32,7 +32,6 @@ files and the screen can tell what they hold (:mod:`mimucap.session.provenance`)
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import datetime, timezone
@@ -44,6 +43,7 @@ from mimucap.core.magcal_standing import Standing
 from mimucap.io.calibration_store import (
     CalibrationFileError, CalibrationStore, calibration_from_json, calibration_to_json,
 )
+from mimucap.io.json_document import read_json_document
 from mimucap.io.session import Session
 from mimucap.session.calibration_readiness import session_standings
 
@@ -150,10 +150,7 @@ def read_magnetometer_files(paths: Sequence[str | Path], session: Session) -> di
     found: dict[str, tuple[MagCalibration, str]] = {}
     for name in paths:
         path = Path(name)
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as error:
-            raise ValueError(f"--mag-calibration {path}: cannot read it ({error})") from None
+        data = read_json_document(path, "magnetometer calibration (--mag-calibration)")
         calibration = calibration_from_json(data, str(path))
         if calibration.sensor_id not in session.sensors:
             raise ValueError(f"--mag-calibration {path}: sensor {calibration.sensor_id} is not in the session "

@@ -18,6 +18,10 @@ labelled :data:`~mimucap.core.phases.TEST_START` ("test start") and
 between them, starts at the start marker and, for the Timed Up and Go, ends at the stop
 marker (the first of each after the other is used).
 
+A session recorded by the guided test (:mod:`mimucap.session.clinical_test_procedure`) keeps
+the test's settings in its metadata (``clinical_test``); the 10-metre walk takes its walkway
+from there unless one is given.
+
 Each result carries the reference of the subject's age and sex where the shipped norms have one
 (:mod:`mimucap.io.clinical_norms`; the subject record's ``age_years``, ``sex``, ``height_m`` and
 ``weight_kg``).
@@ -86,6 +90,8 @@ class ClinicalTestResult:
     result: str = RESULT_REPROCESSED
     #: What the result holds, as every output says it (:mod:`mimucap.session.provenance`).
     provenance: Provenance | None = None
+    #: When the session was recorded (ISO 8601 UTC; "" when the file does not say).
+    recorded_utc: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """The result as the ``protocol`` command writes it (NaN as null)."""
@@ -93,7 +99,8 @@ class ClinicalTestResult:
         out.update({key: _json_number(value) for key, value in self.values.items()})
         out.update(start_s=self.start_s, end_s=self.end_s, started_by=self.started_by,
                    details=_json_clean(self.details), reference=self.reference,
-                   reference_note=self.reference_note or None, subject=self.subject, result=self.result)
+                   reference_note=self.reference_note or None, subject=self.subject, result=self.result,
+                   recorded_utc=self.recorded_utc or None)
         if self.provenance is not None:
             out["calibration"] = self.provenance.body_calibration
             out["provenance"] = dict(self.provenance.items())
@@ -125,6 +132,9 @@ def clinical_test(review: ReviewData, test: str, walkway_m: float | None = None)
     saying what is missing when the recording does not hold the test."""
     check_test(test)
     require_body_calibration(review, f"the clinical test {test}")
+    guided = review.session.metadata.get("clinical_test") or {}
+    if walkway_m is None and test == "10mwt" and guided.get("test") == test and guided.get("walkway_m"):
+        walkway_m = float(guided["walkway_m"])  # the walkway the guided test was run on
     window, overrides = _marker_window(review)
     if test == "tug":
         found = _tug(review, window, overrides)
@@ -140,6 +150,7 @@ def clinical_test(review: ReviewData, test: str, walkway_m: float | None = None)
     found.subject = {k: subject[k] for k in ("id", "age_years", "sex", "height_m", "weight_kg") if k in subject}
     found.result = review.result
     found.provenance = review.provenance
+    found.recorded_utc = str(review.session.metadata.get("created_utc") or "")
     return found
 
 

@@ -209,6 +209,13 @@ def simulated_subject_follows(simulator: SuitSimulator, instruction: Instruction
         activity = {"single_axis": "mag_single_axis", "figure8": "mag_figure8", "free": "mag_tumble"}[instruction.protocol]
         simulator.set_activity(activity, sensor_ids=list(instruction.sensor_ids),
                                turns=instructions.PROTOCOL_TURNS[instruction.protocol])
+    elif kind in (instructions.PREPARE_TEST, instructions.PERFORM_TEST):
+        from mimucap.core.simulate.clinical_tests import CLINICAL_TESTS
+
+        scenario = {test: name for name, test in CLINICAL_TESTS.items()}[instruction.test]
+        part = "prepare" if kind == instructions.PREPARE_TEST else "perform"
+        walkway = {"walkway_m": instruction.walkway_m} if instruction.walkway_m > 0 else {}
+        simulator.set_activity(scenario, part=part, **walkway)
     elif kind == instructions.MOVE_JOINT:
         from mimucap.session.rom_procedure import RomStep, simulated_activity
 

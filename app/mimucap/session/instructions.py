@@ -17,8 +17,10 @@ NPOSE = "npose"
 TPOSE = "tpose"
 TURN_SENSORS = "turn_sensors"
 MOVE_JOINT = "move_joint"
+PREPARE_TEST = "prepare_test"
+PERFORM_TEST = "perform_test"
 RESUME_KIND = "resume"
-KINDS = (NPOSE, TPOSE, TURN_SENSORS, MOVE_JOINT, RESUME_KIND)
+KINDS = (NPOSE, TPOSE, TURN_SENSORS, MOVE_JOINT, PREPARE_TEST, PERFORM_TEST, RESUME_KIND)
 
 #: Magnetometer protocols and how often each one turns the bundle (see core.magcal_guidance).
 PROTOCOL_TURNS = {"single_axis": 1, "figure8": 3, "free": 2}
@@ -33,7 +35,9 @@ class Instruction:
     ``kind``: one of :data:`KINDS`; ``text``: the sentence the screen shows; ``arms``
     (``both``/``left``/``right``) for a T-pose; ``sensor_ids`` and ``protocol``
     (``single_axis``, ``figure8``, ``free``) for turning sensors; ``movement`` (a key of
-    :data:`mimucap.core.analysis.rom.MOVEMENTS`) and ``side`` for a range-of-motion movement.
+    :data:`mimucap.core.analysis.rom.MOVEMENTS`) and ``side`` for a range-of-motion movement;
+    ``test`` (a clinical test: ``tug``, ``10mwt``, ``2mwt``, ``6mwt``, ``chair-stand``) and
+    ``walkway_m`` (its walkway, m; 0: the test's default) for getting ready for a test and doing it.
     """
 
     kind: str
@@ -43,6 +47,8 @@ class Instruction:
     protocol: str = "single_axis"
     movement: str = ""
     side: str = ""
+    test: str = ""
+    walkway_m: float = 0.0
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -80,6 +86,17 @@ def move_joint(movement: str, side: str, text: str) -> Instruction:
     """Do range-of-motion ``movement`` on ``side`` (``left``, ``right`` or ``both``) as far as
     it goes, repeatedly; ``text`` is the movement's instruction on the screen."""
     return Instruction(MOVE_JOINT, text, movement=movement, side=side)
+
+
+def prepare_test(test: str, text: str, walkway_m: float = 0.0) -> Instruction:
+    """Get ready for clinical test ``test`` (sit on the chair, or stand at the start line) and
+    wait for the start signal; ``text`` is what the screen says."""
+    return Instruction(PREPARE_TEST, text, test=test, walkway_m=float(walkway_m))
+
+
+def perform_test(test: str, text: str, walkway_m: float = 0.0) -> Instruction:
+    """The start signal of clinical test ``test``: do it now."""
+    return Instruction(PERFORM_TEST, text, test=test, walkway_m=float(walkway_m))
 
 
 def put_sensors_back() -> Instruction:

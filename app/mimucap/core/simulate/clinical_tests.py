@@ -105,13 +105,24 @@ def _walk_for(distance_m: float, speed_mps: float) -> Walk:
     return Walk(distance_m / speed_mps, speed_mps=speed_mps)
 
 
+#: The parts of a test scenario the simulated subject can be asked for (``part``): the whole
+#: scenario; ``prepare``, getting ready and waiting (seated, or standing at the start line) until
+#: told to go; ``perform``, the test itself from the start signal on.
+PARTS = ("whole", "prepare", "perform")
+
+
 def clinical_test_activities(name: str, params: dict | None = None, seed: int = 0) -> list:
-    """The whole scenario ``name`` (one of :data:`CLINICAL_TESTS`) as a finite list of
-    activities; ``params``: ``walkway_m`` (m) for the walking tests."""
+    """The scenario ``name`` (one of :data:`CLINICAL_TESTS`) as a finite list of activities
+    (``prepare``: ending in an endless wait); ``params``: ``walkway_m`` (m) for the walking tests,
+    ``part`` (one of :data:`PARTS`, default ``whole``) for a guided test, where the subject
+    gets ready when the test is chosen and starts at the start signal."""
     params = dict(params or {})
     walkway = float(params.pop("walkway_m", DEFAULT_WALKWAY_M[name]))
+    part = str(params.pop("part", "whole"))
     if params:
-        raise ValueError(f"scenario {name!r} takes only walkway_m, got {', '.join(params)}")
+        raise ValueError(f"scenario {name!r} takes only walkway_m and part, got {', '.join(params)}")
+    if part not in PARTS:
+        raise ValueError(f"scenario {name!r}: part must be one of {', '.join(PARTS)}, got {part!r}")
     limits = {"tug": (1.0, 10.0), "walk10m": (4.0, 30.0), "walk2min": (5.0, 60.0), "walk6min": (5.0, 60.0),
               "chair_stand": (0.0, 0.0)}[name]
     if not limits[0] <= walkway <= limits[1]:
@@ -149,7 +160,14 @@ def clinical_test_activities(name: str, params: dict | None = None, seed: int = 
                            ChairTransition(rise=False, move_s=subject.stand_sit_s, arms_crossed=True)]
             elapsed += subject.stand_rise_s + subject.stand_pause_s + subject.stand_sit_s
         activities.append(Sit(arms_crossed=True))
-    return activities
+    if part == "whole":
+        return activities
+    start = _start_signal(activities, name)
+    if part == "perform":
+        return activities[start:]
+    waiting = activities[start - 1]  # seated or standing still for READY_S: now until the start signal
+    endless = Sit(arms_crossed=waiting.arms_crossed) if isinstance(waiting, Sit) else NPose()
+    return activities[len(_lead_in()):start - 1] + [endless]
 
 
 def _start_signal(activities: list, name: str) -> int:

@@ -1,0 +1,74 @@
+"""A main window on a simulated suit whose time runs faster than the wall clock, calibrated
+through both wizards as a user clicks through them (for the end-to-end tests)."""
+
+from __future__ import annotations
+
+import time
+
+from PyQt5 import QtCore
+
+from mimucap.gui.main_window import MainWindow
+from mimucap.session.live import open_live_session
+
+SPEED_UP = 4.0
+
+
+def fast_clock():
+    """Simulated time, SPEED_UP times the wall clock; a stall of the busy test machine slows it
+    down (each reading moves it at most half a second) instead of making the simulated suit
+    lose the samples of the stall, as a real radio would."""
+    state = [time.monotonic(), time.monotonic()]
+
+    def clock() -> float:
+        wall = time.monotonic()
+        state[0] += min(SPEED_UP * (wall - state[1]), 0.5)
+        state[1] = wall
+        return state[0]
+
+    return clock
+
+
+def live_window(qtbot, spec: str):
+    clock = fast_clock()
+    window = MainWindow(spec, session_factory=lambda chosen: open_live_session(chosen, clock=clock))
+    window.clock = clock
+    window.confirm_recording = lambda items: True  # recording without calibrations, knowingly
+    window.show()
+    window.start()
+    qtbot.waitExposed(window)
+    return window
+
+
+def closed(window) -> None:
+    for review in window.review_windows:
+        review.close()
+    if window.live is not None and window.live.recording:
+        window.live.stop_recording()
+    window.close()
+
+
+def calibrate(window, qtbot) -> None:
+    """Both wizards, as a user clicks through them; the simulated subject walks on after."""
+    live = window.live
+    qtbot.waitUntil(lambda: live.samples_received > 200, timeout=10000)
+    window.action_magcal.trigger()
+    wizard = window._wizard
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    qtbot.waitUntil(lambda: wizard.procedure.phase == "result", timeout=60000)
+    qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
+    assert set(live.mag_calibrations) == set(live.sensor_ids)
+    wizard.close()
+    # The sensors are strapped back on (half a minute in a clinic): the filters, learning the
+    # heading from the newly calibrated magnetometers, settle meanwhile.
+    settled = window.clock() + 20.0
+    qtbot.waitUntil(lambda: window.clock() > settled, timeout=20000)
+    window.action_bodycal.trigger()
+    wizard = window._wizard
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    qtbot.waitUntil(lambda: wizard.procedure.phase in ("result", "refused"), timeout=60000)
+    assert wizard.procedure.phase == "result", wizard.procedure.refusal
+    qtbot.mouseClick(wizard.accept_button, QtCore.Qt.LeftButton)
+    assert live.body_calibration is not None
+    qtbot.waitUntil(lambda: live.pose_source == "body calibration", timeout=5000)
+    # The wizard is closed: the simulated subject walks on.
+    qtbot.waitUntil(lambda: live.simulator.current_activity().startswith("walk"), timeout=10000)
