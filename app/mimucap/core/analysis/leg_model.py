@@ -87,9 +87,10 @@ class LegChain:
         norm = np.linalg.norm(x)
         return x / norm if norm > 1e-9 else np.array([0.0, 1.0, 0.0])
 
-    def _pivot_offset(self, pivot: str, pitch_rad: float) -> np.ndarray:
-        """The ankle's offset (forward, up) (2,) m from the heel or toe a foot of ``pitch_rad``
-        (toe up positive) stands on: the sole's point turned in the sagittal plane."""
+    def _pivot_offset(self, pivot: str, pitch_rad: float | np.ndarray) -> np.ndarray:
+        """The ankle's offset (forward, up) (2,) or (2, n) m from the heel or toe a foot of
+        ``pitch_rad`` (scalar or (n,); toe up positive) stands on: the sole's point turned in the
+        sagittal plane."""
         heel, toe = self.sole_m
         point = heel if pivot == "heel" else toe
         c, s = np.cos(pitch_rad), np.sin(pitch_rad)
@@ -120,14 +121,28 @@ class LegChain:
                 high = middle
         return 0.5 * (low + high)
 
-    def _heel_roll_m(self, side: str, t: float) -> float:
-        """How far forward (m) the ankle travels as the foot rolls from its heel strike at ``t``
-        to flat."""
-        return float(self._pivot_offset("heel", 0.0)[0] - self._pivot_offset("heel", self._pitch_at_strike(side, t))[0])
-
-    def _toe_roll_m(self, pitch_rad: float) -> float:
-        """How far forward (m) the ankle travels as a flat foot rises onto its toe to ``pitch_rad``."""
-        return float(self._pivot_offset("toe", pitch_rad)[0] - self._pivot_offset("toe", 0.0)[0])
+    def rocker_travel_m(self, side: str, ic_s: float, other_fc_s: float, other_ic_s: float,
+                        t_s: np.ndarray) -> np.ndarray:
+        """How far forward (m) the ankle of ``side`` has travelled over the floor by the instants
+        ``t_s`` (n,) of its stance from the heel strike ``ic_s`` (module doc): rolling over the
+        heel to flat until the other foot's final contact ``other_fc_s``, then rising onto the
+        toe until the other foot's initial contact ``other_ic_s``, as far as that heel strike
+        puts it. Within each rocker the foot's pitch is taken to change at a steady rate (only
+        the rocker's total is known). A stance whose heel strike is unknown (NaN: it began
+        standing) starts flat; without the other foot's contacts there is no rocker (zeros)."""
+        t = np.asarray(t_s, dtype=float)
+        travel = np.zeros(t.shape)
+        if not np.isfinite(other_fc_s):
+            return travel
+        if np.isfinite(ic_s) and ic_s < other_fc_s:
+            strike = self._pitch_at_strike(side, ic_s)
+            pitch = strike * (1.0 - np.clip((t - ic_s) / (other_fc_s - ic_s), 0.0, 1.0))
+            travel += self._pivot_offset("heel", pitch)[0] - self._pivot_offset("heel", strike)[0]
+        if np.isfinite(other_ic_s) and other_fc_s < other_ic_s:
+            other = "left" if side == "right" else "right"
+            pitch = self._toe_pitch(side, other_ic_s, other) * np.clip((t - other_fc_s) / (other_ic_s - other_fc_s), 0.0, 1.0)
+            travel += self._pivot_offset("toe", pitch)[0] - self._pivot_offset("toe", 0.0)[0]
+        return travel
 
     def stride_length_m(self, side: str, ic_s: float, fc_s: float, next_ic_s: float,
                         other_fc_s: float = float("nan"), other_ic_s: float = float("nan")) -> float:
@@ -140,11 +155,10 @@ class LegChain:
         foot = x(side, next_ic_s) - x(side, ic_s)
         if not ic_s < other_fc_s < other_ic_s < fc_s:
             return foot + advance(side, ic_s, fc_s) + advance(other, fc_s, next_ic_s)
-        stance = (self._heel_roll_m(side, ic_s) + advance(side, ic_s, other_fc_s)
-                  + self._toe_roll_m(self._toe_pitch(side, other_ic_s, other)) + advance(side, other_fc_s, other_ic_s)
-                  + self._heel_roll_m(other, other_ic_s) + advance(other, other_ic_s, fc_s))
-        swing = self._toe_roll_m(self._toe_pitch(other, next_ic_s, side)) + advance(other, fc_s, next_ic_s)
-        return foot + stance + swing
+        end = np.array([np.inf])
+        rockers = (self.rocker_travel_m(side, ic_s, other_fc_s, other_ic_s, end)
+                   + self.rocker_travel_m(other, other_ic_s, fc_s, next_ic_s, end))
+        return foot + advance(side, ic_s, other_ic_s) + advance(other, other_ic_s, next_ic_s) + float(rockers[0])
 
     def heading_change_deg(self, t0: float, t1: float) -> float:
         """Change of the pelvis heading (deg) from ``t0`` to ``t1``."""
