@@ -137,12 +137,12 @@ def rocker_travel(legs: LegChain, events: dict[str, SwingEvents]) -> np.ndarray:
             lift = float(lifts[0])
             lands = other_ic[(other_ic > lift) & (other_ic < end)]
             land = float(lands[0]) if lands.size else math.nan
-            within = (t >= start) & (t <= end)
-            if not within.any():
+            first, last = np.searchsorted(t, start, side="left"), np.searchsorted(t, end, side="right")
+            if first >= last:
                 continue
-            rolled = legs.rocker_travel_m(side, start if math.isfinite(start) else math.nan, lift, land, t[within])
-            travel[within, column] += rolled - rolled[0]
-            travel[t > end, column] += rolled[-1] - rolled[0]
+            rolled = legs.rocker_travel_m(side, start if math.isfinite(start) else math.nan, lift, land, t[first:last])
+            travel[first:last, column] += rolled - rolled[0]
+            travel[last:, column] += rolled[-1] - rolled[0]
     return travel
 
 
