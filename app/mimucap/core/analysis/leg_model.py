@@ -28,7 +28,9 @@ strikes (the pelvis's height from that heel); from the other foot's IC to our FC
 carries it, rolling over its heel to flat; from our FC to the next IC the other foot rises onto
 its toe as far as our next heel strike puts it. The stride length is the ankle's displacement
 from IC to the next IC: the hip's advance plus ``x(next IC) − x(IC)``. Without the other foot's
-contacts, each phase is the one foot's and the rockers are left out. Inputs: quaternions
+contacts, each phase is the one foot's and the rockers are left out. The rockers of one stance
+over time (:meth:`LegChain.rocker_travel_m`) are what :mod:`.progression` carries the body on
+from instant to instant. Inputs: quaternions
 scalar first ``q_world_from_segment`` (T, 4) on a time grid ``t_s`` (T,) s; lengths in m.
 """
 
