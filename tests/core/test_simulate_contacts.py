@@ -1,6 +1,6 @@
 """The simulator's foot-contact truth (evaluation only): a foot marked on the ground moves
-slowly (the simulated stance foot slides a little while the load passes between the feet and
-with the sideways sway), a foot in the air swings fast; stance is 62 % of a stride."""
+slowly (its ankle turns about the heel and the toe as the foot rolls), a foot in the air swings
+fast; stance is 62 % of a stride."""
 
 from __future__ import annotations
 

@@ -70,7 +70,9 @@ def test_every_room_name_has_a_room_and_an_unknown_one_is_refused() -> None:
 
 def test_a_clean_room_is_the_simulator_of_before_bit_for_bit() -> None:
     """The samples of a clean-room demo (magnetometer turns, poses, walking) hash to what the
-    simulator gave before rooms existed (same seed), so every figure measured on it holds."""
+    simulator gave before rooms existed (same seed), so every figure measured on it holds. (The
+    hash changed once since, with the walking: feet that meet the floor and accelerometer samples
+    that average their interval, issue 31.)"""
     result = simulate_session(SimulationConfig(scenario="demo", duration_s=45.0, n_sensors=15, seed=3,
                                                magcal_turns=True))
     digest = hashlib.sha256()
@@ -78,7 +80,7 @@ def test_a_clean_room_is_the_simulator_of_before_bit_for_bit() -> None:
         samples = result.samples[sensor_id]
         for values in (samples.acc, samples.gyr, samples.mag_uT):
             digest.update(np.round(np.asarray(values, dtype=np.float64), 6).tobytes())
-    assert digest.hexdigest() == "3e3142e2dd8ffd525ae67c1a431b9c0cc5873b3526c2ef61e77ba2680974584a"
+    assert digest.hexdigest() == "75aa0a444b91ecb8bd9e2290ca69a54b3d50d22e7939ca56782cd4af804ea0f5"
 
 
 def test_the_room_field_is_a_magnetic_field_outside_its_sources() -> None:

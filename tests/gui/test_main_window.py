@@ -123,7 +123,9 @@ def test_the_camera_moves_with_the_subject_and_keeps_the_users_turn(qtbot):
         start_root = view.last_geometry.root_scene_m.copy()
         start_offset = np.array(camera.GetFocalPoint()) - start_root
         direction = np.array(camera.GetPosition()) - np.array(camera.GetFocalPoint())
-        qtbot.waitUntil(lambda: np.hypot(*(view.last_geometry.root_scene_m - start_root)[[0, 2]]) > 0.4,
+        # Uncalibrated, the figure's sensor-frame legs only sway on the spot: its root leaves the
+        # start by 0.25 m within 2 s of walking and by 0.4 m in some walks only.
+        qtbot.waitUntil(lambda: np.hypot(*(view.last_geometry.root_scene_m - start_root)[[0, 2]]) > 0.25,
                         timeout=15000)
         root = view.last_geometry.root_scene_m
         offset = np.array(camera.GetFocalPoint()) - root

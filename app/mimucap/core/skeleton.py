@@ -31,7 +31,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from mimucap.core import rotation as rot
-from mimucap.core.skeleton_models import BUILT_IN_MODELS, MODEL_NAMES, SHOULDER_SEQUENCES
+from mimucap.core.skeleton_models import BUILT_IN_MODELS, FOOT_LENGTH_RATIO, MODEL_NAMES, SHOULDER_SEQUENCES
 
 FloatArray = NDArray[np.float64]
 
@@ -306,6 +306,18 @@ def segment_lengths(model: SkeletonModel, height_m: float) -> dict[str, float]:
     return {segment.name: segment.length_ratio * height_m for segment in model.segments}
 
 
+def foot_sole_m(height_m: float) -> tuple[FloatArray, FloatArray]:
+    """The sole's heel and toe points (3,) m in the foot's frame, from the ankle, of a subject
+    of ``height_m``: the toe at the end of the fifteen-segment model's foot, the heel a foot's
+    length (:data:`~mimucap.core.skeleton_models.FOOT_LENGTH_RATIO`) behind it, the sole level
+    in the N-pose (so both touch the floor standing). Every model uses these feet, whether or
+    not it has a foot segment."""
+    height = _check_height(height_m)
+    foot = _built_in_model("fifteen_segment").segment("foot_r")
+    toe = np.array(foot.direction) * foot.length_ratio * height
+    return toe + np.array([-FOOT_LENGTH_RATIO * height, 0.0, 0.0]), toe
+
+
 def q_world_from_body_facing(heading_rad: ArrayLike = 0.0) -> FloatArray:
     """Body frame (x forward, y up, z right) in the ENU world for a subject facing ``heading_rad``.
 
@@ -541,6 +553,16 @@ def joint_rotation_from_angles(joint: Joint, angles_deg: ArrayLike) -> FloatArra
     raw = np.radians(angles * np.array([FLEXION_SIGN.get(joint.kind, 1.0), 1.0, 1.0]))
     q = rot.from_euler(raw, "ZXY")
     return mirror_sagittal(q) if joint.side == "l" else q
+
+
+def joint_angles_from_rotation(joint: Joint, q_prox_from_dist: ArrayLike) -> FloatArray:
+    """The (flexion, adduction, rotation) degrees (Z-X'-Y'') of one joint's rotation
+    ``(..., 4)``: the inverse of :func:`joint_rotation_from_angles` (not for a shoulder in another
+    sequence; see :func:`joint_angles_deg`)."""
+    q = np.asarray(q_prox_from_dist, dtype=np.float64)
+    if joint.side == "l":
+        q = mirror_sagittal(q)
+    return np.degrees(rot.to_euler(q, "ZXY")) * np.array([FLEXION_SIGN.get(joint.kind, 1.0), 1.0, 1.0])
 
 
 def segment_orientations_from_joint_angles(

@@ -31,6 +31,8 @@ ANTHROPOMETRY_SOURCE = (
 
 DOWN = [0, -1, 0]
 UP = [0, 1, 0]
+#: Foot length (heel to toe) as a fraction of body height (:data:`ANTHROPOMETRY_SOURCE`).
+FOOT_LENGTH_RATIO = 0.152
 
 
 def _segment(name, parent, joint, side, length_ratio, attach_ratio, direction, radius_ratio) -> dict:

@@ -1,6 +1,7 @@
 """The clinical tests' pure computations on synthetic signals with known answers: segment motion,
-chair transitions, trunk turns, the TUG phases, the chair stand, the load hand-over and the
-walking progression, and the timed walks."""
+chair transitions, trunk turns, the TUG phases, the chair stand, which foot carries the body and
+the walking progression (also on the simulator's exact walk: its segment orientations and foot
+contacts against its root's path), and the timed walks."""
 
 from __future__ import annotations
 
@@ -10,14 +11,18 @@ import numpy as np
 import pytest
 
 from mimucap.core import rotation as rot
+from mimucap.core import skeleton
 from mimucap.core.analysis.chair_stand import chair_stand
 from mimucap.core.analysis.chair_transitions import SIT_TO_STAND, STAND_TO_SIT, find_transitions
 from mimucap.core.analysis.gait_events import SwingEvents
+from mimucap.core.analysis.leg_model import LegChain
 from mimucap.core.analysis.progression import progression, stance_weights
 from mimucap.core.analysis.segment_motion import flexion_rate_dps, inclination_deg, yaw_rate_dps
 from mimucap.core.analysis.trunk_turns import find_trunk_turns
 from mimucap.core.analysis.tug import timed_up_and_go
 from mimucap.core.analysis.walk_tests import ten_metre_walk, timed_walk, walking_start
+from mimucap.core.simulate.config import SimulationConfig
+from mimucap.core.simulate.suit import simulate_session
 
 RATE_HZ = 100.0
 
@@ -136,16 +141,17 @@ def events_of(fc: list[float], ic: list[float]) -> SwingEvents:
                        0.5 * (np.array(fc) + np.array(ic)), RATE_HZ, np.zeros(len(ic), dtype=bool))
 
 
-def test_the_load_passes_from_the_trailing_to_the_leading_foot():
+def test_the_foot_that_landed_last_carries_the_body():
     t = np.arange(0.0, 3.0, 1.0 / RATE_HZ)
     # right swings 0.4-0.8 and 1.4-1.8; left swings 0.9-1.3
     weights = stance_weights(t, {"right": events_of([0.4, 1.4], [0.8, 1.8]), "left": events_of([0.9], [1.3])})
     at = lambda s: weights[int(round(s * RATE_HZ))]  # noqa: E731
-    assert at(0.6) == pytest.approx([1.0, 0.0])          # right swings: left carries
-    assert at(1.1) == pytest.approx([0.0, 1.0])          # left swings: right carries
-    assert at(0.85) == pytest.approx([0.5, 0.5], abs=0.01)  # right landed at 0.8, left lifts at 0.9
-    assert at(1.35) == pytest.approx([0.5, 0.5], abs=0.01)  # left landed at 1.3, right lifts at 1.4
-    assert at(2.5) == pytest.approx([0.5, 0.5])          # standing
+    assert at(0.2) == pytest.approx([0.5, 0.5])  # standing, no foot landed yet
+    assert at(0.6) == pytest.approx([1.0, 0.0])  # right swings: left carries
+    assert at(1.1) == pytest.approx([0.0, 1.0])  # left swings: right carries
+    assert at(0.85) == pytest.approx([0.0, 1.0])  # double support: right landed at 0.8, leads
+    assert at(1.35) == pytest.approx([1.0, 0.0])  # left landed at 1.3, leads
+    assert at(2.5) == pytest.approx([0.0, 1.0])  # stopped on both feet: the last to land
 
 
 def test_walking_progression_and_the_timed_walks():
@@ -166,9 +172,10 @@ def test_walking_progression_and_the_timed_walks():
         fc[side] = list(start + (k + shift + 2 / 3) * stride)
         ic[side] = list(start + (k + shift + 1) * stride)
     events = {side: events_of(fc[side], ic[side]) for side in ("left", "right")}
-    weights = stance_weights(t, events)
     facing = rot.from_axis_angle(np.array([0.0, 0.0, 1.0]), np.full(t.shape[0], math.pi / 2))  # pelvis x → +y
-    way = progression(t, ankles, weights, facing)
+    # Upright shanks and ankles level with each other: the feet land and leave flat (no rocker).
+    legs = LegChain(t, ankles, facing, {"left": facing, "right": facing}, skeleton.foot_sole_m(1.75))
+    way = progression(legs, events)
     assert way.distance_at(start + 100.0) - way.distance_at(start + 10.0) == pytest.approx(1.2 * 90.0, rel=0.01)
     first = walking_start(events)
     assert first == pytest.approx(start + 2 / 3, abs=1e-6)
@@ -180,3 +187,34 @@ def test_walking_progression_and_the_timed_walks():
     assert walked.last_vs_first_minute_percent == pytest.approx(100.0, abs=1.0)
     with pytest.raises(ValueError, match="before the 360-s test"):
         timed_walk(way, first, 360.0)
+
+
+def swings_of(t: np.ndarray, on_floor: np.ndarray) -> SwingEvents:
+    """The swings of a foot from its contact truth (T,) (final contact → initial contact)."""
+    change = np.diff(on_floor.astype(int))
+    lifts, lands = t[1:][change == -1], t[1:][change == 1]
+    fc = [a for a in lifts if np.any(lands > a)]
+    ic = [lands[lands > a][0] for a in fc]
+    return events_of(fc, ic)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_progression_follows_the_simulated_walk(seed: int) -> None:
+    """On the simulator's exact walk (segment orientations and foot contacts; its feet roll over
+    the heel and the toe) the distance walked matches the root's advance along the walk within
+    1 % over the steady strides (the simulator blends into the walk from standing, feet and root
+    together, so its first step is no foot's roll)."""
+    result = simulate_session(SimulationConfig(scenario="walk", duration_s=14.0, n_sensors=10, errors="ideal",
+                                               seed=seed))
+    truth = result.truth
+    t = np.asarray(truth.t_s, dtype=float)
+    legs = LegChain.from_segments(skeleton.load_model(result.model_name), result.height_m, t,
+                                  truth.q_world_from_segment)
+    events = {side: swings_of(t, truth.foot_contact[:, column] > 0.5) for column, side in enumerate(("left", "right"))}
+    way = progression(legs, events)
+    root = np.asarray(truth.root_position_m, dtype=float)[:, :2]
+    direction = (root[-1] - root[0]) / np.linalg.norm(root[-1] - root[0])
+    landings = np.sort(np.concatenate([events[side].t_ic_s for side in events]))
+    assert landings.size >= 10
+    a, b = np.searchsorted(t, [landings[2], landings[-3]])
+    assert way.distance_m[b] - way.distance_m[a] == pytest.approx(float((root[b] - root[a]) @ direction), rel=0.01)

@@ -10,7 +10,7 @@ et al. 2004, "Gait assessment in Parkinson's disease: toward an ambulatory syste
 long-term monitoring", IEEE TBME 51:1434-1443: mid-swing peaks above 50 °/s). The events are
 then timed on a copy low-passed at ``event_lowpass_hz`` (zero phase, so no delay):
 
-* **Initial contact is the heel strike itself**: the impact in the sagittal-plane
+* **Initial contact is the heel strike itself**: the onset of the impact in the sagittal-plane
   acceleration (:mod:`.heel_strike`) after the swing, searched from ``heel_strike_window_s[0]``
   before to ``heel_strike_window_s[1]`` after the end of the swing's forward rotation (the
   + → − zero crossing of the rate). The foot's forward rotation ends in terminal swing, at or
@@ -29,8 +29,10 @@ then timed on a copy low-passed at ``event_lowpass_hz`` (zero phase, so no delay
   rotation of the foot stops and the foot starts to roll down onto the ground.
 * **Shank** (Salarian et al. 2004; Aminian et al. 2002; compared in Trojaniello et al. 2014,
   "Estimation of step-by-step spatio-temporal parameters of normal and impaired gait using
-  shank-mounted magneto-inertial sensors", J. NeuroEng. Rehabil. 11:152): FC is the minimum
-  of the rate before the swing (push-off); the angular-rate IC is the first local minimum
+  shank-mounted magneto-inertial sensors", J. NeuroEng. Rehabil. 11:152): FC is the local
+  minimum of the rate nearest before the swing (Salarian: "the local minimum prior to the
+  mid-swing peak"; the shank's backward rotation in pre-swing may have more than one); the
+  angular-rate IC is the first local minimum
   after the swing's zero crossing when it is sharp (the shank is stopped and thrown back at
   heel strike); where no such impact follows within ``shank_ic_window_s`` (a smooth signal),
   the zero crossing itself, the instant the shank's forward swing ends.
@@ -199,11 +201,16 @@ def detect_swing_events(t_s: np.ndarray, sagittal_rate: np.ndarray, placement: s
             impact = impact_time(grid, acc, fall - strike_before, fall + strike_after, rate_hz,
                                  settings.impact_min_m_s2, settings.impact_span_s)
         low = max(rise - fc_window, previous_ic_index)
+        fc = float("nan")
         if rise - low >= 2:
-            index = low + int(np.argmin(fast[low:rise + 1]))
-            fc = extremum_time(grid, fast, index) if low < index < rise else float("nan")
-        else:
-            fc = float("nan")
+            if placement == "foot":
+                index = low + int(np.argmin(fast[low:rise + 1]))
+            else:
+                index = rise - 1  # the local minimum nearest before the swing
+                while index > low and not (fast[index] < fast[index - 1] and fast[index] <= fast[index + 1]):
+                    index -= 1
+            if low < index < rise:
+                fc = extremum_time(grid, fast, index)
         t_fc.append(fc)
         t_ic.append(impact if math.isfinite(impact) else ic)
         at_impact.append(math.isfinite(impact))

@@ -25,7 +25,7 @@ the feet on the floor (``clinic``) or on the belt (``treadmill``). The magnetome
 session's start happen there, with the units held at hand height (1.05 m, 0.35 m in front of
 the pelvis), where the floor adds only a few µT and the bed is more than 2.5 m away, as a
 clinician calibrates away from metal; on the treadmill they happen on the belt, at hand height,
-where the frame and motor add about 17 µT (this room has no place away from the treadmill).
+where the frame and motor add about 18 µT (this room has no place away from the treadmill).
 
 The floor is modelled as a sum of spatial harmonics of the field's scalar potential (sources
 below the floor): a harmonic of wavenumber k has a constant magnitude at a given height and
@@ -193,7 +193,7 @@ def _treadmill() -> SteelObject:
     drive motor under the hood at the front."""
     half, depth = TREADMILL_HALF_WIDTH_M, TREADMILL_FRAME_DEPTH_M
     y0, y1 = TREADMILL_REAR_FRONT_M
-    rails = [_cluster("rail", ((x, y0, -depth), (x, y1, -depth)), (1, 13, 1), (0.0, 3.0, -7.0)) for x in (-half, half)]
+    rails = [_cluster("rail", ((x, y0, -depth), (x, y1, -depth)), (1, 13, 1), (0.0, 3.75, -8.75)) for x in (-half, half)]
     cross = _cluster("cross member", ((-half, y0, -depth), (half, y1, -depth)), (5, 6, 1), (0.0, 0.0, -2.0))
     rollers = [_cluster("roller", ((-half, y, -0.05), (half, y, -0.05)), (5, 1, 1), (0.0, 1.0, -2.5)) for y in (y0, y1)]
     motor = SteelObject("motor", np.array([[0.0, y1 + 0.25, 0.0]]), np.array([[2.0, -6.0, -8.0]]))

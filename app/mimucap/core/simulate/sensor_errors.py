@@ -336,7 +336,7 @@ def measure(
 
     ``t_s`` (n,) true times; ``q_world_from_sensor`` (n,4) at ``t_s`` and ``..._prev`` (n,4)
     one sample earlier; ``acc_world_mps2`` (n,3) linear acceleration of the sensor point
-    (without gravity); ``field_world_uT`` (n,3) or (3,) field at the sensor; ``dt`` sample
+    (without gravity) averaged over the interval (:func:`mean_acceleration`); ``field_world_uT`` (n,3) or (3,) field at the sensor; ``dt`` sample
     interval (s). With parameters from :func:`stack_parameters` and noise from
     :func:`stack_noise` every per-sample array has shape (n, S, ...) instead.
     """
@@ -344,7 +344,10 @@ def measure(
     omega = true_angular_rate(q_world_from_sensor_prev, q_world_from_sensor, dt)
     gyr = _apply(params.gyr_scale, omega) + noise.gyr_bias + noise.gyr_noise
     specific_force = np.asarray(acc_world_mps2, dtype=np.float64) + np.array([0.0, 0.0, GRAVITY_MPS2])
-    acc = _apply(params.acc_scale, rot.rotate(q_sensor_from_world, specific_force)) + params.acc_bias_mps2 + noise.acc_noise
+    # The interval's mean specific force, seen from the sensor at mid-interval.
+    q_sensor_from_world_mid = rot.conjugate(rot.slerp(q_world_from_sensor_prev, q_world_from_sensor, 0.5))
+    acc = (_apply(params.acc_scale, rot.rotate(q_sensor_from_world_mid, specific_force)) + params.acc_bias_mps2
+           + noise.acc_noise)
     mag_true = rot.rotate(q_sensor_from_world, np.broadcast_to(field_world_uT, specific_force.shape))
     mag = _apply(params.mag_A, mag_true) + params.mag_b_uT + noise.mag_noise
     if errors.mag_lsb_uT > 0.0:
@@ -373,8 +376,21 @@ def onboard_orientation(params: SensorParameters, t_s: np.ndarray, q_world_from_
     return rot.normalize(q)
 
 
-#: Step (s) of the central second difference that gives the linear acceleration.
-ACC_DIFF_STEP_S = 1e-3
+#: Step (s) of the backward differences that give the sensor point's velocity at the ends of
+#: a sample interval.
+ACC_DIFF_STEP_S = 1e-4
+
+
+def mean_acceleration(p_now: np.ndarray, p_now_before: np.ndarray, p_prev: np.ndarray, p_prev_before: np.ndarray,
+                      dt: float) -> np.ndarray:
+    """The mean linear acceleration over each sample interval (m/s²): the change of velocity
+    from the interval's start to its end over ``dt``, the velocities from positions at both
+    ends (``p_now``, ``p_prev``) and :data:`ACC_DIFF_STEP_S` before them (``…_before``). An
+    accelerometer's decimation filter averages what happens between two samples, so an impact
+    shorter than the interval is neither missed nor aliased; the gyroscope's sample is likewise
+    the mean rate over the interval."""
+    h = ACC_DIFF_STEP_S
+    return ((p_now - p_now_before) - (p_prev - p_prev_before)) / (h * dt)
 
 
 def sample_kinematics(pose_fn, t_s: np.ndarray, dt: float):
@@ -383,14 +399,13 @@ def sample_kinematics(pose_fn, t_s: np.ndarray, dt: float):
     ``pose_fn(t)`` maps times (m,) to ``(q_world_from_sensor (m, ..., 4), position_m (m, ..., 3))``.
     Returns ``(q (n, ..., 4), q_prev (n, ..., 4), position_m (n, ..., 3), acc_world_mps2 (n, ..., 3))``
     at ``t_s`` (n,), with ``q_prev`` one interval ``dt`` earlier and the linear acceleration
-    from the central second difference with step :data:`ACC_DIFF_STEP_S`.
+    averaged over that interval (:func:`mean_acceleration`).
     """
     t = np.asarray(t_s, dtype=np.float64)
     n = t.shape[0]
     h = ACC_DIFF_STEP_S
-    times = np.concatenate((t, t - dt, t - h, t + h))
+    times = np.concatenate((t, t - dt, t - h, t - dt - h))
     q, p = pose_fn(times)
     q_now, q_prev = q[:n], q[n:2 * n]
-    p_now, p_minus, p_plus = p[:n], p[2 * n:3 * n], p[3 * n:]
-    acc = (p_plus - 2.0 * p_now + p_minus) / (h * h)
-    return q_now, q_prev, p_now, acc
+    acc = mean_acceleration(p[:n], p[2 * n:3 * n], p[n:2 * n], p[3 * n:], dt)
+    return q_now, q_prev, p[:n], acc

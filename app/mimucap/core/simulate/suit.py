@@ -24,8 +24,9 @@ m/s² (specific force), rad/s, µT; joint angles in degrees (Z-X'-Y'', clinical 
 ``skeleton.JOINT_ANGLE_SIGNS_DOC``). Host time ``t_s`` is the true time ``k / rate_hz``;
 the device clock runs as ``(1 + drift)·t + offset``. Gyroscope sample ``k`` is the mean rate
 over the preceding interval: without errors ``q_k = q_{k-1} ⊗ exp(gyr_k · dt)`` exactly.
-Accelerometer sample ``k`` is the specific force at ``t_k`` (linear acceleration of the sensor
-point by a central second difference of its true position, plus gravity 9.81 m/s² up).
+Accelerometer sample ``k`` is the mean specific force over the same interval (the change of the
+sensor point's velocity over it, plus gravity 9.81 m/s² up), seen from the sensor at
+mid-interval (:func:`~mimucap.core.simulate.sensor_errors.mean_acceleration`).
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ from mimucap.core.simulate.sensor_errors import (
     SensorNoise,
     SensorParameters,
     draw_sensor_parameters,
+    mean_acceleration,
     measure,
     stack_noise,
     stack_parameters,
@@ -142,9 +144,11 @@ class SuitSimulator:
         self._bundle_offset = np.stack(offsets)
         self._seed = seed
         self._switches = 0
-        self._lengths = skeleton.segment_lengths(self.model, config.height_m)
         self.schedule = Schedule(self._activities(config.scenario, dict(config.scenario_params),
                                                   with_magcal_turns=config.magcal_turns))
+        # The walk's gait design takes a moment: made now, a streaming suit never waits for it
+        # (for the default speed; other speeds are designed when first walked).
+        Walk().fit_body(self.model.name, config.height_m).design  # noqa: B018
         #: The true results of a clinical test scenario (:func:`~.clinical_tests.protocol_truth`), else None.
         self.protocol: dict[str, Any] | None = None
         if config.scenario in CLINICAL_TESTS:
@@ -167,9 +171,9 @@ class SuitSimulator:
     def _activities(self, name: str, params: dict, with_magcal_turns: bool = False):
         activities = scenario_activities(name, params, sensor_ids=self.sensor_ids,
                                          seed=self._seed + 7919 * self._switches, with_magcal_turns=with_magcal_turns)
-        legs = (self._lengths["thigh_r"], self._lengths["shank_r"])
         belt = self.room.treadmill
-        return (a.fit_legs(legs).on_treadmill(belt) if isinstance(a, Walk) else a for a in activities)
+        return (a.fit_body(self.model.name, self.config.height_m).on_treadmill(belt) if isinstance(a, Walk) else a
+                for a in activities)
 
     @property
     def time_s(self) -> float:
@@ -326,11 +330,11 @@ class SuitSimulator:
         """Compute samples ``k0 .. k0+n-1`` (no caching, no state change besides noise caches)."""
         t = (k0 + np.arange(n)) * self.dt
         h = ACC_DIFF_STEP_S
-        state = self.kinematics(np.concatenate((t, t - self.dt, t - h, t + h)))
+        state = self.kinematics(np.concatenate((t, t - self.dt, t - h, t - self.dt - h)))
         q_all, p_all = state["q_sensor"], state["p_sensor"]
         q_now, q_prev = q_all[:n], q_all[n:2 * n]
         p_now = p_all[:n]
-        acc_world = (p_all[3 * n:] - 2.0 * p_now + p_all[2 * n:3 * n]) / (h * h)
+        acc_world = mean_acceleration(p_now, p_all[2 * n:3 * n], p_all[n:2 * n], p_all[3 * n:], self.dt)
         fields = np.stack([
             disturbed_field(self.field_world_uT, self.config.disturbances, sid, t, p_now[:, i])
             for i, sid in enumerate(self.sensor_ids)

@@ -42,7 +42,7 @@ from mimucap.core import phase_markers
 from mimucap.core.analysis.chair_stand import chair_stand
 from mimucap.core.analysis.chair_transitions import find_transitions
 from mimucap.core.analysis.gait_events import SwingEvents, detect_swing_events
-from mimucap.core.analysis.progression import Progression, progression, stance_weights
+from mimucap.core.analysis.progression import Progression, progression
 from mimucap.core.analysis.segment_motion import flexion_rate_dps, inclination_deg, yaw_rate_dps
 from mimucap.core.analysis.trunk_turns import find_trunk_turns
 from mimucap.core.analysis.tug import timed_up_and_go
@@ -223,8 +223,7 @@ def walking_signals(review: ReviewData) -> tuple[dict[str, SwingEvents], Progres
         raise ValueError(f"{review.path}: the walking tests need both thighs and both shanks (or feet) with "
                          "calibrated sensors")
     events = {item.side: detect_swing_events(item.t_s, item.sagittal_rate, item.placement) for item in inputs}
-    weights = stance_weights(legs.t_s, events)
-    return events, progression(legs.t_s, legs.ankle_from_root_m, weights, legs.q_pelvis)
+    return events, progression(legs, events)
 
 
 def _walk(review: ReviewData, test: str, window, overrides, walkway_m: float | None) -> ClinicalTestResult:

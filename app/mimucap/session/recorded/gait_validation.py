@@ -19,7 +19,8 @@ The simulated suit runs the real pipeline: the session is written *without* its 
 body calibration is computed from the simulated N-pose/T-pose by
 :func:`mimucap.core.bodycal.calibrate_npose_tpose` on the sensors' own orientation output, and
 the review (:func:`mimucap.session.recorded.review.load_review`) and analysis run on that file. Truth
-gait events come from the simulator's per-foot contact state (``SuitTruth.foot_contact``),
+gait events come from the simulator's per-foot contact state (``SuitTruth.foot_contact``: a
+foot is on the floor while its sole's heel or toe is, :mod:`mimucap.core.simulate.gait_design`),
 truth stride lengths from the ankle's displacement between mid-stances (forward kinematics of
 the true segment orientations).
 """
@@ -183,10 +184,12 @@ def gaitmap_variant_analysis(folder: str | Path, variant: ImuVariant) -> tuple[G
 
 # -- the simulated suit ----------------------------------------------------------------------
 def _contacts(t: np.ndarray, contact: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Initial and final contact times (s): each between the last sample before the change and
+    the first after it, at the midpoint (the samples bound the instant, they do not time it)."""
     on = contact > 0.5
     rises = np.flatnonzero(~on[:-1] & on[1:]) + 1
     falls = np.flatnonzero(on[:-1] & ~on[1:]) + 1
-    return t[rises], t[falls]
+    return 0.5 * (t[rises - 1] + t[rises]), 0.5 * (t[falls - 1] + t[falls])
 
 
 def walk_windows(markers: list[tuple[float, str]], end_s: float) -> list[tuple[float, float]]:
