@@ -89,7 +89,7 @@ wheel-check: debs wheel $(TEST_STAMP)
 	rm -rf $(WHEEL_VENV)
 	$(PYTHON) -m venv $(WHEEL_VENV)
 	$(WHEEL_VENV)/bin/python -m pip install --quiet dist/mimucap-*.whl
-	MIMUCAP_WHEEL_PYTHON=$(WHEEL_VENV)/bin/python QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider \
+	MIMUCAP_WHEEL_PYTHON=$(CURDIR)/$(WHEEL_VENV)/bin/python QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider \
 	  -s tests/packaging/test_wheel.py
 
 # The desktop bundle (dist/mimucap/mimucap, docs/packaging.md), built in its own environment
