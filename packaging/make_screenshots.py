@@ -74,21 +74,6 @@ def make_screenshots(out_dir: Path) -> list[Path]:
 SPEED_UP = 4.0
 
 
-def _fast_clock():
-    """Simulated time, SPEED_UP times the wall clock; a stall of a busy machine slows it down
-    (each reading moves it at most half a second) instead of making the simulated suit lose the
-    samples of the stall."""
-    state = [time.monotonic(), time.monotonic()]
-
-    def clock() -> float:
-        wall = time.monotonic()
-        state[0] += min(SPEED_UP * (wall - state[1]), 0.5)
-        state[1] = wall
-        return state[0]
-
-    return clock
-
-
 def _calibrate(app: QtWidgets.QApplication, window, folder: Path) -> None:
     """The magnetometer and body calibrations, as the wizards run them, on the window's live
     session (the simulated subject does what they ask)."""
@@ -122,9 +107,10 @@ def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -
     from mimucap.gui.capture import save_window_png
     from mimucap.gui.main_window import MainWindow
     from mimucap.session.live.live_session import open_live_session
+    from mimucap.session.sources.fast_clock import fast_clock
 
     written: list[Path] = []
-    clock = _fast_clock()
+    clock = fast_clock(SPEED_UP)
     window = MainWindow("simulated:walk", session_factory=lambda spec: open_live_session(spec, clock=clock))
     window.recording_folder = lambda: folder
     window.confirm_recording = lambda items: True  # the checklist shows what is missing

@@ -3,33 +3,18 @@ through both wizards as a user clicks through them (for the end-to-end tests).""
 
 from __future__ import annotations
 
-import time
 
 from PyQt5 import QtCore
 
 from mimucap.gui.main_window import MainWindow
+from mimucap.session.sources.fast_clock import fast_clock
 from mimucap.session.live.live_session import open_live_session
 
 SPEED_UP = 4.0
 
 
-def fast_clock():
-    """Simulated time, SPEED_UP times the wall clock; a stall of the busy test machine slows it
-    down (each reading moves it at most half a second) instead of making the simulated suit
-    lose the samples of the stall, as a real radio would."""
-    state = [time.monotonic(), time.monotonic()]
-
-    def clock() -> float:
-        wall = time.monotonic()
-        state[0] += min(SPEED_UP * (wall - state[1]), 0.5)
-        state[1] = wall
-        return state[0]
-
-    return clock
-
-
 def live_window(qtbot, spec: str):
-    clock = fast_clock()
+    clock = fast_clock(SPEED_UP)
     window = MainWindow(spec, session_factory=lambda chosen: open_live_session(chosen, clock=clock))
     window.clock = clock
     window.confirm_recording = lambda items: True  # recording without calibrations, knowingly

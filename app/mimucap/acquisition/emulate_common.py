@@ -9,7 +9,7 @@ Motion comes from a :class:`MotionSource` (the simulated suit by default, see
 sends the motion source's sensor ``i mod n_sensors``.
 
 Each emulated node is a device of its own: its MAC (:func:`node_mac`, a locally administered
-address drawn from the seed and the wire id) is what its hello says, unless ``hello`` is off
+address drawn from the random seed and the wire id) is what its hello says, unless ``hello`` is off
 (nodes older than the hello, which send none).
 """
 

@@ -84,23 +84,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:  # the reader of our output went away (e.g. `| head`): not an error of ours
         _quiet_stdout()
         return 0
-    except MemoryError:
-        print(f"mimucap {args.command}: error: not enough memory for this request; ask for less "
-              f"(a shorter duration, fewer sensors or a lower rate)", file=sys.stderr)
+    except (MemoryError, OSError, ValueError) as error:  # UnicodeError is a ValueError
+        print(f"mimucap {args.command}: error: {_in_words(error)}", file=sys.stderr)
         return 1
-    except OSError as error:
+
+
+def _in_words(error: Exception) -> str:
+    """One sentence for an error a user can act on, without Python's own exception text."""
+    if isinstance(error, MemoryError):
+        return ("not enough memory for this request; ask for less (a shorter duration, fewer sensors "
+                "or a lower rate)")
+    if isinstance(error, OSError):
         from mimucap.io.json_document import describe_os_error
 
-        print(f"mimucap {args.command}: error: {describe_os_error(error)}", file=sys.stderr)
-        return 1
-    except UnicodeError:
-        print(f"mimucap {args.command}: error: an input file is not the text file expected "
-              f"(a binary file given where a CSV or JSON file belongs?)", file=sys.stderr)
-        return 1
-    except ValueError as error:
-        print(f"mimucap {args.command}: error: {error}", file=sys.stderr)
-        return 1
-
+        return describe_os_error(error)
+    if isinstance(error, UnicodeError):
+        return "an input file is not the text file expected (a binary file given where a CSV or JSON file belongs?)"
+    return str(error)
 
 def _quiet_stdout() -> None:
     """Point stdout at /dev/null, so that Python's flush at exit does not report the broken pipe

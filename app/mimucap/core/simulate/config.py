@@ -153,7 +153,7 @@ class SimulationConfig:
 
     def device_ids(self) -> dict[str, str]:
         """Sensor id → device id of each unit (:mod:`mimucap.core.device_identity`: the suit is
-        named by :func:`suit_fingerprint` of the seed and the error model)."""
+        named by :func:`suit_fingerprint` of the random seed and the error model)."""
         suit = suit_fingerprint(self.seed, self.errors)
         return {sid: simulated_device_id(suit, sid) for sid in self.sensor_ids}
 

@@ -13,7 +13,7 @@ magnetometer-calibration motion alone is :func:`mimucap.core.simulate.hand_held.
 The suit comes assigned one sensor per segment
 (:func:`~mimucap.core.simulate.config.default_assignment`): the second units are worn but drive
 no segment. Each unit is a device of its own (:mod:`mimucap.core.device_identity`): its error
-parameters are drawn from the seed and the error model, so
+parameters are drawn from the random seed and the error model, so
 :func:`~mimucap.core.simulate.config.suit_fingerprint` of those two names the suit, and
 ``sim:<fingerprint>/<sensor id>`` the unit. Another seed is another suit with units numbered
 alike; the same session file read twice is the same suit.
