@@ -98,8 +98,6 @@ def test_a_source_switch_clears_the_old_sources_markers_plots_and_messages(windo
 
 
 def test_a_source_switch_closes_an_open_calibration_wizard(window, qtbot):
-    if "body" not in window._wizards:
-        pytest.skip("the wizards are not installed")
     window.open_wizard("body")
     wizard = window._wizard
     assert wizard.isVisible()
