@@ -109,7 +109,7 @@ def parts(session_path: Path, calibration: Path, segment: str) -> str:
                  else float("nan"))
     index = np.clip(np.searchsorted(truth.t_s, track.t_s - 1e-9), 0, len(truth.t_s) - 1)
     filtered = heading_error_deg(track.q_world_from_sensor[sensor], true_sensor[index])
-    walks = [(a + 1.0, b) for a, b in phases.phase_windows(recorded.markers, phases.WALK, float(truth.t_s[-1]))]
+    walks = [(a + 1.0, b) for a, b in phase_markers.phase_windows(recorded.markers, phase_markers.WALK, float(truth.t_s[-1]))]
     forward = float(heading_error_deg(np.asarray(document["q_world_from_body"]),
                                       rot.average(np.asarray(truth.q_world_from_segment["pelvis"])[inside])))
     return (f"{segment} ({sensor}): alignment {alignment:+.2f}, filter N-pose {mean_over(filtered, track.t_s, npose):+.2f}"

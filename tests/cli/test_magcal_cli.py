@@ -14,7 +14,7 @@ from mimucap.io.calibration_store import CalibrationStore
 
 JSON_KEYS = {
     "offset_uT", "soft_iron", "field_uT", "rms_residual_uT", "rms_residual_pct", "condition",
-    "samples_used", "samples_rejected", "verdict", "reasons",
+    "samples_used", "samples_rejected", "verdict", "reasons", "gyr_correction", "gyr_quality",
 }
 SET2 = ("mag", "sunsided_hmc5883l", "set-2")
 
