@@ -10,7 +10,7 @@ import pytest
 
 from mimucap.core import rotation as rot
 from mimucap.core.magcal.calibrate import calibrate
-from mimucap.core.magcal.gyro_scale import estimate_gyro_scale
+from mimucap.core.magcal.gyro_scale import estimate_gyro_scale, rates_at
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.chain import SensorChain
 from mimucap.core.sensor_samples import SensorSamples
@@ -65,6 +65,41 @@ def test_known_scale_and_cross_axis_errors_are_recovered_within_a_fifth_of_a_per
     figures = estimate.as_dict()
     assert figures["applied"] is True and figures["scale_error_pct"][1] == pytest.approx(-1.5, abs=0.2)
     assert "scale off by x +1.2" in estimate.summary() and estimate.summary().endswith(": corrected")
+
+
+def test_a_magnetometer_slower_than_the_gyroscope_and_joined_recordings():
+    """Field samples on every other row (a 50-Hz magnetometer beside a 100-Hz gyroscope) and two
+    recordings of the turns joined with their clocks restarting: the same correction."""
+    t, q = turns()
+    gyr, mag = measured(q)
+    mag[1::2] = np.nan
+    estimate = estimate_gyro_scale(t, gyr, mag)
+    assert estimate.applied, estimate.reason
+    np.testing.assert_allclose(estimate.correction @ GYR_SCALE, np.eye(3), atol=0.003)
+    half = len(t) // 2
+    restarted = np.concatenate([t[:half], t[half:] - t[half]])
+    joined = estimate_gyro_scale(restarted, gyr, measured(q)[1])
+    assert joined.applied, joined.reason
+    np.testing.assert_allclose(joined.correction @ GYR_SCALE, np.eye(3), atol=0.003)
+
+
+def test_a_magnetometer_on_its_own_clock_gets_the_gyroscope_s_mean_rates():
+    """A magnetometer sampled at jittery instants of its own (about 70 Hz) beside the 100-Hz
+    gyroscope: the gyroscope's mean rate over each field interval gives the same correction."""
+    t, q = turns()
+    gyr, _ = measured(q)
+    rng = np.random.default_rng(5)
+    t_field = np.cumsum(rng.uniform(0.007, 0.021, size=int(t[-1] / 0.014)))
+    t_field = t_field[t_field < t[-1]]
+    q_field = rot.slerp(q[np.searchsorted(t, t_field) - 1], q[np.searchsorted(t, t_field)],
+                        (t_field - t[np.searchsorted(t, t_field) - 1]) * RATE_HZ)
+    mag = rot.rotate(rot.conjugate(q_field), np.broadcast_to(FIELD_WORLD_UT, (len(t_field), 3)))
+    mag = mag + rng.normal(0.0, 0.3, size=mag.shape)
+    rates = rates_at(t_field, t, gyr)
+    assert np.all(np.isnan(rates[0])) and np.all(np.isfinite(rates[1:]))
+    estimate = estimate_gyro_scale(t_field, rates, mag)
+    assert estimate.applied, estimate.reason
+    np.testing.assert_allclose(estimate.correction @ GYR_SCALE, np.eye(3), atol=0.003)
 
 
 def test_turns_about_two_axes_only_keep_the_identity_and_say_which_axis():

@@ -133,19 +133,22 @@ def _samples_uT(recordings: list[MagRecording], args: argparse.Namespace) -> tup
 
 
 def _gyr_samples(recordings: list[MagRecording]) -> tuple[np.ndarray | None, np.ndarray | None]:
-    """The times (N,) s and raw gyroscope samples (N, 3) rad/s at the magnetometer's samples of
-    ``recordings``, in order; (None, None) unless every recording has its gyroscope's samples at
-    the magnetometer's instants and in its frame."""
+    """The times (N,) s and raw gyroscope rates (N, 3) rad/s at the magnetometer's samples of
+    ``recordings``, in order (a gyroscope sampled at other instants gives its mean rate over each
+    magnetometer interval); (None, None) unless every recording has gyroscope samples in the
+    magnetometer's frame."""
     import numpy as np
+
+    from mimucap.core.magcal.gyro_scale import rates_at
 
     times, rates = [], []
     for recording in recordings:
         imu = recording.imu
-        if (imu is None or imu.gyr is None or recording.t_s is None or not recording.imu_in_mag_frame
-                or len(imu.t_s) != len(recording.t_s) or not np.array_equal(imu.t_s, recording.t_s)):
+        if imu is None or imu.gyr is None or recording.t_s is None or not recording.imu_in_mag_frame:
             return None, None
         times.append(recording.t_s)
-        rates.append(imu.gyr)
+        same = len(imu.t_s) == len(recording.t_s) and np.array_equal(imu.t_s, recording.t_s)
+        rates.append(imu.gyr if same else rates_at(recording.t_s, imu.t_s, imu.gyr))
     return np.concatenate(times), np.vstack(rates)
 
 

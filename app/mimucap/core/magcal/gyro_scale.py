@@ -51,13 +51,13 @@ class GyroScaleLimits:
     """When an estimate is applied (defaults in brackets).
 
     window_s [1]: length of the integration windows, s; ramp_s [0.5]: how long a window's weight
-    takes to rise and to fall, s (the field is averaged over that long at either end). min_turn_deg [300]: least rotation about
-    each sensor axis in the samples (∫|ω_axis| dt), degrees. max_std [0.003]: largest standard
-    error of any element of the correction (0.3 % of scale). max_scale_error [0.1]: largest
-    |C_ii − 1| and |C_ij| believed (a larger one is a wrong unit, mismatched axes or a disturbed
-    field, not a gyroscope's error). max_gap_factor [3]: a time step longer than this many
-    median steps ends an integration window (the turn windows of a session are not contiguous).
-    outlier_factor [4]: windows whose residual exceeds this many robust standard deviations are
+    takes to rise and to fall, s (the field is averaged over that long at either end).
+    min_turn_deg [300]: least rotation about each sensor axis in the samples (∫|ω_axis| dt),
+    degrees. max_std [0.003]: largest standard error of any element of the correction (0.3 % of
+    scale). max_scale_error [0.1]: largest |C_ii − 1| and |C_ij| believed (a larger one is a
+    wrong unit, mismatched axes or a disturbed field, not a gyroscope's error). max_gap_s [0.25]:
+    a time step longer than this ends an integration window (the turn windows of a session are
+    not contiguous, nor are joined recordings). outlier_factor [4]: windows whose residual exceeds this many robust standard deviations are
     dropped before the final solve.
     """
 
@@ -66,7 +66,7 @@ class GyroScaleLimits:
     min_turn_deg: float = 300.0
     max_std: float = 0.003
     max_scale_error: float = 0.1
-    max_gap_factor: float = 3.0
+    max_gap_s: float = 0.25
     outlier_factor: float = 4.0
 
 
@@ -119,6 +119,25 @@ def identity_estimate(reason: str) -> GyroScaleEstimate:
     return GyroScaleEstimate(np.eye(3), False, nan, nan, np.zeros(3), math.nan, 0, reason)
 
 
+def rates_at(t_field_s: ArrayLike, t_gyr_s: ArrayLike, gyr_raw_rad_s: ArrayLike) -> FloatArray:
+    """The raw rates (N, 3) rad/s at a magnetometer's sample times ``t_field_s`` (N,) from a
+    gyroscope sampled at other times ``t_gyr_s`` (M,), ``gyr_raw_rad_s`` (M, 3): row k is the mean
+    rate over ``t_field_s[k − 1]..t_field_s[k]`` (the integrated angle, interpolated), as
+    :func:`estimate_gyro_scale` takes it; NaN for the first row and outside the gyroscope's span.
+    Both time series increasing."""
+    t_field = np.asarray(t_field_s, dtype=np.float64)
+    t_gyr = np.asarray(t_gyr_s, dtype=np.float64)
+    gyr = np.asarray(gyr_raw_rad_s, dtype=np.float64)
+    if len(t_gyr) < 2 or len(t_field) < 2:
+        return np.full((len(t_field), 3), np.nan)
+    angle = np.vstack([np.zeros((1, 3)), np.cumsum(gyr[1:] * np.diff(t_gyr)[:, None], axis=0)])
+    at = np.column_stack([np.interp(t_field, t_gyr, angle[:, axis], left=np.nan, right=np.nan) for axis in range(3)])
+    rates = np.full((len(t_field), 3), np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rates[1:] = np.diff(at, axis=0) / np.diff(t_field)[:, None]
+    return rates
+
+
 def _skew(v: FloatArray) -> FloatArray:
     """``[v]×`` (..., 3, 3), so that ``[v]× u = v × u``."""
     zero = np.zeros(v.shape[:-1])
@@ -126,29 +145,30 @@ def _skew(v: FloatArray) -> FloatArray:
     return np.stack([np.stack([zero, -z, y], -1), np.stack([z, zero, -x], -1), np.stack([-y, x, zero], -1)], -2)
 
 
-def _window_weights(t_s: FloatArray, window_s: float, ramp_s: float, max_gap_factor: float) -> FloatArray:
-    """Weights (W, N − 1) of the sample intervals in each integration window: 0 outside, rising
-    linearly over the first ``ramp_s``, 1 in the middle, falling over the last ``ramp_s``.
-    Windows of ``window_s`` follow each other every ``window_s − ramp_s`` and hold no gap longer
-    than ``max_gap_factor`` median steps."""
+def _window_weights(t_s: FloatArray, window_s: float, ramp_s: float, max_gap_s: float) -> FloatArray:
+    """Weights (W, N − 1) of the sample intervals in each integration window, by the time of the
+    interval's middle: 0 outside, rising linearly over the first ``ramp_s``, 1 in the middle,
+    falling over the last ``ramp_s``. Windows of ``window_s`` follow each other every
+    ``window_s − ramp_s`` and hold no step longer than ``max_gap_s`` (nor a step back in time)."""
     steps = np.diff(t_s)
-    typical = float(np.median(steps)) if len(steps) else 0.0
-    if not typical > 0:
-        return np.zeros((0, len(steps)))
-    breaks = np.flatnonzero((steps > max_gap_factor * typical) | (steps <= 0))
-    length = max(int(round(window_s / typical)), 4)              # intervals per window
-    ramp = min(max(int(round(ramp_s / typical)), 1), length // 2)
-    shape = np.ones(length)
-    shape[:ramp] = (np.arange(ramp) + 0.5) / ramp
-    shape[length - ramp:] = shape[:ramp][::-1]
+    if len(steps) == 0:
+        return np.zeros((0, 0))
+    middle = 0.5 * (t_s[:-1] + t_s[1:])
+    breaks = np.flatnonzero(~((steps > 0) & (steps <= max_gap_s)))
     rows = []
-    start = 0
-    for end in [*breaks.tolist(), len(steps)]:  # intervals start..end − 1 hold no gap
-        for first in range(start, end - length + 1, length - ramp):
-            row = np.zeros(len(steps))
-            row[first:first + length] = shape
-            rows.append(row)
-        start = end + 1
+    first = 0
+    for end in [*breaks.tolist(), len(steps)]:  # intervals first..end − 1 hold no gap
+        if end > first:
+            begin_s, stop_s = t_s[first], t_s[end]
+            run = slice(first, end)
+            start_s = begin_s
+            while start_s + window_s <= stop_s:
+                row = np.zeros(len(steps))
+                into = middle[run] - start_s
+                row[run] = np.clip(np.minimum(into, window_s - into) / ramp_s, 0.0, 1.0)
+                rows.append(row)
+                start_s += window_s - ramp_s
+        first = end + 1
     return np.array(rows).reshape(len(rows), len(steps))
 
 
@@ -165,22 +185,30 @@ def estimate_gyro_scale(t_s: ArrayLike, gyr_raw_rad_s: ArrayLike, mag_cal_uT: Ar
     mag = np.asarray(mag_cal_uT, dtype=np.float64)
     if gyr.shape != (len(t), 3) or mag.shape != (len(t), 3):
         raise ValueError(f"gyroscope ({gyr.shape}) and field ({mag.shape}) samples must be (N, 3) with N = {len(t)}")
-    finite = np.isfinite(t) & np.all(np.isfinite(gyr), axis=1) & np.all(np.isfinite(mag), axis=1)
-    t, gyr, mag = t[finite], gyr[finite], mag[finite]
-    weights = _window_weights(t, limits.window_s, limits.ramp_s, limits.max_gap_factor)
+    usable = np.isfinite(t) & np.all(np.isfinite(gyr), axis=1)
+    t, gyr, mag = t[usable], gyr[usable], mag[usable]
+    # The angle each raw axis has turned since the first sample (a rate sample is the mean rate
+    # over the interval ending at it, as the filter takes it), read at the field's samples: a
+    # magnetometer slower than the gyroscope gets the mean rate over each of its intervals.
+    angle = np.vstack([np.zeros((min(len(t), 1), 3)), np.cumsum(gyr[1:] * np.diff(t)[:, None], axis=0)])
+    with_field = np.all(np.isfinite(mag), axis=1)
+    t, angle, mag = t[with_field], angle[with_field], mag[with_field]
+    weights = _window_weights(t, limits.window_s, limits.ramp_s, limits.max_gap_s)
     if len(weights) < 6:
         return identity_estimate("too few samples of the turns with both gyroscope and magnetometer")
-    # Per interval k → k+1 (the rate sample ω_{k+1} being the mean rate over it, as the filter
-    # takes it): the field's change and the integrals of [m̄]× ω_j (for each raw axis j, m̄ the
-    # field at the interval's middle) and of [m̄]×, so that
-    # m_{k+1} − m_k = Σ_j step_axis_j C[:, j] − step_bias b; and of [m̄]× Δω, the change a lag
-    # of the rates behind the field would make (estimated along, not applied).
+    # Per interval k → k+1 between field samples, with ω_k the mean raw rate over it: the field's
+    # change and the integrals of [m̄]× ω_j (for each raw axis j, m̄ the field at the interval's
+    # middle) and of [m̄]×, so that m_{k+1} − m_k = Σ_j step_axis_j C[:, j] − step_bias b; and of
+    # [m̄]× ω̇, the change a lag of the rates behind the field would make (estimated along, not
+    # applied).
     dt = np.diff(t)
+    span = np.where(dt > 0, dt, np.inf)[:, None]    # a step back in time (joined files) is in no window
+    rate = np.diff(angle, axis=0) / span                                # (N − 1, 3)
     skew = _skew(0.5 * (mag[:-1] + mag[1:])) * dt[:, None, None]       # (N − 1, 3, 3)
-    rate = gyr[1:]
     step_axis = skew[:, None, :, :] * rate[:, :, None, None]           # (N − 1, 3 axes j, 3, 3)
-    step_lag = np.einsum("kri,ki->kr", skew, np.diff(gyr, axis=0, prepend=gyr[:1])[1:] / dt[:, None])
-    turned_deg = np.degrees(np.sum(dt[:, None] * np.abs(rate), axis=0))
+    step_lag = np.einsum("kri,ki->kr", skew, np.diff(rate, axis=0, prepend=rate[:1]) / span)
+    inside = weights.sum(axis=0) > 0                                    # intervals of some window
+    turned_deg = np.degrees(np.sum(dt[inside, None] * np.abs(rate[inside]), axis=0))
     # Each window weighs the interval equations; summed by parts, its left side is the mean field
     # over the falling ramp minus that over the rising one, so the field's noise is averaged, not
     # differentiated.
@@ -221,11 +249,15 @@ def _refusal(estimated: FloatArray, std: FloatArray, turned_deg: FloatArray, lim
     if short:
         return (f"too little rotation about {', '.join(short)} (at least {limits.min_turn_deg:.0f}° about each "
                 "axis is needed)")
-    if not np.all(np.isfinite(std)) or float(std.max()) > limits.max_std:
-        return (f"poorly determined (standard error up to {100.0 * float(np.nanmax(std)):.2f} %, at most "
-                f"{100.0 * limits.max_std:.2f} % is used)")
+    reversed_axes = [a for a, v in zip(AXES, np.diag(estimated)) if v < 0]
+    if reversed_axes and np.all(np.isfinite(std)) and float(std.max()) < 0.1:
+        return (f"the gyroscope's {', '.join(reversed_axes)} axis turns opposite to the magnetometer's: the two "
+                "sensors' axes do not match (check the axis remapping)")
     deviation = np.abs(estimated - np.eye(3))
     if not np.all(np.isfinite(deviation)) or float(deviation.max()) > limits.max_scale_error:
         return (f"implausible (an element off by {100.0 * float(np.nanmax(deviation)):.1f} %, more than a gyroscope's "
                 f"{100.0 * limits.max_scale_error:.0f} %): the field was disturbed or the axes do not match")
+    if not np.all(np.isfinite(std)) or float(std.max()) > limits.max_std:
+        return (f"poorly determined (standard error up to {100.0 * float(np.nanmax(std)):.2f} %, at most "
+                f"{100.0 * limits.max_std:.2f} % is used)")
     return ""
