@@ -23,7 +23,8 @@ body calibration's N-pose window and over each walk) and the forward axis's, deg
 ``--exact-gyro-scale`` repeats the seeds with the simulated units' gyroscope scale factors exact
 (the sensor error model's ``gyr_scale_error`` 0; every other error and random draw as before):
 the difference is what the gyroscopes' scale errors (1 % per axis by default, a consumer MEMS
-unit's) cost the exported headings through the filter.
+unit's) still cost the exported headings through the filter once ``magcal fit`` has estimated
+them from the turns (:mod:`mimucap.core.magcal.gyro_scale`).
 
 Run: ``.venv/bin/python bench/bench_export_headings.py [--seeds 0-7] [--duration 46]
 [--exact-gyro-scale]``.
