@@ -12,18 +12,22 @@ sensor frame the field obeys the kinematic equation
 
 with ``m`` the calibrated field (µT), ``ω_raw`` the raw rate (rad/s), ``C`` (3, 3) the
 gyroscope correction (scale factors on the diagonal, cross-axis terms off it; identity for a
-perfect gyroscope) and ``b`` (3,) rad/s the bias in corrected units. Integrated over short
-windows (trapezoidal rule, so that the field's noise is not differentiated),
+perfect gyroscope) and ``b`` (3,) rad/s the bias in corrected units. Summed over the sample
+intervals of a window (the rate sample ω_{k+1} taken as the mean rate over t_k..t_{k+1}, as the
+filter takes it, and ``m`` at the interval's middle),
 
     m(t₁) − m(t₀) = ∫ [m]× (C · ω_raw − b) dt,
 
-which is linear in the twelve unknowns ``C`` and ``b``: one least-squares solve over every
-window of the turns, with one pass that drops windows whose residual is far out (a knock, a
-disturbed sample). This is the standard calibration of a gyroscope's scale against a reference
-rotation (here the field's), as in the field calibration of inertial-magnetic units, e.g.
-Bonnet, Bassompierre, Godin, Lesecq, Barraud, "Calibration methods for inertial and magnetic
-sensors"; the rotation about the field direction itself is invisible to the field, which the
-turns about three axes make up for.
+which is linear in ``C`` and ``b``; a thirteenth unknown, the rates' lag behind the field
+(``−τ ∫ [m]× ω̇ dt``), absorbs a sensor's filter delay and is not applied. The windows (1 s) weigh
+their intervals with a weight that rises and falls linearly over half a second: summed by parts,
+the left side is the mean field over the falling ramp minus that over the rising one, so the
+field's noise is averaged, not differentiated. One least-squares solve over every window of the
+turns, with one pass that drops windows whose residual is far out (a knock, a
+disturbed sample). Calibrating a gyroscope against the field a calibrated magnetometer measures
+is standard (e.g. Papafotis, Sotiriadis, "MAG.I.C.AL. – A Unified Methodology for Magnetic and
+Inertial Sensors Calibration and Alignment"); the rotation about the field direction itself is
+invisible to the field, which the turns about three axes make up for.
 
 The estimate is applied only when it is well determined (:class:`GyroScaleLimits`): every axis
 turned at least most of a full turn, every element's standard error small, every scale factor

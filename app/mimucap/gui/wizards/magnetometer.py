@@ -23,8 +23,8 @@ refreshed at most every ``view_interval_ms`` (a refit of the preview is the expe
 from __future__ import annotations
 
 import time
-from html import escape
 from collections.abc import Callable, Sequence
+from html import escape
 
 import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
