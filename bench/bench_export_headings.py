@@ -23,7 +23,8 @@ body calibration's N-pose window and over each walk) and the forward axis's, deg
 ``--exact-gyro-scale`` repeats the seeds with the simulated units' gyroscope scale factors exact
 (the sensor error model's ``gyr_scale_error`` 0; every other error and random draw as before):
 the difference is what the gyroscopes' scale errors (1 % per axis by default, a consumer MEMS
-unit's) cost the exported headings through the filter.
+unit's) still cost the exported headings through the filter once ``magcal fit`` has estimated
+them from the turns (:mod:`mimucap.core.magcal.gyro_scale`).
 
 Run: ``.venv/bin/python bench/bench_export_headings.py [--seeds 0-7] [--duration 46]
 [--exact-gyro-scale]``.
@@ -109,7 +110,7 @@ def parts(session_path: Path, calibration: Path, segment: str) -> str:
                  else float("nan"))
     index = np.clip(np.searchsorted(truth.t_s, track.t_s - 1e-9), 0, len(truth.t_s) - 1)
     filtered = heading_error_deg(track.q_world_from_sensor[sensor], true_sensor[index])
-    walks = [(a + 1.0, b) for a, b in phases.phase_windows(recorded.markers, phases.WALK, float(truth.t_s[-1]))]
+    walks = [(a + 1.0, b) for a, b in phase_markers.phase_windows(recorded.markers, phase_markers.WALK, float(truth.t_s[-1]))]
     forward = float(heading_error_deg(np.asarray(document["q_world_from_body"]),
                                       rot.average(np.asarray(truth.q_world_from_segment["pelvis"])[inside])))
     return (f"{segment} ({sensor}): alignment {alignment:+.2f}, filter N-pose {mean_over(filtered, track.t_s, npose):+.2f}"

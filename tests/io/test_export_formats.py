@@ -390,7 +390,8 @@ def test_every_file_says_what_it_holds(walk, review, tmp_path):
     assert record.body_calibration.startswith("N-pose/T-pose, verdict ") and "made live" in record.body_calibration
     assert "made 20" in record.body_calibration  # when (ISO date)
     # a verdict and an age per sensor (the wizard's calibrations, made just before recording)
-    assert all(re.search(r"^S\d\d(, S\d\d)*: (good|warn), made within a minute of the recording$", text)
+    assert all(re.search(r"^S\d\d(, S\d\d)*: (good|warn), made within a minute of the recording, "
+                         r"gyroscope scale corrected$", text)
                for text in record.magnetometer), record.magnetometer
     assert sum(text.count("S") for text in record.magnetometer) == 17
     assert record.skeleton_model.startswith("fifteen_segment (15 segments)")

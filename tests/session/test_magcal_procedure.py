@@ -66,6 +66,11 @@ def test_single_axis_several_sensors_at_once_within_truth_bounds(tmp_path) -> No
         offset_error, shape_error = shape_and_offset_error(outcome.result.calibration, simulator.parameters[sensor_id])
         assert offset_error < OFFSET_BOUND_UT
         assert shape_error < SHAPE_BOUND
+        # the same turns give the gyroscope's scale factors (1 % errors) within 0.3 %
+        estimate = outcome.result.gyro
+        assert estimate.applied, estimate.reason
+        undone = outcome.result.calibration.gyr_correction @ simulator.parameters[sensor_id].gyr_scale
+        np.testing.assert_allclose(np.diag(undone), 1.0, atol=0.003, err_msg=sensor_id)
     assert procedure.accept() == ids
     assert store.sensor_ids() == sorted(ids)
     # A second run shows the stored calibration and its age.

@@ -8,7 +8,11 @@ units, i.e. counts); a plain 3-column CSV without a stated unit is taken as µT.
 ``--scale-to-uT`` (µT per count) and all results are then in µT. With ``--json`` one JSON
 object is printed with exactly the keys ``offset_uT``, ``soft_iron``, ``field_uT``,
 ``rms_residual_uT``, ``rms_residual_pct``, ``condition``, ``samples_used``,
-``samples_rejected``, ``verdict``, ``reasons``. ``--save`` stores the calibration for the
+``samples_rejected``, ``verdict``, ``reasons``, ``gyr_correction``, ``gyr_quality``. Where the
+files carry the gyroscope's samples with the magnetometer's (a session, an Xsens export), the
+gyroscope's scale factors are estimated from the same turns
+(:mod:`mimucap.core.magcal.gyro_scale`) and stored with the calibration; a poorly determined
+estimate is not applied, and the output says why. ``--save`` stores the calibration for the
 sensor's device (see :mod:`mimucap.io.calibration_store`: the device the file names, a
 session's recorded device or an Xsens export's device id; a file that names none stores it for
 an unknown device, under the sensor id). A refused fit exits with status 1 and its
@@ -59,7 +63,7 @@ if TYPE_CHECKING:
 FAIL_EXIT_STATUS = 3
 JSON_KEYS = (
     "offset_uT", "soft_iron", "field_uT", "rms_residual_uT", "rms_residual_pct", "condition",
-    "samples_used", "samples_rejected", "verdict", "reasons",
+    "samples_used", "samples_rejected", "verdict", "reasons", "gyr_correction", "gyr_quality",
 )
 _PROTOCOL_FOLDER = re.compile(r"^[a-z0-9_]+-[0-9]+$")
 
@@ -128,6 +132,26 @@ def _samples_uT(recordings: list[MagRecording], args: argparse.Namespace) -> tup
     return mag, (acc if np.isfinite(acc).any() else None)
 
 
+def _gyr_samples(recordings: list[MagRecording]) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The times (N,) s and raw gyroscope rates (N, 3) rad/s at the magnetometer's samples of
+    ``recordings``, in order (a gyroscope sampled at other instants gives its mean rate over each
+    magnetometer interval); (None, None) unless every recording has gyroscope samples in the
+    magnetometer's frame."""
+    import numpy as np
+
+    from mimucap.core.magcal.gyro_scale import rates_at
+
+    times, rates = [], []
+    for recording in recordings:
+        imu = recording.imu
+        if imu is None or imu.gyr is None or recording.t_s is None or not recording.imu_in_mag_frame:
+            return None, None
+        times.append(recording.t_s)
+        same = len(imu.t_s) == len(recording.t_s) and np.array_equal(imu.t_s, recording.t_s)
+        rates.append(imu.gyr if same else rates_at(recording.t_s, imu.t_s, imu.gyr))
+    return np.concatenate(times), np.vstack(rates)
+
+
 def _sensor_id(recordings: list[MagRecording], requested: str | None) -> str:
     if requested is not None:
         return requested
@@ -155,12 +179,14 @@ def _fit(recordings: list[MagRecording], sensor_id: str, args: argparse.Namespac
     from mimucap.core.magcal.fit import FitSettings
 
     mag, acc = _samples_uT(recordings, args)
+    t_s, gyr = _gyr_samples(recordings)
     created = datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ")
     devices = {r.device_id for r in recordings}
     try:
         return calibrate(
             mag, sensor_id, acc=acc, settings=FitSettings(method=args.method, field_uT=args.field_uT),
             protocol=protocol, created_utc=created, device_id=devices.pop() if len(devices) == 1 else None,
+            t_s=t_s, gyr_raw_rad_s=gyr,
         )
     except ValueError as error:  # e.g. too few samples: say whose samples
         raise ValueError(f"{_samples_origin(recordings, sensor_id)}: {error}") from None
@@ -180,6 +206,8 @@ def _summary(result) -> dict:
         "samples_rejected": fit.samples_rejected,
         "verdict": quality.verdict,
         "reasons": list(quality.reasons),
+        "gyr_correction": [[float(v) for v in row] for row in result.calibration.gyr_correction],
+        "gyr_quality": result.calibration.gyr_quality,
     }
 
 
@@ -218,6 +246,7 @@ def _print_detail(result, heading: str, saved: Path | None) -> None:
     print(f"verdict        {quality.verdict}")
     for reason in quality.reasons:
         print(f"  - {reason}")
+    print(f"gyroscope      {result.gyro.summary()}")
     print(f"device         {describe_device(result.calibration.device_id) if result.calibration.device_id else 'not known'}")
     if saved is not None:
         print(f"saved          {saved}")
@@ -327,6 +356,7 @@ def _run_session_fit(args: argparse.Namespace) -> int:
               f"{'yes' if saved[sid] is not None else '-'}")
         for reason in quality.reasons:
             print(f"  - {reason}")
+        print(f"  gyroscope {results[sid].gyro.summary()}")
     devices = sorted({r.device_id.partition("/")[0] for r in recordings.values() if r.device_id})
     unknown = [sid for sid, r in recordings.items() if not r.device_id]
     if devices:

@@ -11,16 +11,19 @@ one, and every file written before calibrations were tied to devices). The data 
 ``~/.local/share/mimucap``. Writes are atomic (temporary file + rename).
 
 The JSON object (format version :data:`CALIBRATION_FORMAT_VERSION`; version 1 had no
-``device_id`` and is read as a calibration of an unknown device)::
+``device_id`` and is read as a calibration of an unknown device; versions 1 and 2 had no
+gyroscope correction and are read with the identity, their ``gyr_quality`` saying so)::
 
     {"format": "mimucap-magcal", "format_version": 2, "sensor_id": "S01",
      "device_id": "mac:A1B2C3D4E5F6", "created_utc": "2026-11-21T06:30:00Z",
      "protocol": "single_axis", "samples_used": 2400, "offset_uT": [bx, by, bz],
      "soft_iron": [[...], [...], [...]], "field_uT": 49.3,
-     "quality": {"rms_residual_uT": ..., "verdict": "good", ...}}
+     "quality": {"rms_residual_uT": ..., "verdict": "good", ...},
+     "gyr_correction": [[...], [...], [...]], "gyr_quality": {"applied": true, ...}}
 
 ``soft_iron`` is ``A⁻¹`` (symmetric); apply as ``mag_cal = soft_iron @ (mag_raw − offset_uT)``
-(sensor frame, µT). The same object is what every other place keeps of a calibration:
+(sensor frame, µT); ``gyr_correction`` ``C`` as ``ω = C @ ω_raw`` (sensor frame, rad/s; the
+identity when the turns did not determine it, :mod:`mimucap.core.magcal.gyro_scale`). The same object is what every other place keeps of a calibration:
 
 * a file given on the command line (``--mag-calibration FILE``, :func:`read_calibration_file`);
 * a session file: the magnetometer calibrations a recording applied under
@@ -61,7 +64,9 @@ from mimucap.core.magcal.model import MagCalibration
 from mimucap.io.json_document import read_json_document
 
 CALIBRATION_FORMAT = "mimucap-magcal"
-CALIBRATION_FORMAT_VERSION = 2
+CALIBRATION_FORMAT_VERSION = 3
+#: What an older file without a gyroscope correction says of it.
+NO_GYRO_CORRECTION = {"applied": False, "reason": "calibrated before MimuCap estimated the gyroscope's scale"}
 #: Sub-folder of the store holding the calibrations of known devices.
 DEVICES_FOLDER = "devices"
 #: Key of the magnetometer calibrations in ``Session.calibrations``.
@@ -99,6 +104,8 @@ def calibration_to_json(calibration: MagCalibration) -> dict[str, Any]:
         "soft_iron": [[float(v) for v in row] for row in calibration.soft_iron],
         "field_uT": float(calibration.field_uT),
         "quality": _plain(calibration.quality),
+        "gyr_correction": [[float(v) for v in row] for row in calibration.gyr_correction],
+        "gyr_quality": _plain(calibration.gyr_quality),
     }
 
 
@@ -158,6 +165,8 @@ def calibration_from_json(
             samples_used=int(data.get("samples_used", 0)),
             quality=dict(data.get("quality") or {}),
             device_id=device_id,
+            gyr_correction=np.asarray(data.get("gyr_correction", np.eye(3)), dtype=np.float64),
+            gyr_quality=dict(data["gyr_quality"] if "gyr_quality" in data else NO_GYRO_CORRECTION),
         )
     except (KeyError, TypeError, ValueError) as error:
         raise CalibrationFileError(f"{source}: invalid calibration ({error})") from error

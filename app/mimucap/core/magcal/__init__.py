@@ -6,9 +6,10 @@ magnetometer"), one concept per module:
 * :mod:`.fit` — the ellipsoid fit (Li & Griffiths, and the general quadric), robust to outliers;
 * :mod:`.quality` — the fit's quality figures and its good / warn / fail verdict;
 * :mod:`.calibrate` — fit and quality in one call, giving the calibration record;
+* :mod:`.gyro_scale` — the gyroscope's scale and cross-axis correction from the same turns;
 * :mod:`.guidance` — the one-turn-per-axis protocol, followed sample by sample;
 * :mod:`.standing` — how a calibration stands for a sensor now (device, local field, age);
 * :mod:`.study` — the comparison of calibration protocols on simulated sensors.
 
-Fields in µT, sensor frame.
+Fields in µT, rates rad/s, sensor frame.
 """

@@ -8,6 +8,11 @@ it belongs to and refuses to be applied to another one, the device it was made o
 (:mod:`mimucap.core.device_identity`; ``None`` when the source did not say), the creation date (ISO 8601 UTC,
 supplied by the caller: the core reads no clock), the protocol used, the sample count and
 its quality figures.
+
+It also carries the sensor's gyroscope correction ``gyr_correction`` (3, 3), estimated from the
+same turns (:mod:`mimucap.core.magcal.gyro_scale`) and applied as ``ω = gyr_correction @ ω_raw``
+before the orientation filter; the identity when the turns did not determine it (or the
+calibration predates it), with the reason in ``gyr_quality``.
 """
 
 from __future__ import annotations
@@ -33,6 +38,9 @@ class MagCalibration:
     samples_used: samples in the final fit. quality: :meth:`Quality.as_dict` figures.
     device_id: the device the samples came from (:func:`~mimucap.core.device_identity.check_device_id`),
     ``None`` when it is not known (a file without one, a node that does not say).
+    gyr_correction: ``C`` (3, 3), dimensionless, the gyroscope's scale and cross-axis correction
+    (``ω_rad_s = C @ ω_raw_rad_s``, sensor frame); gyr_quality: the figures of its estimate
+    (:meth:`~mimucap.core.magcal.gyro_scale.GyroScaleEstimate.as_dict`; empty when none was made).
     """
 
     sensor_id: str
@@ -44,6 +52,8 @@ class MagCalibration:
     samples_used: int = 0
     quality: dict = field(default_factory=dict)
     device_id: str | None = None
+    gyr_correction: FloatArray = field(default_factory=lambda: np.eye(3))
+    gyr_quality: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         offset = np.asarray(self.offset_uT, dtype=np.float64)
@@ -62,6 +72,11 @@ class MagCalibration:
             raise ValueError("a magnetometer calibration needs a sensor id")
         if self.device_id is not None:
             check_device_id(self.device_id, f"sensor {self.sensor_id}")
+        correction = np.asarray(self.gyr_correction, dtype=np.float64)
+        if correction.shape != (3, 3) or not np.all(np.isfinite(correction)) or np.linalg.det(correction) <= 0:
+            raise ValueError(f"sensor {self.sensor_id}: gyr_correction must be a finite 3×3 matrix with a positive "
+                             "determinant")
+        object.__setattr__(self, "gyr_correction", correction)
         object.__setattr__(self, "offset_uT", offset)
         object.__setattr__(self, "soft_iron", soft_iron)
 
@@ -74,3 +89,12 @@ class MagCalibration:
                 f"to sensor {sensor_id!r}: calibrate that sensor"
             )
         return apply_correction(mag_raw, self.offset_uT, self.soft_iron)
+
+    @property
+    def corrects_gyr(self) -> bool:
+        """Whether the gyroscope correction is other than the identity."""
+        return not np.array_equal(self.gyr_correction, np.eye(3))
+
+    def correct_gyr(self, gyr_raw_rad_s: ArrayLike) -> FloatArray:
+        """Rates ``gyr_correction @ ω_raw`` (..., 3), rad/s, sensor frame."""
+        return np.asarray(gyr_raw_rad_s, dtype=np.float64) @ self.gyr_correction.T

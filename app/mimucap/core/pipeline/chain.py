@@ -6,6 +6,9 @@ Steps 1 and 2 of the processing path (:mod:`mimucap.core.pipeline`), one object 
 1. **Magnetometer calibration** (Choe, Zhao, Qiu, So, "Study of calibration method of low-cost
    MEMS magnetometer"): ``mag_cal_uT = soft_iron · (mag_raw_uT − offset_uT)``
    (:class:`~mimucap.core.magcal.model.MagCalibration`); a sensor without one keeps its raw field.
+   The same calibration's gyroscope correction (scale factors and cross-axis terms estimated from
+   its turns, :mod:`mimucap.core.magcal.gyro_scale`) turns the raw rates into ``C @ ω_raw``
+   before the filter (the identity when it has none).
 2. **Orientation**: a device that fuses on board (BNO055, SlimeVR trackers) sends its own
    ``q_world_from_sensor``, which is taken as it is; any other sensor with a gyroscope goes
    through the error-state Kalman filter of Zhang, Gao, Zhou ("Head attitude sensing algorithm
@@ -43,7 +46,7 @@ from __future__ import annotations
 import math
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -157,6 +160,13 @@ class SensorChain:
             return mag_raw_uT
         return self.mag_calibration.apply(mag_raw_uT, self.sensor_id)
 
+    def corrected_gyr(self, samples: SensorSamples) -> SensorSamples:
+        """``samples`` with their rates corrected by this sensor's gyroscope correction (the
+        same record when there is none to apply)."""
+        if samples.gyr is None or self.mag_calibration is None or not self.mag_calibration.corrects_gyr:
+            return samples
+        return replace(samples, gyr=self.mag_calibration.correct_gyr(samples.gyr))
+
     def takes_onboard(self, samples: SensorSamples) -> bool:
         """The on-board-orientation rule: samples that carry ``q_world_from_sensor`` come from a
         device that fuses on board, and that orientation is used as it is (the chain is marked
@@ -246,6 +256,7 @@ class SensorChain:
             return SensorOrientations(self.sensor_id, t, q, None, flags, True, reasons, np.full(n, math.nan))
         if samples.gyr is None:
             raise ValueError(f"sensor {self.sensor_id}: neither an on-board orientation nor a gyroscope to fuse")
+        samples = self.corrected_gyr(samples)
         mag = self.calibrated_mag(samples.mag_uT)
         ekf = self._filters_for(mag is not None)
         store = SmootherStore(n) if smoothed else None
@@ -319,6 +330,7 @@ def update_chains(chains: Sequence[SensorChain], blocks: Sequence[SensorSamples]
     (:func:`~mimucap.core.pipeline.sensor_doubt.update_together`).
     """
     count = len(blocks)
+    blocks = [chain.corrected_gyr(block) for chain, block in zip(chains, blocks)]
     calibrated: list[np.ndarray | None] = [None] * count
     fused: list[int] = []
     onboard: list[int] = []

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
+from html import escape
 
 import numpy as np
 from PyQt5 import QtCore, QtGui, QtWidgets
@@ -470,7 +471,8 @@ class MagnetometerWizard(CalibrationDialog):
                 f"Field after correction: {cal.field_uT:.1f} µT; residual {q.rms_residual_uT:.2f} µT "
                 f"({q.rms_residual_pct:.1f} %)<br>Coverage x/y/z: "
                 f"{' / '.join(f'{c * 100:.0f}%' for c in q.axis_coverage)} (condition {q.condition:.1f})</p>"
-                f"<p>Soft-iron correction:</p><pre>{_matrix_text(cal.soft_iron)}</pre>")
+                f"<p>Soft-iron correction:</p><pre>{_matrix_text(cal.soft_iron)}</pre>"
+                f"<p>Gyroscope, from the same turns: {escape(outcome.result.gyro.summary())}</p>")
         if outcome.previous is not None:
             p = outcome.previous
             html.append(f"<p><b>Previous calibration</b> ({p.created_utc}, {describe_age(p.age_days)}, {p.verdict}): "

@@ -26,7 +26,9 @@ recorded. Phases: ``"ready"`` → ``"recording"`` → ``"result"`` (``redo`` goe
 Results (:class:`SensorOutcome`) carry the fit, its quality, the verdict and reasons in the
 words of the person calibrating ("turn about y again: coverage too low"), and the sensor's
 previous calibration with its age. :meth:`accept` stores the calibrations of the sensors
-whose verdict is not ``fail`` in a :class:`~mimucap.io.calibration_store.CalibrationStore`.
+whose verdict is not ``fail`` in a :class:`~mimucap.io.calibration_store.CalibrationStore`, each
+with the gyroscope's scale correction its turns gave (:mod:`mimucap.core.magcal.gyro_scale`;
+the outcome's ``gyro`` line says it, or why none is applied).
 
 Units: s, µT, m/s², rad/s, sensor frames.
 """
@@ -142,28 +144,26 @@ class MagcalStatus:
 
 
 class _Recording:
-    """Growing per-sensor sample arrays (t (N,), mag (N,3), acc (N,3))."""
+    """Growing per-sensor sample arrays (t (N,), mag (N,3), acc (N,3), gyr (N,3))."""
 
     def __init__(self) -> None:
-        self.t: list[np.ndarray] = []
-        self.mag: list[np.ndarray] = []
-        self.acc: list[np.ndarray] = []
+        self.columns: list[list[np.ndarray]] = [[], [], [], []]
         self.count = 0
 
-    def add(self, t: np.ndarray, mag: np.ndarray, acc: np.ndarray) -> None:
+    def add(self, t: np.ndarray, mag: np.ndarray, acc: np.ndarray, gyr: np.ndarray) -> None:
         good = np.all(np.isfinite(mag), axis=1) & np.isfinite(t)
         if np.any(good):
-            self.t.append(t[good])
-            self.mag.append(mag[good])
-            self.acc.append(acc[good])
+            for column, values in zip(self.columns, (t, mag, acc, gyr)):
+                column.append(values[good])
             self.count += int(good.sum())
 
-    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        if not self.t:
-            return np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3))
-        if len(self.t) > 1:
-            self.t, self.mag, self.acc = [np.concatenate(self.t)], [np.concatenate(self.mag)], [np.concatenate(self.acc)]
-        return self.t[0], self.mag[0], self.acc[0]
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if not self.count:
+            return np.zeros(0), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3))
+        if len(self.columns[0]) > 1:
+            self.columns = [[np.concatenate(column)] for column in self.columns]
+        t, mag, acc, gyr = (column[0] for column in self.columns)
+        return t, mag, acc, gyr
 
 
 def _strip_severity(reason: str) -> str:
@@ -256,7 +256,7 @@ class MagcalProcedure:
     def samples(self, sensor_id: str) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """Recorded ``t_s`` (N,), ``mag_uT`` (N, 3) and ``acc`` (N, 3) of ``sensor_id``
         (``acc`` None unless every sample has a finite one)."""
-        t, mag, acc = self._recordings[sensor_id].arrays()
+        t, mag, acc, _gyr = self._recordings[sensor_id].arrays()
         return t, mag, (acc if acc.shape[0] and np.all(np.isfinite(acc)) else None)
 
     def guidance(self, sensor_id: str) -> GuidanceState:
@@ -285,7 +285,7 @@ class MagcalProcedure:
                 if block.mag_uT is None or block.gyr is None:
                     continue  # a unit without magnetometer or gyroscope cannot be calibrated here
                 acc = block.acc if block.acc is not None else np.full_like(block.mag_uT, np.nan)
-                self._recordings[sensor_id].add(block.t_s, block.mag_uT, acc)
+                self._recordings[sensor_id].add(block.t_s, block.mag_uT, acc, block.gyr)
                 self._guides[sensor_id].update(block.t_s, block.gyr, block.acc)
                 if self._start_t is None:
                     self._start_t = float(block.t_s[0])
@@ -331,12 +331,13 @@ class MagcalProcedure:
         outcomes = {}
         for sensor_id in self.sensor_ids:
             t, mag, acc = self.samples(sensor_id)
+            gyr = self._recordings[sensor_id].arrays()[3]
             guide = self._guides[sensor_id].state if self.protocol == "single_axis" else None
             result, refusal = None, None
             try:
                 result = calibrate(mag, sensor_id, acc, self.settings.fit, self.settings.thresholds,
                                    protocol=self.protocol, created_utc=created,
-                                   device_id=self.feed.device(sensor_id).device_id)
+                                   device_id=self.feed.device(sensor_id).device_id, t_s=t, gyr_raw_rad_s=gyr)
             except FitRefused as error:
                 refusal = str(error)
             verdict = "fail" if result is None else result.quality.verdict

@@ -8,7 +8,8 @@ Every file, report and picture MimuCap writes carries one :class:`Provenance` re
 * **body calibration**: its method, verdict, when it was made and where it came from (made live,
   a ``CAL.json`` file, imported), or none, and what that leaves meaningless;
 * **magnetometer calibrations**: per sensor its verdict and its age at the recording's start
-  (ISO dates are compared, so the figure is the same whenever the file is written), or that the
+  (ISO dates are compared, so the figure is the same whenever the file is written) and whether
+  it corrected the gyroscope's scale (:mod:`mimucap.core.magcal.gyro_scale`), or that the
   raw field was used, or that the device fuses its orientation on board; sensors that read
   alike share a sentence;
 * **skeleton model** (and the subject's height), **software** version (and the one that
@@ -103,12 +104,14 @@ def describe_offset(hours: float | None, event: str = "the recording") -> str:
 
 def _magnetometer(calibrations: AppliedCalibrations, recorded: datetime | None) -> tuple[str, ...]:
     """One sentence per group of sensors that read alike (``"S01, S02: good, made 2.0 h before
-    the recording"``), in the sensors' order."""
+    the recording, gyroscope scale corrected"``), in the sensors' order."""
     said: dict[str, list[str]] = {}
     for sensor_id, calibration in calibrations.magnetometer.items():
         verdict = (calibration.quality or {}).get("verdict") or "verdict unknown"
         made = parse_utc(calibration.created_utc)
-        said.setdefault(f"{verdict}, made {describe_offset(_hours_between(made, recorded))}", []).append(sensor_id)
+        gyroscope = "gyroscope scale corrected" if calibration.corrects_gyr else "gyroscope scale not corrected"
+        said.setdefault(f"{verdict}, made {describe_offset(_hours_between(made, recorded))}, {gyroscope}",
+                        []).append(sensor_id)
     for sensor_id in calibrations.raw_field:
         said.setdefault("none (raw field used)", []).append(sensor_id)
     for sensor_id in calibrations.onboard:
