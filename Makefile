@@ -13,11 +13,15 @@ STAMP := $(VENV)/.mimucap-installed
 TEST_STAMP := $(VENV)/.mimucap-test-installed
 BENCH_STAMP := $(VENV)/.mimucap-bench-installed
 # Debian packages for a virtual X server and the Qt xcb platform plugin; poppler-utils
-# (pdftoppm) turns the PDF report's pages into pictures in its test.
-XVFB_DEBS := poppler-utils xvfb xauth libxcb-icccm4 libxcb-keysyms1 libxcb-xinerama0 libxcb-randr0 \
+# (pdftoppm) turns the PDF report's pages into pictures in its test; x11-utils (xwininfo) lets
+# bench/bench_first_window.py see the window appear.
+XVFB_DEBS := poppler-utils x11-utils xvfb xauth libxcb-icccm4 libxcb-keysyms1 libxcb-xinerama0 libxcb-randr0 \
 	libxcb-render-util0 libxcb-image0 libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0 \
 	libxcb-cursor0 libegl1 libgl1 libglx-mesa0 libegl-mesa0
 XVFB_RUN := xvfb-run -a -s "-screen 0 1920x1200x24"
+# The suite runs in this many processes (pytest-xdist), one per core up to four; each test file
+# stays in one process, so its shared recordings are made once.
+TEST_WORKERS ?= $(shell n=$$(nproc 2>/dev/null || echo 1); [ $$n -gt 4 ] && n=4; echo $$n)
 
 .PHONY: run test install screenshots bench wheel wheel-check bundle bundle-check clean debs
 
@@ -64,7 +68,7 @@ debs:
 	fi
 
 test: debs $(TEST_STAMP) $(KERNELS_STAMP)
-	QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider
+	QT_API=pyqt5 $(XVFB_RUN) $(PY) -m pytest -q -p no:cacheprovider -n $(TEST_WORKERS) --dist loadfile
 
 screenshots: debs $(KERNELS_STAMP)
 	QT_API=pyqt5 xvfb-run -a -s "-screen 0 1366x768x24" $(PY) packaging/make_screenshots.py docs/screenshots --guide resources/guide/img
