@@ -21,6 +21,7 @@ from mimucap.session.live.processing import POSE_UNASSIGNED
 from mimucap.session.live.sensor_rows import STALE_AFTER_S
 from mimucap.session.live.recorder import open_session
 from mimucap.session.recorded.review import ReviewPlayer, load_review
+from tests.known_mounting import known_mounting_calibration
 
 
 def _session(scenario: str = "walk", **config) -> tuple[LiveSession, list[float]]:
@@ -222,10 +223,12 @@ def test_an_applied_body_calibration_drives_the_figure_from_the_sensors():
 @pytest.mark.parametrize("n_sensors", [10, 17])
 def test_joint_series_and_frames_follow_every_pose(n_sensors):
     """Joint angles computed in batches (as the plots ask) and the figure of the newest pose
-    equal the skeleton functions applied to each pose the pipeline produced."""
+    equal the skeleton functions applied to each pose the pipeline produced (through a body
+    calibration: before one the figure is the outline and no joint angles are kept)."""
     from mimucap.core import skeleton
 
     session, now = _session("walk", n_sensors=n_sensors)
+    session.apply_body_calibration(known_mounting_calibration(session))
     times, poses = [], []
     for tick in range(60):
         now[0] += 0.01
@@ -237,7 +240,8 @@ def test_joint_series_and_frames_follow_every_pose(n_sensors):
         if tick % 7 == 0:
             _, geometry = session.frame()
             expected = session.builder.build(
-                skeleton.forward_kinematics(session.model, poses[-1], session.height_m, session.pose.root_m))  # root: where it stands
+                skeleton.forward_kinematics(session.model, poses[-1], session.height_m, session.pose.root_m),  # root: where it stands
+                heading_ref_rad=session.calibrations.heading_ref_rad)
             np.testing.assert_allclose(geometry.segment_matrices, expected.segment_matrices, rtol=0, atol=1e-12)
             np.testing.assert_allclose(geometry.joint_matrices, expected.joint_matrices, rtol=0, atol=1e-12)
     model = session.model
