@@ -21,6 +21,7 @@ import pyqtgraph as pg
 import pyqtgraph.exporters  # noqa: F401  (registers ImageExporter)
 from PyQt5 import QtCore, QtWidgets
 
+from mimucap.core.analysis.rom import marker_words
 from mimucap.core.clinical_names import angle_label, angle_sign_text
 from mimucap.core.wording import fixed
 from mimucap.gui.background_task import BackgroundTask
@@ -66,8 +67,8 @@ class ExportDialog(QtWidgets.QDialog):
         self.marker_b = QtWidgets.QComboBox(range_box)
         for combo in (self.marker_a, self.marker_b):
             for marker in data.markers:
-                combo.addItem(f"{marker.label} ({marker.t_s:.2f} s)")
-                combo.setItemData(combo.count() - 1, marker.label, QtCore.Qt.ToolTipRole)
+                combo.addItem(f"{marker_words(marker.label)} ({marker.t_s:.2f} s)")
+                combo.setItemData(combo.count() - 1, marker_words(marker.label), QtCore.Qt.ToolTipRole)
         if len(data.markers) >= 2:
             self.marker_b.setCurrentIndex(1)
         else:
