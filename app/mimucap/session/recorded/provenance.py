@@ -14,7 +14,7 @@ Every file, report and picture MimuCap writes carries one :class:`Provenance` re
 * **skeleton model** ("10-segment skeleton", and the subject's height), **software** version
   (and the one that recorded), **source file**.
 
-Every field is a sentence a clinician reads: qualities in words (:data:`QUALITY_WORDS`: the
+Every field is a sentence a clinician reads: qualities in words (:data:`~mimucap.session.views.calibration_age.QUALITY_WORDS`: the
 verdicts ``warn`` and ``fail`` read "fair" and "poor"), times in local date and time; the
 machine-readable values stay in the files' own fields (the calibrations' JSON, the session's
 metadata), never in these lines.
@@ -35,13 +35,11 @@ from mimucap.core.pipeline.settings import RESULT_LABELS
 from mimucap.core.skeleton import SkeletonModel
 from mimucap.io.library import parse_utc, recorded_utc
 from mimucap.session.recorded.calibration_choice import AppliedCalibrations, body_created_utc
-from mimucap.session.views.calibration_age import local_time_text
+from mimucap.session.views.calibration_age import local_time_text, quality_word
 
 #: How each body calibration method is named.
 METHOD_NAMES = {"npose_tpose": "N-pose/T-pose", "heading": "heading from a sensor axis",
                 "functional": "functional (standing still, then walking)", "xsens-mvn": "Xsens MVN calibration"}
-#: A calibration's verdict (magnetometer: good/warn/fail; body: good/acceptable/poor) as people read it.
-QUALITY_WORDS = {"good": "good", "warn": "fair", "acceptable": "fair", "fail": "poor", "poor": "poor"}
 #: What a result without a body calibration cannot give.
 WITHOUT_BODY_CALIBRATION = ("none: the segments follow the sensors' own axes, so joint angles, range of motion "
                             "and spatial gait parameters mean nothing")
@@ -107,13 +105,6 @@ def describe_offset(hours: float | None, event: str = "the recording") -> str:
     else:
         amount = f"{size / 24.0:.0f} days"
     return f"{amount} {side} {event}"
-
-
-def quality_word(verdict: str | None) -> str:
-    """A calibration's verdict in words (:data:`QUALITY_WORDS`); "quality unknown" without one."""
-    if not verdict:
-        return "quality unknown"
-    return QUALITY_WORDS.get(verdict, verdict)
 
 
 def _magnetometer(calibrations: AppliedCalibrations, recorded: datetime | None) -> tuple[str, ...]:

@@ -1,5 +1,5 @@
-"""How old a calibration is, in the words the windows use ("3 days ago"), and a moment in local
-date and time ("28 Nov 2026, 09:14") (no Qt).
+"""How old a calibration is, in the words the windows use ("3 days ago"), how good it is ("fair"),
+and a moment in local date and time ("28 Nov 2026, 09:14") (no Qt).
 
 Ages are computed from a calibration's ``created_utc`` (ISO 8601, UTC) against an aware UTC
 ``now``; they are read in the magnetometer wizard, the sensor table and the checklist alike.
@@ -10,6 +10,16 @@ from __future__ import annotations
 import datetime as _dt
 
 from mimucap.core.wording import plural
+
+#: A calibration's verdict (magnetometer: good/warn/fail; body: good/acceptable/poor) as people read it.
+QUALITY_WORDS = {"good": "good", "warn": "fair", "acceptable": "fair", "fail": "poor", "poor": "poor"}
+
+
+def quality_word(verdict: str | None) -> str:
+    """A calibration's verdict in words (:data:`QUALITY_WORDS`); "quality unknown" without one."""
+    if not verdict:
+        return "quality unknown"
+    return QUALITY_WORDS.get(verdict, verdict)
 
 
 def utc_now() -> _dt.datetime:
