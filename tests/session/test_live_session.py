@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import simulate_session
 from mimucap.io.session import read_session, session_from_simulation, write_session
-from mimucap.session.recorded.export import ExportRequest, marker_range, run_export, summary_table
+from mimucap.session.recorded.export import ExportRequest, marker_range, recording_start_s, run_export, summary_table
 from mimucap.session.sources.feeds import SimulatorFeed
 from mimucap.core.pipeline.recording import POSE_SENSOR_AXES
 from mimucap.session.live.evaluation import TRUTH_NOTE
@@ -128,6 +129,16 @@ def test_recording_markers_review_and_export(tmp_path):
     exported = run_export(data, ExportRequest(tmp_path / "out", a, b, sensors_csv=True))
     names = sorted(p.name for p in exported.files)
     assert {"out_joint_angles.csv", "out_joint_angles.mot", "out_joint_angle_summary.csv", "out_sensor_S01_raw.csv"} <= set(names)
+    # the whole recording's range starts at its start, never at the negative time of a pose made
+    # from the samples of the poll running when Record was pressed
+    assert recording_start_s(data) == max(0.0, data.start_s)
+    assert recording_start_s(SimpleNamespace(start_s=-0.14, end_s=6.0)) == 0.0
+    assert recording_start_s(SimpleNamespace(start_s=0.3, end_s=6.0)) == 0.3
+    assert recording_start_s(SimpleNamespace(start_s=-5.0, end_s=-1.0)) == -5.0
+    whole = run_export(data, ExportRequest(tmp_path / "whole", recording_start_s(data), data.end_s))
+    first_time = next(line for line in (tmp_path / "whole_joint_angles.csv").read_text().splitlines()
+                      if line[:1].isdigit() or line[:1] == "-").split(",")[0]
+    assert float(first_time) >= 0.0 and whole.files
     rows = summary_table({"x_deg": np.array([-5.0, 10.0, 2.0])})
     assert rows[0].minimum_deg == -5.0 and rows[0].maximum_deg == 10.0 and rows[0].rom_deg == 15.0
     with pytest.raises(ValueError, match="end after its start"):
