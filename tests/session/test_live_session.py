@@ -114,7 +114,16 @@ def test_recording_markers_review_and_export(tmp_path):
 
     data = load_review(result.session_path)
     player = ReviewPlayer(data)
+    # recorded before a body calibration: the review, like the live view, shows the outline with
+    # each sensor on its segment (turned as its orientation was), and no truth beside it
+    assert data.body_calibration is None
+    _, geometry = player.frame()
+    assert geometry.outline and dict(zip(geometry.sensor_glyphs.sensor_ids, geometry.sensor_glyphs.segments)) == {
+        sensor: stream.segment for sensor, stream in stored.sensors.items() if stream.segment is not None}
+    assert player.truth_frame() is None
     assert player.seek_marker(1) == pytest.approx(stored.markers[1].t_s)
+    moved = player.frame()[1].sensor_glyphs.matrices
+    assert not np.allclose(moved, geometry.sensor_glyphs.matrices)
     player.set_speed(2.0)
     player.play()
     player.advance(0.5)

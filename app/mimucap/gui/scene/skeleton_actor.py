@@ -48,7 +48,7 @@ CONNECTOR_COLOUR = (0.78, 0.78, 0.80)
 MARKER_COLOUR = (0.15, 0.18, 0.25)
 #: The neutral outline before a body calibration: one calm grey for every piece, no tints (the
 #: sensors' states are on their glyphs).
-OUTLINE_COLOUR = (0.70, 0.71, 0.73)
+OUTLINE_COLOUR = (0.58, 0.60, 0.63)
 #: Capsule material, lit by a headlight: ambient and diffuse parts of the base colour, and a
 #: white highlight of this strength and exponent.
 AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER = 0.22, 0.78, 0.30, 12.0
