@@ -394,8 +394,10 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
     labels = (f"before ({before.review.path.name})", f"after ({after.review.path.name})")
     try:
         _header(doc, after, "MimuCap comparison report")
-        doc.text(f"Before: {before.review.path.name}, recorded {before.review.session.metadata.get('created_utc') or 'not recorded'}. "
-                 f"After: {after.review.path.name}, recorded {after.review.session.metadata.get('created_utc') or 'not recorded'}.", 9)
+        doc.text(f"Before: {before.review.path.name}, recorded "
+                 f"{local_time_text(str(before.review.session.metadata.get('created_utc') or ''))}. "
+                 f"After: {after.review.path.name}, recorded "
+                 f"{local_time_text(str(after.review.session.metadata.get('created_utc') or ''))}.", 9)
         for label, analysis in (("Before", before), ("After", after)):
             doc.text(f"What the {label.lower()} session's figures hold", 10, True, gap=3)
             for item, text in analysis.review.provenance.items():
