@@ -14,12 +14,11 @@ from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import NDArray
-from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkFiltersSources import vtkCubeSource
 from vtkmodules.vtkRenderingCore import vtkPolyDataMapper, vtkRenderer
 
 from mimucap.gui.scene.placed_copies import PlacedCopies, rgb_bytes, unit_shape
-from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata
+from mimucap.gui.scene.polydata import colour_by_point_rgb, shaded_mesh
 from mimucap.gui.scene.skeleton_actor import TINTS, figure_actor
 from mimucap.session.views.skeleton_figure import SensorGlyphs
 
@@ -74,14 +73,8 @@ class SensorGlyphActor:
             for axis, colour in enumerate(AXIS_COLOURS):
                 self._colours[self._copies.vertex_range(4 * k + 1 + axis)] = rgb_bytes(colour)
         self._states = {}
-        self._vtk_points = numpy_to_vtk(self._points, deep=False)
-        self._vtk_normals = numpy_to_vtk(self._normals, deep=False)
-        self._vtk_normals.SetName("Normals")
-        self._vtk_colours = numpy_to_vtk(self._colours, deep=False)
-        self._vtk_colours.SetName("Colours")
-        self.polydata = polydata(self._vtk_points, self._copies.triangles())
-        self.polydata.GetPointData().SetNormals(self._vtk_normals)
-        self.polydata.GetPointData().SetScalars(self._vtk_colours)
+        self.polydata, (self._vtk_points, self._vtk_normals, self._vtk_colours) = shaded_mesh(
+            self._points, self._normals, self._colours, self._copies.triangles())
         mapper = vtkPolyDataMapper()
         mapper.SetInputData(self.polydata)
         colour_by_point_rgb(mapper)

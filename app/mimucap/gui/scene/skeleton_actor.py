@@ -30,7 +30,7 @@ from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLSphereMapper
 
 from mimucap.gui.scene.placed_copies import PlacedCopies, UnitShape, rgb_bytes, unit_shape
-from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata
+from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata, shaded_mesh
 from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry
 
 #: Segment colour (RGB 0..1) for each sensor state (see ``mimucap.session.live.status``).
@@ -107,15 +107,9 @@ class SkeletonActor:
         self._colours[self._connectors.first:self._connectors.stop] = rgb_bytes(CONNECTOR_COLOUR)
 
         # VTK arrays that share memory with the numpy arrays above (kept referenced).
-        self._vtk_points = numpy_to_vtk(self._points, deep=False)
-        self._vtk_normals = numpy_to_vtk(self._normals, deep=False)
-        self._vtk_normals.SetName("Normals")
-        self._vtk_colours = numpy_to_vtk(self._colours, deep=False)
-        self._vtk_colours.SetName("Colours")
         triangles = np.concatenate([b.triangles() for b in (self._segments, self._connectors)])
-        self.polydata = polydata(self._vtk_points, triangles)
-        self.polydata.GetPointData().SetNormals(self._vtk_normals)
-        self.polydata.GetPointData().SetScalars(self._vtk_colours)
+        self.polydata, (self._vtk_points, self._vtk_normals, self._vtk_colours) = shaded_mesh(
+            self._points, self._normals, self._colours, triangles)
         mapper = vtkPolyDataMapper()
         mapper.SetInputData(self.polydata)
         colour_by_point_rgb(mapper)
