@@ -15,8 +15,8 @@ the sensors on it (:meth:`~mimucap.session.views.skeleton_figure.FigureBuilder.b
 no root is tracked and no joint angles are kept: angles between two sensors' axes are not joint
 angles, and a plot of them (or an error against the truth) would say nothing but "not calibrated".
 
-Interface: ``take(t_s, q_world_from_segment, segment_of_sensor=None)``, ``reset()`` (a new body calibration: where the
-figure stands is found again), ``set_height(height_m)``, ``set_display_mode(mode)``,
+Interface: ``take(t_s, q_world_from_segment, segment_of_sensor=None)``, ``reset()`` (a new body
+calibration: where the figure stands is found again), ``set_height(height_m)``, ``set_display_mode(mode)``,
 ``frame(heading_ref_rad)``, ``figure_of(q_world_from_segment, frame_id, heading_ref_rad)``
 (another pose standing where this one stands: the simulator's truth), ``joint_series(joint,
 window_s)``, and the properties ``time_s``, ``q_world_from_segment``, ``frame_id``,
@@ -103,11 +103,6 @@ class LivePose:
             self._root_m = None
         self.new_frame()
 
-    @property
-    def calibrated(self) -> bool:
-        """Whether the newest pose came through a body calibration (False before any pose)."""
-        return self._q is not None and self._uncalibrated is None
-
     def _drop_angles(self) -> None:
         """Forget the joint angles kept (they belong to a pose that is no longer shown)."""
         self._pending = []
@@ -181,7 +176,9 @@ class LivePose:
         the same display mode (the simulator's truth beside the estimate); ``None`` before the
         first pose, before a body calibration (there is no estimated pose to compare) or when it
         lacks a segment of the model."""
-        if self._q_stacked is None or self._uncalibrated is not None or any(name not in q_world_from_segment for name in self.model.segment_names):
+        if self._q_stacked is None or self._uncalibrated is not None:
+            return None
+        if any(name not in q_world_from_segment for name in self.model.segment_names):
             return None
         q = np.array([q_world_from_segment[name] for name in self.model.segment_names], dtype=float)
         return self._build(q, heading_ref_rad)
