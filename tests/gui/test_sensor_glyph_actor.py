@@ -12,7 +12,7 @@ from mimucap.core import rotation, skeleton
 from mimucap.gui.scene.placed_copies import rgb_bytes
 from mimucap.gui.scene.sensor_glyph_actor import SensorGlyphActor
 from mimucap.gui.scene.skeleton_actor import OUTLINE_COLOUR, TINTS, SkeletonActor
-from mimucap.session.views.skeleton_figure import R_SCENE_FROM_WORLD, FigureBuilder
+from mimucap.session.views.skeleton_figure import GLYPH_SIZE_RATIO, R_SCENE_FROM_WORLD, FigureBuilder
 
 WORN = {"S01": "pelvis", "S08": "thigh_r", "S10": "shank_r"}
 
@@ -36,7 +36,7 @@ def test_a_glyphs_box_turns_with_its_sensors_orientation():
         assert glyphs.visible
         index = geometry.sensor_glyphs.sensor_ids.index("S10")
         matrix = geometry.sensor_glyphs.matrices[index]
-        side = 0.04 * 1.75
+        side = GLYPH_SIZE_RATIO * 1.75
         # The box's corners are exactly those of the unit cube placed by the sensor's rotation.
         local = np.linalg.solve(matrix[:3, :3], (glyphs.box_vertices("S10") - matrix[:3, 3]).T).T
         np.testing.assert_allclose(np.abs(local), 0.5, atol=1e-9)

@@ -56,7 +56,6 @@ class SensorGlyphActor:
         self._normals = np.zeros((0, 3))
         self._colours = np.zeros((0, 3), dtype=np.uint8)
         self.actor = None
-        self.matrices = np.zeros((0, 4, 4))
 
     def _rebuild(self, sensor_ids: tuple[str, ...], segments: tuple[str, ...]) -> None:
         """A new buffer for these sensors: a box and three bars each."""
@@ -87,7 +86,6 @@ class SensorGlyphActor:
         if (glyphs.sensor_ids, glyphs.segments) != (self.sensor_ids, self.segments) or self.actor is None:
             self._rebuild(tuple(glyphs.sensor_ids), tuple(glyphs.segments))
         boxes = np.asarray(glyphs.matrices, dtype=float)
-        self.matrices = boxes.copy()
         placed = np.empty((4 * len(boxes), 4, 4))
         placed[0::4] = boxes
         for axis in range(3):
