@@ -59,8 +59,8 @@ def test_the_panel_shows_battery_and_signal_and_the_magnetometer_wizard_asks_not
     qtbot.addWidget(panel)
     panel.show_rows(live.sensor_rows())
     assert panel.cell_text("S01", "Battery (%)") == "64"
-    assert panel.cell_text("S01", "Signal (dBm)") == "-55"
-    assert panel.cell_text("S01", "Mag. calibration") == "on-board"
+    assert panel.cell_text("S01", "Radio (dBm)") == "-55"
+    assert panel.cell_text("S01", "Magnetometer") == "on-board"
     assert panel.cell_text("S01", "State") == "ok"
 
     wizard = MagnetometerWizard(None, live, store=CalibrationStore(tmp_path))

@@ -75,7 +75,7 @@ def test_what_makes_a_calibration_not_good_is_said_with_its_figures(field, age_s
 
 def test_a_warn_verdict_and_an_unverified_device_are_usable_with_a_warning():
     assert calibration_standing(calibration("warn"), "S01", age_s=60.0).summary() == "warn: verdict warn"
-    assert calibration_standing(calibration("fail"), "S01", age_s=60.0).summary() == "not good: verdict fail"
+    assert calibration_standing(calibration("fail"), "S01", age_s=60.0).summary() == "not good: poor calibration"
     made_anywhere = calibration_standing(calibration(device=None), "S01", device=SensorDevice(DEVICE), age_s=60.0)
     assert made_anywhere.level == WARN and "does not say which device it was made on" in made_anywhere.summary()
     # a source that has not told the device yet: the device is not judged

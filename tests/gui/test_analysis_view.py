@@ -45,8 +45,8 @@ def test_analysis_window_shows_gait_rom_and_writes_the_report(qtbot, session_fil
     window.tabs.setCurrentWidget(window.rom_tab)
     assert window.rom_table.rowCount() == 1 and window.rom_table.item(0, 0).text() == "Knee flexion"
     # ROM between the squat markers (30 s .. 37 s) finds the knees and hips of the squats.
-    window.marker_from.setCurrentIndex(index_of(window.marker_from, "rom:knee_flexion:left:start"))
-    window.marker_to.setCurrentIndex(index_of(window.marker_to, "rom:knee_flexion:left:end"))
+    window.marker_from.setCurrentIndex(index_of(window.marker_from, "Knee flexion (left) — start"))
+    window.marker_to.setCurrentIndex(index_of(window.marker_to, "Knee flexion (left) — end"))
     window.compute_marker_rom()
     movements = {window.marker_table.item(r, 0).text() for r in range(window.marker_table.rowCount())}
     assert {"Knee flexion", "Hip flexion"} <= movements
@@ -100,8 +100,8 @@ def test_the_windows_report_and_the_command_agree_for_the_same_result(qtbot, ses
     shown, written = pdf_text(tmp_path / "window.pdf"), pdf_text(tmp_path / "command.pdf")
     first_page = written.split("\f")[0]
     assert ("Result: as seen live" if result == "live" else "Result: reprocessed") in first_page
-    assert "Body calibration: N-pose/T-pose, verdict" in first_page and "Source file: simulated_demo_10.h5" in first_page
-    assert "the device fuses its orientation on board" in first_page
+    assert "Body calibration: N-pose/T-pose, " in first_page and "Source file: simulated_demo_10.h5" in first_page
+    assert "the device fuses its orientation on board" in " ".join(first_page.split())  # however it wraps
     assert shown == written
     assert len(window_tables) >= 4
     for table in window_tables:

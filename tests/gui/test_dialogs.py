@@ -74,10 +74,16 @@ def test_sensor_panel_shows_rows_and_flags_stale_ones(qtbot):
     qtbot.addWidget(panel)
     panel.show_rows([_row("S01"), _row("S02", stale=True, state="stale")])
     assert panel.cell_text("S01", "Rate (Hz)") == "99.5"
-    assert panel.cell_text("S01", "Latency p95 (ms)") == "4.2" or panel.cell_text("S01", "Latency p95 (ms)") == "4.3"
+    assert panel.cell_text("S01", "Delay (ms)") == "4.2" or panel.cell_text("S01", "Delay (ms)") == "4.3"
     assert panel.cell_text("S01", "Battery (%)") == "–"
-    assert panel.cell_text("S01", "Mag. calibration") == "calibrated (2 hours ago)"
-    assert panel.cell_text("S01", "Fusion flags") == "rest"
+    assert panel.cell_text("S01", "Magnetometer") == "calibrated (2 hours ago)"
+    assert panel.cell_text("S01", "Filter notes") == "rest"
+    # headings in words a clinician reads; the technical detail on hover
+    headings = [panel.horizontalHeaderItem(c).text() for c in range(panel.columnCount())]
+    assert not {"Latency p95 (ms)", "Fusion flags", "Mag. calibration", "Drops"} & set(headings)
+    tooltips = {h: panel.horizontalHeaderItem(c).toolTip() for c, h in enumerate(headings)}
+    assert all(tooltips.values()) and "95th percentile" in tooltips["Delay (ms)"]
+    assert "orientation filter" in tooltips["Filter notes"] and "RSSI" in tooltips["Radio (dBm)"]
     assert panel.cell_text("S02", "State") == "STALE: no data"
     stale_colour = panel.item(panel.row_of("S02"), 0).background().color()
     assert stale_colour.red() > 200 and stale_colour.green() < 220

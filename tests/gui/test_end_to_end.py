@@ -22,7 +22,7 @@ from mimucap.core.pipeline.settings import RESULT_LIVE
 from mimucap.io.angles_export import read_angles_csv, read_angles_mot
 from mimucap.io.session import read_session, write_session
 from mimucap.session.angle_accuracy import angle_errors
-from mimucap.session.recorded.export import ExportRequest, run_export
+from mimucap.session.recorded.export import ExportRequest, recording_start_s, run_export
 from mimucap.session.live.recording import RecordingToSave
 from mimucap.session.recorded.review import load_review
 from tests.gui.live_window import calibrate, closed, live_window
@@ -84,6 +84,9 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     qtbot.mouseClick(dialog.export_button, QtCore.Qt.LeftButton)
     qtbot.waitUntil(lambda: dialog.result is not None, timeout=30000)
     table = read_angles_csv(tmp_path / "walk_joint_angles.csv")
+    # the range starts at the recording's start, never at a negative time (it read "-0.14 s": the
+    # poses of the poll that was running when Record was pressed)
+    assert "-" not in dialog.range_all.text() and dialog.t_from.minimum() >= 0.0 and table.t_s[0] >= 0.0
     header = (tmp_path / "walk_joint_angles.csv").read_text().split("\n", 20)
     assert any("Result: reprocessed" in line for line in header)
     mot = read_angles_mot(tmp_path / "walk_joint_angles.mot")
@@ -115,7 +118,7 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     blind = tmp_path / "without_truth.h5"
     write_session(blind, session)
     blind_data = load_review(blind)
-    run_export(blind_data, ExportRequest(tmp_path / "blind", blind_data.start_s, blind_data.end_s,
+    run_export(blind_data, ExportRequest(tmp_path / "blind", recording_start_s(blind_data), blind_data.end_s,
                                          angles_mot=False, summary_csv=False))
     blind_table = read_angles_csv(tmp_path / "blind_joint_angles.csv")
     assert blind_table.angles_deg.keys() == table.angles_deg.keys()

@@ -67,8 +67,13 @@ def test_the_checklist_is_shown_and_recording_without_it_needs_a_confirmation(li
     assert not window.session_panel.checklist_box.isVisible()
     qtbot.waitUntil(lambda: indicator.text() == "● REC 00:01", timeout=5000)
     assert indicator.visibleRegion().boundingRect().width() == indicator.width()  # not covered
+    # the file being written beside it, whole (it was "Recording to ~/sessions/P001_2026-1" under the badge)
+    target = window.live_status.recording_target
+    assert target.isVisible() and target.text() == f"→ {window.live.recording_info().path.name}"
+    assert target.width() >= target.sizeHint().width() and target.visibleRegion().boundingRect().width() == target.width()
+    assert "Recording to" not in window.statusBar().currentMessage()
     window.action_record.trigger()
-    assert not indicator.isVisible() and window.windowTitle() == "MimuCap"
+    assert not indicator.isVisible() and not target.isVisible() and window.windowTitle() == "MimuCap"
     assert window.session_panel.checklist_box.isVisible()
 
 

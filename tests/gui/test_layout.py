@@ -9,6 +9,7 @@ from PyQt5 import QtWidgets
 
 from mimucap.gui.live_plots import MIN_PLOT_HEIGHT_PX, LivePlots
 from mimucap.gui.main_window import SENSOR_DOCK_START_PX
+from tests.known_mounting import known_mounting_calibration
 
 
 def test_the_main_window_shrinks_to_800_by_500_and_its_docks_come_back(window, qtbot):
@@ -45,6 +46,8 @@ def _label_spacing_px(plots: LivePlots) -> dict[str, float]:
 
 def test_plots_scroll_rather_than_squash_and_label_only_the_ticks_that_fit(window, qtbot):
     plots = window.plots
+    window.live.apply_body_calibration(known_mounting_calibration(window.live))  # joint angles need one
+    qtbot.waitUntil(lambda: not plots.joint_angles_refused, timeout=10000)
     plots.set_joints(["knee_r", "hip_r", "elbow_r"])
     window.resize(800, 500)
     qtbot.waitUntil(lambda: window.height() == 500, timeout=3000)

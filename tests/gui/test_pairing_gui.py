@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import threading
 
-from PyQt5 import QtCore
+from PyQt5 import QtCore, QtWidgets
 
 from mimucap.acquisition.emulate_common import EmulatorSettings, node_mac
 from mimucap.acquisition.emulate_udp import UdpEmulator
@@ -75,6 +75,11 @@ def test_the_offer_lists_a_device_that_cannot_be_paired_without_a_box(qtbot):
     assert dialog.list.viewport().width() >= dialog.list.sizeHintForColumn(0)
     assert dialog.list.horizontalScrollBar().maximum() == 0
     assert "(12 packets refused)" in dialog.list.item(1).text()
+    # named by the device (what its label says), the name it sends under and the address secondary
+    assert dialog.list.item(1).text().startswith("MAC 02:A1:B2:C3:D4:E5 — sends as sensor 8")
+    first_line = dialog.findChildren(QtWidgets.QLabel)[0].text()
+    assert first_line.startswith("The wireless receiver (UDP port 5555) hears devices") and "0.0.0.0" not in first_line
+    assert dialog.findChild(QtWidgets.QLabel, "pairSourceAddress").text() == "Source: udp:0.0.0.0:5555"
     one = PairDevicesDialog(None, "udp:0.0.0.0:5555", [UnpairedSensor("9", SensorDevice("mac:02A1B2C3D4E6"), 1)])
     qtbot.addWidget(one)
     assert one.list.item(0).text().endswith("(1 packet refused)")

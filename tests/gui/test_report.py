@@ -4,8 +4,10 @@ comparison report and the command line too."""
 
 from __future__ import annotations
 
+import re
 import shutil
 import subprocess
+import unicodedata
 
 import numpy as np
 import pytest
@@ -66,6 +68,12 @@ def test_report_renders_every_section(qapp, analysed, tmp_path):
     assert {"knee_l_flexion_deg", "knee_r_flexion_deg", "lumbar_flexion_deg@left"} <= set(analysed.curves)
     assert set(analysed.rom) == {("knee_flexion", "left"), ("shoulder_flexion", "right")}
     assert analysed.rom[("knee_flexion", "left")].repetitions == 2
+    # In the words a clinician reads: ROM markers, the skeleton, the calibrations' quality
+    words = unicodedata.normalize("NFKC", subprocess.run(["pdftotext", str(pdf), "-"], check=True,
+                                                         capture_output=True, text=True).stdout)  # "ﬂ" → "fl"
+    assert "Knee flexion (left) — start" in words and "rom:knee_flexion" not in words
+    assert "10-segment skeleton" in words and "ten_segment" not in words
+    assert "verdict" not in words and not re.search(r"\d{4}-\d\d-\d\dT\d\d:", words)  # no ISO times
 
 
 def test_comparison_report_and_command_line(qapp, analysed, tmp_path):

@@ -130,7 +130,7 @@ def test_the_review_follows_its_player_and_lets_it_go(qtbot, calibrated_walk):
 def test_a_doubtful_orientation_is_named_in_the_sensor_panel_and_the_status_bar(idle_window):
     window = idle_window
     doubtful = SensorRow(sensor_id="S07", segment="thigh_l", rate_hz=99.0, drops=0, latency_ms=4.0,
-                         battery_pct=math.nan, mag_cal="calibrated", mag_cal_age_s=60.0, flags=("mag disturbed",),
+                         battery_pct=math.nan, mag_cal="calibrated", mag_cal_age_s=60.0, flags=("magnetic field disturbed",),
                          stale=False, state="ok",
                          doubt="heading taken from a magnetic field that differs from the calibrated one")
     window.live.events.status.emit([doubtful, _row("S01", "pelvis", 99.0)])

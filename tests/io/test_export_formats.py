@@ -387,14 +387,15 @@ def test_every_file_says_what_it_holds(walk, review, tmp_path):
 
     record = review.provenance
     assert record.result.startswith("reprocessed")
-    assert record.body_calibration.startswith("N-pose/T-pose, verdict ") and "made live" in record.body_calibration
-    assert "made 20" in record.body_calibration  # when (ISO date)
-    # a verdict and an age per sensor (the wizard's calibrations, made just before recording)
-    assert all(re.search(r"^S\d\d(, S\d\d)*: (good|warn), made within a minute of the recording, "
-                         r"gyroscope scale corrected$", text)
-               for text in record.magnetometer), record.magnetometer
+    # in clinical words: the quality in words, when in local date and time, the model by its size
+    assert re.search(r"^N-pose/T-pose, (good|fair|poor), made \d\d [A-Z][a-z]{2} 20\d\d, \d\d:\d\d \(.*made live",
+                     record.body_calibration), record.body_calibration
+    # a quality and an age per sensor (the wizard's calibrations, made just before recording), and
+    # whether it corrected the gyroscope's scale
+    assert all(re.search(r"^S\d\d(, S\d\d)* magnetometers?: (good|fair), made within a minute of the recording, "
+                         r"gyroscope scale corrected$", text) for text in record.magnetometer), record.magnetometer
     assert sum(text.count("S") for text in record.magnetometer) == 17
-    assert record.skeleton_model.startswith("fifteen_segment (15 segments)")
+    assert record.skeleton_model.startswith("15-segment skeleton, subject height ")
     assert record.software.startswith("MimuCap ") and record.source_file == "walk.h5"
     lines = record.lines()
     exported = run_export(review, ExportRequest(tmp_path / "all", review.start_s, review.end_s, sensors_csv=True,

@@ -13,6 +13,7 @@ from mimucap.session.sources.feeds import SimulatorFeed
 from mimucap.session.live.live_session import LiveSession
 from mimucap.session.live.processing import POSE_NONE
 from mimucap.session.live.status import STATUS_RATE_HZ, StatusPublisher
+from tests.known_mounting import known_mounting_calibration
 
 
 def _session(**config) -> tuple[LiveSession, list[float]]:
@@ -69,6 +70,21 @@ def test_the_geometry_is_built_only_while_someone_listens(monkeypatch):
     assert len(built) == len(frames) > 10
 
 
+def test_the_running_error_against_the_truth_is_told_once_a_body_calibration_is_applied():
+    session, now = _session()
+    seen = _record(session, "truth_errors")
+    session.start()
+    _run(session, now, 1.0)
+    assert seen["truth_errors"] and all(errors == {} for (errors,) in seen["truth_errors"])
+    session.apply_body_calibration(known_mounting_calibration(session))
+    _run(session, now, 2.0)
+    # of the joints whose flexion the status bar shows
+    errors = seen["truth_errors"][-1][0]
+    joints = {column.rsplit("_", 2)[0] for column in FLEXION_COLUMNS}
+    assert set(FLEXION_COLUMNS) & set(errors)
+    assert all(column.rsplit("_", 2)[0] in joints and value >= 0.0 for column, value in errors.items())
+
+
 def test_the_status_is_published_four_times_a_second_and_at_once_after_an_assignment():
     session, now = _session()
     seen = _record(session, "status", "checklist", "recording_progress", "source_problem", "refused",
@@ -83,11 +99,8 @@ def test_the_status_is_published_four_times_a_second_and_at_once_after_an_assign
     assert {item.key for item in seen["checklist"][-1][0]} == {"streaming", "drops", "magnetometers", "body"}
     # rarely changing values are emitted when they change only
     assert seen["source_problem"] == [("",)] and seen["refused"] == [({}, {})]
-    # the running error against the truth: of the joints whose flexion the status bar shows
-    errors = seen["truth_errors"][-1][0]
-    joints = {column.rsplit("_", 2)[0] for column in FLEXION_COLUMNS}
-    assert set(FLEXION_COLUMNS) & set(errors)
-    assert all(column.rsplit("_", 2)[0] in joints and value >= 0.0 for column, value in errors.items())
+    # no error against the truth before a body calibration: there is no estimated pose to judge
+    assert all(errors == {} for (errors,) in seen["truth_errors"])
     # an assignment is told at once, and shows in the status of the next step
     published = len(seen["status"])
     sensor = session.sensor_ids[0]

@@ -1,5 +1,6 @@
 """The live session's pose part: a pose that lacks a segment is refused by name, the figure is
-built once per pose and display mode, the joint angles follow every pose taken."""
+built once per pose and display mode, the joint angles follow every pose taken; an uncalibrated
+pose is drawn as the outline and keeps no joint angles."""
 
 from __future__ import annotations
 
@@ -54,3 +55,23 @@ def test_the_joint_angles_follow_every_pose_taken():
                                                  for s in model.segment_names})
     np.testing.assert_allclose(knee[:, 0], expected["knee_r_flexion_deg"], atol=1e-9)
     assert np.ptp(np.abs(knee[:, 0])) == pytest.approx(30.0, abs=1e-6)
+
+
+def test_an_uncalibrated_pose_is_the_outline_and_keeps_no_joint_angles():
+    """Poses made from the sensors' own axes (before a body calibration) give the outline with
+    the sensors on it, no joint angles and no figure of the truth; the angles of calibrated poses
+    taken before are dropped, and those taken after start afresh."""
+    model = skeleton.load_model("ten_segment")
+    pose = LivePose(model, 1.75, window_s=10.0, rate_hz=100.0)
+    pose.take(0.00, _pose(model, 0.1))
+    pose.take(0.01, _pose(model, 0.2))
+    assert len(pose.joint_series("knee_r", 1.0)[0]) == 2 and not pose.frame()[1].outline
+    worn = {"S10": "shank_r", "S01": "pelvis"}
+    pose.take(0.02, _pose(model, 0.3), segment_of_sensor=worn)
+    _, geometry = pose.frame()
+    assert geometry.outline and set(geometry.sensor_glyphs.sensor_ids) == set(worn)
+    assert len(pose.joint_series("knee_r", 1.0)[0]) == 0 and pose.figure_of(_pose(model)) is None
+    pose.take(0.03, _pose(model, 0.4))
+    t, _angles = pose.joint_series("knee_r", 1.0)
+    np.testing.assert_allclose(t, [0.03])
+    assert not pose.frame()[1].outline and pose.figure_of(_pose(model)) is not None

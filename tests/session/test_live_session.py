@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -12,7 +13,7 @@ from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import simulate_session
 from mimucap.io.session import read_session, session_from_simulation, write_session
-from mimucap.session.recorded.export import ExportRequest, marker_range, run_export, summary_table
+from mimucap.session.recorded.export import ExportRequest, marker_range, recording_start_s, run_export, summary_table
 from mimucap.session.sources.feeds import SimulatorFeed
 from mimucap.core.pipeline.recording import POSE_SENSOR_AXES
 from mimucap.session.live.evaluation import TRUTH_NOTE
@@ -21,6 +22,7 @@ from mimucap.session.live.processing import POSE_UNASSIGNED
 from mimucap.session.live.sensor_rows import STALE_AFTER_S
 from mimucap.session.live.recorder import open_session
 from mimucap.session.recorded.review import ReviewPlayer, load_review
+from tests.known_mounting import known_mounting_calibration
 
 
 def _session(scenario: str = "walk", **config) -> tuple[LiveSession, list[float]]:
@@ -112,7 +114,16 @@ def test_recording_markers_review_and_export(tmp_path):
 
     data = load_review(result.session_path)
     player = ReviewPlayer(data)
+    # recorded before a body calibration: the review, like the live view, shows the outline with
+    # each sensor on its segment (turned as its orientation was), and no truth beside it
+    assert data.body_calibration is None
+    _, geometry = player.frame()
+    assert geometry.outline and dict(zip(geometry.sensor_glyphs.sensor_ids, geometry.sensor_glyphs.segments)) == {
+        sensor: stream.segment for sensor, stream in stored.sensors.items() if stream.segment is not None}
+    assert player.truth_frame() is None
     assert player.seek_marker(1) == pytest.approx(stored.markers[1].t_s)
+    moved = player.frame()[1].sensor_glyphs.matrices
+    assert not np.allclose(moved, geometry.sensor_glyphs.matrices)
     player.set_speed(2.0)
     player.play()
     player.advance(0.5)
@@ -127,6 +138,16 @@ def test_recording_markers_review_and_export(tmp_path):
     exported = run_export(data, ExportRequest(tmp_path / "out", a, b, sensors_csv=True))
     names = sorted(p.name for p in exported.files)
     assert {"out_joint_angles.csv", "out_joint_angles.mot", "out_joint_angle_summary.csv", "out_sensor_S01_raw.csv"} <= set(names)
+    # the whole recording's range starts at its start, never at the negative time of a pose made
+    # from the samples of the poll running when Record was pressed
+    assert recording_start_s(data) == max(0.0, data.start_s)
+    assert recording_start_s(SimpleNamespace(start_s=-0.14, end_s=6.0)) == 0.0
+    assert recording_start_s(SimpleNamespace(start_s=0.3, end_s=6.0)) == 0.3
+    assert recording_start_s(SimpleNamespace(start_s=-5.0, end_s=-1.0)) == -5.0
+    whole = run_export(data, ExportRequest(tmp_path / "whole", recording_start_s(data), data.end_s))
+    first_time = next(line for line in (tmp_path / "whole_joint_angles.csv").read_text().splitlines()
+                      if line[:1].isdigit() or line[:1] == "-").split(",")[0]
+    assert float(first_time) >= 0.0 and whole.files
     rows = summary_table({"x_deg": np.array([-5.0, 10.0, 2.0])})
     assert rows[0].minimum_deg == -5.0 and rows[0].maximum_deg == 10.0 and rows[0].rom_deg == 15.0
     with pytest.raises(ValueError, match="end after its start"):
@@ -222,10 +243,12 @@ def test_an_applied_body_calibration_drives_the_figure_from_the_sensors():
 @pytest.mark.parametrize("n_sensors", [10, 17])
 def test_joint_series_and_frames_follow_every_pose(n_sensors):
     """Joint angles computed in batches (as the plots ask) and the figure of the newest pose
-    equal the skeleton functions applied to each pose the pipeline produced."""
+    equal the skeleton functions applied to each pose the pipeline produced (through a body
+    calibration: before one the figure is the outline and no joint angles are kept)."""
     from mimucap.core import skeleton
 
     session, now = _session("walk", n_sensors=n_sensors)
+    session.apply_body_calibration(known_mounting_calibration(session))
     times, poses = [], []
     for tick in range(60):
         now[0] += 0.01
@@ -237,7 +260,8 @@ def test_joint_series_and_frames_follow_every_pose(n_sensors):
         if tick % 7 == 0:
             _, geometry = session.frame()
             expected = session.builder.build(
-                skeleton.forward_kinematics(session.model, poses[-1], session.height_m, session.pose.root_m))  # root: where it stands
+                skeleton.forward_kinematics(session.model, poses[-1], session.height_m, session.pose.root_m),  # root: where it stands
+                heading_ref_rad=session.calibrations.heading_ref_rad)
             np.testing.assert_allclose(geometry.segment_matrices, expected.segment_matrices, rtol=0, atol=1e-12)
             np.testing.assert_allclose(geometry.joint_matrices, expected.joint_matrices, rtol=0, atol=1e-12)
     model = session.model

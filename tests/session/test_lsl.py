@@ -15,6 +15,7 @@ pylsl = pytest.importorskip("pylsl", reason="pylsl is not installed (pip install
 from mimucap.io.calibration_store import CalibrationStore  # noqa: E402
 from mimucap.session.live.live_session import open_live_session  # noqa: E402
 from mimucap.session.streaming.lsl_streamer import LslStreamer, marker_layout  # noqa: E402
+from tests.known_mounting import known_mounting_calibration  # noqa: E402
 
 RATE_HZ = 100.0
 
@@ -72,6 +73,7 @@ def test_streams_resolve_with_their_metadata_and_carry_every_sample_at_its_sampl
     reference = next(sid for sid, seg in session.sensor_segments.items() if seg == "pelvis")
     session.events.processed.connect(
         lambda items: sample_times.extend(i.t_s for i in items if i.sensor_id == reference))
+    session.apply_body_calibration(known_mounting_calibration(session))  # joint angles need one
     _run(session, 0.5)  # the outlets open once 20 samples gave their rate
 
     mocap = _resolve("type", "MoCap", streamer.segments.layout.source_id)
@@ -138,6 +140,11 @@ def test_streams_resolve_with_their_metadata_and_carry_every_sample_at_its_sampl
     # segment orientations are unit quaternions of the same poses
     q = np.array(received["mocap"][0]).reshape(len(stamps), -1, 4)
     np.testing.assert_allclose(np.linalg.norm(q, axis=-1), 1.0, atol=1e-9)
+    # without a body calibration no joint angle goes out, as the window plots none
+    session.clear_body_calibration()
+    received["joints"][0].clear()
+    _run(session, 0.3, pull)
+    assert received["joints"][0] and np.all(np.isnan(np.array(received["joints"][0])[-5:]))
 
 
 def test_the_source_id_is_the_same_after_a_restart(tmp_path):

@@ -34,8 +34,8 @@ def test_a_ready_session_passes_every_item():
                                                _row("3", None, stale=True)], body=body)))
     assert all(item.ok for item in items.values()), items
     assert items["streaming"].text == "all 2 assigned sensors send data"  # an unassigned sensor does not count
-    assert items["magnetometers"].text == "2 calibrated, the oldest 2 hours ago; verdict good"
-    assert items["body"].text == "done, verdict good"
+    assert items["magnetometers"].text == "2 calibrated, the oldest 2 hours ago; quality good"
+    assert items["body"].text == "done, quality good"
 
 
 def test_each_problem_is_named_by_the_sensors_segment():
@@ -47,9 +47,9 @@ def test_each_problem_is_named_by_the_sensors_segment():
     assert not any(item.ok for item in items.values())
     assert items["streaming"].text == "1 of 5 send nothing: Pelvis sensor (1)"
     assert items["drops"].text == "Left thigh sensor (4) lost 4.8 %"
-    assert items["magnetometers"].text == ("not calibrated: Right thigh sensor (2); verdict fail: Left thigh sensor (4); "
+    assert items["magnetometers"].text == ("not calibrated: Right thigh sensor (2); poor calibration: Left thigh sensor (4); "
                                            "older than 24 h: Right shank sensor (3)")
-    assert items["body"].text == "done, verdict poor"
+    assert items["body"].text == "done, quality poor"
 
 
 def test_nothing_assigned_and_no_body_calibration():

@@ -148,7 +148,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         self.marker_from = QtWidgets.QComboBox(self.rom_tab)
         self.marker_to = QtWidgets.QComboBox(self.rom_tab)
         for index, marker in enumerate(data.markers):
-            text = f"{marker.t_s:.2f} s  {marker.label}"
+            text = f"{marker.t_s:.2f} s  {rom_core.marker_words(marker.label)}"
             self.marker_from.addItem(text, marker.t_s)
             self.marker_to.addItem(text, marker.t_s)
         if len(data.markers) > 1:

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
+from mimucap.core.analysis.rom import marker_words
 from mimucap.core.pipeline.settings import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.menus import closes_with_keys
@@ -60,7 +61,7 @@ class WindowPicker(QtWidgets.QGroupBox):
             combo.clear()
             combo.addItem(edge, None)
             for index, marker in enumerate(self.markers):
-                combo.addItem(f"{marker.label} ({marker.t_s:.2f} s)", index)
+                combo.addItem(f"{marker_words(marker.label)} ({marker.t_s:.2f} s)", index)
             combo.setEnabled(bool(self.markers))
             combo.blockSignals(False)
 

@@ -21,6 +21,7 @@ import pyqtgraph as pg
 import pyqtgraph.exporters  # noqa: F401  (registers ImageExporter)
 from PyQt5 import QtCore, QtWidgets
 
+from mimucap.core.analysis.rom import marker_words
 from mimucap.core.clinical_names import angle_label, angle_sign_text
 from mimucap.core.wording import fixed
 from mimucap.gui.background_task import BackgroundTask
@@ -28,8 +29,8 @@ from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
 from mimucap.io.angles_export import write_summary_csv
 from mimucap.session.recorded.export import (
-    ExportRequest, ExportResult, angles_in_range, doubt_in_range, export_folder, marker_range, run_export,
-    summary_table,
+    ExportRequest, ExportResult, angles_in_range, doubt_in_range, export_folder, marker_range, recording_start_s,
+    run_export, summary_table,
 )
 from mimucap.session.recorded.provenance import WITHOUT_BODY_CALIBRATION
 from mimucap.session.recorded.review import ReviewData
@@ -51,14 +52,15 @@ class ExportDialog(QtWidgets.QDialog):
         self._range_valid = False  # the chosen range holds poses (set by update_summary)
 
         range_box = QtWidgets.QGroupBox("Range", self)
-        self.range_all = QtWidgets.QRadioButton(f"Whole recording ({data.start_s:.2f}–{data.end_s:.2f} s)", range_box)
+        self.start_s = recording_start_s(data)  # never before the recording's start
+        self.range_all = QtWidgets.QRadioButton(f"Whole recording ({self.start_s:.2f}–{data.end_s:.2f} s)", range_box)
         self.range_time = QtWidgets.QRadioButton("From", range_box)
         self.range_markers = QtWidgets.QRadioButton("Between markers", range_box)
         self.range_all.setChecked(True)
         self.t_from = QtWidgets.QDoubleSpinBox(range_box)
         self.t_to = QtWidgets.QDoubleSpinBox(range_box)
-        for spin, value in ((self.t_from, data.start_s), (self.t_to, data.end_s)):
-            spin.setRange(data.start_s, data.end_s)
+        for spin, value in ((self.t_from, self.start_s), (self.t_to, data.end_s)):
+            spin.setRange(self.start_s, data.end_s)
             spin.setDecimals(2)
             spin.setSuffix(" s")
             spin.setValue(value)
@@ -66,8 +68,8 @@ class ExportDialog(QtWidgets.QDialog):
         self.marker_b = QtWidgets.QComboBox(range_box)
         for combo in (self.marker_a, self.marker_b):
             for marker in data.markers:
-                combo.addItem(f"{marker.label} ({marker.t_s:.2f} s)")
-                combo.setItemData(combo.count() - 1, marker.label, QtCore.Qt.ToolTipRole)
+                combo.addItem(f"{marker_words(marker.label)} ({marker.t_s:.2f} s)")
+                combo.setItemData(combo.count() - 1, marker_words(marker.label), QtCore.Qt.ToolTipRole)
         if len(data.markers) >= 2:
             self.marker_b.setCurrentIndex(1)
         else:
@@ -200,7 +202,7 @@ class ExportDialog(QtWidgets.QDialog):
             if b <= a:
                 raise ValueError(f"the range ends ({b:.2f} s) before it starts ({a:.2f} s)")
             return a, b
-        return self.data.start_s, self.data.end_s
+        return self.start_s, self.data.end_s
 
     def summary_rows(self):
         a, b = self.time_range()

@@ -33,6 +33,7 @@ import pyqtgraph as pg
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.clinical_names import axis_short_name, joint_name, segment_name, sensor_name, split_angle_column
+from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION
 from mimucap.gui.scrolling import scrolling
 from mimucap.gui.throttle import RepaintThrottle
 from mimucap.session.views.plot_scaling import MAX_POINTS, SteadyRange, column_bounds, nice_ticks, peak_decimate
@@ -134,6 +135,16 @@ class _Curve(pg.PlotCurveItem):
             return QtCore.QRectF()
         pad_x, pad_y = self._pixel_size
         return QtCore.QRectF(x_low - pad_x, y_low - pad_y, x_high - x_low + 2 * pad_x, y_high - y_low + 2 * pad_y)
+
+
+#: Why a live source's joint angles are not plotted before a body calibration.
+JOINT_ANGLES_NEED_BODY_CALIBRATION = ("they appear once the body is calibrated (Calibrate → Body…); until then "
+                                      "angles between the sensors' own axes would mean nothing")
+
+
+def _joint_angles_refused(pose_source: str) -> str:
+    """Why joint angles are not plotted while ``pose_source`` drives the figure ("" : they are)."""
+    return "" if pose_source == POSE_BODY_CALIBRATION else JOINT_ANGLES_NEED_BODY_CALIBRATION
 
 
 class LivePlots(QtWidgets.QWidget):
@@ -425,6 +436,8 @@ class LivePlots(QtWidgets.QWidget):
         self.joint_actions = {}
         if source is None:
             return
+        if "pose_source" in source.events.names:
+            self.joint_angles_refused = _joint_angles_refused(source.pose_source)
         self._subscribe(source, True)
         self.update_choices()
         self._data_changed()
@@ -433,7 +446,7 @@ class LivePlots(QtWidgets.QWidget):
         """Connect to (``on``) or disconnect from ``source``'s events."""
         names = source.events.names
         for name, callback in (("data", self._data_changed), ("sensors", self._choices_changed),
-                               ("assignment", self._choices_changed)):
+                               ("assignment", self._choices_changed), ("pose_source", self._pose_source_changed)):
             if name not in names:
                 continue
             emitter = getattr(source.events, name)
@@ -441,6 +454,12 @@ class LivePlots(QtWidgets.QWidget):
                 emitter.connect(callback)
             else:
                 emitter.disconnect(callback)
+
+    def _pose_source_changed(self, pose_source: str) -> None:
+        """What drives the figure changed: joint angles are plotted only through a body calibration."""
+        refused = _joint_angles_refused(pose_source)
+        if refused != self.joint_angles_refused:
+            self.refuse_joint_angles(refused)
 
     def _choices_changed(self, *_args) -> None:
         """The source's sensors or their segments changed: the selectors and titles follow."""

@@ -7,8 +7,8 @@ else: ``status`` (the sensor rows, 4 Hz: rates, drops, doubtful orientations; th
 and the 3D view's frame rate are sampled with it), ``pose_source`` and ``truth_errors`` (what
 drives the figure and its running error against the simulator's truth), ``source_problem``,
 ``refused`` (packets of no known sensor), ``recording`` and ``recording_progress`` (the red
-indicator and its clock), ``calibration`` (for the hint). What the 3D view says while it has no
-figure follows from the pose source, the source's problem and the calibrations made: it is told
+indicator and its clock, the file's name beside it), ``calibration`` (for the hint). What the 3D view says while it has no
+figure, or while it shows the outline before a body calibration, follows from the pose source, the source's problem and the calibrations made: it is told
 by :attr:`LiveStatusBar.hint_changed`. The accuracy against the truth is shown only with a body
 calibration: before it, the sensors' axes stand for the segments and an error of 100° says
 nothing but "not calibrated".
@@ -37,8 +37,8 @@ RECORDING_STYLE = "QLabel { background: #d62728; color: white; font-weight: bold
 VIEW_HINTS = {
     POSE_NONE: "Waiting for data from the source…",
     POSE_UNASSIGNED: "No sensor is assigned to a body segment yet.\nSession → Assign Sensors…",
-    POSE_SENSOR_AXES: "Not calibrated yet: each sensor's axes stand for its segment.\n"
-                      "Calibrate the magnetometers, then the body (menu Calibrate).",
+    POSE_SENSOR_AXES: "Not calibrated yet: each sensor is shown where it is worn, turning as it turns.\n"
+                      "Next: calibrate the magnetometers (Calibrate → Magnetometers…), then the body.",
 }
 #: The 3D view's hint once the magnetometers are calibrated: the body is next.
 BODY_NEXT_HINT = ("Magnetometers calibrated.\nNext: calibrate the body (Calibrate → Body…): the subject stands "
@@ -79,6 +79,12 @@ class LiveStatusBar(QtCore.QObject):
         self.recording_indicator.setStyleSheet(RECORDING_STYLE)
         self.recording_indicator.setVisible(False)
         status_bar.addPermanentWidget(self.recording_indicator)
+        # the file being written, beside the badge and never under it (the whole path on hover;
+        # the session panel shows it too)
+        self.recording_target = QtWidgets.QLabel("", status_bar)
+        self.recording_target.setObjectName("recordingTarget")
+        self.recording_target.setVisible(False)
+        status_bar.addPermanentWidget(self.recording_target)
         self.source_status = ElidedLabel("", status_bar)
         self.pose_status = ElidedLabel("", status_bar)
         self.refused_status = QtWidgets.QLabel(status_bar)
@@ -184,8 +190,11 @@ class LiveStatusBar(QtCore.QObject):
 
     def _recording_changed(self, info) -> None:
         self.recording_indicator.setVisible(info is not None)
+        self.recording_target.setVisible(info is not None)
         if info is not None:
             self.recording_indicator.setText(elapsed_text(0.0))
+            self.recording_target.setText(f"→ {info.path.name}")
+            self.recording_target.setToolTip(f"Recording to {info.path}")
 
     def _recording_progress(self, info) -> None:
         self.recording_indicator.setText(elapsed_text(info.elapsed_s))

@@ -600,7 +600,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session_panel.markers_list.clear()
         self._show_recording(True)
         self.session_panel.show_info(self.live.recording_info())
-        self.statusBar().showMessage(f"Recording to {display_path(path)}")
+        self.statusBar().clearMessage()  # the badge and the file's name say it, uncovered
         return True
 
     def stop_recording(self) -> None:

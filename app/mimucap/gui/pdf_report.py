@@ -44,6 +44,7 @@ from mimucap.session.recorded.analysis import (
     gait_parameter_rows,
     rom_rows,
 )
+from mimucap.session.views.calibration_age import local_time_text
 from mimucap.session.views.plot_scaling import nice_ticks
 
 DPI = 150
@@ -347,7 +348,7 @@ def _markers_and_notes(doc: _Document, analysis: SessionAnalysis, notes: str) ->
     doc.text("Markers", 11, True, gap=4)
     markers = analysis.review.markers
     if markers:
-        doc.table(["Time (s)", "Label"], [[f"{m.t_s:.2f}", m.label] for m in markers], [0.15, 0.6])
+        doc.table(["Time (s)", "Label"], [[f"{m.t_s:.2f}", rom_core.marker_words(m.label)] for m in markers], [0.15, 0.6])
     else:
         doc.text("No markers.", 9, gap=8)
     subject_notes = ((analysis.review.session.metadata.get("subject") or {}).get("notes") or "").strip()
@@ -393,8 +394,10 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
     labels = (f"before ({before.review.path.name})", f"after ({after.review.path.name})")
     try:
         _header(doc, after, "MimuCap comparison report")
-        doc.text(f"Before: {before.review.path.name}, recorded {before.review.session.metadata.get('created_utc') or 'not recorded'}. "
-                 f"After: {after.review.path.name}, recorded {after.review.session.metadata.get('created_utc') or 'not recorded'}.", 9)
+        doc.text(f"Before: {before.review.path.name}, recorded "
+                 f"{local_time_text(str(before.review.session.metadata.get('created_utc') or ''))}. "
+                 f"After: {after.review.path.name}, recorded "
+                 f"{local_time_text(str(after.review.session.metadata.get('created_utc') or ''))}.", 9)
         for label, analysis in (("Before", before), ("After", after)):
             doc.text(f"What the {label.lower()} session's figures hold", 10, True, gap=3)
             for item, text in analysis.review.provenance.items():
@@ -443,20 +446,6 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
 
 
 # -- clinical tests ---------------------------------------------------------------------------------
-def local_time_text(iso_utc: str) -> str:
-    """An ISO 8601 time as local date and time people read ("28 Nov 2026, 09:14"); the text
-    itself when it is not one."""
-    from datetime import datetime, timezone
-
-    try:
-        moment = datetime.fromisoformat(str(iso_utc).replace("Z", "+00:00"))
-    except ValueError:
-        return str(iso_utc) or "not recorded"
-    if moment.tzinfo is None:
-        moment = moment.replace(tzinfo=timezone.utc)
-    return moment.astimezone().strftime("%d %b %Y, %H:%M")
-
-
 def _subject_line(subject: dict) -> str:
     parts = [f"Subject: {subject.get('id') or 'not recorded'}"]
     if subject.get("age_years") is not None:

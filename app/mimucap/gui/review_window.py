@@ -18,6 +18,7 @@ from pathlib import Path
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtGui, QtWidgets
 
+from mimucap.core.analysis.rom import marker_words
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.capture import ask_to_save_screenshot
 from mimucap.gui.export_dialog import ExportDialog
@@ -255,12 +256,12 @@ class ReviewWindow(QtWidgets.QMainWindow):
             self._doubt_regions.append(region)
         for index, marker in enumerate(data.markers):
             line = pg.InfiniteLine(marker.t_s, angle=90, movable=False, pen=pg.mkPen("#2c3e50", width=1),
-                                   label=marker.label,
+                                   label=marker_words(marker.label),
                                    labelOpts={"position": MARKER_LABEL_HEIGHTS[index % len(MARKER_LABEL_HEIGHTS)],
                                               "color": "#2c3e50"})
             self.timeline.addItem(line)
             self._marker_lines.append(line)
-            self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker.label}")
+            self.markers_list.addItem(f"{marker.t_s:8.2f} s  {marker_words(marker.label)}")
         self.pose_status.setText(f"Pose: {data.pose_source}; {RESULT_TITLES[data.result].lower()}"
                                  + (accuracy_phrase(data.truth_errors()) if data.body_calibration is not None else ""))
         message = (f"{display_path(self.path)}: {data.end_s - data.start_s:.1f} s, {len(data.session.sensors)} sensors, "

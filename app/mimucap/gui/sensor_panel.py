@@ -1,5 +1,6 @@
-"""The sensor panel: one row per sensor (id, segment, rate, drops, packets refused, latency,
-battery, radio signal, magnetometer calibration, fusion flags), a stale sensor flagged in red,
+"""The sensor panel: one row per sensor (id, segment, rate, samples lost, packets refused, delay,
+battery, radio signal, magnetometer calibration, the orientation filter's notes), its headings in
+words with the technical detail on hover (:data:`COLUMN_TOOLTIPS`), a stale sensor flagged in red,
 a sensor whose orientation is doubtful in orange with the reasons in its State column; a
 magnetometer calibration that is not good (its standing: another device's, a local field that
 no longer fits, too old; or a stored one not used) named in the State column, the device each
@@ -23,10 +24,29 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.acquisition.rejections import Rejection
 from mimucap.core.clinical_names import segment_name
 from mimucap.session.live.sensor_rows import SensorRow
-from mimucap.session.views.calibration_age import describe_age
+from mimucap.session.views.calibration_age import describe_age, quality_word
 
-COLUMNS = ("Sensor", "Segment", "Rate (Hz)", "Drops", "Refused", "Latency p95 (ms)", "Battery (%)",
-           "Signal (dBm)", "Mag. calibration", "Fusion flags", "State")
+COLUMNS = ("Sensor", "Segment", "Rate (Hz)", "Lost", "Refused", "Delay (ms)", "Battery (%)",
+           "Radio (dBm)", "Magnetometer", "Filter notes", "State")
+#: The technical detail behind each column's heading, on hover.
+COLUMN_TOOLTIPS = {
+    "Sensor": "The sensor's id; hover over an id for the device it is.",
+    "Segment": "The body segment the sensor is worn on (Session → Assign Sensors…).",
+    "Rate (Hz)": "Samples received per second.",
+    "Lost": "Samples lost on the way (gaps in the sensor's packet numbers): radio range or interference.",
+    "Refused": "Packets that arrived but were refused (damaged, repeated, out of range); hover over a count "
+               "for the reasons.",
+    "Delay (ms)": "How late the samples arrive: the 95th percentile of the time from the sensor's clock to the "
+                  "program's, in milliseconds.",
+    "Battery (%)": "The sensor's battery charge, as the sensor reports it.",
+    "Radio (dBm)": "The radio signal strength the sensor reports (RSSI, dBm): nearer 0 is stronger; below about "
+                   "−80 dBm samples start to get lost.",
+    "Magnetometer": "The magnetometer calibration applied to the sensor: its quality and age.",
+    "Filter notes": "What the orientation filter notes about the sensor now: still (at rest), magnetic field "
+                    "disturbed (the heading relies on the gyroscope), fast movement (the tilt relies on the "
+                    "gyroscope), starting, magnetometer offset corrected.",
+    "State": "Whether the sensor's orientation can be trusted now, and if not, why.",
+}
 #: What each refusal reason means to the person looking at the panel.
 REJECTION_TEXT = {
     Rejection.TOO_SHORT: "packet too short",
@@ -100,6 +120,8 @@ class SensorPanel(QtWidgets.QTableWidget):
         super().__init__(0, len(COLUMNS), parent)
         self.setObjectName("sensorPanel")
         self.setHorizontalHeaderLabels(COLUMNS)
+        for column, name in enumerate(COLUMNS):
+            self.horizontalHeaderItem(column).setToolTip(COLUMN_TOOLTIPS[name])
         self.verticalHeader().setVisible(False)
         self.setEditTriggers(QtWidgets.QAbstractItemView.NoEditTriggers)
         self.setSelectionBehavior(QtWidgets.QAbstractItemView.SelectRows)
@@ -148,7 +170,7 @@ class SensorPanel(QtWidgets.QTableWidget):
                 row.sensor_id, segment_name(row.segment) if row.segment else "(not assigned)",
                 _number(row.rate_hz, 1), str(row.drops), str(refused), _number(row.latency_ms, 1),
                 _number(row.battery_pct), _number(row.signal_dbm),
-                row.mag_cal + (f" ({row.mag_cal_verdict})" if row.mag_cal_verdict else "") + _age(row.mag_cal_age_s),
+                row.mag_cal + (f", {quality_word(row.mag_cal_verdict)}" if row.mag_cal_verdict else "") + _age(row.mag_cal_age_s),
                 ", ".join(row.flags) or "–", state,
             )
             doubtful = row.mag_standing is not None and not row.mag_standing.good

@@ -13,10 +13,14 @@ device is first heard.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from PyQt5 import QtCore, QtWidgets
 
 from mimucap.acquisition.pairing import UnpairedSensor
-from mimucap.acquisition.source_spec import SimulatedSpec, format_source_spec, parse_source_spec
+from mimucap.acquisition.source_spec import (
+    ReplaySpec, SerialSpec, SimulatedSpec, SlimeVrSpec, UdpSpec, format_source_spec, parse_source_spec,
+)
 from mimucap.core.simulate.names import ROOM_NAMES, SCENARIOS
 from mimucap.gui.screen_fit import available_geometry
 from mimucap.gui.settings import gui_settings
@@ -205,6 +209,24 @@ class SourceDialog(QtWidgets.QDialog):
         super().accept()
 
 
+def receiver_words(spec: str) -> str:
+    """What hears the sensors of source ``spec``, in words ("The wireless receiver (UDP port
+    5555)"); the address itself is shown beside it, secondary."""
+    try:
+        parsed = parse_source_spec(spec)
+    except ValueError:
+        return f"The source {spec}"
+    if isinstance(parsed, SlimeVrSpec):
+        return f"The SlimeVR receiver (UDP port {parsed.port})"
+    if isinstance(parsed, UdpSpec):
+        return f"The wireless receiver (UDP port {parsed.port})"
+    if isinstance(parsed, SerialSpec):
+        return f"The receiver on {parsed.device}"
+    if isinstance(parsed, ReplaySpec):
+        return f"The replayed recording {Path(parsed.path).name}"
+    return "The simulated suit"
+
+
 class PairDevicesDialog(QtWidgets.QDialog):
     """Offer to pair the devices of ``sensors`` that ``source`` heard and refused; after
     ``accept()``, :meth:`chosen` are the ones ticked. Devices that cannot be paired (they do not
@@ -216,13 +238,19 @@ class PairDevicesDialog(QtWidgets.QDialog):
         self.setObjectName("pairDevicesDialog")
         self.sensors = list(sensors)
         text = QtWidgets.QLabel(
-            f"{source} hears devices that are not paired with this suit: their data is refused. "
+            f"{receiver_words(source)} hears devices that are not paired with this suit: their data is refused. "
             "Pair your own sensors only (switch the others off, or move away from them).", self)
         text.setWordWrap(True)
+        address = QtWidgets.QLabel(f"Source: {source}", self)
+        address.setObjectName("pairSourceAddress")
+        address.setStyleSheet("QLabel { color: #666; }")
         self.list = QtWidgets.QListWidget(self)
         for sensor in self.sensors:
             packets = "packet" if sensor.refused == 1 else "packets"
-            item = QtWidgets.QListWidgetItem(f"{sensor.describe()} ({sensor.refused} {packets} refused)")
+            # the device first (what to check on its label), the name it sends under second
+            named = (f"{sensor.device.describe()} — sends as sensor {sensor.sensor}" if sensor.pairable
+                     else sensor.describe())
+            item = QtWidgets.QListWidgetItem(f"{named} ({sensor.refused} {packets} refused)")
             if sensor.pairable:
                 item.setFlags(item.flags() | QtCore.Qt.ItemIsUserCheckable)
                 item.setCheckState(QtCore.Qt.Checked)
@@ -241,6 +269,7 @@ class PairDevicesDialog(QtWidgets.QDialog):
         self.list.setMinimumWidth(min(whole, available_geometry(parent).width() - 80))
         layout = QtWidgets.QVBoxLayout(self)
         layout.addWidget(text)
+        layout.addWidget(address)
         layout.addWidget(self.list)
         layout.addWidget(buttons)
 

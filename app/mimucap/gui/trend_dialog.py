@@ -13,12 +13,13 @@ import numpy as np
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtGui, QtWidgets
 
-from mimucap.gui.pdf_report import local_time_text, write_trend_report
+from mimucap.gui.pdf_report import write_trend_report
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.io.library import Library
 from mimucap.session.recorded.clinical_test_results import (
     MAIN_RESULT, QUANTITIES, RESULT_PREFIX, Visit, format_quantity, subject_trend,
 )
+from mimucap.session.views.calibration_age import local_time_text
 from mimucap.session.recorded.clinical_tests import RESULT_KEYS, TEST_NAMES
 
 

@@ -153,6 +153,42 @@ def sides_of(m: RomMovement) -> tuple[str, ...]:
     return ("left", "right") if m.sided else ("both",)
 
 
+#: The ROM protocol's markers: ``rom:<movement key>:<side>:start`` and ``...:end``, stored so in a
+#: recording (machine-readable: the analysis finds the movements by them).
+ROM_MARKER_PREFIX = "rom:"
+#: How a ROM marker's end is said.
+_MARKER_ENDS = {"start": "start", "end": "end"}
+
+
+def rom_marker_label(key: str, side: str, end: str) -> str:
+    """The stored label of a ROM protocol marker: ``end`` is ``"start"`` or ``"end"``."""
+    if end not in _MARKER_ENDS:
+        raise ValueError(f"a ROM marker is a start or an end, got {end!r}")
+    return f"{ROM_MARKER_PREFIX}{key}:{side}:{end}"
+
+
+def parse_rom_marker(label: str) -> tuple[str, str, str] | None:
+    """``(movement key, side, "start" | "end")`` of a ROM protocol marker's label, or ``None``
+    for another label."""
+    parts = str(label).split(":")
+    if len(parts) != 4 or parts[0] + ":" != ROM_MARKER_PREFIX or parts[1] not in MOVEMENT_KEYS \
+            or parts[3] not in _MARKER_ENDS:
+        return None
+    return parts[1], parts[2], parts[3]
+
+
+def marker_words(label: str) -> str:
+    """A marker's label as a person reads it: a ROM protocol marker ``rom:knee_flexion:left:start``
+    reads "Knee flexion (left) — start" (a movement of both sides has no side); any other label
+    is already the user's or the procedure's words and is returned as it is."""
+    parsed = parse_rom_marker(label)
+    if parsed is None:
+        return str(label)
+    key, side, end = parsed
+    sided = f" ({side})" if side in ("left", "right") else ""
+    return f"{movement(key).label}{sided} — {_MARKER_ENDS[end]}"
+
+
 def shoulder_elevation_deg(q_world_from_thorax: np.ndarray, q_world_from_upper_arm: np.ndarray, plane: str,
                            side: str) -> np.ndarray:
     """Elevation (T,) deg of the upper arm in the sagittal (``plane="sagittal"``: flexion) or

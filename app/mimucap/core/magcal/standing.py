@@ -10,7 +10,7 @@ checklist before recording, the record prompt, the readiness a recording stores,
 commands that process a session (``bodycal``, ``angles``, ``export``, ``gait``, ``report``).
 
 Levels: :data:`GOOD`; :data:`WARN` (usable, with something to know: verdict warn, a device that
-cannot be checked); :data:`NOT_GOOD` (verdict fail, another device, a field that no longer fits,
+cannot be checked); :data:`NOT_GOOD` (a poor calibration, another device, a field that no longer fits,
 too old). Each problem is a sentence naming its figures, e.g. ``"local field 85 µT, 51 µT when
 calibrated"``.
 
@@ -169,7 +169,7 @@ def calibration_standing(calibration, sensor_id: str, *, device: SensorDevice | 
     warnings: list[Problem] = []
     verdict = str(calibration.quality.get("verdict", "unknown"))
     if verdict == "fail":
-        problems.append(Problem("verdict", "verdict fail"))
+        problems.append(Problem("verdict", "poor calibration"))
     elif verdict != "good":
         warnings.append(Problem("verdict", f"verdict {verdict}"))
     if device is not None and device.settled:

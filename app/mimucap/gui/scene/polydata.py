@@ -3,14 +3,15 @@
 :func:`polydata` takes the points as a VTK array (often sharing memory with a numpy array
 that is moved in place every frame) and the cells as an ``(m, k)`` integer array of point
 indices: ``k`` = 1 vertices, 2 lines, 3 triangles. :func:`colour_by_point_rgb` has a mapper
-draw such a polydata in the RGB bytes of its point scalars.
+draw such a polydata in the RGB bytes of its point scalars; :func:`shaded_mesh` makes the
+triangles of moving numpy points, normals and colours one such polydata.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from vtkmodules.util.numpy_support import numpy_to_vtkIdTypeArray
+from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
 from vtkmodules.vtkCommonCore import vtkPoints
 from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkPolyData
 
@@ -41,3 +42,20 @@ def colour_by_point_rgb(mapper) -> None:
     mapper.SetColorModeToDirectScalars()
     mapper.SetScalarModeToUsePointData()
     mapper.ScalarVisibilityOn()
+
+
+def shaded_mesh(points: NDArray[np.float64], normals: NDArray[np.float64], colours: NDArray[np.uint8],
+                triangles: NDArray[np.int64]) -> tuple[vtkPolyData, tuple]:
+    """A polydata of ``triangles`` over ``points`` ``(n, 3)`` with point ``normals`` ``(n, 3)`` and
+    RGB ``colours`` ``(n, 3)`` bytes, sharing memory with those numpy arrays (move them in place,
+    then call ``Modified()`` on the VTK arrays returned, which the caller keeps referenced):
+    ``(polydata, (vtk_points, vtk_normals, vtk_colours))``."""
+    vtk_points = numpy_to_vtk(points, deep=False)
+    vtk_normals = numpy_to_vtk(normals, deep=False)
+    vtk_normals.SetName("Normals")
+    vtk_colours = numpy_to_vtk(colours, deep=False)
+    vtk_colours.SetName("Colours")
+    result = polydata(vtk_points, triangles)
+    result.GetPointData().SetNormals(vtk_normals)
+    result.GetPointData().SetScalars(vtk_colours)
+    return result, (vtk_points, vtk_normals, vtk_colours)

@@ -21,17 +21,16 @@ Both actors are lit by VTK (the stage's headlight) with one material: :data:`AMB
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from vtkmodules.util.numpy_support import numpy_to_vtk, vtk_to_numpy
-from vtkmodules.vtkFiltersCore import vtkTriangleFilter
+from vtkmodules.util.numpy_support import numpy_to_vtk
 from vtkmodules.vtkFiltersSources import vtkCylinderSource
 from vtkmodules.vtkRenderingCore import vtkActor, vtkPolyDataMapper, vtkRenderer
 from vtkmodules.vtkRenderingOpenGL2 import vtkOpenGLSphereMapper
 
-from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata
+from mimucap.gui.scene.placed_copies import PlacedCopies, UnitShape, rgb_bytes, unit_shape
+from mimucap.gui.scene.polydata import colour_by_point_rgb, polydata, shaded_mesh
 from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry
 
 #: Segment colour (RGB 0..1) for each sensor state (see ``mimucap.session.live.status``).
@@ -47,6 +46,9 @@ GHOST_OPACITY = 0.35
 JOINT_COLOUR = (0.92, 0.92, 0.90)
 CONNECTOR_COLOUR = (0.78, 0.78, 0.80)
 MARKER_COLOUR = (0.15, 0.18, 0.25)
+#: The neutral outline before a body calibration: one calm grey for every piece, no tints (the
+#: sensors' states are on their glyphs).
+OUTLINE_COLOUR = (0.58, 0.60, 0.63)
 #: Capsule material, lit by a headlight: ambient and diffuse parts of the base colour, and a
 #: white highlight of this strength and exponent.
 AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER = 0.22, 0.78, 0.30, 12.0
@@ -55,71 +57,16 @@ AMBIENT, DIFFUSE, SPECULAR, SPECULAR_POWER = 0.22, 0.78, 0.30, 12.0
 CYLINDER_RESOLUTION = 20
 
 
-@dataclass(frozen=True)
-class _Template:
-    """A unit shape: ``points``/``normals`` ``(n, 3)`` float, ``triangles`` ``(m, 3)`` int."""
-
-    points: NDArray[np.float64]
-    normals: NDArray[np.float64]
-    triangles: NDArray[np.int64]
-
-
-def _template(source) -> _Template:
-    triangulate = vtkTriangleFilter()
-    triangulate.SetInputConnection(source.GetOutputPort())
-    triangulate.Update()
-    poly = triangulate.GetOutput()
-    points = vtk_to_numpy(poly.GetPoints().GetData()).astype(float)
-    normals = vtk_to_numpy(poly.GetPointData().GetNormals()).astype(float)
-    connectivity = vtk_to_numpy(poly.GetPolys().GetConnectivityArray()).astype(np.int64)
-    return _Template(points, normals, connectivity.reshape(-1, 3))
-
-
-def _unit_cylinder() -> _Template:
+def _unit_cylinder() -> UnitShape:
     cylinder = vtkCylinderSource()
     cylinder.SetRadius(1.0)
     cylinder.SetHeight(1.0)
     cylinder.SetResolution(CYLINDER_RESOLUTION)
     cylinder.CappingOff()
-    return _template(cylinder)
+    return unit_shape(cylinder)
 
 
-def _rgb(colour) -> NDArray[np.uint8]:
-    return np.round(255.0 * np.asarray(colour)).astype(np.uint8)
-
-
-class _Batch:
-    """``count`` copies of ``template`` occupying vertices ``first`` … ``first + count * n - 1``."""
-
-    def __init__(self, template: _Template, count: int, first: int) -> None:
-        self.template = template
-        self.count = count
-        self.first = first
-        self.stop = first + count * len(template.points)
-
-    def vertex_range(self, index: int) -> slice:
-        n = len(self.template.points)
-        return slice(self.first + index * n, self.first + (index + 1) * n)
-
-    def place(self, matrices: NDArray[np.float64], points_out: np.ndarray, normals_out: np.ndarray) -> None:
-        """Write the vertices and unit normals of every copy placed by ``matrices`` ``(count, 4, 4)``."""
-        if self.count == 0:
-            return
-        linear = matrices[:, :3, :3]
-        # Row vectors: p' = p @ L^T + t ; n' ∝ n @ L^-1 (the inverse transpose, transposed).
-        placed = self.template.points @ linear.transpose(0, 2, 1) + matrices[:, None, :3, 3]
-        normals = self.template.normals @ np.linalg.inv(linear)
-        normals /= np.sqrt(np.einsum("kni,kni->kn", normals, normals))[..., None]
-        points_out[self.first:self.stop] = placed.reshape(-1, 3)
-        normals_out[self.first:self.stop] = normals.reshape(-1, 3)
-
-    def triangles(self) -> NDArray[np.int64]:
-        n = len(self.template.points)
-        offsets = self.first + n * np.arange(self.count)
-        return (self.template.triangles[None, :, :] + offsets[:, None, None]).reshape(-1, 3)
-
-
-def _figure_actor(mapper) -> vtkActor:
+def figure_actor(mapper) -> vtkActor:
     """A hidden actor with the figure's material (:data:`AMBIENT`, :data:`DIFFUSE`,
     :data:`SPECULAR`, :data:`SPECULAR_POWER`)."""
     actor = vtkActor()
@@ -148,31 +95,25 @@ class SkeletonActor:
         cylinder = _unit_cylinder()
         n_segments, n_connectors = len(builder.segment_names), len(builder.connector_names)
         n_joints = len(builder.joint_names)
-        self._segments = _Batch(cylinder, n_segments, 0)
-        self._connectors = _Batch(cylinder, n_connectors, self._segments.stop)
+        self._segments = PlacedCopies(cylinder, n_segments, 0)
+        self._connectors = PlacedCopies(cylinder, n_connectors, self._segments.stop)
         n_points = self._connectors.stop
 
         self._points = np.zeros((n_points, 3))
         self._normals = np.zeros((n_points, 3))
         self._normals[:, 2] = 1.0
         self._colours = np.empty((n_points, 3), dtype=np.uint8)
-        self._colours[: self._segments.stop] = _rgb(TINTS["no_sensor"])
-        self._colours[self._connectors.first:self._connectors.stop] = _rgb(CONNECTOR_COLOUR)
+        self._colours[: self._segments.stop] = rgb_bytes(TINTS["no_sensor"])
+        self._colours[self._connectors.first:self._connectors.stop] = rgb_bytes(CONNECTOR_COLOUR)
 
         # VTK arrays that share memory with the numpy arrays above (kept referenced).
-        self._vtk_points = numpy_to_vtk(self._points, deep=False)
-        self._vtk_normals = numpy_to_vtk(self._normals, deep=False)
-        self._vtk_normals.SetName("Normals")
-        self._vtk_colours = numpy_to_vtk(self._colours, deep=False)
-        self._vtk_colours.SetName("Colours")
         triangles = np.concatenate([b.triangles() for b in (self._segments, self._connectors)])
-        self.polydata = polydata(self._vtk_points, triangles)
-        self.polydata.GetPointData().SetNormals(self._vtk_normals)
-        self.polydata.GetPointData().SetScalars(self._vtk_colours)
+        self.polydata, (self._vtk_points, self._vtk_normals, self._vtk_colours) = shaded_mesh(
+            self._points, self._normals, self._colours, triangles)
         mapper = vtkPolyDataMapper()
         mapper.SetInputData(self.polydata)
         colour_by_point_rgb(mapper)
-        self.actor = _figure_actor(mapper)
+        self.actor = figure_actor(mapper)
         # Closed shapes (the open capsule ends sit inside the joint spheres): their far sides
         # are never seen, so they are not drawn.
         self.actor.GetProperty().BackfaceCullingOn()
@@ -182,8 +123,8 @@ class SkeletonActor:
         self._centres = np.zeros((n_spheres, 3))
         self._radii = np.zeros(n_spheres, dtype=np.float32)
         self._sphere_colours = np.empty((n_spheres, 3), dtype=np.uint8)
-        self._sphere_colours[:n_joints] = _rgb(JOINT_COLOUR)
-        self._sphere_colours[n_joints:] = _rgb(MARKER_COLOUR)
+        self._sphere_colours[:n_joints] = rgb_bytes(JOINT_COLOUR)
+        self._sphere_colours[n_joints:] = rgb_bytes(MARKER_COLOUR)
         self._vtk_centres = numpy_to_vtk(self._centres, deep=False)
         self._vtk_radii = numpy_to_vtk(self._radii, deep=False)
         self._vtk_radii.SetName("radius")
@@ -196,21 +137,52 @@ class SkeletonActor:
         sphere_mapper.SetInputData(self.sphere_polydata)
         sphere_mapper.SetScaleArray("radius")
         colour_by_point_rgb(sphere_mapper)
-        self.sphere_actor = _figure_actor(sphere_mapper)
+        self.sphere_actor = figure_actor(sphere_mapper)
         self._tints: dict[str, str] = {}
+        self._outline = False
         for actor in (self.actor, self.sphere_actor):
             renderer.AddActor(actor)
 
     def make_ghost(self) -> None:
         """Draw this figure as a ghost: one pale, translucent colour, no tints (the simulator's
         truth beside the estimate)."""
-        self._colours[:] = _rgb(GHOST_COLOUR)
-        self._sphere_colours[:] = _rgb(GHOST_COLOUR)
+        self._colours[:] = rgb_bytes(GHOST_COLOUR)
+        self._sphere_colours[:] = rgb_bytes(GHOST_COLOUR)
         self._vtk_colours.Modified()
         self._vtk_sphere_colours.Modified()
         for actor in (self.actor, self.sphere_actor):
             actor.GetProperty().SetOpacity(GHOST_OPACITY)
             actor.SetPickable(False)
+
+    @property
+    def outline(self) -> bool:
+        """Whether the figure is drawn as the neutral outline (:meth:`set_outline`)."""
+        return self._outline
+
+    def set_outline(self, on: bool) -> bool:
+        """Draw the figure as the neutral outline (one grey, no tints) or as the tinted skeleton
+        again (the tints last asked for); returns whether anything changed."""
+        on = bool(on)
+        if on == self._outline:
+            return False
+        self._outline = on
+        n_joints = len(self._sphere_colours) - len(self.segment_names)
+        if on:
+            self._colours[:] = rgb_bytes(OUTLINE_COLOUR)
+            self._sphere_colours[:] = rgb_bytes(OUTLINE_COLOUR)
+        else:
+            self._colours[self._connectors.first:self._connectors.stop] = rgb_bytes(CONNECTOR_COLOUR)
+            self._sphere_colours[:n_joints] = rgb_bytes(JOINT_COLOUR)
+            self._sphere_colours[n_joints:] = rgb_bytes(MARKER_COLOUR)
+            states, self._tints = self._tints, {}
+            for index, _name in enumerate(self.segment_names):
+                self._colours[self._segments.vertex_range(index)] = rgb_bytes(TINTS["no_sensor"])
+            self.set_tints(states)
+        self._vtk_colours.Modified()
+        self._vtk_sphere_colours.Modified()
+        self.polydata.Modified()
+        self.sphere_polydata.Modified()
+        return True
 
     def hide(self) -> None:
         """Hide the figure until the next :meth:`update`."""
@@ -253,7 +225,8 @@ class SkeletonActor:
                 continue
             if state not in TINTS:
                 raise ValueError(f"unknown sensor state {state!r} for segment {name}")
-            self._colours[self._segments.vertex_range(index)] = _rgb(TINTS[state])
+            if not self._outline:  # the outline keeps its grey; the tint shows when it ends
+                self._colours[self._segments.vertex_range(index)] = rgb_bytes(TINTS[state])
             self._tints[name] = state
             changed = True
         if changed:

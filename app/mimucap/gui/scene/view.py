@@ -28,6 +28,7 @@ from vtkmodules.vtkCommonCore import vtkCommand
 from vtkmodules.vtkRenderingCore import vtkTextActor
 
 from mimucap.gui.scene.environment import Stage, scene_renderer
+from mimucap.gui.scene.sensor_glyph_actor import SensorGlyphActor
 from mimucap.gui.scene.skeleton_actor import SkeletonActor
 from mimucap.gui.throttle import RepaintThrottle
 from mimucap.gui.vtk_widget import VtkWidget
@@ -38,6 +39,8 @@ from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry,
 CLIPPING_FAR_M = 45.0
 #: The hint's text: size (points at 72 dots per inch), characters per line at most.
 HINT_FONT_SIZE, HINT_LINE_CHARACTERS = 15, 52
+#: Where the hint's top edge sits once a figure is shown (share of the view's height).
+HINT_TOP = 0.97
 
 #: Share of the frame interval (1 / ``target_fps``) two renders may come closer than: the data
 #: clock (62.5 Hz) and Qt's millisecond timers jitter around a 60 Hz interval, and holding a
@@ -110,6 +113,8 @@ class SceneView(QtWidgets.QWidget):
         self._ghost_frame_id: object = None
         self._builder: FigureBuilder | None = None
         self.skeleton: SkeletonActor | None = None
+        #: the sensors on the outline before a body calibration
+        self.sensor_glyphs = SensorGlyphActor(self.renderer)
         #: the simulator's truth as a translucent figure beside the estimate (evaluation only)
         self.ghost: SkeletonActor | None = None
         self._last_frame_id: object = None
@@ -141,6 +146,7 @@ class SceneView(QtWidgets.QWidget):
             self.skeleton.remove()
         if self.ghost is not None:
             self.ghost.remove()
+        self.sensor_glyphs.hide()
         self._builder = builder
         self.skeleton = SkeletonActor(self.renderer, builder)
         self.ghost = SkeletonActor(self.renderer, builder)
@@ -149,6 +155,7 @@ class SceneView(QtWidgets.QWidget):
         self._last_frame_id = None
         self._last_geometry = None
         self._pending_tints = self._tints
+        self._place_hint(above_figure=False)
         # Until the first frame, look at the floor where the subject will stand; the preset is
         # applied again around the figure's root when it arrives.
         self.stage.set_world_matrix(plain_world_matrix())
@@ -292,6 +299,18 @@ class SceneView(QtWidgets.QWidget):
         self._dirty = True
         self._schedule()
 
+    def _place_hint(self, above_figure: bool) -> None:
+        """The hint in the middle of an empty view; above the figure once one is shown (the
+        outline with its sensors must stay in sight under it)."""
+        coordinate = self._hint_actor.GetPositionCoordinate()
+        text = self._hint_actor.GetTextProperty()
+        if above_figure:
+            coordinate.SetValue(0.5, HINT_TOP)
+            text.SetVerticalJustificationToTop()
+        else:
+            coordinate.SetValue(0.5, 0.5)
+            text.SetVerticalJustificationToCentered()
+
     @property
     def alive(self) -> bool:
         """False once :meth:`shutdown` ran (nothing renders any more)."""
@@ -365,8 +384,14 @@ class SceneView(QtWidgets.QWidget):
             frame_id, geometry = frame
             self._last_frame_id = frame_id
             self._last_geometry = geometry
+            self.skeleton.set_outline(geometry.outline)
             self.skeleton.update(geometry)
+            if geometry.sensor_glyphs is not None:
+                self.sensor_glyphs.update(geometry.sensor_glyphs, self._tints)
+            else:
+                self.sensor_glyphs.hide()
             self.stage.set_world_matrix(geometry.world_matrix, geometry.root_world_m)
+            self._place_hint(above_figure=True)
             self._dirty = True
         ghost, self._pending_ghost = self._pending_ghost, None
         if ghost is not None and self.ghost is not None:
@@ -382,6 +407,9 @@ class SceneView(QtWidgets.QWidget):
                 self._dirty = True
         tints, self._pending_tints = self._pending_tints, None
         if tints is not None and self.skeleton.set_tints(tints):
+            self._dirty = True
+        if tints is not None and self.sensor_glyphs.visible and self._last_geometry is not None:
+            self.sensor_glyphs.update(self._last_geometry.sensor_glyphs, tints)
             self._dirty = True
         if self._last_geometry is not None:
             root = self._last_geometry.root_scene_m

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 from mimucap.core.clinical_names import sensor_name
 from mimucap.core.magcal.standing import MAX_AGE_H, calibration_standing
-from mimucap.session.views.calibration_age import describe_age
+from mimucap.session.views.calibration_age import describe_age, quality_word
 
 #: A sensor losing more than this fraction of its packets is flagged.
 MAX_DROP_FRACTION = 0.01
@@ -32,7 +32,7 @@ MAX_DROP_FRACTION = 0.01
 MAG_CAL_MAX_AGE_H = MAX_AGE_H
 #: How the checklist groups the calibrations that are not good, by problem kind
 #: (:data:`~mimucap.core.magcal.standing.PROBLEM_KINDS`).
-PROBLEM_GROUPS = {"verdict": "verdict fail", "device": "made on another device",
+PROBLEM_GROUPS = {"verdict": "poor calibration", "device": "made on another device",
                   "field": "the local field no longer fits", "age": f"older than {MAX_AGE_H:.0f} h"}
 #: Sensors named in one line before "and N more" (the line stays short in the session panel).
 MAX_NAMED = 2
@@ -137,7 +137,7 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
     elif ages:
         finite = [a for a in ages if math.isfinite(a)]
         oldest = _age_text(max(finite)) if finite else "date unknown"
-        mag_text = f"{len(ages)} calibrated, the oldest {oldest}; verdict {', '.join(sorted(verdicts))}"
+        mag_text = f"{len(ages)} calibrated, the oldest {oldest}; quality {', '.join(sorted(quality_word(v) for v in verdicts))}"
         if unverified:
             mag_text += f"; device not verified: {_names(unverified)}"
         mag_ok = True
@@ -150,7 +150,7 @@ def recording_checklist(live, rows=None) -> list[CheckItem]:
         items.append(CheckItem("body", "Body calibration", False, "not done (Calibrate → Body…)"))
     else:
         verdict = body.quality.verdict
-        items.append(CheckItem("body", "Body calibration", verdict != "poor", f"done, verdict {verdict}"))
+        items.append(CheckItem("body", "Body calibration", verdict != "poor", f"done, quality {quality_word(verdict)}"))
     return items
 
 

@@ -48,6 +48,7 @@ from mimucap.core import bodycal, skeleton
 from mimucap.core.device_identity import SensorDevice, devices_to_json
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.settings import PipelineSettings
+from mimucap.core.pipeline.segments import assignment_of
 from mimucap.core.sensor_samples import join_per_sensor
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.io.calibration_store import CalibrationStore
@@ -243,8 +244,11 @@ class LiveSession:
                                     had_pose=self.pose.q_world_from_segment is not None)
         if pose is None:
             return False
+        body = self.calibrations.body
+        # without a body calibration each sensor's axes stand in for its segment's: the outline
+        uncalibrated = None if body is not None else assignment_of(None, self.sensors.sensor_segments)
         try:
-            self.pose.take(*pose)
+            self.pose.take(*pose, segment_of_sensor=uncalibrated)
         except ValueError as error:
             raise ValueError(f"{self.pose_source}: {error}") from None
         return True

@@ -30,8 +30,8 @@ STALE_AFTER_S = 1.0
 #: Seconds of recent samples the local field is measured over (the sensor panel, the checklist).
 FIELD_CHECK_WINDOW_S = 2.0
 #: Fusion flags the sensor panel shows: flag name (:data:`FLAG_NAMES`) → label.
-FLAG_LABELS = {"rest": "rest", "mag_rejected": "mag disturbed", "acc_rejected": "acc disturbed",
-               "uninitialised": "starting", "mag_offset": "mag hard iron removed"}
+FLAG_LABELS = {"rest": "still", "mag_rejected": "magnetic field disturbed", "acc_rejected": "fast movement",
+               "uninitialised": "starting", "mag_offset": "magnetometer offset corrected"}
 
 
 @dataclass(frozen=True)
@@ -52,7 +52,7 @@ class SensorRow:
     ``local_field`` the field it measures now, corrected by its calibration (``None`` without a
     calibration or enough samples); ``has_magnetometer`` whether it sends a magnetic field;
     ``flags`` fusion flags
-    now (``"rest"``, ``"mag disturbed"``, ...); ``stale`` no sample for :data:`STALE_AFTER_S`;
+    now (``"still"``, ``"magnetic field disturbed"``, ...); ``stale`` no sample for :data:`STALE_AFTER_S`;
     ``state`` the tint name of its segment (``ok``, ``mag_uncalibrated``, ``stale``);
     ``signal_dbm`` the strength of its radio link where the source reports one (SlimeVR), NaN
     otherwise; ``rejections`` packets of this sensor the source refused, by reason

@@ -135,7 +135,7 @@ class RomProcedure:
         if self.state != "ready":
             raise RuntimeError(f"cannot start a step in state {self.state}")
         step = self.step
-        self.markers.append((float(t_s), f"rom:{step.key}:{step.side}:start"))
+        self.markers.append((float(t_s), rom_core.rom_marker_label(step.key, step.side, "start")))
         self._reps = rom_core.RepetitionCounter(self.min_prominence_deg)
         self.state = "measuring"
 
@@ -163,7 +163,7 @@ class RomProcedure:
 
     def _finish_step(self, t_s: float) -> None:
         step = self.step
-        self.markers.append((t_s, f"rom:{step.key}:{step.side}:end"))
+        self.markers.append((t_s, rom_core.rom_marker_label(step.key, step.side, "end")))
         self.results[(step.key, step.side)] = rom_core.RomResult(
             step.key, step.side, tuple(self._reps.peaks), tuple(self._reps.excursions), step.movement.reference_deg)
         self.state = "step_done"
@@ -189,7 +189,7 @@ class RomProcedure:
         """Leave the current step without a result (its start marker is withdrawn)."""
         if self.state == "measuring":
             step = self.step
-            start = f"rom:{step.key}:{step.side}:start"
+            start = rom_core.rom_marker_label(step.key, step.side, "start")
             self.markers = [m for m in self.markers if m[1] != start]
         self.state = "step_done"
         self.next_step()

@@ -57,7 +57,6 @@ from mimucap.io.session import Marker
 from mimucap.session.recorded.review import ReviewData
 
 SIDE_LETTER = {"left": "l", "right": "r"}
-ROM_MARKER_PREFIX = "rom:"
 
 
 def body_calibration_of(review: ReviewData) -> bodycal.BodyCalibration | None:
@@ -114,10 +113,10 @@ def rom_markers(markers: list[Marker]) -> list[tuple[str, str, float, float]]:
     starts: dict[tuple[str, str], float] = {}
     found = []
     for marker in markers:
-        parts = marker.label.split(":")
-        if len(parts) != 4 or parts[0] + ":" != ROM_MARKER_PREFIX or parts[1] not in rom_core.MOVEMENT_KEYS:
+        parsed = rom_core.parse_rom_marker(marker.label)
+        if parsed is None:
             continue
-        key, side, what = parts[1], parts[2], parts[3]
+        key, side, what = parsed
         if what == "start":
             starts[(key, side)] = marker.t_s
         elif what == "end" and (key, side) in starts:

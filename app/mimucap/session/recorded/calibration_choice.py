@@ -46,6 +46,7 @@ from mimucap.io.calibration_store import (
 from mimucap.io.session import Session
 from mimucap.session.recorded.calibration_readiness import session_standings
 from mimucap.session.recorded.stored_processing import recorded_processing
+from mimucap.session.views.calibration_age import local_time_text
 
 #: Where a body calibration keeps the magnetometer calibrations it was made with, and when it was made.
 MAGNETOMETER_DETAIL = "magnetometer"
@@ -151,6 +152,11 @@ def _same(a: MagCalibration, b: MagCalibration) -> bool:
             and bool((a.soft_iron == b.soft_iron).all()))
 
 
+def _when(created_utc: str | None) -> str:
+    """A calibration's time in local date and time ("unknown date" without one)."""
+    return local_time_text(created_utc) if created_utc else "unknown date"
+
+
 def applied_calibrations(session: Session, *, body: bodycal.BodyCalibration | None = None, body_origin: str = "",
                          mag_files: Sequence[str | Path] = (), origin: str = "the session",
                          store: CalibrationStore | None = None, stored_body: bool = True) -> AppliedCalibrations:
@@ -212,8 +218,8 @@ def applied_calibrations(session: Session, *, body: bodycal.BodyCalibration | No
                 origins[sensor_id] = f"the one the body calibration was made with ({body_origin or 'stored with it'})"
                 if usual is not None:
                     notes.append(f"{sensor_id}: the body calibration was made with another magnetometer calibration "
-                                 f"(of {own[sensor_id].created_utc or 'unknown date'}) than the one {usual[1]} "
-                                 f"(of {usual[0].created_utc or 'unknown date'}); its own is applied")
+                                 f"(of {_when(own[sensor_id].created_utc)}) than the one {usual[1]} "
+                                 f"(of {_when(usual[0].created_utc)}); its own is applied")
         elif usual is not None:
             chosen[sensor_id], origins[sensor_id] = usual
         else:

@@ -106,6 +106,14 @@ def doubt_in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> dict[str
     return {joint: reasons[keep] for joint, reasons in data.joint_doubt.items()}
 
 
+def recording_start_s(data: ReviewData) -> float:
+    """Where an export of the whole recording starts (s): the recording's start, 0 s. The first
+    poses may come a fraction of a second earlier (the samples of the poll that was running when
+    Record was pressed); they are not offered, so that no range starts at a negative time. A
+    recording whose poses all lie before 0 s starts at its first pose."""
+    return max(data.start_s, 0.0) if data.end_s > 0.0 else data.start_s
+
+
 def _in_range(data: ReviewData, t_from_s: float, t_to_s: float) -> np.ndarray:
     keep = (data.t_s >= t_from_s) & (data.t_s <= t_to_s)
     if not np.any(keep):
@@ -268,7 +276,7 @@ def write_motion_file(data: ReviewData, fmt: str, path: Path, t_from_s: float | 
     from mimucap.io.angles_export import write_angles
 
     path = Path(path)
-    t_from = data.start_s if t_from_s is None else t_from_s
+    t_from = recording_start_s(data) if t_from_s is None else t_from_s
     t_to = data.end_s if t_to_s is None else t_to_s
     check_export_range(t_from, t_to)
     keep = (data.t_s >= t_from) & (data.t_s <= t_to)

@@ -5,15 +5,21 @@ Every file, report and picture MimuCap writes carries one :class:`Provenance` re
 
 * **result**: *as seen live* (the forward filter) or *reprocessed* (smoothed with past and
   future data), :data:`mimucap.core.pipeline.settings.RESULT_LABELS`;
-* **body calibration**: its method, verdict, when it was made and where it came from (made live,
-  a ``CAL.json`` file, imported), or none, and what that leaves meaningless;
-* **magnetometer calibrations**: per sensor its verdict and its age at the recording's start
+* **body calibration**: its method, quality, when it was made (local date and time) and where it
+  came from (made live, a ``CAL.json`` file, imported), or none, and what that leaves meaningless;
+* **magnetometer calibrations**: per sensor its quality and its age at the recording's start
   (ISO dates are compared, so the figure is the same whenever the file is written) and whether
   it corrected the gyroscope's scale (:mod:`mimucap.core.magcal.gyro_scale`), or that the
   raw field was used, or that the device fuses its orientation on board; sensors that read
-  alike share a sentence;
-* **skeleton model** (and the subject's height), **software** version (and the one that
-  recorded), **source file**.
+  alike share a sentence ("S01, S02 magnetometers: good, made 2.0 h before the recording,
+  gyroscope scale corrected");
+* **skeleton model** ("10-segment skeleton", and the subject's height), **software** version
+  (and the one that recorded), **source file**.
+
+Every field is a sentence a clinician reads: qualities in words (:data:`~mimucap.session.views.calibration_age.QUALITY_WORDS`: the
+verdicts ``warn`` and ``fail`` read "fair" and "poor"), times in local date and time; the
+machine-readable values stay in the files' own fields (the calibrations' JSON, the session's
+metadata), never in these lines.
 
 :meth:`Provenance.lines` gives ``Label: text`` lines for text headers (CSV ``#`` lines, ``.mot``
 and ``.sto`` header notes, the BVH sidecar, the PDF's first page, the chart's caption);
@@ -31,6 +37,7 @@ from mimucap.core.pipeline.settings import RESULT_LABELS
 from mimucap.core.skeleton import SkeletonModel
 from mimucap.io.library import parse_utc, recorded_utc
 from mimucap.session.recorded.calibration_choice import AppliedCalibrations, body_created_utc
+from mimucap.session.views.calibration_age import local_time_text, quality_word
 
 #: How each body calibration method is named.
 METHOD_NAMES = {"npose_tpose": "N-pose/T-pose", "heading": "heading from a sensor axis",
@@ -103,20 +110,21 @@ def describe_offset(hours: float | None, event: str = "the recording") -> str:
 
 
 def _magnetometer(calibrations: AppliedCalibrations, recorded: datetime | None) -> tuple[str, ...]:
-    """One sentence per group of sensors that read alike (``"S01, S02: good, made 2.0 h before
-    the recording, gyroscope scale corrected"``), in the sensors' order."""
+    """One sentence per group of sensors that read alike (``"S01, S02 magnetometers: good, made
+    2.0 h before the recording, gyroscope scale corrected"``), in the sensors' order."""
     said: dict[str, list[str]] = {}
     for sensor_id, calibration in calibrations.magnetometer.items():
-        verdict = (calibration.quality or {}).get("verdict") or "verdict unknown"
+        verdict = quality_word((calibration.quality or {}).get("verdict"))
         made = parse_utc(calibration.created_utc)
         gyroscope = "gyroscope scale corrected" if calibration.corrects_gyr else "gyroscope scale not corrected"
         said.setdefault(f"{verdict}, made {describe_offset(_hours_between(made, recorded))}, {gyroscope}",
                         []).append(sensor_id)
     for sensor_id in calibrations.raw_field:
-        said.setdefault("none (raw field used)", []).append(sensor_id)
+        said.setdefault("not calibrated (the raw field was used)", []).append(sensor_id)
     for sensor_id in calibrations.onboard:
         said.setdefault("none applied (the device fuses its orientation on board)", []).append(sensor_id)
-    found = tuple(f"{', '.join(sensors)}: {text}" for text, sensors in said.items())
+    found = tuple(f"{', '.join(sensors)} magnetometer{'s' if len(sensors) > 1 else ''}: {text}"
+                  for text, sensors in said.items())
     return found or ("none (no sensor has a magnetometer)",)
 
 
@@ -126,9 +134,14 @@ def _body(calibrations: AppliedCalibrations) -> str:
         return WITHOUT_BODY_CALIBRATION
     method = METHOD_NAMES.get(body.quality.method, body.quality.method or "method not recorded")
     created = body_created_utc(body)
-    when = f"made {created}" if created else "time not recorded"
-    origin = f", {calibrations.body_origin}" if calibrations.body_origin else ""
-    return f"{method}, verdict {body.quality.verdict}, {when}{origin}"
+    when = f"made {local_time_text(created)}" if created else "time not recorded"
+    origin = f" ({calibrations.body_origin})" if calibrations.body_origin else ""
+    return f"{method}, {quality_word(body.quality.verdict)}, {when}{origin}"
+
+
+def model_words(model: SkeletonModel) -> str:
+    """A skeleton model as people name it: "10-segment skeleton"."""
+    return f"{len(model.segment_names)}-segment skeleton"
 
 
 def provenance(*, source_file: str, result: str, calibrations: AppliedCalibrations, model: SkeletonModel,
@@ -148,7 +161,7 @@ def provenance(*, source_file: str, result: str, calibrations: AppliedCalibratio
         result=RESULT_LABELS.get(result, result),
         body_calibration=_body(calibrations),
         magnetometer=_magnetometer(calibrations, recorded),
-        skeleton_model=f"{model.name} ({len(model.segment_names)} segments)"
+        skeleton_model=model_words(model)
                        + ("" if height_m is None else f", subject height {height_m:.2f} m"),
         software=software,
         source_file=source_file,

@@ -33,6 +33,7 @@ import numpy as np
 from mimucap.core import bodycal, rotation, skeleton
 from mimucap.core.clinical_names import joint_name
 from mimucap.core.pipeline import doubt_reasons
+from mimucap.core.pipeline.segments import assignment_of
 from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
 from mimucap.core.pipeline.settings import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.core.root_position import root_positions
@@ -284,17 +285,24 @@ class ReviewPlayer:
         frame_id = (i, self.display_mode)
         if self._geometry is None or self._geometry[0] != frame_id:
             q = {s: v[i] for s, v in self.data.q_world_from_segment.items()}
-            root = None if self.data.root_position_m is None else self.data.root_position_m[i]
-            poses = skeleton.forward_kinematics(self.model, q, self.height_m, root)
-            geometry = self.builder.build(poses, mode=self.display_mode, heading_ref_rad=self.data.heading_ref_rad)
+            if self.data.body_calibration is None:
+                # each sensor's axes stood in for its segment's: the outline with the sensors on it
+                worn = assignment_of(None, self.data.session.sensor_segments())
+                geometry = self.builder.build_outline({sensor: q[segment] for sensor, segment in worn.items()
+                                                       if segment in q}, worn)
+            else:
+                root = None if self.data.root_position_m is None else self.data.root_position_m[i]
+                poses = skeleton.forward_kinematics(self.model, q, self.height_m, root)
+                geometry = self.builder.build(poses, mode=self.display_mode, heading_ref_rad=self.data.heading_ref_rad)
             self._geometry = (frame_id, geometry)
         return self._geometry
 
     def truth_frame(self) -> tuple[object, FigureGeometry] | None:
         """``(frame_id, geometry)`` of the simulator's true pose at the play head, standing
-        where the estimate stands (the ghost figure); ``None`` without truth. Evaluation only."""
+        where the estimate stands (the ghost figure); ``None`` without truth, or without a body
+        calibration (the outline is no estimated pose to compare). Evaluation only."""
         truth = self.data.truth
-        if truth is None or not len(self.data.t_s) or not len(truth.t_s):
+        if truth is None or not len(self.data.t_s) or not len(truth.t_s) or self.data.body_calibration is None:
             return None
         if any(name not in truth.q_world_from_segment for name in self.model.segment_names):
             return None

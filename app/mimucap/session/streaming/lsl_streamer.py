@@ -12,7 +12,8 @@ publishes, through liblsl (``pylsl``, an optional extra: ``pip install 'mimucap[
 * **joint angles** (:func:`joint_layout`): the machine column names (``knee_r_flexion_deg``) as
   labels, the clinical name ("Right knee flexion"), the sign ("+ flexion / − extension"), the
   angle sequence and the unit ``deg`` in each channel's meta-data (BIDS-Motion type ``JNTANG``);
-  a joint whose two segments do not both carry a sensor reads NaN;
+  a joint whose two segments do not both carry a sensor, and every joint before a body
+  calibration, reads NaN;
 * **each sensor's raw samples** (:func:`raw_layout`): accelerometer (``ACCEL``, ``m/s^2``),
   gyroscope (``GYRO``, ``rad/s``), magnetometer as it left the sensor, before its calibration
   (``MAGN``, ``µT``), the BIDS-Motion channel types, components ``x``/``y``/``z`` in the
@@ -298,12 +299,13 @@ class LslStreamer:
         self.poll()
 
     def _measured_joints(self) -> set[str]:
-        """Joints whose two segments each carry an assigned sensor now."""
+        """Joints whose two segments each carry a sensor of the body calibration now; none before
+        one (the sensors' own axes stand for the segments then: their angles are no joint angles,
+        and the window plots none)."""
         session = self.session
-        if session.body_calibration is not None:
-            carried = set(session.body_calibration.sensors)
-        else:
-            carried = set(session.sensor_segments.values())
+        if session.body_calibration is None:
+            return set()
+        carried = set(session.body_calibration.sensors)
         return {j.name for j in session.model.joints if j.proximal in carried and j.distal in carried}
 
     def _on_marker(self, t_s: float, label: str, _recorded: bool) -> None:

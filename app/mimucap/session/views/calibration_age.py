@@ -1,4 +1,5 @@
-"""How old a calibration is, in the words the windows use ("3 days ago") (no Qt).
+"""How old a calibration is, in the words the windows use ("3 days ago"), how good it is ("fair"),
+and a moment in local date and time ("28 Nov 2026, 09:14") (no Qt).
 
 Ages are computed from a calibration's ``created_utc`` (ISO 8601, UTC) against an aware UTC
 ``now``; they are read in the magnetometer wizard, the sensor table and the checklist alike.
@@ -9,6 +10,16 @@ from __future__ import annotations
 import datetime as _dt
 
 from mimucap.core.wording import plural
+
+#: A calibration's verdict (magnetometer: good/warn/fail; body: good/acceptable/poor) as people read it.
+QUALITY_WORDS = {"good": "good", "warn": "fair", "acceptable": "fair", "fail": "poor", "poor": "poor"}
+
+
+def quality_word(verdict: str | None) -> str:
+    """A calibration's verdict in words (:data:`QUALITY_WORDS`); "quality unknown" without one."""
+    if not verdict:
+        return "quality unknown"
+    return QUALITY_WORDS.get(verdict, verdict)
 
 
 def utc_now() -> _dt.datetime:
@@ -37,3 +48,15 @@ def describe_age(age_days: float | None) -> str:
     if age_days < 2.0:
         return f"{plural(round(hours), 'hour')} ago"
     return f"{plural(round(age_days), 'day')} ago"
+
+
+def local_time_text(iso_utc: str) -> str:
+    """An ISO 8601 time (UTC when it names no zone) as the local date and time people read
+    ("28 Nov 2026, 09:14"); the text itself when it is not one, "not recorded" when empty."""
+    try:
+        moment = _dt.datetime.fromisoformat(str(iso_utc).replace("Z", "+00:00"))
+    except ValueError:
+        return str(iso_utc) or "not recorded"
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=_dt.timezone.utc)
+    return moment.astimezone().strftime("%d %b %Y, %H:%M")

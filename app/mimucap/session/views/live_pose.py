@@ -9,8 +9,14 @@ asked (:meth:`LivePose.frame`, once per pose and display mode) and keeps the joi
 of the last :data:`~mimucap.session.live.plot_history.MAX_WINDOW_S` seconds, computed in one vectorised
 batch when they are read (poses arrive at up to 100 Hz, the plots read at 30 Hz).
 
-Interface: ``take(t_s, q_world_from_segment)``, ``reset()`` (a new body calibration: where the
-figure stands is found again), ``set_height(height_m)``, ``set_display_mode(mode)``,
+Before a body calibration the pose is no measured pose: each assigned sensor's axes stand in for
+its segment's (``take(..., segment_of_sensor=...)``). The figure is then the neutral outline with
+the sensors on it (:meth:`~mimucap.session.views.skeleton_figure.FigureBuilder.build_outline`),
+no root is tracked and no joint angles are kept: angles between two sensors' axes are not joint
+angles, and a plot of them (or an error against the truth) would say nothing but "not calibrated".
+
+Interface: ``take(t_s, q_world_from_segment, segment_of_sensor=None)``, ``reset()`` (a new body
+calibration: where the figure stands is found again), ``set_height(height_m)``, ``set_display_mode(mode)``,
 ``frame(heading_ref_rad)``, ``figure_of(q_world_from_segment, frame_id, heading_ref_rad)``
 (another pose standing where this one stands: the simulator's truth), ``joint_series(joint,
 window_s)``, and the properties ``time_s``, ``q_world_from_segment``, ``frame_id``,
@@ -61,26 +67,47 @@ class LivePose:
         self._q_stacked: np.ndarray | None = None   # the same (S, 4), segments in model order
         self._root_m: np.ndarray | None = None
         self._t_s = float("nan")
+        #: sensor id → segment while the pose is not calibrated (the outline), else None
+        self._uncalibrated: dict[str, str] | None = None
         self._frame_id = 0
         self._geometry: tuple[object, FigureGeometry] | None = None
 
     # -- the newest pose -----------------------------------------------------------------------
-    def take(self, t_s: float, q_world_from_segment: Mapping[str, np.ndarray]) -> None:
+    def take(self, t_s: float, q_world_from_segment: Mapping[str, np.ndarray],
+             segment_of_sensor: Mapping[str, str] | None = None) -> None:
         """A new pose at session time ``t_s`` (s): segment → ``q_world_from_segment`` (4,);
-        ``ValueError`` naming the segments of the model it lacks."""
+        ``ValueError`` naming the segments of the model it lacks.
+
+        ``segment_of_sensor`` (sensor id → segment) says the pose is not calibrated: each of
+        those segments carries its sensor's ``q_world_from_sensor``. The figure is then the
+        outline with the sensors on it, and neither the root nor joint angles are kept; the
+        angles kept before are dropped whenever the pose changes between calibrated and not."""
         missing = [name for name in self.model.segment_names if name not in q_world_from_segment]
         if missing:
             raise ValueError(f"the pose lacks segments of the {self.model.name} model: {', '.join(missing)}; "
                              "choose the model the source was made for")
         q_stacked = np.array([q_world_from_segment[name] for name in self.model.segment_names], dtype=float)
+        uncalibrated = None if segment_of_sensor is None else dict(segment_of_sensor)
+        if (uncalibrated is None) != (self._uncalibrated is None):
+            self._drop_angles()
+        self._uncalibrated = uncalibrated
         self._q = dict(q_world_from_segment)
         self._q_stacked = q_stacked
-        self._root_m = self._root_tracker.update(q_stacked)
         self._t_s = float(t_s)
-        self._pending.append((self._t_s, q_stacked))
-        if len(self._pending) > self._angle_capacity:
-            del self._pending[: len(self._pending) - self._angle_capacity]
+        if uncalibrated is None:
+            self._root_m = self._root_tracker.update(q_stacked)
+            self._pending.append((self._t_s, q_stacked))
+            if len(self._pending) > self._angle_capacity:
+                del self._pending[: len(self._pending) - self._angle_capacity]
+        else:
+            self._root_m = None
         self.new_frame()
+
+    def _drop_angles(self) -> None:
+        """Forget the joint angles kept (they belong to a pose that is no longer shown)."""
+        self._pending = []
+        for buffer in self._angles.values():
+            buffer.clear()
 
     def new_frame(self) -> None:
         """The figure changes (a new pose, display mode or height): a new :attr:`frame_id`."""
@@ -134,15 +161,24 @@ class LivePose:
             return None
         frame_id = (self._frame_id, self.display_mode)
         if self._geometry is None or self._geometry[0] != frame_id:
-            self._geometry = (frame_id, self._build(self._q_stacked, heading_ref_rad))
+            if self._uncalibrated is not None:
+                q_sensors = {sensor: self._q[segment] for sensor, segment in self._uncalibrated.items()
+                             if segment in self._q}
+                geometry = self.builder.build_outline(q_sensors, self._uncalibrated)
+            else:
+                geometry = self._build(self._q_stacked, heading_ref_rad)
+            self._geometry = (frame_id, geometry)
         return self._geometry
 
     def figure_of(self, q_world_from_segment: Mapping[str, np.ndarray],
                   heading_ref_rad: float | None = None) -> FigureGeometry | None:
         """The figure of another pose (segment → (4,)) standing where the newest pose stands, in
         the same display mode (the simulator's truth beside the estimate); ``None`` before the
-        first pose or when it lacks a segment of the model."""
-        if self._q_stacked is None or any(name not in q_world_from_segment for name in self.model.segment_names):
+        first pose, before a body calibration (there is no estimated pose to compare) or when it
+        lacks a segment of the model."""
+        if self._q_stacked is None or self._uncalibrated is not None:
+            return None
+        if any(name not in q_world_from_segment for name in self.model.segment_names):
             return None
         q = np.array([q_world_from_segment[name] for name in self.model.segment_names], dtype=float)
         return self._build(q, heading_ref_rad)

@@ -10,7 +10,15 @@ in the **scene** frame (VTK/OpenGL: y up, z towards the viewer,
 matrices to VTK actors and does no geometry itself.
 
 Unit primitives: a cylinder of radius 1 and height 1 along the scene y axis, centred at the
-origin (``vtkCylinderSource`` defaults with radius 1); a sphere of radius 1 at the origin.
+origin (``vtkCylinderSource`` defaults with radius 1); a sphere of radius 1 at the origin; a
+sensor glyph: a cube of side 1 centred at the origin, its edges along the sensor's x, y and z
+axes (:class:`SensorGlyphs`).
+
+Before a body calibration the segments' orientations are not known: a sensor's axes are not its
+segment's, and a figure drawn from them is a tangle. :meth:`FigureBuilder.build_outline` then
+draws the body as a neutral outline standing in the N-pose and facing the viewer (it never
+moves), with each assigned sensor as a glyph on the segment it is worn on, turned by its
+measured ``q_world_from_sensor`` (the filter's output, heading included) into the same scene.
 
 Display modes (conventions.md, seed section 4.3), applied as a rotation about the world
 vertical by ``alpha`` before the scene mapping:
@@ -30,12 +38,12 @@ pointing north, as in :func:`mimucap.core.skeleton.q_world_from_body_facing`.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from mimucap.core import rotation
+from mimucap.core import rotation, skeleton
 
 DISPLAY_MODES = ("world", "body")
 
@@ -54,6 +62,29 @@ JOINT_RADIUS_FACTOR = 1.15
 END_CAP_RADIUS_FACTOR = 1.1
 #: Radius of the anterior marker sphere relative to its segment's radius.
 MARKER_RADIUS_FACTOR = 0.35
+#: Side of a sensor glyph relative to the subject's height (a 1.75 m subject: 7 cm, a little
+#: larger than a sensor, to be seen at figure size on screen).
+GLYPH_SIZE_RATIO = 0.04
+#: The outline's heading (rad, CCW from north): facing south, towards the default camera, which
+#: looks north (world mode without a reference heading shows the plain world).
+OUTLINE_HEADING_RAD = np.pi
+
+
+@dataclass(frozen=True)
+class SensorGlyphs:
+    """The sensors drawn on the outline before a body calibration.
+
+    Attributes:
+        sensor_ids: the sensors, one per glyph.
+        segments: the segment each is worn on (same order).
+        matrices: ``(K, 4, 4)`` placing the unit glyph cube (scene frame): columns 0-2 are the
+            sensor's x, y and z axes in the scene times the glyph's side (m), column 3 its
+            centre, on the front of its segment on the outline.
+    """
+
+    sensor_ids: tuple[str, ...]
+    segments: tuple[str, ...]
+    matrices: NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -75,6 +106,9 @@ class FigureGeometry:
         world_matrix: ``(4, 4)`` mapping world coordinates (ENU, metres) to the scene with
             this frame's display rotation and shift: the floor and world axes use it.
         heading_alpha_rad: the display rotation about the vertical that was applied.
+        outline: True for the neutral outline drawn before a body calibration (the segments'
+            poses are not measured; :meth:`FigureBuilder.build_outline`).
+        sensor_glyphs: the sensors on the outline (``None`` for the figure of a pose).
     """
 
     segment_names: tuple[str, ...]
@@ -88,6 +122,8 @@ class FigureGeometry:
     root_world_m: NDArray[np.float64]
     world_matrix: NDArray[np.float64]
     heading_alpha_rad: float
+    outline: bool = False
+    sensor_glyphs: SensorGlyphs | None = None
 
 
 def plain_world_matrix() -> NDArray[np.float64]:
@@ -340,6 +376,43 @@ class FigureBuilder:
             world_matrix=world_matrix,
             heading_alpha_rad=alpha,
         )
+
+
+    def outline_pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """The neutral outline's ``(proximal_m (S, 3), distal_m (S, 3), q_world_from_segment
+        (S, 4))``: every segment in the body frame (the N-pose), facing
+        :data:`OUTLINE_HEADING_RAD`, the root above the world origin (world ENU, metres)."""
+        q = np.broadcast_to(skeleton.q_world_from_body_facing(OUTLINE_HEADING_RAD), (len(self.segment_names), 4))
+        proximal, distal = skeleton.forward_kinematics_stacked(self.model, q, self.height_m)
+        return proximal, distal, np.array(q)
+
+    def build_outline(self, q_world_from_sensor: Mapping[str, NDArray[np.float64]],
+                      segment_of_sensor: Mapping[str, str]) -> FigureGeometry:
+        """The figure before a body calibration: the neutral outline (:meth:`outline_pose`, in
+        the plain world, ``alpha = 0``, whatever the display mode) with a glyph for each sensor
+        of ``segment_of_sensor`` (sensor id → segment) that has an orientation in
+        ``q_world_from_sensor`` (sensor id → ``(4,)``, world ENU, scalar first), on the front of
+        its segment halfway along, turned as the sensor is in the world. The outline has no
+        anterior markers (zero radius): it shows no rotation of its own."""
+        proximal, distal, q = self.outline_pose()
+        geometry = self.build_arrays(proximal, distal, q)
+        index = {name: i for i, name in enumerate(self.segment_names)}
+        worn = [(sensor, segment) for sensor, segment in segment_of_sensor.items()
+                if segment in index and sensor in q_world_from_sensor]
+        matrices = np.zeros((len(worn), 4, 4))
+        side = GLYPH_SIZE_RATIO * self.height_m
+        for k, (sensor, segment) in enumerate(worn):
+            i = index[segment]
+            marker = geometry.marker_matrices[i]
+            front = marker[:3, 3] - geometry.segment_matrices[i][:3, 3]   # centre → anterior face
+            r_world_from_sensor = rotation.to_matrix(np.asarray(q_world_from_sensor[sensor], dtype=float))
+            matrices[k, :3, :3] = R_SCENE_FROM_WORLD @ r_world_from_sensor * side
+            matrices[k, :3, 3] = marker[:3, 3] + front / max(np.linalg.norm(front), 1e-12) * 0.5 * side
+            matrices[k, 3, 3] = 1.0
+        glyphs = SensorGlyphs(tuple(s for s, _ in worn), tuple(g for _, g in worn), matrices)
+        markers = geometry.marker_matrices.copy()
+        markers[:, :3, :3] = 0.0
+        return replace(geometry, marker_matrices=markers, outline=True, sensor_glyphs=glyphs)
 
 
 def emit_pose_figures(source) -> None:
