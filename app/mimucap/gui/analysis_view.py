@@ -1,4 +1,5 @@
-"""The Analysis window of a reviewed session: a Gait tab and a ROM tab, and the report.
+"""The analysis of a reviewed session (the page of the main window's Analysis workspace): a
+Gait tab, a ROM tab, a Doubtful data tab, and the report.
 
 * **Gait**: what was found (strides analysed and refused, bouts, turns, which sensors gave
   events and lengths), the parameter table (per side and both: mean ± SD, CV, symmetry), the
@@ -15,7 +16,7 @@ the ROM tab and the report are disabled, each saying why
 (:data:`mimucap.session.recorded.analysis.NEEDS_BODY_CALIBRATION`).
 
 The analysis runs off the GUI thread (:func:`mimucap.session.recorded.analysis.analyse_review`); this
-window only shows it.
+view only shows it.
 """
 
 from __future__ import annotations
@@ -30,8 +31,7 @@ from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.pdf_report import write_report
-from mimucap.gui.menus import closes_with_keys
-from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.status_line import status_line
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.recorded.analysis import (
     DOUBT_HEADER,
@@ -68,18 +68,15 @@ def _fill_table(table: QtWidgets.QTableWidget, header: list[str], rows: list[lis
     table.horizontalHeader().setStretchLastSection(True)
 
 
-class AnalysisWindow(QtWidgets.QMainWindow):
-    """Analysis of ``data`` (a loaded review); call :meth:`run` after ``show()``;
-    :attr:`analysed` is emitted when the results are shown."""
+class AnalysisView(QtWidgets.QWidget):
+    """Analysis of ``data`` (a loaded review); call :meth:`run` once shown; :attr:`analysed`
+    is emitted when the results are shown."""
 
     analysed = QtCore.pyqtSignal()
 
     def __init__(self, parent: QtWidgets.QWidget | None, data: ReviewData) -> None:
         super().__init__(parent)
-        closes_with_keys(self)
-        self.setObjectName("analysisWindow")
-        self.setWindowTitle(f"MimuCap Analysis: {data.path.name}")
-        fit_on_screen(self, 1320, 820, parent)  # the gait table whole on a 1366-px laptop screen
+        self.setObjectName("analysisView")
         self.data = data
         self.analysis: SessionAnalysis | None = None
         self.bands: dict[tuple[str, str], NormativeBand] = {}
@@ -188,16 +185,21 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         bottom.addWidget(self.notes, 1)
         bottom.addWidget(self.csv_button)
         bottom.addWidget(self.report_button)
-        central = QtWidgets.QWidget(self)
-        layout = QtWidgets.QVBoxLayout(central)
+        layout = QtWidgets.QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.limits_label)
         layout.addWidget(self.tabs, 1)
         layout.addLayout(bottom)
-        self.setCentralWidget(central)
+        self._status = status_line(self)
+        layout.addWidget(self._status)
         self.progress = QtWidgets.QProgressBar(self)
         self.progress.setRange(0, 100)
         self.progress.setMaximumWidth(200)
         self.statusBar().addPermanentWidget(self.progress)
+
+    def statusBar(self) -> QtWidgets.QStatusBar:  # noqa: N802 (as QMainWindow's)
+        """The analysis' status line (progress, files written)."""
+        return self._status
 
     # -- analysis ------------------------------------------------------------------------------
     def run(self) -> None:
@@ -355,7 +357,8 @@ class AnalysisWindow(QtWidgets.QMainWindow):
             except OSError as error:
                 QtWidgets.QMessageBox.warning(self, "Save tables", str(error))
 
-    def closeEvent(self, event) -> None:  # noqa: N802 (Qt API)
+    def shutdown(self) -> None:
+        """Let the analysis go: a result still being computed is no longer shown."""
         if self._task is not None:
             for signal in (self._task.succeeded, self._task.failed):
                 try:
@@ -363,4 +366,3 @@ class AnalysisWindow(QtWidgets.QMainWindow):
                 except TypeError:
                     pass
             self._task.wait(30000)
-        super().closeEvent(event)
