@@ -209,12 +209,14 @@ def test_the_session_file_is_written_off_the_gui_thread(app_window, qtbot, tmp_p
     assert window.workspace == "review" and window.review.view.path == saved.args[0].session_path
     monkeypatch.setattr(RecordingToSave, "save", real_save)
     qtbot.mouseClick(window.mode_bar.record_button, QtCore.Qt.LeftButton)
-    assert window.live.recording and window.mode_bar.recording_badge.isVisible()
+    assert window.live.recording
+    qtbot.waitUntil(window.mode_bar.recording_badge.isVisible, timeout=2000)  # the bar lays itself out
     assert window.workspace == "review" and window.windowTitle().startswith("● Recording")
     qtbot.waitUntil(lambda: bool(window.live.recording_info().samples), timeout=10000)
     with qtbot.waitSignal(window.recording_saved, timeout=30000) as second:
         qtbot.mouseClick(window.mode_bar.record_button, QtCore.Qt.LeftButton)
-    assert not window.mode_bar.recording_badge.isVisible() and window.mode_bar.record_button.text() == "● Record"
+    assert window.mode_bar.record_button.text() == "● Record"
+    qtbot.waitUntil(lambda: not window.mode_bar.recording_badge.isVisible(), timeout=2000)
     assert "Review (Ctrl+2) shows it" in window.review.statusBar().currentMessage()
     window.workspace_actions["capture"].trigger()
     window.workspace_actions["review"].trigger()

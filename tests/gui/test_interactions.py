@@ -95,6 +95,11 @@ def test_ctrl_1_to_4_switch_the_workspaces_and_ctrl_w_closes_the_recording(qtbot
         assert window.session_dock.isVisible() == (name == "capture")  # the live panels belong to Capture
     review = window.open_review(calibrated_walk)
     qtbot.waitUntil(lambda: review.ready, timeout=30000)
+    window.show_workspace("capture")
+    _press(qtbot, window, "Ctrl+Space")  # View → Play/Pause Review: plays the recording in Review, shown
+    assert review.player.playing and window.workspace == "review" and review.play_button.text() == "❚❚ Pause"
+    window.action_play.trigger()
+    assert not review.player.playing
     _press(qtbot, window, "Ctrl+W")
     assert window.review.view is None and window.review.currentWidget() is window.review.empty
 

@@ -140,6 +140,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.library_view = None  # gui.library_view.LibraryView once the Library is first shown
         self._unreviewed: Path | None = None  # a recording saved since Review last showed one
         self._review_then_analyse = False  # the recording opening in Review is to be analysed
+        self._live_truth = False  # whether the live source has the simulator's truth
         self._wizards = _wizard_classes()
         self._last_record_message = ""
         #: writes stopped recordings' session files in the background
@@ -212,7 +213,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pump.timeout.connect(self._pump_pipeline)
         #: the window's own subscriptions to the live session's events (event name → callback)
         self._subscriptions = {
-            "truth_available": lambda _available: self._update_truth_action(), "sensors": self._assign_remembered,
+            "truth_available": self._live_truth_available, "sensors": self._assign_remembered,
             "recording_failed": self._recording_failed, "unpaired": self._unpaired_heard,
             "recording_progress": lambda info: self.mode_bar.show_elapsed(info.elapsed_s)}
         #: the sensors the source refuses as not paired; the device ids offered for pairing so far
@@ -478,7 +479,7 @@ class MainWindow(QtWidgets.QMainWindow):
         for name, callback in self._subscriptions.items():
             getattr(session.events, name).connect(callback)
         self._update_ghost()
-        self._update_truth_action()
+        self._live_truth_available(session.has_truth)
         self.lsl_switch.follow(session)
         session.publish_status()
 
@@ -575,10 +576,14 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.review.view is not None:
             self.review.view.set_show_truth(on)
 
+    def _live_truth_available(self, available: bool) -> None:
+        self._live_truth = bool(available)
+        self._update_truth_action()
+
     def _update_truth_action(self) -> None:
         """View → Show Simulator Truth is offered while the live source or the recording in
         Review has the simulator's truth."""
-        live = self.live is not None and self.live.has_truth
+        live = self.live is not None and self._live_truth
         self.action_truth.setEnabled(live or (self.review.view is not None and self.review.view.has_truth))
 
     def _assign_remembered(self, sensor_ids) -> None:
@@ -910,8 +915,7 @@ class MainWindow(QtWidgets.QMainWindow):
         """Show session file ``path`` in the Review workspace (loaded off the GUI thread; the
         recording shown before is let go), with this window's camera, display mode, stage and
         truth; returns its :class:`~mimucap.gui.review_view.ReviewView`."""
-        if self._unreviewed is not None and Path(path) == self._unreviewed:
-            self._unreviewed = None
+        self._unreviewed = None  # the user chose what to review
         view = self.review.open(path)
         view.set_camera_preset(self.scene_view.camera_preset)
         view.set_display_mode(next(k for k, a in self.display_actions.items() if a.isChecked()))
