@@ -31,7 +31,7 @@ from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.pdf_report import write_report
-from mimucap.gui.status_line import status_line
+from mimucap.gui.status_line import PAGE_MARGINS, status_line
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.recorded.analysis import (
     DOUBT_HEADER,
@@ -109,6 +109,9 @@ class AnalysisView(QtWidgets.QWidget):
         self.parameters_table.setObjectName("parametersTable")
         self.strides_table = QtWidgets.QTableWidget(self.gait_tab)
         self.strides_table.setObjectName("stridesTable")
+        # Its last column (why a stride was refused) is as wide as the longest reason: its title
+        # at the column's start stays in view while the table is scrolled to the left.
+        self.strides_table.horizontalHeader().setDefaultAlignment(QtCore.Qt.AlignLeft | QtCore.Qt.AlignVCenter)
         self.curve_choice = QtWidgets.QComboBox(self.gait_tab)
         self.curve_choice.setObjectName("curveChoice")
         self.curve_choice.currentIndexChanged.connect(self._show_curve)
@@ -186,7 +189,7 @@ class AnalysisView(QtWidgets.QWidget):
         bottom.addWidget(self.csv_button)
         bottom.addWidget(self.report_button)
         layout = QtWidgets.QVBoxLayout(self)
-        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setContentsMargins(*PAGE_MARGINS)
         layout.addWidget(self.limits_label)
         layout.addWidget(self.tabs, 1)
         layout.addLayout(bottom)

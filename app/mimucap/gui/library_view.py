@@ -20,7 +20,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.core.wording import plural
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.session_panel import display_path
-from mimucap.gui.status_line import status_line
+from mimucap.gui.status_line import PAGE_MARGINS, status_line
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
 from mimucap.session.recorded.library import COMPARISON_NEEDS_CALIBRATION
@@ -254,7 +254,7 @@ class LibraryView(QtWidgets.QWidget):
         splitter.setStretchFactor(1, 1)
         splitter.setSizes([230, 970])
         layout = QtWidgets.QVBoxLayout(self)
-        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setContentsMargins(*PAGE_MARGINS)
         layout.addLayout(top)
         layout.addWidget(self.banner)
         layout.addWidget(splitter, 1)

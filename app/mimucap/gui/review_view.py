@@ -24,7 +24,7 @@ from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import DOUBT_BRUSH, LivePlots
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.session_panel import display_path
-from mimucap.gui.status_line import status_line
+from mimucap.gui.status_line import PAGE_MARGINS, status_line
 from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.session.recorded.analysis import NEEDS_BODY_CALIBRATION
 from mimucap.session.angle_accuracy import accuracy_phrase
@@ -154,7 +154,7 @@ class ReviewView(QtWidgets.QWidget):
         bottom.addLayout(timeline_box, 1)
         bottom.addWidget(self.markers_list)
         layout = QtWidgets.QVBoxLayout(self)
-        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setContentsMargins(*PAGE_MARGINS)
         layout.addWidget(splitter, 1)
         layout.addLayout(bottom)
         self._status = status_line(self)

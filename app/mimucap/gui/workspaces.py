@@ -26,7 +26,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.gui.analysis_view import AnalysisView
 from mimucap.gui.live_status_bar import RECORDING_STYLE, elapsed_text
 from mimucap.gui.review_view import ReviewView
-from mimucap.gui.status_line import status_line
+from mimucap.gui.status_line import PAGE_MARGINS, status_line
 from mimucap.session.recorded.review import ReviewData
 
 #: The workspaces, in the mode bar's order (their keys are Ctrl+1 … Ctrl+4).
@@ -141,7 +141,7 @@ class EmptyPage(QtWidgets.QWidget):
         self.buttons.addStretch(1)
         self._button_widgets: list[QtWidgets.QPushButton] = []
         layout = QtWidgets.QVBoxLayout(self)
-        layout.setContentsMargins(0, 0, 0, 0)
+        layout.setContentsMargins(*PAGE_MARGINS)
         layout.addStretch(1)
         layout.addWidget(self.title)
         layout.addWidget(self.text)
