@@ -41,7 +41,7 @@ def _until(app: QtWidgets.QApplication, wizard, done: Callable[[], bool], steps:
     for _ in range(steps):
         if done():
             return
-        wizard.clock.feed.advance()  # the simulated suit moves on: its samples reach the wizard
+        wizard.feed.advance()  # the simulated suit moves on: its samples reach the wizard
         app.processEvents()
     raise RuntimeError("the simulated wizard did not reach the expected page")
 
@@ -87,7 +87,7 @@ def write_wizard_screenshots(out_dir: str | Path) -> list[Path]:
     _until(app, mag, lambda: mag.procedure.status().axis_progress["x"] >= 1.0)
     mag.feed.simulator.set_activity("npose")
     for _ in range(10):
-        mag._tick()
+        mag.feed.advance()
     mag.finish_now()
     _save(app, mag, out_dir, "magnetometer-5-one-axis-refused", written)
     mag.redo()

@@ -52,7 +52,10 @@ from mimucap.session.recorded.review import ReviewData
 SIDE_PENS = {"left": (30, 100, 200), "right": (200, 50, 40)}
 
 
-def _fill_table(table: QtWidgets.QTableWidget, header: list[str], rows: list[list[str]]) -> None:
+def _fill_table(table: QtWidgets.QTableWidget, header: list[str], rows: list[list[str]],
+                text_columns: tuple[int, ...] = (0,)) -> None:
+    """``rows`` in ``table`` under ``header``: read-only, figures right-aligned, the
+    ``text_columns`` left-aligned."""
     table.clear()
     table.setColumnCount(len(header))
     table.setHorizontalHeaderLabels(header)
@@ -61,7 +64,7 @@ def _fill_table(table: QtWidgets.QTableWidget, header: list[str], rows: list[lis
         for c, cell in enumerate(row):
             item = QtWidgets.QTableWidgetItem(str(cell))
             item.setFlags(item.flags() & ~QtCore.Qt.ItemIsEditable)
-            if c > 0:
+            if c not in text_columns:
                 item.setTextAlignment(int(QtCore.Qt.AlignRight | QtCore.Qt.AlignVCenter))
             table.setItem(r, c, item)
     table.resizeColumnsToContents()
@@ -234,7 +237,7 @@ class AnalysisView(QtWidgets.QWidget):
                         [[s.side, format_value(s.ic_s), format_value(s.fc_s), format_value(s.next_ic_s),
                           format_value(s.stride_time_s), format_value(s.stride_length_m),
                           format_value(s.heading_change_deg, 0), s.refused_because or "analysed"]
-                         for s in gait.strides])
+                         for s in gait.strides], text_columns=(0, 7))
         self.curve_choice.blockSignals(True)
         self.curve_choice.clear()
         for group in curve_groups([analysis]):

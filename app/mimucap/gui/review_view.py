@@ -311,6 +311,10 @@ class ReviewView(QtWidgets.QWidget):
         if self.doubt_status.text() != text:
             self.doubt_status.setText(text)
             self.doubt_status.setToolTip(text)
+            if text:
+                # A message over the status line hides its doubts (Qt shows the message over
+                # them): the doubt at the play head is what the line must say.
+                self.statusBar().clearMessage()
             self.doubt_status.setVisible(bool(text))
 
     def _slider_moved(self, value: int) -> None:
