@@ -130,6 +130,12 @@ def test_every_workspace_and_its_dialogs_fit_each_screen(main_window, screen, qt
     from mimucap.session.recorded.clinical_test_results import RESULT_PREFIX
 
     window = main_window
+    for name in ("review", "analysis"):  # nothing to show yet: each says how to get something
+        window.workspace_actions[name].trigger()
+        _spin(qtbot, 150)
+        page = window.workspaces.currentWidget()
+        assert page.currentWidget() is page.empty and page.empty.text.isVisible()
+        assert _problems(window, screen) == [] and _actions_in_view(window)
     review = window.open_review(calibrated_walk)
     qtbot.waitUntil(lambda: review.ready, timeout=30000)
     assert window.workspace == "review" and window.workspaces.currentWidget() is window.review

@@ -31,7 +31,7 @@ from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.pdf_report import write_report
-from mimucap.gui.status_line import PAGE_MARGINS, status_line
+from mimucap.gui.status_line import page_layout, progress_bar, status_line
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.recorded.analysis import (
     DOUBT_HEADER,
@@ -191,17 +191,12 @@ class AnalysisView(QtWidgets.QWidget):
         bottom.addWidget(self.notes, 1)
         bottom.addWidget(self.csv_button)
         bottom.addWidget(self.report_button)
-        layout = QtWidgets.QVBoxLayout(self)
-        layout.setContentsMargins(*PAGE_MARGINS)
+        layout = page_layout(self)
         layout.addWidget(self.limits_label)
         layout.addWidget(self.tabs, 1)
         layout.addLayout(bottom)
-        self._status = status_line(self)
-        layout.addWidget(self._status)
-        self.progress = QtWidgets.QProgressBar(self)
-        self.progress.setRange(0, 100)
-        self.progress.setMaximumWidth(200)
-        self.statusBar().addPermanentWidget(self.progress)
+        self._status = status_line(self, layout)
+        self.progress = progress_bar(self._status)
 
     def statusBar(self) -> QtWidgets.QStatusBar:  # noqa: N802 (as QMainWindow's)
         """The analysis' status line (progress, files written)."""

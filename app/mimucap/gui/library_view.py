@@ -20,7 +20,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.core.wording import plural
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.session_panel import display_path
-from mimucap.gui.status_line import PAGE_MARGINS, status_line
+from mimucap.gui.status_line import page_layout, status_line
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
 from mimucap.session.recorded.library import COMPARISON_NEEDS_CALIBRATION
@@ -253,13 +253,11 @@ class LibraryView(QtWidgets.QWidget):
         splitter.addWidget(right)
         splitter.setStretchFactor(1, 1)
         splitter.setSizes([230, 970])
-        layout = QtWidgets.QVBoxLayout(self)
-        layout.setContentsMargins(*PAGE_MARGINS)
+        layout = page_layout(self)
         layout.addLayout(top)
         layout.addWidget(self.banner)
         layout.addWidget(splitter, 1)
-        self._status = status_line(self)
-        layout.addWidget(self._status)
+        self._status = status_line(self, layout)
         self.set_folder(Path(folder))
 
     def statusBar(self) -> QtWidgets.QStatusBar:  # noqa: N802 (as QMainWindow's)

@@ -374,8 +374,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.setWindowTitle(f"● Recording — {title}" if recording else title)
 
     def _update_review_actions(self) -> None:
-        """The actions on the recording in Review follow it (none, loading, shown)."""
+        """The actions on the recording in Review follow it (none, loading, shown); without a
+        recording in Review, Analysis has none either."""
         view = self.review.view
+        if view is None:
+            self.analysis.clear()
+            self._review_then_analyse = False  # what was to be analysed is gone (closed, unreadable)
         ready = view is not None and view.ready
         last = self.last_recording
         has_last = last is not None and last.session_path is not None and sum(last.samples.values()) > 0

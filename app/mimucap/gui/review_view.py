@@ -24,7 +24,7 @@ from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import DOUBT_BRUSH, LivePlots
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.session_panel import display_path
-from mimucap.gui.status_line import PAGE_MARGINS, status_line
+from mimucap.gui.status_line import page_layout, progress_bar, status_line
 from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.session.recorded.analysis import NEEDS_BODY_CALIBRATION
 from mimucap.session.angle_accuracy import accuracy_phrase
@@ -153,17 +153,11 @@ class ReviewView(QtWidgets.QWidget):
         bottom = QtWidgets.QHBoxLayout()
         bottom.addLayout(timeline_box, 1)
         bottom.addWidget(self.markers_list)
-        layout = QtWidgets.QVBoxLayout(self)
-        layout.setContentsMargins(*PAGE_MARGINS)
+        layout = page_layout(self)
         layout.addWidget(splitter, 1)
         layout.addLayout(bottom)
-        self._status = status_line(self)
-        layout.addWidget(self._status)
-
-        self.progress = QtWidgets.QProgressBar(self)
-        self.progress.setRange(0, 100)
-        self.progress.setMaximumWidth(200)
-        self.statusBar().addPermanentWidget(self.progress)
+        self._status = status_line(self, layout)
+        self.progress = progress_bar(self._status)
         self.pose_status = QtWidgets.QLabel(self)
         self.statusBar().addPermanentWidget(self.pose_status)
         self.doubt_status = QtWidgets.QLabel(self)

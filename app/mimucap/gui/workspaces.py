@@ -26,7 +26,7 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 from mimucap.gui.analysis_view import AnalysisView
 from mimucap.gui.live_status_bar import RECORDING_STYLE, elapsed_text
 from mimucap.gui.review_view import ReviewView
-from mimucap.gui.status_line import PAGE_MARGINS, status_line
+from mimucap.gui.status_line import page_layout, status_line
 from mimucap.session.recorded.review import ReviewData
 
 #: The workspaces, in the mode bar's order (their keys are Ctrl+1 … Ctrl+4).
@@ -139,25 +139,23 @@ class EmptyPage(QtWidgets.QWidget):
         self.text.setAlignment(QtCore.Qt.AlignCenter)
         self.buttons = QtWidgets.QHBoxLayout()
         self.buttons.addStretch(1)
-        self._button_widgets: list[QtWidgets.QPushButton] = []
-        layout = QtWidgets.QVBoxLayout(self)
-        layout.setContentsMargins(*PAGE_MARGINS)
+        layout = page_layout(self)
         layout.addStretch(1)
         layout.addWidget(self.title)
         layout.addWidget(self.text)
         layout.addLayout(self.buttons)
         layout.addStretch(2)
-        self.status = status_line(self)
-        layout.addWidget(self.status)
+        self.status = status_line(self, layout)
 
     def add_button(self, text: str, clicked: Callable[[], object]) -> QtWidgets.QPushButton:
+        """A button in the row under the sentence (call :meth:`finish_buttons` after the last)."""
         button = QtWidgets.QPushButton(text, self)
         button.clicked.connect(lambda: clicked())
-        self.buttons.insertWidget(self.buttons.count(), button)
-        self._button_widgets.append(button)
+        self.buttons.addWidget(button)
         return button
 
     def finish_buttons(self) -> None:
+        """The row of buttons is complete: it is centred."""
         self.buttons.addStretch(1)
 
 
