@@ -110,6 +110,8 @@ def test_the_review_follows_its_player_and_lets_it_go(qtbot, window, calibrated_
     player = review.player
     assert _subscribed(player) == {"data": 1, "frame": 1}
     qtbot.waitUntil(lambda: not review.plots._redraw_timer.isActive(), timeout=2000)
+    qtbot.waitUntil(lambda: review.scene_view.frames_rendered > 0, timeout=5000)  # the first picture shown
+    qtbot.wait(100)
     plots, frames = review.plots.refresh_count, review.scene_view.frames_rendered
     qtbot.wait(200)  # paused: the play head stays, nothing is drawn
     assert (review.plots.refresh_count, review.scene_view.frames_rendered) == (plots, frames)
