@@ -358,12 +358,8 @@ class AnalysisView(QtWidgets.QWidget):
             except OSError as error:
                 QtWidgets.QMessageBox.warning(self, "Save tables", str(error))
 
-    def shutdown(self) -> None:
-        """Let the analysis go: a result still being computed is no longer shown."""
+    def shutdown(self, wait_ms: int = 0) -> None:
+        """Let the analysis go: a result still being computed is no longer shown (given
+        ``wait_ms`` to finish: the program closing)."""
         if self._task is not None:
-            for signal in (self._task.succeeded, self._task.failed):
-                try:
-                    signal.disconnect()
-                except TypeError:
-                    pass
-            self._task.wait(30000)
+            self._task.let_go(wait_ms)

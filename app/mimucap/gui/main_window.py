@@ -1062,8 +1062,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pump.stop()
         self.scene_view.shutdown()
         self._stop_live()
-        self.analysis.clear()
-        self.review.close_recording()
+        self.analysis.clear(wait_ms=30000)
+        self.review.close_recording(wait_ms=10000)
         if self.library_view is not None:
             self.library_view.shutdown()
         super().closeEvent(event)

@@ -180,6 +180,8 @@ class ReviewView(QtWidgets.QWidget):
         """Load the session in the background; :attr:`loaded` is emitted when it is shown."""
         self.statusBar().showMessage(f"Opening {display_path(self.path)}…")
         result = self.result_combo.currentData()
+        if self._task is not None:
+            self._task.let_go()  # the result asked before is not wanted any more
         self._task = BackgroundTask(lambda progress: load_review(self.path, progress, result=result), self)
         self._task.progress.connect(lambda f: self.progress.setValue(int(round(100 * f))))
         self._task.succeeded.connect(self._loaded)
@@ -372,16 +374,12 @@ class ReviewView(QtWidgets.QWidget):
         self.export_dialog.show()
         return self.export_dialog
 
-    def shutdown(self) -> None:
-        """Let the session go: the loader's result is no longer shown, a running export is
-        finished, the clock and the 3D view stop."""
+    def shutdown(self, wait_ms: int = 0) -> None:
+        """Let the session go: the loader's result is no longer shown (given ``wait_ms`` to
+        finish: the program closing), a running export is finished, the clock and the 3D view
+        stop."""
         if self._task is not None:
-            for signal in (self._task.succeeded, self._task.failed):
-                try:
-                    signal.disconnect()  # a closed window shows nothing the loader finds later
-                except TypeError:
-                    pass  # already disconnected (closed before)
-            self._task.wait(10000)
+            self._task.let_go(wait_ms)  # a closed review shows nothing the loader finds later
         if self.export_dialog is not None and self.export_dialog.busy:
             self.export_dialog._task.wait(30000)
         if self.export_dialog is not None:

@@ -218,12 +218,13 @@ class ReviewWorkspace(QtWidgets.QStackedWidget):
         self.close_recording()
         self.empty.status.showMessage(f"Cannot review {view.path.name}: {message}", 15000)
 
-    def close_recording(self) -> None:
-        """Let the recording shown go (its data with it); the empty page shows."""
+    def close_recording(self, wait_ms: int = 0) -> None:
+        """Let the recording shown go (its data with it; a loading still running is given
+        ``wait_ms`` to finish: the program closing); the empty page shows."""
         view, self.view = self.view, None
         if view is None:
             return
-        view.shutdown()
+        view.shutdown(wait_ms)
         self.removeWidget(view)
         view.hide()
         view.deleteLater()
@@ -275,11 +276,12 @@ class AnalysisWorkspace(QtWidgets.QStackedWidget):
         view.run()
         return view
 
-    def clear(self) -> None:
-        """Let the analysis shown go; the empty page shows."""
+    def clear(self, wait_ms: int = 0) -> None:
+        """Let the analysis shown go (one still running is given ``wait_ms`` to finish: the
+        program closing); the empty page shows."""
         view, self.view = self.view, None
         if view is not None:
-            view.shutdown()
+            view.shutdown(wait_ms)
             self.removeWidget(view)
             view.hide()
             view.deleteLater()
