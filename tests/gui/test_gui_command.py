@@ -100,7 +100,7 @@ def test_review_option_opens_the_session_and_a_missing_file_is_one_line(tmp_path
     )
     assert done.returncode == 0, done.stderr
     pixels = _pixels(out)
-    blue = (pixels[..., 2] - pixels[..., 0]) > 60  # the figure, shown by the review window
+    blue = (pixels[..., 2] - pixels[..., 0]) > 60  # the figure, shown in the Review workspace
     assert np.count_nonzero(blue) > 2000
     missing = tmp_path / "gone.h5"
     done = subprocess.run([sys.executable, "-m", "mimucap", "gui", "--review", str(missing)],

@@ -1,6 +1,6 @@
 """What a user can get wrong in the main window does not cost a recording, a setting or a
 silent failure: a refused source change, Space after clicking Record, marker times, unwritable
-folders, review windows that failed or were closed, a source switch under an open wizard."""
+folders, reviews that failed, were closed or replaced, a source switch under an open wizard."""
 
 from __future__ import annotations
 
