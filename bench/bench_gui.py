@@ -132,6 +132,7 @@ def run(window: MainWindow, prepare=None, excluded: set[int] = frozenset()) -> d
     """Show ``window`` live; after the warm-up (and ``prepare(window)``), measure. Processes
     in ``excluded`` (and their children) are not part of the application."""
     window.set_camera_preset("front")
+    window.resize(1280, 800)  # the size measured (a larger screen opens the window larger)
     window.show()
     window.start()
     latencies: list[float] = []

@@ -1,4 +1,4 @@
-"""Screenshots of the Analysis window (gait tab, ROM tab) and of the PDF report's first two
+"""Screenshots of the Analysis workspace (gait tab, ROM tab) and of the PDF report's first two
 pages, on a simulated session processed like a real one (no truth in the file): the ``demo``
 scenario with BNO055-like sensors, its body calibration from the N-pose/T-pose, and ROM
 markers around the squats and the arm raises; and of the ROM wizard on the simulated suit
@@ -112,41 +112,39 @@ def write_rom_wizard_screenshot(out_dir: Path) -> list[Path]:
     return [path]
 
 
-def write_analysis_screenshots(out_dir: Path) -> list[Path]:
+def write_analysis_screenshots(app: QtWidgets.QApplication, window, out_dir: Path) -> list[Path]:
+    """The Analysis workspace of main window ``window`` (gait and ROM tabs) on the simulated
+    session opened in its Review workspace, the report's first two pages, and the ROM wizard."""
     from mimucap.core.simulate.config import SimulationConfig
-    from mimucap.gui.capture import save_window_png
-    from mimucap.gui.review_window import ReviewWindow
     from mimucap.session.recorded.gait_validation import simulated_analysis
 
-    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
     written = []
     with tempfile.TemporaryDirectory() as scratch:
         config = SimulationConfig(scenario="demo", duration_s=45.0, n_sensors=10, errors="bno055", seed=3)
         _, analysis = simulated_analysis(config, scratch, ROM_MARKERS)
-        review = ReviewWindow(analysis.review.path)
-        review.show()
-        review.load()
-        _wait(app, lambda: review.player is not None, 60, "the review")
-        window = review.open_analysis()
-        _wait(app, lambda: window.analysis is not None, 60, "the analysis")
+        review = window.open_review(analysis.review.path)
+        _wait(app, lambda: review.ready, 60, "the review")
+        window.show_workspace("analysis")
+        view = window.analysis.view
+        _wait(app, lambda: view.analysis is not None, 60, "the analysis")
         app.processEvents()
-        written.append(save_window_png(window, out_dir / "analysis-gait.png"))
-        window.tabs.setCurrentWidget(window.rom_tab)
-        window.marker_from.setCurrentIndex(next(i for i in range(window.marker_from.count())
-                                                if "squat" in window.marker_from.itemText(i)))
-        window.marker_to.setCurrentIndex(next(i for i in range(window.marker_to.count())
-                                              if "arm raise" in window.marker_to.itemText(i)))
-        window.compute_marker_rom()
+        written.append(window.save_screenshot(out_dir / "analysis-gait.png"))
+        view.tabs.setCurrentWidget(view.rom_tab)
+        view.marker_from.setCurrentIndex(next(i for i in range(view.marker_from.count())
+                                              if "squat" in view.marker_from.itemText(i)))
+        view.marker_to.setCurrentIndex(next(i for i in range(view.marker_to.count())
+                                            if "arm raise" in view.marker_to.itemText(i)))
+        view.compute_marker_rom()
         app.processEvents()
-        written.append(save_window_png(window, out_dir / "analysis-rom.png"))
+        written.append(window.save_screenshot(out_dir / "analysis-rom.png"))
         pdf = Path(scratch) / "report.pdf"
-        window.notes.setText("Simulated subject; screenshot of the report.")
-        window.write_report(pdf)
+        view.notes.setText("Simulated subject; screenshot of the report.")
+        view.write_report(pdf)
         if shutil.which("pdftoppm"):
             subprocess.run(["pdftoppm", "-r", "80", "-png", "-f", "1", "-l", "2", str(pdf),
                             str(out_dir / "report-page")], check=True)
             written += sorted(out_dir.glob("report-page-*.png"))
-        window.close()
-        review.close()
+        window.review.close_recording()  # the file goes with the scratch folder
+        window.show_workspace("capture")
     written += write_rom_wizard_screenshot(out_dir)
     return written

@@ -62,7 +62,6 @@ def write_clinical_test_screenshots(app: QtWidgets.QApplication, window, folder:
     """The guided Timed Up and Go in ``window`` (calibrated, recording into ``folder``, which
     is also its library), its report and the subject's trend, as PNGs in ``out_dir``."""
     from mimucap.gui.capture import save_window_png
-    from mimucap.gui.library_window import LibraryWindow
 
     written: list[Path] = []
     make_earlier_visits(folder)
@@ -103,15 +102,15 @@ def write_clinical_test_screenshots(app: QtWidgets.QApplication, window, folder:
         written += sorted(out_dir.glob("clinical-test-report-page-*.png"))
     wizard.close()
 
-    library = LibraryWindow(folder, open_review=lambda path: None, new_session=lambda *subject: None)
-    library.show()
+    window.show_workspace("library")
+    library = window.library_view
     library.wait_for_scan()
     library.select_subject("P001")
     trend = library.open_trend()
     app.processEvents()
     written.append(save_window_png(trend, out_dir / "clinical-test-trend.png"))
     trend.close()
-    library.close()
+    window.show_workspace("capture")
     return written
 
 

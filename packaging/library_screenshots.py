@@ -1,18 +1,13 @@
-"""Screenshots of the library window and of a comparison (called by ``make_screenshots.py``).
+"""Screenshots of the Library workspace and of a comparison (called by ``make_screenshots.py``).
 
 A library is made in a scratch folder from simulated squats and walks (three subjects, one of
 them seen before and six weeks after a knee operation, squatting less deep before), plus a
-damaged file; the library window shows it, then the comparison of that subject's two squat
-trials between their markers.
-
-Usage alone: ``python packaging/library_screenshots.py OUT_DIR`` (under a display).
+damaged file; the main window's Library workspace shows it, then the comparison of that
+subject's two squat trials between their markers.
 """
 
 from __future__ import annotations
 
-import os
-import sys
-import tempfile
 from pathlib import Path
 
 from PyQt5 import QtWidgets
@@ -60,38 +55,23 @@ def make_library(folder: Path) -> None:
     (folder / "P023_2026-05-25_trial01.h5").write_bytes(damaged[: len(damaged) // 3])
 
 
-def write_library_screenshots(out_dir: Path) -> list[Path]:
-    app = QtWidgets.QApplication.instance() or QtWidgets.QApplication(["mimucap-screenshots"])
-    written = []
-    with tempfile.TemporaryDirectory() as scratch:
-        home = os.environ.get("HOME")
-        os.environ["HOME"] = scratch  # the library's folder reads ~/MimuCap Library on every run
-        try:
-            written += _library_and_compare(app, Path(scratch), out_dir)
-        finally:
-            if home is None:
-                os.environ.pop("HOME", None)
-            else:
-                os.environ["HOME"] = home
-    return written
-
-
-def _library_and_compare(app: QtWidgets.QApplication, scratch: Path, out_dir: Path) -> list[Path]:
+def write_library_screenshots(app: QtWidgets.QApplication, window, home: Path, out_dir: Path) -> list[Path]:
+    """The Library workspace of main window ``window`` on a library made in ``home`` (the
+    scratch home folder: the library reads ``~/MimuCap Library``), and a comparison."""
     from mimucap.gui.capture import save_window_png
-    from mimucap.gui.library_window import LibraryWindow
 
-    written = []
-    folder = scratch / "MimuCap Library"
+    folder = home / "MimuCap Library"
     folder.mkdir()
     make_library(folder)
-    window = LibraryWindow(folder, open_review=lambda path: None, new_session=lambda *subject: None)
-    window.show()
-    window.wait_for_scan()
-    window.select_subject(None)
-    window.select_paths({"P042_2026-05-04_trial01.h5", "P042_2026-06-15_trial01.h5"})
+    window.library_folder = lambda: folder
+    window.show_workspace("library")
+    view = window.library_view
+    view.wait_for_scan()
+    view.select_subject(None)
+    view.select_paths({"P042_2026-05-04_trial01.h5", "P042_2026-06-15_trial01.h5"})
     app.processEvents()
-    written.append(save_window_png(window, out_dir / "library.png"))
-    compare = window.compare_selected()
+    written = [window.save_screenshot(out_dir / "library.png")]
+    compare = view.compare_selected()
     _wait(app, lambda: bool(compare.tables) or compare.error is not None, 120, "the comparison")
     for picker in compare.pickers:
         picker.set_bounds(0, 1)
@@ -102,11 +82,5 @@ def _library_and_compare(app: QtWidgets.QApplication, scratch: Path, out_dir: Pa
     app.processEvents()
     written.append(save_window_png(compare, out_dir / "library-compare.png"))
     compare.close()
-    window.close()
+    window.show_workspace("capture")
     return written
-
-
-if __name__ == "__main__":
-    target = Path(sys.argv[1] if len(sys.argv) > 1 else "docs/screenshots")
-    for path in write_library_screenshots(target):
-        print(path)

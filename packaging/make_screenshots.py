@@ -1,4 +1,5 @@
-"""``make screenshots``: PNGs of every workspace on a clinic laptop's screen (1366 × 768).
+"""``make screenshots``: PNGs of every workspace of the main window, and of its dialogs and
+wizards, on a clinic laptop's screen (1366 × 768).
 
 Usage: ``python packaging/make_screenshots.py OUT_DIR [--guide GUIDE_IMG_DIR]`` under a display
 of 1366 × 768 (``make screenshots`` runs it under ``Xvfb -screen 0 1366x768x24`` with
@@ -8,12 +9,14 @@ opens at the size it chooses on that screen (:mod:`mimucap.gui.screen_fit`), the
 fixed (P001) and the home folder is a scratch folder, so the paths in view read ``~/sessions/…``
 on every run. The main window on the simulated suit (on a clock four times as fast as the
 wall's) is shown before any calibration; its magnetometers and body are calibrated by the
-wizards' procedures and the subject walks; a session is recorded with two markers, reopened for
-review (play head on the second marker) and shown with its export dialog; then Assess →
-Clinical Test runs a Timed Up and Go, with its report and the subject's trend
+wizards' procedures and the subject walks (the Capture workspace); a session is recorded with
+two markers and shown in the Review workspace (play head on the second marker) with its export
+dialog, while the live capture runs on; a simulated session with gait and range-of-motion
+markers is shown in the Analysis workspace (``packaging/analysis_screenshots.py``); a library of
+simulated sessions in the Library workspace, with a comparison (``library_screenshots.py``);
+then Assess → Clinical Test runs a Timed Up and Go, with its report and the subject's trend
 (``packaging/clinical_screenshots.py``, which also shows the offer to pair unknown devices). The
-calibration wizards', the library's and the analysis' pictures are added by
-``packaging/wizard_screenshots.py``, ``library_screenshots.py`` and ``analysis_screenshots.py``.
+calibration wizards' pictures are added by ``packaging/wizard_screenshots.py``.
 """
 
 from __future__ import annotations
@@ -56,17 +59,14 @@ def make_screenshots(out_dir: Path) -> list[Path]:
         folder = Path(scratch) / "sessions"
         folder.mkdir()
         try:
-            written += _main_and_review(app, out_dir, folder)
+            written += _every_workspace(app, out_dir, Path(scratch), folder)
             written += _helper("clinical_screenshots").write_pairing_screenshot(app, out_dir)
         finally:
             if home is None:
                 os.environ.pop("HOME", None)
             else:
                 os.environ["HOME"] = home
-    for script, function in (("wizard_screenshots", "write_wizard_screenshots"),
-                             ("library_screenshots", "write_library_screenshots"),
-                             ("analysis_screenshots", "write_analysis_screenshots")):
-        written.extend(getattr(_helper(script), function)(out_dir))
+    written.extend(_helper("wizard_screenshots").write_wizard_screenshots(out_dir))
     return written
 
 
@@ -103,7 +103,9 @@ def _calibrate(app: QtWidgets.QApplication, window, folder: Path) -> None:
         feed.close()
 
 
-def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -> list[Path]:
+def _every_workspace(app: QtWidgets.QApplication, out_dir: Path, home: Path, folder: Path) -> list[Path]:
+    """The main window in each workspace (recordings go to ``folder``; ``home`` is the scratch
+    home folder) and the dialogs opened from them."""
     from mimucap.gui.capture import save_window_png
     from mimucap.gui.main_window import MainWindow
     from mimucap.session.live.live_session import open_live_session
@@ -142,20 +144,24 @@ def _main_and_review(app: QtWidgets.QApplication, out_dir: Path, folder: Path) -
     window.wait_for_saving()
     path = window.live.last_recording.session_path
 
-    review = window.open_review(path)
-    _wait(app, lambda: review.player is not None or review.load_error, 60, "the review")
+    window.workspace_actions["review"].trigger()  # shows the recording just saved
+    review = window.review.view
+    if review is None or review.path != path:
+        raise RuntimeError(f"Review does not show the recording just saved ({path})")
+    _wait(app, lambda: review.ready or review.load_error, 60, "the review")
     review.seek_marker(1)
     _wait(app, lambda: review.scene_view.frames_rendered > 0, 10, "the review's 3D view")
     app.processEvents()
-    written.append(save_window_png(review, out_dir / "review.png"))
+    written.append(window.save_screenshot(out_dir / "review.png"))
     dialog = review.open_export()
     dialog.range_markers.setChecked(True)
     app.processEvents()
     written.append(save_window_png(dialog, out_dir / "export-dialog.png"))
     written.append(dialog.save_summary_png(out_dir / "export-summary.png"))
     dialog.close()
-    review.close()
     window.action_truth.setChecked(False)
+    written += _helper("analysis_screenshots").write_analysis_screenshots(app, window, out_dir)
+    written += _helper("library_screenshots").write_library_screenshots(app, window, home, out_dir)
     written += _helper("clinical_screenshots").write_clinical_test_screenshots(app, window, folder, out_dir)
     window.close()
     return written

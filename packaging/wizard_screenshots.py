@@ -7,7 +7,7 @@ display (``xvfb-run -a -s "-screen 0 1366x768x24"``). Run directly:
     xvfb-run -a -s "-screen 0 1366x768x24" .venv/bin/python packaging/wizard_screenshots.py docs/screenshots
 
 The simulated subject performs what each page asks, faster than real time (the wizards are
-stepped directly, not by their timers).
+stepped directly, not by their clocks).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ def _until(app: QtWidgets.QApplication, wizard, done: Callable[[], bool], steps:
     for _ in range(steps):
         if done():
             return
-        wizard.feed.advance()
+        wizard.feed.advance()  # the simulated suit moves on: its samples reach the wizard
         app.processEvents()
     raise RuntimeError("the simulated wizard did not reach the expected page")
 

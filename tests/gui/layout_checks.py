@@ -37,6 +37,19 @@ def outside_parent(window: QtWidgets.QWidget) -> list[str]:
     return found
 
 
+def off_screen(window: QtWidgets.QWidget, area: QtCore.QRect) -> list[str]:
+    """Visible widgets of ``window`` (and the window) that do not lie wholly inside ``area``
+    (the screen's free area, global coordinates); what a scroll area scrolls is left out."""
+    found = []
+    for widget in [window] + window.findChildren(QtWidgets.QWidget):
+        if not widget.isVisible() or (widget is not window and (widget.isWindow() or _scrolled(widget))):
+            continue
+        rect = QtCore.QRect(widget.mapToGlobal(QtCore.QPoint(0, 0)), widget.size())
+        if not rect.isEmpty() and not area.contains(rect):  # an empty widget draws nothing
+            found.append(f"{_name(widget)} {_rect(rect)} off the screen {_rect(area)}")
+    return found
+
+
 def cut_texts(window: QtWidgets.QWidget) -> list[str]:
     """Visible one-line labels and buttons whose text does not fit their width, and elided
     labels elided although their text would fit."""

@@ -25,8 +25,6 @@ def live_window(qtbot, spec: str):
 
 
 def closed(window) -> None:
-    for review in window.review_windows:
-        review.close()
     if window.live is not None and window.live.recording:
         window.live.stop_recording()
     window.close()

@@ -1,4 +1,4 @@
-"""The Analysis window of the review: gait and ROM tabs filled from a simulated session
+"""The Analysis workspace on the recording in Review: gait and ROM tabs filled from a simulated session
 (processed like a real one: no truth in the file), curves, marker ROM, report button."""
 
 from __future__ import annotations
@@ -7,7 +7,6 @@ import pytest
 from PyQt5 import QtWidgets
 
 from mimucap.core.simulate.config import SimulationConfig
-from mimucap.gui.review_window import ReviewWindow
 from mimucap.session.recorded.gait_validation import simulated_analysis
 
 ROM_MARKERS = ((30.0, "rom:knee_flexion:left:start"), (37.0, "rom:knee_flexion:left:end"))
@@ -25,16 +24,13 @@ def session_file(tmp_path_factory):
     return analysis.review.path
 
 
-def test_analysis_window_shows_gait_rom_and_writes_the_report(qtbot, session_file, tmp_path, monkeypatch):
-    review = ReviewWindow(session_file)
-    qtbot.addWidget(review)
-    review.show()
-    with qtbot.waitSignal(review.loaded, timeout=30000):
-        review.load()
-    assert review.action_analysis.isEnabled()
-    window = review.open_analysis()
-    with qtbot.waitSignal(window.analysed, timeout=30000):
-        pass
+def test_the_analysis_workspace_shows_gait_rom_and_writes_the_report(qtbot, window, session_file, tmp_path,
+                                                                     monkeypatch):
+    main = window
+    main.workspace_actions["analysis"].trigger()  # nothing in Review: the workspace says where to get one
+    assert main.analysis.view is None and "recording in Review" in main.analysis.empty.text.text()
+    review, window = analysed_in_review(qtbot, main, session_file)
+    assert main.workspace == "analysis" and main.workspaces.currentWidget() is main.analysis
     assert "straight strides analysed" in window.gait_summary.text()
     assert window.parameters_table.rowCount() == 8
     assert window.strides_table.rowCount() == len(window.analysis.gait.strides)
@@ -55,7 +51,13 @@ def test_analysis_window_shows_gait_rom_and_writes_the_report(qtbot, session_fil
     assert window.report_button.isEnabled()
     window.report_button.click()
     assert out.read_bytes().startswith(b"%PDF")
-    review.close()
+    # Back in Review, another result: the analysis shown is of the old one, so it is made again.
+    main.show_workspace("review")
+    with qtbot.waitSignal(review.loaded, timeout=30000):
+        review.set_result("live")
+    assert main.analysis.view is None
+    main.workspace_actions["analysis"].trigger()
+    assert main.analysis.view is not window and main.analysis.view.data.result == "live"
 
 
 def pdf_text(path) -> str:
@@ -69,32 +71,34 @@ def pdf_text(path) -> str:
     return text.replace("\ufb01", "fi").replace("\ufb02", "fl")  # the font's ligatures
 
 
-def analysed_in_review(qtbot, path, result: str = "reprocessed"):
-    """The review window of ``path`` showing ``result``, and its Analysis window once analysed."""
-    review = ReviewWindow(path)
-    qtbot.addWidget(review)
-    review.result_combo.setCurrentIndex(review.result_combo.findData(result))
-    review.show()
+def analysed_in_review(qtbot, main, path, result: str = "reprocessed"):
+    """``path`` in the Review workspace of main window ``main`` showing ``result``, and its view
+    in the Analysis workspace once analysed."""
+    review = main.open_review(path)
     with qtbot.waitSignal(review.loaded, timeout=30000):
-        review.load()
-    window = review.open_analysis()
-    with qtbot.waitSignal(window.analysed, timeout=30000):
         pass
-    return review, window
+    if result != review.result:
+        with qtbot.waitSignal(review.loaded, timeout=30000):
+            review.set_result(result)
+    main.workspace_actions["analysis"].trigger()
+    view = main.analysis.view
+    if view.analysis is None:
+        with qtbot.waitSignal(view.analysed, timeout=30000):
+            pass
+    return review, view
 
 
 @pytest.mark.parametrize("result", ["reprocessed", "live"])
-def test_the_windows_report_and_the_command_agree_for_the_same_result(qtbot, session_file, tmp_path, result):
+def test_the_windows_report_and_the_command_agree_for_the_same_result(qtbot, window, session_file, tmp_path, result):
     """The report and the tables made in the window while review shows a result, and ``mimucap
     report`` of the same file for the same result: the same text and the same numbers, each
     saying which result it holds on its first page."""
     from mimucap.cli import main
     from mimucap.session.recorded.analysis import write_analysis_csv
 
-    review, window = analysed_in_review(qtbot, session_file, result)
-    window.write_report(tmp_path / "window.pdf")
-    window_tables = write_analysis_csv(tmp_path / "window", window.analysis)
-    review.close()
+    review, view = analysed_in_review(qtbot, window, session_file, result)
+    view.write_report(tmp_path / "window.pdf")
+    window_tables = write_analysis_csv(tmp_path / "window", view.analysis)
     assert main(["report", str(session_file), "--out", str(tmp_path / "command.pdf"), "--csv", str(tmp_path / "command")]
                 + (["--live"] if result == "live" else [])) == 0
     shown, written = pdf_text(tmp_path / "window.pdf"), pdf_text(tmp_path / "command.pdf")
@@ -119,8 +123,9 @@ def uncalibrated_file(tmp_path_factory):
     return write_session(path, session_from_simulation(simulate_session(config), include_truth=False))
 
 
-def test_without_a_body_calibration_the_window_gives_temporal_parameters_only(qtbot, uncalibrated_file, tmp_path):
-    review, window = analysed_in_review(qtbot, uncalibrated_file)
+def test_without_a_body_calibration_the_analysis_gives_temporal_parameters_only(qtbot, window, uncalibrated_file,
+                                                                               tmp_path):
+    review, window = analysed_in_review(qtbot, window, uncalibrated_file)
     assert not window.analysis.calibrated
     assert window.limits_label.isVisible() and "no body calibration" in window.limits_label.text()
     assert "straight strides analysed" in window.gait_summary.text()
@@ -135,4 +140,3 @@ def test_without_a_body_calibration_the_window_gives_temporal_parameters_only(qt
     assert window.csv_button.isEnabled()  # the temporal tables, labelled
     with pytest.raises(ValueError, match="no body calibration"):
         window.write_report(tmp_path / "report.pdf")
-    review.close()

@@ -77,7 +77,8 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
 
     # Export through the window's export dialog (reprocessed, the default).
     window.action_export.trigger()
-    review = window.review_windows[-1]
+    review = window.review.view
+    assert window.workspace == "review" and review.path == result.session_path
     qtbot.waitUntil(lambda: review.export_dialog is not None, timeout=30000)
     dialog = review.export_dialog
     dialog.base_path.setText(str(tmp_path / "walk"))
@@ -148,11 +149,12 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     window.camera_actions["side"].trigger()
     monkeypatch.setattr(QtWidgets.QFileDialog, "getOpenFileName", lambda *a, **k: (str(result.session_path), ""))
     window.action_open.trigger()
-    review = window.review_windows[-1]
-    assert review.scene_view.camera_preset == "side" and review.camera_actions["side"].isChecked()
+    assert window.review.view is not review  # the recording shown before is let go
+    review = window.review.view
+    assert review.scene_view.camera_preset == "side" and window.camera_actions["side"].isChecked()
     qtbot.waitUntil(lambda: review.player is not None, timeout=20000)
     assert review.markers_list.count() == 2
-    review.camera_actions["top"].trigger()
+    window.camera_actions["top"].trigger()  # View → Camera moves the 3D view of the workspace shown
     assert review.scene_view.camera_preset == "top"
     assert review.pose_status.text().startswith("Pose: body calibration; reprocessed")
     qtbot.waitUntil(lambda: review.scene_view.frames_rendered > 0, timeout=10000)
@@ -203,6 +205,25 @@ def test_the_session_file_is_written_off_the_gui_thread(app_window, qtbot, tmp_p
     assert saved.args[0].complete and saved.args[0].session_path.exists()
     assert "Saved" in window.session_panel.record_status.text() and not window.saving
     assert window.action_export.isEnabled()
+    # Review (the mode bar, Ctrl+2) shows the recording just saved; a recording started and
+    # stopped from there with the mode bar's button is shown when Review is chosen again.
+    assert "Review (Ctrl+2) shows it" in window.statusBar().currentMessage()
+    window.workspace_actions["review"].trigger()
+    assert window.workspace == "review" and window.review.view.path == saved.args[0].session_path
+    monkeypatch.setattr(RecordingToSave, "save", real_save)
+    qtbot.mouseClick(window.mode_bar.record_button, QtCore.Qt.LeftButton)
+    assert window.live.recording
+    qtbot.waitUntil(window.mode_bar.recording_badge.isVisible, timeout=2000)  # the bar lays itself out
+    assert window.workspace == "review" and window.windowTitle().startswith("● Recording")
+    qtbot.waitUntil(lambda: bool(window.live.recording_info().samples), timeout=10000)
+    with qtbot.waitSignal(window.recording_saved, timeout=30000) as second:
+        qtbot.mouseClick(window.mode_bar.record_button, QtCore.Qt.LeftButton)
+    assert window.mode_bar.record_button.text() == "● Record"
+    qtbot.waitUntil(lambda: not window.mode_bar.recording_badge.isVisible(), timeout=2000)
+    assert "Review (Ctrl+2) shows it" in window.review.statusBar().currentMessage()
+    window.workspace_actions["capture"].trigger()
+    window.workspace_actions["review"].trigger()
+    assert window.review.view.path == second.args[0].session_path
 
 
 def test_closing_while_recording_asks_first(app_window, qtbot, tmp_path, monkeypatch):

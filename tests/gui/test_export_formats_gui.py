@@ -45,11 +45,11 @@ def test_open_imports_an_mvnx_file_and_reviews_it(qtbot, tmp_path, monkeypatch, 
     monkeypatch.setattr(QtWidgets.QFileDialog, "getSaveFileName", lambda *a, **k: (str(out), ""))
     window.ask_open_session()
     assert out.exists()
-    review = window.review_windows[-1]
+    review = window.review.view
+    assert window.workspace == "review" and review.path == out
     qtbot.waitUntil(lambda: review.player is not None, timeout=30000)
     assert review.player.model.name == "fifteen_segment"
     assert review.player.pose_source == "body calibration"
-    review.close()
     window.close()
 
 
@@ -103,11 +103,11 @@ def test_without_a_body_calibration_only_the_sensor_data_can_be_exported(qtbot, 
 
 
 def test_review_plots_no_joint_angles_without_a_body_calibration(qtbot, uncalibrated_walk, calibrated_walk):
-    from mimucap.gui.review_window import ReviewWindow
+    from mimucap.gui.review_view import ReviewView
     from mimucap.session.recorded.analysis import NEEDS_BODY_CALIBRATION
 
     for path, calibrated in ((uncalibrated_walk, False), (calibrated_walk, True)):
-        review = ReviewWindow(path)
+        review = ReviewView(path)
         qtbot.addWidget(review)
         review.show()
         review.load()
@@ -117,7 +117,7 @@ def test_review_plots_no_joint_angles_without_a_body_calibration(qtbot, uncalibr
         assert plots.joint_button.isEnabled() == calibrated
         if not calibrated:
             assert NEEDS_BODY_CALIBRATION in plots.joint_button.toolTip()
-        review.close()
+        review.shutdown()
 
 
 def test_exports_go_to_a_folder_of_their_own_where_every_file_dialog_starts(qtbot, tmp_path, monkeypatch,

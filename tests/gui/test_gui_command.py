@@ -9,6 +9,8 @@ import sys
 import numpy as np
 from PyQt5 import QtGui
 
+from mimucap.gui.main_window import WINDOW_SIZE_PX
+
 MESSAGE = "mimucap gui: no display found; run it under a virtual screen: xvfb-run -a mimucap gui"
 
 
@@ -25,13 +27,14 @@ def _pixels(path) -> np.ndarray:
 
 
 def assert_shows_the_uncalibrated_skeleton(path) -> None:
-    """The screenshot at ``path`` is the main window (1280 × 800) with the simulated suit's
+    """The screenshot at ``path`` is the main window (:data:`WINDOW_SIZE_PX` on the test screen,
+    which has room for it) with the simulated suit's
     figure in the middle of its 3D view. Before a magnetometer calibration the figure is tinted
     amber (sensors "magnetometer not calibrated"): far redder than the grey floor and the slate
     background. Its pixels sit in the middle of the 3D view, below the menu bar."""
     pixels = _pixels(path)
     height, width, _ = pixels.shape
-    assert (width, height) == (1280, 800)
+    assert (width, height) == WINDOW_SIZE_PX
     amber = (pixels[..., 0].astype(int) - pixels[..., 2]) > 60
     amber[height - STATUS_BAR_PX:] = False  # the status bar's warnings are orange too
     rows, cols = np.nonzero(amber)
@@ -97,7 +100,7 @@ def test_review_option_opens_the_session_and_a_missing_file_is_one_line(tmp_path
     )
     assert done.returncode == 0, done.stderr
     pixels = _pixels(out)
-    blue = (pixels[..., 2] - pixels[..., 0]) > 60  # the figure, shown by the review window
+    blue = (pixels[..., 2] - pixels[..., 0]) > 60  # the figure, shown in the Review workspace
     assert np.count_nonzero(blue) > 2000
     missing = tmp_path / "gone.h5"
     done = subprocess.run([sys.executable, "-m", "mimucap", "gui", "--review", str(missing)],

@@ -2,14 +2,16 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import pytest
 from PyQt5 import QtCore, QtGui, QtWidgets
 
 
 def _review(qtbot, path):
-    from mimucap.gui.review_window import ReviewWindow
+    from mimucap.gui.review_view import ReviewView
 
-    review = ReviewWindow(path)
+    review = ReviewView(path)
     qtbot.addWidget(review)
     review.show()
     review.load()
@@ -24,14 +26,11 @@ def _activate(qtbot, window) -> None:
     qtbot.waitUntil(lambda: QtWidgets.QApplication.activeWindow() is window, timeout=5000)
 
 
-def test_switching_the_result_keeps_the_export_dialog_and_its_ticks(qtbot, calibrated_walk):
-    from mimucap.gui.review_window import ReviewWindow
-
-    review = ReviewWindow(calibrated_walk)
-    qtbot.addWidget(review)
-    review.export_when_loaded = True  # as File → Export Last Recording opens it
-    review.show()
-    review.load()
+def test_switching_the_result_keeps_the_export_dialog_and_its_ticks(qtbot, window, calibrated_walk):
+    window.last_recording = SimpleNamespace(session_path=calibrated_walk, samples={"S01": 1})  # as after Stop
+    window.action_export.trigger()  # nothing in Review: the last recording opens there and exports
+    review = window.review.view
+    assert window.workspace == "review" and review.path == calibrated_walk
     qtbot.waitUntil(lambda: review.export_dialog is not None, timeout=30000)
     dialog = review.export_dialog
     dialog.want_c3d.setChecked(True)
@@ -41,7 +40,9 @@ def test_switching_the_result_keeps_the_export_dialog_and_its_ticks(qtbot, calib
         review.result_combo.setCurrentIndex(other)
     assert review.export_dialog is dialog and dialog.want_c3d.isChecked()
     assert dialog.data is review.player.data  # the summary follows the result shown
-    review.close()
+    window.action_export.trigger()  # a recording in Review: its dialog again, not the last recording
+    assert window.review.view is review and review.export_dialog is not dialog
+    review.export_dialog.close()
 
 
 def test_a_click_on_a_marker_in_the_timeline_jumps_there(qtbot, calibrated_walk):
@@ -58,7 +59,7 @@ def test_a_click_on_a_marker_in_the_timeline_jumps_there(qtbot, calibrated_walk)
     elsewhere = review.timeline.mapFromScene(view.mapViewToScene(QtCore.QPointF(marker.t_s + 0.8, 0.5)))
     qtbot.mouseClick(review.timeline.viewport(), QtCore.Qt.LeftButton, pos=elsewhere)
     assert review.player.cursor_s == pytest.approx(marker.t_s + 0.8, abs=0.05)
-    review.close()
+    review.shutdown()
 
 
 def test_the_wheel_over_a_segment_choice_scrolls_instead_of_reassigning(qtbot):
@@ -78,28 +79,50 @@ def test_the_wheel_over_a_segment_choice_scrolls_instead_of_reassigning(qtbot):
     assert not wheel.isAccepted()  # left to the table, which scrolls
 
 
-@pytest.mark.parametrize("keys", ["Esc", "Ctrl+W"])
-def test_the_library_closes_with_esc_and_ctrl_w(qtbot, tmp_path, keys):
-    from mimucap.gui.library_window import LibraryWindow
-
-    window = LibraryWindow(tmp_path / "lib")
-    qtbot.addWidget(window)
-    window.show()
-    qtbot.waitExposed(window)
-    window.wait_for_scan()
-    _activate(qtbot, window)
+def _press(qtbot, widget, keys: str) -> None:
     sequence = QtGui.QKeySequence(keys)
-    qtbot.keyClick(window, sequence[0] & ~QtCore.Qt.KeyboardModifierMask,
+    qtbot.keyClick(widget, sequence[0] & ~QtCore.Qt.KeyboardModifierMask,
                    QtCore.Qt.KeyboardModifiers(sequence[0] & QtCore.Qt.KeyboardModifierMask))
-    assert not window.isVisible()
 
 
-def test_the_analysis_window_closes_with_esc(qtbot, calibrated_walk):
-    review = _review(qtbot, calibrated_walk)
-    window = review.open_analysis()
-    with qtbot.waitSignal(window.analysed, timeout=30000):
-        pass
+def test_ctrl_1_to_4_switch_the_workspaces_and_ctrl_w_closes_the_recording(qtbot, window, calibrated_walk):
+    """Analysis and Library are workspaces of the main window (they were windows that did not
+    close with Esc or Ctrl+W): the keys switch between them; Ctrl+W closes the recording in Review."""
     _activate(qtbot, window)
-    qtbot.keyClick(window, QtCore.Qt.Key_Escape)
-    assert not window.isVisible()
-    review.close()
+    for index, name in enumerate(("capture", "review", "analysis", "library"), start=1):
+        _press(qtbot, window, f"Ctrl+{index}")
+        assert window.workspace == name and window.mode_bar.workspace_actions[name].isChecked()
+        assert window.session_dock.isVisible() == (name == "capture")  # the live panels belong to Capture
+    review = window.open_review(calibrated_walk)
+    qtbot.waitUntil(lambda: review.ready, timeout=30000)
+    window.show_workspace("capture")
+    _press(qtbot, window, "Ctrl+Space")  # View → Play/Pause Review: plays the recording in Review, shown
+    assert review.player.playing and window.workspace == "review" and review.play_button.text() == "❚❚ Pause"
+    window.action_play.trigger()
+    assert not review.player.playing
+    _press(qtbot, window, "Ctrl+W")
+    assert window.review.view is None and window.review.currentWidget() is window.review.empty
+
+
+@pytest.mark.parametrize("keys", ["Esc", "Ctrl+W"])
+def test_the_comparison_closes_with_esc_and_ctrl_w(qtbot, tmp_path, calibrated_walk, keys):
+    import shutil
+
+    from mimucap.gui.library_view import LibraryView
+
+    root = tmp_path / "lib"
+    root.mkdir()
+    for name in ("S001_2026-03-01_trial01.h5", "S001_2026-04-01_trial01.h5"):
+        shutil.copy(calibrated_walk, root / name)
+    library = LibraryView(root)
+    qtbot.addWidget(library)
+    library.show()
+    library.wait_for_scan()
+    library.select_paths(set(library.entries))
+    dialog = library.compare_selected()
+    qtbot.waitExposed(dialog)
+    _activate(qtbot, dialog)
+    with qtbot.waitSignal(dialog.finished, timeout=5000):
+        _press(qtbot, dialog, keys)
+    assert not dialog.isVisible() and dialog not in library.compare_dialogs
+    library.shutdown()

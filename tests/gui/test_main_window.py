@@ -63,11 +63,12 @@ def test_menu_lists_only_working_items(window):
     texts = {a.text() for a in _menu_actions(window)}
     # Each of these is exercised by a test of tests/gui.
     expected = {
-        "Choose &Source…", "&Open Session for Review…", "&Export Last Recording…", "&Library…", "Library &Folder…",
+        "Choose &Source…", "&Open Recording…", "&Close Recording", "&Export Recording…", "Library &Folder…",
         "S&tream to Lab Streaming Layer…", "Save Screens&hot…", "&Quit", "&Assign Sensors…", "Start &Recording", "Add &Marker",
         "&Pair Devices…",
         "Front", "Side", "Top", "World Mode", "Body Mode", "&Toggle Body/World", "Show &Floor",
-        "Show World &Axes", "Show Simulator &Truth", "&Pause Plots\tSpace", "&User Guide", "&About MimuCap",
+        "Show World &Axes", "Show Simulator &Truth", "&Pause Plots\tSpace", "Play/Pause &Review", "&User Guide",
+        "&About MimuCap", "Capture", "Review", "Analysis", "Library",
     }
     assert expected <= texts
     assert texts - expected <= {"&Magnetometers…", "&Body…", "&Range of Motion…", "&Clinical Test…"}  # the wizards

@@ -103,17 +103,15 @@ def test_changing_the_source_or_closing_leaves_no_subscription_behind(qtbot):
     assert _subscribed(second) == {}
 
 
-def test_the_review_follows_its_player_and_lets_it_go(qtbot, calibrated_walk):
-    from mimucap.gui.review_window import ReviewWindow
-
-    review = ReviewWindow(calibrated_walk)
-    qtbot.addWidget(review)
-    review.show()
+def test_the_review_follows_its_player_and_lets_it_go(qtbot, window, calibrated_walk):
+    review = window.open_review(calibrated_walk)
     with qtbot.waitSignal(review.loaded, timeout=30000):
-        review.load()
+        pass
     player = review.player
     assert _subscribed(player) == {"data": 1, "frame": 1}
     qtbot.waitUntil(lambda: not review.plots._redraw_timer.isActive(), timeout=2000)
+    qtbot.waitUntil(lambda: review.scene_view.frames_rendered > 0, timeout=5000)  # the first picture shown
+    qtbot.wait(100)
     plots, frames = review.plots.refresh_count, review.scene_view.frames_rendered
     qtbot.wait(200)  # paused: the play head stays, nothing is drawn
     assert (review.plots.refresh_count, review.scene_view.frames_rendered) == (plots, frames)
@@ -121,10 +119,10 @@ def test_the_review_follows_its_player_and_lets_it_go(qtbot, calibrated_walk):
     qtbot.waitUntil(lambda: review.plots.refresh_count == plots + 1, timeout=2000)
     assert review.plots.curve_data("acc", 0)[0][-1] == pytest.approx(4.0, abs=0.02)
     qtbot.waitUntil(lambda: review.scene_view.frames_rendered > frames, timeout=2000)
-    review.action_truth.setChecked(True)
+    window.action_truth.setChecked(True)  # View → Show Simulator Truth: live and in Review
     assert _subscribed(player) == {"data": 1, "frame": 1, "truth_frame": 1}
-    review.close()
-    assert _subscribed(player) == {}
+    window.action_close_recording.trigger()
+    assert _subscribed(player) == {} and window.review.view is None
 
 
 def test_a_doubtful_orientation_is_named_in_the_sensor_panel_and_the_status_bar(idle_window):
@@ -146,11 +144,11 @@ def test_a_doubtful_orientation_is_named_in_the_sensor_panel_and_the_status_bar(
 def test_the_review_shades_the_doubtful_spans_and_says_why_at_the_play_head(qtbot, tmp_path):
     """A recording without a body calibration: its joint angles are doubtful throughout."""
     from mimucap.cli import main
-    from mimucap.gui.review_window import ReviewWindow
+    from mimucap.gui.review_view import ReviewView
 
     session = tmp_path / "walk.h5"
     assert main(["simulate", "--scenario", "walk", "--duration", "4", "--no-magcal-turns", "--out", str(session)]) == 0
-    review = ReviewWindow(session)
+    review = ReviewView(session)
     qtbot.addWidget(review)
     review.show()
     with qtbot.waitSignal(review.loaded, timeout=30000):
@@ -167,4 +165,4 @@ def test_the_review_shades_the_doubtful_spans_and_says_why_at_the_play_head(qtbo
     assert review._doubt_regions  # on the timeline
     assert review.doubt_status.isVisible() and "Right knee" in review.doubt_status.text()
     assert "no body calibration" in review.doubt_status.text()
-    review.close()
+    review.shutdown()

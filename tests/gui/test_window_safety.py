@@ -1,6 +1,6 @@
 """What a user can get wrong in the main window does not cost a recording, a setting or a
 silent failure: a refused source change, Space after clicking Record, marker times, unwritable
-folders, review windows that failed or were closed, a source switch under an open wizard."""
+folders, reviews that failed, were closed or replaced, a source switch under an open wizard."""
 
 from __future__ import annotations
 
@@ -135,23 +135,30 @@ def _session_file(tmp_path):
     return path
 
 
-def test_review_windows_are_let_go_when_closed_and_a_failed_one_closes(window, qtbot, tmp_path, monkeypatch):
+def test_reviews_are_let_go_when_closed_or_replaced_and_a_failed_one_is_said(window, qtbot, tmp_path, monkeypatch):
     warnings = []
     monkeypatch.setattr(QtWidgets.QMessageBox, "warning", lambda *a, **k: warnings.append(a[2]))
     bad = tmp_path / "notes.h5"
     bad.write_text("not a session")
     review = window.open_review(bad)
-    qtbot.waitUntil(lambda: review not in window.review_windows, timeout=10000)
-    assert len(warnings) == 1  # said once, in a dialog
-    qtbot.waitUntil(lambda: _let_go(review), timeout=5000)  # closed and let go
+    qtbot.waitUntil(lambda: window.review.view is None, timeout=10000)
+    assert len(warnings) == 1  # said once, in a dialog, and on the Review workspace's page
+    assert window.review.currentWidget() is window.review.empty and "notes.h5" in window.review.statusBar().currentMessage()
+    qtbot.waitUntil(lambda: _let_go(review), timeout=5000)  # let go
 
-    good = window.open_review(_session_file(tmp_path))
+    path = _session_file(tmp_path)
+    good = window.open_review(path)
     with qtbot.waitSignal(good.loaded, timeout=20000):
         pass
-    assert good in window.review_windows
-    good.close()
-    assert good not in window.review_windows and not good._timer.isActive()
+    assert window.review.view is good
+    again = window.open_review(path)  # one recording at a time: the one shown before is let go
+    assert window.review.view is again and not good._timer.isActive()
     qtbot.waitUntil(lambda: _let_go(good), timeout=5000)
+    with qtbot.waitSignal(again.loaded, timeout=20000):
+        pass
+    window.action_close_recording.trigger()
+    assert window.review.view is None and not again._timer.isActive()
+    qtbot.waitUntil(lambda: _let_go(again), timeout=5000)
 
 
 def test_a_click_on_the_review_slider_moves_the_play_head_there(window, qtbot, tmp_path):
@@ -166,7 +173,6 @@ def test_a_click_on_the_review_slider_moves_the_play_head_there(window, qtbot, t
     before = slider.value()
     qtbot.keyClick(slider, QtCore.Qt.Key_PageDown)
     assert abs(slider.value() - before) == 100  # one second
-    review.close()
 
 
 def test_export_dialog_follows_the_users_edits_and_says_what_failed(qtbot, tmp_path, calibrated_walk):

@@ -1,6 +1,8 @@
-"""Nothing is clipped or jumps at the screen sizes of clinic laptops and desktops: every
-window opens inside the screen's free area, no widget sticks out of its parent, no one-line
-text is cut, wizard pages keep one size, the sensor table can be made to show every row.
+"""Nothing is clipped or jumps at the screen sizes of clinic laptops and desktops: the main
+window, in each of its workspaces, and every dialog and wizard open inside the screen's free
+area, every visible widget lies on the screen and inside its parent, no one-line text or column
+header is cut, the mode bar's Record/Stop and Add Marker are in view whatever the workspace,
+wizard pages keep one size, the sensor table can be made to show every row.
 
 The screen is the test display's (Xvfb); the free area of each size (the screen less a task
 bar) is given to :mod:`mimucap.gui.screen_fit`, which sizes and places every window."""
@@ -13,11 +15,8 @@ from pathlib import Path
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.core.simulate.config import SimulationConfig
-from mimucap.core.simulate.suit import simulate_session
 from mimucap.gui.main_window import MainWindow
 from mimucap.gui.screen_fit import FRAME_PX
-from mimucap.io.session import session_from_simulation, write_session
 
 _spec = importlib.util.spec_from_file_location("layout_checks", Path(__file__).with_name("layout_checks.py"))
 layout_checks = importlib.util.module_from_spec(_spec)
@@ -40,8 +39,17 @@ def _spin(qtbot, ms: int = 300) -> None:
     qtbot.wait(ms)
 
 
-def _problems(widget) -> list[str]:
-    return layout_checks.outside_parent(widget) + layout_checks.cut_texts(widget)
+def _problems(widget, area: QtCore.QRect | None = None) -> list[str]:
+    found = layout_checks.outside_parent(widget) + layout_checks.cut_texts(widget)
+    return found + (layout_checks.off_screen(widget, area) if area is not None else [])
+
+
+def _actions_in_view(window) -> bool:
+    """Record/Stop and Add Marker are shown, whole, in the window (the mode bar never hides them)."""
+    inside = window.rect()
+    return all(button.isVisible() and inside.contains(QtCore.QRect(button.mapTo(window, QtCore.QPoint(0, 0)),
+                                                                   button.size()))
+               for button in (window.mode_bar.record_button, window.mode_bar.marker_button))
 
 
 def _inside(area: QtCore.QRect, window: QtWidgets.QWidget) -> bool:
@@ -72,15 +80,14 @@ def test_the_main_window_and_its_wizards_fit_each_screen(main_window, screen, qt
     assert _inside(screen, window), (window.geometry(), screen)
     qtbot.waitUntil(lambda: window.plots.refresh_count > 2, timeout=5000)
     _spin(qtbot)
-    assert _problems(window) == []
-    # recording: the REC indicator joins the status bar, nothing is pushed out or cut
+    assert _problems(window, screen) == [] and _actions_in_view(window)
+    # recording: the REC indicator joins the status bar and the mode bar, nothing is pushed out or cut
     window.recording_folder = lambda: tmp_path
     window.confirm_recording = lambda items: True
     window.action_record.trigger()
     _spin(qtbot)
-    assert window.live_status.recording_indicator.isVisible() and _problems(window) == []
-    target = window.live_status.recording_target  # the file's name beside the badge, whole
-    assert target.isVisible() and target.width() >= target.sizeHint().width()
+    assert window.live_status.recording_indicator.isVisible() and window.mode_bar.recording_badge.isVisible()
+    assert _problems(window, screen) == [] and _actions_in_view(window)
     window.action_record.trigger()
     window.wait_for_saving()
     # the plots' titles are whole: the stack is as wide as its widest title asks
@@ -106,65 +113,60 @@ def test_the_main_window_and_its_wizards_fit_each_screen(main_window, screen, qt
                 wizard.views_panel.setVisible(index > 0)  # the views come with the recording
             _spin(qtbot, 150)
             assert wizard.size() == size, (name, index)  # a page never resizes the wizard
-            assert _problems(wizard) == [], (name, index)
+            assert _problems(wizard, screen) == [], (name, index)
         wizard.close()
 
 
-@pytest.fixture(scope="module")
-def session_file(tmp_path_factory):
-    sim = simulate_session(SimulationConfig(scenario="walk", duration_s=3.0))
-    path = tmp_path_factory.mktemp("sizes") / "walk.h5"
-    write_session(path, session_from_simulation(sim))
-    return path
-
-
-def test_the_review_window_and_export_dialog_open_on_each_screen(qtbot, screen, session_file):
-    from mimucap.gui.review_window import ReviewWindow
-
-    review = ReviewWindow(session_file)
-    review.show()
-    review.load()
-    qtbot.waitUntil(lambda: review.player is not None, timeout=20000)
-    assert _inside(screen, review), (review.geometry(), screen)
-    _spin(qtbot)
-    assert _problems(review) == []
-    dialog = review.open_export()
-    qtbot.waitExposed(dialog)
-    assert _inside(screen, dialog)
-    assert _problems(dialog) == []
-    dialog.close()
-    review.close()
-
-
-def test_the_analysis_library_compare_trend_and_assessment_windows_fit_each_screen(qtbot, screen, calibrated_walk,
-                                                                                   tmp_path):
-    """Every other window and dialog a clinician opens: on the screen, nothing cut, no column
-    header clipped (the analysis window opened 1200 × 820, taller than a laptop's screen)."""
+def test_every_workspace_and_its_dialogs_fit_each_screen(main_window, screen, qtbot, calibrated_walk, tmp_path,
+                                                         monkeypatch):
+    """Review (and its export dialog), Analysis (every tab) and Library (and the comparison and
+    trend dialogs), each in the main window while the live capture runs on, and recording from
+    any of them: on the screen, nothing cut, no column header clipped, Record/Stop and Add Marker
+    in view (the analysis window opened 1200 × 820, taller than a laptop's screen)."""
     import shutil
 
-    from mimucap.gui.library_window import LibraryWindow
-    from mimucap.gui.review_window import ReviewWindow
     from mimucap.gui.trend_dialog import TrendDialog
     from mimucap.io.library import Library
     from mimucap.session.recorded.clinical_test_results import RESULT_PREFIX
 
-    review = ReviewWindow(calibrated_walk)
-    review.show()
-    review.load()
-    qtbot.waitUntil(lambda: review.player is not None, timeout=20000)
-    analysis = review.open_analysis()
-    with qtbot.waitSignal(analysis.analysed, timeout=30000):
-        pass
+    window = main_window
+    for name in ("review", "analysis"):  # nothing to show yet: each says how to get something
+        window.workspace_actions[name].trigger()
+        _spin(qtbot, 150)
+        page = window.workspaces.currentWidget()
+        assert page.currentWidget() is page.empty and page.empty.text.isVisible()
+        assert _problems(window, screen) == [] and _actions_in_view(window)
+    review = window.open_review(calibrated_walk)
+    qtbot.waitUntil(lambda: review.ready, timeout=30000)
+    assert window.workspace == "review" and window.workspaces.currentWidget() is window.review
+    _spin(qtbot)
+    assert _inside(screen, window) and _problems(window, screen) == [] and _actions_in_view(window)
+    dialog = review.open_export()
+    qtbot.waitExposed(dialog)
+    assert _inside(screen, dialog)
+    assert _problems(dialog, screen) == []
+    dialog.close()
+
+    window.recording_folder = lambda: tmp_path
+    window.confirm_recording = lambda items: True
+    window.action_record.trigger()  # recording while another workspace is shown: its state stays in view
+    _spin(qtbot)
+    assert window.mode_bar.recording_badge.isVisible() and window.mode_bar.record_button.text() == "■ Stop"
+    window.workspace_actions["analysis"].trigger()
+    analysis = window.analysis.view
+    if analysis.analysis is None:
+        with qtbot.waitSignal(analysis.analysed, timeout=30000):
+            pass
     for index in range(analysis.tabs.count()):
         analysis.tabs.setCurrentIndex(index)
         _spin(qtbot, 150)
-        assert _inside(screen, analysis), (analysis.geometry(), screen)
-        assert _problems(analysis) == [], index
+        assert _problems(window, screen) == [], index
+        assert _actions_in_view(window) and window.mode_bar.recording_badge.isVisible()
     analysis.tabs.setCurrentIndex(0)
     _spin(qtbot, 150)
     assert analysis.parameters_table.horizontalScrollBar().maximum() == 0  # every column of the gait table in view
-    analysis.close()
-    review.close()
+    window.action_record.trigger()
+    window.wait_for_saving()
 
     root = tmp_path / "library"
     root.mkdir()
@@ -174,22 +176,26 @@ def test_the_analysis_library_compare_trend_and_assessment_windows_fit_each_scre
     library.scan()
     entries = library.sessions()
     library.store_result(entries[0].path, RESULT_PREFIX + "tug", {"test": "tug", "total_s": 11.2, "result": "reprocessed"})
-    window = LibraryWindow(root)
-    window.show()
-    window.wait_for_scan()
+    monkeypatch.setattr(window, "library_folder", lambda: root)
+    window.workspace_actions["library"].trigger()
+    view = window.library_view
+    view.wait_for_scan()
     _spin(qtbot)
-    assert _inside(screen, window) and _problems(window) == []
-    window.select_paths({e.path for e in entries})
-    compare = window.compare_selected()
+    assert _problems(window, screen) == [] and _actions_in_view(window)
+    view.select_paths({e.path for e in entries})
+    compare = view.compare_selected()
     qtbot.waitUntil(lambda: compare.tables or compare.error, timeout=30000)
     _spin(qtbot)
-    assert _inside(screen, compare) and _problems(compare) == []
-    trend = TrendDialog(library, entries[0].subject_id, window)
+    assert _inside(screen, compare) and _problems(compare, screen) == []
+    trend = TrendDialog(library, entries[0].subject_id, view)
     trend.show()
     _spin(qtbot)
-    assert _inside(screen, trend) and _problems(trend) == []
-    for dialog in (trend, compare, window):
+    assert _inside(screen, trend) and _problems(trend, screen) == []
+    for dialog in (trend, compare):
         dialog.close()
+    window.workspace_actions["capture"].trigger()
+    _spin(qtbot)
+    assert _problems(window, screen) == [] and window.sensor_dock.isVisible()
 
 
 def test_the_assessment_wizards_fit_each_screen(main_window, screen, qtbot):
@@ -204,5 +210,5 @@ def test_the_assessment_wizards_fit_each_screen(main_window, screen, qtbot):
             if pages is not None:
                 pages.setCurrentIndex(index)
             _spin(qtbot, 150)
-            assert _problems(wizard) == [], (name, index)
+            assert _problems(wizard, screen) == [], (name, index)
         wizard.close()

@@ -107,7 +107,7 @@ def test_a_timeout_must_be_positive():
 
 
 def test_only_the_preparing_thread_is_refused_compilation(monkeypatch):
-    """While the preparation checks the cache, another thread (a review window loading a
+    """While the preparation checks the cache, another thread (the Review workspace loading a
     recording, say) may still compile: the refusal is for the preparing thread alone."""
     import threading
 

@@ -22,7 +22,7 @@ def register(subparsers) -> None:
     parser.add_argument("--after", metavar="SECONDS", type=float, default=3.0,
                         help="seconds of live data before the screenshot (default 3; counted once the filters are prepared)")
     parser.add_argument("--review", metavar="FILE", default=None,
-                        help="also open this recorded session (.h5) for review (with --screenshot: shoot the review window)")
+                        help="also open this recorded session (.h5) for review in the Review workspace (with --screenshot: shoot it once shown)")
     parser.set_defaults(func=run)
 
 

@@ -1,4 +1,5 @@
-"""The Analysis window of a reviewed session: a Gait tab and a ROM tab, and the report.
+"""The analysis of a reviewed session (the page of the main window's Analysis workspace): a
+Gait tab, a ROM tab, a Doubtful data tab, and the report.
 
 * **Gait**: what was found (strides analysed and refused, bouts, turns, which sensors gave
   events and lengths), the parameter table (per side and both: mean ± SD, CV, symmetry), the
@@ -15,7 +16,7 @@ the ROM tab and the report are disabled, each saying why
 (:data:`mimucap.session.recorded.analysis.NEEDS_BODY_CALIBRATION`).
 
 The analysis runs off the GUI thread (:func:`mimucap.session.recorded.analysis.analyse_review`); this
-window only shows it.
+view only shows it.
 """
 
 from __future__ import annotations
@@ -30,8 +31,7 @@ from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.pdf_report import write_report
-from mimucap.gui.menus import closes_with_keys
-from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.status_line import page_layout, progress_bar, status_line
 from mimucap.io.normative_bands import read_normative_bands
 from mimucap.session.recorded.analysis import (
     DOUBT_HEADER,
@@ -52,7 +52,10 @@ from mimucap.session.recorded.review import ReviewData
 SIDE_PENS = {"left": (30, 100, 200), "right": (200, 50, 40)}
 
 
-def _fill_table(table: QtWidgets.QTableWidget, header: list[str], rows: list[list[str]]) -> None:
+def _fill_table(table: QtWidgets.QTableWidget, header: list[str], rows: list[list[str]],
+                text_columns: tuple[int, ...] = (0,)) -> None:
+    """``rows`` in ``table`` under ``header``: read-only, figures right-aligned, the
+    ``text_columns`` left-aligned."""
     table.clear()
     table.setColumnCount(len(header))
     table.setHorizontalHeaderLabels(header)
@@ -61,25 +64,22 @@ def _fill_table(table: QtWidgets.QTableWidget, header: list[str], rows: list[lis
         for c, cell in enumerate(row):
             item = QtWidgets.QTableWidgetItem(str(cell))
             item.setFlags(item.flags() & ~QtCore.Qt.ItemIsEditable)
-            if c > 0:
+            if c not in text_columns:
                 item.setTextAlignment(int(QtCore.Qt.AlignRight | QtCore.Qt.AlignVCenter))
             table.setItem(r, c, item)
     table.resizeColumnsToContents()
     table.horizontalHeader().setStretchLastSection(True)
 
 
-class AnalysisWindow(QtWidgets.QMainWindow):
-    """Analysis of ``data`` (a loaded review); call :meth:`run` after ``show()``;
-    :attr:`analysed` is emitted when the results are shown."""
+class AnalysisView(QtWidgets.QWidget):
+    """Analysis of ``data`` (a loaded review); call :meth:`run` once shown; :attr:`analysed`
+    is emitted when the results are shown."""
 
     analysed = QtCore.pyqtSignal()
 
     def __init__(self, parent: QtWidgets.QWidget | None, data: ReviewData) -> None:
         super().__init__(parent)
-        closes_with_keys(self)
-        self.setObjectName("analysisWindow")
-        self.setWindowTitle(f"MimuCap Analysis: {data.path.name}")
-        fit_on_screen(self, 1320, 820, parent)  # the gait table whole on a 1366-px laptop screen
+        self.setObjectName("analysisView")
         self.data = data
         self.analysis: SessionAnalysis | None = None
         self.bands: dict[tuple[str, str], NormativeBand] = {}
@@ -112,6 +112,9 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         self.parameters_table.setObjectName("parametersTable")
         self.strides_table = QtWidgets.QTableWidget(self.gait_tab)
         self.strides_table.setObjectName("stridesTable")
+        # Its last column (why a stride was refused) is as wide as the longest reason: its title
+        # at the column's start stays in view while the table is scrolled to the left.
+        self.strides_table.horizontalHeader().setDefaultAlignment(QtCore.Qt.AlignLeft | QtCore.Qt.AlignVCenter)
         self.curve_choice = QtWidgets.QComboBox(self.gait_tab)
         self.curve_choice.setObjectName("curveChoice")
         self.curve_choice.currentIndexChanged.connect(self._show_curve)
@@ -188,16 +191,16 @@ class AnalysisWindow(QtWidgets.QMainWindow):
         bottom.addWidget(self.notes, 1)
         bottom.addWidget(self.csv_button)
         bottom.addWidget(self.report_button)
-        central = QtWidgets.QWidget(self)
-        layout = QtWidgets.QVBoxLayout(central)
+        layout = page_layout(self)
         layout.addWidget(self.limits_label)
         layout.addWidget(self.tabs, 1)
         layout.addLayout(bottom)
-        self.setCentralWidget(central)
-        self.progress = QtWidgets.QProgressBar(self)
-        self.progress.setRange(0, 100)
-        self.progress.setMaximumWidth(200)
-        self.statusBar().addPermanentWidget(self.progress)
+        self._status = status_line(self, layout)
+        self.progress = progress_bar(self._status)
+
+    def statusBar(self) -> QtWidgets.QStatusBar:  # noqa: N802 (as QMainWindow's)
+        """The analysis' status line (progress, files written)."""
+        return self._status
 
     # -- analysis ------------------------------------------------------------------------------
     def run(self) -> None:
@@ -229,7 +232,7 @@ class AnalysisWindow(QtWidgets.QMainWindow):
                         [[s.side, format_value(s.ic_s), format_value(s.fc_s), format_value(s.next_ic_s),
                           format_value(s.stride_time_s), format_value(s.stride_length_m),
                           format_value(s.heading_change_deg, 0), s.refused_because or "analysed"]
-                         for s in gait.strides])
+                         for s in gait.strides], text_columns=(0, 7))
         self.curve_choice.blockSignals(True)
         self.curve_choice.clear()
         for group in curve_groups([analysis]):
@@ -355,12 +358,8 @@ class AnalysisWindow(QtWidgets.QMainWindow):
             except OSError as error:
                 QtWidgets.QMessageBox.warning(self, "Save tables", str(error))
 
-    def closeEvent(self, event) -> None:  # noqa: N802 (Qt API)
+    def shutdown(self, wait_ms: int = 0) -> None:
+        """Let the analysis go: a result still being computed is no longer shown (given
+        ``wait_ms`` to finish: the program closing)."""
         if self._task is not None:
-            for signal in (self._task.succeeded, self._task.failed):
-                try:
-                    signal.disconnect()
-                except TypeError:
-                    pass
-            self._task.wait(30000)
-        super().closeEvent(event)
+            self._task.let_go(wait_ms)

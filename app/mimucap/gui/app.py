@@ -52,9 +52,9 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
     """Open the main window on ``source`` (default: the last one chosen) and run the event
     loop; return the exit code.
 
-    With ``review``, that recorded session also opens in a review window. With
-    ``screenshot``, the window (the review window when ``review`` is given; 3D view included)
-    is written to that PNG ``after_s`` seconds after live data started (after the first-start
+    With ``review``, that recorded session opens in the Review workspace. With
+    ``screenshot``, the window (3D view included; showing the session when ``review`` is given)
+    is written to that PNG ``after_s`` seconds after live data started (and the session is shown; after the first-start
     preparation of the filters, if any) and the application quits with 0.
     """
     if not has_display():
@@ -65,7 +65,6 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
     from PyQt5 import QtCore, QtGui, QtWidgets
 
     from mimucap.acquisition.source_spec import parse_source_spec
-    from mimucap.gui.capture import save_window_png
     from mimucap.gui.main_window import MainWindow
     from mimucap.gui.settings import log_dir
     from mimucap.resources import resource_path
@@ -95,22 +94,18 @@ def run_gui(source: str | None = None, screenshot: str | Path | None = None, aft
     if screenshot is not None:
         def shoot() -> None:
             try:
-                if shown is window:
-                    window.save_screenshot(screenshot)
-                elif shown.load_error is not None:
+                if shown is not window and shown.load_error is not None:
                     raise OSError(f"cannot review {review}: {shown.load_error}")
-                else:
-                    save_window_png(shown, screenshot)
+                window.save_screenshot(screenshot)
             except OSError as error:
                 print(f"mimucap gui: error: {error}", file=sys.stderr)
                 outcome["code"] = 1
-            if shown is not window:
-                shown.close()
             window.close()
             app.quit()
 
         def shoot_when_started() -> None:
-            if window.starting:
+            loading = shown is not window and not shown.ready and shown.load_error is None
+            if window.starting or loading:
                 QtCore.QTimer.singleShot(100, shoot_when_started)
             else:
                 QtCore.QTimer.singleShot(int(round(after_s * 1000)), shoot)

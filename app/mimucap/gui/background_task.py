@@ -46,3 +46,19 @@ class BackgroundTask(QtCore.QThread):
             self.failed.emit(self.error)
             return
         self.succeeded.emit(self.result)
+
+    def let_go(self, wait_ms: int = 0) -> None:
+        """Its result is no longer wanted (the page that asked for it goes away): nothing is told
+        any more, and the thread finishes on its own (given ``wait_ms`` to finish first: the
+        program closing), kept alive by the application until then (a ``QThread`` destroyed
+        while it runs takes the process down)."""
+        for signal in (self.succeeded, self.failed, self.progress):
+            try:
+                signal.disconnect()
+            except TypeError:
+                pass  # nothing connected (let go before)
+        if wait_ms > 0:
+            self.wait(wait_ms)
+        if self.isRunning():
+            self.setParent(QtCore.QCoreApplication.instance())
+            self.finished.connect(self.deleteLater)

@@ -1,5 +1,9 @@
-"""The main window: 3D skeleton view, live plots, sensor panel and session panel around a
-:class:`~mimucap.session.live.live_session.LiveSession`.
+"""The main window: one window with four workspaces (:mod:`mimucap.gui.workspaces`) switched
+from the mode bar at its top: Capture (the 3D skeleton view, live plots, sensor panel and
+session panel around a :class:`~mimucap.session.live.live_session.LiveSession`), Review (a
+recording played back), Analysis (the recording in Review analysed) and Library. The live
+session runs whatever the workspace shown; the mode bar keeps Record/Stop, Add Marker and the
+recording's state in view.
 
 The window holds no data: it shows what the live session has and forwards what the user
 asks. One timer moves time forward: the pump (:data:`PUMP_INTERVAL_MS`) runs the session's
@@ -15,7 +19,6 @@ frame interval (60 and 30 a second); the session publishes its status 4 times a 
 from __future__ import annotations
 
 import dataclasses
-import importlib
 
 import logging
 from collections.abc import Callable
@@ -34,6 +37,7 @@ from mimucap.gui.live_status_bar import LiveStatusBar
 from mimucap.gui.recording_saver import RecordingSaver
 from mimucap.gui.lsl_switch import LslSwitch
 from mimucap.gui.menus import choice_actions, truth_action
+from mimucap.gui.workspaces import WORKSPACES, AnalysisWorkspace, ModeBar, ReviewWorkspace
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.scrolling import scrolling
@@ -66,6 +70,9 @@ _kernels_ready = False
 #: The frame clock (ms): the live pipeline is pumped and the 3D view rendered 62.5 times a
 #: second, so a sample waits at most one tick before it is drawn.
 PUMP_INTERVAL_MS = 16
+#: The window's size where the screen has room (px): a 1920 × 1080 screen shows the 3D view,
+#: the plots and the tables large; smaller screens get their free area (:func:`fit_on_screen`).
+WINDOW_SIZE_PX = (1680, 1000)
 #: The Sensors dock's height when the window opens (px).
 SENSOR_DOCK_START_PX = 190
 #: A dock takes at most this share of a small window's height (Sensors) or width (Session).
@@ -78,20 +85,30 @@ ABOUT_TEXT = (
 )
 
 
-#: The wizards (name → module, class). Each is imported when it is first opened: the
-#: clinical-test wizard alone pulls in scipy.signal, seconds of a first start's import time.
-WIZARDS = {
-    "magnetometer": ("mimucap.gui.wizards.magnetometer", "MagnetometerWizard"),
-    "body": ("mimucap.gui.wizards.body", "BodyCalibrationWizard"),
-    "rom": ("mimucap.gui.wizards.rom", "RomWizard"),
-    "clinical_test": ("mimucap.gui.wizards.clinical_test", "ClinicalTestWizard"),
-}
-
-
-def wizard_class(name: str) -> type:
-    """The wizard class ``name`` (a key of :data:`WIZARDS`), imported on first use."""
-    module, attribute = WIZARDS[name]
-    return getattr(importlib.import_module(module), attribute)
+def _wizard_classes() -> dict[str, type]:
+    """The calibration wizards that are installed (module name → class)."""
+    found = {}
+    try:
+        from mimucap.gui.wizards.magnetometer import MagnetometerWizard
+        found["magnetometer"] = MagnetometerWizard
+    except ImportError:
+        log.info("magnetometer wizard not available")
+    try:
+        from mimucap.gui.wizards.body import BodyCalibrationWizard
+        found["body"] = BodyCalibrationWizard
+    except ImportError:
+        log.info("body calibration wizard not available")
+    try:
+        from mimucap.gui.wizards.rom import RomWizard
+        found["rom"] = RomWizard
+    except ImportError:
+        log.info("range-of-motion wizard not available")
+    try:
+        from mimucap.gui.wizards.clinical_test import ClinicalTestWizard
+        found["clinical_test"] = ClinicalTestWizard
+    except ImportError:
+        log.info("clinical test wizard not available")
+    return found
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -115,13 +132,16 @@ class MainWindow(QtWidgets.QMainWindow):
         super().__init__()
         self.setObjectName("mainWindow")
         self.setWindowTitle("MimuCap")
-        fit_on_screen(self, 1280, 800)
+        fit_on_screen(self, *WINDOW_SIZE_PX)
         self.model_name = last_skeleton_model()
         self.session_factory = session_factory or (
             lambda spec: open_live_session(spec, model_name=self.model_name))
         self.live: LiveSession | None = None
-        self.review_windows: list[QtWidgets.QWidget] = []
-        self.library_window = None  # gui.library_window.LibraryWindow once opened
+        self.library_view = None  # gui.library_view.LibraryView once the Library is first shown
+        self._unreviewed: Path | None = None  # a recording saved since Review last showed one
+        self._review_then_analyse = False  # the recording opening in Review is to be analysed
+        self._live_truth = False  # whether the live source has the simulator's truth
+        self._wizards = _wizard_classes()
         self._last_record_message = ""
         #: writes stopped recordings' session files in the background
         self.saver = RecordingSaver(self)
@@ -147,7 +167,22 @@ class MainWindow(QtWidgets.QMainWindow):
         splitter.setStretchFactor(0, 3)
         splitter.setStretchFactor(1, 2)
         splitter.setSizes([760, 520])
-        self.setCentralWidget(splitter)
+        self.review = ReviewWorkspace(self.ask_open_session, lambda: self.show_workspace("library"), self)
+        self.review.changed.connect(self._update_review_actions)
+        self.review.loaded.connect(self._review_loaded)
+        self.analysis = AnalysisWorkspace(lambda: self.show_workspace("review"),
+                                          lambda: self.show_workspace("library"), self)
+        self.library_page = QtWidgets.QWidget(self)  # holds the library view once made
+        QtWidgets.QVBoxLayout(self.library_page).setContentsMargins(0, 0, 0, 0)
+        self.workspaces = QtWidgets.QStackedWidget(self)
+        self.workspaces.setObjectName("workspaces")
+        for page in (splitter, self.review, self.analysis, self.library_page):
+            self.workspaces.addWidget(page)
+        self.setCentralWidget(self.workspaces)
+        self.mode_bar = ModeBar(self)
+        self.addToolBar(QtCore.Qt.TopToolBarArea, self.mode_bar)
+        self.mode_bar.switched.connect(self.show_workspace)
+        self.mode_bar.record_clicked.connect(self.toggle_recording)
 
         self.session_panel = SessionPanel(self)
         self.session_dock = self._dock("Session", "sessionDock", scrolling(self.session_panel),
@@ -165,6 +200,7 @@ class MainWindow(QtWidgets.QMainWindow):
 
         self.session_panel.record_toggled.connect(self._record_toggled)
         self.session_panel.marker_requested.connect(self.add_marker)
+        self.mode_bar.marker_clicked.connect(self.session_panel.request_marker)
         self.session_panel.height.valueChanged.connect(self._height_changed)
         self.saver.progress.connect(self.session_panel.show_saving_progress)
 
@@ -177,8 +213,9 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pump.timeout.connect(self._pump_pipeline)
         #: the window's own subscriptions to the live session's events (event name → callback)
         self._subscriptions = {
-            "truth_available": self.action_truth.setEnabled, "sensors": self._assign_remembered,
-            "recording_failed": self._recording_failed, "unpaired": self._unpaired_heard}
+            "truth_available": self._live_truth_available, "sensors": self._assign_remembered,
+            "recording_failed": self._recording_failed, "unpaired": self._unpaired_heard,
+            "recording_progress": lambda info: self.mode_bar.show_elapsed(info.elapsed_s)}
         #: the sensors the source refuses as not paired; the device ids offered for pairing so far
         self._unpaired: list[UnpairedSensor] = []
         self._offered: set[str] = set()
@@ -205,13 +242,14 @@ class MainWindow(QtWidgets.QMainWindow):
         file_menu = bar.addMenu("&File")
         self.action_source = file_menu.addAction("Choose &Source…", self.choose_source)
         self.action_source.setShortcut(QtGui.QKeySequence("Ctrl+Shift+O"))
-        self.action_open = file_menu.addAction("&Open Session for Review…", self.ask_open_session)
+        self.action_open = file_menu.addAction("&Open Recording…", self.ask_open_session)
         self.action_open.setShortcut(QtGui.QKeySequence.Open)
-        self.action_export = file_menu.addAction("&Export Last Recording…", self.export_last_recording)
+        self.action_open.setStatusTip("A session file (or an Xsens MVNX or OpenSense file to import) in the Review workspace")
+        self.action_close_recording = file_menu.addAction("&Close Recording", self.review.close_recording)
+        self.action_close_recording.setShortcut(QtGui.QKeySequence.Close)
+        self.action_export = file_menu.addAction("&Export Recording…", self.export_recording)
         self.action_export.setShortcut(QtGui.QKeySequence("Ctrl+E"))
-        self.action_export.setEnabled(False)
-        self.action_library = file_menu.addAction("&Library…", self.open_library)
-        self.action_library.setShortcut(QtGui.QKeySequence("Ctrl+L"))
+        self.action_export.setStatusTip("Export the recording in Review (else the last one recorded)")
         self.action_folder = file_menu.addAction("Library &Folder…", self.choose_recording_folder)
         file_menu.addSeparator()
         self.lsl_switch = LslSwitch(self, file_menu)
@@ -233,9 +271,15 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_pair.setEnabled(False)
 
         view_menu = bar.addMenu("&View")
+        #: workspace → the action that shows it (in the mode bar and this menu)
+        self.workspace_actions = self.mode_bar.workspace_actions
+        for name in WORKSPACES:
+            view_menu.addAction(self.workspace_actions[name])
+        self.action_library = self.workspace_actions["library"]
+        view_menu.addSeparator()
         self.camera_actions = choice_actions(view_menu.addMenu("&Camera"), CAMERA_PRESETS, str.capitalize,
                                              self.set_camera_preset, self.scene_view.camera_preset,
-                                             numbered_shortcuts=True)
+                                             numbered_shortcuts="Alt")
         self.display_actions = choice_actions(view_menu.addMenu("&Display Mode"), DISPLAY_MODES,
                                               lambda name: f"{name.capitalize()} Mode", self.set_display_mode, "world")
         self.action_toggle_display = view_menu.addAction("&Toggle Body/World", self.toggle_display_mode)
@@ -256,13 +300,22 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_pause_plots.setCheckable(True)
         self.action_pause_plots.toggled.connect(self.plots.pause_button.setChecked)
         self.plots.pause_button.toggled.connect(self.action_pause_plots.setChecked)
+        self.action_play = view_menu.addAction("Play/Pause &Review", self._toggle_play)
+        self.action_play.setShortcut(QtGui.QKeySequence("Ctrl+Space"))
+        self._update_review_actions()
 
-        self.calibrate_menu = bar.addMenu("&Calibrate")
-        self.action_magcal = self.calibrate_menu.addAction("&Magnetometers…", lambda: self.open_wizard("magnetometer"))
-        self.action_bodycal = self.calibrate_menu.addAction("&Body…", lambda: self.open_wizard("body"))
-        assess = bar.addMenu("&Assess")
-        self.action_rom = assess.addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
-        self.action_clinical_test = assess.addAction("&Clinical Test…", lambda: self.open_wizard("clinical_test"))
+        self.calibrate_menu = None
+        if self._wizards:
+            self.calibrate_menu = bar.addMenu("&Calibrate")
+            if "magnetometer" in self._wizards:
+                self.action_magcal = self.calibrate_menu.addAction("&Magnetometers…", lambda: self.open_wizard("magnetometer"))
+            if "body" in self._wizards:
+                self.action_bodycal = self.calibrate_menu.addAction("&Body…", lambda: self.open_wizard("body"))
+            assess = bar.addMenu("&Assess")
+            if "rom" in self._wizards:
+                self.action_rom = assess.addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
+            if "clinical_test" in self._wizards:
+                self.action_clinical_test = assess.addAction("&Clinical Test…", lambda: self.open_wizard("clinical_test"))
 
         help_menu = bar.addMenu("&Help")
         self.action_guide = help_menu.addAction("&User Guide", self.show_user_guide)
@@ -272,6 +325,92 @@ class MainWindow(QtWidgets.QMainWindow):
     def _build_status_bar(self) -> None:
         self.live_status = LiveStatusBar(self.statusBar(), lambda: self.scene_view.render_times)
         self.live_status.hint_changed.connect(self.scene_view.set_hint)
+
+    # -- workspaces ------------------------------------------------------------------------------
+    @property
+    def workspace(self) -> str:
+        """The workspace shown (one of :data:`~mimucap.gui.workspaces.WORKSPACES`)."""
+        return WORKSPACES[self.workspaces.currentIndex()]
+
+    def show_workspace(self, name: str) -> None:
+        """Show workspace ``name``; the live session runs on whichever is shown. The Session and
+        Sensors panels and the live status bar belong to Capture; the other workspaces have their
+        own status lines. Review shows a recording saved since it last showed one; Analysis
+        analyses the recording in Review; the Library is made when first shown."""
+        if name not in WORKSPACES:
+            raise ValueError(f"unknown workspace {name!r}; one of {', '.join(WORKSPACES)}")
+        if name == "review" and self._unreviewed is not None:
+            path, self._unreviewed = self._unreviewed, None
+            self.open_review(path)
+            return
+        capture = name == "capture"
+        for dock in (self.session_dock, self.sensor_dock):
+            dock.setVisible(capture)
+        self.statusBar().setVisible(capture)
+        self.workspaces.setCurrentIndex(WORKSPACES.index(name))
+        self.mode_bar.set_workspace(name)
+        if capture:
+            for dock, (size, orientation) in self._dock_sizes.items():
+                self.resizeDocks([dock], [size], orientation)
+        elif name == "analysis":
+            self._show_analysis()
+        elif name == "library":
+            self._show_library()
+        self._update_title()
+
+    def say(self, message: str, timeout_ms: int = 0) -> None:
+        """Show ``message`` in the status line of the workspace shown (the window's status bar
+        in Capture)."""
+        page = self.workspaces.currentWidget()
+        bar = page.statusBar() if hasattr(page, "statusBar") else None
+        if self.library_view is not None and page is self.library_page:
+            bar = self.library_view.statusBar()
+        (bar or self.statusBar()).showMessage(message, timeout_ms)
+
+    def _update_title(self) -> None:
+        recording = self.live is not None and self.live.recording
+        view = self.review.view if self.workspace in ("review", "analysis") else None
+        title = "MimuCap" if view is None else f"{view.path.name} — MimuCap"
+        self.setWindowTitle(f"● Recording — {title}" if recording else title)
+
+    def _update_review_actions(self) -> None:
+        """The actions on the recording in Review follow it (none, loading, shown); without a
+        recording in Review, Analysis has none either."""
+        view = self.review.view
+        if view is None:
+            self.analysis.clear()
+            self._review_then_analyse = False  # what was to be analysed is gone (closed, unreadable)
+        ready = view is not None and view.ready
+        last = self.last_recording
+        has_last = last is not None and last.session_path is not None and sum(last.samples.values()) > 0
+        self.action_export.setEnabled(ready or has_last)
+        self.action_close_recording.setEnabled(view is not None)
+        self.action_play.setEnabled(ready)
+        self._update_truth_action()
+        self._update_title()
+
+    def _review_loaded(self) -> None:
+        """The recording in Review is shown: Analysis follows it (analysed when it is shown)."""
+        data = self.review.view.player.data
+        if self._review_then_analyse:
+            self._review_then_analyse = False
+            self.show_workspace("analysis")
+        elif self.workspace == "analysis":
+            self.analysis.show_for(data)
+        elif self.analysis.view is not None and self.analysis.view.data is not data:
+            self.analysis.clear()  # another recording or result: analysed again when asked
+
+    def _show_analysis(self) -> None:
+        view = self.review.view
+        if view is not None and view.player is not None and view.ready:
+            self.analysis.show_for(view.player.data)
+        else:
+            self.analysis.show_for(None, loading=view.path.name if view is not None else "")
+
+    def _toggle_play(self) -> None:
+        if self.review.view is not None and self.review.view.ready:
+            self.show_workspace("review")
+            self.review.view.play_button.toggle()
 
     # -- the live session ----------------------------------------------------------------------
     def open_source(self, spec: str, interactive: bool = True) -> bool:
@@ -340,10 +479,11 @@ class MainWindow(QtWidgets.QMainWindow):
         self.sensor_panel.set_session(session)
         self.session_panel.set_session(session)
         self.live_status.set_session(session)
-        self.action_truth.setEnabled(session.has_truth)
+        self.mode_bar.set_live(True)
         for name, callback in self._subscriptions.items():
             getattr(session.events, name).connect(callback)
         self._update_ghost()
+        self._live_truth_available(session.has_truth)
         self.lsl_switch.follow(session)
         session.publish_status()
 
@@ -355,6 +495,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.sensor_panel.set_session(None)
         self.session_panel.set_session(None)
         self.live_status.set_session(None)
+        self.mode_bar.set_live(False)
         self.lsl_switch.follow(None)
         if live is not None:
             for name, callback in self._subscriptions.items():
@@ -418,7 +559,7 @@ class MainWindow(QtWidgets.QMainWindow):
         except Exception as error:  # shown, logged; the pump stops instead of looping on an error
             log.exception("live pipeline failed")
             self._pump.stop()
-            self.statusBar().showMessage(f"Live data stopped: {error}. Choose the source again (File → Choose Source).")
+            self.say(f"Live data stopped: {error}. Choose the source again (File → Choose Source).")
 
     def _recording_failed(self, message: str) -> None:
         """The recording could not be written: end it and say why, once the session's step is
@@ -431,10 +572,23 @@ class MainWindow(QtWidgets.QMainWindow):
         QtWidgets.QMessageBox.critical(self, "Recording stopped", message)
 
     def _update_ghost(self) -> None:
-        """Show the simulator's truth as a ghost figure and dashed curves when asked (sources
-        without truth give none)."""
-        self.scene_view.set_ghost_visible(self.action_truth.isChecked())
-        self.plots.set_show_truth(self.action_truth.isChecked())
+        """Show the simulator's truth as a ghost figure and dashed curves when asked, live and in
+        Review (sources and recordings without truth give none)."""
+        on = self.action_truth.isChecked()
+        self.scene_view.set_ghost_visible(on)
+        self.plots.set_show_truth(on)
+        if self.review.view is not None:
+            self.review.view.set_show_truth(on)
+
+    def _live_truth_available(self, available: bool) -> None:
+        self._live_truth = bool(available)
+        self._update_truth_action()
+
+    def _update_truth_action(self) -> None:
+        """View → Show Simulator Truth is offered while the live source or the recording in
+        Review has the simulator's truth."""
+        live = self.live is not None and self._live_truth
+        self.action_truth.setEnabled(live or (self.review.view is not None and self.review.view.has_truth))
 
     def _assign_remembered(self, sensor_ids) -> None:
         """Wear each sensor that appeared since the last call (a worker source's sensors appear
@@ -547,7 +701,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return self.recording_folder()
         except OSError as error:
             log.warning("recording folder unavailable: %s", error)
-            self.statusBar().showMessage(f"The recording folder is out of reach ({error}); "
+            self.say(f"The recording folder is out of reach ({error}); "
                                          "choose another one (File → Library Folder).", 10000)
             return Path.home()
 
@@ -555,9 +709,9 @@ class MainWindow(QtWidgets.QMainWindow):
         folder = QtWidgets.QFileDialog.getExistingDirectory(self, "Library Folder", str(self._folder_to_browse()))
         if folder:
             remember_library_folder(folder)
-            self.statusBar().showMessage(f"Recordings go to the library {folder}", 5000)
-            if self.library_window is not None:
-                self.library_window.set_folder(Path(folder))
+            self.say(f"Recordings go to the library {folder}", 5000)
+            if self.library_view is not None:
+                self.library_view.set_folder(Path(folder))
 
     def toggle_recording(self) -> None:
         self._record_toggled(not (self.live is not None and self.live.recording))
@@ -600,7 +754,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session_panel.markers_list.clear()
         self._show_recording(True)
         self.session_panel.show_info(self.live.recording_info())
-        self.statusBar().clearMessage()  # the badge and the file's name say it, uncovered
+        self.say(f"Recording to {display_path(path)}")
         return True
 
     def stop_recording(self) -> None:
@@ -622,14 +776,17 @@ class MainWindow(QtWidgets.QMainWindow):
         return box.clickedButton() is record
 
     def _show_recording(self, on: bool) -> None:
-        """The window's controls while recording (``on``) or not: the Record button and menu
-        item, the subject fields, Choose Source (no source change while recording) and the
-        window title (the status bar's red indicator follows the session's ``recording``); the checklist is shown only before recording."""
+        """The window's controls while recording (``on``) or not: the Record buttons (mode bar,
+        session panel) and menu item, the mode bar's REC badge, the subject fields, Choose
+        Source (no source change while recording) and the window title (the status bar's red
+        indicator follows the session's ``recording``); the checklist is shown only before
+        recording."""
         self.session_panel.set_recording(on)
+        self.mode_bar.set_recording(on)
         self.action_record.setText("Stop &Recording" if on else "Start &Recording")
         self.action_source.setEnabled(not on)
         self.session_panel.checklist_box.setVisible(not on)
-        self.setWindowTitle("● Recording — MimuCap" if on else "MimuCap")
+        self._update_title()
 
     def _finish_recording(self, wait: bool = False) -> None:
         """Stop recording at once; the session file is written in a background thread (the
@@ -640,7 +797,7 @@ class MainWindow(QtWidgets.QMainWindow):
         message = f"Saving the session to {display_path(pending.session_path)}…"
         self.session_panel.show_info(None, message)
         self.session_panel.show_saving(True)
-        self.statusBar().showMessage(message)
+        self.say(message)
         self.saver.save(live, pending)
         if wait:
             self.wait_for_saving()
@@ -671,20 +828,23 @@ class MainWindow(QtWidgets.QMainWindow):
                 message += f" ({result.message})"
             if samples == 0:
                 message += ": no data arrived from the source, nothing to export"
-            self.action_export.setEnabled(samples > 0)
+            else:
+                self._unreviewed = Path(result.session_path)
+                message += "; Review (Ctrl+2) shows it"
         else:
             message = result.message
             log.warning("session file not written: %s", message)
         if self.live is not None and not self.live.recording:
             self.session_panel.show_info(None, message)
-        self.statusBar().showMessage(message)
-        if self.library_window is not None and result.session_path is not None:
-            self.library_window.refresh()
+        self.say(message)
+        self._update_review_actions()
+        if self.library_view is not None and result.session_path is not None:
+            self.library_view.refresh()
         self.recording_saved.emit(result)
 
     def _recording_not_saved(self, message: str) -> None:
         self.session_panel.show_info(None, message)
-        self.statusBar().showMessage(message)
+        self.say(message)
         QtWidgets.QMessageBox.critical(self, "Recording not saved", message)
 
     def add_marker(self, label: str = "") -> None:
@@ -702,12 +862,18 @@ class MainWindow(QtWidgets.QMainWindow):
 
     # -- user actions: view ------------------------------------------------------------------
     def set_camera_preset(self, name: str) -> None:
+        """Camera preset ``name`` for the live and the Review 3D views."""
         self.scene_view.set_camera_preset(name)
+        if self.review.view is not None:
+            self.review.view.set_camera_preset(name)
         self.camera_actions[name].setChecked(True)
 
     def set_display_mode(self, mode: str) -> None:
+        """The figure in the world or the body frame, live and in Review."""
         if self.live is not None:
             self.live.set_display_mode(mode)
+        if self.review.view is not None:
+            self.review.view.set_display_mode(mode)
         self.display_actions[mode].setChecked(True)
         self.scene_view.set_camera_preset(self.scene_view.camera_preset)
 
@@ -717,6 +883,8 @@ class MainWindow(QtWidgets.QMainWindow):
 
     def _update_stage(self) -> None:
         self.scene_view.set_stage_visible(self.action_floor.isChecked(), self.action_axes.isChecked())
+        if self.review.view is not None:
+            self.review.view.scene_view.set_stage_visible(self.action_floor.isChecked(), self.action_axes.isChecked())
 
     # -- review, export, wizards, about ----------------------------------------------------------
     def ask_open_session(self) -> None:
@@ -744,44 +912,46 @@ class MainWindow(QtWidgets.QMainWindow):
             QtWidgets.QMessageBox.warning(self, "Import", f"Cannot import {Path(path).name}:\n{error}")
             return None
         QtWidgets.QApplication.restoreOverrideCursor()
-        self.statusBar().showMessage(f"Imported {Path(path).name} as {out}", 5000)
+        self.say(f"Imported {Path(path).name} as {out}", 5000)
         return Path(out)
 
     def open_review(self, path: str | Path):
-        """Open the review window on session file ``path`` (loaded off the GUI thread), its
-        camera on this window's preset."""
-        from mimucap.gui.review_window import ReviewWindow
+        """Show session file ``path`` in the Review workspace (loaded off the GUI thread; the
+        recording shown before is let go), with this window's camera, display mode, stage and
+        truth; returns its :class:`~mimucap.gui.review_view.ReviewView`."""
+        self._unreviewed = None  # the user chose what to review
+        view = self.review.open(path)
+        view.set_camera_preset(self.scene_view.camera_preset)
+        view.set_display_mode(next(k for k, a in self.display_actions.items() if a.isChecked()))
+        view.scene_view.set_stage_visible(self.action_floor.isChecked(), self.action_axes.isChecked())
+        view.set_show_truth(self.action_truth.isChecked())
+        self.show_workspace("review")
+        return view
 
-        window = ReviewWindow(path, parent=None)
-        window.set_camera_preset(self.scene_view.camera_preset)
-        window.setAttribute(QtCore.Qt.WA_DeleteOnClose, False)
-        window.closed.connect(lambda: self._review_closed(window))
-        self.review_windows.append(window)
-        window.show()
-        window.load()
-        return window
-
-    def _review_closed(self, window) -> None:
-        """A closed review window is let go (its session's data with it)."""
-        if window in self.review_windows:
-            self.review_windows.remove(window)
-            window.deleteLater()
+    def open_analysis(self, path: str | Path):
+        """Open session file ``path`` in Review and show its analysis once it is loaded."""
+        view = self.open_review(path)
+        self._review_then_analyse = True
+        self.show_workspace("analysis")  # says that the analysis follows the loading
+        return view
 
     def open_library(self):
-        """Show the library window (one, kept while this window lives)."""
-        from mimucap.gui.library_window import LibraryWindow
+        """Show the Library workspace (its view made the first time, kept while this window lives)."""
+        self.show_workspace("library")
+        return self.library_view
 
-        folder = self.library_folder()  # as configured, even out of reach: the window then says so
-        if self.library_window is None:
-            self.library_window = LibraryWindow(folder, open_review=self.open_review, new_session=self.new_session_for)
-        elif self.library_window.folder != folder:
-            self.library_window.set_folder(folder)
+    def _show_library(self) -> None:
+        from mimucap.gui.library_view import LibraryView
+
+        folder = self.library_folder()  # as configured, even out of reach: the view then says so
+        if self.library_view is None:
+            self.library_view = LibraryView(folder, open_review=self.open_review, new_session=self.new_session_for,
+                                            parent=self.library_page, open_analysis=self.open_analysis)
+            self.library_page.layout().addWidget(self.library_view)
+        elif self.library_view.folder != folder:
+            self.library_view.set_folder(folder)
         else:
-            self.library_window.refresh()
-        self.library_window.show()
-        self.library_window.raise_()
-        self.library_window.activateWindow()
-        return self.library_window
+            self.library_view.refresh()
 
     def new_session_for(self, subject_id: str, height_m: float | None, dominance: str, notes: str) -> None:
         """Make the next recording one of this subject: its record in the session panel, this window in front."""
@@ -789,23 +959,28 @@ class MainWindow(QtWidgets.QMainWindow):
             QtWidgets.QMessageBox.warning(self, "Recording", "Stop the recording before starting another subject's.")
             return
         self.session_panel.set_subject(subject_id, height_m, dominance, notes)
-        self.show()
-        self.raise_()
-        self.activateWindow()
+        self.show_workspace("capture")
         self.statusBar().showMessage(f"Next recording: subject {subject_id} (Session → Start Recording)", 8000)
 
-    def export_last_recording(self) -> None:
+    def export_recording(self):
+        """The export dialog of the recording in Review; with none there, the last recording is
+        opened in Review and exported once loaded. Returns the dialog, or the loading view."""
+        view = self.review.view
+        if view is not None and view.ready:
+            self.show_workspace("review")
+            return view.open_export()
         if self.last_recording is None or self.last_recording.session_path is None:
-            return
-        window = self.open_review(self.last_recording.session_path)
-        window.export_when_loaded = True
+            return None
+        view = self.open_review(self.last_recording.session_path)
+        view.export_when_loaded = True
+        return view
 
     def open_wizard(self, name: str) -> None:
         """Open calibration wizard ``name`` on the live session (one at a time)."""
         if self.live is None:
             return
         self._close_wizard("another wizard was opened")
-        wizard = wizard_class(name)(self, self.live)
+        wizard = self._wizards[name](self, self.live)
         self._wizard = wizard
         wizard.show()
 
@@ -825,7 +1000,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         self._closing_progress = self.saver.closing_dialog(self)
         self._closing_progress.show()
-        self.statusBar().showMessage("Writing the session file before closing…")
+        self.say("Writing the session file before closing…")
 
     def show_user_guide(self) -> None:
         """Open the user guide (shipped with the program, read offline) in its own window."""
@@ -855,7 +1030,7 @@ class MainWindow(QtWidgets.QMainWindow):
     def eventFilter(self, watched: QtCore.QObject, event: QtCore.QEvent) -> bool:  # noqa: N802 (Qt API)
         """The dock sizes to keep are the ones the user leaves after dragging a separator (mouse
         events on the window itself, between its docks)."""
-        if watched is self and event.type() == QtCore.QEvent.MouseButtonRelease:
+        if watched is self and event.type() == QtCore.QEvent.MouseButtonRelease and self.workspace == "capture":
             QtCore.QTimer.singleShot(0, self._remember_dock_sizes)
         return super().eventFilter(watched, event)
 
@@ -887,8 +1062,8 @@ class MainWindow(QtWidgets.QMainWindow):
         self._pump.stop()
         self.scene_view.shutdown()
         self._stop_live()
-        for window in list(self.review_windows):
-            window.close()
-        if self.library_window is not None:
-            self.library_window.close()
+        self.analysis.clear(wait_ms=30000)
+        self.review.close_recording(wait_ms=10000)
+        if self.library_view is not None:
+            self.library_view.shutdown()
         super().closeEvent(event)

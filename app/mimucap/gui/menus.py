@@ -1,4 +1,4 @@
-"""Menu helpers shared by the main and review windows."""
+"""Menu helpers of the main window (and the dialogs' keys)."""
 
 from __future__ import annotations
 
@@ -9,16 +9,17 @@ from PyQt5 import QtGui, QtWidgets
 
 def choice_actions(menu: QtWidgets.QMenu, names: Sequence[str], label: Callable[[str], str],
                    chosen: Callable[[str], None], checked: str,
-                   numbered_shortcuts: bool = False) -> dict[str, QtWidgets.QAction]:
+                   numbered_shortcuts: str = "") -> dict[str, QtWidgets.QAction]:
     """One checkable action per name in ``menu``, mutually exclusive, ``checked`` ticked;
-    triggering one calls ``chosen(name)``. With ``numbered_shortcuts`` the i-th is Ctrl+i."""
+    triggering one calls ``chosen(name)``. With ``numbered_shortcuts`` (a modifier, e.g. "Alt")
+    the i-th is that modifier + i."""
     group = QtWidgets.QActionGroup(menu)
     actions: dict[str, QtWidgets.QAction] = {}
     for index, name in enumerate(names, start=1):
         action = menu.addAction(label(name))
         action.setCheckable(True)
         if numbered_shortcuts:
-            action.setShortcut(QtGui.QKeySequence(f"Ctrl+{index}"))
+            action.setShortcut(QtGui.QKeySequence(f"{numbered_shortcuts}+{index}"))
         action.triggered.connect(lambda _checked, n=name: chosen(n))
         group.addAction(action)
         actions[name] = action
@@ -40,7 +41,7 @@ def truth_action(menu: QtWidgets.QMenu, toggled: Callable[[bool], None]) -> QtWi
 
 
 def closes_with_keys(window: QtWidgets.QWidget) -> None:
-    """``window`` (a secondary window: analysis, library, compare) closes with Esc and with the
-    platform's Close keys (Ctrl+W, ⌘W), as dialogs do."""
+    """``window`` (a dialog that stays open beside the main window: the comparison) closes
+    with Esc and with the platform's Close keys (Ctrl+W, ⌘W)."""
     for keys in (QtGui.QKeySequence(QtGui.QKeySequence.Close), QtGui.QKeySequence("Esc")):
         QtWidgets.QShortcut(keys, window, activated=window.close)

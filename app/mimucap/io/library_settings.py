@@ -5,7 +5,7 @@ JSON file both read without Qt, so ``mimucap library …`` and ``mimucap record 
 find the folder the application uses. The order of precedence:
 
 1. the ``MIMUCAP_LIBRARY`` environment variable (scripts, tests);
-2. the folder remembered by :func:`remember_library_folder` (the application's File → Library…);
+2. the folder remembered by :func:`remember_library_folder` (the application's File → Library Folder…);
 3. the default given by the caller (the application passes the user's documents folder as Qt
    knows it), else :func:`plain_default_folder`.
 """

@@ -22,7 +22,7 @@ axes. A review without one is analysed for the temporal parameters alone, labell
 ROM protocol markers are labelled ``rom:<movement>:<side>:start`` and ``...:end`` (side
 ``left``, ``right`` or ``both``), see :mod:`mimucap.session.procedures.range_of_motion`.
 
-The tables as the Analysis window and the PDF report show them are built here once: the gait
+The tables as the Analysis workspace and the PDF report show them are built here once: the gait
 parameter rows (:func:`gait_parameter_rows`), the ROM rows (:func:`rom_rows`), each with its
 label, unit and values and :meth:`cells` for its text, and the cycle curves grouped by joint
 angle (:func:`curve_groups`); the CSV tables are written by :mod:`mimucap.io.analysis_tables`
@@ -331,7 +331,7 @@ def table_notes(analysis: SessionAnalysis) -> list[str]:
     return notes + ([f"Analysis: {analysis.limits}"] if analysis.limits else [])
 
 
-# -- tables as shown (the Analysis window and the PDF report) -------------------------------------
+# -- tables as shown (the Analysis workspace and the PDF report) -------------------------------------
 #: Typical values of healthy adults walking at their own pace (Perry & Burnfield, "Gait
 #: Analysis: Normal and Pathological Function", 2nd ed., 2010: velocity 82 m/min, cadence 113
 #: steps/min, stride length 1.41 m, stance 60 %, swing 40 %, double support 2 × 10 %).

@@ -1,5 +1,5 @@
-"""The library window: two sessions of a subject recorded through the GUI, found, compared; and
-the window's own actions on a prepared library (filters, damaged files, renames, tags, trash)."""
+"""The Library workspace: two sessions of a subject recorded through the GUI, found, compared,
+opened in Review and in Analysis; and the library view's own actions on a prepared library (filters, damaged files, renames, tags, trash)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from PyQt5 import QtCore, QtWidgets
 
-from mimucap.gui.library_window import LibraryWindow
+from mimucap.gui.library_view import LibraryView
 from mimucap.io.library import Library
 from mimucap.io.library_settings import LIBRARY_ENV
 from mimucap.io.session import read_metadata
@@ -61,53 +61,54 @@ def test_two_sessions_recorded_found_and_compared(app_window, qtbot, tmp_path):
     first = _record(window, qtbot, 6.0, [("walk start", 1.0), ("walk end", 5.0)])
     assert first.session_path.parent == tmp_path / "library" and first.session_path.name.endswith("_trial01.h5")
 
-    # The library window lists it under its subject.
+    # The Library workspace lists it under its subject.
     window.action_library.trigger()
-    library_window = window.library_window
-    with qtbot.waitSignal(library_window.refreshed, timeout=20000):
-        pass
-    assert "P042" in library_window.subjects
-    library_window.select_subject("P042")
-    assert len(library_window.visible_paths()) == 1
+    library = window.library_view
+    assert window.workspace == "library"
+    library.wait_for_scan()
+    assert "P042" in library.subjects
+    library.select_subject("P042")
+    assert len(library.visible_paths()) == 1
 
     # A new session for the selected subject: the panel is filled from the library.
     panel.subject_id.setText("someone else")
     panel.height.setValue(1.90)
-    qtbot.mouseClick(library_window.new_session_button, QtCore.Qt.LeftButton)
+    qtbot.mouseClick(library.new_session_button, QtCore.Qt.LeftButton)
+    assert window.workspace == "capture"  # the next recording is made there
     assert panel.subject_id.text() == "P042" and panel.height.value() == pytest.approx(1.68)
     assert panel.dominance.currentText() == "left" and panel.notes.toPlainText() == "right knee"
     panel.condition.setText("6 weeks")
     panel.tags.setText("knee")
-    with qtbot.waitSignal(library_window.refreshed, timeout=30000):
+    with qtbot.waitSignal(library.refreshed, timeout=30000):
         second = _record(window, qtbot, 5.0, [("walk start", 0.5), ("walk end", 4.5)])
     assert second.session_path.name.endswith("_trial02.h5")
     assert read_metadata(second.session_path)["library"] == {"condition": "6 weeks", "tags": ["knee"],
                                                               "trial": "trial02"}
-    paths = library_window.visible_paths()
-    assert len(paths) == 2 and library_window.subjects["P042"].sessions == 2
-    entries = [library_window.entries[p] for p in paths]
+    paths = library.visible_paths()
+    assert len(paths) == 2 and library.subjects["P042"].sessions == 2
+    entries = [library.entries[p] for p in paths]
     assert [e.condition for e in entries] == ["pre-op", "6 weeks"]  # sorted by date
     assert all(e.ok and len(e.sensors) == 10 and [label for _t, label in e.markers] == ["walk start", "walk end"]
                for e in entries)
     assert entries[0].verdicts["body"] == window.live.body_calibration.quality.verdict
 
     # Filters: condition, tag, date.
-    library_window.condition_filter.setCurrentIndex(library_window.condition_filter.findData("6 weeks"))
-    assert [library_window.entries[p].condition for p in library_window.visible_paths()] == ["6 weeks"]
-    library_window.clear_filters()
-    library_window.tag_filter.setCurrentIndex(library_window.tag_filter.findData("baseline"))
-    assert [library_window.entries[p].condition for p in library_window.visible_paths()] == ["pre-op"]
-    library_window.clear_filters()
-    library_window.set_date_range("2000-01-02", "2000-12-31")
-    assert library_window.visible_paths() == []
-    library_window.clear_filters()
-    assert len(library_window.visible_paths()) == 2
+    library.condition_filter.setCurrentIndex(library.condition_filter.findData("6 weeks"))
+    assert [library.entries[p].condition for p in library.visible_paths()] == ["6 weeks"]
+    library.clear_filters()
+    library.tag_filter.setCurrentIndex(library.tag_filter.findData("baseline"))
+    assert [library.entries[p].condition for p in library.visible_paths()] == ["pre-op"]
+    library.clear_filters()
+    library.set_date_range("2000-01-02", "2000-12-31")
+    assert library.visible_paths() == []
+    library.clear_filters()
+    assert len(library.visible_paths()) == 2
 
     # Compare the two: A is the older one; ROM over the whole recordings, then between markers.
-    library_window.select_paths(set(paths))
-    assert library_window.buttons["compare"].isEnabled()
-    qtbot.mouseClick(library_window.buttons["compare"], QtCore.Qt.LeftButton)
-    compare = library_window.compare_windows[-1]
+    library.select_paths(set(paths))
+    assert library.buttons["compare"].isEnabled()
+    qtbot.mouseClick(library.buttons["compare"], QtCore.Qt.LeftButton)
+    compare = library.compare_dialogs[-1]
     qtbot.waitUntil(lambda: bool(compare.tables) or compare.error is not None, timeout=60000)
     assert compare.error is None and [t.name for t in compare.tables] == ["Joint-angle range of motion"]
     assert compare.result == "reprocessed"
@@ -140,14 +141,22 @@ def test_two_sessions_recorded_found_and_compared(app_window, qtbot, tmp_path):
     assert csv_text.startswith("Joint-angle range of motion\nJoint angle,A min (°)")
     assert "Right knee flexion," in csv_text
 
-    # Open one for review from the library.
-    library_window.select_paths({paths[0]})
-    review = library_window.open_selected()
-    assert review is window.review_windows[-1] and review.path == first.session_path
-    qtbot.waitUntil(lambda: review.player is not None, timeout=30000)
-    review.close()
     compare.close()
-    library_window.close()
+    # Open one for review from the library: the Review workspace shows it.
+    window.show_workspace("library")
+    library.select_paths({paths[0]})
+    review = library.open_selected()
+    assert review is window.review.view and review.path == first.session_path and window.workspace == "review"
+    qtbot.waitUntil(lambda: review.player is not None, timeout=30000)
+    # ... or for analysis: Review loads it, then the Analysis workspace analyses it.
+    window.show_workspace("library")
+    library.select_paths({paths[1]})
+    assert library.buttons["analyse"].isEnabled()
+    qtbot.mouseClick(library.buttons["analyse"], QtCore.Qt.LeftButton)
+    assert window.workspace == "analysis" and window.review.view.path == second.session_path
+    assert "Opening" in window.analysis.empty.text.text()  # the analysis follows the loading
+    qtbot.waitUntil(lambda: window.analysis.view is not None, timeout=30000)
+    assert window.workspace == "analysis" and window.analysis.view.data is window.review.view.player.data
 
     # The library rebuilt from the files gives the same index.
     library = Library(tmp_path / "library")
@@ -171,7 +180,7 @@ def prepared(tmp_path):
 
 def test_the_window_changes_files_and_shows_damaged_ones(prepared, qtbot, monkeypatch):
     reviewed, started = [], []
-    window = LibraryWindow(prepared, open_review=reviewed.append, new_session=lambda *a: started.append(a))
+    window = LibraryView(prepared, open_review=reviewed.append, new_session=lambda *a: started.append(a))
     qtbot.addWidget(window)
     window.show()
     window.wait_for_scan()
@@ -237,7 +246,7 @@ def test_the_window_changes_files_and_shows_damaged_ones(prepared, qtbot, monkey
     window.set_folder(prepared)
     assert window.banner.isVisible() and "Update MimuCap" in window.banner.text()
     assert window.visible_paths() == [] and np.all([not b.isEnabled() for b in window.buttons.values()])
-    window.close()
+    window.shutdown()
 
 
 def test_the_library_folder_is_chosen_once_and_remembered(window, qtbot, tmp_path, monkeypatch):
@@ -251,25 +260,25 @@ def test_the_library_folder_is_chosen_once_and_remembered(window, qtbot, tmp_pat
     assert window.recording_folder() == tmp_path / "Documents" / "MimuCap Library"  # the default
     assert documents  # Qt knows a documents folder here too
     window.action_library.trigger()
-    library_window = window.library_window
-    library_window.wait_for_scan()
-    assert library_window.library.root == tmp_path / "Documents" / "MimuCap Library"
+    library = window.library_view
+    library.wait_for_scan()
+    assert library.library.root == tmp_path / "Documents" / "MimuCap Library"
     chosen = tmp_path / "clinic library"
     chosen.mkdir()
     make_session(chosen / "P007_2026-01-05_trial01.h5", "P007")
     monkeypatch.setattr(QtWidgets.QFileDialog, "getExistingDirectory", lambda *a, **k: str(chosen))
     window.action_folder.trigger()
     assert remembered_library_folder() == chosen and window.recording_folder() == chosen
-    library_window.wait_for_scan()
-    assert list(library_window.subjects) == ["P007"] and str(chosen) in library_window.windowTitle()
+    library.wait_for_scan()
+    assert list(library.subjects) == ["P007"] and str(chosen) == library.folder_label.toolTip()
     # A library folder out of reach is said in the window (never replaced by another folder).
     blocked = tmp_path / "a_file"
     blocked.write_text("x")
     monkeypatch.setenv(LIBRARY_ENV, str(blocked / "library"))
     window.action_library.trigger()
-    assert window.library_window is library_window
-    assert library_window.library is None and library_window.banner.isVisible()
-    assert "cannot use" in library_window.banner.text() and library_window.visible_paths() == []
+    assert window.library_view is library
+    assert library.library is None and library.banner.isVisible()
+    assert "cannot use" in library.banner.text() and library.visible_paths() == []
 
 
 def test_compare_is_offered_for_two_calibrated_sessions_only(qtbot, tmp_path):
@@ -278,7 +287,7 @@ def test_compare_is_offered_for_two_calibrated_sessions_only(qtbot, tmp_path):
     make_session(root / "P001_2026-03-01_trial01.h5", "P001", 2.0, body_verdict="good")
     make_session(root / "P001_2026-04-12_trial01.h5", "P001", 2.0, "2026-04-12T10:00:00+00:00", body_verdict="good")
     make_session(root / "P001_2026-04-13_trial01.h5", "P001", 2.0, "2026-04-13T10:00:00+00:00")
-    window = LibraryWindow(root)
+    window = LibraryView(root)
     qtbot.addWidget(window)
     window.show()
     window.wait_for_scan()
@@ -289,7 +298,7 @@ def test_compare_is_offered_for_two_calibrated_sessions_only(qtbot, tmp_path):
     assert not compare.isEnabled()
     assert "P001_2026-04-13_trial01.h5: no body calibration" in compare.toolTip()
     assert window.compare_selected() is None
-    window.close()
+    window.shutdown()
 
 
 def test_the_trend_shows_a_subjects_clinical_test_visits_and_prints(qtbot, tmp_path):
@@ -313,7 +322,7 @@ def test_the_trend_shows_a_subjects_clinical_test_visits_and_prints(qtbot, tmp_p
         library.store_result(f"P001_{date}_trial01.h5", RESULT_PREFIX + "tug",
                              {"test": "tug", "total_s": total, "sit_to_stand_s": 1.5, "result": "reprocessed",
                               "reference": reference})
-    window = LibraryWindow(root)
+    window = LibraryView(root)
     qtbot.addWidget(window)
     window.show()
     window.wait_for_scan()
@@ -333,4 +342,4 @@ def test_the_trend_shows_a_subjects_clinical_test_visits_and_prints(qtbot, tmp_p
     assert dialog.visits == [] and "No 10-metre walk test of P001" in dialog.note.text()
     assert not dialog.pdf_button.isEnabled()
     dialog.close()
-    window.close()
+    window.shutdown()

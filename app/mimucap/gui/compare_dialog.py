@@ -18,6 +18,7 @@ from mimucap.core.pipeline.settings import RESULT_LABELS, RESULT_REPROCESSED
 from mimucap.gui.background_task import BackgroundTask
 from mimucap.gui.menus import closes_with_keys
 from mimucap.gui.screen_fit import fit_on_screen
+from mimucap.gui.session_panel import display_path
 from mimucap.io.analysis_tables import write_comparison_csv
 from mimucap.io.library import Library, SessionEntry
 from mimucap.session.recorded.library import ComparedSession, ComparisonTable, TimeWindow, compare
@@ -112,9 +113,10 @@ def table_widget(table: ComparisonTable, parent: QtWidgets.QWidget | None = None
     return widget
 
 
-class CompareWindow(QtWidgets.QMainWindow):
-    """Comparison of ``first`` (A) and ``second`` (B), two sessions of one subject in ``library``;
-    call :meth:`load` after ``show()``.
+class CompareDialog(QtWidgets.QDialog):
+    """Comparison of ``first`` (A) and ``second`` (B), two sessions of one subject in ``library``
+    (a dialog over the Library workspace, which stays usable beside it); call :meth:`load` after
+    ``show()``.
 
     Signals:
         compared(): the tables show the current windows (or :attr:`error` says why not).
@@ -125,9 +127,9 @@ class CompareWindow(QtWidgets.QMainWindow):
     def __init__(self, library: Library, first: SessionEntry, second: SessionEntry,
                  parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
-        closes_with_keys(self)
-        self.setObjectName("compareWindow")
-        self.setWindowTitle(f"MimuCap Compare: {first.subject_id}: {first.file_name} / {second.file_name}")
+        closes_with_keys(self)  # Esc as every dialog, and the platform's Close keys
+        self.setObjectName("compareDialog")
+        self.setWindowTitle(f"Compare: {first.subject_id}: {first.file_name} / {second.file_name}")
         fit_on_screen(self, 1100, 720, parent)
         self.library = library
         self.entries = (first, second)
@@ -162,21 +164,23 @@ class CompareWindow(QtWidgets.QMainWindow):
         self.save_button = QtWidgets.QPushButton("Save as CSV…", self)
         self.save_button.setEnabled(False)
         self.save_button.clicked.connect(self.ask_to_save_csv)
+        self.saved_label = QtWidgets.QLabel(self)
+        self.saved_label.setObjectName("savedLabel")
+        self.saved_label.setTextInteractionFlags(QtCore.Qt.TextSelectableByMouse)
         close = QtWidgets.QPushButton("Close", self)
+        close.setAutoDefault(False)
         close.clicked.connect(self.close)
         buttons = QtWidgets.QHBoxLayout()
-        buttons.addStretch(1)
+        buttons.addWidget(self.saved_label, 1)
         buttons.addWidget(self.save_button)
         buttons.addWidget(close)
-        central = QtWidgets.QWidget(self)
-        layout = QtWidgets.QVBoxLayout(central)
+        layout = QtWidgets.QVBoxLayout(self)
         layout.addLayout(pickers)
         layout.addLayout(result_row)
         layout.addWidget(self.message)
         layout.addWidget(self.progress)
         layout.addWidget(self.tables_area, 1)
         layout.addLayout(buttons)
-        self.setCentralWidget(central)
 
     @property
     def result(self) -> str:
@@ -269,13 +273,14 @@ class CompareWindow(QtWidgets.QMainWindow):
         path, _ = QtWidgets.QFileDialog.getSaveFileName(self, "Save Comparison", str(suggestion), "CSV (*.csv)")
         if path:
             try:
-                self.statusBar().showMessage(f"Saved {self.save_csv(path)}", 5000)
+                self.saved_label.setText(f"Saved {display_path(self.save_csv(path))}")
             except OSError as error:
                 QtWidgets.QMessageBox.warning(self, "Save Comparison", str(error))
 
-    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+    def done(self, result: int) -> None:
+        """Closed (Close, Esc, Ctrl+W or the title bar): the processing still running is let go."""
         if self._task is not None and self._task.isRunning():
             self._task.succeeded.disconnect()
             self._task.failed.disconnect()
             self._task.wait()
-        super().closeEvent(event)
+        super().done(result)

@@ -1,10 +1,12 @@
-"""The library window: subjects on the left, their sessions in a sortable, filterable table.
+"""The library (the page of the main window's Library workspace): subjects on the left, their
+sessions in a sortable, filterable table.
 
-The window shows what :class:`mimucap.io.library.Library` lists and forwards what the user asks:
-open a session for review, start a new session for the selected subject (the main window's
-session panel filled with the subject's record), rename a trial, set tags or the condition, move
-a session to the library's trash, compare two sessions of a subject. The folder is scanned off
-the GUI thread when the window is shown and after each change, so files copied in by hand appear.
+The view shows what :class:`mimucap.io.library.Library` lists and forwards what the user asks:
+open a session in the Review or the Analysis workspace, start a new session for the selected
+subject (the Capture workspace's session panel filled with the subject's record), rename a
+trial, set tags or the condition, move a session to the library's trash, compare two sessions of
+a subject (a dialog). The folder is scanned off the GUI thread when the view is made, when the
+workspace is shown and after each change, so files copied in by hand appear.
 """
 
 from __future__ import annotations
@@ -17,9 +19,8 @@ from PyQt5 import QtCore, QtGui, QtWidgets
 
 from mimucap.core.wording import plural
 from mimucap.gui.background_task import BackgroundTask
-from mimucap.gui.menus import closes_with_keys
-from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
+from mimucap.gui.status_line import page_layout, status_line
 from mimucap.io.library import Library, LibraryError, SessionEntry, SubjectEntry
 from mimucap.io.library_settings import remember_library_folder
 from mimucap.session.recorded.library import COMPARISON_NEEDS_CALIBRATION
@@ -107,11 +108,12 @@ def session_row(entry: SessionEntry) -> list[QtGui.QStandardItem]:
     return cells
 
 
-class LibraryWindow(QtWidgets.QMainWindow):
+class LibraryView(QtWidgets.QWidget):
     """The library in ``folder``.
 
     Args:
         open_review: called with a session file's path to review it (the main window's).
+        open_analysis: called with a session file's path to analyse it (the main window's).
         new_session: called with a subject's id, height (m or None), dominant side and notes
             to make the next recording that subject's.
 
@@ -123,17 +125,17 @@ class LibraryWindow(QtWidgets.QMainWindow):
 
     def __init__(self, folder: Path, open_review: Callable[[Path], object] | None = None,
                  new_session: Callable[[str, float | None, str, str], None] | None = None,
-                 parent: QtWidgets.QWidget | None = None) -> None:
+                 parent: QtWidgets.QWidget | None = None,
+                 open_analysis: Callable[[Path], object] | None = None) -> None:
         super().__init__(parent)
-        closes_with_keys(self)
-        self.setObjectName("libraryWindow")
-        fit_on_screen(self, 1320, 640, parent)  # every column whole on a 1366-px laptop screen
+        self.setObjectName("libraryView")
         self._open_review = open_review
+        self._open_analysis = open_analysis
         self._new_session = new_session
         self.library: Library | None = None
         self.entries: dict[str, SessionEntry] = {}
         self.subjects: dict[str, SubjectEntry] = {}
-        self.compare_windows: list[QtWidgets.QWidget] = []
+        self.compare_dialogs: list[QtWidgets.QDialog] = []
         self._scan_task: BackgroundTask | None = None
         self._scan_again = False
 
@@ -223,6 +225,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         self.buttons: dict[str, QtWidgets.QPushButton] = {}
         actions = QtWidgets.QHBoxLayout()
         for key, text, slot in (("open", "Open for Review", self.open_selected),
+                                ("analyse", "Open for Analysis", self.analyse_selected),
                                 ("compare", "Compare Two…", self.compare_selected),
                                 ("rename", "Rename Trial…", lambda: self.rename_trial()),
                                 ("tags", "Tags…", lambda: self.set_tags()),
@@ -230,7 +233,9 @@ class LibraryWindow(QtWidgets.QMainWindow):
                                 ("trash", "Move to Trash", lambda: self.move_to_trash())):
             button = QtWidgets.QPushButton(text, self)
             button.setObjectName(f"{key}Button")
-            button.setToolTip({"open": "Enter or double-click", "trash": "Delete key; the files go to the library's "
+            button.setToolTip({"open": "Enter or double-click: the session in the Review workspace",
+                               "analyse": "The session's gait, range of motion and report in the Analysis workspace",
+                               "trash": "Delete key; the files go to the library's "
                                "trash folder and stay there"}.get(key, ""))
             button.clicked.connect(slot)
             actions.addWidget(button)
@@ -248,13 +253,16 @@ class LibraryWindow(QtWidgets.QMainWindow):
         splitter.addWidget(right)
         splitter.setStretchFactor(1, 1)
         splitter.setSizes([230, 970])
-        central = QtWidgets.QWidget(self)
-        layout = QtWidgets.QVBoxLayout(central)
+        layout = page_layout(self)
         layout.addLayout(top)
         layout.addWidget(self.banner)
         layout.addWidget(splitter, 1)
-        self.setCentralWidget(central)
+        self._status = status_line(self, layout)
         self.set_folder(Path(folder))
+
+    def statusBar(self) -> QtWidgets.QStatusBar:  # noqa: N802 (as QMainWindow's)
+        """The library's status line (what the last scan found)."""
+        return self._status
 
     def _date_edit(self) -> QtWidgets.QDateEdit:
         edit = QtWidgets.QDateEdit(self)
@@ -269,8 +277,8 @@ class LibraryWindow(QtWidgets.QMainWindow):
     def set_folder(self, folder: Path) -> None:
         """Show the library in ``folder`` (its index made when new; a refused index in the banner)."""
         self.folder = Path(folder)
-        self.setWindowTitle(f"MimuCap Library: {folder}")
         self.folder_label.setText(display_path(folder))
+        self.folder_label.setToolTip(str(folder))
         try:
             self.library = Library(folder)
         except LibraryError as error:
@@ -451,6 +459,7 @@ class LibraryWindow(QtWidgets.QMainWindow):
         two = len(selected) == 2 and all(e.ok for e in selected) and selected[0].subject_id == selected[1].subject_id
         uncalibrated = [e.file_name for e in selected if "body" not in e.verdicts]
         self.buttons["open"].setEnabled(one_ok and self._open_review is not None)
+        self.buttons["analyse"].setEnabled(one_ok and self._open_analysis is not None)
         self.buttons["compare"].setEnabled(two and not uncalibrated)
         if not two:
             self.buttons["compare"].setToolTip("Select two readable sessions of one subject")
@@ -476,6 +485,12 @@ class LibraryWindow(QtWidgets.QMainWindow):
         if entry is None or not entry.ok or self._open_review is None:
             return None
         return self._open_review(self.library.file(entry))
+
+    def analyse_selected(self):
+        entry = self._one()
+        if entry is None or not entry.ok or self._open_analysis is None:
+            return None
+        return self._open_analysis(self.library.file(entry))
 
     def start_new_session(self) -> None:
         selected = self._one()
@@ -558,20 +573,26 @@ class LibraryWindow(QtWidgets.QMainWindow):
         return moved
 
     def compare_selected(self):
-        """Open a comparison of the two selected sessions (the older one as A)."""
-        from mimucap.gui.compare_window import CompareWindow
+        """Open a comparison of the two selected sessions (the older one as A), a dialog."""
+        from mimucap.gui.compare_dialog import CompareDialog
 
         selected = self.selected_entries()
         if (len(selected) != 2 or selected[0].subject_id != selected[1].subject_id
                 or any("body" not in e.verdicts for e in selected)):
             return None
         first, second = sorted(selected, key=lambda e: (e.recorded_utc, e.path))
-        window = CompareWindow(self.library, first, second)
-        window.setAttribute(QtCore.Qt.WA_DeleteOnClose, False)
-        self.compare_windows.append(window)
-        window.show()
-        window.load()
-        return window
+        dialog = CompareDialog(self.library, first, second, self)
+        dialog.finished.connect(lambda _result: self._compare_closed(dialog))
+        self.compare_dialogs.append(dialog)
+        dialog.show()
+        dialog.load()
+        return dialog
+
+    def _compare_closed(self, dialog: QtWidgets.QDialog) -> None:
+        """A closed comparison is let go (both sessions' data with it)."""
+        if dialog in self.compare_dialogs:
+            self.compare_dialogs.remove(dialog)
+            dialog.deleteLater()
 
     def open_trend(self):
         """The selected subject's clinical test results across visits (a dialog)."""
@@ -585,9 +606,9 @@ class LibraryWindow(QtWidgets.QMainWindow):
         dialog.show()
         return dialog
 
-    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
+    def shutdown(self) -> None:
+        """Finish the scan that runs and close the comparisons (the main window closes)."""
         self.wait_for_scan()
-        for window in list(self.compare_windows):
-            window.close()
-        self.compare_windows.clear()
-        super().closeEvent(event)
+        for dialog in list(self.compare_dialogs):
+            dialog.close()
+        self.compare_dialogs.clear()

@@ -1,7 +1,8 @@
-"""The review window: a recorded session's skeleton and plots following a play head, a
-timeline with the markers, play/pause, speed, and the export dialog. The spans where a joint's
-angles are doubtful are shaded on the timeline and in the joint plots, and the status bar says
-which joints are doubtful at the play head, and why.
+"""The review of one recorded session (the page of the main window's Review workspace): its
+skeleton and plots following a play head, a timeline with the markers, play/pause, speed, the
+result shown, and the export dialog. The spans where a joint's angles are doubtful are shaded
+on the timeline and in the joint plots, and the review's status line says which joints are
+doubtful at the play head, and why.
 
 The session is loaded and its poses computed off the GUI thread
 (:func:`mimucap.session.recorded.review.load_review` in a :class:`BackgroundTask`), with progress. The
@@ -16,18 +17,15 @@ import time
 from pathlib import Path
 
 import pyqtgraph as pg
-from PyQt5 import QtCore, QtGui, QtWidgets
+from PyQt5 import QtCore, QtWidgets
 
 from mimucap.core.analysis.rom import marker_words
 from mimucap.gui.background_task import BackgroundTask
-from mimucap.gui.capture import ask_to_save_screenshot
 from mimucap.gui.export_dialog import ExportDialog
 from mimucap.gui.live_plots import DOUBT_BRUSH, LivePlots
-from mimucap.gui.menus import choice_actions, truth_action
 from mimucap.gui.scene.view import SceneView
-from mimucap.gui.screen_fit import fit_on_screen
 from mimucap.gui.session_panel import display_path
-from mimucap.session.views.camera import CAMERA_PRESETS
+from mimucap.gui.status_line import page_layout, progress_bar, status_line
 from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
 from mimucap.session.recorded.analysis import NEEDS_BODY_CALIBRATION
 from mimucap.session.angle_accuracy import accuracy_phrase
@@ -61,21 +59,27 @@ class _JumpToClickStyle(QtWidgets.QProxyStyle):
 
 #: How the result choice names each result.
 RESULT_TITLES = {RESULT_REPROCESSED: "Reprocessed", RESULT_LIVE: "As seen live"}
-class ReviewWindow(QtWidgets.QMainWindow):
-    """Review of session file ``path``; call :meth:`load` after ``show()``."""
+class ReviewView(QtWidgets.QWidget):
+    """Review of session file ``path``; call :meth:`load` once shown.
+
+    Signals:
+        loaded(): the session (or another result of it) is shown.
+        failed(str): the session cannot be reviewed (why); the view has nothing to show.
+        busy(): the view is loading another result (nothing to export until ``loaded``).
+    """
 
     loaded = QtCore.pyqtSignal()
-    closed = QtCore.pyqtSignal()
+    failed = QtCore.pyqtSignal(str)
+    busy = QtCore.pyqtSignal()
 
     def __init__(self, path: str | Path, parent: QtWidgets.QWidget | None = None) -> None:
         super().__init__(parent)
         self.path = Path(path)
-        self.setObjectName("reviewWindow")
-        self.setWindowTitle(f"MimuCap Review: {self.path.name}")
-        fit_on_screen(self, 1280, 800, parent)
+        self.setObjectName("reviewView")
         self.player: ReviewPlayer | None = None
         self.export_dialog: ExportDialog | None = None
-        self.analysis_window = None
+        self._display_mode = "world"
+        self._show_truth = False
         self._cursor_to_keep: float | None = None  # the play head kept across a change of result
         self.export_when_loaded = False
         self.load_error: str | None = None
@@ -150,37 +154,11 @@ class ReviewWindow(QtWidgets.QMainWindow):
         bottom = QtWidgets.QHBoxLayout()
         bottom.addLayout(timeline_box, 1)
         bottom.addWidget(self.markers_list)
-        central = QtWidgets.QWidget(self)
-        layout = QtWidgets.QVBoxLayout(central)
+        layout = page_layout(self)
         layout.addWidget(splitter, 1)
         layout.addLayout(bottom)
-        self.setCentralWidget(central)
-
-        menu = self.menuBar().addMenu("&File")
-        self.action_export = menu.addAction("&Export…", self.open_export)
-        self.action_export.setShortcut(QtGui.QKeySequence("Ctrl+E"))
-        self.action_export.setEnabled(False)
-        self.action_analysis = menu.addAction("&Analysis…", self.open_analysis)
-        self.action_analysis.setShortcut(QtGui.QKeySequence("Ctrl+G"))
-        self.action_analysis.setEnabled(False)
-        self.action_screenshot = menu.addAction("Save Screens&hot…", lambda: ask_to_save_screenshot(self, "review.png"))
-        menu.addSeparator()
-        menu.addAction("&Close", self.close).setShortcut(QtGui.QKeySequence.Close)
-        view = self.menuBar().addMenu("&View")
-        self.camera_actions = choice_actions(view.addMenu("&Camera"), CAMERA_PRESETS, str.capitalize,
-                                             self.scene_view.set_camera_preset, self.scene_view.camera_preset,
-                                             numbered_shortcuts=True)
-        self.action_body_mode = view.addAction("&Body Mode")
-        self.action_body_mode.setCheckable(True)
-        self.action_body_mode.toggled.connect(self._body_mode_toggled)
-        self.action_truth = truth_action(view, lambda _on: self._update_ghost())
-        self.action_play = view.addAction("&Play/Pause", self.play_button.toggle)
-        self.action_play.setShortcut(QtGui.QKeySequence("Ctrl+Space"))
-
-        self.progress = QtWidgets.QProgressBar(self)
-        self.progress.setRange(0, 100)
-        self.progress.setMaximumWidth(200)
-        self.statusBar().addPermanentWidget(self.progress)
+        self._status = status_line(self, layout)
+        self.progress = progress_bar(self._status)
         self.pose_status = QtWidgets.QLabel(self)
         self.statusBar().addPermanentWidget(self.pose_status)
         self.doubt_status = QtWidgets.QLabel(self)
@@ -194,11 +172,17 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self._timer.setInterval(PLAY_INTERVAL_MS)
         self._timer.timeout.connect(self._tick)
 
+    def statusBar(self) -> QtWidgets.QStatusBar:  # noqa: N802 (as QMainWindow's)
+        """The review's status line (the file, the pose source, doubts at the play head)."""
+        return self._status
+
     # -- loading -----------------------------------------------------------------------------
     def load(self) -> None:
         """Load the session in the background; :attr:`loaded` is emitted when it is shown."""
         self.statusBar().showMessage(f"Opening {display_path(self.path)}…")
         result = self.result_combo.currentData()
+        if self._task is not None:
+            self._task.let_go()  # the result asked before is not wanted any more
         self._task = BackgroundTask(lambda progress: load_review(self.path, progress, result=result), self)
         self._task.progress.connect(lambda f: self.progress.setValue(int(round(100 * f))))
         self._task.succeeded.connect(self._loaded)
@@ -224,14 +208,11 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self._timer.stop()
         self.progress.setValue(0)
         self.progress.show()
-        self.action_export.setEnabled(False)
+        self.busy.emit()
         self.load()
 
     def _loaded(self, data: ReviewData) -> None:
         keep, self._cursor_to_keep = self._cursor_to_keep, None
-        if self.analysis_window is not None:  # it analysed the other result
-            self.analysis_window.close()
-            self.analysis_window = None
         for line in self._marker_lines + self._doubt_regions:
             self.timeline.removeItem(line)
         self._marker_lines.clear()
@@ -241,8 +222,8 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.progress.hide()
         self.scene_view.set_figure(self.player.builder)
         self.scene_view.set_model(self.player)
-        self._update_ghost()
-        self.action_truth.setEnabled(data.truth is not None)
+        self.player.set_display_mode(self._display_mode)
+        self.set_show_truth(self._show_truth)
         self.scene_view.set_tints({s: "ok" for s in data.model.segment_names})
         self.plots.joint_angles_refused = "" if data.body_calibration is not None else NEEDS_BODY_CALIBRATION
         self.plots.set_source(self.player)
@@ -269,11 +250,6 @@ class ReviewWindow(QtWidgets.QMainWindow):
         if data.missing:
             message += " — " + "; ".join(data.missing)
         self.statusBar().showMessage(message, 15000)
-        self.action_export.setEnabled(True)
-        self.action_analysis.setEnabled(True)
-        # Without a body calibration the analysis gives the temporal gait parameters alone.
-        self.action_analysis.setStatusTip("" if data.body_calibration is not None else
-                                          f"Analysis: {NEEDS_BODY_CALIBRATION}")
         self.seek(data.start_s if keep is None else keep)
         self.scene_view.start()
         self._timer.start()
@@ -285,14 +261,12 @@ class ReviewWindow(QtWidgets.QMainWindow):
             self.export_dialog.set_data(data)  # the result switched: its choices stay
 
     def _load_failed(self, message: str) -> None:
-        """Say why the file cannot be reviewed, then close: a window without a session has
-        nothing to play."""
+        """The file cannot be reviewed: ``failed`` says why (the workspace tells the user and
+        lets the view go: a review without a session has nothing to play)."""
         self.load_error = message
         self.progress.hide()
         log.warning("cannot review %s: %s", self.path, message)
-        QtWidgets.QMessageBox.warning(self, "Cannot open the session",
-                                      f"{message}\n\nCheck that the file is a MimuCap session (.h5).")
-        self.close()
+        self.failed.emit(message)
 
     # -- play head ---------------------------------------------------------------------------
     def seek(self, t_s: float) -> None:
@@ -334,6 +308,10 @@ class ReviewWindow(QtWidgets.QMainWindow):
         if self.doubt_status.text() != text:
             self.doubt_status.setText(text)
             self.doubt_status.setToolTip(text)
+            if text:
+                # A message over the status line hides its doubts (Qt shows the message over
+                # them): the doubt at the play head is what the line must say.
+                self.statusBar().clearMessage()
             self.doubt_status.setVisible(bool(text))
 
     def _slider_moved(self, value: int) -> None:
@@ -363,21 +341,33 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self._show_cursor(self.player.advance(elapsed))
 
     def set_camera_preset(self, name: str) -> None:
-        """Move the 3D view's camera to preset ``name`` (one of ``CAMERA_PRESETS``) and tick it
-        in the Camera menu."""
+        """Move the 3D view's camera to preset ``name`` (one of ``CAMERA_PRESETS``)."""
         self.scene_view.set_camera_preset(name)
-        self.camera_actions[name].setChecked(True)
 
-    def _update_ghost(self) -> None:
-        """Show the simulator's truth as a ghost figure when asked and the recording has it."""
-        self.scene_view.set_ghost_visible(self.action_truth.isChecked())
-        self.plots.set_show_truth(self.action_truth.isChecked())
+    @property
+    def has_truth(self) -> bool:
+        """Whether the recording holds the simulator's truth (a simulated session)."""
+        return self.player is not None and self.player.data.truth is not None
 
-    def _body_mode_toggled(self, on: bool) -> None:
+    def set_show_truth(self, on: bool) -> None:
+        """Show the simulator's truth as a ghost figure and dashed curves when ``on`` and the
+        recording has it."""
+        self._show_truth = on
+        self.scene_view.set_ghost_visible(on)
+        self.plots.set_show_truth(on)
+
+    def set_display_mode(self, mode: str) -> None:
+        """Show the figure in the world or in the body frame (``DISPLAY_MODES``)."""
+        self._display_mode = mode
         if self.player is not None:
-            self.player.set_display_mode("body" if on else "world")
+            self.player.set_display_mode(mode)
 
-    # -- export, screenshot, close ------------------------------------------------------------
+    @property
+    def ready(self) -> bool:
+        """Whether a result of the session is shown (and none other is being loaded)."""
+        return self.player is not None and not (self._task is not None and self._task.isRunning())
+
+    # -- export, shut down ------------------------------------------------------------
     def open_export(self) -> ExportDialog | None:
         if self.player is None:
             return None
@@ -385,35 +375,16 @@ class ReviewWindow(QtWidgets.QMainWindow):
         self.export_dialog.show()
         return self.export_dialog
 
-    def open_analysis(self):
-        """The Analysis window (gait, ROM, report) of the loaded session."""
-        if self.player is None:
-            return None
-        from mimucap.gui.analysis_view import AnalysisWindow
-
-        if self.analysis_window is None:
-            self.analysis_window = AnalysisWindow(self, self.player.data)
-            self.analysis_window.show()
-            self.analysis_window.run()
-        else:
-            self.analysis_window.show()
-            self.analysis_window.raise_()
-        return self.analysis_window
-
-    def closeEvent(self, event: QtGui.QCloseEvent) -> None:  # noqa: N802 (Qt API)
-        if self.analysis_window is not None:
-            self.analysis_window.close()
+    def shutdown(self, wait_ms: int = 0) -> None:
+        """Let the session go: the loader's result is no longer shown (given ``wait_ms`` to
+        finish: the program closing), a running export is finished, the clock and the 3D view
+        stop."""
         if self._task is not None:
-            for signal in (self._task.succeeded, self._task.failed):
-                try:
-                    signal.disconnect()  # a closed window shows nothing the loader finds later
-                except TypeError:
-                    pass  # already disconnected (closed before)
-            self._task.wait(10000)
+            self._task.let_go(wait_ms)  # a closed review shows nothing the loader finds later
         if self.export_dialog is not None and self.export_dialog.busy:
             self.export_dialog._task.wait(30000)
+        if self.export_dialog is not None:
+            self.export_dialog.close()
         self._timer.stop()
         self.plots.set_source(None)
         self.scene_view.shutdown()
-        super().closeEvent(event)
-        self.closed.emit()
