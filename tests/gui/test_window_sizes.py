@@ -88,6 +88,8 @@ def test_the_main_window_and_its_wizards_fit_each_screen(main_window, screen, qt
     _spin(qtbot)
     assert window.live_status.recording_indicator.isVisible() and window.mode_bar.recording_badge.isVisible()
     assert _problems(window, screen) == [] and _actions_in_view(window)
+    target = window.live_status.recording_target  # the file's name beside the badge, whole
+    assert target.isVisible() and target.width() >= target.sizeHint().width()
     window.action_record.trigger()
     window.wait_for_saving()
     # the plots' titles are whole: the stack is as wide as its widest title asks

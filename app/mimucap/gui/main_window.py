@@ -19,6 +19,7 @@ frame interval (60 and 30 a second); the session publishes its status 4 times a 
 from __future__ import annotations
 
 import dataclasses
+import importlib
 
 import logging
 from collections.abc import Callable
@@ -85,30 +86,20 @@ ABOUT_TEXT = (
 )
 
 
-def _wizard_classes() -> dict[str, type]:
-    """The calibration wizards that are installed (module name → class)."""
-    found = {}
-    try:
-        from mimucap.gui.wizards.magnetometer import MagnetometerWizard
-        found["magnetometer"] = MagnetometerWizard
-    except ImportError:
-        log.info("magnetometer wizard not available")
-    try:
-        from mimucap.gui.wizards.body import BodyCalibrationWizard
-        found["body"] = BodyCalibrationWizard
-    except ImportError:
-        log.info("body calibration wizard not available")
-    try:
-        from mimucap.gui.wizards.rom import RomWizard
-        found["rom"] = RomWizard
-    except ImportError:
-        log.info("range-of-motion wizard not available")
-    try:
-        from mimucap.gui.wizards.clinical_test import ClinicalTestWizard
-        found["clinical_test"] = ClinicalTestWizard
-    except ImportError:
-        log.info("clinical test wizard not available")
-    return found
+#: The wizards (name → module, class). Each is imported when it is first opened: the
+#: clinical-test wizard alone pulls in scipy.signal, seconds of a first start's import time.
+WIZARDS = {
+    "magnetometer": ("mimucap.gui.wizards.magnetometer", "MagnetometerWizard"),
+    "body": ("mimucap.gui.wizards.body", "BodyCalibrationWizard"),
+    "rom": ("mimucap.gui.wizards.rom", "RomWizard"),
+    "clinical_test": ("mimucap.gui.wizards.clinical_test", "ClinicalTestWizard"),
+}
+
+
+def wizard_class(name: str) -> type:
+    """The wizard class ``name`` (a key of :data:`WIZARDS`), imported on first use."""
+    module, attribute = WIZARDS[name]
+    return getattr(importlib.import_module(module), attribute)
 
 
 class MainWindow(QtWidgets.QMainWindow):
@@ -141,7 +132,6 @@ class MainWindow(QtWidgets.QMainWindow):
         self._unreviewed: Path | None = None  # a recording saved since Review last showed one
         self._review_then_analyse = False  # the recording opening in Review is to be analysed
         self._live_truth = False  # whether the live source has the simulator's truth
-        self._wizards = _wizard_classes()
         self._last_record_message = ""
         #: writes stopped recordings' session files in the background
         self.saver = RecordingSaver(self)
@@ -304,18 +294,12 @@ class MainWindow(QtWidgets.QMainWindow):
         self.action_play.setShortcut(QtGui.QKeySequence("Ctrl+Space"))
         self._update_review_actions()
 
-        self.calibrate_menu = None
-        if self._wizards:
-            self.calibrate_menu = bar.addMenu("&Calibrate")
-            if "magnetometer" in self._wizards:
-                self.action_magcal = self.calibrate_menu.addAction("&Magnetometers…", lambda: self.open_wizard("magnetometer"))
-            if "body" in self._wizards:
-                self.action_bodycal = self.calibrate_menu.addAction("&Body…", lambda: self.open_wizard("body"))
-            assess = bar.addMenu("&Assess")
-            if "rom" in self._wizards:
-                self.action_rom = assess.addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
-            if "clinical_test" in self._wizards:
-                self.action_clinical_test = assess.addAction("&Clinical Test…", lambda: self.open_wizard("clinical_test"))
+        self.calibrate_menu = bar.addMenu("&Calibrate")
+        self.action_magcal = self.calibrate_menu.addAction("&Magnetometers…", lambda: self.open_wizard("magnetometer"))
+        self.action_bodycal = self.calibrate_menu.addAction("&Body…", lambda: self.open_wizard("body"))
+        assess = bar.addMenu("&Assess")
+        self.action_rom = assess.addAction("&Range of Motion…", lambda: self.open_wizard("rom"))
+        self.action_clinical_test = assess.addAction("&Clinical Test…", lambda: self.open_wizard("clinical_test"))
 
         help_menu = bar.addMenu("&Help")
         self.action_guide = help_menu.addAction("&User Guide", self.show_user_guide)
@@ -754,7 +738,7 @@ class MainWindow(QtWidgets.QMainWindow):
         self.session_panel.markers_list.clear()
         self._show_recording(True)
         self.session_panel.show_info(self.live.recording_info())
-        self.say(f"Recording to {display_path(path)}")
+        self.statusBar().clearMessage()  # the badge and the file's name say it, uncovered
         return True
 
     def stop_recording(self) -> None:
@@ -980,7 +964,7 @@ class MainWindow(QtWidgets.QMainWindow):
         if self.live is None:
             return
         self._close_wizard("another wizard was opened")
-        wizard = self._wizards[name](self, self.live)
+        wizard = wizard_class(name)(self, self.live)
         self._wizard = wizard
         wizard.show()
 
