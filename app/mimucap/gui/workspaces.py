@@ -20,14 +20,17 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from PyQt5 import QtCore, QtGui, QtWidgets
 
-from mimucap.gui.analysis_view import AnalysisView
 from mimucap.gui.live_status_bar import RECORDING_STYLE, elapsed_text
-from mimucap.gui.review_view import ReviewView
 from mimucap.gui.status_line import page_layout, status_line
-from mimucap.session.recorded.review import ReviewData
+
+if TYPE_CHECKING:  # the pages' views are imported when first made: a first start waits for none of them
+    from mimucap.gui.analysis_view import AnalysisView
+    from mimucap.gui.review_view import ReviewView
+    from mimucap.session.recorded.review import ReviewData
 
 #: The workspaces, in the mode bar's order (their keys are Ctrl+1 … Ctrl+4).
 WORKSPACES = ("capture", "review", "analysis", "library")
@@ -194,6 +197,8 @@ class ReviewWorkspace(QtWidgets.QStackedWidget):
     def open(self, path: str | Path) -> ReviewView:
         """Show session file ``path`` (the recording shown before is let go) and load it."""
         self.close_recording()
+        from mimucap.gui.review_view import ReviewView
+
         view = ReviewView(path, self)
         view.loaded.connect(self._loaded)
         view.busy.connect(self.changed)
@@ -269,6 +274,8 @@ class AnalysisWorkspace(QtWidgets.QStackedWidget):
         if self.view is not None and self.view.data is data:
             return self.view
         self.clear()
+        from mimucap.gui.analysis_view import AnalysisView
+
         view = AnalysisView(self, data)
         self.addWidget(view)
         self.view = view
