@@ -56,7 +56,7 @@ def test_rebuild_and_a_missing_folder(folder, tmp_path, capsys):
     before = Library(folder).index_rows()
     (folder / "mimucap-library.sqlite").unlink()
     assert main(["library", "rebuild", "--library", str(folder)]) == 0
-    assert "from 3 session file(s), 1 damaged" in capsys.readouterr().out
+    assert "from 3 session files, 1 damaged" in capsys.readouterr().out
     assert Library(folder).index_rows() == before
     (folder / "mimucap-library.sqlite").write_bytes(b"not a database" * 100)
     assert main(["library", "list", "--library", str(folder)]) == 1

@@ -30,6 +30,7 @@ import argparse
 from pathlib import Path
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
+from mimucap.core.wording import plural
 
 FORMATS = ("c3d", "bvh", "sto", "mot", "csv")
 
@@ -86,6 +87,6 @@ def run(args: argparse.Namespace) -> int:
     warn_about_magnetometers("export", data.session, data.calibrations)
     written = write_motion_file(data, fmt, Path(args.out), args.t_from, args.t_to, opensim_names=args.opensim_names,
                                 raw_sensors=args.raw_sensors)
-    print(f"{data.path.name} ({data.pose_source}): {len(written)} file(s) written: "
+    print(f"{data.path.name} ({data.pose_source}): {plural(len(written), 'file')} written: "
           + ", ".join(str(p) for p in written))
     return 0

@@ -115,7 +115,9 @@ def run_show(args: argparse.Namespace) -> int:
 def run_rebuild(args: argparse.Namespace) -> int:
     library = _library(args, scan=False)
     report = library.rebuild()
-    print(f"rebuilt {library.index_path} from {len(report.added)} session file(s)"
+    from mimucap.core.wording import plural
+
+    print(f"rebuilt {library.index_path} from {plural(len(report.added), 'session file')}"
           + (f", {len(report.damaged)} damaged: {', '.join(report.damaged)}" if report.damaged else ""))
     return 0
 

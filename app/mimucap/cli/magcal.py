@@ -51,6 +51,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from mimucap.cli import check_output_path
+from mimucap.core.wording import plural
 from mimucap.io.input_names import FORMATS, MAG_UNITS
 
 if TYPE_CHECKING:
@@ -267,7 +268,7 @@ def run_fit(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(_summary(result)))
         return status
-    _print_detail(result, f"sensor {sensor_id}: {len(recordings)} file(s), {result.fit.samples_input} samples, "
+    _print_detail(result, f"sensor {sensor_id}: {plural(len(recordings), 'file')}, {result.fit.samples_input} samples, "
                           f"method {result.fit.method}", saved)
     return status
 

@@ -27,6 +27,7 @@ from pathlib import Path
 import pyqtgraph as pg
 from PyQt5 import QtCore, QtWidgets
 
+from mimucap.core.wording import plural
 from mimucap.core.analysis import rom as rom_core
 from mimucap.core.analysis.gait_cycle import CYCLE_PERCENT, NormativeBand
 from mimucap.gui.background_task import BackgroundTask
@@ -224,7 +225,7 @@ class AnalysisView(QtWidgets.QWidget):
             turns = ", ".join(f"{t.angle_deg:+.0f}° at {t.start_s:.1f} s" for t in gait.turns) or "none"
             self.gait_summary.setText(
                 f"<b>{len(gait.analysed)}</b> straight strides analysed, {refused} refused; "
-                f"{len(gait.bouts)} walking bout(s); turns: {turns}.<br><small>{sources}</small>")
+                f"{plural(len(gait.bouts), 'walking bout')}; turns: {turns}.<br><small>{sources}</small>")
             _fill_table(self.parameters_table, list(GAIT_PARAMETER_HEADER),
                         [row.cells() for row in gait_parameter_rows(gait)])
             _fill_table(self.strides_table, ["Foot", "IC (s)", "FC (s)", "Next IC (s)", "Time (s)", "Length (m)",
@@ -316,7 +317,7 @@ class AnalysisView(QtWidgets.QWidget):
             self.marker_table.clear()
             return
         found = {k: r for k, r in results.items() if r.repetitions}
-        self.marker_message.setText(f"{start:.2f}–{end:.2f} s: {len(found)} movement(s) with at least one repetition "
+        self.marker_message.setText(f"{start:.2f}–{end:.2f} s: {plural(len(found), 'movement')} with at least one repetition "
                                     f"of 10° or more.")
         _fill_table(self.marker_table, list(ROM_HEADER), [row.cells() for row in rom_rows(found)])
 
