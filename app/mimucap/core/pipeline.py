@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.core import bodycal, doubt, rotation, skeleton
+from mimucap.core import bodycal, doubt, heading_sources, rotation, skeleton
 from mimucap.core.fusion import DEFAULT_FUSION_PARAMS, FusionParams, FusionState, OrientationEKF, update_together
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples
@@ -69,13 +69,22 @@ HOLD_BACK_LIMIT_S = 1.0
 class PipelineSettings:
     """Settings of the processing path that a recording stores so that it can be recomputed.
 
-    ``fusion``: the orientation filter's parameters (units in their names).
+    ``fusion``: the orientation filter's parameters (units in their names); ``heading``: where
+    the sensors' headings come from (:data:`~mimucap.core.heading_sources.MODES`).
     """
 
     fusion: FusionParams = DEFAULT_FUSION_PARAMS
+    heading: str = heading_sources.MODE_COUPLED
+
+    def __post_init__(self) -> None:
+        heading_sources.check_mode(self.heading)
+
+    @property
+    def uses_magnetometers(self) -> bool:
+        return self.heading != heading_sources.MODE_NO_MAGNETOMETER
 
     def to_dict(self) -> dict[str, Any]:
-        return {"fusion": asdict(self.fusion)}
+        return {"fusion": asdict(self.fusion), "heading": self.heading}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any] | None, origin: str = "pipeline settings") -> "PipelineSettings":
@@ -84,9 +93,9 @@ class PipelineSettings:
             return cls()
         try:
             fusion = FusionParams(**dict(data.get("fusion") or {}))
-        except TypeError as error:
+            return cls(fusion=fusion, heading=str(data.get("heading", heading_sources.MODE_COUPLED)))
+        except (TypeError, ValueError) as error:
             raise ValueError(f"{origin}: {error}") from None
-        return cls(fusion=fusion)
 
 
 DEFAULT_PIPELINE_SETTINGS = PipelineSettings()
@@ -295,7 +304,7 @@ def sensor_orientation(t_s: np.ndarray, gyr_rad_s: np.ndarray | None, acc_m_s2: 
         return SensorTrack(q, flags, terms.reasons())
     if gyr_rad_s is None:
         raise ValueError(f"sensor {sensor_id}: neither an on-board orientation nor a gyroscope to fuse")
-    mag = chain.calibrated_mag(mag_raw_uT)
+    mag = chain.calibrated_mag(mag_raw_uT) if settings.uses_magnetometers else None
     chain.ekf = OrientationEKF(settings.fusion, use_mag=mag is not None, state=initial_state)
     q_parts, flag_parts, term_parts = [], [], []
     for start in range(0, n, FILTER_BLOCK_SAMPLES):
@@ -427,6 +436,8 @@ class PipelineOutput:
     or :data:`POSE_SENSOR_AXES`; ``reference_sensor`` the sensor whose instants are the poses'.
     ``doubt`` sensor → (N,) and ``joint_doubt`` joint → (T,) (the joints of ``angles_deg``): the
     reasons each may be wrong (:mod:`mimucap.core.doubt`, 0 where trustworthy).
+    ``heading_source`` sensor → (T,) where each sensor's heading came from at the pose instants
+    (:data:`~mimucap.core.heading_sources.SOURCE_NAMES`), ``heading_mode`` the mode chosen.
     """
 
     result: str
@@ -440,6 +451,8 @@ class PipelineOutput:
     problems: list[str] = field(default_factory=list)
     doubt: dict[str, np.ndarray] = field(default_factory=dict)
     joint_doubt: dict[str, np.ndarray] = field(default_factory=dict)
+    heading_source: dict[str, np.ndarray] = field(default_factory=dict)
+    heading_mode: str = heading_sources.MODE_COUPLED
 
 
 def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.SkeletonModel, *,
@@ -494,6 +507,10 @@ def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.Skel
         return PipelineOutput(result, np.zeros(0), {}, {}, q_sensor, flags, source, None, problems, reasons)
     t_pose = tracks[reference][0]
     at = {sid: orientation_at(t_pose, t, q) for sid, (t, q) in tracks.items()}
+    fields = {sid: field_at(t_pose, streams[sid].t_s, calibrated_field(streams[sid].mag_uT, mag_calibrations.get(sid), sid))
+              for sid in tracks}
+    at, heading_source = coupled_headings(model, t_pose, at, fields, body_calibration, settings,
+                                          both_ways=result == RESULT_REPROCESSED)
     q_segments = segments_from_sensors(model, at, body_calibration, sensor_segments or {}) or {}
     angles = skeleton.joint_angles_deg(model, q_segments, shoulder_sequence) if len(t_pose) else {}
     measured = {segments[sid] for sid in tracks}
@@ -510,7 +527,49 @@ def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.Skel
     joint_doubt = {joint: value | singular_reasons(model, joint, angles, shoulder_sequence)
                    for joint, value in joint_doubt.items() if any(c.startswith(joint + "_") for c in angles)}
     return PipelineOutput(result, t_pose, q_segments, angles, q_sensor, flags, source, reference, problems,
-                          reasons, joint_doubt)
+                          reasons, joint_doubt, heading_source, settings.heading)
+
+
+def calibrated_field(mag_raw_uT: np.ndarray | None, calibration: MagCalibration | None,
+                     sensor_id: str) -> np.ndarray | None:
+    """A sensor's field (N, 3) µT corrected by its calibration; None without a magnetometer or
+    a calibration (a raw field's magnitude and dip say nothing the body could share)."""
+    if mag_raw_uT is None or calibration is None:
+        return None
+    return calibration.apply(mag_raw_uT, sensor_id)
+
+
+def field_at(t_query: np.ndarray, t_s: np.ndarray, mag_uT: np.ndarray | None) -> np.ndarray | None:
+    """A sensor's field (M, 3) at the instants ``t_query`` (M,): its latest sample at or before
+    each (NaN before its first); None without a field."""
+    if mag_uT is None:
+        return None
+    index = np.searchsorted(np.asarray(t_s), t_query, side="right") - 1
+    out = np.asarray(mag_uT, dtype=np.float64)[np.clip(index, 0, None)]
+    out[index < 0] = np.nan
+    return out
+
+
+def coupled_headings(model: skeleton.SkeletonModel, t_pose: np.ndarray, q_world_from_sensor: Mapping[str, np.ndarray],
+                     mag_uT: Mapping[str, np.ndarray | None], body_calibration: bodycal.BodyCalibration | None,
+                     settings: PipelineSettings, both_ways: bool) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """The sensors' orientations at the pose instants ``t_pose`` (T,) with their headings
+    chosen per sensor and instant (:mod:`mimucap.core.heading_sources`, mode
+    ``settings.heading``): ``q_world_from_sensor`` sensor → (T, 4), ``mag_uT`` sensor → (T, 3)
+    calibrated field or None; ``both_ways`` for the reprocessed result. Returns the corrected
+    orientations and sensor → (T,) the source of each heading
+    (:data:`~mimucap.core.heading_sources.SOURCE_NAMES`)."""
+    sensors = list(q_world_from_sensor)
+    coupling = heading_sources.coupling_for(model, body_calibration, sensors, settings.heading)
+    if not coupling.active or not len(t_pose):
+        return dict(q_world_from_sensor), {sid: np.zeros(len(t_pose), dtype=np.uint8) for sid in sensors}
+    q = np.stack([q_world_from_sensor[sid] for sid in sensors], axis=1)
+    nan_field = np.full((len(t_pose), 3), np.nan)
+    fields = [mag_uT.get(sid) for sid in sensors]
+    mag = None if all(f is None for f in fields) else np.stack([nan_field if f is None else f for f in fields], axis=1)
+    corrected, sources = coupling.run(np.asarray(t_pose, dtype=np.float64), q, mag, both_ways)
+    return ({sid: corrected[:, i] for i, sid in enumerate(sensors)},
+            {sid: sources[:, i] for i, sid in enumerate(sensors)})
 
 
 def singular_reasons(model: skeleton.SkeletonModel, joint: str, angles_deg: Mapping[str, np.ndarray],

@@ -16,7 +16,7 @@ and the command line all go through :func:`process_session`.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from mimucap import __version__
@@ -123,12 +123,14 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
                     calibrations: AppliedCalibrations | None = None,
                     recorded: RecordedProcessing | None = None,
                     model: skeleton.SkeletonModel | None = None,
-                    shoulder_sequence: str = "zxy") -> PipelineOutput:
+                    shoulder_sequence: str = "zxy", heading: str | None = None) -> PipelineOutput:
     """Either result of ``session`` through the processing path, with ``calibrations``
     (:func:`mimucap.session.calibrations.applied_calibrations` of the session when None: the
     one choice of body and magnetometer calibrations every consumer makes). The simulator's
     truth, when the session holds it, is never read. The phases its markers name as
-    magnetometer calibration (:func:`off_body_windows`) make every joint angle there doubtful."""
+    magnetometer calibration (:func:`off_body_windows`) make every joint angle there doubtful.
+    ``heading`` (:data:`~mimucap.core.heading_sources.MODES`) replaces the recorded settings'
+    heading mode when given."""
     check_result(result)
     recorded = recorded if recorded is not None else recorded_processing(session)
     if calibrations is None:
@@ -138,9 +140,10 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
         model = session_model(session)[0]
     if body is not None:
         check_body_calibration_fits(body, model)
+    settings = recorded.settings if heading is None else replace(recorded.settings, heading=heading)
     return process_recording(
         session.sensors, model, result=result, mag_calibrations=calibrations.magnetometer, body_calibration=body,
-        sensor_segments=recorded.sensor_segments, settings=recorded.settings,
+        sensor_segments=recorded.sensor_segments, settings=settings,
         initial_states=recorded.initial_states, time_offset_s=recorded.time_offset_s,
         shoulder_sequence=shoulder_sequence, off_body_s=off_body_windows(session))
 

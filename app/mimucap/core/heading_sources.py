@@ -1,0 +1,272 @@
+"""Where each sensor's heading comes from: its own filter, the field the body shares, or its joint.
+
+The orientation filters give every sensor's ``q_world_from_sensor`` on its own; this step,
+between the sensors' orientations at one instant and their segments (:mod:`mimucap.core.
+pipeline`, step 4), corrects each sensor's heading relative to the body's, choosing per sensor
+and instant from the field checks:
+
+1. **The field the body shares** (:mod:`mimucap.core.fusion.uniform_field`): while a sensor's
+   field agrees with the body's in magnitude and dip, its azimuth says how the sensor is turned
+   relative to the others, even when the field is not the one the magnetometers were
+   calibrated in and every filter rejects it. The sensor is turned back by its averaged relative
+   error.
+2. **The joint** (:mod:`mimucap.core.joint_coupling`): the distal segment of a hinge (the
+   shank under the knee) takes its heading relative to the proximal one from the joint axis,
+   whatever its own field (the floor's gradient reaches the shanks first).
+3. **Its own filter** alone: a sensor whose field disagrees with the body's keeps the last
+   relative correction its field gave, on its gyroscope.
+
+The body's heading as a whole stays that of the filters (the mean over the agreeing sensors).
+Heading errors of the filters change slowly (gyro bias, a field followed over seconds), so
+each source's relative error is averaged over :data:`DEFAULT_TIME_CONSTANT_S`: as seen live
+with a first-order low-pass over the past (:class:`AngleSmoother`), reprocessed forwards and
+backwards (no lag).
+
+Modes (:data:`MODES`, the pipeline settings' ``heading``): :data:`MODE_COUPLED` (the above),
+:data:`MODE_MAGNETOMETER` (each filter's heading as it is), :data:`MODE_NO_MAGNETOMETER` (the
+filters ignore every magnetometer; relative headings from the joints, the others from the
+gyroscopes: rooms where no magnetometer can be trusted).
+
+Per sensor and instant the source used is one of :data:`SOURCE_NAMES` (uint8 codes).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core.fusion.uniform_field import relative_azimuths
+from mimucap.core.joint_coupling import HINGE_JOINTS, hinge_heading_offset
+
+MODE_COUPLED = "coupled"
+MODE_MAGNETOMETER = "magnetometer"
+MODE_NO_MAGNETOMETER = "no-magnetometer"
+MODES = (MODE_COUPLED, MODE_MAGNETOMETER, MODE_NO_MAGNETOMETER)
+MODE_LABELS = {
+    MODE_COUPLED: "relative headings from the field the body shares and the knees' axes, "
+                  "the body's from the magnetometers",
+    MODE_MAGNETOMETER: "each sensor's heading from its own magnetometer",
+    MODE_NO_MAGNETOMETER: "no magnetometer: relative headings from the knees' axes, the others from the gyroscopes",
+}
+
+SOURCE_FILTER = 0
+SOURCE_SHARED_FIELD = 1
+SOURCE_JOINT = 2
+SOURCE_HELD = 3
+#: Source code → (short name for files, words for people).
+SOURCE_NAMES = {
+    SOURCE_FILTER: ("filter", "its own filter"),
+    SOURCE_SHARED_FIELD: ("shared_field", "the magnetic field the body shares"),
+    SOURCE_JOINT: ("joint", "its joint's axis (knee)"),
+    SOURCE_HELD: ("held", "its gyroscope, its field disagreeing with the body's"),
+}
+
+#: Time constant (s) over which relative heading errors are averaged: several gait cycles,
+#: so that a knee's axial rotation within a cycle and the magnetometers' noise average out,
+#: yet short beside the gyroscope's drift.
+DEFAULT_TIME_CONSTANT_S = 2.0
+#: A sensor whose share of agreeing field samples over the time constant falls below this
+#: counts as held on its gyroscope.
+AGREEING_SHARE = 0.5
+
+
+def check_mode(mode: str) -> str:
+    if mode not in MODES:
+        raise ValueError(f"unknown heading mode {mode!r}; use one of {', '.join(MODES)}")
+    return mode
+
+
+class AngleSmoother:
+    """First-order low-pass of weighted angles (rad), one per channel, fed instant by instant.
+
+    Angles are averaged as weighted unit vectors (no wrap-around), so a channel with weight 0
+    keeps its last average; ``share`` is the low-passed fraction of instants with weight > 0."""
+
+    def __init__(self, channels: int, time_constant_s: float = DEFAULT_TIME_CONSTANT_S) -> None:
+        self.time_constant_s = time_constant_s
+        self.vector = np.zeros(channels, dtype=np.complex128)
+        self.share = np.zeros(channels)
+        self.t_s: float | None = None
+
+    def step(self, t_s: float, angle_rad: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Feed one instant; returns the averaged angles (rad) and shares (channels,)."""
+        gain = 1.0 if self.t_s is None else -np.expm1(-max(t_s - self.t_s, 0.0) / self.time_constant_s)
+        self.t_s = t_s
+        self.vector += gain * (weight * np.exp(1j * angle_rad) - self.vector)
+        self.share += gain * ((weight > 0) - self.share)
+        return np.angle(self.vector), self.share.copy()
+
+
+def smooth_series(t_s: np.ndarray, angle_rad: np.ndarray, weight: np.ndarray, time_constant_s: float,
+                  both_ways: bool) -> tuple[np.ndarray, np.ndarray]:
+    """:class:`AngleSmoother` over a whole series: ``t_s`` (T,), ``angle_rad``, ``weight`` (T, C);
+    returns averaged angles and shares (T, C). ``both_ways`` runs it again backwards over the
+    forward result (no lag: for the reprocessed result)."""
+    count = angle_rad.shape[1]
+    vectors = np.empty(angle_rad.shape, dtype=np.complex128)
+    shares = np.empty(angle_rad.shape)
+    smoother = AngleSmoother(count, time_constant_s)
+    inputs = weight * np.exp(1j * angle_rad)
+    present = (weight > 0).astype(np.float64)
+    gains = -np.expm1(-np.diff(t_s, prepend=t_s[:1]).clip(0.0) / time_constant_s)
+    gains[:1] = 1.0
+    vector, share = smoother.vector, smoother.share
+    for k in range(len(t_s)):
+        vector = vector + gains[k] * (inputs[k] - vector)
+        share = share + gains[k] * (present[k] - share)
+        vectors[k], shares[k] = vector, share
+    if both_ways and len(t_s):
+        gains_back = np.append(gains[1:], 1.0)
+        vector, share = vectors[-1].copy(), shares[-1].copy()
+        for k in range(len(t_s) - 1, -1, -1):
+            vector = vector + gains_back[k] * (vectors[k] - vector)
+            share = share + gains_back[k] * (shares[k] - share)
+            vectors[k], shares[k] = vector, share
+    return np.angle(vectors), shares
+
+
+def turned_about_vertical(q_world_from_sensor: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
+    """``Rz(angle) ⊗ q``: orientations (..., 4) turned about the world's vertical by ``angle_rad`` (...)."""
+    half = 0.5 * np.asarray(angle_rad)
+    turn = np.zeros(np.shape(half) + (4,))
+    turn[..., 0], turn[..., 3] = np.cos(half), np.sin(half)
+    return rotation.multiply(turn, q_world_from_sensor)
+
+
+@dataclass(frozen=True)
+class Hinge:
+    """A hinge joint between two sensors' segments: the sensors and their ``q_sensor_from_segment``."""
+
+    joint: str
+    proximal_sensor: str
+    distal_sensor: str
+    q_sensor_from_proximal: np.ndarray
+    q_sensor_from_distal: np.ndarray
+
+
+def hinges(model: skeleton.SkeletonModel, body_calibration: bodycal.BodyCalibration | None,
+           sensors: Sequence[str]) -> list[Hinge]:
+    """The model's hinge joints (:data:`~mimucap.core.joint_coupling.HINGE_JOINTS`) whose two
+    segments carry a body-calibrated sensor among ``sensors`` (none without a body calibration:
+    the joint axis in the sensors' frames is not known then)."""
+    if body_calibration is None:
+        return []
+    found = []
+    for joint in model.joints:
+        if joint.kind not in HINGE_JOINTS:
+            continue
+        proximal = body_calibration.sensors.get(joint.proximal)
+        distal = body_calibration.sensors.get(joint.distal)
+        if proximal in sensors and distal in sensors:
+            found.append(Hinge(joint.name, proximal, distal,
+                               rotation.conjugate(body_calibration.q_segment_from_sensor[joint.proximal]),
+                               rotation.conjugate(body_calibration.q_segment_from_sensor[joint.distal])))
+    return found
+
+
+class HeadingCoupling:
+    """The heading correction of a set of sensors (see the module docstring).
+
+    ``sensors`` the sensor ids in a fixed order (rows of the arrays); ``hinges`` from
+    :func:`hinges`; ``mode`` one of :data:`MODES`. :meth:`step` corrects one instant (the live
+    view), :meth:`run` a whole series (causal, as :meth:`step` gives it, or both ways)."""
+
+    def __init__(self, sensors: Sequence[str], hinge_list: Sequence[Hinge], mode: str = MODE_COUPLED,
+                 time_constant_s: float = DEFAULT_TIME_CONSTANT_S) -> None:
+        self.sensors = list(sensors)
+        self.index = {sid: i for i, sid in enumerate(self.sensors)}
+        self.hinges = [h for h in hinge_list if h.proximal_sensor in self.index and h.distal_sensor in self.index]
+        self.mode = check_mode(mode)
+        self.time_constant_s = time_constant_s
+        self._field = AngleSmoother(len(self.sensors), time_constant_s)
+        self._joint = AngleSmoother(len(self.hinges), time_constant_s)
+
+    @property
+    def active(self) -> bool:
+        return self.mode != MODE_MAGNETOMETER and bool(self.sensors)
+
+    def _field_terms(self, q: np.ndarray, mag: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        if self.mode != MODE_COUPLED or mag is None:
+            zeros = np.zeros(q.shape[:-1])
+            return zeros, zeros
+        return relative_azimuths(q, mag)
+
+    def _field_correction(self, q: np.ndarray, error: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self.mode != MODE_COUPLED:
+            return q, np.full(q.shape[:-1], SOURCE_FILTER, dtype=np.uint8)
+        source = np.where(share >= AGREEING_SHARE, SOURCE_SHARED_FIELD, SOURCE_HELD).astype(np.uint8)
+        return turned_about_vertical(q, -error), source
+
+    def _joint_terms(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        offsets = np.zeros(q.shape[:-2] + (len(self.hinges),))
+        weights = np.zeros_like(offsets)
+        for j, hinge in enumerate(self.hinges):
+            proximal = rotation.multiply(q[..., self.index[hinge.proximal_sensor], :], hinge.q_sensor_from_proximal)
+            distal = rotation.multiply(q[..., self.index[hinge.distal_sensor], :], hinge.q_sensor_from_distal)
+            offsets[..., j], weights[..., j] = hinge_heading_offset(proximal, distal)
+        return offsets, weights
+
+    def _joint_correction(self, q: np.ndarray, offset: np.ndarray, source: np.ndarray) -> None:
+        # hinges are in model order (parents first): a distal sensor corrected here is
+        # already corrected when it is the proximal sensor of a later hinge
+        for j, hinge in enumerate(self.hinges):
+            row = self.index[hinge.distal_sensor]
+            q[..., row, :] = turned_about_vertical(q[..., row, :], -offset[..., j])
+            source[..., row] = SOURCE_JOINT
+
+    def step(self, t_s: float, q_world_from_sensor: np.ndarray,
+             mag_uT: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """One instant: ``q_world_from_sensor`` (S, 4), ``mag_uT`` (S, 3) calibrated field or None.
+        Returns the corrected orientations (S, 4) and the source of each heading (S,)."""
+        q = np.asarray(q_world_from_sensor, dtype=np.float64)
+        if not self.active:
+            return q, np.zeros(len(q), dtype=np.uint8)
+        error, share = self._field.step(t_s, *self._field_terms(q, mag_uT))
+        q, source = self._field_correction(q, error, share)
+        if self.hinges:
+            offset, _share = self._joint.step(t_s, *self._joint_terms(q))
+            self._joint_correction(q, offset, source)
+        return q, source
+
+    def run(self, t_s: np.ndarray, q_world_from_sensor: np.ndarray, mag_uT: np.ndarray | None,
+            both_ways: bool) -> tuple[np.ndarray, np.ndarray]:
+        """A series: ``t_s`` (T,), ``q_world_from_sensor`` (T, S, 4), ``mag_uT`` (T, S, 3) or None.
+        Returns (T, S, 4) and (T, S); ``both_ways=False`` gives what :meth:`step` gives instant
+        by instant."""
+        q = np.asarray(q_world_from_sensor, dtype=np.float64)
+        if not self.active or not len(t_s):
+            return q, np.zeros(q.shape[:-1], dtype=np.uint8)
+        if self.mode == MODE_COUPLED and mag_uT is not None:
+            terms = [relative_azimuths(q[k], mag_uT[k]) for k in range(len(t_s))]
+            error, weight = np.array([e for e, _ in terms]), np.array([w for _, w in terms])
+        else:
+            error = weight = np.zeros(q.shape[:-1])
+        error, share = smooth_series(t_s, error, weight, self.time_constant_s, both_ways)
+        q, source = self._field_correction(q, error, share)
+        if self.hinges:
+            offset, weight = self._joint_terms(q)
+            offset, _share = smooth_series(t_s, offset, weight, self.time_constant_s, both_ways)
+            q = q.copy()
+            self._joint_correction(q, offset, source)
+        return q, source
+
+
+def coupling_for(model: skeleton.SkeletonModel, body_calibration: bodycal.BodyCalibration | None,
+                 sensors: Sequence[str], mode: str, time_constant_s: float = DEFAULT_TIME_CONSTANT_S) -> HeadingCoupling:
+    """The :class:`HeadingCoupling` of ``sensors`` (their hinges from ``model`` and the body calibration)."""
+    return HeadingCoupling(sensors, hinges(model, body_calibration, sensors), mode, time_constant_s)
+
+
+def source_summary(sources: Mapping[str, np.ndarray]) -> dict[str, dict[str, float]]:
+    """Sensor → source name → share (0-1) of the instants its heading came from that source."""
+    out = {}
+    for sensor, codes in sources.items():
+        codes = np.asarray(codes)
+        if not len(codes):
+            continue
+        out[sensor] = {SOURCE_NAMES[code][0]: float(np.mean(codes == code)) for code in SOURCE_NAMES
+                       if np.any(codes == code)}
+    return out
