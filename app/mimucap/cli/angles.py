@@ -20,7 +20,7 @@ import argparse
 from pathlib import Path
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
-from mimucap.cli.bodycal import add_reader_options, choose_model, read_input
+from mimucap.cli.bodycal import add_heading_option, add_reader_options, choose_model, read_input
 from mimucap.core.skeleton_models import SHOULDER_SEQUENCES
 
 
@@ -38,6 +38,7 @@ def register(subparsers) -> None:
     parser.add_argument("--live", action="store_true",
                         help="a session's forward filter as the live view ran it (default: reprocessed)")
     parser.add_argument("--accept-poor", action="store_true", help="use a calibration whose verdict is poor")
+    add_heading_option(parser)
     add_reader_options(parser)
     parser.add_argument("--out", required=True, metavar="OUT.{csv,mot}", help="joint-angle file to write")
     parser.set_defaults(func=run)
@@ -143,7 +144,7 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
     from mimucap.io.session import read_session
     from mimucap.session.calibrations import applied_calibrations
     from mimucap.session.processing import process_session, recorded_processing, session_model
-    from mimucap.session.provenance import provenance
+    from mimucap.session.provenance import heading_lines, provenance
 
     check_reader_options(args)
     _refuse_up_for_session(args)
@@ -158,9 +159,10 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
         print(f"  {line}")
     warn_about_magnetometers("angles", session, applied)
     output = process_session(session, result=result, calibrations=applied, model=model,
-                             shoulder_sequence=args.shoulder)
+                             shoulder_sequence=args.shoulder, heading=args.heading)
     record = provenance(source_file=Path(args.input).name, result=result, calibrations=applied, model=model,
-                        height_m=session_model(session)[1], metadata=session.metadata)
+                        height_m=session_model(session)[1], metadata=session.metadata,
+                        headings=heading_lines(output.heading_mode, output.heading_source))
     trust = []
     if output.reference_sensor is not None and len(output.t_s) > 1:
         step = float(np.median(np.diff(session.sensors[output.reference_sensor].t_s)))

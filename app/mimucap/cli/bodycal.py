@@ -80,6 +80,15 @@ def choose_model(name: str, segments) -> object:
     return load_model(MODEL_NAMES[-1])
 
 
+def add_heading_option(parser: argparse.ArgumentParser) -> None:
+    """``--heading MODE``: where the sensors' headings come from (the session's setting when absent)."""
+    from mimucap.core.heading_modes import MODE_LABELS, MODES
+
+    parser.add_argument("--heading", choices=MODES, default=None,
+                        help="where the sensors' headings come from (default: the recording's setting, else coupled): "
+                             + "; ".join(f"{mode}: {label}" for mode, label in MODE_LABELS.items()))
+
+
 def add_reader_options(parser: argparse.ArgumentParser) -> None:
     """The input argument and the orientation readers' options, shared with ``mimucap angles``."""
     parser.add_argument("input", help="orientation table: .csv, .sto, Xsens .txt or folder, session .h5")

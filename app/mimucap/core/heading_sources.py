@@ -37,20 +37,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mimucap.core import bodycal, rotation, skeleton
+from mimucap.core import bodycal, doubt, rotation, skeleton
 from mimucap.core.fusion.uniform_field import relative_azimuths
+from mimucap.core.heading_modes import MODE_COUPLED, MODE_LABELS, MODE_MAGNETOMETER, MODE_NO_MAGNETOMETER, MODES, check_mode
 from mimucap.core.joint_coupling import HINGE_JOINTS, hinge_heading_offset
-
-MODE_COUPLED = "coupled"
-MODE_MAGNETOMETER = "magnetometer"
-MODE_NO_MAGNETOMETER = "no-magnetometer"
-MODES = (MODE_COUPLED, MODE_MAGNETOMETER, MODE_NO_MAGNETOMETER)
-MODE_LABELS = {
-    MODE_COUPLED: "relative headings from the field the body shares and the knees' axes, "
-                  "the body's from the magnetometers",
-    MODE_MAGNETOMETER: "each sensor's heading from its own magnetometer",
-    MODE_NO_MAGNETOMETER: "no magnetometer: relative headings from the knees' axes, the others from the gyroscopes",
-}
 
 SOURCE_FILTER = 0
 SOURCE_SHARED_FIELD = 1
@@ -73,10 +63,17 @@ DEFAULT_TIME_CONSTANT_S = 2.0
 AGREEING_SHARE = 0.5
 
 
-def check_mode(mode: str) -> str:
-    if mode not in MODES:
-        raise ValueError(f"unknown heading mode {mode!r}; use one of {', '.join(MODES)}")
-    return mode
+#: Reasons for doubt (:mod:`mimucap.core.doubt`) about a sensor's own magnetometer, which say
+#: nothing about its heading relative to the body when that came from the shared field or its
+#: joint.
+RELIEVED_REASONS = doubt.MAG_REJECTED | doubt.MAG_MISSING | doubt.FIELD_MISMATCH | doubt.NO_MAGNETOMETER
+
+
+def relieved(reasons: np.ndarray, sources: np.ndarray) -> np.ndarray:
+    """``reasons`` (T,) without :data:`RELIEVED_REASONS` where ``sources`` (T,) is the shared
+    field or the joint."""
+    coupled = (sources == SOURCE_SHARED_FIELD) | (sources == SOURCE_JOINT)
+    return np.where(coupled, reasons & ~np.asarray(RELIEVED_REASONS, dtype=reasons.dtype), reasons)
 
 
 class AngleSmoother:

@@ -523,7 +523,7 @@ def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.Skel
                                                              fusion.rest_max_rate_rad_s, fusion.rest_time_s)
     joint_doubt = joint_reasons(model, t_pose, segments, {sid: (np.asarray(streams[sid].t_s), reasons[sid])
                                                          for sid in tracks},
-                                body_calibration, settings.fusion.max_gap_s)
+                                body_calibration, settings.fusion.max_gap_s, heading_source)
     joint_doubt = {joint: value | singular_reasons(model, joint, angles, shoulder_sequence)
                    for joint, value in joint_doubt.items() if any(c.startswith(joint + "_") for c in angles)}
     return PipelineOutput(result, t_pose, q_segments, angles, q_sensor, flags, source, reference, problems,
@@ -584,11 +584,15 @@ def singular_reasons(model: skeleton.SkeletonModel, joint: str, angles_deg: Mapp
 def joint_reasons(model: skeleton.SkeletonModel, t_pose: np.ndarray, segment_of_sensor: Mapping[str, str],
                   sensor_reasons: Mapping[str, tuple[np.ndarray, np.ndarray]],
                   body_calibration: bodycal.BodyCalibration | None,
-                  hold_s: float = HOLD_BACK_LIMIT_S) -> dict[str, np.ndarray]:
+                  hold_s: float = HOLD_BACK_LIMIT_S,
+                  heading_source: Mapping[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Joint → the reasons (T,) its angles at the pose instants ``t_pose`` may be wrong: its two
     sensors' (``sensor_reasons`` sensor → ``(t_s (N,), reasons (N,))``, at the instants by
     :func:`~mimucap.core.doubt.at_instants`, ``hold_s`` the longest a held orientation counts
-    as measured), and no body calibration or a poor one."""
+    as measured), and no body calibration or a poor one. A sensor whose heading at an instant
+    came from the field the body shares or from its joint (``heading_source`` sensor → (T,))
+    is not doubtful there for its own magnetometer's reasons
+    (:data:`~mimucap.core.heading_sources.RELIEVED_REASONS`)."""
     shared = np.zeros(len(t_pose), dtype=doubt.DOUBT_DTYPE)
     if body_calibration is None:
         shared |= doubt.NO_BODY_CALIBRATION
@@ -598,6 +602,9 @@ def joint_reasons(model: skeleton.SkeletonModel, t_pose: np.ndarray, segment_of_
         if body_calibration.quality.doubtful_sensors:
             shared |= doubt.BODY_CALIBRATION_DOUBTFUL
     at = {sid: doubt.at_instants(t_pose, t, values, hold_s) for sid, (t, values) in sensor_reasons.items()}
+    for sid, sources in (heading_source or {}).items():
+        if sid in at:
+            at[sid] = heading_sources.relieved(at[sid], sources)
     sensor_of_segment = {segment: sid for sid, segment in segment_of_sensor.items() if sid in at}
     return doubt.joint_reasons(model.joints, sensor_of_segment, at, shared)
 
@@ -644,17 +651,26 @@ class _Track:
     def __init__(self, capacity: int = TRACK_CAPACITY) -> None:
         self.t = np.empty(0)
         self.q = np.empty((0, 4))
+        self.mag_uT = np.empty((0, 3))
         self.capacity = capacity
 
-    def add(self, t: np.ndarray, q: np.ndarray) -> None:
-        t, q = finite_track(t, q)
+    def add(self, t: np.ndarray, q: np.ndarray, mag_uT: np.ndarray | None = None) -> None:
+        keep = np.isfinite(q).all(axis=1)
+        t, q = np.asarray(t)[keep], np.asarray(q)[keep]
+        mag = np.full((len(t), 3), np.nan) if mag_uT is None else np.asarray(mag_uT, dtype=np.float64)[keep]
         if not len(t):
             return
         if len(self.t) and t[0] <= self.t[-1]:
             keep = t > self.t[-1]
-            t, q = t[keep], q[keep]
+            t, q, mag = t[keep], q[keep], mag[keep]
         self.t = np.concatenate([self.t, t])[-self.capacity:]
         self.q = np.concatenate([self.q, q])[-self.capacity:]
+        self.mag_uT = np.concatenate([self.mag_uT, mag])[-self.capacity:]
+
+    def field_at(self, t_s: float) -> np.ndarray:
+        """The calibrated field (3,) of the latest sample at or before ``t_s`` (NaN when none)."""
+        index = int(np.searchsorted(self.t, t_s, side="right")) - 1
+        return self.mag_uT[index] if index >= 0 else np.full(3, np.nan)
 
     @property
     def newest_t(self) -> float:
@@ -714,6 +730,11 @@ class LivePipeline:
         self.doubts: dict[str, int] = {}
         self._tracks: dict[str, _Track] = {}
         self._last_pose_t = -np.inf
+        self._coupling: heading_sources.HeadingCoupling | None = None
+        self._coupling_key: tuple | None = None
+        #: sensor → where the newest pose's heading of that sensor came from
+        #: (:data:`~mimucap.core.heading_sources.SOURCE_NAMES`)
+        self.heading_sources: dict[str, int] = {}
 
     def chain(self, sensor_id: str) -> SensorChain:
         chain = self.chains.get(sensor_id)
@@ -754,7 +775,8 @@ class LivePipeline:
                 chain.onboard = True
                 onboard_at.append(index)
             elif block.gyr is not None:
-                inputs.append(ChainInput(chain, block.t_s, block.gyr, block.acc, calibrated[index]))
+                inputs.append(ChainInput(chain, block.t_s, block.gyr, block.acc,
+                                         calibrated[index] if self.settings.uses_magnetometers else None))
                 fused_at.append(index)
         orientation: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         for index in onboard_at:
@@ -780,7 +802,7 @@ class LivePipeline:
             start += n
         done = [r for r in results if r is not None]
         for item in done:
-            self._tracks.setdefault(item.sensor_id, _Track()).add(item.t_s, item.q_world_from_sensor)
+            self._tracks.setdefault(item.sensor_id, _Track()).add(item.t_s, item.q_world_from_sensor, item.mag_uT)
             if len(item.flags):
                 self.flags[item.sensor_id] = int(item.flags[-1])
                 self.doubts[item.sensor_id] = int(item.doubt[-1])
@@ -810,12 +832,34 @@ class LivePipeline:
             return None
         t_pose = float(ref_t[position])
         at = {sid: track.at(t_pose) for sid, track in tracks.items()}
+        at = self._coupled(t_pose, at, body_calibration, tracks)
         q_segments = segments_from_sensors(self.model, at, body_calibration, sensor_segments)
         if q_segments is None:
             return None
         self._last_pose_t = t_pose
         return t_pose, q_segments
 
+    def _coupled(self, t_pose: float, at: dict[str, np.ndarray], body_calibration: bodycal.BodyCalibration | None,
+                 tracks: Mapping[str, _Track]) -> dict[str, np.ndarray]:
+        """The pose's sensor orientations with their headings chosen as :func:`coupled_headings`
+        chooses them for the live result (one instant at a time, averaging over the past)."""
+        sensors = list(at)
+        key = (tuple(sensors), id(body_calibration), self.settings.heading)
+        if self._coupling is None or key != self._coupling_key:
+            self._coupling = heading_sources.coupling_for(self.model, body_calibration, sensors, self.settings.heading)
+            self._coupling_key = key
+        if not self._coupling.active:
+            self.heading_sources = {}
+            return at
+        q = np.stack([at[sid] for sid in sensors])
+        mag = np.stack([tracks[sid].field_at(t_pose) if self.chains.get(sid) is not None
+                        and self.chains[sid].mag_calibration is not None else np.full(3, np.nan) for sid in sensors])
+        corrected, sources = self._coupling.step(t_pose, q, mag)
+        self.heading_sources = {sid: int(sources[i]) for i, sid in enumerate(sensors)}
+        return {sid: corrected[i] for i, sid in enumerate(sensors)}
+
     def forget_poses(self) -> None:
-        """Allow the next pose to be any instant again (after a calibration changed)."""
+        """Allow the next pose to be any instant again (after a calibration changed); the
+        heading coupling starts its averages anew."""
         self._last_pose_t = -np.inf
+        self._coupling = None
