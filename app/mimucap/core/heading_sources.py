@@ -22,7 +22,7 @@ each source's relative error is averaged over :data:`DEFAULT_TIME_CONSTANT_S`: a
 with a first-order low-pass over the past (:class:`AngleSmoother`), reprocessed forwards and
 backwards (no lag).
 
-Modes (:data:`MODES`, the pipeline settings' ``heading``): :data:`MODE_COUPLED` (the above),
+Modes (:data:`~mimucap.core.heading_modes.MODES`, the pipeline settings' ``heading``): :data:`MODE_COUPLED` (the above),
 :data:`MODE_MAGNETOMETER` (each filter's heading as it is), :data:`MODE_NO_MAGNETOMETER` (the
 filters ignore every magnetometer; relative headings from the joints, the others from the
 gyroscopes: rooms where no magnetometer can be trusted).
@@ -39,7 +39,7 @@ import numpy as np
 
 from mimucap.core import bodycal, doubt, rotation, skeleton
 from mimucap.core.fusion.uniform_field import relative_azimuths
-from mimucap.core.heading_modes import MODE_COUPLED, MODE_LABELS, MODE_MAGNETOMETER, MODE_NO_MAGNETOMETER, MODES, check_mode
+from mimucap.core.heading_modes import MODE_COUPLED, MODE_MAGNETOMETER, check_mode
 from mimucap.core.joint_coupling import HINGE_JOINTS, hinge_heading_offset
 
 SOURCE_FILTER = 0
@@ -168,7 +168,7 @@ class HeadingCoupling:
     """The heading correction of a set of sensors (see the module docstring).
 
     ``sensors`` the sensor ids in a fixed order (rows of the arrays); ``hinges`` from
-    :func:`hinges`; ``mode`` one of :data:`MODES`. :meth:`step` corrects one instant (the live
+    :func:`hinges`; ``mode`` one of :data:`~mimucap.core.heading_modes.MODES`. :meth:`step` corrects one instant (the live
     view), :meth:`run` a whole series (causal, as :meth:`step` gives it, or both ways)."""
 
     def __init__(self, sensors: Sequence[str], hinge_list: Sequence[Hinge], mode: str = MODE_COUPLED,

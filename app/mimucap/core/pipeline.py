@@ -46,8 +46,21 @@ from typing import Any
 
 import numpy as np
 
-from mimucap.core import bodycal, doubt, heading_sources, rotation, skeleton
-from mimucap.core.fusion import DEFAULT_FUSION_PARAMS, FusionParams, FusionState, OrientationEKF, update_together
+from mimucap.core import (
+    bodycal,
+    doubt,
+    heading_modes,
+    heading_sources,
+    rotation,
+    skeleton,
+)
+from mimucap.core.fusion import (
+    DEFAULT_FUSION_PARAMS,
+    FusionParams,
+    FusionState,
+    OrientationEKF,
+    update_together,
+)
 from mimucap.core.magcal import MagCalibration
 from mimucap.core.samples import SensorSamples
 
@@ -70,30 +83,30 @@ class PipelineSettings:
     """Settings of the processing path that a recording stores so that it can be recomputed.
 
     ``fusion``: the orientation filter's parameters (units in their names); ``heading``: where
-    the sensors' headings come from (:data:`~mimucap.core.heading_sources.MODES`).
+    the sensors' headings come from (:data:`~mimucap.core.heading_modes.MODES`).
     """
 
     fusion: FusionParams = DEFAULT_FUSION_PARAMS
-    heading: str = heading_sources.MODE_COUPLED
+    heading: str = heading_modes.MODE_COUPLED
 
     def __post_init__(self) -> None:
-        heading_sources.check_mode(self.heading)
+        heading_modes.check_mode(self.heading)
 
     @property
     def uses_magnetometers(self) -> bool:
-        return self.heading != heading_sources.MODE_NO_MAGNETOMETER
+        return self.heading != heading_modes.MODE_NO_MAGNETOMETER
 
     def to_dict(self) -> dict[str, Any]:
         return {"fusion": asdict(self.fusion), "heading": self.heading}
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any] | None, origin: str = "pipeline settings") -> "PipelineSettings":
+    def from_dict(cls, data: Mapping[str, Any] | None, origin: str = "pipeline settings") -> PipelineSettings:
         """Inverse of :meth:`to_dict`; an unknown filter parameter name raises ``ValueError``."""
         if not data:
             return cls()
         try:
             fusion = FusionParams(**dict(data.get("fusion") or {}))
-            return cls(fusion=fusion, heading=str(data.get("heading", heading_sources.MODE_COUPLED)))
+            return cls(fusion=fusion, heading=str(data.get("heading", heading_modes.MODE_COUPLED)))
         except (TypeError, ValueError) as error:
             raise ValueError(f"{origin}: {error}") from None
 
@@ -452,7 +465,7 @@ class PipelineOutput:
     doubt: dict[str, np.ndarray] = field(default_factory=dict)
     joint_doubt: dict[str, np.ndarray] = field(default_factory=dict)
     heading_source: dict[str, np.ndarray] = field(default_factory=dict)
-    heading_mode: str = heading_sources.MODE_COUPLED
+    heading_mode: str = heading_modes.MODE_COUPLED
 
 
 def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.SkeletonModel, *,

@@ -129,7 +129,7 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
     one choice of body and magnetometer calibrations every consumer makes). The simulator's
     truth, when the session holds it, is never read. The phases its markers name as
     magnetometer calibration (:func:`off_body_windows`) make every joint angle there doubtful.
-    ``heading`` (:data:`~mimucap.core.heading_sources.MODES`) replaces the recorded settings'
+    ``heading`` (:data:`~mimucap.core.heading_modes.MODES`) replaces the recorded settings'
     heading mode when given."""
     check_result(result)
     recorded = recorded if recorded is not None else recorded_processing(session)
