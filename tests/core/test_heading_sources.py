@@ -12,7 +12,7 @@ from mimucap.core.fusion.uniform_field import relative_azimuths
 from mimucap.core.heading_sources import (
     SOURCE_HELD, SOURCE_JOINT, SOURCE_SHARED_FIELD, HeadingCoupling, Hinge, relieved, turned_about_vertical,
 )
-from mimucap.core.joint_coupling import hinge_heading_offset
+from mimucap.core.joint_coupling import hinge_errors, hinge_statistics
 
 RNG = np.random.default_rng(11)
 #: A segment standing upright (ISB: y up, z horizontal).
@@ -52,16 +52,20 @@ def test_too_few_agreeing_sensors_give_nothing():
     assert np.all(weight == 0)
 
 
-def test_the_hinge_axis_gives_the_distal_heading_error_whatever_the_flexion():
-    flexion = np.radians(np.linspace(0.0, 70.0, 8))
-    thigh = turned_about_vertical(rotation.multiply(UPRIGHT, rotation.from_axis_angle([1.0, 0.0, 0.0], 0.1)),
-                                  np.full(8, 0.4))
-    shank = rotation.multiply(thigh, rotation.from_axis_angle([0.0, 0.0, 1.0], -flexion))
-    offset, weight = hinge_heading_offset(thigh, turned_about_vertical(shank, np.radians(9.0)))
-    np.testing.assert_allclose(np.degrees(offset), 9.0, atol=1e-6)
-    assert np.all(weight > 0.9)
-    vertical_axis = rotation.identity()  # z axis pointing up
-    assert hinge_heading_offset(vertical_axis, vertical_axis)[1] < 1e-12
+def test_the_hinge_axis_tells_a_drift_about_the_vertical_from_an_error_about_the_segment():
+    count = 40
+    lean = np.radians(30.0) * np.sin(np.linspace(0.0, 6.0, count))  # a shank swinging in walking
+    thigh = turned_about_vertical(rotation.multiply(UPRIGHT, rotation.from_axis_angle([0.0, 0.0, 1.0], 0.5 * lean)),
+                                  np.full(count, 0.4))
+    shank = rotation.multiply(thigh, rotation.from_axis_angle([0.0, 0.0, 1.0], -np.abs(lean)))
+    drift, mounting = np.radians(6.0), np.radians(-9.0)
+    wrong = turned_about_vertical(rotation.multiply(shank, rotation.from_axis_angle([0.0, 1.0, 0.0], mounting)), drift)
+    epsilon, delta = hinge_errors(hinge_statistics(thigh, wrong).mean(axis=0))
+    corrected = turned_about_vertical(rotation.multiply(wrong, rotation.from_axis_angle([0.0, 1.0, 0.0], epsilon)),
+                                      delta)
+    assert np.degrees(rotation.angle_between(corrected, shank)).max() < 1.5  # to first order
+    upright = np.stack([UPRIGHT] * 3)
+    assert np.all(hinge_statistics(upright, np.full((3, 4), np.nan)) == 0)
 
 
 def walking_pair(count: int, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -19,7 +19,7 @@ and instant from the field checks:
 The body's heading as a whole stays that of the filters (the mean over the agreeing sensors).
 Heading errors of the filters change slowly (gyro bias, a field followed over seconds), so
 each source's relative error is averaged over :data:`DEFAULT_TIME_CONSTANT_S`: as seen live
-with a first-order low-pass over the past (:class:`AngleSmoother`), reprocessed forwards and
+with a first-order low-pass over the past (:class:`ExponentialAverage`), reprocessed forwards and
 backwards (no lag).
 
 Modes (:data:`~mimucap.core.heading_modes.MODES`, the pipeline settings' ``heading``): :data:`MODE_COUPLED` (the above),
@@ -40,7 +40,7 @@ import numpy as np
 from mimucap.core import bodycal, doubt, rotation, skeleton
 from mimucap.core.fusion.uniform_field import relative_azimuths
 from mimucap.core.heading_modes import MODE_COUPLED, MODE_MAGNETOMETER, check_mode
-from mimucap.core.joint_coupling import HINGE_JOINTS, hinge_heading_offset
+from mimucap.core.joint_coupling import HINGE_JOINTS, hinge_errors, hinge_statistics
 
 SOURCE_FILTER = 0
 SOURCE_SHARED_FIELD = 1
@@ -58,6 +58,10 @@ SOURCE_NAMES = {
 #: so that a knee's axial rotation within a cycle and the magnetometers' noise average out,
 #: yet short beside the gyroscope's drift.
 DEFAULT_TIME_CONSTANT_S = 2.0
+#: The hinge's errors are solved to first order (:func:`~mimucap.core.joint_coupling.hinge_errors`);
+#: a second pass on the corrected orientations (Gauss-Newton) removes what the first left of a
+#: large one (a drift of tens of degrees without a magnetometer).
+HINGE_ITERATIONS = 2
 #: A sensor whose share of agreeing field samples over the time constant falls below this
 #: counts as held on its gyroscope.
 AGREEING_SHARE = 0.5
@@ -76,53 +80,54 @@ def relieved(reasons: np.ndarray, sources: np.ndarray) -> np.ndarray:
     return np.where(coupled, reasons & ~np.asarray(RELIEVED_REASONS, dtype=reasons.dtype), reasons)
 
 
-class AngleSmoother:
-    """First-order low-pass of weighted angles (rad), one per channel, fed instant by instant.
+class ExponentialAverage:
+    """First-order low-pass over time of an array of values (any shape, real or complex), fed
+    instant by instant with the time constant ``time_constant_s`` (s); the first instant is
+    taken as it is."""
 
-    Angles are averaged as weighted unit vectors (no wrap-around), so a channel with weight 0
-    keeps its last average; ``share`` is the low-passed fraction of instants with weight > 0."""
-
-    def __init__(self, channels: int, time_constant_s: float = DEFAULT_TIME_CONSTANT_S) -> None:
+    def __init__(self, time_constant_s: float) -> None:
         self.time_constant_s = time_constant_s
-        self.vector = np.zeros(channels, dtype=np.complex128)
-        self.share = np.zeros(channels)
+        self.value: np.ndarray | None = None
         self.t_s: float | None = None
 
-    def step(self, t_s: float, angle_rad: np.ndarray, weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Feed one instant; returns the averaged angles (rad) and shares (channels,)."""
-        gain = 1.0 if self.t_s is None else -np.expm1(-max(t_s - self.t_s, 0.0) / self.time_constant_s)
+    def step(self, t_s: float, value: np.ndarray) -> np.ndarray:
+        if self.value is None or self.t_s is None:
+            self.value = np.array(value, copy=True)
+        else:
+            gain = -np.expm1(-max(t_s - self.t_s, 0.0) / self.time_constant_s)
+            self.value = self.value + gain * (value - self.value)
         self.t_s = t_s
-        self.vector += gain * (weight * np.exp(1j * angle_rad) - self.vector)
-        self.share += gain * ((weight > 0) - self.share)
-        return np.angle(self.vector), self.share.copy()
+        return self.value
 
 
-def smooth_series(t_s: np.ndarray, angle_rad: np.ndarray, weight: np.ndarray, time_constant_s: float,
-                  both_ways: bool) -> tuple[np.ndarray, np.ndarray]:
-    """:class:`AngleSmoother` over a whole series: ``t_s`` (T,), ``angle_rad``, ``weight`` (T, C);
-    returns averaged angles and shares (T, C). ``both_ways`` runs it again backwards over the
-    forward result (no lag: for the reprocessed result)."""
-    count = angle_rad.shape[1]
-    vectors = np.empty(angle_rad.shape, dtype=np.complex128)
-    shares = np.empty(angle_rad.shape)
-    smoother = AngleSmoother(count, time_constant_s)
-    inputs = weight * np.exp(1j * angle_rad)
-    present = (weight > 0).astype(np.float64)
+def exponential_average(t_s: np.ndarray, values: np.ndarray, time_constant_s: float, both_ways: bool) -> np.ndarray:
+    """:class:`ExponentialAverage` over a series ``values`` (T, ...) at ``t_s`` (T,) s; ``both_ways``
+    runs it again backwards over the forward result (no lag: for the reprocessed result)."""
+    out = np.empty_like(values)
+    if not len(t_s):
+        return out
     gains = -np.expm1(-np.diff(t_s, prepend=t_s[:1]).clip(0.0) / time_constant_s)
-    gains[:1] = 1.0
-    vector, share = smoother.vector, smoother.share
+    gains[0] = 1.0
+    value = values[0]
     for k in range(len(t_s)):
-        vector = vector + gains[k] * (inputs[k] - vector)
-        share = share + gains[k] * (present[k] - share)
-        vectors[k], shares[k] = vector, share
-    if both_ways and len(t_s):
-        gains_back = np.append(gains[1:], 1.0)
-        vector, share = vectors[-1].copy(), shares[-1].copy()
-        for k in range(len(t_s) - 1, -1, -1):
-            vector = vector + gains_back[k] * (vectors[k] - vector)
-            share = share + gains_back[k] * (shares[k] - share)
-            vectors[k], shares[k] = vector, share
-    return np.angle(vectors), shares
+        value = value + gains[k] * (values[k] - value)
+        out[k] = value
+    if both_ways:
+        for k in range(len(t_s) - 2, -1, -1):
+            out[k] = out[k + 1] + gains[k + 1] * (out[k] - out[k + 1])
+    return out
+
+
+def weighted_angles(angle_rad: np.ndarray, weight: np.ndarray) -> np.ndarray:
+    """Angles as weighted unit vectors (complex; averaging them has no wrap-around, and an
+    instant of weight 0 leaves the average's angle as it was), with the share of instants of
+    weight > 0 as a second, real channel: (..., 2) complex."""
+    return np.stack([weight * np.exp(1j * angle_rad), (weight > 0).astype(np.complex128)], axis=-1)
+
+
+def angles_and_shares(averaged: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of :func:`weighted_angles` after averaging: the angles (rad) and the shares."""
+    return np.angle(averaged[..., 0]), averaged[..., 1].real
 
 
 def turned_about_vertical(q_world_from_sensor: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
@@ -167,9 +172,10 @@ def hinges(model: skeleton.SkeletonModel, body_calibration: bodycal.BodyCalibrat
 class HeadingCoupling:
     """The heading correction of a set of sensors (see the module docstring).
 
-    ``sensors`` the sensor ids in a fixed order (rows of the arrays); ``hinges`` from
-    :func:`hinges`; ``mode`` one of :data:`~mimucap.core.heading_modes.MODES`. :meth:`step` corrects one instant (the live
-    view), :meth:`run` a whole series (causal, as :meth:`step` gives it, or both ways)."""
+    ``sensors`` the sensor ids in a fixed order (rows of the arrays); ``hinge_list`` from
+    :func:`hinges`; ``mode`` one of :data:`~mimucap.core.heading_modes.MODES`. :meth:`step`
+    corrects one instant (the live view), :meth:`run` a whole series (causal, as :meth:`step`
+    gives it, or both ways)."""
 
     def __init__(self, sensors: Sequence[str], hinge_list: Sequence[Hinge], mode: str = MODE_COUPLED,
                  time_constant_s: float = DEFAULT_TIME_CONSTANT_S) -> None:
@@ -178,40 +184,49 @@ class HeadingCoupling:
         self.hinges = [h for h in hinge_list if h.proximal_sensor in self.index and h.distal_sensor in self.index]
         self.mode = check_mode(mode)
         self.time_constant_s = time_constant_s
-        self._field = AngleSmoother(len(self.sensors), time_constant_s)
-        self._joint = AngleSmoother(len(self.hinges), time_constant_s)
+        self._field = ExponentialAverage(time_constant_s)
+        self._joint = [ExponentialAverage(time_constant_s) for _ in range(HINGE_ITERATIONS)]
 
     @property
     def active(self) -> bool:
         return self.mode != MODE_MAGNETOMETER and bool(self.sensors)
 
-    def _field_terms(self, q: np.ndarray, mag: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    def _field_terms(self, q: np.ndarray, mag: np.ndarray | None) -> np.ndarray:
+        """(..., S, 2) complex, :func:`weighted_angles` of each sensor's relative heading error."""
         if self.mode != MODE_COUPLED or mag is None:
             zeros = np.zeros(q.shape[:-1])
-            return zeros, zeros
-        return relative_azimuths(q, mag)
+            return weighted_angles(zeros, zeros)
+        if q.ndim == 2:
+            return weighted_angles(*relative_azimuths(q, mag))
+        terms = [relative_azimuths(q[k], mag[k]) for k in range(len(q))]
+        return weighted_angles(np.array([e for e, _ in terms]), np.array([w for _, w in terms]))
 
-    def _field_correction(self, q: np.ndarray, error: np.ndarray, share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _field_correction(self, q: np.ndarray, averaged: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.mode != MODE_COUPLED:
-            return q, np.full(q.shape[:-1], SOURCE_FILTER, dtype=np.uint8)
+            return q.copy(), np.full(q.shape[:-1], SOURCE_FILTER, dtype=np.uint8)
+        error, share = angles_and_shares(averaged)
         source = np.where(share >= AGREEING_SHARE, SOURCE_SHARED_FIELD, SOURCE_HELD).astype(np.uint8)
         return turned_about_vertical(q, -error), source
 
-    def _joint_terms(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        offsets = np.zeros(q.shape[:-2] + (len(self.hinges),))
-        weights = np.zeros_like(offsets)
-        for j, hinge in enumerate(self.hinges):
+    def _joint_terms(self, q: np.ndarray) -> np.ndarray:
+        """(..., H, 5): :func:`~mimucap.core.joint_coupling.hinge_statistics` of each hinge."""
+        terms = []
+        for hinge in self.hinges:
             proximal = rotation.multiply(q[..., self.index[hinge.proximal_sensor], :], hinge.q_sensor_from_proximal)
             distal = rotation.multiply(q[..., self.index[hinge.distal_sensor], :], hinge.q_sensor_from_distal)
-            offsets[..., j], weights[..., j] = hinge_heading_offset(proximal, distal)
-        return offsets, weights
+            terms.append(hinge_statistics(proximal, distal))
+        return np.stack(terms, axis=-2)
 
-    def _joint_correction(self, q: np.ndarray, offset: np.ndarray, source: np.ndarray) -> None:
+    def _joint_correction(self, q: np.ndarray, averaged: np.ndarray, source: np.ndarray) -> None:
         # hinges are in model order (parents first): a distal sensor corrected here is
         # already corrected when it is the proximal sensor of a later hinge
+        epsilon, delta = hinge_errors(averaged)
         for j, hinge in enumerate(self.hinges):
             row = self.index[hinge.distal_sensor]
-            q[..., row, :] = turned_about_vertical(q[..., row, :], -offset[..., j])
+            about_long_axis = rotation.multiply(hinge.q_sensor_from_distal, rotation.multiply(
+                rotation.from_axis_angle([0.0, 1.0, 0.0], epsilon[..., j]),
+                rotation.conjugate(hinge.q_sensor_from_distal)))
+            q[..., row, :] = turned_about_vertical(rotation.multiply(q[..., row, :], about_long_axis), delta[..., j])
             source[..., row] = SOURCE_JOINT
 
     def step(self, t_s: float, q_world_from_sensor: np.ndarray,
@@ -221,11 +236,10 @@ class HeadingCoupling:
         q = np.asarray(q_world_from_sensor, dtype=np.float64)
         if not self.active:
             return q, np.zeros(len(q), dtype=np.uint8)
-        error, share = self._field.step(t_s, *self._field_terms(q, mag_uT))
-        q, source = self._field_correction(q, error, share)
+        q, source = self._field_correction(q, self._field.step(t_s, self._field_terms(q, mag_uT)))
         if self.hinges:
-            offset, _share = self._joint.step(t_s, *self._joint_terms(q))
-            self._joint_correction(q, offset, source)
+            for average in self._joint:
+                self._joint_correction(q, average.step(t_s, self._joint_terms(q)), source)
         return q, source
 
     def run(self, t_s: np.ndarray, q_world_from_sensor: np.ndarray, mag_uT: np.ndarray | None,
@@ -236,18 +250,11 @@ class HeadingCoupling:
         q = np.asarray(q_world_from_sensor, dtype=np.float64)
         if not self.active or not len(t_s):
             return q, np.zeros(q.shape[:-1], dtype=np.uint8)
-        if self.mode == MODE_COUPLED and mag_uT is not None:
-            terms = [relative_azimuths(q[k], mag_uT[k]) for k in range(len(t_s))]
-            error, weight = np.array([e for e, _ in terms]), np.array([w for _, w in terms])
-        else:
-            error = weight = np.zeros(q.shape[:-1])
-        error, share = smooth_series(t_s, error, weight, self.time_constant_s, both_ways)
-        q, source = self._field_correction(q, error, share)
-        if self.hinges:
-            offset, weight = self._joint_terms(q)
-            offset, _share = smooth_series(t_s, offset, weight, self.time_constant_s, both_ways)
-            q = q.copy()
-            self._joint_correction(q, offset, source)
+        averaged = exponential_average(t_s, self._field_terms(q, mag_uT), self.time_constant_s, both_ways)
+        q, source = self._field_correction(q, averaged)
+        for _ in range(HINGE_ITERATIONS if self.hinges else 0):
+            averaged = exponential_average(t_s, self._joint_terms(q), self.time_constant_s, both_ways)
+            self._joint_correction(q, averaged, source)
         return q, source
 
 

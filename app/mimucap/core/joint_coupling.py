@@ -38,20 +38,43 @@ HINGE_JOINTS = ("knee",)
 HINGE_AXIS_SEGMENT = np.array([0.0, 0.0, 1.0])
 
 
-def hinge_heading_offset(q_world_from_proximal: np.ndarray,
-                         q_world_from_distal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distal segment's heading error relative to the proximal one, from the hinge axis.
+#: Weight (fraction of the instants' count) of the prior that the error lies in the segment's
+#: frame rather than about the vertical, which decides while the segment stands upright (both
+#: rotations are then one and the same).
+VERTICAL_RIDGE = 0.05
 
-    ``q_world_from_proximal``, ``q_world_from_distal`` (..., 4) segment orientations at the
-    same instants. Returns ``(offset_rad (...), weight (...))``: the angle (rad, counter-clockwise
-    seen from above) by which the distal axis is turned about the vertical from the proximal
-    one (the distal segment is corrected by turning it back by this angle), and the product of
-    the two axes' horizontal lengths (0 where the axis is vertical or an orientation missing)."""
-    proximal = rotation.rotate(q_world_from_proximal, HINGE_AXIS_SEGMENT)
-    distal = rotation.rotate(q_world_from_distal, HINGE_AXIS_SEGMENT)
-    cross = proximal[..., 0] * distal[..., 1] - proximal[..., 1] * distal[..., 0]
-    dot = proximal[..., 0] * distal[..., 0] + proximal[..., 1] * distal[..., 1]
-    weight = np.hypot(proximal[..., 0], proximal[..., 1]) * np.hypot(distal[..., 0], distal[..., 1])
-    finite = np.isfinite(weight) & np.isfinite(cross) & np.isfinite(dot)
-    offset = np.where(finite, np.arctan2(np.where(finite, cross, 0.0), np.where(finite, dot, 1.0)), 0.0)
-    return offset, np.where(finite, weight, 0.0)
+
+def hinge_statistics(q_world_from_proximal: np.ndarray, q_world_from_distal: np.ndarray) -> np.ndarray:
+    """What one instant says about the distal segment's errors, as sums to be averaged (..., 5).
+
+    The proximal segment's axis seen in the distal frame, ``a``, would be the distal z axis.
+    A distal orientation turned by ``-δ`` about the world's vertical and by ``-ε`` about its own
+    long axis (y) moves it, to first order, to ``a ≈ z + ε x + δ (v × z)`` with ``v`` the
+    world's up in the distal frame: ``a_x ≈ ε + δ v_y``, ``a_y ≈ −δ v_x``. The vertical and the
+    long axis differ only as far as the segment leans (``v_x``), which is what separates the
+    two: a drift of the filter's heading (about the vertical) from an error of the body
+    calibration (the sensor's heading in the N-pose, about the segment's axis). Returns
+    ``[1, v_y, v_x² + v_y², a_x, a_x v_y − a_y v_x]`` (zeros where an orientation is missing),
+    the terms of the least-squares normal equations of ``(ε, δ)``.
+    """
+    axis = rotation.rotate(q_world_from_proximal, HINGE_AXIS_SEGMENT)
+    a = rotation.rotate(rotation.conjugate(q_world_from_distal), axis)
+    v = rotation.rotate(rotation.conjugate(q_world_from_distal), np.array([0.0, 0.0, 1.0]))
+    out = np.stack([np.ones(a.shape[:-1]), v[..., 1], v[..., 0] ** 2 + v[..., 1] ** 2, a[..., 0],
+                    a[..., 0] * v[..., 1] - a[..., 1] * v[..., 0]], axis=-1)
+    return np.where(np.isfinite(out).all(axis=-1, keepdims=True), out, 0.0)
+
+
+def hinge_errors(statistics: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(ε, δ)`` rad (...) from averaged :func:`hinge_statistics` (..., 5): the distal segment is
+    corrected by turning it by ``ε`` about its own long axis and by ``δ`` about the vertical
+    (``Rz(δ) ⊗ q ⊗ Ry(ε)``). A small prior (:data:`VERTICAL_RIDGE`) keeps ``δ`` at zero where
+    the segment never leaned."""
+    s0, s1, s2, s3, s4 = np.moveaxis(statistics, -1, 0)
+    a11, a12, a22 = s0, s1, s2 + VERTICAL_RIDGE * s0
+    det = a11 * a22 - a12 * a12
+    safe = det > 1e-12
+    det = np.where(safe, det, 1.0)
+    epsilon = np.where(safe, (a22 * s3 - a12 * s4) / det, 0.0)
+    delta = np.where(safe, (a11 * s4 - a12 * s3) / det, 0.0)
+    return epsilon, delta
