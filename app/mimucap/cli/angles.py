@@ -10,7 +10,9 @@ q_sensor_from_segment`` at the reference sensor's instants, and the joint angles
 whose two segments have sensors; conventions: ISB Z-X'-Y'', left mirrored, zero in the
 calibrated N-pose). A session is reprocessed (filter smoothed with past and future data) unless
 ``--live`` asks for the forward filter as the live view ran it. A calibration whose verdict is
-poor is refused unless ``--accept-poor``. Each joint's ``<joint>_ok`` column says where its
+poor is refused unless ``--accept-poor``. ``--heading`` chooses where the sensors' headings
+come from (default: the calibration's mode, else the recording's setting: relative headings
+from the field the body shares and the knees' axes). Each joint's ``<joint>_ok`` column says where its
 angles are trustworthy (1) or doubtful (0); the header lists the doubtful spans and why.
 """
 
@@ -74,6 +76,8 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise ValueError(f"{args.calibration}: segment(s) {', '.join(unknown)} not in model {model.name}")
     result = RESULT_LIVE if args.live else RESULT_REPROCESSED
+    # a calibration made without magnetometers holds with the filters run without them
+    args.heading = args.heading or document.get("heading")
     trust = []
     if _is_session(args):
         output, record, markers, trust = _session_output(args, model, calibration, result)

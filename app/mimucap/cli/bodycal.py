@@ -14,6 +14,9 @@ sensor axis (OpenSense's ``base_heading_axis``) in the N-pose window (default: t
 sample). A calibration whose verdict is poor is written but the command exits with status 3,
 unless ``--accept-poor``; so is one made while a sensor's magnetometer calibration is not good
 (another device's, a local field that no longer fits it, too old: each named with its figures).
+``--heading no-magnetometer`` (rooms where no magnetometer can be trusted) runs the filters
+without magnetometers and takes the N-pose headings from their tracks; the calibration notes
+the mode, and ``mimucap angles`` applies it with the same mode.
 """
 
 from __future__ import annotations
@@ -146,7 +149,8 @@ def read_input(args: argparse.Namespace):
         _refuse_up_for_session(args)
         session = read_session(args.input)
         mags = magnetometer_calibrations(session, args.mag_calibration)
-        return orientation_table(session, str(args.input), mags.magnetometer), session, mags
+        heading = getattr(args, "heading", None)
+        return orientation_table(session, str(args.input), mags.magnetometer, heading), session, mags
     if args.mag_calibration:
         raise ValueError(f"{args.input}: --mag-calibration applies to MimuCap sessions (raw magnetometer "
                          "samples), not to orientation tables")
@@ -256,6 +260,7 @@ def register(subparsers) -> None:
     parser.add_argument("--accept-poor", action="store_true",
                         help="exit 0 even when the calibration's verdict is poor or a magnetometer calibration "
                              "is not good")
+    add_heading_option(parser)
     add_reader_options(parser)
     parser.add_argument("--out", required=True, metavar="CAL.json", help="calibration file to write")
     parser.add_argument("--json", action="store_true", help="print the calibration as JSON")
@@ -264,6 +269,7 @@ def register(subparsers) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from mimucap.core import bodycal
+    from mimucap.core.heading_modes import MODE_NO_MAGNETOMETER
     from mimucap.io.body_calibration_file import write_body_calibration
     from mimucap.io.quaternion_tables import axis_vector
 
@@ -295,7 +301,10 @@ def run(args: argparse.Namespace) -> int:
     if tpose is not None:
         if npose is None:
             raise ValueError("--tpose needs --npose T0:T1 as well")
-        static = {} if session is None else static_npose_orientations(session, mags.magnetometer, mapping, npose)
+        # without magnetometers the N-pose headings are the tracks' own (each filter's arbitrary
+        # start, the same the angles are computed with)
+        static = ({} if session is None or args.heading == MODE_NO_MAGNETOMETER
+                  else static_npose_orientations(session, mags.magnetometer, mapping, npose))
         calibration = bodycal.calibrate_npose_tpose(
             table.t_s, table.q_world_from_sensor, mapping, npose, tpose,
             up_world=table.up_world, arms=args.arms,
@@ -320,6 +329,8 @@ def run(args: argparse.Namespace) -> int:
     calibration = with_magnetometers(calibration, mags.magnetometer if session is not None else None,
                                      origin=f"mimucap bodycal of {args.input}")
     extra = {"model": model.name, "input": str(args.input), "world_frame": table.world_frame}
+    if args.heading is not None:
+        extra["heading"] = args.heading
     if mags.standings:
         extra["magnetometer_standing"] = {sid: standing.to_json() for sid, standing in mags.standings.items()}
     document = write_body_calibration(args.out, calibration, extra)
