@@ -11,8 +11,9 @@ and instant from the field checks:
    calibrated in and every filter rejects it. The sensor is turned back by its averaged relative
    error.
 2. **The joint** (:mod:`mimucap.core.joint_coupling`): the distal segment of a hinge (the
-   shank under the knee) takes its heading relative to the proximal one from the joint axis,
-   whatever its own field (the floor's gradient reaches the shanks first).
+   shank under the knee) takes its orientation about the vertical and about its own long axis
+   relative to the proximal one from the joint axis, whatever its own field (the floor's
+   gradient reaches the shanks first, in the N-pose too).
 3. **Its own filter** alone: a sensor whose field disagrees with the body's keeps the last
    relative correction its field gave, on its gyroscope.
 
@@ -22,10 +23,11 @@ each source's relative error is averaged over :data:`DEFAULT_TIME_CONSTANT_S`: a
 with a first-order low-pass over the past (:class:`ExponentialAverage`), reprocessed forwards and
 backwards (no lag).
 
-Modes (:data:`~mimucap.core.heading_modes.MODES`, the pipeline settings' ``heading``): :data:`MODE_COUPLED` (the above),
-:data:`MODE_MAGNETOMETER` (each filter's heading as it is), :data:`MODE_NO_MAGNETOMETER` (the
-filters ignore every magnetometer; relative headings from the joints, the others from the
-gyroscopes: rooms where no magnetometer can be trusted).
+Modes (:data:`~mimucap.core.heading_modes.MODES`, the pipeline settings' ``heading``):
+``coupled`` (the above), ``magnetometer`` (each filter's heading as it is), ``no-magnetometer``
+(the filters ignore every magnetometer; the knees' distal segments from their joints, the
+others from the gyroscopes: rooms where no magnetometer can be trusted; the body calibration is
+then made from the same magnetometer-free tracks, ``mimucap bodycal --heading no-magnetometer``).
 
 Per sensor and instant the source used is one of :data:`SOURCE_NAMES` (uint8 codes).
 """

@@ -1,29 +1,30 @@
-"""The heading offset between the two segments of an approximate hinge joint (the knee).
+"""The errors of the distal segment of an approximate hinge joint (the knee), from its axis.
 
 The flexion axis of a hinge is one line fixed in both segments: in this model's segment frames
 (ISB, :mod:`mimucap.core.skeleton`) it is each segment's z axis, which the body calibration
-makes parallel in the N-pose. Seen in the world frame through the two segments' orientations,
-the two axes coincide; when they do not, the difference in azimuth about the vertical is the
-heading error of one segment relative to the other, whatever its cause (a magnetometer
-disturbed near the floor, a gyroscope drifting with its magnetometer rejected, or no
-magnetometer at all). The joint therefore carries the relative heading from the thigh to the
-shank, and the magnetometer is needed only for the heading of the body as a whole (Laidig,
-Lehmann, Bégin, Seel 2017, "Exploiting kinematic constraints to compensate magnetometer
-disturbances when calculating joint angles of approximate hinge joints"; magnetometer-free
-lower-limb kinematics built on such constraints: Teufl, Miezal, Taetz, Fröhlich, Bleser 2018,
-"Validity, test-retest reliability and long-term stability of magnetometer free inertial sensor
-based 3D joint kinematics").
+makes parallel in the N-pose. Seen through the two segments' orientations the two axes
+coincide; where they do not, the distal segment's orientation is wrong, whatever the cause (a
+magnetometer disturbed near the floor, a gyroscope drifting with its magnetometer rejected, no
+magnetometer at all). The joint therefore carries the heading from the thigh to the shank, and
+the magnetometer is needed only for the heading of the body as a whole (Laidig, Lehmann, Bégin,
+Seel 2017, "Exploiting kinematic constraints to compensate magnetometer disturbances when
+calculating joint angles of approximate hinge joints"; magnetometer-free lower-limb kinematics
+built on such constraints: Teufl, Miezal, Taetz, Fröhlich, Bleser 2018, "Validity, test-retest
+reliability and long-term stability of magnetometer free inertial sensor based 3D joint
+kinematics").
 
-The azimuth difference is observable whenever the axis is not vertical (a knee axis is
-horizontal in walking and standing), and each instant's estimate is weighted by the product of
-the two axes' horizontal lengths. A real knee is only approximately a hinge: its axial rotation
-and varus/valgus enter the instant offset, so it is averaged over a few seconds
-(:class:`~mimucap.core.heading_sources.AngleSmoother`), which keeps their faster variation
-within a gait cycle and takes the slower offset as the heading error: an axial rotation held
-for longer than that, away from the body calibration's pose, is taken for a heading error too.
-Elbows are left out: the forearm's axis turns with pronation (a two-degree-of-freedom joint,
-Laidig, Weygers, Bachhuber, Seel 2019, "Magnetometer-free realtime inertial motion tracking by
-exploitation of kinematic constraints in 2-DoF joints"), which this hinge model does not hold.
+Two errors move the axis, and both are estimated: the filter's heading drift, a rotation about
+the world's vertical, and the body calibration's error, a rotation about the segment's own long
+axis (its sensor's heading in the N-pose, taken in a field of its own near the floor). They are
+one and the same while the segment stands upright, and told apart by how far it leans in
+walking (:func:`hinge_statistics`). A real knee is only approximately a hinge: its axial
+rotation and varus/valgus enter each instant, so the estimate is a least-squares fit over a
+few seconds (:mod:`mimucap.core.heading_sources` averages the normal equations), which keeps
+their faster variation within a gait cycle; an axial rotation held for longer than that, away
+from the body calibration's pose, is taken for an error. Elbows are left out: the forearm's
+axis turns with pronation (a two-degree-of-freedom joint: Laidig, Weygers, Bachhuber, Seel
+2019, "Magnetometer-free realtime inertial motion tracking by exploitation of kinematic
+constraints in 2-DoF joints"), which this hinge model does not hold.
 """
 
 from __future__ import annotations
