@@ -25,12 +25,11 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-
 from mimucap.cli import main
 from mimucap.core import phases
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
-from mimucap.session.evaluation import angle_errors
+from mimucap.session.evaluation import rms_over_spans
 
 COLUMNS = tuple(f"{joint}_{side}_{axis}_deg" for joint in ("hip", "knee") for side in ("l", "r")
                 for axis in ("flexion", "adduction", "rotation"))
@@ -78,13 +77,10 @@ def run_route(folder: Path, seed: int, duration_s: float, room: str, disturbance
             extra = extra + ["--heading", heading]
         assert main(["angles", str(session), "--calibration", str(calibration), "--out", str(out)] + extra) == 0
         table = read_angles_csv(out)
-        squared = {column: [] for column in COLUMNS}
-        for start, stop in phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1])):
-            errors = angle_errors(table.t_s, table.angles_deg, recorded.truth.t_s, recorded.truth.joint_angles_deg,
-                                  span_s=(start + 1.0, stop))
-            for column in COLUMNS:
-                squared[column].append((errors[column].rms_deg ** 2, errors[column].samples))
-        results[kind] = {c: float(np.sqrt(sum(s * n for s, n in v) / sum(n for _, n in v))) for c, v in squared.items()}
+        spans = [(start + 1.0, stop) for start, stop in phases.phase_windows(recorded.markers, phases.WALK,
+                                                                             float(table.t_s[-1]))]
+        results[kind] = rms_over_spans(table.t_s, table.angles_deg, recorded.truth.t_s,
+                                       recorded.truth.joint_angles_deg, spans, COLUMNS)
     return results
 
 

@@ -5,14 +5,12 @@ it). The seeds are others than those the settings were looked at with (3 and 5).
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
-
 from mimucap.cli import main
 from mimucap.core import phases
 from mimucap.io.angles_export import read_angles_csv
 from mimucap.io.session import read_session
-from mimucap.session.evaluation import angle_errors
+from mimucap.session.evaluation import rms_over_spans
 
 COLUMNS = tuple(f"{joint}_{side}_{axis}_deg" for joint in ("hip", "knee") for side in ("l", "r")
                 for axis in ("flexion", "adduction", "rotation"))
@@ -22,13 +20,10 @@ UNIFORM_DISTURBANCE = "30,-20,10,34,90"
 def walking_rms(session, table) -> dict[str, float]:
     """RMS error (deg) per knee and hip column over the walking phases (1 s after each start)."""
     recorded = read_session(session)
-    squared = {column: [] for column in COLUMNS}
-    for start, stop in phases.phase_windows(recorded.markers, phases.WALK, float(table.t_s[-1])):
-        errors = angle_errors(table.t_s, table.angles_deg, recorded.truth.t_s, recorded.truth.joint_angles_deg,
-                              span_s=(start + 1.0, stop))
-        for column in COLUMNS:
-            squared[column].append((errors[column].rms_deg ** 2, errors[column].samples))
-    return {c: float(np.sqrt(sum(s * n for s, n in v) / sum(n for _, n in v))) for c, v in squared.items()}
+    spans = [(start + 1.0, stop) for start, stop in phases.phase_windows(recorded.markers, phases.WALK,
+                                                                         float(table.t_s[-1]))]
+    return rms_over_spans(table.t_s, table.angles_deg, recorded.truth.t_s, recorded.truth.joint_angles_deg, spans,
+                          COLUMNS)
 
 
 @pytest.fixture(scope="module", params=[("uniform", 7), ("clinic", 8)], ids=["uniform-seed7", "clinic-seed8"])
@@ -63,13 +58,17 @@ def test_knee_angles_hold_in_a_disturbed_field(disturbed_route, kind, flexion_de
             assert value <= limit, f"{condition} {kind}: {column} {value:.1f}° RMS (≤ {limit}° asked)"
 
 
-def test_the_uniform_disturbance_is_met_on_every_hip_column_too(disturbed_route):
+def test_the_hip_columns_hold_too(disturbed_route):
+    """Every hip column meets the issue's limits in the uniform disturbance; in the clinic room
+    the hip rotation is weaker (the field at the thighs is turned a few degrees from the
+    pelvis' without a change of magnitude or dip a check could see, also in the N-pose)."""
     condition, results = disturbed_route
-    if condition != "uniform":
-        pytest.skip("the clinic room's hip rotation is still weaker than asked (README)")
     for kind, other_deg in (("reprocessed", 4.0), ("live", 6.0)):
         rms, _header = results[kind]
-        assert max(rms.values()) <= other_deg, f"{kind}: {rms}"
+        for column, value in rms.items():
+            if column.startswith("hip"):
+                limit = 8.0 if condition == "clinic" and column.endswith("rotation_deg") else other_deg
+                assert value <= limit, f"{condition} {kind}: {column} {value:.1f}° RMS (≤ {limit}°)"
 
 
 def test_the_coupling_beats_each_sensor_on_its_own_magnetometer(disturbed_route):

@@ -53,6 +53,20 @@ def angle_errors(t_s: np.ndarray, angles_deg: Mapping[str, np.ndarray], truth_t_
     return errors
 
 
+def rms_over_spans(t_s: np.ndarray, angles_deg: Mapping[str, np.ndarray], truth_t_s: np.ndarray,
+                   truth_deg: Mapping[str, np.ndarray], spans_s, columns) -> dict[str, float]:
+    """RMS error (deg) of each of ``columns`` over all the time spans ``spans_s`` (``(start, end)``
+    s pairs) together, each span's samples counted alike (:func:`angle_errors` per span)."""
+    squared: dict[str, list[tuple[float, int]]] = {column: [] for column in columns}
+    for span in spans_s:
+        errors = angle_errors(t_s, angles_deg, truth_t_s, truth_deg, span_s=span)
+        for column in columns:
+            if column in errors:
+                squared[column].append((errors[column].rms_deg ** 2, errors[column].samples))
+    return {column: float(np.sqrt(sum(s * n for s, n in parts) / sum(n for _, n in parts)))
+            for column, parts in squared.items() if parts}
+
+
 #: The joint angles the on-screen accuracy check and the benchmark sum up.
 FLEXION_COLUMNS = ("hip_l_flexion_deg", "hip_r_flexion_deg", "knee_l_flexion_deg", "knee_r_flexion_deg",
                    "elbow_l_flexion_deg", "elbow_r_flexion_deg")
