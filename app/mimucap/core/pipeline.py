@@ -821,6 +821,14 @@ class LivePipeline:
                 self.doubts[item.sensor_id] = int(item.doubt[-1])
         return done
 
+    def doubt_of(self, sensor_id: str) -> int:
+        """The reasons (:mod:`mimucap.core.doubt`) the sensor's newest orientation may be wrong,
+        less its own magnetometer's where the newest pose took its heading from the field the
+        body shares or its joint (:func:`~mimucap.core.heading_sources.relieved`)."""
+        reasons = np.array([self.doubts.get(sensor_id, 0)], dtype=doubt.DOUBT_DTYPE)
+        source = np.array([self.heading_sources.get(sensor_id, heading_sources.SOURCE_FILTER)], dtype=np.uint8)
+        return int(heading_sources.relieved(reasons, source)[0])
+
     def latest_orientations(self) -> dict[str, np.ndarray]:
         """Sensor → its newest ``q_world_from_sensor`` (4,) (sensors with one only)."""
         return {sid: track.q[-1] for sid, track in self._tracks.items() if len(track.t)}

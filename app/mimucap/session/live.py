@@ -777,7 +777,7 @@ class LiveSession:
             if chain is not None and chain.ekf is not None:
                 value = self.pipeline.flags.get(sid, 0)
                 flags = tuple(label for key, label in FLAG_LABELS.items() if value & FLAG_NAMES[key])
-            why = doubt.describe(self.pipeline.doubts.get(sid, 0)) if chain is not None else ""
+            why = doubt.describe(self.pipeline.doubt_of(sid)) if chain is not None else ""
             if stale:
                 tint = "stale"
             elif mag_cal == "not calibrated":
