@@ -88,7 +88,8 @@ from mimucap.core.pipeline.chain import SensorOrientations
 from mimucap.core.pipeline.live import LivePipeline
 from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
 from mimucap.core.pipeline.segments import one_sensor_per_segment
-from mimucap.core.pipeline.settings import PipelineSettings
+from mimucap.core.pipeline.settings import RESULT_LIVE, PipelineSettings
+from mimucap.core.heading_sources import heading_coupling
 
 #: A sensor whose last sample arrived longer ago than this (s) is flagged stale.
 STALE_AFTER_S = 1.0
@@ -289,7 +290,7 @@ class LiveSession:
                                    "pose_source", "assignment", "calibration", "recording", "marker",
                                    "recording_failed", "truth_available", "status", "checklist", "recording_progress",
                                    "source_problem", "refused", "unpaired", "truth_errors")
-        self.pipeline = LivePipeline(self.model, settings)
+        self.pipeline = LivePipeline(self.model, settings, heading_coupling(settings, RESULT_LIVE))
         self.calibration_store = calibration_store
         #: the paired suit the network sources let in (:func:`open_live_session` sets it; the
         #: source must be opened again for a device paired meanwhile to be let in)
@@ -787,7 +788,7 @@ class LiveSession:
             if chain is not None and chain.ekf is not None:
                 value = self.pipeline.flags.get(sid, 0)
                 flags = tuple(label for key, label in FLAG_LABELS.items() if value & FLAG_NAMES[key])
-            why = doubt_reasons.describe(self.pipeline.doubts.get(sid, 0)) if chain is not None else ""
+            why = doubt_reasons.describe(self.pipeline.doubt_of(sid)) if chain is not None else ""
             if stale:
                 tint = "stale"
             elif mag_cal == "not calibrated":

@@ -16,12 +16,13 @@ and the command line all go through :func:`process_session`.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from mimucap import __version__
 from mimucap.core import bodycal, skeleton, phase_markers
 from mimucap.core.fusion import FusionState
+from mimucap.core.heading_sources import heading_coupling
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.recording import PipelineOutput, process_recording
 from mimucap.core.pipeline.settings import RESULT_REPROCESSED, PipelineSettings, check_result, state_from_dict
@@ -110,12 +111,14 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
                     calibrations: AppliedCalibrations | None = None,
                     recorded: RecordedProcessing | None = None,
                     model: skeleton.SkeletonModel | None = None,
-                    shoulder_sequence: str = "zxy") -> PipelineOutput:
+                    shoulder_sequence: str = "zxy", heading: str | None = None) -> PipelineOutput:
     """Either result of ``session`` through the processing path, with ``calibrations``
     (:func:`mimucap.session.calibrations.applied_calibrations` of the session when None: the
     one choice of body and magnetometer calibrations every consumer makes). The simulator's
     truth, when the session holds it, is never read. The phases its markers name as
-    magnetometer calibration (:func:`off_body_windows`) make every joint angle there doubtful."""
+    magnetometer calibration (:func:`off_body_windows`) make every joint angle there doubtful.
+    ``heading`` (:data:`~mimucap.core.heading_modes.MODES`) replaces the recorded settings'
+    heading mode when given."""
     check_result(result)
     recorded = recorded if recorded is not None else recorded_processing(session)
     if calibrations is None:
@@ -125,11 +128,13 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
         model = session_model(session)[0]
     if body is not None:
         check_body_calibration_fits(body, model)
+    settings = recorded.settings if heading is None else replace(recorded.settings, heading=heading)
     return process_recording(
         session.sensors, model, result=result, mag_calibrations=calibrations.magnetometer, body_calibration=body,
-        sensor_segments=recorded.sensor_segments, settings=recorded.settings,
+        sensor_segments=recorded.sensor_segments, settings=settings,
         initial_states=recorded.initial_states, time_offset_s=recorded.time_offset_s,
-        shoulder_sequence=shoulder_sequence, off_body_s=off_body_windows(session))
+        shoulder_sequence=shoulder_sequence, off_body_s=off_body_windows(session),
+        coupling=heading_coupling(settings, result))
 
 
 def off_body_windows(session: Session) -> list[tuple[float, float]]:
