@@ -137,3 +137,27 @@ def test_a_coupled_sensor_is_not_doubtful_for_its_magnetometer_alone():
 def test_an_unknown_mode_is_refused():
     with pytest.raises(ValueError, match="heading mode"):
         coupling_of_pair("compass")
+
+
+def test_sensors_off_the_body_say_nothing_of_the_hinge_and_the_correction_fades_in():
+    """Thigh and shank sensors held together off the body (their magnetometers calibrated), then
+    strapped on and walking with the shank's heading 3° off (its own magnetometer): no instant
+    of the first part counts, and the shank is never turned further from the truth than its
+    magnetometer left it, nor by a jump, where the hinge's evidence begins."""
+    t = np.arange(0.0, 20.0, 0.01)
+    thigh, shank = walking_pair(len(t), t)
+    off = t < 8.0
+    held = rotation.multiply(thigh[off], rotation.from_axis_angle([1.0, 0.0, 0.0], np.radians(100.0)))
+    shank_true = shank.copy()
+    shank_true[off] = held
+    measured = turned_about_vertical(shank_true, np.full(len(t), np.radians(3.0)))
+    q = np.stack([thigh, measured], axis=1)
+    for both_ways in (True, False):
+        corrected, source = coupling_of_pair().run(t, q, None, both_ways)
+        error = np.degrees(rotation.angle_between(corrected[:, 1], shank_true))
+        on = ~off
+        assert error[on].max() <= 3.0 + 1e-6, both_ways
+        assert error[t > 12.0].max() < 0.5, both_ways
+        turn = np.degrees(rotation.angle_between(corrected[:, 1], measured))
+        assert np.abs(np.diff(turn)).max() < 0.2, both_ways  # fades in, never jumps
+        assert np.all(source[t < 7.0, 1] != SOURCE_JOINT) and np.all(source[t > 12.0, 1] == SOURCE_JOINT)

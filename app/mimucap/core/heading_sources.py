@@ -13,7 +13,9 @@ sensor's heading relative to the body's, choosing per sensor and instant from th
 2. **The joint** (:mod:`mimucap.core.joint_coupling`): the distal segment of a hinge (the
    shank under the knee) takes its orientation about the vertical and about its own long axis
    relative to the proximal one from the joint axis, whatever its own field (the floor's
-   gradient reaches the shanks first, in the N-pose too).
+   gradient reaches the shanks first, in the N-pose too). Only the instants that hold the hinge
+   count, and the correction fades in with their share (:data:`HINGE_EVIDENCE_SHARE`): where
+   the sensors were off the body it is the filter's heading, with no jump where they come on.
 3. **Its own filter** alone: a sensor whose field disagrees with the body's keeps the last
    relative correction its field gave, on its gyroscope.
 
@@ -71,6 +73,10 @@ HINGE_ITERATIONS = 2
 #: A sensor whose share of agreeing field samples over the time constant falls below this
 #: counts as held on its gyroscope.
 AGREEING_SHARE = 0.5
+#: The share of the averaged instants that held a hinge
+#: (:data:`~mimucap.core.joint_coupling.HINGE_RESIDUAL_LIMIT_DEG`) from which its distal
+#: segment is corrected in full; below it the correction fades out in proportion.
+HINGE_EVIDENCE_SHARE = 0.5
 
 
 #: Reasons for doubt (:mod:`~mimucap.core.pipeline.doubt_reasons`) about a sensor's own magnetometer, which say
@@ -243,13 +249,18 @@ class HeadingCoupling:
         # hinges are in model order (parents first): a distal sensor corrected here is
         # already corrected when it is the proximal sensor of a later hinge
         epsilon, delta = hinge_errors(averaged)
+        # the correction fades in with the share of the averaged instants that held the hinge,
+        # so that it never jumps where the evidence begins or ends (sensors strapped on after
+        # their magnetometer calibration)
+        evidence = np.clip(averaged[..., 0].real / HINGE_EVIDENCE_SHARE, 0.0, 1.0)
+        epsilon, delta = epsilon * evidence, delta * evidence
         for j, hinge in enumerate(self.hinges):
             row = self.index[hinge.distal_sensor]
             about_long_axis = rotation.multiply(hinge.q_sensor_from_distal, rotation.multiply(
                 rotation.from_axis_angle([0.0, 1.0, 0.0], epsilon[..., j]),
                 rotation.conjugate(hinge.q_sensor_from_distal)))
             q[..., row, :] = turned_about_vertical(rotation.multiply(q[..., row, :], about_long_axis), delta[..., j])
-            source[..., row] = SOURCE_JOINT
+            source[..., row] = np.where(evidence[..., j] >= 1.0, SOURCE_JOINT, source[..., row])
 
     def step(self, t_s: float, q_world_from_sensor: np.ndarray,
              mag_uT: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:

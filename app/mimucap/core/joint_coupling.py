@@ -43,6 +43,11 @@ HINGE_AXIS_SEGMENT = np.array([0.0, 0.0, 1.0])
 #: frame rather than about the vertical, which decides while the segment stands upright (both
 #: rotations are then one and the same).
 VERTICAL_RIDGE = 0.05
+#: An instant whose proximal axis lies further than this from the distal one (deg) says nothing
+#: about a hinge: the sensors are off the body (held together while their magnetometers are
+#: calibrated) or have slipped. A knee's varus/valgus and axial rotation and the heading errors
+#: the coupling corrects stay well within it while the sensors are on the body.
+HINGE_RESIDUAL_LIMIT_DEG = 30.0
 
 
 def hinge_statistics(q_world_from_proximal: np.ndarray, q_world_from_distal: np.ndarray) -> np.ndarray:
@@ -55,15 +60,18 @@ def hinge_statistics(q_world_from_proximal: np.ndarray, q_world_from_distal: np.
     long axis differ only as far as the segment leans (``v_x``), which is what separates the
     two: a drift of the filter's heading (about the vertical) from an error of the body
     calibration (the sensor's heading in the N-pose, about the segment's axis). Returns
-    ``[1, v_y, v_x² + v_y², a_x, a_x v_y − a_y v_x]`` (zeros where an orientation is missing),
-    the terms of the least-squares normal equations of ``(ε, δ)``.
+    ``[1, v_y, v_x² + v_y², a_x, a_x v_y − a_y v_x]``, the terms of the least-squares normal
+    equations of ``(ε, δ)``; zeros where an orientation is missing or ``a`` lies further than
+    :data:`HINGE_RESIDUAL_LIMIT_DEG` from ``z`` (no hinge there), so that the first term,
+    averaged, is the share of the instants that held the hinge.
     """
     axis = rotation.rotate(q_world_from_proximal, HINGE_AXIS_SEGMENT)
     a = rotation.rotate(rotation.conjugate(q_world_from_distal), axis)
     v = rotation.rotate(rotation.conjugate(q_world_from_distal), np.array([0.0, 0.0, 1.0]))
     out = np.stack([np.ones(a.shape[:-1]), v[..., 1], v[..., 0] ** 2 + v[..., 1] ** 2, a[..., 0],
                     a[..., 0] * v[..., 1] - a[..., 1] * v[..., 0]], axis=-1)
-    return np.where(np.isfinite(out).all(axis=-1, keepdims=True), out, 0.0)
+    hinge = np.isfinite(out).all(axis=-1) & (a[..., 2] > np.cos(np.radians(HINGE_RESIDUAL_LIMIT_DEG)))
+    return np.where(hinge[..., None], out, 0.0)
 
 
 def hinge_errors(statistics: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
