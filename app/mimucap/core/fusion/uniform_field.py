@@ -15,7 +15,7 @@ its field lie within :data:`AGREEMENT_FRACTION` of the field's magnitude from th
 over the sensors (both are independent of heading, so a sensor whose heading drifted still
 agrees). The azimuth of an agreeing sensor's horizontal field, minus the circular mean of the
 agreeing sensors' azimuths, is that sensor's heading error relative to the body; averaged over
-a few seconds (:class:`~mimucap.core.heading_sources.AngleSmoother`, weighted by the horizontal
+a few seconds (:class:`~mimucap.core.heading_sources.ExponentialAverage`, weighted by the horizontal
 field) it is removed from the sensor's heading. The body's own heading stays the filters'
 mean: a field turned about the vertical without a change of magnitude or dip is invisible to
 any magnetometer check.
