@@ -5,6 +5,8 @@ it). The seeds are others than those the settings were looked at with (3 and 5).
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from mimucap.cli import main
@@ -83,6 +85,9 @@ def test_the_file_says_where_the_headings_came_from(disturbed_route):
     _condition, results = disturbed_route
     header = "\n".join(results["reprocessed"][1])
     assert "Headings: relative headings from the field the body shares" in header
-    assert "joint 100 %" in header  # the shanks, through their knees
+    # the shanks, through their knees, from when they were strapped on (the first 26 s of the
+    # demo turn the sensors off the body for their magnetometer calibration: no hinge there)
+    joint_shares = [int(share) for share in re.findall(r"joint (\d+) %", header)]
+    assert len(joint_shares) == 2 and min(joint_shares) >= 65, joint_shares
     single = "\n".join(results["reprocessed-magnetometer"][1])
     assert "each sensor's heading from its own magnetometer" in single
