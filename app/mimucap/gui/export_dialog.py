@@ -371,7 +371,10 @@ class ExportDialog(QtWidgets.QDialog):
         a caption saying what the result holds."""
         rows = self.summary_rows()
         lines = self.data.provenance.lines()
-        height = 90 + 24 * len(rows) + 18 * len(lines)
+        # a long line (the headings' sources of a full suit) is wrapped rather than widening
+        # the chart, which the exporter would then scale down to the width asked
+        drawn = [part for line in lines for part in (textwrap.wrap(line, CAPTION_WRAP_CHARS) or [""])]
+        height = 90 + 24 * len(rows) + 18 * len(drawn)
         chart, plot, caption = self._summary_chart()
         plot.clear()
         chart.resize(width, height)
@@ -386,7 +389,8 @@ class ExportDialog(QtWidgets.QDialog):
         a, b = self.time_range()
         plot.setTitle(f"{self.data.path.name}: {a:.2f}–{b:.2f} s")
         plot.setYRange(-0.8, len(rows) - 0.2, padding=0)
-        caption.setText("<br>".join(html.escape(line) for line in lines))
+        caption.setText("<br>".join(html.escape(line) for line in drawn))
+        self._caption_lines = lines
         chart.show()
         QtWidgets.QApplication.processEvents()
         exporter = pg.exporters.ImageExporter(chart.ci)
@@ -401,4 +405,4 @@ class ExportDialog(QtWidgets.QDialog):
     @property
     def summary_caption(self) -> str:
         """The caption of the last summary chart (plain text lines)."""
-        return "" if self._chart is None else html.unescape(self._chart[2].text.replace("<br>", "\n"))
+        return "\n".join(getattr(self, "_caption_lines", []))
