@@ -14,6 +14,7 @@ from __future__ import annotations
 import html
 import logging
 import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +36,8 @@ from mimucap.session.provenance import WITHOUT_BODY_CALIBRATION
 from mimucap.session.review import ReviewData
 
 log = logging.getLogger(__name__)
+#: Characters per line of the summary chart's caption.
+CAPTION_WRAP_CHARS = 150
 
 
 class ExportDialog(QtWidgets.QDialog):
@@ -47,6 +50,8 @@ class ExportDialog(QtWidgets.QDialog):
         self.data = data
         self.result: ExportResult | None = None
         self._chart: tuple | None = None  # drawn off screen for the summary PNG
+        #: the provenance lines of the last summary chart's caption (before wrapping)
+        self._caption_lines: list[str] = []
         self._task: BackgroundTask | None = None
         self._range_valid = False  # the chosen range holds poses (set by update_summary)
 
@@ -405,4 +410,4 @@ class ExportDialog(QtWidgets.QDialog):
     @property
     def summary_caption(self) -> str:
         """The caption of the last summary chart (plain text lines)."""
-        return "\n".join(getattr(self, "_caption_lines", []))
+        return "\n".join(self._caption_lines)
