@@ -87,7 +87,8 @@ def test_the_file_says_where_the_headings_came_from(disturbed_route):
     assert "Headings: relative headings from the field the body shares" in header
     # the shanks, through their knees, from when they were strapped on (the first 26 s of the
     # demo turn the sensors off the body for their magnetometer calibration: no hinge there)
-    joint_shares = [int(share) for share in re.findall(r"joint (\d+) %", header)]
-    assert len(joint_shares) == 2 and min(joint_shares) >= 65, joint_shares
+    coupled = re.findall(r"; ([^;:]+): [^;]*joint (\d+) %", header)
+    assert sorted(s.strip() for sensors, _share in coupled for s in sensors.split(",")) == ["S09", "S10"], coupled
+    assert min(int(share) for _sensors, share in coupled) >= 65, coupled
     single = "\n".join(results["reprocessed-magnetometer"][1])
     assert "each sensor's heading from its own magnetometer" in single

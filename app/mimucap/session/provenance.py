@@ -141,14 +141,16 @@ def _body(calibrations: AppliedCalibrations) -> str:
 def heading_lines(mode: str, sources: Mapping[str, Any]) -> tuple[str, ...]:
     """Where the headings came from: the mode in words, then per sensor the share of the pose
     instants of each source (``sources`` sensor → (T,) codes of
-    :data:`~mimucap.core.heading_sources.SOURCE_NAMES`), e.g. ``"S09: joint 100 %"``."""
+    :data:`~mimucap.core.heading_sources.SOURCE_NAMES`), sensors with the same shares together,
+    e.g. ``"S09, S10: joint 100 %"``."""
     from mimucap.core.heading_modes import MODE_LABELS
     from mimucap.core.heading_sources import source_summary
 
-    lines = [MODE_LABELS.get(mode, mode)]
+    # sensors whose shares read alike are named together, so that a suit's line stays short
+    groups: dict[str, list[str]] = {}
     for sensor, shares in source_summary(sources).items():
-        lines.append(f"{sensor}: " + ", ".join(f"{name} {100.0 * share:.0f} %" for name, share in shares.items()))
-    return tuple(lines)
+        groups.setdefault(", ".join(f"{name} {100.0 * share:.0f} %" for name, share in shares.items()), []).append(sensor)
+    return (MODE_LABELS.get(mode, mode),) + tuple(f"{', '.join(sensors)}: {text}" for text, sensors in groups.items())
 
 
 def provenance(*, source_file: str, result: str, calibrations: AppliedCalibrations, model: SkeletonModel,
