@@ -13,8 +13,8 @@ the units at hand height: ``magcal fit`` calibrates in the field there. The room
 turned units is printed.
 
 Run: ``.venv/bin/python bench/bench_room_route.py [--rooms clean,clinic,treadmill] [--seed 3]
-[--duration 90] [--no-disturbance]``. Prints, per room, the field deviation the units saw and
-a table of RMS errors (deg) per column, reprocessed and live.
+[--duration 90] [--no-disturbance] [--heading coupled|magnetometer|no-magnetometer]``. Prints,
+per room, the field deviation the units saw and a table of RMS errors (deg) per column, reprocessed and live.
 """
 
 from __future__ import annotations
@@ -57,7 +57,8 @@ def field_summary(session_path: Path) -> str:
     return "\n    ".join(parts)
 
 
-def run_route(folder: Path, seed: int, duration_s: float, room: str, disturbance: str | None) -> dict:
+def run_route(folder: Path, seed: int, duration_s: float, room: str, disturbance: str | None,
+              heading: str | None = None) -> dict:
     """Simulate, calibrate and compute the angles; RMS error per column, reprocessed and live."""
     session = folder / "demo.h5"
     os.environ["MIMUCAP_DATA_DIR"] = str(folder / "data")
@@ -73,6 +74,8 @@ def run_route(folder: Path, seed: int, duration_s: float, room: str, disturbance
     results = {"fields": field_summary(session)}
     for kind, extra in (("reprocessed", []), ("live", ["--live"])):
         out = folder / f"angles_{kind}.csv"
+        if heading:
+            extra = extra + ["--heading", heading]
         assert main(["angles", str(session), "--calibration", str(calibration), "--out", str(out)] + extra) == 0
         table = read_angles_csv(out)
         walks = [(start + 1.0, stop) for start, stop in phase_markers.phase_windows(recorded.markers, phase_markers.WALK,
@@ -88,6 +91,7 @@ def main_bench() -> None:
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--duration", type=float, default=90.0)
     parser.add_argument("--no-disturbance", action="store_true", help="leave out the uniform-disturbance run")
+    parser.add_argument("--heading", default=None, help="angles --heading MODE (default: the session's setting)")
     args = parser.parse_args()
     runs = [(room, None) for room in args.rooms.split(",")]
     if not args.no_disturbance:
@@ -96,7 +100,7 @@ def main_bench() -> None:
     for room, disturbance in runs:
         label = room if disturbance is None else f"{room} + --disturbance {disturbance}"
         with tempfile.TemporaryDirectory() as folder:
-            results = run_route(Path(folder), args.seed, args.duration, room, disturbance)
+            results = run_route(Path(folder), args.seed, args.duration, room, disturbance, args.heading)
         print(f"\n== {label}: field deviation from the earth field (µT)\n    {results['fields']}", flush=True)
         table[label] = results
     print("\nRMS error (deg) of the command-line route while walking, reprocessed / live")

@@ -19,8 +19,10 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from mimucap.core import bodycal, skeleton
+from mimucap.core.heading_sources import relieved
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.chain import SensorChain, SensorOrientations, update_chains
+from mimucap.core.pipeline.doubt_reasons import DOUBT_DTYPE
 from mimucap.core.pipeline.instants import (
     LiveTrack, instants_after, live_sensors_at, newest_instant, sensors_at_instants,
 )
@@ -52,6 +54,9 @@ class LivePipeline:
         self.doubts: dict[str, int] = {}
         self._tracks: dict[str, LiveTrack] = {}
         self._last_pose_t = -np.inf
+        #: sensor → where the newest pose's heading of that sensor came from, as the coupling
+        #: chose it (:data:`~mimucap.core.heading_sources.SOURCE_NAMES`; empty without one)
+        self.heading_sources: dict[str, int] = {}
 
     def chain(self, sensor_id: str) -> SensorChain:
         """``sensor_id``'s chain (made at its first samples, with its magnetometer calibration)."""
@@ -89,12 +94,23 @@ class LivePipeline:
             track = self._tracks.get(item.sensor_id)
             if track is None:
                 track = self._tracks[item.sensor_id] = LiveTrack()
+            calibrated = self.chains[item.sensor_id].mag_calibration is not None
             track.add(item.t_s, item.q_world_from_sensor, item.flags, item.heading_std_rad,
-                      item.q_world_from_sensor_no_mag)
+                      item.q_world_from_sensor_no_mag, item.mag_uT if calibrated else None)
             if len(item.flags):
                 self.flags[item.sensor_id] = int(item.flags[-1])
                 self.doubts[item.sensor_id] = int(item.doubt[-1])
         return done
+
+    def doubt_of(self, sensor_id: str) -> int:
+        """The reasons (:mod:`.doubt_reasons`) the sensor's newest orientation may be wrong, less
+        its own magnetometer's where the newest pose took its heading from the field the body
+        shares or its joint (:func:`~mimucap.core.heading_sources.relieved`)."""
+        reasons = self.doubts.get(sensor_id, 0)
+        source = self.heading_sources.get(sensor_id)
+        if source is None:
+            return reasons
+        return int(relieved(np.array([reasons], dtype=DOUBT_DTYPE), np.array([source], dtype=np.uint8))[0])
 
     def latest_orientations(self) -> dict[str, np.ndarray]:
         """Sensor → its newest ``q_world_from_sensor`` (4,) (sensors with one only)."""
@@ -114,9 +130,10 @@ class LivePipeline:
             return None
         tracks = {sid: self._tracks[sid] for sid in stage.segment_of_sensor
                   if sid in self._tracks and len(self._tracks[sid].t)}
-        q_segments = stage.segments(live_sensors_at(t_pose, tracks))
+        instants, q_segments = stage.coupled_segments(live_sensors_at(t_pose, tracks))
         if q_segments is None:
             return None
+        self.heading_sources = {sid: int(source) for sid, source in instants.heading_source.items()}
         self._last_pose_t = t_pose
         return t_pose, q_segments
 

@@ -14,7 +14,7 @@ processing path again is :mod:`mimucap.session.recorded.reprocessing`.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from mimucap import __version__
