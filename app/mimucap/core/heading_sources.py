@@ -38,6 +38,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -95,8 +96,8 @@ def relieved(reasons: np.ndarray, sources: np.ndarray) -> np.ndarray:
 
 class ExponentialAverage:
     """First-order low-pass over time of an array of values (any shape, real or complex), fed
-    instant by instant with the time constant ``time_constant_s`` (s); the first instant is
-    taken as it is."""
+    instant by instant (:meth:`step`) or a series at a time (:meth:`series`) with the time
+    constant ``time_constant_s`` (s); the very first instant is taken as it is."""
 
     def __init__(self, time_constant_s: float) -> None:
         self.time_constant_s = time_constant_s
@@ -104,29 +105,39 @@ class ExponentialAverage:
         self.t_s: float | None = None
 
     def step(self, t_s: float, value: np.ndarray) -> np.ndarray:
-        if self.value is None or self.t_s is None:
-            self.value = np.array(value, copy=True)
-        else:
-            gain = -np.expm1(-max(t_s - self.t_s, 0.0) / self.time_constant_s)
-            self.value = self.value + gain * (value - self.value)
-            t_s = max(t_s, self.t_s)  # an earlier instant again (a live batch) leaves the average
-        self.t_s = t_s
-        return self.value
+        return self.series(np.array([t_s], dtype=np.float64), np.asarray(value)[None])[0]
+
+    def series(self, t_s: np.ndarray, values: np.ndarray) -> np.ndarray:
+        """The averages (T, ...) of ``values`` (T, ...) at ``t_s`` (T,) s, continuing from where
+        the average stands; it then stands at the last."""
+        start = None if self.value is None or self.t_s is None else (self.t_s, self.value)
+        out = exponential_average(t_s, values, self.time_constant_s, both_ways=False, start=start)
+        if len(t_s):
+            newest = float(t_s[-1]) if self.t_s is None else max(float(t_s[-1]), self.t_s)
+            self.settle(newest, out[-1])
+        return out
 
     def settle(self, t_s: float, value: np.ndarray) -> None:
-        """Continue from ``value`` at ``t_s`` (the end of a causal series averaged at once)."""
-        self.t_s, self.value = t_s, np.array(value, copy=True)
+        """Continue from ``value`` at ``t_s``."""
+        self.t_s, self.value = float(t_s), np.array(value, copy=True)
 
 
-def exponential_average(t_s: np.ndarray, values: np.ndarray, time_constant_s: float, both_ways: bool) -> np.ndarray:
-    """:class:`ExponentialAverage` over a series ``values`` (T, ...) at ``t_s`` (T,) s; ``both_ways``
-    runs it again backwards over the forward result (no lag: for the reprocessed result)."""
+def exponential_average(t_s: np.ndarray, values: np.ndarray, time_constant_s: float, both_ways: bool,
+                        start: tuple[float, np.ndarray] | None = None) -> np.ndarray:
+    """:class:`ExponentialAverage` over a series ``values`` (T, ...) at ``t_s`` (T,) s, from the
+    average ``start`` (``(t_s, value)``; None: the first instant as it is); ``both_ways`` runs
+    it again backwards over the forward result (no lag: for the reprocessed result). An instant
+    not after the one before leaves the average as it is."""
     out = np.empty_like(values)
     if not len(t_s):
         return out
-    gains = -np.expm1(-np.diff(t_s, prepend=t_s[:1]).clip(0.0) / time_constant_s)
-    gains[0] = 1.0
-    value = values[0]
+    before = t_s[:1] if start is None else np.array([start[0]], dtype=np.float64)
+    gains = -np.expm1(-np.diff(t_s, prepend=before).clip(0.0) / time_constant_s)
+    if start is None:
+        gains[0] = 1.0
+        value = values[0]
+    else:
+        value = np.asarray(start[1])
     for k in range(len(t_s)):
         value = value + gains[k] * (values[k] - value)
         out[k] = value
@@ -205,6 +216,7 @@ class HeadingCoupling:
         self.time_constant_s = time_constant_s
         self.both_ways = both_ways
         self._stage_key: tuple | None = None
+        self._pending_state: dict[str, Any] | None = None
         self._configure(sensors, hinge_list)
 
     def _configure(self, sensors: Sequence[str], hinge_list: Sequence[Hinge]) -> None:
@@ -265,45 +277,47 @@ class HeadingCoupling:
     def step(self, t_s: float, q_world_from_sensor: np.ndarray,
              mag_uT: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """One instant: ``q_world_from_sensor`` (S, 4), ``mag_uT`` (S, 3) calibrated field or None.
-        Returns the corrected orientations (S, 4) and the source of each heading (S,)."""
-        q = np.asarray(q_world_from_sensor, dtype=np.float64)
-        if not self.active:
-            return q, np.zeros(len(q), dtype=np.uint8)
-        q, source = self._field_correction(q, self._field.step(t_s, self._field_terms(q, mag_uT)))
-        if self.hinges:
-            for average in self._joint:
-                self._joint_correction(q, average.step(t_s, self._joint_terms(q)), source)
-        return q, source
+        Returns the corrected orientations (S, 4) and the source of each heading (S,): what
+        :meth:`run` gives for it, continuing causally."""
+        q, source = self.run(np.array([t_s], dtype=np.float64), np.asarray(q_world_from_sensor)[None],
+                             None if mag_uT is None else np.asarray(mag_uT)[None], both_ways=False)
+        return q[0], source[0]
 
     def run(self, t_s: np.ndarray, q_world_from_sensor: np.ndarray, mag_uT: np.ndarray | None,
             both_ways: bool) -> tuple[np.ndarray, np.ndarray]:
         """A series: ``t_s`` (T,), ``q_world_from_sensor`` (T, S, 4), ``mag_uT`` (T, S, 3) or None.
-        Returns (T, S, 4) and (T, S); ``both_ways=False`` gives what :meth:`step` gives instant
-        by instant."""
+        Returns (T, S, 4) and (T, S). ``both_ways=False`` continues the averages from where the
+        previous series or step left them (the live view's instants, fed in any slices, give
+        what one series gives); ``both_ways=True`` averages this series alone forwards and
+        backwards."""
         q = np.asarray(q_world_from_sensor, dtype=np.float64)
         if not self.active or not len(t_s):
             return q, np.zeros(q.shape[:-1], dtype=np.uint8)
-        averaged = exponential_average(t_s, self._field_terms(q, mag_uT), self.time_constant_s, both_ways)
-        q, source = self._field_correction(q, averaged)
-        if not both_ways:  # the live steps continue from here
-            self._field.settle(float(t_s[-1]), averaged[-1])
+        t_s = np.asarray(t_s, dtype=np.float64)
+
+        def averaged(average: ExponentialAverage, terms: np.ndarray) -> np.ndarray:
+            if both_ways:
+                return exponential_average(t_s, terms, average.time_constant_s, both_ways=True)
+            return average.series(t_s, terms)
+
+        q, source = self._field_correction(q, averaged(self._field, self._field_terms(q, mag_uT)))
         for average in self._joint if self.hinges else ():
-            averaged = exponential_average(t_s, self._joint_terms(q), self.time_constant_s, both_ways)
-            self._joint_correction(q, averaged, source)
-            if not both_ways:
-                average.settle(float(t_s[-1]), averaged[-1])
+            self._joint_correction(q, averaged(average, self._joint_terms(q)), source)
         return q, source
 
     def couple(self, instants: SensorsAtInstants, stage: SegmentStage) -> SensorsAtInstants:
         """The segment stage's joint coupling (:class:`~mimucap.core.pipeline.segments.JointCoupling`):
         ``instants`` with every assigned sensor's heading corrected and its source
-        (``heading_source``). One live instant is a :meth:`step`; a series is a :meth:`run`
-        (both ways when :attr:`both_ways`), or, once live steps have begun, steps."""
+        (``heading_source``). One instant is a :meth:`step`, a series a :meth:`run` (both ways
+        when :attr:`both_ways`, else continuing causally)."""
         sensors = [sid for sid in instants.q_world_from_sensor if sid in stage.segment_of_sensor]
         key = (tuple(sensors), id(stage.body_calibration), stage.model.name)
         if key != self._stage_key:
             self._configure(sensors, hinges(stage.model, stage.body_calibration, sensors))
             self._stage_key = key
+            if self._pending_state is not None:
+                self._restore(self._pending_state)
+                self._pending_state = None
         if not self.active or not sensors:
             return instants
         shape = np.shape(instants.t_s)
@@ -313,25 +327,85 @@ class HeadingCoupling:
             [np.full(shape + (3,), np.nan) if f is None else np.asarray(f, dtype=np.float64) for f in fields], axis=-2)
         if not shape:
             corrected, sources = self.step(float(instants.t_s), q, mag)
-        elif self.both_ways or self._field.value is None:
-            corrected, sources = self.run(np.asarray(instants.t_s, dtype=np.float64), q, mag, self.both_ways)
         else:
-            steps = [self.step(float(t), q[k], None if mag is None else mag[k]) for k, t in enumerate(instants.t_s)]
-            corrected = np.stack([c for c, _ in steps]) if steps else q
-            sources = np.stack([s for _, s in steps]) if steps else np.zeros(q.shape[:-1], dtype=np.uint8)
+            corrected, sources = self.run(np.asarray(instants.t_s, dtype=np.float64), q, mag, self.both_ways)
         q_out = dict(instants.q_world_from_sensor)
         q_out.update({sid: corrected[..., i, :] for i, sid in enumerate(sensors)})
         return replace(instants, q_world_from_sensor=q_out,
                        heading_source={sid: sources[..., i] for i, sid in enumerate(sensors)})
 
+    # -- the state a recording starts from ----------------------------------------------------
+    def _layout(self) -> dict[str, list]:
+        return {"sensors": list(self.sensors),
+                "hinges": [[h.joint, h.proximal_sensor, h.distal_sensor] for h in self.hinges]}
 
-def heading_coupling(settings: PipelineSettings, result: str) -> HeadingCoupling | None:
+    def state_to_dict(self, time_offset_s: float = 0.0) -> dict[str, Any] | None:
+        """Where the causal averages stand (JSON-ready), on a clock ``time_offset_s`` behind this
+        one's (a recording's, whose instants are the live view's minus that offset); None before
+        any instant. :meth:`restore` continues from it: a recording's *as seen live* result
+        then reproduces the live view's from its first instant."""
+        if self._field.value is None or self._field.t_s is None:
+            return None
+        joint = [average.value for average in self._joint] if self.hinges else []
+        if any(value is None for value in joint):
+            return None
+        return {**self._layout(), "t_s": self._field.t_s - float(time_offset_s),
+                "field": [np.real(self._field.value).tolist(), np.imag(self._field.value).tolist()],
+                "joint": [np.asarray(value, dtype=np.float64).tolist() for value in joint]}
+
+    def restore(self, state: Mapping[str, Any] | None) -> None:
+        """Continue from ``state`` (:meth:`state_to_dict`) once the segment stage's sensors and
+        hinges are known, if they are the ones it was taken with (else the averages start anew)."""
+        self._pending_state = None if state is None else dict(state)
+
+    def _restore(self, state: Mapping[str, Any]) -> None:
+        if {key: state.get(key) for key in ("sensors", "hinges")} != self._layout():
+            return
+        field = np.asarray(state["field"][0], dtype=np.float64) + 1j * np.asarray(state["field"][1], dtype=np.float64)
+        joint = [np.asarray(value, dtype=np.float64) for value in state["joint"]]
+        if field.shape != (len(self.sensors), 2) or len(joint) != (len(self._joint) if self.hinges else 0) \
+                or any(value.shape != (len(self.hinges), 5) for value in joint):
+            raise ValueError("the heading coupling's state does not fit its sensors and joints")
+        t_s = float(state["t_s"])
+        self._field.settle(t_s, field)
+        for average, value in zip(self._joint, joint):
+            average.settle(t_s, value)
+
+
+def coupling_state_from_dict(data: Any, origin: str = "heading coupling state") -> dict[str, Any] | None:
+    """A stored :meth:`HeadingCoupling.state_to_dict` checked for its form (``ValueError``
+    naming ``origin`` when malformed; None for none)."""
+    if data is None:
+        return None
+    try:
+        state = dict(data)
+        for key in ("sensors", "hinges", "t_s", "field", "joint"):
+            if key not in state:
+                raise ValueError(f"{key!r} missing")
+        if not np.isfinite(float(state["t_s"])):
+            raise ValueError("its time is not finite")
+        field = np.asarray(state["field"], dtype=np.float64)
+        joint = np.asarray(state["joint"], dtype=np.float64)
+        if field.ndim != 3 or field.shape[0] != 2 or not np.isfinite(field).all() or not np.isfinite(joint).all():
+            raise ValueError("its averages are malformed")
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{origin}: {error}") from None
+    return state
+
+
+def heading_coupling(settings: PipelineSettings, result: str,
+                     live_state: Mapping[str, Any] | None = None) -> HeadingCoupling | None:
     """The segment stage's joint coupling for ``settings.heading`` and ``result`` (both ways for
     :data:`~mimucap.core.pipeline.settings.RESULT_REPROCESSED`); None where each filter's
-    heading is used as it is."""
+    heading is used as it is. ``live_state`` (:meth:`HeadingCoupling.state_to_dict`, the live
+    coupling's when a recording started) is where :data:`~mimucap.core.pipeline.settings.RESULT_LIVE`
+    continues from."""
     if settings.heading == MODE_MAGNETOMETER:
         return None
-    return HeadingCoupling([], [], settings.heading, both_ways=result == RESULT_REPROCESSED)
+    coupling = HeadingCoupling([], [], settings.heading, both_ways=result == RESULT_REPROCESSED)
+    if result != RESULT_REPROCESSED:
+        coupling.restore(live_state)
+    return coupling
 
 
 def source_summary(sources: Mapping[str, np.ndarray]) -> dict[str, dict[str, float]]:

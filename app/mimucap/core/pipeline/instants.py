@@ -306,3 +306,44 @@ def live_sensors_at(t_pose: float, tracks: Mapping[str, LiveTrack]) -> SensorsAt
         if field_uT is not None:
             mag[sid] = field_uT
     return SensorsAtInstants(t_pose, q, flags, heading, free, mag)
+
+
+class CoupledInstants:
+    """The last instants (at most :data:`TRACK_CAPACITY`) as the segment stage's joint coupling
+    made them, in the live form: the coupling is stepped once over every instant
+    (:meth:`~mimucap.core.pipeline.live.LivePipeline.pose`), and the poses shown and streamed
+    are read from here. ``stage_key`` names the assignment they were made with."""
+
+    def __init__(self, stage_key: tuple | None = None) -> None:
+        self.stage_key = stage_key
+        self.t = np.empty(0)
+        self.q: dict[str, np.ndarray] = {}
+        self.source: dict[str, np.ndarray] = {}
+
+    @property
+    def newest_t(self) -> float:
+        return float(self.t[-1]) if len(self.t) else -math.inf
+
+    def add(self, instants: SensorsAtInstants) -> None:
+        """Append coupled ``instants`` (``t_s`` (P,) after :attr:`newest_t`); a sensor new to
+        them has no rows before (NaN)."""
+        t_new = np.atleast_1d(np.asarray(instants.t_s, dtype=np.float64))
+        count, cut = len(self.t), -TRACK_CAPACITY
+        for sid, q in instants.q_world_from_sensor.items():
+            kept = self.q.get(sid, np.full((count, 4), np.nan))
+            self.q[sid] = np.concatenate([kept, np.reshape(q, (-1, 4))])[cut:]
+        for sid in set(self.q) - set(instants.q_world_from_sensor):
+            self.q[sid] = np.concatenate([self.q[sid], np.full((len(t_new), 4), np.nan)])[cut:]
+        for sid in set(self.source) | set(instants.heading_source):
+            kept = self.source.get(sid, np.zeros(count, dtype=np.uint8))
+            new = instants.heading_source.get(sid, np.zeros(len(t_new), dtype=np.uint8))
+            self.source[sid] = np.concatenate([kept, np.reshape(new, -1)])[cut:]
+        self.t = np.concatenate([self.t, t_new])[cut:]
+
+    def at(self, t_query: np.ndarray) -> SensorsAtInstants | None:
+        """The kept instants among ``t_query`` (P,) s, in order; None when none is kept."""
+        rows = np.flatnonzero(np.isin(self.t, t_query))
+        if not len(rows):
+            return None
+        return SensorsAtInstants(self.t[rows], {sid: q[rows] for sid, q in self.q.items()},
+                                 heading_source={sid: s[rows] for sid, s in self.source.items()})

@@ -15,6 +15,7 @@ Times ``t_s`` are float64 seconds on the pipeline's clock (the session's).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -24,7 +25,7 @@ from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.chain import SensorChain, SensorOrientations, update_chains
 from mimucap.core.pipeline.doubt_reasons import DOUBT_DTYPE
 from mimucap.core.pipeline.instants import (
-    LiveTrack, instants_after, live_sensors_at, newest_instant, sensors_at_instants,
+    CoupledInstants, LiveTrack, instants_after, live_sensors_at, newest_instant, sensors_at_instants,
 )
 from mimucap.core.pipeline.segments import JointCoupling, SegmentStage
 from mimucap.core.pipeline.settings import DEFAULT_PIPELINE_SETTINGS, PipelineSettings
@@ -57,6 +58,8 @@ class LivePipeline:
         #: sensor → where the newest pose's heading of that sensor came from, as the coupling
         #: chose it (:data:`~mimucap.core.heading_sources.SOURCE_NAMES`; empty without one)
         self.heading_sources: dict[str, int] = {}
+        #: the coupling's output at the last instants it was stepped over (:meth:`_couple_new`)
+        self._coupled = CoupledInstants()
 
     def chain(self, sensor_id: str) -> SensorChain:
         """``sensor_id``'s chain (made at its first samples, with its magnetometer calibration)."""
@@ -128,12 +131,20 @@ class LivePipeline:
         t_pose = newest_instant(self.model, stage.segment_of_sensor, self._tracks, self._last_pose_t)
         if t_pose is None:
             return None
-        tracks = {sid: self._tracks[sid] for sid in stage.segment_of_sensor
-                  if sid in self._tracks and len(self._tracks[sid].t)}
-        instants, q_segments = stage.coupled_segments(live_sensors_at(t_pose, tracks))
+        if self.coupling is None:
+            tracks = {sid: self._tracks[sid] for sid in stage.segment_of_sensor
+                      if sid in self._tracks and len(self._tracks[sid].t)}
+            instants, q_segments = stage.coupled_segments(live_sensors_at(t_pose, tracks))
+        else:
+            self._couple_new(stage)
+            instants = self._coupled.at(np.array([t_pose]))
+            if instants is None:
+                return None
+            q_segments = stage.uncoupled_segments(instants)
+            q_segments = None if q_segments is None else {name: q[0] for name, q in q_segments.items()}
         if q_segments is None:
             return None
-        self.heading_sources = {sid: int(source) for sid, source in instants.heading_source.items()}
+        self.heading_sources = {sid: int(np.ravel(source)[-1]) for sid, source in instants.heading_source.items()}
         self._last_pose_t = t_pose
         return t_pose, q_segments
 
@@ -148,10 +159,37 @@ class LivePipeline:
         t_pose = instants_after(self.model, stage.segment_of_sensor, self._tracks, t_after_s)
         if not len(t_pose):
             return None
+        if self.coupling is None:
+            tracks = {sid: self._tracks[sid].as_sensor_track() for sid in stage.segment_of_sensor
+                      if sid in self._tracks and len(self._tracks[sid].t)}
+            q_segments = stage.segments(sensors_at_instants(t_pose, tracks))
+        else:
+            self._couple_new(stage)
+            instants = self._coupled.at(t_pose)
+            q_segments = None if instants is None else stage.uncoupled_segments(instants)
+            t_pose = t_pose if instants is None else np.asarray(instants.t_s)
+        return None if q_segments is None else (t_pose, q_segments)
+
+    def _couple_new(self, stage: SegmentStage) -> None:
+        """Step the coupling over every instant formed since it was last stepped, whether or not
+        a pose is shown there: its averages run over time, and a recording's *as seen live*
+        result steps them over every instant (the view refreshes at its own rate)."""
+        key = (tuple(sorted(stage.segment_of_sensor.items())), id(stage.body_calibration))
+        if key != self._coupled.stage_key:
+            self._coupled = CoupledInstants(key)  # another assignment: the coupling starts anew too
+        t_new = instants_after(self.model, stage.segment_of_sensor, self._tracks, self._coupled.newest_t)
+        if not len(t_new):
+            return
         tracks = {sid: self._tracks[sid].as_sensor_track() for sid in stage.segment_of_sensor
                   if sid in self._tracks and len(self._tracks[sid].t)}
-        q_segments = stage.segments(sensors_at_instants(t_pose, tracks))
-        return None if q_segments is None else (t_pose, q_segments)
+        self._coupled.add(self.coupling.couple(sensors_at_instants(t_new, tracks), stage))
+
+    def coupling_state(self, time_offset_s: float = 0.0) -> dict[str, Any] | None:
+        """Where the coupling's averages stand now (JSON-ready, on a clock ``time_offset_s``
+        behind the pipeline's: a recording's), what a recording's *as seen live* result
+        continues from; None without a coupling that keeps one."""
+        to_dict = getattr(self.coupling, "state_to_dict", None)
+        return None if to_dict is None else to_dict(time_offset_s)
 
     def forget_poses(self) -> None:
         """Allow the next pose to be any instant again (after a calibration changed)."""

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -142,6 +143,12 @@ class LiveProcessing:
     def filter_states(self) -> dict[str, dict[str, list]]:
         """Sensor → its filter state now (JSON-ready), what a recording starts from."""
         return self.pipeline.filter_states()
+
+    def coupling_state(self, time_offset_s: float) -> dict[str, Any] | None:
+        """Where the heading coupling's averages stand now, on the clock of a recording that
+        starts ``time_offset_s`` (s) into the session (JSON-ready; None without a coupling),
+        what the recording's *as seen live* result continues from."""
+        return self.pipeline.coupling_state(time_offset_s)
 
     def latest_orientations(self) -> dict[str, np.ndarray]:
         """Sensor id → newest ``q_world_from_sensor`` (4,) (sensors with an estimate only)."""

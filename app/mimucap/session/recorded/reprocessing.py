@@ -43,12 +43,14 @@ def process_session(session: Session, *, result: str = RESULT_REPROCESSED,
     if body is not None:
         check_body_calibration_fits(body, model)
     settings = recorded.settings if heading is None else replace(recorded.settings, heading=heading)
+    # as seen live, the coupling continues from where the live one stood (in the mode it ran in)
+    live_state = recorded.coupling_state if settings.heading == recorded.settings.heading else None
     return process_recording(
         session.sensors, model, result=result, mag_calibrations=calibrations.magnetometer, body_calibration=body,
         sensor_segments=recorded.sensor_segments, settings=settings,
         initial_states=recorded.initial_states, time_offset_s=recorded.time_offset_s,
         shoulder_sequence=shoulder_sequence, off_body_s=off_body_windows(session),
-        coupling=heading_coupling(settings, result))
+        coupling=heading_coupling(settings, result, live_state))
 
 
 def off_body_windows(session: Session) -> list[tuple[float, float]]:
