@@ -127,6 +127,36 @@ def test_sensors_in_a_shared_field_are_turned_back_and_one_in_its_own_is_held():
     assert np.all(source[t > 12.0, 3] == SOURCE_HELD)
 
 
+def test_a_sensor_moving_through_a_field_of_its_own_is_not_turned_with_it():
+    """Sensor 3 walks through a field that turns about the vertical as it deviates in dip (a
+    floor's field, of the same size in every direction); its filter's heading is right. Its
+    relative errors count with the inverse of their variance: it is barely turned with the
+    field, while a sensor whose filter drifts in the shared field is still followed."""
+    t = np.arange(0.0, 60.0, 0.02)
+    count = 5
+    q_true = np.stack([turned_about_vertical(random_orientations(1)[0], 0.1 * np.sin(0.5 * t + i))
+                       for i in range(count)], axis=1)
+    field = np.array([0.0, 25.0, -42.0])
+    mag = field_seen(q_true, field)
+    phase = 2.0 * np.pi * t / 4.0  # a few metres of the walkway in four seconds
+    local = field + 4.0 * np.stack([-np.sin(phase), np.zeros_like(t), np.cos(phase)], axis=1)  # 4 µT
+    mag[:, 3] = field_seen(q_true[:, 3], local)
+    later = t > 20.0
+
+    def relative_error_deg(corrected: np.ndarray, i: int) -> float:  # sensor i's heading relative to sensor 1's
+        return float(np.degrees(np.max(rotation.angle_between(
+            rotation.multiply(rotation.conjugate(corrected[later, 1]), corrected[later, i]),
+            rotation.multiply(rotation.conjugate(q_true[later, 1]), q_true[later, i])))))
+
+    sensors = [f"S{i}" for i in range(count)]
+    corrected, _source = HeadingCoupling(sensors, []).run(t, q_true, mag, both_ways=False)
+    assert relative_error_deg(corrected, 3) < 1.5  # with every instant counted alike: 2.8°
+    drifting = q_true.copy()
+    drifting[:, 0] = turned_about_vertical(q_true[:, 0], np.radians(0.5) * t)  # 0.5 °/s
+    corrected, _source = HeadingCoupling(sensors, []).run(t, drifting, mag, both_ways=False)
+    assert relative_error_deg(corrected, 0) < 1.5  # of the drift's 10° to 30°
+
+
 def test_a_coupled_sensor_is_not_doubtful_for_its_magnetometer_alone():
     reasons = np.array([doubt.MAG_REJECTED | doubt.LOST_SAMPLES, doubt.FIELD_MISMATCH, doubt.MAG_REJECTED],
                        dtype=doubt.DOUBT_DTYPE)

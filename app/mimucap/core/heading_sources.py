@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from mimucap.core import bodycal, rotation, skeleton
-from mimucap.core.fusion.uniform_field import relative_azimuths
+from mimucap.core.fusion.uniform_field import shared_field_terms
 from mimucap.core.heading_modes import MODE_COUPLED, MODE_MAGNETOMETER, check_mode
 from mimucap.core.joint_coupling import HINGE_JOINTS, hinge_errors, hinge_statistics
 from mimucap.core.pipeline import doubt_reasons
@@ -71,6 +71,20 @@ DEFAULT_TIME_CONSTANT_S = 2.0
 #: a second pass on the corrected orientations (Gauss-Newton) removes what the first left of a
 #: large one (a drift of tens of degrees without a magnetometer).
 HINGE_ITERATIONS = 2
+#: The deviation of a sensor's field from the body's (µT, rms over :data:`DEFAULT_TIME_CONSTANT_S`
+#: of :func:`~mimucap.core.fusion.uniform_field.shared_field_terms`'s ``deviation_uT``) that a
+#: field the body shares shows while walking: the magnetometers' noise and calibration
+#: residuals (a good ellipsoid fit leaves about 0.3 µT rms) and the attitude's error of a degree
+#: or so in the accelerations of gait, which moves a 50 µT field between its horizontal and
+#: vertical components by about 1 µT. Beyond it the sensor's field differs from the body's
+#: where it is: a real room's field is not uniform (de Vries, Veeger, Baten, van der Helm 2009,
+#: "Magnetic distortion in motion labs, implications for validating inertial magnetic sensors",
+#: found its heading scattered by 29° at the floor, 3° at 1 m), and it turns about the vertical
+#: by about as much as it deviates in the components a check can see. Its relative heading
+#: error then counts with the inverse of that variance: averaged over a time longer by the
+#: deviation's ratio to this one, squared, over which a moving sensor's local turns average out
+#: while a filter's drift is still followed.
+SHARED_DEVIATION_UT = 1.25
 #: A sensor whose share of agreeing field samples over the time constant falls below this
 #: counts as held on its gyroscope.
 AGREEING_SHARE = 0.5
@@ -107,11 +121,13 @@ class ExponentialAverage:
     def step(self, t_s: float, value: np.ndarray) -> np.ndarray:
         return self.series(np.array([t_s], dtype=np.float64), np.asarray(value)[None])[0]
 
-    def series(self, t_s: np.ndarray, values: np.ndarray) -> np.ndarray:
+    def series(self, t_s: np.ndarray, values: np.ndarray, time_constant_s: np.ndarray | None = None) -> np.ndarray:
         """The averages (T, ...) of ``values`` (T, ...) at ``t_s`` (T,) s, continuing from where
-        the average stands; it then stands at the last."""
+        the average stands (it then stands at the last); ``time_constant_s`` per instant and
+        element in place of the average's own (see :func:`exponential_average`)."""
         start = None if self.value is None or self.t_s is None else (self.t_s, self.value)
-        out = exponential_average(t_s, values, self.time_constant_s, both_ways=False, start=start)
+        tau = self.time_constant_s if time_constant_s is None else time_constant_s
+        out = exponential_average(t_s, values, tau, both_ways=False, start=start)
         if len(t_s):
             newest = float(t_s[-1]) if self.t_s is None else max(float(t_s[-1]), self.t_s)
             self.settle(newest, out[-1])
@@ -122,17 +138,21 @@ class ExponentialAverage:
         self.t_s, self.value = float(t_s), np.array(value, copy=True)
 
 
-def exponential_average(t_s: np.ndarray, values: np.ndarray, time_constant_s: float, both_ways: bool,
+def exponential_average(t_s: np.ndarray, values: np.ndarray, time_constant_s: float | np.ndarray, both_ways: bool,
                         start: tuple[float, np.ndarray] | None = None) -> np.ndarray:
     """:class:`ExponentialAverage` over a series ``values`` (T, ...) at ``t_s`` (T,) s, from the
-    average ``start`` (``(t_s, value)``; None: the first instant as it is); ``both_ways`` runs
-    it again backwards over the forward result (no lag: for the reprocessed result). An instant
-    not after the one before leaves the average as it is."""
+    average ``start`` (``(t_s, value)``; None: the first instant as it is); ``time_constant_s``
+    (s) one for all, or one per instant and element ((T, ...), leading dimensions of ``values``);
+    ``both_ways`` runs it again backwards over the forward result (no lag: for the reprocessed
+    result). An instant not after the one before leaves the average as it is."""
     out = np.empty_like(values)
     if not len(t_s):
         return out
     before = t_s[:1] if start is None else np.array([start[0]], dtype=np.float64)
-    gains = -np.expm1(-np.diff(t_s, prepend=before).clip(0.0) / time_constant_s)
+    dt = np.diff(t_s, prepend=before).clip(0.0)
+    tau = np.asarray(time_constant_s, dtype=np.float64)
+    gains = -np.expm1(-dt.reshape((-1,) + (1,) * max(tau.ndim - 1, 0)) / tau)
+    gains = gains.reshape(gains.shape + (1,) * (np.ndim(values) - gains.ndim))
     if start is None:
         gains[0] = 1.0
         value = values[0]
@@ -224,6 +244,7 @@ class HeadingCoupling:
         self.sensors = list(sensors)
         self.index = {sid: i for i, sid in enumerate(self.sensors)}
         self.hinges = [h for h in hinge_list if h.proximal_sensor in self.index and h.distal_sensor in self.index]
+        self._deviation = ExponentialAverage(self.time_constant_s)
         self._field = ExponentialAverage(self.time_constant_s)
         self._joint = [ExponentialAverage(self.time_constant_s) for _ in range(HINGE_ITERATIONS)]
 
@@ -231,15 +252,20 @@ class HeadingCoupling:
     def active(self) -> bool:
         return self.mode != MODE_MAGNETOMETER and bool(self.sensors)
 
-    def _field_terms(self, q: np.ndarray, mag: np.ndarray | None) -> np.ndarray:
-        """(..., S, 2) complex, :func:`weighted_angles` of each sensor's relative heading error."""
+    def _field_terms(self, q: np.ndarray, mag: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """(..., S, 2) complex, :func:`weighted_angles` of each sensor's relative heading error,
+        and (..., S, 2) the square of its field's deviation from the body's (µT²) where it agrees
+        with it, and whether it does (to average: the mean square over the agreeing instants)."""
         if self.mode != MODE_COUPLED or mag is None:
             zeros = np.zeros(q.shape[:-1])
-            return weighted_angles(zeros, zeros)
+            return weighted_angles(zeros, zeros), np.zeros(q.shape[:-1] + (2,))
         if q.ndim == 2:
-            return weighted_angles(*relative_azimuths(q, mag))
-        terms = [relative_azimuths(q[k], mag[k]) for k in range(len(q))]
-        return weighted_angles(np.array([e for e, _ in terms]), np.array([w for _, w in terms]))
+            error, weight, deviation = shared_field_terms(q, mag)
+        else:
+            terms = [shared_field_terms(q[k], mag[k]) for k in range(len(q))]
+            error, weight, deviation = (np.array([term[i] for term in terms]) for i in range(3))
+        return weighted_angles(error, weight), np.stack([np.where(weight > 0, deviation, 0.0) ** 2,
+                                                          (weight > 0).astype(np.float64)], axis=-1)
 
     def _field_correction(self, q: np.ndarray, averaged: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         if self.mode != MODE_COUPLED:
@@ -295,12 +321,19 @@ class HeadingCoupling:
             return q, np.zeros(q.shape[:-1], dtype=np.uint8)
         t_s = np.asarray(t_s, dtype=np.float64)
 
-        def averaged(average: ExponentialAverage, terms: np.ndarray) -> np.ndarray:
+        def averaged(average: ExponentialAverage, terms: np.ndarray, tau: np.ndarray | None = None) -> np.ndarray:
             if both_ways:
-                return exponential_average(t_s, terms, average.time_constant_s, both_ways=True)
-            return average.series(t_s, terms)
+                return exponential_average(t_s, terms, average.time_constant_s if tau is None else tau,
+                                           both_ways=True)
+            return average.series(t_s, terms, tau)
 
-        q, source = self._field_correction(q, averaged(self._field, self._field_terms(q, mag_uT)))
+        terms, deviation_sq = self._field_terms(q, mag_uT)
+        mean_square, agreeing = np.moveaxis(averaged(self._deviation, deviation_sq), -1, 0)
+        deviation_rms = np.sqrt(mean_square / np.maximum(agreeing, 1e-9))
+        # each instant weighted by the inverse of its variance (its deviation squared) beyond a
+        # shared field's: a recursive weighted mean's gain, and so its time constant, scales so
+        field_tau = self.time_constant_s * np.maximum(deviation_rms / SHARED_DEVIATION_UT, 1.0) ** 2
+        q, source = self._field_correction(q, averaged(self._field, terms, field_tau))
         for average in self._joint if self.hinges else ():
             self._joint_correction(q, averaged(average, self._joint_terms(q)), source)
         return q, source
@@ -347,10 +380,11 @@ class HeadingCoupling:
         if self._field.value is None or self._field.t_s is None:
             return None
         joint = [average.value for average in self._joint] if self.hinges else []
-        if any(value is None for value in joint):
+        if self._deviation.value is None or any(value is None for value in joint):
             return None
         return {**self._layout(), "t_s": self._field.t_s - float(time_offset_s),
                 "field": [np.real(self._field.value).tolist(), np.imag(self._field.value).tolist()],
+                "deviation": np.asarray(self._deviation.value, dtype=np.float64).tolist(),
                 "joint": [np.asarray(value, dtype=np.float64).tolist() for value in joint]}
 
     def restore(self, state: Mapping[str, Any] | None) -> None:
@@ -362,12 +396,15 @@ class HeadingCoupling:
         if {key: state.get(key) for key in ("sensors", "hinges")} != self._layout():
             return
         field = np.asarray(state["field"][0], dtype=np.float64) + 1j * np.asarray(state["field"][1], dtype=np.float64)
+        deviation = np.asarray(state["deviation"], dtype=np.float64)
         joint = [np.asarray(value, dtype=np.float64) for value in state["joint"]]
-        if field.shape != (len(self.sensors), 2) or len(joint) != (len(self._joint) if self.hinges else 0) \
+        if field.shape != (len(self.sensors), 2) or deviation.shape != (len(self.sensors), 2) \
+                or len(joint) != (len(self._joint) if self.hinges else 0) \
                 or any(value.shape != (len(self.hinges), 5) for value in joint):
             raise ValueError("the heading coupling's state does not fit its sensors and joints")
         t_s = float(state["t_s"])
         self._field.settle(t_s, field)
+        self._deviation.settle(t_s, deviation)
         for average, value in zip(self._joint, joint):
             average.settle(t_s, value)
 
@@ -379,14 +416,15 @@ def coupling_state_from_dict(data: Any, origin: str = "heading coupling state") 
         return None
     try:
         state = dict(data)
-        for key in ("sensors", "hinges", "t_s", "field", "joint"):
+        for key in ("sensors", "hinges", "t_s", "field", "deviation", "joint"):
             if key not in state:
                 raise ValueError(f"{key!r} missing")
         if not np.isfinite(float(state["t_s"])):
             raise ValueError("its time is not finite")
         field = np.asarray(state["field"], dtype=np.float64)
         joint = np.asarray(state["joint"], dtype=np.float64)
-        if field.ndim != 3 or field.shape[0] != 2 or not np.isfinite(field).all() or not np.isfinite(joint).all():
+        deviation = np.asarray(state["deviation"], dtype=np.float64)
+        if field.ndim != 3 or field.shape[0] != 2 or not all(np.isfinite(a).all() for a in (field, joint, deviation)):
             raise ValueError("its averages are malformed")
     except (TypeError, ValueError) as error:
         raise ValueError(f"{origin}: {error}") from None
