@@ -254,23 +254,28 @@ class HeadingCoupling:
 
     def _field_terms(self, q: np.ndarray, mag: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """(..., S, 2) complex, :func:`weighted_angles` of each sensor's relative heading error,
-        and (..., S, 2) the square of its field's deviation from the body's (µT²) where it agrees
-        with it, and whether it does (to average: the mean square over the agreeing instants)."""
+        and (..., S, 3) the square of its field's deviation from the body's (µT²), whether it has
+        a field (to average: the mean square over the instants with one) and whether it agrees."""
         if self.mode != MODE_COUPLED or mag is None:
             zeros = np.zeros(q.shape[:-1])
-            return weighted_angles(zeros, zeros), np.zeros(q.shape[:-1] + (2,))
+            return weighted_angles(zeros, zeros), np.zeros(q.shape[:-1] + (3,))
         if q.ndim == 2:
             error, weight, deviation = shared_field_terms(q, mag)
         else:
             terms = [shared_field_terms(q[k], mag[k]) for k in range(len(q))]
             error, weight, deviation = (np.array([term[i] for term in terms]) for i in range(3))
-        return weighted_angles(error, weight), np.stack([np.where(weight > 0, deviation, 0.0) ** 2,
+        known = np.isfinite(deviation)
+        return weighted_angles(error, weight), np.stack([np.where(known, deviation, 0.0) ** 2,
+                                                          known.astype(np.float64),
                                                           (weight > 0).astype(np.float64)], axis=-1)
 
-    def _field_correction(self, q: np.ndarray, averaged: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _field_correction(self, q: np.ndarray, averaged: np.ndarray,
+                          share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``q`` turned back by the averaged relative errors; the source of each heading from
+        ``share``, the share of agreeing instants over :attr:`time_constant_s`."""
         if self.mode != MODE_COUPLED:
             return q.copy(), np.full(q.shape[:-1], SOURCE_FILTER, dtype=np.uint8)
-        error, share = angles_and_shares(averaged)
+        error, _share = angles_and_shares(averaged)
         source = np.where(share >= AGREEING_SHARE, SOURCE_SHARED_FIELD, SOURCE_HELD).astype(np.uint8)
         return turned_about_vertical(q, -error), source
 
@@ -328,12 +333,14 @@ class HeadingCoupling:
             return average.series(t_s, terms, tau)
 
         terms, deviation_sq = self._field_terms(q, mag_uT)
-        mean_square, agreeing = np.moveaxis(averaged(self._deviation, deviation_sq), -1, 0)
-        deviation_rms = np.sqrt(mean_square / np.maximum(agreeing, 1e-9))
+        # over the past only, both ways too: an instant's variance is that of its measurement
+        # and those before, not of a foreign field the sensor is yet to reach
+        mean_square, known, agreeing = np.moveaxis(self._deviation.series(t_s, deviation_sq), -1, 0)
+        deviation_rms = np.sqrt(mean_square / np.maximum(known, 1e-9))
         # each instant weighted by the inverse of its variance (its deviation squared) beyond a
         # shared field's: a recursive weighted mean's gain, and so its time constant, scales so
         field_tau = self.time_constant_s * np.maximum(deviation_rms / SHARED_DEVIATION_UT, 1.0) ** 2
-        q, source = self._field_correction(q, averaged(self._field, terms, field_tau))
+        q, source = self._field_correction(q, averaged(self._field, terms, field_tau), agreeing)
         for average in self._joint if self.hinges else ():
             self._joint_correction(q, averaged(average, self._joint_terms(q)), source)
         return q, source
@@ -398,7 +405,7 @@ class HeadingCoupling:
         field = np.asarray(state["field"][0], dtype=np.float64) + 1j * np.asarray(state["field"][1], dtype=np.float64)
         deviation = np.asarray(state["deviation"], dtype=np.float64)
         joint = [np.asarray(value, dtype=np.float64) for value in state["joint"]]
-        if field.shape != (len(self.sensors), 2) or deviation.shape != (len(self.sensors), 2) \
+        if field.shape != (len(self.sensors), 2) or deviation.shape != (len(self.sensors), 3) \
                 or len(joint) != (len(self._joint) if self.hinges else 0) \
                 or any(value.shape != (len(self.hinges), 5) for value in joint):
             raise ValueError("the heading coupling's state does not fit its sensors and joints")
