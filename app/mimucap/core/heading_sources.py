@@ -71,20 +71,21 @@ DEFAULT_TIME_CONSTANT_S = 2.0
 #: a second pass on the corrected orientations (Gauss-Newton) removes what the first left of a
 #: large one (a drift of tens of degrees without a magnetometer).
 HINGE_ITERATIONS = 2
-#: The deviation of a sensor's field from the body's (µT, rms over :data:`DEFAULT_TIME_CONSTANT_S`
-#: of :func:`~mimucap.core.fusion.uniform_field.shared_field_terms`'s ``deviation_uT``) that a
-#: field the body shares shows while walking: the magnetometers' noise and calibration
-#: residuals (a good ellipsoid fit leaves about 0.3 µT rms) and the attitude's error of a degree
-#: or so in the accelerations of gait, which moves a 50 µT field between its horizontal and
-#: vertical components by about 1 µT. Beyond it the sensor's field differs from the body's
-#: where it is: a real room's field is not uniform (de Vries, Veeger, Baten, van der Helm 2009,
+#: How much a sensor's field's deviation from the body's varies (µT, its spread over the past
+#: :data:`DEFAULT_TIME_CONSTANT_S`, in the horizontal and vertical components of
+#: :func:`~mimucap.core.fusion.uniform_field.shared_field_terms`) in a field the body shares,
+#: while walking: the magnetometers' noise and the attitude's error of a degree or so in the
+#: accelerations of gait, which moves a 50 µT field between its horizontal and vertical
+#: components by about 1 µT (a constant deviation is the sensor's calibration in a field other
+#: than the calibrated one, and says nothing of the room). Beyond it the field varies over the
+#: sensor's path: a real room's field is not uniform (de Vries, Veeger, Baten, van der Helm 2009,
 #: "Magnetic distortion in motion labs, implications for validating inertial magnetic sensors",
 #: found its heading scattered by 29° at the floor, 3° at 1 m), and it turns about the vertical
-#: by about as much as it deviates in the components a check can see. Its relative heading
-#: error then counts with the inverse of that variance: averaged over a time longer by the
-#: deviation's ratio to this one, squared, over which a moving sensor's local turns average out
+#: by about as much as it varies in the components a check can see. The sensor's relative
+#: heading error then counts with the inverse of that variance: averaged over a time longer by
+#: the spread's ratio to this one, squared, over which a moving sensor's local turns average out
 #: while a filter's drift is still followed.
-SHARED_DEVIATION_UT = 1.25
+SHARED_DEVIATION_UT = 1.0
 #: A sensor whose share of agreeing field samples over the time constant falls below this
 #: counts as held on its gyroscope.
 AGREEING_SHARE = 0.5
@@ -254,20 +255,22 @@ class HeadingCoupling:
 
     def _field_terms(self, q: np.ndarray, mag: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """(..., S, 2) complex, :func:`weighted_angles` of each sensor's relative heading error,
-        and (..., S, 3) the square of its field's deviation from the body's (µT²), whether it has
-        a field (to average: the mean square over the instants with one) and whether it agrees."""
+        and (..., S, 5) its field's deviation from the body's (µT: horizontal, vertical), its
+        square (µT²), whether it has a field (to average: the moments over the instants with one)
+        and whether it agrees."""
         if self.mode != MODE_COUPLED or mag is None:
             zeros = np.zeros(q.shape[:-1])
-            return weighted_angles(zeros, zeros), np.zeros(q.shape[:-1] + (3,))
+            return weighted_angles(zeros, zeros), np.zeros(q.shape[:-1] + (5,))
         if q.ndim == 2:
             error, weight, deviation = shared_field_terms(q, mag)
         else:
             terms = [shared_field_terms(q[k], mag[k]) for k in range(len(q))]
             error, weight, deviation = (np.array([term[i] for term in terms]) for i in range(3))
-        known = np.isfinite(deviation)
-        return weighted_angles(error, weight), np.stack([np.where(known, deviation, 0.0) ** 2,
-                                                          known.astype(np.float64),
-                                                          (weight > 0).astype(np.float64)], axis=-1)
+        known = np.isfinite(deviation).all(axis=-1)
+        deviation = np.where(known[..., None], deviation, 0.0)
+        return weighted_angles(error, weight), np.concatenate(
+            [deviation, np.sum(deviation ** 2, axis=-1, keepdims=True), known[..., None],
+             (weight > 0)[..., None]], axis=-1)
 
     def _field_correction(self, q: np.ndarray, averaged: np.ndarray,
                           share: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -335,11 +338,14 @@ class HeadingCoupling:
         terms, deviation_sq = self._field_terms(q, mag_uT)
         # over the past only, both ways too: an instant's variance is that of its measurement
         # and those before, not of a foreign field the sensor is yet to reach
-        mean_square, known, agreeing = np.moveaxis(self._deviation.series(t_s, deviation_sq), -1, 0)
-        deviation_rms = np.sqrt(mean_square / np.maximum(known, 1e-9))
-        # each instant weighted by the inverse of its variance (its deviation squared) beyond a
-        # shared field's: a recursive weighted mean's gain, and so its time constant, scales so
-        field_tau = self.time_constant_s * np.maximum(deviation_rms / SHARED_DEVIATION_UT, 1.0) ** 2
+        horizontal, vertical, square, known, agreeing = np.moveaxis(self._deviation.series(t_s, deviation_sq), -1, 0)
+        known = np.maximum(known, 1e-9)
+        # how much the deviation varied (a constant one is the sensor's calibration in a field
+        # other than the calibrated one, not the room's field varying over its path)
+        spread = np.sqrt(np.maximum(square / known - (horizontal / known) ** 2 - (vertical / known) ** 2, 0.0))
+        # each instant weighted by the inverse of its variance beyond a shared field's: a
+        # recursive weighted mean's gain, and so its time constant, scales so
+        field_tau = self.time_constant_s * np.maximum(spread / SHARED_DEVIATION_UT, 1.0) ** 2
         q, source = self._field_correction(q, averaged(self._field, terms, field_tau), agreeing)
         for average in self._joint if self.hinges else ():
             self._joint_correction(q, averaged(average, self._joint_terms(q)), source)
@@ -405,7 +411,7 @@ class HeadingCoupling:
         field = np.asarray(state["field"][0], dtype=np.float64) + 1j * np.asarray(state["field"][1], dtype=np.float64)
         deviation = np.asarray(state["deviation"], dtype=np.float64)
         joint = [np.asarray(value, dtype=np.float64) for value in state["joint"]]
-        if field.shape != (len(self.sensors), 2) or deviation.shape != (len(self.sensors), 3) \
+        if field.shape != (len(self.sensors), 2) or deviation.shape != (len(self.sensors), 5) \
                 or len(joint) != (len(self._joint) if self.hinges else 0) \
                 or any(value.shape != (len(self.hinges), 5) for value in joint):
             raise ValueError("the heading coupling's state does not fit its sensors and joints")

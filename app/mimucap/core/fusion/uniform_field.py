@@ -57,26 +57,26 @@ def shared_field_terms(q_world_from_sensor: np.ndarray,
     """Each sensor's heading error relative to the body, from the field they share, and how far
     its field lies from the body's.
 
-    Returns ``(error_rad (S,), weight (S,), deviation_uT (S,))``: ``error_rad`` the azimuth of
+    Returns ``(error_rad (S,), weight (S,), deviation_uT (S, 2))``: ``error_rad`` the azimuth of
     the sensor's field minus the circular mean over the agreeing sensors (so a sensor whose
     heading is too far east sees the field too far west: the heading error is the negative
     azimuth difference), ``weight`` the horizontal field (µT) for agreeing sensors, 0 for the
     others (and for all when fewer than :data:`MIN_AGREEING` agree); ``deviation_uT`` the
-    distance of the sensor's horizontal and vertical components from the body's median (the two
-    a heading error leaves alone; NaN without a field), which bounds, where a room's field
-    varies alike in every direction, the third it cannot see: its turn about the vertical."""
+    sensor's horizontal and vertical components minus the body's median (the two a heading
+    error leaves alone; NaN without a field): where a room's field varies alike in every
+    direction, as they vary so does the third no check can see, its turn about the vertical."""
     q = np.asarray(q_world_from_sensor, dtype=np.float64)
     mag = np.asarray(mag_uT, dtype=np.float64)
     n = len(q)
     error = np.zeros(n)
     weight = np.zeros(n)
-    deviation = np.full(n, np.nan)
+    deviation = np.full((n, 2), np.nan)
     valid = np.isfinite(q).all(axis=1) & np.isfinite(mag).all(axis=1)
     if valid.sum() < MIN_AGREEING:
         return error, weight, deviation
     horizontal, vertical, azimuth = field_components(q[valid], mag[valid])
     h_median, v_median = np.median(horizontal), np.median(vertical)
-    deviation[valid] = np.hypot(horizontal - h_median, vertical - v_median)
+    deviation[valid] = np.stack([horizontal - h_median, vertical - v_median], axis=-1)
     tolerance = AGREEMENT_FRACTION * float(np.hypot(h_median, v_median))
     agree = (np.abs(horizontal - h_median) < tolerance) & (np.abs(vertical - v_median) < tolerance)
     if agree.sum() < MIN_AGREEING:
