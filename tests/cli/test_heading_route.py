@@ -1,8 +1,8 @@
 """Heading from the body on the README's command-line route (simulate → magcal fit --save →
 bodycal → angles), in a field changed alike for the whole body (issue 34's uniform disturbance)
 and in the clinic room, against the simulator's truth stored in the session (no command reads
-it). The seeds (7 and 8) are among those the shared field's weighting was looked at with (3, 7
-and 8); seed 5 was held back and meets the same limits (README, *Rooms*)."""
+it). The seeds (7 and 8) are among those the shared field's weighting was looked at with (3, 5,
+7 and 8); README, *Rooms*, gives seed 11, held back."""
 
 from __future__ import annotations
 
