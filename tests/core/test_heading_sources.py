@@ -191,3 +191,32 @@ def test_sensors_off_the_body_say_nothing_of_the_hinge_and_the_correction_fades_
         turn = np.degrees(rotation.angle_between(corrected[:, 1], measured))
         assert np.abs(np.diff(turn)).max() < 0.2, both_ways  # fades in, never jumps
         assert np.all(source[t < 7.0, 1] != SOURCE_JOINT) and np.all(source[t > 12.0, 1] == SOURCE_JOINT)
+
+
+def test_a_stored_state_continues_whatever_order_the_sensors_come_in():
+    """A recording lists its sensors in the order they arrived, the live view in its own: the
+    coupling continues from the live one's state all the same."""
+    from mimucap.core import skeleton
+    from mimucap.core.pipeline.instants import SensorsAtInstants
+    from mimucap.core.pipeline.segments import SegmentStage
+
+    t = np.arange(0.0, 8.0, 0.05)
+    segments = {"S1": "pelvis", "S2": "thorax", "S3": "thigh_l", "S4": "thigh_r"}
+    q_true = np.stack([turned_about_vertical(random_orientations(1)[0], 0.1 * np.sin(t + i)) for i in range(4)], axis=1)
+    q = turned_about_vertical(q_true, np.array([0.0, 0.4, -0.6, 0.2])[None, :] * np.radians(t)[:, None])
+    mag = field_seen(q_true, np.array([25.0, 10.0, -55.0]))
+    stage = SegmentStage(skeleton.load_model("ten_segment"), None, segments)
+
+    def instants(rows: slice, order: list[int]) -> SensorsAtInstants:
+        return SensorsAtInstants(t[rows], {f"S{i + 1}": q[rows, i] for i in order}, mag_uT={f"S{i + 1}": mag[rows, i] for i in order})
+
+    live = HeadingCoupling([], [])
+    live.couple(instants(slice(0, 80), [0, 1, 2, 3]), stage)
+    expected = live.couple(instants(slice(80, None), [0, 1, 2, 3]), stage)
+    before = HeadingCoupling([], [])  # the same instants, the sensors in another order
+    before.couple(instants(slice(0, 80), [2, 0, 3, 1]), stage)
+    replay = HeadingCoupling([], [])
+    replay.restore(before.state_to_dict())
+    found = replay.couple(instants(slice(80, None), [3, 1, 0, 2]), stage)
+    for sid, value in expected.q_world_from_sensor.items():
+        np.testing.assert_allclose(found.q_world_from_sensor[sid], value, atol=1e-12)

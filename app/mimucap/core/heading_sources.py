@@ -335,10 +335,17 @@ class HeadingCoupling:
                                            both_ways=True)
             return average.series(t_s, terms, tau)
 
+        # an instant without a sensor's orientation (before its first sample: the first instants
+        # of a recording whose sensors' first blocks arrived apart) or field leaves its averages
+        # as they are, as the live view, which forms an instant once every sensor delivered for it
+        present = np.isfinite(q).all(axis=-1)
+        measured = present if mag_uT is None else present & np.isfinite(mag_uT).all(axis=-1)
+        field_kept = np.where(measured, 1.0, np.inf)
         terms, deviation_sq = self._field_terms(q, mag_uT)
         # over the past only, both ways too: an instant's variance is that of its measurement
         # and those before, not of a foreign field the sensor is yet to reach
-        horizontal, vertical, square, known, agreeing = np.moveaxis(self._deviation.series(t_s, deviation_sq), -1, 0)
+        horizontal, vertical, square, known, agreeing = np.moveaxis(
+            self._deviation.series(t_s, deviation_sq, self.time_constant_s * field_kept), -1, 0)
         known = np.maximum(known, 1e-9)
         # how much the deviation varied (a constant one is the sensor's calibration in a field
         # other than the calibrated one, not the room's field varying over its path)
@@ -346,9 +353,13 @@ class HeadingCoupling:
         # each instant weighted by the inverse of its variance beyond a shared field's: a
         # recursive weighted mean's gain, and so its time constant, scales so
         field_tau = self.time_constant_s * np.maximum(spread / SHARED_DEVIATION_UT, 1.0) ** 2
-        q, source = self._field_correction(q, averaged(self._field, terms, field_tau), agreeing)
+        q, source = self._field_correction(q, averaged(self._field, terms, field_tau * field_kept), agreeing)
+        if self.hinges:
+            both = np.stack([present[:, self.index[h.proximal_sensor]] & present[:, self.index[h.distal_sensor]]
+                             for h in self.hinges], axis=-1)
+            joint_tau = self.time_constant_s * np.where(both, 1.0, np.inf)
         for average in self._joint if self.hinges else ():
-            self._joint_correction(q, averaged(average, self._joint_terms(q)), source)
+            self._joint_correction(q, averaged(average, self._joint_terms(q), joint_tau), source)
         return q, source
 
     def couple(self, instants: SensorsAtInstants, stage: SegmentStage) -> SensorsAtInstants:
@@ -356,7 +367,8 @@ class HeadingCoupling:
         ``instants`` with every assigned sensor's heading corrected and its source
         (``heading_source``). One instant is a :meth:`step`, a series a :meth:`run` (both ways
         when :attr:`both_ways`, else continuing causally)."""
-        sensors = [sid for sid in instants.q_world_from_sensor if sid in stage.segment_of_sensor]
+        # in one order whatever the order the sensors came in (a stored state is by row)
+        sensors = sorted(sid for sid in instants.q_world_from_sensor if sid in stage.segment_of_sensor)
         key = (tuple(sensors), id(stage.body_calibration), stage.model.name)
         if key != self._stage_key:
             self._configure(sensors, hinges(stage.model, stage.body_calibration, sensors))
