@@ -42,12 +42,29 @@ def routes(tmp_path_factory):
     return folder, clean, disturbed
 
 
-def _angles(folder, session, calibration, live: bool, monkeypatch):
+def _angles(folder, session, calibration, live: bool, monkeypatch, heading: str | None = None):
     monkeypatch.setenv("MIMUCAP_DATA_DIR", str(folder / f"data_{session.stem}"))
-    out = folder / f"{session.stem}_{calibration.stem}{'_live' if live else ''}.csv"
+    out = folder / f"{session.stem}_{calibration.stem}{'_live' if live else ''}_{heading}.csv"
     assert main(["angles", str(session), "--calibration", str(calibration), "--out", str(out)]
-                + (["--live"] if live else [])) == 0
+                + (["--live"] if live else []) + (["--heading", heading] if heading else [])) == 0
     return read_angles_csv(out)
+
+
+def _knee_errors(table, session) -> dict[str, np.ndarray]:
+    """Knee → |flexion − truth| (deg) at the table's instants."""
+    recorded = read_session(session)
+    return {joint: np.abs(table.angles_deg[f"{joint}_flexion_deg"]
+                          - truth_at(table.t_s, recorded.truth.t_s, recorded.truth.joint_angles_deg[f"{joint}_flexion_deg"]))
+            for joint in KNEES}
+
+
+def _disturbed_walking(table, session) -> np.ndarray:
+    """(T,) the walking samples after the disturbance began (34 s)."""
+    recorded = read_session(session)
+    walking = np.zeros(len(table.t_s), dtype=bool)
+    for start, end in phase_markers.phase_windows(recorded.markers, phase_markers.WALK, float(table.t_s[-1])):
+        walking |= (table.t_s >= start) & (table.t_s < end)
+    return walking & (table.t_s > 34.5)
 
 
 def _check(table, session):
@@ -90,11 +107,15 @@ def test_a_disturbed_field_is_flagged_wherever_the_knees_are_wrong(routes, live,
 
 @pytest.mark.parametrize("live", [False, True])
 def test_with_a_calibration_from_the_clean_field_the_flags_follow_the_disturbance(routes, live, monkeypatch):
-    """The same subject and sensors calibrated in the clean session: the joint angles are
-    flagged where the disturbed field reaches them, and right where they are trusted."""
+    """The same subject and sensors calibrated in the clean session, each sensor's heading from
+    its own magnetometer (``--heading magnetometer``): the disturbance turns a knee by more than
+    5°, the joint angles are flagged where the disturbed field reaches them, and right where
+    they are trusted."""
     folder, (_clean_session, clean_calibration), (session, _calibration) = routes
-    table = _angles(folder, session, clean_calibration, live, monkeypatch)
+    table = _angles(folder, session, clean_calibration, live, monkeypatch, "magnetometer")
     _check(table, session)
+    errors = _knee_errors(table, session)
+    assert max(float(error[_disturbed_walking(table, session)].max()) for error in errors.values()) > 5.0
     before = (table.t_s > 30.0) & (table.t_s < 34.0)
     for joint in KNEES:
         assert not np.all(table.ok[joint][table.t_s > 34.5])
@@ -102,3 +123,18 @@ def test_with_a_calibration_from_the_clean_field_the_flags_follow_the_disturbanc
             assert np.mean(table.ok[joint][before]) > 0.95, joint
     assert any("heading taken from a magnetic field that differs from the calibrated one" in line
                for line in table.header)
+
+
+@pytest.mark.parametrize("live", [False, True])
+def test_with_the_headings_from_the_body_the_disturbed_knees_are_right_and_trusted(routes, live, monkeypatch):
+    """The same, with the headings from the body (the default): the field the disturbance
+    changes alike for the body and the knees' axes hold the knees, which are now right in the
+    disturbed walk (RMS within 2°) and trusted there; the flags stay right (flagged 1 → within
+    5°, off by more than 10° → flagged 0)."""
+    folder, (_clean_session, clean_calibration), (session, _calibration) = routes
+    table = _angles(folder, session, clean_calibration, live, monkeypatch)
+    _check(table, session)
+    disturbed = _disturbed_walking(table, session)
+    for joint, error in _knee_errors(table, session).items():
+        assert float(np.sqrt(np.mean(np.square(error[disturbed])))) < 2.0, joint
+        assert np.mean(table.ok[joint][disturbed]) > 0.95, joint

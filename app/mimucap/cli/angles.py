@@ -10,7 +10,9 @@ q_sensor_from_segment`` at the reference sensor's instants, and the joint angles
 whose two segments have sensors; conventions: ISB Z-X'-Y'', left mirrored, zero in the
 calibrated N-pose). A session is reprocessed (filter smoothed with past and future data) unless
 ``--live`` asks for the forward filter as the live view ran it. A calibration whose verdict is
-poor is refused unless ``--accept-poor``. Each joint's ``<joint>_ok`` column says where its
+poor is refused unless ``--accept-poor``. ``--heading`` chooses where the sensors' headings
+come from (default: the calibration's mode, else the recording's setting: relative headings
+from the field the body shares and the knees' axes). Each joint's ``<joint>_ok`` column says where its
 angles are trustworthy (1) or doubtful (0); the header lists the doubtful spans and why.
 """
 
@@ -20,7 +22,7 @@ import argparse
 from pathlib import Path
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
-from mimucap.cli.bodycal import add_reader_options, choose_model, read_input
+from mimucap.cli.bodycal import add_heading_option, add_reader_options, choose_model, read_input
 from mimucap.core.skeleton_models import SHOULDER_SEQUENCES
 
 
@@ -38,6 +40,7 @@ def register(subparsers) -> None:
     parser.add_argument("--live", action="store_true",
                         help="a session's forward filter as the live view ran it (default: reprocessed)")
     parser.add_argument("--accept-poor", action="store_true", help="use a calibration whose verdict is poor")
+    add_heading_option(parser)
     add_reader_options(parser)
     parser.add_argument("--out", required=True, metavar="OUT.{csv,mot}", help="joint-angle file to write")
     parser.set_defaults(func=run)
@@ -46,14 +49,16 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from mimucap.core.heading_modes import MODE_COUPLED
+    from mimucap.core.heading_sources import heading_coupling
     from mimucap.core.pipeline.recording import process_recording
-    from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
+    from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED, PipelineSettings
     from mimucap.core.sensor_samples import SensorSamples
     from mimucap.core.skeleton import joint_angle_columns
     from mimucap.io.angles_export import write_angles
     from mimucap.io.body_calibration_file import read_body_calibration
     from mimucap.session.recorded.calibration_choice import AppliedCalibrations
-    from mimucap.session.recorded.provenance import provenance
+    from mimucap.session.recorded.provenance import heading_lines, provenance
 
     calibration, document = read_body_calibration(args.calibration)
     if not str(args.out).lower().endswith((".csv", ".mot")):
@@ -74,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
     if unknown:
         raise ValueError(f"{args.calibration}: segment(s) {', '.join(unknown)} not in model {model.name}")
     result = RESULT_LIVE if args.live else RESULT_REPROCESSED
+    # a calibration made without magnetometers holds with the filters run without them
+    args.heading = args.heading or document.get("heading")
     trust = []
     if _is_session(args):
         output, record, markers, trust = _session_output(args, model, calibration, result)
@@ -88,7 +95,9 @@ def run(args: argparse.Namespace) -> int:
         # each column: a sensor's orientations, as a device fusing on board sends them
         streams = {sid: SensorSamples(sid, table.t_s, np.arange(len(table.t_s)), q_world_from_sensor=q)
                    for sid, q in table.q_world_from_sensor.items()}
-        output = process_recording(streams, model, body_calibration=calibration, shoulder_sequence=args.shoulder)
+        settings = PipelineSettings(heading=args.heading or MODE_COUPLED)
+        output = process_recording(streams, model, body_calibration=calibration, shoulder_sequence=args.shoulder,
+                                   settings=settings, coupling=heading_coupling(settings, RESULT_REPROCESSED))
         markers = ()
         record = provenance(source_file=Path(args.input).name, result="orientations as the input gives them",
                             calibrations=AppliedCalibrations(body=calibration, body_origin=str(args.calibration)),
@@ -145,7 +154,7 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
     from mimucap.session.recorded.calibration_choice import applied_calibrations
     from mimucap.session.recorded.reprocessing import process_session
     from mimucap.session.recorded.stored_processing import recorded_processing, session_model
-    from mimucap.session.recorded.provenance import provenance
+    from mimucap.session.recorded.provenance import heading_lines, provenance
 
     check_reader_options(args)
     _refuse_up_for_session(args)
@@ -160,9 +169,10 @@ def _session_output(args: argparse.Namespace, model, calibration, result: str):
         print(f"  {line}")
     warn_about_magnetometers("angles", session, applied)
     output = process_session(session, result=result, calibrations=applied, model=model,
-                             shoulder_sequence=args.shoulder)
+                             shoulder_sequence=args.shoulder, heading=args.heading)
     record = provenance(source_file=Path(args.input).name, result=result, calibrations=applied, model=model,
-                        height_m=session_model(session)[1], metadata=session.metadata)
+                        height_m=session_model(session)[1], metadata=session.metadata,
+                        headings=heading_lines(output.heading_mode, output.heading_source))
     trust = []
     if output.reference_sensor is not None and len(output.t_s) > 1:
         step = float(np.median(np.diff(session.sensors[output.reference_sensor].t_s)))

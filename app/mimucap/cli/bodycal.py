@@ -2,7 +2,7 @@
 
 ``mimucap bodycal INPUT [--method npose-tpose|heading|functional] [--mapping SENSOR=SEGMENT[,...]]
 [--npose T0:T1] [--tpose T2:T3] [--heading-from SENSOR:AXIS] [--still T0:T1] [--movement T2:T3]
-[--hinge-from orientations|rates] [--mag-calibration FILE] [--accept-poor] --out CAL.json [--json]``
+[--hinge-from orientations|rates] [--heading MODE] [--mag-calibration FILE] [--accept-poor] --out CAL.json [--json]``
 
 INPUT is a MimuCap session or any orientation table
 :func:`mimucap.io.orientation_inputs.read_quaternion_table` reads (quaternion CSV, OpenSim
@@ -24,7 +24,10 @@ the orientation filter, reprocessed). Three methods:
 Options of another method are refused. A calibration whose verdict is poor is written but the
 command exits with status 3, unless ``--accept-poor``; so is one made while a sensor's
 magnetometer calibration is not good (another device's, a local field that no longer fits it,
-too old: each named with its figures).
+too old: each named with its figures). ``--heading no-magnetometer`` (rooms where no
+magnetometer can be trusted) runs the filters without magnetometers and takes the still pose's
+headings from their tracks; the calibration notes the mode, and ``mimucap angles`` applies it
+with the same mode.
 """
 
 from __future__ import annotations
@@ -91,6 +94,15 @@ def choose_model(name: str, segments) -> object:
     return load_model(MODEL_NAMES[-1])
 
 
+def add_heading_option(parser: argparse.ArgumentParser) -> None:
+    """``--heading MODE``: where the sensors' headings come from (the session's setting when absent)."""
+    from mimucap.core.heading_modes import MODE_LABELS, MODES
+
+    parser.add_argument("--heading", choices=MODES, default=None,
+                        help="where the sensors' headings come from (default: the recording's setting, else coupled): "
+                             + "; ".join(f"{mode}: {label}" for mode, label in MODE_LABELS.items()))
+
+
 def add_reader_options(parser: argparse.ArgumentParser) -> None:
     """The input argument and the orientation readers' options, shared with ``mimucap angles``."""
     parser.add_argument("input", help="orientation table: .csv, .sto, Xsens .txt or folder, session .h5")
@@ -148,7 +160,8 @@ def read_input(args: argparse.Namespace):
         _refuse_up_for_session(args)
         session = read_session(args.input)
         mags = magnetometer_calibrations(session, args.mag_calibration)
-        return orientation_table(session, str(args.input), mags.magnetometer), session, mags
+        heading = getattr(args, "heading", None)
+        return orientation_table(session, str(args.input), mags.magnetometer, heading), session, mags
     if args.mag_calibration:
         raise ValueError(f"{args.input}: --mag-calibration applies to MimuCap sessions (raw magnetometer "
                          "samples), not to orientation tables")
@@ -300,6 +313,7 @@ def register(subparsers) -> None:
     parser.add_argument("--accept-poor", action="store_true",
                         help="exit 0 even when the calibration's verdict is poor or a magnetometer calibration "
                              "is not good")
+    add_heading_option(parser)
     add_reader_options(parser)
     parser.add_argument("--out", required=True, metavar="CAL.json", help="calibration file to write")
     parser.add_argument("--json", action="store_true", help="print the calibration as JSON")
@@ -338,6 +352,8 @@ def run(args: argparse.Namespace) -> int:
     calibration = with_magnetometers(calibration, mags.magnetometer if session is not None else None,
                                      origin=f"mimucap bodycal of {args.input}")
     extra = {"model": model.name, "input": str(args.input), "world_frame": table.world_frame}
+    if args.heading is not None:
+        extra["heading"] = args.heading
     if mags.standings:
         extra["magnetometer_standing"] = {sid: standing.to_json() for sid, standing in mags.standings.items()}
     document = write_body_calibration(args.out, calibration, extra)
@@ -357,6 +373,15 @@ def run(args: argparse.Namespace) -> int:
               "pass --accept-poor to use the calibration anyway", file=sys.stderr)
         return EXIT_POOR
     return 0
+
+
+def _tracks_own_headings(args, session) -> bool:
+    """Whether the still pose's sensor orientations are the tracks' own: without a session (no
+    raw samples to align on), and without magnetometers (each filter's arbitrary start, the
+    heading the angles are computed with)."""
+    from mimucap.core.heading_modes import MODE_NO_MAGNETOMETER
+
+    return session is None or args.heading == MODE_NO_MAGNETOMETER
 
 
 def _posed(args, method: str, table, session, mags, mapping):
@@ -386,7 +411,8 @@ def _posed(args, method: str, table, session, mags, mapping):
                          "--method functional")
     if npose is None:
         raise ValueError("--tpose needs --npose T0:T1 as well")
-    static = {} if session is None else static_npose_orientations(session, mags.magnetometer, mapping, npose)
+    static = {} if _tracks_own_headings(args, session) else static_npose_orientations(session, mags.magnetometer,
+                                                                                        mapping, npose)
     calibration = bodycal.calibrate_npose_tpose(
         table.t_s, table.q_world_from_sensor, mapping, npose, tpose,
         up_world=table.up_world, arms=args.arms or "auto",
@@ -424,8 +450,8 @@ def _functional(args, table, session, mags, mapping):
             raise ValueError(f"nothing follows the still window {still[0]:g}:{still[1]:g} s: give --movement T2:T3")
         movement = (float(table.t_s[np.searchsorted(table.t_s, still[1], side="right")]), end)
         print(f"  movement: {movement[0]:.2f}-{movement[1]:.2f} s, the rest of the recording")
-    static = {} if session is None else static_npose_orientations(session, mags.magnetometer, mapping, still,
-                                                                  "quiet-standing")
+    static = {} if _tracks_own_headings(args, session) else static_npose_orientations(
+        session, mags.magnetometer, mapping, still, "quiet-standing")
     calibration = fb.calibrate_functional(
         table.t_s, table.q_world_from_sensor, mapping, still, movement, up_world=table.up_world,
         settings=fb.FunctionalSettings(hinge_from=args.hinge_from or "orientations"), still_orientations=static)

@@ -31,6 +31,7 @@ from pathlib import Path
 
 from mimucap.cli import check_output_path, refuse_to_overwrite_input
 from mimucap.core.wording import plural
+from mimucap.cli.bodycal import add_heading_option
 
 FORMATS = ("c3d", "bvh", "sto", "mot", "csv")
 
@@ -51,6 +52,7 @@ def register(subparsers) -> None:
     parser.add_argument("--to", dest="t_to", type=float, default=None, metavar="S", help="end (s)")
     parser.add_argument("--opensim-names", action="store_true",
                         help="mot: name the columns as OpenSim coordinates (hip_flexion_r, knee_angle_r…)")
+    add_heading_option(parser)
     parser.add_argument("--raw-sensors", action="store_true",
                         help="sto: the sensors' own orientations instead of segment-aligned virtual sensors")
     parser.set_defaults(func=run)
@@ -79,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
 
     from mimucap.cli.session_input import warn_about_magnetometers
 
-    data = load_review(args.session, calibration_file=args.calibration)
+    data = load_review(args.session, calibration_file=args.calibration, heading=args.heading)
     if not (fmt == "sto" and args.raw_sensors):  # the sensors' own orientations need no body calibration
         from mimucap.session.recorded.review import require_body_calibration
 

@@ -122,11 +122,13 @@ def functional_windows_from_markers(markers, end_s: float) -> tuple[tuple[float,
     return held_window(npose, "N-pose"), walk
 
 
-def orientation_table(session, source: str, mag_calibrations: dict):
+def orientation_table(session, source: str, mag_calibrations: dict, heading: str | None = None):
     """Every sensor's orientation (reprocessed, with ``mag_calibrations``: sensor → the
-    magnetometer calibration applied) on the reference sensor's instants where every sensor has
-    one, as a :class:`~mimucap.io.orientation_tables.QuaternionTable` (world ENU), with the
-    reasons each may be wrong."""
+    magnetometer calibration applied, and the heading mode ``heading``: the filters run without
+    magnetometers in :data:`~mimucap.core.heading_modes.MODE_NO_MAGNETOMETER`) on the reference
+    sensor's instants where every sensor has one, as a
+    :class:`~mimucap.io.orientation_tables.QuaternionTable` (world ENU), with the reasons each
+    may be wrong."""
     import numpy as np
 
     from mimucap.core.pipeline.instants import finite_track, orientation_at
@@ -137,7 +139,7 @@ def orientation_table(session, source: str, mag_calibrations: dict):
     from mimucap.session.recorded.reprocessing import process_session
 
     output = process_session(session, result=RESULT_REPROCESSED,
-                             calibrations=AppliedCalibrations(magnetometer=dict(mag_calibrations)))
+                             calibrations=AppliedCalibrations(magnetometer=dict(mag_calibrations)), heading=heading)
     for problem in output.problems:
         print(f"  {problem}")
     tracks = {sid: finite_track(session.sensors[sid].t_s, q) for sid, q in output.q_world_from_sensor.items()}

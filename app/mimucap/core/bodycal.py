@@ -673,8 +673,12 @@ def calibrate_npose_tpose(
     ``q_segment_from_body_npose`` (optional, segment → (4,)) for a calibration pose in which
     some segment is not parallel to the body. ``npose_orientations`` (optional, sensor id →
     ``q_world_from_sensor`` (4,)) replaces a sensor's mean N-pose orientation in its segment's
-    rotation (e.g. :func:`static_alignment` of the N-pose window); the stillness checks and the
-    arm movement use the orientation tracks. Raises :class:`CalibrationRefused` (a
+    rotation (e.g. :func:`static_alignment` of the N-pose window); the stillness checks use the
+    orientation tracks, and an arm's movement is its track's rotation from the track's N-pose
+    applied to the given N-pose orientation: the gyroscope's rotation over the few seconds of
+    the raise, anchored where the still sensor measured it, so that a slow heading error of the
+    track (the smoother carries a later magnetic disturbance back over tens of seconds) does not
+    turn the forward direction. Raises :class:`CalibrationRefused` (a
     ``ValueError``) when a pose was not still, no arm was raised or the arms disagree.
     """
     t = np.asarray(t_s, dtype=np.float64)
@@ -703,15 +707,21 @@ def calibrate_npose_tpose(
     sides = [side for side in wanted if side in candidates]
     if not sides:
         raise ValueError("an N/T-pose calibration needs a sensor on an arm (map upper_arm_l or upper_arm_r)")
+    given = {sensor: unit_quaternion(q, f"N-pose orientation of sensor {sensor}")
+             for sensor, q in (npose_orientations or {}).items() if sensor in means}
     fits: list[ArmAxisFit] = []
     refusals: list[CalibrationRefused] = []
     for side in sides:
         sensor = candidates[side]
         q = np.asarray(q_world_from_sensor[sensor], dtype=np.float64)
+        q_n = means[sensor]
+        if sensor in given:
+            q = rot.multiply(rot.multiply(given[sensor], rot.conjugate(q_n)), q)
+            q_n = given[sensor]
         q_t, still_t = pose_stillness(q[t_window], "T-pose", sensor)
         stillness.append(still_t)
         try:
-            fits.append(fit_arm_axis(side, sensor, means[sensor], q_t, q[n_window.stop:t_window.stop], up, settings))
+            fits.append(fit_arm_axis(side, sensor, q_n, q_t, q[n_window.stop:t_window.stop], up, settings))
         except CalibrationRefused as refusal:
             refusals.append(refusal)
     checks = stillness_checks(stillness, settings.stillness_limit_deg, settings.stillness_good_deg)
@@ -748,8 +758,6 @@ def calibrate_npose_tpose(
     q_world_from_body = q_world_from_body_from_forward(forward, up)
     verdict, problems = verdict_of(checks)
     quality = CalibrationQuality("npose_tpose", tuple(stillness), tuple(fits), disagreement, None, verdict, problems)
-    given = {sensor: unit_quaternion(q, f"N-pose orientation of sensor {sensor}")
-             for sensor, q in (npose_orientations or {}).items() if sensor in means}
     segments = _segment_rotations(q_world_from_body, {**means, **given}, mapping, q_segment_from_body_npose)
     details = {"npose_s": [float(npose_s[0]), float(npose_s[1])], "tpose_s": [float(tpose_s[0]), float(tpose_s[1])]}
     if given:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import html
 import logging
 import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +37,8 @@ from mimucap.session.recorded.provenance import WITHOUT_BODY_CALIBRATION
 from mimucap.session.recorded.review import ReviewData
 
 log = logging.getLogger(__name__)
+#: Characters per line of the summary chart's caption.
+CAPTION_WRAP_CHARS = 150
 
 
 class ExportDialog(QtWidgets.QDialog):
@@ -48,6 +51,8 @@ class ExportDialog(QtWidgets.QDialog):
         self.data = data
         self.result: ExportResult | None = None
         self._chart: tuple | None = None  # drawn off screen for the summary PNG
+        #: the provenance lines of the last summary chart's caption (before wrapping)
+        self._caption_lines: list[str] = []
         self._task: BackgroundTask | None = None
         self._range_valid = False  # the chosen range holds poses (set by update_summary)
 
@@ -373,7 +378,10 @@ class ExportDialog(QtWidgets.QDialog):
         a caption saying what the result holds."""
         rows = self.summary_rows()
         lines = self.data.provenance.lines()
-        height = 90 + 24 * len(rows) + 18 * len(lines)
+        # a long line (the headings' sources of a full suit) is wrapped rather than widening
+        # the chart, which the exporter would then scale down to the width asked
+        drawn = [part for line in lines for part in (textwrap.wrap(line, CAPTION_WRAP_CHARS) or [""])]
+        height = 90 + 24 * len(rows) + 18 * len(drawn)
         chart, plot, caption = self._summary_chart()
         plot.clear()
         chart.resize(width, height)
@@ -388,7 +396,8 @@ class ExportDialog(QtWidgets.QDialog):
         a, b = self.time_range()
         plot.setTitle(f"{self.data.path.name}: {a:.2f}–{b:.2f} s")
         plot.setYRange(-0.8, len(rows) - 0.2, padding=0)
-        caption.setText("<br>".join(html.escape(line) for line in lines))
+        caption.setText("<br>".join(html.escape(line) for line in drawn))
+        self._caption_lines = lines
         chart.show()
         QtWidgets.QApplication.processEvents()
         exporter = pg.exporters.ImageExporter(chart.ci)
@@ -403,4 +412,4 @@ class ExportDialog(QtWidgets.QDialog):
     @property
     def summary_caption(self) -> str:
         """The caption of the last summary chart (plain text lines)."""
-        return "" if self._chart is None else html.unescape(self._chart[2].text.replace("<br>", "\n"))
+        return "\n".join(self._caption_lines)

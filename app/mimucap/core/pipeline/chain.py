@@ -167,6 +167,11 @@ class SensorChain:
             return samples
         return replace(samples, gyr=self.mag_calibration.correct_gyr(samples.gyr))
 
+    def fused_mag(self, calibrated_uT: np.ndarray | None) -> np.ndarray | None:
+        """The field the filter fuses: ``calibrated_uT`` (:meth:`calibrated_mag`), or None when
+        the settings' heading mode runs the filters without magnetometers."""
+        return calibrated_uT if self.settings.uses_magnetometers else None
+
     def takes_onboard(self, samples: SensorSamples) -> bool:
         """The on-board-orientation rule: samples that carry ``q_world_from_sensor`` come from a
         device that fuses on board, and that orientation is used as it is (the chain is marked
@@ -257,7 +262,8 @@ class SensorChain:
         if samples.gyr is None:
             raise ValueError(f"sensor {self.sensor_id}: neither an on-board orientation nor a gyroscope to fuse")
         samples = self.corrected_gyr(samples)
-        mag = self.calibrated_mag(samples.mag_uT)
+        field = self.calibrated_mag(samples.mag_uT)
+        mag = self.fused_mag(field)
         ekf = self._filters_for(mag is not None)
         store = SmootherStore(n) if smoothed else None
         store_free = SmootherStore(n) if smoothed and self.ekf_no_mag is not None else None
@@ -291,7 +297,7 @@ class SensorChain:
                 step_s = float(np.median(intervals)) if len(intervals) else 0.01
                 doubt_terms = doubt_terms.smoothed(sensor_doubt.smoother_memory_s(self.settings.fusion, step_s))
         reasons = None if doubt_terms is None else doubt_terms.reasons()
-        return SensorOrientations(self.sensor_id, t, q, mag, flags, False, reasons, heading, q_free)
+        return SensorOrientations(self.sensor_id, t, q, field, flags, False, reasons, heading, q_free)
 
 
 def _feed(ekf: OrientationEKF, store: SmootherStore | None, start: int, t_s: np.ndarray, gyr_rad_s: np.ndarray,
@@ -332,14 +338,16 @@ def update_chains(chains: Sequence[SensorChain], blocks: Sequence[SensorSamples]
     count = len(blocks)
     blocks = [chain.corrected_gyr(block) for chain, block in zip(chains, blocks)]
     calibrated: list[np.ndarray | None] = [None] * count
+    fused_field: list[np.ndarray | None] = [None] * count
     fused: list[int] = []
     onboard: list[int] = []
     for index, (chain, block) in enumerate(zip(chains, blocks)):
         calibrated[index] = chain.calibrated_mag(block.mag_uT)
+        fused_field[index] = chain.fused_mag(calibrated[index])
         if chain.takes_onboard(block):
             onboard.append(index)
         elif block.gyr is not None:
-            chain._filters_for(calibrated[index] is not None)
+            chain._filters_for(fused_field[index] is not None)
             fused.append(index)
     orientation: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     heading: dict[int, np.ndarray] = {}
@@ -348,7 +356,7 @@ def update_chains(chains: Sequence[SensorChain], blocks: Sequence[SensorSamples]
         orientation[index] = (np.asarray(blocks[index].q_world_from_sensor, dtype=np.float64),
                               np.zeros(n, dtype=np.uint8))
         heading[index] = np.full(n, math.nan)
-    outputs = _grouped([(chains[i].ekf, blocks[i], calibrated[i]) for i in fused])
+    outputs = _grouped([(chains[i].ekf, blocks[i], fused_field[i]) for i in fused])
     for index, out in zip(fused, outputs):
         orientation[index] = out
         heading[index] = np.full(len(blocks[index].t_s), chains[index].heading_std_rad())
@@ -359,7 +367,7 @@ def update_chains(chains: Sequence[SensorChain], blocks: Sequence[SensorSamples]
     with_doubt = [i for i in done if chains[i].keeps_doubt]
     reasons: dict[int, np.ndarray] = {}
     if with_doubt:
-        doubt_blocks = [chains[i]._doubt_block(blocks[i], calibrated[i], *orientation[i]) for i in with_doubt]
+        doubt_blocks = [chains[i]._doubt_block(blocks[i], fused_field[i], *orientation[i]) for i in with_doubt]
         joined = sensor_doubt.update_together([chains[i].doubt() for i in with_doubt], doubt_blocks).reasons()
         start = 0
         for index in with_doubt:

@@ -44,7 +44,12 @@ class SensorsAtInstants:
     instant (:data:`~mimucap.core.fusion.state.FLAG_NAMES`: a rejected or missing magnetometer,
     rest, ...); ``heading_std_rad`` (…,) the filter's heading standard deviation there (NaN for
     an on-board orientation); ``q_world_from_sensor_no_mag`` (…, 4) the orientation of a
-    magnetometer-free filter, for the sensors whose chain runs one.
+    magnetometer-free filter, for the sensors whose chain runs one; ``mag_uT`` (…, 3) the
+    calibrated field of the sample at or before the instant (NaN before the first), for the
+    sensors with a magnetometer calibration (a raw field's magnitude and dip say nothing two
+    sensors could share). ``heading_source`` (…,) uint8 where each sensor's heading came from
+    (:data:`~mimucap.core.heading_sources.SOURCE_NAMES`), set by a joint coupling that chooses
+    it (empty: each filter's own).
     """
 
     t_s: np.ndarray | float
@@ -52,23 +57,27 @@ class SensorsAtInstants:
     flags: Mapping[str, np.ndarray] = field(default_factory=dict)
     heading_std_rad: Mapping[str, np.ndarray] = field(default_factory=dict)
     q_world_from_sensor_no_mag: Mapping[str, np.ndarray] = field(default_factory=dict)
+    mag_uT: Mapping[str, np.ndarray] = field(default_factory=dict)
+    heading_source: Mapping[str, np.ndarray] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
 class SensorTrack:
     """One sensor's samples as the chain gave them, for forming instants: ``t_s`` (N,)
     increasing, ``q_world_from_sensor`` (N, 4), ``flags`` (N,) uint8, ``heading_std_rad`` (N,),
-    ``q_world_from_sensor_no_mag`` (N, 4) or None. Only the rows with an orientation (see
-    :meth:`finite`)."""
+    ``q_world_from_sensor_no_mag`` (N, 4) or None, ``mag_uT`` (N, 3) the calibrated field or
+    None. Only the rows with an orientation (see :meth:`finite`)."""
 
     t_s: np.ndarray
     q_world_from_sensor: np.ndarray
     flags: np.ndarray
     heading_std_rad: np.ndarray
     q_world_from_sensor_no_mag: np.ndarray | None = None
+    mag_uT: np.ndarray | None = None
 
     @classmethod
-    def finite(cls, t_s, q_world_from_sensor, flags=None, heading_std_rad=None, q_no_mag=None) -> "SensorTrack":
+    def finite(cls, t_s, q_world_from_sensor, flags=None, heading_std_rad=None, q_no_mag=None,
+               mag_uT=None) -> "SensorTrack":
         """The rows of a chain's output that hold an orientation (``flags`` zeros and
         ``heading_std_rad`` NaN when not given)."""
         q = np.asarray(q_world_from_sensor, dtype=np.float64)
@@ -77,7 +86,8 @@ class SensorTrack:
         flags = np.zeros(n, dtype=np.uint8) if flags is None else np.asarray(flags)
         heading = np.full(n, math.nan) if heading_std_rad is None else np.asarray(heading_std_rad)
         return cls(np.asarray(t_s, dtype=np.float64)[keep], q[keep], flags[keep], heading[keep],
-                   None if q_no_mag is None else np.asarray(q_no_mag)[keep])
+                   None if q_no_mag is None else np.asarray(q_no_mag)[keep],
+                   None if mag_uT is None else np.asarray(mag_uT, dtype=np.float64)[keep])
 
 
 def orientation_at(t_query: np.ndarray, t_s: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -140,7 +150,9 @@ def sensors_at_instants(t_pose: np.ndarray, tracks: Mapping[str, SensorTrack]) -
     heading = {sid: value_at(t_pose, track.t_s, track.heading_std_rad, math.nan) for sid, track in tracks.items()}
     free = {sid: orientation_at(t_pose, track.t_s, track.q_world_from_sensor_no_mag)
             for sid, track in tracks.items() if track.q_world_from_sensor_no_mag is not None}
-    return SensorsAtInstants(t_pose, q, flags, heading, free)
+    mag = {sid: value_at(t_pose, track.t_s, track.mag_uT, math.nan)
+           for sid, track in tracks.items() if track.mag_uT is not None}
+    return SensorsAtInstants(t_pose, q, flags, heading, free, mag)
 
 
 class LiveTrack:
@@ -153,12 +165,13 @@ class LiveTrack:
         self.flags = np.empty(0, dtype=np.uint8)
         self.heading_std_rad = np.empty(0)
         self.q_no_mag: np.ndarray | None = None
+        self.mag_uT: np.ndarray | None = None
         self.capacity = capacity
 
     def add(self, t_s: np.ndarray, q: np.ndarray, flags: np.ndarray, heading_std_rad: np.ndarray,
-            q_no_mag: np.ndarray | None = None) -> None:
+            q_no_mag: np.ndarray | None = None, mag_uT: np.ndarray | None = None) -> None:
         """Append a chain's new samples (rows without an orientation, or not after the newest
-        one kept, are left out)."""
+        one kept, are left out); ``mag_uT`` (N, 3) the calibrated field or None."""
         keep = np.isfinite(q).all(axis=1)
         if len(self.t) and len(t_s) and t_s[0] <= self.t[-1]:
             keep &= np.asarray(t_s) > self.t[-1]
@@ -166,6 +179,8 @@ class LiveTrack:
             return
         if q_no_mag is not None and self.q_no_mag is None:  # rows kept before have none
             self.q_no_mag = np.full((len(self.t), 4), np.nan)
+        if mag_uT is not None and self.mag_uT is None:
+            self.mag_uT = np.full((len(self.t), 3), np.nan)
         cut = -self.capacity
         self.t = np.concatenate([self.t, np.asarray(t_s)[keep]])[cut:]
         self.q = np.concatenate([self.q, np.asarray(q)[keep]])[cut:]
@@ -174,6 +189,9 @@ class LiveTrack:
         if self.q_no_mag is not None:
             new = np.full((int(keep.sum()), 4), np.nan) if q_no_mag is None else np.asarray(q_no_mag)[keep]
             self.q_no_mag = np.concatenate([self.q_no_mag, new])[cut:]
+        if self.mag_uT is not None:
+            new = np.full((int(keep.sum()), 3), np.nan) if mag_uT is None else np.asarray(mag_uT)[keep]
+            self.mag_uT = np.concatenate([self.mag_uT, new])[cut:]
 
     @property
     def newest_t(self) -> float:
@@ -181,7 +199,7 @@ class LiveTrack:
 
     def as_sensor_track(self) -> SensorTrack:
         """The samples kept, as the batch form holds a sensor's orientations."""
-        return SensorTrack(self.t, self.q, self.flags, self.heading_std_rad, self.q_no_mag)
+        return SensorTrack(self.t, self.q, self.flags, self.heading_std_rad, self.q_no_mag, self.mag_uT)
 
     def at(self, t_s: float) -> tuple[np.ndarray, int, float, np.ndarray | None]:
         """``(q_world_from_sensor (4,), flags, heading_std_rad, q_no_mag (4,) or None)`` at the
@@ -202,6 +220,14 @@ class LiveTrack:
 
     def _row(self, index: int, q: np.ndarray, q_no_mag: np.ndarray | None):
         return q, int(self.flags[index]), float(self.heading_std_rad[index]), q_no_mag
+
+    def field_at(self, t_s: float) -> np.ndarray | None:
+        """The calibrated field (3,) of the sample at or before ``t_s`` (NaN before the first);
+        None for a sensor without one."""
+        if self.mag_uT is None:
+            return None
+        index = int(np.searchsorted(self.t, t_s, side="right")) - 1
+        return self.mag_uT[index] if index >= 0 else np.full(3, np.nan)
 
 
 def slerp_one(q0: np.ndarray, q1: np.ndarray, fraction: float) -> np.ndarray:
@@ -271,9 +297,53 @@ def instants_after(model: skeleton.SkeletonModel, segment_of_sensor: Mapping[str
 
 def live_sensors_at(t_pose: float, tracks: Mapping[str, LiveTrack]) -> SensorsAtInstants:
     """Every sensor of ``tracks`` at the one instant ``t_pose`` (the live form)."""
-    q, flags, heading, free = {}, {}, {}, {}
+    q, flags, heading, free, mag = {}, {}, {}, {}, {}
     for sid, track in tracks.items():
         q[sid], flags[sid], heading[sid], no_mag = track.at(t_pose)
         if no_mag is not None:
             free[sid] = no_mag
-    return SensorsAtInstants(t_pose, q, flags, heading, free)
+        field_uT = track.field_at(t_pose)
+        if field_uT is not None:
+            mag[sid] = field_uT
+    return SensorsAtInstants(t_pose, q, flags, heading, free, mag)
+
+
+class CoupledInstants:
+    """The last instants (at most :data:`TRACK_CAPACITY`) as the segment stage's joint coupling
+    made them, in the live form: the coupling is stepped once over every instant
+    (:meth:`~mimucap.core.pipeline.live.LivePipeline.pose`), and the poses shown and streamed
+    are read from here. ``stage_key`` names the assignment they were made with."""
+
+    def __init__(self, stage_key: tuple | None = None) -> None:
+        self.stage_key = stage_key
+        self.t = np.empty(0)
+        self.q: dict[str, np.ndarray] = {}
+        self.source: dict[str, np.ndarray] = {}
+
+    @property
+    def newest_t(self) -> float:
+        return float(self.t[-1]) if len(self.t) else -math.inf
+
+    def add(self, instants: SensorsAtInstants) -> None:
+        """Append coupled ``instants`` (``t_s`` (P,) after :attr:`newest_t`); a sensor new to
+        them has no rows before (NaN)."""
+        t_new = np.atleast_1d(np.asarray(instants.t_s, dtype=np.float64))
+        count, cut = len(self.t), -TRACK_CAPACITY
+        for sid, q in instants.q_world_from_sensor.items():
+            kept = self.q.get(sid, np.full((count, 4), np.nan))
+            self.q[sid] = np.concatenate([kept, np.reshape(q, (-1, 4))])[cut:]
+        for sid in set(self.q) - set(instants.q_world_from_sensor):
+            self.q[sid] = np.concatenate([self.q[sid], np.full((len(t_new), 4), np.nan)])[cut:]
+        for sid in set(self.source) | set(instants.heading_source):
+            kept = self.source.get(sid, np.zeros(count, dtype=np.uint8))
+            new = instants.heading_source.get(sid, np.zeros(len(t_new), dtype=np.uint8))
+            self.source[sid] = np.concatenate([kept, np.reshape(new, -1)])[cut:]
+        self.t = np.concatenate([self.t, t_new])[cut:]
+
+    def at(self, t_query: np.ndarray) -> SensorsAtInstants | None:
+        """The kept instants among ``t_query`` (P,) s, in order; None when none is kept."""
+        rows = np.flatnonzero(np.isin(self.t, t_query))
+        if not len(rows):
+            return None
+        return SensorsAtInstants(self.t[rows], {sid: q[rows] for sid, q in self.q.items()},
+                                 heading_source={sid: s[rows] for sid, s in self.source.items()})

@@ -24,6 +24,7 @@ from collections.abc import Iterable, Mapping
 import numpy as np
 
 from mimucap.core import bodycal, skeleton
+from mimucap.core.heading_sources import relieved
 from mimucap.core.pipeline.doubt_reasons import (
     BODY_CALIBRATION_DOUBTFUL, BODY_CALIBRATION_POOR, DOUBT_DTYPE, LOST_SAMPLES, NO_BODY_CALIBRATION,
     NO_ORIENTATION, OFF_BODY, SINGULAR,
@@ -67,12 +68,16 @@ def at_instants(t_query: np.ndarray, t_s: np.ndarray, reasons: np.ndarray, hold_
 def joint_reasons(model: skeleton.SkeletonModel, t_pose: np.ndarray, segment_of_sensor: Mapping[str, str],
                   sensor_reasons: Mapping[str, tuple[np.ndarray, np.ndarray]],
                   body_calibration: bodycal.BodyCalibration | None,
-                  hold_s: float = HOLD_BACK_LIMIT_S) -> dict[str, np.ndarray]:
+                  hold_s: float = HOLD_BACK_LIMIT_S,
+                  heading_source: Mapping[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Joint → the reasons (T,) its angles at the pose instants ``t_pose`` may be wrong: its two
     sensors' (``sensor_reasons`` sensor → ``(t_s (N,), reasons (N,))``, at the instants by
     :func:`at_instants`, ``hold_s`` the longest a held orientation counts as measured), and no
     body calibration or a poor one, or one made from doubtful orientations. Joints whose
-    segments do not both carry a sensor are left out."""
+    segments do not both carry a sensor are left out. A sensor whose heading at an instant came
+    from the field the body shares or from its joint (``heading_source`` sensor → (T,)) is not
+    doubtful there for its own magnetometer's reasons
+    (:func:`~mimucap.core.heading_sources.relieved`)."""
     shared = np.zeros(len(t_pose), dtype=DOUBT_DTYPE)
     if body_calibration is None:
         shared |= NO_BODY_CALIBRATION
@@ -82,6 +87,9 @@ def joint_reasons(model: skeleton.SkeletonModel, t_pose: np.ndarray, segment_of_
         if body_calibration.quality.doubtful_sensors:
             shared |= BODY_CALIBRATION_DOUBTFUL
     at = {sid: at_instants(t_pose, t, values, hold_s) for sid, (t, values) in sensor_reasons.items()}
+    if heading_source:
+        at = {sid: relieved(values, heading_source[sid]) if sid in heading_source else values
+              for sid, values in at.items()}
     sensor_of_segment = {segment: sid for sid, segment in segment_of_sensor.items() if sid in at}
     out = {}
     for joint in model.joints:

@@ -15,14 +15,17 @@ Times ``t_s`` are float64 seconds on the pipeline's clock (the session's).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from mimucap.core import bodycal, skeleton
+from mimucap.core.heading_sources import relieved
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.chain import SensorChain, SensorOrientations, update_chains
+from mimucap.core.pipeline.doubt_reasons import DOUBT_DTYPE
 from mimucap.core.pipeline.instants import (
-    LiveTrack, instants_after, live_sensors_at, newest_instant, sensors_at_instants,
+    CoupledInstants, LiveTrack, instants_after, live_sensors_at, newest_instant, sensors_at_instants,
 )
 from mimucap.core.pipeline.segments import JointCoupling, SegmentStage
 from mimucap.core.pipeline.settings import DEFAULT_PIPELINE_SETTINGS, PipelineSettings
@@ -52,6 +55,11 @@ class LivePipeline:
         self.doubts: dict[str, int] = {}
         self._tracks: dict[str, LiveTrack] = {}
         self._last_pose_t = -np.inf
+        #: sensor → where the newest pose's heading of that sensor came from, as the coupling
+        #: chose it (:data:`~mimucap.core.heading_sources.SOURCE_NAMES`; empty without one)
+        self.heading_sources: dict[str, int] = {}
+        #: the coupling's output at the last instants it was stepped over (:meth:`_couple_new`)
+        self._coupled = CoupledInstants()
 
     def chain(self, sensor_id: str) -> SensorChain:
         """``sensor_id``'s chain (made at its first samples, with its magnetometer calibration)."""
@@ -89,12 +97,23 @@ class LivePipeline:
             track = self._tracks.get(item.sensor_id)
             if track is None:
                 track = self._tracks[item.sensor_id] = LiveTrack()
+            calibrated = self.chains[item.sensor_id].mag_calibration is not None
             track.add(item.t_s, item.q_world_from_sensor, item.flags, item.heading_std_rad,
-                      item.q_world_from_sensor_no_mag)
+                      item.q_world_from_sensor_no_mag, item.mag_uT if calibrated else None)
             if len(item.flags):
                 self.flags[item.sensor_id] = int(item.flags[-1])
                 self.doubts[item.sensor_id] = int(item.doubt[-1])
         return done
+
+    def doubt_of(self, sensor_id: str) -> int:
+        """The reasons (:mod:`.doubt_reasons`) the sensor's newest orientation may be wrong, less
+        its own magnetometer's where the newest pose took its heading from the field the body
+        shares or its joint (:func:`~mimucap.core.heading_sources.relieved`)."""
+        reasons = self.doubts.get(sensor_id, 0)
+        source = self.heading_sources.get(sensor_id)
+        if source is None:
+            return reasons
+        return int(relieved(np.array([reasons], dtype=DOUBT_DTYPE), np.array([source], dtype=np.uint8))[0])
 
     def latest_orientations(self) -> dict[str, np.ndarray]:
         """Sensor → its newest ``q_world_from_sensor`` (4,) (sensors with one only)."""
@@ -112,11 +131,20 @@ class LivePipeline:
         t_pose = newest_instant(self.model, stage.segment_of_sensor, self._tracks, self._last_pose_t)
         if t_pose is None:
             return None
-        tracks = {sid: self._tracks[sid] for sid in stage.segment_of_sensor
-                  if sid in self._tracks and len(self._tracks[sid].t)}
-        q_segments = stage.segments(live_sensors_at(t_pose, tracks))
+        if self.coupling is None:
+            tracks = {sid: self._tracks[sid] for sid in stage.segment_of_sensor
+                      if sid in self._tracks and len(self._tracks[sid].t)}
+            instants, q_segments = stage.coupled_segments(live_sensors_at(t_pose, tracks))
+        else:
+            self._couple_new(stage)
+            instants = self._coupled.at(np.array([t_pose]))
+            if instants is None:
+                return None
+            q_segments = stage.uncoupled_segments(instants)
+            q_segments = None if q_segments is None else {name: q[0] for name, q in q_segments.items()}
         if q_segments is None:
             return None
+        self.heading_sources = {sid: int(np.ravel(source)[-1]) for sid, source in instants.heading_source.items()}
         self._last_pose_t = t_pose
         return t_pose, q_segments
 
@@ -131,10 +159,37 @@ class LivePipeline:
         t_pose = instants_after(self.model, stage.segment_of_sensor, self._tracks, t_after_s)
         if not len(t_pose):
             return None
+        if self.coupling is None:
+            tracks = {sid: self._tracks[sid].as_sensor_track() for sid in stage.segment_of_sensor
+                      if sid in self._tracks and len(self._tracks[sid].t)}
+            q_segments = stage.segments(sensors_at_instants(t_pose, tracks))
+        else:
+            self._couple_new(stage)
+            instants = self._coupled.at(t_pose)
+            q_segments = None if instants is None else stage.uncoupled_segments(instants)
+            t_pose = t_pose if instants is None else np.asarray(instants.t_s)
+        return None if q_segments is None else (t_pose, q_segments)
+
+    def _couple_new(self, stage: SegmentStage) -> None:
+        """Step the coupling over every instant formed since it was last stepped, whether or not
+        a pose is shown there: its averages run over time, and a recording's *as seen live*
+        result steps them over every instant (the view refreshes at its own rate)."""
+        key = (tuple(sorted(stage.segment_of_sensor.items())), id(stage.body_calibration))
+        if key != self._coupled.stage_key:
+            self._coupled = CoupledInstants(key)  # another assignment: the coupling starts anew too
+        t_new = instants_after(self.model, stage.segment_of_sensor, self._tracks, self._coupled.newest_t)
+        if not len(t_new):
+            return
         tracks = {sid: self._tracks[sid].as_sensor_track() for sid in stage.segment_of_sensor
                   if sid in self._tracks and len(self._tracks[sid].t)}
-        q_segments = stage.segments(sensors_at_instants(t_pose, tracks))
-        return None if q_segments is None else (t_pose, q_segments)
+        self._coupled.add(self.coupling.couple(sensors_at_instants(t_new, tracks), stage))
+
+    def coupling_state(self, time_offset_s: float = 0.0) -> dict[str, Any] | None:
+        """Where the coupling's averages stand now (JSON-ready, on a clock ``time_offset_s``
+        behind the pipeline's: a recording's), what a recording's *as seen live* result
+        continues from; None without a coupling that keeps one."""
+        to_dict = getattr(self.coupling, "state_to_dict", None)
+        return None if to_dict is None else to_dict(time_offset_s)
 
     def forget_poses(self) -> None:
         """Allow the next pose to be any instant again (after a calibration changed)."""

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mimucap.core import bodycal, skeleton
+from mimucap.core.heading_modes import MODE_COUPLED
 from mimucap.core.fusion.state import FusionState
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.chain import SensorChain
@@ -41,7 +42,10 @@ class PipelineOutput:
     ``pose_source`` :data:`POSE_BODY_CALIBRATION` or :data:`POSE_SENSOR_AXES`;
     ``reference_sensor`` the sensor whose instants are the poses'. ``doubt`` sensor → (N,) and
     ``joint_doubt`` joint → (T,) (the joints of ``angles_deg``): the reasons each may be wrong
-    (:mod:`~mimucap.core.pipeline.doubt_reasons`, 0 where trustworthy).
+    (:mod:`~mimucap.core.pipeline.doubt_reasons`, 0 where trustworthy). ``heading_source``
+    sensor → (T,) where each sensor's heading came from at the pose instants, as the coupling
+    chose it (:data:`~mimucap.core.heading_sources.SOURCE_NAMES`; empty without one), and
+    ``heading_mode`` the settings' mode (:data:`~mimucap.core.heading_modes.MODES`).
     """
 
     result: str
@@ -55,6 +59,8 @@ class PipelineOutput:
     problems: list[str] = field(default_factory=list)
     doubt: dict[str, np.ndarray] = field(default_factory=dict)
     joint_doubt: dict[str, np.ndarray] = field(default_factory=dict)
+    heading_source: dict[str, np.ndarray] = field(default_factory=dict)
+    heading_mode: str = MODE_COUPLED
 
 
 def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.SkeletonModel, *,
@@ -104,16 +110,19 @@ def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.Skel
             continue
         q_sensor[sensor_id], flags[sensor_id], reasons[sensor_id] = out.q_world_from_sensor, out.flags, out.doubt
         tracks[sensor_id] = SensorTrack.finite(stream.t_s, out.q_world_from_sensor, out.flags, out.heading_std_rad,
-                                               out.q_world_from_sensor_no_mag)
+                                               out.q_world_from_sensor_no_mag,
+                                               out.mag_uT if chain.mag_calibration is not None else None)
     stage = SegmentStage(model, body_calibration, sensor_segments or {}, coupling)
     segments = stage.segment_of_sensor
     tracks = {sid: track for sid, track in tracks.items() if sid in segments and len(track.t_s)}
     source = POSE_BODY_CALIBRATION if body_calibration is not None else POSE_SENSOR_AXES
     reference = reference_sensor(model, segments, list(tracks))
     if reference is None:
-        return PipelineOutput(result, np.zeros(0), {}, {}, q_sensor, flags, source, None, problems, reasons)
+        return PipelineOutput(result, np.zeros(0), {}, {}, q_sensor, flags, source, None, problems, reasons,
+                              heading_mode=settings.heading)
     t_pose = tracks[reference].t_s
-    q_segments = stage.segments(sensors_at_instants(t_pose, tracks)) or {}
+    instants, q_segments = stage.coupled_segments(sensors_at_instants(t_pose, tracks))
+    q_segments = q_segments or {}
     angles = skeleton.joint_angles_deg(model, q_segments, shoulder_sequence) if len(t_pose) else {}
     angles = measured_joint_angles(model, angles, {segments[sid] for sid in tracks})
     if off_body_s:
@@ -124,8 +133,8 @@ def process_recording(streams: Mapping[str, SensorSamples], model: skeleton.Skel
                                                        fusion.rest_time_s)
     joint_doubt = joint_reasons(model, t_pose, segments, {sid: (np.asarray(streams[sid].t_s), reasons[sid])
                                                          for sid in tracks},
-                                body_calibration, settings.fusion.max_gap_s)
+                                body_calibration, settings.fusion.max_gap_s, instants.heading_source)
     joint_doubt = {joint: value | singular_reasons(model, joint, angles, shoulder_sequence)
                    for joint, value in joint_doubt.items() if any(c.startswith(joint + "_") for c in angles)}
     return PipelineOutput(result, t_pose, q_segments, angles, q_sensor, flags, source, reference, problems,
-                          reasons, joint_doubt)
+                          reasons, joint_doubt, dict(instants.heading_source), settings.heading)

@@ -87,9 +87,13 @@ class JointCoupling(Protocol):
     between their segments constrain (see the module docstring).
 
     :meth:`couple` is called with the instants in time order: every instant of a recording at
-    once in the batch form, one instant per call in the live form; a coupling that learns
-    (a heading offset between two segments, the common field) keeps that between calls. It
-    returns the instants with corrected ``q_world_from_sensor`` (and may leave them as they are).
+    once in the batch form, in the live form the instants formed since the last call (every
+    instant once, whether a pose is shown there or not); a coupling that learns (a heading
+    offset between two segments, the common field) keeps that between calls. It
+    returns the instants with corrected ``q_world_from_sensor`` (and may leave them as they are),
+    and with ``heading_source`` when it chooses where each sensor's heading comes from (the
+    reasons for doubt follow that choice: :func:`~mimucap.core.pipeline.joint_angles.joint_reasons`).
+    :class:`~mimucap.core.heading_sources.HeadingCoupling` is the application's.
     """
 
     def couple(self, instants: SensorsAtInstants, stage: "SegmentStage") -> SensorsAtInstants:
@@ -120,7 +124,17 @@ class SegmentStage:
     def segments(self, instants: SensorsAtInstants) -> dict[str, np.ndarray] | None:
         """Segment → ``q_world_from_segment`` (…, 4) at the instants of ``instants``; None when
         no assigned sensor has an orientation."""
+        return self.coupled_segments(instants)[1]
+
+    def coupled_segments(self, instants: SensorsAtInstants
+                         ) -> tuple[SensorsAtInstants, dict[str, np.ndarray] | None]:
+        """:meth:`segments` with the instants the coupling made of ``instants`` (as given
+        without one)."""
         if self.coupling is not None:
             instants = self.coupling.couple(instants, self)
+        return instants, self.uncoupled_segments(instants)
+
+    def uncoupled_segments(self, instants: SensorsAtInstants) -> dict[str, np.ndarray] | None:
+        """:meth:`segments` of instants the coupling has already made (or without one)."""
         return segments_from_sensors(self.model, instants.q_world_from_sensor, self.body_calibration,
                                      self.sensor_segments)

@@ -1,7 +1,7 @@
 """What the processing path is run with, and which result it gives (no I/O, no Qt).
 
 A recording stores what the path needs to run again: :class:`PipelineSettings` (the filter's
-parameters) and each sensor's filter state when the recording started (:func:`state_to_dict`,
+parameters, where the headings come from) and each sensor's filter state when the recording started (:func:`state_to_dict`,
 :func:`state_from_dict`: the JSON form). Two results exist: :data:`RESULT_LIVE`, the forward
 filter as the live view ran it (continuing from that state), and :data:`RESULT_REPROCESSED`,
 the same filter smoothed over the whole recording with past and future data
@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from mimucap.core import heading_modes
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
 from mimucap.core.fusion.state import FusionState
 
@@ -38,13 +39,23 @@ def check_result(result: str) -> str:
 class PipelineSettings:
     """Settings of the processing path that a recording stores so that it can be recomputed.
 
-    ``fusion``: the orientation filter's parameters (units in their names).
+    ``fusion``: the orientation filter's parameters (units in their names); ``heading``: where
+    the sensors' headings come from (:data:`~mimucap.core.heading_modes.MODES`).
     """
 
     fusion: FusionParams = DEFAULT_FUSION_PARAMS
+    heading: str = heading_modes.MODE_COUPLED
+
+    def __post_init__(self) -> None:
+        heading_modes.check_mode(self.heading)
+
+    @property
+    def uses_magnetometers(self) -> bool:
+        """Whether the filters fuse the magnetometers (all modes but no-magnetometer)."""
+        return self.heading != heading_modes.MODE_NO_MAGNETOMETER
 
     def to_dict(self) -> dict[str, Any]:
-        return {"fusion": asdict(self.fusion)}
+        return {"fusion": asdict(self.fusion), "heading": self.heading}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any] | None, origin: str = "pipeline settings") -> "PipelineSettings":
@@ -53,9 +64,9 @@ class PipelineSettings:
             return cls()
         try:
             fusion = FusionParams(**dict(data.get("fusion") or {}))
-        except TypeError as error:
+            return cls(fusion=fusion, heading=str(data.get("heading", heading_modes.MODE_COUPLED)))
+        except (TypeError, ValueError) as error:
             raise ValueError(f"{origin}: {error}") from None
-        return cls(fusion=fusion)
 
 
 DEFAULT_PIPELINE_SETTINGS = PipelineSettings()

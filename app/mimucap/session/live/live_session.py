@@ -500,7 +500,8 @@ class LiveSession:
             "magnetometer_readiness": magnetometer_readiness(self),
             **recording_record(mag_calibrations=self.mag_calibrations, body_calibration=self.body_calibration,
                                settings=self.processing.settings, filter_states=self.processing.filter_states(),
-                               time_offset_s=start_host_s - self.t0_host_s),
+                               time_offset_s=start_host_s - self.t0_host_s,
+                               coupling_state=self.processing.coupling_state(start_host_s - self.t0_host_s)),
         }
         lsl_clock = recording_lsl_clock(start_host_s, self._clock)
         if lsl_clock is not None:  # lines the recording up with a LabRecorder XDF of the same minutes

@@ -21,16 +21,18 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from mimucap.core import bodycal, skeleton
 from mimucap.core.bodycal import static_alignment
+from mimucap.core.heading_sources import heading_coupling
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.chain import SensorOrientations
 from mimucap.core.pipeline.live import LivePipeline
 from mimucap.core.pipeline.recording import POSE_BODY_CALIBRATION, POSE_SENSOR_AXES
-from mimucap.core.pipeline.settings import PipelineSettings
+from mimucap.core.pipeline.settings import RESULT_LIVE, PipelineSettings
 from mimucap.core.sensor_samples import SensorSamples
 from mimucap.session.events import EmitterGroup
 
@@ -65,7 +67,7 @@ class LiveProcessing:
     module doc)."""
 
     def __init__(self, model: skeleton.SkeletonModel, settings: PipelineSettings = PipelineSettings()) -> None:
-        self.pipeline = LivePipeline(model, settings)
+        self.pipeline = LivePipeline(model, settings, heading_coupling(settings, RESULT_LIVE))
         self.events = EmitterGroup("processed", "pose_source")
         self._pose_source = POSE_NONE
         #: sensors that have sent a magnetic field
@@ -142,6 +144,12 @@ class LiveProcessing:
         """Sensor → its filter state now (JSON-ready), what a recording starts from."""
         return self.pipeline.filter_states()
 
+    def coupling_state(self, time_offset_s: float) -> dict[str, Any] | None:
+        """Where the heading coupling's averages stand now, on the clock of a recording that
+        starts ``time_offset_s`` (s) into the session (JSON-ready; None without a coupling),
+        what the recording's *as seen live* result continues from."""
+        return self.pipeline.coupling_state(time_offset_s)
+
     def latest_orientations(self) -> dict[str, np.ndarray]:
         """Sensor id → newest ``q_world_from_sensor`` (4,) (sensors with an estimate only)."""
         return self.pipeline.latest_orientations()
@@ -178,7 +186,7 @@ class LiveProcessing:
 
     def doubt_bits(self, sensor_id: str) -> int:
         """Why ``sensor_id``'s newest orientation may be wrong (:mod:`mimucap.core.pipeline.sensor_doubt` bits; 0: trustworthy)."""
-        return self.pipeline.doubts.get(sensor_id, 0)
+        return self.pipeline.doubt_of(sensor_id)
 
     def static_orientation(self, sensor_id: str, acc: np.ndarray, mag_raw_uT: np.ndarray) -> np.ndarray | None:
         """``q_world_from_sensor`` (4,) of ``sensor_id`` held still over the samples ``acc`` (K, 3)

@@ -31,6 +31,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import datetime
+from typing import Any
 
 from mimucap import __version__
 from mimucap.core.pipeline.settings import RESULT_LABELS
@@ -57,18 +58,25 @@ class Provenance:
     skeleton_model: str
     software: str
     source_file: str
+    #: where the sensors' headings came from (:func:`heading_lines`); empty for an input whose
+    #: orientations were taken as given
+    headings: tuple[str, ...] = ()
 
     #: (field, label, C3D parameter name), in the order every output lists them.
     FIELDS = (("result", "Result", "RESULT"), ("body_calibration", "Body calibration", "BODY_CALIBRATION"),
               ("magnetometer", "Magnetometer calibrations", "MAGNETOMETER"),
+              ("headings", "Headings", "HEADINGS"),
               ("skeleton_model", "Skeleton model", "SKELETON_MODEL"), ("software", "Software", "SOFTWARE"),
               ("source_file", "Source file", "SOURCE_FILE"))
 
     def items(self) -> list[tuple[str, str]]:
-        """``(label, text)`` per field; the magnetometer calibrations joined by ``"; "``."""
+        """``(label, text)`` per field; the magnetometer calibrations joined by ``"; "`` (no
+        headings line when none is known)."""
         found = []
         for name, label, _parameter in self.FIELDS:
             value = getattr(self, name)
+            if name == "headings" and not value:
+                continue
             found.append((label, "; ".join(value) if isinstance(value, tuple) else value))
         return found
 
@@ -81,6 +89,8 @@ class Provenance:
         found = {}
         for name, _label, parameter in self.FIELDS:
             value = getattr(self, name)
+            if name == "headings" and not value:
+                continue
             found[parameter] = list(value) if isinstance(value, tuple) else [value]
         return found
 
@@ -144,8 +154,24 @@ def model_words(model: SkeletonModel) -> str:
     return f"{len(model.segment_names)}-segment skeleton"
 
 
+def heading_lines(mode: str, sources: Mapping[str, Any]) -> tuple[str, ...]:
+    """Where the headings came from: the mode in words, then per sensor the share of the pose
+    instants of each source (``sources`` sensor → (T,) codes of
+    :data:`~mimucap.core.heading_sources.SOURCE_NAMES`), sensors with the same shares together,
+    e.g. ``"S09, S10: joint 100 %"``."""
+    from mimucap.core.heading_modes import MODE_LABELS
+    from mimucap.core.heading_sources import source_summary
+
+    # sensors whose shares read alike are named together, so that a suit's line stays short
+    groups: dict[str, list[str]] = {}
+    for sensor, shares in source_summary(sources).items():
+        groups.setdefault(", ".join(f"{name} {100.0 * share:.0f} %" for name, share in shares.items()), []).append(sensor)
+    return (MODE_LABELS.get(mode, mode),) + tuple(f"{', '.join(sensors)}: {text}" for text, sensors in groups.items())
+
+
 def provenance(*, source_file: str, result: str, calibrations: AppliedCalibrations, model: SkeletonModel,
-               height_m: float | None, metadata: Mapping | None = None) -> Provenance:
+               height_m: float | None, metadata: Mapping | None = None,
+               headings: tuple[str, ...] = ()) -> Provenance:
     """The record of a result (module doc): ``source_file`` the input's name, ``result`` one of
     :data:`~mimucap.core.pipeline.settings.RESULTS` (or a sentence for an input that is no recording),
     the ``calibrations`` applied, the skeleton ``model`` and height (m; None where no figure is
@@ -165,4 +191,5 @@ def provenance(*, source_file: str, result: str, calibrations: AppliedCalibratio
                        + ("" if height_m is None else f", subject height {height_m:.2f} m"),
         software=software,
         source_file=source_file,
+        headings=tuple(headings),
     )

@@ -41,11 +41,12 @@ from mimucap.io.session import Marker, Session, SessionTruth
 from mimucap.session.recorded.calibration_choice import AppliedCalibrations, applied_calibrations
 from mimucap.session.angle_accuracy import angle_errors
 from mimucap.session.events import EmitterGroup
+from mimucap.core.heading_modes import MODE_COUPLED
 from mimucap.session.views.skeleton_figure import FigureBuilder, FigureGeometry, bodycal_heading, emit_pose_figures
 from mimucap.session.views.live_pose import joint_column_groups
 from mimucap.session.recorded.reprocessing import process_session
 from mimucap.session.recorded.stored_processing import recorded_processing, session_model
-from mimucap.session.recorded.provenance import Provenance, provenance
+from mimucap.session.recorded.provenance import Provenance, heading_lines, provenance
 from mimucap.session.live.recorder import open_session
 
 __all__ = ["POSE_BODY_CALIBRATION", "POSE_SENSOR_AXES", "ReviewData", "ReviewPlayer", "SPEEDS", "build_review",
@@ -81,6 +82,10 @@ class ReviewData:
     missing: list[str] = field(default_factory=list)
     #: joint → (T,) the reasons its angles may be wrong (``uint16`` bits of :mod:`mimucap.core.pipeline.doubt_reasons`)
     joint_doubt: dict[str, np.ndarray] = field(default_factory=dict)
+    #: where the headings came from: the mode and sensor → (T,) the source at each pose
+    #: (:mod:`mimucap.core.heading_sources`)
+    heading_mode: str = MODE_COUPLED
+    heading_source: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def body_calibration(self) -> bodycal.BodyCalibration | None:
@@ -91,7 +96,8 @@ class ReviewData:
     def provenance(self) -> Provenance:
         """What this result holds, as every output says it (:mod:`mimucap.session.recorded.provenance`)."""
         return provenance(source_file=self.path.name, result=self.result, calibrations=self.calibrations,
-                          model=self.model, height_m=self.height_m, metadata=self.session.metadata)
+                          model=self.model, height_m=self.height_m, metadata=self.session.metadata,
+                          headings=heading_lines(self.heading_mode, self.heading_source))
 
     @property
     def result_label(self) -> str:
@@ -124,18 +130,21 @@ class ReviewData:
 
 
 def build_review(path: str | Path, session: Session, progress: Callable[[float], None] | None = None,
-                 result: str = RESULT_REPROCESSED, calibrations: AppliedCalibrations | None = None) -> ReviewData:
+                 result: str = RESULT_REPROCESSED, calibrations: AppliedCalibrations | None = None,
+                 heading: str | None = None) -> ReviewData:
     """Compute the review of ``session`` (read from ``path``) as ``result`` with
     ``calibrations`` (the session's own choice,
-    :func:`mimucap.session.recorded.calibration_choice.applied_calibrations`, when None); ``progress(fraction)``
-    is called as the work advances."""
+    :func:`mimucap.session.recorded.calibration_choice.applied_calibrations`, when None) and the heading mode
+    ``heading`` (:data:`~mimucap.core.heading_modes.MODES`; the recording's when None);
+    ``progress(fraction)`` is called as the work advances."""
     report = progress or (lambda fraction: None)
     model, height = session_model(session)
     report(0.1)
     recorded = recorded_processing(session, origin=str(path))
     if calibrations is None:
         calibrations = applied_calibrations(session, origin=str(path))
-    output = process_session(session, result=result, calibrations=calibrations, recorded=recorded, model=model)
+    output = process_session(session, result=result, calibrations=calibrations, recorded=recorded, model=model,
+                             heading=heading)
     report(0.9)
     if not len(output.t_s):
         reasons = "; ".join(output.problems) or "no sensor is assigned to a segment and none is calibrated"
@@ -149,15 +158,17 @@ def build_review(path: str | Path, session: Session, progress: Callable[[float],
                       output.angles_deg, output.pose_source, heading_ref, output.q_world_from_sensor,
                       result=output.result, calibrations=calibrations,
                       missing=list(recorded.missing) + list(calibrations.notes) + list(output.problems),
-                      joint_doubt=output.joint_doubt)
+                      joint_doubt=output.joint_doubt, heading_mode=output.heading_mode,
+                      heading_source=output.heading_source)
 
 
 def load_review(path: str | Path, progress: Callable[[float], None] | None = None,
                 result: str = RESULT_REPROCESSED, calibration_file: str | Path | None = None,
-                mag_files: Sequence[str | Path] = ()) -> ReviewData:
+                mag_files: Sequence[str | Path] = (), heading: str | None = None) -> ReviewData:
     """Open session file ``path`` (recovering it first if needed) and build its review, with
     the body calibration of ``calibration_file`` (a ``CAL.json`` of ``mimucap bodycal``) in
-    place of the stored one when given, and the magnetometer calibration files ``mag_files``."""
+    place of the stored one when given, the magnetometer calibration files ``mag_files`` and
+    the heading mode ``heading`` (the recording's when None)."""
     session = open_session(path)
     body = None
     if calibration_file is not None:
@@ -166,7 +177,7 @@ def load_review(path: str | Path, progress: Callable[[float], None] | None = Non
         body, _document = read_body_calibration(calibration_file)
     calibrations = applied_calibrations(session, body=body, body_origin=str(calibration_file or ""),
                                         mag_files=mag_files, origin=str(path))
-    return build_review(path, session, progress, result, calibrations)
+    return build_review(path, session, progress, result, calibrations, heading)
 
 
 def require_body_calibration(review: ReviewData, what: str) -> None:

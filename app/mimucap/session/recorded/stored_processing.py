@@ -14,29 +14,38 @@ processing path again is :mod:`mimucap.session.recorded.reprocessing`.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from mimucap import __version__
 from mimucap.core import bodycal, skeleton
 from mimucap.core.fusion import FusionState
+from mimucap.core.heading_sources import coupling_state_from_dict
 from mimucap.core.magcal.model import MagCalibration
 from mimucap.core.pipeline.settings import PipelineSettings, state_from_dict
 from mimucap.io.calibration_store import body_calibration_of, magnetometer_calibrations_of, session_calibrations
 from mimucap.io.session import Session
 
 PIPELINE_KEY = "pipeline"
+#: The live heading coupling's state at the recording's start, in ``metadata["pipeline"]``.
+COUPLING_STATE_KEY = "live_heading_coupling"
 
 
 def recording_record(*, mag_calibrations: Mapping[str, MagCalibration],
                      body_calibration: bodycal.BodyCalibration | None, settings: PipelineSettings,
-                     filter_states: Mapping[str, Any], time_offset_s: float) -> dict[str, Any]:
+                     filter_states: Mapping[str, Any], time_offset_s: float,
+                     coupling_state: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The metadata entries a recording carries so that it can be recomputed (see the module
-    docstring): ``{"calibrations": {...}, "pipeline": {...}, "mimucap_version": ...}``."""
+    docstring): ``{"calibrations": {...}, "pipeline": {...}, "mimucap_version": ...}``;
+    ``coupling_state`` where the live heading coupling's averages stood
+    (:meth:`~mimucap.core.heading_sources.HeadingCoupling.state_to_dict`, on the recording's clock)."""
+    pipeline = {"settings": settings.to_dict(), "live_filter_states": dict(filter_states),
+                "live_time_offset_s": float(time_offset_s)}
+    if coupling_state is not None:
+        pipeline[COUPLING_STATE_KEY] = dict(coupling_state)
     return {
         "calibrations": session_calibrations(mag_calibrations, body_calibration),
-        PIPELINE_KEY: {"settings": settings.to_dict(), "live_filter_states": dict(filter_states),
-                       "live_time_offset_s": float(time_offset_s)},
+        PIPELINE_KEY: pipeline,
         "mimucap_version": __version__,
     }
 
@@ -47,7 +56,8 @@ class RecordedProcessing:
 
     ``mag_calibrations`` sensor → calibration; ``body_calibration`` or None; ``settings`` the
     filter settings; ``initial_states`` sensor → the live filter's state at the recording's
-    start; ``time_offset_s`` (s) the live clock minus the recording's; ``sensor_segments``
+    start; ``coupling_state`` the live heading coupling's there (None: none stored);
+    ``time_offset_s`` (s) the live clock minus the recording's; ``sensor_segments``
     sensor → segment; ``missing`` what an older recording does not store (one sentence each).
     """
 
@@ -55,6 +65,7 @@ class RecordedProcessing:
     body_calibration: bodycal.BodyCalibration | None = None
     settings: PipelineSettings = PipelineSettings()
     initial_states: dict[str, FusionState] = field(default_factory=dict)
+    coupling_state: dict[str, Any] | None = None
     time_offset_s: float = 0.0
     sensor_segments: dict[str, str] = field(default_factory=dict)
     missing: list[str] = field(default_factory=list)
@@ -79,6 +90,8 @@ def recorded_processing(session: Session, origin: str = "the session") -> Record
         for sensor_id, state in (pipeline.get("live_filter_states") or {}).items():
             found.initial_states[sensor_id] = state_from_dict(state, f"{origin}: live filter state of {sensor_id}")
         found.time_offset_s = float(pipeline.get("live_time_offset_s") or 0.0)
+        found.coupling_state = coupling_state_from_dict(pipeline.get(COUPLING_STATE_KEY),
+                                                        f"{origin}: live heading coupling state")
     elif session.sensors:
         found.missing.append("the filter settings and the live filter's state are not stored (an older "
                              "recording): 'as seen live' restarts the filter at the recording's start")
