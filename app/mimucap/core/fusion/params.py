@@ -16,7 +16,7 @@ discrete Kalman filter); "density" figures scale with the square root of the tim
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -84,6 +84,19 @@ class FusionParams:
     #: ``m_h`` its horizontal part; the heading noise standard deviation grows by this
     #: factor times that angle (root sum of squares). 0 switches it off.
     heading_field_error_gain: float = 2.0
+    #: What the Rauch-Tung-Striebel smoother's forward pass (:mod:`.offline`) uses in place of
+    #: ``heading_field_error_gain`` and ``mag_ref_tau_s`` (:meth:`smoother_pass`). A field
+    #: that differs from the reference (the room's field where the sensor is carried, a steel
+    #: object nearby) stays wrong for seconds: its heading errors are correlated, not white. The
+    #: causal filter follows such an error only in part (its heading memory lags), while the
+    #: smoother, fitting every accepted sample from both sides, follows it fully; and the drift
+    #: that distrusting the magnetometer costs is unbounded for the causal filter but bounded in
+    #: the smoother by the trusted field before and after. So the smoother weighs a foreign
+    #: field down more and holds its reference longer (a new place is still adopted by the
+    #: ``mag_new_field_s`` rule). Both chosen by leave-one-trial-out cross-validation on BROAD
+    #: (``bench/bench_broad_cv.py``).
+    smoother_heading_field_error_gain: float = 10.0
+    smoother_mag_ref_tau_s: float = 10000.0
     #: Magnetic declination (rad, positive when magnetic north lies east of true north): the
     #: world y axis is true north with it, magnetic north with the default 0.
     declination_rad: float = 0.0
@@ -150,9 +163,16 @@ class FusionParams:
                 raise ValueError(f"fusion setting {field.name} must be a finite number >= 0, got {value!r}")
         for name in ("gravity_m_s2", "heading_noise_rad", "acc_noise_m_s2", "rest_tau_s",
                      "max_gap_s", "gyr_range_rad_s", "acc_range_m_s2", "mag_range_uT",
-                     "rest_bias_noise_rad_s", "mag_ref_tau_s", "mag_offset_fit_uT", "mag_offset_std_uT"):
+                     "rest_bias_noise_rad_s", "mag_ref_tau_s", "smoother_mag_ref_tau_s", "mag_offset_fit_uT",
+                     "mag_offset_std_uT"):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f"fusion setting {name} must be > 0")
+
+    def smoother_pass(self) -> "FusionParams":
+        """The settings of the smoother's forward pass: these with ``heading_field_error_gain``
+        and ``mag_ref_tau_s`` taken from their ``smoother_`` counterparts."""
+        return replace(self, heading_field_error_gain=self.smoother_heading_field_error_gain,
+                       mag_ref_tau_s=self.smoother_mag_ref_tau_s)
 
 
 #: The one parameter set used for every sensor and trial.
