@@ -193,11 +193,13 @@ def test_settings_are_validated():
 
 
 def test_smoother_pass_changes_the_magnetometer_weighting_and_shares_the_state(recording):
-    params = replace(DEFAULT_FUSION_PARAMS, smoother_heading_field_error_gain=7.0, smoother_mag_ref_tau_s=99.0)
+    params = replace(DEFAULT_FUSION_PARAMS, smoother_heading_field_error_gain=7.0, smoother_mag_ref_tau_s=99.0,
+                     smoother_mag_new_field_s=0.0)
     smoother = params.smoother_pass()
-    assert (smoother.heading_field_error_gain, smoother.mag_ref_tau_s) == (7.0, 99.0)
+    assert (smoother.heading_field_error_gain, smoother.mag_ref_tau_s, smoother.mag_new_field_s) == (7.0, 99.0, np.inf)
     assert replace(smoother, heading_field_error_gain=params.heading_field_error_gain,
-                   mag_ref_tau_s=params.mag_ref_tau_s) == params
+                   mag_ref_tau_s=params.mag_ref_tau_s, mag_new_field_s=params.mag_new_field_s) == params
+    assert replace(params, smoother_mag_new_field_s=30.0).smoother_pass().mag_new_field_s == 30.0
     ekf = OrientationEKF(params)
     feeding = ekf.smoother_pass()
     assert feeding.params == smoother and feeding.state is ekf.state

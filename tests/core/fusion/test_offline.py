@@ -73,3 +73,26 @@ def test_smoother_weighs_a_lasting_foreign_field_down(recording_factory):
     assert smoothed < 2.5
     assert smoothed < 0.5 * smoothed_as_online
     assert smoothed < 0.5 * forward
+
+
+def test_smoother_bridges_a_field_that_changed_for_good_with_the_gyroscope(recording_factory):
+    """From 30 s to the end the field changes by (30, −20, 10) µT (world ENU: the field of issue
+    34's uniform disturbance), turning its horizontal part by 56°. The online filter adopts it
+    as a new reference after 20 s (``mag_new_field_s``) and its heading follows it; the
+    smoother's pass never does (``smoother_mag_new_field_s`` 0) and keeps the heading."""
+    rec = recording_factory(duration_s=90.0, seed=1)
+    t = rec.t_s
+    mag = rec.mag + rot.rotate(rot.conjugate(rec.q_true), np.outer(t >= 30.0, [30.0, -20.0, 10.0]))
+    after = t > 31.0
+
+    def heading_rms_deg(result) -> float:
+        return rms_deg(error_angles_rad(result.q_world_from_sensor, rec.q_true)[1][after])
+
+    forward = fuse(t, rec.gyr, rec.acc, mag)
+    adopting = fuse_offline(t, rec.gyr, rec.acc, mag,
+                            params=replace(DEFAULT_FUSION_PARAMS, smoother_mag_new_field_s=20.0))
+    smoothed = fuse_offline(t, rec.gyr, rec.acc, mag)
+    assert forward.counters[0]["mag_new_reference"] == 1 and heading_rms_deg(forward) > 30.0
+    assert adopting.counters[0]["mag_new_reference"] == 1 and heading_rms_deg(adopting) > 30.0
+    assert smoothed.counters[0]["mag_new_reference"] == 0
+    assert heading_rms_deg(smoothed) < 1.0

@@ -97,6 +97,12 @@ class FusionParams:
     #: (``bench/bench_broad_cv.py``).
     smoother_heading_field_error_gain: float = 10.0
     smoother_mag_ref_tau_s: float = 10000.0
+    #: What the smoother's forward pass uses as ``mag_new_field_s``; 0: it never adopts a new
+    #: field. A field that changed for good (a uniform disturbance, another room) is turned by
+    #: an unknown angle: adopting it as the reference turns the heading by that angle, up to tens
+    #: of degrees, and the smoother then carries that error back in time as well, whereas
+    #: bridging the change with the gyroscope costs a drift bounded by its bias error.
+    smoother_mag_new_field_s: float = 0.0
     #: Magnetic declination (rad, positive when magnetic north lies east of true north): the
     #: world y axis is true north with it, magnetic north with the default 0.
     declination_rad: float = 0.0
@@ -110,7 +116,7 @@ class FusionParams:
     #: Time constant (s) with which accepted samples update the reference norm and dip.
     mag_ref_tau_s: float = 30.0
     #: A new field that stays consistent (within the tolerances) for this long (s) while the
-    #: old reference is rejected becomes the new reference.
+    #: old reference is rejected becomes the new reference (infinite: never).
     mag_new_field_s: float = 20.0
     #: ... provided the sensor turned meanwhile at this mean rate (rad/s) at least: a field
     #: that stays the same while the sensor turns is homogeneous (a new place), whereas a
@@ -159,6 +165,8 @@ class FusionParams:
             if field.name in ("propagation", "declination_rad"):
                 continue
             value = getattr(self, field.name)
+            if field.name == "mag_new_field_s" and value == math.inf:
+                continue  # never adopt a new field (what the smoother's pass may use)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"fusion setting {field.name} must be a finite number >= 0, got {value!r}")
         for name in ("gravity_m_s2", "heading_noise_rad", "acc_noise_m_s2", "rest_tau_s",
@@ -169,10 +177,12 @@ class FusionParams:
                 raise ValueError(f"fusion setting {name} must be > 0")
 
     def smoother_pass(self) -> "FusionParams":
-        """The settings of the smoother's forward pass: these with ``heading_field_error_gain``
-        and ``mag_ref_tau_s`` taken from their ``smoother_`` counterparts."""
+        """The settings of the smoother's forward pass: these with ``heading_field_error_gain``,
+        ``mag_ref_tau_s`` and ``mag_new_field_s`` taken from their ``smoother_`` counterparts
+        (``mag_new_field_s`` infinite, never, when ``smoother_mag_new_field_s`` is 0)."""
         return replace(self, heading_field_error_gain=self.smoother_heading_field_error_gain,
-                       mag_ref_tau_s=self.smoother_mag_ref_tau_s)
+                       mag_ref_tau_s=self.smoother_mag_ref_tau_s,
+                       mag_new_field_s=self.smoother_mag_new_field_s or math.inf)
 
 
 #: The one parameter set used for every sensor and trial.
