@@ -77,7 +77,7 @@ def test_smoother_weighs_a_lasting_foreign_field_down(recording_factory):
 
 def test_smoother_bridges_a_field_that_changed_for_good_with_the_gyroscope(recording_factory):
     """From 30 s to the end the field changes by (30, −20, 10) µT (world ENU: the field of issue
-    34's uniform disturbance), turning its horizontal part by 56°. The online filter adopts it
+    34's uniform disturbance), turning its horizontal part by 90°. The online filter adopts it
     as a new reference after 20 s (``mag_new_field_s``) and its heading follows it; the
     smoother's pass never does (``smoother_mag_new_field_s`` 0) and keeps the heading."""
     rec = recording_factory(duration_s=90.0, seed=1)
