@@ -12,8 +12,9 @@ difference, and ``x_{k|N} = x_{k|k} ⊕ δx_k`` (``q ← exp(δθ) ⊗ q``, ``b 
 So every sample uses the whole recording: gyro bias learned at the end of a recording and
 heading corrections after a magnetic disturbance reach back in time.
 
-The forward pass weighs a field that differs from its reference down more, and holds that
-reference longer, than the online filter (:meth:`~mimucap.core.fusion.params.FusionParams.smoother_pass`,
+The forward pass weighs a field that differs from its reference down more than the online
+filter, holds that reference and never adopts a new one
+(:meth:`~mimucap.core.fusion.params.FusionParams.smoother_pass`,
 :meth:`~mimucap.core.fusion.ekf.OrientationEKF.smoother_pass`): the backward pass treats the
 heading measurements as white noise, so it would follow a foreign field's heading error, which
 lasts seconds, more closely than the causal filter does, while the gyroscope drift it accepts
@@ -82,9 +83,9 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
     Sensors are smoothed one after the other, so the forward-pass storage (about 0.7 kB per
     sample) is held for one sensor at a time. The forward pass runs with
     ``params.smoother_pass()`` (the smoother's own magnetometer weighting, module docstring);
-    the flags and counters are those of that pass. ``state`` (one sensor's) is the prior at the first sample, e.g. what a filter that ran
-    before the recording had learnt (gyro bias, heading, their covariance); a fresh filter
-    starts when it is None.
+    the flags and counters are those of that pass. ``state`` (one sensor's) is the prior at the
+    first sample, e.g. what a filter that ran before the recording had learnt (gyro bias,
+    heading, their covariance); a fresh filter starts when it is None.
     """
     single, t, gyr3, acc3, mag3 = shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT)
     n_sensors, n = gyr3.shape[0], gyr3.shape[1]

@@ -86,7 +86,8 @@ class FusionParams:
     #: factor times that angle (root sum of squares). 0 switches it off.
     heading_field_error_gain: float = 2.0
     #: What the Rauch-Tung-Striebel smoother's forward pass (:mod:`.offline`) uses in place of
-    #: ``heading_field_error_gain`` and ``mag_ref_tau_s`` (:meth:`smoother_pass`). A field
+    #: ``heading_field_error_gain`` and ``mag_ref_tau_s`` (:meth:`smoother_pass`); the online
+    #: filter does not read them. A field
     #: that differs from the reference (the room's field where the sensor is carried, a steel
     #: object nearby) stays wrong for seconds: its heading errors are correlated, not white. The
     #: causal filter follows such an error only in part (its heading memory lags), while the
