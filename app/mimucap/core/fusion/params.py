@@ -233,7 +233,9 @@ def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = T
     p[PI_MAG_DIP_TOL] = params.mag_dip_tol_rad
     p[PI_MAG_SETTLE] = params.mag_settle_s
     p[PI_MAG_REF_TAU] = params.mag_ref_tau_s
-    p[PI_MAG_NEW_FIELD] = params.mag_new_field_s
+    # "never" as a time no recording reaches: the kernels compiled ahead of time need not
+    # compare with infinity as numba's JIT does
+    p[PI_MAG_NEW_FIELD] = min(params.mag_new_field_s, 1e30)
     p[PI_MAG_NEW_MIN_RATE] = params.mag_new_min_rate_rad_s
     p[PI_MAG_OFFSET_TAU] = params.mag_offset_tau_s
     p[PI_MAG_OFFSET_MIN] = params.mag_offset_min_uT
