@@ -2,8 +2,8 @@
 
 Plain script: ``.venv/bin/python bench/bench_broad_cv.py [DIR]`` (DIR defaults to
 ``$MIMUCAP_TEST_DATA/broad``, else ``../shared/data/broad``; VQF rows need the ``vqf`` package of
-the ``bench`` extra). About 5 minutes on one core: every combination of :data:`GRID` runs on
-every trial.
+the ``bench`` extra). About 7 minutes on one core: every combination of :data:`GRID` and of
+:data:`SMOOTHER_GRID` runs on every trial.
 
 The free settings are those without a value from the sensor's noise figures: the heading noise
 from the field's quality (``heading_field_error_gain``), the gyroscope's scale-factor noise
@@ -14,11 +14,17 @@ the lowest mean of the online and offline total RMSE on the *other* trials is ch
 parameter set serves both, as in the pipeline), and its scores on the left-out trial are the
 held-out scores: what the settings achieve on a trial they were not chosen on.
 
+The smoother's own magnetometer weighting (``smoother_heading_field_error_gain``,
+``smoother_mag_ref_tau_s``: :meth:`~mimucap.core.fusion.params.FusionParams.smoother_pass`)
+only changes the offline result; every combination of :data:`SMOOTHER_GRID` runs offline on
+every trial (the other settings at their defaults), and the held-out offline score is that of
+the combination with the lowest offline mean on the other trials.
+
 Printed per trial and per category (from the trial names): BROAD's total RMSE (deg) of the
-defaults (:data:`DEFAULT_FUSION_PARAMS`), of the held-out choice and of the defaults without
+defaults (:data:`DEFAULT_FUSION_PARAMS`), of the held-out choices and of the defaults without
 the hard-iron tracking, online and offline, beside VQF 9D with default parameters online
-(``vqf.VQF(Ts).updateBatch``) and offline (``vqf.offlineVQF``). Then the held-out choices, the combination chosen on all
-trials, the held-out scores of the hard-iron settings alone (the other settings at their
+(``vqf.VQF(Ts).updateBatch``) and offline (``vqf.offlineVQF``). Then the held-out choices, the
+combinations chosen on all trials, the held-out scores of the hard-iron settings alone (the other settings at their
 defaults), the best combination that keeps the trials ``tests/core/fusion/test_broad_scores.py``
 bounds below VQF's online score (:data:`BOUNDED_TRIALS`), the held-out scores of a choice made
 only among the combinations within the bounds of the training trials, and the gyroscope's white
@@ -52,6 +58,14 @@ GRID: dict[str, tuple] = {
     "gyr_scale_noise_sqrt_s": (0.00025, 0.0005, 0.00075),
     "mag_offset_tau_s": (2.0, 3.0, 5.0),
     "mag_offset_min_uT": (2.0, 3.0, 5.0),
+}
+
+#: The smoother's own magnetometer weighting (:meth:`FusionParams.smoother_pass`), cross-validated
+#: on the offline scores alone (it does not touch the online filter), the other settings at
+#: their defaults.
+SMOOTHER_GRID: dict[str, tuple] = {
+    "smoother_heading_field_error_gain": (4.0, 6.0, 8.0, 10.0, 12.0, 16.0),
+    "smoother_mag_ref_tau_s": (300.0, 1000.0, 3000.0, 10000.0),
 }
 
 #: The settings of the hard-iron tracking (:mod:`mimucap.core.fusion.hard_iron`).
@@ -122,6 +136,12 @@ def rest_noise_density(trial: BroadTrial) -> float:
     return float(np.sqrt(np.mean(diff ** 2) / (2.0 * trial.sampling_rate_hz)))
 
 
+def offline_score(trial: BroadTrial, params) -> float:
+    """Total RMSE (deg) of the offline smoother of one parameter set on one trial."""
+    return total_rmse_deg(trial, fuse_offline(trial.t_s, trial.gyr_rad_s, trial.acc_m_s2, trial.mag_uT,
+                                              params=params).q_world_from_sensor)
+
+
 def leave_one_out(scores: np.ndarray, allowed: np.ndarray | None = None) -> list[int]:
     """``scores`` (combinations, trials, 2: online/offline); per trial the combination whose
     mean of online and offline over the other trials is lowest, among those ``allowed`` by the
@@ -164,10 +184,28 @@ def main(argv: list[str] | None = None) -> int:
     picks = leave_one_out(scores)
     held = np.array([scores[pick, i] for i, pick in enumerate(picks)])
     all_fit = int(np.argmin(scores.mean(axis=(1, 2))))
+    smoother_combos = [dict(zip(SMOOTHER_GRID, values)) for values in itertools.product(*SMOOTHER_GRID.values())]
+    smoother_scores = np.array([[offline_score(trial, replace(DEFAULT_FUSION_PARAMS, **combo)) for trial in trials]
+                                for combo in smoother_combos])
+    bounded = [i for i, trial in enumerate(trials) if trial.name in BOUNDED_TRIALS]
+    smoother_allowed = None
+    if bounded and not np.isnan(vqf_rows[bounded, 0]).any():
+        # (combinations, trials): the smoother within VQF's online score where bounded
+        smoother_allowed = np.ones(smoother_scores.shape, dtype=bool)
+        smoother_allowed[:, bounded] = smoother_scores[:, bounded] < vqf_rows[bounded, 0][None, :]
+    smoother_picks = leave_one_out(smoother_scores[:, :, None], smoother_allowed)
+    grid_held_offline = held[:, 1].copy()
+    # the held-out offline score: the smoother's settings chosen on the other trials (within
+    # their bounds, as the defaults are chosen)
+    held[:, 1] = [smoother_scores[pick, i] for i, pick in enumerate(smoother_picks)]
+    smoother_fit = int(np.argmin(smoother_scores.mean(axis=1)))
 
     print(f"BROAD, {len(trials)} trials in {args.directory}: total RMSE (deg) over movement samples")
-    print(f"grid: {'; '.join(f'{k} {list(v)}' for k, v in GRID.items())}; {len(combos)} combinations, "
-          f"{time.perf_counter() - started:.0f} s")
+    print(f"grid: {'; '.join(f'{k} {list(v)}' for k, v in GRID.items())}; {len(combos)} combinations; "
+          f"smoother grid: {'; '.join(f'{k} {list(v)}' for k, v in SMOOTHER_GRID.items())}; "
+          f"{len(smoother_combos)} combinations; {time.perf_counter() - started:.0f} s")
+    print("held-out: online with the grid's settings chosen on the other trials, offline with the "
+          "smoother grid's")
     print(f"{'trial':44s} {'default':>7s} {'':>7s} {'held-out':>7s} {'':>7s} {'no track':>7s} {'':>7s} "
           f"{'VQF':>7s} {'VQF':>7s}")
     print(f"{'':44s}" + " {:>7s} {:>7s}".format("online", "offline") * 4)
@@ -188,6 +226,11 @@ def main(argv: list[str] | None = None) -> int:
         f"{count}: {describe(combos[c])}" for c, count in Counter(picks).most_common()))
     print(f"chosen on all {len(trials)} trials: {describe(combos[all_fit])} "
           f"(online {scores[all_fit, :, 0].mean():.3f}, offline {scores[all_fit, :, 1].mean():.3f})")
+    print("smoother held-out choices, within the bounds of the training trials (folds: combination): " + "; ".join(
+        f"{count}: {describe(smoother_combos[c])}" for c, count in Counter(smoother_picks).most_common()))
+    print(f"smoother chosen on all {len(trials)} trials: {describe(smoother_combos[smoother_fit])} "
+          f"(offline {smoother_scores[smoother_fit].mean():.3f}); held-out offline of the grid's "
+          f"choice (smoother at its defaults): {grid_held_offline.mean():.3f}")
     print(f"defaults: online {defaults[:, 0].mean():.3f}, offline {defaults[:, 1].mean():.3f}; "
           f"without the hard-iron tracking: online {before[:, 0].mean():.3f}, offline {before[:, 1].mean():.3f}")
     own = [c for c, combo in enumerate(combos)
@@ -199,7 +242,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"held-out, choosing only {', '.join(HARD_IRON_SETTINGS)} (the others at their defaults): "
               f"online {own_held[:, 0].mean():.3f}, offline {own_held[:, 1].mean():.3f} (folds: " + "; ".join(
                   f"{count}: {describe(combos[own[c]])}" for c, count in Counter(own_picks).most_common()) + ")")
-    bounded = [i for i, trial in enumerate(trials) if trial.name in BOUNDED_TRIALS]
     if bounded and not np.isnan(vqf_rows[bounded, 0]).any():
         # (combinations, trials): within VQF's online score, online and offline, where bounded
         allowed = np.ones(scores.shape[:2], dtype=bool)
@@ -215,6 +257,17 @@ def main(argv: list[str] | None = None) -> int:
         print(f"held-out, choosing within the bounds of the training trials: online "
               f"{bounded_held[:, 0].mean():.3f}, offline {bounded_held[:, 1].mean():.3f} (folds: " + "; ".join(
                   f"{count}: {describe(combos[c])}" for c, count in Counter(bounded_picks).most_common()) + ")")
+    if smoother_allowed is not None:
+        within = np.flatnonzero(smoother_allowed.all(axis=1))
+        if within.size:
+            best = within[np.argmin(smoother_scores[within].mean(axis=1))]
+            print(f"smoother, best within the VQF bounds: {describe(smoother_combos[best])} "
+                  f"(offline {smoother_scores[best].mean():.3f})")
+        free_picks = leave_one_out(smoother_scores[:, :, None])
+        free_held = np.array([smoother_scores[pick, i] for i, pick in enumerate(free_picks)])
+        print(f"smoother held-out, choosing without the bounds: offline {free_held.mean():.3f} (folds: "
+              + "; ".join(f"{count}: {describe(smoother_combos[c])}" for c, count in Counter(free_picks).most_common())
+              + ")")
     density = [rest_noise_density(trial) for trial in trials]
     print(f"gyroscope white noise at rest: {np.mean(density) / DEG:.4f} °/s/√Hz "
           f"(trials {min(density) / DEG:.4f}-{max(density) / DEG:.4f}); default gyr_noise_rad_s_sqrt_hz "

@@ -188,6 +188,29 @@ def test_settings_are_validated():
         fuse(np.arange(3.0), np.zeros((3, 3)), np.zeros((4, 3)))
     with pytest.raises(TypeError):
         FusionParams(acc_nosie_m_s2=1.0)  # a typo fails loudly
+    with pytest.raises(ValueError, match="smoother_mag_ref_tau_s must be > 0"):
+        replace(DEFAULT_FUSION_PARAMS, smoother_mag_ref_tau_s=0.0)
+
+
+def test_smoother_pass_changes_the_magnetometer_weighting_and_shares_the_state(recording):
+    params = replace(DEFAULT_FUSION_PARAMS, smoother_heading_field_error_gain=7.0, smoother_mag_ref_tau_s=99.0,
+                     smoother_mag_new_field_s=0.0)
+    smoother = params.smoother_pass()
+    assert (smoother.heading_field_error_gain, smoother.mag_ref_tau_s, smoother.mag_new_field_s) == (7.0, 99.0, np.inf)
+    assert replace(smoother, heading_field_error_gain=params.heading_field_error_gain,
+                   mag_ref_tau_s=params.mag_ref_tau_s, mag_new_field_s=params.mag_new_field_s) == params
+    assert replace(params, smoother_mag_new_field_s=30.0).smoother_pass().mag_new_field_s == 30.0
+    ekf = OrientationEKF(params)
+    feeding = ekf.smoother_pass()
+    assert feeding.params == smoother and feeding.state is ekf.state
+    half = len(recording.t_s) // 2
+    first = feeding.update_batch(recording.t_s[:half], recording.gyr[:half], recording.acc[:half],
+                                 recording.mag[:half])
+    assert ekf.counters()["samples"] == half
+    whole = fuse(recording.t_s[:half], recording.gyr[:half], recording.acc[:half], recording.mag[:half],
+                 params=smoother)
+    assert np.array_equal(first.q_world_from_sensor, whole.q_world_from_sensor)
+    assert np.array_equal(ekf.state.q_world_from_sensor[0], whole.q_world_from_sensor[-1])
 
 
 def test_declination_turns_the_heading_to_true_north(recording_factory):

@@ -174,6 +174,15 @@ class OrientationEKF:
     def counters(self, sensor: int = 0) -> dict[str, int]:
         return self.state.counters(sensor)
 
+    def smoother_pass(self) -> "OrientationEKF":
+        """This filter with the settings of a smoother's forward pass
+        (:meth:`~mimucap.core.fusion.params.FusionParams.smoother_pass`) on the *same* state:
+        samples fed to the returned filter advance this one, which goes on from where they
+        leave it."""
+        other = OrientationEKF(self.params.smoother_pass(), algorithm=self.algorithm, use_mag=self.use_mag)
+        other.state = self.state
+        return other
+
     def magnetometer_changed(self) -> None:
         """The magnetometer samples fed from now on are corrected differently (a new hard- and
         soft-iron calibration): the heading estimated so far carries no information about the

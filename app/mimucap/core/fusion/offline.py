@@ -10,7 +10,15 @@ The forward pass is the online filter (:mod:`ekf`) storing, per sample, the pred
 difference, and ``x_{k|N} = x_{k|k} ⊕ δx_k`` (``q ← exp(δθ) ⊗ q``, ``b ← b + δb``).
 
 So every sample uses the whole recording: gyro bias learned at the end of a recording and
-heading corrections after a magnetic disturbance reach back in time. Memory: about 0.7 kB per
+heading corrections after a magnetic disturbance reach back in time.
+
+The forward pass weighs a field that differs from its reference down more than the online
+filter, holds that reference and never adopts a new one
+(:meth:`~mimucap.core.fusion.params.FusionParams.smoother_pass`,
+:meth:`~mimucap.core.fusion.ekf.OrientationEKF.smoother_pass`): the backward pass treats the
+heading measurements as white noise, so it would follow a foreign field's heading error, which
+lasts seconds, more closely than the causal filter does, while the gyroscope drift it accepts
+instead is bounded by the trusted field on both sides. Memory: about 0.7 kB per
 sample and sensor during the call (:class:`SmootherStore`). The forward pass may be fed in
 blocks (:func:`forward_block`, as the per-sensor chain does to read its filter's covariance
 between blocks), then :func:`smooth` runs the backward pass; :func:`fuse_offline` does both
@@ -73,10 +81,11 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
     """Smoothed orientation of a whole recording (same inputs and outputs as :func:`ekf.fuse`).
 
     Sensors are smoothed one after the other, so the forward-pass storage (about 0.7 kB per
-    sample) is held for one sensor at a time. The flags and counters are those of the forward
-    pass. ``state`` (one sensor's) is the prior at the first sample, e.g. what a filter that ran
-    before the recording had learnt (gyro bias, heading, their covariance); a fresh filter
-    starts when it is None.
+    sample) is held for one sensor at a time. The forward pass runs with
+    ``params.smoother_pass()`` (the smoother's own magnetometer weighting, module docstring);
+    the flags and counters are those of that pass. ``state`` (one sensor's) is the prior at the
+    first sample, e.g. what a filter that ran before the recording had learnt (gyro bias,
+    heading, their covariance); a fresh filter starts when it is None.
     """
     single, t, gyr3, acc3, mag3 = shaped_inputs(t_s, gyr_rad_s, acc_m_s2, mag_uT)
     n_sensors, n = gyr3.shape[0], gyr3.shape[1]
@@ -88,7 +97,7 @@ def fuse_offline(t_s, gyr_rad_s, acc_m_s2=None, mag_uT=None, *,
         raise ValueError("a prior state is given for one sensor at a time")
     for s in range(n_sensors):
         store = SmootherStore(n)
-        ekf = OrientationEKF(params, algorithm=algorithm, use_mag=use_mag, state=state)
+        ekf = OrientationEKF(params, algorithm=algorithm, use_mag=use_mag, state=state).smoother_pass()
         forward = forward_block(ekf, store, 0, t[s], gyr3[s], None if acc3 is None else acc3[s],
                                 None if mag3 is None else mag3[s])
         out_q[s], out_b[s] = smooth(forward.q_world_from_sensor, forward.bias_rad_s, store)

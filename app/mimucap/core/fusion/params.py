@@ -2,9 +2,10 @@
 
 The defaults (:data:`DEFAULT_FUSION_PARAMS`) are one parameter set for every sensor and
 every recording, not tuned per trial. The two noise terms that grow with the data
-(``gyr_scale_noise_sqrt_s``, ``heading_field_error_gain``) are cross-validated on the public
-BROAD trials (Laidig, Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial
-Orientation Estimation") leaving one trial out (``bench/bench_broad_cv.py``). A numba kernel
+(``gyr_scale_noise_sqrt_s``, ``heading_field_error_gain``) and the smoother's own weighting of
+the magnetometer (``smoother_*``) are cross-validated on the public BROAD trials (Laidig,
+Caruso, Cereatti, Seel, "BROAD - A Benchmark for Robust Inertial Orientation Estimation")
+leaving one trial out (``bench/bench_broad_cv.py``). A numba kernel
 cannot read a dataclass, so :func:`pack_params`
 flattens the settings into a float64 vector whose layout is given by the ``PI_*`` indices.
 
@@ -16,7 +17,7 @@ discrete Kalman filter); "density" figures scale with the square root of the tim
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -84,6 +85,27 @@ class FusionParams:
     #: ``m_h`` its horizontal part; the heading noise standard deviation grows by this
     #: factor times that angle (root sum of squares). 0 switches it off.
     heading_field_error_gain: float = 2.0
+    #: What the Rauch-Tung-Striebel smoother's forward pass (:mod:`.offline`) uses in place of
+    #: ``heading_field_error_gain`` and ``mag_ref_tau_s`` (:meth:`smoother_pass`); the online
+    #: filter does not read them. A field
+    #: that differs from the reference (the room's field where the sensor is carried, a steel
+    #: object nearby) stays wrong for seconds: its heading errors are correlated, not white. The
+    #: causal filter follows such an error only in part (its heading memory lags), while the
+    #: smoother, fitting every accepted sample from both sides, follows it fully; and the drift
+    #: that distrusting the magnetometer costs is unbounded for the causal filter but bounded in
+    #: the smoother by the trusted field before and after. So the smoother weighs a foreign
+    #: field down more and holds its reference (10000 s: for a recording's length, the field
+    #: where the filter started). Both chosen by leave-one-trial-out cross-validation on BROAD
+    #: among the values that keep the smoother within VQF's online error on the trials
+    #: ``tests/core/fusion/test_broad_scores.py`` bounds (``bench/bench_broad_cv.py``).
+    smoother_heading_field_error_gain: float = 10.0
+    smoother_mag_ref_tau_s: float = 10000.0
+    #: What the smoother's forward pass uses as ``mag_new_field_s``; 0: it never adopts a new
+    #: field. A field that changed for good (a uniform disturbance, another room) is turned by
+    #: an unknown angle: adopting it as the reference turns the heading by that angle, up to tens
+    #: of degrees, and the smoother then carries that error back in time as well, whereas
+    #: bridging the change with the gyroscope costs a drift bounded by its bias error.
+    smoother_mag_new_field_s: float = 0.0
     #: Magnetic declination (rad, positive when magnetic north lies east of true north): the
     #: world y axis is true north with it, magnetic north with the default 0.
     declination_rad: float = 0.0
@@ -97,7 +119,7 @@ class FusionParams:
     #: Time constant (s) with which accepted samples update the reference norm and dip.
     mag_ref_tau_s: float = 30.0
     #: A new field that stays consistent (within the tolerances) for this long (s) while the
-    #: old reference is rejected becomes the new reference.
+    #: old reference is rejected becomes the new reference (infinite: never).
     mag_new_field_s: float = 20.0
     #: ... provided the sensor turned meanwhile at this mean rate (rad/s) at least: a field
     #: that stays the same while the sensor turns is homogeneous (a new place), whereas a
@@ -146,13 +168,24 @@ class FusionParams:
             if field.name in ("propagation", "declination_rad"):
                 continue
             value = getattr(self, field.name)
+            if field.name == "mag_new_field_s" and value == math.inf:
+                continue  # never adopt a new field (what the smoother's pass may use)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"fusion setting {field.name} must be a finite number >= 0, got {value!r}")
         for name in ("gravity_m_s2", "heading_noise_rad", "acc_noise_m_s2", "rest_tau_s",
                      "max_gap_s", "gyr_range_rad_s", "acc_range_m_s2", "mag_range_uT",
-                     "rest_bias_noise_rad_s", "mag_ref_tau_s", "mag_offset_fit_uT", "mag_offset_std_uT"):
+                     "rest_bias_noise_rad_s", "mag_ref_tau_s", "smoother_mag_ref_tau_s", "mag_offset_fit_uT",
+                     "mag_offset_std_uT"):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f"fusion setting {name} must be > 0")
+
+    def smoother_pass(self) -> "FusionParams":
+        """The settings of the smoother's forward pass: these with ``heading_field_error_gain``,
+        ``mag_ref_tau_s`` and ``mag_new_field_s`` taken from their ``smoother_`` counterparts
+        (``mag_new_field_s`` infinite, never, when ``smoother_mag_new_field_s`` is 0)."""
+        return replace(self, heading_field_error_gain=self.smoother_heading_field_error_gain,
+                       mag_ref_tau_s=self.smoother_mag_ref_tau_s,
+                       mag_new_field_s=self.smoother_mag_new_field_s or math.inf)
 
 
 #: The one parameter set used for every sensor and trial.
@@ -200,7 +233,9 @@ def pack_params(params: FusionParams, *, use_acc: bool = True, use_mag: bool = T
     p[PI_MAG_DIP_TOL] = params.mag_dip_tol_rad
     p[PI_MAG_SETTLE] = params.mag_settle_s
     p[PI_MAG_REF_TAU] = params.mag_ref_tau_s
-    p[PI_MAG_NEW_FIELD] = params.mag_new_field_s
+    # "never" as a time no recording reaches: the kernels compiled ahead of time need not
+    # compare with infinity as numba's JIT does
+    p[PI_MAG_NEW_FIELD] = min(params.mag_new_field_s, 1e30)
     p[PI_MAG_NEW_MIN_RATE] = params.mag_new_min_rate_rad_s
     p[PI_MAG_OFFSET_TAU] = params.mag_offset_tau_s
     p[PI_MAG_OFFSET_MIN] = params.mag_offset_min_uT

@@ -265,6 +265,8 @@ class SensorChain:
         field = self.calibrated_mag(samples.mag_uT)
         mag = self.fused_mag(field)
         ekf = self._filters_for(mag is not None)
+        # the smoother's forward pass weighs the magnetometer its own way, on the chain's state
+        feeding = ekf.smoother_pass() if smoothed else ekf
         store = SmootherStore(n) if smoothed else None
         store_free = SmootherStore(n) if smoothed and self.ekf_no_mag is not None else None
         step = FILTER_BLOCK_SAMPLES if self.keeps_doubt else max(n, 1)
@@ -276,7 +278,7 @@ class SensorChain:
         for start in range(0, n, step):
             rows = slice(start, start + step)
             block = [None if channel is None else channel[rows] for channel in (t, gyr, acc, mag, seq)]
-            forward.append(_feed(ekf, store, start, *block[:4]))
+            forward.append(_feed(feeding, store, start, *block[:4]))
             if self.ekf_no_mag is not None:
                 free.append(_feed(self.ekf_no_mag, store_free, start, *block[:3], None))
             heading[rows] = self.heading_std_rad()
