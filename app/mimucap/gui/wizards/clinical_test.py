@@ -47,6 +47,7 @@ class ClinicalTestWizard(QtWidgets.QDialog):
         self.main_window = parent
         self.live = live_session
         self.procedure: ClinicalTestProcedure | None = None
+        self._last_pose_t = -math.inf  # the newest pose the procedure has seen (session s)
         self.result = None
         self.session_path: Path | None = None
         self._markers_sent = 0
@@ -234,6 +235,7 @@ class ClinicalTestWizard(QtWidgets.QDialog):
             self.run_note.setText("Not recording: the test did not start.")
             return
         procedure.start_countdown(self.live.time_s)
+        self._last_pose_t = self.live.time_s
         self._refresh_run()
 
     def _pose_arrived(self, _frame_id, _geometry) -> None:
@@ -241,13 +243,32 @@ class ClinicalTestWizard(QtWidgets.QDialog):
         if procedure is None or procedure.state in ("ready", "done"):
             return
         was = procedure.state
-        procedure.update(self.live.time_s, self.live.q_world_from_segment)
+        self._follow_poses(procedure)
         if was == "countdown" and procedure.state == "running":
             self.live.instruct(procedure.instruction())
         self._send_markers()
         if procedure.state == "done":
             self._finish()
         self._refresh_run()
+
+    def _follow_poses(self, procedure: ClinicalTestProcedure) -> None:
+        """Step the procedure over every pose since the last frame, not only the newest: a
+        frame drawn late (a busy machine) must not hide the walk that starts or ends a test."""
+        live = self.live
+        if live.body_calibration is None:
+            procedure.update(live.time_s, None)
+            return
+        found = live.pipeline.poses_after(self._last_pose_t, live.body_calibration, live.sensor_segments)
+        if found is None:  # no new pose: the countdown and a timed test still run on the clock
+            procedure.update(live.time_s, None)
+            return
+        t_pose, q_segments = found
+        self._last_pose_t = float(t_pose[-1])
+        for index, t_s in enumerate(t_pose):
+            state = procedure.state
+            procedure.update(float(t_s), {name: q[index] for name, q in q_segments.items()})
+            if procedure.state != state and procedure.state == "done":
+                break
 
     def _send_markers(self) -> None:
         for _t, label in self.procedure.markers[self._markers_sent:]:
