@@ -18,8 +18,9 @@ from mimucap.io.session import read_session
 from mimucap.session.angle_accuracy import truth_at
 
 DISTURBANCE = "30,-20,10,34,90"
-#: The same field change from just before the N-pose (28.7 s) on: the poses are in it.
-POSE_DISTURBANCE = "30,-20,10,28,90"
+#: The same field change from 4.7 s before the N-pose (28.7 s) on: longer than the filter
+#: bridges a rejected magnetometer, so the poses' orientations are doubtful.
+POSE_DISTURBANCE = "30,-20,10,24,90"
 KNEES = ("knee_l", "knee_r")
 
 
@@ -123,14 +124,16 @@ def test_a_field_that_changes_after_the_poses_leaves_them_trusted(routes, live, 
 @pytest.mark.parametrize("live", [False, True])
 def test_with_a_calibration_from_the_clean_field_the_flags_follow_the_disturbance(routes, live, monkeypatch):
     """The same subject and sensors calibrated in the clean session, each sensor's heading from
-    its own magnetometer (``--heading magnetometer``): the disturbance turns a knee by more than
-    5°, the joint angles are flagged where the disturbed field reaches them, and right where
-    they are trusted."""
+    its own magnetometer (``--heading magnetometer``): live, the disturbance turns a knee by
+    more than 5° (the smoother, which never adopts a changed field, keeps the knees right); the
+    joint angles are flagged where the disturbed field reaches them, and right where they are
+    trusted."""
     folder, (_clean_session, clean_calibration), (session, _calibration), _posed = routes
     table = _angles(folder, session, clean_calibration, live, monkeypatch, "magnetometer")
     _check(table, session)
     errors = _knee_errors(table, session)
-    assert max(float(error[_disturbed_walking(table, session)].max()) for error in errors.values()) > 5.0
+    worst = max(float(error[_disturbed_walking(table, session)].max()) for error in errors.values())
+    assert worst > 5.0 if live else worst < 5.0
     before = (table.t_s > 30.0) & (table.t_s < 34.0)
     for joint in KNEES:
         assert not np.all(table.ok[joint][table.t_s > 34.5])
@@ -146,7 +149,7 @@ def test_with_the_headings_from_the_body_the_disturbed_knees_are_right_and_trust
     changes alike for the body and the knees' axes hold the knees, which are now right in the
     disturbed walk (RMS within 2°) and trusted there; the flags stay right (flagged 1 → within
     5°, off by more than 10° → flagged 0)."""
-    folder, (_clean_session, clean_calibration), (session, _calibration) = routes
+    folder, (_clean_session, clean_calibration), (session, _calibration), _posed = routes
     table = _angles(folder, session, clean_calibration, live, monkeypatch)
     _check(table, session)
     disturbed = _disturbed_walking(table, session)
