@@ -48,6 +48,9 @@ from mimucap.session.views.calibration_age import local_time_text
 from mimucap.session.views.plot_scaling import nice_ticks
 
 DPI = 150
+#: The height (pixels at :data:`DPI`) of one row of gait-cycle curves: their heading starts a
+#: page only when the legend and one row do not fit on the current one.
+CURVE_ROW_PX = 250.0
 LEFT_COLOUR = QColor(30, 100, 200)
 RIGHT_COLOUR = QColor(200, 50, 40)
 #: The colour of what is doubtful.
@@ -102,6 +105,15 @@ class _Document:
         self.painter.setPen(colour or QColor(0, 0, 0))
         self.painter.drawText(QRectF(0, self.y, self.width, rect.height() + 2), int(Qt.TextWordWrap), text)
         self.y += rect.height() + gap
+
+    def heading(self, text: str, keep_px: float = 0.0) -> None:
+        """A section's heading, kept on one page with what follows it: at least three lines of
+        body text, or ``keep_px`` (pixels) when more must follow it (a figure)."""
+        self.font(9.0)
+        body = 3 * self.painter.fontMetrics().height()
+        self.font(11.0, True)
+        self.need(self.painter.fontMetrics().height() + 4 + max(body, keep_px))
+        self.text(text, 11, True, gap=4)
 
     def table(self, header: Sequence[str], rows: Sequence[Sequence[str]], widths: Sequence[float],
               size: float = 8.0) -> None:
@@ -213,7 +225,7 @@ def _curve_pages(doc: _Document, analyses: Sequence[SessionAnalysis], bands: dic
     if not groups:
         doc.text("No gait-cycle curves (no straight-walking stride).", 9)
         return
-    columns, plot_h = 3, 250.0
+    columns, plot_h = 3, CURVE_ROW_PX
     plot_w = doc.width / columns
     styles = [Qt.DashLine, Qt.SolidLine] if len(analyses) == 2 else [Qt.SolidLine]
     legend = "Left blue, right red: mean ± SD over the analysed strides; dashed vertical: stance/swing boundary"
@@ -273,12 +285,12 @@ def _sensors_section(doc: _Document, analysis: SessionAnalysis) -> None:
     file says it), the sensors and the body calibration's remarks."""
     review = analysis.review
     session = review.session
-    doc.text("What this report holds", 11, True, gap=4)
+    doc.heading("What this report holds")
     for label, text in review.provenance.items():
         doc.text(f"{label}: {text}.", 8, gap=2)
     for note in review.missing:
         doc.text(f"Note: {note}.", 8, gap=2)
-    doc.text("Sensors", 11, True, gap=4)
+    doc.heading("Sensors")
     sensors = ", ".join(f"{sid} ({segment_name(s.segment) if s.segment else 'not worn'})"
                         for sid, s in session.sensors.items())
     doc.text(f"{plural(len(session.sensors), 'sensor')}: {sensors}", 8)
@@ -294,7 +306,7 @@ def check_reportable(analysis: SessionAnalysis) -> None:
         raise ValueError(f"{analysis.review.path.name}: no report: {analysis.limits}")
 def _doubt_section(doc: _Document, analysis: SessionAnalysis, label: str = "") -> None:
     """Which joints' angles may be wrong, when and why (:mod:`mimucap.core.pipeline.doubt_reasons`), or that none is."""
-    doc.text(f"Doubtful data{f' ({label})' if label else ''}", 11, True, gap=4)
+    doc.heading(f"Doubtful data{f' ({label})' if label else ''}")
     if not analysis.doubt:
         doc.text("Every joint angle passed MimuCap's checks (sensor orientations, field, lost samples, "
                  "body calibration): none is marked doubtful.", 8, gap=8)
@@ -308,7 +320,7 @@ def _doubt_section(doc: _Document, analysis: SessionAnalysis, label: str = "") -
 
 
 def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
-    doc.text("Gait", 11, True, gap=4)
+    doc.heading("Gait")
     gait = analysis.gait
     if gait is None or not gait.analysed:
         doc.text(f"No gait analysis: {analysis.gait_problem or 'no straight-walking stride'}.", 9, gap=8)
@@ -330,7 +342,7 @@ def _gait_section(doc: _Document, analysis: SessionAnalysis) -> None:
 
 
 def _rom_section(doc: _Document, analysis: SessionAnalysis) -> None:
-    doc.text("Range of motion", 11, True, gap=4)
+    doc.heading("Range of motion")
     if not analysis.rom:
         doc.text("No ROM protocol in this recording.", 9, gap=8)
         return
@@ -345,14 +357,14 @@ def _rom_section(doc: _Document, analysis: SessionAnalysis) -> None:
 
 
 def _markers_and_notes(doc: _Document, analysis: SessionAnalysis, notes: str) -> None:
-    doc.text("Markers", 11, True, gap=4)
+    doc.heading("Markers")
     markers = analysis.review.markers
     if markers:
         doc.table(["Time (s)", "Label"], [[f"{m.t_s:.2f}", rom_core.marker_words(m.label)] for m in markers], [0.15, 0.6])
     else:
         doc.text("No markers.", 9, gap=8)
     subject_notes = ((analysis.review.session.metadata.get("subject") or {}).get("notes") or "").strip()
-    doc.text("Notes", 11, True, gap=4)
+    doc.heading("Notes")
     doc.text("\n".join(t for t in (subject_notes, notes.strip()) if t) or "None.", 9, gap=8)
 
 
@@ -371,8 +383,7 @@ def write_report(path: str | Path, analysis: SessionAnalysis, bands: dict[tuple[
         _rom_section(doc, analysis)
         _markers_and_notes(doc, analysis, notes)
         _guided_test_page(doc, analysis)
-        doc.new_page()
-        doc.text("Joint angles over the gait cycle", 11, True, gap=4)
+        doc.heading("Joint angles over the gait cycle", keep_px=CURVE_ROW_PX)
         _curve_pages(doc, [analysis], bands or {}, ["session"])
     finally:
         doc.finish()
@@ -408,7 +419,7 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
                      colour=QColor(180, 0, 0))
         for label, analysis in zip(labels, (before, after)):
             _doubt_section(doc, analysis, label)
-        doc.text("Gait", 11, True, gap=4)
+        doc.heading("Gait")
         if before.gait is None or after.gait is None:
             doc.text("Gait comparison not possible: "
                      + "; ".join(f"{label}: {a.gait_problem}" for label, a in zip(labels, (before, after)) if a.gait is None), 9)
@@ -420,7 +431,7 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
                     rows.append([a_row.title if index == 0 else "", a.side, format_value(b.mean, d),
                                  format_value(a.mean, d), format_value(a.mean - b.mean, d)])
             doc.table(["Parameter", "Side", "Before", "After", "After − before"], rows, [0.3, 0.1, 0.16, 0.16, 0.18])
-        doc.text("Range of motion (active ROM, degrees)", 11, True, gap=4)
+        doc.heading("Range of motion (active ROM, degrees)")
         keys = list(dict.fromkeys(list(before.rom) + list(after.rom)))
         if keys:
             rows = []
@@ -435,10 +446,9 @@ def write_comparison_report(path: str | Path, before: SessionAnalysis, after: Se
                       [0.26, 0.1, 0.14, 0.14, 0.18, 0.14])
         else:
             doc.text("No ROM protocol in either session.", 9, gap=8)
-        doc.text("Notes", 11, True, gap=4)
+        doc.heading("Notes")
         doc.text(notes.strip() or "None.", 9)
-        doc.new_page()
-        doc.text("Joint angles over the gait cycle, before and after", 11, True, gap=4)
+        doc.heading("Joint angles over the gait cycle, before and after", keep_px=CURVE_ROW_PX)
         _curve_pages(doc, [before, after], bands or {}, labels)
     finally:
         doc.finish()
@@ -531,7 +541,7 @@ def clinical_test_section(doc: _Document, result, earlier) -> None:
     else:
         doc.text(f"No reference: {result.reference_note}.", 7.5, colour=QColor(70, 70, 70))
     key = MAIN_RESULT[result.test]
-    doc.text("Visits", 11, True, gap=4)
+    doc.heading("Visits")
     this = Visit(result.recorded_utc, "this session", dict(result.values), result.result)
     visits = list(earlier)
     if not visits:
@@ -577,7 +587,7 @@ def write_clinical_test_report(path: str | Path, result, earlier=()) -> Path:
         doc.text(f"Clinical test report: {TEST_NAMES[result.test]}", 16, True, gap=8)
         doc.text(_subject_line(result.subject), 10)
         if result.provenance is not None:
-            doc.text("What this report holds", 11, True, gap=4)
+            doc.heading("What this report holds")
             for label, text in result.provenance.items():
                 doc.text(f"{label}: {text}.", 8, gap=2)
         doc.y += 6
