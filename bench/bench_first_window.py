@@ -66,7 +66,7 @@ def _cpu_s(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
-def one_start(command: list[str], cwd: Path) -> dict[str, float]:
+def one_start(command: list[str], cwd: Path, tries: int = 3) -> dict[str, float]:
     """Start ``command``; return seconds to the window on screen and the program's CPU seconds
     by then, then seconds to the program's end and its CPU seconds in all (with its children)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -82,6 +82,10 @@ def one_start(command: list[str], cwd: Path) -> dict[str, float]:
             time.sleep(0.01)
     _, errors = process.communicate(timeout=300)
     ended = time.perf_counter() - started
+    if process.returncode != 0 and "could not connect to display" in errors and tries > 1:
+        # The virtual display now and then refuses a connection while it is being polled; the
+        # start did not happen, so it is made again.
+        return one_start(command, cwd, tries - 1)
     if process.returncode != 0:
         raise SystemExit(f"{' '.join(command)} failed ({process.returncode}):\n{errors}")
     if shown is None:
