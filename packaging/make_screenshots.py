@@ -128,7 +128,7 @@ def _every_workspace(app: QtWidgets.QApplication, out_dir: Path, home: Path, fol
     window.action_truth.setChecked(True)  # the simulator's truth beside the estimate
     start = time.monotonic()
     _wait(app, lambda: time.monotonic() - start > 1.0, 10, "walking")
-    window.session_panel.record_button.setChecked(True)
+    window.mode_bar.record_button.click()  # Record
     start = time.monotonic()
     _wait(app, lambda: time.monotonic() - start > 3.0, 10, "recording")
     window.session_panel.marker_label.setText("heel strike")  # typed, used once
@@ -140,7 +140,7 @@ def _every_workspace(app: QtWidgets.QApplication, out_dir: Path, home: Path, fol
     app.processEvents()
     written.append(window.save_screenshot(out_dir / "main-window.png"))
     _wait(app, lambda: time.monotonic() - start > 8.0, 10, "recording")
-    window.session_panel.record_button.setChecked(False)
+    window.mode_bar.record_button.click()  # Stop
     window.wait_for_saving()
     path = window.live.last_recording.session_path
 

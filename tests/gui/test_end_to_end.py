@@ -53,12 +53,12 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
 
     window.session_panel.subject_id.setText("P042")
     monkeypatch.setattr(window, "recording_folder", lambda: tmp_path)
-    qtbot.mouseClick(window.session_panel.record_button, QtCore.Qt.LeftButton)
+    qtbot.mouseClick(window.mode_bar.record_button, QtCore.Qt.LeftButton)
     assert live.recording
     start = window.clock()
     qtbot.waitUntil(lambda: window.clock() - start > 5.0, timeout=20000)
     qtbot.keyClicks(window.session_panel.marker_label, "straight")
-    qtbot.mouseClick(window.session_panel.marker_button, QtCore.Qt.LeftButton)
+    qtbot.mouseClick(window.mode_bar.marker_button, QtCore.Qt.LeftButton)
     qtbot.waitUntil(lambda: window.clock() - start > 15.0, timeout=20000)
     window.add_marker("end of straight")
     qtbot.waitUntil(lambda: live.recording_info().elapsed_s >= RECORD_S, timeout=20000)
@@ -66,7 +66,7 @@ def test_calibrated_walk_recorded_and_exported_from_the_sensors(walking_window, 
     offset = live.recording_started_s
     shown = {joint: live.joint_series(joint, 30.0) for joint in ("knee_r", "hip_l", "elbow_r")}
     with qtbot.waitSignal(window.recording_saved, timeout=30000):
-        qtbot.mouseClick(window.session_panel.record_button, QtCore.Qt.LeftButton)
+        qtbot.mouseClick(window.mode_bar.record_button, QtCore.Qt.LeftButton)
     result = live.last_recording
     assert result.complete
 

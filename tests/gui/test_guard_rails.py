@@ -52,9 +52,9 @@ def test_the_checklist_is_shown_and_recording_without_it_needs_a_confirmation(li
 
     asked = []
     window.confirm_recording = lambda items: asked.append([i.key for i in items]) or False
-    qtbot.mouseClick(window.session_panel.record_button, QtCore.Qt.LeftButton)
+    qtbot.mouseClick(window.mode_bar.record_button, QtCore.Qt.LeftButton)
     assert asked == [["magnetometers", "body"]]
-    assert not window.live.recording and not window.session_panel.record_button.isChecked()
+    assert not window.live.recording and window.mode_bar.record_button.text() == "● Record"
     assert not window.live_status.recording_indicator.isVisible()
 
     window.confirm_recording = lambda items: asked.append([i.key for i in items]) or True
@@ -93,9 +93,9 @@ def test_a_marker_takes_the_typed_label_once(live_window, qtbot):
     panel = window.session_panel
     window.action_record.trigger()
     qtbot.keyClicks(panel.marker_label, "heel strike")
-    qtbot.mouseClick(panel.marker_button, QtCore.Qt.LeftButton)
+    qtbot.mouseClick(window.mode_bar.marker_button, QtCore.Qt.LeftButton)
     assert panel.marker_label.text() == ""
-    qtbot.mouseClick(panel.marker_button, QtCore.Qt.LeftButton)
+    qtbot.mouseClick(window.mode_bar.marker_button, QtCore.Qt.LeftButton)
     qtbot.keyClicks(panel.marker_label, "turn")
     window.action_marker.trigger()  # the menu item (M) reads and clears the field too
     assert panel.marker_label.text() == ""

@@ -25,14 +25,14 @@ def app_window(qtbot, tmp_path, monkeypatch):
 
 def _record(window, qtbot, seconds: float, markers=()) -> object:
     """Record ``seconds`` of simulated time with ``markers`` (label, at s) through the panel."""
-    qtbot.mouseClick(window.session_panel.record_button, QtCore.Qt.LeftButton)
+    qtbot.mouseClick(window.mode_bar.record_button, QtCore.Qt.LeftButton)
     assert window.live.recording
     for label, at_s in markers:
         qtbot.waitUntil(lambda: window.live.recording_info().elapsed_s >= at_s, timeout=10000)
         window.add_marker(label)
     qtbot.waitUntil(lambda: window.live.recording_info().elapsed_s >= seconds, timeout=10000)
     with qtbot.waitSignal(window.recording_saved, timeout=30000) as saved:
-        qtbot.mouseClick(window.session_panel.record_button, QtCore.Qt.LeftButton)
+        qtbot.mouseClick(window.mode_bar.record_button, QtCore.Qt.LeftButton)
     return saved.args[0]
 
 

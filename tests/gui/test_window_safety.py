@@ -61,12 +61,12 @@ def test_no_source_change_while_recording_and_a_failed_one_is_not_remembered(win
 
 
 def test_a_click_on_record_leaves_space_to_the_plots(window, qtbot):
-    panel = window.session_panel
-    for button in (panel.record_button, panel.marker_button):
-        assert button.focusPolicy() == QtCore.Qt.TabFocus  # a click does not take the keyboard
-    qtbot.mouseClick(panel.record_button, QtCore.Qt.LeftButton)
+    bar = window.mode_bar
+    for button in (bar.record_button, bar.marker_button):
+        assert button.focusPolicy() == QtCore.Qt.NoFocus  # a click does not take the keyboard
+    qtbot.mouseClick(bar.record_button, QtCore.Qt.LeftButton)
     assert window.live.recording
-    assert QtWidgets.QApplication.focusWidget() is not panel.record_button
+    assert QtWidgets.QApplication.focusWidget() is not bar.record_button
     assert window.action_pause_plots.text().endswith("\tSpace")
 
 

@@ -188,7 +188,6 @@ class MainWindow(QtWidgets.QMainWindow):
             self.resizeDocks([dock], [size], orientation)
         self.installEventFilter(self)
 
-        self.session_panel.record_toggled.connect(self._record_toggled)
         self.session_panel.marker_requested.connect(self.add_marker)
         self.mode_bar.marker_clicked.connect(self.session_panel.request_marker)
         self.session_panel.height.valueChanged.connect(self._height_changed)

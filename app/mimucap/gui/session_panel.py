@@ -40,9 +40,9 @@ def _size(n_bytes: int) -> str:
 
 
 class SessionPanel(QtWidgets.QWidget):
-    """Subject fields, the record button, recording status, and the marker controls."""
+    """Subject fields, the checklist before recording, what the recording says, the next
+    marker's label and the markers placed (Record/Stop and Add Marker are the mode bar's)."""
 
-    record_toggled = QtCore.pyqtSignal(bool)
     marker_requested = QtCore.pyqtSignal(str)
 
     def __init__(self, parent: QtWidgets.QWidget | None = None) -> None:
@@ -82,13 +82,9 @@ class SessionPanel(QtWidgets.QWidget):
         self.checklist_labels: dict[str, QtWidgets.QLabel] = {}
         QtWidgets.QVBoxLayout(self.checklist_box).setSpacing(2)
 
+        # Record/Stop and Add Marker are the mode bar's (always in view, one place): the panel
+        # holds what the recording says, the next marker's label and the markers placed.
         record_box = QtWidgets.QGroupBox("Recording", self)
-        self.record_button = QtWidgets.QPushButton("● Record", record_box)
-        self.record_button.setObjectName("recordButton")
-        self.record_button.setCheckable(True)
-        # Not focused by a click: Space (the plots' Pause key) must never stop a recording.
-        self.record_button.setFocusPolicy(QtCore.Qt.TabFocus)
-        self.record_button.toggled.connect(self._record_toggled)
         self.record_status = QtWidgets.QLabel("Not recording", record_box)
         self.record_status.setObjectName("recordStatus")
         self.record_status.setWordWrap(True)
@@ -96,11 +92,8 @@ class SessionPanel(QtWidgets.QWidget):
         self.marker_label = QtWidgets.QLineEdit(record_box)
         self.marker_label.setObjectName("markerLabel")
         self.marker_label.setPlaceholderText("marker label")
-        self.marker_label.setToolTip("The label of the next marker; it is used once, then the field empties.")
-        self.marker_button = QtWidgets.QPushButton("Add Marker (M)", record_box)
-        self.marker_button.setObjectName("markerButton")
-        self.marker_button.setFocusPolicy(QtCore.Qt.TabFocus)
-        self.marker_button.clicked.connect(self.request_marker)
+        self.marker_label.setToolTip("The label of the next marker (Add Marker, M, or Enter here); it is used "
+                                     "once, then the field empties.")
         self.marker_label.returnPressed.connect(self.request_marker)
         self.markers_list = QtWidgets.QListWidget(record_box)
         self.markers_list.setObjectName("markersList")
@@ -111,13 +104,9 @@ class SessionPanel(QtWidgets.QWidget):
         self.saving_bar.setFormat("Saving %p %")
         self.saving_bar.setVisible(False)
         layout = QtWidgets.QVBoxLayout(record_box)
-        layout.addWidget(self.record_button)
         layout.addWidget(self.record_status)
         layout.addWidget(self.saving_bar)
-        row = QtWidgets.QHBoxLayout()
-        row.addWidget(self.marker_label, 1)
-        row.addWidget(self.marker_button)
-        layout.addLayout(row)
+        layout.addWidget(self.marker_label)
         layout.addWidget(self.markers_list)
 
         main = QtWidgets.QVBoxLayout(self)
@@ -170,16 +159,8 @@ class SessionPanel(QtWidgets.QWidget):
         for widget in (self.subject_id, self.height, self.dominance, self.notes, self.condition, self.tags):
             widget.setEnabled(editable)
 
-    def _record_toggled(self, on: bool) -> None:
-        self.record_button.setText("■ Stop" if on else "● Record")
-        self.record_toggled.emit(on)
-
     def set_recording(self, on: bool) -> None:
-        """Show the button as recording/not without emitting ``record_toggled``."""
-        self.record_button.blockSignals(True)
-        self.record_button.setChecked(on)
-        self.record_button.setText("■ Stop" if on else "● Record")
-        self.record_button.blockSignals(False)
+        """While recording, the subject's fields are kept as the recording has them."""
         self.set_subject_editable(not on)
 
     def request_marker(self) -> None:
