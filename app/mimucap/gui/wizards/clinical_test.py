@@ -258,7 +258,7 @@ class ClinicalTestWizard(QtWidgets.QDialog):
         if live.body_calibration is None:
             procedure.update(live.time_s, None)
             return
-        found = live.pipeline.poses_after(self._last_pose_t, live.body_calibration, live.sensor_segments)
+        found = live.poses_after(self._last_pose_t)
         if found is None:  # no new pose: the countdown and a timed test still run on the clock
             procedure.update(live.time_s, None)
             return

@@ -348,6 +348,12 @@ class LiveSession:
     def pose_source(self) -> str:
         return self.processing.pose_source
 
+    def poses_after(self, t_after_s: float) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+        """Every pose of this session's body calibration and assignment at an instant later than
+        ``t_after_s`` (session s): ``(t_s (P,), segment → q_world_from_segment (P, 4))``, or
+        None (:meth:`~mimucap.core.pipeline.live.LivePipeline.poses_after`)."""
+        return self.pipeline.poses_after(t_after_s, self.body_calibration, self.sensor_segments)
+
     def latest_orientations(self) -> dict[str, np.ndarray]:
         return self.processing.latest_orientations()
 

@@ -281,7 +281,7 @@ class LslStreamer:
 
     def _on_data(self, _cursor_s: float) -> None:
         session = self.session
-        found = session.pipeline.poses_after(self._last_pose_t, session.body_calibration, session.sensor_segments)
+        found = session.poses_after(self._last_pose_t)
         if found is not None:
             t_pose, q_segments = found
             self._last_pose_t = float(t_pose[-1])
