@@ -192,17 +192,29 @@ def _refuse_up_for_session(args: argparse.Namespace) -> None:
         raise ValueError(f"{args.input}: up axis {args.up} cannot apply: MimuCap sessions are z up")
 
 
-def static_npose_orientations(session, mags, mapping: dict[str, str],
-                              npose: tuple[float, float], pose: str = "N-pose") -> dict:
+def static_npose_orientations(session, mags, mapping: dict[str, str], npose: tuple[float, float], table,
+                              pose: str = "N-pose") -> dict:
     """Sensor → ``q_world_from_sensor`` (4,) of the still ``pose`` window from its mean accelerometer and
     calibrated magnetometer samples (:func:`mimucap.core.bodycal.static_alignment`, the filter's
     world frame and declination), for the mapped sensors fused with a magnetometer calibration
     (what their filters converge to, whatever transient the filter's estimate still carries);
     the others keep their orientation tracks. ``mags``: sensor → the magnetometer calibration
-    the processing path applied (``magnetometer`` of :func:`read_input`'s calibrations)."""
+    the processing path applied (``magnetometer`` of :func:`read_input`'s calibrations);
+    ``table`` the reprocessed orientation tracks (:func:`read_input`).
+
+    The static alignment's heading is that of the field at the sensor's place in the pose. Where
+    the room's field is not the same over the body (a floor's field fading with height turns the
+    thighs' field by degrees with no change of magnitude or dip a check could see), that place's
+    turn would stay in the segment's rotation about its long axis for the whole recording, while
+    the reprocessed track, the gyroscope carrying the field of the whole recording, holds the
+    heading the angles are computed with. So each sensor's heading is turned toward its track's
+    in the pose by the share :func:`~mimucap.core.heading_sources.own_field_weight` denies its own
+    field, from how much that field's deviation from the body's varied while it moved
+    (:func:`field_spreads`): none in a field the body shares."""
     import numpy as np
 
     from mimucap.core import bodycal
+    from mimucap.core.heading_sources import own_field_weight
     from mimucap.session.recorded.stored_processing import recorded_processing
 
     fusion = recorded_processing(session).settings.fusion
@@ -226,7 +238,50 @@ def static_npose_orientations(session, mags, mapping: dict[str, str],
     if found:
         print(f"  {pose} orientations from the still sensors' accelerometer and calibrated magnetometer: "
               f"{', '.join(sorted(found))}")
+    spreads = field_spreads(session, mags, table, fusion.rest_max_rate_rad_s) if found else {}
+    in_pose = (table.t_s >= npose[0]) & (table.t_s <= npose[1])
+    turned = []
+    for sensor_id in sorted(found):
+        weight = own_field_weight(spreads.get(sensor_id, np.nan))
+        if weight < 1.0 and sensor_id in table.q_world_from_sensor:
+            found[sensor_id] = bodycal.turned_toward(found[sensor_id], table.q_world_from_sensor[sensor_id][in_pose],
+                                                     1.0 - weight, table.up_world)
+            turned.append(f"{sensor_id} {100.0 * (1.0 - weight):.0f} %")
+    if turned:
+        print(f"  {pose} headings toward the reprocessed track, the field varying over the sensor's path: "
+              f"{', '.join(turned)}")
     return found
+
+
+def field_spreads(session, mags, table, rest_rate_rad_s: float) -> dict[str, float]:
+    """Sensor → how much its field's deviation from the body's varied while it moved (µT,
+    :func:`~mimucap.core.fusion.uniform_field.deviation_spread_uT`), for the sensors of
+    ``table`` (reprocessed tracks) with a magnetometer calibration among ``mags``, at the
+    table's instants: those outside the session's off-body windows (the magnetometer turns)
+    at which the sensor turned faster than ``rest_rate_rad_s`` (the filter's rest limit)."""
+    import numpy as np
+
+    from mimucap.core.fusion.uniform_field import deviation_spread_uT
+    from mimucap.core.pipeline.instants import value_at
+    from mimucap.session.recorded.reprocessing import off_body_windows
+
+    t = table.t_s
+    sensors = [sid for sid in table.q_world_from_sensor if sid in mags and session.sensors[sid].mag_uT is not None
+               and session.sensors[sid].gyr is not None]
+    if not sensors:
+        return {}
+    on_body = np.ones(t.shape, bool)
+    for start, end in off_body_windows(session):
+        on_body &= ~((t >= start) & (t <= end))
+    q = np.stack([table.q_world_from_sensor[sid] for sid in sensors], axis=1)
+    mag, moving = [], []
+    for sid in sensors:
+        stream = session.sensors[sid]
+        mag.append(value_at(t, stream.t_s, mags[sid].apply(stream.mag_uT, sid), np.nan))
+        rate = np.linalg.norm(value_at(t, stream.t_s, stream.gyr, np.nan), axis=-1)
+        moving.append(on_body & (rate > rest_rate_rad_s))
+    spread = deviation_spread_uT(q, np.stack(mag, axis=1), np.stack(moving, axis=1))
+    return dict(zip(sensors, spread.tolist()))
 
 
 def pose_doubts(table, mapping: dict[str, str], windows) -> dict[str, str]:
@@ -412,7 +467,7 @@ def _posed(args, method: str, table, session, mags, mapping):
     if npose is None:
         raise ValueError("--tpose needs --npose T0:T1 as well")
     static = {} if _tracks_own_headings(args, session) else static_npose_orientations(session, mags.magnetometer,
-                                                                                        mapping, npose)
+                                                                                        mapping, npose, table)
     calibration = bodycal.calibrate_npose_tpose(
         table.t_s, table.q_world_from_sensor, mapping, npose, tpose,
         up_world=table.up_world, arms=args.arms or "auto",
@@ -451,7 +506,7 @@ def _functional(args, table, session, mags, mapping):
         movement = (float(table.t_s[np.searchsorted(table.t_s, still[1], side="right")]), end)
         print(f"  movement: {movement[0]:.2f}-{movement[1]:.2f} s, the rest of the recording")
     static = {} if _tracks_own_headings(args, session) else static_npose_orientations(
-        session, mags.magnetometer, mapping, still, "quiet-standing")
+        session, mags.magnetometer, mapping, still, table, "quiet-standing")
     calibration = fb.calibrate_functional(
         table.t_s, table.q_world_from_sensor, mapping, still, movement, up_world=table.up_world,
         settings=fb.FunctionalSettings(hinge_from=args.hinge_from or "orientations"), still_orientations=static)

@@ -407,6 +407,24 @@ def static_alignment(acc_m_s2: ArrayLike, mag_uT: ArrayLike, declination_rad: fl
     return rot.canonical(q)
 
 
+def turned_toward(q_world_from_sensor: ArrayLike, q_track: ArrayLike, share: float,
+                  up_world: ArrayLike = (0.0, 0.0, 1.0)) -> FloatArray:
+    """``q_world_from_sensor`` (4,) turned about ``up_world`` by ``share`` (0-1) of the mean
+    heading by which the orientations ``q_track`` (K, 4) of the same sensor lie from it (the
+    circular mean of each one's turn about the vertical): 0 keeps it, 1 takes the track's
+    heading and keeps its own tilt."""
+    q = np.asarray(q_world_from_sensor, dtype=np.float64)
+    track = np.asarray(q_track, dtype=np.float64).reshape(-1, 4)
+    track = track[np.isfinite(track).all(axis=1)]
+    if not len(track) or share <= 0.0:
+        return q
+    up = unit_vector(up_world, "up")
+    error = rot.multiply(track, rot.conjugate(q))
+    turn = 2.0 * np.arctan2(error[:, 1:] @ up, error[:, 0])
+    mean = float(np.angle(np.mean(np.exp(1j * turn))))
+    return rot.canonical(rot.multiply(rot.from_axis_angle(up, min(float(share), 1.0) * mean), q))
+
+
 def q_world_from_body_from_forward(forward_world: ArrayLike, up_world: ArrayLike) -> FloatArray:
     """``q_world_from_body`` (4,) with x = horizontal part of ``forward``, y = up, z = x × y."""
     up = unit_vector(up_world, "up_world")

@@ -86,6 +86,17 @@ HINGE_ITERATIONS = 2
 #: the spread's ratio to this one, squared, over which a moving sensor's local turns average out
 #: while a filter's drift is still followed.
 SHARED_DEVIATION_UT = 1.0
+def own_field_weight(spread_uT: float) -> float:
+    """The weight (0-1) of a sensor's own field at one place beside what the body's field gives
+    it over the recording, from how much its field's deviation from the body's varied while it
+    moved (µT, :func:`~mimucap.core.fusion.uniform_field.deviation_spread_uT`): the inverse of
+    its variance beyond a shared field's, ``(SHARED_DEVIATION_UT / spread)²``, as the relative
+    errors above count; 1 within a shared field's spread, or unknown."""
+    if not np.isfinite(spread_uT) or spread_uT <= SHARED_DEVIATION_UT:
+        return 1.0
+    return float((SHARED_DEVIATION_UT / spread_uT) ** 2)
+
+
 #: A sensor whose share of agreeing field samples over the time constant falls below this
 #: counts as held on its gyroscope.
 AGREEING_SHARE = 0.5

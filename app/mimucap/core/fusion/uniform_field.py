@@ -87,3 +87,34 @@ def shared_field_terms(q_world_from_sensor: np.ndarray,
     error[rows] = -np.angle(np.exp(1j * (azimuth[agree] - mean)))
     weight[rows] = horizontal[agree]
     return error, weight, deviation
+
+
+def deviation_spread_uT(q_world_from_sensor: np.ndarray, mag_uT: np.ndarray, moving: np.ndarray) -> np.ndarray:
+    """How much each sensor's field's deviation from the body's varied over a recording (µT):
+    the root of the summed variances of its horizontal and vertical deviations
+    (:func:`shared_field_terms`) over the instants at which it ``moving`` ((T, S) bool), NaN for
+    a sensor with fewer than two such instants. ``q_world_from_sensor`` (T, S, 4) and ``mag_uT``
+    (T, S, 3) calibrated field (NaN where a sensor has none).
+
+    Only a sensor moving through the room can show how the room's field varies at its height: a
+    still one keeps whatever deviation its place gives it, and the body's N-pose is one place."""
+    q = np.asarray(q_world_from_sensor, dtype=np.float64)
+    mag = np.asarray(mag_uT, dtype=np.float64)
+    world = rotation.rotate(q, mag)
+    horizontal, vertical = np.hypot(world[..., 0], world[..., 1]), world[..., 2]
+    valid = np.isfinite(horizontal) & np.isfinite(vertical)
+    shared = valid.sum(axis=-1) >= MIN_AGREEING
+    counted = valid & shared[:, None] & np.asarray(moving, dtype=bool)
+    spread = np.full(q.shape[1], np.nan)
+    if not np.any(shared):
+        return spread
+    with np.errstate(all="ignore"):
+        h_median = np.nanmedian(np.where(valid, horizontal, np.nan)[shared], axis=-1)
+        v_median = np.nanmedian(np.where(valid, vertical, np.nan)[shared], axis=-1)
+    deviation = np.stack([horizontal[shared] - h_median[:, None], vertical[shared] - v_median[:, None]], axis=-1)
+    counted = counted[shared]
+    for sensor in range(q.shape[1]):
+        rows = counted[:, sensor]
+        if rows.sum() >= 2:
+            spread[sensor] = float(np.sqrt(np.sum(np.var(deviation[rows, sensor], axis=0))))
+    return spread
