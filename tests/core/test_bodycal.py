@@ -732,3 +732,17 @@ def test_body_frame_from_a_tilted_forward_axis():
     np.testing.assert_allclose(rot.rotate(q, EZ), [np.sqrt(0.5), -np.sqrt(0.5), 0.0], atol=1e-12)  # right
     with pytest.raises(ValueError, match="vertical"):
         bc.q_world_from_body_from_forward([0.0, 0.0, 1.0], [0.0, 0.0, 1.0])
+
+
+def test_turned_toward_a_track_keeps_the_tilt_and_takes_its_share_of_the_heading():
+    """A sensor tilted 20° whose static heading is 10° and whose track says 30° (± a degree of
+    scatter): half the share gives 20°, the whole 30°, none 10°; the tilt stays."""
+    tilt = rot.from_axis_angle([1.0, 0.0, 0.0], np.radians(20.0))
+    static = rot.multiply(rot.from_axis_angle([0.0, 0.0, 1.0], np.radians(10.0)), tilt)
+    scatter = np.radians([29.0, 31.0, 30.0])
+    track = rot.multiply(np.stack([rot.from_axis_angle([0.0, 0.0, 1.0], a) for a in scatter]), tilt)
+    for share, heading_deg in ((0.0, 10.0), (0.5, 20.0), (1.0, 30.0)):
+        turned = bc.turned_toward(static, track, share)
+        expected = rot.multiply(rot.from_axis_angle([0.0, 0.0, 1.0], np.radians(heading_deg)), tilt)
+        assert abs(abs(float(np.dot(turned, expected))) - 1.0) < 1e-9, share
+    np.testing.assert_allclose(bc.turned_toward(static, np.full((2, 4), np.nan), 1.0), static)

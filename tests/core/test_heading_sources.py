@@ -9,9 +9,10 @@ import pytest
 
 from mimucap.core import rotation
 from mimucap.core.pipeline import doubt_reasons as doubt
-from mimucap.core.fusion.uniform_field import relative_azimuths
+from mimucap.core.fusion.uniform_field import deviation_spread_uT, relative_azimuths
 from mimucap.core.heading_sources import (
-    SOURCE_HELD, SOURCE_JOINT, SOURCE_SHARED_FIELD, HeadingCoupling, Hinge, relieved, turned_about_vertical,
+    SHARED_DEVIATION_UT, SOURCE_HELD, SOURCE_JOINT, SOURCE_SHARED_FIELD, HeadingCoupling, Hinge, own_field_weight,
+    relieved, turned_about_vertical,
 )
 from mimucap.core.joint_coupling import hinge_errors, hinge_statistics
 
@@ -220,3 +221,34 @@ def test_a_stored_state_continues_whatever_order_the_sensors_come_in():
     found = replay.couple(instants(slice(80, None), [3, 1, 0, 2]), stage)
     for sid, value in expected.q_world_from_sensor.items():
         np.testing.assert_allclose(found.q_world_from_sensor[sid], value, atol=1e-12)
+
+
+def test_the_spread_of_a_field_that_varies_over_a_sensors_path_counts_only_while_it_moves():
+    """Four sensors in one field; the fourth walks through a field whose horizontal and vertical
+    parts swing by 3 µT (a floor's field at the thighs): its spread is 3/√2 µT in each component,
+    the others' none. A still stretch in which its field sits 20 µT off counts for nothing."""
+    steps = 400
+    phase = np.linspace(0.0, 8.0 * np.pi, steps, endpoint=False)
+    q = np.broadcast_to(random_orientations(4), (steps, 4, 4)).copy()
+    field = np.broadcast_to(np.array([0.0, 25.0, -43.0]), (steps, 4, 3)).copy()
+    field[:, 3, 1] += 3.0 * np.sin(phase)
+    field[:, 3, 2] += 3.0 * np.cos(phase)
+    moving = np.ones((steps, 4), bool)
+    still = np.zeros((50, 4, 3))
+    still[:, :] = [0.0, 25.0, -43.0]
+    still[:, 3, 1] += 20.0
+    q = np.concatenate([q, q[:50]])
+    field = np.concatenate([field, still])
+    moving = np.concatenate([moving, np.zeros((50, 4), bool)])
+    mag = field_seen(q, field)
+    mag[:10, 1] = np.nan  # a sensor without a field for a while counts over the rest
+    spread = deviation_spread_uT(q, mag, moving)
+    np.testing.assert_allclose(spread, [0.0, 0.0, 0.0, 3.0], atol=1e-6)
+    assert np.isnan(deviation_spread_uT(q, mag, np.zeros_like(moving))).all()
+
+
+def test_a_sensors_own_field_weighs_with_the_inverse_of_its_variance_beyond_a_shared_fields():
+    assert own_field_weight(0.3 * SHARED_DEVIATION_UT) == 1.0
+    assert own_field_weight(float("nan")) == 1.0
+    assert own_field_weight(2.0 * SHARED_DEVIATION_UT) == pytest.approx(0.25)
+    assert own_field_weight(5.0 * SHARED_DEVIATION_UT) == pytest.approx(0.04)
