@@ -177,9 +177,11 @@ def _heading_update(P, dx, c, resid, var, h_x, h_y):
     states is zero (Joseph form, so the covariance stays that of the gain actually applied).
 
     ``h_x``, ``h_y`` (dimensionless): how the tilt-compensated heading moves with the tilt
-    errors (:func:`heading_tilt_jacobian`). The tilt is never corrected from the magnetometer,
-    but its uncertainty enters the innovation's variance, and the heading-tilt correlation the
-    update leaves lets later gravity updates correct the heading error a tilt error caused.
+    errors (:func:`heading_tilt_jacobian`). The tilt states are "considered" as in the
+    Schmidt-Kalman filter (S. F. Schmidt, "Application of state-space methods to navigation
+    problems", Advances in Control Systems 3, 1966): never corrected from the magnetometer,
+    their uncertainty enters the innovation's variance and their correlation with the other
+    states is updated, so later gravity updates correct the heading error a tilt error caused.
     """
     r = resid - dx[2] - h_x * dx[0] - h_y * dx[1]
     for a in range(6):
