@@ -24,7 +24,8 @@ Printed per trial and per category (from the trial names): BROAD's total RMSE (d
 defaults (:data:`DEFAULT_FUSION_PARAMS`), of the held-out choices and of the defaults without
 the hard-iron tracking, online and offline, beside VQF 9D with default parameters online
 (``vqf.VQF(Ts).updateBatch``) and offline (``vqf.offlineVQF``). Then the held-out choices, the
-combinations chosen on all trials, the held-out scores of the hard-iron settings alone (the other settings at their
+combinations chosen on all trials, the held-out scores of the hard-iron settings alone and of the
+heading noise's field-quality gain alone (:data:`SINGLE_CHOICES`, the other settings at their
 defaults), the best combination that keeps the trials ``tests/core/fusion/test_broad_scores.py``
 bounds below VQF's online score (:data:`BOUNDED_TRIALS`), the held-out scores of a choice made
 only among the combinations within the bounds of the training trials, and the gyroscope's white
@@ -54,7 +55,7 @@ from mimucap.io.broad_trials import BroadTrial, list_broad_trials, read_broad
 
 #: The settings cross-validated and the values tried.
 GRID: dict[str, tuple] = {
-    "heading_field_error_gain": (1.0, 2.0, 3.0, 4.0),
+    "heading_field_error_gain": (2.0, 3.0, 4.0, 5.0),
     "gyr_scale_noise_sqrt_s": (0.00025, 0.0005, 0.00075),
     "mag_offset_tau_s": (2.0, 3.0, 5.0),
     "mag_offset_min_uT": (2.0, 3.0, 5.0),
@@ -70,6 +71,11 @@ SMOOTHER_GRID: dict[str, tuple] = {
 
 #: The settings of the hard-iron tracking (:mod:`mimucap.core.fusion.hard_iron`).
 HARD_IRON_SETTINGS = ("mag_offset_tau_s", "mag_offset_min_uT")
+
+#: Settings also cross-validated alone (the others at their defaults), each group's held-out
+#: scores printed: the hard-iron tracking's, and the heading noise's gain from the field's
+#: quality (an online setting only: the smoother has its own).
+SINGLE_CHOICES = (HARD_IRON_SETTINGS, ("heading_field_error_gain",))
 
 #: The defaults without the hard-iron tracking: what the filter did before it.
 WITHOUT_TRACKING = {"mag_offset_tau_s": 0.0}
@@ -233,15 +239,17 @@ def main(argv: list[str] | None = None) -> int:
           f"choice (smoother at its defaults): {grid_held_offline.mean():.3f}")
     print(f"defaults: online {defaults[:, 0].mean():.3f}, offline {defaults[:, 1].mean():.3f}; "
           f"without the hard-iron tracking: online {before[:, 0].mean():.3f}, offline {before[:, 1].mean():.3f}")
-    own = [c for c, combo in enumerate(combos)
-           if all(value == getattr(DEFAULT_FUSION_PARAMS, key) for key, value in combo.items()
-                  if key not in HARD_IRON_SETTINGS)]
-    if own:
-        own_picks = leave_one_out(scores[own])
-        own_held = np.array([scores[own[pick], i] for i, pick in enumerate(own_picks)])
-        print(f"held-out, choosing only {', '.join(HARD_IRON_SETTINGS)} (the others at their defaults): "
-              f"online {own_held[:, 0].mean():.3f}, offline {own_held[:, 1].mean():.3f} (folds: " + "; ".join(
-                  f"{count}: {describe(combos[own[c]])}" for c, count in Counter(own_picks).most_common()) + ")")
+    for chosen in SINGLE_CHOICES:
+        own = [c for c, combo in enumerate(combos)
+               if all(value == getattr(DEFAULT_FUSION_PARAMS, key) for key, value in combo.items()
+                      if key not in chosen)]
+        if own:
+            own_picks = leave_one_out(scores[own])
+            own_held = np.array([scores[own[pick], i] for i, pick in enumerate(own_picks)])
+            print(f"held-out, choosing only {', '.join(chosen)} (the others at their defaults): "
+                  f"online {own_held[:, 0].mean():.3f}, offline {own_held[:, 1].mean():.3f} (folds: " + "; ".join(
+                      f"{count}: {describe({key: combos[own[c]][key] for key in chosen})}"
+                      for c, count in Counter(own_picks).most_common()) + ")")
     if bounded and not np.isnan(vqf_rows[bounded, 0]).any():
         # (combinations, trials): within VQF's online score, online and offline, where bounded
         allowed = np.ones(scores.shape[:2], dtype=bool)

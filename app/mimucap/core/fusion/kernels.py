@@ -18,9 +18,13 @@ orientation ``q_world_from_sensor = exp(δθ) ⊗ q`` and true bias ``b + δb``.
   linear accelerations average out; its direction ``u ≈ e_z + e_z × δθ`` gives
   ``u_x = −δθ_y`` and ``u_y = δθ_x`` (two scalar updates, noise model in :mod:`disturbance`).
 * Heading: the tilt-compensated magnetometer ``m_w = R·m`` has the heading residual
-  ``atan2(m_w,x, m_w,y) − declination = δθ_z`` (north along +y). Its Kalman gain rows of the tilt
+  ``atan2(m_w,x, m_w,y) − declination = δθ_z + h_x·δθ_x + h_y·δθ_y`` (north along +y): the tilt
+  compensation carries a tilt error into the heading, amplified by ``tan(dip)`` about the axis
+  perpendicular to the field (:func:`heading_tilt_jacobian`). Its Kalman gain rows of the tilt
   states are set to zero (Joseph-form covariance update), so the magnetometer corrects the
-  heading and the bias, never the tilt. Its noise grows with the field's distance from the
+  heading and the bias, never the tilt; the tilt terms of the measurement row weigh the
+  heading by the tilt's uncertainty and correlate the two, so a tilt error the accelerometer
+  later corrects takes the heading error it caused with it. Its noise grows with the field's distance from the
   learned reference (:func:`~.disturbance.heading_noise_var`). A hard-iron offset that
   appeared during the recording (a magnet fixed to the sensor) is learned from the field
   samples and removed from each before it is judged (:mod:`.hard_iron`).
@@ -168,12 +172,23 @@ def _scalar_update(P, dx, c, i, resid, var):
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _heading_update(P, dx, c, resid, var):
-    """Heading (δθ_z) update whose gain on the tilt states is zero (Joseph form)."""
-    r = resid - dx[2]
-    s = P[2, 2] + var
+def _heading_update(P, dx, c, resid, var, h_x, h_y):
+    """Heading update of measurement row ``H = [h_x, h_y, 1, 0, 0, 0]`` whose gain on the tilt
+    states is zero (Joseph form, so the covariance stays that of the gain actually applied).
+
+    ``h_x``, ``h_y`` (dimensionless): how the tilt-compensated heading moves with the tilt
+    errors (:func:`heading_tilt_jacobian`). The tilt states are "considered" as in the
+    Schmidt-Kalman filter (S. F. Schmidt, "Application of state-space methods to navigation
+    problems", Advances in Control Systems 3, 1966): never corrected from the magnetometer,
+    their uncertainty enters the innovation's variance and their correlation with the other
+    states is updated, so later gravity updates correct the heading error a tilt error caused.
+    """
+    r = resid - dx[2] - h_x * dx[0] - h_y * dx[1]
     for a in range(6):
-        c[a] = P[a, 2]
+        c[a] = P[a, 2] + h_x * P[a, 0] + h_y * P[a, 1]
+    s = c[2] + h_x * c[0] + h_y * c[1] + var
+    if s <= 0.0:
+        return
     inv = 1.0 / s
     for a in range(2, 6):
         dx[a] += c[a] * inv * r
@@ -183,6 +198,20 @@ def _heading_update(P, dx, c, resid, var):
             v = P[a, b] - ca * c[b]
             P[a, b] = v
             P[b, a] = v
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def heading_tilt_jacobian(mwx, mwy, mwz):
+    """``(h_x, h_y)``: derivatives of the heading ``atan2(m_w,x, m_w,y)`` of the field ``m_w``
+    (world frame, µT) with respect to the world-frame tilt errors ``δθ_x``, ``δθ_y`` (rad/rad).
+
+    With the true orientation ``exp(δθ) ⊗ q``, the estimate sees the field turned back,
+    ``m_w ≈ m − δθ × m``, so ``δψ = δθ_z − (m_z / m_h²)·(m_x·δθ_x + m_y·δθ_y)``, ``m_h`` the
+    horizontal field: a tilt error about the horizontal axis perpendicular to the field turns
+    the heading by ``tan(dip)`` times itself (2.7 at a 70° dip). Zero for a horizontal field.
+    """
+    k = mwz / (mwx * mwx + mwy * mwy)
+    return -k * mwx, -k * mwy
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -467,8 +496,9 @@ def ekf_block(p, t, gyr, acc, mag, q, b, P, aux, out_q, out_bias, out_flags,
                         psi -= 2.0 * math.pi
                     elif psi < -math.pi:
                         psi += 2.0 * math.pi
+                    h_x, h_y = heading_tilt_jacobian(mwx, mwy, mwz)
                     _heading_update(P, dx, c, psi,
-                                    heading_noise_var(p, aux, nm, math.atan2(-mwz, hnorm), hnorm))
+                                    heading_noise_var(p, aux, nm, math.atan2(-mwz, hnorm), hnorm), h_x, h_y)
                     updated = True
                 else:
                     flags |= FLAG_MAG_REJECTED
