@@ -12,8 +12,9 @@ from mimucap.core import rotation as rot
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.core.simulate.sensor_errors import error_model
+from mimucap.core.pipeline.doubt_reasons import DOUBT_DTYPE, SETTLING
 from mimucap.session.procedures.body import BodycalProcedure, BodycalProcedureSettings
-from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
+from mimucap.session.sources.calibration_feed import DOUBT_EXTRA, SimulatedSuitFeed
 
 #: Units with an on-board orientation as good as 0.3° rms (the procedure's own error is then
 #: what is measured); everything else of the default error model.
@@ -162,3 +163,51 @@ def test_the_functional_method_needs_no_arm_sensor_and_an_unknown_method_is_refu
     assert BodycalProcedure(feed, legs, method="functional").arm_sensors == {}
     with pytest.raises(ValueError, match="method must be one of npose-tpose, functional, got 'walk'"):
         BodycalProcedure(feed, legs, method="walk")
+
+
+class _SettlingFeed:
+    """The simulated feed, with one sensor's orientation said to be settling (as the pipeline says
+    for seconds after a new magnetometer calibration) until ``until_s`` of the feed's clock."""
+
+    def __init__(self, feed, sensor_id: str, until_s: float):
+        self._feed, self.settling_sensor, self.until_s = feed, sensor_id, until_s
+
+    def __getattr__(self, name):
+        return getattr(self._feed, name)
+
+    def read(self):
+        blocks = self._feed.read()
+        block = blocks.get(self.settling_sensor)
+        if block is not None and block.t_s.shape[0]:
+            reasons = np.where(block.t_s < self.until_s, SETTLING, 0).astype(DOUBT_DTYPE)
+            blocks[self.settling_sensor] = replace(block, extra={**(block.extra or {}), DOUBT_EXTRA: reasons})
+        return blocks
+
+
+def _settling(until_s: float, **kwargs):
+    simulator, feed, _ = make(5)
+    mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
+    settling = _SettlingFeed(feed, mapping["thigh_l"], until_s)  # the feed's clock starts at 0 s
+    return settling, BodycalProcedure(settling, mapping, **kwargs)
+
+
+def test_the_npose_waits_until_no_orientation_is_settling() -> None:
+    """A pose captured while a filter still converges on a new magnetometer calibration would make
+    every joint angle doubtful: the N-pose page says whose orientation it waits for and captures
+    only after it settled, and the calibration is then not doubtful."""
+    feed, procedure = _settling(4.0)
+    procedure.start()
+    statuses = run(procedure)
+    assert procedure.phase == "result", procedure.refusal
+    assert procedure.windows["npose"][0] >= feed.until_s
+    waiting = [s.message for s in statuses if s.pose == "npose" and not s.capturing and "settling" in s.message]
+    assert waiting and feed.settling_sensor in waiting[0]
+    assert not procedure.calibration.quality.doubtful_sensors
+
+
+def test_an_orientation_that_never_settles_is_refused_naming_the_sensor() -> None:
+    feed, procedure = _settling(1e9, settings=BodycalProcedureSettings(pose_timeout_s=5.0))
+    procedure.start()
+    run(procedure)
+    assert procedure.phase == "refused"
+    assert f"sensor {feed.settling_sensor}'s orientation did not settle" in procedure.refusal

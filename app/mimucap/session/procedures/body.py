@@ -8,7 +8,10 @@ call each time the feed tells ``arrived``, or a loop in tests; each step tells i
 
 1. **N-pose**: standing upright, arms hanging. The page waits until every mapped sensor is
    still (the *stillness meter*: the largest angle any sensor turned within the last
-   ``meter_window_s``), then counts down ``hold_s`` while the averaged window fills. If any
+   ``meter_window_s``) and no sensor's orientation is still settling (for seconds after a new
+   magnetometer calibration the filter converges on the newly calibrated field; a pose captured
+   then would make every joint angle doubtful), then counts down ``hold_s`` while the averaged
+   window fills. If any
    sensor turns more than ``still_limit_deg`` from its window mean, the capture restarts with a
    message naming the sensor.
 2. **T-pose**: the chosen arm(s) raised sideways to the horizontal. The page waits until each
@@ -63,7 +66,7 @@ from mimucap.core.bodycal import (
     with_doubtful_sensors,
 )
 from mimucap.core.functional_bodycal import calibrate_functional
-from mimucap.core.pipeline.doubt_reasons import describe
+from mimucap.core.pipeline.doubt_reasons import NO_ORIENTATION, SETTLING, describe
 from mimucap.core.pipeline.segments import segments_from_sensors
 from mimucap.core.skeleton import SkeletonModel
 from mimucap.session.events import EmitterGroup
@@ -76,6 +79,8 @@ PHASES = ("ready", "npose", "tpose", "movement", "result", "refused")
 ARMS = ("both", "right", "left")
 #: The calibration methods: N-pose then T-pose, or standing still then walking (no T-pose).
 METHODS = ("npose-tpose", "functional")
+#: Doubts that pass while the subject stands still: the still page waits for them to clear.
+TRANSIENT_DOUBTS = SETTLING | NO_ORIENTATION
 
 
 @dataclass(frozen=True)
@@ -135,6 +140,8 @@ class _Track:
         self.t_parts: list[np.ndarray] = []
         self.q_parts: list[np.ndarray] = []
         self.doubtful: list[tuple[np.ndarray, np.ndarray]] = []
+        #: The reasons of the newest sample (0: none).
+        self.latest_reasons = 0
 
     def add(self, t: np.ndarray, q: np.ndarray, reasons: np.ndarray | None = None) -> None:
         good = np.isfinite(t) & np.all(np.isfinite(q), axis=1)
@@ -143,6 +150,8 @@ class _Track:
             self.q_parts.append(q[good])
         if reasons is not None and np.any(reasons):
             self.doubtful.append((t[reasons != 0], reasons[reasons != 0]))
+        if t.shape[0]:
+            self.latest_reasons = int(reasons[-1]) if reasons is not None else 0
 
     def doubt_between(self, start_s: float, end_s: float) -> int:
         """The reasons of the samples from ``start_s`` to ``end_s`` (s), combined (0: none)."""
@@ -253,6 +262,7 @@ class BodycalProcedure:
         self._restarts = 0
         self._message = ""
         self._worst_motion: tuple[str, float] = ("", 0.0)
+        self._settling = ""
         self.windows: dict[str, tuple[float, float]] = {}
         self.npose_mean: dict[str, np.ndarray] = {}
         self.calibration = None
@@ -273,6 +283,7 @@ class BodycalProcedure:
         self._window_start = None
         self._restarts = 0
         self._worst_motion = ("", 0.0)
+        self._settling = ""
         self.feed.instruct(self._instruction_of(pose))
         self._message = self.instruction(pose)
 
@@ -314,6 +325,11 @@ class BodycalProcedure:
             worst = max(worst, (_spread_deg(q), sensor_id))
         return worst
 
+    def _settling_sensor(self) -> str:
+        """The first sensor whose newest orientation carries a :data:`TRANSIENT_DOUBTS` reason ("" if none)."""
+        return next((sensor_id for sensor_id in self._sensors
+                     if self._tracks[sensor_id].latest_reasons & TRANSIENT_DOUBTS), "")
+
     def _arms_raised(self) -> bool:
         for sensor_id in self.arm_sensors.values():
             t, q = self._tracks[sensor_id].arrays()
@@ -338,6 +354,11 @@ class BodycalProcedure:
                 ready = False
             elif not ready and math.isfinite(meter):
                 self._worst_motion = max(self._worst_motion, (sensor, meter), key=lambda x: x[1])
+            elif ready and pose == "npose" and (settling := self._settling_sensor()):
+                ready = False
+                self._settling = settling
+                self._message = (f"Keep standing still: sensor {settling}'s orientation is still settling "
+                                 f"(it takes a few seconds after a magnetometer calibration)")
             if ready:
                 self._window_start = self._now
         else:
@@ -358,7 +379,10 @@ class BodycalProcedure:
         if self._window_start is None and self._now - self._page_start > s.pose_timeout_s:
             name = "N-pose" if pose == "npose" else "T-pose"
             sensor, angle = self._worst_motion
-            if pose == "tpose" and not self._arms_raised():
+            if pose == "npose" and self._settling and self._settling_sensor():
+                reason = (f"sensor {self._settling}'s orientation did not settle within {s.pose_timeout_s:.0f} s "
+                          f"of standing still; check its magnetometer calibration and redo the calibration")
+            elif pose == "tpose" and not self._arms_raised():
                 reason = (f"the arm(s) were not raised sideways within {s.pose_timeout_s:.0f} s: raise "
                           f"{'both arms' if self.arms == 'both' else 'the ' + self.arms + ' arm'} to shoulder height")
             else:

@@ -23,11 +23,6 @@ from mimucap.session.procedures.magnetometer import MagcalProcedure
 from mimucap.session.live.recorder import RecordingResult
 
 
-#: The longest the operator waits (s) after the magnetometer calibration for every sensor's
-#: orientation to be trusted before the body calibration.
-SETTLE_LIMIT_S = 20.0
-
-
 @dataclass
 class GuidedOutcome:
     """What a guided session produced: the magnetometer calibration verdicts (sensor → verdict),
@@ -44,11 +39,9 @@ def run_guided_session(live, clock: SteppedClock, out_path: str | Path, record_s
                        markers: tuple[tuple[float, str], ...] = (),
                        on_step: Callable[[], None] | None = None, settle_s: float = 1.0,
                        subject: dict | None = None) -> GuidedOutcome:
-    """Calibrate every magnetometer (one bundle, one turn about each axis), wait until the status
-    says every sensor's orientation is trusted again (the filters settle on the newly calibrated
-    field for seconds; at most :data:`SETTLE_LIMIT_S`), as the operator does before the body
-    calibration, whose poses would otherwise be recorded as doubtful, then calibrate the body
-    (N-pose, T-pose), let the subject carry on and, ``settle_s`` seconds later, record
+    """Calibrate every magnetometer (one bundle, one turn about each axis), calibrate the body
+    (N-pose, T-pose; its N-pose page waits until no orientation is still settling on the newly
+    calibrated field), let the subject carry on and, ``settle_s`` seconds later, record
     ``record_s`` seconds of it into ``out_path`` with ``markers`` (seconds after the start,
     label) and the ``subject`` form (id, height...). ``live`` must be started on ``clock``.
     ``ValueError`` when a calibration is refused."""
@@ -69,9 +62,6 @@ def run_guided_session(live, clock: SteppedClock, out_path: str | Path, record_s
         accepted = magcal.accept()
         for sensor_id in accepted:
             live.apply_mag_calibration(magcal.outcomes[sensor_id].result.calibration, save=False)
-        settled_by = clock.now + SETTLE_LIMIT_S
-        while clock.now < settled_by and any(row.doubt for row in live.sensor_rows()):
-            tick()
         verdicts = {sid: outcome.verdict for sid, outcome in magcal.outcomes.items()}
         mapping = {segment: sensor for sensor, segment in live.sensor_segments.items()}
         body = BodycalProcedure(feed, mapping, height_m=live.height_m)
