@@ -27,6 +27,7 @@ from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
 from mimucap.session.sources.feeds import SimulatorFeed as LiveSimulatorFeed
 from mimucap.session.live.live_session import LiveSession
 from tests.gui.body_wizard_runs import FakeClock, mounting_errors_deg, run_on_live
+from tests.session.settling_feed import SettlingFeed
 
 NOW = dt.datetime(2026, 11, 21, 7, 0, tzinfo=dt.timezone.utc)
 ONBOARD = replace(error_model("default"), onboard_orientation=True, onboard_error_deg=0.3)
@@ -217,6 +218,24 @@ def test_body_wizard_refuses_a_subject_moving_during_the_npose(qtbot) -> None:
     qtbot.waitUntil(lambda: wizard.page_name == "refused", timeout=20000)
     assert "kept moving during the N-pose" in wizard.refusal_label.text()
     assert wizard.procedure.calibration is None
+
+
+def test_body_wizard_says_whose_orientation_it_waits_for_before_the_npose(qtbot) -> None:
+    simulator = SuitSimulator(SimulationConfig(scenario="npose", n_sensors=10, seed=5, errors=ONBOARD))
+    inner = SimulatedSuitFeed(simulator, step_s=0.1)
+    mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
+    feed = SettlingFeed(inner, mapping["thigh_l"], 4.0)
+    wizard = BodyCalibrationWizard(None, None, feed=feed, model=simulator.model, mapping=mapping)
+    SimulatedSuitClock(inner, 1, wizard)
+    qtbot.addWidget(wizard)
+    wizard.show()
+    qtbot.waitExposed(wizard)
+    qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
+    qtbot.waitUntil(lambda: wizard.countdown.text() == "settling", timeout=10000)
+    assert f"sensor {feed.settling_sensor}'s orientation is still settling" in wizard.movement_message.text()
+    assert wizard.movement_message.isVisible()
+    qtbot.waitUntil(lambda: wizard.page_name == "result", timeout=30000)
+    assert wizard.procedure.windows["npose"][0] >= feed.until_s
 
 
 def test_body_wizard_on_the_main_windows_live_session(qtbot, tmp_path) -> None:

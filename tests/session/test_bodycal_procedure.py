@@ -12,9 +12,9 @@ from mimucap.core import rotation as rot
 from mimucap.core.simulate.config import SimulationConfig
 from mimucap.core.simulate.suit import SuitSimulator
 from mimucap.core.simulate.sensor_errors import error_model
-from mimucap.core.pipeline.doubt_reasons import DOUBT_DTYPE, SETTLING
 from mimucap.session.procedures.body import BodycalProcedure, BodycalProcedureSettings
-from mimucap.session.sources.calibration_feed import DOUBT_EXTRA, SimulatedSuitFeed
+from mimucap.session.sources.calibration_feed import SimulatedSuitFeed
+from tests.session.settling_feed import SettlingFeed
 
 #: Units with an on-board orientation as good as 0.3° rms (the procedure's own error is then
 #: what is measured); everything else of the default error model.
@@ -165,29 +165,10 @@ def test_the_functional_method_needs_no_arm_sensor_and_an_unknown_method_is_refu
         BodycalProcedure(feed, legs, method="walk")
 
 
-class _SettlingFeed:
-    """The simulated feed, with one sensor's orientation said to be settling (as the pipeline says
-    for seconds after a new magnetometer calibration) until ``until_s`` of the feed's clock."""
-
-    def __init__(self, feed, sensor_id: str, until_s: float):
-        self._feed, self.settling_sensor, self.until_s = feed, sensor_id, until_s
-
-    def __getattr__(self, name):
-        return getattr(self._feed, name)
-
-    def read(self):
-        blocks = self._feed.read()
-        block = blocks.get(self.settling_sensor)
-        if block is not None and block.t_s.shape[0]:
-            reasons = np.where(block.t_s < self.until_s, SETTLING, 0).astype(DOUBT_DTYPE)
-            blocks[self.settling_sensor] = replace(block, extra={**(block.extra or {}), DOUBT_EXTRA: reasons})
-        return blocks
-
-
 def _settling(until_s: float, **kwargs):
     simulator, feed, _ = make(5)
     mapping = {m.segment: sid for sid, m in simulator.mounting.items()}
-    settling = _SettlingFeed(feed, mapping["thigh_l"], until_s)  # the feed's clock starts at 0 s
+    settling = SettlingFeed(feed, mapping["thigh_l"], until_s)  # the feed's clock starts at 0 s
     return settling, BodycalProcedure(settling, mapping, **kwargs)
 
 
@@ -200,8 +181,9 @@ def test_the_npose_waits_until_no_orientation_is_settling() -> None:
     statuses = run(procedure)
     assert procedure.phase == "result", procedure.refusal
     assert procedure.windows["npose"][0] >= feed.until_s
-    waiting = [s.message for s in statuses if s.pose == "npose" and not s.capturing and "settling" in s.message]
-    assert waiting and feed.settling_sensor in waiting[0]
+    waiting = [s for s in statuses if s.settling_sensor]
+    assert waiting and {s.settling_sensor for s in waiting} == {feed.settling_sensor}
+    assert all(s.pose == "npose" and not s.capturing and feed.settling_sensor in s.message for s in waiting)
     assert not procedure.calibration.quality.doubtful_sensors
 
 

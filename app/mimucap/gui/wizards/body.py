@@ -405,11 +405,14 @@ class BodyCalibrationWizard(CalibrationDialog):
         self.pose_picture.show_pose(status.pose, procedure.arms)
         movement = status.message.startswith("Movement")
         self.pose_instruction.setText(procedure.instruction(status.pose))
-        self.movement_message.setText(status.message if movement else "")
+        self.movement_message.setText(status.message if movement or status.settling_sensor else "")
+        self.movement_message.setStyleSheet(f"color: {'#d62728' if movement else '#b06000'}; font-weight: bold")
         if status.capturing:
             self.countdown.setText(f"{status.countdown_s:.1f} s")
         elif status.pose == "tpose" and not status.still:
             self.countdown.setText("raise")
+        elif status.settling_sensor:
+            self.countdown.setText("settling")
         else:
             self.countdown.setText("hold still")
         if np.isfinite(status.meter_deg):

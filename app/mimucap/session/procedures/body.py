@@ -120,6 +120,7 @@ class BodycalStatus:
     still: meter below the limit. capturing: the averaged window (or the movement) is filling.
     countdown_s: seconds of the window still to fill (None when not capturing).
     message: the instruction. restarts: captures restarted by movement on this page.
+    settling_sensor: the sensor whose orientation the still page waits to settle ("" if none).
     """
 
     phase: str
@@ -130,6 +131,7 @@ class BodycalStatus:
     countdown_s: float | None
     message: str
     restarts: int
+    settling_sensor: str = ""
 
 
 class _Track:
@@ -478,7 +480,9 @@ class BodycalProcedure:
                 countdown = max(self.settings.hold_s - (self._now - self._window_start), 0.0)
                 if not self._message.startswith("Movement"):
                     self._message = self.instruction(pose)
-        return BodycalStatus(self.phase, pose, meter, still, capturing, countdown, self._message, self._restarts)
+        settling = self._settling if pose == "npose" and not capturing and self._settling_sensor() else ""
+        return BodycalStatus(self.phase, pose, meter, still, capturing, countdown, self._message, self._restarts,
+                             settling)
 
     def npose_segment_orientations(self, model: SkeletonModel | None = None) -> dict[str, np.ndarray]:
         """The calibrated N-pose: segment → ``q_world_from_segment`` (4,) from the N-pose means
