@@ -75,21 +75,19 @@ def test_the_hip_columns_hold_too(disturbed_route):
                 assert value <= other_deg, f"{condition} {kind}: {column} {value:.1f}° RMS (≤ {other_deg}°)"
 
 
-def test_in_the_clinic_the_body_calibration_keeps_no_turn_of_the_floors_field(disturbed_route):
-    """In the clinic the floor's field turns the thighs' field at the N-pose's place by degrees,
-    with no change of magnitude or dip; taken as it is, that turn stayed in every hip's axial
-    rotation for the whole walk (seed 8: 2.8° reprocessed, 3.5° live on the right hip; knee
-    adduction 1.8°). With the N-pose headings turned toward the reprocessed tracks where a
-    sensor's field varied over its path, every knee and hip column that is not a flexion holds
-    within half the issue's limits."""
+def test_the_columns_outside_flexion_hold_within_half_the_limits(disturbed_route):
+    """Every knee and hip column that is not a flexion holds within half the issue's limits. In
+    the clinic this needs the N-pose headings turned toward the reprocessed tracks where a
+    sensor's field varied over its path: the floor's field turns the thighs' field at the N-pose's
+    place by degrees, with no change of magnitude or dip, and taken as it is that turn stayed in
+    every hip's axial rotation for the whole walk (seed 8: 2.8° reprocessed, 3.5° live on the
+    right hip; knee adduction 1.8°)."""
     condition, results = disturbed_route
-    if condition != "clinic":
-        pytest.skip("the room's field varies with position in the clinic only")
     for kind, other_deg in (("reprocessed", 2.0), ("live", 3.0)):
         rms, _header = results[kind]
         for column, value in rms.items():
             if not column.endswith("flexion_deg"):
-                assert value <= other_deg, f"clinic {kind}: {column} {value:.1f}° RMS (≤ {other_deg}°)"
+                assert value <= other_deg, f"{condition} {kind}: {column} {value:.1f}° RMS (≤ {other_deg}°)"
 
 
 def test_the_coupling_beats_each_sensor_on_its_own_magnetometer(disturbed_route):

@@ -83,8 +83,11 @@ class FusionParams:
     #: differs from the reference by ``e`` (µT; from the norm and dip deviations, a lower
     #: bound of the disturbance) may turn the horizontal field by up to ``e/‖m_h‖`` (rad),
     #: ``m_h`` its horizontal part; the heading noise standard deviation grows by this
-    #: factor times that angle (root sum of squares). 0 switches it off.
-    heading_field_error_gain: float = 2.0
+    #: factor times that angle (root sum of squares). 0 switches it off. Chosen by
+    #: leave-one-trial-out cross-validation on BROAD (``bench/bench_broad_cv.py``): every fold
+    #: chose 4 or 5; the lower serves, since a higher gain trusts the heading later after a new
+    #: magnetometer calibration.
+    heading_field_error_gain: float = 4.0
     #: What the Rauch-Tung-Striebel smoother's forward pass (:mod:`.offline`) uses in place of
     #: ``heading_field_error_gain`` and ``mag_ref_tau_s`` (:meth:`smoother_pass`); the online
     #: filter does not read them. A field
