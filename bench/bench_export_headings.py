@@ -102,8 +102,8 @@ def parts(session_path: Path, calibration: Path, segment: str) -> str:
     npose = tuple(document["npose_s"])
     mags = magnetometer_calibrations(recorded, None).magnetometer
     with contextlib.redirect_stdout(io.StringIO()):
-        static = static_npose_orientations(recorded, mags, {segment: sensor}, npose)
         track = orientation_table(recorded, str(session_path), mags)
+        static = static_npose_orientations(recorded, mags, {segment: sensor}, npose, track)
     inside = (truth.t_s >= npose[0]) & (truth.t_s <= npose[1])
     true_sensor = np.asarray(truth.sensors[sensor].q_world_from_sensor)
     alignment = (float(heading_error_deg(static[sensor], rot.average(true_sensor[inside]))) if sensor in static
