@@ -86,6 +86,8 @@ HINGE_ITERATIONS = 2
 #: the spread's ratio to this one, squared, over which a moving sensor's local turns average out
 #: while a filter's drift is still followed.
 SHARED_DEVIATION_UT = 1.0
+
+
 def own_field_weight(spread_uT: float) -> float:
     """The weight (0-1) of a sensor's own field at one place beside what the body's field gives
     it over the recording, from how much its field's deviation from the body's varied while it

@@ -13,7 +13,7 @@ from mimucap.core.fusion.ekf import ALGORITHMS, FusionResult, OrientationEKF, fu
 from mimucap.core.fusion.offline import fuse_offline
 from mimucap.core.fusion.evaluation import error_angles_rad
 from mimucap.core.fusion.params import DEFAULT_FUSION_PARAMS, FusionParams
-from mimucap.core.fusion.state import FLAG_SKIPPED, FLAG_UNINITIALISED
+from mimucap.core.fusion.state import FLAG_UNINITIALISED
 
 
 def rms_deg(x: np.ndarray) -> float:
