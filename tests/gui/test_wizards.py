@@ -232,7 +232,8 @@ def test_body_wizard_says_whose_orientation_it_waits_for_before_the_npose(qtbot)
     qtbot.waitExposed(wizard)
     qtbot.mouseClick(wizard.start_button, QtCore.Qt.LeftButton)
     qtbot.waitUntil(lambda: wizard.countdown.text() == "settling", timeout=10000)
-    assert f"sensor {feed.settling_sensor}'s orientation is still settling" in wizard.movement_message.text()
+    assert (f"the left thigh sensor ({feed.settling_sensor})'s orientation is still settling"
+            in wizard.movement_message.text())
     assert wizard.movement_message.isVisible()
     qtbot.waitUntil(lambda: wizard.page_name == "result", timeout=30000)
     assert wizard.procedure.windows["npose"][0] >= feed.until_s

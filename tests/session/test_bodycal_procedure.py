@@ -183,7 +183,8 @@ def test_the_npose_waits_until_no_orientation_is_settling() -> None:
     assert procedure.windows["npose"][0] >= feed.until_s
     waiting = [s for s in statuses if s.settling_sensor]
     assert waiting and {s.settling_sensor for s in waiting} == {feed.settling_sensor}
-    assert all(s.pose == "npose" and not s.capturing and feed.settling_sensor in s.message for s in waiting)
+    assert all(s.pose == "npose" and not s.capturing and f"left thigh sensor ({feed.settling_sensor})" in s.message
+               for s in waiting)
     assert not procedure.calibration.quality.doubtful_sensors
 
 
@@ -192,4 +193,4 @@ def test_an_orientation_that_never_settles_is_refused_naming_the_sensor() -> Non
     procedure.start()
     run(procedure)
     assert procedure.phase == "refused"
-    assert f"sensor {feed.settling_sensor}'s orientation did not settle" in procedure.refusal
+    assert f"the left thigh sensor ({feed.settling_sensor})'s orientation did not settle" in procedure.refusal

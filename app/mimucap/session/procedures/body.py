@@ -65,6 +65,7 @@ from mimucap.core.bodycal import (
     segment_orientations,
     with_doubtful_sensors,
 )
+from mimucap.core.clinical_names import sensor_name
 from mimucap.core.functional_bodycal import calibrate_functional
 from mimucap.core.pipeline.doubt_reasons import NO_ORIENTATION, SETTLING, describe
 from mimucap.core.pipeline.segments import segments_from_sensors
@@ -327,6 +328,12 @@ class BodycalProcedure:
             worst = max(worst, (_spread_deg(q), sensor_id))
         return worst
 
+    def _worn(self, sensor_id: str) -> str:
+        """The sensor in words, where it is worn: "left thigh sensor (S07)"."""
+        segment = next((seg for seg, sid in self.mapping.items() if sid == sensor_id), None)
+        name = sensor_name(segment, sensor_id)
+        return name[:1].lower() + name[1:]
+
     def _settling_sensor(self) -> str:
         """The first sensor whose newest orientation carries a :data:`TRANSIENT_DOUBTS` reason ("" if none)."""
         return next((sensor_id for sensor_id in self._sensors
@@ -359,8 +366,8 @@ class BodycalProcedure:
             elif ready and pose == "npose" and (settling := self._settling_sensor()):
                 ready = False
                 self._settling = settling
-                self._message = (f"Keep standing still: sensor {settling}'s orientation is still settling "
-                                 f"(it takes a few seconds after a magnetometer calibration)")
+                self._message = (f"Keep standing still: the {self._worn(settling)}'s orientation is still "
+                                 f"settling (it takes a few seconds after a magnetometer calibration)")
             if ready:
                 self._window_start = self._now
         else:
@@ -382,7 +389,7 @@ class BodycalProcedure:
             name = "N-pose" if pose == "npose" else "T-pose"
             sensor, angle = self._worst_motion
             if pose == "npose" and self._settling and self._settling_sensor():
-                reason = (f"sensor {self._settling}'s orientation did not settle within {s.pose_timeout_s:.0f} s "
+                reason = (f"the {self._worn(self._settling)}'s orientation did not settle within {s.pose_timeout_s:.0f} s "
                           f"of standing still; check its magnetometer calibration and redo the calibration")
             elif pose == "tpose" and not self._arms_raised():
                 reason = (f"the arm(s) were not raised sideways within {s.pose_timeout_s:.0f} s: raise "
