@@ -104,7 +104,8 @@ class FusionParams:
     smoother_heading_field_error_gain: float = 10.0
     smoother_mag_ref_tau_s: float = 10000.0
     #: What the smoother's forward pass uses as ``mag_new_field_s``; 0: it never adopts a new
-    #: field. A field that changed for good (a uniform disturbance, another room) is turned by
+    #: field (0 rather than infinity because the settings are stored with each recording as
+    #: JSON, which has no infinity). A field that changed for good (a uniform disturbance, another room) is turned by
     #: an unknown angle: adopting it as the reference turns the heading by that angle, up to tens
     #: of degrees, and the smoother then carries that error back in time as well, whereas
     #: bridging the change with the gyroscope costs a drift bounded by its bias error.
