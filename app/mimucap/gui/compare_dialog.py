@@ -189,10 +189,8 @@ class CompareDialog(QtWidgets.QDialog):
 
     def load(self) -> None:
         """Process both sessions in the background (the result chosen), then show the tables."""
-        if self._task is not None and self._task.isRunning():
-            self._task.succeeded.disconnect()
-            self._task.failed.disconnect()
-            self._task.wait()
+        if self._task is not None:
+            self._task.let_go()
         files = [self.library.file(entry) for entry in self.entries]
         result = self.result
 
@@ -279,8 +277,6 @@ class CompareDialog(QtWidgets.QDialog):
 
     def done(self, result: int) -> None:
         """Closed (Close, Esc, Ctrl+W or the title bar): the processing still running is let go."""
-        if self._task is not None and self._task.isRunning():
-            self._task.succeeded.disconnect()
-            self._task.failed.disconnect()
-            self._task.wait()
+        if self._task is not None:
+            self._task.let_go()
         super().done(result)

@@ -943,7 +943,7 @@ class MainWindow(QtWidgets.QMainWindow):
             return
         self.session_panel.set_subject(subject_id, height_m, dominance, notes)
         self.show_workspace("capture")
-        self.statusBar().showMessage(f"Next recording: subject {subject_id} (Session → Start Recording)", 8000)
+        self.say(f"Next recording: subject {subject_id} (● Record, or Ctrl+R)", 8000)
 
     def export_recording(self):
         """The export dialog of the recording in Review; with none there, the last recording is
@@ -976,7 +976,7 @@ class MainWindow(QtWidgets.QMainWindow):
             if callable(discard):  # its sensor mapping was for the session that goes away
                 discard()
             wizard.close()
-            self.statusBar().showMessage(f"The calibration wizard was closed: {why}.", 8000)
+            self.say(f"The calibration wizard was closed: {why}.", 8000)
 
     def _show_closing_progress(self) -> None:
         if self._closing_progress is not None:

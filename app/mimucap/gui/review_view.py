@@ -26,7 +26,7 @@ from mimucap.gui.live_plots import DOUBT_BRUSH, LivePlots
 from mimucap.gui.scene.view import SceneView
 from mimucap.gui.session_panel import display_path
 from mimucap.gui.status_line import page_layout, progress_bar, status_line
-from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED
+from mimucap.core.pipeline.settings import RESULT_LIVE, RESULT_REPROCESSED, RESULT_TITLES
 from mimucap.session.recorded.analysis import NEEDS_BODY_CALIBRATION
 from mimucap.session.angle_accuracy import accuracy_phrase
 from mimucap.session.recorded.review import SPEEDS, ReviewData, ReviewPlayer, load_review
@@ -57,8 +57,6 @@ class _JumpToClickStyle(QtWidgets.QProxyStyle):
         return super().styleHint(hint, option, widget, return_data)
 
 
-#: How the result choice names each result.
-RESULT_TITLES = {RESULT_REPROCESSED: "Reprocessed", RESULT_LIVE: "As seen live"}
 class ReviewView(QtWidgets.QWidget):
     """Review of session file ``path``; call :meth:`load` once shown.
 

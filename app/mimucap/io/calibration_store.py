@@ -14,7 +14,7 @@ The JSON object (format version :data:`CALIBRATION_FORMAT_VERSION`; version 1 ha
 ``device_id`` and is read as a calibration of an unknown device; versions 1 and 2 had no
 gyroscope correction and are read with the identity, their ``gyr_quality`` saying so)::
 
-    {"format": "mimucap-magcal", "format_version": 2, "sensor_id": "S01",
+    {"format": "mimucap-magcal", "format_version": 3, "sensor_id": "S01",
      "device_id": "mac:A1B2C3D4E5F6", "created_utc": "2026-11-21T06:30:00Z",
      "protocol": "single_axis", "samples_used": 2400, "offset_uT": [bx, by, bz],
      "soft_iron": [[...], [...], [...]], "field_uT": 49.3,

@@ -156,8 +156,8 @@ def sides_of(m: RomMovement) -> tuple[str, ...]:
 #: The ROM protocol's markers: ``rom:<movement key>:<side>:start`` and ``...:end``, stored so in a
 #: recording (machine-readable: the analysis finds the movements by them).
 ROM_MARKER_PREFIX = "rom:"
-#: How a ROM marker's end is said.
-_MARKER_ENDS = {"start": "start", "end": "end"}
+#: The two ends of a ROM marker, stored and read as they are.
+_MARKER_ENDS = ("start", "end")
 
 
 def rom_marker_label(key: str, side: str, end: str) -> str:
@@ -186,7 +186,7 @@ def marker_words(label: str) -> str:
         return str(label)
     key, side, end = parsed
     sided = f" ({side})" if side in ("left", "right") else ""
-    return f"{movement(key).label}{sided} — {_MARKER_ENDS[end]}"
+    return f"{movement(key).label}{sided} — {end}"
 
 
 def shoulder_elevation_deg(q_world_from_thorax: np.ndarray, q_world_from_upper_arm: np.ndarray, plane: str,

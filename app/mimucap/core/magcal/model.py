@@ -11,8 +11,8 @@ its quality figures.
 
 It also carries the sensor's gyroscope correction ``gyr_correction`` (3, 3), estimated from the
 same turns (:mod:`mimucap.core.magcal.gyro_scale`) and applied as ``ω = gyr_correction @ ω_raw``
-before the orientation filter; the identity when the turns did not determine it (or the
-calibration predates it), with the reason in ``gyr_quality``.
+before the orientation filter; the identity when the turns did not determine it (or a calibration file
+holds none), with the reason in ``gyr_quality``.
 """
 
 from __future__ import annotations

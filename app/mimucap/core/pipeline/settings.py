@@ -26,6 +26,8 @@ RESULT_REPROCESSED = "reprocessed"
 RESULT_LABELS = {RESULT_LIVE: "as seen live (forward filter)",
                  RESULT_REPROCESSED: "reprocessed (filter smoothed with past and future data)"}
 RESULTS = (RESULT_LIVE, RESULT_REPROCESSED)
+#: The same results in a word or two, for a choice between them (a combo box, a status line).
+RESULT_TITLES = {RESULT_REPROCESSED: "Reprocessed", RESULT_LIVE: "As seen live"}
 
 
 def check_result(result: str) -> str:

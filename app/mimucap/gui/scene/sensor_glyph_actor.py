@@ -91,13 +91,15 @@ class SensorGlyphActor:
         for axis in range(3):
             placed[1 + axis::4] = boxes @ self._bars[axis]
         self._copies.place(placed, self._points, self._normals)
-        self._set_states(states)
+        self.set_states(states)
         for array in (self._vtk_points, self._vtk_normals):
             array.Modified()
         self.polydata.Modified()
         self.actor.VisibilityOn()
 
-    def _set_states(self, states: Mapping[str, str]) -> None:
+    def set_states(self, states: Mapping[str, str]) -> None:
+        """Colour each box by the state of the sensor on its segment (as :meth:`update`),
+        leaving the boxes where they are."""
         changed = False
         for k, segment in enumerate(self.segments):
             state = states.get(segment, "no_sensor")

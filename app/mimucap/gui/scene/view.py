@@ -382,6 +382,7 @@ class SceneView(QtWidgets.QWidget):
         frame, self._pending_frame = self._pending_frame, None
         if frame is not None and frame[0] != self._last_frame_id:
             frame_id, geometry = frame
+            first = self._last_geometry is None
             self._last_frame_id = frame_id
             self._last_geometry = geometry
             self.skeleton.set_outline(geometry.outline)
@@ -391,7 +392,8 @@ class SceneView(QtWidgets.QWidget):
             else:
                 self.sensor_glyphs.hide()
             self.stage.set_world_matrix(geometry.world_matrix, geometry.root_world_m)
-            self._place_hint(above_figure=True)
+            if first:
+                self._place_hint(above_figure=True)
             self._dirty = True
         ghost, self._pending_ghost = self._pending_ghost, None
         if ghost is not None and self.ghost is not None:
@@ -408,8 +410,8 @@ class SceneView(QtWidgets.QWidget):
         tints, self._pending_tints = self._pending_tints, None
         if tints is not None and self.skeleton.set_tints(tints):
             self._dirty = True
-        if tints is not None and self.sensor_glyphs.visible and self._last_geometry is not None:
-            self.sensor_glyphs.update(self._last_geometry.sensor_glyphs, tints)
+        if tints is not None and self.sensor_glyphs.visible:
+            self.sensor_glyphs.set_states(tints)
             self._dirty = True
         if self._last_geometry is not None:
             root = self._last_geometry.root_scene_m

@@ -218,6 +218,8 @@ class ReviewPlayer:
         self._columns = {joint: cols for joint, cols in joint_column_groups(self.model).items()
                          if all(c in data.angles_deg for c in cols)}
         self._doubt_spans: dict[str, list[tuple[float, float, int]]] = {}  # joint → spans, found once
+        # without a body calibration each sensor's axes stand in for its segment's (the outline)
+        self._worn = assignment_of(None, data.session.sensor_segments()) if data.body_calibration is None else {}
 
     # -- play head ---------------------------------------------------------------------------
     @property
@@ -297,10 +299,8 @@ class ReviewPlayer:
         if self._geometry is None or self._geometry[0] != frame_id:
             q = {s: v[i] for s, v in self.data.q_world_from_segment.items()}
             if self.data.body_calibration is None:
-                # each sensor's axes stood in for its segment's: the outline with the sensors on it
-                worn = assignment_of(None, self.data.session.sensor_segments())
-                geometry = self.builder.build_outline({sensor: q[segment] for sensor, segment in worn.items()
-                                                       if segment in q}, worn)
+                geometry = self.builder.build_outline({sensor: q[segment] for sensor, segment in self._worn.items()
+                                                       if segment in q}, self._worn)
             else:
                 root = None if self.data.root_position_m is None else self.data.root_position_m[i]
                 poses = skeleton.forward_kinematics(self.model, q, self.height_m, root)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import datetime as _dt
 
 from mimucap.core.wording import plural
+from mimucap.io.library import parse_utc
 
 #: A calibration's verdict (magnetometer: good/warn/fail; body: good/acceptable/poor) as people read it.
 QUALITY_WORDS = {"good": "good", "warn": "fair", "acceptable": "fair", "fail": "poor", "poor": "poor"}
@@ -29,12 +30,9 @@ def utc_now() -> _dt.datetime:
 
 def age_days_since(created_utc: str, now: _dt.datetime) -> float | None:
     """Days (≥ 0) from ``created_utc`` to ``now``; ``None`` when the date cannot be read."""
-    try:
-        created = _dt.datetime.fromisoformat(created_utc.replace("Z", "+00:00"))
-    except ValueError:
+    created = parse_utc(created_utc)
+    if created is None:
         return None
-    if created.tzinfo is None:
-        created = created.replace(tzinfo=_dt.timezone.utc)
     return max((now - created).total_seconds() / 86400.0, 0.0)
 
 
@@ -53,10 +51,7 @@ def describe_age(age_days: float | None) -> str:
 def local_time_text(iso_utc: str) -> str:
     """An ISO 8601 time (UTC when it names no zone) as the local date and time people read
     ("28 Nov 2026, 09:14"); the text itself when it is not one, "not recorded" when empty."""
-    try:
-        moment = _dt.datetime.fromisoformat(str(iso_utc).replace("Z", "+00:00"))
-    except ValueError:
+    moment = parse_utc(iso_utc)
+    if moment is None:
         return str(iso_utc) or "not recorded"
-    if moment.tzinfo is None:
-        moment = moment.replace(tzinfo=_dt.timezone.utc)
     return moment.astimezone().strftime("%d %b %Y, %H:%M")
